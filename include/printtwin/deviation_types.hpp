@@ -1,0 +1,69 @@
+#pragma once
+// Value types of the deviation stage (deviation.hpp computes them, report.hpp writes them).
+// Signed distances: positive = material outside the designed part (excess), negative =
+// inside it / missing (deficit). Millimetres.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "printtwin/geometry.hpp"
+
+namespace printtwin {
+
+/// Statistics of one direction of signed distances.
+struct DeviationStats {
+  std::size_t samples = 0;
+  double min_mm = 0, max_mm = 0;         ///< signed extremes
+  double mean_mm = 0;                    ///< signed mean
+  double rms_mm = 0, std_mm = 0;
+  double p50_abs_mm = 0, p95_abs_mm = 0, p99_abs_mm = 0;  ///< percentiles of |d|
+  double within_tolerance_pct = 100;     ///< share of |d| <= tolerance
+  double hausdorff_mm = 0;               ///< max |d|
+};
+
+/// One measured point.
+struct DeviationSample {
+  Vec3 position_mm = Vec3::Zero();  ///< where the sample sits (deposit or mesh surface)
+  double distance_mm = 0;           ///< signed distance
+  std::int32_t layer = -1;          ///< layer of the nearest deposit voxel
+  std::uint32_t line = 0;           ///< G-code line of the nearest deposit voxel (0: none)
+};
+
+struct LayerDeviation {
+  int layer = 0;
+  double z_mm = 0;
+  DeviationStats deposit_to_mesh;
+  DeviationStats mesh_to_deposit;
+};
+
+enum class RegionKind { missing, excess };
+
+/// A cluster of out-of-tolerance samples.
+struct DeviationRegion {
+  RegionKind kind = RegionKind::missing;
+  Box3 bbox_mm;
+  int layer_min = -1, layer_max = -1;
+  double area_mm2 = 0;            ///< surface area the samples stand for
+  double worst_mm = 0;            ///< signed worst distance
+  Vec3 worst_position_mm = Vec3::Zero();
+  std::size_t samples = 0;
+  std::vector<long> gcode_lines;  ///< lines that laid the nearest deposit (sorted, unique, capped)
+};
+
+struct DeviationResult {
+  double tolerance_mm = 0.2;
+  DeviationStats deposit_to_mesh;
+  DeviationStats mesh_to_deposit;
+  std::vector<DeviationSample> deposit_samples;  ///< deposit outer surface -> mesh
+  std::vector<DeviationSample> mesh_samples;     ///< mesh surface -> deposit
+  std::vector<LayerDeviation> per_layer;
+  std::vector<DeviationRegion> regions;
+  double mesh_volume_mm3 = 0;
+  double deposit_volume_mm3 = 0;
+  Vec3 registration_offset_mm = Vec3::Zero();    ///< added to the mesh to reach the G-code frame
+  std::string registration_method;               ///< "auto" or "--place"
+  /// Signed deviation per mesh vertex (for the deviation PLY and heatmaps).
+  std::vector<double> vertex_deviation_mm;
+};
+
+}  // namespace printtwin

@@ -1,0 +1,27 @@
+#pragma once
+// File helpers shared by every stage: whole-file reads with clear errors, and atomic writes
+// (temporary file in the same folder, then rename) so that a failed run never leaves a
+// half-written output that looks complete.
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+#include "printtwin/result.hpp"
+
+namespace printtwin {
+
+/// Reads a whole file. Errors name the file: missing, a directory, unreadable.
+[[nodiscard]] Result<std::string> read_file(const std::filesystem::path& path);
+
+/// Writes `content` to `path` atomically (creates parent folders).
+[[nodiscard]] Status write_file_atomic(const std::filesystem::path& path, std::string_view content);
+
+/// Shortest round-trip decimal form of `v`, locale-independent (std::to_chars).
+[[nodiscard]] std::string format_number(double v);
+/// Fixed-point form with `decimals` digits, locale-independent; "-0" printed as "0".
+[[nodiscard]] std::string format_fixed(double v, int decimals);
+
+/// SHA-256 of a byte string as lowercase hex (for report provenance).
+[[nodiscard]] std::string sha256_hex(std::string_view bytes);
+
+}  // namespace printtwin

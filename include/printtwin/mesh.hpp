@@ -1,0 +1,59 @@
+#pragma once
+// Mesh: the triangle mesh every stage reads. Loaded through assimp (src/mesh/mesh_io_assimp.cpp,
+// the only file that includes assimp), with identical vertices joined so that closedness
+// and orientation can be checked.
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "printtwin/geometry.hpp"
+#include "printtwin/result.hpp"
+
+namespace printtwin {
+
+/// Indexed triangle mesh.
+/// - `vertices_mm`: positions in millimetres.
+/// - `triangles`: indices into `vertices_mm`, counter-clockwise seen from outside
+///   (outward normals by the right-hand rule) for a well-formed solid.
+/// Nothing is guaranteed about closedness or manifoldness: `check_mesh` reports it.
+struct Mesh {
+  std::vector<Vec3> vertices_mm;
+  std::vector<std::array<std::uint32_t, 3>> triangles;
+  bool operator==(const Mesh&) const = default;
+};
+
+enum class LengthUnit { mm, cm, inch };
+
+struct MeshLoadOptions {
+  double scale = 1.0;             ///< extra uniform scale applied after the unit conversion
+  LengthUnit units = LengthUnit::mm;  ///< unit the file is written in
+};
+
+/// Loads STL (ASCII/binary), OBJ, PLY, OFF, 3MF or AMF. All meshes in the file are merged.
+/// Errors (exit 3 in the CLI) name the file and the problem: empty, truncated, NaN/inf
+/// coordinates, unknown extension, directory, unreadable, no triangles.
+[[nodiscard]] Result<Mesh> load_mesh(const std::filesystem::path& path,
+                                     const MeshLoadOptions& options = {});
+
+/// Writes a binary STL (temporary file + rename).
+[[nodiscard]] Status save_stl(const Mesh& mesh, const std::filesystem::path& path);
+
+[[nodiscard]] Box3 bounding_box(const Mesh& mesh);
+/// Signed volume by the divergence theorem; negative for an inside-out closed mesh.
+[[nodiscard]] double signed_volume_mm3(const Mesh& mesh);
+[[nodiscard]] double surface_area_mm2(const Mesh& mesh);
+/// Unnormalised normal (cross product) of triangle `t`; its norm is twice the area.
+[[nodiscard]] Vec3 triangle_normal(const Mesh& mesh, std::size_t t);
+
+/// Moves the mesh as a slicer places it: lowest point at z = 0, bounding-box centre at
+/// (center_x_mm, center_y_mm).
+[[nodiscard]] Mesh place_on_bed(Mesh mesh, double center_x_mm, double center_y_mm);
+/// Translates every vertex.
+[[nodiscard]] Mesh translated(Mesh mesh, const Vec3& offset_mm);
+
+/// Axis-aligned box [min, max] as a closed, outward-oriented 12-triangle mesh.
+[[nodiscard]] Mesh make_box_mesh(const Vec3& min_mm, const Vec3& max_mm);
+
+}  // namespace printtwin

@@ -1,0 +1,7 @@
+#!/usr/bin/env bash
+# Same set-up as scripts/demo.sh, then the whole test suite through ctest.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/setup.sh
+BUILD_DIR=${PRINTTWIN_BUILD_DIR:-build}
+ctest --test-dir "$BUILD_DIR" --output-on-failure --parallel "$(nproc)" --timeout 900

@@ -1,0 +1,20 @@
+#pragma once
+// Registration of the subcommands. Each add_<name>_command() declares its options on `app`
+// and, when its subcommand is chosen, stores the function to run in `runner`.
+#include <CLI/CLI.hpp>
+#include <functional>
+
+namespace printtwin::cli {
+
+struct CommandRunner {
+  std::function<int()> run;  ///< returns the exit code
+};
+
+void add_check_command(CLI::App& app, CommandRunner& runner);
+// (more commands are declared here as they land)
+
+inline void register_commands(CLI::App& app, CommandRunner& runner) {
+  add_check_command(app, runner);
+}
+
+}  // namespace printtwin::cli

@@ -1,0 +1,26 @@
+#pragma once
+// Shared test helpers: paths to fixtures, running the CLI, small meshes built in code.
+#include <filesystem>
+#include <string>
+
+#include "printtwin/mesh.hpp"
+
+namespace printtwin::test {
+
+/// Path of a file in the source tree (e.g. "samples/cube_20mm.stl").
+std::filesystem::path source_path(const std::string& relative);
+/// A fresh empty folder under the build tree's temp dir for one test.
+std::filesystem::path temp_dir(const std::string& name);
+
+struct CliRun {
+  int exit_code = -1;
+  std::string out;   ///< stdout
+  std::string err;   ///< stderr
+};
+/// Runs the printtwin CLI with `args` (shell-quoted by the caller), CI=true.
+CliRun run_cli(const std::string& args);
+
+/// Closed outward-oriented cube of edge `size_mm` with its min corner at `min_mm`.
+Mesh make_cube_mm(double size_mm, const Vec3& min_mm = Vec3::Zero());
+
+}  // namespace printtwin::test
