@@ -1,0 +1,215 @@
+// The only file that includes Embree: closest-point, ray and inside queries on a mesh.
+//
+// Embree's BVH works in single precision, so vertices are stored relative to the mesh's
+// bounding-box centre (smaller magnitudes, finer float spacing) and every distance is
+// recomputed in double precision from the original mesh in the point-query callback:
+// the BVH only culls candidates, it never decides a distance.
+#include <embree3/rtcore.h>
+#include <tbb/parallel_for.h>
+
+#include <atomic>
+#include <cmath>
+#include <limits>
+
+#include "printtwin/mesh_query.hpp"
+
+namespace printtwin {
+
+Vec3 closest_point_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  // Voronoi-region walk (Ericson, Real-Time Collision Detection, 5.1.5).
+  const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const Vec3 bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + (d1 / (d1 - d3)) * ab;
+  const Vec3 cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + (d2 / (d2 - d6)) * ac;
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
+    return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
+  const double denom = 1.0 / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+struct MeshQuery::Impl {
+  Mesh mesh;
+  Vec3 center = Vec3::Zero();
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+
+  ~Impl() {
+    if (scene != nullptr) rtcReleaseScene(scene);
+    if (device != nullptr) rtcReleaseDevice(device);
+  }
+};
+
+namespace {
+
+struct PointQueryState {
+  const Mesh* mesh;
+  Vec3 p;  // query point, original frame, double precision
+  double best_d2 = std::numeric_limits<double>::infinity();
+  Vec3 best_point = Vec3::Zero();
+  std::uint32_t best_triangle = 0;
+};
+
+bool point_query_callback(RTCPointQueryFunctionArguments* args) {
+  auto* st = static_cast<PointQueryState*>(args->userPtr);
+  const auto& tri = st->mesh->triangles[args->primID];
+  const auto& v = st->mesh->vertices_mm;
+  const Vec3 q = closest_point_on_triangle(st->p, v[tri[0]], v[tri[1]], v[tri[2]]);
+  const double d2 = (q - st->p).squaredNorm();
+  if (d2 < st->best_d2 || (d2 == st->best_d2 && args->primID < st->best_triangle)) {
+    st->best_d2 = d2;
+    st->best_point = q;
+    st->best_triangle = args->primID;
+    // Shrink the search radius (float, padded so that float rounding never culls a
+    // triangle that is closer in double precision).
+    args->query->radius = static_cast<float>(std::sqrt(d2) * (1.0 + 1e-6) + 1e-6);
+    return true;
+  }
+  return false;
+}
+
+// Three fixed directions, far from axes and face diagonals, for the parity vote.
+const Vec3 kVoteDirections[3] = {Vec3(0.5773502691896258, 0.5773502691896258, 0.5773502691896258)
+                                     .cross(Vec3(0.1, 0.7, -0.3))
+                                     .normalized(),
+                                 Vec3(0.3141592, -0.8660254, 0.3883721).normalized(),
+                                 Vec3(-0.7071068, 0.1234567, 0.6962132).normalized()};
+
+}  // namespace
+
+MeshQuery::MeshQuery(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+MeshQuery::MeshQuery(MeshQuery&&) noexcept = default;
+MeshQuery& MeshQuery::operator=(MeshQuery&&) noexcept = default;
+MeshQuery::~MeshQuery() = default;
+
+Result<MeshQuery> MeshQuery::build(const Mesh& mesh) {
+  if (mesh.triangles.empty()) return bad_input("mesh has no triangles to query");
+  auto impl = std::make_unique<Impl>();
+  impl->mesh = mesh;
+  impl->center = bounding_box(mesh).center();
+  impl->device = rtcNewDevice("threads=0");
+  if (impl->device == nullptr) return internal_error("cannot create the Embree device");
+  impl->scene = rtcNewScene(impl->device);
+  rtcSetSceneFlags(impl->scene, RTC_SCENE_FLAG_ROBUST);
+  rtcSetSceneBuildQuality(impl->scene, RTC_BUILD_QUALITY_HIGH);
+
+  RTCGeometry geom = rtcNewGeometry(impl->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  auto* verts = static_cast<float*>(rtcSetNewGeometryBuffer(
+      geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.vertices_mm.size()));
+  auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+      geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), mesh.triangles.size()));
+  if (verts == nullptr || idx == nullptr) {
+    rtcReleaseGeometry(geom);
+    return internal_error("Embree could not allocate the mesh buffers");
+  }
+  for (std::size_t i = 0; i < mesh.vertices_mm.size(); ++i)
+    for (int k = 0; k < 3; ++k)
+      verts[3 * i + k] = static_cast<float>(mesh.vertices_mm[i][k] - impl->center[k]);
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
+    for (int k = 0; k < 3; ++k) {
+      if (mesh.triangles[t][k] >= mesh.vertices_mm.size()) {
+        rtcReleaseGeometry(geom);
+        return bad_input("triangle " + std::to_string(t) + " refers to a missing vertex");
+      }
+      idx[3 * t + k] = mesh.triangles[t][k];
+    }
+  rtcCommitGeometry(geom);
+  rtcAttachGeometry(impl->scene, geom);
+  rtcReleaseGeometry(geom);
+  rtcCommitScene(impl->scene);
+  if (rtcGetDeviceError(impl->device) != RTC_ERROR_NONE)
+    return internal_error("Embree failed to build the BVH");
+  return MeshQuery(std::move(impl));
+}
+
+const Mesh& MeshQuery::mesh() const { return impl_->mesh; }
+
+ClosestPoint MeshQuery::closest_point(const Vec3& p) const {
+  PointQueryState st{&impl_->mesh, p};
+  const Vec3 local = p - impl_->center;
+  RTCPointQuery query;
+  query.x = static_cast<float>(local.x());
+  query.y = static_cast<float>(local.y());
+  query.z = static_cast<float>(local.z());
+  query.time = 0.f;
+  query.radius = std::numeric_limits<float>::infinity();
+  RTCPointQueryContext context;
+  rtcInitPointQueryContext(&context);
+  rtcPointQuery(impl_->scene, &query, &context, point_query_callback, &st);
+  return ClosestPoint{st.best_point, std::sqrt(st.best_d2), st.best_triangle};
+}
+
+void MeshQuery::closest_points(std::span<const Vec3> points, std::vector<ClosestPoint>& out) const {
+  out.resize(points.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 1024),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) out[i] = closest_point(points[i]);
+                    });
+}
+
+std::optional<RayHit> MeshQuery::first_hit(const Vec3& origin, const Vec3& dir, double t_min,
+                                           double t_max) const {
+  const double len = dir.norm();
+  if (!(len > 0)) return std::nullopt;
+  const Vec3 d = dir / len;
+  const Vec3 o = origin - impl_->center;
+  RTCRayHit rh{};
+  rh.ray.org_x = static_cast<float>(o.x());
+  rh.ray.org_y = static_cast<float>(o.y());
+  rh.ray.org_z = static_cast<float>(o.z());
+  rh.ray.dir_x = static_cast<float>(d.x());
+  rh.ray.dir_y = static_cast<float>(d.y());
+  rh.ray.dir_z = static_cast<float>(d.z());
+  rh.ray.tnear = static_cast<float>(t_min);
+  rh.ray.tfar = static_cast<float>(std::min(t_max, 1e30));
+  rh.ray.mask = 0xFFFFFFFFu;
+  rh.ray.flags = 0;
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  rtcIntersect1(impl_->scene, &context, &rh);
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
+  Vec3 n = triangle_normal(impl_->mesh, rh.hit.primID);
+  const double nl = n.norm();
+  if (nl > 0) n /= nl;
+  return RayHit{static_cast<double>(rh.ray.tfar), rh.hit.primID, n};
+}
+
+int MeshQuery::crossings(const Vec3& origin, const Vec3& dir) const {
+  // March along the ray hit by hit. Two triangles hit at the same t (the ray passes through
+  // a shared edge) are one crossing, so the next search starts just past the hit.
+  int count = 0;
+  double t = 0;
+  const double scale = 1.0 + bounding_box(impl_->mesh).size().norm();
+  const double step = 1e-7 * scale;
+  for (int guard = 0; guard < 100000; ++guard) {
+    auto hit = first_hit(origin, dir, t);
+    if (!hit) break;
+    ++count;
+    t = hit->t_mm + step;
+  }
+  return count;
+}
+
+bool MeshQuery::inside(const Vec3& p) const {
+  int votes = 0;
+  for (const auto& d : kVoteDirections) votes += crossings(p, d) % 2;
+  return votes >= 2;
+}
+
+double MeshQuery::signed_distance(const Vec3& p) const {
+  const double d = closest_point(p).distance_mm;
+  return inside(p) ? -d : d;
+}
+
+}  // namespace printtwin
