@@ -2,6 +2,8 @@
 # Same set-up as scripts/demo.sh, then the whole test suite through ctest.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# The report tests drive a real browser (headless Chromium).
+export PRINTTWIN_EXTRA_PACKAGES="${PRINTTWIN_EXTRA_PACKAGES:-} chromium"
 scripts/setup.sh
 BUILD_DIR=${PRINTTWIN_BUILD_DIR:-build}
 ctest --test-dir "$BUILD_DIR" --output-on-failure --parallel "$(nproc)" --timeout 900
