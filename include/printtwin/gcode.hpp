@@ -1,0 +1,210 @@
+#pragma once
+// G-code text -> commands -> Moves: the streaming parser and the firmware's interpreter.
+//
+// GcodeLineReader cuts a stream into lines (bounded memory, 1-based line numbers, no
+// allocation per line); parse_gcode_line() splits one line into a GcodeCommand without
+// allocating; GcodeInterpreter executes commands with Marlin 2.1's modal state (G90/G91,
+// M82/M83, G92, G20/G21, M200/M220/M221, temperatures, homing state) and emits Moves plus
+// the events the planner needs (limit changes, dwells, heating waits) to an
+// InterpreterOutput. simulate.hpp chains these with the planner; most callers want
+// simulate_gcode() or interpret_gcode_file() from there.
+//
+// Supported commands and slicer markers: docs/gcode-coverage.md.
+#include <array>
+#include <cstdint>
+#include <istream>
+#include <limits>
+#include <map>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "printtwin/finding.hpp"
+#include "printtwin/machine.hpp"
+#include "printtwin/planner.hpp"
+#include "printtwin/result.hpp"
+#include "printtwin/toolpath.hpp"
+
+namespace printtwin {
+
+/// Longest line the reader accepts (bytes). Longer lines (e.g. 1 MB of garbage) are
+/// skipped whole and reported as `line_too_long`, never buffered.
+inline constexpr std::size_t kMaxGcodeLineLength = 64 * 1024;
+
+/// Cuts a byte stream into lines. Accepts "\n", "\r\n" and a last line without a newline.
+/// Memory: one buffer of a few hundred KB, whatever the file size.
+class GcodeLineReader {
+ public:
+  explicit GcodeLineReader(std::istream& in);
+  /// Next line without its line ending; false at the end of the stream. The view stays
+  /// valid until the next call.
+  bool next(std::string_view& line);
+  /// 1-based number of the line returned last.
+  [[nodiscard]] long line_number() const { return line_; }
+  /// True if the line returned last was longer than kMaxGcodeLineLength (its view then
+  /// holds only the first kMaxGcodeLineLength bytes).
+  [[nodiscard]] bool truncated() const { return truncated_; }
+  /// True if the stream ended without a final newline (the last line was cut).
+  [[nodiscard]] bool ended_mid_line() const { return ended_mid_line_; }
+
+ private:
+  bool fill();
+  std::istream& in_;
+  std::vector<char> buf_;
+  std::size_t begin_ = 0, end_ = 0;
+  long line_ = 0;
+  bool eof_ = false, truncated_ = false, ended_mid_line_ = false;
+};
+
+/// One G-code line split into command and parameters. Views point into the caller's line.
+struct GcodeCommand {
+  char letter = 0;       ///< 'G', 'M', 'T', or 0 (no command, or an extended command in `word`)
+  int code = -1;         ///< G1 -> 1
+  int subcode = -1;      ///< G29.1 -> 1; -1 when none
+  std::uint32_t present = 0;        ///< bit (c - 'A') set when parameter c is present
+  std::array<double, 26> value{};   ///< value of parameter c at [c - 'A'] (0 when given without a number)
+  std::string_view word;     ///< extended command (Klipper style), e.g. "EXCLUDE_OBJECT_START"
+  std::string_view args;     ///< text after the command (M117 message, NAME=... arguments)
+  std::string_view comment;  ///< text after ';' (leading spaces removed), empty when none
+  long line = 0;             ///< 1-based line number
+
+  [[nodiscard]] bool has(char c) const { return (present >> (c - 'A')) & 1U; }
+  [[nodiscard]] double get(char c, double fallback = 0) const {
+    return has(c) ? value[static_cast<std::size_t>(c - 'A')] : fallback;
+  }
+  [[nodiscard]] bool is(char l, int c) const { return letter == l && code == c; }
+};
+
+/// Parses one line (without line ending) into `out`. Accepts comments (`;` and `( )`),
+/// line numbers and checksums (`N123 G1 X1*45`, checksum verified), lower-case letters and
+/// spaces between a letter and its number. Errors (with the line number and the offending
+/// text): unparsable numbers, NaN/inf/out-of-range values (|v| > 1e9), unexpanded slicer
+/// placeholders (`G1 Z[next_layer_z]`, `{...}`), bytes that are not G-code, bad checksums.
+/// Never allocates on success.
+[[nodiscard]] Status parse_gcode_line(std::string_view text, long line, GcodeCommand& out);
+
+/// Options of the interpreter (and of simulate_gcode).
+struct InterpreterOptions {
+  /// Warnings about the input (unknown commands aside) become errors: the run stops.
+  bool strict = false;
+  /// Marlin's PREVENT_COLD_EXTRUSION: E motion below the profile's min_extrude_temp_c is
+  /// dropped (and reported as `cold_extrusion`). When false it is only reported.
+  bool prevent_cold_extrusion = true;
+  /// Where the carriage stands at power-on (machine frame, mm); NaN components mean the
+  /// default: bed centre in X and Y, 10 mm in Z. Only moves before G28 depend on it.
+  Vec3 power_on_position_mm = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+  /// Temperatures at power-on (°C); NaN means the profile's ambient.
+  double power_on_hotend_c = std::numeric_limits<double>::quiet_NaN();
+  double power_on_bed_c = std::numeric_limits<double>::quiet_NaN();
+  /// At most this many findings are listed per code; the rest are counted in the last one.
+  int max_findings_per_code = 20;
+};
+
+/// Where the interpreter's output goes, in order. Implemented by the simulation pipeline.
+class InterpreterOutput {
+ public:
+  virtual ~InterpreterOutput() = default;
+  virtual void move(const Move& move) = 0;
+  /// Motion settings changed (M201/M203/M204/M205/M220); applies to later moves.
+  virtual void limits(const MotionLimits& limits) = 0;
+  /// The printer finishes all queued moves (M400, before G4/M109/M190/G28).
+  virtual void synchronize() = 0;
+  /// The printer stands still for `duration_s` after finishing queued moves.
+  virtual void wait(double duration_s, bool heating, long line) = 0;
+};
+
+/// The firmware's state machine for one file. Feed it every parsed line in order.
+class GcodeInterpreter {
+ public:
+  GcodeInterpreter(const PrinterProfile& profile, const InterpreterOptions& options);
+
+  /// Executes one command. Errors are bad input that stops the run (or any warning in
+  /// strict mode); they carry the line number and the line's text.
+  [[nodiscard]] Status execute(const GcodeCommand& command, std::string_view line_text,
+                               InterpreterOutput& out);
+  /// Reports a problem found before interpretation (parse error, over-long line) as a
+  /// warning; in strict mode returns it as an error.
+  [[nodiscard]] Status warn_input(const Error& problem);
+  /// Call at the end of the stream (end-of-file checks, e.g. a cut last line).
+  [[nodiscard]] Status finish(bool ended_mid_line, long last_line);
+
+  /// Findings so far (out_of_bounds, move_before_homing, cold_extrusion, ...).
+  [[nodiscard]] const std::vector<Finding>& findings() const { return findings_; }
+  /// Commands the interpreter does not know, with how often each occurred.
+  [[nodiscard]] const std::map<std::string, long>& unknown_commands() const { return unknown_; }
+  /// Motion limits currently in force.
+  [[nodiscard]] const MotionLimits& limits() const { return limits_; }
+  /// Replaces the limits in force (e.g. with those of a slicer's config block).
+  void set_limits(const MotionLimits& limits, InterpreterOutput& out);
+  /// Filament pushed so far (mm, after flow and volumetric conversion; net of retractions).
+  [[nodiscard]] double filament_mm() const { return filament_mm_; }
+  /// Current nozzle position (machine frame).
+  [[nodiscard]] Vec3 position_mm() const;
+  /// Z of each layer so far (index = Move::layer).
+  [[nodiscard]] const std::vector<double>& layer_z_mm() const { return layer_z_; }
+  /// The slicer that wrote the file, from its header comment ("PrusaSlicer 2.5.0"), or "".
+  [[nodiscard]] const std::string& slicer() const { return slicer_; }
+  /// Estimates the slicer wrote into the file (s), NaN when absent.
+  [[nodiscard]] double slicer_estimate_s() const { return slicer_estimate_s_; }
+  [[nodiscard]] long moves_emitted() const { return moves_; }
+
+ private:
+  struct Impl;
+  void add_finding(Finding f);
+  Status warn(long line, std::string_view text, std::string message, std::string code);
+  Status linear_move(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
+  Status arc_move(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
+  Status home(const GcodeCommand& c, InterpreterOutput& out);
+  void comment(std::string_view comment);
+  void emit(const Vec3& target_logical, double e_delta_mm, double feedrate_mm_s, MoveKind forced,
+            bool is_forced, long line, std::string_view text, InterpreterOutput& out);
+  void heat_wait(bool hotend, double target_c, bool wait_cooling, long line,
+                 InterpreterOutput& out);
+  double hotend_temp_now() const;
+
+  PrinterProfile profile_;
+  InterpreterOptions options_;
+  MotionLimits limits_;
+  std::vector<Finding> findings_;
+  std::map<std::string, int> finding_counts_;
+  std::map<std::string, long> unknown_;
+  std::map<std::string, int> object_names_;
+  std::vector<double> layer_z_;
+  std::string slicer_;
+  double slicer_estimate_s_;
+
+  // Modal state (Marlin's names in comments).
+  Vec3 logical_mm_ = Vec3::Zero();    ///< current_position (XYZ, logical)
+  Vec3 offset_mm_ = Vec3::Zero();     ///< machine = logical + offset (G92 shift, not homed)
+  double e_logical_mm_ = 0;           ///< current_position.e
+  bool relative_xyz_ = false, relative_e_ = false;
+  bool inches_ = false;
+  std::array<bool, 3> homed_{false, false, false};
+  double feedrate_mm_s_ = 0;          ///< modal F (mm/s)
+  double flow_ = 1.0;                 ///< M221
+  double volumetric_area_mm2_ = 0;    ///< M200: 0 = off
+  double filament_mm_ = 0;
+  double hotend_target_c_, bed_target_c_;
+  double hotend_c_at_set_, bed_c_at_set_;  ///< temperature when the target was set
+  double hotend_set_clock_s_ = 0, bed_set_clock_s_ = 0;
+  double nominal_clock_s_ = 0;        ///< time estimate of the interpreter (for the thermal model)
+  bool fw_retracted_ = false;
+  bool reported_before_homing_ = false;
+  // Tags.
+  int layer_ = -1;
+  Feature feature_ = Feature::unknown;
+  int object_id_ = -1;
+  float width_hint_mm_ = 0, height_hint_mm_ = 0;
+  long moves_ = 0;
+  long last_line_ = 0;
+};
+
+/// Machine limits that PrusaSlicer wrote in the config block at the end of its G-code
+/// (`; machine_max_acceleration_x = 500`, `; machine_max_jerk_x = 8`, ...), as the
+/// limits its own time estimator used (classic jerk with PrusaSlicer's safe-speed rule,
+/// no minimum segment time). Reads only the last 256 KB of `text`.
+/// Error when the block is missing.
+[[nodiscard]] Result<MotionLimits> limits_from_prusaslicer_config(std::string_view text,
+                                                                  const MotionLimits& base);
+
+}  // namespace printtwin

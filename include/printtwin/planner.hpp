@@ -1,0 +1,173 @@
+#pragma once
+// Motion planner of the simulated printer: Moves in, timed MotionSegments out.
+//
+// Follows Marlin 2.1's planner (planner.cpp): every Move becomes a block with a nominal speed
+// limited per axis (X, Y, Z, E), an acceleration chosen from M204 P/R/T and limited per axis,
+// and a maximum entry speed from the junction model (junction deviation with the small
+// segment rule, or classic jerk). Blocks wait in a look-ahead window of
+// `block_buffer_size` blocks; each new block triggers Marlin's reverse pass (decelerate to
+// a stop at the end of the window) and forward pass (acceleration limits), and the oldest
+// block leaves the window -- and is emitted as a MotionSegment with a trapezoidal speed
+// profile -- when the window is full. Memory is bounded by the window, never by the file.
+//
+// The printer's clock is continuous: dwells and heating waits first drain the window (the
+// printer stops, as Marlin's planner.synchronize()) and then advance the clock, so
+// `MotionSegment::start_time_s` already includes every wait before it.
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <deque>
+#include <vector>
+
+#include "printtwin/machine.hpp"
+#include "printtwin/toolpath.hpp"
+
+namespace printtwin {
+
+/// The motion settings the firmware holds at one moment; M201/M203/M204/M205/M220 change
+/// them mid-file. Per-axis values are ordered X, Y, Z, E.
+struct MotionLimits {
+  Eigen::Vector4d max_feedrate_mm_s{500, 500, 5, 25};   ///< M203
+  Eigen::Vector4d max_accel_mm_s2{500, 500, 100, 5000}; ///< M201
+  double print_accel_mm_s2 = 500;    ///< M204 P (and S)
+  double retract_accel_mm_s2 = 500;  ///< M204 R: E-only moves
+  double travel_accel_mm_s2 = 500;   ///< M204 T (and S): moves without E
+  JunctionModel junction = JunctionModel::junction_deviation;
+  double junction_deviation_mm = 0.08;  ///< M205 J
+  bool jd_small_segments = true;        ///< Marlin JD_HANDLE_SMALL_SEGMENTS
+  Eigen::Vector4d jerk_mm_s{10, 10, 0.3, 5};  ///< M205 X Y Z E (classic jerk)
+  /// Classic jerk as PrusaSlicer's time estimator (GCodeProcessor) computes it: the "safe
+  /// speed" of a block is min(nominal, jerk of each moving axis) instead of Marlin's
+  /// proportional scaling. Used by `--limits-from-gcode` to reproduce PrusaSlicer's estimate.
+  bool prusaslicer_safe_speed = false;
+  double min_feedrate_mm_s = 0;          ///< M205 S: floor of the requested speed of printing moves
+  double min_travel_feedrate_mm_s = 0;   ///< M205 T: floor for moves without E
+  /// M205 B: Marlin's SLOWDOWN -- while the buffer holds 2..N/2-1 blocks (it is draining,
+  /// e.g. right after a synchronize), blocks shorter than this are slowed down.
+  double min_segment_time_s = 0.02;
+  /// Ratio of the feedrate override M220 (1 = 100 %); applied by the interpreter.
+  double feedrate_scale = 1.0;
+};
+
+/// The limits of a printer profile at power-on.
+[[nodiscard]] MotionLimits motion_limits_from_profile(const PrinterProfile& profile);
+
+/// Marlin's MINIMUM_PLANNER_SPEED: a block never needs to slow below this (mm/s).
+inline constexpr double kMinimumPlannerSpeed_mm_s = 0.05;
+
+/// One planned block: a straight move with a trapezoidal speed profile along its path.
+/// Like Klipper's `struct move` (trapq.h): start time, the three phases, start position and
+/// direction. Speeds are along the path; for E-only moves the path is the filament (|E|).
+struct MotionSegment {
+  double start_time_s = 0;     ///< printer clock at the start (includes earlier waits)
+  double accel_time_s = 0;     ///< accelerating from start_speed to cruise_speed
+  double cruise_time_s = 0;    ///< at cruise_speed
+  double decel_time_s = 0;     ///< decelerating from cruise_speed to end_speed
+  double start_speed_mm_s = 0;
+  double cruise_speed_mm_s = 0;  ///< highest speed reached (<= nominal_speed_mm_s)
+  double end_speed_mm_s = 0;
+  double nominal_speed_mm_s = 0; ///< requested speed after per-axis feedrate limits
+  double accel_mm_s2 = 0;        ///< acceleration along the path (after per-axis limits)
+  double length_mm = 0;          ///< path length: XYZ distance, or |E| for E-only moves
+  Vec3 start_mm = Vec3::Zero();  ///< nozzle at the start (machine frame)
+  Vec3 end_mm = Vec3::Zero();    ///< nozzle at the end
+  double e_start_mm = 0;         ///< cumulative filament (mm) pushed before this segment
+  double e_mm = 0;               ///< filament of this segment (negative: retraction)
+  long line = 0;                 ///< G-code line of the Move
+  int layer = -1;
+  Feature feature = Feature::unknown;
+  MoveKind kind = MoveKind::travel;
+  int object_id = -1;
+  long index = 0;                ///< 0-based index of the Move in the stream
+
+  [[nodiscard]] double duration_s() const { return accel_time_s + cruise_time_s + decel_time_s; }
+  [[nodiscard]] double end_time_s() const { return start_time_s + duration_s(); }
+  /// Distance travelled along the path `t_s` seconds after the start (clamped to the segment).
+  [[nodiscard]] double distance_at(double t_s) const;
+  /// Speed along the path `t_s` seconds after the start.
+  [[nodiscard]] double speed_at(double t_s) const;
+  /// Nozzle position `t_s` seconds after the start.
+  [[nodiscard]] Vec3 position_at(double t_s) const;
+};
+
+/// Receives the simulation's output as a stream, in order. Override what you need; each
+/// call gets a reference valid only during the call. Used by simulate_gcode (simulate.hpp),
+/// the deposit and the trace writer.
+class MoveSink {
+ public:
+  virtual ~MoveSink() = default;
+  /// Each Move as the interpreter resolves it (arcs already segmented), in file order.
+  virtual void on_move(const Move& move) { (void)move; }
+  /// Each planned segment once its timing is final (it left the look-ahead window).
+  virtual void on_segment(const MotionSegment& segment) { (void)segment; }
+  /// The printer stands still from `start_time_s` for `duration_s` (G4 dwell, M109/M190
+  /// heating wait); `heating` tells which. `line` is the G-code line.
+  virtual void on_wait(double start_time_s, double duration_s, bool heating, long line) {
+    (void)start_time_s, (void)duration_s, (void)heating, (void)line;
+  }
+};
+
+/// Marlin's look-ahead planner over a window of `block_buffer_size` blocks.
+///
+///   Planner planner(motion_limits_from_profile(profile), profile.block_buffer_size);
+///   planner.add(move, sink);  ...  planner.flush(sink);
+///
+/// Cost: O(window) per move. Not thread-safe; one planner per simulation.
+class Planner {
+ public:
+  Planner(const MotionLimits& limits, int block_buffer_size);
+
+  /// New limits for the moves added from now on (blocks already planned keep theirs, as in
+  /// Marlin, where M201/M203/M204/M205 affect only blocks planned afterwards).
+  void set_limits(const MotionLimits& limits);
+  [[nodiscard]] const MotionLimits& limits() const { return limits_; }
+
+  /// Plans a move; segments that leave the window are passed to `sink.on_segment`.
+  /// Moves with no XYZ and no E motion are ignored.
+  void add(const Move& move, MoveSink& sink);
+  /// Runs every planned block to a stop (M400, G4, M109, G28, end of file).
+  void flush(MoveSink& sink);
+  /// Flushes, then stands still for `duration_s` (reported with sink.on_wait).
+  void wait(double duration_s, bool heating, long line, MoveSink& sink);
+
+  /// Printer clock: end of the last emitted segment or wait (s).
+  [[nodiscard]] double clock_s() const { return clock_s_; }
+  /// Number of blocks waiting in the look-ahead window.
+  [[nodiscard]] int queued() const { return static_cast<int>(window_.size()); }
+
+ private:
+  struct Block {
+    Eigen::Vector4d delta_mm = Eigen::Vector4d::Zero();  ///< X Y Z E
+    Eigen::Vector4d unit = Eigen::Vector4d::Zero();      ///< delta / length (junction vector)
+    double length_mm = 0;
+    double nominal_speed_mm_s = 0;
+    double accel_mm_s2 = 0;
+    double max_entry_speed_mm_s = 0;
+    double entry_speed_mm_s = 0;
+    double safe_speed_mm_s = 0;  ///< classic jerk: speed the block may start/stop at
+    bool nominal_length = false; ///< nominal speed reachable from a stop within the block
+    bool entry_fixed = false;    ///< the block before it already left the window
+    Move move;
+    double e_start_mm = 0;
+    long index = 0;
+  };
+
+  void emit_front(MoveSink& sink, double exit_speed_mm_s);
+  void recalculate();
+
+  MotionLimits limits_;
+  std::size_t capacity_;
+  std::deque<Block> window_;
+  double clock_s_ = 0;
+  double e_total_mm_ = 0;
+  long next_index_ = 0;
+  long queued_since_sync_ = 0;
+  // State of the previous block for the junction (Marlin's previous_* variables).
+  bool have_previous_ = false;
+  Eigen::Vector4d previous_unit_ = Eigen::Vector4d::Zero();
+  Eigen::Vector4d previous_axis_speed_mm_s_ = Eigen::Vector4d::Zero();
+  double previous_nominal_speed_mm_s_ = 0;
+  double previous_safe_speed_mm_s_ = 0;
+};
+
+}  // namespace printtwin
