@@ -1,0 +1,209 @@
+#pragma once
+// Printability check of a mesh, before any slicing (`printtwin check`).
+//
+//   Mesh --check_printability(mesh, printer, settings)--> CheckReport { health, placement,
+//                                                                       findings, printable }
+//
+// Three groups of checks, each also callable on its own (unit tests, other stages):
+//  - mesh health (analyze_mesh_health, find_self_intersections): counts of triangles,
+//    shells, open and non-manifold edges, degenerate/duplicate faces, orientation,
+//    self-intersections; volume, area, bounding box. Pure topology + exact predicates.
+//  - placement (place like a slicer: lowest point on z = 0, bbox centred on the bed unless
+//    told otherwise): fits the build volume, footprint on the bed.
+//  - print risks on the placed mesh: overhangs (find_overhangs), thin walls and narrow gaps
+//    (measure_thickness, Embree rays along the normal), small shells, tall slender parts.
+// Every problem is a Finding with a stable `code` (docs/check.md lists them all); nothing
+// is repaired here. repair_mesh() is separate and reports each change it makes.
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "printtwin/finding.hpp"
+#include "printtwin/geometry.hpp"
+#include "printtwin/machine.hpp"
+#include "printtwin/mesh.hpp"
+#include "printtwin/result.hpp"
+
+namespace printtwin {
+
+/// Thresholds of the check. Defaults follow the stock Ender-3 (0.4 mm nozzle).
+struct CheckSettings {
+  /// A downward-facing surface leaning more than this from vertical needs support
+  /// (0 = vertical wall, 90 = horizontal ceiling).
+  double overhang_angle_deg = 45.0;
+  /// Walls thinner than this are reported (thin_wall). <= 0: the printer's nozzle diameter.
+  double min_thickness_mm = 0.0;
+  /// Line width; gaps narrower than it close up (narrow_gap) and shells smaller than it do
+  /// not print (small_feature). <= 0: 1.125 x nozzle diameter (0.45 mm for 0.4).
+  double line_width_mm = 0.0;
+  /// Faces whose vertices are all within this height of the bed rest on it (not overhangs).
+  double bed_contact_mm = 0.01;
+  /// height / smallest footprint side above which the part is tall_slender.
+  double slender_ratio = 6.0;
+  /// Overhang regions smaller than this are not reported (tessellation noise).
+  double min_overhang_area_mm2 = 1.0;
+  /// Placement: centre the bbox on (center_x_mm, center_y_mm); unset = the bed centre.
+  bool center = true;
+  std::optional<double> center_x_mm;
+  std::optional<double> center_y_mm;
+  /// At most this many locations are listed for findings that occur many times.
+  std::size_t max_locations = 5;
+  /// Skip the self-intersection test (it dominates the run time of very large meshes).
+  bool self_intersections = true;
+};
+
+/// Topological and geometric health of a mesh (frame of the input, before placement).
+struct MeshHealth {
+  std::size_t triangles = 0;
+  std::size_t vertices = 0;            ///< vertices referenced by at least one triangle
+  std::size_t shells = 0;              ///< connected components over shared edges
+  std::size_t boundary_edges = 0;      ///< edges with one face (holes)
+  std::size_t non_manifold_edges = 0;  ///< edges with more than two faces
+  std::size_t non_manifold_vertices = 0;  ///< vertices whose faces form several fans
+  std::size_t degenerate_faces = 0;    ///< zero area (repeated index or collinear)
+  std::size_t duplicate_faces = 0;     ///< same three vertices as an earlier face
+  std::size_t inconsistent_edges = 0;  ///< manifold edges whose two faces run the same way
+  std::size_t inverted_shells = 0;     ///< closed shells with negative volume, not a cavity
+  std::size_t self_intersections = 0;  ///< intersecting face pairs (not sharing an edge)
+  std::vector<Vec3> self_intersection_locations_mm;  ///< first few, a point of each pair
+  bool self_intersections_checked = false;
+  bool closed = false;                 ///< no boundary and no non-manifold edge
+  double volume_mm3 = 0;               ///< signed (divergence theorem)
+  double area_mm2 = 0;
+  Box3 bbox_mm;
+  std::vector<Box3> shell_bbox_mm;     ///< bounding box of each shell
+  std::optional<Vec3> first_boundary_edge_mm;     ///< midpoint of one open edge
+  std::optional<Vec3> first_non_manifold_edge_mm; ///< midpoint of one non-manifold edge
+  std::optional<Vec3> first_non_manifold_vertex_mm;
+  std::optional<Vec3> first_degenerate_face_mm;
+  std::optional<Vec3> first_inconsistent_edge_mm;
+};
+
+/// Counts everything in MeshHealth except self-intersections (O(n log n), no CGAL).
+[[nodiscard]] MeshHealth analyze_mesh_health(const Mesh& mesh);
+
+struct SelfIntersections {
+  std::size_t pairs = 0;                   ///< intersecting face pairs
+  std::vector<Vec3> locations_mm;          ///< a point of each of the first pairs (centroid
+                                           ///< of the first face's intersecting region)
+  std::vector<std::array<std::uint32_t, 2>> first_pairs;  ///< their face indices
+};
+
+/// Pairs of faces that intersect other than along a shared edge or at a shared vertex.
+/// Broad phase over a uniform grid of face bounding boxes, exact predicates (CGAL Epick)
+/// in the narrow phase. Degenerate faces are skipped. `max_locations` bounds the lists.
+[[nodiscard]] SelfIntersections find_self_intersections(const Mesh& mesh,
+                                                        std::size_t max_locations = 5);
+
+/// Where the slicer would put the part.
+struct Placement {
+  Vec3 offset_mm = Vec3::Zero();   ///< translation applied to the input
+  Box3 bbox_mm;                    ///< placed bounding box (machine frame)
+  bool fits = false;               ///< inside the build volume
+  double footprint_area_mm2 = 0;   ///< area of the faces resting on the bed
+  Box3 footprint_mm;               ///< their bounding box (empty when none)
+};
+
+/// An area of downward-facing faces steeper than the limit, connected over shared edges.
+struct OverhangRegion {
+  double area_mm2 = 0;
+  double max_angle_deg = 0;        ///< from vertical
+  Vec3 centroid_mm = Vec3::Zero(); ///< area-weighted centroid
+  Box3 bbox_mm;
+  std::size_t faces = 0;
+  std::uint32_t first_face = 0;
+};
+
+/// Overhang regions of a placed mesh (z = 0 is the bed), largest first.
+[[nodiscard]] std::vector<OverhangRegion> find_overhangs(const Mesh& placed,
+                                                         const CheckSettings& settings);
+
+/// Local thickness (inward rays) and gap width (outward rays) sampled at every face.
+struct ThicknessResult {
+  double min_thickness_mm = 0;        ///< thinnest wall seen; +inf if no ray hit
+  Vec3 min_thickness_at_mm = Vec3::Zero();
+  std::size_t thin_faces = 0;         ///< faces thinner than the limit
+  double thin_area_mm2 = 0;
+  Box3 thin_bbox_mm;
+  double min_gap_mm = 0;              ///< narrowest gap between facing surfaces; +inf if none
+  Vec3 min_gap_at_mm = Vec3::Zero();
+  std::size_t narrow_gap_faces = 0;   ///< faces facing another surface closer than the line width
+  double narrow_gap_area_mm2 = 0;
+  Box3 narrow_gap_bbox_mm;
+};
+
+/// Casts a ray from each face's centroid inward along -normal (first back-facing hit =
+/// wall thickness) and outward along +normal (first front-facing hit of a surface facing
+/// back within 30 degrees = gap width). Uses MeshQuery (Embree). Fails only when the ray
+/// tracer cannot be built.
+[[nodiscard]] Result<ThicknessResult> measure_thickness(const Mesh& mesh, double min_thickness_mm,
+                                                        double line_width_mm);
+
+/// Everything `printtwin check` reports.
+struct CheckReport {
+  MeshHealth health;                 ///< input frame
+  Placement placement;
+  std::vector<OverhangRegion> overhangs;  ///< placed frame
+  std::optional<ThicknessResult> thickness;  ///< unset when the mesh could not be ray traced
+  double min_thickness_limit_mm = 0;  ///< thresholds actually used
+  double line_width_mm = 0;
+  double overhang_angle_deg = 0;
+  std::vector<Finding> findings;     ///< errors first, then warnings, then info
+  bool printable = false;            ///< no finding with severity error
+};
+
+/// Runs every check. Positions in findings are in the placed (machine) frame.
+[[nodiscard]] Result<CheckReport> check_printability(const Mesh& mesh,
+                                                     const PrinterProfile& printer,
+                                                     const CheckSettings& settings = {});
+
+/// One kind of change made by repair_mesh.
+struct RepairChange {
+  std::string code;     ///< merged_vertices, removed_degenerate_faces, removed_duplicate_faces,
+                        ///< stitched_edges, reoriented_faces, filled_holes, added_faces,
+                        ///< inverted_shells_flipped
+  std::size_t count = 0;
+  std::string message;
+};
+
+struct RepairSettings {
+  /// Holes with at most this many boundary edges are filled (larger ones are left open).
+  std::size_t max_hole_edges = 64;
+};
+
+struct RepairResult {
+  Mesh mesh;
+  std::vector<RepairChange> changes;   ///< only kinds with count > 0
+  MeshHealth before;
+  MeshHealth after;
+};
+
+/// Repairs with CGAL Polygon_mesh_processing: merge duplicate points, remove degenerate and
+/// duplicate faces, orient, stitch borders, fill small holes, make closed shells bound a
+/// volume. Never called implicitly; the caller reports `changes`.
+[[nodiscard]] Result<RepairResult> repair_mesh(const Mesh& mesh, const RepairSettings& settings = {});
+
+/// Where the checked mesh came from, for the JSON report.
+struct CheckSource {
+  std::string file;           ///< as given on the command line
+  std::string sha256;         ///< of the file's bytes
+  std::string units = "mm";   ///< unit the file was read in
+  double scale = 1.0;         ///< extra scale applied
+  std::string printer;        ///< profile name
+};
+
+/// Version of the JSON written by check_report_to_json (docs/check.md). Bumped when a key
+/// changes meaning or disappears; new keys do not bump it.
+inline constexpr int kCheckJsonVersion = 1;
+
+/// The report as JSON text (schema "printtwin.check", version kCheckJsonVersion). Numbers
+/// are rounded to 1e-4 and written locale-independently; the same input gives the same
+/// bytes. `repair` (optional) adds the "repair" object with `repair_file`.
+[[nodiscard]] std::string check_report_to_json(const CheckReport& report, const CheckSource& source,
+                                               const RepairResult* repair = nullptr,
+                                               const std::string& repair_file = {});
+
+}  // namespace printtwin

@@ -1,0 +1,346 @@
+// check_printability: mesh health, placement and print risks turned into Findings.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "check/check_internal.hpp"
+#include "printtwin/check.hpp"
+#include "printtwin/io.hpp"
+
+namespace printtwin {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+std::string mm(double v) { return format_fixed(v, 2) + " mm"; }
+
+std::string xyz(const Vec3& p) {
+  return "(" + format_fixed(p.x(), 2) + ", " + format_fixed(p.y(), 2) + ", " +
+         format_fixed(p.z(), 2) + ")";
+}
+
+Finding make_finding(Severity severity, std::string code, std::string message,
+                     std::optional<Vec3> position = {}, long count = 1) {
+  Finding f;
+  f.severity = severity;
+  f.code = std::move(code);
+  f.message = std::move(message);
+  f.position_mm = position;
+  f.count = count;
+  return f;
+}
+
+std::string plural(std::size_t n, const std::string& word) {
+  if (n == 1) return "1 " + word;
+  if (word == "vertex") return std::to_string(n) + " vertices";
+  return std::to_string(n) + " " + word + "s";
+}
+
+Placement place(const Mesh& mesh, const PrinterProfile& printer, const CheckSettings& s,
+                Mesh& placed) {
+  Placement p;
+  const Box3 box = bounding_box(mesh);
+  Vec3 offset(0, 0, -box.min.z());
+  if (s.center) {
+    const double cx = s.center_x_mm.value_or(printer.bed_center_x_mm());
+    const double cy = s.center_y_mm.value_or(printer.bed_center_y_mm());
+    offset.x() = cx - box.center().x();
+    offset.y() = cy - box.center().y();
+  }
+  placed = translated(mesh, offset);
+  p.offset_mm = offset;
+  p.bbox_mm = bounding_box(placed);
+  constexpr double eps = 1e-6;
+  p.fits = p.bbox_mm.min.x() >= printer.bed_min_x_mm - eps &&
+           p.bbox_mm.min.y() >= printer.bed_min_y_mm - eps &&
+           p.bbox_mm.max.x() <= printer.bed_max_x_mm + eps &&
+           p.bbox_mm.max.y() <= printer.bed_max_y_mm + eps &&
+           p.bbox_mm.max.z() <= printer.max_z_mm + eps;
+  for (std::size_t f = 0; f < placed.triangles.size(); ++f) {
+    const auto& t = placed.triangles[f];
+    bool on_bed = true;
+    for (auto v : t) on_bed = on_bed && placed.vertices_mm[v].z() <= s.bed_contact_mm;
+    if (!on_bed) continue;
+    const Vec3 n = triangle_normal(placed, f);
+    if (!(n.z() < 0)) continue;  // only faces looking down at the bed hold the part
+    p.footprint_area_mm2 += 0.5 * n.norm();
+    for (auto v : t) p.footprint_mm.extend(placed.vertices_mm[v]);
+  }
+  return p;
+}
+
+void health_findings(const MeshHealth& h, const Vec3& offset, std::vector<Finding>& out) {
+  auto at = [&](const std::optional<Vec3>& p) -> std::optional<Vec3> {
+    if (!p) return std::nullopt;
+    return Vec3(*p + offset);
+  };
+  if (h.boundary_edges > 0)
+    out.push_back(make_finding(Severity::error, "open_mesh",
+                               "the mesh is not closed: " + plural(h.boundary_edges, "open edge") +
+                                   " (first at " + xyz(*at(h.first_boundary_edge_mm)) + ")",
+                               at(h.first_boundary_edge_mm), static_cast<long>(h.boundary_edges)));
+  if (h.non_manifold_edges > 0)
+    out.push_back(make_finding(
+        Severity::error, "non_manifold_edge",
+        plural(h.non_manifold_edges, "edge") + " shared by more than two faces (first at " +
+            xyz(*at(h.first_non_manifold_edge_mm)) + ")",
+        at(h.first_non_manifold_edge_mm), static_cast<long>(h.non_manifold_edges)));
+  if (h.inconsistent_edges > 0)
+    out.push_back(make_finding(
+        Severity::error, "inconsistent_orientation",
+        plural(h.inconsistent_edges, "edge") +
+            " between faces that point opposite ways (first at " +
+            xyz(*at(h.first_inconsistent_edge_mm)) + "); inside and outside are ambiguous",
+        at(h.first_inconsistent_edge_mm), static_cast<long>(h.inconsistent_edges)));
+  if (h.inverted_shells > 0)
+    out.push_back(make_finding(Severity::error, "inverted_shell",
+                               plural(h.inverted_shells, "closed shell") +
+                                   " inside out (negative volume, not a cavity)",
+                               std::nullopt, static_cast<long>(h.inverted_shells)));
+  if (h.self_intersections > 0) {
+    std::string where;
+    for (std::size_t i = 0; i < h.self_intersection_locations_mm.size() && i < 3; ++i)
+      where += (i ? ", " : "") + xyz(h.self_intersection_locations_mm[i] + offset);
+    std::optional<Vec3> first;
+    if (!h.self_intersection_locations_mm.empty())
+      first = h.self_intersection_locations_mm.front() + offset;
+    out.push_back(make_finding(Severity::error, "self_intersection",
+                               plural(h.self_intersections, "pair") +
+                                   " of intersecting faces (first at " + where + ")",
+                               first, static_cast<long>(h.self_intersections)));
+  }
+  if (h.non_manifold_vertices > 0)
+    out.push_back(make_finding(
+        Severity::warning, "non_manifold_vertex",
+        plural(h.non_manifold_vertices, "vertex") + " where separate fans of faces touch (first at " +
+            xyz(*at(h.first_non_manifold_vertex_mm)) + ")",
+        at(h.first_non_manifold_vertex_mm), static_cast<long>(h.non_manifold_vertices)));
+  if (h.degenerate_faces > 0)
+    out.push_back(make_finding(Severity::warning, "degenerate_face",
+                               plural(h.degenerate_faces, "face") + " with zero area (first at " +
+                                   xyz(*at(h.first_degenerate_face_mm)) + ")",
+                               at(h.first_degenerate_face_mm),
+                               static_cast<long>(h.degenerate_faces)));
+  if (h.duplicate_faces > 0)
+    out.push_back(make_finding(Severity::warning, "duplicate_face",
+                               plural(h.duplicate_faces, "face") +
+                                   " repeating the vertices of another face",
+                               std::nullopt, static_cast<long>(h.duplicate_faces)));
+  if (h.shells > 1)
+    out.push_back(make_finding(Severity::info, "multiple_shells",
+                               "the mesh has " + std::to_string(h.shells) +
+                                   " separate shells (parts or cavities)",
+                               std::nullopt, static_cast<long>(h.shells)));
+}
+
+}  // namespace
+
+std::vector<OverhangRegion> find_overhangs(const Mesh& placed, const CheckSettings& settings) {
+  const std::size_t nf = placed.triangles.size();
+  // Leaning more than the limit from vertical: -n_z > sin(limit).
+  const double limit = std::sin((settings.overhang_angle_deg + 0.01) * kPi / 180.0);
+  std::vector<char> over(nf, 0);
+  std::vector<double> angle(nf, 0);
+  for (std::size_t f = 0; f < nf; ++f) {
+    const auto& t = placed.triangles[f];
+    bool on_bed = true;
+    for (auto v : t) on_bed = on_bed && placed.vertices_mm[v].z() <= settings.bed_contact_mm;
+    if (on_bed) continue;
+    Vec3 n = triangle_normal(placed, f);
+    const double len = n.norm();
+    if (!(len > 0)) continue;
+    n /= len;
+    if (-n.z() > limit) {
+      over[f] = 1;
+      angle[f] = std::asin(std::clamp(-n.z(), -1.0, 1.0)) * 180.0 / kPi;
+    }
+  }
+  // Regions: overhang faces joined across shared edges.
+  std::vector<char> skip(nf);
+  for (std::size_t f = 0; f < nf; ++f) skip[f] = over[f] == 0;
+  const detail::EdgeTable edges = detail::build_edge_table(placed, skip);
+  detail::UnionFind uf(nf);
+  for (const auto& [b, e] : edges.groups)
+    for (std::size_t i = b + 1; i < e; ++i)
+      uf.unite(edges.half_edges[b].face, edges.half_edges[i].face);
+  std::vector<std::uint32_t> region_of(nf, UINT32_MAX);
+  std::vector<OverhangRegion> regions;
+  std::vector<Vec3> weighted;
+  for (std::size_t f = 0; f < nf; ++f) {
+    if (over[f] == 0) continue;
+    const std::uint32_t root = uf.find(static_cast<std::uint32_t>(f));
+    if (region_of[root] == UINT32_MAX) {
+      region_of[root] = static_cast<std::uint32_t>(regions.size());
+      regions.emplace_back();
+      regions.back().first_face = static_cast<std::uint32_t>(f);
+      weighted.emplace_back(Vec3::Zero());
+    }
+    const std::uint32_t r = region_of[root];
+    OverhangRegion& reg = regions[r];
+    const double area = 0.5 * triangle_normal(placed, f).norm();
+    reg.area_mm2 += area;
+    reg.max_angle_deg = std::max(reg.max_angle_deg, angle[f]);
+    ++reg.faces;
+    weighted[r] += area * detail::face_centroid(placed, f);
+    for (auto v : placed.triangles[f]) reg.bbox_mm.extend(placed.vertices_mm[v]);
+  }
+  std::vector<OverhangRegion> out;
+  for (std::size_t r = 0; r < regions.size(); ++r) {
+    if (regions[r].area_mm2 < settings.min_overhang_area_mm2) continue;
+    regions[r].centroid_mm = weighted[r] / regions[r].area_mm2;
+    out.push_back(regions[r]);
+  }
+  std::stable_sort(out.begin(), out.end(), [](const OverhangRegion& a, const OverhangRegion& b) {
+    return a.area_mm2 > b.area_mm2;
+  });
+  return out;
+}
+
+Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& printer,
+                                       const CheckSettings& settings) {
+  if (mesh.triangles.empty()) return bad_input("the mesh has no triangles");
+  CheckReport rep;
+  rep.min_thickness_limit_mm =
+      settings.min_thickness_mm > 0 ? settings.min_thickness_mm : printer.nozzle_diameter_mm;
+  rep.line_width_mm =
+      settings.line_width_mm > 0 ? settings.line_width_mm : 1.125 * printer.nozzle_diameter_mm;
+
+  rep.overhang_angle_deg = settings.overhang_angle_deg;
+  rep.health = analyze_mesh_health(mesh);
+  if (settings.self_intersections) {
+    const SelfIntersections si = find_self_intersections(mesh, settings.max_locations);
+    rep.health.self_intersections = si.pairs;
+    rep.health.self_intersection_locations_mm = si.locations_mm;
+    rep.health.self_intersections_checked = true;
+  }
+
+  Mesh placed;
+  rep.placement = place(mesh, printer, settings, placed);
+  const Vec3 offset = rep.placement.offset_mm;
+  std::vector<Finding>& out = rep.findings;
+  health_findings(rep.health, offset, out);
+
+  // Placement.
+  const Box3& pb = rep.placement.bbox_mm;
+  const Vec3 size = pb.size();
+  if (!rep.placement.fits) {
+    Finding f = make_finding(
+        Severity::error, "does_not_fit",
+        "the part (" + format_fixed(size.x(), 2) + " x " + format_fixed(size.y(), 2) + " x " +
+            format_fixed(size.z(), 2) + " mm, placed at x " + format_fixed(pb.min.x(), 2) + ".." +
+            format_fixed(pb.max.x(), 2) + ", y " + format_fixed(pb.min.y(), 2) + ".." +
+            format_fixed(pb.max.y(), 2) + ") does not fit the build volume of " + printer.name +
+            " (x " + format_fixed(printer.bed_min_x_mm, 0) + ".." +
+            format_fixed(printer.bed_max_x_mm, 0) + ", y " +
+            format_fixed(printer.bed_min_y_mm, 0) + ".." + format_fixed(printer.bed_max_y_mm, 0) +
+            ", z 0.." + format_fixed(printer.max_z_mm, 0) + " mm)",
+        pb.center());
+    f.extent_mm = pb;
+    out.push_back(f);
+  }
+  const double bbox_xy_area = size.x() * size.y();
+  if (rep.placement.footprint_area_mm2 < 0.05 * bbox_xy_area) {
+    out.push_back(make_finding(
+        Severity::warning, "small_bed_contact",
+        "only " + format_fixed(rep.placement.footprint_area_mm2, 2) +
+            " mm2 of the part rests on the bed (" +
+            format_fixed(100.0 * rep.placement.footprint_area_mm2 / std::max(bbox_xy_area, 1e-12), 1) +
+            " % of its footprint box): it may come loose; add a brim or a flat base",
+        Vec3(pb.center().x(), pb.center().y(), 0.0)));
+  }
+  {
+    const Box3& fp = rep.placement.footprint_mm.empty() ? pb : rep.placement.footprint_mm;
+    const double base = std::min(fp.size().x(), fp.size().y());
+    const double ratio = base > 0 ? size.z() / base : std::numeric_limits<double>::infinity();
+    if (ratio > settings.slender_ratio) {
+      Finding f = make_finding(Severity::warning, "tall_slender",
+                               "the part is " + mm(size.z()) + " tall on a base " + mm(base) +
+                                   " wide (ratio " + format_fixed(ratio, 1) + " > " +
+                                   format_fixed(settings.slender_ratio, 1) +
+                                   "): it may wobble or break while printing",
+                               Vec3(pb.center().x(), pb.center().y(), pb.max.z()));
+      f.value = ratio;
+      out.push_back(f);
+    }
+  }
+
+  // Overhangs.
+  rep.overhangs = find_overhangs(placed, settings);
+  double overhang_total = 0;
+  for (const auto& r : rep.overhangs) overhang_total += r.area_mm2;
+  for (std::size_t i = 0; i < rep.overhangs.size() && i < settings.max_locations; ++i) {
+    const OverhangRegion& r = rep.overhangs[i];
+    Finding f = make_finding(Severity::warning, "overhang",
+                             format_fixed(r.area_mm2, 1) + " mm2 of surface leans up to " +
+                                 format_fixed(r.max_angle_deg, 1) + " deg from vertical (limit " +
+                                 format_fixed(settings.overhang_angle_deg, 1) + " deg) at " +
+                                 xyz(r.centroid_mm) + ", z " + format_fixed(r.bbox_mm.min.z(), 2) +
+                                 ".." + format_fixed(r.bbox_mm.max.z(), 2) + " mm: needs support",
+                             r.centroid_mm, static_cast<long>(r.faces));
+    f.extent_mm = r.bbox_mm;
+    f.face = r.first_face;
+    f.value = r.max_angle_deg;
+    out.push_back(f);
+  }
+  if (rep.overhangs.size() > settings.max_locations)
+    out.push_back(make_finding(
+        Severity::info, "overhang_more",
+        std::to_string(rep.overhangs.size() - settings.max_locations) +
+            " more overhang regions not listed; " + format_fixed(overhang_total, 1) +
+            " mm2 of overhang in all",
+        std::nullopt, static_cast<long>(rep.overhangs.size() - settings.max_locations)));
+
+  // Thin walls and narrow gaps.
+  auto thick = measure_thickness(placed, rep.min_thickness_limit_mm, rep.line_width_mm);
+  if (!thick) return thick.error();
+  rep.thickness = *thick;
+  const ThicknessResult& t = *thick;
+  if (t.thin_faces > 0) {
+    Finding f = make_finding(
+        Severity::warning, "thin_wall",
+        "walls down to " + format_fixed(t.min_thickness_mm, 2) + " mm thick at " +
+            xyz(t.min_thickness_at_mm) + ", thinner than " + mm(rep.min_thickness_limit_mm) +
+            " over " + format_fixed(t.thin_area_mm2, 1) +
+            " mm2: the slicer may drop or weaken them",
+        t.min_thickness_at_mm, static_cast<long>(t.thin_faces));
+    f.extent_mm = t.thin_bbox_mm;
+    f.value = t.min_thickness_mm;
+    out.push_back(f);
+  }
+  if (t.narrow_gap_faces > 0) {
+    Finding f = make_finding(
+        Severity::warning, "narrow_gap",
+        "gaps or holes down to " + format_fixed(t.min_gap_mm, 2) + " mm wide at " +
+            xyz(t.min_gap_at_mm) + ", narrower than one line width (" + mm(rep.line_width_mm) +
+            "): they will close up",
+        t.min_gap_at_mm, static_cast<long>(t.narrow_gap_faces));
+    f.extent_mm = t.narrow_gap_bbox_mm;
+    f.value = t.min_gap_mm;
+    out.push_back(f);
+  }
+  // Shells smaller than a line width across do not print at all.
+  std::size_t small = 0;
+  std::optional<Vec3> first_small;
+  for (const Box3& b : rep.health.shell_bbox_mm) {
+    const Vec3 s = b.size();
+    if (std::min(s.x(), s.y()) < rep.line_width_mm) {
+      if (!first_small) first_small = b.center() + offset;
+      ++small;
+    }
+  }
+  if (small > 0)
+    out.push_back(make_finding(Severity::warning, "small_feature",
+                               plural(small, "separate part") + " narrower than one line width (" +
+                                   mm(rep.line_width_mm) + ") (first at " + xyz(*first_small) +
+                                   "): will not print",
+                               first_small, static_cast<long>(small)));
+
+  std::stable_sort(out.begin(), out.end(), [](const Finding& a, const Finding& b) {
+    return static_cast<int>(a.severity) > static_cast<int>(b.severity);
+  });
+  rep.printable = !has_errors(out);
+  return rep;
+}
+
+}  // namespace printtwin

@@ -1,0 +1,58 @@
+#pragma once
+// Internals shared by the src/check/*.cpp files (not installed, not public).
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include "printtwin/mesh.hpp"
+
+namespace printtwin::detail {
+
+/// Zero area: a repeated index, or vertices collinear to ~1e-8 of the longest edge.
+bool is_degenerate_face(const Mesh& mesh, std::size_t f);
+Vec3 face_centroid(const Mesh& mesh, std::size_t f);
+
+struct UnionFind {
+  explicit UnionFind(std::size_t n);
+  std::uint32_t find(std::uint32_t x);
+  void unite(std::uint32_t a, std::uint32_t b);
+  std::vector<std::uint32_t> parent;
+};
+
+/// One side of an undirected edge (lo < hi): the face it belongs to and whether the face
+/// runs lo -> hi.
+struct HalfEdge {
+  std::uint32_t lo = 0, hi = 0, face = 0;
+  bool forward = false;
+};
+
+/// Half-edges sorted by (lo, hi, face); `groups` are [begin, end) runs of one edge.
+struct EdgeTable {
+  std::vector<HalfEdge> half_edges;
+  std::vector<std::pair<std::size_t, std::size_t>> groups;
+};
+
+/// `skip_face[f] != 0` leaves face f out (empty = keep all).
+EdgeTable build_edge_table(const Mesh& mesh, const std::vector<char>& skip_face);
+
+/// Marks faces with a repeated vertex index and every repeat of an earlier face (same vertex
+/// set, either orientation). `duplicates` receives the number of repeats.
+std::vector<char> duplicate_or_index_degenerate_faces(const Mesh& mesh, std::size_t* duplicates);
+
+struct Shell {
+  double six_volume = 0;  ///< 6 x signed volume
+  bool open = false;      ///< has an open or non-manifold edge
+  bool inverted = false;  ///< closed, negative volume, not inside another shell's box
+  Box3 box;
+};
+struct ShellTable {
+  std::vector<Shell> shells;
+  std::vector<std::uint32_t> shell_of_face;  ///< UINT32_MAX for skipped faces
+};
+/// Shells = faces connected across shared edges (faces with skip[f] != 0 left out).
+ShellTable compute_shells(const Mesh& mesh, const std::vector<char>& skip, const EdgeTable& edges);
+
+/// Reverses every inverted shell (see Shell::inverted); returns how many.
+std::size_t flip_inverted_shells(Mesh& mesh);
+
+}  // namespace printtwin::detail

@@ -1,0 +1,247 @@
+// Mesh health: topology counts from sorted edge lists and union-find (no third-party code).
+#include <algorithm>
+#include <numeric>
+
+#include "check/check_internal.hpp"
+#include "printtwin/check.hpp"
+
+namespace printtwin {
+
+namespace detail {
+
+bool is_degenerate_face(const Mesh& mesh, std::size_t f) {
+  const auto& t = mesh.triangles[f];
+  if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) return true;
+  const Vec3& a = mesh.vertices_mm[t[0]];
+  const Vec3& b = mesh.vertices_mm[t[1]];
+  const Vec3& c = mesh.vertices_mm[t[2]];
+  const double longest2 = std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
+  // Zero area relative to the face's size: collinear to about 1e-8 of its longest edge.
+  return (b - a).cross(c - a).squaredNorm() <= 1e-16 * longest2 * longest2;
+}
+
+Vec3 face_centroid(const Mesh& mesh, std::size_t f) {
+  const auto& t = mesh.triangles[f];
+  return (mesh.vertices_mm[t[0]] + mesh.vertices_mm[t[1]] + mesh.vertices_mm[t[2]]) / 3.0;
+}
+
+std::uint32_t UnionFind::find(std::uint32_t x) {
+  while (parent[x] != x) {
+    parent[x] = parent[parent[x]];
+    x = parent[x];
+  }
+  return x;
+}
+
+void UnionFind::unite(std::uint32_t a, std::uint32_t b) {
+  a = find(a);
+  b = find(b);
+  if (a != b) parent[std::max(a, b)] = std::min(a, b);
+}
+
+UnionFind::UnionFind(std::size_t n) : parent(n) {
+  std::iota(parent.begin(), parent.end(), 0U);
+}
+
+EdgeTable build_edge_table(const Mesh& mesh, const std::vector<char>& skip_face) {
+  EdgeTable table;
+  table.half_edges.reserve(3 * mesh.triangles.size());
+  for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+    if (!skip_face.empty() && skip_face[f] != 0) continue;
+    const auto& t = mesh.triangles[f];
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t a = t[k];
+      const std::uint32_t b = t[(k + 1) % 3];
+      table.half_edges.push_back(
+          {std::min(a, b), std::max(a, b), static_cast<std::uint32_t>(f), a < b});
+    }
+  }
+  std::sort(table.half_edges.begin(), table.half_edges.end(),
+            [](const HalfEdge& x, const HalfEdge& y) {
+              if (x.lo != y.lo) return x.lo < y.lo;
+              if (x.hi != y.hi) return x.hi < y.hi;
+              return x.face < y.face;
+            });
+  for (std::size_t i = 0; i < table.half_edges.size();) {
+    std::size_t j = i + 1;
+    while (j < table.half_edges.size() && table.half_edges[j].lo == table.half_edges[i].lo &&
+           table.half_edges[j].hi == table.half_edges[i].hi)
+      ++j;
+    table.groups.push_back({i, j});
+    i = j;
+  }
+  return table;
+}
+
+std::vector<char> duplicate_or_index_degenerate_faces(const Mesh& mesh, std::size_t* duplicates) {
+  const std::size_t n = mesh.triangles.size();
+  std::vector<char> skip(n, 0);
+  std::vector<std::pair<std::array<std::uint32_t, 3>, std::uint32_t>> keys;
+  keys.reserve(n);
+  for (std::size_t f = 0; f < n; ++f) {
+    auto t = mesh.triangles[f];
+    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) {
+      skip[f] = 1;
+      continue;
+    }
+    std::sort(t.begin(), t.end());
+    keys.push_back({t, static_cast<std::uint32_t>(f)});
+  }
+  std::sort(keys.begin(), keys.end());
+  std::size_t dup = 0;
+  for (std::size_t i = 1; i < keys.size(); ++i)
+    if (keys[i].first == keys[i - 1].first) {
+      skip[keys[i].second] = 1;
+      ++dup;
+    }
+  if (duplicates != nullptr) *duplicates = dup;
+  return skip;
+}
+
+ShellTable compute_shells(const Mesh& mesh, const std::vector<char>& skip,
+                          const EdgeTable& edges) {
+  const std::size_t nf = mesh.triangles.size();
+  UnionFind uf(nf);
+  std::vector<char> open_face(nf, 0);
+  for (const auto& [begin, end] : edges.groups) {
+    for (std::size_t i = begin + 1; i < end; ++i)
+      uf.unite(edges.half_edges[begin].face, edges.half_edges[i].face);
+    if (end - begin != 2)
+      for (std::size_t i = begin; i < end; ++i) open_face[edges.half_edges[i].face] = 1;
+  }
+  ShellTable table;
+  table.shell_of_face.assign(nf, UINT32_MAX);
+  std::vector<std::uint32_t> index_of_root(nf, UINT32_MAX);
+  const Vec3 ref = bounding_box(mesh).empty() ? Vec3::Zero() : bounding_box(mesh).center();
+  for (std::size_t f = 0; f < nf; ++f) {
+    if (!skip.empty() && skip[f] != 0) continue;
+    const std::uint32_t root = uf.find(static_cast<std::uint32_t>(f));
+    if (index_of_root[root] == UINT32_MAX) {
+      index_of_root[root] = static_cast<std::uint32_t>(table.shells.size());
+      table.shells.emplace_back();
+    }
+    table.shell_of_face[f] = index_of_root[root];
+    Shell& s = table.shells[index_of_root[root]];
+    const auto& t = mesh.triangles[f];
+    const Vec3 a = mesh.vertices_mm[t[0]] - ref;
+    const Vec3 b = mesh.vertices_mm[t[1]] - ref;
+    const Vec3 c = mesh.vertices_mm[t[2]] - ref;
+    s.six_volume += a.dot(b.cross(c));
+    s.open = s.open || open_face[f] != 0;
+    for (auto v : t) s.box.extend(mesh.vertices_mm[v]);
+  }
+  // A closed shell with negative volume is a cavity when another, positive shell's box
+  // holds it; otherwise it is inside out.
+  for (std::size_t i = 0; i < table.shells.size(); ++i) {
+    Shell& si = table.shells[i];
+    if (si.open || si.six_volume >= 0) continue;
+    bool cavity = false;
+    for (std::size_t j = 0; j < table.shells.size() && !cavity; ++j) {
+      const Shell& sj = table.shells[j];
+      cavity = j != i && sj.six_volume > 0 && sj.box.contains(si.box.min) &&
+               sj.box.contains(si.box.max) && !(sj.box == si.box);
+    }
+    si.inverted = !cavity;
+  }
+  return table;
+}
+
+std::size_t flip_inverted_shells(Mesh& mesh) {
+  const std::vector<char> skip = duplicate_or_index_degenerate_faces(mesh, nullptr);
+  const ShellTable table = compute_shells(mesh, skip, build_edge_table(mesh, skip));
+  std::size_t flipped = 0;
+  for (const auto& s : table.shells) flipped += s.inverted ? 1 : 0;
+  if (flipped == 0) return 0;
+  for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+    const std::uint32_t s = table.shell_of_face[f];
+    if (s != UINT32_MAX && table.shells[s].inverted) std::swap(mesh.triangles[f][1], mesh.triangles[f][2]);
+  }
+  return flipped;
+}
+
+}  // namespace detail
+
+MeshHealth analyze_mesh_health(const Mesh& mesh) {
+  using namespace detail;
+  MeshHealth h;
+  const std::size_t nf = mesh.triangles.size();
+  h.triangles = nf;
+  h.volume_mm3 = signed_volume_mm3(mesh);
+  h.area_mm2 = surface_area_mm2(mesh);
+
+  std::vector<char> used(mesh.vertices_mm.size(), 0);
+  for (const auto& t : mesh.triangles)
+    for (auto v : t) used[v] = 1;
+  for (std::size_t v = 0; v < used.size(); ++v)
+    if (used[v] != 0) {
+      ++h.vertices;
+      h.bbox_mm.extend(mesh.vertices_mm[v]);
+    }
+
+  for (std::size_t f = 0; f < nf; ++f)
+    if (is_degenerate_face(mesh, f)) {
+      if (h.degenerate_faces == 0) h.first_degenerate_face_mm = face_centroid(mesh, f);
+      ++h.degenerate_faces;
+    }
+
+  // Duplicates and faces with a repeated index stay out of the edge analysis: each is
+  // reported once as such, not again as the non-manifold or open edges it would cause.
+  const std::vector<char> skip = duplicate_or_index_degenerate_faces(mesh, &h.duplicate_faces);
+  const EdgeTable edges = build_edge_table(mesh, skip);
+
+  UnionFind corners(3 * nf);  // fans around each vertex, joined across manifold edges
+  auto corner_of = [&](std::uint32_t f, std::uint32_t v) {
+    const auto& t = mesh.triangles[f];
+    const std::uint32_t k = t[0] == v ? 0 : (t[1] == v ? 1 : 2);
+    return 3 * f + k;
+  };
+  auto midpoint = [&](const HalfEdge& e) {
+    return Vec3(0.5 * (mesh.vertices_mm[e.lo] + mesh.vertices_mm[e.hi]));
+  };
+  for (const auto& [begin, end] : edges.groups) {
+    const HalfEdge& e0 = edges.half_edges[begin];
+    const std::size_t count = end - begin;
+    if (count == 1) {
+      if (h.boundary_edges == 0) h.first_boundary_edge_mm = midpoint(e0);
+      ++h.boundary_edges;
+    } else if (count == 2) {
+      const HalfEdge& e1 = edges.half_edges[begin + 1];
+      corners.unite(corner_of(e0.face, e0.lo), corner_of(e1.face, e0.lo));
+      corners.unite(corner_of(e0.face, e0.hi), corner_of(e1.face, e0.hi));
+      if (e0.forward == e1.forward) {
+        if (h.inconsistent_edges == 0) h.first_inconsistent_edge_mm = midpoint(e0);
+        ++h.inconsistent_edges;
+      }
+    } else {
+      if (h.non_manifold_edges == 0) h.first_non_manifold_edge_mm = midpoint(e0);
+      ++h.non_manifold_edges;
+    }
+  }
+  h.closed = h.boundary_edges == 0 && h.non_manifold_edges == 0;
+
+  // Non-manifold vertices: more than one fan of faces around the vertex.
+  std::vector<std::uint32_t> first_root(mesh.vertices_mm.size(), UINT32_MAX);
+  std::vector<char> flagged(mesh.vertices_mm.size(), 0);
+  for (std::size_t f = 0; f < nf; ++f) {
+    if (skip[f] != 0) continue;
+    for (std::uint32_t k = 0; k < 3; ++k) {
+      const std::uint32_t v = mesh.triangles[f][k];
+      const std::uint32_t root = corners.find(static_cast<std::uint32_t>(3 * f + k));
+      if (first_root[v] == UINT32_MAX) {
+        first_root[v] = root;
+      } else if (first_root[v] != root && flagged[v] == 0) {
+        flagged[v] = 1;
+        if (h.non_manifold_vertices == 0) h.first_non_manifold_vertex_mm = mesh.vertices_mm[v];
+        ++h.non_manifold_vertices;
+      }
+    }
+  }
+
+  const ShellTable shells_table = compute_shells(mesh, skip, edges);
+  h.shells = shells_table.shells.size();
+  for (const auto& s : shells_table.shells) h.shell_bbox_mm.push_back(s.box);
+  for (const auto& s : shells_table.shells) h.inverted_shells += s.inverted ? 1 : 0;
+  return h;
+}
+
+}  // namespace printtwin
