@@ -3,7 +3,9 @@
 // write inside a dense block directory over the grid's extent), after OctoMap's split of
 // discrete keys and metric coordinates. Each occupied voxel remembers which move laid it
 // (its G-code line, layer and feature), so a defect found later names its G-code lines.
+#include <bit>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -64,12 +66,56 @@ class VoxelGrid {
   [[nodiscard]] static std::size_t estimate_bytes(const Eigen::Vector3i& dims,
                                                   std::size_t occupied_voxels);
 
+  // --- Tag table and fast writes (used by the deposit; tags are shared per move) ---------
+
+  /// Edge of a block in voxels.
+  static constexpr int kBlockEdge = 8;
+  /// Bytes of one allocated block: 512 occupancy bits and a 32-bit tag index per voxel.
+  static constexpr std::size_t kBlockBytes = 8 * sizeof(std::uint64_t) + 512 * sizeof(std::uint32_t);
+
+  /// Appends `tag` to the tag table (or reuses the last entry when equal); returns its index.
+  std::uint32_t add_tag(const VoxelTag& tag);
+  /// Every distinct tag recorded so far; voxels store an index into this table.
+  [[nodiscard]] const std::vector<VoxelTag>& tag_table() const;
+  /// Index into tag_table() of an occupied voxel.
+  [[nodiscard]] std::optional<std::uint32_t> tag_index(const VoxelKey& k) const;
+  /// Like set(), with a tag already in the table. Returns true if the voxel was empty before.
+  bool set_index(const VoxelKey& k, std::uint32_t tag_index);
+  /// Marks voxels x0..x1-1 of the row (y, z) occupied with `tag_index` (clipped to the grid).
+  /// Returns how many of them were empty before.
+  std::size_t fill_row(std::int32_t y, std::int32_t z, std::int32_t x0, std::int32_t x1,
+                       std::uint32_t tag_index);
+  /// Pre-allocates room for `blocks` blocks (no effect on count()).
+  void reserve_blocks(std::size_t blocks);
+  /// Allocated blocks.
+  [[nodiscard]] std::size_t block_count() const;
+
+  /// One allocated block: voxel (base.x + x, base.y + y, base.z + z) for x, y, z in 0..7 is
+  /// occupied when bit (y * 8 + x) of occupancy[z] is set; its tag index is tags[z*64+y*8+x].
+  struct BlockView {
+    VoxelKey base;
+    const std::uint64_t* occupancy = nullptr;
+    const std::uint32_t* tags = nullptr;
+  };
+  /// Calls fn for every allocated block, in the fixed order of for_each (z, then y, then x).
+  void visit_blocks(const std::function<void(const BlockView&)>& fn) const;
+
   /// Calls fn(const VoxelKey&, const VoxelTag&) for every occupied voxel, in a fixed order
   /// (block by block, z-major), so results are deterministic.
   template <class Fn>
   void for_each(Fn&& fn) const {
-    const auto keys = occupied_keys();
-    for (const auto& k : keys) fn(k, *tag(k));
+    const auto& table = tag_table();
+    visit_blocks([&](const BlockView& b) {
+      for (int z = 0; z < kBlockEdge; ++z) {
+        std::uint64_t bits = b.occupancy[z];
+        while (bits != 0) {
+          const int bit = std::countr_zero(bits);
+          bits &= bits - 1;
+          const VoxelKey k{b.base.x + (bit & 7), b.base.y + (bit >> 3), b.base.z + z};
+          fn(k, table[b.tags[z * 64 + bit]]);
+        }
+      }
+    });
   }
   /// All occupied keys in the fixed order of for_each.
   [[nodiscard]] std::vector<VoxelKey> occupied_keys() const;

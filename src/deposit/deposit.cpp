@@ -1,0 +1,755 @@
+// The bead model: extruding moves -> voxels, height map, extrusion-into-air findings.
+//
+// Geometry of one bead (all in voxel units inside this file): the nozzle tip runs from A to
+// B; the bead's top follows the tip, its height h is the gap to what lies beneath, its
+// cross-section is a stadium of width w and height h (a (w-h) x h rectangle with half-discs
+// of diameter h on its sides, area (w-h) h + pi h^2 / 4). Along the path the bead is cut by
+// vertical planes: the mitre (bisector) plane at a joint with the previous/next move of the
+// same continuous path, a plane square to the move at a path end or at a sharp turn. Mitred
+// sweeps of a laterally symmetric section have exactly area x length volume and tile the
+// path without gaps or double counting.
+//
+// Voxelisation: a voxel is occupied when its sample point lies inside the bead. The sample
+// point is fixed per voxel (a hash of its key jitters it inside the voxel), so the expected
+// voxel volume of any bead equals its exact volume whatever its width and orientation, and
+// beads that touch share their boundary voxels without gaps or double counting. Voxels whose
+// whole cell is inside are filled in runs without testing; only the boundary layer is tested.
+#include "printtwin/deposit.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <optional>
+
+#include "printtwin/io.hpp"
+
+namespace printtwin {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kJoinTolMm = 1e-3;        // path continuity: end of one move = start of next
+constexpr double kMitreMinCos = -0.5;      // turns sharper than 120 deg get square cuts
+constexpr std::size_t kHeightMapMax = 65535;
+
+std::uint64_t mix64(std::uint64_t x) {
+  x += 0x9E3779B97F4A7C15ull;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+  return x ^ (x >> 31);
+}
+
+/// Fixed pseudo-random sample point of voxel (i, j, k), in [0,1)^3 inside the voxel.
+struct Jitter {
+  double x, y, z;
+};
+inline Jitter jitter_of(std::int32_t i, std::int32_t j, std::int32_t k) {
+  const std::uint64_t key = (static_cast<std::uint64_t>(static_cast<std::uint32_t>(i)) & 0x1FFFFF) |
+                            ((static_cast<std::uint64_t>(static_cast<std::uint32_t>(j)) & 0x1FFFFF) << 21) |
+                            ((static_cast<std::uint64_t>(static_cast<std::uint32_t>(k)) & 0x1FFFFF) << 42);
+  const std::uint64_t h = mix64(key);
+  constexpr double kScale = 1.0 / static_cast<double>(1u << 21);
+  return {static_cast<double>(h & 0x1FFFFF) * kScale + 0.5 * kScale,
+          static_cast<double>((h >> 21) & 0x1FFFFF) * kScale + 0.5 * kScale,
+          static_cast<double>((h >> 42) & 0x1FFFFF) * kScale + 0.5 * kScale};
+}
+
+/// Nominal layer height: the slicer's `;HEIGHT:` when given, else the Z step from the
+/// previous layer's extrusions to this move. Sloped extrusions (vase-mode spirals, where
+/// every move has its own Z) keep the nominal height of the last flat layer.
+class LayerTracker {
+ public:
+  double nominal_mm(const Move& m, double nozzle_mm, double voxel_mm) {
+    if (m.height_hint_mm > 0) return clamp(m.height_hint_mm, nozzle_mm, voxel_mm);
+    const double z = m.end_mm.z();
+    const bool sloped = std::abs(m.end_mm.z() - m.start_mm.z()) > 1e-6;
+    if (sloped && have_nominal_) return nominal_;
+    if (!have_layer_ || m.layer != layer_ || z > layer_z_ + 1e-6) {
+      if (have_layer_ && z > layer_z_ + 1e-6) prev_z_ = layer_z_;
+      have_layer_ = true;
+      layer_ = m.layer;
+      layer_z_ = z;
+    }
+    double h = z - prev_z_;
+    if (!(h > 0.25 * voxel_mm)) h = 0.5 * nozzle_mm;
+    nominal_ = clamp(h, nozzle_mm, voxel_mm);
+    have_nominal_ = true;
+    return nominal_;
+  }
+
+ private:
+  static double clamp(double h, double nozzle_mm, double voxel_mm) {
+    return std::clamp(h, std::min(voxel_mm, 0.5 * nozzle_mm), 2.0 * nozzle_mm);
+  }
+  bool have_layer_ = false;
+  bool have_nominal_ = false;
+  int layer_ = 0;
+  double layer_z_ = 0;
+  double prev_z_ = 0;
+  double nominal_ = 0;
+};
+
+bool is_bead(const Move& m) { return m.kind == MoveKind::extrude && m.e_mm > 0; }
+
+/// x-interval where a*x + b lies in [lo, hi]; returns false when empty.
+inline bool clip_linear(double a, double b, double lo, double hi, double& xl, double& xh) {
+  constexpr double kEps = 1e-12;
+  if (std::abs(a) < kEps) return b >= lo && b <= hi;
+  double x0 = (lo - b) / a;
+  double x1 = (hi - b) / a;
+  if (x0 > x1) std::swap(x0, x1);
+  xl = std::max(xl, x0);
+  xh = std::min(xh, x1);
+  return xl <= xh;
+}
+
+/// The bead's footprint at one half-width, in the (major, minor) plane of the sweep.
+struct Footprint {
+  Vec2 a, b, n, m0, m1;
+  double hw = 0;
+  std::array<Vec2, 4> vertices;
+
+  void init(const Vec2& a_, const Vec2& b_, const Vec2& d, const Vec2& n_, const Vec2& m0_,
+            const Vec2& m1_, double hw_) {
+    a = a_;
+    b = b_;
+    n = n_;
+    m0 = m0_;
+    m1 = m1_;
+    hw = hw_;
+    // Intersections of the side lines s = +-hw with the two cut lines.
+    const double k0 = m0.dot(n) / m0.dot(d);
+    const double k1 = m1.dot(n) / m1.dot(d);
+    vertices = {a + (-hw * k0) * d + hw * n, a + (hw * k0) * d - hw * n,
+                b + (-hw * k1) * d + hw * n, b + (hw * k1) * d - hw * n};
+  }
+  /// Interval of the major coordinate on the line minor = y.
+  bool interval(double y, double& xl, double& xh) const {
+    xl = -std::numeric_limits<double>::infinity();
+    xh = std::numeric_limits<double>::infinity();
+    // s = n.x (x - a.x) + n.y (y - a.y)
+    if (!clip_linear(n.x(), n.y() * (y - a.y()) - n.x() * a.x(), -hw, hw, xl, xh)) return false;
+    const double inf = std::numeric_limits<double>::infinity();
+    if (!clip_linear(m0.x(), m0.y() * (y - a.y()) - m0.x() * a.x(), 0.0, inf, xl, xh)) return false;
+    if (!clip_linear(m1.x(), m1.y() * (y - b.y()) - m1.x() * b.x(), -inf, 0.0, xl, xh)) return false;
+    return true;
+  }
+  void minor_range(double& lo, double& hi) const {
+    lo = std::numeric_limits<double>::infinity();
+    hi = -lo;
+    for (const auto& v : vertices) {
+      lo = std::min(lo, v.y());
+      hi = std::max(hi, v.y());
+    }
+  }
+};
+
+struct PendingBead {
+  Move move;
+  double nominal_h_mm = 0;
+  bool continues_path = false;  // joined to the previous bead
+  Vec2 m0 = Vec2::Zero();       // cut normal at the start (xy, unit)
+  std::uint32_t tag = 0;
+};
+
+struct OpenStretch {
+  UnsupportedStretch s;
+  bool active = false;
+};
+
+}  // namespace
+
+double stadium_width_mm(double area_mm2, double height_mm) {
+  if (!(height_mm > 0)) return 0;
+  return area_mm2 / height_mm + (1.0 - kPi / 4.0) * height_mm;
+}
+
+// ---------------------------------------------------------------------------------------
+struct DepositBuilder::State {
+  DepositSettings settings;
+  double voxel = 0.05;
+  double inv_voxel = 20;
+  double filament_area_mm2 = 0;
+  double nozzle_mm = 0.4;
+  VoxelGrid grid;
+  std::vector<std::uint16_t> top;  // per column: rows occupied up to (0 = bed/empty)
+  int nx = 0, ny = 0, nz = 0;
+  LayerTracker layers;
+  std::optional<PendingBead> pending;
+  std::vector<double> gaps_;  // scratch
+
+  // Support tracking along the current continuous path.
+  bool path_has_support = false;
+  OpenStretch stretch;
+  std::vector<UnsupportedStretch> all_stretches;
+  double unsupported_mm = 0;
+
+  double extruded_mm3 = 0;
+  std::size_t overlap_voxels = 0;
+  std::size_t beads = 0;
+  std::size_t skipped = 0;
+
+  State(const DepositSettings& s, const PrinterProfile& p, const Vec3& origin,
+        const Eigen::Vector3i& dims)
+      : settings(s),
+        voxel(s.voxel_mm),
+        inv_voxel(1.0 / s.voxel_mm),
+        filament_area_mm2(p.filament_area_mm2()),
+        nozzle_mm(p.nozzle_diameter_mm),
+        grid(s.voxel_mm, origin, dims),
+        nx(dims.x()),
+        ny(dims.y()),
+        nz(dims.z()) {
+    top.assign(static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny), 0);
+  }
+
+  // -- columns ---------------------------------------------------------------------------
+  /// Height (mm, machine frame) of the deposit top in the column under p, or the grid
+  /// bottom (the bed) outside the grid.
+  [[nodiscard]] double top_mm(double x_mm, double y_mm) const {
+    const auto i = static_cast<int>(std::floor((x_mm - grid.origin_mm().x()) * inv_voxel));
+    const auto j = static_cast<int>(std::floor((y_mm - grid.origin_mm().y()) * inv_voxel));
+    double rows = 0;
+    if (i >= 0 && j >= 0 && i < nx && j < ny)
+      rows = top[static_cast<std::size_t>(j) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(i)];
+    return grid.origin_mm().z() + rows * voxel;
+  }
+
+  // -- moves -----------------------------------------------------------------------------
+  void add(const Move& m) {
+    if (!is_bead(m)) {
+      flush(std::nullopt);
+      return;
+    }
+    extruded_mm3 += m.e_mm * filament_area_mm2;
+    if (m.xy_length_mm() < 1e-9) {  // Z-only or in-place extrusion: a blob we do not model
+      ++skipped;
+      flush(std::nullopt);
+      return;
+    }
+    const Vec2 d = (m.end_mm - m.start_mm).head<2>().normalized();
+    bool continues = false;
+    Vec2 m0 = d;
+    if (pending) {
+      const Move& p = pending->move;
+      continues = p.layer == m.layer && (p.end_mm - m.start_mm).norm() < kJoinTolMm;
+      if (continues) {
+        const Vec2 dp = (p.end_mm - p.start_mm).head<2>().normalized();
+        if (dp.dot(d) >= kMitreMinCos) m0 = (dp + d).normalized();
+      }
+      flush(continues ? std::optional<Vec2>(m0) : std::nullopt);
+    }
+    PendingBead pb;
+    pb.move = m;
+    pb.nominal_h_mm = layers.nominal_mm(m, nozzle_mm, voxel);
+    pb.continues_path = continues;
+    pb.m0 = m0;
+    pb.tag = grid.add_tag(VoxelTag{static_cast<std::uint32_t>(std::max(m.line, 0L)), m.layer, m.feature});
+    pending = pb;
+  }
+
+  /// Lays the pending bead; `m1` is its end cut normal (nullopt: square cut).
+  void flush(std::optional<Vec2> m1) {
+    if (!pending) return;
+    const PendingBead pb = *pending;
+    pending.reset();
+    const Vec2 d = (pb.move.end_mm - pb.move.start_mm).head<2>().normalized();
+    lay(pb, m1.value_or(d));
+  }
+
+  void close_stretch(bool end_supported) {
+    if (!stretch.active) return;
+    stretch.active = false;
+    stretch.s.bridge = stretch.s.bridge && end_supported;
+    unsupported_mm += stretch.s.length_mm;
+    if (stretch.s.length_mm >= settings.min_unsupported_mm) all_stretches.push_back(stretch.s);
+  }
+
+  void lay(const PendingBead& pb, const Vec2& m1) {
+    const Move& mv = pb.move;
+    const double len_mm = mv.xy_length_mm();
+    const double volume_mm3 = mv.e_mm * filament_area_mm2;
+    const double area_mm2 = volume_mm3 / len_mm;
+    const Vec3 a = mv.start_mm;
+    const Vec3 b = mv.end_mm;
+    const Vec2 d = (b - a).head<2>() / len_mm;
+    const Vec2 n(-d.y(), d.x());
+    const int samples = std::max(1, static_cast<int>(std::ceil(len_mm * inv_voxel)));
+
+    // Height: the gap between the tip and the surface beneath the centre line. A column whose
+    // top is within half a layer of the tip holds this layer's neighbours (or a partly
+    // covered corner) and says nothing about what is beneath, unless its top voxel was laid
+    // by an earlier layer (the first turn of a vase-mode spiral); gaps over 1.5 layers are
+    // air. The median of the remaining gaps is the bead height (the nominal layer height when
+    // none remain, or when they agree with it to within the voxel quantisation).
+    const double nominal = pb.nominal_h_mm;
+    gaps_.clear();
+    for (int i = 0; i < samples; ++i) {
+      const Vec3 q = a + ((i + 0.5) / samples) * (b - a);
+      const double t = top_mm(q.x(), q.y());
+      const double gap = q.z() - t;
+      if (gap > 1.5 * nominal + 0.5 * voxel || gap < 0.5 * voxel) continue;
+      if (gap < 0.5 * nominal) {
+        const auto tag = grid.tag(grid.key_of(Vec3(q.x(), q.y(), t - 0.5 * voxel)));
+        if (!tag || tag->layer >= mv.layer) continue;
+      }
+      gaps_.push_back(gap);
+    }
+    double h = nominal;
+    if (!gaps_.empty()) {
+      auto mid = gaps_.begin() + static_cast<std::ptrdiff_t>(gaps_.size() / 2);
+      std::nth_element(gaps_.begin(), mid, gaps_.end());
+      if (std::abs(*mid - nominal) > voxel + 1e-9) h = *mid;
+    }
+    double w = stadium_width_mm(area_mm2, h);
+    if (w < h) {  // too little material for a full-height bead: a round strand
+      h = std::sqrt(4.0 * area_mm2 / kPi);
+      w = h;
+    }
+
+    // Support: fraction of the bead's width resting on bed or deposit, per sample.
+    if (!pb.continues_path) {
+      close_stretch(false);
+      path_has_support = false;
+    }
+    const int across = std::max(3, static_cast<int>(std::ceil(w * inv_voxel)));
+    const double tol = 0.5 * h;
+    const double step_mm = len_mm / samples;
+    for (int i = 0; i < samples; ++i) {
+      const Vec3 q = a + ((i + 0.5) / samples) * (b - a);
+      const double bottom = q.z() - h;
+      int held = 0;
+      for (int j = 0; j < across; ++j) {
+        const double s = -0.5 * w + (j + 0.5) * w / across;
+        if (top_mm(q.x() + s * n.x(), q.y() + s * n.y()) >= bottom - tol) ++held;
+      }
+      const bool supported = held >= settings.support_fraction * across - 1e-9;
+      if (supported) {
+        close_stretch(true);
+        path_has_support = true;
+      } else {
+        if (!stretch.active) {
+          stretch.active = true;
+          stretch.s = UnsupportedStretch{};
+          stretch.s.layer = mv.layer;
+          stretch.s.first_line = mv.line;
+          stretch.s.start_mm = a + (static_cast<double>(i) / samples) * (b - a);
+          stretch.s.bridge = path_has_support;
+          stretch.s.feature = mv.feature;
+        }
+        stretch.s.last_line = mv.line;
+        stretch.s.end_mm = a + ((i + 1.0) / samples) * (b - a);
+        stretch.s.length_mm += step_mm;
+      }
+    }
+
+    sweep(pb, a, b, d, n, m1, h, w);
+    ++beads;
+  }
+
+  // -- voxelisation ----------------------------------------------------------------------
+  void sweep(const PendingBead& pb, const Vec3& a_mm, const Vec3& b_mm, const Vec2& d,
+             const Vec2& n, const Vec2& m1, double h_mm, double w_mm) {
+    const Vec3 o = grid.origin_mm();
+    const Vec3 a = (a_mm - o) * inv_voxel;
+    const Vec3 b = (b_mm - o) * inv_voxel;
+    const double len = (b - a).head<2>().norm();
+    const double hh = h_mm * inv_voxel;
+    const double r = 0.5 * hh;
+    const double flat = 0.5 * (w_mm - h_mm) * inv_voxel;
+    const double slope = (b.z() - a.z()) / len;
+    const double zt_lo = std::min(a.z(), b.z());
+    const double zt_hi = std::max(a.z(), b.z());
+    const double zc_lo = zt_lo - r;
+    const double zc_hi = zt_hi - r;
+
+    // Sweep rows along the major axis of the move: swap x and y when |dy| > |dx|.
+    const bool swap = std::abs(d.y()) > std::abs(d.x());
+    auto sw = [swap](const Vec2& v) { return swap ? Vec2(v.y(), v.x()) : v; };
+    const Vec2 a2 = sw(a.head<2>()), b2 = sw(b.head<2>()), d2 = sw(d), n2 = sw(n);
+    const Vec2 m02 = sw(pb.m0), m12 = sw(m1);
+    const int n_major = swap ? ny : nx;
+    const int n_minor = swap ? nx : ny;
+    const std::uint32_t tag = pb.tag;
+
+    auto inside = [&](double x, double y, double z) {  // major, minor, z (voxel units)
+      const Vec2 rel(x - a2.x(), y - a2.y());
+      if (m02.dot(rel) < 0) return false;
+      if (m12.x() * (x - b2.x()) + m12.y() * (y - b2.y()) >= 0) return false;
+      const double u = d2.dot(rel);
+      const double dz = z - (a.z() + slope * u - r);
+      if (dz < -r || dz >= r) return false;
+      const double s = std::abs(n2.dot(rel));
+      return s <= flat + std::sqrt(r * r - dz * dz);
+    };
+
+    const int k_lo = std::max(0, static_cast<int>(std::floor(zt_lo - hh)));
+    const int k_hi = std::min(nz - 1, static_cast<int>(std::ceil(zt_hi)) - 1);
+    Footprint outer, inner;
+    for (int k = k_lo; k <= k_hi; ++k) {
+      const double z0 = k, z1 = k + 1.0;
+      // Range of the height offset from the section's centre over this row.
+      const double dz_lo = std::max(z0 - zc_hi, -r);
+      const double dz_hi = std::min(z1 - zc_lo, r);
+      if (dz_lo >= dz_hi) continue;
+      const double dz0 = std::clamp(0.0, dz_lo, dz_hi);
+      const double hw_out = flat + std::sqrt(std::max(0.0, r * r - dz0 * dz0));
+      outer.init(a2, b2, d2, n2, m02, m12, hw_out);
+      const bool row_inside = z0 >= zt_hi - hh && z1 <= zt_lo;
+      bool has_inner = false;
+      if (row_inside) {
+        const double dz_max = std::max({std::abs(z0 - zc_lo), std::abs(z0 - zc_hi),
+                                        std::abs(z1 - zc_lo), std::abs(z1 - zc_hi)});
+        const double hw_in = flat + std::sqrt(std::max(0.0, r * r - dz_max * dz_max));
+        if (hw_in > 0) {
+          inner.init(a2, b2, d2, n2, m02, m12, hw_in);
+          has_inner = true;
+        }
+      }
+      double ylo, yhi;
+      outer.minor_range(ylo, yhi);
+      const int j_lo = std::max(0, static_cast<int>(std::floor(ylo)));
+      const int j_hi = std::min(n_minor - 1, static_cast<int>(std::floor(yhi)));
+      for (int j = j_lo; j <= j_hi; ++j) {
+        const double y0 = j, y1 = j + 1.0;
+        double xl = std::numeric_limits<double>::infinity(), xh = -xl;
+        double il, ih;
+        if (outer.interval(y0, il, ih)) xl = std::min(xl, il), xh = std::max(xh, ih);
+        if (outer.interval(y1, il, ih)) xl = std::min(xl, il), xh = std::max(xh, ih);
+        for (const auto& v : outer.vertices)
+          if (v.y() >= y0 && v.y() <= y1) xl = std::min(xl, v.x()), xh = std::max(xh, v.x());
+        if (!(xl <= xh)) continue;
+        const int i_lo = std::max(0, static_cast<int>(std::floor(xl)));
+        const int i_hi = std::min(n_major - 1, static_cast<int>(std::floor(xh)));
+        if (i_lo > i_hi) continue;
+        // Cells fully inside: both edges of the cell row inside the inner footprint.
+        int f_lo = i_hi + 1, f_hi = i_hi;  // empty
+        if (has_inner) {
+          double al, ah, bl, bh;
+          if (inner.interval(y0, al, ah) && inner.interval(y1, bl, bh)) {
+            const double lo = std::max(al, bl), hi = std::min(ah, bh);
+            const int c_lo = std::max(i_lo, static_cast<int>(std::ceil(lo)));
+            const int c_hi = std::min(i_hi, static_cast<int>(std::floor(hi)) - 1);
+            if (c_lo <= c_hi) f_lo = c_lo, f_hi = c_hi;
+          }
+        }
+        for (int i = i_lo; i <= i_hi; ++i) {
+          if (i == f_lo) {
+            fill(swap, i, f_hi + 1, j, k, tag);
+            i = f_hi;
+            continue;
+          }
+          const int gx = swap ? j : i, gy = swap ? i : j;
+          const Jitter jt = jitter_of(gx, gy, k);
+          const double px = swap ? i + jt.y : i + jt.x;
+          const double py = swap ? j + jt.x : j + jt.y;
+          if (inside(px, py, k + jt.z)) set_one(gx, gy, k, tag);
+        }
+      }
+    }
+  }
+
+  void raise_top(int gx, int gy, int k) {
+    auto& t = top[static_cast<std::size_t>(gy) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(gx)];
+    t = std::max<std::uint16_t>(t, static_cast<std::uint16_t>(k + 1));
+  }
+  void set_one(int gx, int gy, int k, std::uint32_t tag) {
+    if (!grid.set_index(VoxelKey{gx, gy, k}, tag)) ++overlap_voxels;
+    raise_top(gx, gy, k);
+  }
+  /// Fills major-axis cells [i0, i1) of minor row j, layer k.
+  void fill(bool swap, int i0, int i1, int j, int k, std::uint32_t tag) {
+    if (!swap) {
+      const std::size_t fresh = grid.fill_row(j, k, i0, i1, tag);
+      overlap_voxels += static_cast<std::size_t>(i1 - i0) - fresh;
+      for (int i = i0; i < i1; ++i) raise_top(i, j, k);
+    } else {
+      for (int i = i0; i < i1; ++i) set_one(j, i, k, tag);
+    }
+  }
+
+  // -- results ---------------------------------------------------------------------------
+  DepositResult finish() {
+    flush(std::nullopt);
+    close_stretch(false);
+    DepositResult r;
+    r.voxel_mm = voxel;
+    r.voxels = grid.count();
+    r.volume_mm3 = static_cast<double>(r.voxels) * voxel * voxel * voxel;
+    r.extruded_mm3 = extruded_mm3;
+    r.overlap_mm3 = static_cast<double>(overlap_voxels) * voxel * voxel * voxel;
+    r.beads = beads;
+    r.skipped_moves = skipped;
+    r.unsupported_mm = unsupported_mm;
+    r.bbox_mm = occupied_bbox();
+    r.unsupported = std::move(all_stretches);
+    r.findings = make_findings(r.unsupported);
+    r.memory_bytes = grid.memory_bytes() + top.capacity() * sizeof(std::uint16_t);
+    top = {};
+    r.grid = std::move(grid);
+    return r;
+  }
+
+  [[nodiscard]] Box3 occupied_bbox() const {
+    Eigen::Vector3i lo = Eigen::Vector3i::Constant(std::numeric_limits<int>::max());
+    Eigen::Vector3i hi = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
+    grid.visit_blocks([&](const VoxelGrid::BlockView& blk) {
+      std::uint64_t any = 0;
+      for (int z = 0; z < 8; ++z) {
+        if (blk.occupancy[z] == 0) continue;
+        any |= blk.occupancy[z];
+        lo.z() = std::min(lo.z(), blk.base.z + z);
+        hi.z() = std::max(hi.z(), blk.base.z + z);
+      }
+      if (any == 0) return;
+      std::uint32_t xs = 0, ys = 0;
+      for (int y = 0; y < 8; ++y) {
+        const auto row = static_cast<std::uint32_t>((any >> (8 * y)) & 0xFF);
+        xs |= row;
+        if (row) ys |= 1u << y;
+      }
+      lo.x() = std::min(lo.x(), blk.base.x + std::countr_zero(xs));
+      hi.x() = std::max(hi.x(), blk.base.x + 31 - std::countl_zero(xs));
+      lo.y() = std::min(lo.y(), blk.base.y + std::countr_zero(ys));
+      hi.y() = std::max(hi.y(), blk.base.y + 31 - std::countl_zero(ys));
+    });
+    Box3 box;
+    if (lo.x() > hi.x()) return box;
+    box.min = grid.origin_mm() + voxel * lo.cast<double>();
+    box.max = grid.origin_mm() + voxel * (hi.cast<double>() + Eigen::Vector3d::Ones());
+    return box;
+  }
+
+  static std::vector<Finding> make_findings(const std::vector<UnsupportedStretch>& stretches) {
+    // One finding per (layer, kind): count, total length, the longest stretch's lines.
+    struct Group {
+      int layer;
+      bool bridge;
+      std::vector<const UnsupportedStretch*> items;
+    };
+    std::vector<Group> groups;
+    for (const auto& s : stretches) {
+      auto it = std::find_if(groups.begin(), groups.end(), [&](const Group& g) {
+        return g.layer == s.layer && g.bridge == s.bridge;
+      });
+      if (it == groups.end()) {
+        groups.push_back(Group{s.layer, s.bridge, {}});
+        it = groups.end() - 1;
+      }
+      it->items.push_back(&s);
+    }
+    std::stable_sort(groups.begin(), groups.end(), [](const Group& x, const Group& y) {
+      return x.layer != y.layer ? x.layer < y.layer : x.bridge > y.bridge;
+    });
+    std::vector<Finding> out;
+    for (const auto& g : groups) {
+      double total = 0;
+      const UnsupportedStretch* longest = g.items.front();
+      Box3 extent;
+      for (const auto* s : g.items) {
+        total += s->length_mm;
+        if (s->length_mm > longest->length_mm) longest = s;
+        extent.extend(s->start_mm);
+        extent.extend(s->end_mm);
+      }
+      Finding f;
+      f.severity = g.bridge ? Severity::info : Severity::warning;
+      f.code = g.bridge ? "extrusion_into_air_bridge" : "extrusion_into_air_cantilever";
+      const std::string kind = g.bridge ? "bridged (supported at both ends)" : "cantilevered (droops)";
+      f.message = "layer " + std::to_string(g.layer) + ": " + std::to_string(g.items.size()) +
+                  " unsupported " + kind + " stretch" + (g.items.size() == 1 ? "" : "es") + ", " +
+                  format_fixed(total, 1) + " mm in total; longest " +
+                  format_fixed(longest->length_mm, 1) + " mm at G-code lines " +
+                  std::to_string(longest->first_line) + "-" + std::to_string(longest->last_line) +
+                  " (" + std::string(to_string(longest->feature)) + ")";
+      f.position_mm = longest->start_mm;
+      f.extent_mm = extent;
+      f.line = longest->first_line;
+      f.layer = g.layer;
+      f.value = total;
+      f.count = static_cast<long>(g.items.size());
+      out.push_back(std::move(f));
+    }
+    return out;
+  }
+};
+
+// ---------------------------------------------------------------------------------------
+namespace {
+
+Status check_settings(const DepositSettings& s) {
+  if (!(s.voxel_mm >= 0.001 && s.voxel_mm <= 10.0))
+    return usage_error("voxel size must be between 0.001 and 10 mm, got " + format_number(s.voxel_mm));
+  if (!(s.support_fraction >= 0.0 && s.support_fraction <= 1.0))
+    return usage_error("support fraction must be between 0 and 1, got " +
+                       format_number(s.support_fraction));
+  return Ok{};
+}
+
+struct Frame {
+  Vec3 origin = Vec3::Zero();
+  Eigen::Vector3i dims = Eigen::Vector3i::Zero();
+};
+
+Frame frame_for(const Box3& tips, double margin_mm, double voxel) {
+  Frame f;
+  if (tips.empty()) {
+    f.dims = Eigen::Vector3i::Ones();
+    return f;
+  }
+  // Origin on a multiple of the voxel in X/Y; Z starts at the bed (z = 0) so that layer
+  // boundaries fall on voxel boundaries when the layer height is a multiple of the voxel.
+  const double x0 = std::floor((tips.min.x() - margin_mm) / voxel) * voxel;
+  const double y0 = std::floor((tips.min.y() - margin_mm) / voxel) * voxel;
+  const double z0 = std::min(0.0, std::floor(tips.min.z() / voxel) * voxel);
+  f.origin = Vec3(x0, y0, z0);
+  const Vec3 span = (tips.max + Vec3(margin_mm, margin_mm, voxel)) - f.origin;
+  f.dims = (span / voxel).array().ceil().cast<int>().max(1).matrix();
+  return f;
+}
+
+double grid_bytes(const Eigen::Vector3i& dims, std::size_t blocks, std::size_t tags) {
+  const Eigen::Vector3d bd = ((dims.array() + 7) / 8).cast<double>();
+  return bd.prod() * 4.0 + static_cast<double>(blocks) * VoxelGrid::kBlockBytes +
+         static_cast<double>(dims.x()) * dims.y() * 2.0 + static_cast<double>(tags) * sizeof(VoxelTag) +
+         1024.0 * VoxelGrid::kBlockBytes;
+}
+
+/// The estimate at one voxel size: bead footprints marked block by block.
+DepositEstimate estimate_at(std::span<const Move> moves, const PrinterProfile& profile, double voxel) {
+  DepositEstimate e;
+  const double fa = profile.filament_area_mm2();
+  const double nozzle = profile.nozzle_diameter_mm;
+  Box3 tips;
+  double margin = 0;
+  std::size_t tags = 0;
+  {
+    LayerTracker layers;
+    for (const auto& m : moves) {
+      if (!is_bead(m)) continue;
+      e.extruded_mm3 += m.e_mm * fa;
+      tips.extend(m.start_mm);
+      tips.extend(m.end_mm);
+      ++tags;
+      const double len = m.xy_length_mm();
+      if (len < 1e-9) continue;
+      const double h = layers.nominal_mm(m, nozzle, voxel);
+      margin = std::max(margin, 0.5 * stadium_width_mm(m.e_mm * fa / len, h));
+    }
+  }
+  margin = std::min(margin, 5.0 * nozzle) + 2 * voxel;
+  const Frame f = frame_for(tips, margin, voxel);
+  e.origin_mm = f.origin;
+  e.dims = f.dims;
+  const Eigen::Vector3i bd = (f.dims.array() + 7) / 8;
+  const double dir_entries = static_cast<double>(bd.x()) * bd.y() * bd.z();
+  if (dir_entries > 4.0e9) {  // a bitmap this large is pointless: report the directory alone
+    e.bytes = static_cast<std::size_t>(std::min(dir_entries * 4.0, 1.0e18));
+    return e;
+  }
+  std::vector<std::uint64_t> marked((static_cast<std::size_t>(dir_entries) + 63) / 64, 0);
+  const double block_mm = 8 * voxel;
+  LayerTracker layers;
+  for (const auto& m : moves) {
+    if (!is_bead(m)) continue;
+    const double len = m.xy_length_mm();
+    if (len < 1e-9) continue;
+    const double h = layers.nominal_mm(m, nozzle, voxel);
+    const double hw = std::min(0.5 * stadium_width_mm(m.e_mm * fa / len, h), margin);
+    const int steps = std::max(1, static_cast<int>(std::ceil(len / (0.5 * block_mm))));
+    for (int s = 0; s <= steps; ++s) {
+      const Vec3 q = m.start_mm + (static_cast<double>(s) / steps) * (m.end_mm - m.start_mm);
+      const Vec3 lo = (Vec3(q.x() - hw, q.y() - hw, q.z() - h) - f.origin) / block_mm;
+      const Vec3 hi = (Vec3(q.x() + hw, q.y() + hw, q.z()) - f.origin) / block_mm;
+      for (int bz = std::max(0, static_cast<int>(lo.z())); bz <= std::min(bd.z() - 1, static_cast<int>(hi.z())); ++bz)
+        for (int by = std::max(0, static_cast<int>(lo.y())); by <= std::min(bd.y() - 1, static_cast<int>(hi.y())); ++by)
+          for (int bx = std::max(0, static_cast<int>(lo.x())); bx <= std::min(bd.x() - 1, static_cast<int>(hi.x())); ++bx) {
+            const std::size_t idx = (static_cast<std::size_t>(bz) * static_cast<std::size_t>(bd.y()) +
+                                     static_cast<std::size_t>(by)) * static_cast<std::size_t>(bd.x()) +
+                                    static_cast<std::size_t>(bx);
+            marked[idx / 64] |= std::uint64_t{1} << (idx % 64);
+          }
+    }
+  }
+  for (auto w : marked) e.blocks += static_cast<std::size_t>(std::popcount(w));
+  e.bytes = static_cast<std::size_t>(grid_bytes(f.dims, e.blocks, tags));
+  return e;
+}
+
+std::string format_bytes(double bytes) {
+  if (bytes >= 1024.0 * 1024 * 1024) return format_fixed(bytes / (1024.0 * 1024 * 1024), 2) + " GiB";
+  return format_fixed(bytes / (1024.0 * 1024), 1) + " MiB";
+}
+
+Error over_budget(double bytes, double budget, double voxel, double suggested) {
+  return usage_error("the deposit needs about " + format_bytes(bytes) + " at voxel " +
+                     format_number(voxel) + " mm, over the memory limit of " +
+                     format_bytes(budget) + " (--max-memory); use --voxel " +
+                     format_number(suggested) + " or raise --max-memory");
+}
+
+}  // namespace
+
+Result<DepositEstimate> estimate_deposit(std::span<const Move> moves, const PrinterProfile& profile,
+                                         const DepositSettings& settings) {
+  if (auto st = check_settings(settings); !st) return st.error();
+  return estimate_at(moves, profile, settings.voxel_mm);
+}
+
+Result<DepositResult> deposit_moves(std::span<const Move> moves, const PrinterProfile& profile,
+                                    const DepositSettings& settings) {
+  if (auto st = check_settings(settings); !st) return st.error();
+  const DepositEstimate e = estimate_at(moves, profile, settings.voxel_mm);
+  const auto budget = static_cast<double>(settings.max_memory_bytes);
+  if (static_cast<double>(e.bytes) > budget || e.dims.z() > static_cast<int>(kHeightMapMax)) {
+    double v = settings.voxel_mm * std::cbrt(static_cast<double>(e.bytes) / (0.9 * budget));
+    v = std::max(v, settings.voxel_mm * 1.05);
+    for (int attempt = 0; attempt < 8; ++attempt) {
+      v = std::ceil(v * 100.0) / 100.0;
+      const DepositEstimate again = estimate_at(moves, profile, v);
+      if (static_cast<double>(again.bytes) <= budget && again.dims.z() <= static_cast<int>(kHeightMapMax)) break;
+      v *= 1.15;
+    }
+    return over_budget(static_cast<double>(e.bytes), budget, settings.voxel_mm, v);
+  }
+  auto state = std::make_unique<DepositBuilder::State>(settings, profile, e.origin_mm, e.dims);
+  state->grid.reserve_blocks(e.blocks);
+  for (const auto& m : moves) state->add(m);
+  return state->finish();
+}
+
+// ---------------------------------------------------------------------------------------
+DepositBuilder::DepositBuilder(std::unique_ptr<State> state) : state_(std::move(state)) {}
+DepositBuilder::DepositBuilder(DepositBuilder&&) noexcept = default;
+DepositBuilder& DepositBuilder::operator=(DepositBuilder&&) noexcept = default;
+DepositBuilder::~DepositBuilder() = default;
+
+Result<DepositBuilder> DepositBuilder::create(const Box3& extent_mm, const PrinterProfile& profile,
+                                              const DepositSettings& settings,
+                                              double extruded_mm3_hint) {
+  if (auto st = check_settings(settings); !st) return st.error();
+  const double v = settings.voxel_mm;
+  const Frame f = frame_for(extent_mm, 5.0 * profile.nozzle_diameter_mm + 2 * v, v);
+  const std::size_t blocks = static_cast<std::size_t>(2.0 * extruded_mm3_hint / (v * v * v * 512.0));
+  const double bytes = grid_bytes(f.dims, blocks, 0);
+  const auto budget = static_cast<double>(settings.max_memory_bytes);
+  if (bytes > budget || f.dims.z() > static_cast<int>(kHeightMapMax)) {
+    const double suggested = std::ceil(v * std::cbrt(bytes / (0.9 * budget)) * 100.0) / 100.0;
+    return over_budget(bytes, budget, v, std::max(suggested, v + 0.01));
+  }
+  auto state = std::make_unique<State>(settings, profile, f.origin, f.dims);
+  state->grid.reserve_blocks(blocks);
+  return DepositBuilder(std::move(state));
+}
+
+void DepositBuilder::add(const Move& move) { state_->add(move); }
+
+DepositResult DepositBuilder::finish() {
+  DepositResult r = state_->finish();
+  state_.reset();
+  return r;
+}
+
+}  // namespace printtwin

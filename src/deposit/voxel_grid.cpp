@@ -1,0 +1,262 @@
+// VoxelGrid: a dense directory of 8x8x8-voxel blocks; a block is allocated on its first
+// write and holds 512 occupancy bits (one 64-bit word per z-slice, bit y*8+x) and a 32-bit
+// index per voxel into a table of distinct tags (one entry per depositing move), so a voxel
+// costs ~4.1 bytes where its block is allocated. Blocks live in fixed-size chunks, so growing
+// never moves or copies them.
+#include "printtwin/voxel_grid.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace printtwin {
+
+namespace {
+constexpr int kEdge = VoxelGrid::kBlockEdge;
+constexpr std::size_t kChunkBlocks = 1024;  // blocks per allocation chunk
+constexpr std::uint32_t kNoBlock = 0;       // directory value of an unallocated block
+}  // namespace
+
+struct VoxelGrid::Impl {
+  double voxel_mm = 0.05;
+  double inv_voxel = 20.0;
+  Vec3 origin_mm = Vec3::Zero();
+  Eigen::Vector3i dims = Eigen::Vector3i::Zero();
+  Eigen::Vector3i block_dims = Eigen::Vector3i::Zero();
+  std::vector<std::uint32_t> directory;  // block index + 1, or kNoBlock
+  std::vector<std::unique_ptr<std::uint64_t[]>> occ_chunks;
+  std::vector<std::unique_ptr<std::uint32_t[]>> tag_chunks;
+  std::size_t blocks = 0;
+  std::size_t occupied = 0;
+  std::vector<VoxelTag> tags;
+
+  [[nodiscard]] std::size_t dir_index(int bx, int by, int bz) const {
+    return (static_cast<std::size_t>(bz) * static_cast<std::size_t>(block_dims.y()) +
+            static_cast<std::size_t>(by)) *
+               static_cast<std::size_t>(block_dims.x()) +
+           static_cast<std::size_t>(bx);
+  }
+  [[nodiscard]] std::uint64_t* occ(std::size_t b) const {
+    return occ_chunks[b / kChunkBlocks].get() + (b % kChunkBlocks) * kEdge;
+  }
+  [[nodiscard]] std::uint32_t* tag_slots(std::size_t b) const {
+    return tag_chunks[b / kChunkBlocks].get() + (b % kChunkBlocks) * 512;
+  }
+  void add_chunk() {
+    occ_chunks.emplace_back(new std::uint64_t[kChunkBlocks * kEdge]());
+    // Tag slots are written before they are read (a slot is read only when its bit is set).
+    tag_chunks.emplace_back(new std::uint32_t[kChunkBlocks * 512]);
+  }
+  std::size_t allocate_block(std::size_t di) {
+    if (blocks == occ_chunks.size() * kChunkBlocks) add_chunk();
+    const std::size_t b = blocks++;
+    directory[di] = static_cast<std::uint32_t>(b + 1);
+    return b;
+  }
+  /// Block of (bx,by,bz), allocating it if needed.
+  std::size_t block_for_write(int bx, int by, int bz) {
+    const std::size_t di = dir_index(bx, by, bz);
+    const std::uint32_t d = directory[di];
+    return d != kNoBlock ? d - 1 : allocate_block(di);
+  }
+  [[nodiscard]] bool in_range(const VoxelKey& k) const {
+    return k.x >= 0 && k.y >= 0 && k.z >= 0 && k.x < dims.x() && k.y < dims.y() && k.z < dims.z();
+  }
+  /// Block index of an in-range key, or -1 when unallocated.
+  [[nodiscard]] long block_of(const VoxelKey& k) const {
+    const std::uint32_t d = directory[dir_index(k.x >> 3, k.y >> 3, k.z >> 3)];
+    return d == kNoBlock ? -1 : static_cast<long>(d - 1);
+  }
+  void copy_from(const Impl& o) {
+    voxel_mm = o.voxel_mm;
+    inv_voxel = o.inv_voxel;
+    origin_mm = o.origin_mm;
+    dims = o.dims;
+    block_dims = o.block_dims;
+    directory = o.directory;
+    blocks = o.blocks;
+    occupied = o.occupied;
+    tags = o.tags;
+    occ_chunks.clear();
+    tag_chunks.clear();
+    for (std::size_t c = 0; c < o.occ_chunks.size(); ++c) {
+      add_chunk();
+      std::copy_n(o.occ_chunks[c].get(), kChunkBlocks * kEdge, occ_chunks.back().get());
+      std::copy_n(o.tag_chunks[c].get(), kChunkBlocks * 512, tag_chunks.back().get());
+    }
+  }
+};
+
+VoxelGrid::VoxelGrid(double voxel_mm, const Vec3& origin_mm, const Eigen::Vector3i& dims)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->voxel_mm = voxel_mm > 0 ? voxel_mm : 0.05;
+  impl_->inv_voxel = 1.0 / impl_->voxel_mm;
+  impl_->origin_mm = origin_mm;
+  impl_->dims = dims.cwiseMax(0);
+  impl_->block_dims = (impl_->dims.array() + (kEdge - 1)) / kEdge;
+  impl_->directory.assign(static_cast<std::size_t>(impl_->block_dims.x()) *
+                              static_cast<std::size_t>(impl_->block_dims.y()) *
+                              static_cast<std::size_t>(impl_->block_dims.z()),
+                          kNoBlock);
+}
+
+VoxelGrid::VoxelGrid(VoxelGrid&&) noexcept = default;
+VoxelGrid& VoxelGrid::operator=(VoxelGrid&&) noexcept = default;
+VoxelGrid::VoxelGrid(const VoxelGrid& o) : impl_(std::make_unique<Impl>()) {
+  impl_->copy_from(*o.impl_);
+}
+VoxelGrid& VoxelGrid::operator=(const VoxelGrid& o) {
+  if (this != &o) {
+    auto fresh = std::make_unique<Impl>();
+    fresh->copy_from(*o.impl_);
+    impl_ = std::move(fresh);
+  }
+  return *this;
+}
+VoxelGrid::~VoxelGrid() = default;
+
+double VoxelGrid::voxel_mm() const { return impl_->voxel_mm; }
+const Vec3& VoxelGrid::origin_mm() const { return impl_->origin_mm; }
+const Eigen::Vector3i& VoxelGrid::dims() const { return impl_->dims; }
+
+bool VoxelGrid::in_range(const VoxelKey& k) const { return impl_->in_range(k); }
+
+VoxelKey VoxelGrid::key_of(const Vec3& p_mm) const {
+  const Vec3 q = (p_mm - impl_->origin_mm) * impl_->inv_voxel;
+  return {static_cast<std::int32_t>(std::floor(q.x())), static_cast<std::int32_t>(std::floor(q.y())),
+          static_cast<std::int32_t>(std::floor(q.z()))};
+}
+
+Vec3 VoxelGrid::center_mm(const VoxelKey& k) const {
+  return impl_->origin_mm +
+         impl_->voxel_mm * Vec3(k.x + 0.5, k.y + 0.5, k.z + 0.5);
+}
+
+bool VoxelGrid::occupied(const VoxelKey& k) const {
+  if (!impl_->in_range(k)) return false;
+  const long b = impl_->block_of(k);
+  if (b < 0) return false;
+  const std::uint64_t bit = std::uint64_t{1} << ((k.y & 7) * 8 + (k.x & 7));
+  return (impl_->occ(static_cast<std::size_t>(b))[k.z & 7] & bit) != 0;
+}
+
+std::optional<std::uint32_t> VoxelGrid::tag_index(const VoxelKey& k) const {
+  if (!occupied(k)) return std::nullopt;
+  const auto b = static_cast<std::size_t>(impl_->block_of(k));
+  return impl_->tag_slots(b)[(k.z & 7) * 64 + (k.y & 7) * 8 + (k.x & 7)];
+}
+
+std::optional<VoxelTag> VoxelGrid::tag(const VoxelKey& k) const {
+  const auto i = tag_index(k);
+  if (!i) return std::nullopt;
+  return impl_->tags[*i];
+}
+
+std::uint32_t VoxelGrid::add_tag(const VoxelTag& tag) {
+  auto& t = impl_->tags;
+  if (t.empty() || !(t.back() == tag)) t.push_back(tag);
+  return static_cast<std::uint32_t>(t.size() - 1);
+}
+
+const std::vector<VoxelTag>& VoxelGrid::tag_table() const { return impl_->tags; }
+
+bool VoxelGrid::set(const VoxelKey& k, const VoxelTag& tag) {
+  if (!impl_->in_range(k)) return false;
+  return set_index(k, add_tag(tag));
+}
+
+bool VoxelGrid::set_index(const VoxelKey& k, std::uint32_t tag_index) {
+  Impl& g = *impl_;
+  if (!g.in_range(k)) return false;
+  const std::size_t b = g.block_for_write(k.x >> 3, k.y >> 3, k.z >> 3);
+  const int slot = (k.y & 7) * 8 + (k.x & 7);
+  std::uint64_t& word = g.occ(b)[k.z & 7];
+  const std::uint64_t bit = std::uint64_t{1} << slot;
+  const bool was_empty = (word & bit) == 0;
+  word |= bit;
+  g.tag_slots(b)[(k.z & 7) * 64 + slot] = tag_index;
+  g.occupied += was_empty ? 1 : 0;
+  return was_empty;
+}
+
+std::size_t VoxelGrid::fill_row(std::int32_t y, std::int32_t z, std::int32_t x0, std::int32_t x1,
+                                std::uint32_t tag_index) {
+  Impl& g = *impl_;
+  if (y < 0 || z < 0 || y >= g.dims.y() || z >= g.dims.z()) return 0;
+  x0 = std::max(x0, 0);
+  x1 = std::min(x1, g.dims.x());
+  if (x0 >= x1) return 0;
+  const int by = y >> 3;
+  const int bz = z >> 3;
+  const int row_shift = (y & 7) * 8;
+  const int tag_row = (z & 7) * 64 + row_shift;
+  std::size_t fresh = 0;
+  for (int bx = x0 >> 3; bx <= (x1 - 1) >> 3; ++bx) {
+    const int lo = std::max(x0 - bx * kEdge, 0);
+    const int hi = std::min(x1 - bx * kEdge, kEdge);
+    const std::size_t b = g.block_for_write(bx, by, bz);
+    const std::uint64_t mask = ((std::uint64_t{1} << (hi - lo)) - 1) << (row_shift + lo);
+    std::uint64_t& word = g.occ(b)[z & 7];
+    fresh += static_cast<std::size_t>(std::popcount(mask & ~word));
+    word |= mask;
+    std::fill(g.tag_slots(b) + tag_row + lo, g.tag_slots(b) + tag_row + hi, tag_index);
+  }
+  g.occupied += fresh;
+  return fresh;
+}
+
+void VoxelGrid::clear(const VoxelKey& k) {
+  if (!impl_->in_range(k)) return;
+  const long b = impl_->block_of(k);
+  if (b < 0) return;
+  std::uint64_t& word = impl_->occ(static_cast<std::size_t>(b))[k.z & 7];
+  const std::uint64_t bit = std::uint64_t{1} << ((k.y & 7) * 8 + (k.x & 7));
+  if ((word & bit) != 0) {
+    word &= ~bit;
+    --impl_->occupied;
+  }
+}
+
+std::size_t VoxelGrid::count() const { return impl_->occupied; }
+
+void VoxelGrid::reserve_blocks(std::size_t blocks) {
+  while (impl_->occ_chunks.size() * kChunkBlocks < blocks) impl_->add_chunk();
+}
+
+std::size_t VoxelGrid::block_count() const { return impl_->blocks; }
+
+std::size_t VoxelGrid::memory_bytes() const {
+  return impl_->directory.size() * sizeof(std::uint32_t) +
+         impl_->occ_chunks.size() * kChunkBlocks * kBlockBytes +
+         impl_->tags.capacity() * sizeof(VoxelTag);
+}
+
+std::size_t VoxelGrid::estimate_bytes(const Eigen::Vector3i& dims, std::size_t occupied_voxels) {
+  const Eigen::Vector3i bd = (dims.cwiseMax(0).array() + (kEdge - 1)) / kEdge;
+  const std::size_t directory = static_cast<std::size_t>(bd.x()) * static_cast<std::size_t>(bd.y()) *
+                                static_cast<std::size_t>(bd.z()) * sizeof(std::uint32_t);
+  // Deposits fill their blocks about half on average (thin walls, surfaces).
+  const std::size_t blocks = (2 * occupied_voxels + 511) / 512;
+  return directory + blocks * kBlockBytes;
+}
+
+void VoxelGrid::visit_blocks(const std::function<void(const BlockView&)>& fn) const {
+  const Impl& g = *impl_;
+  for (int bz = 0; bz < g.block_dims.z(); ++bz)
+    for (int by = 0; by < g.block_dims.y(); ++by)
+      for (int bx = 0; bx < g.block_dims.x(); ++bx) {
+        const std::uint32_t d = g.directory[g.dir_index(bx, by, bz)];
+        if (d == kNoBlock) continue;
+        const BlockView view{VoxelKey{bx * kEdge, by * kEdge, bz * kEdge}, g.occ(d - 1),
+                             g.tag_slots(d - 1)};
+        fn(view);
+      }
+}
+
+std::vector<VoxelKey> VoxelGrid::occupied_keys() const {
+  std::vector<VoxelKey> keys;
+  keys.reserve(impl_->occupied);
+  for_each([&](const VoxelKey& k, const VoxelTag&) { keys.push_back(k); });
+  return keys;
+}
+
+}  // namespace printtwin

@@ -1,0 +1,271 @@
+// Tests of the voxel grid and the bead model: volume faithfulness, traceability, overlap,
+// extrusion into air, the memory budget. Geometry is built as Moves in code.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+#include "deposit/deposit_test_support.hpp"
+#include "printtwin/deposit.hpp"
+
+namespace printtwin {
+namespace {
+
+using test::bead_e_mm;
+using test::BeadWriter;
+
+TEST(VoxelGrid, SetTagCountAndOrder) {
+  VoxelGrid g(0.1, Vec3(1, 2, 0), Eigen::Vector3i(20, 17, 9));
+  EXPECT_EQ(g.count(), 0u);
+  EXPECT_FALSE(g.occupied({3, 4, 5}));
+  const VoxelTag t1{12, 3, Feature::perimeter};
+  EXPECT_TRUE(g.set({3, 4, 5}, t1));
+  EXPECT_FALSE(g.set({3, 4, 5}, t1));
+  EXPECT_TRUE(g.set({19, 16, 8}, VoxelTag{13, 4, Feature::sparse_infill}));
+  EXPECT_FALSE(g.set({20, 0, 0}, t1));  // out of range
+  EXPECT_FALSE(g.set({-1, 0, 0}, t1));
+  EXPECT_EQ(g.count(), 2u);
+  ASSERT_TRUE(g.tag({3, 4, 5}).has_value());
+  EXPECT_EQ(*g.tag({3, 4, 5}), t1);
+  EXPECT_EQ(g.tag({19, 16, 8})->line, 13u);
+  EXPECT_FALSE(g.tag({0, 0, 0}).has_value());
+  EXPECT_EQ(g.block_count(), 2u);
+
+  const VoxelKey k = g.key_of(Vec3(1.35, 2.05, 0.99));
+  EXPECT_EQ(k, (VoxelKey{3, 0, 9}));
+  EXPECT_NEAR(g.center_mm({3, 4, 5}).x(), 1.35, 1e-12);
+
+  // fill_row across block borders, overlap counted by the return value.
+  EXPECT_EQ(g.fill_row(4, 5, 0, 20, g.add_tag(VoxelTag{20, 3, Feature::solid_infill})), 19u);
+  EXPECT_EQ(g.count(), 21u);
+  EXPECT_EQ(g.tag({3, 4, 5})->line, 20u);  // the last writer owns the voxel
+  EXPECT_EQ(g.fill_row(4, 5, -5, 40, 0), 0u);
+
+  // Deterministic order: z-major by block, then within the block.
+  const auto keys = g.occupied_keys();
+  ASSERT_EQ(keys.size(), g.count());
+  EXPECT_EQ(keys.front(), (VoxelKey{0, 4, 5}));
+  EXPECT_EQ(keys.back(), (VoxelKey{19, 16, 8}));
+  std::size_t visited = 0;
+  g.for_each([&](const VoxelKey& key, const VoxelTag& tag) {
+    EXPECT_TRUE(g.occupied(key));
+    EXPECT_EQ(tag, *g.tag(key));
+    ++visited;
+  });
+  EXPECT_EQ(visited, g.count());
+
+  VoxelGrid copy = g;
+  g.clear({3, 4, 5});
+  EXPECT_EQ(g.count(), 20u);
+  EXPECT_EQ(copy.count(), 21u);
+  EXPECT_TRUE(copy.occupied({3, 4, 5}));
+  EXPECT_LE(VoxelGrid::estimate_bytes(g.dims(), 1000), 3 * 4 * 4 + 8 * VoxelGrid::kBlockBytes);
+}
+
+TEST(DepositBead, StadiumWidth) {
+  // w = A/h + (1 - pi/4) h; inverse of A = (w - h) h + pi h^2 / 4.
+  const double a = (0.45 - 0.2) * 0.2 + std::numbers::pi * 0.04 / 4;
+  EXPECT_NEAR(stadium_width_mm(a, 0.2), 0.45, 1e-12);
+}
+
+TEST(DepositBead, SingleLineVolumeMatchesExtrusion) {
+  const auto profile = ender3_marlin2();
+  for (const double angle_deg : {0.0, 30.0, 90.0, 133.0}) {
+    BeadWriter w(profile);
+    const double t = angle_deg * std::numbers::pi / 180;
+    const Vec3 a(60, 60, 0.2);
+    w.travel(a);
+    w.extrude(a + 25.0 * Vec3(std::cos(t), std::sin(t), 0), 0.45, 0.2);
+    auto r = deposit_moves(w.moves, profile, DepositSettings{});
+    ASSERT_TRUE(r.ok()) << r.error().describe();
+    EXPECT_NEAR(r->volume_mm3 / r->extruded_mm3, 1.0, 0.02) << angle_deg;
+    EXPECT_LT(r->overlap_mm3, 1e-9);
+    EXPECT_EQ(r->beads, 1u);
+    EXPECT_NEAR(r->bbox_mm.min.z(), 0.0, 1e-9);
+    EXPECT_NEAR(r->bbox_mm.max.z(), 0.2, 1e-9);
+    EXPECT_TRUE(r->findings.empty());
+    if (angle_deg == 0.0) {
+      EXPECT_NEAR(r->bbox_mm.size().y(), 0.45, 0.051);
+      EXPECT_NEAR(r->bbox_mm.size().x(), 25.0, 0.051);
+    }
+  }
+}
+
+TEST(DepositBead, FirstLayerHeightFollowsTheGapToTheBed) {
+  const auto profile = ender3_marlin2();
+  BeadWriter w(profile);
+  w.travel({50, 50, 0.3});
+  w.extrude({70, 50, 0.3}, 0.5, 0.3);
+  auto r = deposit_moves(w.moves, profile, DepositSettings{});
+  ASSERT_TRUE(r.ok());
+  EXPECT_NEAR(r->bbox_mm.max.z(), 0.3, 1e-9);
+  EXPECT_NEAR(r->bbox_mm.size().y(), 0.5, 0.051);
+  EXPECT_NEAR(r->volume_mm3 / r->extruded_mm3, 1.0, 0.02);
+}
+
+TEST(DepositBead, SingleWallPrintVolumeMatchesExtrusion) {
+  const auto profile = ender3_marlin2();
+  BeadWriter w(profile);
+  const double h = 0.2;
+  for (int layer = 0; layer < 40; ++layer) {
+    const double z = h * (layer + 1);
+    w.layer = layer;
+    w.travel({40, 40, z});
+    w.extrude({60, 40, z}, 0.45, h);
+    w.extrude({60, 55, z}, 0.45, h);
+    w.extrude({40, 55, z}, 0.45, h);
+    w.extrude({40, 40, z}, 0.45, h);
+  }
+  auto r = deposit_moves(w.moves, profile, DepositSettings{});
+  ASSERT_TRUE(r.ok());
+  EXPECT_NEAR(r->volume_mm3 / r->extruded_mm3, 1.0, 0.02);
+  EXPECT_LT(r->overlap_mm3, 0.005 * r->extruded_mm3);
+  EXPECT_NEAR(r->bbox_mm.max.z(), 8.0, 1e-9);
+  EXPECT_NEAR(r->bbox_mm.size().x(), 20.45, 0.06);
+  EXPECT_TRUE(r->findings.empty());
+}
+
+TEST(DepositBead, SpiralVolumeMatchesExtrusion) {
+  // Vase-mode helix: one flat first loop, then Z rises 0.2 mm per turn.
+  const auto profile = ender3_marlin2();
+  BeadWriter w(profile);
+  const int per_turn = 120;
+  const double radius = 12, h = 0.2;
+  const Vec3 c(100, 100, 0);
+  auto at = [&](double turn, double z) {
+    const double t = 2 * std::numbers::pi * turn;
+    return Vec3(c.x() + radius * std::cos(t), c.y() + radius * std::sin(t), z);
+  };
+  w.travel(at(0, h));
+  for (int i = 1; i <= per_turn; ++i) w.extrude(at(static_cast<double>(i) / per_turn, h), 0.45, h);
+  // Like the slicers, the first rising turn ramps the flow up with the gap beneath it.
+  for (int i = 1; i <= 25 * per_turn; ++i) {
+    const double turn = static_cast<double>(i) / per_turn;
+    w.layer = 1 + i / per_turn;
+    w.extrude(at(turn, h + h * turn), 0.45, h, std::min(1.0, turn - 0.5 / per_turn));
+  }
+  auto r = deposit_moves(w.moves, profile, DepositSettings{});
+  ASSERT_TRUE(r.ok());
+  EXPECT_NEAR(r->volume_mm3 / r->extruded_mm3, 1.0, 0.02);
+  EXPECT_LT(r->overlap_mm3, 0.01 * r->extruded_mm3);
+  EXPECT_TRUE(r->findings.empty());
+}
+
+TEST(DepositBead, VoxelsNameTheirLineLayerAndFeature) {
+  const auto profile = ender3_marlin2();
+  BeadWriter w(profile);
+  w.travel({50, 50, 0.2});
+  w.feature = Feature::outer_perimeter;
+  w.extrude({60, 50, 0.2}, 0.45, 0.2);  // line 2
+  w.layer = 1;
+  w.feature = Feature::sparse_infill;
+  w.travel({50, 50, 0.4});
+  w.extrude({60, 50, 0.4}, 0.45, 0.2);  // line 4
+  auto r = deposit_moves(w.moves, profile, DepositSettings{});
+  ASSERT_TRUE(r.ok());
+  const auto low = r->grid.tag(r->grid.key_of({55, 50, 0.1}));
+  const auto high = r->grid.tag(r->grid.key_of({55, 50, 0.3}));
+  ASSERT_TRUE(low && high);
+  EXPECT_EQ(low->line, 2u);
+  EXPECT_EQ(low->layer, 0);
+  EXPECT_EQ(low->feature, Feature::outer_perimeter);
+  EXPECT_EQ(high->line, 4u);
+  EXPECT_EQ(high->layer, 1);
+  EXPECT_EQ(high->feature, Feature::sparse_infill);
+}
+
+TEST(DepositBead, RetractsAndWipesLayNothing) {
+  const auto profile = ender3_marlin2();
+  BeadWriter w(profile);
+  w.travel({50, 50, 0.2});
+  w.extrude({60, 50, 0.2}, 0.45, 0.2);
+  auto base = deposit_moves(w.moves, profile, DepositSettings{});
+  ASSERT_TRUE(base.ok());
+  w.retract({62, 50, 0.2}, -0.8);  // wipe: moves while retracting
+  w.retract({62, 50, 0.2}, -0.5);  // plain retract
+  w.unretract(1.3);
+  w.travel({80, 80, 0.2});
+  auto r = deposit_moves(w.moves, profile, DepositSettings{});
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->voxels, base->voxels);
+  EXPECT_DOUBLE_EQ(r->extruded_mm3, base->extruded_mm3);
+}
+
+TEST(DepositBead, OverlappingBeadsReportTheOverlap) {
+  const auto profile = ender3_marlin2();
+  BeadWriter w(profile);
+  w.travel({50, 50, 0.2});
+  w.extrude({70, 50, 0.2}, 0.45, 0.2);
+  w.travel({50, 50, 0.2});
+  w.extrude({70, 50, 0.2}, 0.45, 0.2);  // the same bead again: no room left
+  auto r = deposit_moves(w.moves, profile, DepositSettings{});
+  ASSERT_TRUE(r.ok());
+  EXPECT_NEAR(r->overlap_mm3 / (0.5 * r->extruded_mm3), 1.0, 0.02);
+  EXPECT_NEAR((r->volume_mm3 + r->overlap_mm3) / r->extruded_mm3, 1.0, 0.02);
+}
+
+TEST(DepositBead, MemoryBudgetStopsBeforeAllocating) {
+  const auto profile = ender3_marlin2();
+  BeadWriter w(profile);
+  w.travel({20, 20, 0.2});
+  for (int layer = 0; layer < 50; ++layer) {
+    const double z = 0.2 * (layer + 1);
+    w.layer = layer;
+    w.travel({20, 20, z});
+    w.extrude({200, 20, z}, 0.45, 0.2);
+    w.extrude({200, 200, z}, 0.45, 0.2);
+  }
+  DepositSettings s;
+  s.max_memory_bytes = 8u << 20;
+  auto est = estimate_deposit(w.moves, profile, s);
+  ASSERT_TRUE(est.ok());
+  EXPECT_GT(est->bytes, s.max_memory_bytes);
+  auto r = deposit_moves(w.moves, profile, s);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::usage);
+  EXPECT_NE(r.error().message.find("--voxel"), std::string::npos) << r.error().message;
+  EXPECT_NE(r.error().message.find("MiB"), std::string::npos);
+  // The suggested voxel size fits.
+  const auto pos = r.error().message.find("--voxel ") + 8;
+  s.voxel_mm = std::stod(r.error().message.substr(pos));
+  EXPECT_GT(s.voxel_mm, 0.05);
+  auto again = deposit_moves(w.moves, profile, s);
+  ASSERT_TRUE(again.ok()) << again.error().describe();
+  EXPECT_LE(again->memory_bytes, s.max_memory_bytes);
+  EXPECT_NEAR(again->volume_mm3 / again->extruded_mm3, 1.0, 0.03);
+}
+
+TEST(DepositBead, EstimateIsCloseToTheMemoryUsed) {
+  const auto profile = ender3_marlin2();
+  BeadWriter w(profile);
+  for (int layer = 0; layer < 30; ++layer) {
+    const double z = 0.2 * (layer + 1);
+    w.layer = layer;
+    w.travel({40, 40, z});
+    w.extrude({60, 40, z}, 0.45, 0.2);
+    w.extrude({60, 60, z}, 0.45, 0.2);
+    w.extrude({40, 60, z}, 0.45, 0.2);
+    w.extrude({40, 40, z}, 0.45, 0.2);
+  }
+  auto est = estimate_deposit(w.moves, profile, DepositSettings{});
+  auto r = deposit_moves(w.moves, profile, DepositSettings{});
+  ASSERT_TRUE(est.ok() && r.ok());
+  EXPECT_NEAR(static_cast<double>(r->grid.block_count()) / static_cast<double>(est->blocks), 1.0, 0.25);
+  EXPECT_GE(static_cast<double>(est->bytes), 0.8 * static_cast<double>(r->memory_bytes));
+}
+
+TEST(DepositBead, BadSettingsAreUsageErrors) {
+  const auto profile = ender3_marlin2();
+  DepositSettings s;
+  s.voxel_mm = 0;
+  EXPECT_FALSE(deposit_moves({}, profile, s).ok());
+  s.voxel_mm = 0.05;
+  s.support_fraction = 1.5;
+  auto r = deposit_moves({}, profile, s);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::usage);
+}
+
+}  // namespace
+}  // namespace printtwin
