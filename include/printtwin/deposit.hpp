@@ -115,13 +115,21 @@ class DepositBuilder {
 /// Bead width of the stadium model: w = area / h + (1 - pi/4) h.
 [[nodiscard]] double stadium_width_mm(double area_mm2, double height_mm);
 
-/// Occupied voxels with at least one face on the outside air (air connected to the grid's
-/// border; internal cavities such as sparse infill cells are not outside).
-[[nodiscard]] std::vector<VoxelKey> outer_surface_voxels(const VoxelGrid& grid);
+/// An occupied voxel with at least one face on the outside air.
+struct SurfaceVoxel {
+  VoxelKey key;
+  /// Faces on the outside air: bit 0 -x, 1 +x, 2 -y, 3 +y, 4 -z, 5 +z.
+  std::uint8_t exposed_faces = 0;
+};
+/// The deposit's outer surface: occupied voxels with a face on air connected to the grid's
+/// border (space beyond the grid is air). Enclosed cavities, such as the cells of sparse
+/// infill under a top skin, are not outside. Fixed order (that of VoxelGrid::for_each).
+[[nodiscard]] std::vector<SurfaceVoxel> outer_surface(const VoxelGrid& grid);
 
-/// The `deposit` object of the simulate JSON report:
-/// {"voxel_mm", "voxels", "volume_mm3", "extruded_mm3", "overlap_mm3", "bbox_mm":
-///  {"min": [x,y,z], "max": [x,y,z]}, "beads", "unsupported_mm", "findings"}.
+/// The `deposit` object of the simulate JSON report (compact JSON text):
+/// {"voxel_mm", "voxels", "volume_mm3", "extruded_mm3", "overlap_mm3",
+///  "bbox_mm": {"min": [x,y,z], "max": [x,y,z]} (null when empty), "beads",
+///  "unsupported_mm", "memory_bytes", "unsupported_stretches": {"bridge", "cantilever"}}.
 [[nodiscard]] std::string deposit_json(const DepositResult& deposit);
 
 /// How .ot files colour voxels.

@@ -97,6 +97,11 @@ class VoxelGrid {
     const std::uint64_t* occupancy = nullptr;
     const std::uint32_t* tags = nullptr;
   };
+  /// Size of the block directory (blocks per axis, covering dims()).
+  [[nodiscard]] Eigen::Vector3i block_dims() const;
+  /// Occupancy words (8, one per z-slice) of block (bx, by, bz); nullptr when the block is
+  /// unallocated or out of range.
+  [[nodiscard]] const std::uint64_t* block_occupancy(int bx, int by, int bz) const;
   /// Calls fn for every allocated block, in the fixed order of for_each (z, then y, then x).
   void visit_blocks(const std::function<void(const BlockView&)>& fn) const;
 

@@ -33,6 +33,8 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kJoinTolMm = 1e-3;        // path continuity: end of one move = start of next
 constexpr double kMitreMinCos = -0.5;      // turns sharper than 120 deg get square cuts
 constexpr std::size_t kHeightMapMax = 65535;
+constexpr double kRegionGapMm = 1.0;         // unsupported stretches this close: one finding
+constexpr std::size_t kMaxClustered = 4000;  // beyond this, one finding per layer and kind
 
 std::uint64_t mix64(std::uint64_t x) {
   x += 0x9E3779B97F4A7C15ull;
@@ -523,25 +525,63 @@ struct DepositBuilder::State {
   }
 
   static std::vector<Finding> make_findings(const std::vector<UnsupportedStretch>& stretches) {
-    // One finding per (layer, kind): count, total length, the longest stretch's lines.
+    // One finding per region: stretches of the same layer and kind whose boxes come within
+    // kRegionGapMm of each other (one overhang, one bridged span) are merged.
     struct Group {
       int layer;
       bool bridge;
+      Box3 box;
       std::vector<const UnsupportedStretch*> items;
     };
+    auto box_of = [](const UnsupportedStretch& s) {
+      Box3 b;
+      b.extend(s.start_mm);
+      b.extend(s.end_mm);
+      return b;
+    };
+    auto near = [](const Box3& a, const Box3& b) {
+      return (a.min.array() - kRegionGapMm <= b.max.array()).all() &&
+             (b.min.array() - kRegionGapMm <= a.max.array()).all();
+    };
     std::vector<Group> groups;
+    std::size_t layer_begin = 0;  // first group of the current (layer, kind) run
     for (const auto& s : stretches) {
-      auto it = std::find_if(groups.begin(), groups.end(), [&](const Group& g) {
-        return g.layer == s.layer && g.bridge == s.bridge;
-      });
-      if (it == groups.end()) {
-        groups.push_back(Group{s.layer, s.bridge, {}});
-        it = groups.end() - 1;
+      const Box3 b = box_of(s);
+      Group* target = nullptr;
+      const std::size_t n = groups.size();
+      for (std::size_t g = layer_begin; g < n; ++g) {
+        if (groups[g].layer != s.layer || groups[g].bridge != s.bridge) continue;
+        if (n - layer_begin > kMaxClustered || near(groups[g].box, b)) {
+          target = &groups[g];
+          break;
+        }
       }
-      it->items.push_back(&s);
+      if (target == nullptr) {
+        if (!groups.empty() && groups.back().layer != s.layer) layer_begin = groups.size();
+        groups.push_back(Group{s.layer, s.bridge, Box3{}, {}});
+        target = &groups.back();
+      }
+      target->box.extend(b);
+      target->items.push_back(&s);
+    }
+    // Merging may have made groups of one layer touch: merge until stable.
+    for (bool merged = true; merged;) {
+      merged = false;
+      for (std::size_t i = 0; i < groups.size() && !merged; ++i)
+        for (std::size_t j = i + 1; j < groups.size() && groups[j].layer == groups[i].layer; ++j)
+          if (groups[j].bridge == groups[i].bridge &&
+              near(groups[i].box, groups[j].box)) {
+            groups[i].box.extend(groups[j].box);
+            groups[i].items.insert(groups[i].items.end(), groups[j].items.begin(), groups[j].items.end());
+            groups.erase(groups.begin() + static_cast<std::ptrdiff_t>(j));
+            merged = true;
+            break;
+          }
     }
     std::stable_sort(groups.begin(), groups.end(), [](const Group& x, const Group& y) {
-      return x.layer != y.layer ? x.layer < y.layer : x.bridge > y.bridge;
+      if (x.layer != y.layer) return x.layer < y.layer;
+      if (x.bridge != y.bridge) return x.bridge < y.bridge;
+      return x.items.front()->first_line < y.items.front()->first_line;
     });
     std::vector<Finding> out;
     for (const auto& g : groups) {

@@ -239,6 +239,17 @@ std::size_t VoxelGrid::estimate_bytes(const Eigen::Vector3i& dims, std::size_t o
   return directory + blocks * kBlockBytes;
 }
 
+Eigen::Vector3i VoxelGrid::block_dims() const { return impl_->block_dims; }
+
+const std::uint64_t* VoxelGrid::block_occupancy(int bx, int by, int bz) const {
+  const Impl& g = *impl_;
+  if (bx < 0 || by < 0 || bz < 0 || bx >= g.block_dims.x() || by >= g.block_dims.y() ||
+      bz >= g.block_dims.z())
+    return nullptr;
+  const std::uint32_t d = g.directory[g.dir_index(bx, by, bz)];
+  return d == kNoBlock ? nullptr : g.occ(d - 1);
+}
+
 void VoxelGrid::visit_blocks(const std::function<void(const BlockView&)>& fn) const {
   const Impl& g = *impl_;
   for (int bz = 0; bz < g.block_dims.z(); ++bz)
