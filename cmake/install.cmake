@@ -9,7 +9,7 @@ install(TARGETS printtwin_cli RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/include/printtwin DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
 install(FILES ${PROJECT_BINARY_DIR}/include/printtwin/version.hpp
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/printtwin)
-install(DIRECTORY ${PROJECT_SOURCE_DIR}/samples/printers
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/samples/printers OPTIONAL
         DESTINATION ${CMAKE_INSTALL_DATADIR}/printtwin)
 install(EXPORT printtwinTargets NAMESPACE printtwin::
         DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/printtwin)
