@@ -15,6 +15,7 @@ struct DeviationStats {
   std::size_t samples = 0;
   double min_mm = 0, max_mm = 0;         ///< signed extremes
   double mean_mm = 0;                    ///< signed mean
+  double mean_abs_mm = 0;                ///< mean of |d|
   double rms_mm = 0, std_mm = 0;
   double p50_abs_mm = 0, p95_abs_mm = 0, p99_abs_mm = 0;  ///< percentiles of |d|
   double within_tolerance_pct = 100;     ///< share of |d| <= tolerance
@@ -57,9 +58,18 @@ struct DeviationResult {
   std::vector<DeviationSample> deposit_samples;  ///< deposit outer surface -> mesh
   std::vector<DeviationSample> mesh_samples;     ///< mesh surface -> deposit
   std::vector<LayerDeviation> per_layer;
-  std::vector<DeviationRegion> regions;
+  std::vector<DeviationRegion> regions;      ///< largest first
+  /// Gate figures (>= 0): the largest excess (deposit outside the design) and the largest
+  /// deficit (design surface the deposit misses), ignoring out-of-tolerance clusters smaller
+  /// than the minimum region area (voxel noise); those are counted in noise_*.
+  double max_excess_mm = 0;
+  double max_deficit_mm = 0;
+  std::size_t noise_regions = 0;
+  double noise_area_mm2 = 0;
   double mesh_volume_mm3 = 0;
-  double deposit_volume_mm3 = 0;
+  double deposit_volume_mm3 = 0;                 ///< part voxels in the analysed region
+  std::size_t surface_faces = 0;                 ///< exposed faces of the deposit's outer surface
+  std::size_t surface_voxels = 0;                ///< voxels that carry them
   Vec3 registration_offset_mm = Vec3::Zero();    ///< added to the mesh to reach the G-code frame
   std::string registration_method;               ///< "auto" or "--place"
   /// Signed deviation per mesh vertex (for the deviation PLY and heatmaps).

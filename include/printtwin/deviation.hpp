@@ -1,0 +1,190 @@
+#pragma once
+// Deviation: how far the deposit (what the printer would make) is from the mesh (what was
+// designed), both ways, signed, with statistics and clusters of out-of-tolerance samples.
+//
+// Frames and signs
+// - Everything is in the machine (G-code) frame, millimetres. The mesh must already be
+//   placed there (see `register_mesh`).
+// - Deposit -> mesh: from each exposed face of the deposit's outer surface, the distance to
+//   the closest point of the mesh; positive when the face centre is outside the mesh
+//   (excess material), negative inside (the deposit's surface lies inside the design).
+// - Mesh -> deposit: from area-uniform samples on the mesh, the distance to the deposit's
+//   outer surface; positive when the sample lies inside the deposit's filled volume
+//   (the deposit is larger there), negative outside it (the design has material that the
+//   deposit lacks: missing features).
+//   So in both directions a deposit bigger than the design reads positive and a smaller one
+//   negative; a box deposit 0.1 mm larger than its mesh reads +0.1 mm both ways.
+//
+// The deposit's outer surface
+// - Flood fill from outside over the analysed region (the part's box padded by a margin):
+//   empty voxels reachable from outside are "outside"; everything else (occupied voxels and
+//   enclosed voids such as sparse infill cells) is the deposit's filled volume. The outer
+//   surface is the set of faces between a filled voxel and an outside voxel.
+// - Surface points are the centres of those faces, not voxel centres: a voxel is occupied
+//   when the bead covers its centre, so the filled voxels approximate the bead's volume with
+//   an error of +-half a voxel around the true boundary; voxel centres would sit half a voxel
+//   inside on average (bias -voxel/2), face centres lie on the voxelised boundary and are
+//   unbiased. Mesh -> deposit distances are exact distances to those face squares.
+// - Voxels laid by skirt, brim, support, wipe tower and custom (purge) moves are not part of
+//   the deposit here (treated as empty), so they never count as excess.
+#include <cstdint>
+#include <filesystem>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "printtwin/deviation_types.hpp"
+#include "printtwin/geometry.hpp"
+#include "printtwin/mesh.hpp"
+#include "printtwin/result.hpp"
+#include "printtwin/toolpath.hpp"
+#include "printtwin/voxel_grid.hpp"
+
+namespace printtwin {
+
+// ---------------------------------------------------------------- surface sampling
+
+/// One point on a mesh surface.
+struct SurfaceSample {
+  Vec3 position_mm = Vec3::Zero();
+  std::uint32_t triangle = 0;
+};
+
+/// Area-uniform random samples on the surface, about one per `spacing_mm`^2 of area
+/// (triangle t gets floor(n_t) or ceil(n_t) samples with n_t = area_t / spacing^2, chosen by
+/// a random draw, so the expected density is exact on every triangle). Deterministic for a
+/// given `seed` (own splitmix64 generator, per-triangle streams: independent of threading
+/// and of the standard library). Each sample stands for `spacing_mm`^2 of area.
+[[nodiscard]] std::vector<SurfaceSample> sample_surface(const Mesh& mesh, double spacing_mm,
+                                                        std::uint64_t seed = 1);
+
+// ---------------------------------------------------------------- statistics
+
+/// Statistics of signed distances. Percentiles are of |d| with linear interpolation between
+/// order statistics; `within_tolerance_pct` counts |d| <= tolerance. Empty input: all zero,
+/// within 100 %.
+[[nodiscard]] DeviationStats deviation_stats(std::span<const double> signed_mm,
+                                             double tolerance_mm);
+
+// ---------------------------------------------------------------- the deposit's surface
+
+/// One exposed face of the deposit's outer surface.
+struct SurfaceFace {
+  VoxelKey voxel;               ///< the filled voxel the face belongs to
+  std::uint8_t axis = 0;        ///< 0 x, 1 y, 2 z: the face's normal axis
+  std::int8_t side = 1;         ///< +1: face on the voxel's max side, -1: min side
+  Vec3 center_mm = Vec3::Zero();
+};
+
+/// Features whose voxels are not part of the analysed deposit.
+[[nodiscard]] bool is_auxiliary_feature(Feature f);
+
+/// The outer surface of the deposit inside `region_mm`, plus the filled volume.
+struct DepositSurface {
+  double voxel_mm = 0;
+  Vec3 origin_mm = Vec3::Zero();          ///< min corner of the analysed region (voxel aligned)
+  Eigen::Vector3i dims = Eigen::Vector3i::Zero();  ///< analysed voxels per axis
+  /// Fixed order: columns by y then x, voxels by z, a voxel's faces consecutive.
+  std::vector<SurfaceFace> faces;
+  std::vector<VoxelTag> face_tags;        ///< tag of each face's voxel
+  /// Filled (not outside-reachable) voxels: per column (x fastest, then y), ceil(dims.z/64)
+  /// words holding one bit per z.
+  std::vector<std::uint64_t> filled_bits;
+  std::size_t occupied_voxels = 0;        ///< occupied part voxels in the region
+  std::size_t filled_voxels = 0;          ///< occupied + enclosed voids
+
+  /// True when p lies in a filled voxel of the region (false outside the region).
+  [[nodiscard]] bool filled(const Vec3& p_mm) const;
+};
+
+/// Extracts the outer surface of `grid` within `region_mm` (expanded to whole voxels and
+/// padded by one voxel so the border is outside). Voxels of auxiliary features are empty.
+[[nodiscard]] DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_mm);
+
+/// Exact distances from points to the union of the surface's face squares, signed
+/// positive when the point is in the filled volume. Nearest face index per point in
+/// `nearest_face` (may be null). Parallel (TBB).
+void distances_to_deposit(const DepositSurface& surface, std::span<const Vec3> points,
+                          std::vector<double>& signed_mm, std::vector<std::uint32_t>* nearest_face);
+
+// ---------------------------------------------------------------- mesh distances
+
+/// Signed distances from points to the mesh (positive outside), with Embree closest
+/// points. The sign comes from angle-weighted pseudo-normals (Baerentzen & Aanaes 2005) on
+/// a closed, consistently oriented mesh, and from the ray-parity vote of MeshQuery::inside
+/// where the closest feature touches an open or non-manifold edge.
+[[nodiscard]] Result<std::vector<double>> signed_distances_to_mesh(const Mesh& mesh,
+                                                                  std::span<const Vec3> points);
+
+/// Reference unsigned point-to-mesh distances from CGAL's AABB tree (tests and benchmarks
+/// compare the production Embree path against it). Slow; single-threaded.
+[[nodiscard]] std::vector<double> reference_distances_cgal(const Mesh& mesh,
+                                                           std::span<const Vec3> points);
+
+// ---------------------------------------------------------------- registration
+
+/// Where the part is in the G-code: the XY box of the part's extrusions.
+struct PartExtent {
+  Box3 bbox_mm;              ///< extrusion centre lines of the part
+  std::size_t moves = 0;     ///< extrusion moves counted as the part
+  std::string method;        ///< "tags" (features) or "connectivity" (untagged G-code)
+};
+
+/// Finds the part among the extrusion moves: drops skirt/brim, support, wipe tower and
+/// custom (purge) features by their tags, then keeps the largest connected group of the
+/// remaining extrusions (XY footprint on a 0.5 mm raster, 8-connected, weighted by
+/// extruded length), which also removes untagged skirts and purge lines.
+[[nodiscard]] PartExtent find_part_extent(std::span<const Move> moves);
+
+/// Offset that places the mesh in the G-code frame the way slicers do: mesh bounding-box XY
+/// centre onto the part's XY centre, lowest point at z = 0.
+[[nodiscard]] Vec3 registration_offset(const Mesh& mesh, const PartExtent& part);
+
+// ---------------------------------------------------------------- the whole analysis
+
+struct DeviationSettings {
+  double tolerance_mm = 0.2;
+  double mesh_sample_spacing_mm = 0;  ///< 0: the deposit's voxel size
+  std::uint64_t seed = 1;
+  double cluster_radius_mm = 0;       ///< 0: max(2 voxels, 3 x the mesh sample spacing)
+  double region_margin_mm = 1.0;      ///< analysed region = mesh box (+ part box) + margin
+  int max_regions = 50;               ///< keep the largest regions (by area)
+  /// Out-of-tolerance clusters smaller than this are voxel noise, not defects: they are not
+  /// regions and do not count in DeviationResult::max_excess_mm / max_deficit_mm.
+  double min_region_area_mm2 = 0.1;
+  std::size_t max_region_lines = 20;  ///< G-code lines listed per region
+  bool keep_samples = true;           ///< fill DeviationResult::{deposit,mesh}_samples
+};
+
+/// Two-sided deviation of a deposit against a placed mesh: statistics, per-layer stats,
+/// regions, volumes, per-vertex deviation (mesh -> deposit at each vertex) and the gate
+/// figures: max_excess_mm = largest deposit -> mesh distance, max_deficit_mm = largest
+/// -(mesh -> deposit) distance, both ignoring clusters below min_region_area_mm2.
+/// `part_box_mm` (may be empty) widens the analysed region to the part's extrusions.
+/// Errors: empty mesh, settings out of range.
+[[nodiscard]] Result<DeviationResult> compute_deviation(const Mesh& placed_mesh,
+                                                        const VoxelGrid& deposit,
+                                                        const DeviationSettings& settings,
+                                                        const Box3& part_box_mm = {});
+
+/// Clusters out-of-tolerance samples into regions (union-find over a hash grid with
+/// `radius_mm` links). `area_per_sample_mm2` is what one sample stands for. For `missing`,
+/// samples with d < -tolerance are clustered; for `excess`, samples with d > tolerance.
+/// Regions come largest first. `sample_region` (optional) receives, per sample, the index of
+/// its region in the result or -1.
+[[nodiscard]] std::vector<DeviationRegion> cluster_regions(
+    std::span<const DeviationSample> samples, double tolerance_mm, double radius_mm,
+    double area_per_sample_mm2, RegionKind kind, std::size_t max_lines = 20,
+    std::vector<std::int32_t>* sample_region = nullptr);
+
+/// PLY of the mesh with a per-vertex signed deviation (`quality` for MeshLab, `deviation`
+/// for CloudCompare's scalar fields) and an RGB colour (blue: deficit, green: within
+/// tolerance, red: excess, saturated at 2x tolerance). Binary little endian.
+[[nodiscard]] std::string deviation_ply(const Mesh& mesh, std::span<const double> vertex_mm,
+                                        double tolerance_mm);
+
+/// Points with one scalar (`deviation`) as PLY, for CloudCompare (bench/c2m_compare.sh).
+[[nodiscard]] std::string points_ply(std::span<const Vec3> points_mm,
+                                     std::span<const double> scalar);
+
+}  // namespace printtwin

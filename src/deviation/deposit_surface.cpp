@@ -1,0 +1,335 @@
+// The deposit's outer surface (flood fill from outside over z-runs) and exact distances from
+// points to it (a bucket grid of face squares).
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include "printtwin/deviation.hpp"
+
+namespace printtwin {
+
+bool is_auxiliary_feature(Feature f) {
+  switch (f) {
+    case Feature::skirt:
+    case Feature::support:
+    case Feature::support_interface:
+    case Feature::wipe_tower:
+    case Feature::custom: return true;
+    default: return false;
+  }
+}
+
+namespace {
+
+/// A maximal z-interval [z0, z1] of empty voxels in one column.
+struct Run {
+  std::int32_t z0 = 0, z1 = 0;
+};
+
+inline bool test_bit(const std::uint64_t* col, int z) { return (col[z >> 6] >> (z & 63)) & 1U; }
+
+}  // namespace
+
+bool DepositSurface::filled(const Vec3& p_mm) const {
+  if (voxel_mm <= 0) return false;
+  const Vec3 q = (p_mm - origin_mm) / voxel_mm;
+  const auto x = static_cast<long>(std::floor(q.x()));
+  const auto y = static_cast<long>(std::floor(q.y()));
+  const auto z = static_cast<long>(std::floor(q.z()));
+  if (x < 0 || y < 0 || z < 0 || x >= dims.x() || y >= dims.y() || z >= dims.z()) return false;
+  const long words = (dims.z() + 63) / 64;
+  const std::uint64_t* col = filled_bits.data() + (y * dims.x() + x) * words;
+  return test_bit(col, static_cast<int>(z));
+}
+
+DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_mm) {
+  DepositSurface s;
+  s.voxel_mm = grid.voxel_mm();
+  if (region_mm.empty()) return s;
+  // Region in grid keys, padded by one voxel: the padding is forced empty, so the outside
+  // is connected all around the part.
+  const VoxelKey kmin0 = grid.key_of(region_mm.min);
+  const VoxelKey kmax0 = grid.key_of(region_mm.max);
+  const VoxelKey kmin{kmin0.x - 1, kmin0.y - 1, kmin0.z - 1};
+  const int nx = kmax0.x - kmin0.x + 3, ny = kmax0.y - kmin0.y + 3, nz = kmax0.z - kmin0.z + 3;
+  s.dims = Eigen::Vector3i(nx, ny, nz);
+  s.origin_mm = grid.origin_mm() + s.voxel_mm * Vec3(kmin.x, kmin.y, kmin.z);
+  const int words = (nz + 63) / 64;
+  const std::size_t columns = static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny);
+
+  // 1. Occupancy of part voxels, one bit column per (x, y); the padding stays empty. Read
+  // block by block (only allocated blocks cost anything).
+  std::vector<std::uint64_t> occ(columns * static_cast<std::size_t>(words), 0);
+  const auto& table = grid.tag_table();
+  std::vector<std::uint8_t> auxiliary(table.size());
+  for (std::size_t i = 0; i < table.size(); ++i) auxiliary[i] = is_auxiliary_feature(table[i].feature) ? 1 : 0;
+  grid.visit_blocks([&](const VoxelGrid::BlockView& b) {
+    const int bx = b.base.x - kmin.x, by = b.base.y - kmin.y, bz = b.base.z - kmin.z;
+    constexpr int kE = VoxelGrid::kBlockEdge;
+    if (bx + kE <= 1 || by + kE <= 1 || bz + kE <= 1 || bx >= nx - 1 || by >= ny - 1 ||
+        bz >= nz - 1)
+      return;
+    for (int z = 0; z < kE; ++z) {
+      const int gz = bz + z;
+      if (gz < 1 || gz >= nz - 1) continue;
+      std::uint64_t bits = b.occupancy[z];
+      while (bits != 0) {
+        const int bit = __builtin_ctzll(bits);
+        bits &= bits - 1;
+        const int gx = bx + (bit & 7), gy = by + (bit >> 3);
+        if (gx < 1 || gy < 1 || gx >= nx - 1 || gy >= ny - 1) continue;
+        if (auxiliary[b.tags[z * 64 + bit]] != 0) continue;
+        std::uint64_t* col = occ.data() + (static_cast<std::size_t>(gy) * nx + gx) * words;
+        col[gz >> 6] |= std::uint64_t{1} << (gz & 63);
+        ++s.occupied_voxels;
+      }
+    }
+  });
+
+  // 2. Empty runs per column (CSR), then a breadth-first flood over runs. Two runs of
+  // face-adjacent columns touch when their z-intervals overlap.
+  std::vector<std::uint32_t> run_begin(columns + 1, 0);
+  std::vector<Run> runs;
+  runs.reserve(columns * 2);
+  for (std::size_t c = 0; c < columns; ++c) {
+    run_begin[c] = static_cast<std::uint32_t>(runs.size());
+    const std::uint64_t* col = occ.data() + c * static_cast<std::size_t>(words);
+    int z = 0;
+    while (z < nz) {
+      while (z < nz && test_bit(col, z)) ++z;
+      if (z >= nz) break;
+      const int z0 = z;
+      while (z < nz && !test_bit(col, z)) ++z;
+      runs.push_back({z0, z - 1});
+    }
+  }
+  run_begin[columns] = static_cast<std::uint32_t>(runs.size());
+  std::vector<std::uint8_t> outside(runs.size(), 0);
+  std::vector<std::uint32_t> queue;
+  queue.reserve(runs.size());
+  // Seeds: every run touching the padding (z = 0 or z = nz - 1, or a border column).
+  for (int y = 0; y < ny; ++y)
+    for (int x = 0; x < nx; ++x) {
+      const std::size_t c = static_cast<std::size_t>(y) * nx + x;
+      const bool border = x == 0 || y == 0 || x == nx - 1 || y == ny - 1;
+      for (std::uint32_t r = run_begin[c]; r < run_begin[c + 1]; ++r)
+        if (border || runs[r].z0 == 0 || runs[r].z1 == nz - 1) {
+          outside[r] = 1;
+          queue.push_back(r);
+        }
+    }
+  // Column of a run: binary search in run_begin.
+  auto column_of = [&](std::uint32_t r) {
+    return static_cast<std::size_t>(
+        std::upper_bound(run_begin.begin(), run_begin.end(), r) - run_begin.begin() - 1);
+  };
+  for (std::size_t qi = 0; qi < queue.size(); ++qi) {
+    const std::uint32_t r = queue[qi];
+    const std::size_t c = column_of(r);
+    const int x = static_cast<int>(c % static_cast<std::size_t>(nx));
+    const int y = static_cast<int>(c / static_cast<std::size_t>(nx));
+    const std::array<std::array<int, 2>, 4> nbs{{{x - 1, y}, {x + 1, y}, {x, y - 1}, {x, y + 1}}};
+    for (const auto& nb : nbs) {
+      if (nb[0] < 0 || nb[1] < 0 || nb[0] >= nx || nb[1] >= ny) continue;
+      const std::size_t nc = static_cast<std::size_t>(nb[1]) * nx + nb[0];
+      // Runs are sorted by z: skip those ending below r, stop at the first starting above.
+      auto first = std::lower_bound(runs.begin() + run_begin[nc], runs.begin() + run_begin[nc + 1],
+                                    runs[r].z0, [](const Run& a, int z) { return a.z1 < z; });
+      for (auto it = first; it != runs.begin() + run_begin[nc + 1] && it->z0 <= runs[r].z1; ++it) {
+        const auto nr = static_cast<std::uint32_t>(it - runs.begin());
+        if (!outside[nr]) {
+          outside[nr] = 1;
+          queue.push_back(nr);
+        }
+      }
+    }
+  }
+
+  // 3. Filled bits = not outside (occupied voxels and enclosed voids).
+  s.filled_bits.assign(columns * static_cast<std::size_t>(words), 0);
+  for (std::size_t c = 0; c < columns; ++c) {
+    std::uint64_t* f = s.filled_bits.data() + c * static_cast<std::size_t>(words);
+    for (int w = 0; w < words; ++w) f[w] = ~std::uint64_t{0};
+    if (nz % 64 != 0) f[words - 1] = (std::uint64_t{1} << (nz % 64)) - 1;
+    for (std::uint32_t r = run_begin[c]; r < run_begin[c + 1]; ++r) {
+      if (!outside[r]) continue;
+      for (int z = runs[r].z0; z <= runs[r].z1; ++z) f[z >> 6] &= ~(std::uint64_t{1} << (z & 63));
+    }
+    for (int w = 0; w < words; ++w) s.filled_voxels += static_cast<std::size_t>(__builtin_popcountll(f[w]));
+  }
+
+  // 4. Faces between a filled voxel and an outside voxel (= not filled), column by column.
+  const auto filled_col = [&](int x, int y) -> const std::uint64_t* {
+    return s.filled_bits.data() + (static_cast<std::size_t>(y) * nx + x) * words;
+  };
+  const double v = s.voxel_mm;
+  auto add_face = [&](int x, int y, int z, int axis, int side) {
+    SurfaceFace f;
+    f.voxel = VoxelKey{kmin.x + x, kmin.y + y, kmin.z + z};
+    f.axis = static_cast<std::uint8_t>(axis);
+    f.side = static_cast<std::int8_t>(side);
+    Vec3 c = s.origin_mm + v * Vec3(x + 0.5, y + 0.5, z + 0.5);
+    c[axis] += 0.5 * v * side;
+    f.center_mm = c;
+    s.faces.push_back(f);
+  };
+  for (int y = 1; y < ny - 1; ++y)
+    for (int x = 1; x < nx - 1; ++x) {
+      const std::uint64_t* f = filled_col(x, y);
+      const std::array<const std::uint64_t*, 4> nb{filled_col(x - 1, y), filled_col(x + 1, y),
+                                                  filled_col(x, y - 1), filled_col(x, y + 1)};
+      for (int w = 0; w < words; ++w) {
+        std::uint64_t any = 0;
+        const std::uint64_t up = (w + 1 < words) ? (f[w + 1] & 1U) : 0;
+        const std::uint64_t down = (w > 0) ? (f[w - 1] >> 63) : 0;
+        // Exposed in z: neighbour above / below not filled.
+        const std::uint64_t above = (f[w] >> 1) | (up << 63);
+        const std::uint64_t below = (f[w] << 1) | down;
+        const std::uint64_t zp = f[w] & ~above;
+        const std::uint64_t zm = f[w] & ~below;
+        const std::uint64_t xm = f[w] & ~nb[0][w], xp = f[w] & ~nb[1][w];
+        const std::uint64_t ym = f[w] & ~nb[2][w], yp = f[w] & ~nb[3][w];
+        any = zp | zm | xm | xp | ym | yp;
+        while (any != 0) {
+          const int b = __builtin_ctzll(any);
+          any &= any - 1;
+          const std::uint64_t bit = std::uint64_t{1} << b;
+          const int z = w * 64 + b;
+          if (xm & bit) add_face(x, y, z, 0, -1);
+          if (xp & bit) add_face(x, y, z, 0, +1);
+          if (ym & bit) add_face(x, y, z, 1, -1);
+          if (yp & bit) add_face(x, y, z, 1, +1);
+          if (zm & bit) add_face(x, y, z, 2, -1);
+          if (zp & bit) add_face(x, y, z, 2, +1);
+        }
+      }
+    }
+  // Tags of the faces' voxels. A filled voxel with a face is occupied (an enclosed void has
+  // no outside neighbour), so every face has a tag.
+  s.face_tags.resize(s.faces.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, s.faces.size(), 4096),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i)
+                        s.face_tags[i] = grid.tag(s.faces[i].voxel).value_or(VoxelTag{});
+                    });
+  return s;
+}
+
+// ---------------------------------------------------------------- distances to the faces
+
+namespace {
+
+/// Faces bucketed by the cell of their centre (cells of kCell voxels), CSR layout.
+struct FaceBuckets {
+  static constexpr int kCell = 4;
+  Eigen::Vector3i cells = Eigen::Vector3i::Zero();
+  std::vector<std::uint32_t> begin;  ///< per cell, into `index`
+  std::vector<std::uint32_t> index;  ///< face indices
+  double cell_mm = 0;
+  Vec3 origin_mm = Vec3::Zero();
+
+  explicit FaceBuckets(const DepositSurface& s) {
+    cell_mm = s.voxel_mm * kCell;
+    origin_mm = s.origin_mm;
+    cells = (s.dims.array() + kCell - 1) / kCell;
+    const std::size_t n = static_cast<std::size_t>(cells.x()) * cells.y() * cells.z();
+    begin.assign(n + 1, 0);
+    std::vector<std::uint32_t> cell_of(s.faces.size());
+    for (std::size_t i = 0; i < s.faces.size(); ++i) {
+      cell_of[i] = static_cast<std::uint32_t>(cell_index(cell_coord(s.faces[i].center_mm)));
+      ++begin[cell_of[i] + 1];
+    }
+    for (std::size_t c = 0; c < n; ++c) begin[c + 1] += begin[c];
+    index.resize(s.faces.size());
+    std::vector<std::uint32_t> fill(begin.begin(), begin.end() - 1);
+    for (std::size_t i = 0; i < s.faces.size(); ++i) index[fill[cell_of[i]]++] = static_cast<std::uint32_t>(i);
+  }
+  [[nodiscard]] Eigen::Vector3i cell_coord(const Vec3& p) const {
+    Eigen::Vector3i c;
+    for (int a = 0; a < 3; ++a)
+      c[a] = std::clamp(static_cast<int>(std::floor((p[a] - origin_mm[a]) / cell_mm)), 0, cells[a] - 1);
+    return c;
+  }
+  [[nodiscard]] std::size_t cell_index(const Eigen::Vector3i& c) const {
+    return (static_cast<std::size_t>(c.z()) * cells.y() + c.y()) * cells.x() + c.x();
+  }
+};
+
+/// Squared distance from p to the face square (axis-aligned, edge v).
+inline double face_dist2(const Vec3& p, const Vec3& center, int axis, double half) {
+  double d2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    double e = std::abs(p[a] - center[a]);
+    if (a != axis) e = std::max(0.0, e - half);
+    d2 += e * e;
+  }
+  return d2;
+}
+
+}  // namespace
+
+void distances_to_deposit(const DepositSurface& s, std::span<const Vec3> points,
+                          std::vector<double>& signed_mm, std::vector<std::uint32_t>* nearest_face) {
+  signed_mm.assign(points.size(), 0.0);
+  if (nearest_face != nullptr) nearest_face->assign(points.size(), 0);
+  if (s.faces.empty()) {
+    // No deposit at all: everything designed is missing; distance to the region's far side.
+    const double far = (s.dims.cast<double>() * s.voxel_mm).norm();
+    std::fill(signed_mm.begin(), signed_mm.end(), -far);
+    return;
+  }
+  const FaceBuckets buckets(s);
+  const double half = 0.5 * s.voxel_mm;
+  const int max_ring = buckets.cells.maxCoeff();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 2048),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      const Vec3& p = points[i];
+      const Eigen::Vector3i c0 = buckets.cell_coord(p);
+      double best2 = std::numeric_limits<double>::infinity();
+      std::uint32_t best_face = 0;
+      for (int ring = 0; ring <= max_ring; ++ring) {
+        // Cells at Chebyshev distance `ring` from c0; a face centred in a cell reaches half a
+        // voxel beyond it, hence the `half` slack in the cell-box test.
+        for (int dz = -ring; dz <= ring; ++dz)
+          for (int dy = -ring; dy <= ring; ++dy)
+            for (int dx = -ring; dx <= ring; ++dx) {
+              if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) != ring) continue;
+              const Eigen::Vector3i c = c0 + Eigen::Vector3i(dx, dy, dz);
+              if ((c.array() < 0).any() || (c.array() >= buckets.cells.array()).any()) continue;
+              const std::size_t ci = buckets.cell_index(c);
+              if (buckets.begin[ci] == buckets.begin[ci + 1]) continue;
+              double box2 = 0;
+              for (int a = 0; a < 3; ++a) {
+                const double lo = buckets.origin_mm[a] + c[a] * buckets.cell_mm - half;
+                const double hi = lo + buckets.cell_mm + 2 * half;
+                const double e = p[a] < lo ? lo - p[a] : (p[a] > hi ? p[a] - hi : 0.0);
+                box2 += e * e;
+              }
+              if (box2 >= best2) continue;
+              for (std::uint32_t k = buckets.begin[ci]; k < buckets.begin[ci + 1]; ++k) {
+                const std::uint32_t fi = buckets.index[k];
+                const SurfaceFace& f = s.faces[fi];
+                const double d2 = face_dist2(p, f.center_mm, f.axis, half);
+                if (d2 < best2 || (d2 == best2 && fi < best_face)) {
+                  best2 = d2;
+                  best_face = fi;
+                }
+              }
+            }
+        // Every cell of ring + 1 is at least ring * cell - half away from p.
+        const double reach = ring * buckets.cell_mm - half;
+        if (reach > 0 && best2 <= reach * reach) break;
+      }
+      const double d = std::sqrt(best2);
+      signed_mm[i] = s.filled(p) ? d : -d;
+      if (nearest_face != nullptr) (*nearest_face)[i] = best_face;
+    }
+  });
+}
+
+}  // namespace printtwin
