@@ -1,0 +1,68 @@
+// Report generation on a ~200k-triangle part (synthetic sphere with a known deviation field,
+// ~0.5 M deposit and ~0.5 M mesh samples at 0.05 mm), one thread:
+//   build-*/bench/report_bench --benchmark_filter=. --benchmark_min_time=1
+// BM_ReportFiles is the whole report (renders, PNGs, cross-sections, HTML, JUnit, Markdown);
+// the counter html_MB is the size of report.html.
+#include <benchmark/benchmark.h>
+#include <tbb/global_control.h>
+
+#include "../tests/report/synthetic_report.hpp"
+#include "printtwin/report.hpp"
+
+namespace {
+
+using namespace printtwin;
+
+const VerifyReport& big_report() {
+  // 2 * 316 * 315 = 199k triangles; radius 20 mm -> 5027 mm2 of surface, 0.1 mm spacing
+  // -> 0.5 M samples per direction (a 0.05 mm voxel deposit of this part has ~2 M
+  // surface voxels; the deviation stage subsamples, the report caps what it embeds).
+  static const VerifyReport r = [] {
+    test::SyntheticSpec spec;
+    spec.segments = 316;
+    spec.rings = 316;
+    spec.radius_mm = 12.0;
+    spec.spacing_mm = 0.05;
+    return test::make_synthetic_report(spec);
+  }();
+  return r;
+}
+
+void BM_ReportFiles(benchmark::State& state) {
+  tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
+  const auto& r = big_report();
+  std::size_t html = 0;
+  for (auto _ : state) {
+    auto files = build_report_files(r);
+    if (!files) state.SkipWithError(files.error().message.c_str());
+    html = files->front().content.size();
+    benchmark::DoNotOptimize(files);
+  }
+  state.counters["triangles"] = static_cast<double>(r.placed_mesh.triangles.size());
+  state.counters["samples"] = static_cast<double>(r.deviation.mesh_samples.size());
+  state.counters["html_MB"] = static_cast<double>(html) / 1e6;
+}
+BENCHMARK(BM_ReportFiles)->Unit(benchmark::kMillisecond);
+
+void BM_RenderViews(benchmark::State& state) {
+  tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
+  const auto& r = big_report();
+  for (auto _ : state) {
+    auto assets = render_report_assets(r);
+    benchmark::DoNotOptimize(assets);
+  }
+}
+BENCHMARK(BM_RenderViews)->Unit(benchmark::kMillisecond);
+
+void BM_CutMesh(benchmark::State& state) {
+  const auto& r = big_report();
+  std::vector<double> z;
+  for (const auto& l : r.deviation.per_layer) z.push_back(l.z_mm - 0.1);
+  for (auto _ : state) benchmark::DoNotOptimize(cut_mesh(r.placed_mesh, z, 0.02));
+  state.counters["layers"] = static_cast<double>(z.size());
+}
+BENCHMARK(BM_CutMesh)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,204 @@
+#pragma once
+// report: what people and CI systems read after `printtwin verify`.
+//
+// From one VerifyReport value (verify.hpp) this stage writes, into one output folder:
+//   report.html   self-contained page (inline CSS, JS, PNG images as data: URIs; no network):
+//                 verdict and gates, key numbers, heatmaps of the part coloured by signed
+//                 deviation from several views (ray cast with Embree through MeshQuery),
+//                 histogram, deviation per layer, a layer viewer, regions, findings, inputs
+//                 with SHA-256, settings and the printtwin version;
+//   junit.xml     one test case per gate and per error finding (GitHub, GitLab, Jenkins);
+//   summary.md    a short Markdown verdict and table for CI job summaries;
+//   heatmap_<view>.png  the heatmap images as files;
+//   report.json, deviation.ply (write_verify_outputs, verify.hpp) and whatever
+//                 `ReportOptions::extra_outputs` adds (e.g. deposit.ot).
+// The folder is written under a temporary name and renamed into place, so a failed or
+// killed run never leaves a report that looks complete (docs/reports.md).
+//
+// Determinism: every byte depends only on the VerifyReport and the ReportOptions. The one
+// run-dependent value, the generation time, is `ReportOptions::generated_utc` (set by the
+// caller; empty means "not stamped").
+//
+// Colour convention everywhere (images, charts, layer viewer): deficit (d < -tolerance)
+// blue, within tolerance green, excess (d > +tolerance) red; darker = further out.
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "printtwin/deviation_types.hpp"
+#include "printtwin/geometry.hpp"
+#include "printtwin/mesh.hpp"
+#include "printtwin/mesh_query.hpp"
+#include "printtwin/result.hpp"
+#include "printtwin/verify.hpp"
+
+namespace printtwin {
+
+/// 8-bit RGBA image, rows top to bottom, 4 bytes per pixel, no padding.
+struct Image {
+  int width = 0;
+  int height = 0;
+  std::vector<std::uint8_t> rgba;  ///< width * height * 4 bytes
+  bool operator==(const Image&) const = default;
+};
+
+/// PNG bytes of an image (libpng, 8-bit RGBA). Deterministic for the same pixels.
+[[nodiscard]] Result<std::string> encode_png(const Image& image);
+/// Decodes PNG bytes of any colour type to RGBA (for tests and tools).
+[[nodiscard]] Result<Image> decode_png(std::string_view png_bytes);
+
+/// Maps signed deviation (mm) to colour. |d| <= tolerance is green; beyond, the colour runs
+/// from light to dark blue (deficit) or red (excess) and saturates at +-range_mm.
+struct DeviationColorScale {
+  double tolerance_mm = 0.2;
+  double range_mm = 1.0;  ///< >= tolerance_mm; values beyond are clamped to the end colours
+  [[nodiscard]] std::array<std::uint8_t, 3> color(double d_mm) const;
+};
+
+/// Scale for a deviation result: tolerance from it, range = the largest |d| of the vertex
+/// and mesh-sample deviations rounded up to a "nice" number, clamped to
+/// [2 * tolerance, 10 * tolerance].
+[[nodiscard]] DeviationColorScale make_color_scale(const DeviationResult& deviation);
+
+/// An orthographic view: the camera looks along `direction` (towards the part) with `up`
+/// pointing to the top of the image.
+struct ViewSpec {
+  std::string name;  ///< "iso", "front", "right", "top" ... (file name heatmap_<name>.png)
+  std::string label; ///< caption, e.g. "Isometric"
+  Vec3 direction = Vec3(0, 1, 0);
+  Vec3 up = Vec3(0, 0, 1);
+  int width_px = 320;
+  int height_px = 320;  ///< upper bound; the image is cropped to the part's aspect
+};
+
+/// Isometric (large) plus front (-Y looking +Y), right (+X looking -X) and top views.
+[[nodiscard]] std::vector<ViewSpec> default_views();
+
+/// Pixel <-> machine-frame mapping of an orthographic render.
+struct Camera {
+  Vec3 center_mm = Vec3::Zero();  ///< world point at the image centre
+  Vec3 right = Vec3(1, 0, 0);     ///< unit, image +x
+  Vec3 up = Vec3(0, 0, 1);        ///< unit, image -y (rows go down)
+  Vec3 forward = Vec3(0, 1, 0);   ///< unit, viewing direction
+  double mm_per_px = 0.1;
+  int width_px = 0, height_px = 0;
+  /// Pixel coordinates (x right, y down; pixel centres at +0.5) of a world point.
+  [[nodiscard]] Vec2 project(const Vec3& p_mm) const;
+};
+
+/// Where a deviation region appears in a view (for the numbered pins over the images).
+struct RegionMarker {
+  Vec2 worst_px = Vec2::Zero();  ///< the region's worst point, pixels
+  Vec2 bbox_min_px = Vec2::Zero(), bbox_max_px = Vec2::Zero();  ///< projected bounding box
+  bool visible = true;           ///< false when the part hides the worst point in this view
+};
+
+/// A rendered heatmap view.
+struct HeatmapView {
+  ViewSpec view;
+  Camera camera;
+  Image image;                ///< transparent background
+  std::size_t hit_pixels = 0; ///< pixels that show the part
+  std::vector<RegionMarker> markers;  ///< one per DeviationResult::regions entry, same order
+};
+
+/// Projects regions into a rendered view and tests the visibility of their worst points.
+[[nodiscard]] std::vector<RegionMarker> mark_regions(const MeshQuery& query, const Camera& camera,
+                                                     std::span<const DeviationRegion> regions);
+
+/// Per-point deviation on the mesh surface used to colour the heatmap: mesh-surface samples
+/// (mesh -> deposit direction) where they are dense enough, per-vertex deviation
+/// (barycentric interpolation) elsewhere.
+struct SurfaceDeviationField {
+  std::span<const DeviationSample> samples;   ///< mesh-surface samples (may be empty)
+  std::span<const double> vertex_deviation_mm;  ///< per mesh vertex (may be empty)
+  double sample_spacing_mm = 0;  ///< typical sample spacing (0: estimated from the area)
+};
+
+/// Ray casts one view of the mesh held by `query` (one ray per pixel through MeshQuery,
+/// rows in parallel with TBB), colours each hit by the deviation field and shades it with
+/// two Lambert lights. Back faces (open meshes) are grey. Deterministic.
+[[nodiscard]] HeatmapView render_heatmap(const MeshQuery& query, const SurfaceDeviationField& field,
+                                         const DeviationColorScale& scale, const ViewSpec& view);
+
+/// Cuts `mesh` at each height of `z_mm` (sorted or not) and chains the cuts into polylines
+/// (machine frame XY, mm; closed loops repeat their first point), simplified with
+/// Douglas-Peucker at `simplify_mm`. One pass over the triangles. Result[i] belongs to z_mm[i].
+[[nodiscard]] std::vector<std::vector<std::vector<Vec2>>> cut_mesh(const Mesh& mesh,
+                                                                   std::span<const double> z_mm,
+                                                                   double simplify_mm);
+
+/// Knobs of the report writer. Defaults keep report.html of a ~200k-triangle part well under
+/// 5 MB and its generation under a second on one core.
+struct ReportOptions {
+  /// Generation time shown in the reports (e.g. "2026-11-21T10:20:00Z"); the only
+  /// run-dependent input. Empty: not stamped.
+  std::string generated_utc;
+  std::vector<ViewSpec> views = default_views();
+  /// Deposit-surface points embedded for the layer viewer, over all layers.
+  std::size_t max_viewer_points = 160000;
+  /// Layers offered by the layer viewer (evenly subsampled beyond this).
+  int max_viewer_layers = 400;
+  /// Douglas-Peucker tolerance of the mesh cross-sections in the layer viewer.
+  double section_simplify_mm = 0.02;
+  /// Histogram bins over [-range, +range] of the colour scale.
+  int histogram_bins = 60;
+  /// Write heatmap_<view>.png files beside report.html.
+  bool write_png_files = true;
+  /// Called with the staging folder before it is renamed into place, to add more files
+  /// (e.g. deposit.ot). An error aborts the report and leaves no folder behind.
+  std::function<Status(const std::filesystem::path& staging_dir)> extra_outputs;
+};
+
+/// JUnit XML (testsuites/testsuite/testcase, failures with messages): one case per gate
+/// and per error finding. Deterministic.
+[[nodiscard]] std::string report_junit_xml(const VerifyReport& report,
+                                           const ReportOptions& options = {});
+
+/// Markdown verdict + gate table + key numbers + largest regions, for CI job summaries.
+[[nodiscard]] std::string report_summary_markdown(const VerifyReport& report,
+                                                  const ReportOptions& options = {});
+
+/// Everything report.html embeds, computed once (renders, cross-sections, charts).
+struct ReportAssets {
+  DeviationColorScale scale;
+  std::vector<HeatmapView> views;
+  std::vector<std::string> view_png;  ///< PNG bytes of each view, same order
+};
+
+/// Renders the heatmap views of `report.placed_mesh` (errors: the mesh cannot be queried).
+[[nodiscard]] Result<ReportAssets> render_report_assets(const VerifyReport& report,
+                                                        const ReportOptions& options = {});
+
+/// The self-contained report.html text.
+[[nodiscard]] std::string report_html(const VerifyReport& report, const ReportAssets& assets,
+                                      const ReportOptions& options = {});
+
+/// One output file of the report folder.
+struct ReportFile {
+  std::string name;     ///< file name inside the folder
+  std::string content;  ///< bytes
+};
+
+/// report.html, junit.xml, summary.md and the heatmap PNGs, in memory.
+[[nodiscard]] Result<std::vector<ReportFile>> build_report_files(const VerifyReport& report,
+                                                                 const ReportOptions& options = {});
+
+/// Writes the whole report folder `out_dir`: builds every file in a sibling staging folder
+/// (each file via write_file_atomic), then swaps the staging folder into place (an existing
+/// `out_dir` is replaced only after the new report is complete). Errors: unwritable folder
+/// (bad_input), mesh that cannot be rendered (internal).
+[[nodiscard]] Status write_report_folder(const VerifyReport& report,
+                                         const std::filesystem::path& out_dir,
+                                         const ReportOptions& options = {});
+
+/// Current UTC time as "YYYY-MM-DDTHH:MM:SSZ", or the time of $SOURCE_DATE_EPOCH when set
+/// (reproducible builds convention), for `ReportOptions::generated_utc`.
+[[nodiscard]] std::string report_timestamp_utc();
+
+}  // namespace printtwin

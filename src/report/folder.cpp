@@ -1,0 +1,94 @@
+// The report folder: every file built in memory, written into a hidden staging folder beside
+// the target, then swapped into place with renames. A killed or failed run leaves at most a
+// hidden ".<name>.staging-*" folder, never a report that looks complete.
+#include <random>
+#include <system_error>
+
+#include "printtwin/io.hpp"
+#include "report/report_internal.hpp"
+
+namespace printtwin {
+
+namespace fs = std::filesystem;
+
+Result<ReportAssets> render_report_assets(const VerifyReport& report, const ReportOptions& options) {
+  auto query = MeshQuery::build(report.placed_mesh);
+  if (!query) return internal_error("cannot render the heatmaps: " + query.error().message);
+  ReportAssets assets;
+  assets.scale = make_color_scale(report.deviation);
+  SurfaceDeviationField field;
+  field.samples = report.deviation.mesh_samples;
+  field.vertex_deviation_mm = report.deviation.vertex_deviation_mm;
+  field.sample_spacing_mm = report.settings.mesh_sample_spacing_mm > 0 ? report.settings.mesh_sample_spacing_mm
+                                                                        : report.settings.voxel_mm;
+  for (const auto& view : options.views) {
+    HeatmapView hv = render_heatmap(*query, field, assets.scale, view);
+    hv.markers = mark_regions(*query, hv.camera, report.deviation.regions);
+    auto png = encode_png(hv.image);
+    if (!png) return png.error();
+    assets.view_png.push_back(std::move(png).value());
+    assets.views.push_back(std::move(hv));
+  }
+  return assets;
+}
+
+Result<std::vector<ReportFile>> build_report_files(const VerifyReport& report, const ReportOptions& options) {
+  auto assets = render_report_assets(report, options);
+  if (!assets) return assets.error();
+  std::vector<ReportFile> files;
+  files.push_back({"report.html", report_html(report, *assets, options)});
+  files.push_back({"junit.xml", report_junit_xml(report, options)});
+  files.push_back({"summary.md", report_summary_markdown(report, options)});
+  if (options.write_png_files)
+    for (std::size_t i = 0; i < assets->views.size(); ++i)
+      files.push_back({"heatmap_" + assets->views[i].view.name + ".png", assets->view_png[i]});
+  return files;
+}
+
+Status write_report_folder(const VerifyReport& report, const fs::path& out_dir, const ReportOptions& options) {
+  const fs::path target = out_dir.has_filename() ? out_dir : out_dir.parent_path();
+  const fs::path parent = target.has_parent_path() ? target.parent_path() : fs::path(".");
+  const std::string name = target.filename().string();
+  std::error_code ec;
+  fs::create_directories(parent, ec);
+  if (ec) return bad_input("cannot create the report's parent folder: " + ec.message(), parent.string());
+  if (fs::exists(target, ec) && !fs::is_directory(target, ec))
+    return bad_input("exists and is not a folder; expected a report folder", target.string());
+  auto files = build_report_files(report, options);
+  if (!files) return files.error();
+
+  std::random_device rd;
+  const std::string tag = std::to_string(rd() % 100000000);
+  const fs::path staging = parent / ("." + name + ".staging-" + tag);
+  const fs::path old = parent / ("." + name + ".old-" + tag);
+  auto fail = [&](Error e) -> Status {
+    fs::remove_all(staging, ec);
+    return e;
+  };
+  fs::create_directories(staging, ec);
+  if (ec) return fail(bad_input("cannot create a staging folder: " + ec.message(), staging.string()));
+  for (const auto& f : *files) {
+    auto st = write_file_atomic(staging / f.name, f.content);
+    if (!st) return fail(st.error());
+  }
+  if (options.extra_outputs) {
+    auto st = options.extra_outputs(staging);
+    if (!st) return fail(st.error());
+  }
+  // Swap: move an existing report aside, move the new one in, drop the old one.
+  const bool had_old = fs::exists(target, ec);
+  if (had_old) {
+    fs::rename(target, old, ec);
+    if (ec) return fail(bad_input("cannot replace the existing report: " + ec.message(), target.string()));
+  }
+  fs::rename(staging, target, ec);
+  if (ec) {
+    const std::string msg = ec.message();
+    if (had_old) fs::rename(old, target, ec);
+    return fail(bad_input("cannot move the finished report into place: " + msg, target.string()));
+  }
+  if (had_old) fs::remove_all(old, ec);
+  return Ok{};
+}
+
+}  // namespace printtwin

@@ -1,0 +1,313 @@
+// Heatmap renders of the part: one orthographic ray per pixel through MeshQuery (Embree),
+// coloured by signed deviation and shaded with two Lambert lights.
+//
+// Colour comes from the mesh-surface samples (mesh -> deposit distances, dense: one per
+// voxel-sized patch) splatted into the image and depth-tested against the ray-cast depth
+// buffer, so details finer than the mesh's triangles (a dropped thin wall on a 12-triangle
+// box) still show. Pixels no sample reaches fall back to the per-vertex deviation
+// interpolated with barycentric coordinates.
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "printtwin/report.hpp"
+
+namespace printtwin {
+
+namespace {
+
+using Rgb = std::array<std::uint8_t, 3>;
+
+struct ColorStop {
+  double t;
+  double r, g, b;
+};
+
+Rgb lerp_stops(const ColorStop* stops, int n, double t) {
+  t = std::clamp(t, 0.0, 1.0);
+  int i = 0;
+  while (i + 2 < n && t > stops[i + 1].t) ++i;
+  const ColorStop& a = stops[i];
+  const ColorStop& b = stops[i + 1];
+  const double s = (b.t > a.t) ? std::clamp((t - a.t) / (b.t - a.t), 0.0, 1.0) : 0.0;
+  auto mix = [s](double x, double y) {
+    return static_cast<std::uint8_t>(std::lround(x + (y - x) * s));
+  };
+  return {mix(a.r, b.r), mix(a.g, b.g), mix(a.b, b.b)};
+}
+
+// Sequential ramps after ColorBrewer's Blues/Reds (light near the tolerance, dark at range).
+constexpr ColorStop kExcess[] = {{0.0, 253, 174, 107}, {0.35, 241, 105, 19}, {0.7, 203, 24, 29},
+                                 {1.0, 127, 0, 13}};
+constexpr ColorStop kDeficit[] = {{0.0, 140, 198, 230}, {0.35, 66, 146, 198}, {0.7, 33, 97, 172},
+                                  {1.0, 8, 48, 107}};
+constexpr ColorStop kWithin[] = {{0.0, 65, 171, 93}, {1.0, 161, 217, 155}};
+
+double nice_ceil(double v) {
+  if (!(v > 0)) return 1.0;
+  const double e = std::pow(10.0, std::floor(std::log10(v)));
+  for (double m : {1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0})
+    if (m * e >= v * (1 - 1e-12)) return m * e;
+  return 10 * e;
+}
+
+}  // namespace
+
+Rgb DeviationColorScale::color(double d_mm) const {
+  const double tol = std::max(tolerance_mm, 1e-9);
+  const double range = std::max(range_mm, tol * 1.0001);
+  if (!std::isfinite(d_mm)) return {200, 200, 200};
+  const double a = std::abs(d_mm);
+  if (a <= tol) return lerp_stops(kWithin, 2, a / tol);
+  const double t = (a - tol) / (range - tol);
+  return d_mm > 0 ? lerp_stops(kExcess, 4, t) : lerp_stops(kDeficit, 4, t);
+}
+
+DeviationColorScale make_color_scale(const DeviationResult& deviation) {
+  DeviationColorScale s;
+  s.tolerance_mm = deviation.tolerance_mm > 0 ? deviation.tolerance_mm : 0.2;
+  double worst = 0;
+  for (double d : deviation.vertex_deviation_mm)
+    if (std::isfinite(d)) worst = std::max(worst, std::abs(d));
+  for (const auto& smp : deviation.mesh_samples)
+    if (std::isfinite(smp.distance_mm)) worst = std::max(worst, std::abs(smp.distance_mm));
+  worst = std::max({worst, std::abs(deviation.mesh_to_deposit.min_mm),
+                    std::abs(deviation.mesh_to_deposit.max_mm)});
+  s.range_mm = std::clamp(nice_ceil(worst), 2 * s.tolerance_mm, 10 * s.tolerance_mm);
+  return s;
+}
+
+std::vector<ViewSpec> default_views() {
+  const double s = 1.0 / std::sqrt(3.0);
+  return {
+      // Looking from the front-left-top corner down to the back-right: the classic iso.
+      ViewSpec{"iso", "Isometric", Vec3(s, s, -s), Vec3(0, 0, 1), 720, 540},
+      ViewSpec{"front", "Front (-Y)", Vec3(0, 1, 0), Vec3(0, 0, 1), 360, 300},
+      ViewSpec{"right", "Right (+X)", Vec3(-1, 0, 0), Vec3(0, 0, 1), 360, 300},
+      ViewSpec{"top", "Top (+Z)", Vec3(0, 0, -1), Vec3(0, 1, 0), 360, 300},
+      ViewSpec{"back_iso", "Back isometric", Vec3(-s, -s, -s), Vec3(0, 0, 1), 360, 300},
+  };
+}
+
+Vec2 Camera::project(const Vec3& p_mm) const {
+  const Vec3 d = p_mm - center_mm;
+  return Vec2(0.5 * width_px + d.dot(right) / mm_per_px, 0.5 * height_px - d.dot(up) / mm_per_px);
+}
+
+HeatmapView render_heatmap(const MeshQuery& query, const SurfaceDeviationField& field,
+                           const DeviationColorScale& scale, const ViewSpec& view) {
+  const Mesh& mesh = query.mesh();
+  HeatmapView out;
+  out.view = view;
+  Camera& cam = out.camera;
+  cam.forward = view.direction.normalized();
+  Vec3 up_hint = view.up;
+  if (std::abs(up_hint.normalized().dot(cam.forward)) > 0.999) up_hint = Vec3(0, 1, 0);
+  cam.right = cam.forward.cross(up_hint).normalized();
+  cam.up = cam.right.cross(cam.forward).normalized();
+
+  // Fit the part: extents along the image axes and depth.
+  double min_x = 1e300, max_x = -1e300, min_y = 1e300, max_y = -1e300, min_z = 1e300,
+         max_z = -1e300;
+  for (const Vec3& v : mesh.vertices_mm) {
+    const double x = v.dot(cam.right), y = v.dot(cam.up), z = v.dot(cam.forward);
+    min_x = std::min(min_x, x), max_x = std::max(max_x, x);
+    min_y = std::min(min_y, y), max_y = std::max(max_y, y);
+    min_z = std::min(min_z, z), max_z = std::max(max_z, z);
+  }
+  const int margin_px = 10;
+  const int max_w = std::max(view.width_px, 2 * margin_px + 8);
+  const int max_h = std::max(view.height_px, 2 * margin_px + 8);
+  const double ex = std::max(max_x - min_x, 1e-6), ey = std::max(max_y - min_y, 1e-6);
+  cam.mm_per_px = std::max(ex / (max_w - 2 * margin_px), ey / (max_h - 2 * margin_px));
+  cam.width_px = std::min(max_w, static_cast<int>(std::ceil(ex / cam.mm_per_px)) + 2 * margin_px);
+  cam.height_px = std::min(max_h, static_cast<int>(std::ceil(ey / cam.mm_per_px)) + 2 * margin_px);
+  cam.center_mm = cam.right * (0.5 * (min_x + max_x)) + cam.up * (0.5 * (min_y + max_y)) +
+                  cam.forward * (0.5 * (min_z + max_z));
+  const int w = cam.width_px, h = cam.height_px;
+  const double depth = max_z - min_z;
+  const double pad = 0.01 * depth + 1.0;
+  const double near_offset = 0.5 * depth + pad;  // ray origins sit this far before the centre
+
+  auto pixel_origin = [&](int x, int y) -> Vec3 {
+    return cam.center_mm + cam.right * ((x + 0.5 - 0.5 * w) * cam.mm_per_px) -
+           cam.up * ((y + 0.5 - 0.5 * h) * cam.mm_per_px) - cam.forward * near_offset;
+  };
+  // Pass 1: one ray per pixel -> triangle, depth, unit normal.
+  constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+  std::vector<std::uint32_t> tri(static_cast<std::size_t>(w) * h, kNone);
+  std::vector<float> tdepth(tri.size(), 0.f);
+  std::vector<Vec3> normal(tri.size(), Vec3::Zero());
+  tbb::parallel_for(tbb::blocked_range<int>(0, h, 8), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y != rows.end(); ++y)
+      for (int x = 0; x < w; ++x) {
+        const Vec3 origin = pixel_origin(x, y);
+        const auto hit = query.first_hit(origin, cam.forward, 0.0, depth + 2 * pad);
+        if (!hit) continue;
+        const std::size_t i = static_cast<std::size_t>(y) * w + x;
+        tri[i] = hit->triangle;
+        tdepth[i] = static_cast<float>(hit->t_mm);
+        normal[i] = hit->normal;
+      }
+  });
+
+  // Pass 2: deviation per pixel from the mesh-surface samples, splatted and depth-tested.
+  // A sample stands for a patch of ~spacing; when that is about a pixel or less, each sample
+  // lands on one pixel and the few pixels no sample reached are filled from their neighbours.
+  std::vector<float> dev_sum(tri.size(), 0.f);
+  std::vector<std::uint16_t> dev_count(tri.size(), 0);
+  double spacing = field.sample_spacing_mm;
+  if (!(spacing > 0) && !field.samples.empty())
+    spacing = std::sqrt(surface_area_mm2(mesh) / static_cast<double>(field.samples.size()));
+  if (!field.samples.empty() && spacing > 0) {
+    const int radius_px =
+        spacing > 1.5 * cam.mm_per_px ? std::min(static_cast<int>(std::lround(0.5 * spacing / cam.mm_per_px)), 6) : 0;
+    const double depth_tol = 1.5 * std::max(spacing, cam.mm_per_px) + 0.02;
+    const double inv_px = 1.0 / cam.mm_per_px;
+    const Vec3 c0 = cam.center_mm;
+    for (const auto& smp : field.samples) {
+      const Vec3 d = smp.position_mm - c0;
+      const double fx = 0.5 * w + d.dot(cam.right) * inv_px, fy = 0.5 * h - d.dot(cam.up) * inv_px;
+      if (!(fx >= -radius_px && fy >= -radius_px && fx < w + radius_px && fy < h + radius_px)) continue;
+      if (!std::isfinite(smp.distance_mm)) continue;
+      const int cx = static_cast<int>(fx), cy = static_cast<int>(fy);
+      const double sample_t = d.dot(cam.forward) + near_offset;
+      for (int yy = std::max(cy - radius_px, 0); yy <= std::min(cy + radius_px, h - 1); ++yy) {
+        for (int xx = std::max(cx - radius_px, 0); xx <= std::min(cx + radius_px, w - 1); ++xx) {
+          const std::size_t i = static_cast<std::size_t>(yy) * w + xx;
+          if (tri[i] == kNone) continue;
+          // Slanted faces change depth across a pixel: widen the test where they are steep.
+          const double slope = std::abs(normal[i].dot(cam.forward));
+          if (std::abs(sample_t - tdepth[i]) > depth_tol / std::max(slope, 0.25)) continue;
+          dev_sum[i] += static_cast<float>(smp.distance_mm);
+          if (dev_count[i] < 65535) ++dev_count[i];
+        }
+      }
+    }
+    // Hole fill: mean of the splatted neighbours within 2 px at a similar depth.
+    std::vector<float> fill_value(tri.size(), 0.f);
+    std::vector<char> filled(tri.size(), 0);
+    tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
+      for (int y = rows.begin(); y != rows.end(); ++y)
+        for (int x = 0; x < w; ++x) {
+          const std::size_t i = static_cast<std::size_t>(y) * w + x;
+          if (tri[i] == kNone || dev_count[i] > 0) continue;
+          double sum = 0;
+          std::size_t n = 0;
+          for (int yy = std::max(y - 2, 0); yy <= std::min(y + 2, h - 1); ++yy)
+            for (int xx = std::max(x - 2, 0); xx <= std::min(x + 2, w - 1); ++xx) {
+              const std::size_t j = static_cast<std::size_t>(yy) * w + xx;
+              if (dev_count[j] == 0 || std::abs(tdepth[j] - tdepth[i]) > 3 * depth_tol) continue;
+              sum += dev_sum[j];
+              n += dev_count[j];
+            }
+          if (n > 0) fill_value[i] = static_cast<float>(sum / static_cast<double>(n)), filled[i] = 1;
+        }
+    });
+    for (std::size_t i = 0; i < tri.size(); ++i)
+      if (filled[i]) dev_sum[i] = fill_value[i], dev_count[i] = 1;
+  }
+  const bool have_vertex = !field.vertex_deviation_mm.empty() &&
+                           field.vertex_deviation_mm.size() == mesh.vertices_mm.size();
+
+  // Pass 3: colour, shading, outlines.
+  const Vec3 key_light = (-cam.forward + 0.55 * cam.up - 0.45 * cam.right).normalized();
+  const Vec3 fill_light = (-cam.forward - 0.2 * cam.up + 0.8 * cam.right).normalized();
+  out.image.width = w;
+  out.image.height = h;
+  out.image.rgba.assign(tri.size() * 4, 0);
+  const double edge_depth = 3.0 * cam.mm_per_px;
+  tbb::parallel_for(tbb::blocked_range<int>(0, h, 8), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y != rows.end(); ++y)
+      for (int x = 0; x < w; ++x) {
+        const std::size_t i = static_cast<std::size_t>(y) * w + x;
+        std::uint8_t* px = &out.image.rgba[4 * i];
+        if (tri[i] == kNone) continue;
+        const Vec3& n = normal[i];
+        const bool back = n.dot(cam.forward) > 0;
+        Rgb base{176, 176, 176};
+        if (!back) {
+          if (dev_count[i] > 0) {
+            base = scale.color(static_cast<double>(dev_sum[i]) / dev_count[i]);
+          } else if (have_vertex) {
+            const auto& t = mesh.triangles[tri[i]];
+            const Vec3& a = mesh.vertices_mm[t[0]];
+            const Vec3& b = mesh.vertices_mm[t[1]];
+            const Vec3& c = mesh.vertices_mm[t[2]];
+            // Barycentric coordinates of the hit point (double precision).
+            const Vec3 v0 = b - a, v1 = c - a, v2 = pixel_origin(x, y) + cam.forward * tdepth[i] - a;
+            const double d00 = v0.dot(v0), d01 = v0.dot(v1), d11 = v1.dot(v1);
+            const double d20 = v2.dot(v0), d21 = v2.dot(v1);
+            const double den = d00 * d11 - d01 * d01;
+            double bv = 0, bw = 0;
+            if (std::abs(den) > 0) {
+              bv = std::clamp((d11 * d20 - d01 * d21) / den, 0.0, 1.0);
+              bw = std::clamp((d00 * d21 - d01 * d20) / den, 0.0, 1.0 - bv);
+            }
+            const double d = (1 - bv - bw) * field.vertex_deviation_mm[t[0]] +
+                             bv * field.vertex_deviation_mm[t[1]] +
+                             bw * field.vertex_deviation_mm[t[2]];
+            base = scale.color(d);
+          } else {
+            base = {205, 205, 205};  // no deviation data here
+          }
+        }
+        const Vec3 ns = back ? Vec3(-n) : n;
+        double shade = 0.38 + 0.62 * std::max(0.0, ns.dot(key_light)) +
+                       0.18 * std::max(0.0, ns.dot(fill_light));
+        // Outline creases and depth steps (darken where a neighbour differs a lot).
+        auto differs = [&](int xx, int yy) {
+          if (xx < 0 || yy < 0 || xx >= w || yy >= h) return true;
+          const std::size_t j = static_cast<std::size_t>(yy) * w + xx;
+          if (tri[j] == kNone) return true;
+          if (std::abs(tdepth[j] - tdepth[i]) > edge_depth) return true;
+          return normal[j].dot(n) < 0.82;  // crease > ~35 degrees
+        };
+        if (differs(x + 1, y) || differs(x, y + 1) || differs(x - 1, y) || differs(x, y - 1))
+          shade *= 0.72;
+        shade = std::min(shade, 1.12);
+        for (int k = 0; k < 3; ++k)
+          px[k] = static_cast<std::uint8_t>(std::clamp(std::lround(base[k] * shade), 0L, 255L));
+        px[3] = 255;
+      }
+  });
+  out.hit_pixels = static_cast<std::size_t>(
+      std::count_if(tri.begin(), tri.end(), [](std::uint32_t t) { return t != kNone; }));
+  return out;
+}
+
+std::vector<RegionMarker> mark_regions(const MeshQuery& query, const Camera& camera,
+                                       std::span<const DeviationRegion> regions) {
+  std::vector<RegionMarker> out;
+  out.reserve(regions.size());
+  for (const auto& r : regions) {
+    RegionMarker m;
+    m.worst_px = camera.project(r.worst_position_mm);
+    m.bbox_min_px = Vec2::Constant(1e300);
+    m.bbox_max_px = Vec2::Constant(-1e300);
+    if (!r.bbox_mm.empty()) {
+      for (int c = 0; c < 8; ++c) {
+        const Vec3 corner((c & 1) ? r.bbox_mm.max.x() : r.bbox_mm.min.x(),
+                          (c & 2) ? r.bbox_mm.max.y() : r.bbox_mm.min.y(),
+                          (c & 4) ? r.bbox_mm.max.z() : r.bbox_mm.min.z());
+        const Vec2 p = camera.project(corner);
+        m.bbox_min_px = m.bbox_min_px.cwiseMin(p);
+        m.bbox_max_px = m.bbox_max_px.cwiseMax(p);
+      }
+    } else {
+      m.bbox_min_px = m.bbox_max_px = m.worst_px;
+    }
+    // Hidden when the surface, seen from the camera, is clearly in front of the point.
+    const double back_off = 1e4 * camera.mm_per_px + 1000.0;
+    const Vec3 origin = r.worst_position_mm - camera.forward * back_off;
+    const auto hit = query.first_hit(origin, camera.forward, 0.0, back_off);
+    m.visible = !hit || hit->t_mm >= back_off - (3.0 * camera.mm_per_px + 0.1);
+    out.push_back(m);
+  }
+  return out;
+}
+
+}  // namespace printtwin

@@ -1,0 +1,194 @@
+// Data of the layer viewer in report.html: per layer, the mesh's cross-section (simplified
+// polylines), the deposit's outer-surface points of that layer and the out-of-tolerance
+// mesh samples near it, each point with its signed deviation.
+//
+// Size matters (report.html < 5 MB for a 200k-triangle part): coordinates are quantised to
+// uint16 over the part's XY box, deviations to int8 over the colour scale's range, and the
+// arrays travel as base64 strings inside one JSON object.
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "report/report_internal.hpp"
+
+namespace printtwin::detail {
+
+namespace {
+
+struct Packer {
+  double x0 = 0, y0 = 0, q = 0.001;
+  std::string bytes;
+  void u16(unsigned v) {
+    bytes += static_cast<char>(v & 0xff);
+    bytes += static_cast<char>((v >> 8) & 0xff);
+  }
+  void xy(const Vec2& p) {
+    u16(static_cast<unsigned>(std::clamp(std::lround((p.x() - x0) / q), 0L, 65535L)));
+    u16(static_cast<unsigned>(std::clamp(std::lround((p.y() - y0) / q), 0L, 65535L)));
+  }
+};
+
+std::int8_t quantize_dev(double d, double range) {
+  return static_cast<std::int8_t>(std::clamp(std::lround(d / range * 127.0), -127L, 127L));
+}
+
+double round_to(double v, double step) { return std::round(v / step) * step; }
+
+}  // namespace
+
+std::string viewer_json(const VerifyReport& report, const DeviationColorScale& scale,
+                        const ReportOptions& options) {
+  const auto& dev = report.deviation;
+  const auto& per_layer = dev.per_layer;
+  nlohmann::json j;
+  if (per_layer.empty()) {
+    j["layers"] = nlohmann::json::array();
+    return j.dump();
+  }
+
+  // Layers offered by the viewer (evenly subsampled when there are many).
+  std::vector<std::size_t> chosen;
+  const std::size_t max_layers = static_cast<std::size_t>(std::max(options.max_viewer_layers, 1));
+  if (per_layer.size() <= max_layers) {
+    for (std::size_t i = 0; i < per_layer.size(); ++i) chosen.push_back(i);
+  } else {
+    for (std::size_t k = 0; k < max_layers; ++k)
+      chosen.push_back(k * (per_layer.size() - 1) / (max_layers - 1));
+  }
+  // Layer tops (z_mm) and heights; the cut is taken at mid-layer.
+  std::vector<double> top(per_layer.size()), cut_z(chosen.size());
+  for (std::size_t i = 0; i < per_layer.size(); ++i) top[i] = per_layer[i].z_mm;
+  auto height_of = [&](std::size_t i) {
+    const double h = i > 0 ? top[i] - top[i - 1] : top[0];
+    return (h > 1e-6 && h < 2.0) ? h : 0.2;
+  };
+  for (std::size_t k = 0; k < chosen.size(); ++k)
+    cut_z[k] = top[chosen[k]] - 0.5 * height_of(chosen[k]);
+  const auto sections = cut_mesh(report.placed_mesh, cut_z, options.section_simplify_mm);
+
+  // XY frame of the quantisation: mesh and deposit part boxes.
+  Box3 box = bounding_box(report.placed_mesh);
+  box.extend(report.deposit.part_bbox_mm);
+  if (box.empty()) box.extend(Vec3::Zero());
+  const double pad = 1.0;
+  Packer frame;
+  frame.x0 = std::floor(box.min.x() - pad);
+  frame.y0 = std::floor(box.min.y() - pad);
+  const double extent = std::max(box.max.x() - frame.x0, box.max.y() - frame.y0) + pad;
+  frame.q = std::max(extent / 65000.0, 0.0005);
+
+  // Deposit samples by layer number.
+  std::map<int, std::size_t> chosen_of_layer;
+  for (std::size_t k = 0; k < chosen.size(); ++k) chosen_of_layer[per_layer[chosen[k]].layer] = k;
+  std::vector<std::vector<std::uint32_t>> dep_idx(chosen.size()), mesh_idx(chosen.size());
+  for (std::uint32_t i = 0; i < dev.deposit_samples.size(); ++i) {
+    const auto it = chosen_of_layer.find(dev.deposit_samples[i].layer);
+    if (it != chosen_of_layer.end()) dep_idx[it->second].push_back(i);
+  }
+  // Out-of-tolerance mesh samples, by the layer slab their height falls in.
+  for (std::uint32_t i = 0; i < dev.mesh_samples.size(); ++i) {
+    const auto& s = dev.mesh_samples[i];
+    if (!(std::abs(s.distance_mm) > dev.tolerance_mm)) continue;
+    const double z = s.position_mm.z();
+    const auto it = std::lower_bound(top.begin(), top.end(), z - 1e-9);
+    if (it == top.end()) continue;
+    const std::size_t li = static_cast<std::size_t>(it - top.begin());
+    if (z < top[li] - height_of(li) - 1e-9) continue;
+    const auto c = chosen_of_layer.find(per_layer[li].layer);
+    if (c != chosen_of_layer.end()) mesh_idx[c->second].push_back(i);
+  }
+
+  const std::size_t per_layer_cap =
+      std::max<std::size_t>(200, options.max_viewer_points / std::max<std::size_t>(chosen.size(), 1));
+  const std::size_t mesh_cap = std::max<std::size_t>(100, per_layer_cap / 2);
+  nlohmann::json layers = nlohmann::json::array();
+  for (std::size_t k = 0; k < chosen.size(); ++k) {
+    const LayerDeviation& ld = per_layer[chosen[k]];
+    // Cross-section polylines: [count, (n, x, y, x, y, ...)...] as uint16.
+    Packer loops = frame;
+    std::size_t nloops = 0;
+    for (const auto& poly : sections[k])
+      for (std::size_t start = 0; start + 1 < poly.size(); start += 65534) nloops++;
+    loops.u16(static_cast<unsigned>(std::min<std::size_t>(nloops, 65535)));
+    for (const auto& poly : sections[k]) {
+      for (std::size_t start = 0; start + 1 < poly.size(); start += 65534) {
+        const std::size_t end = std::min(poly.size(), start + 65535);
+        loops.u16(static_cast<unsigned>(end - start));
+        for (std::size_t i = start; i < end; ++i) loops.xy(poly[i]);
+      }
+    }
+    auto pack_points = [&](const std::vector<DeviationSample>& all, const std::vector<std::uint32_t>& idx,
+                           std::size_t cap, std::string& xy_b64, std::string& d_b64) {
+      Packer xy = frame;
+      std::string d;
+      const std::size_t stride = idx.size() > cap ? (idx.size() + cap - 1) / cap : 1;
+      for (std::size_t i = 0; i < idx.size(); i += stride) {
+        const auto& s = all[idx[i]];
+        xy.xy(Vec2(s.position_mm.x(), s.position_mm.y()));
+        d += static_cast<char>(quantize_dev(s.distance_mm, scale.range_mm));
+      }
+      xy_b64 = base64(xy.bytes);
+      d_b64 = base64(d);
+    };
+    std::string p, pd, m, md;
+    pack_points(dev.deposit_samples, dep_idx[k], per_layer_cap, p, pd);
+    pack_points(dev.mesh_samples, mesh_idx[k], mesh_cap, m, md);
+
+    double excess = 0, deficit = 0, ss = 0;
+    std::size_t n = 0;
+    for (const DeviationStats* s : {&ld.deposit_to_mesh, &ld.mesh_to_deposit}) {
+      if (s->samples == 0) continue;
+      excess = std::max(excess, s->max_mm);
+      deficit = std::min(deficit, s->min_mm);
+      ss += s->rms_mm * s->rms_mm * static_cast<double>(s->samples);
+      n += s->samples;
+    }
+    nlohmann::json l;
+    l["l"] = ld.layer;
+    l["z"] = round_to(ld.z_mm, 1e-4);
+    l["c"] = base64(loops.bytes);
+    l["p"] = p;
+    l["pd"] = pd;
+    l["m"] = m;
+    l["md"] = md;
+    l["np"] = dep_idx[k].size();
+    l["s"] = {round_to(excess, 1e-4), round_to(deficit, 1e-4),
+              round_to(n > 0 ? std::sqrt(ss / static_cast<double>(n)) : 0.0, 1e-4),
+              round_to(ld.deposit_to_mesh.within_tolerance_pct, 0.01)};
+    layers.push_back(std::move(l));
+  }
+
+  // Colour lookup table over [-range, +range] (256 entries, RGB), the same scale as the images.
+  std::string lut;
+  for (int i = 0; i < 256; ++i) {
+    const auto c = scale.color((i / 127.5 - 1.0) * scale.range_mm);
+    lut.append(reinterpret_cast<const char*>(c.data()), 3);
+  }
+  nlohmann::json regions = nlohmann::json::array();
+  for (const auto& r : dev.regions) {
+    regions.push_back({{"k", std::string(region_kind_name(r.kind))},
+                       {"l0", r.layer_min},
+                       {"l1", r.layer_max},
+                       {"b",
+                        {round_to(r.bbox_mm.min.x(), 1e-3), round_to(r.bbox_mm.min.y(), 1e-3),
+                         round_to(r.bbox_mm.max.x(), 1e-3), round_to(r.bbox_mm.max.y(), 1e-3)}},
+                       {"w", round_to(r.worst_mm, 1e-4)}});
+  }
+  j["x0"] = frame.x0;
+  j["y0"] = frame.y0;
+  j["q"] = frame.q;
+  j["ext"] = {round_to(box.min.x(), 1e-3), round_to(box.min.y(), 1e-3), round_to(box.max.x(), 1e-3),
+              round_to(box.max.y(), 1e-3)};
+  j["voxel"] = report.deposit.voxel_mm > 0 ? report.deposit.voxel_mm : report.settings.voxel_mm;
+  j["tol"] = scale.tolerance_mm;
+  j["range"] = scale.range_mm;
+  j["lut"] = base64(lut);
+  j["layers"] = std::move(layers);
+  j["regions"] = std::move(regions);
+  j["total_layers"] = per_layer.size();
+  return j.dump();
+}
+
+}  // namespace printtwin::detail
