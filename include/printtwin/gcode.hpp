@@ -132,6 +132,8 @@ class GcodeInterpreter {
   [[nodiscard]] const std::vector<Finding>& findings() const { return findings_; }
   /// Commands the interpreter does not know, with how often each occurred.
   [[nodiscard]] const std::map<std::string, long>& unknown_commands() const { return unknown_; }
+  /// Line of the first occurrence of each unknown command.
+  [[nodiscard]] const std::map<std::string, long>& unknown_first_lines() const { return unknown_first_line_; }
   /// Motion limits currently in force.
   [[nodiscard]] const MotionLimits& limits() const { return limits_; }
   /// Replaces the limits in force (e.g. with those of a slicer's config block).
@@ -149,7 +151,6 @@ class GcodeInterpreter {
   [[nodiscard]] long moves_emitted() const { return moves_; }
 
  private:
-  struct Impl;
   void add_finding(Finding f);
   Status warn(long line, std::string_view text, std::string message, std::string code);
   Status linear_move(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
@@ -168,6 +169,7 @@ class GcodeInterpreter {
   std::vector<Finding> findings_;
   std::map<std::string, int> finding_counts_;
   std::map<std::string, long> unknown_;
+  std::map<std::string, long> unknown_first_line_;
   std::map<std::string, int> object_names_;
   std::vector<double> layer_z_;
   std::string slicer_;

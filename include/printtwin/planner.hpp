@@ -17,6 +17,7 @@
 #include <array>
 #include <cstdint>
 #include <deque>
+#include <limits>
 #include <vector>
 
 #include "printtwin/machine.hpp"
@@ -36,10 +37,15 @@ struct MotionLimits {
   double junction_deviation_mm = 0.08;  ///< M205 J
   bool jd_small_segments = true;        ///< Marlin JD_HANDLE_SMALL_SEGMENTS
   Eigen::Vector4d jerk_mm_s{10, 10, 0.3, 5};  ///< M205 X Y Z E (classic jerk)
-  /// Classic jerk as PrusaSlicer's time estimator (GCodeProcessor) computes it: the "safe
-  /// speed" of a block is min(nominal, jerk of each moving axis) instead of Marlin's
-  /// proportional scaling. Used by `--limits-from-gcode` to reproduce PrusaSlicer's estimate.
-  bool prusaslicer_safe_speed = false;
+  /// Plan like PrusaSlicer's time estimator (GCodeProcessor::TimeProcessor) instead of the
+  /// firmware: classic jerk whose "safe speed" is min(nominal, jerk of each moving axis)
+  /// (Marlin scales proportionally), moves that retract while moving (wipes) use the travel
+  /// acceleration, and E-only moves are limited per axis like any other. Used by
+  /// `--limits-from-gcode` to reproduce PrusaSlicer's estimate (docs/simulate.md).
+  bool prusaslicer_compat = false;
+  /// M204 values are clamped to these (PrusaSlicer's machine_max_acceleration_extruding,
+  /// _retracting, _travel); infinity = no clamp, as in Marlin.
+  Eigen::Vector3d accel_cap_mm_s2 = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
   double min_feedrate_mm_s = 0;          ///< M205 S: floor of the requested speed of printing moves
   double min_travel_feedrate_mm_s = 0;   ///< M205 T: floor for moves without E
   /// M205 B: Marlin's SLOWDOWN -- while the buffer holds 2..N/2-1 blocks (it is draining,

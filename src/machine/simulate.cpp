@@ -1,0 +1,377 @@
+// simulate_gcode(): reader -> parser -> interpreter -> planner, with the accounting that
+// becomes SimulationResult, and its JSON / text forms.
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "printtwin/io.hpp"
+#include "printtwin/simulate.hpp"
+
+namespace printtwin {
+
+namespace {
+
+/// Glue between the interpreter, the planner and the caller's sink; accumulates the result.
+class Pipeline final : public InterpreterOutput, public MoveSink {
+ public:
+  Pipeline(const MotionLimits& limits, int window, MoveSink* user, bool plan)
+      : planner_(limits, window), user_(user), plan_(plan) {}
+
+  // InterpreterOutput
+  void move(const Move& m) override {
+    if (user_ != nullptr) user_->on_move(m);
+    ++r.moves;
+    const double len = m.length_mm();
+    if (m.kind == MoveKind::extrude) {
+      r.extrude_distance_mm += len;
+      r.extrusion_bounds_mm.extend(m.start_mm);
+      r.extrusion_bounds_mm.extend(m.end_mm);
+    } else if (m.kind == MoveKind::travel || m.kind == MoveKind::retract) {
+      r.travel_distance_mm += len;
+    }
+    r.motion_bounds_mm.extend(m.end_mm);
+    r.filament_mm += m.e_mm;
+    if (m.e_mm < 0) r.retracted_mm -= m.e_mm;
+    if (m.layer >= 0) {
+      grow_layers(m.layer);
+      layer_filament_[static_cast<std::size_t>(m.layer)] += m.e_mm;
+      if (m.kind == MoveKind::extrude && layer_first_line_[static_cast<std::size_t>(m.layer)] == 0)
+        layer_first_line_[static_cast<std::size_t>(m.layer)] = m.line;
+    }
+    current_layer_ = m.layer;
+    if (plan_) planner_.add(m, *this);
+  }
+  void limits(const MotionLimits& l) override { planner_.set_limits(l); }
+  void synchronize() override {
+    if (plan_) planner_.flush(*this);
+  }
+  void wait(double duration_s, bool heating, long line) override {
+    if (plan_) planner_.wait(duration_s, heating, line, *this);
+  }
+
+  // MoveSink (from the planner)
+  void on_segment(const MotionSegment& s) override {
+    ++r.segments;
+    const double t = s.duration_s();
+    r.max_speed_mm_s = std::max(r.max_speed_mm_s, s.cruise_speed_mm_s);
+    std::size_t key;
+    switch (s.kind) {
+      case MoveKind::home: r.homing_time_s += t; key = kHoming; break;
+      case MoveKind::travel: r.motion_time_s += t; key = kTravel; break;
+      case MoveKind::retract:
+      case MoveKind::unretract: r.motion_time_s += t; key = kRetract; break;
+      case MoveKind::extrude:
+      default: r.motion_time_s += t; key = static_cast<std::size_t>(s.feature); break;
+    }
+    feature_time_[key] += t;
+    if (s.layer >= 0) {
+      grow_layers(s.layer);
+      layer_time_[static_cast<std::size_t>(s.layer)] += t;
+    }
+    if (user_ != nullptr) user_->on_segment(s);
+  }
+  void on_wait(double start_s, double duration_s, bool heating, long line) override {
+    (heating ? r.heating_time_s : r.dwell_time_s) += duration_s;
+    if (current_layer_ >= 0) {
+      grow_layers(current_layer_);
+      layer_time_[static_cast<std::size_t>(current_layer_)] += duration_s;
+    }
+    if (user_ != nullptr) user_->on_wait(start_s, duration_s, heating, line);
+  }
+
+  void finish(const GcodeInterpreter& interp) {
+    if (plan_) planner_.flush(*this);
+    r.print_time_s = r.motion_time_s + r.homing_time_s + r.dwell_time_s + r.heating_time_s;
+    r.filament_mm3 = 0;  // set by the caller (needs the profile)
+    for (std::size_t i = 0; i < kKeys; ++i) {
+      if (feature_time_[i] <= 0) continue;
+      std::string name = i == kTravel ? "travel" : i == kRetract ? "retract" : i == kHoming ? "homing"
+                                                 : std::string(to_string(static_cast<Feature>(i)));
+      r.time_by_feature_s[name] += feature_time_[i];
+    }
+    const auto& zs = interp.layer_z_mm();
+    grow_layers(static_cast<int>(zs.size()) - 1);
+    for (std::size_t i = 0; i < zs.size(); ++i) {
+      LayerStats l;
+      l.index = static_cast<int>(i);
+      l.z_mm = zs[i];
+      double below = 0;
+      for (double z : zs)
+        if (z < zs[i] - 1e-9) below = std::max(below, z);
+      l.height_mm = zs[i] - below;
+      l.time_s = layer_time_[i];
+      l.filament_mm = layer_filament_[i];
+      l.first_line = layer_first_line_[i];
+      r.layers.push_back(l);
+    }
+  }
+
+  SimulationResult r;
+
+ private:
+  static constexpr std::size_t kTravel = static_cast<std::size_t>(Feature::count_);
+  static constexpr std::size_t kRetract = kTravel + 1;
+  static constexpr std::size_t kHoming = kTravel + 2;
+  static constexpr std::size_t kKeys = kTravel + 3;
+
+  void grow_layers(int layer) {
+    if (layer < 0) return;
+    const auto n = static_cast<std::size_t>(layer) + 1;
+    if (layer_time_.size() < n) {
+      layer_time_.resize(n, 0.0);
+      layer_filament_.resize(n, 0.0);
+      layer_first_line_.resize(n, 0);
+    }
+  }
+
+  Planner planner_;
+  MoveSink* user_;
+  bool plan_;
+  int current_layer_ = -1;
+  std::array<double, kKeys> feature_time_{};
+  std::vector<double> layer_time_, layer_filament_;
+  std::vector<long> layer_first_line_;
+};
+
+Error with_file(Error e, const std::string& file) {
+  if (e.file.empty()) e.file = file;
+  return e;
+}
+
+Result<SimulationResult> run(std::istream& in, const PrinterProfile& profile, const SimulateOptions& options,
+                             MoveSink* sink, bool plan) {
+  const std::string& file = options.source_name;
+  MotionLimits limits = motion_limits_from_profile(profile);
+  int window = profile.block_buffer_size;
+  if (options.limits_from_gcode) {
+    // PrusaSlicer writes its config block at the end: read the tail, then rewind.
+    in.clear();
+    in.seekg(0, std::ios::end);
+    const std::streamoff size = in.tellg();
+    if (size < 0 || !in)
+      return bad_input("--limits-from-gcode needs a seekable file (PrusaSlicer writes its limits at the end)", file);
+    const std::streamoff tail = std::min<std::streamoff>(size, 256 * 1024);
+    in.seekg(size - tail);
+    std::string text(static_cast<std::size_t>(tail), '\0');
+    in.read(text.data(), tail);
+    in.clear();
+    in.seekg(0);
+    auto l = limits_from_prusaslicer_config(text, limits);
+    if (!l) return with_file(l.error(), file);
+    limits = *l;
+    // PrusaSlicer's estimator plans over a much longer queue than Marlin's 16 blocks.
+    window = std::max(window, 64);
+  }
+
+  GcodeInterpreter interp(profile, options.interpreter);
+  Pipeline pipe(limits, window, sink, plan);
+  if (options.limits_from_gcode) interp.set_limits(limits, pipe);
+
+  GcodeLineReader reader(in);
+  std::string_view text;
+  GcodeCommand cmd;
+  long lines = 0;
+  while (reader.next(text)) {
+    lines = reader.line_number();
+    if (reader.truncated()) {
+      auto st = interp.warn_input(bad_input("line longer than " + std::to_string(kMaxGcodeLineLength) + " bytes", file, lines));
+      if (!st) return with_file(st.error(), file);
+      continue;
+    }
+    auto parsed = parse_gcode_line(text, lines, cmd);
+    if (!parsed) {
+      auto st = interp.warn_input(parsed.error());
+      if (!st) return with_file(st.error(), file);
+      continue;
+    }
+    auto st = interp.execute(cmd, text, pipe);
+    if (!st) return with_file(st.error(), file);
+  }
+  if (in.bad()) return bad_input("read error after line " + std::to_string(lines), file);
+  if (auto st = interp.finish(reader.ended_mid_line(), lines); !st) return with_file(st.error(), file);
+
+  pipe.finish(interp);
+  SimulationResult r = std::move(pipe.r);
+  r.lines = lines;
+  r.filament_mm3 = r.filament_mm * profile.filament_area_mm2();
+  r.findings = interp.findings();
+  r.unknown_commands = interp.unknown_commands();
+  for (const auto& [name, count] : r.unknown_commands) {
+    Finding f;
+    f.severity = Severity::info;
+    f.code = "unknown_command";
+    f.message = name + " is not simulated (ignored " + std::to_string(count) + (count == 1 ? " time)" : " times)");
+    f.line = interp.unknown_first_lines().at(name);
+    f.count = count;
+    r.findings.push_back(std::move(f));
+  }
+  r.slicer = interp.slicer();
+  if (!std::isnan(interp.slicer_estimate_s())) r.slicer_estimate_s = interp.slicer_estimate_s();
+  r.limits_used = limits;
+  r.limits_from_gcode = options.limits_from_gcode;
+  return r;
+}
+
+double round_to(double v, double q) { return std::round(v / q) * q; }
+
+std::string duration_text(double s) {
+  const long total = std::lround(s);
+  const long h = total / 3600, m = (total % 3600) / 60, sec = total % 60;
+  std::string out;
+  if (h > 0) out += std::to_string(h) + "h ";
+  if (h > 0 || m > 0) out += std::to_string(m) + "m ";
+  out += std::to_string(sec) + "s";
+  return out;
+}
+
+}  // namespace
+
+Result<SimulationResult> simulate_gcode(std::istream& in, const PrinterProfile& profile,
+                                        const SimulateOptions& options, MoveSink* sink) {
+  return run(in, profile, options, sink, true);
+}
+
+Result<SimulationResult> simulate_gcode_file(const std::filesystem::path& path, const PrinterProfile& profile,
+                                             const SimulateOptions& options, MoveSink* sink) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) return bad_input("is a directory, expected a G-code file", path.string());
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return bad_input("cannot open G-code file", path.string());
+  SimulateOptions o = options;
+  if (o.source_name.empty()) o.source_name = path.string();
+  return simulate_gcode(in, profile, o, sink);
+}
+
+Result<std::vector<Move>> interpret_gcode(std::istream& in, const PrinterProfile& profile,
+                                          const SimulateOptions& options) {
+  struct Collect final : MoveSink {
+    std::vector<Move> moves;
+    void on_move(const Move& m) override { moves.push_back(m); }
+  } collect;
+  auto r = run(in, profile, options, &collect, false);
+  if (!r) return r.error();
+  return std::move(collect.moves);
+}
+
+Result<std::vector<Move>> interpret_gcode_file(const std::filesystem::path& path, const PrinterProfile& profile,
+                                               const SimulateOptions& options) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return bad_input("cannot open G-code file", path.string());
+  SimulateOptions o = options;
+  if (o.source_name.empty()) o.source_name = path.string();
+  return interpret_gcode(in, profile, o);
+}
+
+std::string simulation_to_json(const SimulationResult& r, const std::string& input_name) {
+  using nlohmann::json;
+  auto q = [](double v) { return round_to(v, 1e-6); };
+  json doc;
+  doc["schema"] = "printtwin.simulate/1";
+  doc["input"] = input_name;
+  doc["slicer"] = r.slicer;
+  doc["slicer_estimate_s"] = r.slicer_estimate_s ? json(*r.slicer_estimate_s) : json(nullptr);
+  doc["print_time_s"] = q(r.print_time_s);
+  doc["motion_time_s"] = q(r.motion_time_s);
+  doc["homing_time_s"] = q(r.homing_time_s);
+  doc["dwell_time_s"] = q(r.dwell_time_s);
+  doc["heating_time_s"] = q(r.heating_time_s);
+  doc["filament_mm"] = q(r.filament_mm);
+  doc["filament_mm3"] = q(r.filament_mm3);
+  doc["retracted_mm"] = q(r.retracted_mm);
+  doc["extrude_distance_mm"] = q(r.extrude_distance_mm);
+  doc["travel_distance_mm"] = q(r.travel_distance_mm);
+  doc["max_speed_mm_s"] = q(r.max_speed_mm_s);
+  doc["lines"] = r.lines;
+  doc["moves"] = r.moves;
+  doc["segments"] = r.segments;
+  json layers = json::array();
+  for (const auto& l : r.layers)
+    layers.push_back({{"index", l.index}, {"z_mm", q(l.z_mm)}, {"height_mm", q(l.height_mm)},
+                      {"time_s", q(l.time_s)}, {"filament_mm", q(l.filament_mm)}, {"first_line", l.first_line}});
+  doc["layers"] = {{"count", r.layers.size()}, {"items", layers}};
+  json tf = json::object();
+  for (const auto& [k, v] : r.time_by_feature_s) tf[k] = q(v);
+  doc["time_by_feature_s"] = tf;
+  json unknown = json::object();
+  for (const auto& [k, v] : r.unknown_commands) unknown[k] = v;
+  doc["unknown_commands"] = unknown;
+  auto box = [&](const Box3& b) {
+    if (b.empty()) return json(nullptr);
+    return json{{"min_mm", {q(b.min.x()), q(b.min.y()), q(b.min.z())}},
+                {"max_mm", {q(b.max.x()), q(b.max.y()), q(b.max.z())}}};
+  };
+  doc["extrusion_bounds"] = box(r.extrusion_bounds_mm);
+  doc["motion_bounds"] = box(r.motion_bounds_mm);
+  json findings = json::array();
+  for (const auto& f : r.findings) {
+    json j{{"severity", std::string(to_string(f.severity))}, {"code", f.code}, {"message", f.message}};
+    j["line"] = f.line ? json(*f.line) : json(nullptr);
+    j["layer"] = f.layer ? json(*f.layer) : json(nullptr);
+    j["position_mm"] = f.position_mm ? json{q(f.position_mm->x()), q(f.position_mm->y()), q(f.position_mm->z())}
+                                     : json(nullptr);
+    j["count"] = f.count;
+    findings.push_back(j);
+  }
+  doc["findings"] = findings;
+  const auto& L = r.limits_used;
+  doc["limits"] = {
+      {"source", r.limits_from_gcode ? "gcode" : "profile"},
+      {"junction", L.junction == JunctionModel::classic_jerk ? "classic_jerk" : "junction_deviation"},
+      {"junction_deviation_mm", L.junction_deviation_mm},
+      {"jerk_mm_s", {L.jerk_mm_s[0], L.jerk_mm_s[1], L.jerk_mm_s[2], L.jerk_mm_s[3]}},
+      {"max_feedrate_mm_s", {L.max_feedrate_mm_s[0], L.max_feedrate_mm_s[1], L.max_feedrate_mm_s[2], L.max_feedrate_mm_s[3]}},
+      {"max_accel_mm_s2", {L.max_accel_mm_s2[0], L.max_accel_mm_s2[1], L.max_accel_mm_s2[2], L.max_accel_mm_s2[3]}},
+      {"print_accel_mm_s2", L.print_accel_mm_s2},
+      {"retract_accel_mm_s2", L.retract_accel_mm_s2},
+      {"travel_accel_mm_s2", L.travel_accel_mm_s2},
+      {"min_segment_time_s", L.min_segment_time_s},
+      {"prusaslicer_compat", L.prusaslicer_compat}};
+  return doc.dump(2) + "\n";
+}
+
+std::string simulation_summary(const SimulationResult& r) {
+  std::string s;
+  if (!r.slicer.empty()) s += "slicer        " + r.slicer + "\n";
+  s += "lines         " + std::to_string(r.lines) + " (" + std::to_string(r.moves) + " moves, " +
+       std::to_string(r.segments) + " planned segments)\n";
+  s += "print time    " + duration_text(r.print_time_s) + " (" + format_fixed(r.print_time_s, 1) + " s)\n";
+  s += "  motion      " + format_fixed(r.motion_time_s, 1) + " s\n";
+  s += "  homing      " + format_fixed(r.homing_time_s, 1) + " s\n";
+  s += "  dwell       " + format_fixed(r.dwell_time_s, 1) + " s\n";
+  s += "  heating     " + format_fixed(r.heating_time_s, 1) + " s\n";
+  if (r.slicer_estimate_s) {
+    // PrusaSlicer 2.5's estimate counts planned motion (its G28 is instantaneous and the
+    // start G-code's G4 S is not added): compare motion time.
+    const double ours = r.motion_time_s;
+    s += "slicer says   " + duration_text(*r.slicer_estimate_s) + "; motion time differs by " +
+         format_fixed(100.0 * (ours - *r.slicer_estimate_s) / std::max(1.0, *r.slicer_estimate_s), 2) + " %" +
+         (r.limits_from_gcode ? "" : " (try --limits-from-gcode)") + "\n";
+  }
+  s += "filament      " + format_fixed(r.filament_mm, 2) + " mm (" + format_fixed(r.filament_mm3, 1) + " mm3)\n";
+  if (!r.layers.empty()) {
+    double zmin = r.layers.front().z_mm, zmax = zmin;
+    for (const auto& l : r.layers) zmin = std::min(zmin, l.z_mm), zmax = std::max(zmax, l.z_mm);
+    s += "layers        " + std::to_string(r.layers.size()) + " (z " + format_fixed(zmin, 2) + " .. " +
+         format_fixed(zmax, 2) + " mm)\n";
+  } else {
+    s += "layers        0\n";
+  }
+  long errors = 0, warnings = 0;
+  for (const auto& f : r.findings) {
+    if (f.severity == Severity::error) ++errors;
+    if (f.severity == Severity::warning) ++warnings;
+  }
+  s += "findings      " + std::to_string(errors) + " errors, " + std::to_string(warnings) + " warnings\n";
+  for (const auto& f : r.findings) {
+    s += "  " + std::string(to_string(f.severity)) + " " + f.code;
+    if (f.line) s += " (line " + std::to_string(*f.line) + ")";
+    s += ": " + f.message;
+    if (f.count > 1) s += " [x" + std::to_string(f.count) + "]";
+    s += "\n";
+  }
+  return s;
+}
+
+}  // namespace printtwin
