@@ -245,6 +245,9 @@ Result<Mesh> load_mesh(const fs::path& path, const MeshLoadOptions& options) {
   if (scene == nullptr) {
     std::string why = importer.GetErrorString();
     if (why.empty()) why = "unknown reason";
+    if (lower(why).find("no output meshes") != std::string::npos ||
+        lower(why).find("no meshes") != std::string::npos)
+      return bad_input("the file holds no triangles, expected a mesh (assimp: " + why + ")", name);
     return bad_input("cannot read mesh: " + why, name);
   }
 

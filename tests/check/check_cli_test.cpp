@@ -1,0 +1,199 @@
+// End-to-end `printtwin check`: every sample against its .expect.json, exit codes, JSON keys,
+// bad inputs, printer profiles and --repair.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "printtwin/io.hpp"
+#include "printtwin/mesh.hpp"
+#include "support/test_support.hpp"
+
+namespace printtwin {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+json read_json(const fs::path& p) {
+  auto text = read_file(p);
+  EXPECT_TRUE(text.ok()) << p;
+  return text.ok() ? json::parse(*text) : json();
+}
+
+std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
+
+TEST(CheckCli, EverySampleMatchesItsExpectation) {
+  const fs::path models = test::source_path("samples/models");
+  const fs::path out = test::temp_dir("check_cli_samples");
+  int seen = 0;
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(models))
+    if (e.path().string().ends_with(".expect.json")) files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  for (const auto& exp_path : files) {
+    const json exp = read_json(exp_path);
+    const std::string model = exp["model"];
+    SCOPED_TRACE(model);
+    const fs::path json_out = out / (model + ".json");
+    const auto run = test::run_cli("check " + q(models / model) + " --json " + q(json_out));
+    EXPECT_EQ(run.exit_code, exp["exit_code"].get<int>()) << run.out << run.err;
+    const json got = read_json(json_out);
+    EXPECT_EQ(got["schema"], "printtwin.check");
+    EXPECT_EQ(got["schema_version"], 1);
+    EXPECT_EQ(got["printable"], exp["printable"]);
+    EXPECT_EQ(got["mesh"]["triangles"], exp["mesh"]["triangles"]);
+    EXPECT_EQ(got["mesh"]["closed"], exp["mesh"]["closed"]);
+    EXPECT_EQ(got["mesh"]["shells"], exp["mesh"]["shells"]);
+    EXPECT_NEAR(got["mesh"]["volume_mm3"].get<double>(), exp["mesh"]["volume_mm3"].get<double>(),
+                exp["tolerance"]["volume_mm3"].get<double>());
+    for (int a = 0; a < 3; ++a)
+      EXPECT_NEAR(got["mesh"]["bbox_mm"]["size"][a].get<double>(),
+                  exp["mesh"]["bbox_size_mm"][a].get<double>(),
+                  exp["tolerance"]["size_mm"].get<double>());
+    std::vector<std::string> codes, want;
+    for (const auto& f : got["findings"]) {
+      codes.push_back(f["code"]);
+      for (const char* key : {"severity", "code", "message", "position_mm"})
+        EXPECT_TRUE(f.contains(key)) << key;
+    }
+    for (const auto& c : exp["findings"]) want.push_back(c);
+    std::sort(codes.begin(), codes.end());
+    std::sort(want.begin(), want.end());
+    EXPECT_EQ(codes, want);
+    for (const auto& [code, v] : exp["values"].items()) {
+      double best = -1;
+      for (const auto& f : got["findings"])
+        if (f["code"] == code && f.contains("value"))
+          best = std::max(best, f["value"].get<double>());
+      EXPECT_NEAR(best, v[0].get<double>(), v[1].get<double>()) << code;
+    }
+    // Text for people: a verdict line.
+    EXPECT_NE(run.out.find(exp["printable"].get<bool>() ? "result     PRINTABLE" : "NOT PRINTABLE"),
+              std::string::npos)
+        << run.out;
+    ++seen;
+  }
+  EXPECT_GE(seen, 6);
+}
+
+TEST(CheckCli, JsonIsDeterministic) {
+  const fs::path out = test::temp_dir("check_cli_det");
+  const fs::path model = test::source_path("samples/models/overhangs.stl");
+  ASSERT_EQ(test::run_cli("check " + q(model) + " --json " + q(out / "a.json")).exit_code, 0);
+  ASSERT_EQ(test::run_cli("check " + q(model) + " --json " + q(out / "b.json")).exit_code, 0);
+  EXPECT_EQ(*read_file(out / "a.json"), *read_file(out / "b.json"));
+}
+
+TEST(CheckCli, BadInputsExitThreeNamingTheFile) {
+  const fs::path dir = test::temp_dir("check_cli_bad");
+  struct Case {
+    std::string name, bytes, message;
+  };
+  std::string truncated(84, ' ');
+  const std::uint32_t n = 1000;
+  std::memcpy(truncated.data() + 80, &n, 4);
+  const std::vector<Case> cases = {
+      {"empty.stl", "", "empty file"},
+      {"short.stl", std::string(50, 'x'), "truncated binary STL"},
+      {"count.stl", truncated, "announces 1000 triangles"},
+      {"garbage.stl", "solid a\nfacet normal 0 0 1\nouter loop\nvertex 1 2 3\nvertex oops\n",
+       "garbage.stl:5: ASCII STL: expected a number, found 'oops'"},
+      {"part.step", "ISO-10303-21;", "unknown mesh extension '.step'"},
+  };
+  for (const auto& c : cases) {
+    std::ofstream(dir / c.name, std::ios::binary) << c.bytes;
+    const auto run = test::run_cli("check " + q(dir / c.name));
+    EXPECT_EQ(run.exit_code, 3) << c.name << run.err;
+    EXPECT_NE(run.err.find(c.message), std::string::npos) << run.err;
+    EXPECT_NE(run.err.find(c.name), std::string::npos) << run.err;
+    EXPECT_TRUE(run.out.empty()) << "no report for bad input: " << run.out;
+  }
+  fs::create_directories(dir / "dir.stl");
+  const auto d = test::run_cli("check " + q(dir / "dir.stl"));
+  EXPECT_EQ(d.exit_code, 3);
+  EXPECT_NE(d.err.find("directory"), std::string::npos) << d.err;
+  EXPECT_EQ(test::run_cli("check " + q(dir / "missing.stl")).exit_code, 3);
+}
+
+TEST(CheckCli, UsageErrorsExitTwo) {
+  const fs::path cube = test::source_path("samples/models/calibration_cube_20mm.stl");
+  EXPECT_EQ(test::run_cli("check").exit_code, 2);
+  EXPECT_EQ(test::run_cli("check " + q(cube) + " --units furlong").exit_code, 2);
+  EXPECT_EQ(test::run_cli("check " + q(cube) + " --overhang-angle 120").exit_code, 2);
+  EXPECT_EQ(test::run_cli("check " + q(cube) + " --center 10").exit_code, 2);
+  EXPECT_EQ(test::run_cli("check " + q(cube) + " --center 1,2 --no-center").exit_code, 2);
+  EXPECT_EQ(test::run_cli("check " + q(cube) + " --scale -2").exit_code, 2);
+}
+
+TEST(CheckCli, UnitsScaleAndPlacementOptions) {
+  const fs::path out = test::temp_dir("check_cli_units");
+  const fs::path cube = test::source_path("samples/models/calibration_cube_20mm.stl");
+  // 20 inch = 508 mm: does not fit, exit 1.
+  const auto inch = test::run_cli("check " + q(cube) + " --units inch --json " + q(out / "i.json"));
+  EXPECT_EQ(inch.exit_code, 1);
+  const json ji = read_json(out / "i.json");
+  EXPECT_NEAR(ji["mesh"]["bbox_mm"]["size"][0].get<double>(), 508.0, 1e-3);
+  EXPECT_EQ(ji["placement"]["fits"], false);
+  EXPECT_EQ(ji["findings"][0]["code"], "does_not_fit");
+  EXPECT_EQ(ji["input"]["units"], "inch");
+  EXPECT_EQ(test::run_cli("check " + q(cube) + " --units cm --scale 0.5 --center 30,40 --json " +
+                          q(out / "c.json")).exit_code, 1);
+  const json jc = read_json(out / "c.json");
+  EXPECT_NEAR(jc["mesh"]["bbox_mm"]["size"][2].get<double>(), 100.0, 1e-3);
+  EXPECT_NEAR(jc["placement"]["bbox_mm"]["min"][0].get<double>(), -20.0, 1e-3);
+  EXPECT_EQ(jc["placement"]["fits"], false) << "centred at x 30, a 100 mm cube leaves the bed";
+  ASSERT_EQ(test::run_cli("check " + q(cube) + " --no-center --json " + q(out / "n.json")).exit_code, 0);
+  const json jn = read_json(out / "n.json");
+  EXPECT_NEAR(jn["placement"]["bbox_mm"]["min"][0].get<double>(), 0.0, 1e-9);
+}
+
+TEST(CheckCli, PrinterProfiles) {
+  const fs::path dir = test::temp_dir("check_cli_printer");
+  const fs::path cube = test::source_path("samples/models/calibration_cube_20mm.stl");
+  for (const char* p : {"ender3", "ender3-marlin1", "ender3-klipper"})
+    EXPECT_EQ(test::run_cli("check " + q(cube) + " --printer " + p).exit_code, 0) << p;
+  for (const char* f : {"ender3.json", "ender3-marlin1.json", "ender3-klipper.json"})
+    EXPECT_EQ(test::run_cli("check " + q(cube) + " --printer " +
+                            q(test::source_path(std::string("samples/printers/") + f)))
+                  .exit_code,
+              0)
+        << f;
+  // A tiny bed: the 20 mm cube no longer fits.
+  std::ofstream(dir / "tiny.json") << R"({"base": "ender3", "bed_max_x_mm": 15, "bed_max_y_mm": 15})";
+  const auto tiny = test::run_cli("check " + q(cube) + " --printer " + q(dir / "tiny.json"));
+  EXPECT_EQ(tiny.exit_code, 1) << tiny.out << tiny.err;
+  EXPECT_NE(tiny.out.find("does_not_fit"), std::string::npos);
+  std::ofstream(dir / "bad.json") << R"({"bed_max_x_mmm": 15})";
+  const auto bad = test::run_cli("check " + q(cube) + " --printer " + q(dir / "bad.json"));
+  EXPECT_EQ(bad.exit_code, 3);
+  EXPECT_NE(bad.err.find("bed_max_x_mmm"), std::string::npos) << bad.err;
+}
+
+TEST(CheckCli, RepairWritesAFixedMeshAndListsChanges) {
+  const fs::path dir = test::temp_dir("check_cli_repair");
+  // The cube without one of its faces.
+  Mesh open = test::make_cube_mm(20);
+  open.triangles.pop_back();
+  ASSERT_TRUE(save_stl(open, dir / "open.stl").ok());
+  const auto run = test::run_cli("check " + q(dir / "open.stl") + " --repair " + q(dir / "fixed.stl") +
+                                 " --json " + q(dir / "r.json"));
+  EXPECT_EQ(run.exit_code, 1) << "the input is still reported as it is";
+  EXPECT_NE(run.out.find("1 holes filled"), std::string::npos) << run.out;
+  const json j = read_json(dir / "r.json");
+  ASSERT_TRUE(j.contains("repair"));
+  EXPECT_EQ(j["repair"]["after"]["closed"], true);
+  bool filled = false;
+  for (const auto& c : j["repair"]["changes"]) filled = filled || c["code"] == "filled_holes";
+  EXPECT_TRUE(filled);
+  const auto again = test::run_cli("check " + q(dir / "fixed.stl"));
+  EXPECT_EQ(again.exit_code, 0) << again.out;
+  auto fixed = load_mesh(dir / "fixed.stl");
+  ASSERT_TRUE(fixed.ok());
+  EXPECT_NEAR(signed_volume_mm3(*fixed), 8000.0, 1e-3);
+}
+
+}  // namespace
+}  // namespace printtwin

@@ -1,0 +1,441 @@
+// One test per finding of `check`, on meshes built in code.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <nlohmann/json.hpp>
+
+#include "printtwin/check.hpp"
+#include "support/test_support.hpp"
+
+namespace printtwin {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+/// Appends `b` to `a` (vertices renumbered).
+Mesh merged(Mesh a, const Mesh& b) {
+  const auto base = static_cast<std::uint32_t>(a.vertices_mm.size());
+  a.vertices_mm.insert(a.vertices_mm.end(), b.vertices_mm.begin(), b.vertices_mm.end());
+  for (auto t : b.triangles) a.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
+  return a;
+}
+
+Mesh flipped(Mesh m) {
+  for (auto& t : m.triangles) std::swap(t[1], t[2]);
+  return m;
+}
+
+/// Prism over the XZ polygon `profile` (CCW seen from -Y... any order: oriented by volume),
+/// extruded from y = 0 to y = depth.
+Mesh prism(const std::vector<Vec2>& profile, double depth) {
+  Mesh m;
+  const auto n = static_cast<std::uint32_t>(profile.size());
+  for (const auto& p : profile) m.vertices_mm.emplace_back(p.x(), 0.0, p.y());
+  for (const auto& p : profile) m.vertices_mm.emplace_back(p.x(), depth, p.y());
+  for (std::uint32_t i = 1; i + 1 < n; ++i) {
+    m.triangles.push_back({0, i, i + 1});
+    m.triangles.push_back({n, n + i + 1, n + i});
+  }
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const std::uint32_t j = (i + 1) % n;
+    m.triangles.push_back({i, n + i, j});
+    m.triangles.push_back({j, n + i, n + j});
+  }
+  if (signed_volume_mm3(m) < 0) m = flipped(m);
+  return m;
+}
+
+const Finding* find(const CheckReport& r, const std::string& code) {
+  for (const auto& f : r.findings)
+    if (f.code == code) return &f;
+  return nullptr;
+}
+
+CheckReport run(const Mesh& m, CheckSettings s = {}) {
+  auto r = check_printability(m, ender3_marlin2(), s);
+  EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().describe());
+  return r.ok() ? *r : CheckReport{};
+}
+
+TEST(CheckHealth, ClosedCube) {
+  const MeshHealth h = analyze_mesh_health(test::make_cube_mm(10));
+  EXPECT_EQ(h.triangles, 12U);
+  EXPECT_EQ(h.vertices, 8U);
+  EXPECT_EQ(h.shells, 1U);
+  EXPECT_TRUE(h.closed);
+  EXPECT_EQ(h.boundary_edges + h.non_manifold_edges + h.non_manifold_vertices + h.degenerate_faces +
+                h.duplicate_faces + h.inconsistent_edges + h.inverted_shells,
+            0U);
+  EXPECT_NEAR(h.volume_mm3, 1000.0, 1e-9);
+  EXPECT_NEAR(h.area_mm2, 600.0, 1e-9);
+  EXPECT_NEAR(h.bbox_mm.size().z(), 10.0, 1e-12);
+}
+
+TEST(CheckHealth, CubeIsPrintableWithNoFindings) {
+  const CheckReport r = run(test::make_cube_mm(20, Vec3(-50, 30, 7)));
+  EXPECT_TRUE(r.printable);
+  EXPECT_TRUE(r.findings.empty()) << r.findings.front().code;
+  // Placed like a slicer: centred on the 235 x 235 bed, lowest point on z = 0.
+  EXPECT_NEAR(r.placement.bbox_mm.center().x(), 117.5, 1e-9);
+  EXPECT_NEAR(r.placement.bbox_mm.center().y(), 117.5, 1e-9);
+  EXPECT_NEAR(r.placement.bbox_mm.min.z(), 0.0, 1e-12);
+  EXPECT_NEAR(r.placement.footprint_area_mm2, 400.0, 1e-9);
+  EXPECT_TRUE(r.placement.fits);
+  ASSERT_TRUE(r.thickness.has_value());
+  EXPECT_NEAR(r.thickness->min_thickness_mm, 20.0, 1e-3);
+}
+
+TEST(CheckHealth, OpenMesh) {
+  Mesh m = test::make_cube_mm(10);
+  m.triangles.pop_back();
+  const CheckReport r = run(m);
+  EXPECT_EQ(r.health.boundary_edges, 3U);
+  EXPECT_FALSE(r.health.closed);
+  const Finding* f = find(r, "open_mesh");
+  ASSERT_NE(f, nullptr);
+  EXPECT_EQ(f->severity, Severity::error);
+  EXPECT_EQ(f->count, 3);
+  ASSERT_TRUE(f->position_mm.has_value());
+  EXPECT_NEAR(f->position_mm->x(), 117.5 + 5.0, 1e-9);  // the removed face is on x = max
+  EXPECT_FALSE(r.printable);
+}
+
+TEST(CheckHealth, NonManifoldEdge) {
+  Mesh m = test::make_cube_mm(10);
+  m.vertices_mm.emplace_back(5, -5, -5);
+  m.triangles.push_back({0, 1, 8});  // a fin on the edge (0,0,0)-(10,0,0)
+  const MeshHealth h = analyze_mesh_health(m);
+  EXPECT_EQ(h.non_manifold_edges, 1U);
+  EXPECT_EQ(h.boundary_edges, 2U);
+  EXPECT_FALSE(h.closed);
+  ASSERT_TRUE(h.first_non_manifold_edge_mm.has_value());
+  EXPECT_TRUE(h.first_non_manifold_edge_mm->isApprox(Vec3(5, 0, 0)));
+  const CheckReport r = run(m);
+  ASSERT_NE(find(r, "non_manifold_edge"), nullptr);
+  EXPECT_EQ(find(r, "non_manifold_edge")->severity, Severity::error);
+}
+
+TEST(CheckHealth, NonManifoldVertexWhereTwoCubesTouch) {
+  // Second cube shares only vertex 7 (10,10,10) of the first.
+  Mesh a = test::make_cube_mm(10);
+  Mesh m = merged(a, test::make_cube_mm(10, Vec3(10, 10, 10)));
+  for (auto& t : m.triangles)
+    for (auto& v : t)
+      if (v == 8) v = 7;  // weld the touching corner
+  const MeshHealth h = analyze_mesh_health(m);
+  EXPECT_EQ(h.non_manifold_vertices, 1U);
+  EXPECT_EQ(h.shells, 2U);
+  EXPECT_TRUE(h.closed);
+  EXPECT_TRUE(h.first_non_manifold_vertex_mm->isApprox(Vec3(10, 10, 10)));
+  const CheckReport r = run(m);
+  EXPECT_NE(find(r, "non_manifold_vertex"), nullptr);
+  EXPECT_NE(find(r, "multiple_shells"), nullptr);
+  EXPECT_EQ(r.health.self_intersections, 0U);
+}
+
+TEST(CheckHealth, DegenerateFace) {
+  Mesh m = test::make_cube_mm(10);
+  m.vertices_mm.emplace_back(5, 0, 0);        // on the edge 0-1
+  m.triangles.push_back({0, 8, 1});            // collinear: zero area
+  m.triangles.push_back({2, 2, 3});            // repeated index
+  const MeshHealth h = analyze_mesh_health(m);
+  EXPECT_EQ(h.degenerate_faces, 2U);
+  const CheckReport r = run(m);
+  const Finding* f = find(r, "degenerate_face");
+  ASSERT_NE(f, nullptr);
+  EXPECT_EQ(f->severity, Severity::warning);
+  EXPECT_EQ(f->count, 2);
+}
+
+TEST(CheckHealth, DuplicateFace) {
+  Mesh m = test::make_cube_mm(10);
+  m.triangles.push_back(m.triangles[4]);
+  m.triangles.push_back({m.triangles[6][0], m.triangles[6][2], m.triangles[6][1]});  // reversed
+  const MeshHealth h = analyze_mesh_health(m);
+  EXPECT_EQ(h.duplicate_faces, 2U);
+  EXPECT_TRUE(h.closed) << "a duplicate is reported once, not as non-manifold edges";
+  EXPECT_NE(find(run(m), "duplicate_face"), nullptr);
+}
+
+TEST(CheckHealth, InconsistentOrientation) {
+  Mesh m = test::make_cube_mm(10);
+  std::swap(m.triangles[3][1], m.triangles[3][2]);
+  const MeshHealth h = analyze_mesh_health(m);
+  EXPECT_EQ(h.inconsistent_edges, 3U);
+  const CheckReport r = run(m);
+  const Finding* f = find(r, "inconsistent_orientation");
+  ASSERT_NE(f, nullptr);
+  EXPECT_EQ(f->severity, Severity::error);
+}
+
+TEST(CheckHealth, InvertedShellButNotCavity) {
+  const MeshHealth inv = analyze_mesh_health(flipped(test::make_cube_mm(10)));
+  EXPECT_EQ(inv.inverted_shells, 1U);
+  EXPECT_NEAR(inv.volume_mm3, -1000.0, 1e-9);
+  EXPECT_EQ(inv.inconsistent_edges, 0U);
+  EXPECT_NE(find(run(flipped(test::make_cube_mm(10))), "inverted_shell"), nullptr);
+
+  // A box with an inside-out box inside it is a hollow part, not an error.
+  const Mesh hollow = merged(test::make_cube_mm(20), flipped(test::make_cube_mm(10, Vec3(5, 5, 5))));
+  const MeshHealth h = analyze_mesh_health(hollow);
+  EXPECT_EQ(h.inverted_shells, 0U);
+  EXPECT_EQ(h.shells, 2U);
+  EXPECT_NEAR(h.volume_mm3, 8000.0 - 1000.0, 1e-9);
+}
+
+TEST(CheckSelfIntersections, OverlappingCubes) {
+  const Mesh m = merged(test::make_cube_mm(10), test::make_cube_mm(10, Vec3(5, 5, 5)));
+  const SelfIntersections si = find_self_intersections(m, 3);
+  EXPECT_GT(si.pairs, 0U);
+  ASSERT_EQ(si.locations_mm.size(), 3U);
+  const Box3 overlap{Vec3(5, 5, 5), Vec3(10, 10, 10)};
+  for (const auto& p : si.locations_mm) EXPECT_TRUE(overlap.contains(p, 1e-9)) << p.transpose();
+  const CheckReport r = run(m);
+  const Finding* f = find(r, "self_intersection");
+  ASSERT_NE(f, nullptr);
+  EXPECT_EQ(f->count, static_cast<long>(si.pairs));
+  EXPECT_FALSE(r.printable);
+}
+
+TEST(CheckSelfIntersections, NoneOnClosedMeshesAndTouchingNeighbours) {
+  EXPECT_EQ(find_self_intersections(test::make_cube_mm(10)).pairs, 0U);
+  // Two separate cubes 1 mm apart.
+  EXPECT_EQ(find_self_intersections(merged(test::make_cube_mm(10), test::make_cube_mm(10, Vec3(11, 0, 0))))
+                .pairs,
+            0U);
+}
+
+TEST(CheckSelfIntersections, FoldedFacesSharingAnEdge) {
+  // Two coplanar faces on the same side of their shared edge overlap.
+  Mesh m;
+  m.vertices_mm = {Vec3(0, 0, 0), Vec3(10, 0, 0), Vec3(5, 8, 0), Vec3(4, 6, 0)};
+  m.triangles = {{0, 1, 2}, {1, 0, 3}};
+  EXPECT_EQ(find_self_intersections(m).pairs, 1U);
+  m.vertices_mm[3] = Vec3(5, -8, 0);  // other side: a flat quad, no overlap
+  EXPECT_EQ(find_self_intersections(m).pairs, 0U);
+}
+
+TEST(CheckSelfIntersections, FaceThroughSharedVertexFan) {
+  // Faces sharing vertex 0; the second pierces the first away from it.
+  Mesh m;
+  m.vertices_mm = {Vec3(0, 0, 0), Vec3(10, 0, 0), Vec3(0, 10, 0), Vec3(5, 5, -3), Vec3(1, 1, 5)};
+  m.triangles = {{0, 1, 2}, {0, 3, 4}};
+  EXPECT_EQ(find_self_intersections(m).pairs, 1U);
+  m.vertices_mm[3] = Vec3(5, 5, 3);  // both above the first face: they touch only at vertex 0
+  EXPECT_EQ(find_self_intersections(m).pairs, 0U);
+}
+
+TEST(CheckPlacement, DoesNotFit) {
+  const CheckReport r = run(make_box_mesh(Vec3(0, 0, 0), Vec3(240, 10, 10)));
+  EXPECT_FALSE(r.placement.fits);
+  const Finding* f = find(r, "does_not_fit");
+  ASSERT_NE(f, nullptr);
+  EXPECT_EQ(f->severity, Severity::error);
+  EXPECT_NE(f->message.find("240.00 x 10.00 x 10.00 mm"), std::string::npos) << f->message;
+  EXPECT_FALSE(r.printable);
+  const CheckReport tall = run(make_box_mesh(Vec3(0, 0, 0), Vec3(100, 100, 251)));
+  EXPECT_FALSE(tall.placement.fits);
+}
+
+TEST(CheckPlacement, CenterAndNoCenter) {
+  CheckSettings s;
+  s.center_x_mm = 50;
+  s.center_y_mm = 60;
+  const CheckReport r = run(test::make_cube_mm(10, Vec3(3, 4, 5)), s);
+  EXPECT_NEAR(r.placement.bbox_mm.center().x(), 50.0, 1e-12);
+  EXPECT_NEAR(r.placement.bbox_mm.center().y(), 60.0, 1e-12);
+  s.center = false;
+  const CheckReport k = run(test::make_cube_mm(10, Vec3(3, 4, 5)), s);
+  EXPECT_TRUE(k.placement.offset_mm.isApprox(Vec3(0, 0, -5)));
+  // Kept where it is, it hangs off the bed at x < 0.
+  const CheckReport off = run(test::make_cube_mm(10, Vec3(-3, 4, 5)), s);
+  EXPECT_FALSE(off.placement.fits);
+}
+
+TEST(CheckRisks, OverhangAreaAndAngle) {
+  // Foot 5 mm wide, 10 mm tall, outer face leaning 60 deg from vertical, 5 mm deep.
+  const double a = 60 * kPi / 180;
+  const Mesh m = prism({Vec2(0, 0), Vec2(5, 0), Vec2(5 + 10 * std::tan(a), 10), Vec2(0, 10)}, 5);
+  const CheckReport r = run(m);
+  ASSERT_EQ(r.overhangs.size(), 1U);
+  EXPECT_NEAR(r.overhangs[0].area_mm2, 5.0 * 10.0 / std::cos(a), 1e-9);
+  EXPECT_NEAR(r.overhangs[0].max_angle_deg, 60.0, 1e-9);
+  const Finding* f = find(r, "overhang");
+  ASSERT_NE(f, nullptr);
+  EXPECT_EQ(f->severity, Severity::warning);
+  EXPECT_NEAR(*f->value, 60.0, 1e-9);
+  EXPECT_NEAR(f->position_mm->z(), 5.0, 1e-9);  // centroid of the leaning face
+  EXPECT_TRUE(r.printable);
+  // A steeper limit accepts it; the bottom face resting on the bed never counts.
+  CheckSettings s;
+  s.overhang_angle_deg = 61;
+  EXPECT_TRUE(run(m, s).overhangs.empty());
+  EXPECT_TRUE(run(test::make_cube_mm(10)).overhangs.empty());
+}
+
+TEST(CheckRisks, FloatingCeilingIsAnOverhang) {
+  // A table: a plate 20 x 20 x 2 held by one leg; its underside is a 90 deg overhang.
+  const Mesh table = merged(make_box_mesh(Vec3(8, 8, 0), Vec3(12, 12, 10.5)),
+                            make_box_mesh(Vec3(0, 0, 10), Vec3(20, 20, 12)));
+  CheckSettings s;
+  s.self_intersections = false;  // the two boxes overlap on purpose
+  const CheckReport r = run(table, s);
+  ASSERT_FALSE(r.overhangs.empty());
+  EXPECT_NEAR(r.overhangs[0].max_angle_deg, 90.0, 1e-9);
+  EXPECT_NEAR(r.overhangs[0].area_mm2, 400.0, 1e-9);
+  EXPECT_NEAR(r.overhangs[0].bbox_mm.min.z(), 10.0, 1e-9);
+}
+
+TEST(CheckRisks, ThinWall) {
+  const CheckReport r = run(make_box_mesh(Vec3(0, 0, 0), Vec3(20, 0.3, 10)));
+  ASSERT_TRUE(r.thickness.has_value());
+  EXPECT_NEAR(r.thickness->min_thickness_mm, 0.3, 1e-4);
+  const Finding* f = find(r, "thin_wall");
+  ASSERT_NE(f, nullptr);
+  EXPECT_NEAR(*f->value, 0.3, 1e-4);
+  EXPECT_NEAR(r.thickness->thin_area_mm2, 2 * 20 * 10, 1e-6);  // the two big sides
+  CheckSettings s;
+  s.min_thickness_mm = 0.25;
+  EXPECT_EQ(find(run(make_box_mesh(Vec3(0, 0, 0), Vec3(20, 0.3, 10)), s), "thin_wall"), nullptr);
+}
+
+TEST(CheckRisks, NarrowGapBetweenFacingWalls) {
+  const Mesh m = merged(make_box_mesh(Vec3(0, 0, 0), Vec3(10, 10, 10)),
+                        make_box_mesh(Vec3(10.2, 0, 0), Vec3(20, 10, 10)));
+  const CheckReport r = run(m);
+  const Finding* f = find(r, "narrow_gap");
+  ASSERT_NE(f, nullptr);
+  EXPECT_NEAR(*f->value, 0.2, 1e-4);
+  EXPECT_NEAR(r.thickness->narrow_gap_area_mm2, 200.0, 1e-6);
+  // 1 mm apart: wider than a line.
+  const Mesh wide = merged(make_box_mesh(Vec3(0, 0, 0), Vec3(10, 10, 10)),
+                           make_box_mesh(Vec3(11, 0, 0), Vec3(20, 10, 10)));
+  EXPECT_EQ(find(run(wide), "narrow_gap"), nullptr);
+}
+
+TEST(CheckRisks, SmallFeature) {
+  const Mesh m = merged(test::make_cube_mm(10), make_box_mesh(Vec3(15, 0, 0), Vec3(15.3, 0.3, 3)));
+  const CheckReport r = run(m);
+  const Finding* f = find(r, "small_feature");
+  ASSERT_NE(f, nullptr);
+  EXPECT_EQ(f->count, 1);
+}
+
+TEST(CheckRisks, TallSlender) {
+  const CheckReport r = run(make_box_mesh(Vec3(0, 0, 0), Vec3(5, 8, 60)));
+  const Finding* f = find(r, "tall_slender");
+  ASSERT_NE(f, nullptr);
+  EXPECT_NEAR(*f->value, 12.0, 1e-9);
+  EXPECT_EQ(find(run(make_box_mesh(Vec3(0, 0, 0), Vec3(5, 8, 25))), "tall_slender"), nullptr);
+}
+
+TEST(CheckRisks, SmallBedContact) {
+  // A flat octahedron (|x|/5 + |y|/5 + |z|/2 <= 1) standing on a vertex touches the bed at
+  // one point, and its lower faces lean asin(0.5 / sqrt(0.33)) = 60.5 deg from vertical.
+  Mesh m;
+  m.vertices_mm = {Vec3(0, 0, -2), Vec3(5, 0, 0), Vec3(0, 5, 0), Vec3(-5, 0, 0), Vec3(0, -5, 0),
+                   Vec3(0, 0, 2)};
+  m.triangles = {{0, 2, 1}, {0, 3, 2}, {0, 4, 3}, {0, 1, 4}, {5, 1, 2}, {5, 2, 3}, {5, 3, 4}, {5, 4, 1}};
+  const CheckReport r = run(m);
+  EXPECT_NEAR(r.health.volume_mm3, 4.0 / 3.0 * 5 * 5 * 2, 1e-9);
+  EXPECT_NEAR(r.placement.footprint_area_mm2, 0.0, 1e-12);
+  EXPECT_NE(find(r, "small_bed_contact"), nullptr);
+  ASSERT_EQ(r.overhangs.size(), 1U);  // the four lower faces, joined over their edges
+  EXPECT_EQ(r.overhangs[0].faces, 4U);
+  EXPECT_NEAR(r.overhangs[0].max_angle_deg, std::asin(0.5 / std::sqrt(0.33)) * 180 / kPi, 1e-6);
+}
+
+TEST(CheckRisks, FindingsAreSortedErrorsFirst) {
+  Mesh m = make_box_mesh(Vec3(0, 0, 0), Vec3(20, 0.3, 10));
+  m.triangles.pop_back();
+  const CheckReport r = run(m);
+  ASSERT_GE(r.findings.size(), 2U);
+  for (std::size_t i = 1; i < r.findings.size(); ++i)
+    EXPECT_GE(static_cast<int>(r.findings[i - 1].severity), static_cast<int>(r.findings[i].severity));
+}
+
+TEST(CheckRepair, FillsHoleAndReportsIt) {
+  Mesh m = test::make_cube_mm(10);
+  m.triangles.pop_back();
+  auto r = repair_mesh(m);
+  ASSERT_TRUE(r.ok()) << r.error().describe();
+  EXPECT_FALSE(r->before.closed);
+  EXPECT_TRUE(r->after.closed);
+  EXPECT_NEAR(r->after.volume_mm3, 1000.0, 1e-9);
+  const auto has = [&](const std::string& code, std::size_t n) {
+    for (const auto& c : r->changes)
+      if (c.code == code) return c.count == n;
+    return false;
+  };
+  EXPECT_TRUE(has("filled_holes", 1));
+  EXPECT_TRUE(has("added_faces", 1));
+}
+
+TEST(CheckRepair, RemovesDuplicatesAndDegeneratesAndOrients) {
+  Mesh m = test::make_cube_mm(10);
+  m.triangles.push_back(m.triangles[0]);               // duplicate
+  m.vertices_mm.emplace_back(5, 0, 0);
+  m.triangles.push_back({0, 8, 1});                    // degenerate
+  std::swap(m.triangles[5][1], m.triangles[5][2]);     // one face flipped
+  auto r = repair_mesh(m);
+  ASSERT_TRUE(r.ok());
+  std::map<std::string, std::size_t> changes;
+  for (const auto& c : r->changes) changes[c.code] = c.count;
+  EXPECT_EQ(changes["removed_duplicate_faces"], 1U);
+  EXPECT_EQ(changes["removed_degenerate_faces"], 1U);
+  EXPECT_EQ(changes["reoriented_faces"], 1U);
+  EXPECT_TRUE(r->after.closed);
+  EXPECT_EQ(r->after.inconsistent_edges, 0U);
+  EXPECT_EQ(r->after.triangles, 12U);
+  EXPECT_NEAR(r->after.volume_mm3, 1000.0, 1e-9);
+}
+
+TEST(CheckRepair, FlipsInvertedShellAndStitchesSplitSeams) {
+  // An inside-out cube whose top face uses its own copies of the corner vertices.
+  Mesh m = flipped(test::make_cube_mm(10));
+  for (std::uint32_t v = 4; v < 8; ++v) m.vertices_mm.push_back(m.vertices_mm[v]);
+  for (std::size_t f = 2; f < 4; ++f)
+    for (auto& v : m.triangles[f]) v += 4;  // faces 2, 3: the +z face
+  ASSERT_FALSE(analyze_mesh_health(m).closed);
+  auto r = repair_mesh(m);
+  ASSERT_TRUE(r.ok());
+  EXPECT_TRUE(r->after.closed);
+  EXPECT_EQ(r->after.inverted_shells, 0U);
+  EXPECT_NEAR(r->after.volume_mm3, 1000.0, 1e-9);
+  EXPECT_FALSE(r->changes.empty());
+}
+
+TEST(CheckJson, SchemaKeys) {
+  Mesh m = make_box_mesh(Vec3(0, 0, 0), Vec3(20, 0.3, 10));
+  const CheckReport r = run(m);
+  CheckSource src;
+  src.file = "wall.stl";
+  src.printer = "Ender-3";
+  const auto doc = nlohmann::json::parse(check_report_to_json(r, src));
+  EXPECT_EQ(doc["schema"], "printtwin.check");
+  EXPECT_EQ(doc["schema_version"], kCheckJsonVersion);
+  EXPECT_EQ(doc["mesh"]["triangles"], 12);
+  EXPECT_EQ(doc["mesh"]["closed"], true);
+  EXPECT_NEAR(doc["mesh"]["volume_mm3"].get<double>(), 60.0, 1e-4);
+  EXPECT_NEAR(doc["mesh"]["bbox_mm"]["max"][1].get<double>(), 0.3, 1e-9);
+  ASSERT_FALSE(doc["findings"].empty());
+  bool thin = false;
+  for (const auto& f : doc["findings"]) {
+    for (const char* key : {"severity", "code", "message", "position_mm", "count"})
+      EXPECT_TRUE(f.contains(key)) << key;
+    if (f["code"] == "thin_wall") {
+      thin = true;
+      EXPECT_EQ(f["severity"], "warning");
+      EXPECT_NEAR(f["value"].get<double>(), 0.3, 1e-4);
+      EXPECT_EQ(f["position_mm"].size(), 3U);
+    }
+  }
+  EXPECT_TRUE(thin);
+  EXPECT_EQ(doc["printable"], true);
+  EXPECT_EQ(check_report_to_json(r, src), check_report_to_json(run(m), src)) << "deterministic";
+}
+
+}  // namespace
+}  // namespace printtwin

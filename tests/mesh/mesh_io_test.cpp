@@ -1,0 +1,251 @@
+// Mesh intake: every supported format, units and scale, and one clear error per bad input.
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <limits>
+
+#include "printtwin/io.hpp"
+#include "printtwin/mesh.hpp"
+#include "support/test_support.hpp"
+
+namespace printtwin {
+namespace {
+
+namespace fs = std::filesystem;
+
+void write(const fs::path& p, const std::string& bytes) {
+  std::ofstream out(p, std::ios::binary);
+  out << bytes;
+}
+
+std::string ascii_stl(const Mesh& m) {
+  std::string s = "solid test\n";
+  for (const auto& t : m.triangles) {
+    s += " facet normal 0 0 0\n  outer loop\n";
+    for (auto v : t) {
+      const Vec3& p = m.vertices_mm[v];
+      s += "   vertex " + format_number(p.x()) + " " + format_number(p.y()) + " " +
+           format_number(p.z()) + "\n";
+    }
+    s += "  endloop\n endfacet\n";
+  }
+  return s + "endsolid test\n";
+}
+
+std::string binary_stl(const Mesh& m, std::uint32_t count_in_header) {
+  std::string s(80, ' ');
+  s.append(reinterpret_cast<const char*>(&count_in_header), 4);
+  for (const auto& t : m.triangles) {
+    float f[12] = {};
+    for (int v = 0; v < 3; ++v)
+      for (int i = 0; i < 3; ++i) f[3 + 3 * v + i] = static_cast<float>(m.vertices_mm[t[v]][i]);
+    s.append(reinterpret_cast<const char*>(f), sizeof(f));
+    s.append(2, '\0');
+  }
+  return s;
+}
+
+std::string obj(const Mesh& m) {
+  std::string s;
+  for (const auto& v : m.vertices_mm)
+    s += "v " + format_number(v.x()) + " " + format_number(v.y()) + " " + format_number(v.z()) + "\n";
+  for (const auto& t : m.triangles)
+    s += "f " + std::to_string(t[0] + 1) + " " + std::to_string(t[1] + 1) + " " +
+         std::to_string(t[2] + 1) + "\n";
+  return s;
+}
+
+std::string off(const Mesh& m) {
+  std::string s = "OFF\n" + std::to_string(m.vertices_mm.size()) + " " +
+                  std::to_string(m.triangles.size()) + " 0\n";
+  for (const auto& v : m.vertices_mm)
+    s += format_number(v.x()) + " " + format_number(v.y()) + " " + format_number(v.z()) + "\n";
+  for (const auto& t : m.triangles)
+    s += "3 " + std::to_string(t[0]) + " " + std::to_string(t[1]) + " " + std::to_string(t[2]) + "\n";
+  return s;
+}
+
+std::string ply(const Mesh& m) {
+  std::string s = "ply\nformat ascii 1.0\nelement vertex " + std::to_string(m.vertices_mm.size()) +
+                  "\nproperty float x\nproperty float y\nproperty float z\nelement face " +
+                  std::to_string(m.triangles.size()) +
+                  "\nproperty list uchar int vertex_indices\nend_header\n";
+  for (const auto& v : m.vertices_mm)
+    s += format_number(v.x()) + " " + format_number(v.y()) + " " + format_number(v.z()) + "\n";
+  for (const auto& t : m.triangles)
+    s += "3 " + std::to_string(t[0]) + " " + std::to_string(t[1]) + " " + std::to_string(t[2]) + "\n";
+  return s;
+}
+
+std::string amf(const Mesh& m) {
+  std::string s = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<amf unit=\"millimeter\">\n"
+                  "<object id=\"0\"><mesh><vertices>\n";
+  for (const auto& v : m.vertices_mm)
+    s += "<vertex><coordinates><x>" + format_number(v.x()) + "</x><y>" + format_number(v.y()) +
+         "</y><z>" + format_number(v.z()) + "</z></coordinates></vertex>\n";
+  s += "</vertices><volume>\n";
+  for (const auto& t : m.triangles)
+    s += "<triangle><v1>" + std::to_string(t[0]) + "</v1><v2>" + std::to_string(t[1]) +
+         "</v2><v3>" + std::to_string(t[2]) + "</v3></triangle>\n";
+  return s + "</volume></mesh></object>\n</amf>\n";
+}
+
+class MeshIoTest : public ::testing::Test {
+ protected:
+  fs::path dir = test::temp_dir("mesh_io");
+  Mesh cube = test::make_cube_mm(10, Vec3(1, 2, 3));
+
+  fs::path put(const std::string& name, const std::string& bytes) {
+    const fs::path p = dir / name;
+    write(p, bytes);
+    return p;
+  }
+  /// Loading must fail with a bad-input error that names the file and contains `what`.
+  void expect_error(const fs::path& p, const std::string& what) {
+    auto r = load_mesh(p);
+    ASSERT_FALSE(r.ok()) << p;
+    EXPECT_EQ(r.error().code, ErrorCode::bad_input);
+    EXPECT_EQ(r.error().file, p.string());
+    EXPECT_NE(r.error().message.find(what), std::string::npos) << r.error().describe();
+  }
+};
+
+void expect_cube(const Mesh& m, double size, const Vec3& min_mm) {
+  EXPECT_EQ(m.triangles.size(), 12U);
+  EXPECT_EQ(m.vertices_mm.size(), 8U) << "identical vertices must be joined";
+  EXPECT_NEAR(signed_volume_mm3(m), size * size * size, 1e-6 * size * size * size);
+  const Box3 b = bounding_box(m);
+  EXPECT_TRUE(b.min.isApprox(min_mm, 1e-6)) << b.min.transpose();
+  EXPECT_NEAR(b.size().x(), size, 1e-5);
+}
+
+TEST_F(MeshIoTest, LoadsEveryFormatWithJoinedVertices) {
+  expect_cube(*load_mesh(put("c.stl", ascii_stl(cube))), 10, Vec3(1, 2, 3));
+  expect_cube(*load_mesh(put("b.stl", binary_stl(cube, 12))), 10, Vec3(1, 2, 3));
+  expect_cube(*load_mesh(put("c.obj", obj(cube))), 10, Vec3(1, 2, 3));
+  expect_cube(*load_mesh(put("c.off", off(cube))), 10, Vec3(1, 2, 3));
+  expect_cube(*load_mesh(put("c.ply", ply(cube))), 10, Vec3(1, 2, 3));
+  expect_cube(*load_mesh(put("c.amf", amf(cube))), 10, Vec3(1, 2, 3));
+  expect_cube(*load_mesh(put("UPPER.STL", binary_stl(cube, 12))), 10, Vec3(1, 2, 3));
+}
+
+TEST_F(MeshIoTest, BinaryStlStartingWithSolidIsReadAsBinary) {
+  std::string b = binary_stl(cube, 12);
+  std::memcpy(b.data(), "solid but binary", 16);
+  expect_cube(*load_mesh(put("solid.stl", b)), 10, Vec3(1, 2, 3));
+}
+
+TEST_F(MeshIoTest, UnitsAndScale) {
+  const fs::path p = put("c.stl", binary_stl(cube, 12));
+  auto inch = load_mesh(p, {1.0, LengthUnit::inch});
+  ASSERT_TRUE(inch.ok());
+  EXPECT_NEAR(bounding_box(*inch).size().x(), 254.0, 1e-4);
+  auto cm = load_mesh(p, {0.5, LengthUnit::cm});
+  ASSERT_TRUE(cm.ok());
+  EXPECT_NEAR(bounding_box(*cm).size().x(), 50.0, 1e-4);
+  EXPECT_NEAR(bounding_box(*cm).min.x(), 5.0, 1e-4);
+  auto bad = load_mesh(p, {-1.0, LengthUnit::mm});
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.error().code, ErrorCode::usage);
+}
+
+TEST_F(MeshIoTest, EmptyFile) { expect_error(put("empty.stl", ""), "empty file"); }
+
+TEST_F(MeshIoTest, TruncatedBinaryStl) {
+  expect_error(put("short.stl", std::string(40, '\x01')), "truncated binary STL: 40 bytes");
+  std::string b = binary_stl(cube, 12);
+  b.resize(b.size() - 30);  // last triangle cut
+  expect_error(put("cut.stl", b), "announces 12 triangles");
+}
+
+TEST_F(MeshIoTest, TriangleCountLargerThanFile) {
+  expect_error(put("count.stl", binary_stl(cube, 4000000000U)), "announces 4000000000 triangles");
+}
+
+TEST_F(MeshIoTest, ZeroTriangles) {
+  expect_error(put("zero.stl", binary_stl(Mesh{}, 0)), "0 triangles");
+  expect_error(put("zero_ascii.stl", "solid empty\nendsolid empty\n"), "0 facets");
+  expect_error(put("zero.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n"), "no triangles");
+}
+
+TEST_F(MeshIoTest, NanAndInfiniteCoordinates) {
+  Mesh m = cube;
+  m.vertices_mm[3].y() = std::numeric_limits<double>::quiet_NaN();
+  expect_error(put("nan.stl", binary_stl(m, 12)), "NaN or infinite");
+  m.vertices_mm[3].y() = std::numeric_limits<double>::infinity();
+  expect_error(put("inf.stl", binary_stl(m, 12)), "NaN or infinite");
+  std::string text = ascii_stl(cube);
+  const auto at = text.find("vertex ", text.find("vertex ") + 1);
+  text.replace(at, 7, "vertex nan ");
+  auto r = load_mesh(put("nan_ascii.stl", text));
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("NaN or infinite"), std::string::npos) << r.error().describe();
+  EXPECT_EQ(r.error().line, 5);
+  const std::string inf_text = "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"
+                               "vertex inf 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n";
+  auto ri = load_mesh(put("inf_ascii.stl", inf_text));
+  ASSERT_FALSE(ri.ok());
+  EXPECT_EQ(ri.error().line, 5);
+  EXPECT_NE(ri.error().message.find("NaN or infinite"), std::string::npos);
+}
+
+TEST_F(MeshIoTest, AsciiStlWithGarbageNamesTheLine) {
+  std::string text = ascii_stl(cube);
+  const auto at = text.find("endloop", text.find("endloop") + 1);  // second facet
+  text.insert(at, "hello world\n");
+  auto r = load_mesh(put("garbage.stl", text));
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::bad_input);
+  EXPECT_EQ(r.error().line, 14);
+  EXPECT_NE(r.error().message.find("expected 'endloop', found 'hello'"), std::string::npos)
+      << r.error().describe();
+  expect_error(put("words.stl", "solid x\nthis is not a mesh\n"), "expected 'facet'");
+  expect_error(put("noend.stl", "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"),
+               "expected 'vertex', found 'end of file'");
+  expect_error(put("badnum.stl", "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0x\n"),
+               "expected a number, found '0x'");
+}
+
+TEST_F(MeshIoTest, UnknownExtension) {
+  expect_error(put("part.xyz", ascii_stl(cube)), "unknown mesh extension '.xyz'");
+  expect_error(put("noext", ascii_stl(cube)), "unknown mesh extension ''");
+}
+
+TEST_F(MeshIoTest, Directory) {
+  fs::create_directories(dir / "folder.stl");
+  expect_error(dir / "folder.stl", "directory");
+}
+
+TEST_F(MeshIoTest, MissingFile) { expect_error(dir / "nope.stl", "not found"); }
+
+TEST_F(MeshIoTest, UnreadableFile) {
+  // Root reads anything, so the content is also invalid: either way one clear error.
+  const fs::path p = put("locked.stl", "solid locked\ngarbage\n");
+  ::chmod(p.c_str(), 0);
+  auto r = load_mesh(p);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::bad_input);
+  EXPECT_EQ(r.error().file, p.string());
+  const bool denied = r.error().message.find("cannot open") != std::string::npos;
+  const bool garbage = r.error().message.find("expected 'facet'") != std::string::npos;
+  EXPECT_TRUE(denied || (::geteuid() == 0 && garbage)) << r.error().describe();
+  ::chmod(p.c_str(), 0644);
+}
+
+TEST_F(MeshIoTest, GarbageObjHasNoTriangles) {
+  expect_error(put("garbage.obj", "this is not\nan obj file at all\n"), "");
+}
+
+TEST_F(MeshIoTest, SaveStlRoundTrip) {
+  const fs::path p = dir / "out.stl";
+  ASSERT_TRUE(save_stl(cube, p).ok());
+  EXPECT_EQ(fs::file_size(p), 84U + 50U * 12U);
+  expect_cube(*load_mesh(p), 10, Vec3(1, 2, 3));
+}
+
+}  // namespace
+}  // namespace printtwin
