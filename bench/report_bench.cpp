@@ -1,5 +1,5 @@
-// Report generation on a ~200k-triangle part (synthetic sphere with a known deviation field,
-// ~0.5 M deposit and ~0.5 M mesh samples at 0.05 mm), one thread:
+// Report generation on a ~200k-triangle part (synthetic sphere of radius 12 mm with a known
+// deviation field, 0.72 M mesh samples at 0.05 mm and 2.2 M deposit samples), one thread:
 //   build-*/bench/report_bench --benchmark_filter=. --benchmark_min_time=1
 // BM_ReportFiles is the whole report (renders, PNGs, cross-sections, HTML, JUnit, Markdown);
 // the counter html_MB is the size of report.html.
@@ -14,15 +14,14 @@ namespace {
 using namespace printtwin;
 
 const VerifyReport& big_report() {
-  // 2 * 316 * 315 = 199k triangles; radius 20 mm -> 5027 mm2 of surface, 0.1 mm spacing
-  // -> 0.5 M samples per direction (a 0.05 mm voxel deposit of this part has ~2 M
-  // surface voxels; the deviation stage subsamples, the report caps what it embeds).
+  // 2 * 316 * 315 = 199k triangles; 1810 mm2 of surface at 0.05 mm spacing.
   static const VerifyReport r = [] {
     test::SyntheticSpec spec;
     spec.segments = 316;
     spec.rings = 316;
     spec.radius_mm = 12.0;
     spec.spacing_mm = 0.05;
+    spec.deposit_per_mesh_sample = 3;
     return test::make_synthetic_report(spec);
   }();
   return r;
@@ -39,7 +38,8 @@ void BM_ReportFiles(benchmark::State& state) {
     benchmark::DoNotOptimize(files);
   }
   state.counters["triangles"] = static_cast<double>(r.placed_mesh.triangles.size());
-  state.counters["samples"] = static_cast<double>(r.deviation.mesh_samples.size());
+  state.counters["mesh_samples"] = static_cast<double>(r.deviation.mesh_samples.size());
+  state.counters["deposit_samples"] = static_cast<double>(r.deviation.deposit_samples.size());
   state.counters["html_MB"] = static_cast<double>(html) / 1e6;
 }
 BENCHMARK(BM_ReportFiles)->Unit(benchmark::kMillisecond);

@@ -58,7 +58,7 @@ std::string histogram_svg(const std::vector<DeviationSample>& samples, const Dev
     const int b = std::clamp(static_cast<int>(std::floor((d + range) / (2 * range) * bins)), 0, bins - 1);
     ++counts[static_cast<std::size_t>(b)];
   }
-  const double W = 560, H = 210, ml = 44, mr = 10, mt = 12, mb = 34;
+  const double W = 560, H = 210, ml = 44, mr = 10, mt = 14, mb = 34;
   const double pw = W - ml - mr, ph = H - mt - mb;
   // Logarithmic count axis: the tails (the defects) stay visible next to the in-tolerance peak.
   std::size_t peak = 1;
@@ -111,10 +111,9 @@ std::string histogram_svg(const std::vector<DeviationSample>& samples, const Dev
            "</text>";
   }
   svg += "<text class=\"xunit\" x=\"" + num(ml + pw) + "\" y=\"" + num(H - 3) + "\">mm</text>";
-  svg += "<text class=\"yunit\" x=\"" + num(ml - 6) + "\" y=\"" + num(mt - 2) + "\">n</text>";
   if (below > 0 || above > 0)
-    svg += "<text class=\"note\" x=\"" + num(ml + 4) + "\" y=\"" + num(mt + 12) + "\">" +
-           std::to_string(below) + " below / " + std::to_string(above) + " above the axis range (in end bins)</text>";
+    svg += "<text class=\"note\" x=\"" + num(ml) + "\" y=\"" + num(H - 3) + "\">" +
+           std::to_string(below) + " below / " + std::to_string(above) + " beyond the axis (in the end bins)</text>";
   svg += "</svg>";
   return svg;
 }
@@ -145,7 +144,7 @@ std::string layer_chart_svg(const DeviationResult& deviation, const DeviationCol
   }
   const double ystep = nice_step(2 * extreme, 6);
   const double ymax = ystep * std::ceil(extreme / ystep);
-  const double W = 720, H = 230, ml = 48, mr = 10, mt = 12, mb = 30;
+  const double W = 720, H = 236, ml = 48, mr = 10, mt = 22, mb = 30;
   const double pw = W - ml - mr, ph = H - mt - mb;
   const std::size_t n = rows.size();
   const double colw = pw / static_cast<double>(n);
@@ -183,7 +182,7 @@ std::string layer_chart_svg(const DeviationResult& deviation, const DeviationCol
            std::to_string(rows[i].layer) + "</text>";
   }
   svg += "<text class=\"xunit\" x=\"" + num(ml + pw) + "\" y=\"" + num(H - 3) + "\">layer</text>";
-  svg += "<text class=\"yunit\" x=\"" + num(ml - 6) + "\" y=\"" + num(mt - 2) + "\">mm</text>";
+  svg += "<text class=\"yunit\" x=\"" + num(ml - 6) + "\" y=\"" + num(mt - 10) + "\">mm</text>";
   // Cursor (moved by the layer viewer) and one hit column per layer.
   svg += "<line id=\"layer-cursor\" x1=\"" + num(xpos(0)) + "\" x2=\"" + num(xpos(0)) + "\" y1=\"" + num(mt) +
          "\" y2=\"" + num(mt + ph) + "\"/>";

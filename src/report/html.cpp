@@ -113,11 +113,14 @@ std::string views_html(const VerifyReport& report, const ReportAssets& assets) {
          std::to_string(ht) + "\" src=\"data:image/png;base64," + detail::base64(assets.view_png[v]) + "\">";
     h += "<svg class=\"pins\" viewBox=\"0 0 " + std::to_string(w) + " " + std::to_string(ht) + "\">";
     const double pin_r = v == 0 ? 9 : 7.5;
-    for (std::size_t r = hv.markers.size(); r-- > 0;) {  // draw region 1 last (on top)
+    // Pins for the largest regions that this side shows (regions come largest first); the
+    // table lists them all.
+    constexpr std::size_t kMaxPins = 12;
+    for (std::size_t r = std::min(hv.markers.size(), kMaxPins); r-- > 0;) {  // region 1 on top
       const RegionMarker& m = hv.markers[r];
+      if (!m.visible) continue;
       const DeviationRegion& reg = report.deviation.regions[r];
-      const std::string cls = std::string(reg.kind == RegionKind::missing ? "pin-missing" : "pin-excess") +
-                              (m.visible ? "" : " pin-hidden");
+      const std::string cls = reg.kind == RegionKind::missing ? "pin-missing" : "pin-excess";
       const double bx = std::clamp(m.bbox_min_px.x(), 0.0, static_cast<double>(w)),
                    by = std::clamp(m.bbox_min_px.y(), 0.0, static_cast<double>(ht));
       const double bw = std::clamp(m.bbox_max_px.x(), 0.0, static_cast<double>(w)) - bx,
@@ -127,7 +130,7 @@ std::string views_html(const VerifyReport& report, const ReportAssets& assets) {
       h += "<g class=\"pin " + cls + "\" data-region=\"" + std::to_string(r + 1) + "\"><title>Region " +
            std::to_string(r + 1) + ": " + std::string(detail::region_kind_name(reg.kind)) + ", worst " +
            signed_fixed(reg.worst_mm, 3) + " mm, layers " + detail::layer_range(reg.layer_min, reg.layer_max) +
-           (m.visible ? "" : " (hidden from this side)") + "</title>";
+           "</title>";
       if (bw > 2 * pin_r || bh > 2 * pin_r)
         h += "<rect x=\"" + fixed(bx, 1) + "\" y=\"" + fixed(by, 1) + "\" width=\"" + fixed(bw, 1) +
              "\" height=\"" + fixed(bh, 1) + "\" rx=\"3\"/>";
@@ -185,21 +188,24 @@ std::string report_html(const VerifyReport& report, const ReportAssets& assets, 
   h += "</tbody></table></section>\n";
 
   // Key numbers.
-  const double worst_excess = std::max({dev.deposit_to_mesh.max_mm, dev.mesh_to_deposit.max_mm, 0.0});
-  const double worst_deficit = std::min({dev.deposit_to_mesh.min_mm, dev.mesh_to_deposit.min_mm, 0.0});
+  // The gate figures (voxel-noise clusters excluded); the raw extremes are in the statistics.
+  const double raw_excess = std::max({dev.deposit_to_mesh.max_mm, dev.mesh_to_deposit.max_mm, 0.0});
+  const double raw_deficit = -std::min({dev.deposit_to_mesh.min_mm, dev.mesh_to_deposit.min_mm, 0.0});
   const double dvol = dev.mesh_volume_mm3 > 0
                           ? 100.0 * (dev.deposit_volume_mm3 - dev.mesh_volume_mm3) / dev.mesh_volume_mm3
                           : 0.0;
   const double tol = dev.tolerance_mm;
+  const std::string noise =
+      dev.noise_regions > 0 ? " · " + std::to_string(dev.noise_regions) + " noise clusters ignored" : "";
   h += "<section class=\"cards\">";
-  h += card_html({"Max excess", signed_fixed(worst_excess, 3), " mm",
-                  "deposit → mesh RMS " + fixed(dev.deposit_to_mesh.rms_mm, 3) + " mm · P95 " +
-                      fixed(dev.deposit_to_mesh.p95_abs_mm, 3),
-                  worst_excess > tol ? "warn-excess" : ""});
-  h += card_html({"Max deficit", signed_fixed(worst_deficit, 3), " mm",
-                  "mesh → deposit RMS " + fixed(dev.mesh_to_deposit.rms_mm, 3) + " mm · P95 " +
-                      fixed(dev.mesh_to_deposit.p95_abs_mm, 3),
-                  -worst_deficit > tol ? "warn-deficit" : ""});
+  h += card_html({"Max excess", signed_fixed(dev.max_excess_mm, 3), " mm",
+                  "raw max " + signed_fixed(raw_excess, 3) + " mm · RMS " + fixed(dev.deposit_to_mesh.rms_mm, 3) +
+                      " (deposit → mesh)" + noise,
+                  dev.max_excess_mm > tol ? "warn-excess" : ""});
+  h += card_html({"Max deficit", signed_fixed(-dev.max_deficit_mm, 3), " mm",
+                  "raw min " + signed_fixed(-raw_deficit, 3) + " mm · RMS " + fixed(dev.mesh_to_deposit.rms_mm, 3) +
+                      " (mesh → deposit)",
+                  dev.max_deficit_mm > tol ? "warn-deficit" : ""});
   h += card_html({"Within ±" + fixed(tol, 2) + " mm", fixed(dev.deposit_to_mesh.within_tolerance_pct, 1), " %",
                   "of the deposit surface · " + fixed(dev.mesh_to_deposit.within_tolerance_pct, 1) +
                       " % of the mesh surface",
@@ -217,8 +223,8 @@ std::string report_html(const VerifyReport& report, const ReportAssets& assets, 
   // Heatmaps.
   h += "<section class=\"panel\" id=\"heatmaps\"><div class=\"panel-head\"><h2>Deviation on the part</h2><p>"
        "Mesh surface coloured by the signed distance to the simulated deposit (machine frame, "
-       "orthographic views). Numbered pins mark the out-of-tolerance regions listed below; faded pins "
-       "are hidden from that side.</p></div>";
+       "orthographic views). Numbered pins mark the largest out-of-tolerance regions listed below, on "
+       "the views that show them.</p></div>";
   h += legend_html(scale);
   h += views_html(report, assets);
   h += "</section>\n";
@@ -237,12 +243,12 @@ std::string report_html(const VerifyReport& report, const ReportAssets& assets, 
   h += chart.empty() ? "<p class=\"empty\">No per-layer data.</p>" : chart;
   h += "<div class=\"chart-key\"><span class=\"k-excess\">max excess</span><span class=\"k-deficit\">max deficit"
        "</span><span class=\"k-rms\">RMS</span><span class=\"k-tol\">±" + fixed(tol, 2) + " mm</span></div>";
-  h += "<table class=\"stats\"><thead><tr><th></th><th>min</th><th>max</th><th>mean</th><th>RMS</th><th>std</th>"
+  h += "<div class=\"scroll\"><table class=\"stats\"><thead><tr><th></th><th>min</th><th>max</th><th>mean</th><th>RMS</th><th>std</th>"
        "<th>P50 |d|</th><th>P95 |d|</th><th>P99 |d|</th><th>Hausdorff</th><th>within</th><th>samples</th></tr>"
        "</thead><tbody>";
   h += "<tr><th>deposit → mesh</th>" + stat_cells(dev.deposit_to_mesh) + "</tr>";
   h += "<tr><th>mesh → deposit</th>" + stat_cells(dev.mesh_to_deposit) + "</tr>";
-  h += "</tbody></table><p class=\"fine\">mm; positive = material outside the designed part (excess), negative = "
+  h += "</tbody></table></div><p class=\"fine\">mm; positive = material outside the designed part (excess), negative = "
        "inside it / missing (deficit).</p></div></section>\n";
 
   // Layer viewer.

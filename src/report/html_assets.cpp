@@ -120,14 +120,14 @@ svg.chart{width:100%;height:auto;display:block;font-size:11px}
 .k-excess::before{background:var(--excess)}.k-deficit::before{background:var(--deficit)}
 .k-rms::before{background:repeating-linear-gradient(90deg,#3c4454 0 3px,transparent 3px 5px)}
 .k-tol::before{background:#cfeedd;height:10px!important}
-.stats{font-size:12.5px}
-.stats th,.stats td{border-bottom:1px solid #f0f2f6;white-space:nowrap;text-align:right}
+.stats{font-size:12px}
+.stats th,.stats td{border-bottom:1px solid #f0f2f6;white-space:nowrap;text-align:right;padding:4px 5px}
 .stats th:first-child{text-align:left}
 .stats thead th{font-size:11.5px;color:var(--ink3)}
 .fine{font-size:12px;color:var(--ink3);margin:6px 0 0}
 .viewer{display:grid;grid-template-columns:minmax(0,1fr) 260px;gap:16px;align-items:start}
 .viewer-stage{position:relative;background:#fafbfc;border:1px solid var(--line);border-radius:8px;overflow:hidden}
-#layer-canvas{display:block;width:100%;height:auto;aspect-ratio:4/3;cursor:crosshair}
+#layer-canvas{display:block;width:100%;height:auto;aspect-ratio:16/10;cursor:crosshair}
 .tip{position:absolute;pointer-events:none;background:rgba(22,27,38,.92);color:#fff;font-size:12px;
 padding:4px 7px;border-radius:5px;white-space:nowrap;transform:translate(10px,-120%)}
 .viewer-title{font-size:18px;font-weight:650;margin-bottom:8px}
@@ -228,7 +228,7 @@ std::string_view report_js() {
 
   function resize() {
     var r = canvas.getBoundingClientRect(), dpr = window.devicePixelRatio || 1;
-    var w = Math.max(320, Math.round(r.width * dpr)), h = Math.round(w * 3 / 4);
+    var w = Math.max(320, Math.round(r.width * dpr)), h = Math.round(w * 10 / 16);
     if (canvas.width !== w || canvas.height !== h) { canvas.width = w; canvas.height = h; }
   }
 
@@ -269,8 +269,10 @@ std::string_view report_js() {
       ctx.strokeStyle = color(D.mesh.d[j]); ctx.stroke();
     }
     // Regions active on this layer.
+    // Region boxes: the selected region, else the largest few that cross this layer.
     (data.regions || []).forEach(function (r, idx) {
       if (L.l < r.l0 || L.l > r.l1) return;
+      if (highlight >= 0 ? idx !== highlight : idx >= 8) return;
       var x0 = X(r.b[0]) - 4 * dpr, y0 = Y(r.b[3]) - 4 * dpr, x1 = X(r.b[2]) + 4 * dpr, y1 = Y(r.b[1]) + 4 * dpr;
       var col = r.k === "missing" ? "#2161ac" : "#cb181d";
       ctx.setLineDash([5 * dpr, 4 * dpr]); ctx.strokeStyle = col; ctx.lineWidth = (idx === highlight ? 2.6 : 1.5) * dpr;

@@ -168,7 +168,12 @@ HeatmapView render_heatmap(const MeshQuery& query, const SurfaceDeviationField& 
     const double depth_tol = 1.5 * std::max(spacing, cam.mm_per_px) + 0.02;
     const double inv_px = 1.0 / cam.mm_per_px;
     const Vec3 c0 = cam.center_mm;
-    for (const auto& smp : field.samples) {
+    // Many samples per pixel (dense sampling, small image): a regular subset carries the same
+    // picture; keep about 3 per pixel.
+    const double per_px = (cam.mm_per_px / spacing) * (cam.mm_per_px / spacing);
+    const std::size_t stride = radius_px == 0 ? std::max<std::size_t>(1, static_cast<std::size_t>(per_px / 3.0)) : 1;
+    for (std::size_t k = 0; k < field.samples.size(); k += stride) {
+      const DeviationSample& smp = field.samples[k];
       const Vec3 d = smp.position_mm - c0;
       const double fx = 0.5 * w + d.dot(cam.right) * inv_px, fy = 0.5 * h - d.dot(cam.up) * inv_px;
       if (!(fx >= -radius_px && fy >= -radius_px && fx < w + radius_px && fy < h + radius_px)) continue;

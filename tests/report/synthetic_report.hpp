@@ -20,6 +20,9 @@ struct SyntheticSpec {
   double spacing_mm = 0.25;    ///< sample spacing of both sample sets
   double layer_mm = 0.2;
   double tolerance_mm = 0.2;
+  /// Deposit samples per mesh sample (a voxel deposit exposes several faces per surface
+  /// voxel: real runs have 2-4x more deposit samples than mesh samples).
+  int deposit_per_mesh_sample = 1;
 };
 
 inline const Vec3 kSyntheticCenter(110.0, 110.0, 12.0);
@@ -125,6 +128,13 @@ inline VerifyReport make_synthetic_report(const SyntheticSpec& spec = {}) {
     DeviationSample ds{on + d * dir, d, layer, static_cast<std::uint32_t>(1000 + 40 * layer)};
     DeviationSample ms{on, d, layer, static_cast<std::uint32_t>(1000 + 40 * layer)};
     dev.deposit_samples.push_back(ds);
+    for (int k = 1; k < spec.deposit_per_mesh_sample; ++k) {
+      DeviationSample extra = ds;
+      extra.position_mm += 0.25 * spec.spacing_mm * k * Vec3(dir.y(), -dir.x(), 0.3);
+      dev.deposit_samples.push_back(extra);
+      dep_d.push_back(d);
+      layer_dep[static_cast<std::size_t>(layer)].push_back(d);
+    }
     dev.mesh_samples.push_back(ms);
     dep_d.push_back(d);
     mesh_d.push_back(d);
@@ -203,6 +213,8 @@ inline VerifyReport make_synthetic_report(const SyntheticSpec& spec = {}) {
   }
   const double excess = std::max(dev.deposit_to_mesh.max_mm, dev.mesh_to_deposit.max_mm);
   const double deficit = -std::min(dev.deposit_to_mesh.min_mm, dev.mesh_to_deposit.min_mm);
+  dev.max_excess_mm = excess;
+  dev.max_deficit_mm = deficit;
   r.gates = {{"max_excess", spec.tolerance_mm, excess, excess <= spec.tolerance_mm},
              {"max_deficit", spec.tolerance_mm, deficit, deficit <= spec.tolerance_mm},
              {"no_error_findings", 0, 2, false}};
