@@ -150,6 +150,7 @@ class Planner {
     double accel_mm_s2 = 0;
     double max_entry_speed_mm_s = 0;
     double entry_speed_mm_s = 0;
+    double reverse_entry_mm_s = -1;  ///< entry from the last reverse pass (before the forward pass)
     double safe_speed_mm_s = 0;  ///< classic jerk: speed the block may start/stop at
     bool nominal_length = false; ///< nominal speed reachable from a stop within the block
     bool entry_fixed = false;    ///< the block before it already left the window

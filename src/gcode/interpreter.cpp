@@ -490,7 +490,7 @@ Status GcodeInterpreter::arc_move(const GcodeCommand& c, std::string_view text, 
   const double seg = std::clamp(radius * 2 * kPi / profile_.arc_min_segments_per_circle,
                                 profile_.arc_min_segment_mm, profile_.arc_max_segment_mm);
   const long segments = std::max(1L, std::lround(travel / seg));
-  if (segments > 1000000) return warn(c.line, text, "arc needs too many segments; ignored", "bad_arc");
+  if (segments > 20000) return warn(c.line, text, "arc needs more than 20000 segments; ignored", "bad_arc");
   const Vec3 start = logical_mm_;
   const double theta_step = angular / static_cast<double>(segments);
   for (long i = 1; i <= segments; ++i) {

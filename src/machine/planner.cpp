@@ -236,6 +236,10 @@ void Planner::recalculate() {
     const double e = b.nominal_length
                          ? b.max_entry_speed_mm_s
                          : std::min(b.max_entry_speed_mm_s, max_allowable_speed(b.accel_mm_s2, next_entry, b.length_mm));
+    // Marlin's "planned" pointer: once a block's reverse-planned entry is unchanged (and it
+    // is not one of the last two, whose exit just changed), nothing before it changes.
+    if (k + 2 < n && e == b.reverse_entry_mm_s) break;
+    b.reverse_entry_mm_s = e;
     b.entry_speed_mm_s = e;
     first_changed = k;
     next_entry = e;
