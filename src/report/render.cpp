@@ -44,7 +44,9 @@ constexpr ColorStop kExcess[] = {{0.0, 253, 174, 107}, {0.35, 241, 105, 19}, {0.
                                  {1.0, 127, 0, 13}};
 constexpr ColorStop kDeficit[] = {{0.0, 140, 198, 230}, {0.35, 66, 146, 198}, {0.7, 33, 97, 172},
                                   {1.0, 8, 48, 107}};
-constexpr ColorStop kWithin[] = {{0.0, 65, 171, 93}, {1.0, 161, 217, 155}};
+// Within tolerance: green, leaning teal on the deficit side and yellow-green on the excess
+// side, so the sign reads even inside the band without competing with the shading.
+constexpr ColorStop kWithin[] = {{0.0, 84, 178, 160}, {0.5, 65, 171, 93}, {1.0, 166, 206, 96}};
 
 double nice_ceil(double v) {
   if (!(v > 0)) return 1.0;
@@ -61,7 +63,7 @@ Rgb DeviationColorScale::color(double d_mm) const {
   const double range = std::max(range_mm, tol * 1.0001);
   if (!std::isfinite(d_mm)) return {200, 200, 200};
   const double a = std::abs(d_mm);
-  if (a <= tol) return lerp_stops(kWithin, 2, a / tol);
+  if (a <= tol) return lerp_stops(kWithin, 3, 0.5 + 0.5 * d_mm / tol);
   const double t = (a - tol) / (range - tol);
   return d_mm > 0 ? lerp_stops(kExcess, 4, t) : lerp_stops(kDeficit, 4, t);
 }
@@ -261,8 +263,8 @@ HeatmapView render_heatmap(const MeshQuery& query, const SurfaceDeviationField& 
           }
         }
         const Vec3 ns = back ? Vec3(-n) : n;
-        double shade = 0.38 + 0.62 * std::max(0.0, ns.dot(key_light)) +
-                       0.18 * std::max(0.0, ns.dot(fill_light));
+        double shade = 0.46 + 0.54 * std::max(0.0, ns.dot(key_light)) +
+                       0.16 * std::max(0.0, ns.dot(fill_light));
         // Outline creases and depth steps (darken where a neighbour differs a lot).
         auto differs = [&](int xx, int yy) {
           if (xx < 0 || yy < 0 || xx >= w || yy >= h) return true;

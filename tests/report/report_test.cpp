@@ -40,11 +40,14 @@ std::array<int, 3> pixel(const Image& im, const Vec2& p) {
 
 TEST(ReportColorScale, GreenWithinToleranceBlueDeficitRedExcess) {
   const DeviationColorScale s{0.2, 1.0};
-  for (double d : {0.0, 0.1, -0.19, 0.2}) {
+  for (double d : {0.0, 0.1, -0.19, 0.2, -0.2}) {
     const auto c = s.color(d);
-    EXPECT_GT(c[1], c[0] + 30) << d;
-    EXPECT_GT(c[1], c[2] + 30) << d;
+    EXPECT_GT(c[1], c[0] + 15) << d;
+    EXPECT_GT(c[1], c[2] + 15) << d;
   }
+  // Inside the band the sign still reads: bluer below zero, redder above.
+  EXPECT_GT(s.color(-0.15)[2], s.color(0.15)[2]);
+  EXPECT_GT(s.color(0.15)[0], s.color(-0.15)[0]);
   for (double d : {-0.21, -0.5, -1.0, -3.0}) {
     const auto c = s.color(d);
     EXPECT_GT(c[2], c[0] + 60) << d;
