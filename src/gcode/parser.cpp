@@ -41,6 +41,14 @@ Status parse_error(std::string_view text, long line, const std::string& what) {
   return bad_input(what + " in \"" + excerpt(text) + "\"", {}, line);
 }
 
+Status not_gcode(std::string_view text, long line, const char* at) {
+  const auto c = static_cast<unsigned char>(*at);
+  return parse_error(text, line,
+                     "byte 0x" + std::string(1, "0123456789abcdef"[c >> 4]) +
+                         std::string(1, "0123456789abcdef"[c & 15]) + " at column " +
+                         std::to_string(at - text.data() + 1) + " is not G-code");
+}
+
 /// Reads a number at `p` (optional sign, digits, '.', exponent). Returns the end or nullptr.
 const char* read_number(const char* p, const char* end, double& out) {
   const char* start = p;
@@ -211,15 +219,15 @@ Status parse_gcode_line(std::string_view text, long line, GcodeCommand& out) {
     while (end > p && is_space(end[-1])) --end;
   }
 
-  // Every byte must be printable ASCII (binary garbage is rejected, not interpreted).
-  for (const char* q = p; q < end; ++q) {
-    const auto c = static_cast<unsigned char>(*q);
-    if ((c < 32 && c != '\t') || c >= 127)
-      return parse_error(text, line,
-                         "byte 0x" + std::string(1, "0123456789abcdef"[c >> 4]) +
-                             std::string(1, "0123456789abcdef"[c & 15]) + " at column " +
-                             std::to_string(q - text.data() + 1) + " is not G-code");
-  }
+  // Every byte must be printable ASCII (binary garbage is rejected, not interpreted). The
+  // parameter scan below rejects any other byte itself; free text is checked here.
+  auto check_text = [&](const char* from) -> Status {
+    for (const char* q = from; q < end; ++q) {
+      const auto c = static_cast<unsigned char>(*q);
+      if ((c < 32 && c != '\t') || c >= 127) return not_gcode(text, line, q);
+    }
+    return Ok{};
+  };
 
   // Optional line number N<int>.
   if ((*p == 'N' || *p == 'n') && p + 1 < end && is_digit(p[1])) {
@@ -267,10 +275,12 @@ Status parse_gcode_line(std::string_view text, long line, GcodeCommand& out) {
     out.word = std::string_view(w, static_cast<std::size_t>(p - w));
     while (p < end && is_space(*p)) ++p;
     out.args = std::string_view(p, static_cast<std::size_t>(end - p));
-    return Ok{};
+    return check_text(p);
   } else {
     if (*p == '[' || *p == '{')
       return parse_error(text, line, "unexpanded slicer placeholder");
+    const auto uc = static_cast<unsigned char>(*p);
+    if ((uc < 32 && uc != '\t') || uc >= 127) return not_gcode(text, line, p);
     return parse_error(text, line,
                        std::string("expected a command (G, M, T) but found '") + *p + "'");
   }
@@ -281,7 +291,7 @@ Status parse_gcode_line(std::string_view text, long line, GcodeCommand& out) {
                             out.code == 928)) {
     while (p < end && is_space(*p)) ++p;
     out.args = std::string_view(p, static_cast<std::size_t>(end - p));
-    return Ok{};
+    return check_text(p);
   }
 
   // Parameters.
@@ -300,14 +310,17 @@ Status parse_gcode_line(std::string_view text, long line, GcodeCommand& out) {
     if (c == '[' || c == '{')
       return parse_error(text, line, "unexpanded slicer placeholder");
     const char letter = upper(c);
-    if (!is_upper(letter))
+    if (!is_upper(letter)) {
+      const auto uc = static_cast<unsigned char>(c);
+      if ((uc < 32 && uc != '\t') || uc >= 127) return not_gcode(text, line, p);
       return parse_error(text, line, std::string("unexpected character '") + c + "'");
+    }
     // M486 A<name>: the object name is text.
     if (out.letter == 'M' && out.code == 486 && letter == 'A') {
       out.present |= 1U << ('A' - 'A');
       out.value[0] = 0;
       out.args = std::string_view(p + 1, static_cast<std::size_t>(end - p - 1));
-      break;
+      return check_text(p + 1);
     }
     ++p;
     while (p < end && is_space(*p)) ++p;

@@ -100,8 +100,8 @@ void Planner::add(const Move& move, MoveSink& sink) {
   // Per-axis feedrate limits (M203), E included.
   double factor = 1.0;
   for (int i = 0; i < 4; ++i) {
-    const double axis_speed = std::fabs(b.unit[i]) * v;
-    if (axis_speed > L.max_feedrate_mm_s[i]) factor = std::min(factor, L.max_feedrate_mm_s[i] / axis_speed);
+    const double axis_speed = std::fabs(b.unit[i]) * v * factor;
+    if (axis_speed > L.max_feedrate_mm_s[i]) factor *= L.max_feedrate_mm_s[i] / axis_speed;
   }
   b.nominal_speed_mm_s = v * factor;
 
@@ -112,13 +112,14 @@ void Planner::add(const Move& move, MoveSink& sink) {
     accel = e_only ? L.retract_accel_mm_s2
                    : (move.e_mm > 0 ? L.print_accel_mm_s2 : L.travel_accel_mm_s2);
     for (int i = 0; i < 4; ++i)
-      if (std::fabs(b.unit[i]) > 0) accel = std::min(accel, L.max_accel_mm_s2[i] / std::fabs(b.unit[i]));
+      if (accel * std::fabs(b.unit[i]) > L.max_accel_mm_s2[i]) accel = L.max_accel_mm_s2[i] / std::fabs(b.unit[i]);
   } else if (e_only) {
     accel = L.retract_accel_mm_s2;
   } else {
     accel = move.e_mm != 0 ? L.print_accel_mm_s2 : L.travel_accel_mm_s2;
+    // Divide only for the axes that limit (most moves are limited by none or one).
     for (int i = 0; i < 4; ++i)
-      if (std::fabs(b.unit[i]) > 0) accel = std::min(accel, L.max_accel_mm_s2[i] / std::fabs(b.unit[i]));
+      if (accel * std::fabs(b.unit[i]) > L.max_accel_mm_s2[i]) accel = L.max_accel_mm_s2[i] / std::fabs(b.unit[i]);
   }
   b.accel_mm_s2 = std::max(accel, 1e-6);
 
@@ -138,7 +139,8 @@ void Planner::add(const Move& move, MoveSink& sink) {
         if (jn > 0) {
           ju /= jn;
           for (int i = 0; i < 4; ++i)
-            if (std::fabs(ju[i]) > 1e-9) junction_accel = std::min(junction_accel, L.max_accel_mm_s2[i] / std::fabs(ju[i]));
+            if (junction_accel * std::fabs(ju[i]) > L.max_accel_mm_s2[i])
+              junction_accel = L.max_accel_mm_s2[i] / std::fabs(ju[i]);
         }
         const double sin_theta_d2 = std::sqrt(0.5 * (1.0 - cos_theta));
         double vsq = junction_accel * L.junction_deviation_mm * sin_theta_d2 / (1.0 - sin_theta_d2);
