@@ -3,7 +3,11 @@
 #include <cmath>
 #include <numbers>
 
+#include <sstream>
+
+#include "printtwin/check.hpp"
 #include "printtwin/io.hpp"
+#include "printtwin/simulate.hpp"
 #include "slice/slice_internal.hpp"
 
 namespace printtwin {
@@ -90,6 +94,7 @@ Result<SliceOutput> slice_mesh(const Mesh& mesh, const PrinterProfile& printer, 
   if (auto ok = validate_slice_settings(settings); !ok) return ok.error();
   if (mesh.triangles.empty()) return bad_input("the mesh has no triangles");
   SliceOutput output;
+  output.findings.clear();
 
   // Placement: centred on the bed (or --center), lowest point on z = 0; --place keeps the
   // mesh's own frame shifted by the given offset.
@@ -118,7 +123,35 @@ Result<SliceOutput> slice_mesh(const Mesh& mesh, const PrinterProfile& printer, 
   }
 
   auto outlines = slice_layers(placed, settings);
-  if (!outlines) return outlines.error();
+  if (!outlines) {
+    // Not closed: try CGAL's repair (check.hpp) once, report what it changed.
+    auto repaired = repair_mesh(placed);
+    if (!repaired || !repaired->after.closed) {
+      Error e = outlines.error();
+      if (repaired) {
+        e.message += "; repair left " + std::to_string(repaired->after.boundary_edges) + " open and " +
+                     std::to_string(repaired->after.non_manifold_edges) + " non-manifold edges";
+      } else {
+        e.message += "; repair failed: " + repaired.error().message;
+      }
+      return e;
+    }
+    auto again = slice_layers(repaired->mesh, settings);
+    if (!again) return again.error();
+    outlines = std::move(again);
+    output.stats.mesh_repaired = true;
+    Finding f;
+    f.severity = Severity::warning;
+    f.code = "mesh_repaired";
+    std::string what;
+    for (const auto& c : repaired->changes)
+      what += (what.empty() ? "" : ", ") + c.code + " " + std::to_string(c.count);
+    f.message = "the mesh was not closed (" + std::to_string(repaired->before.boundary_edges) +
+                " open edges, " + std::to_string(repaired->before.non_manifold_edges) +
+                " non-manifold edges) and was repaired before slicing: " + what;
+    f.count = static_cast<long>(repaired->before.boundary_edges + repaired->before.non_manifold_edges);
+    output.findings.push_back(std::move(f));
+  }
   RegionResult regions = plan_layers(*outlines, settings);
   auto written = write_gcode(regions.layers, printer, settings, "mesh");
   if (!written) return written.error();
@@ -146,9 +179,25 @@ Result<SliceOutput> slice_mesh(const Mesh& mesh, const PrinterProfile& printer, 
                           : settings.thin_wall_min_width_mm < 0
                               ? -settings.thin_wall_min_width_mm * settings.nozzle_diameter_mm
                               : 0.6 * settings.nozzle_diameter_mm;
-  output.findings = dropped_findings(regions.layers, min_thin);
+  for (auto& f : dropped_findings(regions.layers, min_thin)) output.findings.push_back(std::move(f));
 
   std::string gcode = std::move(written->gcode);
+  if (settings.estimate_time) {
+    // printtwin's own estimate: the G-code text through the simulator (the only link
+    // between slicer and simulator), with the slice's nozzle and filament.
+    PrinterProfile sim_printer = printer;
+    sim_printer.nozzle_diameter_mm = settings.nozzle_diameter_mm;
+    sim_printer.filament_diameter_mm = settings.filament_diameter_mm;
+    std::istringstream in(gcode);
+    SimulateOptions opts;
+    opts.source_name = "printtwin slice output";
+    auto sim = simulate_gcode(in, sim_printer, opts);
+    if (!sim) {
+      return internal_error("the simulator rejected the slicer's own G-code: " + sim.error().describe());
+    }
+    st.estimated_time_s = sim->print_time_s;
+    st.time_from_simulator = true;
+  }
   // Footer: printtwin's own figures.
   gcode += "\n; printtwin slice summary\n";
   gcode += "; filament used [mm] = " + format_fixed(st.filament_mm, 2) + "\n";

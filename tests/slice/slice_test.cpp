@@ -268,6 +268,32 @@ TEST(SliceGcode, DeterministicAndMarlinFraming) {
   EXPECT_GT(g1, 1000);
 }
 
+TEST(SliceGcode, OpenMeshIsRepairedAndReported) {
+  Mesh cube = test::make_cube_mm(10.0);
+  cube.triangles.pop_back();  // a hole of one triangle: CGAL's repair fills it
+  auto out = slice_mesh(cube, ender3_marlin2(), no_time());
+  ASSERT_TRUE(out.ok()) << out.error().describe();
+  EXPECT_TRUE(out->stats.mesh_repaired);
+  EXPECT_EQ(out->stats.layer_count, 50);
+  ASSERT_FALSE(out->findings.empty());
+  EXPECT_EQ(out->findings[0].code, "mesh_repaired");
+  EXPECT_NE(out->findings[0].message.find("3 open edges"), std::string::npos) << out->findings[0].message;
+}
+
+TEST(SliceGcode, FooterTimeComesFromTheSimulator) {
+  SliceSettings s;  // estimate_time on
+  auto out = slice_mesh(test::make_cube_mm(10.0), ender3_marlin2(), s);
+  ASSERT_TRUE(out.ok()) << out.error().describe();
+  EXPECT_TRUE(out->stats.time_from_simulator);
+  // Heating from ambient, homing, purge and 50 layers of a 10 mm cube: minutes, not hours.
+  EXPECT_GT(out->stats.estimated_time_s, 300.0);
+  EXPECT_LT(out->stats.estimated_time_s, 1800.0);
+  const std::string key = "; printtwin estimated printing time [s] = ";
+  const auto pos = out->gcode.find(key);
+  ASSERT_NE(pos, std::string::npos);
+  EXPECT_NEAR(std::stod(out->gcode.substr(pos + key.size())), out->stats.estimated_time_s, 0.05);
+}
+
 TEST(SliceSettingsTest, DefaultsMatchThePrusaSlicerEnder3Ini) {
   SliceSettings loaded;
   loaded.layer_height_mm = 0.3;  // must be reset by the file
