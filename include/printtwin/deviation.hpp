@@ -99,7 +99,12 @@ struct DepositSurface {
 
 /// Extracts the outer surface of `grid` within `region_mm` (expanded to whole voxels and
 /// padded by one voxel so the border is outside). Voxels of auxiliary features are empty.
-[[nodiscard]] DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_mm);
+/// `seal_gap_mm` > 0: gaps up to about that width (2r voxels, r = floor(seal / (2 voxel)))
+/// do not let the outside in: the flood fill runs on the occupancy dilated by r voxels and
+/// the outside found is dilated back by r (a morphological opening of the empty space), so
+/// pinholes between beads do not expose the infill. Faces belong to occupied voxels only.
+[[nodiscard]] DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_mm,
+                                                   double seal_gap_mm = 0);
 
 /// Exact distances from points to the union of the surface's face squares, signed
 /// positive when the point is in the filled volume. Nearest face index per point in
@@ -112,9 +117,12 @@ void distances_to_deposit(const DepositSurface& surface, std::span<const Vec3> p
 /// Signed distances from points to the mesh (positive outside), with Embree closest
 /// points. The sign comes from angle-weighted pseudo-normals (Baerentzen & Aanaes 2005) on
 /// a closed, consistently oriented mesh, and from the ray-parity vote of MeshQuery::inside
-/// where the closest feature touches an open or non-manifold edge.
+/// where the closest feature touches an open or non-manifold edge. `near_mm` > 0: most
+/// points are expected within this distance; each is first searched within it (cheap) and
+/// only then without bound. The result does not depend on `near_mm`.
 [[nodiscard]] Result<std::vector<double>> signed_distances_to_mesh(const Mesh& mesh,
-                                                                  std::span<const Vec3> points);
+                                                                  std::span<const Vec3> points,
+                                                                  double near_mm = 0);
 
 /// Reference unsigned point-to-mesh distances from CGAL's AABB tree (tests and benchmarks
 /// compare the production Embree path against it). Slow; single-threaded.
@@ -148,6 +156,8 @@ struct DeviationSettings {
   std::uint64_t seed = 1;
   double cluster_radius_mm = 0;       ///< 0: max(2 voxels, 3 x the mesh sample spacing)
   double region_margin_mm = 1.0;      ///< analysed region = mesh box (+ part box) + margin
+  /// Gaps in the deposit narrower than this do not let the outside in (extract_outer_surface).
+  double seal_gap_mm = 0.2;
   int max_regions = 50;               ///< keep the largest regions (by area)
   /// Out-of-tolerance clusters smaller than this are voxel noise, not defects: they are not
   /// regions and do not count in DeviationResult::max_excess_mm / max_deficit_mm.

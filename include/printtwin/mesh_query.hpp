@@ -38,6 +38,11 @@ class MeshQuery {
 
   /// Closest point on the surface (exact, point-triangle distance over BVH candidates).
   [[nodiscard]] ClosestPoint closest_point(const Vec3& p) const;
+  /// Closest point within `max_distance_mm` of p, or nothing when the surface is farther.
+  /// Much cheaper than closest_point() for points known to be near the surface (the BVH
+  /// prunes everything outside the ball from the start).
+  [[nodiscard]] std::optional<ClosestPoint> closest_point_within(const Vec3& p,
+                                                                 double max_distance_mm) const;
   /// Closest points of many query points, in parallel (TBB). `out` is resized.
   void closest_points(std::span<const Vec3> points, std::vector<ClosestPoint>& out) const;
 

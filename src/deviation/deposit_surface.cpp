@@ -32,6 +32,46 @@ struct Run {
 
 inline bool test_bit(const std::uint64_t* col, int z) { return (col[z >> 6] >> (z & 63)) & 1U; }
 
+/// Bit columns (nx * ny columns of `words` words, z bits) dilated by r voxels (a cube of
+/// 2r + 1): separable, z by word shifts, then x, then y by OR of neighbouring columns.
+std::vector<std::uint64_t> dilate(const std::vector<std::uint64_t>& in, int nx, int ny, int words, int r) {
+  const auto idx = [&](int x, int y) { return (static_cast<std::size_t>(y) * nx + x) * static_cast<std::size_t>(words); };
+  std::vector<std::uint64_t> a(in.size(), 0), b(in.size(), 0);
+  for (std::size_t c = 0; c < static_cast<std::size_t>(nx) * ny; ++c) {
+    const std::uint64_t* src = in.data() + c * words;
+    std::uint64_t* dst = a.data() + c * words;
+    for (int w = 0; w < words; ++w) {
+      std::uint64_t v = src[w];
+      for (int k = 1; k <= r; ++k) {
+        // Up by k (bit z -> z + k) and down by k, with the bits crossing word borders.
+        v |= src[w] << k;
+        if (w > 0) v |= src[w - 1] >> (64 - k);
+        v |= src[w] >> k;
+        if (w + 1 < words) v |= src[w + 1] << (64 - k);
+      }
+      dst[w] = v;
+    }
+  }
+  for (int y = 0; y < ny; ++y)
+    for (int x = 0; x < nx; ++x) {
+      std::uint64_t* dst = b.data() + idx(x, y);
+      for (int xx = std::max(0, x - r); xx <= std::min(nx - 1, x + r); ++xx) {
+        const std::uint64_t* src = a.data() + idx(xx, y);
+        for (int w = 0; w < words; ++w) dst[w] |= src[w];
+      }
+    }
+  std::fill(a.begin(), a.end(), 0);
+  for (int y = 0; y < ny; ++y)
+    for (int x = 0; x < nx; ++x) {
+      std::uint64_t* dst = a.data() + idx(x, y);
+      for (int yy = std::max(0, y - r); yy <= std::min(ny - 1, y + r); ++yy) {
+        const std::uint64_t* src = b.data() + idx(x, yy);
+        for (int w = 0; w < words; ++w) dst[w] |= src[w];
+      }
+    }
+  return a;
+}
+
 }  // namespace
 
 bool DepositSurface::filled(const Vec3& p_mm) const {
@@ -46,7 +86,7 @@ bool DepositSurface::filled(const Vec3& p_mm) const {
   return test_bit(col, static_cast<int>(z));
 }
 
-DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_mm) {
+DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_mm, double seal_gap_mm) {
   DepositSurface s;
   s.voxel_mm = grid.voxel_mm();
   if (region_mm.empty()) return s;
@@ -90,6 +130,28 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     }
   });
 
+  // Gaps narrower than seal_gap_mm must not let the outside in (pinholes between beads are
+  // voxelisation artefacts): the flood runs on the occupancy dilated by r voxels, and the
+  // outside it reaches is dilated back by r (a morphological opening of the empty space).
+  const int seal_r = seal_gap_mm > 0 ? static_cast<int>(std::floor(seal_gap_mm / (2 * s.voxel_mm) + 1e-9)) : 0;
+  std::vector<std::uint64_t> blocked_storage;
+  if (seal_r > 0) {
+    blocked_storage = dilate(occ, nx, ny, words, seal_r);
+    // The padding stays empty so that the outside surrounds everything.
+    for (int y = 0; y < ny; ++y)
+      for (int x = 0; x < nx; ++x) {
+        std::uint64_t* col = blocked_storage.data() + (static_cast<std::size_t>(y) * nx + x) * words;
+        if (x == 0 || y == 0 || x == nx - 1 || y == ny - 1) {
+          std::fill(col, col + words, 0);
+          continue;
+        }
+        col[0] &= ~std::uint64_t{1};
+        col[(nz - 1) >> 6] &= ~(std::uint64_t{1} << ((nz - 1) & 63));
+        if (nz % 64 != 0) col[words - 1] &= (std::uint64_t{1} << (nz % 64)) - 1;
+      }
+  }
+  const std::vector<std::uint64_t>& blocked = seal_r > 0 ? blocked_storage : occ;
+
   // 2. Empty runs per column (CSR), then a breadth-first flood over runs. Two runs of
   // face-adjacent columns touch when their z-intervals overlap.
   std::vector<std::uint32_t> run_begin(columns + 1, 0);
@@ -97,7 +159,7 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   runs.reserve(columns * 2);
   for (std::size_t c = 0; c < columns; ++c) {
     run_begin[c] = static_cast<std::uint32_t>(runs.size());
-    const std::uint64_t* col = occ.data() + c * static_cast<std::size_t>(words);
+    const std::uint64_t* col = blocked.data() + c * static_cast<std::size_t>(words);
     int z = 0;
     while (z < nz) {
       while (z < nz && test_bit(col, z)) ++z;
@@ -149,16 +211,25 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     }
   }
 
-  // 3. Filled bits = not outside (occupied voxels and enclosed voids).
+  // 3. Filled bits = not outside (occupied voxels, enclosed voids, sealed gaps).
+  std::vector<std::uint64_t> out_bits(columns * static_cast<std::size_t>(words), 0);
+  for (std::size_t c = 0; c < columns; ++c) {
+    std::uint64_t* o = out_bits.data() + c * static_cast<std::size_t>(words);
+    for (std::uint32_t r = run_begin[c]; r < run_begin[c + 1]; ++r) {
+      if (!outside[r]) continue;
+      for (int z = runs[r].z0; z <= runs[r].z1; ++z) o[z >> 6] |= std::uint64_t{1} << (z & 63);
+    }
+  }
+  if (seal_r > 0) {
+    out_bits = dilate(out_bits, nx, ny, words, seal_r);
+    for (std::size_t i = 0; i < out_bits.size(); ++i) out_bits[i] &= ~occ[i];
+  }
   s.filled_bits.assign(columns * static_cast<std::size_t>(words), 0);
   for (std::size_t c = 0; c < columns; ++c) {
     std::uint64_t* f = s.filled_bits.data() + c * static_cast<std::size_t>(words);
-    for (int w = 0; w < words; ++w) f[w] = ~std::uint64_t{0};
-    if (nz % 64 != 0) f[words - 1] = (std::uint64_t{1} << (nz % 64)) - 1;
-    for (std::uint32_t r = run_begin[c]; r < run_begin[c + 1]; ++r) {
-      if (!outside[r]) continue;
-      for (int z = runs[r].z0; z <= runs[r].z1; ++z) f[z >> 6] &= ~(std::uint64_t{1} << (z & 63));
-    }
+    const std::uint64_t* o = out_bits.data() + c * static_cast<std::size_t>(words);
+    for (int w = 0; w < words; ++w) f[w] = ~o[w];
+    if (nz % 64 != 0) f[words - 1] &= (std::uint64_t{1} << (nz % 64)) - 1;
     for (int w = 0; w < words; ++w) s.filled_voxels += static_cast<std::size_t>(__builtin_popcountll(f[w]));
   }
 
@@ -180,6 +251,7 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   for (int y = 1; y < ny - 1; ++y)
     for (int x = 1; x < nx - 1; ++x) {
       const std::uint64_t* f = filled_col(x, y);
+      const std::uint64_t* oc = occ.data() + (static_cast<std::size_t>(y) * nx + x) * words;
       const std::array<const std::uint64_t*, 4> nb{filled_col(x - 1, y), filled_col(x + 1, y),
                                                   filled_col(x, y - 1), filled_col(x, y + 1)};
       for (int w = 0; w < words; ++w) {
@@ -189,10 +261,13 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
         // Exposed in z: neighbour above / below not filled.
         const std::uint64_t above = (f[w] >> 1) | (up << 63);
         const std::uint64_t below = (f[w] << 1) | down;
-        const std::uint64_t zp = f[w] & ~above;
-        const std::uint64_t zm = f[w] & ~below;
-        const std::uint64_t xm = f[w] & ~nb[0][w], xp = f[w] & ~nb[1][w];
-        const std::uint64_t ym = f[w] & ~nb[2][w], yp = f[w] & ~nb[3][w];
+        // Faces belong to occupied voxels only (a sealed gap shows as a hole in the surface
+        // points, never as a leak).
+        const std::uint64_t fo = f[w] & oc[w];
+        const std::uint64_t zp = fo & ~above;
+        const std::uint64_t zm = fo & ~below;
+        const std::uint64_t xm = fo & ~nb[0][w], xp = fo & ~nb[1][w];
+        const std::uint64_t ym = fo & ~nb[2][w], yp = fo & ~nb[3][w];
         any = zp | zm | xm | xp | ym | yp;
         while (any != 0) {
           const int b = __builtin_ctzll(any);
@@ -208,8 +283,7 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
         }
       }
     }
-  // Tags of the faces' voxels. A filled voxel with a face is occupied (an enclosed void has
-  // no outside neighbour), so every face has a tag.
+  // Tags of the faces' voxels (all occupied).
   s.face_tags.resize(s.faces.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, s.faces.size(), 4096),
                     [&](const tbb::blocked_range<std::size_t>& r) {

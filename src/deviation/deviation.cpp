@@ -26,7 +26,7 @@ Result<DeviationResult> compute_deviation(const Mesh& mesh, const VoxelGrid& dep
   region.extend(part_box_mm);
   region.min -= Vec3::Constant(settings.region_margin_mm);
   region.max += Vec3::Constant(settings.region_margin_mm);
-  const DepositSurface surface = extract_outer_surface(deposit, region);
+  const DepositSurface surface = extract_outer_surface(deposit, region, settings.seal_gap_mm);
   out.deposit_volume_mm3 = static_cast<double>(surface.occupied_voxels) * v * v * v;
   out.surface_faces = surface.faces.size();
   for (std::size_t i = 0; i < surface.faces.size(); ++i)  // a voxel's faces are consecutive
@@ -35,7 +35,7 @@ Result<DeviationResult> compute_deviation(const Mesh& mesh, const VoxelGrid& dep
   // Deposit -> mesh, from every exposed face centre.
   std::vector<Vec3> face_points(surface.faces.size());
   for (std::size_t i = 0; i < surface.faces.size(); ++i) face_points[i] = surface.faces[i].center_mm;
-  auto d_dep = signed_distances_to_mesh(mesh, face_points);
+  auto d_dep = signed_distances_to_mesh(mesh, face_points, std::max(4.0 * v, settings.tolerance_mm));
   if (!d_dep) return d_dep.error();
   std::vector<DeviationSample> dep_samples(face_points.size());
   for (std::size_t i = 0; i < face_points.size(); ++i)

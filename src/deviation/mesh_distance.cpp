@@ -34,58 +34,70 @@ struct PseudoNormals {
     vertex_open.assign(m.vertices_mm.size(), 0);
     edge.resize(nt);
     edge_open.assign(nt, {0, 0, 0});
+    // Edge uses sorted by their undirected key (cheaper than a hash map of vectors).
     struct EdgeUse {
+      std::uint64_t key = 0;
       std::uint32_t tri = 0;
-      int slot = 0;
+      std::uint8_t slot = 0;
       bool forward = true;  // v_lo -> v_hi in the triangle's winding
     };
-    std::unordered_map<std::uint64_t, std::vector<EdgeUse>> edges;
-    edges.reserve(nt * 2);
+    std::vector<EdgeUse> uses;
+    uses.reserve(nt * 3);
     for (std::size_t t = 0; t < nt; ++t) {
       const auto& tri = m.triangles[t];
       const Vec3 n = triangle_normal(m, t);
       const double len = n.norm();
       face[t] = len > 0 ? Vec3(n / len) : Vec3::Zero();
       for (int k = 0; k < 3; ++k) {
-        const std::uint32_t a = tri[k], b = tri[(k + 1) % 3], c = tri[(k + 2) % 3];
+        const std::uint32_t a = tri[static_cast<std::size_t>(k)], b = tri[static_cast<std::size_t>((k + 1) % 3)],
+                            c = tri[static_cast<std::size_t>((k + 2) % 3)];
         // Angle at vertex a.
         const Vec3 e1 = m.vertices_mm[b] - m.vertices_mm[a];
         const Vec3 e2 = m.vertices_mm[c] - m.vertices_mm[a];
         const double angle = std::atan2(e1.cross(e2).norm(), e1.dot(e2));
         vertex[a] += angle * face[t];
         const std::uint32_t lo = std::min(a, b), hi = std::max(a, b);
-        edges[(std::uint64_t{lo} << 32) | hi].push_back({static_cast<std::uint32_t>(t), k, a == lo});
+        uses.push_back({(std::uint64_t{lo} << 32) | hi, static_cast<std::uint32_t>(t),
+                        static_cast<std::uint8_t>(k), a == lo});
       }
     }
-    for (const auto& [key, uses] : edges) {
-      const bool ok = uses.size() == 2 && uses[0].forward != uses[1].forward;
+    std::sort(uses.begin(), uses.end(), [](const EdgeUse& x, const EdgeUse& y) {
+      return x.key != y.key ? x.key < y.key : x.tri < y.tri;
+    });
+    for (std::size_t i = 0; i < uses.size();) {
+      std::size_t j = i;
+      while (j < uses.size() && uses[j].key == uses[i].key) ++j;
+      const bool ok = j - i == 2 && uses[i].forward != uses[i + 1].forward;
       Vec3 n = Vec3::Zero();
-      for (const auto& u : uses) n += face[u.tri];
-      for (const auto& u : uses) {
-        edge[u.tri][static_cast<std::size_t>(u.slot)] = n;
-        edge_open[u.tri][static_cast<std::size_t>(u.slot)] = ok ? 0 : 1;
+      for (std::size_t k = i; k < j; ++k) n += face[uses[k].tri];
+      for (std::size_t k = i; k < j; ++k) {
+        edge[uses[k].tri][uses[k].slot] = n;
+        edge_open[uses[k].tri][uses[k].slot] = ok ? 0 : 1;
       }
       if (!ok) {
-        vertex_open[static_cast<std::size_t>(key >> 32)] = 1;
-        vertex_open[static_cast<std::size_t>(key & 0xffffffffU)] = 1;
+        vertex_open[static_cast<std::size_t>(uses[i].key >> 32)] = 1;
+        vertex_open[static_cast<std::size_t>(uses[i].key & 0xffffffffU)] = 1;
       }
+      i = j;
     }
   }
 };
 
 }  // namespace
 
-Result<std::vector<double>> signed_distances_to_mesh(const Mesh& mesh, std::span<const Vec3> points) {
+Result<std::vector<double>> signed_distances_to_mesh(const Mesh& mesh, std::span<const Vec3> points,
+                                                     double near_mm) {
   auto query = MeshQuery::build(mesh);
   if (!query) return query.error();
   const PseudoNormals pn(mesh);
-  std::vector<ClosestPoint> closest;
-  query->closest_points(points, closest);
   std::vector<double> out(points.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 1024),
                     [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      const ClosestPoint& cp = closest[i];
+      // Most points lie near the surface: a bounded query first, the full one if it fails.
+      std::optional<ClosestPoint> near;
+      if (near_mm > 0) near = query->closest_point_within(points[i], near_mm);
+      const ClosestPoint cp = near ? *near : query->closest_point(points[i]);
       const Vec3 dir = points[i] - cp.point_mm;
       if (cp.distance_mm == 0) {
         out[i] = 0;

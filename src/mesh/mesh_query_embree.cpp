@@ -148,6 +148,24 @@ ClosestPoint MeshQuery::closest_point(const Vec3& p) const {
   return ClosestPoint{st.best_point, std::sqrt(st.best_d2), st.best_triangle};
 }
 
+std::optional<ClosestPoint> MeshQuery::closest_point_within(const Vec3& p, double max_distance_mm) const {
+  PointQueryState st{&impl_->mesh, p};
+  st.best_d2 = max_distance_mm * max_distance_mm;
+  const Vec3 local = p - impl_->center;
+  RTCPointQuery query;
+  query.x = static_cast<float>(local.x());
+  query.y = static_cast<float>(local.y());
+  query.z = static_cast<float>(local.z());
+  query.time = 0.f;
+  // Padded like the callback's shrinking radius, so float rounding never culls a candidate.
+  query.radius = static_cast<float>(max_distance_mm * (1.0 + 1e-6) + 1e-6);
+  RTCPointQueryContext context;
+  rtcInitPointQueryContext(&context);
+  rtcPointQuery(impl_->scene, &query, &context, point_query_callback, &st);
+  if (!(st.best_d2 < max_distance_mm * max_distance_mm)) return std::nullopt;
+  return ClosestPoint{st.best_point, std::sqrt(st.best_d2), st.best_triangle};
+}
+
 void MeshQuery::closest_points(std::span<const Vec3> points, std::vector<ClosestPoint>& out) const {
   out.resize(points.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 1024),

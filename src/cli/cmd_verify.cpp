@@ -1,0 +1,144 @@
+// `printtwin verify part.stl [--gcode part.gcode]`: check -> (slice) -> simulate -> deposit
+// -> deviation, report.json + deviation.ply, a summary table, exit 0 pass / 1 fail.
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "cli/cli_common.hpp"
+#include "cli/commands.hpp"
+#include "printtwin/io.hpp"
+#include "printtwin/report.hpp"
+#include "printtwin/verify.hpp"
+
+namespace printtwin::cli {
+
+namespace {
+
+struct VerifyCliOptions {
+  std::string mesh;
+  std::string gcode;
+  double tolerance_mm = 0.2;
+  double max_excess_mm = -1, max_deficit_mm = -1, max_rms_mm = -1;
+  std::string printer = "ender3";
+  double voxel_mm = 0.05;
+  double spacing_mm = 0;
+  std::string place;
+  std::string out;
+  std::string deviation_ply;
+  std::uint64_t seed = 1;
+  bool quiet = false;
+};
+
+/// "x,y,z" -> Vec3.
+bool parse_triplet(const std::string& text, Vec3& out) {
+  double v[3];
+  char tail = 0;
+  if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &v[0], &v[1], &v[2], &tail) != 3) return false;
+  out = Vec3(v[0], v[1], v[2]);
+  return out.allFinite();
+}
+
+void print_stats_row(const char* name, const DeviationStats& s) {
+  std::printf("  %-16s %9s %9s %9s %9s %9s %8s%%\n", name, format_fixed(s.min_mm, 3).c_str(),
+              format_fixed(s.max_mm, 3).c_str(), format_fixed(s.mean_mm, 3).c_str(),
+              format_fixed(s.rms_mm, 3).c_str(), format_fixed(s.p95_abs_mm, 3).c_str(),
+              format_fixed(s.within_tolerance_pct, 1).c_str());
+}
+
+void print_summary(const VerifyReport& r, const std::string& out_dir) {
+  const DeviationResult& d = r.deviation;
+  std::printf("printtwin verify %s: %s\n", r.part_name.c_str(), r.pass ? "PASS" : "FAIL");
+  std::printf("  registration %s, offset %s, %s, %s mm\n", d.registration_method.c_str(),
+              format_fixed(d.registration_offset_mm.x(), 3).c_str(),
+              format_fixed(d.registration_offset_mm.y(), 3).c_str(),
+              format_fixed(d.registration_offset_mm.z(), 3).c_str());
+  std::printf("  deposit %zu voxels of %s mm, volume %s mm3 vs mesh %s mm3\n", r.deposit.voxels,
+              format_number(r.deposit.voxel_mm).c_str(), format_fixed(d.deposit_volume_mm3, 1).c_str(),
+              format_fixed(d.mesh_volume_mm3, 1).c_str());
+  std::printf("  %-16s %9s %9s %9s %9s %9s %9s\n", "deviation (mm)", "min", "max", "mean", "rms", "p95|d|",
+              "in tol");
+  print_stats_row("deposit->mesh", d.deposit_to_mesh);
+  print_stats_row("mesh->deposit", d.mesh_to_deposit);
+  for (const auto& g : r.gates)
+    std::printf("  gate %-18s %-4s value %s limit %s\n", g.name.c_str(), g.pass ? "ok" : "FAIL",
+                format_fixed(g.value, 3).c_str(), format_fixed(g.limit, 3).c_str());
+  std::size_t shown = 0;
+  for (const auto& reg : d.regions) {
+    if (shown++ == 5) {
+      std::printf("  ... %zu more regions in report.json\n", d.regions.size() - 5);
+      break;
+    }
+    std::printf("  region %-7s %8s mm2 worst %7s mm layers %d-%d at (%s, %s, %s)\n",
+                reg.kind == RegionKind::missing ? "missing" : "excess", format_fixed(reg.area_mm2, 2).c_str(),
+                format_fixed(reg.worst_mm, 3).c_str(), reg.layer_min, reg.layer_max,
+                format_fixed(reg.worst_position_mm.x(), 2).c_str(),
+                format_fixed(reg.worst_position_mm.y(), 2).c_str(),
+                format_fixed(reg.worst_position_mm.z(), 2).c_str());
+  }
+  std::printf("  report: %s/report.html (report.json, junit.xml, summary.md, deviation.ply)\n", out_dir.c_str());
+}
+
+}  // namespace
+
+void add_verify_command(CLI::App& app, CommandRunner& runner) {
+  auto o = std::make_shared<VerifyCliOptions>();
+  auto* cmd = app.add_subcommand(
+      "verify", "Check, simulate and deposit a part's G-code and measure the deposit against the mesh");
+  cmd->add_option("mesh", o->mesh, "the designed part: STL, OBJ, PLY, OFF, 3MF or AMF")->required();
+  cmd->add_option("--gcode", o->gcode, "G-code to verify (any slicer); without it printtwin slices the part");
+  cmd->add_option("--tolerance", o->tolerance_mm, "deviation tolerance in mm (default 0.2)");
+  cmd->add_option("--max-excess", o->max_excess_mm, "largest allowed excess in mm (default: tolerance)");
+  cmd->add_option("--max-deficit", o->max_deficit_mm, "largest allowed deficit in mm (default: tolerance)");
+  cmd->add_option("--max-rms", o->max_rms_mm, "largest allowed RMS deviation in mm (default: not checked)");
+  cmd->add_option("--printer", o->printer, "printer profile: ender3, ender3-marlin1, ender3-klipper or a JSON file");
+  cmd->add_option("--voxel", o->voxel_mm, "deposit voxel edge in mm (default 0.05)");
+  cmd->add_option("--sample-spacing", o->spacing_mm, "mesh surface sample spacing in mm (default: the voxel)");
+  cmd->add_option("--place", o->place, "x,y,z offset that places the mesh in the G-code frame (default: automatic)");
+  cmd->add_option("--out", o->out, "output folder (default reports/<part>)");
+  cmd->add_option("--deviation-ply", o->deviation_ply, "also write the deviation-coloured mesh PLY here");
+  cmd->add_option("--seed", o->seed, "seed of the mesh surface sampling (default 1)");
+  cmd->add_flag("--quiet", o->quiet, "no summary table");
+  cmd->callback([o, &runner] {
+    runner.run = [o]() -> int {
+      VerifyOptions options;
+      options.mesh_path = o->mesh;
+      options.gcode_path = o->gcode;
+      VerifySettings& s = options.settings;
+      s.gates.tolerance_mm = o->tolerance_mm;
+      if (o->max_excess_mm >= 0) s.gates.max_excess_mm = o->max_excess_mm;
+      if (o->max_deficit_mm >= 0) s.gates.max_deficit_mm = o->max_deficit_mm;
+      if (o->max_rms_mm >= 0) s.gates.max_rms_mm = o->max_rms_mm;
+      s.printer = o->printer;
+      s.voxel_mm = o->voxel_mm;
+      s.mesh_sample_spacing_mm = o->spacing_mm;
+      s.seed = o->seed;
+      if (!o->place.empty()) {
+        Vec3 p;
+        if (!parse_triplet(o->place, p)) return report_error(usage_error("--place expects x,y,z in mm, got '" + o->place + "'"));
+        s.place_mm = p;
+      }
+      auto report = verify(options);
+      if (!report) return report_error(report.error());
+      const std::string out_dir =
+          o->out.empty() ? (std::filesystem::path("reports") / report->part_name).string() : o->out;
+      // The whole folder (report.html, junit.xml, summary.md, heatmaps) plus report.json and
+      // deviation.ply, swapped into place only when complete.
+      ReportOptions report_options;
+      report_options.generated_utc = report_timestamp_utc();
+      const VerifyReport& finished = *report;
+      report_options.extra_outputs = [&finished](const std::filesystem::path& staging) {
+        return write_verify_outputs(finished, staging);
+      };
+      if (auto st = write_report_folder(*report, out_dir, report_options); !st) return report_error(st.error());
+      if (!o->deviation_ply.empty()) {
+        auto ply = read_file(std::filesystem::path(out_dir) / "deviation.ply");
+        if (!ply) return report_error(ply.error());
+        if (auto st = write_file_atomic(o->deviation_ply, *ply); !st) return report_error(st.error());
+      }
+      if (!o->quiet) print_summary(*report, out_dir);
+      return report->pass ? kPass : kFail;
+    };
+  });
+}
+
+}  // namespace printtwin::cli

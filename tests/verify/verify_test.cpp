@@ -1,0 +1,144 @@
+// `printtwin verify` end to end on the committed samples, plus the library's verify().
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "printtwin/io.hpp"
+#include "printtwin/verify.hpp"
+#include "support/test_support.hpp"
+
+namespace printtwin {
+namespace {
+
+nlohmann::json read_json(const std::filesystem::path& p) {
+  auto text = read_file(p);
+  EXPECT_TRUE(text.ok()) << p;
+  return text.ok() ? nlohmann::json::parse(*text) : nlohmann::json{};
+}
+
+/// The 10 mm cube PrusaSlicer sliced for samples/gcode/prusa_cube10.gcode (the 20 mm
+/// calibration cube at scale 0.5), written where the test can pass it to the CLI.
+std::filesystem::path cube10_stl(const std::filesystem::path& dir) {
+  const auto path = dir / "cube10.stl";
+  EXPECT_TRUE(save_stl(test::make_cube_mm(10.0, Vec3(-5, -5, 0)), path).ok());
+  return path;
+}
+
+TEST(VerifyCli, PrusaSlicerCubePassesAtPointThreeWithAFullReport) {
+  const auto dir = test::temp_dir("verify_cube");
+  const auto stl = cube10_stl(dir);
+  const auto out = dir / "report";
+  const auto run = test::run_cli("verify " + stl.string() + " --gcode " +
+                                 test::source_path("samples/gcode/prusa_cube10.gcode").string() +
+                                 " --tolerance 0.3 --out " + out.string());
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  EXPECT_NE(run.out.find("PASS"), std::string::npos);
+  const auto j = read_json(out / "report.json");
+  EXPECT_EQ(j["schema"], "printtwin.verify/1");
+  EXPECT_EQ(j["pass"], true);
+  EXPECT_DOUBLE_EQ(j["tolerance_mm"].get<double>(), 0.3);
+  // PrusaSlicer centred the part on (110, 110): the cube's min corner (-5, -5) lands on 105.
+  const auto offset = j["deviation"]["registration"]["offset_mm"];
+  EXPECT_NEAR(offset[0].get<double>(), 110.0, 0.01);
+  EXPECT_NEAR(offset[1].get<double>(), 110.0, 0.01);
+  EXPECT_NEAR(offset[2].get<double>(), 0.0, 1e-9);
+  for (const char* dir_name : {"deposit_to_mesh", "mesh_to_deposit"}) {
+    const auto& s = j["deviation"][dir_name];
+    for (const char* key : {"min_mm", "max_mm", "mean_mm", "rms_mm", "std_mm", "p95_mm", "within_tolerance_pct"})
+      ASSERT_TRUE(s.contains(key)) << dir_name << "." << key;
+    EXPECT_GT(s["samples"].get<double>(), 100000);
+    EXPECT_LT(std::abs(s["mean_mm"].get<double>()), 0.05) << dir_name;
+    EXPECT_LT(s["rms_mm"].get<double>(), 0.1) << dir_name;
+    EXPECT_GE(s["within_tolerance_pct"].get<double>(), 99.5) << dir_name;
+  }
+  // The mesh is 1000 mm^3; the deposit holds 20 % infill, so less material but the same shell.
+  EXPECT_NEAR(j["deviation"]["mesh_volume_mm3"].get<double>(), 1000.0, 1e-6);
+  EXPECT_TRUE(j["regions"].is_array());
+  EXPECT_TRUE(j["findings"].is_array());
+  EXPECT_GT(j["simulate"]["layers"].get<int>(), 45);
+  EXPECT_EQ(j["check"]["triangles"].get<int>(), 12);
+  ASSERT_EQ(j["inputs"].size(), 3U);
+  EXPECT_EQ(j["inputs"][0]["sha256"].get<std::string>().size(), 64U);
+  EXPECT_TRUE(std::filesystem::exists(out / "deviation.ply"));
+  EXPECT_TRUE(std::filesystem::exists(out / "report.html"));
+  EXPECT_TRUE(std::filesystem::exists(out / "junit.xml"));
+}
+
+TEST(VerifyCli, TightGateFailsWithExitOne) {
+  const auto dir = test::temp_dir("verify_cube_tight");
+  const auto stl = cube10_stl(dir);
+  const auto out = dir / "report";
+  const auto run = test::run_cli("verify " + stl.string() + " --gcode " +
+                                 test::source_path("samples/gcode/prusa_cube10.gcode").string() +
+                                 " --tolerance 0.3 --max-deficit 0.01 --quiet --out " + out.string());
+  ASSERT_EQ(run.exit_code, 1) << run.out << run.err;
+  const auto j = read_json(out / "report.json");
+  EXPECT_EQ(j["pass"], false);
+  bool deficit_gate_failed = false;
+  for (const auto& g : j["gates"])
+    if (g["name"] == "max_deficit") deficit_gate_failed = !g["pass"].get<bool>() && g["limit"].get<double>() == 0.01;
+  EXPECT_TRUE(deficit_gate_failed);
+}
+
+TEST(VerifyCli, MisplacedMeshFailsWithMissingAndExcessRegions) {
+  // --place shifts the mesh 2 mm off the print: the report shows both kinds of region.
+  const auto dir = test::temp_dir("verify_cube_misplaced");
+  const auto stl = cube10_stl(dir);
+  const auto out = dir / "report";
+  const auto run = test::run_cli("verify " + stl.string() + " --gcode " +
+                                 test::source_path("samples/gcode/prusa_cube10.gcode").string() +
+                                 " --place 112,110,0 --voxel 0.1 --quiet --out " + out.string());
+  ASSERT_EQ(run.exit_code, 1) << run.out << run.err;
+  const auto j = read_json(out / "report.json");
+  EXPECT_EQ(j["deviation"]["registration"]["method"], "--place");
+  bool missing = false, excess = false;
+  for (const auto& r : j["regions"]) {
+    const double x_min = r["bbox_mm"]["min"][0].get<double>(), x_max = r["bbox_mm"]["max"][0].get<double>();
+    // Mesh now spans x 107..117, the print 105..115: the design sticks out at +x (missing),
+    // the print at -x (excess).
+    if (r["kind"] == "missing" && x_min > 114.5) missing = true;
+    if (r["kind"] == "excess" && x_max < 107.5) excess = true;
+    EXPECT_FALSE(r["gcode_lines"].empty());
+  }
+  EXPECT_TRUE(missing);
+  EXPECT_TRUE(excess);
+  EXPECT_NEAR(j["deviation"]["max_deficit_mm"].get<double>(), 2.0, 0.15);
+}
+
+TEST(VerifyCli, UsageAndBadInputExitCodes) {
+  const auto dir = test::temp_dir("verify_errors");
+  const auto stl = cube10_stl(dir);
+  const auto gcode = test::source_path("samples/gcode/prusa_cube10.gcode").string();
+  EXPECT_EQ(test::run_cli("verify " + stl.string() + " --gcode " + gcode + " --place 1,2").exit_code, 2);
+  EXPECT_EQ(test::run_cli("verify " + stl.string() + " --gcode " + gcode + " --tolerance 0").exit_code, 2);
+  EXPECT_EQ(test::run_cli("verify " + stl.string() + " --gcode " + gcode + " --voxel 5").exit_code, 2);
+  EXPECT_EQ(test::run_cli("verify " + stl.string() + " --bogus-flag").exit_code, 2);
+  const auto missing = test::run_cli("verify " + (dir / "nope.stl").string() + " --gcode " + gcode);
+  EXPECT_EQ(missing.exit_code, 3);
+  EXPECT_NE(missing.err.find("nope.stl"), std::string::npos);
+  EXPECT_EQ(test::run_cli("verify " + stl.string() + " --gcode " + (dir / "nope.gcode").string()).exit_code, 3);
+}
+
+TEST(VerifyLibrary, ReportJsonIsDeterministicApartFromTimings) {
+  const auto dir = test::temp_dir("verify_lib");
+  VerifyOptions options;
+  options.mesh_path = cube10_stl(dir);
+  options.gcode_path = test::source_path("samples/gcode/prusa_cube10.gcode");
+  options.settings.voxel_mm = 0.1;
+  options.settings.gates.tolerance_mm = 0.3;
+  auto a = verify(options);
+  auto b = verify(options);
+  ASSERT_TRUE(a.ok()) << a.error().describe();
+  ASSERT_TRUE(b.ok());
+  a->timings.clear();
+  b->timings.clear();
+  EXPECT_EQ(verify_report_json(*a), verify_report_json(*b));
+  EXPECT_EQ(a->placed_mesh.vertices_mm.size(), a->deviation.vertex_deviation_mm.size());
+  EXPECT_TRUE(a->pass);
+  // Gates: no error finding, excess and deficit within the tolerance.
+  ASSERT_GE(a->gates.size(), 3U);
+  EXPECT_EQ(a->gates[0].name, "no_error_findings");
+}
+
+}  // namespace
+}  // namespace printtwin
