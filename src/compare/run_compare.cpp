@@ -1,0 +1,457 @@
+// Running a comparison: the part is loaded, checked and indexed once (SharedPart), then
+// every variant runs the verify pipeline on it: slice (or read G-code) -> simulate ->
+// deposit -> deviation -> gates -> its report folder.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "printtwin/check.hpp"
+#include "printtwin/compare.hpp"
+#include "printtwin/deposit.hpp"
+#include "printtwin/deviation.hpp"
+#include "printtwin/io.hpp"
+#include "printtwin/simulate.hpp"
+#include "printtwin/slice.hpp"
+#include "printtwin/version.hpp"
+
+namespace printtwin {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+/// Keeps every Move of the simulation for the deposit and the registration.
+class MoveCollector final : public MoveSink {
+ public:
+  void on_move(const Move& move) override { moves.push_back(move); }
+  std::vector<Move> moves;
+};
+
+VerifyInput input_of(std::string role, std::string path, std::string_view bytes) {
+  VerifyInput in;
+  in.role = std::move(role);
+  in.path = std::move(path);
+  in.sha256 = sha256_hex(bytes);
+  in.size_bytes = bytes.size();
+  return in;
+}
+
+// A slicer variant's settings: defaults, its config, then its key=value list in order.
+Result<SliceSettings> slice_settings_of(const VariantSpec& spec) {
+  SliceSettings s;
+  if (!spec.config_path.empty()) {
+    auto loaded = load_prusa_ini(s, spec.config_path);
+    if (!loaded) return loaded.error();
+  }
+  for (const auto& [key, value] : spec.settings)
+    if (auto st = set_slice_setting(s, key, value); !st) return st.error();
+  if (auto st = validate_slice_settings(s); !st) return st.error();
+  // compare simulates the G-code itself: the slicer's own time estimate (a second planner
+  // run over the same text) would be thrown away.
+  s.estimate_time = false;
+  return s;
+}
+
+// Nearest mesh triangle of each point of the placed frame, through the shared BVH of the
+// mesh in its own frame (placing is a pure translation).
+std::vector<std::uint32_t> nearest_triangles(const MeshQuery& query,
+                                             std::span<const DeviationSample> samples,
+                                             const Vec3& offset_mm) {
+  std::vector<Vec3> pts(samples.size());
+  for (std::size_t i = 0; i < samples.size(); ++i) pts[i] = samples[i].position_mm - offset_mm;
+  std::vector<ClosestPoint> cp;
+  query.closest_points(pts, cp);
+  std::vector<std::uint32_t> out(cp.size());
+  for (std::size_t i = 0; i < cp.size(); ++i) out[i] = cp[i].triangle;
+  return out;
+}
+
+// The gates of verify.hpp (VerifyGates): excess and deficit limits default to the tolerance,
+// the RMS limit is checked only when set, and no stage may report an error finding.
+// Same semantics as verify's evaluate_gates (documented on VerifyGates).
+void apply_gates(VerifyReport& rep) {
+  const auto& g = rep.settings.gates;
+  const auto& d = rep.deviation;
+  const double excess = std::max({0.0, d.deposit_to_mesh.samples ? d.deposit_to_mesh.max_mm : 0.0,
+                                  d.mesh_to_deposit.samples ? d.mesh_to_deposit.max_mm : 0.0});
+  const double deficit = std::max({0.0, d.deposit_to_mesh.samples ? -d.deposit_to_mesh.min_mm : 0.0,
+                                   d.mesh_to_deposit.samples ? -d.mesh_to_deposit.min_mm : 0.0});
+  rep.gates.clear();
+  const double excess_limit = g.max_excess_mm.value_or(g.tolerance_mm);
+  const double deficit_limit = g.max_deficit_mm.value_or(g.tolerance_mm);
+  rep.gates.push_back({"max_excess", excess_limit, excess, excess <= excess_limit});
+  rep.gates.push_back({"max_deficit", deficit_limit, deficit, deficit <= deficit_limit});
+  if (g.max_rms_mm) {
+    const double rms = combined_rms_mm(d.deposit_to_mesh.rms_mm, d.mesh_to_deposit.rms_mm);
+    rep.gates.push_back({"max_rms", *g.max_rms_mm, rms, rms <= *g.max_rms_mm});
+  }
+  double errors = 0;
+  for (const auto& f : rep.findings)
+    if (f.severity == Severity::error) errors += 1;
+  rep.gates.push_back({"no_error_findings", 0, errors, errors == 0});
+  rep.pass = std::all_of(rep.gates.begin(), rep.gates.end(), [](const GateResult& x) { return x.pass; });
+}
+
+std::string slug(const std::string& label) {
+  std::string out;
+  for (char c : label) {
+    const bool keep = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                      c == '.' || c == '-';
+    if (keep) out += c;
+    else if (!out.empty() && out.back() != '_') out += '_';
+    if (out.size() >= 48) break;
+  }
+  while (!out.empty() && out.back() == '_') out.pop_back();
+  return out.empty() ? std::string("variant") : out;
+}
+
+}  // namespace
+
+Status validate_plan(const ComparePlan& plan) {
+  if (plan.variants.empty()) return usage_error("the comparison has no variants");
+  for (const auto& v : plan.variants) {
+    if (v.kind == VariantKind::slicer) {
+      auto s = slice_settings_of(v);
+      if (!s) {
+        Error e = s.error();
+        e.message = "variant " + std::to_string(v.index) + " (" + v.label + "): " + e.message;
+        return e;
+      }
+    } else if (std::error_code ec; !std::filesystem::is_regular_file(v.gcode_path, ec)) {
+      return bad_input("variant " + std::to_string(v.index) + " (" + v.label +
+                           "): the G-code file does not exist or is not a file",
+                       v.gcode_path);
+    }
+  }
+  return Ok{};
+}
+
+// ---------------------------------------------------------------- shared part
+
+Result<SharedPart> prepare_shared_part(Mesh mesh, std::string name, const PrinterProfile& printer) {
+  const auto t0 = Clock::now();
+  if (mesh.triangles.empty()) return bad_input("compare: the mesh has no triangles");
+  SharedPart p;
+  p.info.name = std::move(name);
+  p.info.triangles = mesh.triangles.size();
+  p.info.volume_mm3 = signed_volume_mm3(mesh);
+  p.info.area_mm2 = surface_area_mm2(mesh);
+  p.info.bbox_mm = bounding_box(mesh);
+
+  auto check = check_printability(mesh, printer);
+  if (!check) return check.error();
+  const MeshHealth& h = check->health;
+  p.check.triangles = h.triangles;
+  p.check.vertices = h.vertices;
+  p.check.volume_mm3 = h.volume_mm3;
+  p.check.area_mm2 = h.area_mm2;
+  p.check.bbox_mm = h.bbox_mm;
+  p.check.watertight = h.closed;
+  for (const auto& f : check->findings)
+    (f.severity == Severity::error ? p.check.errors
+                                   : f.severity == Severity::warning ? p.check.warnings : p.check.infos)++;
+  p.check_findings = std::move(check->findings);
+
+  // Sloped triangles: inclination from the horizontal between the two limits.
+  const double cos_min = std::cos(kSlopeMinDeg * 3.14159265358979323846 / 180.0);
+  const double cos_max = std::cos(kSlopeMaxDeg * 3.14159265358979323846 / 180.0);
+  p.sloped.assign(mesh.triangles.size(), 0);
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const Vec3 n = triangle_normal(mesh, t);
+    const double len = n.norm();
+    if (!(len > 0)) continue;
+    const double nz = std::abs(n.z()) / len;  // cos of the inclination from horizontal
+    if (nz < cos_min && nz > cos_max) {
+      p.sloped[t] = 1;
+      p.info.sloped_area_mm2 += 0.5 * len;
+    }
+  }
+
+  auto query = MeshQuery::build(mesh);
+  if (!query) return query.error();
+  p.query = std::make_shared<const MeshQuery>(std::move(*query));
+  p.mesh = std::move(mesh);
+  p.build_time_s = seconds_since(t0);
+  return p;
+}
+
+Result<SharedPart> prepare_shared_part(const std::filesystem::path& mesh_path,
+                                       const PrinterProfile& printer) {
+  const auto t0 = Clock::now();
+  auto bytes = read_file(mesh_path);
+  if (!bytes) return bytes.error();
+  auto mesh = load_mesh(mesh_path);
+  if (!mesh) return mesh.error();
+  auto part = prepare_shared_part(std::move(*mesh), mesh_path.stem().string(), printer);
+  if (!part) return part.error();
+  part->info.path = mesh_path.string();
+  part->info.sha256 = sha256_hex(*bytes);
+  part->build_time_s = seconds_since(t0);
+  return part;
+}
+
+// ---------------------------------------------------------------- one variant
+
+Result<VerifyReport> run_variant_verify(const SharedPart& part, const PrinterProfile& printer,
+                                        const ComparePlan& plan, const VariantSpec& spec,
+                                        const std::function<void(std::string_view)>& on_stage) {
+  auto stage = [&](std::string_view s) {
+    if (on_stage) on_stage(s);
+  };
+  VerifyReport rep;
+  rep.tool_version = kVersion;
+  rep.part_name = part.info.name;
+  rep.settings = plan.verify;
+  rep.settings.printer = plan.printer;
+  {
+    VerifyInput mesh_in;
+    mesh_in.role = "mesh";
+    mesh_in.path = part.info.path;
+    mesh_in.sha256 = part.info.sha256;
+    rep.inputs.push_back(mesh_in);
+  }
+
+  // 1. The G-code: sliced here, or read.
+  std::string gcode;
+  std::string gcode_name;
+  std::vector<Finding> slice_findings;
+  if (spec.kind == VariantKind::slicer) {
+    stage("slice");
+    const auto t = Clock::now();
+    auto settings = slice_settings_of(spec);
+    if (!settings) return settings.error();
+    auto sliced = slice_mesh(part.mesh, printer, *settings);
+    if (!sliced) return sliced.error();
+    gcode = std::move(sliced->gcode);
+    slice_findings = std::move(sliced->findings);
+    gcode_name = "printtwin slice (" + spec.label + ")";
+    rep.settings.gcode_source = "printtwin slice";
+    rep.inputs.push_back(input_of("gcode", gcode_name, gcode));
+    rep.timings.push_back({"slice", seconds_since(t)});
+  } else {
+    auto text = read_file(spec.gcode_path);
+    if (!text) return text.error();
+    gcode = std::move(*text);
+    gcode_name = spec.gcode_path;
+    rep.settings.gcode_source = "file";
+    rep.inputs.push_back(input_of("gcode", gcode_name, gcode));
+  }
+  {
+    VerifyInput printer_in;
+    printer_in.role = "printer";
+    printer_in.path = plan.printer;
+    rep.inputs.push_back(printer_in);
+  }
+
+  // 2. Simulate on the twin, keeping the moves.
+  stage("simulate");
+  auto t = Clock::now();
+  MoveCollector collector;
+  SimulateOptions sim_opts;
+  sim_opts.source_name = gcode_name;
+  SimulationResult sim;
+  {
+    std::istringstream in(gcode);
+    auto r = simulate_gcode(in, printer, sim_opts, &collector);
+    if (!r) return r.error();
+    sim = std::move(*r);
+  }
+  gcode.clear();
+  gcode.shrink_to_fit();
+  rep.timings.push_back({"simulate", seconds_since(t)});
+  {
+    auto& s = rep.simulation;
+    s.slicer = spec.kind == VariantKind::slicer ? std::string("printtwin") : sim.slicer;
+    s.gcode_lines = static_cast<std::size_t>(sim.lines);
+    s.moves = static_cast<std::size_t>(sim.moves);
+    s.extrusion_moves = static_cast<std::size_t>(std::count_if(
+        collector.moves.begin(), collector.moves.end(),
+        [](const Move& m) { return m.kind == MoveKind::extrude; }));
+    s.layers = static_cast<int>(sim.layers.size());
+    s.print_time_s = sim.print_time_s;
+    s.filament_mm = sim.filament_mm;
+    s.extruded_volume_mm3 = sim.filament_mm3;
+    s.extrusion_bbox_mm = sim.extrusion_bounds_mm;
+    for (const auto& f : sim.findings) {
+      (f.severity == Severity::error ? s.errors : f.severity == Severity::warning ? s.warnings : s.infos)++;
+    }
+  }
+
+  // 3. Registration: where the slicer put the part.
+  const PartExtent extent = find_part_extent(collector.moves);
+  Vec3 offset = Vec3::Zero();
+  std::string method;
+  if (plan.verify.place_mm) {
+    offset = *plan.verify.place_mm;
+    method = "--place";
+  } else {
+    if (extent.moves == 0)
+      return bad_input("the G-code has no extrusion of the part to register the mesh against",
+                       gcode_name);
+    offset = registration_offset(part.mesh, extent);
+    method = "auto";
+  }
+  rep.placed_mesh = translated(part.mesh, offset);
+
+  // 4. Deposit.
+  stage("deposit");
+  t = Clock::now();
+  DepositSettings dep_settings;
+  dep_settings.voxel_mm = plan.verify.voxel_mm;
+  auto deposit = deposit_moves(collector.moves, printer, dep_settings);
+  if (!deposit) return deposit.error();
+  collector.moves.clear();
+  collector.moves.shrink_to_fit();
+  rep.timings.push_back({"deposit", seconds_since(t)});
+  {
+    auto& d = rep.deposit;
+    d.voxel_mm = deposit->voxel_mm;
+    d.voxels = deposit->voxels;
+    d.volume_mm3 = deposit->volume_mm3;
+    d.extruded_volume_mm3 = deposit->extruded_mm3;
+    d.bbox_mm = deposit->bbox_mm;
+    d.part_bbox_mm = extent.bbox_mm;
+    d.memory_bytes = deposit->memory_bytes;
+  }
+
+  // 5. Deviation.
+  stage("deviation");
+  t = Clock::now();
+  DeviationSettings dev_settings;
+  dev_settings.tolerance_mm = plan.verify.gates.tolerance_mm;
+  dev_settings.mesh_sample_spacing_mm = plan.verify.mesh_sample_spacing_mm;
+  dev_settings.seed = plan.verify.seed;
+  dev_settings.max_regions = plan.verify.max_regions;
+  auto dev = compute_deviation(rep.placed_mesh, deposit->grid, dev_settings, extent.bbox_mm);
+  if (!dev) return dev.error();
+  rep.deviation = std::move(*dev);
+  rep.deviation.registration_offset_mm = offset;
+  rep.deviation.registration_method = method;
+  rep.deposit.surface_voxels = rep.deviation.deposit_samples.size();
+  rep.timings.push_back({"deviation", seconds_since(t)});
+
+  // 6. Findings of every stage, then the gates.
+  rep.check = part.check;
+  rep.findings = part.check_findings;
+  for (auto& f : slice_findings) rep.findings.push_back(std::move(f));
+  for (const auto& f : sim.findings) rep.findings.push_back(f);
+  for (const auto& f : deposit->findings) rep.findings.push_back(f);
+  for (const auto& reg : rep.deviation.regions) {
+    Finding f;
+    f.severity = Severity::warning;
+    f.code = "deviation_out_of_tolerance";
+    const bool missing = reg.kind == RegionKind::missing;
+    f.message = std::string(missing ? "missing material" : "excess material") + " up to " +
+                format_fixed(std::abs(reg.worst_mm), 3) + " mm over " + format_fixed(reg.area_mm2, 2) +
+                " mm2 (tolerance " + format_fixed(plan.verify.gates.tolerance_mm, 3) + " mm)";
+    f.position_mm = reg.worst_position_mm;
+    f.extent_mm = reg.bbox_mm;
+    if (reg.layer_min >= 0) f.layer = reg.layer_min;
+    if (!reg.gcode_lines.empty()) f.line = reg.gcode_lines.front();
+    f.value = reg.worst_mm;
+    rep.findings.push_back(std::move(f));
+  }
+  apply_gates(rep);
+  return rep;
+}
+
+// ---------------------------------------------------------------- the sweep
+
+CompareResult make_compare_result(const SharedPart& part, const ComparePlan& plan) {
+  CompareResult out;
+  out.tool_version = kVersion;
+  out.part = part.info;
+  if (out.part.sha256.empty()) out.part.sha256 = plan.mesh_sha256;
+  out.printer = plan.printer;
+  out.verify = plan.verify;
+  out.plan_id = compare_plan_id(plan);
+  out.variant_count = static_cast<int>(plan.variants.size());
+  out.shared_time_s = part.build_time_s;
+  out.total_time_s = part.build_time_s;
+  return out;
+}
+
+Result<CompareResult> run_compare(const SharedPart& part, const ComparePlan& plan,
+                                  std::span<const int> indices, const CompareRunOptions& options) {
+  const auto t0 = Clock::now();
+  auto printer = load_printer_profile(plan.printer);
+  if (!printer) return printer.error();
+  std::vector<int> run;
+  if (indices.empty())
+    for (int i = 0; i < static_cast<int>(plan.variants.size()); ++i) run.push_back(i);
+  else
+    run.assign(indices.begin(), indices.end());
+  for (int i : run)
+    if (i < 0 || i >= static_cast<int>(plan.variants.size()))
+      return usage_error("variant " + std::to_string(i) + " is not in the plan (0.." +
+                         std::to_string(static_cast<int>(plan.variants.size()) - 1) + ")");
+
+  CompareResult out = make_compare_result(part, plan);
+
+  CompareProgress progress;
+  progress.total = static_cast<int>(run.size());
+  for (int i : run) {
+    const VariantSpec& spec = plan.variants[static_cast<std::size_t>(i)];
+    const auto tv = Clock::now();
+    auto on_stage = [&](std::string_view s) {
+      if (!options.progress) return;
+      progress.stage = std::string(s) + ": " + spec.label;
+      progress.last = nullptr;
+      options.progress(progress);
+    };
+    VariantResult row;
+    auto report = run_variant_verify(part, *printer, plan, spec, on_stage);
+    if (!report) {
+      row.variant = spec;
+      row.ran = false;
+      row.error = report.error().describe();
+    } else {
+      // Slope figures: nearest mesh triangle of every sample, through the shared BVH.
+      on_stage("slopes");
+      const Vec3 offset = report->deviation.registration_offset_mm;
+      const auto dep_tri = nearest_triangles(*part.query, report->deviation.deposit_samples, offset);
+      const auto mesh_tri = nearest_triangles(*part.query, report->deviation.mesh_samples, offset);
+      double density = plan.filament_density_g_cm3;
+      if (spec.kind == VariantKind::slicer)
+        if (auto s = slice_settings_of(spec)) density = s->filament_density_g_cm3;
+      row = summarize_variant(spec, *report, part.sloped, dep_tri, mesh_tri, density);
+      if (spec.kind == VariantKind::slicer)
+        if (auto s = slice_settings_of(spec)) row.layer_height_mm = s->layer_height_mm;
+      if (options.variant_reports && !options.out_dir.empty()) {
+        on_stage("report");
+        char prefix[16];
+        std::snprintf(prefix, sizeof prefix, "%02d-", spec.index);
+        const std::string rel = "variants/" + std::string(prefix) + slug(spec.label);
+        const auto dir = options.out_dir / rel;
+        if (options.write_variant_report) {
+          if (Status written = options.write_variant_report(*report, dir); !written)
+            return written.error();
+          row.report_dir = rel;
+        }
+      }
+    }
+    row.run_time_s = seconds_since(tv);
+    out.variants.push_back(std::move(row));
+    ++progress.done;
+    if (options.progress) {
+      progress.stage.clear();
+      progress.last = &out.variants.back();
+      options.progress(progress);
+    }
+  }
+  std::stable_sort(out.variants.begin(), out.variants.end(),
+                   [](const VariantResult& a, const VariantResult& b) {
+                     return a.variant.index < b.variant.index;
+                   });
+  mark_pareto(out.variants);
+  out.total_time_s = seconds_since(t0) + part.build_time_s;
+  return out;
+}
+
+}  // namespace printtwin
