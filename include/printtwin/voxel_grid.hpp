@@ -85,6 +85,9 @@ class VoxelGrid {
   /// Returns how many of them were empty before.
   std::size_t fill_row(std::int32_t y, std::int32_t z, std::int32_t x0, std::int32_t x1,
                        std::uint32_t tag_index);
+  /// Same along Y: voxels y0..y1-1 of the column (x, z).
+  std::size_t fill_column(std::int32_t x, std::int32_t z, std::int32_t y0, std::int32_t y1,
+                          std::uint32_t tag_index);
   /// Pre-allocates room for `blocks` blocks (no effect on count()).
   void reserve_blocks(std::size_t blocks);
   /// Allocated blocks.

@@ -6,6 +6,7 @@
 
 #include "cli/cli_common.hpp"
 #include "cli/commands.hpp"
+#include "cli/deposit_options.hpp"
 #include "printtwin/io.hpp"
 #include "printtwin/simulate.hpp"
 
@@ -21,6 +22,7 @@ struct SimulateCliOptions {
   bool strict = false;
   bool limits_from_gcode = false;
   bool quiet = false;
+  DepositCliOptions deposit;  // --deposit, --deposit-ply, --voxel, ... (deposit_options.hpp)
 };
 
 /// Samples the twin's state at a fixed rate: nozzle on the bed, the seed's three joints
@@ -82,6 +84,7 @@ void add_simulate_command(CLI::App& app, CommandRunner& runner) {
                 "Use the machine limits in PrusaSlicer's config block at the end of the file "
                 "(and its estimator's classic-jerk model)");
   cmd->add_flag("-q,--quiet", o->quiet, "No summary on stdout");
+  add_deposit_options(*cmd, o->deposit);
   cmd->callback([o, &runner] {
     runner.run = [o]() -> int {
       auto profile = load_printer_profile(o->printer);
@@ -91,16 +94,18 @@ void add_simulate_command(CLI::App& app, CommandRunner& runner) {
       options.limits_from_gcode = o->limits_from_gcode;
       std::unique_ptr<TraceWriter> trace;
       if (!o->trace_path.empty()) trace = std::make_unique<TraceWriter>(o->trace_hz);
-      auto sim = simulate_gcode_file(o->input, *profile, options, trace.get());
+      DepositStage deposit(o->deposit, trace.get());
+      auto sim = simulate_gcode_file(o->input, *profile, options, deposit.sink());
       if (!sim) return report_error(sim.error());
+      if (auto st = deposit.run(*profile, *sim); !st) return report_error(st.error());
       if (!o->json_path.empty()) {
-        if (auto st = write_file_atomic(o->json_path, simulation_to_json(*sim, o->input)); !st)
+        if (auto st = write_file_atomic(o->json_path, deposit.patch_json(simulation_to_json(*sim, o->input))); !st)
           return report_error(st.error());
       }
       if (trace) {
         if (auto st = write_file_atomic(o->trace_path, trace->csv()); !st) return report_error(st.error());
       }
-      if (!o->quiet) std::fputs((o->input + "\n" + simulation_summary(*sim)).c_str(), stdout);
+      if (!o->quiet) std::fputs((o->input + "\n" + simulation_summary(*sim) + deposit.summary()).c_str(), stdout);
       bool fail = has_errors(sim->findings);
       if (o->strict)
         for (const auto& f : sim->findings)

@@ -36,26 +36,23 @@ constexpr std::size_t kHeightMapMax = 65535;
 constexpr double kRegionGapMm = 1.0;         // unsupported stretches this close: one finding
 constexpr std::size_t kMaxClustered = 4000;  // beyond this, one finding per layer and kind
 
-std::uint64_t mix64(std::uint64_t x) {
-  x += 0x9E3779B97F4A7C15ull;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-  return x ^ (x >> 31);
-}
-
-/// Fixed pseudo-random sample point of voxel (i, j, k), in [0,1)^3 inside the voxel.
+/// Fixed pseudo-random sample point of voxel (i, j, k), in (0,1)^3 inside the voxel
+/// (10 bits per axis from an integer hash of the key).
 struct Jitter {
   double x, y, z;
 };
 inline Jitter jitter_of(std::int32_t i, std::int32_t j, std::int32_t k) {
-  const std::uint64_t key = (static_cast<std::uint64_t>(static_cast<std::uint32_t>(i)) & 0x1FFFFF) |
-                            ((static_cast<std::uint64_t>(static_cast<std::uint32_t>(j)) & 0x1FFFFF) << 21) |
-                            ((static_cast<std::uint64_t>(static_cast<std::uint32_t>(k)) & 0x1FFFFF) << 42);
-  const std::uint64_t h = mix64(key);
-  constexpr double kScale = 1.0 / static_cast<double>(1u << 21);
-  return {static_cast<double>(h & 0x1FFFFF) * kScale + 0.5 * kScale,
-          static_cast<double>((h >> 21) & 0x1FFFFF) * kScale + 0.5 * kScale,
-          static_cast<double>((h >> 42) & 0x1FFFFF) * kScale + 0.5 * kScale};
+  std::uint32_t h = static_cast<std::uint32_t>(i) * 0x8da6b343u ^ static_cast<std::uint32_t>(j) * 0xd8163841u ^
+                    static_cast<std::uint32_t>(k) * 0xcb1ab31fu;
+  h ^= h >> 16;
+  h *= 0x7feb352du;
+  h ^= h >> 15;
+  h *= 0x846ca68bu;
+  h ^= h >> 16;
+  constexpr double kScale = 1.0 / 1024.0;
+  return {(static_cast<double>(h & 0x3FF) + 0.5) * kScale,
+          (static_cast<double>((h >> 10) & 0x3FF) + 0.5) * kScale,
+          (static_cast<double>((h >> 20) & 0x3FF) + 0.5) * kScale};
 }
 
 /// Nominal layer height: the slicer's `;HEIGHT:` when given, else the Z step from the
@@ -95,32 +92,40 @@ class LayerTracker {
 
 bool is_bead(const Move& m) { return m.kind == MoveKind::extrude && m.e_mm > 0; }
 
-/// x-interval where a*x + b lies in [lo, hi]; returns false when empty.
-inline bool clip_linear(double a, double b, double lo, double hi, double& xl, double& xh) {
-  constexpr double kEps = 1e-12;
-  if (std::abs(a) < kEps) return b >= lo && b <= hi;
-  double x0 = (lo - b) / a;
-  double x1 = (hi - b) / a;
-  if (x0 > x1) std::swap(x0, x1);
-  xl = std::max(xl, x0);
-  xh = std::min(xh, x1);
-  return xl <= xh;
-}
+/// A constraint lo <= p*x + q*y + c <= hi on the (major x, minor y) plane.
+struct Linear {
+  double p = 0, q = 0, c = 0, inv_p = 0, lo = 0, hi = 0;
+  bool flat = true;  // p == 0: independent of x
+  void init(double p_, double q_, double c_, double lo_, double hi_) {
+    p = p_, q = q_, c = c_, lo = lo_, hi = hi_;
+    flat = std::abs(p) < 1e-12;
+    inv_p = flat ? 0.0 : 1.0 / p;
+  }
+  /// Narrows [xl, xh] to the x where the constraint holds on the line y; false if empty.
+  bool clip(double y, double& xl, double& xh) const {
+    const double rest = q * y + c;
+    if (flat) return rest >= lo && rest <= hi;
+    double x0 = (lo - rest) * inv_p;
+    double x1 = (hi - rest) * inv_p;
+    if (x0 > x1) std::swap(x0, x1);
+    xl = std::max(xl, x0);
+    xh = std::min(xh, x1);
+    return xl <= xh;
+  }
+};
 
-/// The bead's footprint at one half-width, in the (major, minor) plane of the sweep.
+/// The bead's footprint at one half-width, in the (major, minor) plane of the sweep: the
+/// strip |n.(q-a)| <= hw between the start cut (m0.(q-a) >= 0) and the end cut (m1.(q-b) < 0).
 struct Footprint {
-  Vec2 a, b, n, m0, m1;
-  double hw = 0;
+  Linear side, start, end;
   std::array<Vec2, 4> vertices;
 
-  void init(const Vec2& a_, const Vec2& b_, const Vec2& d, const Vec2& n_, const Vec2& m0_,
-            const Vec2& m1_, double hw_) {
-    a = a_;
-    b = b_;
-    n = n_;
-    m0 = m0_;
-    m1 = m1_;
-    hw = hw_;
+  void init(const Vec2& a, const Vec2& b, const Vec2& d, const Vec2& n, const Vec2& m0,
+            const Vec2& m1, double hw) {
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    side.init(n.x(), n.y(), -n.dot(a), -hw, hw);
+    start.init(m0.x(), m0.y(), -m0.dot(a), 0.0, kInf);
+    end.init(m1.x(), m1.y(), -m1.dot(b), -kInf, 0.0);
     // Intersections of the side lines s = +-hw with the two cut lines.
     const double k0 = m0.dot(n) / m0.dot(d);
     const double k1 = m1.dot(n) / m1.dot(d);
@@ -131,12 +136,7 @@ struct Footprint {
   bool interval(double y, double& xl, double& xh) const {
     xl = -std::numeric_limits<double>::infinity();
     xh = std::numeric_limits<double>::infinity();
-    // s = n.x (x - a.x) + n.y (y - a.y)
-    if (!clip_linear(n.x(), n.y() * (y - a.y()) - n.x() * a.x(), -hw, hw, xl, xh)) return false;
-    const double inf = std::numeric_limits<double>::infinity();
-    if (!clip_linear(m0.x(), m0.y() * (y - a.y()) - m0.x() * a.x(), 0.0, inf, xl, xh)) return false;
-    if (!clip_linear(m1.x(), m1.y() * (y - b.y()) - m1.x() * b.x(), -inf, 0.0, xl, xh)) return false;
-    return true;
+    return side.clip(y, xl, xh) && start.clip(y, xl, xh) && end.clip(y, xl, xh);
   }
   void minor_range(double& lo, double& hi) const {
     lo = std::numeric_limits<double>::infinity();
@@ -146,6 +146,24 @@ struct Footprint {
       hi = std::max(hi, v.y());
     }
   }
+};
+
+/// Intervals of a footprint on consecutive integer minor lines j0, j0+1, ... (reused by the
+/// two cell rows that share a line).
+struct LineIntervals {
+  std::vector<double> lo, hi;
+  std::vector<char> ok;
+  int j0 = 0;
+  void compute(const Footprint& f, int first, int last) {
+    j0 = first;
+    const auto n = static_cast<std::size_t>(last - first + 1);
+    lo.resize(n);
+    hi.resize(n);
+    ok.resize(n);
+    for (std::size_t i = 0; i < n; ++i)
+      ok[i] = f.interval(static_cast<double>(first) + static_cast<double>(i), lo[i], hi[i]) ? 1 : 0;
+  }
+  [[nodiscard]] std::size_t at(int j) const { return static_cast<std::size_t>(j - j0); }
 };
 
 struct PendingBead {
@@ -181,6 +199,7 @@ struct DepositBuilder::State {
   LayerTracker layers;
   std::optional<PendingBead> pending;
   std::vector<double> gaps_;  // scratch
+  LineIntervals outer_lines_, inner_lines_;  // scratch of sweep()
 
   // Support tracking along the current continuous path.
   bool path_has_support = false;
@@ -233,15 +252,20 @@ struct DepositBuilder::State {
     }
     const Vec2 d = (m.end_mm - m.start_mm).head<2>().normalized();
     bool continues = false;
+    bool mitred = false;
     Vec2 m0 = d;
     if (pending) {
       const Move& p = pending->move;
       continues = p.layer == m.layer && (p.end_mm - m.start_mm).norm() < kJoinTolMm;
       if (continues) {
         const Vec2 dp = (p.end_mm - p.start_mm).head<2>().normalized();
-        if (dp.dot(d) >= kMitreMinCos) m0 = (dp + d).normalized();
+        if (dp.dot(d) >= kMitreMinCos) {
+          m0 = (dp + d).normalized();
+          mitred = true;
+        }
       }
-      flush(continues ? std::optional<Vec2>(m0) : std::nullopt);
+      // The previous bead ends on the shared mitre plane, or square when not mitred.
+      flush(mitred ? std::optional<Vec2>(m0) : std::nullopt);
     }
     PendingBead pb;
     pb.move = m;
@@ -354,11 +378,19 @@ struct DepositBuilder::State {
   // -- voxelisation ----------------------------------------------------------------------
   void sweep(const PendingBead& pb, const Vec3& a_mm, const Vec3& b_mm, const Vec2& d,
              const Vec2& n, const Vec2& m1, double h_mm, double w_mm) {
+    // Heights that are whole voxels up to rounding (Z 0.4 / 0.05 = 7.9999999) are snapped, so
+    // layer boundaries stay on voxel boundaries and whole rows are filled without tests.
+    auto snap = [](double v) {
+      const double r = std::round(v);
+      return std::abs(v - r) < 1e-6 ? r : v;
+    };
     const Vec3 o = grid.origin_mm();
-    const Vec3 a = (a_mm - o) * inv_voxel;
-    const Vec3 b = (b_mm - o) * inv_voxel;
+    Vec3 a = (a_mm - o) * inv_voxel;
+    Vec3 b = (b_mm - o) * inv_voxel;
+    a.z() = snap(a.z());
+    b.z() = snap(b.z());
     const double len = (b - a).head<2>().norm();
-    const double hh = h_mm * inv_voxel;
+    const double hh = snap(h_mm * inv_voxel);
     const double r = 0.5 * hh;
     const double flat = 0.5 * (w_mm - h_mm) * inv_voxel;
     const double slope = (b.z() - a.z()) / len;
@@ -376,15 +408,16 @@ struct DepositBuilder::State {
     const int n_minor = swap ? nx : ny;
     const std::uint32_t tag = pb.tag;
 
+    const double r2 = r * r;
     auto inside = [&](double x, double y, double z) {  // major, minor, z (voxel units)
-      const Vec2 rel(x - a2.x(), y - a2.y());
-      if (m02.dot(rel) < 0) return false;
+      const double rx = x - a2.x(), ry = y - a2.y();
+      if (m02.x() * rx + m02.y() * ry < 0) return false;
       if (m12.x() * (x - b2.x()) + m12.y() * (y - b2.y()) >= 0) return false;
-      const double u = d2.dot(rel);
+      const double u = d2.x() * rx + d2.y() * ry;
       const double dz = z - (a.z() + slope * u - r);
       if (dz < -r || dz >= r) return false;
-      const double s = std::abs(n2.dot(rel));
-      return s <= flat + std::sqrt(r * r - dz * dz);
+      const double s = std::abs(n2.x() * rx + n2.y() * ry) - flat;  // beyond the flat part
+      return s <= 0 || s * s + dz * dz <= r2;
     };
 
     const int k_lo = std::max(0, static_cast<int>(std::floor(zt_lo - hh)));
@@ -397,14 +430,14 @@ struct DepositBuilder::State {
       const double dz_hi = std::min(z1 - zc_lo, r);
       if (dz_lo >= dz_hi) continue;
       const double dz0 = std::clamp(0.0, dz_lo, dz_hi);
-      const double hw_out = flat + std::sqrt(std::max(0.0, r * r - dz0 * dz0));
+      const double hw_out = flat + std::sqrt(std::max(0.0, r2 - dz0 * dz0));
       outer.init(a2, b2, d2, n2, m02, m12, hw_out);
       const bool row_inside = z0 >= zt_hi - hh && z1 <= zt_lo;
       bool has_inner = false;
       if (row_inside) {
         const double dz_max = std::max({std::abs(z0 - zc_lo), std::abs(z0 - zc_hi),
                                         std::abs(z1 - zc_lo), std::abs(z1 - zc_hi)});
-        const double hw_in = flat + std::sqrt(std::max(0.0, r * r - dz_max * dz_max));
+        const double hw_in = flat + std::sqrt(std::max(0.0, r2 - dz_max * dz_max));
         if (hw_in > 0) {
           inner.init(a2, b2, d2, n2, m02, m12, hw_in);
           has_inner = true;
@@ -414,12 +447,16 @@ struct DepositBuilder::State {
       outer.minor_range(ylo, yhi);
       const int j_lo = std::max(0, static_cast<int>(std::floor(ylo)));
       const int j_hi = std::min(n_minor - 1, static_cast<int>(std::floor(yhi)));
+      if (j_lo > j_hi) continue;
+      outer_lines_.compute(outer, j_lo, j_hi + 1);
+      if (has_inner) inner_lines_.compute(inner, j_lo, j_hi + 1);
       for (int j = j_lo; j <= j_hi; ++j) {
         const double y0 = j, y1 = j + 1.0;
         double xl = std::numeric_limits<double>::infinity(), xh = -xl;
-        double il, ih;
-        if (outer.interval(y0, il, ih)) xl = std::min(xl, il), xh = std::max(xh, ih);
-        if (outer.interval(y1, il, ih)) xl = std::min(xl, il), xh = std::max(xh, ih);
+        for (int e = 0; e < 2; ++e) {
+          const std::size_t li = outer_lines_.at(j + e);
+          if (outer_lines_.ok[li]) xl = std::min(xl, outer_lines_.lo[li]), xh = std::max(xh, outer_lines_.hi[li]);
+        }
         for (const auto& v : outer.vertices)
           if (v.y() >= y0 && v.y() <= y1) xl = std::min(xl, v.x()), xh = std::max(xh, v.x());
         if (!(xl <= xh)) continue;
@@ -429,9 +466,10 @@ struct DepositBuilder::State {
         // Cells fully inside: both edges of the cell row inside the inner footprint.
         int f_lo = i_hi + 1, f_hi = i_hi;  // empty
         if (has_inner) {
-          double al, ah, bl, bh;
-          if (inner.interval(y0, al, ah) && inner.interval(y1, bl, bh)) {
-            const double lo = std::max(al, bl), hi = std::min(ah, bh);
+          const std::size_t l0 = inner_lines_.at(j), l1 = inner_lines_.at(j + 1);
+          if (inner_lines_.ok[l0] && inner_lines_.ok[l1]) {
+            const double lo = std::max(inner_lines_.lo[l0], inner_lines_.lo[l1]);
+            const double hi = std::min(inner_lines_.hi[l0], inner_lines_.hi[l1]);
             const int c_lo = std::max(i_lo, static_cast<int>(std::ceil(lo)));
             const int c_hi = std::min(i_hi, static_cast<int>(std::floor(hi)) - 1);
             if (c_lo <= c_hi) f_lo = c_lo, f_hi = c_hi;
@@ -468,7 +506,9 @@ struct DepositBuilder::State {
       overlap_voxels += static_cast<std::size_t>(i1 - i0) - fresh;
       for (int i = i0; i < i1; ++i) raise_top(i, j, k);
     } else {
-      for (int i = i0; i < i1; ++i) set_one(j, i, k, tag);
+      const std::size_t fresh = grid.fill_column(j, k, i0, i1, tag);
+      overlap_voxels += static_cast<std::size_t>(i1 - i0) - fresh;
+      for (int i = i0; i < i1; ++i) raise_top(j, i, k);
     }
   }
 

@@ -24,12 +24,16 @@ void put(std::string& out, T v) {
   out.append(b, sizeof(T));
 }
 
-double rounded(double v, double step) { return std::round(v / step) * step; }
+/// v rounded to `decimals` digits; dividing by the power of ten keeps 118.6 printing as 118.6.
+double rounded(double v, int decimals) {
+  const double scale = std::pow(10.0, decimals);
+  return std::round(v * scale) / scale;
+}
 
 nlohmann::json box_json(const Box3& b) {
   if (b.empty()) return nullptr;
   auto arr = [](const Vec3& v) {
-    return nlohmann::json::array({rounded(v.x(), 1e-4), rounded(v.y(), 1e-4), rounded(v.z(), 1e-4)});
+    return nlohmann::json::array({rounded(v.x(), 4), rounded(v.y(), 4), rounded(v.z(), 4)});
   };
   return {{"min", arr(b.min)}, {"max", arr(b.max)}};
 }
@@ -83,12 +87,12 @@ std::string deposit_json(const DepositResult& d) {
   nlohmann::json j;
   j["voxel_mm"] = d.voxel_mm;
   j["voxels"] = d.voxels;
-  j["volume_mm3"] = rounded(d.volume_mm3, 1e-4);
-  j["extruded_mm3"] = rounded(d.extruded_mm3, 1e-4);
-  j["overlap_mm3"] = rounded(d.overlap_mm3, 1e-4);
+  j["volume_mm3"] = rounded(d.volume_mm3, 4);
+  j["extruded_mm3"] = rounded(d.extruded_mm3, 4);
+  j["overlap_mm3"] = rounded(d.overlap_mm3, 4);
   j["bbox_mm"] = box_json(d.bbox_mm);
   j["beads"] = d.beads;
-  j["unsupported_mm"] = rounded(d.unsupported_mm, 1e-3);
+  j["unsupported_mm"] = rounded(d.unsupported_mm, 3);
   j["memory_bytes"] = d.memory_bytes;
   std::size_t bridges = 0, cantilevers = 0;
   for (const auto& s : d.unsupported) (s.bridge ? bridges : cantilevers) += 1;

@@ -204,6 +204,35 @@ std::size_t VoxelGrid::fill_row(std::int32_t y, std::int32_t z, std::int32_t x0,
   return fresh;
 }
 
+std::size_t VoxelGrid::fill_column(std::int32_t x, std::int32_t z, std::int32_t y0, std::int32_t y1,
+                                   std::uint32_t tag_index) {
+  Impl& g = *impl_;
+  if (x < 0 || z < 0 || x >= g.dims.x() || z >= g.dims.z()) return 0;
+  y0 = std::max(y0, 0);
+  y1 = std::min(y1, g.dims.y());
+  if (y0 >= y1) return 0;
+  const int bx = x >> 3;
+  const int bz = z >> 3;
+  const int lx = x & 7;
+  const std::uint64_t column = std::uint64_t{0x0101010101010101ull} << lx;
+  std::size_t fresh = 0;
+  for (int by = y0 >> 3; by <= (y1 - 1) >> 3; ++by) {
+    const int lo = std::max(y0 - by * kEdge, 0);
+    const int hi = std::min(y1 - by * kEdge, kEdge);
+    const std::uint64_t rows = (hi - lo == 8 ? ~std::uint64_t{0} : ((std::uint64_t{1} << (8 * (hi - lo))) - 1))
+                               << (8 * lo);
+    const std::uint64_t mask = column & rows;
+    const std::size_t b = g.block_for_write(bx, by, bz);
+    std::uint64_t& word = g.occ(b)[z & 7];
+    fresh += static_cast<std::size_t>(std::popcount(mask & ~word));
+    word |= mask;
+    std::uint32_t* slots = g.tag_slots(b) + (z & 7) * 64 + lx;
+    for (int y = lo; y < hi; ++y) slots[y * 8] = tag_index;
+  }
+  g.occupied += fresh;
+  return fresh;
+}
+
 void VoxelGrid::clear(const VoxelKey& k) {
   if (!impl_->in_range(k)) return;
   const long b = impl_->block_of(k);

@@ -152,6 +152,24 @@ TEST(DepositBead, SpiralVolumeMatchesExtrusion) {
   EXPECT_TRUE(r->findings.empty());
 }
 
+TEST(DepositBead, ZigZagInfillKeepsEveryBead) {
+  // Turns into and out of the short connecting moves are mitred; nothing is lost.
+  const auto profile = ender3_marlin2();
+  BeadWriter w(profile);
+  w.feature = Feature::sparse_infill;
+  w.travel({100, 100, 0.2});
+  for (int i = 0; i < 12; ++i) {
+    const double x = 100 + 2.25 * i;
+    const bool up = i % 2 == 0;
+    if (i > 0) w.extrude({x, up ? 100.0 - 0.4 * i : 120.0 + 0.4 * i, 0.2}, 0.45, 0.2);
+    w.extrude({x, up ? 120.0 + 0.4 * i : 100.0 - 0.4 * (i + 1), 0.2}, 0.45, 0.2);
+  }
+  auto r = deposit_moves(w.moves, profile, DepositSettings{});
+  ASSERT_TRUE(r.ok());
+  EXPECT_NEAR((r->volume_mm3 + r->overlap_mm3) / r->extruded_mm3, 1.0, 0.02);
+  EXPECT_LT(r->overlap_mm3, 0.05 * r->extruded_mm3);
+}
+
 TEST(DepositBead, VoxelsNameTheirLineLayerAndFeature) {
   const auto profile = ender3_marlin2();
   BeadWriter w(profile);

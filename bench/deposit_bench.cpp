@@ -1,0 +1,231 @@
+// Deposit benchmarks: raw voxel write rate of the blocked grid, the bead model on synthetic
+// toolpaths, and simulate + deposit of a real slicer's G-code.
+//
+//   build/bench/deposit_bench                                  # grid and synthetic cases
+//   PRINTTWIN_DEPOSIT_GCODE=model.gcode build/bench/deposit_bench   # + the G-code cases
+// bench/deposit_bench.sh generates the G-code (openscad + PrusaSlicer) and runs everything.
+#include <benchmark/benchmark.h>
+#include <sys/resource.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "printtwin/deposit.hpp"
+#include "printtwin/simulate.hpp"
+
+namespace printtwin {
+namespace {
+
+double peak_rss_mb() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
+}
+
+/// Raw writes: runs of 64 voxels (a bead-long row) into a fresh 512x512x256 grid.
+void BM_VoxelGridFillRows(benchmark::State& state) {
+  const int n = 512, nz = 256;
+  std::size_t written = 0;
+  for (auto _ : state) {
+    VoxelGrid g(0.05, Vec3::Zero(), Eigen::Vector3i(n, n, nz));
+    const auto tag = g.add_tag(VoxelTag{1, 0, Feature::perimeter});
+    for (int z = 0; z < nz; z += 2)
+      for (int y = 0; y < n; y += 2)
+        for (int x = (y * 7) % 64; x + 64 <= n; x += 128) written += static_cast<std::size_t>(g.fill_row(y, z, x, x + 64, tag));
+    benchmark::DoNotOptimize(g.count());
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(written));
+  state.counters["voxels_per_s"] = benchmark::Counter(static_cast<double>(written), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_VoxelGridFillRows)->Unit(benchmark::kMillisecond);
+
+/// Raw writes one voxel at a time (set_index), in row order.
+void BM_VoxelGridSetIndex(benchmark::State& state) {
+  const int n = 256, nz = 128;
+  std::size_t written = 0;
+  for (auto _ : state) {
+    VoxelGrid g(0.05, Vec3::Zero(), Eigen::Vector3i(n, n, nz));
+    const auto tag = g.add_tag(VoxelTag{1, 0, Feature::perimeter});
+    for (int z = 0; z < nz; ++z)
+      for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) written += g.set_index(VoxelKey{x, y, z}, tag) ? 1 : 0;
+    benchmark::DoNotOptimize(g.count());
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(written));
+  state.counters["voxels_per_s"] = benchmark::Counter(static_cast<double>(written), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_VoxelGridSetIndex)->Unit(benchmark::kMillisecond);
+
+/// Bead model on a synthetic part: 40 layers of a 30 mm cylinder (2 perimeters of 180
+/// segments) with 45-degree zig-zag infill, like a slicer's output.
+std::vector<Move> synthetic_part(const PrinterProfile& p) {
+  std::vector<Move> moves;
+  Vec3 pos(0, 0, 0);
+  long line = 0;
+  const double h = 0.2, w = 0.45;
+  const double area = (w - h) * h + std::numbers::pi * h * h / 4;
+  auto push = [&](const Vec3& to, bool extrude, int layer, Feature f) {
+    Move m;
+    m.start_mm = pos;
+    m.end_mm = to;
+    m.kind = extrude ? MoveKind::extrude : MoveKind::travel;
+    m.e_mm = extrude ? area * (to - pos).head<2>().norm() / p.filament_area_mm2() : 0;
+    m.line = ++line;
+    m.layer = layer;
+    m.feature = f;
+    moves.push_back(m);
+    pos = to;
+  };
+  const Vec3 c(110, 110, 0);
+  for (int layer = 0; layer < 40; ++layer) {
+    const double z = h * (layer + 1);
+    for (int ring = 0; ring < 2; ++ring) {
+      const double r = 15.0 - w / 2 - ring * (w - h * (1 - std::numbers::pi / 4));
+      const Feature f = ring == 0 ? Feature::outer_perimeter : Feature::perimeter;
+      push(c + Vec3(r, 0, z), false, layer, f);
+      for (int i = 1; i <= 180; ++i) {
+        const double t = 2 * std::numbers::pi * i / 180;
+        push(c + Vec3(r * std::cos(t), r * std::sin(t), z), true, layer, f);
+      }
+    }
+    // Zig-zag infill at 20 % (lines 2.25 mm apart) inside r = 14.
+    const double spacing = w / 0.2;
+    bool first = true;
+    for (double u = -14 + spacing / 2; u < 14; u += spacing) {
+      const double half = std::sqrt(14.0 * 14.0 - u * u);
+      const Vec3 a = c + Vec3(u, -half, z), b = c + Vec3(u, half, z);
+      const bool flip = static_cast<int>(std::floor((u + 14) / spacing)) % 2 == 1;
+      push(flip ? b : a, !first, layer, Feature::sparse_infill);
+      push(flip ? a : b, true, layer, Feature::sparse_infill);
+      first = false;
+    }
+  }
+  return moves;
+}
+
+void BM_DepositSyntheticPart(benchmark::State& state) {
+  const auto profile = ender3_marlin2();
+  const auto moves = synthetic_part(profile);
+  DepositSettings s;
+  s.voxel_mm = 0.05;
+  std::size_t voxels = 0;
+  double ratio = 0;
+  for (auto _ : state) {
+    auto r = deposit_moves(moves, profile, s);
+    if (!r) {
+      state.SkipWithError(r.error().message.c_str());
+      return;
+    }
+    voxels = r->voxels;
+    ratio = (r->volume_mm3 + r->overlap_mm3) / r->extruded_mm3;
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(voxels * state.iterations()));
+  state.counters["voxels"] = static_cast<double>(voxels);
+  state.counters["deposited_plus_overlap_over_extruded"] = ratio;
+}
+BENCHMARK(BM_DepositSyntheticPart)->Unit(benchmark::kMillisecond);
+
+// --- Real G-code (PRINTTWIN_DEPOSIT_GCODE) -------------------------------------------------
+
+class Collect final : public MoveSink {
+ public:
+  std::vector<Move> moves;
+  void on_move(const Move& m) override { moves.push_back(m); }
+};
+
+const char* gcode_path() { return std::getenv("PRINTTWIN_DEPOSIT_GCODE"); }
+
+/// simulate (parse, interpret, plan) + deposit at 0.05 mm: the end-to-end figure.
+void BM_SimulateAndDeposit(benchmark::State& state) {
+  const char* path = gcode_path();
+  if (path == nullptr) {
+    state.SkipWithError("set PRINTTWIN_DEPOSIT_GCODE to a G-code file");
+    return;
+  }
+  const auto profile = ender3_marlin2();
+  DepositSettings s;
+  s.voxel_mm = static_cast<double>(state.range(0)) / 1000.0;
+  s.max_memory_bytes = std::size_t{8} << 30;
+  DepositResult last;
+  long lines = 0;
+  for (auto _ : state) {
+    Collect sink;
+    auto sim = simulate_gcode_file(path, profile, SimulateOptions{}, &sink);
+    if (!sim) {
+      state.SkipWithError(sim.error().describe().c_str());
+      return;
+    }
+    lines = sim->lines;
+    auto r = deposit_moves(sink.moves, profile, s);
+    if (!r) {
+      state.SkipWithError(r.error().describe().c_str());
+      return;
+    }
+    last = std::move(r).value();
+  }
+  state.counters["lines"] = static_cast<double>(lines);
+  state.counters["voxels"] = static_cast<double>(last.voxels);
+  state.counters["extruded_mm3"] = last.extruded_mm3;
+  state.counters["volume_mm3"] = last.volume_mm3;
+  state.counters["overlap_mm3"] = last.overlap_mm3;
+  state.counters["grid_MB"] = static_cast<double>(last.memory_bytes) / (1024.0 * 1024.0);
+  state.counters["peak_rss_MB"] = peak_rss_mb();
+  state.counters["findings"] = static_cast<double>(last.findings.size());
+}
+BENCHMARK(BM_SimulateAndDeposit)->Arg(50)->Arg(100)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3);
+
+/// The deposit alone (Moves interpreted once, outside the timing).
+void BM_DepositOnly(benchmark::State& state) {
+  const char* path = gcode_path();
+  if (path == nullptr) {
+    state.SkipWithError("set PRINTTWIN_DEPOSIT_GCODE to a G-code file");
+    return;
+  }
+  const auto profile = ender3_marlin2();
+  auto moves = interpret_gcode_file(path, profile, SimulateOptions{});
+  if (!moves) {
+    state.SkipWithError(moves.error().describe().c_str());
+    return;
+  }
+  DepositSettings s;
+  s.max_memory_bytes = std::size_t{8} << 30;
+  std::size_t voxels = 0;
+  for (auto _ : state) {
+    auto r = deposit_moves(*moves, profile, s);
+    if (!r) {
+      state.SkipWithError(r.error().describe().c_str());
+      return;
+    }
+    voxels = r->voxels;
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(voxels * state.iterations()));
+  state.counters["voxels"] = static_cast<double>(voxels);
+}
+BENCHMARK(BM_DepositOnly)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3);
+
+/// The simulation alone, for the split of the end-to-end figure.
+void BM_SimulateOnly(benchmark::State& state) {
+  const char* path = gcode_path();
+  if (path == nullptr) {
+    state.SkipWithError("set PRINTTWIN_DEPOSIT_GCODE to a G-code file");
+    return;
+  }
+  const auto profile = ender3_marlin2();
+  for (auto _ : state) {
+    auto sim = simulate_gcode_file(path, profile, SimulateOptions{});
+    if (!sim) {
+      state.SkipWithError(sim.error().describe().c_str());
+      return;
+    }
+    benchmark::DoNotOptimize(sim->print_time_s);
+  }
+}
+BENCHMARK(BM_SimulateOnly)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3);
+
+}  // namespace
+}  // namespace printtwin
+
+BENCHMARK_MAIN();
