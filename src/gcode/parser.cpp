@@ -59,30 +59,33 @@ const char* read_number(const char* p, const char* end, double& out) {
   }
   // from_chars would accept "inf"/"nan": only digits and '.' may start a number here.
   if (p >= end || !(is_digit(*p) || *p == '.')) return nullptr;
-  // Fast path (Clinger): plain decimals with <= 15 significant digits and no exponent are
-  // an exact integer divided by an exact power of ten: one correctly rounded division.
+  // Fast path (Clinger): a plain decimal of <= 15 digits without exponent is an exact
+  // integer divided by an exact power of ten: one correctly rounded division.
   {
     static constexpr double kPow10[] = {1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8,
                                         1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15};
     const char* q = p;
-    std::uint64_t mantissa = 0;
-    int digits = 0, frac = 0;
-    while (q < end && is_digit(*q) && digits < 16) {
-      mantissa = mantissa * 10 + static_cast<std::uint64_t>(*q - '0');
-      if (mantissa != 0) ++digits;
+    std::uint64_t mantissa = 0;  // may wrap for > 19 digits: then the slow path is taken
+    while (q < end) {
+      const auto d = static_cast<unsigned>(*q) - '0';
+      if (d > 9) break;
+      mantissa = mantissa * 10 + d;
       ++q;
     }
+    long digits = q - p;
+    long frac = 0;
     if (q < end && *q == '.') {
-      ++q;
-      while (q < end && is_digit(*q) && digits < 16) {
-        mantissa = mantissa * 10 + static_cast<std::uint64_t>(*q - '0');
-        if (mantissa != 0) ++digits;
-        ++frac;
+      const char* f = ++q;
+      while (q < end) {
+        const auto d = static_cast<unsigned>(*q) - '0';
+        if (d > 9) break;
+        mantissa = mantissa * 10 + d;
         ++q;
       }
+      frac = q - f;
+      digits += frac;
     }
-    const bool more = q < end && (is_digit(*q) || *q == '.' || *q == 'e' || *q == 'E');
-    if (!more && digits <= 15 && frac <= 15 && q > p && !(q == p + 1 && *p == '.')) {
+    if (digits > 0 && digits <= 15 && !(q < end && (*q == 'e' || *q == 'E'))) {
       const double v = static_cast<double>(mantissa) / kPow10[frac];
       out = negative ? -v : v;
       return q;
