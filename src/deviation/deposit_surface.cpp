@@ -358,46 +358,86 @@ void distances_to_deposit(const DepositSurface& s, std::span<const Vec3> points,
   }
   const FaceBuckets buckets(s);
   const double half = 0.5 * s.voxel_mm;
-  const int max_ring = buckets.cells.maxCoeff();
+  // A coarse level (groups of kGroup^3 cells) flags where faces are, so that points far from
+  // the deposit (a missing wall) skip empty space quickly; the search stays exact.
+  constexpr int kGroup = 8;
+  const Eigen::Vector3i groups = (buckets.cells.array() + kGroup - 1) / kGroup;
+  std::vector<std::uint8_t> group_has(static_cast<std::size_t>(groups.x()) * groups.y() * groups.z(), 0);
+  const auto group_index = [&](const Eigen::Vector3i& g) {
+    return (static_cast<std::size_t>(g.z()) * groups.y() + g.y()) * groups.x() + g.x();
+  };
+  for (int z = 0; z < buckets.cells.z(); ++z)
+    for (int y = 0; y < buckets.cells.y(); ++y)
+      for (int x = 0; x < buckets.cells.x(); ++x) {
+        const std::size_t ci = buckets.cell_index(Eigen::Vector3i(x, y, z));
+        if (buckets.begin[ci] != buckets.begin[ci + 1])
+          group_has[group_index(Eigen::Vector3i(x / kGroup, y / kGroup, z / kGroup))] = 1;
+      }
+  const double group_mm = buckets.cell_mm * kGroup;
+  const int max_group_ring = groups.maxCoeff();
+  constexpr int kFineRings = 2;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 2048),
                     [&](const tbb::blocked_range<std::size_t>& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
       const Vec3& p = points[i];
-      const Eigen::Vector3i c0 = buckets.cell_coord(p);
       double best2 = std::numeric_limits<double>::infinity();
       std::uint32_t best_face = 0;
-      for (int ring = 0; ring <= max_ring; ++ring) {
-        // Cells at Chebyshev distance `ring` from c0; a face centred in a cell reaches half a
-        // voxel beyond it, hence the `half` slack in the cell-box test.
+      // Squared distance from p to a box of `size` at `lo`, widened by half a voxel (a face
+      // centred in a cell reaches half a voxel beyond it).
+      const auto box_dist2 = [&](const Vec3& lo, double size) {
+        double b2 = 0;
+        for (int a = 0; a < 3; ++a) {
+          const double l = lo[a] - half, h = lo[a] + size + half;
+          const double e = p[a] < l ? l - p[a] : (p[a] > h ? p[a] - h : 0.0);
+          b2 += e * e;
+        }
+        return b2;
+      };
+      const auto scan_cell = [&](const Eigen::Vector3i& c) {
+        if ((c.array() < 0).any() || (c.array() >= buckets.cells.array()).any()) return;
+        const std::size_t ci = buckets.cell_index(c);
+        if (buckets.begin[ci] == buckets.begin[ci + 1]) return;
+        if (box_dist2(buckets.origin_mm + buckets.cell_mm * c.cast<double>(), buckets.cell_mm) >= best2) return;
+        for (std::uint32_t k = buckets.begin[ci]; k < buckets.begin[ci + 1]; ++k) {
+          const std::uint32_t fi = buckets.index[k];
+          const SurfaceFace& f = s.faces[fi];
+          const double d2 = face_dist2(p, f.center_mm, f.axis, half);
+          if (d2 < best2 || (d2 == best2 && fi < best_face)) {
+            best2 = d2;
+            best_face = fi;
+          }
+        }
+      };
+      // Fine rings around p's cell; every cell of ring + 1 is at least ring * cell - half away.
+      const Eigen::Vector3i c0 = buckets.cell_coord(p);
+      bool done = false;
+      for (int ring = 0; ring <= kFineRings && !done; ++ring) {
+        for (int dz = -ring; dz <= ring; ++dz)
+          for (int dy = -ring; dy <= ring; ++dy)
+            for (int dx = -ring; dx <= ring; ++dx)
+              if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) == ring)
+                scan_cell(c0 + Eigen::Vector3i(dx, dy, dz));
+        const double reach = ring * buckets.cell_mm - half;
+        done = reach > 0 && best2 <= reach * reach;
+      }
+      // Far points: rings of groups, descending only into groups that hold faces and may
+      // beat the best so far (cells already scanned are simply scanned again).
+      const Eigen::Vector3i g0 = c0 / kGroup;
+      for (int ring = 0; ring <= max_group_ring && !done; ++ring) {
         for (int dz = -ring; dz <= ring; ++dz)
           for (int dy = -ring; dy <= ring; ++dy)
             for (int dx = -ring; dx <= ring; ++dx) {
               if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) != ring) continue;
-              const Eigen::Vector3i c = c0 + Eigen::Vector3i(dx, dy, dz);
-              if ((c.array() < 0).any() || (c.array() >= buckets.cells.array()).any()) continue;
-              const std::size_t ci = buckets.cell_index(c);
-              if (buckets.begin[ci] == buckets.begin[ci + 1]) continue;
-              double box2 = 0;
-              for (int a = 0; a < 3; ++a) {
-                const double lo = buckets.origin_mm[a] + c[a] * buckets.cell_mm - half;
-                const double hi = lo + buckets.cell_mm + 2 * half;
-                const double e = p[a] < lo ? lo - p[a] : (p[a] > hi ? p[a] - hi : 0.0);
-                box2 += e * e;
-              }
-              if (box2 >= best2) continue;
-              for (std::uint32_t k = buckets.begin[ci]; k < buckets.begin[ci + 1]; ++k) {
-                const std::uint32_t fi = buckets.index[k];
-                const SurfaceFace& f = s.faces[fi];
-                const double d2 = face_dist2(p, f.center_mm, f.axis, half);
-                if (d2 < best2 || (d2 == best2 && fi < best_face)) {
-                  best2 = d2;
-                  best_face = fi;
-                }
-              }
+              const Eigen::Vector3i g = g0 + Eigen::Vector3i(dx, dy, dz);
+              if ((g.array() < 0).any() || (g.array() >= groups.array()).any()) continue;
+              if (group_has[group_index(g)] == 0) continue;
+              if (box_dist2(buckets.origin_mm + group_mm * g.cast<double>(), group_mm) >= best2) continue;
+              for (int z = 0; z < kGroup; ++z)
+                for (int y = 0; y < kGroup; ++y)
+                  for (int x = 0; x < kGroup; ++x) scan_cell(g * kGroup + Eigen::Vector3i(x, y, z));
             }
-        // Every cell of ring + 1 is at least ring * cell - half away from p.
-        const double reach = ring * buckets.cell_mm - half;
-        if (reach > 0 && best2 <= reach * reach) break;
+        const double reach = ring * group_mm - half;
+        done = reach > 0 && best2 <= reach * reach;
       }
       const double d = std::sqrt(best2);
       signed_mm[i] = s.filled(p) ? d : -d;
