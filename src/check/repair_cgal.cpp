@@ -1,6 +1,7 @@
 // repair_mesh: CGAL Polygon_mesh_processing on a polygon soup, then a Surface_mesh.
 // With self_intersections_cgal.cpp, the only files that include CGAL.
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_mesh_processing/connected_components.h>
 #include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
 #include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
 #include <CGAL/Polygon_mesh_processing/repair_polygon_soup.h>
@@ -40,7 +41,7 @@ bool same_cycle(const std::vector<P3>& pa, const Polygon& a, const std::vector<P
 
 void add(std::vector<RepairChange>& changes, std::string code, std::size_t count,
          std::string message) {
-  if (count > 0) changes.push_back({std::move(code), count, std::to_string(count) + " " + message});
+  if (count > 0) changes.push_back({std::move(code), count, message + ": " + std::to_string(count)});
 }
 
 }  // namespace
@@ -99,6 +100,13 @@ Result<RepairResult> repair_mesh(const Mesh& mesh, const RepairSettings& setting
     PMP::polygon_soup_to_polygon_mesh(points, polygons, sm);
     const std::size_t stitched = PMP::stitch_borders(sm);
     add(out.changes, "stitched_edges", stitched, "pairs of open edges stitched together");
+
+    // Pieces of fewer than 4 faces cannot bound a volume (a fin, a stray triangle): filling
+    // their "hole" would only add a reversed copy of them.
+    const std::size_t pieces = PMP::keep_large_connected_components(sm, 4);
+    sm.collect_garbage();
+    add(out.changes, "removed_small_pieces", pieces,
+        "loose pieces of fewer than 4 faces removed (fins, stray triangles)");
 
     // Fill the holes that are small enough; larger ones stay open (and are reported).
     std::vector<SurfaceMesh::Halfedge_index> border_starts;

@@ -5,7 +5,6 @@
 // mesh. STL input is therefore validated here first (size against the header count, ASCII
 // grammar with line numbers, finite coordinates) and only then handed to assimp.
 #include <assimp/Importer.hpp>
-#include <assimp/config.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
@@ -230,15 +229,13 @@ Result<Mesh> load_mesh(const fs::path& path, const MeshLoadOptions& options) {
   }
 
   Assimp::Importer importer;
-  // Join identical vertices: without it an STL is a soup of loose triangles and nothing is
-  // closed. assimp joins only vertices whose every attribute matches, and an STL gives each
-  // corner its facet's normal, so normals (and colours, texture coordinates) are removed
-  // first. Node transforms are baked in (3MF/AMF build items).
-  importer.SetPropertyInteger(AI_CONFIG_PP_RVC_FLAGS,
-                              aiComponent_NORMALS | aiComponent_TANGENTS_AND_BITANGENTS |
-                                  aiComponent_COLORS | aiComponent_TEXCOORDS);
-  const unsigned flags = aiProcess_RemoveComponent | aiProcess_JoinIdenticalVertices |
-                         aiProcess_Triangulate | aiProcess_PreTransformVertices;
+  // Identical vertices are joined after import (weld_identical_vertices): without it an STL
+  // is a soup of loose triangles and nothing is closed. assimp's own
+  // aiProcess_JoinIdenticalVertices also compares normals (an STL gives every corner its
+  // facet's normal) and took 0.2 s of CPU for 200k triangles where the parse took 0.015 s;
+  // the exact weld below does the same job in a fraction of that. Node transforms are
+  // baked in (3MF/AMF build items).
+  const unsigned flags = aiProcess_Triangulate | aiProcess_PreTransformVertices;
   const aiScene* scene =
       is_stl ? importer.ReadFileFromMemory(bytes->data(), bytes->size(), flags, "stl")
              : importer.ReadFile(name, flags);

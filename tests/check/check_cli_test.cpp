@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -181,7 +182,7 @@ TEST(CheckCli, RepairWritesAFixedMeshAndListsChanges) {
   const auto run = test::run_cli("check " + q(dir / "open.stl") + " --repair " + q(dir / "fixed.stl") +
                                  " --json " + q(dir / "r.json"));
   EXPECT_EQ(run.exit_code, 1) << "the input is still reported as it is";
-  EXPECT_NE(run.out.find("1 holes filled"), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("holes filled: 1"), std::string::npos) << run.out;
   const json j = read_json(dir / "r.json");
   ASSERT_TRUE(j.contains("repair"));
   EXPECT_EQ(j["repair"]["after"]["closed"], true);
@@ -193,6 +194,23 @@ TEST(CheckCli, RepairWritesAFixedMeshAndListsChanges) {
   auto fixed = load_mesh(dir / "fixed.stl");
   ASSERT_TRUE(fixed.ok());
   EXPECT_NEAR(signed_volume_mm3(*fixed), 8000.0, 1e-3);
+}
+
+TEST(CheckCli, RepairOfTheBrokenSample) {
+  const fs::path dir = test::temp_dir("check_cli_repair_broken");
+  const auto run = test::run_cli("check " + q(test::source_path("samples/models/broken.stl")) +
+                                 " --repair " + q(dir / "fixed.stl") + " --json " + q(dir / "r.json"));
+  EXPECT_EQ(run.exit_code, 1);
+  const json j = read_json(dir / "r.json");
+  std::map<std::string, int> changes;
+  for (const auto& c : j["repair"]["changes"]) changes[c["code"]] = c["count"];
+  EXPECT_EQ(changes["removed_degenerate_faces"], 1);
+  EXPECT_EQ(changes["removed_small_pieces"], 1) << "the fin";
+  EXPECT_EQ(changes["filled_holes"], 1) << "the missing top";
+  EXPECT_EQ(j["repair"]["after"]["closed"], true);
+  const auto again = test::run_cli("check " + q(dir / "fixed.stl") + " --json " + q(dir / "a.json"));
+  EXPECT_EQ(again.exit_code, 0) << again.out;
+  EXPECT_NEAR(read_json(dir / "a.json")["mesh"]["volume_mm3"].get<double>(), 8000.0, 1e-3);
 }
 
 }  // namespace
