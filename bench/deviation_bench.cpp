@@ -1,0 +1,179 @@
+// Deviation stage benchmark and the helper of bench/c2m_compare.sh.
+//
+//   deviation_bench [benchmark flags]      the deviation stage (compute_deviation) on the
+//                                          deposit of $PRINTTWIN_BENCH_GCODE against
+//                                          $PRINTTWIN_BENCH_MESH (default: the 10 mm cube
+//                                          sample) at $PRINTTWIN_BENCH_VOXEL (0.05) mm
+//   deviation_bench --export MESH GCODE DIR [VOXEL]
+//                                          runs verify, writes DIR/points.ply (deposit face
+//                                          centres) and DIR/mesh.stl
+//                                          (the mesh placed in the G-code frame)
+//   deviation_bench --c2m POINTS.ply MESH.stl
+//                                          whole-process distance of points to a mesh (the
+//                                          counterpart of CloudCompare -C2M_DIST); prints
+//                                          n, mean|d|, rms|d|, max|d|
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include "printtwin/deposit.hpp"
+#include "printtwin/deviation.hpp"
+#include "printtwin/io.hpp"
+#include "printtwin/planner.hpp"
+#include "printtwin/simulate.hpp"
+#include "printtwin/verify.hpp"
+
+namespace {
+
+using namespace printtwin;
+
+std::string env_or(const char* name, const std::string& fallback) {
+  const char* v = std::getenv(name);
+  return v != nullptr && *v != '\0' ? std::string(v) : fallback;
+}
+
+class Collect final : public MoveSink {
+ public:
+  std::vector<Move> moves;
+  void on_move(const Move& m) override { moves.push_back(m); }
+};
+
+struct Prepared {
+  Mesh placed;
+  DepositResult deposit;
+  Box3 part;
+};
+
+/// Simulates and deposits the benchmark's G-code once, places the mesh.
+const Prepared& prepared() {
+  static const Prepared p = [] {
+    Prepared out;
+    const std::string gcode = env_or("PRINTTWIN_BENCH_GCODE", std::string(PRINTTWIN_SOURCE_DIR) + "/samples/gcode/prusa_cube10.gcode");
+    const std::string mesh_path = env_or("PRINTTWIN_BENCH_MESH", "");
+    const double voxel = std::stod(env_or("PRINTTWIN_BENCH_VOXEL", "0.05"));
+    auto profile = load_printer_profile("ender3");
+    Collect c;
+    std::ifstream in(gcode, std::ios::binary);
+    auto sim = simulate_gcode(in, *profile, {}, &c);
+    if (!sim) throw std::runtime_error(sim.error().describe());
+    DepositSettings ds;
+    ds.voxel_mm = voxel;
+    auto dep = deposit_moves(c.moves, *profile, ds);
+    if (!dep) throw std::runtime_error(dep.error().describe());
+    Mesh mesh = make_box_mesh(Vec3(-5, -5, 0), Vec3(5, 5, 10));
+    if (!mesh_path.empty()) {
+      auto loaded = load_mesh(mesh_path);
+      if (!loaded) throw std::runtime_error(loaded.error().describe());
+      mesh = std::move(*loaded);
+    }
+    const PartExtent part = find_part_extent(c.moves);
+    const Vec3 offset = registration_offset(mesh, part);
+    out.placed = translated(std::move(mesh), offset);
+    out.deposit = std::move(*dep);
+    out.part = part.bbox_mm;
+    return out;
+  }();
+  return p;
+}
+
+void BM_DeviationStage(benchmark::State& state) {
+  const Prepared& p = prepared();
+  DeviationSettings settings;
+  settings.keep_samples = false;
+  std::size_t faces = 0, samples = 0;
+  for (auto _ : state) {
+    auto r = compute_deviation(p.placed, p.deposit.grid, settings, p.part);
+    if (!r) state.SkipWithError(r.error().describe().c_str());
+    faces = r->surface_faces;
+    samples = r->mesh_to_deposit.samples;
+    benchmark::DoNotOptimize(r->deposit_to_mesh.rms_mm);
+  }
+  state.counters["surface_faces"] = static_cast<double>(faces);
+  state.counters["mesh_samples"] = static_cast<double>(samples);
+  state.counters["triangles"] = static_cast<double>(p.placed.triangles.size());
+}
+BENCHMARK(BM_DeviationStage)->Unit(benchmark::kMillisecond)->Iterations(3);
+
+int export_points(int argc, char** argv) {
+  if (argc < 5) return 2;
+  VerifyOptions o;
+  o.mesh_path = argv[2];
+  o.gcode_path = argv[3];
+  if (argc > 5) o.settings.voxel_mm = std::stod(argv[5]);
+  auto r = verify(o);
+  if (!r) {
+    std::fprintf(stderr, "%s\n", r.error().describe().c_str());
+    return 3;
+  }
+  std::vector<Vec3> pts;
+  std::vector<double> d;
+  for (const auto& s : r->deviation.deposit_samples) {
+    pts.push_back(s.position_mm);
+    d.push_back(s.distance_mm);
+  }
+  const std::filesystem::path dir = argv[4];
+  // Points only (CloudCompare's C2M distance is then the cloud's only scalar field).
+  if (!write_file_atomic(dir / "points.ply", points_ply(pts, {})).ok()) return 3;
+  if (!save_stl(r->placed_mesh, dir / "mesh.stl").ok()) return 3;
+  const auto& s = r->deviation.deposit_to_mesh;
+  std::printf("exported %zu points; ours in-process: mean|d| %.9f rms %.9f max|d| %.9f\n", pts.size(),
+              s.mean_abs_mm, s.rms_mm, s.hausdorff_mm);
+  return 0;
+}
+
+/// Reads the binary PLY written by points_ply (doubles x y z [deviation]).
+bool read_points(const std::string& path, std::vector<Vec3>& pts) {
+  auto text = read_file(path);
+  if (!text) return false;
+  const auto end = text->find("end_header\n");
+  if (end == std::string::npos) return false;
+  std::istringstream header(text->substr(0, end));
+  std::string line;
+  std::size_t n = 0, props = 0;
+  while (std::getline(header, line)) {
+    if (line.rfind("element vertex ", 0) == 0) n = std::stoul(line.substr(15));
+    if (line.rfind("property double ", 0) == 0) ++props;
+  }
+  const char* data = text->data() + end + 11;
+  if (text->size() < end + 11 + n * props * 8) return false;
+  pts.resize(n);
+  for (std::size_t i = 0; i < n; ++i)
+    for (int a = 0; a < 3; ++a) std::memcpy(&pts[i][a], data + (i * props + static_cast<std::size_t>(a)) * 8, 8);
+  return true;
+}
+
+int c2m(int argc, char** argv) {
+  if (argc < 4) return 2;
+  std::vector<Vec3> pts;
+  if (!read_points(argv[2], pts)) return 3;
+  auto mesh = load_mesh(argv[3]);
+  if (!mesh) return 3;
+  auto d = signed_distances_to_mesh(*mesh, pts, 0.2);
+  if (!d) return 3;
+  long double sum = 0, sum2 = 0;
+  double mx = 0;
+  for (const double v : *d) {
+    sum += std::abs(v);
+    sum2 += static_cast<long double>(v) * v;
+    mx = std::max(mx, std::abs(v));
+  }
+  const auto n = static_cast<long double>(d->size());
+  std::printf("n %zu mean_abs %.9f rms %.9f max_abs %.9f\n", d->size(), static_cast<double>(sum / n),
+              static_cast<double>(std::sqrt(sum2 / n)), mx);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc > 1 && std::strcmp(argv[1], "--export") == 0) return export_points(argc, argv);
+  if (argc > 1 && std::strcmp(argv[1], "--c2m") == 0) return c2m(argc, argv);
+  benchmark::Initialize(&argc, argv);
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
