@@ -40,6 +40,23 @@ printf '%-44s %8.3f s\n' "prusa-slicer --info" "$t_prusa"
 printf 'ratio printtwin / admesh        %6.2f\n' "$(awk -v a="$t_ours" -v b="$t_admesh" 'BEGIN { print a / b }')"
 printf 'ratio printtwin / prusa --info  %6.2f\n' "$(awk -v a="$t_ours" -v b="$t_prusa" 'BEGIN { print a / b }')"
 
+# CPU seconds (user + sys, median of 3): robust when other jobs share the machine.
+if [ -x /usr/bin/time ]; then
+  cpu3() {
+    for i in 1 2 3; do
+      /usr/bin/time -f "%U %S" -o "$tmp/t" "$@" >/dev/null 2>&1 || true
+      awk '{ printf "%.3f\n", $1 + $2 }' "$tmp/t"
+    done | sort -n | sed -n 2p
+  }
+  c_ours=$(cpu3 "$cli" check "$mesh")
+  c_admesh=$(cpu3 admesh "$mesh")
+  c_prusa=$(cpu3 prusa-slicer --info "$mesh")
+  printf 'cpu s: printtwin %s, admesh %s, prusa-slicer --info %s; ratios %s / %s\n' \
+    "$c_ours" "$c_admesh" "$c_prusa" \
+    "$(awk -v a="$c_ours" -v b="$c_admesh" 'BEGIN { printf "%.2f", a / b }')" \
+    "$(awk -v a="$c_ours" -v b="$c_prusa" 'BEGIN { printf "%.2f", a / b }')"
+fi
+
 # The same facts from each tool, for the record.
 "$cli" check "$mesh" | sed -n '2,4p'
 admesh "$mesh" | grep -E "Number of facets|Volume|Number of parts|Edges fixed|Backwards" || true
