@@ -186,6 +186,9 @@ struct LayerOutline {
   double height_mm = 0;     ///< layer thickness
   double slice_z_mm = 0;    ///< where the mesh was cut: print_z - height / 2
   std::vector<std::vector<Point2um>> polygons;
+  /// Gaps (at most 2 mm) between open outline pieces that were bridged: the mesh is not
+  /// closed at this height. 0 for a closed mesh.
+  int closed_gaps = 0;
 };
 
 /// Heights of the layers of an object `object_height_mm` tall: first layer, then
@@ -194,8 +197,9 @@ struct LayerOutline {
 [[nodiscard]] std::vector<double> layer_print_z(double object_height_mm,
                                                 const SliceSettings& settings);
 
-/// Cuts an already placed mesh (z = 0 on the bed) into layer outlines. Open loops (the mesh
-/// is not closed) are an error naming the layer and where the loop ends.
+/// Cuts an already placed mesh (z = 0 on the bed) into layer outlines. Where the mesh is not
+/// closed, open outline pieces are joined across gaps up to 2 mm (counted in `closed_gaps`);
+/// a piece that cannot be closed so is an error naming the layer and where it ends.
 [[nodiscard]] Result<std::vector<LayerOutline>> slice_layers(const Mesh& placed_mesh,
                                                              const SliceSettings& settings);
 

@@ -57,7 +57,8 @@ void strips_to_lines(const CPaths& region, Role role, double min_width_mm, doubl
     for (const auto& h : ex.holes) area -= std::abs(Area(h));
     const double area_mm2_v = area * 1e-6;
     const double length_mm = area_mm2_v / c.width_mm;
-    if (length_mm < min_length_mm) continue;  // a corner sliver, not a feature
+    // Corner slivers and offset rounding residue are not features.
+    if (length_mm < min_length_mm || c.width_mm < 0.05 || area_mm2_v < 0.02) continue;
     if (c.width_mm < min_width_mm) {
       if (report) {
         const Box3 b = box_of(ex.contour);

@@ -5,6 +5,7 @@
 // two crossed edges and no special cases remain.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <array>
 #include <numeric>
 
@@ -53,7 +54,20 @@ std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
 
 // Chains one layer's segments into loops. Returns loops in microns; `open_end` gets the
 // position of an unmatched end when the mesh is not closed at this height.
-std::vector<std::vector<Point2um>> chain(std::vector<Segment>& segs, std::optional<Vec2>& open_end) {
+struct ChainStats {
+  int closed_gaps = 0;              // open chains joined across a gap
+  std::optional<Vec2> dropped_at;   // an open chain that could not be closed
+};
+
+// Largest gap between open chain ends that is bridged (PrusaSlicer closes such gaps too).
+constexpr double kMaxGapUm = 2000.0;
+
+std::vector<std::vector<Point2um>> chain(std::vector<Segment>& segs, ChainStats& stats) {
+  struct Open {
+    std::vector<Point2um> pts;
+    Point2um end;
+  };
+  std::vector<Open> open;
   std::vector<std::vector<Point2um>> loops;
   const std::size_t n = segs.size();
   if (n == 0) return loops;
@@ -95,7 +109,7 @@ std::vector<std::vector<Point2um>> chain(std::vector<Segment>& segs, std::option
     }
     if (!closed) {
       const Segment& s = segs[order[cur]];
-      if (!open_end) open_end = Vec2(s.bx, s.by);
+      open.push_back(Open{std::move(loop), Point2um{std::llround(s.bx * 1000.0), std::llround(s.by * 1000.0)}});
       continue;
     }
     // Drop repeated points (edges cut at the same micron).
@@ -105,6 +119,57 @@ std::vector<std::vector<Point2um>> chain(std::vector<Segment>& segs, std::option
       if (clean.empty() || !(clean.back() == p)) clean.push_back(p);
     while (clean.size() > 1 && clean.front() == clean.back()) clean.pop_back();
     if (clean.size() >= 3) loops.push_back(std::move(clean));
+  }
+  // Open chains (a mesh that is not closed, or pieces of one loop started in its middle):
+  // join each chain's end to the nearest chain start, or close it on itself, across gaps up
+  // to kMaxGapUm. Pieces of one loop meet at distance 0 and do not count as gaps.
+  auto d = [](const Point2um& a, const Point2um& b) {
+    return std::hypot(double(a.x_um - b.x_um), double(a.y_um - b.y_um));
+  };
+  while (!open.empty()) {
+    Open c = std::move(open.back());
+    open.pop_back();
+    for (;;) {
+      const double self = d(c.end, c.pts.front());
+      long best = -1;
+      bool best_reversed = false;
+      double bd = std::numeric_limits<double>::infinity();
+      for (std::size_t k = 0; k < open.size(); ++k) {
+        const double dk = d(c.end, open[k].pts.front());
+        if (dk < bd) {
+          bd = dk;
+          best = static_cast<long>(k);
+          best_reversed = false;
+        }
+        // A piece running the other way (misoriented faces) joins by its end.
+        const double de = d(c.end, open[k].end);
+        if (de < bd) {
+          bd = de;
+          best = static_cast<long>(k);
+          best_reversed = true;
+        }
+      }
+      if (std::min(self, bd) > kMaxGapUm) {
+        if (!stats.dropped_at) stats.dropped_at = Vec2(c.end.x_um * 1e-3, c.end.y_um * 1e-3);
+        break;
+      }
+      if (self <= bd) {
+        if (self > 2.0) ++stats.closed_gaps;
+        if (c.pts.size() >= 3) loops.push_back(std::move(c.pts));
+        break;
+      }
+      if (bd > 2.0) ++stats.closed_gaps;
+      Open& nx = open[static_cast<std::size_t>(best)];
+      if (best_reversed) {
+        nx.pts.push_back(nx.end);
+        std::reverse(nx.pts.begin(), nx.pts.end());
+        nx.end = nx.pts.back();
+        nx.pts.pop_back();
+      }
+      c.pts.insert(c.pts.end(), nx.pts.begin(), nx.pts.end());
+      c.end = nx.end;
+      open.erase(open.begin() + best);
+    }
   }
   return loops;
 }
@@ -206,9 +271,9 @@ Result<std::vector<LayerOutline>> slice_layers(const Mesh& mesh, const SliceSett
     }
   }
 
-  std::vector<std::optional<Vec2>> open_ends(L);
+  std::vector<ChainStats> chain_stats(L);
   tbb::parallel_for(std::size_t(0), L, [&](std::size_t i) {
-    auto loops = chain(per_layer[i], open_ends[i]);
+    auto loops = chain(per_layer[i], chain_stats[i]);
     // Union: overlapping shells merge, orientation normalised (outer CCW, holes CW).
     CPaths paths = to_paths(loops);
     ClipperLib::Clipper c;
@@ -226,11 +291,12 @@ Result<std::vector<LayerOutline>> slice_layers(const Mesh& mesh, const SliceSett
     }
   });
   for (std::size_t i = 0; i < L; ++i) {
-    if (open_ends[i]) {
+    layers[i].closed_gaps = chain_stats[i].closed_gaps;
+    if (const auto& at = chain_stats[i].dropped_at) {
       return bad_input("the mesh is not closed: the outline of layer " + std::to_string(i) +
                        " (z = " + format_fixed(layers[i].slice_z_mm, 3) + " mm) ends open at x = " +
-                       format_fixed(open_ends[i]->x(), 3) + ", y = " + format_fixed(open_ends[i]->y(), 3) +
-                       " mm (repair the mesh, e.g. `printtwin check --repair`)");
+                       format_fixed(at->x(), 3) + ", y = " + format_fixed(at->y(), 3) +
+                       " mm, more than 2 mm from any other open end");
     }
   }
   return layers;

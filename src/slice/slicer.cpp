@@ -122,35 +122,60 @@ Result<SliceOutput> slice_mesh(const Mesh& mesh, const PrinterProfile& printer, 
                      ") does not fit the build volume of " + printer.name);
   }
 
+  auto gaps_of = [](const std::vector<LayerOutline>& layers) {
+    long g = 0;
+    for (const auto& l : layers) g += l.closed_gaps;
+    return g;
+  };
   auto outlines = slice_layers(placed, settings);
-  if (!outlines) {
-    // Not closed: try CGAL's repair (check.hpp) once, report what it changed.
+  const long gaps = outlines ? gaps_of(*outlines) : -1;
+  if (!outlines || gaps > 0) {
+    // Not closed: try CGAL's repair (check.hpp) and keep whichever slices cleaner.
     auto repaired = repair_mesh(placed);
-    if (!repaired || !repaired->after.closed) {
+    bool use_repaired = false;
+    if (repaired && repaired->after.closed) {
+      auto again = slice_layers(repaired->mesh, settings);
+      if (again && (!outlines || gaps_of(*again) <= gaps)) {
+        outlines = std::move(again);
+        use_repaired = true;
+      }
+    }
+    if (use_repaired) {
+      output.stats.mesh_repaired = true;
+      Finding f;
+      f.severity = Severity::warning;
+      f.code = "mesh_repaired";
+      std::string what;
+      for (const auto& c : repaired->changes)
+        what += (what.empty() ? "" : ", ") + c.code + " " + std::to_string(c.count);
+      f.message = "the mesh was not closed (" + std::to_string(repaired->before.boundary_edges) +
+                  " open edges, " + std::to_string(repaired->before.non_manifold_edges) +
+                  " non-manifold edges) and was repaired before slicing: " + what;
+      f.count = static_cast<long>(repaired->before.boundary_edges + repaired->before.non_manifold_edges);
+      output.findings.push_back(std::move(f));
+    } else if (!outlines) {
       Error e = outlines.error();
       if (repaired) {
-        e.message += "; repair left " + std::to_string(repaired->after.boundary_edges) + " open and " +
+        e.message += "; CGAL repair left " + std::to_string(repaired->after.boundary_edges) + " open and " +
                      std::to_string(repaired->after.non_manifold_edges) + " non-manifold edges";
       } else {
-        e.message += "; repair failed: " + repaired.error().message;
+        e.message += "; CGAL repair failed: " + repaired.error().message;
       }
       return e;
     }
-    auto again = slice_layers(repaired->mesh, settings);
-    if (!again) return again.error();
-    outlines = std::move(again);
-    output.stats.mesh_repaired = true;
-    Finding f;
-    f.severity = Severity::warning;
-    f.code = "mesh_repaired";
-    std::string what;
-    for (const auto& c : repaired->changes)
-      what += (what.empty() ? "" : ", ") + c.code + " " + std::to_string(c.count);
-    f.message = "the mesh was not closed (" + std::to_string(repaired->before.boundary_edges) +
-                " open edges, " + std::to_string(repaired->before.non_manifold_edges) +
-                " non-manifold edges) and was repaired before slicing: " + what;
-    f.count = static_cast<long>(repaired->before.boundary_edges + repaired->before.non_manifold_edges);
-    output.findings.push_back(std::move(f));
+    if (const long left = gaps_of(*outlines); left > 0) {
+      Finding f;
+      f.severity = Severity::warning;
+      f.code = "open_outline_closed";
+      int first = -1;
+      for (const auto& l : *outlines)
+        if (l.closed_gaps > 0 && first < 0) first = l.index;
+      f.message = std::to_string(left) + " gaps of at most 2 mm in the layer outlines (an open mesh) were bridged "
+                  "with straight lines, first on layer " + std::to_string(first);
+      f.layer = first;
+      f.count = left;
+      output.findings.push_back(std::move(f));
+    }
   }
   RegionResult regions = plan_layers(*outlines, settings);
   auto written = write_gcode(regions.layers, printer, settings, "mesh");
