@@ -105,6 +105,38 @@ TEST(VerifyCli, MisplacedMeshFailsWithMissingAndExcessRegions) {
   EXPECT_NEAR(j["deviation"]["max_deficit_mm"].get<double>(), 2.0, 0.15);
 }
 
+TEST(VerifyCli, ThinWallDroppedByTheSlicerIsAMissingRegionAtItsPlace) {
+  // No --gcode: printtwin slices the part; its slicer drops the 0.2 mm wall (thinner than it
+  // can print), which must come back as a missing region exactly where the wall stands.
+  const auto dir = test::temp_dir("verify_thin_walls");
+  const auto out = dir / "report";
+  const auto run = test::run_cli("verify " + test::source_path("samples/models/thin_walls.stl").string() +
+                                 " --tolerance 0.3 --voxel 0.1 --quiet --out " + out.string());
+  ASSERT_EQ(run.exit_code, 1) << run.out << run.err;
+  const auto j = read_json(out / "report.json");
+  EXPECT_EQ(j["settings"]["gcode_source"], "printtwin slice");
+  // Placed like the slicer places it: the 30 x 24 mm footprint centred on the bed.
+  const auto offset = j["deviation"]["registration"]["offset_mm"];
+  const double ox = offset[0].get<double>(), oy = offset[1].get<double>();
+  ASSERT_FALSE(j["regions"].empty());
+  const auto& r = j["regions"][0];
+  EXPECT_EQ(r["kind"], "missing");
+  // The 0.2 mm wall: x 0..30, y 4..4.2, z 1..11 in the model's frame.
+  EXPECT_NEAR(r["bbox_mm"]["min"][1].get<double>(), oy + 4.0, 0.05);
+  EXPECT_NEAR(r["bbox_mm"]["max"][1].get<double>(), oy + 4.2, 0.05);
+  EXPECT_NEAR(r["bbox_mm"]["min"][0].get<double>(), ox + 0.0, 0.5);
+  EXPECT_NEAR(r["bbox_mm"]["max"][0].get<double>(), ox + 30.0, 0.5);
+  EXPECT_NEAR(r["bbox_mm"]["max"][2].get<double>(), 11.0, 0.05);
+  // Its two 30 x 10 mm faces and the top strip, less the foot within tolerance of the plate.
+  EXPECT_GT(r["area_mm2"].get<double>(), 550.0);
+  EXPECT_LT(r["area_mm2"].get<double>(), 620.0);
+  EXPECT_LT(r["worst_mm"].get<double>(), -4.0);
+  EXPECT_FALSE(r["gcode_lines"].empty());
+  bool finding = false;
+  for (const auto& f : j["findings"]) finding = finding || f["code"] == "deviation_missing";
+  EXPECT_TRUE(finding);
+}
+
 TEST(VerifyCli, UsageAndBadInputExitCodes) {
   const auto dir = test::temp_dir("verify_errors");
   const auto stl = cube10_stl(dir);
