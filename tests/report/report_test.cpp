@@ -331,11 +331,14 @@ TEST(ReportFolder, WritesEveryFileAndReplacesAnOldReportAtomically) {
   std::filesystem::create_directories(out);
   ASSERT_TRUE(write_file_atomic(out / "stale.txt", "old").ok());
   ReportOptions opt;
-  opt.extra_outputs = [](const std::filesystem::path& staging) {
+  // As `printtwin verify` does: report.json and deviation.ply join the staging folder.
+  opt.extra_outputs = [](const std::filesystem::path& staging) -> Status {
+    if (auto st = write_verify_outputs(synthetic(), staging); !st) return st;
     return write_file_atomic(staging / "deposit.ot", "octree");
   };
   ASSERT_TRUE(write_report_folder(synthetic(), out, opt).ok());
-  for (const char* f : {"report.html", "junit.xml", "summary.md", "heatmap_iso.png", "deposit.ot"})
+  for (const char* f : {"report.html", "junit.xml", "summary.md", "heatmap_iso.png", "report.json",
+                        "deviation.ply", "deposit.ot"})
     EXPECT_TRUE(std::filesystem::exists(out / f)) << f;
   EXPECT_FALSE(std::filesystem::exists(out / "stale.txt"));
   // Nothing else is left beside it (no staging or old folders, no temporary files).
