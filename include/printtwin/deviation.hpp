@@ -152,7 +152,7 @@ struct PartExtent {
 
 struct DeviationSettings {
   double tolerance_mm = 0.2;
-  double mesh_sample_spacing_mm = 0;  ///< 0: the deposit's voxel size
+  double mesh_sample_spacing_mm = 0;  ///< 0: twice the voxel (one sample per 4 voxel faces)
   std::uint64_t seed = 1;
   double cluster_radius_mm = 0;       ///< 0: max(2 voxels, 3 x the mesh sample spacing)
   double region_margin_mm = 1.0;      ///< analysed region = mesh box (+ part box) + margin

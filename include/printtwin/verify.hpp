@@ -55,7 +55,7 @@ struct GateResult {
 struct VerifySettings {
   VerifyGates gates;
   double voxel_mm = 0.05;                   ///< deposit voxel edge
-  double mesh_sample_spacing_mm = 0;        ///< mesh->deposit sample spacing (0: = voxel_mm)
+  double mesh_sample_spacing_mm = 0;        ///< mesh->deposit sample spacing (0: 2 x voxel_mm)
   std::optional<Vec3> place_mm;             ///< --place override of the registration offset
   std::string printer = "ender3";           ///< profile name or path
   std::string gcode_source = "file";        ///< "file" or "printtwin slice"

@@ -92,7 +92,7 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
   cmd->add_option("--max-rms", o->max_rms_mm, "largest allowed RMS deviation in mm (default: not checked)");
   cmd->add_option("--printer", o->printer, "printer profile: ender3, ender3-marlin1, ender3-klipper or a JSON file");
   cmd->add_option("--voxel", o->voxel_mm, "deposit voxel edge in mm (default 0.05)");
-  cmd->add_option("--sample-spacing", o->spacing_mm, "mesh surface sample spacing in mm (default: the voxel)");
+  cmd->add_option("--sample-spacing", o->spacing_mm, "mesh surface sample spacing in mm (default: twice the voxel)");
   cmd->add_option("--place", o->place, "x,y,z offset that places the mesh in the G-code frame (default: automatic)");
   cmd->add_option("--out", o->out, "output folder (default reports/<part>)");
   cmd->add_option("--deviation-ply", o->deviation_ply, "also write the deviation-coloured mesh PLY here");

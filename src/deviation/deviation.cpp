@@ -15,7 +15,7 @@ Result<DeviationResult> compute_deviation(const Mesh& mesh, const VoxelGrid& dep
   if (settings.mesh_sample_spacing_mm < 0)
     return usage_error("deviation: mesh sample spacing must be >= 0 mm");
   const double v = deposit.voxel_mm();
-  const double spacing = settings.mesh_sample_spacing_mm > 0 ? settings.mesh_sample_spacing_mm : v;
+  const double spacing = settings.mesh_sample_spacing_mm > 0 ? settings.mesh_sample_spacing_mm : 2.0 * v;
 
   DeviationResult out;
   out.tolerance_mm = settings.tolerance_mm;
