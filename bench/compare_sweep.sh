@@ -22,61 +22,59 @@ tmp="$(mktemp -d)"
 trap 'rm -rf "$tmp"' EXIT
 export CI=true  # no progress output
 
-now() { date +%s.%N; }
 median() { sort -g | awk '{a[NR]=$1} END {print (NR%2) ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2}'; }
 
-time_sweep() {
-  local t0 t1
-  t0=$(now)
-  "$cli" compare "$part" --vary "layer_height=$(IFS=,; echo "${heights[*]}")" --voxel "$voxel" \
-    --variant-reports "$reports" -o "$tmp/sweep" > "$tmp/sweep.out"
-  t1=$(now)
-  echo "$t1 - $t0" | bc -l
+# Runs a command under /usr/bin/time, appending "wall cpu" (cpu = user + sys) to $acc.
+timed() { /usr/bin/time -f "%e %U %S" -a -o "$acc" "$@"; }
+# Sums the wall and CPU seconds of the commands run by "$@" (a shell function).
+measure() {
+  acc="$tmp/acc.$RANDOM"; : > "$acc"
+  "$@"
+  awk '{w += $1; c += $2 + $3} END {printf "%.3f %.3f\n", w, c}' "$acc"
 }
 
-time_singles() {
-  local t0 t1 h
-  t0=$(now)
+run_sweep() {
+  timed "$cli" compare "$part" --vary "layer_height=$(IFS=,; echo "${heights[*]}")" --voxel "$voxel" \
+    --variant-reports "$reports" -o "$tmp/sweep" > "$tmp/sweep.out"
+}
+run_singles() {
+  local h
   for h in "${heights[@]}"; do
-    "$cli" compare "$part" --vary "layer_height=$h" --voxel "$voxel" --variant-reports "$reports" \
+    timed "$cli" compare "$part" --vary "layer_height=$h" --voxel "$voxel" --variant-reports "$reports" \
       -o "$tmp/single-$h" > /dev/null
   done
-  t1=$(now)
-  echo "$t1 - $t0" | bc -l
 }
-
 have_verify=0
 if "$cli" verify --help > /dev/null 2>&1; then have_verify=1; fi
-
-time_verifies() {
-  local t0 t1 h
-  t0=$(now)
+run_verifies() {
+  local h
   for h in "${heights[@]}"; do
-    "$cli" slice "$part" --layer-height "$h" -o "$tmp/verify-$h.gcode" > /dev/null
-    "$cli" verify "$part" --gcode "$tmp/verify-$h.gcode" --voxel "$voxel" --out "$tmp/verify-$h" \
-      > /dev/null || [ $? -eq 1 ]  # exit 1 = the part failed its gates: still a full run
+    timed "$cli" slice "$part" --layer-height "$h" -o "$tmp/verify-$h.gcode" > /dev/null
+    # exit 1 = the part failed its gates: still a full run
+    timed "$cli" verify "$part" --gcode "$tmp/verify-$h.gcode" --voxel "$voxel" --out "$tmp/verify-$h" \
+      > /dev/null || true
   done
-  t1=$(now)
-  echo "$t1 - $t0" | bc -l
 }
 
 sweep=(); singles=(); verifies=()
 for ((r = 0; r < runs; ++r)); do
-  sweep+=("$(time_sweep)")
-  singles+=("$(time_singles)")
-  if [ "$have_verify" = 1 ]; then verifies+=("$(time_verifies)"); fi
+  sweep+=("$(measure run_sweep)")
+  singles+=("$(measure run_singles)")
+  if [ "$have_verify" = 1 ]; then verifies+=("$(measure run_verifies)"); fi
 done
-ms=$(printf '%s\n' "${sweep[@]}" | median)
-mg=$(printf '%s\n' "${singles[@]}" | median)
+col() { printf '%s\n' "${@:2}" | awk -v c="$1" '{print $c}' | median; }
+sw=$(col 1 "${sweep[@]}"); sc=$(col 2 "${sweep[@]}")
 echo "part: $part, voxel $voxel mm, variant reports: $reports, median of $runs"
 cat "$tmp/sweep.out"
-printf 'compare sweep (4 variants, one process):     %8.2f s\n' "$ms"
-printf '4 one-variant compare processes:             %8.2f s   (sweep = %.2fx of it)\n' "$mg" \
-  "$(echo "$ms / $mg" | bc -l)"
+printf '%-44s %9s %9s\n' "" "wall s" "CPU s"
+printf '%-44s %9.2f %9.2f\n' "compare sweep (4 variants, one process)" "$sw" "$sc"
+gw=$(col 1 "${singles[@]}"); gc=$(col 2 "${singles[@]}")
+printf '%-44s %9.2f %9.2f   sweep/this: wall %.2f, CPU %.2f\n' "4 one-variant compare processes" "$gw" "$gc" \
+  "$(echo "$sw / $gw" | bc -l)" "$(echo "$sc / $gc" | bc -l)"
 if [ "$have_verify" = 1 ]; then
-  mv=$(printf '%s\n' "${verifies[@]}" | median)
-  printf '4 x (slice + verify) processes:              %8.2f s   (sweep = %.2fx of it)\n' "$mv" \
-    "$(echo "$ms / $mv" | bc -l)"
+  vw=$(col 1 "${verifies[@]}"); vc=$(col 2 "${verifies[@]}")
+  printf '%-44s %9.2f %9.2f   sweep/this: wall %.2f, CPU %.2f\n' "4 x (slice + verify) processes" "$vw" "$vc" \
+    "$(echo "$sw / $vw" | bc -l)" "$(echo "$sc / $vc" | bc -l)"
 else
   echo "(this build has no verify subcommand: verify runs not measured)"
 fi

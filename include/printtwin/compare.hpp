@@ -327,7 +327,8 @@ struct CompareRunOptions {
   bool variant_reports = true;
   /// Called when a variant starts a stage and when it finishes (from the calling thread).
   std::function<void(const CompareProgress&)> progress;
-  /// Writes one variant's report folder (report.html, ...). Empty: none is written.
+  /// Writes one variant's report folder (report.html, ...). Empty: report.json and
+  /// deviation.ply only (write_verify_outputs).
   std::function<Status(const VerifyReport&, const std::filesystem::path&)> write_variant_report;
 };
 

@@ -188,8 +188,8 @@ int run_compare_command(const CompareOptions& o) {
   }
   if (o.shard_n && !o.shard_k)
     return report_error(usage_error("--of needs --variant K"));
-  if (o.variant_reports != "full" && o.variant_reports != "none")
-    return report_error(usage_error("--variant-reports must be full or none"));
+  if (o.variant_reports != "full" && o.variant_reports != "json" && o.variant_reports != "none")
+    return report_error(usage_error("--variant-reports must be full, json or none"));
 
   auto plan = build_plan(o);
   if (!plan) return report_error(plan.error());
@@ -234,6 +234,7 @@ int run_compare_command(const CompareOptions& o) {
     run.write_variant_report = [stamp](const VerifyReport& rep, const fs::path& dir) -> Status {
       ReportOptions ro;
       ro.generated_utc = stamp;
+      ro.extra_outputs = [&rep](const fs::path& staging) { return write_verify_outputs(rep, staging); };
       return write_report_folder(rep, dir, ro);
     };
   // An empty share (more shares than variants) still writes its JSON, so that a merge of
@@ -287,7 +288,7 @@ void add_compare_command(CLI::App& app, CommandRunner& runner) {
   cmd->add_option("--merge", o->merge, "merge shares' compare JSON files into one comparison");
   cmd->add_flag("--allow-missing", o->allow_missing, "merge even when some variants have no share");
   cmd->add_option("--variant-reports", o->variant_reports,
-                  "per-variant verify report folders: full (report.html, junit.xml, ...) or none");
+                  "per-variant verify report folders: full (report.html, junit.xml, report.json, ...), json (report.json, deviation.ply) or none");
   cmd->add_flag("--require-pass", o->require_pass, "exit 1 when any variant fails its gates");
   cmd->callback([o, &runner] { runner.run = [o]() -> int { return run_compare_command(*o); }; });
 }

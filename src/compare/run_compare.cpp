@@ -7,6 +7,9 @@
 #include <cstdio>
 #include <sstream>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "printtwin/check.hpp"
 #include "printtwin/compare.hpp"
 #include "printtwin/deposit.hpp"
@@ -58,44 +61,40 @@ Result<SliceSettings> slice_settings_of(const VariantSpec& spec) {
   return s;
 }
 
-// Nearest mesh triangle of each point of the placed frame, through the shared BVH of the
-// mesh in its own frame (placing is a pure translation).
+// Nearest mesh triangle of each sample of the placed frame, through the shared BVH of the
+// mesh in its own frame (placing is a pure translation). Deposit samples lie close to the
+// mesh, so each is first searched within `near_mm` (the BVH prunes almost everything),
+// then without bound.
 std::vector<std::uint32_t> nearest_triangles(const MeshQuery& query,
                                              std::span<const DeviationSample> samples,
-                                             const Vec3& offset_mm) {
-  std::vector<Vec3> pts(samples.size());
-  for (std::size_t i = 0; i < samples.size(); ++i) pts[i] = samples[i].position_mm - offset_mm;
-  std::vector<ClosestPoint> cp;
-  query.closest_points(pts, cp);
-  std::vector<std::uint32_t> out(cp.size());
-  for (std::size_t i = 0; i < cp.size(); ++i) out[i] = cp[i].triangle;
+                                             const Vec3& offset_mm, double near_mm) {
+  std::vector<std::uint32_t> out(samples.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, samples.size(), 4096),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      const Vec3 p = samples[i].position_mm - offset_mm;
+      if (auto cp = query.closest_point_within(p, near_mm)) out[i] = cp->triangle;
+      else out[i] = query.closest_point(p).triangle;
+    }
+  });
   return out;
 }
 
-// The gates of verify.hpp (VerifyGates): excess and deficit limits default to the tolerance,
-// the RMS limit is checked only when set, and no stage may report an error finding.
-// Same semantics as verify's evaluate_gates (documented on VerifyGates).
-void apply_gates(VerifyReport& rep) {
-  const auto& g = rep.settings.gates;
-  const auto& d = rep.deviation;
-  const double excess = std::max({0.0, d.deposit_to_mesh.samples ? d.deposit_to_mesh.max_mm : 0.0,
-                                  d.mesh_to_deposit.samples ? d.mesh_to_deposit.max_mm : 0.0});
-  const double deficit = std::max({0.0, d.deposit_to_mesh.samples ? -d.deposit_to_mesh.min_mm : 0.0,
-                                   d.mesh_to_deposit.samples ? -d.mesh_to_deposit.min_mm : 0.0});
-  rep.gates.clear();
-  const double excess_limit = g.max_excess_mm.value_or(g.tolerance_mm);
-  const double deficit_limit = g.max_deficit_mm.value_or(g.tolerance_mm);
-  rep.gates.push_back({"max_excess", excess_limit, excess, excess <= excess_limit});
-  rep.gates.push_back({"max_deficit", deficit_limit, deficit, deficit <= deficit_limit});
-  if (g.max_rms_mm) {
-    const double rms = combined_rms_mm(d.deposit_to_mesh.rms_mm, d.mesh_to_deposit.rms_mm);
-    rep.gates.push_back({"max_rms", *g.max_rms_mm, rms, rms <= *g.max_rms_mm});
-  }
-  double errors = 0;
-  for (const auto& f : rep.findings)
-    if (f.severity == Severity::error) errors += 1;
-  rep.gates.push_back({"no_error_findings", 0, errors, errors == 0});
-  rep.pass = std::all_of(rep.gates.begin(), rep.gates.end(), [](const GateResult& x) { return x.pass; });
+// Triangles of the mesh samples of a variant: the deviation stage samples the placed mesh
+// with the same seed and spacing as `shared` (sampled once on the unplaced mesh), so sample
+// i lies on shared[i].triangle. Checked on the count and on positions; on a mismatch the
+// BVH answers instead.
+std::vector<std::uint32_t> mesh_sample_triangles(const MeshQuery& query,
+                                                 std::span<const SurfaceSample> shared,
+                                                 std::span<const DeviationSample> samples,
+                                                 const Vec3& offset_mm, double near_mm) {
+  bool same = shared.size() == samples.size();
+  for (std::size_t i = 0; same && i < samples.size(); i += std::max<std::size_t>(1, samples.size() / 64))
+    same = (samples[i].position_mm - offset_mm - shared[i].position_mm).norm() < 1e-6;
+  if (!same) return nearest_triangles(query, samples, offset_mm, near_mm);
+  std::vector<std::uint32_t> out(shared.size());
+  for (std::size_t i = 0; i < shared.size(); ++i) out[i] = shared[i].triangle;
+  return out;
 }
 
 std::string slug(const std::string& label) {
@@ -144,7 +143,10 @@ Result<SharedPart> prepare_shared_part(Mesh mesh, std::string name, const Printe
   p.info.area_mm2 = surface_area_mm2(mesh);
   p.info.bbox_mm = bounding_box(mesh);
 
-  auto check = check_printability(mesh, printer);
+  // As verify: the self-intersection test only below 50k triangles (it dominates beyond).
+  CheckSettings check_settings;
+  check_settings.self_intersections = mesh.triangles.size() <= 50000;
+  auto check = check_printability(mesh, printer, check_settings);
   if (!check) return check.error();
   const MeshHealth& h = check->health;
   p.check.triangles = h.triangles;
@@ -333,7 +335,7 @@ Result<VerifyReport> run_variant_verify(const SharedPart& part, const PrinterPro
   rep.deviation = std::move(*dev);
   rep.deviation.registration_offset_mm = offset;
   rep.deviation.registration_method = method;
-  rep.deposit.surface_voxels = rep.deviation.deposit_samples.size();
+  rep.deposit.surface_voxels = rep.deviation.surface_voxels;
   rep.timings.push_back({"deviation", seconds_since(t)});
 
   // 6. Findings of every stage, then the gates.
@@ -342,22 +344,25 @@ Result<VerifyReport> run_variant_verify(const SharedPart& part, const PrinterPro
   for (auto& f : slice_findings) rep.findings.push_back(std::move(f));
   for (const auto& f : sim.findings) rep.findings.push_back(f);
   for (const auto& f : deposit->findings) rep.findings.push_back(f);
+  // One finding per region, worded and coded as `verify` does.
   for (const auto& reg : rep.deviation.regions) {
     Finding f;
     f.severity = Severity::warning;
-    f.code = "deviation_out_of_tolerance";
     const bool missing = reg.kind == RegionKind::missing;
-    f.message = std::string(missing ? "missing material" : "excess material") + " up to " +
-                format_fixed(std::abs(reg.worst_mm), 3) + " mm over " + format_fixed(reg.area_mm2, 2) +
-                " mm2 (tolerance " + format_fixed(plan.verify.gates.tolerance_mm, 3) + " mm)";
+    f.code = missing ? "deviation_missing" : "deviation_excess";
+    f.message = std::string(missing ? "material missing" : "excess material") + ": " +
+                format_fixed(reg.area_mm2, 2) + " mm2, worst " + format_fixed(reg.worst_mm, 3) +
+                " mm, layers " + std::to_string(reg.layer_min) + "-" + std::to_string(reg.layer_max) +
+                " (tolerance " + format_fixed(plan.verify.gates.tolerance_mm, 3) + " mm)";
     f.position_mm = reg.worst_position_mm;
     f.extent_mm = reg.bbox_mm;
-    if (reg.layer_min >= 0) f.layer = reg.layer_min;
     if (!reg.gcode_lines.empty()) f.line = reg.gcode_lines.front();
+    if (reg.layer_min >= 0) f.layer = reg.layer_min;
     f.value = reg.worst_mm;
+    f.count = static_cast<long>(reg.samples);
     rep.findings.push_back(std::move(f));
   }
-  apply_gates(rep);
+  evaluate_gates(rep);  // verify's gates, so a variant passes exactly when `verify` would
   return rep;
 }
 
@@ -394,6 +399,12 @@ Result<CompareResult> run_compare(const SharedPart& part, const ComparePlan& pla
 
   CompareResult out = make_compare_result(part, plan);
 
+  // Mesh samples as the deviation stage will draw them, once for every variant.
+  const double spacing_mm =
+      plan.verify.mesh_sample_spacing_mm > 0 ? plan.verify.mesh_sample_spacing_mm : plan.verify.voxel_mm;
+  const std::vector<SurfaceSample> shared_samples = sample_surface(part.mesh, spacing_mm, plan.verify.seed);
+  const double near_mm = std::max(4 * plan.verify.voxel_mm, 2 * plan.verify.gates.tolerance_mm);
+
   CompareProgress progress;
   progress.total = static_cast<int>(run.size());
   for (int i : run) {
@@ -415,8 +426,10 @@ Result<CompareResult> run_compare(const SharedPart& part, const ComparePlan& pla
       // Slope figures: nearest mesh triangle of every sample, through the shared BVH.
       on_stage("slopes");
       const Vec3 offset = report->deviation.registration_offset_mm;
-      const auto dep_tri = nearest_triangles(*part.query, report->deviation.deposit_samples, offset);
-      const auto mesh_tri = nearest_triangles(*part.query, report->deviation.mesh_samples, offset);
+      const auto dep_tri =
+          nearest_triangles(*part.query, report->deviation.deposit_samples, offset, near_mm);
+      const auto mesh_tri = mesh_sample_triangles(*part.query, shared_samples,
+                                                  report->deviation.mesh_samples, offset, near_mm);
       double density = plan.filament_density_g_cm3;
       if (spec.kind == VariantKind::slicer)
         if (auto s = slice_settings_of(spec)) density = s->filament_density_g_cm3;
@@ -429,11 +442,10 @@ Result<CompareResult> run_compare(const SharedPart& part, const ComparePlan& pla
         std::snprintf(prefix, sizeof prefix, "%02d-", spec.index);
         const std::string rel = "variants/" + std::string(prefix) + slug(spec.label);
         const auto dir = options.out_dir / rel;
-        if (options.write_variant_report) {
-          if (Status written = options.write_variant_report(*report, dir); !written)
-            return written.error();
-          row.report_dir = rel;
-        }
+        Status written = options.write_variant_report ? options.write_variant_report(*report, dir)
+                                                      : write_verify_outputs(*report, dir);
+        if (!written) return written.error();
+        row.report_dir = rel;
       }
     }
     row.run_time_s = seconds_since(tv);
