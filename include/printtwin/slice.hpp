@@ -75,7 +75,9 @@ struct SliceSettings {
   bool thin_walls = true;
   bool gap_fill = true;
   /// Features narrower than this are not printed (a `thin_wall_dropped` finding).
-  /// 0 = 0.6 x nozzle diameter (0.24 mm for a 0.4 mm nozzle).
+  /// 0 = a third of the nozzle diameter (0.13 mm for a 0.4 mm nozzle), PrusaSlicer's
+  /// thin-wall limit, so that every wall PrusaSlicer prints is printed; negative = a
+  /// fraction of the nozzle diameter (-1 drops everything narrower than the nozzle).
   double thin_wall_min_width_mm = 0;
   SeamPosition seam = SeamPosition::nearest;
   bool external_perimeters_first = false;
@@ -149,6 +151,9 @@ struct IniLoadReport {
 /// Reads the file and calls apply_prusa_ini.
 [[nodiscard]] Result<IniLoadReport> load_prusa_ini(SliceSettings& settings,
                                                    const std::filesystem::path& path);
+
+/// The effective thin-wall limit of `settings` in mm (see `thin_wall_min_width_mm`).
+[[nodiscard]] double min_thin_wall_width_mm(const SliceSettings& settings);
 
 /// Rejects impossible combinations (layer height above 80 % of the nozzle, negative or
 /// zero widths/speeds, density outside 0..100 %, ...) with a usage error naming the key.

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "printtwin/deviation_types.hpp"
@@ -59,6 +60,11 @@ struct VerifySettings {
   std::optional<Vec3> place_mm;             ///< --place override of the registration offset
   std::string printer = "ender3";           ///< profile name or path
   std::string gcode_source = "file";        ///< "file" or "printtwin slice"
+  /// Without G-code: a PrusaSlicer .ini for printtwin's slicer (empty: its defaults).
+  std::string slice_config_ini;
+  /// Without G-code: slicer settings as (key, value), applied after the .ini
+  /// (`set_slice_setting` keys, slice.hpp).
+  std::vector<std::pair<std::string, std::string>> slice_overrides;
   std::uint64_t seed = 1;                   ///< seed of the mesh surface sampling
   int max_regions = 50;                     ///< largest regions kept in the report
 };

@@ -26,6 +26,8 @@ struct VerifyCliOptions {
   std::string out;
   std::string deviation_ply;
   std::uint64_t seed = 1;
+  std::string slice_config;
+  std::vector<std::string> slice_sets;
   bool quiet = false;
 };
 
@@ -97,6 +99,10 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
   cmd->add_option("--out", o->out, "output folder (default reports/<part>)");
   cmd->add_option("--deviation-ply", o->deviation_ply, "also write the deviation-coloured mesh PLY here");
   cmd->add_option("--seed", o->seed, "seed of the mesh surface sampling (default 1)");
+  cmd->add_option("--config", o->slice_config,
+                  "without --gcode: PrusaSlicer .ini for printtwin's slicer (docs/slicer.md)");
+  cmd->add_option("--set", o->slice_sets,
+                  "without --gcode: slicer setting key=value (repeatable), e.g. --set layer_height=0.1");
   cmd->add_flag("--quiet", o->quiet, "no summary table");
   cmd->callback([o, &runner] {
     runner.run = [o]() -> int {
@@ -112,6 +118,13 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
       s.voxel_mm = o->voxel_mm;
       s.mesh_sample_spacing_mm = o->spacing_mm;
       s.seed = o->seed;
+      s.slice_config_ini = o->slice_config;
+      for (const auto& kv : o->slice_sets) {
+        const auto eq = kv.find('=');
+        if (eq == std::string::npos || eq == 0)
+          return report_error(usage_error("--set expects key=value, got '" + kv + "'"));
+        s.slice_overrides.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
+      }
       if (!o->place.empty()) {
         Vec3 p;
         if (!parse_triplet(o->place, p)) return report_error(usage_error("--place expects x,y,z in mm, got '" + o->place + "'"));

@@ -11,18 +11,18 @@ struct CommandRunner {
 };
 
 void add_check_command(CLI::App& app, CommandRunner& runner);
-void add_simulate_command(CLI::App& app, CommandRunner& runner);
 void add_slice_command(CLI::App& app, CommandRunner& runner);
+void add_simulate_command(CLI::App& app, CommandRunner& runner);
 void add_verify_command(CLI::App& app, CommandRunner& runner);
 void add_compare_command(CLI::App& app, CommandRunner& runner);
-// (more commands are declared here as they land)
 
+/// Registers every subcommand, in pipeline order (the order `--help` lists them).
 inline void register_commands(CLI::App& app, CommandRunner& runner) {
   add_check_command(app, runner);
-  add_compare_command(app, runner);
   add_slice_command(app, runner);
   add_simulate_command(app, runner);
   add_verify_command(app, runner);
+  add_compare_command(app, runner);
 }
 
 }  // namespace printtwin::cli

@@ -129,13 +129,29 @@ Result<VerifyReport> verify(const VerifyOptions& options) {
   // G-code: the given file, or our own slice of the mesh.
   std::string gcode_text;
   std::string gcode_name;
+  const VerifySettings& vs = options.settings;
+  if (!options.gcode_path.empty() && (!vs.slice_config_ini.empty() || !vs.slice_overrides.empty()))
+    return usage_error("slicer settings (--set, --config) apply only when printtwin slices the part; "
+                       "drop --gcode or the settings");
   if (!options.gcode_path.empty()) {
     auto gcode_in = describe_input("gcode", options.gcode_path, &gcode_text);
     if (!gcode_in) return gcode_in.error();
     report.inputs.push_back(*gcode_in);
     gcode_name = options.gcode_path.string();
   } else {
-    auto sliced = slice_mesh(*mesh, *printer, SliceSettings{});
+    SliceSettings slice_settings;
+    if (!vs.slice_config_ini.empty()) {
+      std::string ini_text;
+      auto ini_in = describe_input("slice_config", vs.slice_config_ini, &ini_text);
+      if (!ini_in) return ini_in.error();
+      report.inputs.push_back(*ini_in);
+      auto applied = apply_prusa_ini(slice_settings, ini_text, vs.slice_config_ini);
+      if (!applied) return applied.error();
+    }
+    for (const auto& [key, value] : vs.slice_overrides)
+      if (auto st = set_slice_setting(slice_settings, key, value); !st) return st.error();
+    if (auto st = validate_slice_settings(slice_settings); !st) return st.error();
+    auto sliced = slice_mesh(*mesh, *printer, slice_settings);
     if (!sliced) return sliced.error();
     gcode_text = std::move(sliced->gcode);
     gcode_name = report.part_name + ".gcode (printtwin slice)";

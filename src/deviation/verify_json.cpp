@@ -58,6 +58,14 @@ ordered_json optional_mm(const std::optional<double>& v) { return v ? num(*v) : 
 
 }  // namespace
 
+namespace {
+ordered_json slice_overrides_json(const VerifySettings& st) {
+  ordered_json o = ordered_json::object();
+  for (const auto& [key, value] : st.slice_overrides) o[key] = value;
+  return o;
+}
+}  // namespace
+
 std::string verify_report_json(const VerifyReport& r) {
   const DeviationResult& d = r.deviation;
   ordered_json j;
@@ -163,6 +171,8 @@ std::string verify_report_json(const VerifyReport& r) {
                    {"place_mm", st.place_mm ? vec(*st.place_mm) : ordered_json(nullptr)},
                    {"printer", st.printer},
                    {"gcode_source", st.gcode_source},
+                   {"slice_config", st.slice_config_ini.empty() ? ordered_json(nullptr) : ordered_json(st.slice_config_ini)},
+                   {"slice_overrides", slice_overrides_json(st)},
                    {"seed", st.seed},
                    {"max_regions", st.max_regions}};
   ordered_json timings;

@@ -144,10 +144,7 @@ RegionResult plan_layers(const std::vector<LayerOutline>& outlines, const SliceS
   std::vector<CPaths> slices(L);
   for (std::size_t i = 0; i < L; ++i) slices[i] = to_paths(outlines[i].polygons);
 
-  const double min_thin_mm =
-      s.thin_wall_min_width_mm > 0 ? s.thin_wall_min_width_mm
-      : s.thin_wall_min_width_mm < 0 ? -s.thin_wall_min_width_mm * s.nozzle_diameter_mm
-                                     : 0.6 * s.nozzle_diameter_mm;
+  const double min_thin_mm = min_thin_wall_width_mm(s);
 
   // Pass 1: perimeters, thin walls, gap fill, fill areas (each layer on its own).
   std::vector<std::vector<IslandWork>> work(L);

@@ -321,6 +321,12 @@ double bead_spacing_mm(double width_mm, double height_mm) {
   return width_mm - height_mm * (1.0 - 0.25 * std::numbers::pi);
 }
 
+double min_thin_wall_width_mm(const SliceSettings& s) {
+  if (s.thin_wall_min_width_mm > 0) return s.thin_wall_min_width_mm;
+  if (s.thin_wall_min_width_mm < 0) return -s.thin_wall_min_width_mm * s.nozzle_diameter_mm;
+  return s.nozzle_diameter_mm / 3.0;  // PrusaSlicer prints thin walls down to about nozzle/3
+}
+
 Status validate_slice_settings(const SliceSettings& s) {
   auto fail = [](const std::string& key, double v, const std::string& expected) -> Status {
     return usage_error("setting '" + key + "' = " + format_number(v) + " is impossible: " +

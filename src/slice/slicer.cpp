@@ -200,10 +200,7 @@ Result<SliceOutput> slice_mesh(const Mesh& mesh, const PrinterProfile& printer, 
   st.skirt_brim_mm3 = v[static_cast<int>(Role::skirt)];
   st.retractions = written->retractions;
 
-  const double min_thin = settings.thin_wall_min_width_mm > 0 ? settings.thin_wall_min_width_mm
-                          : settings.thin_wall_min_width_mm < 0
-                              ? -settings.thin_wall_min_width_mm * settings.nozzle_diameter_mm
-                              : 0.6 * settings.nozzle_diameter_mm;
+  const double min_thin = min_thin_wall_width_mm(settings);
   for (auto& f : dropped_findings(regions.layers, min_thin)) output.findings.push_back(std::move(f));
 
   std::string gcode = std::move(written->gcode);

@@ -14,19 +14,22 @@
 namespace printtwin {
 namespace {
 
-// A closed wedge, CCW seen from outside: 12 mm along x, 8 mm deep (y), rising from z = 0 at
-// x = 0 to 12 mm at x = 12 (a 45-degree slope facing up and to -x).
+// A closed wedge, CCW seen from outside: 12 mm along x, 8 mm deep (y), a 45-degree slope
+// rising from z = 0 at x = 0 to z = 10 at x = 10 (facing up and to -x), then a 2 mm flat
+// top. The flat top keeps every layer at least 2 mm wide, so what differs between layer
+// heights is the staircase on the slope, not how a slicer treats a knife-edge ridge.
 Mesh make_wedge() {
   Mesh m;
-  const double a = 12, d = 8;
+  const double a = 12, d = 8, h = 10;
   m.vertices_mm = {Vec3(0, 0, 0), Vec3(a, 0, 0), Vec3(a, d, 0), Vec3(0, d, 0),
-                   Vec3(a, 0, a), Vec3(a, d, a)};
+                   Vec3(a, 0, h), Vec3(a, d, h), Vec3(h, 0, h), Vec3(h, d, h)};
   m.triangles = {
       {0, 2, 1}, {0, 3, 2},  // bottom (normal -z)
       {1, 2, 5}, {1, 5, 4},  // vertical back face at x = a (normal +x)
-      {0, 4, 5}, {0, 5, 3},  // the slope (normal (-1, 0, 1)/sqrt 2)
-      {0, 1, 4},             // side y = 0 (normal -y)
-      {3, 5, 2},             // side y = d (normal +y)
+      {0, 6, 7}, {0, 7, 3},  // the slope (normal (-1, 0, 1)/sqrt 2)
+      {6, 4, 5}, {6, 5, 7},  // flat top (normal +z)
+      {0, 1, 4}, {0, 4, 6},  // side y = 0 (normal -y)
+      {3, 5, 2}, {3, 7, 5},  // side y = d (normal +y)
   };
   return m;
 }
@@ -78,9 +81,9 @@ CompareResult* CompareRun::whole_ = nullptr;
 
 TEST_F(CompareRun, SharedPartKnowsTheSlope) {
   ASSERT_NE(part_, nullptr);
-  // Only the two slope triangles are sloped: area 12 * sqrt(2) * 8.
-  EXPECT_NEAR(part_->info.sloped_area_mm2, 12 * std::sqrt(2.0) * 8, 1e-9);
-  EXPECT_NEAR(part_->info.volume_mm3, 0.5 * 12 * 12 * 8, 1e-9);
+  // Only the two slope triangles are sloped: area 10 * sqrt(2) * 8.
+  EXPECT_NEAR(part_->info.sloped_area_mm2, 10 * std::sqrt(2.0) * 8, 1e-9);
+  EXPECT_NEAR(part_->info.volume_mm3, (12 * 10 - 0.5 * 10 * 10) * 8, 1e-9);
   EXPECT_EQ(std::count(part_->sloped.begin(), part_->sloped.end(), 1), 2);
   EXPECT_TRUE(part_->check.watertight);
 }
@@ -94,14 +97,14 @@ TEST_F(CompareRun, FinerLayersTakeLongerAndFollowTheSlopeCloser) {
   ASSERT_TRUE(coarse.ran) << coarse.error;
   EXPECT_DOUBLE_EQ(fine.layer_height_mm, 0.1);
   EXPECT_DOUBLE_EQ(coarse.layer_height_mm, 0.3);
-  // 12 mm at 0.1 (0.2 first layer) and 0.3 mm: about 119 and 40 layers.
-  EXPECT_NEAR(fine.layers, 119, 2);
-  EXPECT_NEAR(coarse.layers, 40, 2);
+  // 10 mm at 0.1 (0.2 first layer) and 0.3 mm: about 99 and 34 layers.
+  EXPECT_NEAR(fine.layers, 99, 2);
+  EXPECT_NEAR(coarse.layers, 34, 2);
   // Three times the layers: clearly longer, not three times (travel, heating are fixed).
   EXPECT_GT(fine.print_time_s, 1.5 * coarse.print_time_s);
   // The same part: the same material within 15 %.
   EXPECT_NEAR(fine.filament_g / coarse.filament_g, 1.0, 0.15);
-  EXPECT_GT(fine.filament_g, 0.3);  // 576 mm3 solid; 20 % infill and shells: > 0.3 g
+  EXPECT_GT(fine.filament_g, 0.3);  // 560 mm3 solid; 20 % infill and shells: > 0.3 g
   // The staircase on the slope: finer layers follow it closer, in both directions.
   EXPECT_GT(fine.mesh_to_deposit.slope_samples, 1000u);
   EXPECT_GT(fine.deposit_to_mesh.slope_samples, 1000u);

@@ -1,3 +1,4 @@
+#include <algorithm>
 // Tests of printtwin's slicer: layers, perimeters, flow, thin walls, settings, .ini, CLI.
 #include <gtest/gtest.h>
 
@@ -223,23 +224,46 @@ TEST(SliceGcode, ThinWallSample) {
   s.center_mm = Vec2(110, 110);
   auto out = slice_mesh(*mesh, ender3_marlin2(), s);
   ASSERT_TRUE(out.ok()) << out.error().describe();
-  // Exactly the 0.2 mm wall is dropped, reported once with its width and ~60 mm3 missing.
-  ASSERT_EQ(out->findings.size(), 1u);
-  const Finding& f = out->findings[0];
-  EXPECT_EQ(f.code, "thin_wall_dropped");
-  ASSERT_TRUE(f.value.has_value());
-  EXPECT_NEAR(*f.value, 0.2, 0.02);
-  ASSERT_TRUE(f.extent_mm.has_value());
-  EXPECT_NEAR(f.extent_mm->size().x(), 30.0, 0.5);
-  EXPECT_NEAR(f.extent_mm->max.z(), 11.0, 0.01);
-  // The 0.4 mm wall is printed as a single line 0.4 mm wide (a thin wall), the 1.2 mm wall
-  // gets a gap fill line between its external loops.
+  // By default every wall PrusaSlicer prints is printed (thin-wall limit nozzle / 3): the
+  // 0.2 mm and 0.4 mm walls as single lines of their own width, nothing dropped.
+  EXPECT_TRUE(out->findings.empty());
   const GcodeFacts facts = read_facts(out->gcode);
-  bool has_04 = false;
-  for (double w : facts.widths.at("External perimeter")) has_04 |= std::abs(w - 0.4) < 0.02;
+  bool has_02 = false, has_04 = false;
+  for (double w : facts.widths.at("External perimeter")) {
+    has_02 |= std::abs(w - 0.2) < 0.02;
+    has_04 |= std::abs(w - 0.4) < 0.02;
+  }
+  EXPECT_TRUE(has_02);
   EXPECT_TRUE(has_04);
+  // The 1.2 mm wall gets a gap fill line between its external loops.
   ASSERT_TRUE(facts.e_by_type.count("Gap fill"));
   EXPECT_GT(facts.e_by_type.at("Gap fill"), 1.0);
+}
+
+TEST(SliceGcode, ThinWallsBelowTheLimitAreDroppedWithFindings) {
+  auto mesh = load_mesh(test::source_path("samples/models/thin_walls.stl"));
+  ASSERT_TRUE(mesh.ok()) << mesh.error().describe();
+  SliceSettings s = no_time();
+  s.center_mm = Vec2(110, 110);
+  ASSERT_TRUE(set_slice_setting(s, "thin_wall_min_width", "0.45").ok());
+  EXPECT_NEAR(min_thin_wall_width_mm(s), 0.45, 1e-12);
+  auto out = slice_mesh(*mesh, ender3_marlin2(), s);
+  ASSERT_TRUE(out.ok()) << out.error().describe();
+  // The 0.2 and 0.4 mm walls (narrower than a 0.45 mm line) are dropped, each reported
+  // with its width and its 30 mm extent up to the wall top.
+  ASSERT_EQ(out->findings.size(), 2u);
+  std::vector<double> widths;
+  for (const Finding& f : out->findings) {
+    EXPECT_EQ(f.code, "thin_wall_dropped");
+    ASSERT_TRUE(f.value.has_value());
+    widths.push_back(*f.value);
+    ASSERT_TRUE(f.extent_mm.has_value());
+    EXPECT_NEAR(f.extent_mm->size().x(), 30.0, 0.5);
+    EXPECT_NEAR(f.extent_mm->max.z(), 11.0, 0.01);
+  }
+  std::sort(widths.begin(), widths.end());
+  EXPECT_NEAR(widths[0], 0.2, 0.02);
+  EXPECT_NEAR(widths[1], 0.4, 0.02);
 }
 
 TEST(SliceGcode, DeterministicAndMarlinFraming) {

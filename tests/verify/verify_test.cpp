@@ -1,3 +1,4 @@
+#include <cmath>
 // `printtwin verify` end to end on the committed samples, plus the library's verify().
 #include <gtest/gtest.h>
 
@@ -105,36 +106,60 @@ TEST(VerifyCli, MisplacedMeshFailsWithMissingAndExcessRegions) {
   EXPECT_NEAR(j["deviation"]["max_deficit_mm"].get<double>(), 2.0, 0.15);
 }
 
-TEST(VerifyCli, ThinWallDroppedByTheSlicerIsAMissingRegionAtItsPlace) {
-  // No --gcode: printtwin slices the part; its slicer drops the 0.2 mm wall (thinner than it
-  // can print), which must come back as a missing region exactly where the wall stands.
+TEST(VerifyCli, ThinWallsDroppedByTheSlicerAreMissingRegionsAtTheirPlace) {
+  // No --gcode: printtwin slices the part with a thin-wall limit of one 0.45 mm line, so the
+  // slicer drops the 0.2 and 0.4 mm walls; both must come back as missing regions exactly
+  // where the walls stand.
   const auto dir = test::temp_dir("verify_thin_walls");
   const auto out = dir / "report";
   const auto run = test::run_cli("verify " + test::source_path("samples/models/thin_walls.stl").string() +
-                                 " --tolerance 0.3 --voxel 0.1 --quiet --out " + out.string());
+                                 " --set thin_wall_min_width=0.45 --tolerance 0.3 --voxel 0.1 --quiet --out " +
+                                 out.string());
   ASSERT_EQ(run.exit_code, 1) << run.out << run.err;
   const auto j = read_json(out / "report.json");
   EXPECT_EQ(j["settings"]["gcode_source"], "printtwin slice");
+  EXPECT_EQ(j["settings"]["slice_overrides"]["thin_wall_min_width"], "0.45");
   // Placed like the slicer places it: the 30 x 24 mm footprint centred on the bed.
   const auto offset = j["deviation"]["registration"]["offset_mm"];
   const double ox = offset[0].get<double>(), oy = offset[1].get<double>();
-  ASSERT_FALSE(j["regions"].empty());
-  const auto& r = j["regions"][0];
-  EXPECT_EQ(r["kind"], "missing");
-  // The 0.2 mm wall: x 0..30, y 4..4.2, z 1..11 in the model's frame.
-  EXPECT_NEAR(r["bbox_mm"]["min"][1].get<double>(), oy + 4.0, 0.05);
-  EXPECT_NEAR(r["bbox_mm"]["max"][1].get<double>(), oy + 4.2, 0.05);
-  EXPECT_NEAR(r["bbox_mm"]["min"][0].get<double>(), ox + 0.0, 0.5);
-  EXPECT_NEAR(r["bbox_mm"]["max"][0].get<double>(), ox + 30.0, 0.5);
-  EXPECT_NEAR(r["bbox_mm"]["max"][2].get<double>(), 11.0, 0.05);
-  // Its two 30 x 10 mm faces and the top strip, less the foot within tolerance of the plate.
-  EXPECT_GT(r["area_mm2"].get<double>(), 550.0);
-  EXPECT_LT(r["area_mm2"].get<double>(), 620.0);
-  EXPECT_LT(r["worst_mm"].get<double>(), -4.0);
-  EXPECT_FALSE(r["gcode_lines"].empty());
+  // The walls: x 0..30, z 1..11, y 4..4.2 (0.2 mm) and 9..9.4 (0.4 mm) in the model's frame.
+  const double wall_y[2][2] = {{4.0, 4.2}, {9.0, 9.4}};
+  for (const auto& wall : wall_y) {
+    bool found = false;
+    for (const auto& r : j["regions"]) {
+      if (r["kind"] != "missing") continue;
+      const auto& b = r["bbox_mm"];
+      if (std::abs(b["min"][1].get<double>() - (oy + wall[0])) > 0.05) continue;
+      if (std::abs(b["max"][1].get<double>() - (oy + wall[1])) > 0.05) continue;
+      found = true;
+      EXPECT_NEAR(b["min"][0].get<double>(), ox + 0.0, 0.5);
+      EXPECT_NEAR(b["max"][0].get<double>(), ox + 30.0, 0.5);
+      EXPECT_NEAR(b["max"][2].get<double>(), 11.0, 0.05);
+      // Its two 30 x 10 mm faces and the top strip, less the foot within tolerance.
+      EXPECT_GT(r["area_mm2"].get<double>(), 550.0);
+      EXPECT_LT(r["area_mm2"].get<double>(), 630.0);
+      EXPECT_LT(r["worst_mm"].get<double>(), -4.0);
+      EXPECT_FALSE(r["gcode_lines"].empty());
+    }
+    EXPECT_TRUE(found) << "no missing region at the wall y " << wall[0] << ".." << wall[1];
+  }
+  int dropped = 0;
   bool finding = false;
-  for (const auto& f : j["findings"]) finding = finding || f["code"] == "deviation_missing";
+  for (const auto& f : j["findings"]) {
+    finding = finding || f["code"] == "deviation_missing";
+    dropped += f["code"] == "thin_wall_dropped";
+  }
   EXPECT_TRUE(finding);
+  EXPECT_EQ(dropped, 2);
+}
+
+TEST(VerifyCli, SlicerSettingsNeedNoGcode) {
+  const auto dir = test::temp_dir("verify_set_with_gcode");
+  const auto run = test::run_cli("verify " + test::source_path("samples/models/thin_walls.stl").string() +
+                                 " --gcode " + test::source_path("samples/gcode/prusa_thin_walls.gcode").string() +
+                                 " --set layer_height=0.1 --quiet --out " + (dir / "r").string());
+  EXPECT_EQ(run.exit_code, 2) << run.out << run.err;
+  EXPECT_NE(run.err.find("--set"), std::string::npos) << run.err;
 }
 
 TEST(VerifyCli, UsageAndBadInputExitCodes) {
