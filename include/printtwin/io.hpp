@@ -21,6 +21,12 @@ namespace printtwin {
 /// Fixed-point form with `decimals` digits, locale-independent; "-0" printed as "0".
 [[nodiscard]] std::string format_fixed(double v, int decimals);
 
+/// Duration as slicers print it in G-code comments: "1h 2m 3s", "25m 53s", "48s"
+/// (PrusaSlicer's `estimated printing time` style).
+[[nodiscard]] std::string format_duration_compact(double seconds);
+/// Duration for reports: "1 h 02 min", "25 min 53 s", "48 s"; "—" when not finite or negative.
+[[nodiscard]] std::string format_duration(double seconds);
+
 /// SHA-256 of a byte string as lowercase hex (for report provenance).
 [[nodiscard]] std::string sha256_hex(std::string_view bytes);
 

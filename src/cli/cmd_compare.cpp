@@ -41,12 +41,6 @@ struct CompareOptions {
   bool require_pass = false;
 };
 
-std::string duration_text(double s) {
-  const long t = std::lround(s);
-  if (t >= 3600) return std::to_string(t / 3600) + " h " + std::to_string((t % 3600) / 60) + " min";
-  if (t >= 60) return std::to_string(t / 60) + " min " + std::to_string(t % 60) + " s";
-  return std::to_string(t) + " s";
-}
 
 // A short fixed-width table on stdout; compare.md and compare.html hold the full one.
 void print_table(const CompareResult& r, const fs::path& out_dir, const std::string& written) {
@@ -62,7 +56,7 @@ void print_table(const CompareResult& r, const fs::path& out_dir, const std::str
       continue;
     }
     std::printf("%-3d  %-*s  %14s  %7s g  %9s  %10s  %-6s %s\n", v.variant.index, static_cast<int>(w),
-                label.c_str(), duration_text(v.print_time_s).c_str(), format_fixed(v.filament_g, 1).c_str(),
+                label.c_str(), format_duration(v.print_time_s).c_str(), format_fixed(v.filament_g, 1).c_str(),
                 format_fixed(v.rms_mm, 4).c_str(), format_fixed(v.slope_rms_mm, 4).c_str(),
                 v.pass ? "pass" : "FAIL", v.pareto ? "* Pareto" : "");
   }
@@ -87,7 +81,7 @@ std::function<void(const CompareProgress&)> progress_printer() {
       const VariantResult& v = *p.last;
       if (v.ran)
         std::fprintf(stderr, "\r\033[K[%d/%d] %s: %s, RMS %s mm, %s (%s s)\n", p.done, p.total,
-                     v.variant.label.c_str(), duration_text(v.print_time_s).c_str(),
+                     v.variant.label.c_str(), format_duration(v.print_time_s).c_str(),
                      format_fixed(v.rms_mm, 3).c_str(), v.pass ? "pass" : "fail",
                      format_fixed(v.run_time_s, 1).c_str());
       else

@@ -17,16 +17,6 @@ using detail::html_escape;
 
 std::string fx(double v, int decimals) { return format_fixed(v, decimals); }
 
-/// "1 h 02 min", "25 min 53 s", "48 s".
-std::string duration(double s) {
-  if (!std::isfinite(s) || s < 0) return "—";
-  const long total = std::lround(s);
-  const long h = total / 3600, m = (total % 3600) / 60, sec = total % 60;
-  auto two = [](long v) { return (v < 10 ? "0" : "") + std::to_string(v); };
-  if (h > 0) return std::to_string(h) + " h " + two(m) + " min";
-  if (m > 0) return std::to_string(m) + " min " + two(sec) + " s";
-  return std::to_string(sec) + " s";
-}
 
 std::string settings_text(const VariantSpec& v) {
   if (v.kind == VariantKind::gcode) return v.gcode_path;
@@ -183,7 +173,7 @@ std::string compare_markdown(const CompareResult& r) {
     }
     const double max_excess = std::max(v.deposit_to_mesh.max_excess_mm, v.mesh_to_deposit.max_excess_mm);
     const double max_deficit = std::max(v.deposit_to_mesh.max_deficit_mm, v.mesh_to_deposit.max_deficit_mm);
-    md << duration(v.print_time_s) << " | " << fx(v.filament_m, 2) << " m / " << fx(v.filament_g, 1)
+    md << format_duration(v.print_time_s) << " | " << fx(v.filament_m, 2) << " m / " << fx(v.filament_g, 1)
        << " g | " << fx(v.rms_mm, 3) << " | " << fx(v.slope_rms_mm, 3) << " | "
        << fx(v.deposit_to_mesh.rms_mm, 3) << " / " << fx(v.deposit_to_mesh.p95_mm, 3) << " | +"
        << fx(max_excess, 3) << " | " << fx(v.mesh_to_deposit.rms_mm, 3) << " / "
@@ -269,7 +259,7 @@ std::string compare_chart_svg(const CompareResult& r) {
   // Points, rings on the front, labels.
   for (const auto* v : pts) {
     const double x = X(v->print_time_s / 60), y = Y(v->rms_mm);
-    s << "<g><title>" << html_escape(v->variant.label) << "\n" << duration(v->print_time_s)
+    s << "<g><title>" << html_escape(v->variant.label) << "\n" << format_duration(v->print_time_s)
       << ", RMS " << fx(v->rms_mm, 3) << " mm" << (v->pass ? "" : ", fails its gates")
       << (v->pareto ? ", Pareto-optimal" : "") << "</title>";
     if (v->pareto)
@@ -377,7 +367,7 @@ std::string compare_html(const CompareResult& r, const CompareHtmlOptions& optio
     auto num = [&](double value, const std::string& text) {
       h << "<td class=\"num\" data-v=\"" << format_number(value) << "\">" << text << "</td>";
     };
-    num(v.print_time_s, duration(v.print_time_s));
+    num(v.print_time_s, format_duration(v.print_time_s));
     num(v.filament_m, fx(v.filament_m, 2));
     num(v.filament_g, fx(v.filament_g, 1));
     num(v.rms_mm, "<b>" + fx(v.rms_mm, 3) + "</b>");
@@ -417,7 +407,7 @@ std::string compare_html(const CompareResult& r, const CompareHtmlOptions& optio
     if (v.ran) {
       h << "<tr><th>Slicer</th><td>" << html_escape(v.slicer) << "</td></tr><tr><th>Layers</th><td>"
         << v.layers << " (" << fx(v.layer_height_mm, 3) << " mm)</td></tr><tr><th>Print time</th><td>"
-        << duration(v.print_time_s) << "</td></tr><tr><th>Filament</th><td>" << fx(v.filament_m, 2)
+        << format_duration(v.print_time_s) << "</td></tr><tr><th>Filament</th><td>" << fx(v.filament_m, 2)
         << " m, " << fx(v.filament_g, 1) << " g at " << fx(v.filament_density_g_cm3, 2)
         << " g/cm³</td></tr>";
     }

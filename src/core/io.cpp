@@ -1,6 +1,7 @@
 // Whole-file reads and atomic writes; locale-independent number formatting.
 #include "printtwin/io.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <charconv>
@@ -81,6 +82,26 @@ std::string format_fixed(double v, int decimals) {
   // "-0.000" -> "0.000"
   if (s[0] == '-' && s.find_first_not_of("-0.") == std::string::npos) s.erase(0, 1);
   return s;
+}
+
+std::string format_duration_compact(double seconds) {
+  const long total = std::isfinite(seconds) ? std::lround(std::max(seconds, 0.0)) : 0;
+  const long h = total / 3600, m = (total % 3600) / 60, s = total % 60;
+  std::string out;
+  if (h > 0) out += std::to_string(h) + "h ";
+  if (h > 0 || m > 0) out += std::to_string(m) + "m ";
+  out += std::to_string(s) + "s";
+  return out;
+}
+
+std::string format_duration(double seconds) {
+  if (!std::isfinite(seconds) || seconds < 0) return "—";
+  const long total = std::lround(seconds);
+  const long h = total / 3600, m = (total % 3600) / 60, s = total % 60;
+  auto two = [](long v) { return (v < 10 ? "0" : "") + std::to_string(v); };
+  if (h > 0) return std::to_string(h) + " h " + two(m) + " min";
+  if (m > 0) return std::to_string(m) + " min " + two(s) + " s";
+  return std::to_string(s) + " s";
 }
 
 // SHA-256 (FIPS 180-4), small and dependency-free: used only for input provenance.

@@ -5,25 +5,14 @@
 #include <numeric>
 #include <unordered_map>
 
+#include "deviation/disjoint_sets.hpp"
 #include "printtwin/deviation.hpp"
 
 namespace printtwin {
 
 namespace {
 
-struct DisjointSets {
-  std::vector<std::uint32_t> parent;
-  explicit DisjointSets(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0U); }
-  std::uint32_t find(std::uint32_t a) {
-    while (parent[a] != a) a = parent[a] = parent[parent[a]];
-    return a;
-  }
-  void unite(std::uint32_t a, std::uint32_t b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
-  }
-};
+using detail::DisjointSets;
 
 std::uint64_t cell_key(std::int64_t x, std::int64_t y, std::int64_t z) {
   // 21 bits per axis (offset so negative cells map too): unique for |cell| < 2^20.

@@ -4,26 +4,14 @@
 #include <cmath>
 #include <numeric>
 
+#include "deviation/disjoint_sets.hpp"
 #include "printtwin/deviation.hpp"
 
 namespace printtwin {
 
 namespace {
 
-/// Union-find with path halving.
-struct DisjointSets {
-  std::vector<std::uint32_t> parent;
-  explicit DisjointSets(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0U); }
-  std::uint32_t find(std::uint32_t a) {
-    while (parent[a] != a) a = parent[a] = parent[parent[a]];
-    return a;
-  }
-  void unite(std::uint32_t a, std::uint32_t b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
-  }
-};
+using detail::DisjointSets;
 
 }  // namespace
 

@@ -216,15 +216,6 @@ Result<SimulationResult> run(std::istream& in, const PrinterProfile& profile, co
 
 double round_to(double v, double q) { return std::round(v / q) * q; }
 
-std::string duration_text(double s) {
-  const long total = std::lround(s);
-  const long h = total / 3600, m = (total % 3600) / 60, sec = total % 60;
-  std::string out;
-  if (h > 0) out += std::to_string(h) + "h ";
-  if (h > 0 || m > 0) out += std::to_string(m) + "m ";
-  out += std::to_string(sec) + "s";
-  return out;
-}
 
 }  // namespace
 
@@ -336,7 +327,7 @@ std::string simulation_summary(const SimulationResult& r) {
   if (!r.slicer.empty()) s += "slicer        " + r.slicer + "\n";
   s += "lines         " + std::to_string(r.lines) + " (" + std::to_string(r.moves) + " moves, " +
        std::to_string(r.segments) + " planned segments)\n";
-  s += "print time    " + duration_text(r.print_time_s) + " (" + format_fixed(r.print_time_s, 1) + " s)\n";
+  s += "print time    " + format_duration_compact(r.print_time_s) + " (" + format_fixed(r.print_time_s, 1) + " s)\n";
   s += "  motion      " + format_fixed(r.motion_time_s, 1) + " s\n";
   s += "  homing      " + format_fixed(r.homing_time_s, 1) + " s\n";
   s += "  dwell       " + format_fixed(r.dwell_time_s, 1) + " s\n";
@@ -345,7 +336,7 @@ std::string simulation_summary(const SimulationResult& r) {
     // PrusaSlicer 2.5's estimate counts planned motion (its G28 is instantaneous and the
     // start G-code's G4 S is not added): compare motion time.
     const double ours = r.motion_time_s;
-    s += "slicer says   " + duration_text(*r.slicer_estimate_s) + "; motion time differs by " +
+    s += "slicer says   " + format_duration_compact(*r.slicer_estimate_s) + "; motion time differs by " +
          format_fixed(100.0 * (ours - *r.slicer_estimate_s) / std::max(1.0, *r.slicer_estimate_s), 2) + " %" +
          (r.limits_from_gcode ? "" : " (try --limits-from-gcode)") + "\n";
   }

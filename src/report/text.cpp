@@ -94,13 +94,8 @@ std::string signed_fixed(double v, int decimals) {
 }
 
 std::string duration_text(double seconds) {
-  if (!std::isfinite(seconds) || seconds < 0) return "—";
-  if (seconds < 60) return format_fixed(seconds, 1) + " s";
-  const long total = std::lround(seconds);
-  const long h = total / 3600, m = (total % 3600) / 60, s = total % 60;
-  auto two = [](long x) { return (x < 10 ? "0" : "") + std::to_string(x); };
-  if (h > 0) return std::to_string(h) + " h " + two(m) + " min";
-  return std::to_string(m) + " min " + two(s) + " s";
+  if (std::isfinite(seconds) && seconds >= 0 && seconds < 60) return format_fixed(seconds, 1) + " s";
+  return format_duration(seconds);
 }
 
 std::string gate_label(std::string_view name) {

@@ -78,15 +78,6 @@ std::vector<Finding> dropped_findings(const std::vector<LayerToolpaths>& layers,
   return out;
 }
 
-std::string duration_text(double s) {
-  long t = std::lround(s);
-  const long h = t / 3600, m = (t % 3600) / 60, sec = t % 60;
-  std::string out;
-  if (h > 0) out += std::to_string(h) + "h ";
-  if (h > 0 || m > 0) out += std::to_string(m) + "m ";
-  out += std::to_string(sec) + "s";
-  return out;
-}
 
 }  // namespace
 
@@ -226,7 +217,7 @@ Result<SliceOutput> slice_mesh(const Mesh& mesh, const PrinterProfile& printer, 
   gcode += "; filament used [cm3] = " + format_fixed(st.filament_volume_mm3 * 1e-3, 2) + "\n";
   gcode += "; filament used [g] = " + format_fixed(st.filament_g, 2) + "\n";
   if (st.time_from_simulator) {
-    gcode += "; estimated printing time (normal mode) = " + duration_text(st.estimated_time_s) + "\n";
+    gcode += "; estimated printing time (normal mode) = " + format_duration_compact(st.estimated_time_s) + "\n";
     gcode += "; printtwin estimated printing time [s] = " + format_fixed(st.estimated_time_s, 1) + "\n";
   }
   gcode += "; layer count = " + std::to_string(st.layer_count) + "\n";
