@@ -155,6 +155,9 @@ class GcodeInterpreter {
   Status warn(long line, std::string_view text, std::string message, std::string code);
   Status linear_move(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
   Status arc_move(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
+  /// The F, X/Y/Z and E words of G0-G3 applied to the modal state: new feedrate, the target
+  /// in logical coordinates and the filament delta (E position updated).
+  Status motion_words(const GcodeCommand& c, std::string_view text, Vec3& target, double& de);
   Status home(const GcodeCommand& c, InterpreterOutput& out);
   void comment(std::string_view comment);
   void emit(const Vec3& target_logical, double e_delta_mm, double feedrate_mm_s, MoveKind forced,

@@ -403,7 +403,8 @@ void GcodeInterpreter::emit(const Vec3& target_logical_in, double e_delta_mm, do
   if (m.feedrate_mm_s > 0) nominal_clock_s_ += len / m.feedrate_mm_s;
 }
 
-Status GcodeInterpreter::linear_move(const GcodeCommand& c, std::string_view text, InterpreterOutput& out) {
+Status GcodeInterpreter::motion_words(const GcodeCommand& c, std::string_view text, Vec3& target,
+                                      double& de) {
   const double unit = inches_ ? kInch_mm : 1.0;
   if (c.has('F')) {
     const double f = c.get('F') * unit / 60.0;
@@ -415,45 +416,36 @@ Status GcodeInterpreter::linear_move(const GcodeCommand& c, std::string_view tex
       if (!st) return st;
     }
   }
-  Vec3 target = logical_mm_;
+  target = logical_mm_;
   static constexpr char kAxes[3] = {'X', 'Y', 'Z'};
   for (int i = 0; i < 3; ++i)
     if (c.has(kAxes[i])) {
       const double v = c.get(kAxes[i]) * unit;
       target[i] = relative_xyz_ ? logical_mm_[i] + v : v;
     }
-  double de = 0;
+  de = 0;
   if (c.has('E')) {
     const double v = c.get('E') * unit;
     de = relative_e_ ? v : v - e_logical_mm_;
     e_logical_mm_ += de;
   }
+  return Ok{};
+}
+
+Status GcodeInterpreter::linear_move(const GcodeCommand& c, std::string_view text, InterpreterOutput& out) {
+  Vec3 target;
+  double de = 0;
+  if (auto st = motion_words(c, text, target, de); !st) return st;
   emit(target, de, feedrate_mm_s_, MoveKind::travel, false, c.line, text, out);
   return Ok{};
 }
 
 Status GcodeInterpreter::arc_move(const GcodeCommand& c, std::string_view text, InterpreterOutput& out) {
   const double unit = inches_ ? kInch_mm : 1.0;
-  if (c.has('F')) {
-    const double f = c.get('F') * unit / 60.0;
-    if (f > 0) feedrate_mm_s_ = f;
-    else if (auto st = warn(c.line, text, "feedrate F must be positive; previous feedrate kept", "bad_feedrate"); !st)
-      return st;
-  }
   const bool clockwise = c.code == 2;
-  Vec3 target = logical_mm_;
-  static constexpr char kAxes[3] = {'X', 'Y', 'Z'};
-  for (int i = 0; i < 3; ++i)
-    if (c.has(kAxes[i])) {
-      const double v = c.get(kAxes[i]) * unit;
-      target[i] = relative_xyz_ ? logical_mm_[i] + v : v;
-    }
+  Vec3 target;
   double de = 0;
-  if (c.has('E')) {
-    const double v = c.get('E') * unit;
-    de = relative_e_ ? v : v - e_logical_mm_;
-    e_logical_mm_ += de;
-  }
+  if (auto st = motion_words(c, text, target, de); !st) return st;
   // Centre offset from the start: I/J, or from the radius R (Marlin G2_G3.cpp).
   Vec2 offset(c.get('I') * unit, c.get('J') * unit);
   const Vec2 p1 = logical_mm_.head<2>(), p2 = target.head<2>();
