@@ -5,6 +5,7 @@
 #include <fstream>
 #include <sstream>
 #include <sys/wait.h>
+#include <unistd.h>
 
 namespace printtwin::test {
 
@@ -13,7 +14,9 @@ std::filesystem::path source_path(const std::string& relative) {
 }
 
 std::filesystem::path temp_dir(const std::string& name) {
-  auto dir = std::filesystem::temp_directory_path() / ("printtwin_test_" + name);
+  // One folder per test process: ctest runs tests in parallel, each in its own process.
+  auto dir = std::filesystem::temp_directory_path() /
+             ("printtwin_test_" + name + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;

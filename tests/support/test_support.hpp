@@ -9,7 +9,7 @@ namespace printtwin::test {
 
 /// Path of a file in the source tree (e.g. "samples/cube_20mm.stl").
 std::filesystem::path source_path(const std::string& relative);
-/// A fresh empty folder under the build tree's temp dir for one test.
+/// A fresh empty folder under the system temp dir, unique to this test process.
 std::filesystem::path temp_dir(const std::string& name);
 
 struct CliRun {
