@@ -29,6 +29,7 @@
 //   the deposit here (treated as empty), so they never count as excess.
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -124,6 +125,48 @@ void distances_to_deposit(const DepositSurface& surface, std::span<const Vec3> p
                                                                   std::span<const Vec3> points,
                                                                   double near_mm = 0);
 
+class MeshQuery;
+struct DeviationSettings;
+
+/// The design side of the deviation, prepared once per mesh and reused for many deposits
+/// (the variants of `compare`, G-code from several slicers): the BVH for closest points
+/// (MeshQuery), the angle-weighted pseudo-normals for the sign, the area-uniform surface
+/// samples, the mesh's volume and box. Everything stays in the mesh's own frame; a deposit
+/// is compared with the mesh translated by a placement offset, applied to the query points
+/// (never to the BVH), so one target serves variants with different registrations.
+/// Copies are cheap (shared, immutable state) and safe to use from several threads.
+class DeviationTarget {
+ public:
+  /// Prepares `mesh` (in its own frame). The surface samples are drawn with
+  /// settings.seed at settings.mesh_sample_spacing_mm, or, when that is 0, at twice
+  /// `voxel_mm` (compute_deviation's rule); with both 0 no samples are drawn here and
+  /// compute_deviation draws them per call. Errors: empty mesh, invalid triangle indices,
+  /// negative spacing.
+  [[nodiscard]] static Result<DeviationTarget> build(const Mesh& mesh, const DeviationSettings& settings,
+                                                     double voxel_mm = 0);
+
+  [[nodiscard]] const Mesh& mesh() const;            ///< the mesh, own frame
+  [[nodiscard]] const MeshQuery& query() const;      ///< Embree BVH over mesh()
+  [[nodiscard]] const Box3& bbox_mm() const;         ///< box of mesh(), own frame
+  [[nodiscard]] double volume_mm3() const;           ///< signed_volume_mm3(mesh())
+  /// Spacing and seed of samples() (spacing 0: none drawn).
+  [[nodiscard]] double sample_spacing_mm() const;
+  [[nodiscard]] std::uint64_t sample_seed() const;
+  /// Area-uniform samples of mesh() (sample_surface), own frame.
+  [[nodiscard]] std::span<const SurfaceSample> samples() const;
+
+  /// Signed distances (positive outside) from `points_mm` (in the frame where the mesh sits
+  /// at `offset_mm`, i.e. the machine frame) to the mesh translated by `offset_mm`. Same
+  /// rules as signed_distances_to_mesh; `near_mm` only changes the speed.
+  void signed_distances(const Vec3& offset_mm, std::span<const Vec3> points_mm, double near_mm,
+                        std::vector<double>& signed_mm) const;
+
+ private:
+  struct Impl;
+  explicit DeviationTarget(std::shared_ptr<const Impl> impl);
+  std::shared_ptr<const Impl> impl_;
+};
+
 /// Reference unsigned point-to-mesh distances from CGAL's AABB tree (tests and benchmarks
 /// compare the production Embree path against it). Slow; single-threaded.
 [[nodiscard]] std::vector<double> reference_distances_cgal(const Mesh& mesh,
@@ -173,6 +216,16 @@ struct DeviationSettings {
 /// `part_box_mm` (may be empty) widens the analysed region to the part's extrusions.
 /// Errors: empty mesh, settings out of range.
 [[nodiscard]] Result<DeviationResult> compute_deviation(const Mesh& placed_mesh,
+                                                        const VoxelGrid& deposit,
+                                                        const DeviationSettings& settings,
+                                                        const Box3& part_box_mm = {});
+
+/// The same analysis against a prepared target: the mesh sits at `placement_offset_mm`
+/// (mesh frame + offset = G-code frame). Equals compute_deviation(translated(target mesh,
+/// offset), ...) up to floating-point rounding of the translation (bit-identical for a
+/// zero offset); the mesh overload is this with a target built for the call.
+[[nodiscard]] Result<DeviationResult> compute_deviation(const DeviationTarget& target,
+                                                        const Vec3& placement_offset_mm,
                                                         const VoxelGrid& deposit,
                                                         const DeviationSettings& settings,
                                                         const Box3& part_box_mm = {});

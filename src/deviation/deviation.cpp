@@ -10,6 +10,16 @@ namespace printtwin {
 Result<DeviationResult> compute_deviation(const Mesh& mesh, const VoxelGrid& deposit,
                                           const DeviationSettings& settings, const Box3& part_box_mm) {
   if (mesh.triangles.empty()) return bad_input("deviation: the mesh has no triangles");
+  auto target = DeviationTarget::build(mesh, settings, deposit.voxel_mm());
+  if (!target) return target.error();
+  return compute_deviation(*target, Vec3::Zero(), deposit, settings, part_box_mm);
+}
+
+Result<DeviationResult> compute_deviation(const DeviationTarget& target, const Vec3& offset,
+                                          const VoxelGrid& deposit, const DeviationSettings& settings,
+                                          const Box3& part_box_mm) {
+  const Mesh& mesh = target.mesh();
+  if (mesh.triangles.empty()) return bad_input("deviation: the mesh has no triangles");
   if (!(settings.tolerance_mm > 0))
     return usage_error("deviation: tolerance must be > 0 mm, got " + std::to_string(settings.tolerance_mm));
   if (settings.mesh_sample_spacing_mm < 0)
@@ -19,10 +29,10 @@ Result<DeviationResult> compute_deviation(const Mesh& mesh, const VoxelGrid& dep
 
   DeviationResult out;
   out.tolerance_mm = settings.tolerance_mm;
-  out.mesh_volume_mm3 = signed_volume_mm3(mesh);
+  out.mesh_volume_mm3 = target.volume_mm3();
 
   // The analysed region: the mesh and the part's extrusions, with a margin for excess.
-  Box3 region = bounding_box(mesh);
+  Box3 region{target.bbox_mm().min + offset, target.bbox_mm().max + offset};
   region.extend(part_box_mm);
   region.min -= Vec3::Constant(settings.region_margin_mm);
   region.max += Vec3::Constant(settings.region_margin_mm);
@@ -35,16 +45,21 @@ Result<DeviationResult> compute_deviation(const Mesh& mesh, const VoxelGrid& dep
   // Deposit -> mesh, from every exposed face centre.
   std::vector<Vec3> face_points(surface.faces.size());
   for (std::size_t i = 0; i < surface.faces.size(); ++i) face_points[i] = surface.faces[i].center_mm;
-  auto d_dep = signed_distances_to_mesh(mesh, face_points, std::max(4.0 * v, settings.tolerance_mm));
-  if (!d_dep) return d_dep.error();
+  std::vector<double> d_dep;
+  target.signed_distances(offset, face_points, std::max(4.0 * v, settings.tolerance_mm), d_dep);
   std::vector<DeviationSample> dep_samples(face_points.size());
   for (std::size_t i = 0; i < face_points.size(); ++i)
-    dep_samples[i] = {face_points[i], (*d_dep)[i], surface.face_tags[i].layer, surface.face_tags[i].line};
+    dep_samples[i] = {face_points[i], d_dep[i], surface.face_tags[i].layer, surface.face_tags[i].line};
 
-  // Mesh -> deposit, from area-uniform samples.
-  const auto samples = sample_surface(mesh, spacing, settings.seed);
+  // Mesh -> deposit, from area-uniform samples (the target's when drawn alike).
+  std::vector<SurfaceSample> own_samples;
+  std::span<const SurfaceSample> samples = target.samples();
+  if (target.sample_spacing_mm() != spacing || target.sample_seed() != settings.seed) {
+    own_samples = sample_surface(mesh, spacing, settings.seed);
+    samples = own_samples;
+  }
   std::vector<Vec3> mesh_points(samples.size());
-  for (std::size_t i = 0; i < samples.size(); ++i) mesh_points[i] = samples[i].position_mm;
+  for (std::size_t i = 0; i < samples.size(); ++i) mesh_points[i] = samples[i].position_mm + offset;
   std::vector<double> d_mesh;
   std::vector<std::uint32_t> nearest;
   distances_to_deposit(surface, mesh_points, d_mesh, &nearest);
@@ -53,9 +68,11 @@ Result<DeviationResult> compute_deviation(const Mesh& mesh, const VoxelGrid& dep
     const VoxelTag tag = surface.faces.empty() ? VoxelTag{} : surface.face_tags[nearest[i]];
     mesh_samples[i] = {mesh_points[i], d_mesh[i], tag.layer, tag.line};
   }
-  distances_to_deposit(surface, mesh.vertices_mm, out.vertex_deviation_mm, nullptr);
+  std::vector<Vec3> vertices(mesh.vertices_mm.size());
+  for (std::size_t i = 0; i < vertices.size(); ++i) vertices[i] = mesh.vertices_mm[i] + offset;
+  distances_to_deposit(surface, vertices, out.vertex_deviation_mm, nullptr);
 
-  out.deposit_to_mesh = deviation_stats(*d_dep, settings.tolerance_mm);
+  out.deposit_to_mesh = deviation_stats(d_dep, settings.tolerance_mm);
   out.mesh_to_deposit = deviation_stats(d_mesh, settings.tolerance_mm);
 
   // Per layer (layer of the nearest deposit voxel); z = top of that layer's surface voxels.

@@ -85,20 +85,61 @@ struct PseudoNormals {
 
 }  // namespace
 
-Result<std::vector<double>> signed_distances_to_mesh(const Mesh& mesh, std::span<const Vec3> points,
-                                                     double near_mm) {
+struct DeviationTarget::Impl {
+  Mesh mesh;
+  MeshQuery query;
+  PseudoNormals pn;
+  Box3 bbox;
+  double volume_mm3 = 0;
+  double spacing_mm = 0;
+  std::uint64_t seed = 1;
+  std::vector<SurfaceSample> samples;
+
+  Impl(const Mesh& m, MeshQuery q) : mesh(m), query(std::move(q)), pn(m) {}
+};
+
+DeviationTarget::DeviationTarget(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
+
+Result<DeviationTarget> DeviationTarget::build(const Mesh& mesh, const DeviationSettings& settings,
+                                               double voxel_mm) {
+  if (mesh.triangles.empty()) return bad_input("deviation: the mesh has no triangles");
+  if (settings.mesh_sample_spacing_mm < 0)
+    return usage_error("deviation: mesh sample spacing must be >= 0 mm");
   auto query = MeshQuery::build(mesh);
   if (!query) return query.error();
-  const PseudoNormals pn(mesh);
-  std::vector<double> out(points.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 1024),
+  auto impl = std::make_shared<Impl>(mesh, std::move(*query));
+  impl->bbox = bounding_box(mesh);
+  impl->volume_mm3 = signed_volume_mm3(mesh);
+  impl->seed = settings.seed;
+  impl->spacing_mm = settings.mesh_sample_spacing_mm > 0 ? settings.mesh_sample_spacing_mm
+                                                         : (voxel_mm > 0 ? 2.0 * voxel_mm : 0.0);
+  if (impl->spacing_mm > 0) impl->samples = sample_surface(mesh, impl->spacing_mm, impl->seed);
+  return DeviationTarget(std::move(impl));
+}
+
+const Mesh& DeviationTarget::mesh() const { return impl_->mesh; }
+const MeshQuery& DeviationTarget::query() const { return impl_->query; }
+const Box3& DeviationTarget::bbox_mm() const { return impl_->bbox; }
+double DeviationTarget::volume_mm3() const { return impl_->volume_mm3; }
+double DeviationTarget::sample_spacing_mm() const { return impl_->spacing_mm; }
+std::uint64_t DeviationTarget::sample_seed() const { return impl_->seed; }
+std::span<const SurfaceSample> DeviationTarget::samples() const { return impl_->samples; }
+
+void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Vec3> points_mm,
+                                       double near_mm, std::vector<double>& out) const {
+  const Mesh& mesh = impl_->mesh;
+  const MeshQuery& query = impl_->query;
+  const PseudoNormals& pn = impl_->pn;
+  out.resize(points_mm.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points_mm.size(), 1024),
                     [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      const Vec3 p = points_mm[i] - offset_mm;  // into the mesh's frame
       // Most points lie near the surface: a bounded query first, the full one if it fails.
       std::optional<ClosestPoint> near;
-      if (near_mm > 0) near = query->closest_point_within(points[i], near_mm);
-      const ClosestPoint cp = near ? *near : query->closest_point(points[i]);
-      const Vec3 dir = points[i] - cp.point_mm;
+      if (near_mm > 0) near = query.closest_point_within(p, near_mm);
+      const ClosestPoint cp = near ? *near : query.closest_point(p);
+      const Vec3 dir = p - cp.point_mm;
       if (cp.distance_mm == 0) {
         out[i] = 0;
         continue;
@@ -133,12 +174,22 @@ Result<std::vector<double>> signed_distances_to_mesh(const Mesh& mesh, std::span
       bool outside = false;
       const double s = dir.dot(normal);
       if (open || s == 0 || !std::isfinite(s))
-        outside = !query->inside(points[i]);
+        outside = !query.inside(p);
       else
         outside = s > 0;
       out[i] = outside ? cp.distance_mm : -cp.distance_mm;
     }
   });
+}
+
+Result<std::vector<double>> signed_distances_to_mesh(const Mesh& mesh, std::span<const Vec3> points,
+                                                     double near_mm) {
+  DeviationSettings no_samples;
+  no_samples.mesh_sample_spacing_mm = 0;
+  auto target = DeviationTarget::build(mesh, no_samples, 0);
+  if (!target) return target.error();
+  std::vector<double> out;
+  target->signed_distances(Vec3::Zero(), points, near_mm, out);
   return out;
 }
 
