@@ -292,25 +292,27 @@ struct CompareHtmlOptions {
 
 // ---------------------------------------------------------------- running
 
-/// What every variant shares, built once: the mesh as loaded, its check, a BVH over it and
-/// the slope class of each triangle. The mesh stays in its own frame; each variant's
-/// registration only translates it, so queries subtract the variant's offset.
+/// What every variant shares, built once: the part as `verify` prepares it (mesh in its own
+/// frame, its check, the design side of the deviation), a BVH over it and the slope class of
+/// each triangle. Each variant's registration only translates the mesh, so queries subtract
+/// the variant's offset.
 struct SharedPart {
-  Mesh mesh;
+  PreparedPart prepared;
   ComparePartInfo info;
-  CheckSummary check;                 ///< printability check of the mesh (check.hpp), once
-  std::vector<Finding> check_findings;
   std::vector<std::uint8_t> sloped;  ///< 1 per triangle counted as sloped
-  std::shared_ptr<const MeshQuery> query;  ///< BVH of `mesh` (own frame)
+  std::shared_ptr<const MeshQuery> query;  ///< BVH of the mesh (own frame)
   double build_time_s = 0;
 };
 
-/// Loads and checks the mesh, builds the BVH and the slope classes.
+/// Loads and checks the mesh, builds the BVH, the deviation target (with `settings`' sample
+/// spacing and seed) and the slope classes.
 [[nodiscard]] Result<SharedPart> prepare_shared_part(const std::filesystem::path& mesh_path,
-                                                     const PrinterProfile& printer);
+                                                     const PrinterProfile& printer,
+                                                     const VerifySettings& settings = {});
 /// The same from a mesh already in memory (`name` for the report).
 [[nodiscard]] Result<SharedPart> prepare_shared_part(Mesh mesh, std::string name,
-                                                     const PrinterProfile& printer);
+                                                     const PrinterProfile& printer,
+                                                     const VerifySettings& settings = {});
 
 /// Progress of a run, reported after each variant.
 struct CompareProgress {

@@ -10,8 +10,11 @@
 // the JSON gains keys.
 #include <cstdint>
 #include <filesystem>
+#include <functional>
+#include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -21,8 +24,11 @@
 #include "printtwin/machine.hpp"
 #include "printtwin/mesh.hpp"
 #include "printtwin/result.hpp"
+#include "printtwin/slice.hpp"
 
 namespace printtwin {
+
+class DeviationTarget;  // deviation.hpp
 
 /// Version of the report.json layout written by `verify_report_json` (docs/report-schema.md).
 inline constexpr int kVerifySchemaVersion = 1;
@@ -148,7 +154,71 @@ struct VerifyOptions {
 
 /// Runs the pipeline. Errors: unreadable/invalid mesh, G-code or printer profile (bad_input),
 /// impossible settings (usage). Print defects never error: they are findings and gates.
+/// Same as prepare_part + (slice_for_verify or read_gcode_input) + verify_gcode.
 [[nodiscard]] Result<VerifyReport> verify(const VerifyOptions& options);
+
+// ---------------------------------------------------------------- the pipeline in parts
+// `verify` is two halves: what depends only on the part (loaded, checked and indexed once:
+// PreparedPart) and what every G-code of that part goes through (verify_gcode). `compare`
+// runs one PreparedPart against many G-codes.
+
+/// The part's side of a verification, built once and shared by every G-code measured
+/// against it: the mesh in its own frame, its provenance, its printability check and the
+/// design side of the deviation (Embree BVH, pseudo-normals, surface samples).
+struct PreparedPart {
+  std::string name;                         ///< mesh file stem
+  Mesh mesh;                                ///< own frame (placed per G-code by registration)
+  VerifyInput mesh_input;                   ///< path, SHA-256 and size of the mesh file
+  CheckSummary check;
+  std::vector<Finding> check_findings;
+  /// Design side of the deviation in the mesh's own frame (null: built per G-code).
+  std::shared_ptr<const DeviationTarget> target;
+  std::vector<StageTiming> timings;         ///< "load", "check", "index"
+};
+
+/// Reads, loads and checks the mesh and builds its deviation target with `settings`' sample
+/// spacing (0: twice the voxel) and seed. Errors: unreadable or invalid mesh (bad input).
+[[nodiscard]] Result<PreparedPart> prepare_part(const std::filesystem::path& mesh_path,
+                                                const PrinterProfile& printer,
+                                                const VerifySettings& settings);
+/// The same from a mesh already in memory; `mesh_input` is echoed as the mesh's provenance.
+[[nodiscard]] Result<PreparedPart> prepare_part(Mesh mesh, std::string name, VerifyInput mesh_input,
+                                                const PrinterProfile& printer,
+                                                const VerifySettings& settings);
+
+/// One G-code to verify: its text and where it came from.
+struct GcodeInput {
+  std::string text;
+  std::string name;                         ///< file path, or a label for a printtwin slice
+  std::string source = "file";              ///< "file" or "printtwin slice"
+  std::vector<VerifyInput> inputs;          ///< provenance (the G-code, a slicer .ini)
+  std::vector<Finding> findings;            ///< the slicer's findings (printtwin slice)
+  double slice_time_s = 0;                  ///< printtwin slice: wall time of slicing
+};
+
+/// Reads a G-code file (bad input when unreadable).
+[[nodiscard]] Result<GcodeInput> read_gcode_input(const std::filesystem::path& gcode_path);
+/// Slices the part with printtwin's slicer (`settings` already complete and validated).
+/// `label` names the G-code in findings ("<part>.gcode (printtwin slice)" when empty).
+[[nodiscard]] Result<GcodeInput> slice_for_verify(const PreparedPart& part,
+                                                  const PrinterProfile& printer,
+                                                  const SliceSettings& settings,
+                                                  std::string label = {});
+/// Slicer settings of `verify` without `--gcode`: defaults, then `settings.slice_config_ini`,
+/// then `settings.slice_overrides`, validated. The .ini joins `inputs` when given.
+[[nodiscard]] Result<SliceSettings> verify_slice_settings(const VerifySettings& settings,
+                                                          std::vector<VerifyInput>* inputs);
+
+/// simulate -> deposit -> registration -> deviation -> region findings -> gates, for one
+/// G-code of a prepared part. The report's findings are the part's check findings, then the
+/// slicer's, the simulation's, the deposit's and one per deviation region; its timings are
+/// the part's (when `include_part_timings`) then slice, simulate, deposit, deviation.
+/// `on_stage` (optional) is called with "simulate", "deposit", "deviation" as each starts.
+/// Errors: invalid G-code (bad input), settings out of range (usage).
+[[nodiscard]] Result<VerifyReport> verify_gcode(const PreparedPart& part, const PrinterProfile& printer,
+                                                const VerifySettings& settings, GcodeInput gcode,
+                                                bool include_part_timings = true,
+                                                const std::function<void(std::string_view)>& on_stage = {});
 
 /// report.json text of a report (docs/report-schema.md). Deterministic: numbers via
 /// to_chars, keys in a fixed order; timings are the only run-dependent values.

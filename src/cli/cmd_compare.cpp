@@ -210,7 +210,7 @@ int run_compare_command(const CompareOptions& o) {
   auto printer = load_printer_profile(plan->printer);
   if (!printer) return report_error(printer.error());
   const fs::path mesh_path = plan->mesh_path;
-  auto part = prepare_shared_part(mesh_path, *printer);
+  auto part = prepare_shared_part(mesh_path, *printer, plan->verify);
   if (!part) return report_error(part.error());
   if (!plan->mesh_sha256.empty() && part->info.sha256 != plan->mesh_sha256)
     return report_error(bad_input("the mesh differs from the one the manifest was written for (sha256 " +

@@ -5,17 +5,13 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <sstream>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "printtwin/check.hpp"
 #include "printtwin/compare.hpp"
-#include "printtwin/deposit.hpp"
 #include "printtwin/deviation.hpp"
 #include "printtwin/io.hpp"
-#include "printtwin/simulate.hpp"
 #include "printtwin/slice.hpp"
 #include "printtwin/version.hpp"
 
@@ -27,22 +23,6 @@ using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
-/// Keeps every Move of the simulation for the deposit and the registration.
-class MoveCollector final : public MoveSink {
- public:
-  void on_move(const Move& move) override { moves.push_back(move); }
-  std::vector<Move> moves;
-};
-
-VerifyInput input_of(std::string role, std::string path, std::string_view bytes) {
-  VerifyInput in;
-  in.role = std::move(role);
-  in.path = std::move(path);
-  in.sha256 = sha256_hex(bytes);
-  in.size_bytes = bytes.size();
-  return in;
 }
 
 // A slicer variant's settings: defaults, its config, then its key=value list in order.
@@ -133,32 +113,19 @@ Status validate_plan(const ComparePlan& plan) {
 
 // ---------------------------------------------------------------- shared part
 
-Result<SharedPart> prepare_shared_part(Mesh mesh, std::string name, const PrinterProfile& printer) {
-  const auto t0 = Clock::now();
-  if (mesh.triangles.empty()) return bad_input("compare: the mesh has no triangles");
+namespace {
+
+// Slope classes and the BVH of a prepared part.
+Result<SharedPart> share(PreparedPart prepared, std::string path, Clock::time_point t0) {
   SharedPart p;
-  p.info.name = std::move(name);
+  const Mesh& mesh = prepared.mesh;
+  p.info.name = prepared.name;
+  p.info.path = std::move(path);
+  p.info.sha256 = prepared.mesh_input.sha256;
   p.info.triangles = mesh.triangles.size();
   p.info.volume_mm3 = signed_volume_mm3(mesh);
   p.info.area_mm2 = surface_area_mm2(mesh);
   p.info.bbox_mm = bounding_box(mesh);
-
-  // As verify: the self-intersection test only below 50k triangles (it dominates beyond).
-  CheckSettings check_settings;
-  check_settings.self_intersections = mesh.triangles.size() <= 50000;
-  auto check = check_printability(mesh, printer, check_settings);
-  if (!check) return check.error();
-  const MeshHealth& h = check->health;
-  p.check.triangles = h.triangles;
-  p.check.vertices = h.vertices;
-  p.check.volume_mm3 = h.volume_mm3;
-  p.check.area_mm2 = h.area_mm2;
-  p.check.bbox_mm = h.bbox_mm;
-  p.check.watertight = h.closed;
-  for (const auto& f : check->findings)
-    (f.severity == Severity::error ? p.check.errors
-                                   : f.severity == Severity::warning ? p.check.warnings : p.check.infos)++;
-  p.check_findings = std::move(check->findings);
 
   // Sloped triangles: inclination from the horizontal between the two limits.
   const double cos_min = std::cos(kSlopeMinDeg * 3.14159265358979323846 / 180.0);
@@ -178,24 +145,30 @@ Result<SharedPart> prepare_shared_part(Mesh mesh, std::string name, const Printe
   auto query = MeshQuery::build(mesh);
   if (!query) return query.error();
   p.query = std::make_shared<const MeshQuery>(std::move(*query));
-  p.mesh = std::move(mesh);
+  p.prepared = std::move(prepared);
   p.build_time_s = seconds_since(t0);
   return p;
 }
 
-Result<SharedPart> prepare_shared_part(const std::filesystem::path& mesh_path,
-                                       const PrinterProfile& printer) {
+}  // namespace
+
+Result<SharedPart> prepare_shared_part(Mesh mesh, std::string name, const PrinterProfile& printer,
+                                       const VerifySettings& settings) {
   const auto t0 = Clock::now();
-  auto bytes = read_file(mesh_path);
-  if (!bytes) return bytes.error();
-  auto mesh = load_mesh(mesh_path);
-  if (!mesh) return mesh.error();
-  auto part = prepare_shared_part(std::move(*mesh), mesh_path.stem().string(), printer);
-  if (!part) return part.error();
-  part->info.path = mesh_path.string();
-  part->info.sha256 = sha256_hex(*bytes);
-  part->build_time_s = seconds_since(t0);
-  return part;
+  if (mesh.triangles.empty()) return bad_input("compare: the mesh has no triangles");
+  VerifyInput in;
+  in.role = "mesh";
+  auto prepared = prepare_part(std::move(mesh), std::move(name), std::move(in), printer, settings);
+  if (!prepared) return prepared.error();
+  return share(std::move(*prepared), {}, t0);
+}
+
+Result<SharedPart> prepare_shared_part(const std::filesystem::path& mesh_path, const PrinterProfile& printer,
+                                       const VerifySettings& settings) {
+  const auto t0 = Clock::now();
+  auto prepared = prepare_part(mesh_path, printer, settings);
+  if (!prepared) return prepared.error();
+  return share(std::move(*prepared), mesh_path.string(), t0);
 }
 
 // ---------------------------------------------------------------- one variant
@@ -203,167 +176,18 @@ Result<SharedPart> prepare_shared_part(const std::filesystem::path& mesh_path,
 Result<VerifyReport> run_variant_verify(const SharedPart& part, const PrinterProfile& printer,
                                         const ComparePlan& plan, const VariantSpec& spec,
                                         const std::function<void(std::string_view)>& on_stage) {
-  auto stage = [&](std::string_view s) {
-    if (on_stage) on_stage(s);
-  };
-  VerifyReport rep;
-  rep.tool_version = kVersion;
-  rep.part_name = part.info.name;
-  rep.settings = plan.verify;
-  rep.settings.printer = plan.printer;
-  {
-    VerifyInput mesh_in;
-    mesh_in.role = "mesh";
-    mesh_in.path = part.info.path;
-    mesh_in.sha256 = part.info.sha256;
-    rep.inputs.push_back(mesh_in);
-  }
-
-  // 1. The G-code: sliced here, or read.
-  std::string gcode;
-  std::string gcode_name;
-  std::vector<Finding> slice_findings;
-  if (spec.kind == VariantKind::slicer) {
-    stage("slice");
-    const auto t = Clock::now();
+  if (on_stage) on_stage(spec.kind == VariantKind::slicer ? "slice" : "read");
+  Result<GcodeInput> gcode = [&]() -> Result<GcodeInput> {
+    if (spec.kind != VariantKind::slicer) return read_gcode_input(spec.gcode_path);
     auto settings = slice_settings_of(spec);
     if (!settings) return settings.error();
-    auto sliced = slice_mesh(part.mesh, printer, *settings);
-    if (!sliced) return sliced.error();
-    gcode = std::move(sliced->gcode);
-    slice_findings = std::move(sliced->findings);
-    gcode_name = "printtwin slice (" + spec.label + ")";
-    rep.settings.gcode_source = "printtwin slice";
-    rep.inputs.push_back(input_of("gcode", gcode_name, gcode));
-    rep.timings.push_back({"slice", seconds_since(t)});
-  } else {
-    auto text = read_file(spec.gcode_path);
-    if (!text) return text.error();
-    gcode = std::move(*text);
-    gcode_name = spec.gcode_path;
-    rep.settings.gcode_source = "file";
-    rep.inputs.push_back(input_of("gcode", gcode_name, gcode));
-  }
-  {
-    VerifyInput printer_in;
-    printer_in.role = "printer";
-    printer_in.path = plan.printer;
-    rep.inputs.push_back(printer_in);
-  }
-
-  // 2. Simulate on the twin, keeping the moves.
-  stage("simulate");
-  auto t = Clock::now();
-  MoveCollector collector;
-  SimulateOptions sim_opts;
-  sim_opts.source_name = gcode_name;
-  SimulationResult sim;
-  {
-    std::istringstream in(gcode);
-    auto r = simulate_gcode(in, printer, sim_opts, &collector);
-    if (!r) return r.error();
-    sim = std::move(*r);
-  }
-  gcode.clear();
-  gcode.shrink_to_fit();
-  rep.timings.push_back({"simulate", seconds_since(t)});
-  {
-    auto& s = rep.simulation;
-    s.slicer = spec.kind == VariantKind::slicer ? std::string("printtwin") : sim.slicer;
-    s.gcode_lines = static_cast<std::size_t>(sim.lines);
-    s.moves = static_cast<std::size_t>(sim.moves);
-    s.extrusion_moves = static_cast<std::size_t>(std::count_if(
-        collector.moves.begin(), collector.moves.end(),
-        [](const Move& m) { return m.kind == MoveKind::extrude; }));
-    s.layers = static_cast<int>(sim.layers.size());
-    s.print_time_s = sim.print_time_s;
-    s.filament_mm = sim.filament_mm;
-    s.extruded_volume_mm3 = sim.filament_mm3;
-    s.extrusion_bbox_mm = sim.extrusion_bounds_mm;
-    for (const auto& f : sim.findings) {
-      (f.severity == Severity::error ? s.errors : f.severity == Severity::warning ? s.warnings : s.infos)++;
-    }
-  }
-
-  // 3. Registration: where the slicer put the part.
-  const PartExtent extent = find_part_extent(collector.moves);
-  Vec3 offset = Vec3::Zero();
-  std::string method;
-  if (plan.verify.place_mm) {
-    offset = *plan.verify.place_mm;
-    method = "--place";
-  } else {
-    if (extent.moves == 0)
-      return bad_input("the G-code has no extrusion of the part to register the mesh against",
-                       gcode_name);
-    offset = registration_offset(part.mesh, extent);
-    method = "auto";
-  }
-  rep.placed_mesh = translated(part.mesh, offset);
-
-  // 4. Deposit.
-  stage("deposit");
-  t = Clock::now();
-  DepositSettings dep_settings;
-  dep_settings.voxel_mm = plan.verify.voxel_mm;
-  auto deposit = deposit_moves(collector.moves, printer, dep_settings);
-  if (!deposit) return deposit.error();
-  collector.moves.clear();
-  collector.moves.shrink_to_fit();
-  rep.timings.push_back({"deposit", seconds_since(t)});
-  {
-    auto& d = rep.deposit;
-    d.voxel_mm = deposit->voxel_mm;
-    d.voxels = deposit->voxels;
-    d.volume_mm3 = deposit->volume_mm3;
-    d.extruded_volume_mm3 = deposit->extruded_mm3;
-    d.bbox_mm = deposit->bbox_mm;
-    d.part_bbox_mm = extent.bbox_mm;
-    d.memory_bytes = deposit->memory_bytes;
-  }
-
-  // 5. Deviation.
-  stage("deviation");
-  t = Clock::now();
-  DeviationSettings dev_settings;
-  dev_settings.tolerance_mm = plan.verify.gates.tolerance_mm;
-  dev_settings.mesh_sample_spacing_mm = plan.verify.mesh_sample_spacing_mm;
-  dev_settings.seed = plan.verify.seed;
-  dev_settings.max_regions = plan.verify.max_regions;
-  auto dev = compute_deviation(rep.placed_mesh, deposit->grid, dev_settings, extent.bbox_mm);
-  if (!dev) return dev.error();
-  rep.deviation = std::move(*dev);
-  rep.deviation.registration_offset_mm = offset;
-  rep.deviation.registration_method = method;
-  rep.deposit.surface_voxels = rep.deviation.surface_voxels;
-  rep.timings.push_back({"deviation", seconds_since(t)});
-
-  // 6. Findings of every stage, then the gates.
-  rep.check = part.check;
-  rep.findings = part.check_findings;
-  for (auto& f : slice_findings) rep.findings.push_back(std::move(f));
-  for (const auto& f : sim.findings) rep.findings.push_back(f);
-  for (const auto& f : deposit->findings) rep.findings.push_back(f);
-  // One finding per region, worded and coded as `verify` does.
-  for (const auto& reg : rep.deviation.regions) {
-    Finding f;
-    f.severity = Severity::warning;
-    const bool missing = reg.kind == RegionKind::missing;
-    f.code = missing ? "deviation_missing" : "deviation_excess";
-    f.message = std::string(missing ? "material missing" : "excess material") + ": " +
-                format_fixed(reg.area_mm2, 2) + " mm2, worst " + format_fixed(reg.worst_mm, 3) +
-                " mm, layers " + std::to_string(reg.layer_min) + "-" + std::to_string(reg.layer_max) +
-                " (tolerance " + format_fixed(plan.verify.gates.tolerance_mm, 3) + " mm)";
-    f.position_mm = reg.worst_position_mm;
-    f.extent_mm = reg.bbox_mm;
-    if (!reg.gcode_lines.empty()) f.line = reg.gcode_lines.front();
-    if (reg.layer_min >= 0) f.layer = reg.layer_min;
-    f.value = reg.worst_mm;
-    f.count = static_cast<long>(reg.samples);
-    rep.findings.push_back(std::move(f));
-  }
-  evaluate_gates(rep);  // verify's gates, so a variant passes exactly when `verify` would
-  return rep;
+    return slice_for_verify(part.prepared, printer, *settings, "printtwin slice (" + spec.label + ")");
+  }();
+  if (!gcode) return gcode.error();
+  VerifySettings settings = plan.verify;
+  settings.printer = plan.printer;
+  // The part's load and check ran once for every variant: not in the variant's timings.
+  return verify_gcode(part.prepared, printer, settings, std::move(*gcode), false, on_stage);
 }
 
 // ---------------------------------------------------------------- the sweep
@@ -404,7 +228,7 @@ Result<CompareResult> run_compare(const SharedPart& part, const ComparePlan& pla
   // time, mesh_sample_triangles then falls back to the BVH.)
   const double spacing_mm = plan.verify.mesh_sample_spacing_mm > 0 ? plan.verify.mesh_sample_spacing_mm
                                                                    : 2.0 * plan.verify.voxel_mm;
-  const std::vector<SurfaceSample> shared_samples = sample_surface(part.mesh, spacing_mm, plan.verify.seed);
+  const std::vector<SurfaceSample> shared_samples = sample_surface(part.prepared.mesh, spacing_mm, plan.verify.seed);
   const double near_mm = std::max(4 * plan.verify.voxel_mm, 2 * plan.verify.gates.tolerance_mm);
 
   CompareProgress progress;

@@ -80,28 +80,134 @@ void evaluate_gates(VerifyReport& report) {
   for (const auto& gate : report.gates) report.pass = report.pass && gate.pass;
 }
 
-Result<VerifyReport> verify(const VerifyOptions& options) {
-  const VerifySettings& settings = options.settings;
+namespace {
+
+Status validate_verify_settings(const VerifySettings& settings) {
   if (!(settings.gates.tolerance_mm > 0)) return usage_error("--tolerance must be > 0 mm");
   for (const auto& limit : {settings.gates.max_excess_mm, settings.gates.max_deficit_mm, settings.gates.max_rms_mm})
     if (limit && !(*limit >= 0)) return usage_error("gate limits (--max-excess, --max-deficit, --max-rms) must be >= 0 mm");
   if (!(settings.voxel_mm >= 0.01 && settings.voxel_mm <= 1.0))
     return usage_error("--voxel must be between 0.01 and 1 mm, got " + format_number(settings.voxel_mm));
+  return Ok{};
+}
 
+/// One finding per deviation region, so CI logs and JUnit name every defect.
+Finding region_finding(const DeviationRegion& r, double tolerance_mm) {
+  Finding f;
+  f.severity = Severity::warning;
+  const bool missing = r.kind == RegionKind::missing;
+  f.code = missing ? "deviation_missing" : "deviation_excess";
+  f.message = std::string(missing ? "material missing" : "excess material") + ": " +
+              format_fixed(r.area_mm2, 2) + " mm2, worst " + fmt_mm(r.worst_mm) + " mm, layers " +
+              std::to_string(r.layer_min) + "-" + std::to_string(r.layer_max) + " (tolerance " +
+              fmt_mm(tolerance_mm) + " mm)";
+  f.position_mm = r.worst_position_mm;
+  f.extent_mm = r.bbox_mm;
+  if (!r.gcode_lines.empty()) f.line = r.gcode_lines.front();
+  if (r.layer_min >= 0) f.layer = r.layer_min;
+  f.value = r.worst_mm;
+  f.count = static_cast<long>(r.samples);
+  return f;
+}
+
+}  // namespace
+
+Result<PreparedPart> prepare_part(Mesh mesh, std::string name, VerifyInput mesh_input,
+                                  const PrinterProfile& printer, const VerifySettings& settings) {
+  if (mesh.triangles.empty()) return bad_input("the mesh has no triangles", mesh_input.path);
+  (void)settings;
+  PreparedPart part;
+  part.name = std::move(name);
+  part.mesh_input = std::move(mesh_input);
+  StageClock clock(part.timings);
+  CheckSettings check_settings;
+  check_settings.self_intersections = mesh.triangles.size() <= 50000;  // dominates beyond
+  auto check = check_printability(mesh, printer, check_settings);
+  if (!check) return check.error();
+  CheckSummary& c = part.check;
+  c.triangles = check->health.triangles;
+  c.vertices = check->health.vertices;
+  c.volume_mm3 = check->health.volume_mm3;
+  c.area_mm2 = check->health.area_mm2;
+  c.bbox_mm = check->health.bbox_mm;
+  c.watertight = check->health.closed;
+  count_severities(check->findings, c.errors, c.warnings, c.infos);
+  part.check_findings = std::move(check->findings);
+  clock.lap("check");
+  part.mesh = std::move(mesh);
+  return part;
+}
+
+Result<PreparedPart> prepare_part(const std::filesystem::path& mesh_path, const PrinterProfile& printer,
+                                  const VerifySettings& settings) {
+  std::vector<StageTiming> load_timing;
+  StageClock clock(load_timing);
+  auto mesh_in = describe_input("mesh", mesh_path);
+  if (!mesh_in) return mesh_in.error();
+  auto mesh = load_mesh(mesh_path);
+  if (!mesh) return mesh.error();
+  clock.lap("load");
+  auto part = prepare_part(std::move(*mesh), mesh_path.stem().string(), std::move(*mesh_in), printer, settings);
+  if (!part) return part.error();
+  part->timings.insert(part->timings.begin(), load_timing.begin(), load_timing.end());
+  return part;
+}
+
+Result<GcodeInput> read_gcode_input(const std::filesystem::path& gcode_path) {
+  GcodeInput g;
+  auto in = describe_input("gcode", gcode_path, &g.text);
+  if (!in) return in.error();
+  g.inputs.push_back(*in);
+  g.name = gcode_path.string();
+  g.source = "file";
+  return g;
+}
+
+Result<SliceSettings> verify_slice_settings(const VerifySettings& settings, std::vector<VerifyInput>* inputs) {
+  SliceSettings slice_settings;
+  if (!settings.slice_config_ini.empty()) {
+    std::string ini_text;
+    auto ini_in = describe_input("slice_config", settings.slice_config_ini, &ini_text);
+    if (!ini_in) return ini_in.error();
+    if (inputs != nullptr) inputs->push_back(*ini_in);
+    auto applied = apply_prusa_ini(slice_settings, ini_text, settings.slice_config_ini);
+    if (!applied) return applied.error();
+  }
+  for (const auto& [key, value] : settings.slice_overrides)
+    if (auto st = set_slice_setting(slice_settings, key, value); !st) return st.error();
+  if (auto st = validate_slice_settings(slice_settings); !st) return st.error();
+  return slice_settings;
+}
+
+Result<GcodeInput> slice_for_verify(const PreparedPart& part, const PrinterProfile& printer,
+                                    const SliceSettings& settings, std::string label) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto sliced = slice_mesh(part.mesh, printer, settings);
+  if (!sliced) return sliced.error();
+  GcodeInput g;
+  g.text = std::move(sliced->gcode);
+  g.name = label.empty() ? part.name + ".gcode (printtwin slice)" : std::move(label);
+  g.source = "printtwin slice";
+  g.inputs.push_back({"gcode", g.name, sha256_hex(g.text), g.text.size()});
+  g.findings = std::move(sliced->findings);
+  g.slice_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return g;
+}
+
+Result<VerifyReport> verify_gcode(const PreparedPart& part, const PrinterProfile& printer,
+                                  const VerifySettings& settings, GcodeInput gcode,
+                                  bool include_part_timings,
+                                  const std::function<void(std::string_view)>& on_stage) {
+  auto stage = [&](std::string_view name) {
+    if (on_stage) on_stage(name);
+  };
+  if (auto st = validate_verify_settings(settings); !st) return st.error();
   VerifyReport report;
   report.tool_version = kVersion;
   report.settings = settings;
-  report.part_name = options.mesh_path.stem().string();
-  StageClock clock(report.timings);
-
-  // Inputs.
-  auto mesh_in = describe_input("mesh", options.mesh_path);
-  if (!mesh_in) return mesh_in.error();
-  report.inputs.push_back(*mesh_in);
-  auto mesh = load_mesh(options.mesh_path);
-  if (!mesh) return mesh.error();
-  auto printer = load_printer_profile(settings.printer);
-  if (!printer) return printer.error();
+  report.settings.gcode_source = gcode.source;
+  report.part_name = part.name;
+  report.inputs.push_back(part.mesh_input);
   if (std::filesystem::exists(settings.printer)) {
     auto printer_in = describe_input("printer", settings.printer);
     if (!printer_in) return printer_in.error();
@@ -109,68 +215,27 @@ Result<VerifyReport> verify(const VerifyOptions& options) {
   } else {
     report.inputs.push_back({"printer", settings.printer, "", 0});
   }
-  clock.lap("load");
-
-  // Check.
-  CheckSettings check_settings;
-  check_settings.self_intersections = mesh->triangles.size() <= 50000;
-  auto check = check_printability(*mesh, *printer, check_settings);
-  if (!check) return check.error();
-  report.check.triangles = check->health.triangles;
-  report.check.vertices = check->health.vertices;
-  report.check.volume_mm3 = check->health.volume_mm3;
-  report.check.area_mm2 = check->health.area_mm2;
-  report.check.bbox_mm = check->health.bbox_mm;
-  report.check.watertight = check->health.closed;
-  count_severities(check->findings, report.check.errors, report.check.warnings, report.check.infos);
-  report.findings.insert(report.findings.end(), check->findings.begin(), check->findings.end());
-  clock.lap("check");
-
-  // G-code: the given file, or our own slice of the mesh.
-  std::string gcode_text;
-  std::string gcode_name;
-  const VerifySettings& vs = options.settings;
-  if (!options.gcode_path.empty() && (!vs.slice_config_ini.empty() || !vs.slice_overrides.empty()))
-    return usage_error("slicer settings (--set, --config) apply only when printtwin slices the part; "
-                       "drop --gcode or the settings");
-  if (!options.gcode_path.empty()) {
-    auto gcode_in = describe_input("gcode", options.gcode_path, &gcode_text);
-    if (!gcode_in) return gcode_in.error();
-    report.inputs.push_back(*gcode_in);
-    gcode_name = options.gcode_path.string();
-  } else {
-    SliceSettings slice_settings;
-    if (!vs.slice_config_ini.empty()) {
-      std::string ini_text;
-      auto ini_in = describe_input("slice_config", vs.slice_config_ini, &ini_text);
-      if (!ini_in) return ini_in.error();
-      report.inputs.push_back(*ini_in);
-      auto applied = apply_prusa_ini(slice_settings, ini_text, vs.slice_config_ini);
-      if (!applied) return applied.error();
-    }
-    for (const auto& [key, value] : vs.slice_overrides)
-      if (auto st = set_slice_setting(slice_settings, key, value); !st) return st.error();
-    if (auto st = validate_slice_settings(slice_settings); !st) return st.error();
-    auto sliced = slice_mesh(*mesh, *printer, slice_settings);
-    if (!sliced) return sliced.error();
-    gcode_text = std::move(sliced->gcode);
-    gcode_name = report.part_name + ".gcode (printtwin slice)";
-    report.settings.gcode_source = "printtwin slice";
-    report.inputs.push_back({"gcode", gcode_name, sha256_hex(gcode_text), gcode_text.size()});
-    report.findings.insert(report.findings.end(), sliced->findings.begin(), sliced->findings.end());
-    clock.lap("slice");
-  }
+  for (auto& in : gcode.inputs) report.inputs.push_back(std::move(in));
+  if (include_part_timings) report.timings = part.timings;
+  if (gcode.source == "printtwin slice") report.timings.push_back({"slice", gcode.slice_time_s});
+  report.check = part.check;
+  report.findings = part.check_findings;
+  for (auto& f : gcode.findings) report.findings.push_back(std::move(f));
+  StageClock clock(report.timings);
 
   // Simulate, collecting the moves.
+  stage("simulate");
   CollectMoves collector;
   SimulateOptions sim_options;
-  sim_options.source_name = gcode_name;
-  std::istringstream gcode_stream(std::move(gcode_text));
-  auto sim = simulate_gcode(gcode_stream, *printer, sim_options, &collector);
+  sim_options.source_name = gcode.name;
+  auto sim = [&] {
+    std::istringstream gcode_stream(std::move(gcode.text));
+    return simulate_gcode(gcode_stream, printer, sim_options, &collector);
+  }();
   if (!sim) return sim.error();
   {
     SimulationSummary& s = report.simulation;
-    s.slicer = sim->slicer;
+    s.slicer = gcode.source == "printtwin slice" ? std::string("printtwin") : sim->slicer;
     s.gcode_lines = static_cast<std::size_t>(sim->lines);
     s.moves = static_cast<std::size_t>(sim->moves);
     for (const auto& m : collector.moves) s.extrusion_moves += m.kind == MoveKind::extrude ? 1 : 0;
@@ -184,38 +249,47 @@ Result<VerifyReport> verify(const VerifyOptions& options) {
   }
   clock.lap("simulate");
 
+  // Registration: where the slicer put the part.
+  const PartExtent extent = find_part_extent(collector.moves);
+  Vec3 offset = Vec3::Zero();
+  std::string method;
+  if (settings.place_mm) {
+    offset = *settings.place_mm;
+    method = "--place";
+  } else {
+    if (extent.moves == 0)
+      return bad_input("the G-code has no extrusion of the part to register the mesh against", gcode.name);
+    offset = registration_offset(part.mesh, extent);
+    method = "auto (" + extent.method + ")";
+  }
+
   // Deposit.
+  stage("deposit");
   DepositSettings dep_settings;
   dep_settings.voxel_mm = settings.voxel_mm;
-  auto deposit = deposit_moves(collector.moves, *printer, dep_settings);
+  auto deposit = deposit_moves(collector.moves, printer, dep_settings);
   if (!deposit) return deposit.error();
+  collector.moves = {};
   report.deposit.voxel_mm = deposit->voxel_mm;
   report.deposit.voxels = deposit->voxels;
   report.deposit.volume_mm3 = deposit->volume_mm3;
   report.deposit.extruded_volume_mm3 = deposit->extruded_mm3;
   report.deposit.bbox_mm = deposit->bbox_mm;
+  report.deposit.part_bbox_mm = extent.bbox_mm;
   report.deposit.memory_bytes = deposit->memory_bytes;
   report.findings.insert(report.findings.end(), deposit->findings.begin(), deposit->findings.end());
   clock.lap("deposit");
 
-  // Registration and deviation.
-  const PartExtent part = find_part_extent(collector.moves);
-  report.deposit.part_bbox_mm = part.bbox_mm;
-  collector.moves = {};
-  Vec3 offset = registration_offset(*mesh, part);
-  std::string method = "auto (" + (part.method.empty() ? std::string("no extrusions") : part.method) + ")";
-  if (settings.place_mm) {
-    offset = *settings.place_mm;
-    method = "--place";
-  }
-  report.placed_mesh = translated(std::move(*mesh), offset);
+  // Deviation.
+  stage("deviation");
+  report.placed_mesh = translated(part.mesh, offset);
   DeviationSettings dev_settings;
   dev_settings.tolerance_mm = settings.gates.tolerance_mm;
   dev_settings.mesh_sample_spacing_mm = settings.mesh_sample_spacing_mm;
   dev_settings.seed = settings.seed;
   dev_settings.max_regions = settings.max_regions;
   dev_settings.keep_samples = true;
-  auto dev = compute_deviation(report.placed_mesh, deposit->grid, dev_settings, part.bbox_mm);
+  auto dev = compute_deviation(report.placed_mesh, deposit->grid, dev_settings, extent.bbox_mm);
   if (!dev) return dev.error();
   report.deviation = std::move(*dev);
   report.deviation.registration_offset_mm = offset;
@@ -223,26 +297,34 @@ Result<VerifyReport> verify(const VerifyOptions& options) {
   report.deposit.surface_voxels = report.deviation.surface_voxels;
   clock.lap("deviation");
 
-  // One finding per region, so CI logs and JUnit name every defect.
-  for (const auto& r : report.deviation.regions) {
-    Finding f;
-    f.severity = Severity::warning;
-    const bool missing = r.kind == RegionKind::missing;
-    f.code = missing ? "deviation_missing" : "deviation_excess";
-    f.message = std::string(missing ? "material missing" : "excess material") + ": " +
-                format_fixed(r.area_mm2, 2) + " mm2, worst " + fmt_mm(r.worst_mm) + " mm, layers " +
-                std::to_string(r.layer_min) + "-" + std::to_string(r.layer_max) + " (tolerance " +
-                fmt_mm(settings.gates.tolerance_mm) + " mm)";
-    f.position_mm = r.worst_position_mm;
-    f.extent_mm = r.bbox_mm;
-    if (!r.gcode_lines.empty()) f.line = r.gcode_lines.front();
-    if (r.layer_min >= 0) f.layer = r.layer_min;
-    f.value = r.worst_mm;
-    f.count = static_cast<long>(r.samples);
-    report.findings.push_back(std::move(f));
-  }
+  for (const auto& r : report.deviation.regions)
+    report.findings.push_back(region_finding(r, settings.gates.tolerance_mm));
   evaluate_gates(report);
   return report;
+}
+
+Result<VerifyReport> verify(const VerifyOptions& options) {
+  const VerifySettings& settings = options.settings;
+  if (auto st = validate_verify_settings(settings); !st) return st.error();
+  if (!options.gcode_path.empty() && (!settings.slice_config_ini.empty() || !settings.slice_overrides.empty()))
+    return usage_error("slicer settings (--set, --config) apply only when printtwin slices the part; "
+                       "drop --gcode or the settings");
+  auto printer = load_printer_profile(settings.printer);
+  if (!printer) return printer.error();
+  auto part = prepare_part(options.mesh_path, *printer, settings);
+  if (!part) return part.error();
+  Result<GcodeInput> gcode = [&]() -> Result<GcodeInput> {
+    if (!options.gcode_path.empty()) return read_gcode_input(options.gcode_path);
+    std::vector<VerifyInput> ini_inputs;
+    auto slice_settings = verify_slice_settings(settings, &ini_inputs);
+    if (!slice_settings) return slice_settings.error();
+    auto g = slice_for_verify(*part, *printer, *slice_settings);
+    if (!g) return g.error();
+    g->inputs.insert(g->inputs.begin(), ini_inputs.begin(), ini_inputs.end());
+    return g;
+  }();
+  if (!gcode) return gcode.error();
+  return verify_gcode(*part, *printer, settings, std::move(*gcode));
 }
 
 }  // namespace printtwin

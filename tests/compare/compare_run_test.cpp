@@ -85,7 +85,7 @@ TEST_F(CompareRun, SharedPartKnowsTheSlope) {
   EXPECT_NEAR(part_->info.sloped_area_mm2, 10 * std::sqrt(2.0) * 8, 1e-9);
   EXPECT_NEAR(part_->info.volume_mm3, (12 * 10 - 0.5 * 10 * 10) * 8, 1e-9);
   EXPECT_EQ(std::count(part_->sloped.begin(), part_->sloped.end(), 1), 2);
-  EXPECT_TRUE(part_->check.watertight);
+  EXPECT_TRUE(part_->prepared.check.watertight);
 }
 
 TEST_F(CompareRun, FinerLayersTakeLongerAndFollowTheSlopeCloser) {
