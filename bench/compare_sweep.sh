@@ -2,8 +2,8 @@
 # A 4-variant layer-height sweep of a 20 mm-cube-sized part, three ways, whole process
 # against whole process (wall time, median of RUNS):
 #   sweep     one `printtwin compare --vary layer_height=0.1,0.15,0.2,0.3`
-#   verify    4 x (`printtwin slice part --layer-height h` + `printtwin verify part --gcode`),
-#             what a user runs without compare (when the verify subcommand exists)
+#   verify    4 x `printtwin verify part --set layer_height=h` (verify slices the part
+#             itself): what a user runs without compare
 #   single    4 separate one-variant `printtwin compare` runs (the same pipeline without the
 #             sharing across variants)
 # Usage: bench/compare_sweep.sh [build-dir] [part.stl]
@@ -49,9 +49,8 @@ if "$cli" verify --help > /dev/null 2>&1; then have_verify=1; fi
 run_verifies() {
   local h
   for h in "${heights[@]}"; do
-    timed "$cli" slice "$part" --layer-height "$h" -o "$tmp/verify-$h.gcode" > /dev/null
-    # exit 1 = the part failed its gates: still a full run
-    timed "$cli" verify "$part" --gcode "$tmp/verify-$h.gcode" --voxel "$voxel" --out "$tmp/verify-$h" \
+    # verify slices the part itself; exit 1 = the part failed its gates: still a full run
+    timed "$cli" verify "$part" --set "layer_height=$h" --voxel "$voxel" --out "$tmp/verify-$h" \
       > /dev/null || true
   done
 }
@@ -73,7 +72,7 @@ printf '%-44s %9.2f %9.2f   sweep/this: wall %.2f, CPU %.2f\n' "4 one-variant co
   "$(echo "$sw / $gw" | bc -l)" "$(echo "$sc / $gc" | bc -l)"
 if [ "$have_verify" = 1 ]; then
   vw=$(col 1 "${verifies[@]}"); vc=$(col 2 "${verifies[@]}")
-  printf '%-44s %9.2f %9.2f   sweep/this: wall %.2f, CPU %.2f\n' "4 x (slice + verify) processes" "$vw" "$vc" \
+  printf '%-44s %9.2f %9.2f   sweep/this: wall %.2f, CPU %.2f\n' "4 verify processes (--set layer_height=h)" "$vw" "$vc" \
     "$(echo "$sw / $vw" | bc -l)" "$(echo "$sc / $vc" | bc -l)"
 else
   echo "(this build has no verify subcommand: verify runs not measured)"
