@@ -8,6 +8,7 @@
 #include <sys/resource.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <numbers>
 #include <string>
@@ -18,6 +19,23 @@
 
 namespace printtwin {
 namespace {
+
+/// Checksum of every occupied voxel and its tag (FNV-1a over keys and tag fields, in the
+/// grid's fixed order), 48 bits so that a double counter holds it exactly: two builds that
+/// deposit the same voxels with the same tags print the same number.
+double grid_checksum(const VoxelGrid& g) {
+  std::uint64_t h = 1469598103934665603ull;
+  auto mix = [&h](std::uint64_t v) {
+    h ^= v;
+    h *= 1099511628211ull;
+  };
+  g.for_each([&](const VoxelKey& k, const VoxelTag& t) {
+    mix(static_cast<std::uint32_t>(k.x) | static_cast<std::uint64_t>(static_cast<std::uint32_t>(k.y)) << 32);
+    mix(static_cast<std::uint32_t>(k.z) | static_cast<std::uint64_t>(t.line) << 32);
+    mix(static_cast<std::uint64_t>(static_cast<std::uint32_t>(t.layer)) << 8 | static_cast<std::uint64_t>(t.feature));
+  });
+  return static_cast<double>(h & ((std::uint64_t{1} << 48) - 1));
+}
 
 double peak_rss_mb() {
   rusage u{};
@@ -113,7 +131,7 @@ void BM_DepositSyntheticPart(benchmark::State& state) {
   DepositSettings s;
   s.voxel_mm = 0.05;
   std::size_t voxels = 0;
-  double ratio = 0;
+  double ratio = 0, checksum = 0;
   for (auto _ : state) {
     auto r = deposit_moves(moves, profile, s);
     if (!r) {
@@ -122,7 +140,11 @@ void BM_DepositSyntheticPart(benchmark::State& state) {
     }
     voxels = r->voxels;
     ratio = (r->volume_mm3 + r->overlap_mm3) / r->extruded_mm3;
+    state.PauseTiming();
+    checksum = grid_checksum(r->grid);
+    state.ResumeTiming();
   }
+  state.counters["checksum"] = checksum;
   state.SetItemsProcessed(static_cast<std::int64_t>(voxels * state.iterations()));
   state.counters["voxels"] = static_cast<double>(voxels);
   state.counters["deposited_plus_overlap_over_extruded"] = ratio;
@@ -194,6 +216,7 @@ void BM_DepositOnly(benchmark::State& state) {
   DepositSettings s;
   s.max_memory_bytes = std::size_t{8} << 30;
   std::size_t voxels = 0;
+  double checksum = 0, overlap = 0;
   for (auto _ : state) {
     auto r = deposit_moves(*moves, profile, s);
     if (!r) {
@@ -201,9 +224,15 @@ void BM_DepositOnly(benchmark::State& state) {
       return;
     }
     voxels = r->voxels;
+    overlap = r->overlap_mm3;
+    state.PauseTiming();
+    checksum = grid_checksum(r->grid);
+    state.ResumeTiming();
   }
   state.SetItemsProcessed(static_cast<std::int64_t>(voxels * state.iterations()));
   state.counters["voxels"] = static_cast<double>(voxels);
+  state.counters["overlap_mm3"] = overlap;
+  state.counters["checksum"] = checksum;
 }
 BENCHMARK(BM_DepositOnly)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3);
 

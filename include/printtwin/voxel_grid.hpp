@@ -59,7 +59,8 @@ class VoxelGrid {
 
   /// Occupied voxels.
   [[nodiscard]] std::size_t count() const;
-  /// Bytes allocated for blocks and the directory.
+  /// Bytes of the blocks in use, the directory and the tag table (chunks of blocks are
+  /// reserved as address space; their pages become resident as blocks are used).
   [[nodiscard]] std::size_t memory_bytes() const;
   /// Bytes a grid of `dims` needs for its directory plus `occupied_voxels` spread over blocks
   /// (an estimate, used for the --max-memory check before allocation).
@@ -88,6 +89,13 @@ class VoxelGrid {
   /// Same along Y: voxels y0..y1-1 of the column (x, z).
   std::size_t fill_column(std::int32_t x, std::int32_t z, std::int32_t y0, std::int32_t y1,
                           std::uint32_t tag_index);
+  /// Like fill_row, for the voxels x0 + t (t in 0..x1-x0-1) whose byte inside[t] is 1 (bytes
+  /// are 0 or 1). Returns how many of the set voxels were empty before.
+  std::size_t fill_row_masked(std::int32_t y, std::int32_t z, std::int32_t x0, std::int32_t x1,
+                              const std::uint8_t* inside, std::uint32_t tag_index);
+  /// Same along Y: voxels y0 + t of the column (x, z) whose byte inside[t] is 1.
+  std::size_t fill_column_masked(std::int32_t x, std::int32_t z, std::int32_t y0, std::int32_t y1,
+                                 const std::uint8_t* inside, std::uint32_t tag_index);
   /// Pre-allocates room for `blocks` blocks (no effect on count()).
   void reserve_blocks(std::size_t blocks);
   /// Allocated blocks.

@@ -20,6 +20,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <optional>
 
@@ -37,22 +38,17 @@ constexpr double kRegionGapMm = 1.0;         // unsupported stretches this close
 constexpr std::size_t kMaxClustered = 4000;  // beyond this, one finding per layer and kind
 
 /// Fixed pseudo-random sample point of voxel (i, j, k), in (0,1)^3 inside the voxel
-/// (10 bits per axis from an integer hash of the key).
-struct Jitter {
-  double x, y, z;
-};
-inline Jitter jitter_of(std::int32_t i, std::int32_t j, std::int32_t k) {
-  std::uint32_t h = static_cast<std::uint32_t>(i) * 0x8da6b343u ^ static_cast<std::uint32_t>(j) * 0xd8163841u ^
-                    static_cast<std::uint32_t>(k) * 0xcb1ab31fu;
+/// (10 bits per axis from an integer hash of the key): bits 0-9 give x, 10-19 y, 20-29 z of
+/// jitter_hash(i * kHashX ^ j * kHashY ^ k * kHashZ), each as (bits + 0.5) / 1024.
+constexpr std::uint32_t kHashX = 0x8da6b343u, kHashY = 0xd8163841u, kHashZ = 0xcb1ab31fu;
+constexpr double kJitterScale = 1.0 / 1024.0;
+inline std::uint32_t jitter_hash(std::uint32_t h) {
   h ^= h >> 16;
   h *= 0x7feb352du;
   h ^= h >> 15;
   h *= 0x846ca68bu;
   h ^= h >> 16;
-  constexpr double kScale = 1.0 / 1024.0;
-  return {(static_cast<double>(h & 0x3FF) + 0.5) * kScale,
-          (static_cast<double>((h >> 10) & 0x3FF) + 0.5) * kScale,
-          (static_cast<double>((h >> 20) & 0x3FF) + 0.5) * kScale};
+  return h;
 }
 
 /// Nominal layer height: the slicer's `;HEIGHT:` when given, else the Z step from the
@@ -196,10 +192,13 @@ struct DepositBuilder::State {
   VoxelGrid grid;
   std::vector<std::uint16_t> top;  // per column: rows occupied up to (0 = bed/empty)
   int nx = 0, ny = 0, nz = 0;
+  double ox_ = 0, oy_ = 0, oz_ = 0;  // grid origin (mm)
   LayerTracker layers;
   std::optional<PendingBead> pending;
   std::vector<double> gaps_;  // scratch
+  std::vector<double> offsets_;  // scratch: across-bead sample offsets (mm)
   LineIntervals outer_lines_, inner_lines_;  // scratch of sweep()
+  std::vector<std::uint8_t> inside_;          // scratch of sweep(): 1 per voxel of a row
 
   // Support tracking along the current continuous path.
   bool path_has_support = false;
@@ -222,20 +221,37 @@ struct DepositBuilder::State {
         grid(s.voxel_mm, origin, dims),
         nx(dims.x()),
         ny(dims.y()),
-        nz(dims.z()) {
+        nz(dims.z()),
+        ox_(origin.x()),
+        oy_(origin.y()),
+        oz_(origin.z()) {
+    inside_.assign(static_cast<std::size_t>(std::max(nx, ny)) + 8, 0);
     top.assign(static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny), 0);
   }
 
   // -- columns ---------------------------------------------------------------------------
+  /// floor(v) for finite v in int range (std::floor is a library call on baseline x86-64).
+  static int floor_int(double v) {
+    const int i = static_cast<int>(v);
+    return i - (v < static_cast<double>(i) ? 1 : 0);
+  }
+  /// Deposit rows in the column under (x, y) (mm), 0 outside the grid.
+  [[nodiscard]] int top_rows(double x_mm, double y_mm) const {
+    const int i = floor_int((x_mm - ox_) * inv_voxel);
+    const int j = floor_int((y_mm - oy_) * inv_voxel);
+    const bool in = i >= 0 && j >= 0 && i < nx && j < ny;
+    const std::size_t idx = in ? static_cast<std::size_t>(j) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(i) : 0;
+    return in ? top[idx] : 0;
+  }
   /// Height (mm, machine frame) of the deposit top in the column under p, or the grid
   /// bottom (the bed) outside the grid.
-  [[nodiscard]] double top_mm(double x_mm, double y_mm) const {
-    const auto i = static_cast<int>(std::floor((x_mm - grid.origin_mm().x()) * inv_voxel));
-    const auto j = static_cast<int>(std::floor((y_mm - grid.origin_mm().y()) * inv_voxel));
-    double rows = 0;
-    if (i >= 0 && j >= 0 && i < nx && j < ny)
-      rows = top[static_cast<std::size_t>(j) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(i)];
-    return grid.origin_mm().z() + rows * voxel;
+  [[nodiscard]] double top_mm(double x_mm, double y_mm) const { return oz_ + top_rows(x_mm, y_mm) * voxel; }
+  /// Smallest row count r with oz + r * voxel >= z_mm (the same comparison top_mm makes).
+  [[nodiscard]] int rows_reaching(double z_mm) const {
+    int r = static_cast<int>(std::ceil((z_mm - oz_) * inv_voxel));
+    while (r > 0 && oz_ + (r - 1) * voxel >= z_mm) --r;
+    while (!(oz_ + r * voxel >= z_mm)) ++r;
+    return std::max(r, 0);
   }
 
   // -- moves -----------------------------------------------------------------------------
@@ -343,14 +359,14 @@ struct DepositBuilder::State {
     const int across = std::max(3, static_cast<int>(std::ceil(w * inv_voxel)));
     const double tol = 0.5 * h;
     const double step_mm = len_mm / samples;
+    offsets_.resize(static_cast<std::size_t>(across));
+    for (int j = 0; j < across; ++j) offsets_[static_cast<std::size_t>(j)] = -0.5 * w + (j + 0.5) * w / across;
     for (int i = 0; i < samples; ++i) {
       const Vec3 q = a + ((i + 0.5) / samples) * (b - a);
       const double bottom = q.z() - h;
+      const int need_rows = rows_reaching(bottom - tol);
       int held = 0;
-      for (int j = 0; j < across; ++j) {
-        const double s = -0.5 * w + (j + 0.5) * w / across;
-        if (top_mm(q.x() + s * n.x(), q.y() + s * n.y()) >= bottom - tol) ++held;
-      }
+      for (const double s : offsets_) held += top_rows(q.x() + s * n.x(), q.y() + s * n.y()) >= need_rows ? 1 : 0;
       const bool supported = held >= settings.support_fraction * across - 1e-9;
       if (supported) {
         close_stretch(true);
@@ -409,17 +425,6 @@ struct DepositBuilder::State {
     const std::uint32_t tag = pb.tag;
 
     const double r2 = r * r;
-    auto inside = [&](double x, double y, double z) {  // major, minor, z (voxel units)
-      const double rx = x - a2.x(), ry = y - a2.y();
-      if (m02.x() * rx + m02.y() * ry < 0) return false;
-      if (m12.x() * (x - b2.x()) + m12.y() * (y - b2.y()) >= 0) return false;
-      const double u = d2.x() * rx + d2.y() * ry;
-      const double dz = z - (a.z() + slope * u - r);
-      if (dz < -r || dz >= r) return false;
-      const double s = std::abs(n2.x() * rx + n2.y() * ry) - flat;  // beyond the flat part
-      return s <= 0 || s * s + dz * dz <= r2;
-    };
-
     const int k_lo = std::max(0, static_cast<int>(std::floor(zt_lo - hh)));
     const int k_hi = std::min(nz - 1, static_cast<int>(std::ceil(zt_hi)) - 1);
     Footprint outer, inner;
@@ -475,40 +480,57 @@ struct DepositBuilder::State {
             if (c_lo <= c_hi) f_lo = c_lo, f_hi = c_hi;
           }
         }
-        for (int i = i_lo; i <= i_hi; ++i) {
-          if (i == f_lo) {
-            fill(swap, i, f_hi + 1, j, k, tag);
-            i = f_hi;
-            continue;
+        // One byte per cell of the row: cells fully inside are set, the others test their
+        // sample point (branch-free: whether a boundary sample falls inside is a coin toss).
+        std::uint8_t* in = inside_.data() - i_lo;
+        std::size_t laid = 0;
+        const std::uint32_t hash_row =
+            swap ? static_cast<std::uint32_t>(j) * kHashX ^ static_cast<std::uint32_t>(k) * kHashZ
+                 : static_cast<std::uint32_t>(j) * kHashY ^ static_cast<std::uint32_t>(k) * kHashZ;
+        const std::uint32_t hash_major = swap ? kHashY : kHashX;
+        auto test = [&](int i0, int i1) {
+          for (int i = i0; i < i1; ++i) {
+            const std::uint32_t h = jitter_hash(static_cast<std::uint32_t>(i) * hash_major ^ hash_row);
+            const double jx = (static_cast<double>(h & 0x3FF) + 0.5) * kJitterScale;
+            const double jy = (static_cast<double>((h >> 10) & 0x3FF) + 0.5) * kJitterScale;
+            const double jz = (static_cast<double>((h >> 20) & 0x3FF) + 0.5) * kJitterScale;
+            const double x = swap ? i + jy : i + jx;
+            const double y = swap ? j + jx : j + jy;
+            const double z = k + jz;
+            const double rx = x - a2.x(), ry = y - a2.y();
+            const bool after_start = m02.x() * rx + m02.y() * ry >= 0;
+            const bool before_end = m12.x() * (x - b2.x()) + m12.y() * (y - b2.y()) < 0;
+            const double u = d2.x() * rx + d2.y() * ry;
+            const double dz = z - (a.z() + slope * u - r);
+            const double sd = std::abs(n2.x() * rx + n2.y() * ry) - flat;  // beyond the flat part
+            const bool ok = after_start & before_end & (dz >= -r) & (dz < r) & ((sd <= 0) | (sd * sd + dz * dz <= r2));
+            in[i] = static_cast<std::uint8_t>(ok);
+            laid += ok ? 1u : 0u;
           }
-          const int gx = swap ? j : i, gy = swap ? i : j;
-          const Jitter jt = jitter_of(gx, gy, k);
-          const double px = swap ? i + jt.y : i + jt.x;
-          const double py = swap ? j + jt.x : j + jt.y;
-          if (inside(px, py, k + jt.z)) set_one(gx, gy, k, tag);
+        };
+        if (f_lo <= f_hi) {
+          test(i_lo, f_lo);
+          std::memset(in + f_lo, 1, static_cast<std::size_t>(f_hi - f_lo + 1));
+          laid += static_cast<std::size_t>(f_hi - f_lo + 1);
+          test(f_hi + 1, i_hi + 1);
+        } else {
+          test(i_lo, i_hi + 1);
+        }
+        if (laid == 0) continue;
+        const std::uint16_t k1 = static_cast<std::uint16_t>(k + 1);
+        if (!swap) {
+          overlap_voxels += laid - grid.fill_row_masked(j, k, i_lo, i_hi + 1, in + i_lo, tag);
+          std::uint16_t* t = top.data() + static_cast<std::size_t>(j) * static_cast<std::size_t>(nx);
+          for (int i = i_lo; i <= i_hi; ++i) t[i] = std::max(t[i], static_cast<std::uint16_t>(in[i] * k1));
+        } else {
+          overlap_voxels += laid - grid.fill_column_masked(j, k, i_lo, i_hi + 1, in + i_lo, tag);
+          std::uint16_t* t = top.data() + static_cast<std::size_t>(j);
+          for (int i = i_lo; i <= i_hi; ++i) {
+            std::uint16_t& c = t[static_cast<std::size_t>(i) * static_cast<std::size_t>(nx)];
+            c = std::max(c, static_cast<std::uint16_t>(in[i] * k1));
+          }
         }
       }
-    }
-  }
-
-  void raise_top(int gx, int gy, int k) {
-    auto& t = top[static_cast<std::size_t>(gy) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(gx)];
-    t = std::max<std::uint16_t>(t, static_cast<std::uint16_t>(k + 1));
-  }
-  void set_one(int gx, int gy, int k, std::uint32_t tag) {
-    if (!grid.set_index(VoxelKey{gx, gy, k}, tag)) ++overlap_voxels;
-    raise_top(gx, gy, k);
-  }
-  /// Fills major-axis cells [i0, i1) of minor row j, layer k.
-  void fill(bool swap, int i0, int i1, int j, int k, std::uint32_t tag) {
-    if (!swap) {
-      const std::size_t fresh = grid.fill_row(j, k, i0, i1, tag);
-      overlap_voxels += static_cast<std::size_t>(i1 - i0) - fresh;
-      for (int i = i0; i < i1; ++i) raise_top(i, j, k);
-    } else {
-      const std::size_t fresh = grid.fill_column(j, k, i0, i1, tag);
-      overlap_voxels += static_cast<std::size_t>(i1 - i0) - fresh;
-      for (int i = i0; i < i1; ++i) raise_top(j, i, k);
     }
   }
 
