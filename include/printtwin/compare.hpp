@@ -49,7 +49,6 @@
 #include "printtwin/geometry.hpp"
 #include "printtwin/machine.hpp"
 #include "printtwin/mesh.hpp"
-#include "printtwin/mesh_query.hpp"
 #include "printtwin/result.hpp"
 #include "printtwin/verify.hpp"
 
@@ -293,18 +292,17 @@ struct CompareHtmlOptions {
 // ---------------------------------------------------------------- running
 
 /// What every variant shares, built once: the part as `verify` prepares it (mesh in its own
-/// frame, its check, the design side of the deviation), a BVH over it and the slope class of
-/// each triangle. Each variant's registration only translates the mesh, so queries subtract
+/// frame, its check, the design side of the deviation: BVH, pseudo-normals, surface samples)
+/// and the slope class of each triangle. Each variant's registration only translates the mesh, so queries subtract
 /// the variant's offset.
 struct SharedPart {
   PreparedPart prepared;
   ComparePartInfo info;
   std::vector<std::uint8_t> sloped;  ///< 1 per triangle counted as sloped
-  std::shared_ptr<const MeshQuery> query;  ///< BVH of the mesh (own frame)
   double build_time_s = 0;
 };
 
-/// Loads and checks the mesh, builds the BVH, the deviation target (with `settings`' sample
+/// Loads and checks the mesh, builds the deviation target (with `settings`' sample
 /// spacing and seed) and the slope classes.
 [[nodiscard]] Result<SharedPart> prepare_shared_part(const std::filesystem::path& mesh_path,
                                                      const PrinterProfile& printer,

@@ -11,6 +11,7 @@
 
 #include "printtwin/compare.hpp"
 #include "printtwin/deviation.hpp"
+#include "printtwin/mesh_query.hpp"
 #include "printtwin/io.hpp"
 #include "printtwin/slice.hpp"
 #include "printtwin/version.hpp"
@@ -142,9 +143,6 @@ Result<SharedPart> share(PreparedPart prepared, std::string path, Clock::time_po
     }
   }
 
-  auto query = MeshQuery::build(mesh);
-  if (!query) return query.error();
-  p.query = std::make_shared<const MeshQuery>(std::move(*query));
   p.prepared = std::move(prepared);
   p.build_time_s = seconds_since(t0);
   return p;
@@ -223,12 +221,9 @@ Result<CompareResult> run_compare(const SharedPart& part, const ComparePlan& pla
 
   CompareResult out = make_compare_result(part, plan);
 
-  // Mesh samples as the deviation stage will draw them, once for every variant.
-  // (compute_deviation's rule: the given spacing, else twice the voxel; a mismatch only costs
-  // time, mesh_sample_triangles then falls back to the BVH.)
-  const double spacing_mm = plan.verify.mesh_sample_spacing_mm > 0 ? plan.verify.mesh_sample_spacing_mm
-                                                                   : 2.0 * plan.verify.voxel_mm;
-  const std::vector<SurfaceSample> shared_samples = sample_surface(part.prepared.mesh, spacing_mm, plan.verify.seed);
+  // The deviation target of the part (built once) holds the BVH and the mesh samples every
+  // variant's deviation used; the slope figures look up triangles through them.
+  const DeviationTarget& target = *part.prepared.target;
   const double near_mm = std::max(4 * plan.verify.voxel_mm, 2 * plan.verify.gates.tolerance_mm);
 
   CompareProgress progress;
@@ -253,8 +248,8 @@ Result<CompareResult> run_compare(const SharedPart& part, const ComparePlan& pla
       on_stage("slopes");
       const Vec3 offset = report->deviation.registration_offset_mm;
       const auto dep_tri =
-          nearest_triangles(*part.query, report->deviation.deposit_samples, offset, near_mm);
-      const auto mesh_tri = mesh_sample_triangles(*part.query, shared_samples,
+          nearest_triangles(target.query(), report->deviation.deposit_samples, offset, near_mm);
+      const auto mesh_tri = mesh_sample_triangles(target.query(), target.samples(),
                                                   report->deviation.mesh_samples, offset, near_mm);
       double density = plan.filament_density_g_cm3;
       if (spec.kind == VariantKind::slicer)

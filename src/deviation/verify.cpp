@@ -91,6 +91,16 @@ Status validate_verify_settings(const VerifySettings& settings) {
   return Ok{};
 }
 
+DeviationSettings deviation_settings_of(const VerifySettings& settings) {
+  DeviationSettings d;
+  d.tolerance_mm = settings.gates.tolerance_mm;
+  d.mesh_sample_spacing_mm = settings.mesh_sample_spacing_mm;
+  d.seed = settings.seed;
+  d.max_regions = settings.max_regions;
+  d.keep_samples = true;
+  return d;
+}
+
 /// One finding per deviation region, so CI logs and JUnit name every defect.
 Finding region_finding(const DeviationRegion& r, double tolerance_mm) {
   Finding f;
@@ -115,7 +125,7 @@ Finding region_finding(const DeviationRegion& r, double tolerance_mm) {
 Result<PreparedPart> prepare_part(Mesh mesh, std::string name, VerifyInput mesh_input,
                                   const PrinterProfile& printer, const VerifySettings& settings) {
   if (mesh.triangles.empty()) return bad_input("the mesh has no triangles", mesh_input.path);
-  (void)settings;
+  if (auto st = validate_verify_settings(settings); !st) return st.error();
   PreparedPart part;
   part.name = std::move(name);
   part.mesh_input = std::move(mesh_input);
@@ -134,6 +144,10 @@ Result<PreparedPart> prepare_part(Mesh mesh, std::string name, VerifyInput mesh_
   count_severities(check->findings, c.errors, c.warnings, c.infos);
   part.check_findings = std::move(check->findings);
   clock.lap("check");
+  auto target = DeviationTarget::build(mesh, deviation_settings_of(settings), settings.voxel_mm);
+  if (!target) return target.error();
+  part.target = std::make_shared<const DeviationTarget>(std::move(*target));
+  clock.lap("index");
   part.mesh = std::move(mesh);
   return part;
 }
@@ -283,13 +297,11 @@ Result<VerifyReport> verify_gcode(const PreparedPart& part, const PrinterProfile
   // Deviation.
   stage("deviation");
   report.placed_mesh = translated(part.mesh, offset);
-  DeviationSettings dev_settings;
-  dev_settings.tolerance_mm = settings.gates.tolerance_mm;
-  dev_settings.mesh_sample_spacing_mm = settings.mesh_sample_spacing_mm;
-  dev_settings.seed = settings.seed;
-  dev_settings.max_regions = settings.max_regions;
-  dev_settings.keep_samples = true;
-  auto dev = compute_deviation(report.placed_mesh, deposit->grid, dev_settings, extent.bbox_mm);
+  const DeviationSettings dev_settings = deviation_settings_of(settings);
+  // The part's prepared target (built once, shared by compare's variants), else one for
+  // this call.
+  auto dev = part.target ? compute_deviation(*part.target, offset, deposit->grid, dev_settings, extent.bbox_mm)
+                         : compute_deviation(report.placed_mesh, deposit->grid, dev_settings, extent.bbox_mm);
   if (!dev) return dev.error();
   report.deviation = std::move(*dev);
   report.deviation.registration_offset_mm = offset;

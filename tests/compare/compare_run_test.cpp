@@ -9,6 +9,7 @@
 #include "printtwin/compare.hpp"
 #include "printtwin/io.hpp"
 #include "printtwin/mesh.hpp"
+#include "printtwin/verify.hpp"
 #include "support/test_support.hpp"
 
 namespace printtwin {
@@ -137,6 +138,30 @@ TEST_F(CompareRun, SharesMergeIntoTheWholeRun) {
   ASSERT_TRUE(merged.ok()) << merged.error().describe();
   // Deterministic variants: the merged table is the whole run's, byte for byte (timings aside).
   EXPECT_EQ(without_timing(compare_json(*merged)), without_timing(compare_json(*whole_)));
+}
+
+TEST_F(CompareRun, AVariantIsWhatVerifyMeasuresWithTheSameSettings) {
+  ASSERT_NE(whole_, nullptr);
+  const auto dir = test::temp_dir("compare_vs_verify");
+  const auto stl = dir / "wedge.stl";
+  ASSERT_TRUE(save_stl(make_wedge(), stl).ok());
+  VerifyOptions options;
+  options.mesh_path = stl;
+  options.settings = plan_->verify;
+  options.settings.slice_overrides = {{"skirts", "0"}, {"layer_height", "0.3"}};
+  auto report = verify(options);
+  ASSERT_TRUE(report.ok()) << report.error().describe();
+  const VariantResult& coarse = whole_->variants[1];
+  ASSERT_TRUE(coarse.ran) << coarse.error;
+  // The shared part and the standalone run measure the same thing, to the last bit.
+  EXPECT_EQ(coarse.print_time_s, report->simulation.print_time_s);
+  EXPECT_EQ(coarse.layers, report->simulation.layers);
+  EXPECT_EQ(coarse.deposit_to_mesh.samples, report->deviation.deposit_to_mesh.samples);
+  EXPECT_EQ(coarse.deposit_to_mesh.rms_mm, report->deviation.deposit_to_mesh.rms_mm);
+  EXPECT_EQ(coarse.mesh_to_deposit.samples, report->deviation.mesh_to_deposit.samples);
+  EXPECT_EQ(coarse.mesh_to_deposit.rms_mm, report->deviation.mesh_to_deposit.rms_mm);
+  EXPECT_EQ(coarse.pass, report->pass);
+  EXPECT_GT(coarse.deposit_to_mesh.samples, 1000u);
 }
 
 TEST_F(CompareRun, AVariantThatCannotRunIsARowNotAFailure) {
