@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <limits>
 
@@ -31,6 +32,41 @@ struct Run {
 };
 
 inline bool test_bit(const std::uint64_t* col, int z) { return (col[z >> 6] >> (z & 63)) & 1U; }
+
+/// First z >= from (below `nz`) whose bit equals `want`, or nz. Word at a time.
+inline int next_bit(const std::uint64_t* col, int words, int nz, int from, bool want) {
+  if (from >= nz) return nz;
+  int w = from >> 6;
+  std::uint64_t bits = (want ? col[w] : ~col[w]) & (~std::uint64_t{0} << (from & 63));
+  while (bits == 0) {
+    if (++w >= words) return nz;
+    bits = want ? col[w] : ~col[w];
+  }
+  return std::min(nz, w * 64 + std::countr_zero(bits));
+}
+
+/// Sets bits z0..z1-1 of a bit column.
+inline void set_bits(std::uint64_t* col, int z0, int z1) {
+  while (z0 < z1) {
+    const int w = z0 >> 6;
+    const int lo = z0 & 63;
+    const int hi = std::min(64, lo + (z1 - z0));
+    const std::uint64_t mask = (hi == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << hi) - 1) & (~std::uint64_t{0} << lo);
+    col[w] |= mask;
+    z0 += hi - lo;
+  }
+}
+
+/// Transposes an 8x8 bit matrix held in a word (byte r = row r, bit c = column c).
+inline std::uint64_t transpose8(std::uint64_t x) {
+  // Hacker's Delight 7-3.
+  std::uint64_t t = (x ^ (x >> 7)) & 0x00AA00AA00AA00AAULL;
+  x = x ^ t ^ (t << 7);
+  t = (x ^ (x >> 14)) & 0x0000CCCC0000CCCCULL;
+  x = x ^ t ^ (t << 14);
+  t = (x ^ (x >> 28)) & 0x00000000F0F0F0F0ULL;
+  return x ^ t ^ (t << 28);
+}
 
 /// Bit columns (nx * ny columns of `words` words, z bits) dilated by r voxels (a cube of
 /// 2r + 1): separable, z by word shifts, then x, then y by OR of neighbouring columns.
@@ -107,25 +143,50 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   const auto& table = grid.tag_table();
   std::vector<std::uint8_t> auxiliary(table.size());
   for (std::size_t i = 0; i < table.size(); ++i) auxiliary[i] = is_auxiliary_feature(table[i].feature) ? 1 : 0;
+  bool any_auxiliary = false;
+  for (const std::uint8_t a : auxiliary) any_auxiliary = any_auxiliary || a != 0;
   grid.visit_blocks([&](const VoxelGrid::BlockView& b) {
     const int bx = b.base.x - kmin.x, by = b.base.y - kmin.y, bz = b.base.z - kmin.z;
     constexpr int kE = VoxelGrid::kBlockEdge;
     if (bx + kE <= 1 || by + kE <= 1 || bz + kE <= 1 || bx >= nx - 1 || by >= ny - 1 ||
         bz >= nz - 1)
       return;
+    // The block's 8 z-slices of 64 (x, y) bits, without auxiliary voxels and z outside the
+    // region, then transposed to one byte of 8 z bits per (x, y) column.
+    std::array<std::uint64_t, kE> slice{};
     for (int z = 0; z < kE; ++z) {
       const int gz = bz + z;
       if (gz < 1 || gz >= nz - 1) continue;
       std::uint64_t bits = b.occupancy[z];
-      while (bits != 0) {
-        const int bit = __builtin_ctzll(bits);
-        bits &= bits - 1;
-        const int gx = bx + (bit & 7), gy = by + (bit >> 3);
-        if (gx < 1 || gy < 1 || gx >= nx - 1 || gy >= ny - 1) continue;
-        if (auxiliary[b.tags[z * 64 + bit]] != 0) continue;
+      if (any_auxiliary) {
+        for (std::uint64_t rest = bits; rest != 0; rest &= rest - 1) {
+          const int bit = std::countr_zero(rest);
+          if (auxiliary[b.tags[z * 64 + bit]] != 0) bits &= ~(std::uint64_t{1} << bit);
+        }
+      }
+      slice[static_cast<std::size_t>(z)] = bits;
+    }
+    for (int y = 0; y < kE; ++y) {
+      const int gy = by + y;
+      if (gy < 1 || gy >= ny - 1) continue;
+      // Row y of every slice: byte z = 8 x bits; transposed: byte x = 8 z bits.
+      std::uint64_t m = 0;
+      for (int z = 0; z < kE; ++z) m |= ((slice[static_cast<std::size_t>(z)] >> (8 * y)) & 0xFFU) << (8 * z);
+      if (m == 0) continue;
+      m = transpose8(m);
+      for (int x = 0; x < kE; ++x) {
+        const std::uint64_t zbits = (m >> (8 * x)) & 0xFFU;
+        const int gx = bx + x;
+        if (zbits == 0 || gx < 1 || gx >= nx - 1) continue;
         std::uint64_t* col = occ.data() + (static_cast<std::size_t>(gy) * nx + gx) * words;
-        col[gz >> 6] |= std::uint64_t{1} << (gz & 63);
-        ++s.occupied_voxels;
+        s.occupied_voxels += static_cast<std::size_t>(std::popcount(zbits));
+        // z bits bz..bz+7 (bz may be negative: the clipped low bits are zero).
+        if (bz >= 0) {
+          col[bz >> 6] |= zbits << (bz & 63);
+          if ((bz & 63) > 56 && (bz >> 6) + 1 < words) col[(bz >> 6) + 1] |= zbits >> (64 - (bz & 63));
+        } else {
+          col[0] |= zbits >> (-bz);
+        }
       }
     }
   });
@@ -156,17 +217,18 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   // face-adjacent columns touch when their z-intervals overlap.
   std::vector<std::uint32_t> run_begin(columns + 1, 0);
   std::vector<Run> runs;
+  std::vector<std::uint32_t> run_column;
   runs.reserve(columns * 2);
+  run_column.reserve(columns * 2);
   for (std::size_t c = 0; c < columns; ++c) {
     run_begin[c] = static_cast<std::uint32_t>(runs.size());
     const std::uint64_t* col = blocked.data() + c * static_cast<std::size_t>(words);
-    int z = 0;
+    int z = next_bit(col, words, nz, 0, false);
     while (z < nz) {
-      while (z < nz && test_bit(col, z)) ++z;
-      if (z >= nz) break;
-      const int z0 = z;
-      while (z < nz && !test_bit(col, z)) ++z;
-      runs.push_back({z0, z - 1});
+      const int z1 = next_bit(col, words, nz, z, true);
+      runs.push_back({z, z1 - 1});
+      run_column.push_back(static_cast<std::uint32_t>(c));
+      z = next_bit(col, words, nz, z1, false);
     }
   }
   run_begin[columns] = static_cast<std::uint32_t>(runs.size());
@@ -184,14 +246,9 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
           queue.push_back(r);
         }
     }
-  // Column of a run: binary search in run_begin.
-  auto column_of = [&](std::uint32_t r) {
-    return static_cast<std::size_t>(
-        std::upper_bound(run_begin.begin(), run_begin.end(), r) - run_begin.begin() - 1);
-  };
   for (std::size_t qi = 0; qi < queue.size(); ++qi) {
     const std::uint32_t r = queue[qi];
-    const std::size_t c = column_of(r);
+    const std::size_t c = run_column[r];
     const int x = static_cast<int>(c % static_cast<std::size_t>(nx));
     const int y = static_cast<int>(c / static_cast<std::size_t>(nx));
     const std::array<std::array<int, 2>, 4> nbs{{{x - 1, y}, {x + 1, y}, {x, y - 1}, {x, y + 1}}};
@@ -217,7 +274,7 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     std::uint64_t* o = out_bits.data() + c * static_cast<std::size_t>(words);
     for (std::uint32_t r = run_begin[c]; r < run_begin[c + 1]; ++r) {
       if (!outside[r]) continue;
-      for (int z = runs[r].z0; z <= runs[r].z1; ++z) o[z >> 6] |= std::uint64_t{1} << (z & 63);
+      set_bits(o, runs[r].z0, runs[r].z1 + 1);
     }
   }
   if (seal_r > 0) {
@@ -301,8 +358,14 @@ namespace {
 struct FaceBuckets {
   static constexpr int kCell = 4;
   Eigen::Vector3i cells = Eigen::Vector3i::Zero();
-  std::vector<std::uint32_t> begin;  ///< per cell, into `index`
-  std::vector<std::uint32_t> index;  ///< face indices
+  /// A face as the search reads it: contiguous per cell, no indirection.
+  struct Entry {
+    Vec3 center;
+    std::uint32_t face = 0;
+    std::uint32_t axis = 0;
+  };
+  std::vector<std::uint32_t> begin;  ///< per cell, into `entries`
+  std::vector<Entry> entries;        ///< faces sorted by cell (by index within a cell)
   double cell_mm = 0;
   Vec3 origin_mm = Vec3::Zero();
 
@@ -318,9 +381,10 @@ struct FaceBuckets {
       ++begin[cell_of[i] + 1];
     }
     for (std::size_t c = 0; c < n; ++c) begin[c + 1] += begin[c];
-    index.resize(s.faces.size());
+    entries.resize(s.faces.size());
     std::vector<std::uint32_t> fill(begin.begin(), begin.end() - 1);
-    for (std::size_t i = 0; i < s.faces.size(); ++i) index[fill[cell_of[i]]++] = static_cast<std::uint32_t>(i);
+    for (std::size_t i = 0; i < s.faces.size(); ++i)
+      entries[fill[cell_of[i]]++] = {s.faces[i].center_mm, static_cast<std::uint32_t>(i), s.faces[i].axis};
   }
   [[nodiscard]] Eigen::Vector3i cell_coord(const Vec3& p) const {
     Eigen::Vector3i c;
@@ -378,6 +442,10 @@ void distances_to_deposit(const DepositSurface& s, std::span<const Vec3> points,
   constexpr int kFineRings = 2;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 2048),
                     [&](const tbb::blocked_range<std::size_t>& range) {
+    // The previous point of this chunk and its distance: by the triangle inequality the
+    // nearest face of p is at most prev_d + |p - prev_p| away, which bounds the search.
+    Vec3 prev_p = Vec3::Zero();
+    double prev_d = std::numeric_limits<double>::infinity();
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
       const Vec3& p = points[i];
       double best2 = std::numeric_limits<double>::infinity();
@@ -393,24 +461,46 @@ void distances_to_deposit(const DepositSurface& s, std::span<const Vec3> points,
         }
         return b2;
       };
+      // Every face as close as the best so far is visited (strict pruning), and ties go to
+      // the lowest face index: the result does not depend on the order cells are scanned.
       const auto scan_cell = [&](const Eigen::Vector3i& c) {
         if ((c.array() < 0).any() || (c.array() >= buckets.cells.array()).any()) return;
         const std::size_t ci = buckets.cell_index(c);
         if (buckets.begin[ci] == buckets.begin[ci + 1]) return;
-        if (box_dist2(buckets.origin_mm + buckets.cell_mm * c.cast<double>(), buckets.cell_mm) >= best2) return;
+        if (box_dist2(buckets.origin_mm + buckets.cell_mm * c.cast<double>(), buckets.cell_mm) > best2) return;
         for (std::uint32_t k = buckets.begin[ci]; k < buckets.begin[ci + 1]; ++k) {
-          const std::uint32_t fi = buckets.index[k];
-          const SurfaceFace& f = s.faces[fi];
-          const double d2 = face_dist2(p, f.center_mm, f.axis, half);
-          if (d2 < best2 || (d2 == best2 && fi < best_face)) {
+          const FaceBuckets::Entry& f = buckets.entries[k];
+          const double d2 = face_dist2(p, f.center, static_cast<int>(f.axis), half);
+          if (d2 < best2 || (d2 == best2 && f.face < best_face)) {
             best2 = d2;
-            best_face = fi;
+            best_face = f.face;
           }
         }
       };
+      bool done = false;
+      const double bound = (prev_d + (p - prev_p).norm()) * (1 + 1e-9) + 1e-9;
+      if (bound < buckets.cell_mm) {
+        // The cells the ball of radius `bound` touches (at most 2 per axis).
+        const double reach_mm = bound + half;
+        Eigen::Vector3i lo, hi;
+        for (int a = 0; a < 3; ++a) {
+          lo[a] = std::max(0, static_cast<int>(std::floor((p[a] - reach_mm - buckets.origin_mm[a]) / buckets.cell_mm)));
+          hi[a] = std::min(buckets.cells[a] - 1,
+                           static_cast<int>(std::floor((p[a] + reach_mm - buckets.origin_mm[a]) / buckets.cell_mm)));
+        }
+        best2 = bound * bound;
+        best_face = std::numeric_limits<std::uint32_t>::max();
+        for (int z = lo.z(); z <= hi.z(); ++z)
+          for (int y = lo.y(); y <= hi.y(); ++y)
+            for (int x = lo.x(); x <= hi.x(); ++x) scan_cell(Eigen::Vector3i(x, y, z));
+        done = best_face != std::numeric_limits<std::uint32_t>::max();
+        if (!done) {  // cannot happen in exact arithmetic; the full search below is exact
+          best2 = std::numeric_limits<double>::infinity();
+          best_face = 0;
+        }
+      }
       // Fine rings around p's cell; every cell of ring + 1 is at least ring * cell - half away.
       const Eigen::Vector3i c0 = buckets.cell_coord(p);
-      bool done = false;
       for (int ring = 0; ring <= kFineRings && !done; ++ring) {
         for (int dz = -ring; dz <= ring; ++dz)
           for (int dy = -ring; dy <= ring; ++dy)
@@ -418,7 +508,7 @@ void distances_to_deposit(const DepositSurface& s, std::span<const Vec3> points,
               if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) == ring)
                 scan_cell(c0 + Eigen::Vector3i(dx, dy, dz));
         const double reach = ring * buckets.cell_mm - half;
-        done = reach > 0 && best2 <= reach * reach;
+        done = reach > 0 && best2 < reach * reach;
       }
       // Far points: rings of groups, descending only into groups that hold faces and may
       // beat the best so far (cells already scanned are simply scanned again).
@@ -431,15 +521,17 @@ void distances_to_deposit(const DepositSurface& s, std::span<const Vec3> points,
               const Eigen::Vector3i g = g0 + Eigen::Vector3i(dx, dy, dz);
               if ((g.array() < 0).any() || (g.array() >= groups.array()).any()) continue;
               if (group_has[group_index(g)] == 0) continue;
-              if (box_dist2(buckets.origin_mm + group_mm * g.cast<double>(), group_mm) >= best2) continue;
+              if (box_dist2(buckets.origin_mm + group_mm * g.cast<double>(), group_mm) > best2) continue;
               for (int z = 0; z < kGroup; ++z)
                 for (int y = 0; y < kGroup; ++y)
                   for (int x = 0; x < kGroup; ++x) scan_cell(g * kGroup + Eigen::Vector3i(x, y, z));
             }
         const double reach = ring * group_mm - half;
-        done = reach > 0 && best2 <= reach * reach;
+        done = reach > 0 && best2 < reach * reach;
       }
       const double d = std::sqrt(best2);
+      prev_p = p;
+      prev_d = d;
       signed_mm[i] = s.filled(p) ? d : -d;
       if (nearest_face != nullptr) (*nearest_face)[i] = best_face;
     }

@@ -1,7 +1,7 @@
 // compute_deviation: the two-sided comparison of a deposit and a placed mesh.
 #include <algorithm>
 #include <cmath>
-#include <map>
+#include <span>
 
 #include "printtwin/deviation.hpp"
 
@@ -58,41 +58,64 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
     own_samples = sample_surface(mesh, spacing, settings.seed);
     samples = own_samples;
   }
-  std::vector<Vec3> mesh_points(samples.size());
-  for (std::size_t i = 0; i < samples.size(); ++i) mesh_points[i] = samples[i].position_mm + offset;
-  std::vector<double> d_mesh;
+  // The samples and the mesh's vertices (for the per-vertex deviation) in one search.
+  const std::size_t ns = samples.size();
+  std::vector<Vec3> query_points(ns + mesh.vertices_mm.size());
+  for (std::size_t i = 0; i < ns; ++i) query_points[i] = samples[i].position_mm + offset;
+  for (std::size_t i = 0; i < mesh.vertices_mm.size(); ++i) query_points[ns + i] = mesh.vertices_mm[i] + offset;
+  std::vector<double> d_query;
   std::vector<std::uint32_t> nearest;
-  distances_to_deposit(surface, mesh_points, d_mesh, &nearest);
-  std::vector<DeviationSample> mesh_samples(mesh_points.size());
-  for (std::size_t i = 0; i < mesh_points.size(); ++i) {
+  distances_to_deposit(surface, query_points, d_query, &nearest);
+  const std::span<const double> d_mesh(d_query.data(), ns);
+  out.vertex_deviation_mm.assign(d_query.begin() + static_cast<std::ptrdiff_t>(ns), d_query.end());
+  std::vector<DeviationSample> mesh_samples(ns);
+  for (std::size_t i = 0; i < ns; ++i) {
     const VoxelTag tag = surface.faces.empty() ? VoxelTag{} : surface.face_tags[nearest[i]];
-    mesh_samples[i] = {mesh_points[i], d_mesh[i], tag.layer, tag.line};
+    mesh_samples[i] = {query_points[i], d_mesh[i], tag.layer, tag.line};
   }
-  std::vector<Vec3> vertices(mesh.vertices_mm.size());
-  for (std::size_t i = 0; i < vertices.size(); ++i) vertices[i] = mesh.vertices_mm[i] + offset;
-  distances_to_deposit(surface, vertices, out.vertex_deviation_mm, nullptr);
 
   out.deposit_to_mesh = deviation_stats(d_dep, settings.tolerance_mm);
   out.mesh_to_deposit = deviation_stats(d_mesh, settings.tolerance_mm);
 
   // Per layer (layer of the nearest deposit voxel); z = top of that layer's surface voxels.
-  std::map<int, std::pair<std::vector<double>, std::vector<double>>> by_layer;
-  std::map<int, double> layer_top;
+  // Distances grouped by layer with a counting sort (sample order kept within a layer).
+  int max_layer = -1;
+  for (const auto& t : surface.face_tags) max_layer = std::max(max_layer, static_cast<int>(t.layer));
+  const auto n_layers = static_cast<std::size_t>(max_layer + 1);
+  const auto group = [&](const std::vector<DeviationSample>& list, std::vector<std::size_t>& begin,
+                         std::vector<double>& values) {
+    begin.assign(n_layers + 1, 0);
+    for (const auto& x : list)
+      if (x.layer >= 0) ++begin[static_cast<std::size_t>(x.layer) + 1];
+    for (std::size_t l = 0; l < n_layers; ++l) begin[l + 1] += begin[l];
+    values.resize(begin[n_layers]);
+    std::vector<std::size_t> fill(begin.begin(), begin.end() - 1);
+    for (const auto& x : list)
+      if (x.layer >= 0) values[fill[static_cast<std::size_t>(x.layer)]++] = x.distance_mm;
+  };
+  std::vector<std::size_t> dep_begin, mesh_begin;
+  std::vector<double> dep_values, mesh_values;
+  group(dep_samples, dep_begin, dep_values);
+  group(mesh_samples, mesh_begin, mesh_values);
+  std::vector<double> layer_top(n_layers, 0.0);
+  std::vector<std::uint8_t> has_top(n_layers, 0);
   for (std::size_t i = 0; i < dep_samples.size(); ++i) {
     const int layer = dep_samples[i].layer;
-    by_layer[layer].first.push_back(dep_samples[i].distance_mm);
-    const double top = deposit.center_mm(surface.faces[i].voxel).z() + 0.5 * v;
-    auto [it, inserted] = layer_top.try_emplace(layer, top);
-    if (!inserted) it->second = std::max(it->second, top);
-  }
-  for (const auto& s : mesh_samples) by_layer[s.layer].second.push_back(s.distance_mm);
-  for (const auto& [layer, d] : by_layer) {
     if (layer < 0) continue;
+    const auto l = static_cast<std::size_t>(layer);
+    const double top = deposit.center_mm(surface.faces[i].voxel).z() + 0.5 * v;
+    layer_top[l] = has_top[l] != 0 ? std::max(layer_top[l], top) : top;
+    has_top[l] = 1;
+  }
+  for (std::size_t l = 0; l < n_layers; ++l) {
+    if (dep_begin[l] == dep_begin[l + 1] && mesh_begin[l] == mesh_begin[l + 1]) continue;
     LayerDeviation ld;
-    ld.layer = layer;
-    ld.z_mm = layer_top.count(layer) ? layer_top[layer] : 0.0;
-    ld.deposit_to_mesh = deviation_stats(d.first, settings.tolerance_mm);
-    ld.mesh_to_deposit = deviation_stats(d.second, settings.tolerance_mm);
+    ld.layer = static_cast<int>(l);
+    ld.z_mm = layer_top[l];
+    ld.deposit_to_mesh = deviation_stats(std::span<const double>(dep_values).subspan(dep_begin[l], dep_begin[l + 1] - dep_begin[l]),
+                                         settings.tolerance_mm);
+    ld.mesh_to_deposit = deviation_stats(std::span<const double>(mesh_values).subspan(mesh_begin[l], mesh_begin[l + 1] - mesh_begin[l]),
+                                         settings.tolerance_mm);
     out.per_layer.push_back(std::move(ld));
   }
 

@@ -7,14 +7,18 @@
 namespace printtwin {
 
 namespace {
-/// Percentile q in [0, 1] of sorted values, linear interpolation between order statistics
-/// (Hyndman & Fan type 7, the default of R and NumPy).
-double percentile_sorted(const std::vector<double>& v, double q) {
-  if (v.empty()) return 0;
-  const double h = q * static_cast<double>(v.size() - 1);
+/// Percentile q in [0, 1] of values, linear interpolation between order statistics
+/// (Hyndman & Fan type 7, the default of R and NumPy), from a table of order statistics.
+double percentile(const std::vector<std::pair<std::size_t, double>>& order, std::size_t n, double q) {
+  const double h = q * static_cast<double>(n - 1);
   const auto lo = static_cast<std::size_t>(std::floor(h));
-  const std::size_t hi = std::min(lo + 1, v.size() - 1);
-  return v[lo] + (h - static_cast<double>(lo)) * (v[hi] - v[lo]);
+  const std::size_t hi = std::min(lo + 1, n - 1);
+  double vlo = 0, vhi = 0;
+  for (const auto& [k, v] : order) {
+    if (k == lo) vlo = v;
+    if (k == hi) vhi = v;
+  }
+  return vlo + (h - static_cast<double>(lo)) * (vhi - vlo);
 }
 }  // namespace
 
@@ -45,11 +49,36 @@ DeviationStats deviation_stats(std::span<const double> d, double tolerance_mm) {
   s.rms_mm = static_cast<double>(std::sqrt(sum2 / n));
   const long double var = std::max<long double>(0, sum2 / n - (sum / n) * (sum / n));
   s.std_mm = static_cast<double>(std::sqrt(var));
-  std::sort(abs_d.begin(), abs_d.end());
-  s.p50_abs_mm = percentile_sorted(abs_d, 0.50);
-  s.p95_abs_mm = percentile_sorted(abs_d, 0.95);
-  s.p99_abs_mm = percentile_sorted(abs_d, 0.99);
-  s.hausdorff_mm = abs_d.back();
+  // The order statistics the percentiles need, by selection instead of a full sort: from
+  // the highest rank down, each selection only partitions the part below the previous one.
+  const std::size_t n_all = abs_d.size();
+  std::vector<std::size_t> ranks;
+  for (const double q : {0.50, 0.95, 0.99}) {
+    const auto lo = static_cast<std::size_t>(std::floor(q * static_cast<double>(n_all - 1)));
+    ranks.push_back(lo);
+    ranks.push_back(std::min(lo + 1, n_all - 1));
+  }
+  ranks.push_back(n_all - 1);
+  std::sort(ranks.begin(), ranks.end());
+  ranks.erase(std::unique(ranks.begin(), ranks.end()), ranks.end());
+  std::vector<std::pair<std::size_t, double>> order;
+  std::size_t end = n_all;
+  for (auto it = ranks.rbegin(); it != ranks.rend(); ++it) {
+    const std::size_t k = *it;
+    const auto first = abs_d.begin();
+    if (k + 1 == end) {  // the largest of [0, end): move it to k
+      std::iter_swap(std::max_element(first, first + static_cast<std::ptrdiff_t>(end)),
+                     first + static_cast<std::ptrdiff_t>(k));
+    } else {
+      std::nth_element(first, first + static_cast<std::ptrdiff_t>(k), first + static_cast<std::ptrdiff_t>(end));
+    }
+    order.emplace_back(k, abs_d[k]);
+    end = k;
+  }
+  s.p50_abs_mm = percentile(order, n_all, 0.50);
+  s.p95_abs_mm = percentile(order, n_all, 0.95);
+  s.p99_abs_mm = percentile(order, n_all, 0.99);
+  s.hausdorff_mm = order.front().second;
   s.within_tolerance_pct = 100.0 * static_cast<double>(within) / static_cast<double>(d.size());
   return s;
 }

@@ -7,6 +7,7 @@
 #include <embree3/rtcore.h>
 #include <tbb/parallel_for.h>
 
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <limits>
@@ -39,6 +40,9 @@ Vec3 closest_point_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, cons
 
 struct MeshQuery::Impl {
   Mesh mesh;
+  /// Per triangle: unit normal (zero when degenerate) and its offset n . a, for a cheap
+  /// lower bound of the point-triangle distance (the distance to the triangle's plane).
+  std::vector<std::array<double, 4>> planes;
   Vec3 center = Vec3::Zero();
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
@@ -53,6 +57,7 @@ namespace {
 
 struct PointQueryState {
   const Mesh* mesh;
+  const std::vector<std::array<double, 4>>* planes;
   Vec3 p;  // query point, original frame, double precision
   double best_d2 = std::numeric_limits<double>::infinity();
   Vec3 best_point = Vec3::Zero();
@@ -61,6 +66,12 @@ struct PointQueryState {
 
 bool point_query_callback(RTCPointQueryFunctionArguments* args) {
   auto* st = static_cast<PointQueryState*>(args->userPtr);
+  // Farther from the triangle's plane than the best so far: cannot win (the margin keeps
+  // rounding from rejecting a triangle that would tie or win in the exact test below).
+  const auto& pl = (*st->planes)[args->primID];
+  const double plane_d = pl[0] * st->p.x() + pl[1] * st->p.y() + pl[2] * st->p.z() - pl[3];
+  const double lower = std::abs(plane_d) - 1e-9 * (1.0 + std::abs(pl[3]) + st->p.cwiseAbs().maxCoeff());
+  if (lower > 0 && lower * lower > st->best_d2) return false;
   const auto& tri = st->mesh->triangles[args->primID];
   const auto& v = st->mesh->vertices_mm;
   const Vec3 q = closest_point_on_triangle(st->p, v[tri[0]], v[tri[1]], v[tri[2]]);
@@ -122,6 +133,13 @@ Result<MeshQuery> MeshQuery::build(const Mesh& mesh) {
       }
       idx[3 * t + k] = mesh.triangles[t][k];
     }
+  impl->planes.resize(mesh.triangles.size());
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const Vec3 n = triangle_normal(mesh, t);
+    const double len = n.norm();
+    const Vec3 u = len > 0 && std::isfinite(len) ? Vec3(n / len) : Vec3::Zero();
+    impl->planes[t] = {u.x(), u.y(), u.z(), u.dot(mesh.vertices_mm[mesh.triangles[t][0]])};
+  }
   rtcCommitGeometry(geom);
   rtcAttachGeometry(impl->scene, geom);
   rtcReleaseGeometry(geom);
@@ -134,7 +152,7 @@ Result<MeshQuery> MeshQuery::build(const Mesh& mesh) {
 const Mesh& MeshQuery::mesh() const { return impl_->mesh; }
 
 ClosestPoint MeshQuery::closest_point(const Vec3& p) const {
-  PointQueryState st{&impl_->mesh, p};
+  PointQueryState st{&impl_->mesh, &impl_->planes, p};
   const Vec3 local = p - impl_->center;
   RTCPointQuery query;
   query.x = static_cast<float>(local.x());
@@ -149,7 +167,7 @@ ClosestPoint MeshQuery::closest_point(const Vec3& p) const {
 }
 
 std::optional<ClosestPoint> MeshQuery::closest_point_within(const Vec3& p, double max_distance_mm) const {
-  PointQueryState st{&impl_->mesh, p};
+  PointQueryState st{&impl_->mesh, &impl_->planes, p};
   st.best_d2 = max_distance_mm * max_distance_mm;
   const Vec3 local = p - impl_->center;
   RTCPointQuery query;
