@@ -21,6 +21,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <cstdlib>
 #include <limits>
 #include <optional>
 
@@ -162,6 +163,64 @@ struct LineIntervals {
   [[nodiscard]] std::size_t at(int j) const { return static_cast<std::size_t>(j - j0); }
 };
 
+/// A bead in the (major, minor, z) voxel frame of one sweep, for the sample-point test.
+struct SweepFrame {
+  double a_major, a_minor, b_major, b_minor;  // tip at the start / end
+  double m0_major, m0_minor, m1_major, m1_minor;  // start / end cut normals
+  double d_major, d_minor, n_major, n_minor;      // direction, lateral normal
+  double a_z, slope, r, r2, flat;                 // section: tip height, dz/du, radius, flat half-width
+};
+
+/// Tests the sample points of cells i0..i1-1 of the row (minor j, layer k): in[i] = 1 when
+/// inside the bead, else 0; returns how many are inside. Branch-free, so that compilers
+/// vectorise it; the same IEEE operations per cell in every variant (no contraction into
+/// FMA: the AVX2 variant does not enable FMA), so every variant gives the same voxels.
+template <bool kSwap>
+[[gnu::always_inline]] inline std::size_t test_cells_body(const SweepFrame& f, int j, int k, int i0, int i1,
+                                                           std::uint8_t* in) {
+  const std::uint32_t hash_row = kSwap ? static_cast<std::uint32_t>(j) * kHashX ^ static_cast<std::uint32_t>(k) * kHashZ
+                                       : static_cast<std::uint32_t>(j) * kHashY ^ static_cast<std::uint32_t>(k) * kHashZ;
+  const std::uint32_t hash_major = kSwap ? kHashY : kHashX;
+  const double jd = j, kd = k;
+  std::size_t laid = 0;
+  for (int i = i0; i < i1; ++i) {
+    const std::uint32_t h = jitter_hash(static_cast<std::uint32_t>(i) * hash_major ^ hash_row);
+    const double jx = (static_cast<double>(static_cast<int>(h & 0x3FF)) + 0.5) * kJitterScale;
+    const double jy = (static_cast<double>(static_cast<int>((h >> 10) & 0x3FF)) + 0.5) * kJitterScale;
+    const double jz = (static_cast<double>(static_cast<int>((h >> 20) & 0x3FF)) + 0.5) * kJitterScale;
+    const double id = i;
+    const double x = kSwap ? id + jy : id + jx;
+    const double y = kSwap ? jd + jx : jd + jy;
+    const double z = kd + jz;
+    const double rx = x - f.a_major, ry = y - f.a_minor;
+    const bool after_start = f.m0_major * rx + f.m0_minor * ry >= 0;
+    const bool before_end = f.m1_major * (x - f.b_major) + f.m1_minor * (y - f.b_minor) < 0;
+    const double u = f.d_major * rx + f.d_minor * ry;
+    const double dz = z - (f.a_z + f.slope * u - f.r);
+    const double sd = std::abs(f.n_major * rx + f.n_minor * ry) - f.flat;  // beyond the flat part
+    const bool ok = after_start & before_end & (dz >= -f.r) & (dz < f.r) & ((sd <= 0) | (sd * sd + dz * dz <= f.r2));
+    in[i] = static_cast<std::uint8_t>(ok);
+    laid += ok ? 1u : 0u;
+  }
+  return laid;
+}
+
+std::size_t test_cells_default(const SweepFrame& f, bool swap, int j, int k, int i0, int i1, std::uint8_t* in) {
+  return swap ? test_cells_body<true>(f, j, k, i0, i1, in) : test_cells_body<false>(f, j, k, i0, i1, in);
+}
+#if defined(__x86_64__) && defined(__GNUC__)
+[[gnu::target("avx2")]] std::size_t test_cells_avx2(const SweepFrame& f, bool swap, int j, int k, int i0, int i1,
+                                                    std::uint8_t* in) {
+  return swap ? test_cells_body<true>(f, j, k, i0, i1, in) : test_cells_body<false>(f, j, k, i0, i1, in);
+}
+bool cpu_has_avx2() { return __builtin_cpu_supports("avx2") != 0; }
+#else
+std::size_t test_cells_avx2(const SweepFrame& f, bool swap, int j, int k, int i0, int i1, std::uint8_t* in) {
+  return test_cells_default(f, swap, j, k, i0, i1, in);
+}
+bool cpu_has_avx2() { return false; }
+#endif
+
 struct PendingBead {
   Move move;
   double nominal_h_mm = 0;
@@ -199,6 +258,7 @@ struct DepositBuilder::State {
   std::vector<double> offsets_;  // scratch: across-bead sample offsets (mm)
   LineIntervals outer_lines_, inner_lines_;  // scratch of sweep()
   std::vector<std::uint8_t> inside_;          // scratch of sweep(): 1 per voxel of a row
+  bool avx2_ = cpu_has_avx2();                // sample tests 4 cells at a time
 
   // Support tracking along the current continuous path.
   bool path_has_support = false;
@@ -208,6 +268,7 @@ struct DepositBuilder::State {
 
   double extruded_mm3 = 0;
   std::size_t overlap_voxels = 0;
+  bool no_support_ = std::getenv("PT_NOSUP") != nullptr, no_sweep_ = std::getenv("PT_NOSWEEP") != nullptr;
   std::size_t beads = 0;
   std::size_t skipped = 0;
 
@@ -361,7 +422,7 @@ struct DepositBuilder::State {
     const double step_mm = len_mm / samples;
     offsets_.resize(static_cast<std::size_t>(across));
     for (int j = 0; j < across; ++j) offsets_[static_cast<std::size_t>(j)] = -0.5 * w + (j + 0.5) * w / across;
-    for (int i = 0; i < samples; ++i) {
+    for (int i = 0; i < (no_support_ ? 0 : samples); ++i) {
       const Vec3 q = a + ((i + 0.5) / samples) * (b - a);
       const double bottom = q.z() - h;
       const int need_rows = rows_reaching(bottom - tol);
@@ -387,7 +448,7 @@ struct DepositBuilder::State {
       }
     }
 
-    sweep(pb, a, b, d, n, m1, h, w);
+    if (!no_sweep_) sweep(pb, a, b, d, n, m1, h, w);
     ++beads;
   }
 
@@ -425,6 +486,8 @@ struct DepositBuilder::State {
     const std::uint32_t tag = pb.tag;
 
     const double r2 = r * r;
+    const SweepFrame frame{a2.x(), a2.y(), b2.x(), b2.y(), m02.x(), m02.y(), m12.x(), m12.y(),
+                           d2.x(), d2.y(), n2.x(), n2.y(), a.z(), slope, r, r2, flat};
     const int k_lo = std::max(0, static_cast<int>(std::floor(zt_lo - hh)));
     const int k_hi = std::min(nz - 1, static_cast<int>(std::ceil(zt_hi)) - 1);
     Footprint outer, inner;
@@ -450,8 +513,9 @@ struct DepositBuilder::State {
       }
       double ylo, yhi;
       outer.minor_range(ylo, yhi);
-      const int j_lo = std::max(0, static_cast<int>(std::floor(ylo)));
-      const int j_hi = std::min(n_minor - 1, static_cast<int>(std::floor(yhi)));
+      const double minor_cap = n_minor + 1.0;
+      const int j_lo = std::max(0, floor_int(std::clamp(ylo, -2.0, minor_cap)));
+      const int j_hi = std::min(n_minor - 1, floor_int(std::clamp(yhi, -2.0, minor_cap)));
       if (j_lo > j_hi) continue;
       outer_lines_.compute(outer, j_lo, j_hi + 1);
       if (has_inner) inner_lines_.compute(inner, j_lo, j_hi + 1);
@@ -465,8 +529,11 @@ struct DepositBuilder::State {
         for (const auto& v : outer.vertices)
           if (v.y() >= y0 && v.y() <= y1) xl = std::min(xl, v.x()), xh = std::max(xh, v.x());
         if (!(xl <= xh)) continue;
-        const int i_lo = std::max(0, static_cast<int>(std::floor(xl)));
-        const int i_hi = std::min(n_major - 1, static_cast<int>(std::floor(xh)));
+        // Clamped before rounding (an interval may be unbounded); the clamps do not change
+        // the cells chosen.
+        const double major_cap = n_major + 1.0;
+        const int i_lo = std::max(0, floor_int(std::clamp(xl, -2.0, major_cap)));
+        const int i_hi = std::min(n_major - 1, floor_int(std::clamp(xh, -2.0, major_cap)));
         if (i_lo > i_hi) continue;
         // Cells fully inside: both edges of the cell row inside the inner footprint.
         int f_lo = i_hi + 1, f_hi = i_hi;  // empty
@@ -475,8 +542,8 @@ struct DepositBuilder::State {
           if (inner_lines_.ok[l0] && inner_lines_.ok[l1]) {
             const double lo = std::max(inner_lines_.lo[l0], inner_lines_.lo[l1]);
             const double hi = std::min(inner_lines_.hi[l0], inner_lines_.hi[l1]);
-            const int c_lo = std::max(i_lo, static_cast<int>(std::ceil(lo)));
-            const int c_hi = std::min(i_hi, static_cast<int>(std::floor(hi)) - 1);
+            const int c_lo = std::max(i_lo, -floor_int(-std::clamp(lo, -2.0, major_cap)));
+            const int c_hi = std::min(i_hi, floor_int(std::clamp(hi, -2.0, major_cap)) - 1);
             if (c_lo <= c_hi) f_lo = c_lo, f_hi = c_hi;
           }
         }
@@ -484,29 +551,8 @@ struct DepositBuilder::State {
         // sample point (branch-free: whether a boundary sample falls inside is a coin toss).
         std::uint8_t* in = inside_.data() - i_lo;
         std::size_t laid = 0;
-        const std::uint32_t hash_row =
-            swap ? static_cast<std::uint32_t>(j) * kHashX ^ static_cast<std::uint32_t>(k) * kHashZ
-                 : static_cast<std::uint32_t>(j) * kHashY ^ static_cast<std::uint32_t>(k) * kHashZ;
-        const std::uint32_t hash_major = swap ? kHashY : kHashX;
         auto test = [&](int i0, int i1) {
-          for (int i = i0; i < i1; ++i) {
-            const std::uint32_t h = jitter_hash(static_cast<std::uint32_t>(i) * hash_major ^ hash_row);
-            const double jx = (static_cast<double>(h & 0x3FF) + 0.5) * kJitterScale;
-            const double jy = (static_cast<double>((h >> 10) & 0x3FF) + 0.5) * kJitterScale;
-            const double jz = (static_cast<double>((h >> 20) & 0x3FF) + 0.5) * kJitterScale;
-            const double x = swap ? i + jy : i + jx;
-            const double y = swap ? j + jx : j + jy;
-            const double z = k + jz;
-            const double rx = x - a2.x(), ry = y - a2.y();
-            const bool after_start = m02.x() * rx + m02.y() * ry >= 0;
-            const bool before_end = m12.x() * (x - b2.x()) + m12.y() * (y - b2.y()) < 0;
-            const double u = d2.x() * rx + d2.y() * ry;
-            const double dz = z - (a.z() + slope * u - r);
-            const double sd = std::abs(n2.x() * rx + n2.y() * ry) - flat;  // beyond the flat part
-            const bool ok = after_start & before_end & (dz >= -r) & (dz < r) & ((sd <= 0) | (sd * sd + dz * dz <= r2));
-            in[i] = static_cast<std::uint8_t>(ok);
-            laid += ok ? 1u : 0u;
-          }
+          if (i0 < i1) laid += avx2_ ? test_cells_avx2(frame, swap, j, k, i0, i1, in) : test_cells_default(frame, swap, j, k, i0, i1, in);
         };
         if (f_lo <= f_hi) {
           test(i_lo, f_lo);

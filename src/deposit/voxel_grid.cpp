@@ -323,7 +323,10 @@ std::size_t VoxelGrid::fill_row_masked(std::int32_t y, std::int32_t z, std::int3
     if (m == 0xFF) {
       std::fill(slots, slots + kEdge, tag_index);
     } else {
-      for (int t = 0; t < kEdge; ++t) slots[t] = ((m >> t) & 1u) != 0 ? tag_index : slots[t];
+      for (int t = 0; t < kEdge; ++t) {  // branch-free select: the mask is data, not a pattern
+        const std::uint32_t keep = ((m >> t) & 1u) - 1u;
+        slots[t] = (slots[t] & keep) | (tag_index & ~keep);
+      }
     }
   }
   g.occupied += fresh;
@@ -352,7 +355,10 @@ std::size_t VoxelGrid::fill_column_masked(std::int32_t x, std::int32_t z, std::i
     fresh += static_cast<std::size_t>(popcount64(mask & ~word));
     word |= mask;
     std::uint32_t* slots = g.tag_slots(b) + (z & 7) * 64 + lx;
-    for (int t = 0; t < kEdge; ++t) slots[t * 8] = ((m >> t) & 1u) != 0 ? tag_index : slots[t * 8];
+    for (int t = 0; t < kEdge; ++t) {
+      const std::uint32_t keep = ((m >> t) & 1u) - 1u;
+      slots[t * 8] = (slots[t * 8] & keep) | (tag_index & ~keep);
+    }
   }
   g.occupied += fresh;
   return fresh;
