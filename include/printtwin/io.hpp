@@ -28,6 +28,9 @@ namespace printtwin {
 [[nodiscard]] std::string format_duration(double seconds);
 
 /// SHA-256 of a byte string as lowercase hex (for report provenance).
+/// Uses the CPU's SHA extensions when present (x86-64), a portable implementation otherwise.
 [[nodiscard]] std::string sha256_hex(std::string_view bytes);
+/// The portable implementation alone (same digest; for tests and benchmarks).
+[[nodiscard]] std::string sha256_hex_portable(std::string_view bytes);
 
 }  // namespace printtwin

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "printtwin/geometry.hpp"
@@ -36,6 +37,14 @@ struct MeshLoadOptions {
 /// coordinates, unknown extension, directory, unreadable, no triangles.
 [[nodiscard]] Result<Mesh> load_mesh(const std::filesystem::path& path,
                                      const MeshLoadOptions& options = {});
+
+/// The same from bytes already in memory (e.g. read once to be hashed and then parsed):
+/// `name` gives the format by its extension and names the file in errors. The file is not
+/// opened. Same result and the same errors as load_mesh on a file holding `bytes`, except
+/// the file-system ones (missing, directory, unreadable).
+[[nodiscard]] Result<Mesh> load_mesh_from_memory(std::string_view bytes,
+                                                 const std::filesystem::path& name,
+                                                 const MeshLoadOptions& options = {});
 
 /// Writes a binary STL (temporary file + rename).
 [[nodiscard]] Status save_stl(const Mesh& mesh, const std::filesystem::path& path);

@@ -103,7 +103,7 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
                   "without --gcode: PrusaSlicer .ini for printtwin's slicer (docs/slicer.md)");
   cmd->add_option("--set", o->slice_sets,
                   "without --gcode: slicer setting key=value (repeatable), e.g. --set layer_height=0.1");
-  cmd->add_flag("--quiet", o->quiet, "no summary table");
+  cmd->add_flag("-q,--quiet", o->quiet, "no summary table");
   cmd->callback([o, &runner] {
     runner.run = [o]() -> int {
       VerifyOptions options;

@@ -249,3 +249,72 @@ TEST_F(MeshIoTest, SaveStlRoundTrip) {
 
 }  // namespace
 }  // namespace printtwin
+
+namespace printtwin {
+namespace {
+
+/// load_mesh_from_memory gives exactly what load_mesh gives for the same bytes, in every
+/// format, and names the given path in its errors without touching the file system.
+TEST_F(MeshIoTest, FromMemoryMatchesFromFile) {
+  const std::vector<std::pair<std::string, std::string>> files = {
+      {"m.stl", ascii_stl(cube)}, {"mb.stl", binary_stl(cube, 12)}, {"m.obj", obj(cube)},
+      {"m.off", off(cube)},       {"m.ply", ply(cube)},             {"m.amf", amf(cube)}};
+  for (const auto& [name, bytes] : files) {
+    auto from_file = load_mesh(put(name, bytes), {2.0, LengthUnit::cm});
+    auto from_memory = load_mesh_from_memory(bytes, dir / "not_on_disk" / name, {2.0, LengthUnit::cm});
+    ASSERT_TRUE(from_file.ok()) << name;
+    ASSERT_TRUE(from_memory.ok()) << name << ": " << from_memory.error().describe();
+    EXPECT_EQ(*from_file, *from_memory) << name;
+    EXPECT_NEAR(signed_volume_mm3(*from_memory), 200.0 * 200.0 * 200.0, 1e-3) << name;
+  }
+  auto bad = load_mesh_from_memory("solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n", "mem/part.stl");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.error().file, "mem/part.stl");
+  EXPECT_NE(bad.error().message.find("expected 'vertex', found 'end of file'"), std::string::npos);
+  EXPECT_FALSE(load_mesh_from_memory(ascii_stl(cube), "part.xyz").ok());
+  EXPECT_NE(load_mesh_from_memory("", "part.stl").error().message.find("empty file"), std::string::npos);
+}
+
+/// Vertices are numbered in order of first use; -0 and +0 are one coordinate; sub-meshes
+/// (OBJ objects) share the vertices they have in common.
+TEST_F(MeshIoTest, WeldKeepsFirstUseOrderAndJoinsAcrossSubMeshes) {
+  const std::string text =
+      "o a\nv 1 0 0\nv 0 1 0\nv -0 0 0\nv 0 0 1\nf 3 1 2\nf 3 2 4\n"
+      "o b\nv 0 0 0\nv 1 0 0\nv 0 0 1\nf 5 6 7\n";
+  auto m = load_mesh_from_memory(text, "two.obj");
+  ASSERT_TRUE(m.ok()) << m.error().describe();
+  ASSERT_EQ(m->triangles.size(), 3U);
+  ASSERT_EQ(m->vertices_mm.size(), 4U);
+  EXPECT_EQ(m->vertices_mm[0], Vec3(0, 0, 0));  // first corner of the first face
+  EXPECT_EQ(m->vertices_mm[1], Vec3(1, 0, 0));
+  EXPECT_EQ(m->vertices_mm[2], Vec3(0, 1, 0));
+  EXPECT_EQ(m->vertices_mm[3], Vec3(0, 0, 1));
+  const std::array<std::uint32_t, 3> first = {0, 1, 2}, third = {0, 1, 3};
+  EXPECT_EQ(m->triangles[0], first);
+  EXPECT_EQ(m->triangles[2], third);
+}
+
+/// The ASCII STL grammar check accepts every number form from_chars accepts (fast path or
+/// not) and rejects the rest with the line.
+TEST_F(MeshIoTest, AsciiStlNumberForms) {
+  auto stl = [](const std::string& a, const std::string& b) {
+    return "solid t\nfacet normal " + a + " 0 1\nouter loop\nvertex " + b +
+           " 0 0\nvertex 10 0 0\nvertex 0 10 0\nendloop\nendfacet\nendsolid t\n";
+  };
+  for (const std::string num : {"1.", ".5", "-0", "+2", "1e1", "1E+01", "-1.5e-2", "0.000000000000000000000000000001",
+                                "12345678901234567890123456789012345678901234567890"}) {
+    auto m = load_mesh_from_memory(stl("nan", num), "n.stl");
+    ASSERT_TRUE(m.ok()) << num << ": " << m.error().describe();
+    EXPECT_NEAR(bounding_box(*m).min.x(), std::min(0.0, std::stod(num)), 1e-6) << num;
+  }
+  for (const std::string num : {"1e400", "1.5.5", "1e", "--1", "0x10", "1,5"}) {
+    auto m = load_mesh_from_memory(stl("0", num), "n.stl");
+    ASSERT_FALSE(m.ok()) << num;
+    EXPECT_EQ(m.error().line, 4) << num;
+    EXPECT_NE(m.error().message.find("expected a number, found '" + num + "'"), std::string::npos)
+        << m.error().describe();
+  }
+}
+
+}  // namespace
+}  // namespace printtwin
