@@ -236,6 +236,65 @@ void BM_DepositOnly(benchmark::State& state) {
 }
 BENCHMARK(BM_DepositOnly)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3);
 
+/// Where the overlap of real G-code comes from: the deposit of each feature group alone
+/// (overlap within the group: neighbouring beads of one kind) and of everything (the rest is
+/// overlap between groups: infill reaching into perimeters, as the slicer intends).
+void BM_OverlapByFeature(benchmark::State& state) {
+  const char* path = gcode_path();
+  if (path == nullptr) {
+    state.SkipWithError("set PRINTTWIN_DEPOSIT_GCODE to a G-code file");
+    return;
+  }
+  const auto profile = ender3_marlin2();
+  auto moves = interpret_gcode_file(path, profile, SimulateOptions{});
+  if (!moves) {
+    state.SkipWithError(moves.error().describe().c_str());
+    return;
+  }
+  enum Group { kPerimeters, kSparse, kSolid, kOther, kGroups };
+  auto group_of = [](Feature f) {
+    switch (f) {
+      case Feature::outer_perimeter:
+      case Feature::perimeter:
+      case Feature::overhang_perimeter: return kPerimeters;
+      case Feature::sparse_infill: return kSparse;
+      case Feature::solid_infill:
+      case Feature::top_solid_infill:
+      case Feature::bridge_infill:
+      case Feature::gap_fill: return kSolid;
+      default: return kOther;
+    }
+  };
+  const char* names[kGroups] = {"perimeters", "sparse", "solid", "other"};
+  DepositSettings s;
+  s.max_memory_bytes = std::size_t{8} << 30;
+  for (auto _ : state) {
+    double within = 0;
+    for (int g = 0; g < kGroups; ++g) {
+      std::vector<Move> part = *moves;
+      for (auto& m : part)
+        if (m.kind == MoveKind::extrude && group_of(m.feature) != g) m.kind = MoveKind::travel, m.e_mm = 0;
+      auto r = deposit_moves(part, profile, s);
+      if (!r) {
+        state.SkipWithError(r.error().describe().c_str());
+        return;
+      }
+      within += r->overlap_mm3;
+      state.counters[std::string("extruded_mm3_") + names[g]] = r->extruded_mm3;
+      state.counters[std::string("overlap_mm3_within_") + names[g]] = r->overlap_mm3;
+    }
+    auto all = deposit_moves(*moves, profile, s);
+    if (!all) {
+      state.SkipWithError(all.error().describe().c_str());
+      return;
+    }
+    state.counters["overlap_mm3_total"] = all->overlap_mm3;
+    state.counters["overlap_mm3_between_groups"] = all->overlap_mm3 - within;
+    state.counters["extruded_mm3"] = all->extruded_mm3;
+  }
+}
+BENCHMARK(BM_OverlapByFeature)->Unit(benchmark::kMillisecond)->Iterations(1);
+
 /// The simulation alone, for the split of the end-to-end figure.
 void BM_SimulateOnly(benchmark::State& state) {
   const char* path = gcode_path();

@@ -84,6 +84,30 @@ TEST(DepositExport, OctomapFilesReadBackWithTheSameVoxelCount) {
   EXPECT_FALSE(count_octomap_voxels(dir / "missing.bt").ok());
 }
 
+// The .bt encoder builds the pruned tree itself: full 8^3 cubes become single leaves, and
+// the grid's blocks need not line up with OctoMap's cubes. Read back with OctoMap's API.
+TEST(DepositExport, BinaryOctomapOfFullAndPartialCubesReadsBack) {
+  const auto dir = test::temp_dir("deposit_bt");
+  for (const double origin : {0.0, 0.3, -1.15}) {  // key offsets 0, 3, -23 voxels (mod 8: 0, 3, 1)
+    VoxelGrid g(0.05, Vec3(origin, origin + 0.1, 0), Eigen::Vector3i(70, 50, 40));
+    const auto t = g.add_tag({1, 0, Feature::perimeter});
+    fill_box(g, {3, 5, 0}, {60, 45, 33}, t);  // spans many whole cubes
+    for (int z = 10; z < 20; ++z) g.clear({30, 20, z});  // holes inside
+    g.set({69, 49, 39}, VoxelTag{2, 1, Feature::sparse_infill});  // a lone voxel in a corner
+    const auto file = dir / "grid.bt";
+    ASSERT_TRUE(write_octomap(g, file).ok());
+    auto n = count_octomap_voxels(file);
+    ASSERT_TRUE(n.ok()) << n.error().describe();
+    EXPECT_EQ(*n, g.count()) << origin;
+    EXPECT_EQ(g.count(), std::size_t{57} * 40 * 33 - 10 + 1);
+  }
+  VoxelGrid empty(0.05, Vec3::Zero(), Eigen::Vector3i(8, 8, 8));
+  ASSERT_TRUE(write_octomap(empty, dir / "empty.bt").ok());
+  auto n = count_octomap_voxels(dir / "empty.bt");
+  ASSERT_TRUE(n.ok()) << n.error().describe();
+  EXPECT_EQ(*n, 0u);
+}
+
 TEST(DepositExport, PlyHoldsTheOuterSurfaceWithLayerAndFeature) {
   const DepositResult d = small_deposit();
   const auto dir = test::temp_dir("deposit_ply");
