@@ -1,24 +1,24 @@
 #!/bin/sh
-# Deposit benchmark: generates the ~200k-triangle model (openscad) and its G-code
-# (PrusaSlicer, Ender-3 profile, 0.2 mm layers) under the build folder if missing, then runs
-#   - bench/deposit_bench (raw voxel write rate, synthetic part, simulate + deposit, split)
-#   - the whole CLI under /usr/bin/time (wall, user+sys, peak RSS)
-# Usage: bench/deposit_bench.sh [build-dir]   (needs openscad and prusa-slicer installed)
+# Deposit benchmark on the issues' benchmark part (bench/bench_model.scad: 201k triangles;
+# PrusaSlicer G-code of ~156k lines and 4.7 m of filament), generated once under
+# <build-dir>/benchdata by bench/make_bench_data.sh (needs openscad and prusa-slicer). Runs
+#   - bench/deposit_bench: raw voxel write rate, synthetic part, simulate + deposit, deposit
+#     alone (with a checksum of every voxel and tag), overlap by feature group
+#   - the CLI under /usr/bin/time: simulate + deposit, and the same writing OctoMap .bt
+#     (CPU time = user + sys, peak RSS)
+# Usage: bench/deposit_bench.sh [build-dir]
 set -eu
 BUILD=${1:-build}
 SRC=$(cd "$(dirname "$0")/.." && pwd)
-DATA="$BUILD/benchdata"
-mkdir -p "$DATA"
-if [ ! -f "$DATA/deposit_model.gcode" ]; then
-  openscad -o "$DATA/deposit_model.stl" "$SRC/bench/deposit_model.scad"
-  prusa-slicer --load "$SRC/../shared/peers/prusa_ender3.ini" --layer-height 0.2 \
-    --center 110,110 --export-gcode -o "$DATA/deposit_model.gcode" "$DATA/deposit_model.stl" ||
-  prusa-slicer --load /work/shared/peers/prusa_ender3.ini --layer-height 0.2 \
-    --center 110,110 --export-gcode -o "$DATA/deposit_model.gcode" "$DATA/deposit_model.stl"
-fi
-echo "triangles: $(grep -c 'facet normal' "$DATA/deposit_model.stl" 2>/dev/null || echo '?')"
-echo "G-code lines: $(wc -l < "$DATA/deposit_model.gcode")"
-grep "filament used \[mm\]" "$DATA/deposit_model.gcode" || true
-PRINTTWIN_DEPOSIT_GCODE="$DATA/deposit_model.gcode" "$BUILD/bench/deposit_bench"
-/usr/bin/time -v "$BUILD/src/printtwin" simulate "$DATA/deposit_model.gcode" --deposit-summary -q \
-  2>&1 | grep -E "Elapsed|User time|System time|Maximum resident"
+sh "$SRC/bench/make_bench_data.sh" "$BUILD"
+GCODE="$BUILD/benchdata/bench_model.gcode"
+PRINTTWIN_DEPOSIT_GCODE="$GCODE" "$BUILD/bench/deposit_bench"
+OUT=$(mktemp -d)
+echo "simulate + deposit (one core):"
+/usr/bin/time -f "  %e s wall, %U s user, %S s sys, %M KB peak RSS" \
+  "$BUILD/src/printtwin" simulate "$GCODE" --deposit-summary -q
+echo "simulate + deposit + OctoMap .bt:"
+/usr/bin/time -f "  %e s wall, %U s user, %S s sys, %M KB peak RSS" \
+  "$BUILD/src/printtwin" simulate "$GCODE" --deposit "$OUT/bench_model.bt" -q
+ls -l "$OUT/bench_model.bt" | awk '{print "  .bt file: " $5 " bytes"}'
+rm -rf "$OUT"
