@@ -63,6 +63,47 @@ void BM_CutMesh(benchmark::State& state) {
 }
 BENCHMARK(BM_CutMesh)->Unit(benchmark::kMillisecond);
 
+/// The pieces of BM_RenderViews: the BVH of the part, the largest view alone, PNG encoding.
+void BM_MeshQueryBuild(benchmark::State& state) {
+  const auto& r = big_report();
+  for (auto _ : state) benchmark::DoNotOptimize(MeshQuery::build(r.placed_mesh));
+}
+BENCHMARK(BM_MeshQueryBuild)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
+
+void BM_RenderIsoView(benchmark::State& state) {
+  tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
+  const auto& r = big_report();
+  auto query = MeshQuery::build(r.placed_mesh);
+  SurfaceDeviationField field;
+  field.samples = r.deviation.mesh_samples;
+  field.vertex_deviation_mm = r.deviation.vertex_deviation_mm;
+  field.sample_spacing_mm = r.settings.mesh_sample_spacing_mm;
+  const auto scale = make_color_scale(r.deviation);
+  const ViewSpec view = default_views().front();
+  for (auto _ : state) benchmark::DoNotOptimize(render_heatmap(*query, field, scale, view));
+}
+BENCHMARK(BM_RenderIsoView)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
+
+void BM_EncodePngs(benchmark::State& state) {
+  const auto& r = big_report();
+  auto assets = render_report_assets(r);
+  std::size_t bytes = 0;
+  for (auto _ : state) {
+    bytes = 0;
+    for (const auto& v : assets->views) bytes += encode_png(v.image)->size();
+  }
+  state.counters["png_kB"] = static_cast<double>(bytes) / 1e3;
+}
+BENCHMARK(BM_EncodePngs)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
+
+/// report.html alone from rendered assets (charts, layer viewer data, tables).
+void BM_ReportHtml(benchmark::State& state) {
+  const auto& r = big_report();
+  auto assets = render_report_assets(r);
+  for (auto _ : state) benchmark::DoNotOptimize(report_html(r, *assets));
+}
+BENCHMARK(BM_ReportHtml)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
+
 }  // namespace
 
 BENCHMARK_MAIN();

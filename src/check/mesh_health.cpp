@@ -43,6 +43,35 @@ UnionFind::UnionFind(std::size_t n) : parent(n) {
   std::iota(parent.begin(), parent.end(), 0U);
 }
 
+namespace {
+
+/// Stable LSD radix sort of `items` by `key(item)` (an unsigned integer below 2^key_bits),
+/// at most 12 bits per pass: equal keys keep their order, so ties stay in insertion order.
+template <class T, class KeyFn>
+void radix_sort_stable(std::vector<T>& items, KeyFn key, int key_bits) {
+  const int passes = (key_bits + 11) / 12;
+  const int digit_bits = (key_bits + passes - 1) / passes;
+  const std::size_t buckets = std::size_t{1} << digit_bits;
+  std::vector<T> tmp(items.size());
+  std::vector<std::size_t> count(buckets + 1);
+  for (int shift = 0; shift < key_bits; shift += digit_bits) {
+    std::fill(count.begin(), count.end(), 0);
+    for (const T& x : items) ++count[((key(x) >> shift) & (buckets - 1)) + 1];
+    for (std::size_t b = 1; b <= buckets; ++b) count[b] += count[b - 1];
+    for (const T& x : items) tmp[count[(key(x) >> shift) & (buckets - 1)]++] = x;
+    items.swap(tmp);
+  }
+}
+
+/// Bits needed for values below `n` (at least 1).
+int bits_for(std::size_t n) {
+  int b = 1;
+  while (b < 64 && (std::uint64_t{1} << b) < n) ++b;
+  return b;
+}
+
+}  // namespace
+
 EdgeTable build_edge_table(const Mesh& mesh, const std::vector<char>& skip_face) {
   EdgeTable table;
   table.half_edges.reserve(3 * mesh.triangles.size());
@@ -56,12 +85,20 @@ EdgeTable build_edge_table(const Mesh& mesh, const std::vector<char>& skip_face)
           {std::min(a, b), std::max(a, b), static_cast<std::uint32_t>(f), a < b});
     }
   }
-  std::sort(table.half_edges.begin(), table.half_edges.end(),
-            [](const HalfEdge& x, const HalfEdge& y) {
-              if (x.lo != y.lo) return x.lo < y.lo;
-              if (x.hi != y.hi) return x.hi < y.hi;
-              return x.face < y.face;
-            });
+  // Sorted by (lo, hi, face): a stable radix sort by (lo, hi) of half-edges pushed in face
+  // order (one face never holds an undirected edge twice once repeated indices are skipped;
+  // if it did, both would sit together in push order).
+  const int vbits = bits_for(mesh.vertices_mm.size());
+  if (2 * vbits <= 64) {
+    radix_sort_stable(
+        table.half_edges,
+        [vbits](const HalfEdge& e) { return (std::uint64_t{e.lo} << vbits) | e.hi; }, 2 * vbits);
+  } else {
+    std::stable_sort(table.half_edges.begin(), table.half_edges.end(),
+                     [](const HalfEdge& x, const HalfEdge& y) {
+                       return x.lo != y.lo ? x.lo < y.lo : x.hi < y.hi;
+                     });
+  }
   for (std::size_t i = 0; i < table.half_edges.size();) {
     std::size_t j = i + 1;
     while (j < table.half_edges.size() && table.half_edges[j].lo == table.half_edges[i].lo &&
@@ -87,7 +124,19 @@ std::vector<char> duplicate_or_index_degenerate_faces(const Mesh& mesh, std::siz
     std::sort(t.begin(), t.end());
     keys.push_back({t, static_cast<std::uint32_t>(f)});
   }
-  std::sort(keys.begin(), keys.end());
+  // Sorted by vertex set; among equal sets the lowest face first (stable sort of keys pushed
+  // in face order), so the first face stays and its repeats are marked.
+  const int vbits = bits_for(mesh.vertices_mm.size());
+  if (3 * vbits <= 64) {
+    radix_sort_stable(
+        keys,
+        [vbits](const std::pair<std::array<std::uint32_t, 3>, std::uint32_t>& k) {
+          return (((std::uint64_t{k.first[0]} << vbits) | k.first[1]) << vbits) | k.first[2];
+        },
+        3 * vbits);
+  } else {
+    std::sort(keys.begin(), keys.end());
+  }
   std::size_t dup = 0;
   for (std::size_t i = 1; i < keys.size(); ++i)
     if (keys[i].first == keys[i - 1].first) {

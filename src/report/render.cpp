@@ -174,26 +174,85 @@ HeatmapView render_heatmap(const MeshQuery& query, const SurfaceDeviationField& 
     // picture; keep about 3 per pixel.
     const double per_px = (cam.mm_per_px / spacing) * (cam.mm_per_px / spacing);
     const std::size_t stride = radius_px == 0 ? std::max<std::size_t>(1, static_cast<std::size_t>(per_px / 3.0)) : 1;
-    for (std::size_t k = 0; k < field.samples.size(); k += stride) {
-      const DeviationSample& smp = field.samples[k];
-      const Vec3 d = smp.position_mm - c0;
-      const double fx = 0.5 * w + d.dot(cam.right) * inv_px, fy = 0.5 * h - d.dot(cam.up) * inv_px;
-      if (!(fx >= -radius_px && fy >= -radius_px && fx < w + radius_px && fy < h + radius_px)) continue;
-      if (!std::isfinite(smp.distance_mm)) continue;
-      const int cx = static_cast<int>(fx), cy = static_cast<int>(fy);
-      const double sample_t = d.dot(cam.forward) + near_offset;
-      for (int yy = std::max(cy - radius_px, 0); yy <= std::min(cy + radius_px, h - 1); ++yy) {
-        for (int xx = std::max(cx - radius_px, 0); xx <= std::min(cx + radius_px, w - 1); ++xx) {
-          const std::size_t i = static_cast<std::size_t>(yy) * w + xx;
-          if (tri[i] == kNone) continue;
-          // Slanted faces change depth across a pixel: widen the test where they are steep.
-          const double slope = std::abs(normal[i].dot(cam.forward));
-          if (std::abs(sample_t - tdepth[i]) > depth_tol / std::max(slope, 0.25)) continue;
-          dev_sum[i] += static_cast<float>(smp.distance_mm);
-          if (dev_count[i] < 65535) ++dev_count[i];
+    // Samples arrive in mesh order, not image order: everything the depth test and the
+    // accumulation touch per pixel sits in one 24-byte record (one cache line per sample
+    // instead of one per array). The per-pixel depth window is computed once, not per sample.
+    struct SplatPixel {
+      double window = -1;  ///< largest accepted |sample depth - surface depth|; < 0: no surface
+      float depth = 0;
+      float sum = 0;
+      std::uint16_t count = 0;
+    };
+    std::vector<SplatPixel> splat(tri.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tri.size(), 4096),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+        if (tri[i] == kNone) continue;
+        // Slanted faces change depth across a pixel: widen the test where they are steep.
+        const double slope = std::abs(normal[i].dot(cam.forward));
+        splat[i].window = depth_tol / std::max(slope, 0.25);
+        splat[i].depth = tdepth[i];
+      }
+    });
+    auto project = [&](const DeviationSample& smp, double& fx, double& fy, Vec3& d) {
+      d = smp.position_mm - c0;
+      fx = 0.5 * w + d.dot(cam.right) * inv_px;
+      fy = 0.5 * h - d.dot(cam.up) * inv_px;
+      return fx >= -radius_px && fy >= -radius_px && fx < w + radius_px && fy < h + radius_px &&
+             std::isfinite(smp.distance_mm);
+    };
+    if (radius_px == 0) {
+      // One pixel per sample: bucket the samples by bands of 16 rows first (a stable
+      // counting sort, so each pixel still sums its samples in sample order), then splat
+      // band by band with the band's pixels in cache.
+      constexpr int kBandRows = 16;
+      const std::size_t bands = static_cast<std::size_t>((h + kBandRows - 1) / kBandRows);
+      struct Drop {
+        double t;
+        std::uint32_t pixel;
+        float value;
+      };
+      std::vector<std::size_t> start(bands + 1, 0);
+      double fx = 0, fy = 0;
+      Vec3 d;
+      for (std::size_t k = 0; k < field.samples.size(); k += stride)
+        if (project(field.samples[k], fx, fy, d)) ++start[static_cast<std::size_t>(fy) / kBandRows + 1];
+      for (std::size_t b = 1; b <= bands; ++b) start[b] += start[b - 1];
+      std::vector<Drop> drops(start[bands]);
+      for (std::size_t k = 0; k < field.samples.size(); k += stride) {
+        const DeviationSample& smp = field.samples[k];
+        if (!project(smp, fx, fy, d)) continue;
+        const int cx = static_cast<int>(fx), cy = static_cast<int>(fy);
+        drops[start[static_cast<std::size_t>(cy) / kBandRows]++] = {
+            d.dot(cam.forward) + near_offset, static_cast<std::uint32_t>(static_cast<std::size_t>(cy) * w + cx),
+            static_cast<float>(smp.distance_mm)};
+      }
+      for (const Drop& drop : drops) {
+        SplatPixel& p = splat[drop.pixel];
+        if (!(std::abs(drop.t - p.depth) <= p.window)) continue;
+        p.sum += drop.value;
+        if (p.count < 65535) ++p.count;
+      }
+    } else {
+      for (std::size_t k = 0; k < field.samples.size(); k += stride) {
+        const DeviationSample& smp = field.samples[k];
+        double fx = 0, fy = 0;
+        Vec3 d;
+        if (!project(smp, fx, fy, d)) continue;
+        const int cx = static_cast<int>(fx), cy = static_cast<int>(fy);
+        const double sample_t = d.dot(cam.forward) + near_offset;
+        const auto value = static_cast<float>(smp.distance_mm);
+        for (int yy = std::max(cy - radius_px, 0); yy <= std::min(cy + radius_px, h - 1); ++yy) {
+          for (int xx = std::max(cx - radius_px, 0); xx <= std::min(cx + radius_px, w - 1); ++xx) {
+            SplatPixel& p = splat[static_cast<std::size_t>(yy) * w + xx];
+            if (!(std::abs(sample_t - p.depth) <= p.window)) continue;
+            p.sum += value;
+            if (p.count < 65535) ++p.count;
+          }
         }
       }
     }
+    for (std::size_t i = 0; i < tri.size(); ++i) dev_sum[i] = splat[i].sum, dev_count[i] = splat[i].count;
     // Hole fill: mean of the splatted neighbours within 2 px at a similar depth.
     std::vector<float> fill_value(tri.size(), 0.f);
     std::vector<char> filled(tri.size(), 0);
