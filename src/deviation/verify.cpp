@@ -156,10 +156,12 @@ Result<PreparedPart> prepare_part(const std::filesystem::path& mesh_path, const 
                                   const VerifySettings& settings) {
   std::vector<StageTiming> load_timing;
   StageClock clock(load_timing);
-  auto mesh_in = describe_input("mesh", mesh_path);
+  std::string bytes;  // read once: hashed for the provenance, then parsed
+  auto mesh_in = describe_input("mesh", mesh_path, &bytes);
   if (!mesh_in) return mesh_in.error();
-  auto mesh = load_mesh(mesh_path);
+  auto mesh = load_mesh_from_memory(bytes, mesh_path);
   if (!mesh) return mesh.error();
+  bytes = {};
   clock.lap("load");
   auto part = prepare_part(std::move(*mesh), mesh_path.stem().string(), std::move(*mesh_in), printer, settings);
   if (!part) return part.error();
