@@ -9,7 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
+#include <cstdint>
 
 #include "report/report_internal.hpp"
 
@@ -79,13 +79,25 @@ std::string viewer_json(const VerifyReport& report, const DeviationColorScale& s
   const double extent = std::max(box.max.x() - frame.x0, box.max.y() - frame.y0) + pad;
   frame.q = std::max(extent / 65000.0, 0.0005);
 
-  // Deposit samples by layer number.
-  std::map<int, std::size_t> chosen_of_layer;
-  for (std::size_t k = 0; k < chosen.size(); ++k) chosen_of_layer[per_layer[chosen[k]].layer] = k;
+  // Deposit samples by layer number (a direct table over the layer numbers: millions of
+  // samples are looked up).
+  constexpr std::size_t kNotChosen = SIZE_MAX;
+  int first_layer = per_layer[chosen.front()].layer, last_layer = first_layer;
+  for (std::size_t k : chosen) {
+    first_layer = std::min(first_layer, per_layer[k].layer);
+    last_layer = std::max(last_layer, per_layer[k].layer);
+  }
+  std::vector<std::size_t> chosen_at(static_cast<std::size_t>(last_layer - first_layer) + 1, kNotChosen);
+  for (std::size_t k = 0; k < chosen.size(); ++k)
+    chosen_at[static_cast<std::size_t>(per_layer[chosen[k]].layer - first_layer)] = k;
+  auto chosen_of = [&](int layer) {
+    if (layer < first_layer || layer > last_layer) return kNotChosen;
+    return chosen_at[static_cast<std::size_t>(layer - first_layer)];
+  };
   std::vector<std::vector<std::uint32_t>> dep_idx(chosen.size()), mesh_idx(chosen.size());
   for (std::uint32_t i = 0; i < dev.deposit_samples.size(); ++i) {
-    const auto it = chosen_of_layer.find(dev.deposit_samples[i].layer);
-    if (it != chosen_of_layer.end()) dep_idx[it->second].push_back(i);
+    const std::size_t k = chosen_of(dev.deposit_samples[i].layer);
+    if (k != kNotChosen) dep_idx[k].push_back(i);
   }
   // Out-of-tolerance mesh samples, by the layer slab their height falls in.
   for (std::uint32_t i = 0; i < dev.mesh_samples.size(); ++i) {
@@ -96,8 +108,8 @@ std::string viewer_json(const VerifyReport& report, const DeviationColorScale& s
     if (it == top.end()) continue;
     const std::size_t li = static_cast<std::size_t>(it - top.begin());
     if (z < top[li] - height_of(li) - 1e-9) continue;
-    const auto c = chosen_of_layer.find(per_layer[li].layer);
-    if (c != chosen_of_layer.end()) mesh_idx[c->second].push_back(i);
+    const std::size_t k = chosen_of(per_layer[li].layer);
+    if (k != kNotChosen) mesh_idx[k].push_back(i);
   }
 
   const std::size_t per_layer_cap =
