@@ -126,6 +126,30 @@ TEST(DepositBead, SingleWallPrintVolumeMatchesExtrusion) {
   EXPECT_TRUE(r->findings.empty());
 }
 
+// Slic3r/PrusaSlicer space neighbouring lines w - h (1 - pi/4) apart, so that the stadium
+// sections' areas add up to spacing x height. The sections then overlap where their
+// half-discs meet (a lens: two discs of diameter h, centres pi h / 4 apart) and leave the
+// same area empty at the cusps above and below: the deposit reports the lens as overlap.
+// This is the modelling part of the overlap measured on real G-code (docs/deposit.md).
+TEST(DepositBead, NeighbouringLinesAtSlicerSpacingOverlapByTheLens) {
+  const auto profile = ender3_marlin2();
+  BeadWriter w(profile);
+  const double wd = 0.45, h = 0.2, len = 30.0;
+  const double spacing = wd - h * (1.0 - std::numbers::pi / 4.0);
+  w.travel({40, 40.02, h});
+  w.extrude({40 + len, 40.02, h}, wd, h);
+  w.travel({40, 40.02 + spacing, h});
+  w.extrude({40 + len, 40.02 + spacing, h}, wd, h);
+  auto r = deposit_moves(w.moves, profile, DepositSettings{});
+  ASSERT_TRUE(r.ok());
+  const double rr = h / 2, dd = std::numbers::pi * h / 4;  // disc radius, centre distance
+  const double lens_mm2 = 2 * rr * rr * std::acos(dd / (2 * rr)) - 0.5 * dd * std::sqrt(4 * rr * rr - dd * dd);
+  EXPECT_NEAR(r->overlap_mm3 / (lens_mm2 * len), 1.0, 0.15);
+  // ~4.5 % of one line: what an inner perimeter or a solid infill line shows per neighbour.
+  EXPECT_NEAR(r->overlap_mm3 / (0.5 * r->extruded_mm3), 0.0446, 0.007);
+  EXPECT_NEAR((r->volume_mm3 + r->overlap_mm3) / r->extruded_mm3, 1.0, 0.02);
+}
+
 TEST(DepositBead, SpiralVolumeMatchesExtrusion) {
   // Vase-mode helix: one flat first loop, then Z rises 0.2 mm per turn.
   const auto profile = ender3_marlin2();
