@@ -143,9 +143,33 @@ HeatmapView render_heatmap(const MeshQuery& query, const SurfaceDeviationField& 
   std::vector<std::uint32_t> tri(static_cast<std::size_t>(w) * h, kNone);
   std::vector<float> tdepth(tri.size(), 0.f);
   std::vector<Vec3> normal(tri.size(), Vec3::Zero());
+  // Orthographic rays only hit triangles whose projection covers their pixel: mark each
+  // triangle's projected box (plus 2 px for rounding) and cast rays only there. Same hits,
+  // no rays through the empty background.
+  std::vector<char> covered(tri.size(), 0);
+  {
+    std::vector<Vec2> px(mesh.vertices_mm.size());
+    for (std::size_t v = 0; v < px.size(); ++v) {
+      const Vec3 d = mesh.vertices_mm[v] - cam.center_mm;
+      px[v] = Vec2(d.dot(cam.right) / cam.mm_per_px + 0.5 * w - 0.5, 0.5 * h - 0.5 - d.dot(cam.up) / cam.mm_per_px);
+    }
+    for (const auto& t : mesh.triangles) {
+      const Vec2 lo = px[t[0]].cwiseMin(px[t[1]]).cwiseMin(px[t[2]]);
+      const Vec2 hi = px[t[0]].cwiseMax(px[t[1]]).cwiseMax(px[t[2]]);
+      if (!(lo.allFinite() && hi.allFinite())) continue;
+      const int x0 = std::max(0, static_cast<int>(std::floor(lo.x())) - 2);
+      const int x1 = std::min(w - 1, static_cast<int>(std::ceil(hi.x())) + 2);
+      const int y0 = std::max(0, static_cast<int>(std::floor(lo.y())) - 2);
+      const int y1 = std::min(h - 1, static_cast<int>(std::ceil(hi.y())) + 2);
+      for (int y = y0; y <= y1; ++y)
+        std::fill_n(covered.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(y) * w + x0),
+                    std::max(0, x1 - x0 + 1), char{1});
+    }
+  }
   tbb::parallel_for(tbb::blocked_range<int>(0, h, 8), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y != rows.end(); ++y)
       for (int x = 0; x < w; ++x) {
+        if (covered[static_cast<std::size_t>(y) * w + x] == 0) continue;
         const Vec3 origin = pixel_origin(x, y);
         const auto hit = query.first_hit(origin, cam.forward, 0.0, depth + 2 * pad);
         if (!hit) continue;
