@@ -98,6 +98,37 @@ void BM_DeviationStage(benchmark::State& state) {
 }
 BENCHMARK(BM_DeviationStage)->Unit(benchmark::kMillisecond)->Iterations(3);
 
+/// The design side alone (what `compare` shares between variants): BVH, pseudo-normals,
+/// surface samples.
+void BM_DeviationTargetBuild(benchmark::State& state) {
+  const Prepared& p = prepared();
+  DeviationSettings settings;
+  for (auto _ : state) {
+    auto t = DeviationTarget::build(p.placed, settings, p.deposit.grid.voxel_mm());
+    if (!t) state.SkipWithError(t.error().describe().c_str());
+    benchmark::DoNotOptimize(t->samples().size());
+  }
+}
+BENCHMARK(BM_DeviationTargetBuild)->Unit(benchmark::kMillisecond)->Iterations(3);
+
+/// The deviation stage per deposit with the target prepared once (compare's variants).
+void BM_DeviationStageReusedTarget(benchmark::State& state) {
+  const Prepared& p = prepared();
+  DeviationSettings settings;
+  settings.keep_samples = false;
+  auto target = DeviationTarget::build(p.placed, settings, p.deposit.grid.voxel_mm());
+  if (!target) {
+    state.SkipWithError(target.error().describe().c_str());
+    return;
+  }
+  for (auto _ : state) {
+    auto r = compute_deviation(*target, Vec3::Zero(), p.deposit.grid, settings, p.part);
+    if (!r) state.SkipWithError(r.error().describe().c_str());
+    benchmark::DoNotOptimize(r->deposit_to_mesh.rms_mm);
+  }
+}
+BENCHMARK(BM_DeviationStageReusedTarget)->Unit(benchmark::kMillisecond)->Iterations(3);
+
 int export_points(int argc, char** argv) {
   if (argc < 5) return 2;
   VerifyOptions o;

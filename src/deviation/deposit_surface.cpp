@@ -3,6 +3,10 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
+
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -56,6 +60,44 @@ inline void set_bits(std::uint64_t* col, int z0, int z1) {
     z0 += hi - lo;
   }
 }
+
+/// Population count without relying on the POPCNT instruction being enabled at compile
+/// time (std::popcount would call libgcc's __popcountdi2 on baseline x86-64).
+inline int popcount64(std::uint64_t x) {
+  x = x - ((x >> 1) & 0x5555555555555555ULL);
+  x = (x & 0x3333333333333333ULL) + ((x >> 2) & 0x3333333333333333ULL);
+  x = (x + (x >> 4)) & 0x0F0F0F0F0F0F0F0FULL;
+  return static_cast<int>((x * 0x0101010101010101ULL) >> 56);
+}
+
+/// Bit i set when voxel i of a 64-voxel slice has an auxiliary tag (`aux32`: -1 for an
+/// auxiliary tag index, else 0; indices clamped to `last`, tags of empty voxels mean nothing).
+std::uint64_t aux_mask_default(const std::uint32_t* t, const std::int32_t* aux32, std::uint32_t last) {
+  std::uint64_t m = 0;
+  for (int i = 0; i < 64; ++i) m |= (static_cast<std::uint64_t>(aux32[std::min(t[i], last)]) & 1U) << i;
+  return m;
+}
+#if defined(__x86_64__) && defined(__GNUC__)
+[[gnu::target("avx2")]] std::uint64_t aux_mask_avx2(const std::uint32_t* t, const std::int32_t* aux32,
+                                                    std::uint32_t last) {
+  const __m256i lastv = _mm256_set1_epi32(static_cast<int>(last));
+  std::uint64_t m = 0;
+  for (int i = 0; i < 64; i += 8) {
+    __m256i idx = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(t + i));
+    idx = _mm256_min_epu32(idx, lastv);
+    const __m256i v = _mm256_i32gather_epi32(aux32, idx, 4);
+    const auto bits = static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(v)));
+    m |= static_cast<std::uint64_t>(bits) << i;
+  }
+  return m;
+}
+bool cpu_has_avx2() { return __builtin_cpu_supports("avx2") != 0; }
+#else
+std::uint64_t aux_mask_avx2(const std::uint32_t* t, const std::int32_t* aux32, std::uint32_t last) {
+  return aux_mask_default(t, aux32, last);
+}
+bool cpu_has_avx2() { return false; }
+#endif
 
 /// Transposes an 8x8 bit matrix held in a word (byte r = row r, bit c = column c).
 inline std::uint64_t transpose8(std::uint64_t x) {
@@ -145,12 +187,37 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   for (std::size_t i = 0; i < table.size(); ++i) auxiliary[i] = is_auxiliary_feature(table[i].feature) ? 1 : 0;
   bool any_auxiliary = false;
   for (const std::uint8_t a : auxiliary) any_auxiliary = any_auxiliary || a != 0;
+  const auto last_tag = static_cast<std::uint32_t>(auxiliary.empty() ? 0 : auxiliary.size() - 1);
+  std::vector<std::int32_t> aux32(std::max<std::size_t>(1, auxiliary.size()), 0);
+  for (std::size_t i = 0; i < auxiliary.size(); ++i) aux32[i] = auxiliary[i] != 0 ? -1 : 0;
+  const bool avx2 = cpu_has_avx2();
+  // The grid visits blocks z-major; gathered column by column instead (all z-blocks of a
+  // column of blocks in a row), the 64 bit columns a block writes stay in cache.
+  constexpr int kE = VoxelGrid::kBlockEdge;
+  std::vector<VoxelGrid::BlockView> in_region;
   grid.visit_blocks([&](const VoxelGrid::BlockView& b) {
     const int bx = b.base.x - kmin.x, by = b.base.y - kmin.y, bz = b.base.z - kmin.z;
-    constexpr int kE = VoxelGrid::kBlockEdge;
     if (bx + kE <= 1 || by + kE <= 1 || bz + kE <= 1 || bx >= nx - 1 || by >= ny - 1 ||
         bz >= nz - 1)
       return;
+    in_region.push_back(b);
+  });
+  {
+    const int nbx = (nx + 2 * kE) / kE + 2;
+    const auto column_block = [&](const VoxelGrid::BlockView& b) {
+      const int cx = (b.base.x - kmin.x + kE) / kE, cy = (b.base.y - kmin.y + kE) / kE;
+      return static_cast<std::size_t>(cy) * static_cast<std::size_t>(nbx) + static_cast<std::size_t>(cx);
+    };
+    const std::size_t nkeys = static_cast<std::size_t>(nbx) * static_cast<std::size_t>((ny + 2 * kE) / kE + 2);
+    std::vector<std::uint32_t> start(nkeys + 1, 0);
+    for (const auto& b : in_region) ++start[column_block(b) + 1];
+    for (std::size_t k = 0; k < nkeys; ++k) start[k + 1] += start[k];
+    std::vector<VoxelGrid::BlockView> sorted(in_region.size());
+    for (const auto& b : in_region) sorted[start[column_block(b)]++] = b;
+    in_region = std::move(sorted);
+  }
+  for (const VoxelGrid::BlockView& b : in_region) {
+    const int bx = b.base.x - kmin.x, by = b.base.y - kmin.y, bz = b.base.z - kmin.z;
     // The block's 8 z-slices of 64 (x, y) bits, without auxiliary voxels and z outside the
     // region, then transposed to one byte of 8 z bits per (x, y) column.
     std::array<std::uint64_t, kE> slice{};
@@ -158,12 +225,9 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
       const int gz = bz + z;
       if (gz < 1 || gz >= nz - 1) continue;
       std::uint64_t bits = b.occupancy[z];
-      if (any_auxiliary) {
-        for (std::uint64_t rest = bits; rest != 0; rest &= rest - 1) {
-          const int bit = std::countr_zero(rest);
-          if (auxiliary[b.tags[z * 64 + bit]] != 0) bits &= ~(std::uint64_t{1} << bit);
-        }
-      }
+      if (any_auxiliary && bits != 0)
+        bits &= ~(avx2 ? aux_mask_avx2(b.tags + z * 64, aux32.data(), last_tag)
+                       : aux_mask_default(b.tags + z * 64, aux32.data(), last_tag));
       slice[static_cast<std::size_t>(z)] = bits;
     }
     for (int y = 0; y < kE; ++y) {
@@ -179,7 +243,7 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
         const int gx = bx + x;
         if (zbits == 0 || gx < 1 || gx >= nx - 1) continue;
         std::uint64_t* col = occ.data() + (static_cast<std::size_t>(gy) * nx + gx) * words;
-        s.occupied_voxels += static_cast<std::size_t>(std::popcount(zbits));
+        s.occupied_voxels += static_cast<std::size_t>(popcount64(zbits));
         // z bits bz..bz+7 (bz may be negative: the clipped low bits are zero).
         if (bz >= 0) {
           col[bz >> 6] |= zbits << (bz & 63);
@@ -189,7 +253,7 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
         }
       }
     }
-  });
+  }
 
   // Gaps narrower than seal_gap_mm must not let the outside in (pinholes between beads are
   // voxelisation artefacts): the flood runs on the occupancy dilated by r voxels, and the
@@ -287,7 +351,7 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     const std::uint64_t* o = out_bits.data() + c * static_cast<std::size_t>(words);
     for (int w = 0; w < words; ++w) f[w] = ~o[w];
     if (nz % 64 != 0) f[words - 1] &= (std::uint64_t{1} << (nz % 64)) - 1;
-    for (int w = 0; w < words; ++w) s.filled_voxels += static_cast<std::size_t>(__builtin_popcountll(f[w]));
+    for (int w = 0; w < words; ++w) s.filled_voxels += static_cast<std::size_t>(popcount64(f[w]));
   }
 
   // 4. Faces between a filled voxel and an outside voxel (= not filled), column by column.
@@ -305,6 +369,30 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     f.center_mm = c;
     s.faces.push_back(f);
   };
+  {  // Count first (cheap bit operations), then write the faces into place.
+    std::size_t n_faces = 0;
+    for (int y = 1; y < ny - 1; ++y)
+      for (int x = 1; x < nx - 1; ++x) {
+        const std::uint64_t* f = filled_col(x, y);
+        const std::uint64_t* oc = occ.data() + (static_cast<std::size_t>(y) * nx + x) * words;
+        const std::uint64_t* n0 = filled_col(x - 1, y);
+        const std::uint64_t* n1 = filled_col(x + 1, y);
+        const std::uint64_t* n2 = filled_col(x, y - 1);
+        const std::uint64_t* n3 = filled_col(x, y + 1);
+        for (int w = 0; w < words; ++w) {
+          const std::uint64_t fo = f[w] & oc[w];
+          if (fo == 0) continue;
+          const std::uint64_t up = (w + 1 < words) ? (f[w + 1] & 1U) : 0;
+          const std::uint64_t down = (w > 0) ? (f[w - 1] >> 63) : 0;
+          const std::uint64_t above = (f[w] >> 1) | (up << 63);
+          const std::uint64_t below = (f[w] << 1) | down;
+          n_faces += static_cast<std::size_t>(popcount64(fo & ~above) + popcount64(fo & ~below) +
+                                              popcount64(fo & ~n0[w]) + popcount64(fo & ~n1[w]) +
+                                              popcount64(fo & ~n2[w]) + popcount64(fo & ~n3[w]));
+        }
+      }
+    s.faces.reserve(n_faces);
+  }
   for (int y = 1; y < ny - 1; ++y)
     for (int x = 1; x < nx - 1; ++x) {
       const std::uint64_t* f = filled_col(x, y);
@@ -477,10 +565,15 @@ void distances_to_deposit(const DepositSurface& s, std::span<const Vec3> points,
           }
         }
       };
+      // p's own cell first; then the bound (the previous point's, or the best face of p's
+      // cell) limits the search to the cells its ball touches (at most 2 per axis): all
+      // faces within the bound are in them, so the minimum over them is the global one.
+      const Eigen::Vector3i c0 = buckets.cell_coord(p);
+      scan_cell(c0);
       bool done = false;
-      const double bound = (prev_d + (p - prev_p).norm()) * (1 + 1e-9) + 1e-9;
+      const double bound = std::min((prev_d + (p - prev_p).norm()) * (1 + 1e-9) + 1e-9,
+                                    std::sqrt(best2) * (1 + 1e-9) + 1e-9);
       if (bound < buckets.cell_mm) {
-        // The cells the ball of radius `bound` touches (at most 2 per axis).
         const double reach_mm = bound + half;
         Eigen::Vector3i lo, hi;
         for (int a = 0; a < 3; ++a) {
@@ -488,19 +581,15 @@ void distances_to_deposit(const DepositSurface& s, std::span<const Vec3> points,
           hi[a] = std::min(buckets.cells[a] - 1,
                            static_cast<int>(std::floor((p[a] + reach_mm - buckets.origin_mm[a]) / buckets.cell_mm)));
         }
-        best2 = bound * bound;
-        best_face = std::numeric_limits<std::uint32_t>::max();
         for (int z = lo.z(); z <= hi.z(); ++z)
           for (int y = lo.y(); y <= hi.y(); ++y)
-            for (int x = lo.x(); x <= hi.x(); ++x) scan_cell(Eigen::Vector3i(x, y, z));
-        done = best_face != std::numeric_limits<std::uint32_t>::max();
-        if (!done) {  // cannot happen in exact arithmetic; the full search below is exact
-          best2 = std::numeric_limits<double>::infinity();
-          best_face = 0;
-        }
+            for (int x = lo.x(); x <= hi.x(); ++x) {
+              const Eigen::Vector3i c(x, y, z);
+              if (c != c0) scan_cell(c);
+            }
+        done = best2 <= bound * bound;
       }
       // Fine rings around p's cell; every cell of ring + 1 is at least ring * cell - half away.
-      const Eigen::Vector3i c0 = buckets.cell_coord(p);
       for (int ring = 0; ring <= kFineRings && !done; ++ring) {
         for (int dz = -ring; dz <= ring; ++dz)
           for (int dy = -ring; dy <= ring; ++dy)
