@@ -21,7 +21,6 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <cstdlib>
 #include <limits>
 #include <optional>
 
@@ -268,7 +267,6 @@ struct DepositBuilder::State {
 
   double extruded_mm3 = 0;
   std::size_t overlap_voxels = 0;
-  bool no_support_ = std::getenv("PT_NOSUP") != nullptr, no_sweep_ = std::getenv("PT_NOSWEEP") != nullptr;
   std::size_t beads = 0;
   std::size_t skipped = 0;
 
@@ -422,7 +420,7 @@ struct DepositBuilder::State {
     const double step_mm = len_mm / samples;
     offsets_.resize(static_cast<std::size_t>(across));
     for (int j = 0; j < across; ++j) offsets_[static_cast<std::size_t>(j)] = -0.5 * w + (j + 0.5) * w / across;
-    for (int i = 0; i < (no_support_ ? 0 : samples); ++i) {
+    for (int i = 0; i < samples; ++i) {
       const Vec3 q = a + ((i + 0.5) / samples) * (b - a);
       const double bottom = q.z() - h;
       const int need_rows = rows_reaching(bottom - tol);
@@ -448,7 +446,7 @@ struct DepositBuilder::State {
       }
     }
 
-    if (!no_sweep_) sweep(pb, a, b, d, n, m1, h, w);
+    sweep(pb, a, b, d, n, m1, h, w);
     ++beads;
   }
 
