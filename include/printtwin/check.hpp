@@ -29,6 +29,8 @@
 
 namespace printtwin {
 
+class MeshQuery;  // mesh_query.hpp
+
 /// Thresholds of the check. Defaults follow the stock Ender-3 (0.4 mm nozzle).
 struct CheckSettings {
   /// A downward-facing surface leaning more than this from vertical needs support
@@ -53,6 +55,10 @@ struct CheckSettings {
   std::size_t max_locations = 5;
   /// Skip the self-intersection test (it dominates the run time of very large meshes).
   bool self_intersections = true;
+  /// Optional BVH of the mesh as given to check_printability (before placement), built by
+  /// the caller for other uses too (verify shares one with the deviation stage); null: the
+  /// thickness rays build their own.
+  const MeshQuery* mesh_query = nullptr;
 };
 
 /// Topological and geometric health of a mesh (frame of the input, before placement).
@@ -139,8 +145,12 @@ struct ThicknessResult {
 /// wall thickness) and outward along +normal (first front-facing hit of a surface facing
 /// back within 30 degrees = gap width). Uses MeshQuery (Embree). Fails only when the ray
 /// tracer cannot be built.
+/// `query` (optional): a BVH of the same mesh translated by -query_offset_mm (rays are cast
+/// from the face centroids minus the offset); null: one is built for the call.
 [[nodiscard]] Result<ThicknessResult> measure_thickness(const Mesh& mesh, double min_thickness_mm,
-                                                        double line_width_mm);
+                                                        double line_width_mm,
+                                                        const MeshQuery* query = nullptr,
+                                                        const Vec3& query_offset_mm = Vec3::Zero());
 
 /// Everything `printtwin check` reports.
 struct CheckReport {

@@ -292,7 +292,8 @@ Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& p
         std::nullopt, static_cast<long>(rep.overhangs.size() - settings.max_locations)));
 
   // Thin walls and narrow gaps.
-  auto thick = measure_thickness(placed, rep.min_thickness_limit_mm, rep.line_width_mm);
+  auto thick = measure_thickness(placed, rep.min_thickness_limit_mm, rep.line_width_mm, settings.mesh_query,
+                                 rep.placement.offset_mm);
   if (!thick) return thick.error();
   rep.thickness = *thick;
   const ThicknessResult& t = *thick;

@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "check/check_internal.hpp"
 #include "printtwin/check.hpp"
@@ -25,10 +26,16 @@ struct FaceSample {
 }  // namespace
 
 Result<ThicknessResult> measure_thickness(const Mesh& mesh, double min_thickness_mm,
-                                          double line_width_mm) {
-  auto built = MeshQuery::build(mesh);
-  if (!built) return built.error();
-  const MeshQuery& query = *built;
+                                          double line_width_mm, const MeshQuery* prebuilt,
+                                          const Vec3& query_offset_mm) {
+  std::optional<MeshQuery> own;
+  if (prebuilt == nullptr) {
+    auto built = MeshQuery::build(mesh);
+    if (!built) return built.error();
+    own.emplace(std::move(*built));
+  }
+  const MeshQuery& query = prebuilt != nullptr ? *prebuilt : *own;
+  const Vec3 shift = prebuilt != nullptr ? query_offset_mm : Vec3::Zero();
   const std::size_t nf = mesh.triangles.size();
   // Start rays a little off the surface: Embree works in float on coordinates centred on
   // the mesh, so hits closer than ~1e-4 mm of the origin are the face itself or a neighbour.
@@ -42,7 +49,7 @@ Result<ThicknessResult> measure_thickness(const Mesh& mesh, double min_thickness
       const double len = n.norm();
       if (!(len > 0) || detail::is_degenerate_face(mesh, f)) continue;
       n /= len;
-      const Vec3 c = detail::face_centroid(mesh, f);
+      const Vec3 c = detail::face_centroid(mesh, f) - shift;
       // Inward: the first surface hit from behind is the far side of the wall.
       if (auto hit = query.first_hit(c, -n, t_min); hit && hit->triangle != f) {
         if (hit->normal.dot(-n) > 0) samples[f].thickness_mm = hit->t_mm;

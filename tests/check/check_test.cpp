@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "printtwin/check.hpp"
+#include "printtwin/mesh_query.hpp"
 #include "support/test_support.hpp"
 
 namespace printtwin {
@@ -313,6 +314,28 @@ TEST(CheckRisks, NarrowGapBetweenFacingWalls) {
   const Mesh wide = merged(make_box_mesh(Vec3(0, 0, 0), Vec3(10, 10, 10)),
                            make_box_mesh(Vec3(11, 0, 0), Vec3(20, 10, 10)));
   EXPECT_EQ(find(run(wide), "narrow_gap"), nullptr);
+}
+
+TEST(CheckRisks, SharedBvhMeasuresWhatItsOwnDoes) {
+  // verify hands check the BVH of the mesh as loaded (before placement): the rays are cast
+  // in that frame and must measure the same walls and gaps.
+  const Mesh m = merged(make_box_mesh(Vec3(50, 60, 5), Vec3(70, 60.3, 15)),
+                        make_box_mesh(Vec3(50, 60.5, 5), Vec3(70, 70, 15)));
+  auto query = MeshQuery::build(m);
+  ASSERT_TRUE(query.ok());
+  CheckSettings shared;
+  shared.mesh_query = &*query;
+  const CheckReport own = run(m);
+  const CheckReport with_shared = run(m, shared);
+  ASSERT_TRUE(own.thickness.has_value());
+  ASSERT_TRUE(with_shared.thickness.has_value());
+  EXPECT_NEAR(own.thickness->min_thickness_mm, 0.3, 1e-4);
+  EXPECT_NEAR(own.thickness->min_gap_mm, 0.2, 1e-4);
+  EXPECT_NEAR(with_shared.thickness->min_thickness_mm, own.thickness->min_thickness_mm, 1e-9);
+  EXPECT_NEAR(with_shared.thickness->min_gap_mm, own.thickness->min_gap_mm, 1e-9);
+  EXPECT_EQ(with_shared.thickness->thin_faces, own.thickness->thin_faces);
+  EXPECT_EQ(with_shared.thickness->narrow_gap_faces, own.thickness->narrow_gap_faces);
+  EXPECT_EQ(with_shared.findings.size(), own.findings.size());
 }
 
 TEST(CheckRisks, SmallFeature) {
