@@ -145,10 +145,7 @@ void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Ve
       // Most points lie near the surface: a bounded query first, the full one if it fails.
       std::optional<ClosestPoint> near;
       const double bound = (prev_d + (p - prev_p).norm()) * (1 + 1e-9) + 1e-9;
-      // Without a useful bound (a jump to another column), a small ball first: most of the
-      // deposit lies within a quarter of near_mm of the design.
-      if (bound < 0.5 * near_mm) near = query.closest_point_within(p, bound);
-      else if (near_mm > 0) near = query.closest_point_within(p, 0.25 * near_mm);
+      if (bound < near_mm) near = query.closest_point_within(p, bound);
       if (!near && near_mm > 0) near = query.closest_point_within(p, near_mm);
       const ClosestPoint cp = near ? *near : query.closest_point(p);
       prev_p = p;
