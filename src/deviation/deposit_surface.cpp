@@ -429,12 +429,31 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
       }
     }
   // Tags of the faces' voxels (all occupied).
+  // A dense directory of the region's blocks (their tag arrays), so a face's tag is two
+  // array reads instead of a grid lookup.
+  const int dbx = (nx + 2 * kE) / kE + 2, dby = (ny + 2 * kE) / kE + 2, dbz = (nz + 2 * kE) / kE + 2;
+  const auto dir_index = [&](const VoxelKey& base) {
+    return (static_cast<std::size_t>((base.z - kmin.z + kE) / kE) * static_cast<std::size_t>(dby) +
+            static_cast<std::size_t>((base.y - kmin.y + kE) / kE)) * static_cast<std::size_t>(dbx) +
+           static_cast<std::size_t>((base.x - kmin.x + kE) / kE);
+  };
+  std::vector<const VoxelGrid::BlockView*> directory(static_cast<std::size_t>(dbx) * dby * dbz, nullptr);
+  for (const auto& b : in_region) directory[dir_index(b.base)] = &b;
   s.face_tags.resize(s.faces.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, s.faces.size(), 4096),
                     [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i)
-                        s.face_tags[i] = grid.tag(s.faces[i].voxel).value_or(VoxelTag{});
-                    });
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      const VoxelKey& k = s.faces[i].voxel;
+      const VoxelKey base{k.x - (k.x & (kE - 1)), k.y - (k.y & (kE - 1)), k.z - (k.z & (kE - 1))};
+      const VoxelGrid::BlockView* b = directory[dir_index(base)];
+      if (b == nullptr || !(b->base == base)) {  // not expected: faces are on gathered voxels
+        s.face_tags[i] = grid.tag(k).value_or(VoxelTag{});
+        continue;
+      }
+      const int local = (k.z - base.z) * 64 + (k.y - base.y) * 8 + (k.x - base.x);
+      s.face_tags[i] = table[b->tags[local]];
+    }
+  });
   return s;
 }
 
