@@ -158,8 +158,10 @@ class DeviationTarget {
   /// Signed distances (positive outside) from `points_mm` (in the frame where the mesh sits
   /// at `offset_mm`, i.e. the machine frame) to the mesh translated by `offset_mm`. Same
   /// rules as signed_distances_to_mesh; `near_mm` only changes the speed.
+  /// `triangles` (optional) receives the triangle of each closest point.
   void signed_distances(const Vec3& offset_mm, std::span<const Vec3> points_mm, double near_mm,
-                        std::vector<double>& signed_mm) const;
+                        std::vector<double>& signed_mm,
+                        std::vector<std::uint32_t>* triangles = nullptr) const;
 
  private:
   struct Impl;

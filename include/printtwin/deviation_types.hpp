@@ -28,6 +28,9 @@ struct DeviationSample {
   double distance_mm = 0;           ///< signed distance
   std::int32_t layer = -1;          ///< layer of the nearest deposit voxel
   std::uint32_t line = 0;           ///< G-code line of the nearest deposit voxel (0: none)
+  /// Mesh triangle: of the closest point (deposit -> mesh) or the one the sample lies on
+  /// (mesh -> deposit); UINT32_MAX when unknown.
+  std::uint32_t triangle = 0xFFFFFFFFu;
 };
 
 struct LayerDeviation {

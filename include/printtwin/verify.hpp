@@ -173,7 +173,7 @@ struct PreparedPart {
   std::vector<Finding> check_findings;
   /// Design side of the deviation in the mesh's own frame (null: built per G-code).
   std::shared_ptr<const DeviationTarget> target;
-  std::vector<StageTiming> timings;         ///< "load", "check", "index"
+  std::vector<StageTiming> timings;         ///< "load", "index", "check"
 };
 
 /// Reads, loads and checks the mesh and builds its deviation target with `settings`' sample

@@ -6,8 +6,6 @@
 #include <cmath>
 #include <cstdio>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include "printtwin/compare.hpp"
 #include "printtwin/deviation.hpp"
@@ -42,39 +40,19 @@ Result<SliceSettings> slice_settings_of(const VariantSpec& spec) {
   return s;
 }
 
-// Nearest mesh triangle of each sample of the placed frame, through the shared BVH of the
-// mesh in its own frame (placing is a pure translation). Deposit samples lie close to the
-// mesh, so each is first searched within `near_mm` (the BVH prunes almost everything),
-// then without bound.
-std::vector<std::uint32_t> nearest_triangles(const MeshQuery& query,
-                                             std::span<const DeviationSample> samples,
-                                             const Vec3& offset_mm, double near_mm) {
+// Mesh triangle of each sample: the one the deviation stage found (the closest point of a
+// deposit sample, the triangle a mesh sample lies on); through the shared BVH for a sample
+// that has none. The BVH is in the mesh's own frame, so queries subtract the offset.
+std::vector<std::uint32_t> sample_triangles(const MeshQuery& query, std::span<const DeviationSample> samples,
+                                            const Vec3& offset_mm, double near_mm) {
   std::vector<std::uint32_t> out(samples.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, samples.size(), 4096),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      const Vec3 p = samples[i].position_mm - offset_mm;
-      if (auto cp = query.closest_point_within(p, near_mm)) out[i] = cp->triangle;
-      else out[i] = query.closest_point(p).triangle;
-    }
-  });
-  return out;
-}
-
-// Triangles of the mesh samples of a variant: the deviation stage samples the placed mesh
-// with the same seed and spacing as `shared` (sampled once on the unplaced mesh), so sample
-// i lies on shared[i].triangle. Checked on the count and on positions; on a mismatch the
-// BVH answers instead.
-std::vector<std::uint32_t> mesh_sample_triangles(const MeshQuery& query,
-                                                 std::span<const SurfaceSample> shared,
-                                                 std::span<const DeviationSample> samples,
-                                                 const Vec3& offset_mm, double near_mm) {
-  bool same = shared.size() == samples.size();
-  for (std::size_t i = 0; same && i < samples.size(); i += std::max<std::size_t>(1, samples.size() / 64))
-    same = (samples[i].position_mm - offset_mm - shared[i].position_mm).norm() < 1e-6;
-  if (!same) return nearest_triangles(query, samples, offset_mm, near_mm);
-  std::vector<std::uint32_t> out(shared.size());
-  for (std::size_t i = 0; i < shared.size(); ++i) out[i] = shared[i].triangle;
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    out[i] = samples[i].triangle;
+    if (out[i] != DeviationSample{}.triangle) continue;
+    const Vec3 p = samples[i].position_mm - offset_mm;
+    if (auto cp = query.closest_point_within(p, near_mm)) out[i] = cp->triangle;
+    else out[i] = query.closest_point(p).triangle;
+  }
   return out;
 }
 
@@ -247,10 +225,8 @@ Result<CompareResult> run_compare(const SharedPart& part, const ComparePlan& pla
       // Slope figures: nearest mesh triangle of every sample, through the shared BVH.
       on_stage("slopes");
       const Vec3 offset = report->deviation.registration_offset_mm;
-      const auto dep_tri =
-          nearest_triangles(target.query(), report->deviation.deposit_samples, offset, near_mm);
-      const auto mesh_tri = mesh_sample_triangles(target.query(), target.samples(),
-                                                  report->deviation.mesh_samples, offset, near_mm);
+      const auto dep_tri = sample_triangles(target.query(), report->deviation.deposit_samples, offset, near_mm);
+      const auto mesh_tri = sample_triangles(target.query(), report->deviation.mesh_samples, offset, near_mm);
       double density = plan.filament_density_g_cm3;
       if (spec.kind == VariantKind::slicer)
         if (auto s = slice_settings_of(spec)) density = s->filament_density_g_cm3;

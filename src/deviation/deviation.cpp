@@ -46,10 +46,12 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   std::vector<Vec3> face_points(surface.faces.size());
   for (std::size_t i = 0; i < surface.faces.size(); ++i) face_points[i] = surface.faces[i].center_mm;
   std::vector<double> d_dep;
-  target.signed_distances(offset, face_points, std::max(4.0 * v, settings.tolerance_mm), d_dep);
+  std::vector<std::uint32_t> dep_triangles;
+  target.signed_distances(offset, face_points, std::max(4.0 * v, settings.tolerance_mm), d_dep, &dep_triangles);
   std::vector<DeviationSample> dep_samples(face_points.size());
   for (std::size_t i = 0; i < face_points.size(); ++i)
-    dep_samples[i] = {face_points[i], d_dep[i], surface.face_tags[i].layer, surface.face_tags[i].line};
+    dep_samples[i] = {face_points[i], d_dep[i], surface.face_tags[i].layer, surface.face_tags[i].line,
+                      dep_triangles[i]};
 
   // Mesh -> deposit, from area-uniform samples (the target's when drawn alike).
   std::vector<SurfaceSample> own_samples;
@@ -71,7 +73,7 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   std::vector<DeviationSample> mesh_samples(ns);
   for (std::size_t i = 0; i < ns; ++i) {
     const VoxelTag tag = surface.faces.empty() ? VoxelTag{} : surface.face_tags[nearest[i]];
-    mesh_samples[i] = {query_points[i], d_mesh[i], tag.layer, tag.line};
+    mesh_samples[i] = {query_points[i], d_mesh[i], tag.layer, tag.line, samples[i].triangle};
   }
 
   out.deposit_to_mesh = deviation_stats(d_dep, settings.tolerance_mm);

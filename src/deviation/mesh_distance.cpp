@@ -127,11 +127,13 @@ std::uint64_t DeviationTarget::sample_seed() const { return impl_->seed; }
 std::span<const SurfaceSample> DeviationTarget::samples() const { return impl_->samples; }
 
 void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Vec3> points_mm,
-                                       double near_mm, std::vector<double>& out) const {
+                                       double near_mm, std::vector<double>& out,
+                                       std::vector<std::uint32_t>* triangles) const {
   const Mesh& mesh = impl_->mesh;
   const MeshQuery& query = impl_->query;
   const PseudoNormals& pn = impl_->pn;
   out.resize(points_mm.size());
+  if (triangles != nullptr) triangles->resize(points_mm.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points_mm.size(), 1024),
                     [&](const tbb::blocked_range<std::size_t>& r) {
     // The previous point of this chunk and its distance: the closest point of p is at most
@@ -150,6 +152,7 @@ void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Ve
       const ClosestPoint cp = near ? *near : query.closest_point(p);
       prev_p = p;
       prev_d = cp.distance_mm;
+      if (triangles != nullptr) (*triangles)[i] = cp.triangle;
       const Vec3 dir = p - cp.point_mm;
       if (cp.distance_mm == 0) {
         out[i] = 0;

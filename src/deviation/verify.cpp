@@ -130,8 +130,14 @@ Result<PreparedPart> prepare_part(Mesh mesh, std::string name, VerifyInput mesh_
   part.name = std::move(name);
   part.mesh_input = std::move(mesh_input);
   StageClock clock(part.timings);
+  // The deviation's design side first: its BVH also serves the check's thickness rays.
+  auto target = DeviationTarget::build(mesh, deviation_settings_of(settings), settings.voxel_mm);
+  if (!target) return target.error();
+  part.target = std::make_shared<const DeviationTarget>(std::move(*target));
+  clock.lap("index");
   CheckSettings check_settings;
   check_settings.self_intersections = mesh.triangles.size() <= 50000;  // dominates beyond
+  check_settings.mesh_query = &part.target->query();
   auto check = check_printability(mesh, printer, check_settings);
   if (!check) return check.error();
   CheckSummary& c = part.check;
@@ -144,10 +150,6 @@ Result<PreparedPart> prepare_part(Mesh mesh, std::string name, VerifyInput mesh_
   count_severities(check->findings, c.errors, c.warnings, c.infos);
   part.check_findings = std::move(check->findings);
   clock.lap("check");
-  auto target = DeviationTarget::build(mesh, deviation_settings_of(settings), settings.voxel_mm);
-  if (!target) return target.error();
-  part.target = std::make_shared<const DeviationTarget>(std::move(*target));
-  clock.lap("index");
   part.mesh = std::move(mesh);
   return part;
 }

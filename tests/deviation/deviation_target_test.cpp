@@ -154,6 +154,39 @@ TEST_F(DeviationTargetReuse, MeshOverloadEqualsTargetWithZeroOffsetBitForBit) {
   EXPECT_TRUE(missing);
 }
 
+TEST_F(DeviationTargetReuse, SamplesNameTheirMeshTriangle) {
+  // Deposit samples carry the triangle of their closest point, mesh samples the triangle
+  // they lie on: compare's slope figures read them instead of querying the BVH again.
+  const Vec3 at(40.25, 30.5, 3.0);
+  const Mesh placed = translated(mesh, at);
+  const auto dev = compute_deviation(placed, deposit_at(at), settings);
+  ASSERT_TRUE(dev.ok()) << dev.error().describe();
+  auto query = MeshQuery::build(placed);
+  ASSERT_TRUE(query.ok());
+  ASSERT_GT(dev->deposit_samples.size(), 1000u);
+  ASSERT_GT(dev->mesh_samples.size(), 1000u);
+  for (std::size_t i = 0; i < dev->deposit_samples.size(); i += 97) {
+    const DeviationSample& s = dev->deposit_samples[i];
+    ASSERT_LT(s.triangle, placed.triangles.size());
+    // The named triangle holds a closest point: its distance is the sample's |d|.
+    const ClosestPoint cp = query->closest_point(s.position_mm);
+    const Vec3 on = closest_point_on_triangle(s.position_mm, placed.vertices_mm[placed.triangles[s.triangle][0]],
+                                              placed.vertices_mm[placed.triangles[s.triangle][1]],
+                                              placed.vertices_mm[placed.triangles[s.triangle][2]]);
+    EXPECT_NEAR((on - s.position_mm).norm(), cp.distance_mm, 1e-9);
+    EXPECT_NEAR(std::abs(s.distance_mm), cp.distance_mm, 1e-9);
+  }
+  for (std::size_t i = 0; i < dev->mesh_samples.size(); i += 97) {
+    const DeviationSample& s = dev->mesh_samples[i];
+    ASSERT_LT(s.triangle, placed.triangles.size());
+    EXPECT_LT(query->closest_point(s.position_mm).distance_mm, 1e-9);
+    const auto& t = placed.triangles[s.triangle];
+    const Vec3 on = closest_point_on_triangle(s.position_mm, placed.vertices_mm[t[0]], placed.vertices_mm[t[1]],
+                                              placed.vertices_mm[t[2]]);
+    EXPECT_LT((on - s.position_mm).norm(), 1e-9);
+  }
+}
+
 TEST_F(DeviationTargetReuse, OneTargetReusedForTwoPlacementsEqualsFreshRuns) {
   // Built without a voxel: the samples are drawn per call (same rule, same seed).
   auto lazy = DeviationTarget::build(mesh, settings);
