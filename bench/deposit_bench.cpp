@@ -61,27 +61,27 @@ void BM_VoxelGridFillRows(benchmark::State& state) {
 }
 BENCHMARK(BM_VoxelGridFillRows)->Unit(benchmark::kMillisecond);
 
-/// Raw writes through the deposit's path: rows of 64 with a byte mask per voxel (the sample
-/// tests' output), every other voxel set in alternate rows, so half the writes are partial.
-void BM_VoxelGridFillRowsMasked(benchmark::State& state) {
+/// Raw writes through the deposit's path: whole 8 x 8 tiles of a block's z-slice (the sample
+/// tests' output, VoxelGrid::write_tile), every other tile half set (a checkerboard), so half
+/// the writes are partial.
+void BM_VoxelGridWriteTiles(benchmark::State& state) {
   const int n = 512, nz = 128;
-  std::vector<std::uint8_t> all(64, 1), half(64, 0);
-  for (std::size_t i = 0; i < half.size(); i += 2) half[i] = 1;
   std::size_t written = 0;
   for (auto _ : state) {
     VoxelGrid g(0.05, Vec3::Zero(), Eigen::Vector3i(n, n, nz));
     const auto tag = g.add_tag(VoxelTag{1, 0, Feature::perimeter});
     for (int z = 0; z < nz; ++z)
-      for (int y = 0; y < n; ++y) {
-        const auto& mask = (y + z) % 2 == 0 ? all : half;
-        for (int x = 0; x + 64 <= n; x += 64) written += g.fill_row_masked(y, z, x, x + 64, mask.data(), tag);
-      }
+      for (int by = 0; by < n / 8; ++by)
+        for (int bx = 0; bx < n / 8; ++bx) {
+          const std::uint64_t mask = (bx + by + z) % 2 == 0 ? ~std::uint64_t{0} : 0xAA55AA55AA55AA55ull;
+          written += g.write_tile(bx, by, z, mask, tag);
+        }
     benchmark::DoNotOptimize(g.count());
   }
   state.SetItemsProcessed(static_cast<std::int64_t>(written));
   state.counters["voxels_per_s"] = benchmark::Counter(static_cast<double>(written), benchmark::Counter::kIsRate);
 }
-BENCHMARK(BM_VoxelGridFillRowsMasked)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_VoxelGridWriteTiles)->Unit(benchmark::kMillisecond);
 
 /// Raw writes one voxel at a time (set_index), in row order.
 void BM_VoxelGridSetIndex(benchmark::State& state) {

@@ -86,16 +86,11 @@ class VoxelGrid {
   /// Returns how many of them were empty before.
   std::size_t fill_row(std::int32_t y, std::int32_t z, std::int32_t x0, std::int32_t x1,
                        std::uint32_t tag_index);
-  /// Same along Y: voxels y0..y1-1 of the column (x, z).
-  std::size_t fill_column(std::int32_t x, std::int32_t z, std::int32_t y0, std::int32_t y1,
-                          std::uint32_t tag_index);
-  /// Like fill_row, for the voxels x0 + t (t in 0..x1-x0-1) whose byte inside[t] is 1 (bytes
-  /// are 0 or 1). Returns how many of the set voxels were empty before.
-  std::size_t fill_row_masked(std::int32_t y, std::int32_t z, std::int32_t x0, std::int32_t x1,
-                              const std::uint8_t* inside, std::uint32_t tag_index);
-  /// Same along Y: voxels y0 + t of the column (x, z) whose byte inside[t] is 1.
-  std::size_t fill_column_masked(std::int32_t x, std::int32_t z, std::int32_t y0, std::int32_t y1,
-                                 const std::uint8_t* inside, std::uint32_t tag_index);
+  /// ORs `mask` into z-slice z of block (bx, by, z / 8), allocating the block: bit y * 8 + x
+  /// stands for voxel (8 bx + x, 8 by + y, z). The voxels of the mask get `tag_index`. The
+  /// block must be inside block_dims() and z inside dims(). Returns how many of the voxels
+  /// were empty before.
+  std::size_t write_tile(int bx, int by, std::int32_t z, std::uint64_t mask, std::uint32_t tag_index);
   /// Pre-allocates room for `blocks` blocks (no effect on count()).
   void reserve_blocks(std::size_t blocks);
   /// Allocated blocks.

@@ -24,6 +24,8 @@
 #include <limits>
 #include <optional>
 
+#include "core/bits.hpp"
+#include "deposit/bead_raster.hpp"
 #include "printtwin/io.hpp"
 
 namespace printtwin {
@@ -36,20 +38,6 @@ constexpr double kMitreMinCos = -0.5;      // turns sharper than 120 deg get squ
 constexpr std::size_t kHeightMapMax = 65535;
 constexpr double kRegionGapMm = 1.0;         // unsupported stretches this close: one finding
 constexpr std::size_t kMaxClustered = 4000;  // beyond this, one finding per layer and kind
-
-/// Fixed pseudo-random sample point of voxel (i, j, k), in (0,1)^3 inside the voxel
-/// (10 bits per axis from an integer hash of the key): bits 0-9 give x, 10-19 y, 20-29 z of
-/// jitter_hash(i * kHashX ^ j * kHashY ^ k * kHashZ), each as (bits + 0.5) / 1024.
-constexpr std::uint32_t kHashX = 0x8da6b343u, kHashY = 0xd8163841u, kHashZ = 0xcb1ab31fu;
-constexpr double kJitterScale = 1.0 / 1024.0;
-inline std::uint32_t jitter_hash(std::uint32_t h) {
-  h ^= h >> 16;
-  h *= 0x7feb352du;
-  h ^= h >> 15;
-  h *= 0x846ca68bu;
-  h ^= h >> 16;
-  return h;
-}
 
 /// Nominal layer height: the slicer's `;HEIGHT:` when given, else the Z step from the
 /// previous layer's extrusions to this move. Sloped extrusions (vase-mode spirals, where
@@ -144,69 +132,6 @@ struct Footprint {
   }
 };
 
-/// Intervals of a footprint on consecutive integer minor lines j0, j0+1, ... (reused by the
-/// two cell rows that share a line).
-struct LineIntervals {
-  std::vector<double> lo, hi;
-  std::vector<char> ok;
-  int j0 = 0;
-  void compute(const Footprint& f, int first, int last) {
-    j0 = first;
-    const auto n = static_cast<std::size_t>(last - first + 1);
-    lo.resize(n);
-    hi.resize(n);
-    ok.resize(n);
-    for (std::size_t i = 0; i < n; ++i)
-      ok[i] = f.interval(static_cast<double>(first) + static_cast<double>(i), lo[i], hi[i]) ? 1 : 0;
-  }
-  [[nodiscard]] std::size_t at(int j) const { return static_cast<std::size_t>(j - j0); }
-};
-
-/// A bead in the (major, minor, z) voxel frame of one sweep, for the sample-point test.
-struct SweepFrame {
-  double a_major, a_minor, b_major, b_minor;  // tip at the start / end
-  double m0_major, m0_minor, m1_major, m1_minor;  // start / end cut normals
-  double d_major, d_minor, n_major, n_minor;      // direction, lateral normal
-  double a_z, slope, r, r2, flat;                 // section: tip height, dz/du, radius, flat half-width
-};
-
-/// Tests the sample points of cells i0..i1-1 of the row (minor j, layer k): in[i] = 1 when
-/// inside the bead, else 0; returns how many are inside. Branch-free: whether a boundary
-/// sample falls inside is a coin toss no branch predictor learns. (An AVX2 variant of this
-/// loop was measured: no gain, the tested stretches of a row average under 4 cells.)
-template <bool kSwap>
-inline std::size_t test_cells_body(const SweepFrame& f, int j, int k, int i0, int i1, std::uint8_t* in) {
-  const std::uint32_t hash_row = kSwap ? static_cast<std::uint32_t>(j) * kHashX ^ static_cast<std::uint32_t>(k) * kHashZ
-                                       : static_cast<std::uint32_t>(j) * kHashY ^ static_cast<std::uint32_t>(k) * kHashZ;
-  const std::uint32_t hash_major = kSwap ? kHashY : kHashX;
-  const double jd = j, kd = k;
-  std::size_t laid = 0;
-  for (int i = i0; i < i1; ++i) {
-    const std::uint32_t h = jitter_hash(static_cast<std::uint32_t>(i) * hash_major ^ hash_row);
-    const double jx = (static_cast<double>(static_cast<int>(h & 0x3FF)) + 0.5) * kJitterScale;
-    const double jy = (static_cast<double>(static_cast<int>((h >> 10) & 0x3FF)) + 0.5) * kJitterScale;
-    const double jz = (static_cast<double>(static_cast<int>((h >> 20) & 0x3FF)) + 0.5) * kJitterScale;
-    const double id = i;
-    const double x = kSwap ? id + jy : id + jx;
-    const double y = kSwap ? jd + jx : jd + jy;
-    const double z = kd + jz;
-    const double rx = x - f.a_major, ry = y - f.a_minor;
-    const bool after_start = f.m0_major * rx + f.m0_minor * ry >= 0;
-    const bool before_end = f.m1_major * (x - f.b_major) + f.m1_minor * (y - f.b_minor) < 0;
-    const double u = f.d_major * rx + f.d_minor * ry;
-    const double dz = z - (f.a_z + f.slope * u - f.r);
-    const double sd = std::abs(f.n_major * rx + f.n_minor * ry) - f.flat;  // beyond the flat part
-    const bool ok = after_start & before_end & (dz >= -f.r) & (dz < f.r) & ((sd <= 0) | (sd * sd + dz * dz <= f.r2));
-    in[i] = static_cast<std::uint8_t>(ok);
-    laid += ok ? 1u : 0u;
-  }
-  return laid;
-}
-
-std::size_t test_cells(const SweepFrame& f, bool swap, int j, int k, int i0, int i1, std::uint8_t* in) {
-  return swap ? test_cells_body<true>(f, j, k, i0, i1, in) : test_cells_body<false>(f, j, k, i0, i1, in);
-}
-
 struct PendingBead {
   Move move;
   double nominal_h_mm = 0;
@@ -235,15 +160,17 @@ struct DepositBuilder::State {
   double filament_area_mm2 = 0;
   double nozzle_mm = 0.4;
   VoxelGrid grid;
-  std::vector<std::uint16_t> top;  // per column: rows occupied up to (0 = bed/empty)
+  // Height map, per column: rows occupied up to (0 = bed/empty). Stored in 8 x 8 tiles in the
+  // blocks' order (top_index), so a tile of the sweep and the samples across a bead touch a
+  // cache line or two instead of one page per row.
+  std::vector<std::uint16_t> top;
   int nx = 0, ny = 0, nz = 0;
+  std::size_t tiles_x = 0;  // tiles (blocks) per row of the height map
   double ox_ = 0, oy_ = 0, oz_ = 0;  // grid origin (mm)
   LayerTracker layers;
   std::optional<PendingBead> pending;
   std::vector<double> gaps_;  // scratch
   std::vector<double> offsets_;  // scratch: across-bead sample offsets (mm)
-  LineIntervals outer_lines_, inner_lines_;  // scratch of sweep()
-  std::vector<std::uint8_t> inside_;          // scratch of sweep(): 1 per voxel of a row
 
   // Support tracking along the current continuous path.
   bool path_has_support = false;
@@ -270,8 +197,8 @@ struct DepositBuilder::State {
         ox_(origin.x()),
         oy_(origin.y()),
         oz_(origin.z()) {
-    inside_.assign(static_cast<std::size_t>(std::max(nx, ny)) + 8, 0);
-    top.assign(static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny), 0);
+    tiles_x = static_cast<std::size_t>(grid.block_dims().x());
+    top.assign(tiles_x * static_cast<std::size_t>(grid.block_dims().y()) * 64, 0);
   }
 
   // -- columns ---------------------------------------------------------------------------
@@ -285,8 +212,12 @@ struct DepositBuilder::State {
     const int i = floor_int((x_mm - ox_) * inv_voxel);
     const int j = floor_int((y_mm - oy_) * inv_voxel);
     const bool in = i >= 0 && j >= 0 && i < nx && j < ny;
-    const std::size_t idx = in ? static_cast<std::size_t>(j) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(i) : 0;
-    return in ? top[idx] : 0;
+    return in ? top[top_index(i, j)] : 0;
+  }
+  /// Index into `top` of column (i, j) (in the grid).
+  [[nodiscard]] std::size_t top_index(int i, int j) const {
+    return ((static_cast<std::size_t>(j >> 3) * tiles_x + static_cast<std::size_t>(i >> 3)) << 6) +
+           static_cast<std::size_t>(((j & 7) << 3) | (i & 7));
   }
   /// Height (mm, machine frame) of the deposit top in the column under p, or the grid
   /// bottom (the bed) outside the grid.
@@ -440,7 +371,7 @@ struct DepositBuilder::State {
   void sweep(const PendingBead& pb, const Vec3& a_mm, const Vec3& b_mm, const Vec2& d,
              const Vec2& n, const Vec2& m1, double h_mm, double w_mm) {
     // Heights that are whole voxels up to rounding (Z 0.4 / 0.05 = 7.9999999) are snapped, so
-    // layer boundaries stay on voxel boundaries and whole rows are filled without tests.
+    // layer boundaries stay on voxel boundaries.
     auto snap = [](double v) {
       const double r = std::round(v);
       return std::abs(v - r) < 1e-6 ? r : v;
@@ -453,111 +384,83 @@ struct DepositBuilder::State {
     const double len = (b - a).head<2>().norm();
     const double hh = snap(h_mm * inv_voxel);
     const double r = 0.5 * hh;
+    const double r2 = r * r;
     const double flat = 0.5 * (w_mm - h_mm) * inv_voxel;
     const double slope = (b.z() - a.z()) / len;
     const double zt_lo = std::min(a.z(), b.z());
     const double zt_hi = std::max(a.z(), b.z());
     const double zc_lo = zt_lo - r;
     const double zc_hi = zt_hi - r;
+    const Vec2 a2 = a.head<2>(), b2 = b.head<2>();
 
-    // Sweep rows along the major axis of the move: swap x and y when |dy| > |dx|.
-    const bool swap = std::abs(d.y()) > std::abs(d.x());
-    auto sw = [swap](const Vec2& v) { return swap ? Vec2(v.y(), v.x()) : v; };
-    const Vec2 a2 = sw(a.head<2>()), b2 = sw(b.head<2>()), d2 = sw(d), n2 = sw(n);
-    const Vec2 m02 = sw(pb.m0), m12 = sw(m1);
-    const int n_major = swap ? ny : nx;
-    const int n_minor = swap ? nx : ny;
+    // The frame of the sample-point tests: relative to the voxel holding the start.
+    detail::BeadFrame f;
+    f.ia = floor_int(a.x());
+    f.ja = floor_int(a.y());
+    f.ka = floor_int(a.z());
+    f.fa_x = static_cast<float>(a.x() - f.ia);
+    f.fa_y = static_cast<float>(a.y() - f.ja);
+    f.d_x = static_cast<float>(d.x()), f.d_y = static_cast<float>(d.y());
+    f.n_x = static_cast<float>(n.x()), f.n_y = static_cast<float>(n.y());
+    f.m0_x = static_cast<float>(pb.m0.x()), f.m0_y = static_cast<float>(pb.m0.y());
+    f.m1_x = static_cast<float>(m1.x()), f.m1_y = static_cast<float>(m1.y());
+    f.e1 = static_cast<float>(m1.dot(b2 - a2));
+    f.c0 = static_cast<float>(a.z() - r - f.ka);
+    f.slope = static_cast<float>(slope);
+    f.r = static_cast<float>(r), f.r2 = static_cast<float>(r2), f.flat = static_cast<float>(flat);
+
+    // Tiles: the 8 x 8 cells of a block's z-slice. For each voxel layer k the bead's footprint
+    // (at its widest over the layer, widened by kBoundSlack so that the bounds never cut a
+    // cell the single-precision test would take) gives the block rows and, per block row,
+    // the blocks to test; each tile's 64 sample points are tested at once and written as one
+    // occupancy word.
+    constexpr double kBoundSlack = 1e-3;
+    const auto& bdims = grid.block_dims();
     const std::uint32_t tag = pb.tag;
-
-    const double r2 = r * r;
-    const SweepFrame frame{a2.x(), a2.y(), b2.x(), b2.y(), m02.x(), m02.y(), m12.x(), m12.y(),
-                           d2.x(), d2.y(), n2.x(), n2.y(), a.z(), slope, r, r2, flat};
     const int k_lo = std::max(0, static_cast<int>(std::floor(zt_lo - hh)));
     const int k_hi = std::min(nz - 1, static_cast<int>(std::ceil(zt_hi)) - 1);
-    Footprint outer, inner;
+    Footprint outer;
     for (int k = k_lo; k <= k_hi; ++k) {
-      const double z0 = k, z1 = k + 1.0;
-      // Range of the height offset from the section's centre over this row.
-      const double dz_lo = std::max(z0 - zc_hi, -r);
-      const double dz_hi = std::min(z1 - zc_lo, r);
+      // Range of the height offset from the section's centre over this layer of voxels.
+      const double dz_lo = std::max(k - zc_hi, -r);
+      const double dz_hi = std::min(k + 1.0 - zc_lo, r);
       if (dz_lo >= dz_hi) continue;
       const double dz0 = std::clamp(0.0, dz_lo, dz_hi);
-      const double hw_out = flat + std::sqrt(std::max(0.0, r2 - dz0 * dz0));
-      outer.init(a2, b2, d2, n2, m02, m12, hw_out);
-      const bool row_inside = z0 >= zt_hi - hh && z1 <= zt_lo;
-      bool has_inner = false;
-      if (row_inside) {
-        const double dz_max = std::max({std::abs(z0 - zc_lo), std::abs(z0 - zc_hi),
-                                        std::abs(z1 - zc_lo), std::abs(z1 - zc_hi)});
-        const double hw_in = flat + std::sqrt(std::max(0.0, r2 - dz_max * dz_max));
-        if (hw_in > 0) {
-          inner.init(a2, b2, d2, n2, m02, m12, hw_in);
-          has_inner = true;
-        }
-      }
+      const double hw = flat + std::sqrt(std::max(0.0, r2 - dz0 * dz0)) + kBoundSlack;
+      outer.init(a2, b2, d, n, pb.m0, m1, hw);
       double ylo, yhi;
       outer.minor_range(ylo, yhi);
-      const double minor_cap = n_minor + 1.0;
-      const int j_lo = std::max(0, floor_int(std::clamp(ylo, -2.0, minor_cap)));
-      const int j_hi = std::min(n_minor - 1, floor_int(std::clamp(yhi, -2.0, minor_cap)));
-      if (j_lo > j_hi) continue;
-      outer_lines_.compute(outer, j_lo, j_hi + 1);
-      if (has_inner) inner_lines_.compute(inner, j_lo, j_hi + 1);
-      for (int j = j_lo; j <= j_hi; ++j) {
-        const double y0 = j, y1 = j + 1.0;
+      const int j_lo = std::max(0, floor_int(std::clamp(ylo - kBoundSlack, -2.0, ny + 1.0)));
+      const int j_hi = std::min(ny - 1, floor_int(std::clamp(yhi + kBoundSlack, -2.0, ny + 1.0)));
+      const auto k1 = static_cast<std::uint16_t>(k + 1);
+      for (int by = j_lo >> 3; by <= j_hi >> 3; ++by) {
+        const int row_lo = std::max(j_lo - 8 * by, 0);
+        const int row_hi = std::min(j_hi - 8 * by + 1, 8);
+        // x-range of the footprint over the band of sample lines y in [y0, y1].
+        const double y0 = 8.0 * by + row_lo, y1 = 8.0 * by + row_hi;
         double xl = std::numeric_limits<double>::infinity(), xh = -xl;
-        for (int e = 0; e < 2; ++e) {
-          const std::size_t li = outer_lines_.at(j + e);
-          if (outer_lines_.ok[li]) xl = std::min(xl, outer_lines_.lo[li]), xh = std::max(xh, outer_lines_.hi[li]);
+        for (const double y : {y0, y1}) {
+          double lo, hi;
+          if (outer.interval(y, lo, hi)) xl = std::min(xl, lo), xh = std::max(xh, hi);
         }
         for (const auto& v : outer.vertices)
           if (v.y() >= y0 && v.y() <= y1) xl = std::min(xl, v.x()), xh = std::max(xh, v.x());
         if (!(xl <= xh)) continue;
-        // Clamped before rounding (an interval may be unbounded); the clamps do not change
-        // the cells chosen.
-        const double major_cap = n_major + 1.0;
-        const int i_lo = std::max(0, floor_int(std::clamp(xl, -2.0, major_cap)));
-        const int i_hi = std::min(n_major - 1, floor_int(std::clamp(xh, -2.0, major_cap)));
-        if (i_lo > i_hi) continue;
-        // Cells fully inside: both edges of the cell row inside the inner footprint.
-        int f_lo = i_hi + 1, f_hi = i_hi;  // empty
-        if (has_inner) {
-          const std::size_t l0 = inner_lines_.at(j), l1 = inner_lines_.at(j + 1);
-          if (inner_lines_.ok[l0] && inner_lines_.ok[l1]) {
-            const double lo = std::max(inner_lines_.lo[l0], inner_lines_.lo[l1]);
-            const double hi = std::min(inner_lines_.hi[l0], inner_lines_.hi[l1]);
-            const int c_lo = std::max(i_lo, -floor_int(-std::clamp(lo, -2.0, major_cap)));
-            const int c_hi = std::min(i_hi, floor_int(std::clamp(hi, -2.0, major_cap)) - 1);
-            if (c_lo <= c_hi) f_lo = c_lo, f_hi = c_hi;
-          }
-        }
-        // One byte per cell of the row: cells fully inside are set, the others test their
-        // sample point (branch-free: whether a boundary sample falls inside is a coin toss).
-        std::uint8_t* in = inside_.data() - i_lo;
-        std::size_t laid = 0;
-        auto test = [&](int i0, int i1) {
-          if (i0 < i1) laid += test_cells(frame, swap, j, k, i0, i1, in);
-        };
-        if (f_lo <= f_hi) {
-          test(i_lo, f_lo);
-          std::memset(in + f_lo, 1, static_cast<std::size_t>(f_hi - f_lo + 1));
-          laid += static_cast<std::size_t>(f_hi - f_lo + 1);
-          test(f_hi + 1, i_hi + 1);
-        } else {
-          test(i_lo, i_hi + 1);
-        }
-        if (laid == 0) continue;
-        const std::uint16_t k1 = static_cast<std::uint16_t>(k + 1);
-        if (!swap) {
-          overlap_voxels += laid - grid.fill_row_masked(j, k, i_lo, i_hi + 1, in + i_lo, tag);
-          std::uint16_t* t = top.data() + static_cast<std::size_t>(j) * static_cast<std::size_t>(nx);
-          for (int i = i_lo; i <= i_hi; ++i) t[i] = std::max(t[i], static_cast<std::uint16_t>(in[i] * k1));
-        } else {
-          overlap_voxels += laid - grid.fill_column_masked(j, k, i_lo, i_hi + 1, in + i_lo, tag);
-          std::uint16_t* t = top.data() + static_cast<std::size_t>(j);
-          for (int i = i_lo; i <= i_hi; ++i) {
-            std::uint16_t& c = t[static_cast<std::size_t>(i) * static_cast<std::size_t>(nx)];
-            c = std::max(c, static_cast<std::uint16_t>(in[i] * k1));
+        const int i_lo = std::max(0, floor_int(std::clamp(xl - kBoundSlack, -2.0, nx + 1.0)));
+        const int i_hi = std::min(nx - 1, floor_int(std::clamp(xh + kBoundSlack, -2.0, nx + 1.0)));
+        for (int bx = i_lo >> 3; bx <= i_hi >> 3 && bx < bdims.x(); ++bx) {
+          const int x_end = std::min(8, nx - 8 * bx);  // cells of this block inside the grid
+          const unsigned lanes = (1u << x_end) - 1u;
+          const std::uint64_t mask = detail::test_tile(f, 8 * bx, 8 * by, k, row_lo, row_hi, lanes);
+          if (mask == 0) continue;
+          const std::size_t fresh = grid.write_tile(bx, by, k, mask, tag);
+          overlap_voxels += static_cast<std::size_t>(popcount64(mask)) - fresh;
+          for (int y = row_lo; y < row_hi; ++y) {
+            const auto m = static_cast<unsigned>(mask >> (8 * y)) & 0xFFu;
+            if (m == 0) continue;
+            std::uint16_t* t = top.data() + top_index(8 * bx, 8 * by + y);
+            for (int x = 0; x < x_end; ++x)
+              t[x] = std::max(t[x], static_cast<std::uint16_t>(((m >> x) & 1u) * k1));
           }
         }
       }

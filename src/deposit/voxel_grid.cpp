@@ -16,8 +16,13 @@
 #include <cstring>
 #include <new>
 
+#include "core/bits.hpp"
+
 #if defined(__linux__)
 #include <sys/mman.h>
+#endif
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
 #endif
 
 namespace printtwin {
@@ -29,32 +34,6 @@ constexpr std::uint32_t kNoBlock = 0;       // directory value of an unallocated
 constexpr std::size_t kOccBytes = kChunkBlocks * kEdge * sizeof(std::uint64_t);
 constexpr std::size_t kTagBytes = kChunkBlocks * 512 * sizeof(std::uint32_t);
 constexpr std::size_t kChunkBytes = kOccBytes + kTagBytes;
-
-/// Bits set in x (SWAR; std::popcount is a library call without -mpopcnt).
-inline int popcount64(std::uint64_t x) {
-  x = x - ((x >> 1) & 0x5555555555555555ull);
-  x = (x & 0x3333333333333333ull) + ((x >> 2) & 0x3333333333333333ull);
-  x = (x + (x >> 4)) & 0x0F0F0F0F0F0F0F0Full;
-  return static_cast<int>((x * 0x0101010101010101ull) >> 56);
-}
-
-/// Bit t of the result = byte t of `bytes` (each 0 or 1), for n <= 8 bytes.
-inline unsigned pack_bytes(const std::uint8_t* bytes, int n) {
-  if (n == 8) {
-    std::uint64_t v;
-    std::memcpy(&v, bytes, 8);
-    return static_cast<unsigned>((v * 0x0102040810204080ull) >> 56);
-  }
-  unsigned m = 0;
-  for (int t = 0; t < n; ++t) m |= static_cast<unsigned>(bytes[t]) << t;
-  return m;
-}
-
-/// Bit t of m8 moved to bit 8 t (one bit per row of a block's z-slice).
-inline std::uint64_t spread_rows(unsigned m8) {
-  const std::uint64_t x = (static_cast<std::uint64_t>(m8) * 0x0101010101010101ull) & 0x8040201008040201ull;
-  return ((x + 0x7F7F7F7F7F7F7F7Full) >> 7) & 0x0101010101010101ull;
-}
 
 /// Zero-filled memory for one chunk: an anonymous mapping on Linux, calloc elsewhere.
 class ChunkMemory {
@@ -278,98 +257,52 @@ std::size_t VoxelGrid::fill_row(std::int32_t y, std::int32_t z, std::int32_t x0,
   return fresh;
 }
 
-std::size_t VoxelGrid::fill_column(std::int32_t x, std::int32_t z, std::int32_t y0, std::int32_t y1,
-                                   std::uint32_t tag_index) {
-  Impl& g = *impl_;
-  if (x < 0 || z < 0 || x >= g.dims.x() || z >= g.dims.z()) return 0;
-  y0 = std::max(y0, 0);
-  y1 = std::min(y1, g.dims.y());
-  if (y0 >= y1) return 0;
-  const int bx = x >> 3;
-  const int bz = z >> 3;
-  const int lx = x & 7;
-  const std::uint64_t column = std::uint64_t{0x0101010101010101ull} << lx;
-  std::size_t fresh = 0;
-  for (int by = y0 >> 3; by <= (y1 - 1) >> 3; ++by) {
-    const int lo = std::max(y0 - by * kEdge, 0);
-    const int hi = std::min(y1 - by * kEdge, kEdge);
-    const std::uint64_t rows = (hi - lo == 8 ? ~std::uint64_t{0} : ((std::uint64_t{1} << (8 * (hi - lo))) - 1))
-                               << (8 * lo);
-    const std::uint64_t mask = column & rows;
-    const std::size_t b = g.block_for_write(bx, by, bz);
-    std::uint64_t& word = g.occ(b)[z & 7];
-    fresh += static_cast<std::size_t>(popcount64(mask & ~word));
-    word |= mask;
-    std::uint32_t* slots = g.tag_slots(b) + (z & 7) * 64 + lx;
-    for (int y = lo; y < hi; ++y) slots[y * 8] = tag_index;
-  }
-  g.occupied += fresh;
-  return fresh;
-}
-
-std::size_t VoxelGrid::fill_row_masked(std::int32_t y, std::int32_t z, std::int32_t x0, std::int32_t x1,
-                                       const std::uint8_t* inside, std::uint32_t tag_index) {
-  Impl& g = *impl_;
-  if (y < 0 || z < 0 || y >= g.dims.y() || z >= g.dims.z()) return 0;
-  const std::int32_t xs = std::max(x0, 0);
-  const std::int32_t xe = std::min(x1, g.dims.x());
-  if (xs >= xe) return 0;
-  const int by = y >> 3;
-  const int bz = z >> 3;
-  const int row_shift = (y & 7) * 8;
-  const int tag_row = (z & 7) * 64 + row_shift;
-  std::size_t fresh = 0;
-  for (int bx = xs >> 3; bx <= (xe - 1) >> 3; ++bx) {
-    const int lo = std::max(xs - bx * kEdge, 0);
-    const int hi = std::min(xe - bx * kEdge, kEdge);
-    const unsigned m = pack_bytes(inside + (bx * kEdge + lo - x0), hi - lo) << lo;
+namespace {
+/// Writes `tag` to slots[y * 8 + x] for the set bits of mask (bit y * 8 + x).
+void write_tile_tags_portable(std::uint32_t* slots, std::uint64_t mask, std::uint32_t tag) {
+  for (int y = 0; y < kEdge; ++y, slots += kEdge) {
+    const auto m = static_cast<unsigned>(mask >> (8 * y)) & 0xFFu;
     if (m == 0) continue;
-    const std::size_t b = g.block_for_write(bx, by, bz);
-    const std::uint64_t mask = static_cast<std::uint64_t>(m) << row_shift;
-    std::uint64_t& word = g.occ(b)[z & 7];
-    fresh += static_cast<std::size_t>(popcount64(mask & ~word));
-    word |= mask;
-    std::uint32_t* slots = g.tag_slots(b) + tag_row;
-    if (m == 0xFF) {
-      std::fill(slots, slots + kEdge, tag_index);
-    } else {
-      for (int t = 0; t < kEdge; ++t) {  // branch-free select: the mask is data, not a pattern
-        const std::uint32_t keep = ((m >> t) & 1u) - 1u;
-        slots[t] = (slots[t] & keep) | (tag_index & ~keep);
-      }
-    }
-  }
-  g.occupied += fresh;
-  return fresh;
-}
-
-std::size_t VoxelGrid::fill_column_masked(std::int32_t x, std::int32_t z, std::int32_t y0, std::int32_t y1,
-                                          const std::uint8_t* inside, std::uint32_t tag_index) {
-  Impl& g = *impl_;
-  if (x < 0 || z < 0 || x >= g.dims.x() || z >= g.dims.z()) return 0;
-  const std::int32_t ys = std::max(y0, 0);
-  const std::int32_t ye = std::min(y1, g.dims.y());
-  if (ys >= ye) return 0;
-  const int bx = x >> 3;
-  const int bz = z >> 3;
-  const int lx = x & 7;
-  std::size_t fresh = 0;
-  for (int by = ys >> 3; by <= (ye - 1) >> 3; ++by) {
-    const int lo = std::max(ys - by * kEdge, 0);
-    const int hi = std::min(ye - by * kEdge, kEdge);
-    const unsigned m = pack_bytes(inside + (by * kEdge + lo - y0), hi - lo) << lo;
-    if (m == 0) continue;
-    const std::size_t b = g.block_for_write(bx, by, bz);
-    const std::uint64_t mask = spread_rows(m) << lx;
-    std::uint64_t& word = g.occ(b)[z & 7];
-    fresh += static_cast<std::size_t>(popcount64(mask & ~word));
-    word |= mask;
-    std::uint32_t* slots = g.tag_slots(b) + (z & 7) * 64 + lx;
-    for (int t = 0; t < kEdge; ++t) {
+    for (int t = 0; t < kEdge; ++t) {  // branch-free select: the mask is data, not a pattern
       const std::uint32_t keep = ((m >> t) & 1u) - 1u;
-      slots[t * 8] = (slots[t * 8] & keep) | (tag_index & ~keep);
+      slots[t] = (slots[t] & keep) | (tag & ~keep);
     }
   }
+}
+#if defined(__x86_64__) && defined(__GNUC__)
+[[gnu::target("avx2")]] void write_tile_tags_avx2(std::uint32_t* slots, std::uint64_t mask, std::uint32_t tag) {
+  const __m256i bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+  const __m256i value = _mm256_set1_epi32(static_cast<int>(tag));
+  for (int y = 0; y < kEdge; ++y, slots += kEdge) {
+    const auto m = static_cast<int>(mask >> (8 * y)) & 0xFF;
+    if (m == 0) continue;
+    const __m256i lanes = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(m), bit), bit);
+    _mm256_maskstore_epi32(reinterpret_cast<int*>(slots), lanes, value);
+  }
+}
+void write_tile_tags(std::uint32_t* slots, std::uint64_t mask, std::uint32_t tag) {
+  static const bool avx2 = __builtin_cpu_supports("avx2") != 0;
+  if (avx2) {
+    write_tile_tags_avx2(slots, mask, tag);
+  } else {
+    write_tile_tags_portable(slots, mask, tag);
+  }
+}
+#else
+void write_tile_tags(std::uint32_t* slots, std::uint64_t mask, std::uint32_t tag) {
+  write_tile_tags_portable(slots, mask, tag);
+}
+#endif
+}  // namespace
+
+std::size_t VoxelGrid::write_tile(int bx, int by, std::int32_t z, std::uint64_t mask,
+                                  std::uint32_t tag_index) {
+  Impl& g = *impl_;
+  const std::size_t b = g.block_for_write(bx, by, z >> 3);
+  std::uint64_t& word = g.occ(b)[z & 7];
+  const auto fresh = static_cast<std::size_t>(popcount64(mask & ~word));
+  word |= mask;
+  write_tile_tags(g.tag_slots(b) + (z & 7) * 64, mask, tag_index);
   g.occupied += fresh;
   return fresh;
 }

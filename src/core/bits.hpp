@@ -1,0 +1,16 @@
+#pragma once
+// Bit counting without a library call: std::popcount calls libgcc's __popcountdi2 on
+// baseline x86-64 (no -mpopcnt), which the voxel loops cannot afford.
+#include <cstdint>
+
+namespace printtwin {
+
+/// Bits set in x (SWAR).
+inline int popcount64(std::uint64_t x) {
+  x = x - ((x >> 1) & 0x5555555555555555ull);
+  x = (x & 0x3333333333333333ull) + ((x >> 2) & 0x3333333333333333ull);
+  x = (x + (x >> 4)) & 0x0F0F0F0F0F0F0F0Full;
+  return static_cast<int>((x * 0x0101010101010101ull) >> 56);
+}
+
+}  // namespace printtwin

@@ -1,0 +1,140 @@
+// Sample-point tests of a bead, one 8 x 8 tile of a block's z-slice at a time. Both kernels
+// evaluate the same single-precision operations in the same order (no fused multiply-add:
+// the AVX2 kernel is compiled for AVX2 only, and the build does not contract), so they set
+// the same bits.
+#include "deposit/bead_raster.hpp"
+
+#include <cmath>
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define PRINTTWIN_HAVE_AVX2_KERNEL 1
+#endif
+
+namespace printtwin::detail {
+
+namespace {
+
+constexpr float kJitterScale = 1.0f / 1024.0f;
+constexpr float kJitterHalf = 0.5f / 1024.0f;
+
+/// The sample-point test of one voxel; X, Y, Z are its integer offsets from (ia, ja, ka).
+inline bool inside(const BeadFrame& f, float X, float Y, float Z, std::uint32_t h) {
+  const float jx = static_cast<float>(static_cast<std::int32_t>(h & 0x3FFu)) * kJitterScale + kJitterHalf;
+  const float jy = static_cast<float>(static_cast<std::int32_t>((h >> 10) & 0x3FFu)) * kJitterScale + kJitterHalf;
+  const float jz = static_cast<float>(static_cast<std::int32_t>((h >> 20) & 0x3FFu)) * kJitterScale + kJitterHalf;
+  const float rx = (X + jx) - f.fa_x;
+  const float ry = (Y + jy) - f.fa_y;
+  const float z = Z + jz;
+  const float s0 = f.m0_x * rx + f.m0_y * ry;
+  const float s1 = (f.m1_x * rx + f.m1_y * ry) - f.e1;
+  const float u = f.d_x * rx + f.d_y * ry;
+  const float dz = z - (f.c0 + f.slope * u);
+  const float l = std::fabs(f.n_x * rx + f.n_y * ry) - f.flat;
+  const bool round_ok = (l <= 0.0f) | (l * l + dz * dz <= f.r2);
+  return (s0 >= 0.0f) & (s1 < 0.0f) & (dz >= -f.r) & (dz < f.r) & round_ok;
+}
+
+#if PRINTTWIN_HAVE_AVX2_KERNEL
+[[gnu::target("avx2")]] std::uint64_t test_tile_avx2(const BeadFrame& f, std::int32_t i0, std::int32_t j0,
+                                                     std::int32_t k, int row_lo, int row_hi, unsigned lanes) {
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256i vi = _mm256_add_epi32(_mm256_set1_epi32(i0), lane);
+  const __m256i ihash = _mm256_mullo_epi32(vi, _mm256_set1_epi32(static_cast<int>(0x8da6b343u)));
+  const __m256 X = _mm256_cvtepi32_ps(_mm256_sub_epi32(vi, _mm256_set1_epi32(f.ia)));
+  const __m256 Z = _mm256_set1_ps(static_cast<float>(k - f.ka));
+  const __m256i c1 = _mm256_set1_epi32(0x7feb352d);
+  const __m256i c2 = _mm256_set1_epi32(static_cast<int>(0x846ca68bu));
+  const __m256i ten = _mm256_set1_epi32(0x3FF);
+  const __m256 scale = _mm256_set1_ps(kJitterScale), half = _mm256_set1_ps(kJitterHalf);
+  const __m256 fa_x = _mm256_set1_ps(f.fa_x), fa_y = _mm256_set1_ps(f.fa_y);
+  const __m256 m0x = _mm256_set1_ps(f.m0_x), m0y = _mm256_set1_ps(f.m0_y);
+  const __m256 m1x = _mm256_set1_ps(f.m1_x), m1y = _mm256_set1_ps(f.m1_y), e1 = _mm256_set1_ps(f.e1);
+  const __m256 dx = _mm256_set1_ps(f.d_x), dy = _mm256_set1_ps(f.d_y);
+  const __m256 nx = _mm256_set1_ps(f.n_x), ny = _mm256_set1_ps(f.n_y);
+  const __m256 c0 = _mm256_set1_ps(f.c0), slope = _mm256_set1_ps(f.slope);
+  const __m256 r = _mm256_set1_ps(f.r), neg_r = _mm256_set1_ps(-f.r), r2 = _mm256_set1_ps(f.r2);
+  const __m256 flat = _mm256_set1_ps(f.flat), zero = _mm256_setzero_ps();
+  const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));
+  const std::uint32_t khash = static_cast<std::uint32_t>(k) * 0xcb1ab31fu;
+  std::uint64_t out = 0;
+  for (int y = row_lo; y < row_hi; ++y) {
+    const std::int32_t j = j0 + y;
+    const std::uint32_t row_hash = static_cast<std::uint32_t>(j) * 0xd8163841u ^ khash;
+    __m256i h = _mm256_xor_si256(ihash, _mm256_set1_epi32(static_cast<int>(row_hash)));
+    h = _mm256_xor_si256(h, _mm256_srli_epi32(h, 16));
+    h = _mm256_mullo_epi32(h, c1);
+    h = _mm256_xor_si256(h, _mm256_srli_epi32(h, 15));
+    h = _mm256_mullo_epi32(h, c2);
+    h = _mm256_xor_si256(h, _mm256_srli_epi32(h, 16));
+    const __m256 jx = _mm256_add_ps(_mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_and_si256(h, ten)), scale), half);
+    const __m256 jy = _mm256_add_ps(
+        _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(h, 10), ten)), scale), half);
+    const __m256 jz = _mm256_add_ps(
+        _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(h, 20), ten)), scale), half);
+    const __m256 Y = _mm256_set1_ps(static_cast<float>(j - f.ja));
+    const __m256 rx = _mm256_sub_ps(_mm256_add_ps(X, jx), fa_x);
+    const __m256 ry = _mm256_sub_ps(_mm256_add_ps(Y, jy), fa_y);
+    const __m256 z = _mm256_add_ps(Z, jz);
+    const __m256 s0 = _mm256_add_ps(_mm256_mul_ps(m0x, rx), _mm256_mul_ps(m0y, ry));
+    const __m256 s1 = _mm256_sub_ps(_mm256_add_ps(_mm256_mul_ps(m1x, rx), _mm256_mul_ps(m1y, ry)), e1);
+    const __m256 u = _mm256_add_ps(_mm256_mul_ps(dx, rx), _mm256_mul_ps(dy, ry));
+    const __m256 dz = _mm256_sub_ps(z, _mm256_add_ps(c0, _mm256_mul_ps(slope, u)));
+    const __m256 l = _mm256_sub_ps(
+        _mm256_and_ps(_mm256_add_ps(_mm256_mul_ps(nx, rx), _mm256_mul_ps(ny, ry)), abs_mask), flat);
+    const __m256 round_ok =
+        _mm256_or_ps(_mm256_cmp_ps(l, zero, _CMP_LE_OQ),
+                     _mm256_cmp_ps(_mm256_add_ps(_mm256_mul_ps(l, l), _mm256_mul_ps(dz, dz)), r2, _CMP_LE_OQ));
+    __m256 ok = _mm256_and_ps(_mm256_cmp_ps(s0, zero, _CMP_GE_OQ), _mm256_cmp_ps(s1, zero, _CMP_LT_OQ));
+    ok = _mm256_and_ps(ok, _mm256_cmp_ps(dz, neg_r, _CMP_GE_OQ));
+    ok = _mm256_and_ps(ok, _mm256_cmp_ps(dz, r, _CMP_LT_OQ));
+    ok = _mm256_and_ps(ok, round_ok);
+    const auto bits = static_cast<unsigned>(_mm256_movemask_ps(ok)) & lanes;
+    out |= static_cast<std::uint64_t>(bits) << (8 * y);
+  }
+  return out;
+}
+
+bool cpu_has_avx2() {
+  static const bool has = __builtin_cpu_supports("avx2") != 0;
+  return has;
+}
+#endif
+
+}  // namespace
+
+std::uint64_t test_tile_scalar(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k,
+                               int row_lo, int row_hi, unsigned lanes) {
+  const float Z = static_cast<float>(k - f.ka);
+  std::uint64_t out = 0;
+  for (int y = row_lo; y < row_hi; ++y) {
+    const std::int32_t j = j0 + y;
+    const float Y = static_cast<float>(j - f.ja);
+    unsigned bits = 0;
+    for (int x = 0; x < 8; ++x) {
+      const std::int32_t i = i0 + x;
+      const bool in = inside(f, static_cast<float>(i - f.ia), Y, Z, voxel_jitter_bits(i, j, k));
+      bits |= static_cast<unsigned>(in) << x;
+    }
+    out |= static_cast<std::uint64_t>(bits & lanes) << (8 * y);
+  }
+  return out;
+}
+
+std::uint64_t test_tile(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k, int row_lo,
+                        int row_hi, unsigned lanes) {
+#if PRINTTWIN_HAVE_AVX2_KERNEL
+  if (cpu_has_avx2()) return test_tile_avx2(f, i0, j0, k, row_lo, row_hi, lanes);
+#endif
+  return test_tile_scalar(f, i0, j0, k, row_lo, row_hi, lanes);
+}
+
+bool bead_raster_uses_avx2() {
+#if PRINTTWIN_HAVE_AVX2_KERNEL
+  return cpu_has_avx2();
+#else
+  return false;
+#endif
+}
+
+}  // namespace printtwin::detail

@@ -1,0 +1,91 @@
+// Tests of the deposit's inner loop: the 64-voxel sample-point test of a bead (both kernels
+// agree bit for bit, and the bits are the stadium geometry).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <random>
+
+#include "deposit/bead_raster.hpp"
+
+namespace printtwin::detail {
+namespace {
+
+/// A flat bead from (ax, ay) along direction angle t, length len, section of height 2r and
+/// flat half-width flat, top at z_top (voxel units); square cuts.
+BeadFrame bead(double ax, double ay, double z_top, double t, double len, double r, double flat) {
+  BeadFrame f;
+  f.ia = static_cast<std::int32_t>(std::floor(ax));
+  f.ja = static_cast<std::int32_t>(std::floor(ay));
+  f.ka = static_cast<std::int32_t>(std::floor(z_top));
+  f.fa_x = static_cast<float>(ax - f.ia);
+  f.fa_y = static_cast<float>(ay - f.ja);
+  f.d_x = static_cast<float>(std::cos(t)), f.d_y = static_cast<float>(std::sin(t));
+  f.n_x = -f.d_y, f.n_y = f.d_x;
+  f.m0_x = f.d_x, f.m0_y = f.d_y;
+  f.m1_x = f.d_x, f.m1_y = f.d_y;
+  f.e1 = static_cast<float>(len);
+  f.c0 = static_cast<float>(z_top - r - f.ka);
+  f.r = static_cast<float>(r), f.r2 = static_cast<float>(r * r), f.flat = static_cast<float>(flat);
+  return f;
+}
+
+TEST(BeadRaster, DispatchedKernelMatchesThePortableOne) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  int set_bits = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    const double ax = 100 + 50 * u(rng), ay = 100 + 50 * u(rng), z_top = 4 + 20 * u(rng);
+    BeadFrame f = bead(ax, ay, z_top, 2 * M_PI * u(rng), 1 + 40 * u(rng), 1 + 3 * u(rng), 4 * u(rng));
+    f.slope = trial % 4 == 0 ? static_cast<float>(0.05 * u(rng)) : 0.0f;  // some spiral beads
+    for (int tile = 0; tile < 12; ++tile) {
+      const auto i0 = static_cast<std::int32_t>(8 * std::floor((ax - 12 + 24 * u(rng)) / 8));
+      const auto j0 = static_cast<std::int32_t>(8 * std::floor((ay - 12 + 24 * u(rng)) / 8));
+      const auto k = static_cast<std::int32_t>(std::floor(z_top - 6 + 7 * u(rng)));
+      const int row_lo = static_cast<int>(8 * u(rng) * 0.5), row_hi = 4 + static_cast<int>(4 * u(rng) + 0.99);
+      const unsigned lanes = trial % 3 == 0 ? 0x3Fu : 0xFFu;
+      const std::uint64_t a = test_tile(f, i0, j0, k, row_lo, row_hi, lanes);
+      const std::uint64_t b = test_tile_scalar(f, i0, j0, k, row_lo, row_hi, lanes);
+      ASSERT_EQ(a, b) << "trial " << trial << " tile " << tile;
+      set_bits += __builtin_popcountll(a);
+    }
+  }
+  EXPECT_GT(set_bits, 10000);  // the tiles were not all empty
+}
+
+TEST(BeadRaster, BitsAreTheVoxelsWhoseSamplePointIsInTheStadium) {
+  // A bead along x at y = 20.3, top at z = 8 (voxel units): section 4 high, 9 wide.
+  const double ay = 20.3, z_top = 8.0, r = 2.0, flat = 2.5;
+  const BeadFrame f = bead(3.2, ay, z_top, 0.0, 40.0, r, flat);
+  int inside = 0, outside = 0;
+  for (std::int32_t k = 4; k < 10; ++k)
+    for (std::int32_t j0 = 8; j0 <= 24; j0 += 8)
+      for (std::int32_t i0 = 0; i0 <= 48; i0 += 8) {
+        const std::uint64_t bits = test_tile(f, i0, j0, k, 0, 8, 0xFFu);
+        for (int y = 0; y < 8; ++y)
+          for (int x = 0; x < 8; ++x) {
+            const std::uint32_t h = voxel_jitter_bits(i0 + x, j0 + y, k);
+            const double sx = i0 + x + ((h & 0x3FF) + 0.5) / 1024.0;
+            const double sy = j0 + y + (((h >> 10) & 0x3FF) + 0.5) / 1024.0;
+            const double sz = k + (((h >> 20) & 0x3FF) + 0.5) / 1024.0;
+            const double dz = sz - (z_top - r);
+            const double lateral = std::abs(sy - ay) - flat;
+            const bool expect = sx >= 3.2 && sx < 43.2 && dz >= -r && dz < r &&
+                                (lateral <= 0 || lateral * lateral + dz * dz <= r * r);
+            // Sample points within 1e-4 voxel of the surface may go either way in single precision.
+            const double margin = std::min({std::abs(sx - 3.2), std::abs(sx - 43.2), std::abs(dz + r),
+                                            std::abs(dz - r),
+                                            std::abs(std::hypot(std::max(lateral, 0.0), dz) - r)});
+            if (margin < 1e-4) continue;
+            const bool got = ((bits >> (y * 8 + x)) & 1u) != 0;
+            ASSERT_EQ(got, expect) << "voxel " << i0 + x << "," << j0 + y << "," << k;
+            (got ? inside : outside) += 1;
+          }
+      }
+  // The stadium's area is 4 x 5 + pi x 4 = 32.6 voxels per voxel of length: 40 voxels long.
+  EXPECT_NEAR(inside / 40.0, 32.57, 1.0);
+  EXPECT_GT(outside, 0);
+}
+
+}  // namespace
+}  // namespace printtwin::detail
