@@ -71,8 +71,11 @@ class VoxelGrid {
 
   /// Edge of a block in voxels.
   static constexpr int kBlockEdge = 8;
-  /// Bytes of one allocated block: 512 occupancy bits and a 32-bit tag index per voxel.
-  static constexpr std::size_t kBlockBytes = 8 * sizeof(std::uint64_t) + 512 * sizeof(std::uint32_t);
+  /// Bytes of one allocated block: 512 occupancy bits and a 16-bit tag slot per voxel (plus
+  /// its base, 5 bytes per block, counted by memory_bytes()).
+  static constexpr std::size_t kBlockBytes = 8 * sizeof(std::uint64_t) + 512 * sizeof(std::uint16_t);
+  /// Tag slot value meaning "the index did not fit in 16 bits; ask escaped_tag_index()".
+  static constexpr std::uint16_t kEscapedTag = 0xFFFF;
 
   /// Appends `tag` to the tag table (or reuses the last entry when equal); returns its index.
   std::uint32_t add_tag(const VoxelTag& tag);
@@ -97,12 +100,24 @@ class VoxelGrid {
   [[nodiscard]] std::size_t block_count() const;
 
   /// One allocated block: voxel (base.x + x, base.y + y, base.z + z) for x, y, z in 0..7 is
-  /// occupied when bit (y * 8 + x) of occupancy[z] is set; its tag index is tags[z*64+y*8+x].
+  /// occupied when bit (y * 8 + x) of occupancy[z] is set; its tag index is
+  /// tag_index(z * 64 + y * 8 + x): tag_base + tags[slot], unless the slot holds kEscapedTag.
   struct BlockView {
     VoxelKey base;
     const std::uint64_t* occupancy = nullptr;
-    const std::uint32_t* tags = nullptr;
+    const std::uint16_t* tags = nullptr;  ///< 16-bit slots, relative to tag_base
+    std::uint32_t tag_base = 0;
+    const VoxelGrid* grid = nullptr;
+    std::uint32_t block = 0;
+    bool escapes = false;  ///< some slot holds kEscapedTag
+    /// Index into tag_table() of the voxel in `slot` (meaningful when it is occupied).
+    [[nodiscard]] std::uint32_t tag_index(int slot) const {
+      const std::uint16_t v = tags[slot];
+      return v != kEscapedTag ? tag_base + v : grid->escaped_tag_index(block, slot);
+    }
   };
+  /// Tag index of a slot holding kEscapedTag.
+  [[nodiscard]] std::uint32_t escaped_tag_index(std::uint32_t block, int slot) const;
   /// Size of the block directory (blocks per axis, covering dims()).
   [[nodiscard]] Eigen::Vector3i block_dims() const;
   /// Occupancy words (8, one per z-slice) of block (bx, by, bz); nullptr when the block is
@@ -123,7 +138,7 @@ class VoxelGrid {
           const int bit = std::countr_zero(bits);
           bits &= bits - 1;
           const VoxelKey k{b.base.x + (bit & 7), b.base.y + (bit >> 3), b.base.z + z};
-          fn(k, table[b.tags[z * 64 + bit]]);
+          fn(k, table[b.tag_index(z * 64 + bit)]);
         }
       }
     });

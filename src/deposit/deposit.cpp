@@ -24,6 +24,10 @@
 #include <limits>
 #include <optional>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "core/bits.hpp"
 #include "deposit/bead_raster.hpp"
 #include "printtwin/io.hpp"
@@ -35,7 +39,7 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kJoinTolMm = 1e-3;        // path continuity: end of one move = start of next
 constexpr double kMitreMinCos = -0.5;      // turns sharper than 120 deg get square cuts
-constexpr std::size_t kHeightMapMax = 65535;
+constexpr std::size_t kHeightMapMax = 32767;  // rows of the height map (signed 16-bit max in raise_tops)
 constexpr double kRegionGapMm = 1.0;         // unsupported stretches this close: one finding
 constexpr std::size_t kMaxClustered = 4000;  // beyond this, one finding per layer and kind
 
@@ -209,8 +213,12 @@ struct DepositBuilder::State {
   }
   /// Deposit rows in the column under (x, y) (mm), 0 outside the grid.
   [[nodiscard]] int top_rows(double x_mm, double y_mm) const {
-    const int i = floor_int((x_mm - ox_) * inv_voxel);
-    const int j = floor_int((y_mm - oy_) * inv_voxel);
+    return top_rows_at((x_mm - ox_) * inv_voxel, (y_mm - oy_) * inv_voxel);
+  }
+  /// Same at (u, v) in voxel units from the grid origin.
+  [[nodiscard]] int top_rows_at(double u, double v) const {
+    const int i = floor_int(u);
+    const int j = floor_int(v);
     const bool in = i >= 0 && j >= 0 && i < nx && j < ny;
     return in ? top[top_index(i, j)] : 0;
   }
@@ -337,12 +345,16 @@ struct DepositBuilder::State {
     const double step_mm = len_mm / samples;
     offsets_.resize(static_cast<std::size_t>(across));
     for (int j = 0; j < across; ++j) offsets_[static_cast<std::size_t>(j)] = -0.5 * w + (j + 0.5) * w / across;
+    // The samples across, in voxel units relative to the grid origin.
+    for (double& s : offsets_) s *= inv_voxel;
+    const double nxv = n.x(), nyv = n.y();
     for (int i = 0; i < samples; ++i) {
       const Vec3 q = a + ((i + 0.5) / samples) * (b - a);
       const double bottom = q.z() - h;
       const int need_rows = rows_reaching(bottom - tol);
+      const double qx = (q.x() - ox_) * inv_voxel, qy = (q.y() - oy_) * inv_voxel;
       int held = 0;
-      for (const double s : offsets_) held += top_rows(q.x() + s * n.x(), q.y() + s * n.y()) >= need_rows ? 1 : 0;
+      for (const double s : offsets_) held += top_rows_at(qx + s * nxv, qy + s * nyv) >= need_rows ? 1 : 0;
       const bool supported = held >= settings.support_fraction * across - 1e-9;
       if (supported) {
         close_stretch(true);
@@ -368,6 +380,28 @@ struct DepositBuilder::State {
   }
 
   // -- voxelisation ----------------------------------------------------------------------
+  /// Raises the 64 columns of a height-map tile to at least `rows` where `mask` (bit
+  /// y * 8 + x) is set.
+  static void raise_tops(std::uint16_t* tile, std::uint64_t mask, std::uint16_t rows) {
+#if defined(__SSE2__)
+    const __m128i bit = _mm_setr_epi16(1, 2, 4, 8, 16, 32, 64, 128);
+    const __m128i value = _mm_set1_epi16(static_cast<short>(rows));
+    for (int y = 0; y < 8; ++y, tile += 8) {
+      const auto m = static_cast<short>((mask >> (8 * y)) & 0xFFu);
+      if (m == 0) continue;
+      const __m128i lanes = _mm_cmpeq_epi16(_mm_and_si128(_mm_set1_epi16(m), bit), bit);
+      auto* p = reinterpret_cast<__m128i*>(tile);
+      // Heights stay below 32768 rows (kHeightMapMax), so the signed max is exact.
+      _mm_storeu_si128(p, _mm_max_epi16(_mm_loadu_si128(p), _mm_and_si128(lanes, value)));
+    }
+#else
+    for (int y = 0; y < 8; ++y, tile += 8) {
+      const auto m = static_cast<unsigned>(mask >> (8 * y)) & 0xFFu;
+      for (int x = 0; x < 8; ++x) tile[x] = std::max(tile[x], static_cast<std::uint16_t>(((m >> x) & 1u) * rows));
+    }
+#endif
+  }
+
   void sweep(const PendingBead& pb, const Vec3& a_mm, const Vec3& b_mm, const Vec2& d,
              const Vec2& n, const Vec2& m1, double h_mm, double w_mm) {
     // Heights that are whole voxels up to rounding (Z 0.4 / 0.05 = 7.9999999) are snapped, so
@@ -455,13 +489,7 @@ struct DepositBuilder::State {
           if (mask == 0) continue;
           const std::size_t fresh = grid.write_tile(bx, by, k, mask, tag);
           overlap_voxels += static_cast<std::size_t>(popcount64(mask)) - fresh;
-          for (int y = row_lo; y < row_hi; ++y) {
-            const auto m = static_cast<unsigned>(mask >> (8 * y)) & 0xFFu;
-            if (m == 0) continue;
-            std::uint16_t* t = top.data() + top_index(8 * bx, 8 * by + y);
-            for (int x = 0; x < x_end; ++x)
-              t[x] = std::max(t[x], static_cast<std::uint16_t>(((m >> x) & 1u) * k1));
-          }
+          raise_tops(top.data() + top_index(8 * bx, 8 * by), mask, k1);
         }
       }
     }

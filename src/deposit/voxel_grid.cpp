@@ -1,7 +1,10 @@
 // VoxelGrid: a dense directory of 8x8x8-voxel blocks; a block is allocated on its first
-// write and holds 512 occupancy bits (one 64-bit word per z-slice, bit y*8+x) and a 32-bit
-// index per voxel into a table of distinct tags (one entry per depositing move), so a voxel
-// costs ~4.1 bytes where its block is allocated. Blocks live in fixed-size chunks, so growing
+// write and holds 512 occupancy bits (one 64-bit word per z-slice, bit y*8+x) and a 16-bit
+// index per voxel into a table of distinct tags (one entry per depositing move), relative to
+// the block's own base (the first tag written into it), so a voxel costs ~2.1 bytes where its
+// block is allocated. Moves are deposited in order, so the tags of a block lie within a few
+// layers' moves of its base; an index that does not fit (more than 65534 moves after the base,
+// or before it) is stored as kEscaped with the whole index in a side table. Blocks live in fixed-size chunks, so growing
 // never moves or copies them. A chunk is one anonymous mapping: the kernel hands its pages out
 // zeroed, so reserving chunks costs no time and no resident memory; when a chunk's first
 // block is taken its pages are faulted in with one madvise(MADV_POPULATE_WRITE) (on the
@@ -13,16 +16,18 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <bit>
 #include <cstring>
 #include <new>
+#include <unordered_map>
 
 #include "core/bits.hpp"
 
 #if defined(__linux__)
 #include <sys/mman.h>
 #endif
-#if defined(__x86_64__) && defined(__GNUC__)
-#include <immintrin.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
 #endif
 
 namespace printtwin {
@@ -32,7 +37,9 @@ constexpr int kEdge = VoxelGrid::kBlockEdge;
 constexpr std::size_t kChunkBlocks = 4096;  // blocks per allocation chunk (8.25 MiB)
 constexpr std::uint32_t kNoBlock = 0;       // directory value of an unallocated block
 constexpr std::size_t kOccBytes = kChunkBlocks * kEdge * sizeof(std::uint64_t);
-constexpr std::size_t kTagBytes = kChunkBlocks * 512 * sizeof(std::uint32_t);
+constexpr std::size_t kTagBytes = kChunkBlocks * 512 * sizeof(std::uint16_t);
+constexpr std::uint16_t kEscaped = VoxelGrid::kEscapedTag;
+constexpr std::uint32_t kNoBase = 0xFFFFFFFFu;  // base of a block nothing was written into yet
 constexpr std::size_t kChunkBytes = kOccBytes + kTagBytes;
 
 /// Zero-filled memory for one chunk: an anonymous mapping on Linux, calloc elsewhere.
@@ -65,7 +72,7 @@ class ChunkMemory {
 #endif
   }
   [[nodiscard]] std::uint64_t* occupancy() const { return reinterpret_cast<std::uint64_t*>(data_); }
-  [[nodiscard]] std::uint32_t* tags() const { return reinterpret_cast<std::uint32_t*>(data_ + kOccBytes); }
+  [[nodiscard]] std::uint16_t* tags() const { return reinterpret_cast<std::uint16_t*>(data_ + kOccBytes); }
   [[nodiscard]] std::uint8_t* bytes() const { return data_; }
 
  private:
@@ -84,6 +91,9 @@ struct VoxelGrid::Impl {
   std::size_t blocks = 0;
   std::size_t occupied = 0;
   std::vector<VoxelTag> tags;
+  std::vector<std::uint32_t> bases;          // per block: tag index its 16-bit slots count from
+  std::vector<std::uint8_t> block_escapes;   // per block: 1 when a slot holds kEscaped
+  std::unordered_map<std::uint64_t, std::uint32_t> escaped;  // (block << 9 | slot) -> tag index
 
   [[nodiscard]] std::size_t dir_index(int bx, int by, int bz) const {
     return (static_cast<std::size_t>(bz) * static_cast<std::size_t>(block_dims.y()) +
@@ -94,7 +104,7 @@ struct VoxelGrid::Impl {
   [[nodiscard]] std::uint64_t* occ(std::size_t b) const {
     return chunks[b / kChunkBlocks]->occupancy() + (b % kChunkBlocks) * kEdge;
   }
-  [[nodiscard]] std::uint32_t* tag_slots(std::size_t b) const {
+  [[nodiscard]] std::uint16_t* tag_slots(std::size_t b) const {
     return chunks[b / kChunkBlocks]->tags() + (b % kChunkBlocks) * 512;
   }
   void add_chunk() { chunks.push_back(std::make_unique<ChunkMemory>()); }
@@ -103,7 +113,31 @@ struct VoxelGrid::Impl {
     if (blocks % kChunkBlocks == 0) chunks[blocks / kChunkBlocks]->prefault();
     const std::size_t b = blocks++;
     directory[di] = static_cast<std::uint32_t>(b + 1);
+    bases.push_back(kNoBase);
+    block_escapes.push_back(0);
     return b;
+  }
+  /// The 16-bit slot value of tag index t in block b (fixing the block's base on its first
+  /// tag), or kEscaped when t is out of the base's reach.
+  std::uint16_t slot_value(std::size_t b, std::uint32_t t) {
+    std::uint32_t& base = bases[b];
+    if (base == kNoBase) base = t;
+    const std::uint32_t delta = t - base;
+    return delta < kEscaped ? static_cast<std::uint16_t>(delta) : kEscaped;
+  }
+  /// Stores tag index t in slot s of block b.
+  void store_tag(std::size_t b, int s, std::uint32_t t) {
+    const std::uint16_t v = slot_value(b, t);
+    tag_slots(b)[s] = v;
+    if (v == kEscaped) {
+      escaped[(static_cast<std::uint64_t>(b) << 9) | static_cast<std::uint64_t>(s)] = t;
+      block_escapes[b] = 1;
+    }
+  }
+  [[nodiscard]] std::uint32_t load_tag(std::size_t b, int s) const {
+    const std::uint16_t v = tag_slots(b)[s];
+    return v != kEscaped ? bases[b] + v
+                         : escaped.at((static_cast<std::uint64_t>(b) << 9) | static_cast<std::uint64_t>(s));
   }
   /// Block of (bx,by,bz), allocating it if needed.
   std::size_t block_for_write(int bx, int by, int bz) {
@@ -129,12 +163,15 @@ struct VoxelGrid::Impl {
     blocks = o.blocks;
     occupied = o.occupied;
     tags = o.tags;
+    bases = o.bases;
+    block_escapes = o.block_escapes;
+    escaped = o.escaped;
     chunks.clear();
     for (std::size_t c = 0; c < o.chunks.size(); ++c) {
       add_chunk();
       const std::size_t used = std::min(kChunkBlocks, o.blocks - std::min(o.blocks, c * kChunkBlocks));
       std::memcpy(chunks.back()->occupancy(), o.chunks[c]->occupancy(), used * kEdge * sizeof(std::uint64_t));
-      std::memcpy(chunks.back()->tags(), o.chunks[c]->tags(), used * 512 * sizeof(std::uint32_t));
+      std::memcpy(chunks.back()->tags(), o.chunks[c]->tags(), used * 512 * sizeof(std::uint16_t));
     }
   }
 };
@@ -195,7 +232,7 @@ bool VoxelGrid::occupied(const VoxelKey& k) const {
 std::optional<std::uint32_t> VoxelGrid::tag_index(const VoxelKey& k) const {
   if (!occupied(k)) return std::nullopt;
   const auto b = static_cast<std::size_t>(impl_->block_of(k));
-  return impl_->tag_slots(b)[(k.z & 7) * 64 + (k.y & 7) * 8 + (k.x & 7)];
+  return impl_->load_tag(b, (k.z & 7) * 64 + (k.y & 7) * 8 + (k.x & 7));
 }
 
 std::optional<VoxelTag> VoxelGrid::tag(const VoxelKey& k) const {
@@ -226,7 +263,7 @@ bool VoxelGrid::set_index(const VoxelKey& k, std::uint32_t tag_index) {
   const std::uint64_t bit = std::uint64_t{1} << slot;
   const bool was_empty = (word & bit) == 0;
   word |= bit;
-  g.tag_slots(b)[(k.z & 7) * 64 + slot] = tag_index;
+  g.store_tag(b, (k.z & 7) * 64 + slot, tag_index);
   g.occupied += was_empty ? 1 : 0;
   return was_empty;
 }
@@ -251,48 +288,38 @@ std::size_t VoxelGrid::fill_row(std::int32_t y, std::int32_t z, std::int32_t x0,
     std::uint64_t& word = g.occ(b)[z & 7];
     fresh += static_cast<std::size_t>(popcount64(mask & ~word));
     word |= mask;
-    std::fill(g.tag_slots(b) + tag_row + lo, g.tag_slots(b) + tag_row + hi, tag_index);
+    const std::uint16_t v = g.slot_value(b, tag_index);
+    if (v != kEscaped) {
+      std::fill(g.tag_slots(b) + tag_row + lo, g.tag_slots(b) + tag_row + hi, v);
+    } else {
+      for (int x = lo; x < hi; ++x) g.store_tag(b, tag_row + x, tag_index);
+    }
   }
   g.occupied += fresh;
   return fresh;
 }
 
 namespace {
-/// Writes `tag` to slots[y * 8 + x] for the set bits of mask (bit y * 8 + x).
-void write_tile_tags_portable(std::uint32_t* slots, std::uint64_t mask, std::uint32_t tag) {
+/// Writes `value` to slots[y * 8 + x] for the set bits of mask (bit y * 8 + x).
+void write_tile_slots(std::uint16_t* slots, std::uint64_t mask, std::uint16_t value) {
+#if defined(__SSE2__)
+  const __m128i bit = _mm_setr_epi16(1, 2, 4, 8, 16, 32, 64, 128);
+  const __m128i v = _mm_set1_epi16(static_cast<short>(value));
+  for (int y = 0; y < kEdge; ++y, slots += kEdge) {
+    const auto m = static_cast<short>((mask >> (8 * y)) & 0xFFu);
+    if (m == 0) continue;
+    const __m128i lanes = _mm_cmpeq_epi16(_mm_and_si128(_mm_set1_epi16(m), bit), bit);
+    auto* p = reinterpret_cast<__m128i*>(slots);
+    _mm_storeu_si128(p, _mm_or_si128(_mm_and_si128(lanes, v), _mm_andnot_si128(lanes, _mm_loadu_si128(p))));
+  }
+#else
   for (int y = 0; y < kEdge; ++y, slots += kEdge) {
     const auto m = static_cast<unsigned>(mask >> (8 * y)) & 0xFFu;
-    if (m == 0) continue;
-    for (int t = 0; t < kEdge; ++t) {  // branch-free select: the mask is data, not a pattern
-      const std::uint32_t keep = ((m >> t) & 1u) - 1u;
-      slots[t] = (slots[t] & keep) | (tag & ~keep);
-    }
+    for (int t = 0; t < kEdge; ++t)
+      if ((m >> t) & 1u) slots[t] = value;
   }
-}
-#if defined(__x86_64__) && defined(__GNUC__)
-[[gnu::target("avx2")]] void write_tile_tags_avx2(std::uint32_t* slots, std::uint64_t mask, std::uint32_t tag) {
-  const __m256i bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-  const __m256i value = _mm256_set1_epi32(static_cast<int>(tag));
-  for (int y = 0; y < kEdge; ++y, slots += kEdge) {
-    const auto m = static_cast<int>(mask >> (8 * y)) & 0xFF;
-    if (m == 0) continue;
-    const __m256i lanes = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(m), bit), bit);
-    _mm256_maskstore_epi32(reinterpret_cast<int*>(slots), lanes, value);
-  }
-}
-void write_tile_tags(std::uint32_t* slots, std::uint64_t mask, std::uint32_t tag) {
-  static const bool avx2 = __builtin_cpu_supports("avx2") != 0;
-  if (avx2) {
-    write_tile_tags_avx2(slots, mask, tag);
-  } else {
-    write_tile_tags_portable(slots, mask, tag);
-  }
-}
-#else
-void write_tile_tags(std::uint32_t* slots, std::uint64_t mask, std::uint32_t tag) {
-  write_tile_tags_portable(slots, mask, tag);
-}
 #endif
+}
 }  // namespace
 
 std::size_t VoxelGrid::write_tile(int bx, int by, std::int32_t z, std::uint64_t mask,
@@ -302,7 +329,13 @@ std::size_t VoxelGrid::write_tile(int bx, int by, std::int32_t z, std::uint64_t 
   std::uint64_t& word = g.occ(b)[z & 7];
   const auto fresh = static_cast<std::size_t>(popcount64(mask & ~word));
   word |= mask;
-  write_tile_tags(g.tag_slots(b) + (z & 7) * 64, mask, tag_index);
+  const std::uint16_t v = g.slot_value(b, tag_index);
+  if (v != kEscaped) {
+    write_tile_slots(g.tag_slots(b) + (z & 7) * 64, mask, v);
+  } else {
+    for (std::uint64_t m = mask; m != 0; m &= m - 1)
+      g.store_tag(b, (z & 7) * 64 + std::countr_zero(m), tag_index);
+  }
   g.occupied += fresh;
   return fresh;
 }
@@ -321,6 +354,10 @@ void VoxelGrid::clear(const VoxelKey& k) {
 
 std::size_t VoxelGrid::count() const { return impl_->occupied; }
 
+std::uint32_t VoxelGrid::escaped_tag_index(std::uint32_t block, int slot) const {
+  return impl_->load_tag(block, slot);
+}
+
 void VoxelGrid::reserve_blocks(std::size_t blocks) {
   while (impl_->chunks.size() * kChunkBlocks < blocks) impl_->add_chunk();
 }
@@ -330,6 +367,8 @@ std::size_t VoxelGrid::block_count() const { return impl_->blocks; }
 std::size_t VoxelGrid::memory_bytes() const {
   return impl_->directory.size() * sizeof(std::uint32_t) +
          impl_->blocks * kBlockBytes +  // pages of a chunk are touched only as its blocks are used
+         impl_->bases.capacity() * (sizeof(std::uint32_t) + 1) +
+         impl_->escaped.size() * 2 * sizeof(std::uint64_t) +
          impl_->tags.capacity() * sizeof(VoxelTag);
 }
 
@@ -360,8 +399,9 @@ void VoxelGrid::visit_blocks(const std::function<void(const BlockView&)>& fn) co
       for (int bx = 0; bx < g.block_dims.x(); ++bx) {
         const std::uint32_t d = g.directory[g.dir_index(bx, by, bz)];
         if (d == kNoBlock) continue;
-        const BlockView view{VoxelKey{bx * kEdge, by * kEdge, bz * kEdge}, g.occ(d - 1),
-                             g.tag_slots(d - 1)};
+        const std::size_t b = d - 1;
+        const BlockView view{VoxelKey{bx * kEdge, by * kEdge, bz * kEdge}, g.occ(b), g.tag_slots(b),
+                             g.bases[b], this, static_cast<std::uint32_t>(b), g.block_escapes[b] != 0};
         fn(view);
       }
 }

@@ -70,20 +70,26 @@ inline int popcount64(std::uint64_t x) {
   return static_cast<int>((x * 0x0101010101010101ULL) >> 56);
 }
 
-/// Bit i set when voxel i of a 64-voxel slice has an auxiliary tag (`aux32`: -1 for an
+/// Bit i set when voxel i of z-slice z of block b has an auxiliary tag (`aux32`: -1 for an
 /// auxiliary tag index, else 0; indices clamped to `last`, tags of empty voxels mean nothing).
-std::uint64_t aux_mask_default(const std::uint32_t* t, const std::int32_t* aux32, std::uint32_t last) {
+std::uint64_t aux_mask_default(const VoxelGrid::BlockView& b, int z, const std::int32_t* aux32,
+                               std::uint32_t last) {
   std::uint64_t m = 0;
-  for (int i = 0; i < 64; ++i) m |= (static_cast<std::uint64_t>(aux32[std::min(t[i], last)]) & 1U) << i;
+  for (int i = 0; i < 64; ++i)
+    m |= (static_cast<std::uint64_t>(aux32[std::min(b.tag_index(z * 64 + i), last)]) & 1U) << i;
   return m;
 }
 #if defined(__x86_64__) && defined(__GNUC__)
-[[gnu::target("avx2")]] std::uint64_t aux_mask_avx2(const std::uint32_t* t, const std::int32_t* aux32,
-                                                    std::uint32_t last) {
+/// Same for a block without escaped slots.
+[[gnu::target("avx2")]] std::uint64_t aux_mask_avx2(const VoxelGrid::BlockView& b, int z,
+                                                    const std::int32_t* aux32, std::uint32_t last) {
   const __m256i lastv = _mm256_set1_epi32(static_cast<int>(last));
+  const __m256i base = _mm256_set1_epi32(static_cast<int>(b.tag_base));
+  const std::uint16_t* t = b.tags + z * 64;
   std::uint64_t m = 0;
   for (int i = 0; i < 64; i += 8) {
-    __m256i idx = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(t + i));
+    __m256i idx = _mm256_add_epi32(
+        _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(t + i))), base);
     idx = _mm256_min_epu32(idx, lastv);
     const __m256i v = _mm256_i32gather_epi32(aux32, idx, 4);
     const auto bits = static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(v)));
@@ -93,8 +99,9 @@ std::uint64_t aux_mask_default(const std::uint32_t* t, const std::int32_t* aux32
 }
 bool cpu_has_avx2() { return __builtin_cpu_supports("avx2") != 0; }
 #else
-std::uint64_t aux_mask_avx2(const std::uint32_t* t, const std::int32_t* aux32, std::uint32_t last) {
-  return aux_mask_default(t, aux32, last);
+std::uint64_t aux_mask_avx2(const VoxelGrid::BlockView& b, int z, const std::int32_t* aux32,
+                            std::uint32_t last) {
+  return aux_mask_default(b, z, aux32, last);
 }
 bool cpu_has_avx2() { return false; }
 #endif
@@ -226,8 +233,8 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
       if (gz < 1 || gz >= nz - 1) continue;
       std::uint64_t bits = b.occupancy[z];
       if (any_auxiliary && bits != 0)
-        bits &= ~(avx2 ? aux_mask_avx2(b.tags + z * 64, aux32.data(), last_tag)
-                       : aux_mask_default(b.tags + z * 64, aux32.data(), last_tag));
+        bits &= ~(avx2 && !b.escapes ? aux_mask_avx2(b, z, aux32.data(), last_tag)
+                                     : aux_mask_default(b, z, aux32.data(), last_tag));
       slice[static_cast<std::size_t>(z)] = bits;
     }
     for (int y = 0; y < kE; ++y) {
@@ -451,7 +458,7 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
         continue;
       }
       const int local = (k.z - base.z) * 64 + (k.y - base.y) * 8 + (k.x - base.x);
-      s.face_tags[i] = table[b->tags[local]];
+      s.face_tags[i] = table[b->tag_index(local)];
     }
   });
   return s;

@@ -63,6 +63,41 @@ TEST(VoxelGrid, SetTagCountAndOrder) {
   EXPECT_LE(VoxelGrid::estimate_bytes(g.dims(), 1000), 3 * 4 * 4 + 8 * VoxelGrid::kBlockBytes);
 }
 
+// Tag slots are 16 bits relative to the block's first tag; indices out of reach (70000 moves
+// later, or earlier than the base) go to the side table and still read back exactly, through
+// every reader: tag(), for_each() and the block view.
+TEST(VoxelGrid, TagsFarFromTheBlockBaseReadBackExactly) {
+  VoxelGrid g(0.1, Vec3::Zero(), Eigen::Vector3i(16, 16, 16));
+  std::vector<std::uint32_t> index;
+  for (std::uint32_t i = 0; i < 70010; ++i) index.push_back(g.add_tag(VoxelTag{i + 1, static_cast<std::int32_t>(i), Feature::perimeter}));
+  EXPECT_TRUE(g.set_index({1, 1, 1}, index[5]));                               // base of block 0
+  EXPECT_TRUE(g.set_index({2, 1, 1}, index[70000]));                           // escaped (too far)
+  EXPECT_EQ(g.write_tile(0, 0, 2, 0x0101ull, index[69999]), 2u);               // escaped, tile path
+  EXPECT_EQ(g.fill_row(3, 3, 0, 8, index[3]), 8u);                             // before the base
+  EXPECT_EQ(g.write_tile(0, 0, 4, 0xFFull, index[60000]), 8u);                 // in reach
+  EXPECT_EQ(g.tag({1, 1, 1})->line, 6u);
+  EXPECT_EQ(g.tag({2, 1, 1})->line, 70001u);
+  EXPECT_EQ(g.tag({0, 0, 2})->line, 70000u);
+  EXPECT_EQ(g.tag({0, 1, 2})->line, 70000u);
+  EXPECT_EQ(g.tag({5, 3, 3})->line, 4u);
+  EXPECT_EQ(g.tag({7, 0, 4})->line, 60001u);
+  std::size_t visited = 0;
+  g.for_each([&](const VoxelKey& k, const VoxelTag& t) {
+    EXPECT_EQ(t, *g.tag(k));
+    ++visited;
+  });
+  EXPECT_EQ(visited, g.count());
+  EXPECT_EQ(g.count(), 20u);
+  bool escapes = false;
+  g.visit_blocks([&](const VoxelGrid::BlockView& b) { escapes = escapes || b.escapes; });
+  EXPECT_TRUE(escapes);
+  // Overwriting an escaped voxel with a tag in reach stores it in the slot again.
+  g.set_index({2, 1, 1}, index[10]);
+  EXPECT_EQ(g.tag({2, 1, 1})->line, 11u);
+  const VoxelGrid copy = g;
+  EXPECT_EQ(copy.tag({0, 0, 2})->line, 70000u);
+}
+
 TEST(DepositBead, StadiumWidth) {
   // w = A/h + (1 - pi/4) h; inverse of A = (w - h) h + pi h^2 / 4.
   const double a = (0.45 - 0.2) * 0.2 + std::numbers::pi * 0.04 / 4;
