@@ -33,6 +33,9 @@ struct DepositSettings {
   std::size_t max_memory_bytes = std::size_t{2} << 30;
   /// Unsupported stretches shorter than this are not reported (still in `unsupported`).
   double min_unsupported_mm = 1.0;
+  /// Test every voxel of each bead's bounding box instead of the footprint's tiles (slow;
+  /// the tests use it to check that the footprint bounds never miss a voxel).
+  bool exhaustive_tiles = false;
 };
 
 /// A run of consecutive unsupported bead samples along one continuous extrusion path.

@@ -82,12 +82,26 @@ bool is_bead(const Move& m) { return m.kind == MoveKind::extrude && m.e_mm > 0; 
 
 /// A constraint lo <= p*x + q*y + c <= hi on the (major x, minor y) plane.
 struct Linear {
-  double p = 0, q = 0, c = 0, inv_p = 0, lo = 0, hi = 0;
-  bool flat = true;  // p == 0: independent of x
+  double p = 0, q = 0, c = 0, inv_p = 0, inv_q = 0, lo = 0, hi = 0;
+  bool flat = true;    // p == 0: independent of x
+  bool flat_y = true;  // q == 0: independent of y
   void init(double p_, double q_, double c_, double lo_, double hi_) {
     p = p_, q = q_, c = c_, lo = lo_, hi = hi_;
     flat = std::abs(p) < 1e-12;
     inv_p = flat ? 0.0 : 1.0 / p;
+    flat_y = std::abs(q) < 1e-12;
+    inv_q = flat_y ? 0.0 : 1.0 / q;
+  }
+  /// Narrows [yl, yh] to the y where the constraint holds on the line x; false if empty.
+  bool clip_y(double x, double& yl, double& yh) const {
+    const double rest = p * x + c;
+    if (flat_y) return rest >= lo && rest <= hi;
+    double y0 = (lo - rest) * inv_q;
+    double y1 = (hi - rest) * inv_q;
+    if (y0 > y1) std::swap(y0, y1);
+    yl = std::max(yl, y0);
+    yh = std::min(yh, y1);
+    return yl <= yh;
   }
   /// Narrows [xl, xh] to the x where the constraint holds on the line y; false if empty.
   bool clip(double y, double& xl, double& xh) const {
@@ -106,7 +120,10 @@ struct Linear {
 /// strip |n.(q-a)| <= hw between the start cut (m0.(q-a) >= 0) and the end cut (m1.(q-b) < 0).
 struct Footprint {
   Linear side, start, end;
-  std::array<Vec2, 4> vertices;
+  // Every corner of the footprint is among these: the side lines' crossings with the cuts,
+  // and the crossing of the two cuts when it lies between the sides (a short bead between
+  // two sharp mitres is a triangle). Corners outside the footprint only widen the ranges.
+  std::array<Vec2, 5> vertices;
 
   void init(const Vec2& a, const Vec2& b, const Vec2& d, const Vec2& n, const Vec2& m0,
             const Vec2& m1, double hw) {
@@ -118,13 +135,37 @@ struct Footprint {
     const double k0 = m0.dot(n) / m0.dot(d);
     const double k1 = m1.dot(n) / m1.dot(d);
     vertices = {a + (-hw * k0) * d + hw * n, a + (hw * k0) * d - hw * n,
-                b + (-hw * k1) * d + hw * n, b + (hw * k1) * d - hw * n};
+                b + (-hw * k1) * d + hw * n, b + (hw * k1) * d - hw * n, a};
+    const double det = m0.x() * m1.y() - m0.y() * m1.x();
+    if (std::abs(det) > 1e-12) {
+      const double c0 = m0.dot(a), c1 = m1.dot(b);
+      const Vec2 cross((c0 * m1.y() - m0.y() * c1) / det, (m0.x() * c1 - c0 * m1.x()) / det);
+      if (std::abs(n.dot(cross - a)) <= hw) vertices[4] = cross;
+    }
   }
   /// Interval of the major coordinate on the line minor = y.
   bool interval(double y, double& xl, double& xh) const {
     xl = -std::numeric_limits<double>::infinity();
     xh = std::numeric_limits<double>::infinity();
     return side.clip(y, xl, xh) && start.clip(y, xl, xh) && end.clip(y, xl, xh);
+  }
+  /// Interval of the minor coordinate on the line major = x.
+  bool interval_y(double x, double& yl, double& yh) const {
+    yl = -std::numeric_limits<double>::infinity();
+    yh = std::numeric_limits<double>::infinity();
+    return side.clip_y(x, yl, yh) && start.clip_y(x, yl, yh) && end.clip_y(x, yl, yh);
+  }
+  /// Range of the minor coordinate over the band of lines major in [x0, x1]; false if empty.
+  bool minor_range_over(double x0, double x1, double& lo, double& hi) const {
+    lo = std::numeric_limits<double>::infinity();
+    hi = -lo;
+    for (const double x : {x0, x1}) {
+      double a, b;
+      if (interval_y(x, a, b)) lo = std::min(lo, a), hi = std::max(hi, b);
+    }
+    for (const auto& v : vertices)
+      if (v.x() >= x0 && v.x() <= x1) lo = std::min(lo, v.y()), hi = std::max(hi, v.y());
+    return lo <= hi;
   }
   void minor_range(double& lo, double& hi) const {
     lo = std::numeric_limits<double>::infinity();
@@ -464,6 +505,9 @@ struct DepositBuilder::State {
       outer.init(a2, b2, d, n, pb.m0, m1, hw);
       double ylo, yhi;
       outer.minor_range(ylo, yhi);
+      const bool exhaustive = settings.exhaustive_tiles;
+      const double box_lo_x = std::min(a2.x(), b2.x()) - 2 * hw - 2, box_hi_x = std::max(a2.x(), b2.x()) + 2 * hw + 2;
+      if (exhaustive) ylo = std::min(a2.y(), b2.y()) - 2 * hw - 2, yhi = std::max(a2.y(), b2.y()) + 2 * hw + 2;
       const int j_lo = std::max(0, floor_int(std::clamp(ylo - kBoundSlack, -2.0, ny + 1.0)));
       const int j_hi = std::min(ny - 1, floor_int(std::clamp(yhi + kBoundSlack, -2.0, ny + 1.0)));
       const auto k1 = static_cast<std::uint16_t>(k + 1);
@@ -479,13 +523,24 @@ struct DepositBuilder::State {
         }
         for (const auto& v : outer.vertices)
           if (v.y() >= y0 && v.y() <= y1) xl = std::min(xl, v.x()), xh = std::max(xh, v.x());
+        if (exhaustive) xl = box_lo_x, xh = box_hi_x;
         if (!(xl <= xh)) continue;
         const int i_lo = std::max(0, floor_int(std::clamp(xl - kBoundSlack, -2.0, nx + 1.0)));
         const int i_hi = std::min(nx - 1, floor_int(std::clamp(xh + kBoundSlack, -2.0, nx + 1.0)));
+        const bool one_tile = (i_lo >> 3) == (i_hi >> 3);
         for (int bx = i_lo >> 3; bx <= i_hi >> 3 && bx < bdims.x(); ++bx) {
           const int x_end = std::min(8, nx - 8 * bx);  // cells of this block inside the grid
           const unsigned lanes = (1u << x_end) - 1u;
-          const std::uint64_t mask = detail::test_tile(f, 8 * bx, 8 * by, k, row_lo, row_hi, lanes);
+          // Rows of this tile the footprint reaches (over its sample columns x in [8 bx, 8 bx + 8]).
+          int t_lo = row_lo, t_hi = row_hi;
+          if (!one_tile && !exhaustive) {
+            double tyl, tyh;
+            if (!outer.minor_range_over(8.0 * bx, 8.0 * bx + 8.0, tyl, tyh)) continue;
+            t_lo = std::max(row_lo, floor_int(std::clamp(tyl - kBoundSlack - 8.0 * by, -1.0, 9.0)));
+            t_hi = std::min(row_hi, floor_int(std::clamp(tyh + kBoundSlack - 8.0 * by, -1.0, 9.0)) + 1);
+            if (t_lo >= t_hi) continue;
+          }
+          const std::uint64_t mask = detail::test_tile(f, 8 * bx, 8 * by, k, t_lo, t_hi, lanes);
           if (mask == 0) continue;
           const std::size_t fresh = grid.write_tile(bx, by, k, mask, tag);
           overlap_voxels += static_cast<std::size_t>(popcount64(mask)) - fresh;

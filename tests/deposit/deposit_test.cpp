@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <random>
 #include <vector>
 
 #include "deposit/deposit_test_support.hpp"
@@ -125,6 +126,47 @@ TEST(DepositBead, SingleLineVolumeMatchesExtrusion) {
       EXPECT_NEAR(r->bbox_mm.size().x(), 25.0, 0.051);
     }
   }
+}
+
+// The sweep tests only the tiles the bead's footprint reaches. Short moves between sharp
+// mitres (the footprint is a triangle there), steep and shallow diagonals and a spiral must
+// give exactly the voxels of testing every voxel of each bead's box.
+TEST(DepositBead, FootprintBoundsMissNoVoxel) {
+  const auto profile = ender3_marlin2();
+  BeadWriter w(profile);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int layer = 0; layer < 3; ++layer) {
+    const double z = 0.2 * (layer + 1);
+    w.layer = layer;
+    Vec3 p(40 + 3 * u(rng), 40 + 3 * u(rng), z);
+    w.travel(p);
+    double heading = 2 * std::numbers::pi * u(rng);
+    for (int i = 0; i < 400; ++i) {
+      // Turns up to +-118 degrees (still mitred) and lengths down to 0.02 mm.
+      heading += (u(rng) < 0.5 ? -1 : 1) * (0.3 + 1.75 * u(rng));
+      const double len = i % 3 == 0 ? 0.02 + 0.1 * u(rng) : 0.2 + 1.5 * u(rng);
+      p += len * Vec3(std::cos(heading), std::sin(heading), 0);
+      p.x() = std::clamp(p.x(), 30.0, 60.0), p.y() = std::clamp(p.y(), 30.0, 60.0);
+      w.extrude(p, 0.3 + 0.3 * u(rng), 0.2);
+    }
+  }
+  w.layer = 3;
+  w.travel({50, 45, 0.9});
+  for (int i = 1; i <= 200; ++i) {  // a vase-mode spiral: every move climbs
+    const double t = 0.05 * i;
+    w.extrude({50 + 5 * std::cos(t), 45 + 5 * std::sin(t), 0.9 + 0.001 * i}, 0.45, 0.2);
+  }
+  DepositSettings fast;
+  DepositSettings exhaustive;
+  exhaustive.exhaustive_tiles = true;
+  auto a = deposit_moves(w.moves, profile, fast);
+  auto b = deposit_moves(w.moves, profile, exhaustive);
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_GT(a->voxels, 100000u);
+  EXPECT_EQ(a->voxels, b->voxels);
+  EXPECT_EQ(a->overlap_mm3, b->overlap_mm3);
+  EXPECT_EQ(a->grid.occupied_keys(), b->grid.occupied_keys());
 }
 
 TEST(DepositBead, FirstLayerHeightFollowsTheGapToTheBed) {
