@@ -93,26 +93,20 @@ struct Linear {
     inv_q = flat_y ? 0.0 : 1.0 / q;
   }
   /// Narrows [yl, yh] to the y where the constraint holds on the line x; false if empty.
-  bool clip_y(double x, double& yl, double& yh) const {
-    const double rest = p * x + c;
-    if (flat_y) return rest >= lo && rest <= hi;
-    double y0 = (lo - rest) * inv_q;
-    double y1 = (hi - rest) * inv_q;
-    if (y0 > y1) std::swap(y0, y1);
-    yl = std::max(yl, y0);
-    yh = std::min(yh, y1);
-    return yl <= yh;
-  }
+  bool clip_y(double x, double& yl, double& yh) const { return narrow(p * x + c, inv_q, flat_y, yl, yh); }
   /// Narrows [xl, xh] to the x where the constraint holds on the line y; false if empty.
-  bool clip(double y, double& xl, double& xh) const {
-    const double rest = q * y + c;
-    if (flat) return rest >= lo && rest <= hi;
-    double x0 = (lo - rest) * inv_p;
-    double x1 = (hi - rest) * inv_p;
-    if (x0 > x1) std::swap(x0, x1);
-    xl = std::max(xl, x0);
-    xh = std::min(xh, x1);
-    return xl <= xh;
+  bool clip(double y, double& xl, double& xh) const { return narrow(q * y + c, inv_p, flat, xl, xh); }
+
+ private:
+  /// lo <= k * t + rest <= hi narrows [tl, th] (inv_k = 1 / k; `flat`: k == 0).
+  bool narrow(double rest, double inv_k, bool flat_k, double& tl, double& th) const {
+    if (flat_k) return rest >= lo && rest <= hi;
+    double t0 = (lo - rest) * inv_k;
+    double t1 = (hi - rest) * inv_k;
+    if (t0 > t1) std::swap(t0, t1);
+    tl = std::max(tl, t0);
+    th = std::min(th, t1);
+    return tl <= th;
   }
 };
 
