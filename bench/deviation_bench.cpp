@@ -12,11 +12,17 @@
 //                                          whole-process distance of points to a mesh (the
 //                                          counterpart of CloudCompare -C2M_DIST); prints
 //                                          n, mean|d|, rms|d|, max|d|
+//   deviation_bench --checksum             one compute_deviation on the benchmark data (as
+//                                          above): a hash of every sample, vertex deviation,
+//                                          region and statistic (bit patterns), so a change
+//                                          that must not change the results can be checked
+//                                          bit for bit, plus the CPU time of each phase
 #include <benchmark/benchmark.h>
 
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <fstream>
 #include <sstream>
 
@@ -129,6 +135,108 @@ void BM_DeviationStageReusedTarget(benchmark::State& state) {
 }
 BENCHMARK(BM_DeviationStageReusedTarget)->Unit(benchmark::kMillisecond)->Iterations(3);
 
+/// Process CPU time (all threads), seconds.
+double cpu_s() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
+/// FNV-1a over the bytes of values.
+struct Hash {
+  std::uint64_t h = 1469598103934665603ULL;
+  void bytes(const void* p, std::size_t n) {
+    const auto* c = static_cast<const unsigned char*>(p);
+    for (std::size_t i = 0; i < n; ++i) h = (h ^ c[i]) * 1099511628211ULL;
+  }
+  template <class T>
+  void add(const T& v) { bytes(&v, sizeof v); }
+  void add(const Vec3& v) { for (int a = 0; a < 3; ++a) add(v[a]); }
+  void add(const DeviationStats& s) {
+    for (const double x : {s.min_mm, s.max_mm, s.mean_mm, s.mean_abs_mm, s.rms_mm, s.std_mm, s.p50_abs_mm,
+                           s.p95_abs_mm, s.p99_abs_mm, s.within_tolerance_pct, s.hausdorff_mm})
+      add(x);
+    add(s.samples);
+  }
+  void add(const std::vector<DeviationSample>& list) {
+    for (const auto& x : list) {
+      add(x.position_mm);
+      add(x.distance_mm);
+      add(x.layer);
+      add(x.line);
+      add(x.triangle);
+    }
+  }
+};
+
+int checksum() {
+  const Prepared& p = prepared();
+  DeviationSettings settings;
+  const double t0 = cpu_s();
+  auto target = DeviationTarget::build(p.placed, settings, p.deposit.grid.voxel_mm());
+  if (!target) return 3;
+  const double t1 = cpu_s();
+  auto r = compute_deviation(*target, Vec3::Zero(), p.deposit.grid, settings, p.part);
+  if (!r) return 3;
+  const double t2 = cpu_s();
+  Hash h;
+  h.add(r->deposit_to_mesh);
+  h.add(r->mesh_to_deposit);
+  h.add(r->deposit_samples);
+  h.add(r->mesh_samples);
+  for (const auto& l : r->per_layer) {
+    h.add(l.layer);
+    h.add(l.z_mm);
+    h.add(l.deposit_to_mesh);
+    h.add(l.mesh_to_deposit);
+  }
+  for (const auto& g : r->regions) {
+    h.add(g.kind);
+    h.add(g.bbox_mm.min);
+    h.add(g.bbox_mm.max);
+    h.add(g.area_mm2);
+    h.add(g.worst_mm);
+    h.add(g.worst_position_mm);
+    h.add(g.samples);
+    for (const long l : g.gcode_lines) h.add(l);
+  }
+  for (const double x : {r->max_excess_mm, r->max_deficit_mm, r->noise_area_mm2, r->deposit_volume_mm3}) h.add(x);
+  for (const std::size_t x : {r->noise_regions, r->surface_faces, r->surface_voxels}) h.add(x);
+  for (const double x : r->vertex_deviation_mm) h.add(x);
+  // The phases alone (public entry points), for attribution: the least CPU of 3 runs each.
+  Box3 region{target->bbox_mm().min, target->bbox_mm().max};
+  region.extend(p.part);
+  region.min -= Vec3::Constant(settings.region_margin_mm);
+  region.max += Vec3::Constant(settings.region_margin_mm);
+  const auto least_of_3 = [](const auto& run) {
+    double best = 1e30;
+    for (int k = 0; k < 3; ++k) {
+      const double t = cpu_s();
+      run();
+      best = std::min(best, cpu_s() - t);
+    }
+    return best;
+  };
+  DepositSurface surface;
+  const double t_surface = least_of_3([&] { surface = extract_outer_surface(p.deposit.grid, region, settings.seal_gap_mm); });
+  std::vector<Vec3> pts(surface.faces.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) pts[i] = surface.faces[i].center_mm;
+  std::vector<double> d;
+  std::vector<std::uint32_t> tri;
+  const double near_mm = std::max(4.0 * p.deposit.grid.voxel_mm(), settings.tolerance_mm);
+  const double t_dep = least_of_3([&] { target->signed_distances(Vec3::Zero(), pts, near_mm, d, &tri); });
+  std::vector<Vec3> q;
+  for (const auto& s : target->samples()) q.push_back(s.position_mm);
+  q.insert(q.end(), p.placed.vertices_mm.begin(), p.placed.vertices_mm.end());
+  std::vector<std::uint32_t> nearest;
+  const double t_mesh = least_of_3([&] { distances_to_deposit(surface, q, d, &nearest); });
+  std::printf("checksum %016llx faces %zu mesh samples %zu\n", static_cast<unsigned long long>(h.h),
+              r->surface_faces, r->mesh_to_deposit.samples);
+  std::printf("cpu s: target %.3f deviation %.3f | least of 3: surface %.3f deposit->mesh %.3f mesh->deposit %.3f\n",
+              t1 - t0, t2 - t1, t_surface, t_dep, t_mesh);
+  return 0;
+}
+
 int export_points(int argc, char** argv) {
   if (argc < 5) return 2;
   VerifyOptions o;
@@ -203,6 +311,7 @@ int c2m(int argc, char** argv) {
 int main(int argc, char** argv) {
   if (argc > 1 && std::strcmp(argv[1], "--export") == 0) return export_points(argc, argv);
   if (argc > 1 && std::strcmp(argv[1], "--c2m") == 0) return c2m(argc, argv);
+  if (argc > 1 && std::strcmp(argv[1], "--checksum") == 0) return checksum();
   benchmark::Initialize(&argc, argv);
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
