@@ -18,7 +18,7 @@
 # Needs CloudCompare (../shared/peers); run from the repository root after building.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
-build="${BUILD_DIR:-$root/build}"
+build="$(cd "${BUILD_DIR:-$root/build}" && pwd)"  # absolute: the script changes folder
 bench="$build/bench/deviation_bench"
 mesh="${1:-}"
 gcode="${2:-$root/samples/gcode/prusa_cube10.gcode}"
