@@ -118,13 +118,18 @@ inline std::uint64_t transpose8(std::uint64_t x) {
 }
 
 /// Bit columns (nx * ny columns of `words` words, z bits) dilated by r voxels (a cube of
-/// 2r + 1): separable, z by word shifts, then x, then y by OR of neighbouring columns.
-std::vector<std::uint64_t> dilate(const std::vector<std::uint64_t>& in, int nx, int ny, int words, int r) {
+/// 2r + 1) into `out`: separable, z by word shifts, then x, then y by OR of neighbouring
+/// columns. Every pass writes every word, so `out` and `scratch` (resized here, reused across
+/// calls) need no clearing: the region's arrays are hundreds of MB, and each fresh one costs
+/// its page faults and zeroing.
+void dilate(const std::vector<std::uint64_t>& in, std::vector<std::uint64_t>& out,
+            std::vector<std::uint64_t>& scratch, int nx, int ny, int words, int r) {
   const auto idx = [&](int x, int y) { return (static_cast<std::size_t>(y) * nx + x) * static_cast<std::size_t>(words); };
-  std::vector<std::uint64_t> a(in.size(), 0), b(in.size(), 0);
+  out.resize(in.size());
+  scratch.resize(in.size());
   for (std::size_t c = 0; c < static_cast<std::size_t>(nx) * ny; ++c) {
     const std::uint64_t* src = in.data() + c * words;
-    std::uint64_t* dst = a.data() + c * words;
+    std::uint64_t* dst = scratch.data() + c * words;
     for (int w = 0; w < words; ++w) {
       std::uint64_t v = src[w];
       for (int k = 1; k <= r; ++k) {
@@ -137,24 +142,24 @@ std::vector<std::uint64_t> dilate(const std::vector<std::uint64_t>& in, int nx, 
       dst[w] = v;
     }
   }
-  for (int y = 0; y < ny; ++y)
-    for (int x = 0; x < nx; ++x) {
-      std::uint64_t* dst = b.data() + idx(x, y);
-      for (int xx = std::max(0, x - r); xx <= std::min(nx - 1, x + r); ++xx) {
-        const std::uint64_t* src = a.data() + idx(xx, y);
-        for (int w = 0; w < words; ++w) dst[w] |= src[w];
+  // OR of the columns (x + d, y) (along x) or (x, y + d) (along y), d in -r..r, into dst.
+  const auto spread = [&](const std::vector<std::uint64_t>& src, std::vector<std::uint64_t>& dst, bool along_x) {
+    for (int y = 0; y < ny; ++y)
+      for (int x = 0; x < nx; ++x) {
+        std::uint64_t* d = dst.data() + idx(x, y);
+        const int lo = std::max(0, (along_x ? x : y) - r);
+        const int hi = std::min((along_x ? nx : ny) - 1, (along_x ? x : y) + r);
+        const std::uint64_t* first = src.data() + (along_x ? idx(lo, y) : idx(x, lo));
+        for (int w = 0; w < words; ++w) d[w] = first[w];
+        for (int t = lo + 1; t <= hi; ++t) {
+          const std::uint64_t* q = src.data() + (along_x ? idx(t, y) : idx(x, t));
+          for (int w = 0; w < words; ++w) d[w] |= q[w];
+        }
       }
-    }
-  std::fill(a.begin(), a.end(), 0);
-  for (int y = 0; y < ny; ++y)
-    for (int x = 0; x < nx; ++x) {
-      std::uint64_t* dst = a.data() + idx(x, y);
-      for (int yy = std::max(0, y - r); yy <= std::min(ny - 1, y + r); ++yy) {
-        const std::uint64_t* src = b.data() + idx(x, yy);
-        for (int w = 0; w < words; ++w) dst[w] |= src[w];
-      }
-    }
-  return a;
+  };
+  spread(scratch, out, true);
+  spread(out, scratch, false);
+  std::swap(out, scratch);
 }
 
 }  // namespace
@@ -266,9 +271,9 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   // voxelisation artefacts): the flood runs on the occupancy dilated by r voxels, and the
   // outside it reaches is dilated back by r (a morphological opening of the empty space).
   const int seal_r = seal_gap_mm > 0 ? static_cast<int>(std::floor(seal_gap_mm / (2 * s.voxel_mm) + 1e-9)) : 0;
-  std::vector<std::uint64_t> blocked_storage;
+  std::vector<std::uint64_t> blocked_storage, scratch;
   if (seal_r > 0) {
-    blocked_storage = dilate(occ, nx, ny, words, seal_r);
+    dilate(occ, blocked_storage, scratch, nx, ny, words, seal_r);
     // The padding stays empty so that the outside surrounds everything.
     for (int y = 0; y < ny; ++y)
       for (int x = 0; x < nx; ++x) {
@@ -339,8 +344,10 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     }
   }
 
-  // 3. Filled bits = not outside (occupied voxels, enclosed voids, sealed gaps).
-  std::vector<std::uint64_t> out_bits(columns * static_cast<std::size_t>(words), 0);
+  // 3. Filled bits = not outside (occupied voxels, enclosed voids, sealed gaps). The outside
+  // bits take the storage of `blocked`, which the flood no longer needs.
+  std::vector<std::uint64_t> out_bits = std::move(blocked_storage);
+  out_bits.assign(columns * static_cast<std::size_t>(words), 0);
   for (std::size_t c = 0; c < columns; ++c) {
     std::uint64_t* o = out_bits.data() + c * static_cast<std::size_t>(words);
     for (std::uint32_t r = run_begin[c]; r < run_begin[c + 1]; ++r) {
@@ -348,15 +355,21 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
       set_bits(o, runs[r].z0, runs[r].z1 + 1);
     }
   }
+  // The outside dilated back (when sealing) goes straight into filled_bits, then filled =
+  // not (outside and not occupied).
   if (seal_r > 0) {
-    out_bits = dilate(out_bits, nx, ny, words, seal_r);
-    for (std::size_t i = 0; i < out_bits.size(); ++i) out_bits[i] &= ~occ[i];
+    dilate(out_bits, s.filled_bits, scratch, nx, ny, words, seal_r);
+  } else {
+    s.filled_bits = std::move(out_bits);
   }
-  s.filled_bits.assign(columns * static_cast<std::size_t>(words), 0);
   for (std::size_t c = 0; c < columns; ++c) {
     std::uint64_t* f = s.filled_bits.data() + c * static_cast<std::size_t>(words);
-    const std::uint64_t* o = out_bits.data() + c * static_cast<std::size_t>(words);
-    for (int w = 0; w < words; ++w) f[w] = ~o[w];
+    const std::uint64_t* oc = occ.data() + c * static_cast<std::size_t>(words);
+    if (seal_r > 0) {
+      for (int w = 0; w < words; ++w) f[w] = ~(f[w] & ~oc[w]);
+    } else {
+      for (int w = 0; w < words; ++w) f[w] = ~f[w];
+    }
     if (nz % 64 != 0) f[words - 1] &= (std::uint64_t{1} << (nz % 64)) - 1;
     for (int w = 0; w < words; ++w) s.filled_voxels += static_cast<std::size_t>(popcount64(f[w]));
   }
