@@ -71,9 +71,10 @@ class VoxelGrid {
 
   /// Edge of a block in voxels.
   static constexpr int kBlockEdge = 8;
-  /// Bytes of one allocated block: 512 occupancy bits and a 16-bit tag slot per voxel (plus
-  /// its base, 5 bytes per block, counted by memory_bytes()).
-  static constexpr std::size_t kBlockBytes = 8 * sizeof(std::uint64_t) + 512 * sizeof(std::uint16_t);
+  /// Bytes of one allocated block: 512 occupancy bits, a 16-bit tag slot per voxel, the
+  /// block's tag base and its escape flag.
+  static constexpr std::size_t kBlockBytes =
+      8 * sizeof(std::uint64_t) + 512 * sizeof(std::uint16_t) + sizeof(std::uint32_t) + 1;
   /// Tag slot value meaning "the index did not fit in 16 bits; ask escaped_tag_index()".
   static constexpr std::uint16_t kEscapedTag = 0xFFFF;
 

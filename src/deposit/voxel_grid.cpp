@@ -367,7 +367,6 @@ std::size_t VoxelGrid::block_count() const { return impl_->blocks; }
 std::size_t VoxelGrid::memory_bytes() const {
   return impl_->directory.size() * sizeof(std::uint32_t) +
          impl_->blocks * kBlockBytes +  // pages of a chunk are touched only as its blocks are used
-         impl_->bases.capacity() * (sizeof(std::uint32_t) + 1) +
          impl_->escaped.size() * 2 * sizeof(std::uint64_t) +
          impl_->tags.capacity() * sizeof(VoxelTag);
 }
