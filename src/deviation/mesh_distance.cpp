@@ -140,18 +140,30 @@ void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Ve
     // prev_d + |p - prev_p| away (triangle inequality). Neighbouring deposit faces are
     // neighbours in the input, so this ball is small and the BVH prunes almost everything.
     // The bound only changes the speed: the closest point (ties: lowest triangle) is exact.
+    // The previous point's closest triangle usually holds this point's closest point too (or
+    // one nearly as close): its exact distance is a second bound, often much tighter, so the
+    // BVH query visits fewer boxes and candidates.
     Vec3 prev_p = Vec3::Zero();
     double prev_d = std::numeric_limits<double>::infinity();
+    std::optional<std::uint32_t> prev_tri;
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
       const Vec3 p = points_mm[i] - offset_mm;  // into the mesh's frame
       // Most points lie near the surface: a bounded query first, the full one if it fails.
       std::optional<ClosestPoint> near;
-      const double bound = (prev_d + (p - prev_p).norm()) * (1 + 1e-9) + 1e-9;
+      double bound = (prev_d + (p - prev_p).norm()) * (1 + 1e-9) + 1e-9;
+      if (prev_tri) {
+        const auto& t = mesh.triangles[*prev_tri];
+        const double d0 =
+            (closest_point_on_triangle(p, mesh.vertices_mm[t[0]], mesh.vertices_mm[t[1]], mesh.vertices_mm[t[2]]) - p)
+                .norm();
+        bound = std::min(bound, d0 * (1 + 1e-9) + 1e-9);
+      }
       if (bound < near_mm) near = query.closest_point_within(p, bound);
       if (!near && near_mm > 0) near = query.closest_point_within(p, near_mm);
       const ClosestPoint cp = near ? *near : query.closest_point(p);
       prev_p = p;
       prev_d = cp.distance_mm;
+      prev_tri = cp.triangle;
       if (triangles != nullptr) (*triangles)[i] = cp.triangle;
       const Vec3 dir = p - cp.point_mm;
       if (cp.distance_mm == 0) {
