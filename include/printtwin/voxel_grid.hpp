@@ -72,9 +72,9 @@ class VoxelGrid {
   /// Edge of a block in voxels.
   static constexpr int kBlockEdge = 8;
   /// Bytes of one allocated block: 512 occupancy bits, a 16-bit tag slot per voxel, the
-  /// block's tag base and its escape flag.
+  /// block's tag base, its largest slot value and its escape flag.
   static constexpr std::size_t kBlockBytes =
-      8 * sizeof(std::uint64_t) + 512 * sizeof(std::uint16_t) + sizeof(std::uint32_t) + 1;
+      8 * sizeof(std::uint64_t) + 512 * sizeof(std::uint16_t) + sizeof(std::uint32_t) + 3;
   /// Tag slot value meaning "the index did not fit in 16 bits; ask escaped_tag_index()".
   static constexpr std::uint16_t kEscapedTag = 0xFFFF;
 
@@ -111,6 +111,9 @@ class VoxelGrid {
     const VoxelGrid* grid = nullptr;
     std::uint32_t block = 0;
     bool escapes = false;  ///< some slot holds kEscapedTag
+    /// Largest tag index any slot of the block holds (escaped slots aside): the tags of its
+    /// voxels lie in [tag_base, tag_last] (plus escaped ones, when `escapes`).
+    std::uint32_t tag_last = 0;
     /// Index into tag_table() of the voxel in `slot` (meaningful when it is occupied).
     [[nodiscard]] std::uint32_t tag_index(int slot) const {
       const std::uint16_t v = tags[slot];

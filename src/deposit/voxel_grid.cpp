@@ -93,6 +93,7 @@ struct VoxelGrid::Impl {
   std::vector<VoxelTag> tags;
   std::vector<std::uint32_t> bases;          // per block: tag index its 16-bit slots count from
   std::vector<std::uint8_t> block_escapes;   // per block: 1 when a slot holds kEscaped
+  std::vector<std::uint16_t> block_max;      // per block: largest slot value written (escapes aside)
   std::unordered_map<std::uint64_t, std::uint32_t> escaped;  // (block << 9 | slot) -> tag index
 
   [[nodiscard]] std::size_t dir_index(int bx, int by, int bz) const {
@@ -115,6 +116,7 @@ struct VoxelGrid::Impl {
     directory[di] = static_cast<std::uint32_t>(b + 1);
     bases.push_back(kNoBase);
     block_escapes.push_back(0);
+    block_max.push_back(0);
     return b;
   }
   /// The 16-bit slot value of tag index t in block b (fixing the block's base on its first
@@ -123,7 +125,10 @@ struct VoxelGrid::Impl {
     std::uint32_t& base = bases[b];
     if (base == kNoBase) base = t;
     const std::uint32_t delta = t - base;
-    return delta < kEscaped ? static_cast<std::uint16_t>(delta) : kEscaped;
+    if (delta >= kEscaped) return kEscaped;
+    const auto v = static_cast<std::uint16_t>(delta);
+    block_max[b] = std::max(block_max[b], v);
+    return v;
   }
   /// Stores tag index t in slot s of block b.
   void store_tag(std::size_t b, int s, std::uint32_t t) {
@@ -165,6 +170,7 @@ struct VoxelGrid::Impl {
     tags = o.tags;
     bases = o.bases;
     block_escapes = o.block_escapes;
+    block_max = o.block_max;
     escaped = o.escaped;
     chunks.clear();
     for (std::size_t c = 0; c < o.chunks.size(); ++c) {
@@ -400,7 +406,8 @@ void VoxelGrid::visit_blocks(const std::function<void(const BlockView&)>& fn) co
         if (d == kNoBlock) continue;
         const std::size_t b = d - 1;
         const BlockView view{VoxelKey{bx * kEdge, by * kEdge, bz * kEdge}, g.occ(b), g.tag_slots(b),
-                             g.bases[b], this, static_cast<std::uint32_t>(b), g.block_escapes[b] != 0};
+                             g.bases[b], this, static_cast<std::uint32_t>(b), g.block_escapes[b] != 0,
+                             g.bases[b] + g.block_max[b]};
         fn(view);
       }
 }

@@ -202,6 +202,16 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   const auto last_tag = static_cast<std::uint32_t>(auxiliary.empty() ? 0 : auxiliary.size() - 1);
   std::vector<std::int32_t> aux32(std::max<std::size_t>(1, auxiliary.size()), 0);
   for (std::size_t i = 0; i < auxiliary.size(); ++i) aux32[i] = auxiliary[i] != 0 ? -1 : 0;
+  // Auxiliary tags before each index: a block whose tag range [tag_base, tag_last] holds none
+  // (and no escaped slot) needs no per-voxel test, and its tag slots are not read at all.
+  std::vector<std::uint32_t> aux_before(auxiliary.size() + 1, 0);
+  for (std::size_t i = 0; i < auxiliary.size(); ++i) aux_before[i + 1] = aux_before[i] + auxiliary[i];
+  const auto block_may_have_aux = [&](const VoxelGrid::BlockView& b) {
+    if (b.escapes) return true;
+    const std::size_t lo = std::min<std::size_t>(b.tag_base, auxiliary.size());
+    const std::size_t hi = std::min<std::size_t>(static_cast<std::size_t>(b.tag_last) + 1, auxiliary.size());
+    return lo < hi && aux_before[hi] != aux_before[lo];
+  };
   const bool avx2 = cpu_has_avx2();
   // The grid visits blocks z-major; gathered column by column instead (all z-blocks of a
   // column of blocks in a row), the 64 bit columns a block writes stay in cache.
@@ -233,11 +243,12 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     // The block's 8 z-slices of 64 (x, y) bits, without auxiliary voxels and z outside the
     // region, then transposed to one byte of 8 z bits per (x, y) column.
     std::array<std::uint64_t, kE> slice{};
+    const bool test_aux = any_auxiliary && block_may_have_aux(b);
     for (int z = 0; z < kE; ++z) {
       const int gz = bz + z;
       if (gz < 1 || gz >= nz - 1) continue;
       std::uint64_t bits = b.occupancy[z];
-      if (any_auxiliary && bits != 0)
+      if (test_aux && bits != 0)
         bits &= ~(avx2 && !b.escapes ? aux_mask_avx2(b, z, aux32.data(), last_tag)
                                      : aux_mask_default(b, z, aux32.data(), last_tag));
       slice[static_cast<std::size_t>(z)] = bits;

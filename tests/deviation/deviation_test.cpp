@@ -2,6 +2,8 @@
 // Embree vs CGAL reference, registration, regions, PLY export.
 #include <gtest/gtest.h>
 
+#include <set>
+
 #include <algorithm>
 #include <cmath>
 #include <functional>
@@ -129,6 +131,17 @@ TEST(DeviationSurface, AuxiliaryFeaturesAreIgnored) {
   const DepositSurface s = extract_outer_surface(grid, block);
   EXPECT_EQ(s.faces.size(), 6U);
   EXPECT_EQ(s.face_tags[0].line, 5U);
+  // A block holding only later, non-auxiliary tags skips the per-voxel test (its tag range
+  // has no auxiliary tag) and still shows; one that mixes both is still filtered voxel by voxel.
+  VoxelGrid wide = voxelise(0.1, Box3{Vec3(0, 0, 0), Vec3(2, 1, 1)},
+                            [&](const Vec3& c) { return block.contains(c); }, Feature::skirt);
+  wide.set(wide.key_of(Vec3(1.55, 0.55, 0.55)), VoxelTag{9, 3, Feature::perimeter});
+  wide.set(wide.key_of(Vec3(0.55, 0.55, 0.55)), VoxelTag{7, 3, Feature::outer_perimeter});
+  const DepositSurface w = extract_outer_surface(wide, Box3{Vec3(0, 0, 0), Vec3(2, 1, 1)});
+  ASSERT_EQ(w.faces.size(), 12U);
+  std::set<std::uint32_t> lines;
+  for (const auto& t : w.face_tags) lines.insert(t.line);
+  EXPECT_EQ(lines, (std::set<std::uint32_t>{7U, 9U}));
 }
 
 class DeviationKnownOffset : public ::testing::Test {
