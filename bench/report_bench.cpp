@@ -54,6 +54,25 @@ void BM_RenderViews(benchmark::State& state) {
 }
 BENCHMARK(BM_RenderViews)->Unit(benchmark::kMillisecond);
 
+/// The same with the BVH and the traced views built beforehand (HeatmapCache), as for
+/// compare's variants after the first: colours, region markers and PNGs only.
+void BM_RenderViewsCached(benchmark::State& state) {
+  tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
+  const auto& r = big_report();
+  ReportOptions options;
+  auto cache = build_heatmap_cache(r.placed_mesh, options.views);
+  if (!cache) {
+    state.SkipWithError(cache.error().message.c_str());
+    return;
+  }
+  options.heatmap_cache = &*cache;
+  for (auto _ : state) {
+    auto assets = render_report_assets(r, options);
+    benchmark::DoNotOptimize(assets);
+  }
+}
+BENCHMARK(BM_RenderViewsCached)->Unit(benchmark::kMillisecond);
+
 void BM_CutMesh(benchmark::State& state) {
   const auto& r = big_report();
   std::vector<double> z;

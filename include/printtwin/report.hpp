@@ -74,6 +74,7 @@ struct ViewSpec {
   Vec3 up = Vec3(0, 0, 1);
   int width_px = 320;
   int height_px = 320;  ///< upper bound; the image is cropped to the part's aspect
+  bool operator==(const ViewSpec&) const = default;
 };
 
 /// Isometric (large) plus front (-Y looking +Y), right (+X looking -X) and top views.
@@ -123,8 +124,49 @@ struct SurfaceDeviationField {
 /// Ray casts one view of the mesh held by `query` (one ray per pixel through MeshQuery,
 /// rows in parallel with TBB), colours each hit by the deviation field and shades it with
 /// two Lambert lights. Back faces (open meshes) are grey. Deterministic.
+/// Equals shade_heatmap(trace_heatmap_view(query, view), query.mesh(), field, scale).
 [[nodiscard]] HeatmapView render_heatmap(const MeshQuery& query, const SurfaceDeviationField& field,
                                          const DeviationColorScale& scale, const ViewSpec& view);
+
+/// The half of a heatmap render that depends only on the mesh and the view: the camera fitted
+/// to the mesh and, per pixel (rows top to bottom), the ray hit and its lighting. Every
+/// deviation result on the same placed mesh colours the same traced view.
+struct TracedView {
+  static constexpr std::uint32_t kNoHit = 0xffffffffu;
+  ViewSpec view;
+  Camera camera;
+  double near_offset_mm = 0;            ///< rays start this far before the camera centre
+  std::vector<std::uint32_t> triangle;  ///< hit triangle per pixel; kNoHit: background
+  std::vector<float> depth_mm;          ///< hit distance from the ray origin
+  std::vector<Vec3> normal;             ///< unit geometric normal of the hit triangle
+  std::vector<double> shade;            ///< two Lambert lights times the outline darkening
+  std::size_t hit_pixels = 0;
+  /// Origin of the ray through pixel (x, y).
+  [[nodiscard]] Vec3 pixel_origin(int x, int y) const;
+};
+
+/// Fits the camera to the mesh held by `query` and casts one ray per covered pixel.
+[[nodiscard]] TracedView trace_heatmap_view(const MeshQuery& query, const ViewSpec& view);
+
+/// Colours a traced view of `mesh` (the mesh it was traced from) by the deviation field.
+[[nodiscard]] HeatmapView shade_heatmap(const TracedView& traced, const Mesh& mesh,
+                                        const SurfaceDeviationField& field,
+                                        const DeviationColorScale& scale);
+
+/// The BVH and the traced views of one placed mesh, for reports of several deviation results
+/// on it (compare's variants at the same placement). Built by the caller, who owns it and
+/// passes it in `ReportOptions::heatmap_cache`; a report renders byte for byte the same with
+/// or without it.
+struct HeatmapCache {
+  MeshQuery query;                ///< over the placed mesh (query.mesh())
+  std::vector<TracedView> views;  ///< one per ViewSpec, same order
+  /// True when the cache was traced from exactly `placed_mesh` (every coordinate) and `views`.
+  [[nodiscard]] bool fits(const Mesh& placed_mesh, std::span<const ViewSpec> views) const;
+};
+
+/// Builds the BVH of `placed_mesh` and traces `views` (errors: the mesh cannot be queried).
+[[nodiscard]] Result<HeatmapCache> build_heatmap_cache(const Mesh& placed_mesh,
+                                                       std::span<const ViewSpec> views);
 
 /// Cuts `mesh` at each height of `z_mm` (sorted or not) and chains the cuts into polylines
 /// (machine frame XY, mm; closed loops repeat their first point), simplified with
@@ -153,6 +195,9 @@ struct ReportOptions {
   /// Called with the staging folder before it is renamed into place, to add more files
   /// (e.g. deposit.ot). An error aborts the report and leaves no folder behind.
   std::function<Status(const std::filesystem::path& staging_dir)> extra_outputs;
+  /// Traced heatmap views to reuse (not owned). Used when it fits the report's placed mesh
+  /// and `views`; otherwise the report traces its own. The images are the same either way.
+  const HeatmapCache* heatmap_cache = nullptr;
 };
 
 /// JUnit XML (testsuites/testsuite/testcase, failures with messages): one case per gate

@@ -1,6 +1,7 @@
 // The report folder: every file built in memory, written into a hidden staging folder beside
 // the target, then swapped into place with renames. A killed or failed run leaves at most a
 // hidden ".<name>.staging-*" folder, never a report that looks complete.
+#include <optional>
 #include <random>
 #include <system_error>
 
@@ -11,9 +12,31 @@ namespace printtwin {
 
 namespace fs = std::filesystem;
 
-Result<ReportAssets> render_report_assets(const VerifyReport& report, const ReportOptions& options) {
-  auto query = MeshQuery::build(report.placed_mesh);
+bool HeatmapCache::fits(const Mesh& placed_mesh, std::span<const ViewSpec> specs) const {
+  if (views.size() != specs.size()) return false;
+  for (std::size_t i = 0; i < specs.size(); ++i)
+    if (!(views[i].view == specs[i])) return false;
+  return query.mesh() == placed_mesh;
+}
+
+Result<HeatmapCache> build_heatmap_cache(const Mesh& placed_mesh, std::span<const ViewSpec> views) {
+  auto query = MeshQuery::build(placed_mesh);
   if (!query) return internal_error("cannot render the heatmaps: " + query.error().message);
+  HeatmapCache cache{std::move(*query), {}};
+  for (const auto& view : views) cache.views.push_back(trace_heatmap_view(cache.query, view));
+  return cache;
+}
+
+Result<ReportAssets> render_report_assets(const VerifyReport& report, const ReportOptions& options) {
+  // The caller's traced views when they belong to this mesh, else this report's own.
+  const HeatmapCache* cache = options.heatmap_cache;
+  std::optional<HeatmapCache> own;
+  if (cache == nullptr || !cache->fits(report.placed_mesh, options.views)) {
+    auto built = build_heatmap_cache(report.placed_mesh, options.views);
+    if (!built) return built.error();
+    own = std::move(*built);
+    cache = &*own;
+  }
   ReportAssets assets;
   assets.scale = make_color_scale(report.deviation);
   SurfaceDeviationField field;
@@ -21,9 +44,9 @@ Result<ReportAssets> render_report_assets(const VerifyReport& report, const Repo
   field.vertex_deviation_mm = report.deviation.vertex_deviation_mm;
   field.sample_spacing_mm = report.settings.mesh_sample_spacing_mm > 0 ? report.settings.mesh_sample_spacing_mm
                                                                         : report.settings.voxel_mm;
-  for (const auto& view : options.views) {
-    HeatmapView hv = render_heatmap(*query, field, assets.scale, view);
-    hv.markers = mark_regions(*query, hv.camera, report.deviation.regions);
+  for (const TracedView& traced : cache->views) {
+    HeatmapView hv = shade_heatmap(traced, cache->query.mesh(), field, assets.scale);
+    hv.markers = mark_regions(cache->query, hv.camera, report.deviation.regions);
     auto png = encode_png(hv.image);
     if (!png) return png.error();
     assets.view_png.push_back(std::move(png).value());

@@ -6,6 +6,10 @@
 // buffer, so details finer than the mesh's triangles (a dropped thin wall on a 12-triangle
 // box) still show. Pixels no sample reaches fall back to the per-vertex deviation
 // interpolated with barycentric coordinates.
+//
+// A render has two halves: trace_heatmap_view (camera fit, rays, lighting and outlines; the
+// mesh and the view only) and shade_heatmap (colours from one deviation result). Reports of
+// several results on the same placed mesh (compare's variants) trace once (HeatmapCache).
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -99,10 +103,9 @@ Vec2 Camera::project(const Vec3& p_mm) const {
   return Vec2(0.5 * width_px + d.dot(right) / mm_per_px, 0.5 * height_px - d.dot(up) / mm_per_px);
 }
 
-HeatmapView render_heatmap(const MeshQuery& query, const SurfaceDeviationField& field,
-                           const DeviationColorScale& scale, const ViewSpec& view) {
+TracedView trace_heatmap_view(const MeshQuery& query, const ViewSpec& view) {
   const Mesh& mesh = query.mesh();
-  HeatmapView out;
+  TracedView out;
   out.view = view;
   Camera& cam = out.camera;
   cam.forward = view.direction.normalized();
@@ -132,17 +135,16 @@ HeatmapView render_heatmap(const MeshQuery& query, const SurfaceDeviationField& 
   const int w = cam.width_px, h = cam.height_px;
   const double depth = max_z - min_z;
   const double pad = 0.01 * depth + 1.0;
-  const double near_offset = 0.5 * depth + pad;  // ray origins sit this far before the centre
+  out.near_offset_mm = 0.5 * depth + pad;
 
-  auto pixel_origin = [&](int x, int y) -> Vec3 {
-    return cam.center_mm + cam.right * ((x + 0.5 - 0.5 * w) * cam.mm_per_px) -
-           cam.up * ((y + 0.5 - 0.5 * h) * cam.mm_per_px) - cam.forward * near_offset;
-  };
-  // Pass 1: one ray per pixel -> triangle, depth, unit normal.
-  constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
-  std::vector<std::uint32_t> tri(static_cast<std::size_t>(w) * h, kNone);
-  std::vector<float> tdepth(tri.size(), 0.f);
-  std::vector<Vec3> normal(tri.size(), Vec3::Zero());
+  // One ray per pixel -> triangle, depth, unit normal.
+  constexpr std::uint32_t kNone = TracedView::kNoHit;
+  std::vector<std::uint32_t>& tri = out.triangle;
+  std::vector<float>& tdepth = out.depth_mm;
+  std::vector<Vec3>& normal = out.normal;
+  tri.assign(static_cast<std::size_t>(w) * h, kNone);
+  tdepth.assign(tri.size(), 0.f);
+  normal.assign(tri.size(), Vec3::Zero());
   // Orthographic rays only hit triangles whose projection covers their pixel: mark each
   // triangle's projected box (plus 2 px for rounding) and cast rays only there. Same hits,
   // no rays through the empty background.
@@ -170,7 +172,7 @@ HeatmapView render_heatmap(const MeshQuery& query, const SurfaceDeviationField& 
     for (int y = rows.begin(); y != rows.end(); ++y)
       for (int x = 0; x < w; ++x) {
         if (covered[static_cast<std::size_t>(y) * w + x] == 0) continue;
-        const Vec3 origin = pixel_origin(x, y);
+        const Vec3 origin = out.pixel_origin(x, y);
         const auto hit = query.first_hit(origin, cam.forward, 0.0, depth + 2 * pad);
         if (!hit) continue;
         const std::size_t i = static_cast<std::size_t>(y) * w + x;
@@ -180,7 +182,59 @@ HeatmapView render_heatmap(const MeshQuery& query, const SurfaceDeviationField& 
       }
   });
 
-  // Pass 2: deviation per pixel from the mesh-surface samples, splatted and depth-tested.
+  // Lighting: two Lambert lights, creases and depth steps outlined (darkened where a
+  // neighbour differs a lot).
+  const Vec3 key_light = (-cam.forward + 0.55 * cam.up - 0.45 * cam.right).normalized();
+  const Vec3 fill_light = (-cam.forward - 0.2 * cam.up + 0.8 * cam.right).normalized();
+  out.shade.assign(tri.size(), 0.0);
+  const double edge_depth = 3.0 * cam.mm_per_px;
+  tbb::parallel_for(tbb::blocked_range<int>(0, h, 8), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y != rows.end(); ++y)
+      for (int x = 0; x < w; ++x) {
+        const std::size_t i = static_cast<std::size_t>(y) * w + x;
+        if (tri[i] == kNone) continue;
+        const Vec3& n = normal[i];
+        const Vec3 ns = n.dot(cam.forward) > 0 ? Vec3(-n) : n;
+        double shade = 0.46 + 0.54 * std::max(0.0, ns.dot(key_light)) +
+                       0.16 * std::max(0.0, ns.dot(fill_light));
+        auto differs = [&](int xx, int yy) {
+          if (xx < 0 || yy < 0 || xx >= w || yy >= h) return true;
+          const std::size_t j = static_cast<std::size_t>(yy) * w + xx;
+          if (tri[j] == kNone) return true;
+          if (std::abs(tdepth[j] - tdepth[i]) > edge_depth) return true;
+          return normal[j].dot(n) < 0.82;  // crease > ~35 degrees
+        };
+        if (differs(x + 1, y) || differs(x, y + 1) || differs(x - 1, y) || differs(x, y - 1))
+          shade *= 0.72;
+        out.shade[i] = std::min(shade, 1.12);
+      }
+  });
+  out.hit_pixels = static_cast<std::size_t>(
+      std::count_if(tri.begin(), tri.end(), [](std::uint32_t t) { return t != kNone; }));
+  return out;
+}
+
+Vec3 TracedView::pixel_origin(int x, int y) const {
+  const Camera& cam = camera;
+  return cam.center_mm + cam.right * ((x + 0.5 - 0.5 * cam.width_px) * cam.mm_per_px) -
+         cam.up * ((y + 0.5 - 0.5 * cam.height_px) * cam.mm_per_px) - cam.forward * near_offset_mm;
+}
+
+HeatmapView shade_heatmap(const TracedView& traced, const Mesh& mesh, const SurfaceDeviationField& field,
+                          const DeviationColorScale& scale) {
+  HeatmapView out;
+  out.view = traced.view;
+  out.camera = traced.camera;
+  out.hit_pixels = traced.hit_pixels;
+  const Camera& cam = traced.camera;
+  const int w = cam.width_px, h = cam.height_px;
+  const double near_offset = traced.near_offset_mm;
+  constexpr std::uint32_t kNone = TracedView::kNoHit;
+  const std::vector<std::uint32_t>& tri = traced.triangle;
+  const std::vector<float>& tdepth = traced.depth_mm;
+  const std::vector<Vec3>& normal = traced.normal;
+
+  // Deviation per pixel from the mesh-surface samples, splatted and depth-tested.
   // A sample stands for a patch of ~spacing; when that is about a pixel or less, each sample
   // lands on one pixel and the few pixels no sample reached are filled from their neighbours.
   std::vector<float> dev_sum(tri.size(), 0.f);
@@ -303,21 +357,17 @@ HeatmapView render_heatmap(const MeshQuery& query, const SurfaceDeviationField& 
   const bool have_vertex = !field.vertex_deviation_mm.empty() &&
                            field.vertex_deviation_mm.size() == mesh.vertices_mm.size();
 
-  // Pass 3: colour, shading, outlines.
-  const Vec3 key_light = (-cam.forward + 0.55 * cam.up - 0.45 * cam.right).normalized();
-  const Vec3 fill_light = (-cam.forward - 0.2 * cam.up + 0.8 * cam.right).normalized();
+  // Colour, times the traced lighting.
   out.image.width = w;
   out.image.height = h;
   out.image.rgba.assign(tri.size() * 4, 0);
-  const double edge_depth = 3.0 * cam.mm_per_px;
   tbb::parallel_for(tbb::blocked_range<int>(0, h, 8), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y != rows.end(); ++y)
       for (int x = 0; x < w; ++x) {
         const std::size_t i = static_cast<std::size_t>(y) * w + x;
         std::uint8_t* px = &out.image.rgba[4 * i];
         if (tri[i] == kNone) continue;
-        const Vec3& n = normal[i];
-        const bool back = n.dot(cam.forward) > 0;
+        const bool back = normal[i].dot(cam.forward) > 0;
         Rgb base{176, 176, 176};
         if (!back) {
           if (dev_count[i] > 0) {
@@ -328,7 +378,7 @@ HeatmapView render_heatmap(const MeshQuery& query, const SurfaceDeviationField& 
             const Vec3& b = mesh.vertices_mm[t[1]];
             const Vec3& c = mesh.vertices_mm[t[2]];
             // Barycentric coordinates of the hit point (double precision).
-            const Vec3 v0 = b - a, v1 = c - a, v2 = pixel_origin(x, y) + cam.forward * tdepth[i] - a;
+            const Vec3 v0 = b - a, v1 = c - a, v2 = traced.pixel_origin(x, y) + cam.forward * tdepth[i] - a;
             const double d00 = v0.dot(v0), d01 = v0.dot(v1), d11 = v1.dot(v1);
             const double d20 = v2.dot(v0), d21 = v2.dot(v1);
             const double den = d00 * d11 - d01 * d01;
@@ -345,28 +395,18 @@ HeatmapView render_heatmap(const MeshQuery& query, const SurfaceDeviationField& 
             base = {205, 205, 205};  // no deviation data here
           }
         }
-        const Vec3 ns = back ? Vec3(-n) : n;
-        double shade = 0.46 + 0.54 * std::max(0.0, ns.dot(key_light)) +
-                       0.16 * std::max(0.0, ns.dot(fill_light));
-        // Outline creases and depth steps (darken where a neighbour differs a lot).
-        auto differs = [&](int xx, int yy) {
-          if (xx < 0 || yy < 0 || xx >= w || yy >= h) return true;
-          const std::size_t j = static_cast<std::size_t>(yy) * w + xx;
-          if (tri[j] == kNone) return true;
-          if (std::abs(tdepth[j] - tdepth[i]) > edge_depth) return true;
-          return normal[j].dot(n) < 0.82;  // crease > ~35 degrees
-        };
-        if (differs(x + 1, y) || differs(x, y + 1) || differs(x - 1, y) || differs(x, y - 1))
-          shade *= 0.72;
-        shade = std::min(shade, 1.12);
+        const double shade = traced.shade[i];
         for (int k = 0; k < 3; ++k)
           px[k] = static_cast<std::uint8_t>(std::clamp(std::lround(base[k] * shade), 0L, 255L));
         px[3] = 255;
       }
   });
-  out.hit_pixels = static_cast<std::size_t>(
-      std::count_if(tri.begin(), tri.end(), [](std::uint32_t t) { return t != kNone; }));
   return out;
+}
+
+HeatmapView render_heatmap(const MeshQuery& query, const SurfaceDeviationField& field,
+                           const DeviationColorScale& scale, const ViewSpec& view) {
+  return shade_heatmap(trace_heatmap_view(query, view), query.mesh(), field, scale);
 }
 
 std::vector<RegionMarker> mark_regions(const MeshQuery& query, const Camera& camera,

@@ -2,6 +2,7 @@
 // and the atomic folder writer, on a synthetic VerifyReport with a known deviation field.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -323,6 +324,67 @@ TEST(ReportHtml, SelfContainedSmallAndDeterministic) {
   auto again = build_report_files(synthetic(), opt);
   ASSERT_TRUE(again.ok());
   for (std::size_t i = 0; i < files->size(); ++i) EXPECT_EQ((*again)[i].content, (*files)[i].content) << (*files)[i].name;
+}
+
+// The traced views of a placed mesh serve every report on it: the same bytes with the cache
+// as without, for the report it was built from and for another deviation result on the same
+// mesh (compare's next variant). A cache of another placement is not used.
+TEST(ReportHeatmapCache, SameBytesWithAndWithoutTheCache) {
+  ReportOptions plain;
+  plain.generated_utc = "2026-11-21T10:20:00Z";
+  auto cache = build_heatmap_cache(synthetic().placed_mesh, plain.views);
+  ASSERT_TRUE(cache.ok()) << cache.error().message;
+  ASSERT_TRUE(cache->fits(synthetic().placed_mesh, plain.views));
+  ReportOptions cached = plain;
+  cached.heatmap_cache = &*cache;
+
+  VerifyReport other = synthetic();
+  for (auto& s : other.deviation.mesh_samples) s.distance_mm = 0.4 - 0.7 * s.distance_mm;
+  for (double& d : other.deviation.vertex_deviation_mm) d = 0.4 - 0.7 * d;
+  // Vertex colours only: the barycentric fallback reads the cached hits.
+  VerifyReport vertex_only = synthetic();
+  vertex_only.deviation.mesh_samples.clear();
+  const std::array<const VerifyReport*, 3> reports{&synthetic(), &other, &vertex_only};
+  for (const VerifyReport* r : reports) {
+    auto a = render_report_assets(*r, plain);
+    auto b = render_report_assets(*r, cached);
+    ASSERT_TRUE(a.ok() && b.ok());
+    ASSERT_EQ(a->views.size(), b->views.size());
+    for (std::size_t i = 0; i < a->views.size(); ++i) {
+      EXPECT_EQ(a->views[i].image, b->views[i].image) << a->views[i].view.name;
+      EXPECT_EQ(a->views[i].hit_pixels, b->views[i].hit_pixels);
+      EXPECT_EQ(a->view_png[i], b->view_png[i]);
+      ASSERT_EQ(a->views[i].markers.size(), b->views[i].markers.size());
+      for (std::size_t m = 0; m < a->views[i].markers.size(); ++m) {
+        EXPECT_EQ(a->views[i].markers[m].worst_px, b->views[i].markers[m].worst_px);
+        EXPECT_EQ(a->views[i].markers[m].visible, b->views[i].markers[m].visible);
+      }
+    }
+    auto fa = build_report_files(*r, plain);
+    auto fb = build_report_files(*r, cached);
+    ASSERT_TRUE(fa.ok() && fb.ok());
+    ASSERT_EQ(fa->size(), fb->size());
+    for (std::size_t i = 0; i < fa->size(); ++i) EXPECT_EQ((*fa)[i].content, (*fb)[i].content) << (*fa)[i].name;
+  }
+  // The colours differ between the two results: the cache holds no colour.
+  EXPECT_NE(render_report_assets(other, cached)->views[0].image, render_report_assets(synthetic(), cached)->views[0].image);
+
+  // The cache is what the renders read: a tampered one shows.
+  HeatmapCache dark = std::move(*cache);
+  for (double& s : dark.views[0].shade) s *= 0.5;
+  cached.heatmap_cache = &dark;
+  EXPECT_NE(render_report_assets(synthetic(), cached)->views[0].image,
+            render_report_assets(synthetic(), plain)->views[0].image);
+
+  // Another placement (a variant registered 0.25 mm off) or other views: not used.
+  VerifyReport moved = synthetic();
+  for (Vec3& v : moved.placed_mesh.vertices_mm) v += Vec3(0.25, 0, 0);
+  EXPECT_FALSE(dark.fits(moved.placed_mesh, plain.views));
+  EXPECT_FALSE(dark.fits(synthetic().placed_mesh, std::vector<ViewSpec>(plain.views.begin(), plain.views.end() - 1)));
+  auto m_plain = render_report_assets(moved, plain);
+  auto m_cached = render_report_assets(moved, cached);
+  ASSERT_TRUE(m_plain.ok() && m_cached.ok());
+  for (std::size_t i = 0; i < m_plain->views.size(); ++i) EXPECT_EQ(m_plain->view_png[i], m_cached->view_png[i]);
 }
 
 TEST(ReportFolder, WritesEveryFileAndReplacesAnOldReportAtomically) {
