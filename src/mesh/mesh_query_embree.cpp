@@ -44,6 +44,7 @@ struct MeshQuery::Impl {
   /// lower bound of the point-triangle distance (the distance to the triangle's plane).
   std::vector<std::array<double, 4>> planes;
   Vec3 center = Vec3::Zero();
+  double scale_mm = 1.0;  // 1 + the bounding box's diagonal: the step past a ray hit scales with it
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
 
@@ -106,7 +107,9 @@ Result<MeshQuery> MeshQuery::build(const Mesh& mesh) {
   if (mesh.triangles.empty()) return bad_input("mesh has no triangles to query");
   auto impl = std::make_unique<Impl>();
   impl->mesh = mesh;
-  impl->center = bounding_box(mesh).center();
+  const Box3 box = bounding_box(mesh);
+  impl->center = box.center();
+  impl->scale_mm = 1.0 + box.size().norm();
   impl->device = rtcNewDevice("threads=0");
   if (impl->device == nullptr) return internal_error("cannot create the Embree device");
   impl->scene = rtcNewScene(impl->device);
@@ -226,8 +229,7 @@ int MeshQuery::crossings(const Vec3& origin, const Vec3& dir) const {
   // a shared edge) are one crossing, so the next search starts just past the hit.
   int count = 0;
   double t = 0;
-  const double scale = 1.0 + bounding_box(impl_->mesh).size().norm();
-  const double step = 1e-7 * scale;
+  const double step = 1e-7 * impl_->scale_mm;
   for (int guard = 0; guard < 100000; ++guard) {
     auto hit = first_hit(origin, dir, t);
     if (!hit) break;
