@@ -101,7 +101,62 @@ bool cpu_has_avx2() {
 }
 #endif
 
+int count_held_portable(const HeightMapView& m, double u, double v, double du, double dv, const double* s, int n,
+                        int need) {
+  int held = 0;
+  for (int t = 0; t < n; ++t) held += m.rows_at(u + s[t] * du, v + s[t] * dv) >= need ? 1 : 0;
+  return held;
+}
+
+#if PRINTTWIN_HAVE_AVX2_KERNEL
+[[gnu::target("avx2")]] int count_held_avx2(const HeightMapView& m, double u, double v, double du, double dv,
+                                            const double* s, int n, int need) {
+  const __m256d uu = _mm256_set1_pd(u), vv = _mm256_set1_pd(v);
+  const __m256d duu = _mm256_set1_pd(du), dvv = _mm256_set1_pd(dv);
+  const __m128i zero = _mm_setzero_si128(), seven = _mm_set1_epi32(7);
+  const __m128i nx = _mm_set1_epi32(m.nx), ny = _mm_set1_epi32(m.ny);
+  const __m128i tiles_x = _mm_set1_epi32(static_cast<int>(m.tiles_x));
+  const __m128i low16 = _mm_set1_epi32(0xFFFF), need_minus_1 = _mm_set1_epi32(need - 1);
+  const auto* base = reinterpret_cast<const int*>(m.top);
+  int held = 0;
+  int t = 0;
+  for (; t + 4 <= n; t += 4) {
+    const __m256d st = _mm256_loadu_pd(s + t);
+    const __m128i i = _mm256_cvttpd_epi32(_mm256_floor_pd(_mm256_add_pd(uu, _mm256_mul_pd(st, duu))));
+    const __m128i j = _mm256_cvttpd_epi32(_mm256_floor_pd(_mm256_add_pd(vv, _mm256_mul_pd(st, dvv))));
+    // Inside: 0 <= i < nx and 0 <= j < ny.
+    const __m128i in = _mm_andnot_si128(
+        _mm_or_si128(_mm_cmplt_epi32(i, zero), _mm_cmplt_epi32(j, zero)),
+        _mm_and_si128(_mm_cmplt_epi32(i, nx), _mm_cmplt_epi32(j, ny)));
+    const __m128i tile = _mm_add_epi32(_mm_mullo_epi32(_mm_srai_epi32(j, 3), tiles_x), _mm_srai_epi32(i, 3));
+    const __m128i idx = _mm_or_si128(_mm_slli_epi32(tile, 6),
+                                     _mm_or_si128(_mm_slli_epi32(_mm_and_si128(j, seven), 3), _mm_and_si128(i, seven)));
+    // Lanes outside the map are not read and hold 0 rows (as in rows_at).
+    const __m128i safe_idx = _mm_and_si128(idx, in);
+    const __m128i rows = _mm_and_si128(_mm_mask_i32gather_epi32(zero, base, safe_idx, in, 2), low16);
+    const __m128i ok = _mm_cmpgt_epi32(rows, need_minus_1);
+    const auto bits = static_cast<unsigned>(_mm_movemask_ps(_mm_castsi128_ps(ok)));
+    held += static_cast<int>((0x4332322132212110ull >> (4 * bits)) & 0xFu);  // bits set in 4 bits
+  }
+  for (; t < n; ++t) held += m.rows_at(u + s[t] * du, v + s[t] * dv) >= need ? 1 : 0;
+  return held;
+}
+#endif
+
 }  // namespace
+
+int count_held(const HeightMapView& map, double u, double v, double du, double dv, const double* s, int n,
+               int need) {
+#if PRINTTWIN_HAVE_AVX2_KERNEL
+  if (cpu_has_avx2()) return count_held_avx2(map, u, v, du, dv, s, n, need);
+#endif
+  return count_held_portable(map, u, v, du, dv, s, n, need);
+}
+
+int count_held_scalar(const HeightMapView& map, double u, double v, double du, double dv, const double* s, int n,
+                      int need) {
+  return count_held_portable(map, u, v, du, dv, s, n, need);
+}
 
 std::uint64_t test_tile_scalar(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k,
                                int row_lo, int row_hi, unsigned lanes) {

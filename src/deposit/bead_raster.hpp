@@ -7,6 +7,7 @@
 // test is evaluated in single precision on coordinates relative to the bead's start, in a
 // fixed order of operations, so the scalar kernel and the AVX2 kernel (chosen at run time)
 // give the same voxels bit for bit.
+#include <cstddef>
 #include <cstdint>
 
 namespace printtwin::detail {
@@ -48,6 +49,38 @@ std::uint64_t test_tile(const BeadFrame& f, std::int32_t i0, std::int32_t j0, st
 /// The portable kernel (what test_tile runs without AVX2), for the tests.
 std::uint64_t test_tile_scalar(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k,
                                int row_lo, int row_hi, unsigned lanes);
+
+/// The deposit's height map, stored in 8 x 8 tiles (column (i, j) at
+/// ((j / 8) * tiles_x + i / 8) * 64 + (j % 8) * 8 + i % 8), with one padding entry at the end
+/// (the AVX2 kernel reads 32 bits per column).
+struct HeightMapView {
+  const std::uint16_t* top = nullptr;
+  std::size_t tiles_x = 0;
+  int nx = 0, ny = 0;
+
+  /// Index into `top` of column (i, j) (inside the map).
+  [[nodiscard]] std::size_t index(int i, int j) const {
+    return ((static_cast<std::size_t>(j >> 3) * tiles_x + static_cast<std::size_t>(i >> 3)) << 6) +
+           static_cast<std::size_t>(((j & 7) << 3) | (i & 7));
+  }
+  /// Rows held by the column under (u, v) (voxel units), 0 outside the map.
+  [[nodiscard]] int rows_at(double u, double v) const {
+    // floor without a library call (baseline x86-64 has no rounding instruction)
+    const int iu = static_cast<int>(u), iv = static_cast<int>(v);
+    const int i = iu - (u < static_cast<double>(iu) ? 1 : 0);
+    const int j = iv - (v < static_cast<double>(iv) ? 1 : 0);
+    return i >= 0 && j >= 0 && i < nx && j < ny ? top[index(i, j)] : 0;
+  }
+};
+
+/// How many of the points (u + s[t] * du, v + s[t] * dv), t < n (voxel units from the grid
+/// origin), stand on a column (floor of each coordinate, inside the map) holding at least
+/// `need` rows. Points outside the map hold nothing. Same result with or without AVX2.
+int count_held(const HeightMapView& map, double u, double v, double du, double dv, const double* s, int n,
+               int need);
+/// The portable kernel of count_held, for the tests.
+int count_held_scalar(const HeightMapView& map, double u, double v, double du, double dv, const double* s, int n,
+                      int need);
 
 /// True when test_tile uses the AVX2 kernel on this CPU.
 bool bead_raster_uses_avx2();

@@ -237,7 +237,7 @@ struct DepositBuilder::State {
         oy_(origin.y()),
         oz_(origin.z()) {
     tiles_x = static_cast<std::size_t>(grid.block_dims().x());
-    top.assign(tiles_x * static_cast<std::size_t>(grid.block_dims().y()) * 64, 0);
+    top.assign(tiles_x * static_cast<std::size_t>(grid.block_dims().y()) * 64 + 1, 0);  // + padding (count_held)
   }
 
   // -- columns ---------------------------------------------------------------------------
@@ -251,17 +251,10 @@ struct DepositBuilder::State {
     return top_rows_at((x_mm - ox_) * inv_voxel, (y_mm - oy_) * inv_voxel);
   }
   /// Same at (u, v) in voxel units from the grid origin.
-  [[nodiscard]] int top_rows_at(double u, double v) const {
-    const int i = floor_int(u);
-    const int j = floor_int(v);
-    const bool in = i >= 0 && j >= 0 && i < nx && j < ny;
-    return in ? top[top_index(i, j)] : 0;
-  }
+  [[nodiscard]] int top_rows_at(double u, double v) const { return height_map().rows_at(u, v); }
+  [[nodiscard]] detail::HeightMapView height_map() const { return {top.data(), tiles_x, nx, ny}; }
   /// Index into `top` of column (i, j) (in the grid).
-  [[nodiscard]] std::size_t top_index(int i, int j) const {
-    return ((static_cast<std::size_t>(j >> 3) * tiles_x + static_cast<std::size_t>(i >> 3)) << 6) +
-           static_cast<std::size_t>(((j & 7) << 3) | (i & 7));
-  }
+  [[nodiscard]] std::size_t top_index(int i, int j) const { return height_map().index(i, j); }
   /// Height (mm, machine frame) of the deposit top in the column under p, or the grid
   /// bottom (the bed) outside the grid.
   [[nodiscard]] double top_mm(double x_mm, double y_mm) const { return oz_ + top_rows(x_mm, y_mm) * voxel; }
@@ -382,14 +375,14 @@ struct DepositBuilder::State {
     for (int j = 0; j < across; ++j) offsets_[static_cast<std::size_t>(j)] = -0.5 * w + (j + 0.5) * w / across;
     // The samples across, in voxel units relative to the grid origin.
     for (double& s : offsets_) s *= inv_voxel;
+    const detail::HeightMapView map = height_map();
     const double nxv = n.x(), nyv = n.y();
     for (int i = 0; i < samples; ++i) {
       const Vec3 q = a + ((i + 0.5) / samples) * (b - a);
       const double bottom = q.z() - h;
       const int need_rows = rows_reaching(bottom - tol);
       const double qx = (q.x() - ox_) * inv_voxel, qy = (q.y() - oy_) * inv_voxel;
-      int held = 0;
-      for (const double s : offsets_) held += top_rows_at(qx + s * nxv, qy + s * nyv) >= need_rows ? 1 : 0;
+      const int held = detail::count_held(map, qx, qy, nxv, nyv, offsets_.data(), across, need_rows);
       const bool supported = held >= settings.support_fraction * across - 1e-9;
       if (supported) {
         close_stretch(true);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <random>
+#include <vector>
 
 #include "deposit/bead_raster.hpp"
 
@@ -85,6 +86,36 @@ TEST(BeadRaster, BitsAreTheVoxelsWhoseSamplePointIsInTheStadium) {
   // The stadium's area is 4 x 5 + pi x 4 = 32.6 voxels per voxel of length: 40 voxels long.
   EXPECT_NEAR(inside / 40.0, 32.57, 1.0);
   EXPECT_GT(outside, 0);
+}
+
+TEST(BeadRaster, CountHeldMatchesAColumnByColumnCount) {
+  const int nx = 37, ny = 29;
+  const std::size_t tiles_x = (nx + 7) / 8, tiles_y = (ny + 7) / 8;
+  std::vector<std::uint16_t> top(tiles_x * tiles_y * 64 + 1, 0);
+  std::mt19937 rng(3);
+  for (auto& t : top) t = static_cast<std::uint16_t>(rng() % 12);
+  const HeightMapView map{top.data(), tiles_x, nx, ny};
+  const auto column = [&](double u, double v) {
+    const auto i = static_cast<int>(std::floor(u)), j = static_cast<int>(std::floor(v));
+    if (i < 0 || j < 0 || i >= nx || j >= ny) return 0;
+    return static_cast<int>(top[((static_cast<std::size_t>(j) / 8) * tiles_x + static_cast<std::size_t>(i) / 8) * 64 +
+                                static_cast<std::size_t>(j % 8) * 8 + static_cast<std::size_t>(i % 8)]);
+  };
+  std::uniform_real_distribution<double> u(-6.0, 44.0), unit(-1.0, 1.0);
+  int total = 0;
+  for (int trial = 0; trial < 3000; ++trial) {
+    const int n = 1 + trial % 13;  // tails of every length after the groups of 4
+    std::vector<double> s(static_cast<std::size_t>(n));
+    for (int t = 0; t < n; ++t) s[static_cast<std::size_t>(t)] = -0.5 * n + t + 0.5;
+    const double x = u(rng), y = u(rng), dx = unit(rng), dy = unit(rng);
+    const int need = static_cast<int>(rng() % 12);
+    int expect = 0;
+    for (const double st : s) expect += column(x + st * dx, y + st * dy) >= need ? 1 : 0;
+    ASSERT_EQ(count_held(map, x, y, dx, dy, s.data(), n, need), expect) << "trial " << trial;
+    ASSERT_EQ(count_held_scalar(map, x, y, dx, dy, s.data(), n, need), expect) << "trial " << trial;
+    total += expect;
+  }
+  EXPECT_GT(total, 1000);
 }
 
 }  // namespace
