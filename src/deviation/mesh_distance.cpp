@@ -174,13 +174,23 @@ void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Ve
       const auto& tri = mesh.triangles[cp.triangle];
       const std::array<Vec3, 3> v{mesh.vertices_mm[tri[0]], mesh.vertices_mm[tri[1]],
                                   mesh.vertices_mm[tri[2]]};
-      const double scale = std::max({(v[1] - v[0]).norm(), (v[2] - v[1]).norm(), (v[0] - v[2]).norm()});
+      // sqrt is monotonic and correctly rounded: the root of the largest squared edge is the
+      // largest edge, exactly.
+      const double scale = std::sqrt(std::max({(v[1] - v[0]).squaredNorm(), (v[2] - v[1]).squaredNorm(),
+                                              (v[0] - v[2]).squaredNorm()}));
       const double eps = 1e-9 * scale;
+      // |x| <= eps, with the root taken only when |x|^2 is not clearly above eps^2 (the same
+      // answer: beyond the widened square, the rounded root is above eps too).
+      const double eps2_wide = (eps * (1 + 1e-6)) * (eps * (1 + 1e-6));
+      const auto within_eps = [&](const Vec3& x) {
+        const double x2 = x.squaredNorm();
+        return x2 <= eps2_wide && std::sqrt(x2) <= eps;
+      };
       Vec3 normal = pn.face[cp.triangle];
       bool open = false;
       bool found = false;
       for (int k = 0; k < 3 && !found; ++k) {
-        if ((cp.point_mm - v[static_cast<std::size_t>(k)]).norm() <= eps) {
+        if (within_eps(cp.point_mm - v[static_cast<std::size_t>(k)])) {
           normal = pn.vertex[tri[static_cast<std::size_t>(k)]];
           open = pn.vertex_open[tri[static_cast<std::size_t>(k)]] != 0;
           found = true;
@@ -191,7 +201,7 @@ void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Ve
         const Vec3& b = v[static_cast<std::size_t>((k + 1) % 3)];
         const Vec3 ab = b - a;
         const double t = std::clamp((cp.point_mm - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
-        if ((a + t * ab - cp.point_mm).norm() <= eps) {
+        if (within_eps(a + t * ab - cp.point_mm)) {
           normal = pn.edge[cp.triangle][static_cast<std::size_t>(k)];
           open = pn.edge_open[cp.triangle][static_cast<std::size_t>(k)] != 0;
           found = true;
