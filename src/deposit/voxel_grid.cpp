@@ -4,7 +4,8 @@
 // the block's own base (the first tag written into it), so a voxel costs ~2.1 bytes where its
 // block is allocated. Moves are deposited in order, so the tags of a block lie within a few
 // layers' moves of its base; an index that does not fit (more than 65534 moves after the base,
-// or before it) is stored as kEscaped with the whole index in a side table. Blocks live in fixed-size chunks, so growing
+// or before it) is stored as kEscaped with the whole index in a side table. Blocks live in
+// fixed-size chunks, so growing
 // never moves or copies them. A chunk is one anonymous mapping: the kernel hands its pages out
 // zeroed, so reserving chunks costs no time and no resident memory; when a chunk's first
 // block is taken its pages are faulted in with one madvise(MADV_POPULATE_WRITE) (on the

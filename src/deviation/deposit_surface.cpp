@@ -13,6 +13,7 @@
 #include <cmath>
 #include <limits>
 
+#include "core/bits.hpp"
 #include "printtwin/deviation.hpp"
 
 namespace printtwin {
@@ -59,15 +60,6 @@ inline void set_bits(std::uint64_t* col, int z0, int z1) {
     col[w] |= mask;
     z0 += hi - lo;
   }
-}
-
-/// Population count without relying on the POPCNT instruction being enabled at compile
-/// time (std::popcount would call libgcc's __popcountdi2 on baseline x86-64).
-inline int popcount64(std::uint64_t x) {
-  x = x - ((x >> 1) & 0x5555555555555555ULL);
-  x = (x & 0x3333333333333333ULL) + ((x >> 2) & 0x3333333333333333ULL);
-  x = (x + (x >> 4)) & 0x0F0F0F0F0F0F0F0FULL;
-  return static_cast<int>((x * 0x0101010101010101ULL) >> 56);
 }
 
 /// Bit i set when voxel i of z-slice z of block b has an auxiliary tag (`aux32`: -1 for an
