@@ -219,8 +219,7 @@ int checksum() {
   };
   DepositSurface surface;
   const double t_surface = least_of_3([&] { surface = extract_outer_surface(p.deposit.grid, region, settings.seal_gap_mm); });
-  std::vector<Vec3> pts(surface.faces.size());
-  for (std::size_t i = 0; i < pts.size(); ++i) pts[i] = surface.faces[i].center_mm;
+  const std::vector<Vec3>& pts = surface.face_centers_mm;
   std::vector<double> d;
   std::vector<std::uint32_t> tri;
   const double near_mm = std::max(4.0 * p.deposit.grid.voxel_mm(), settings.tolerance_mm);

@@ -74,7 +74,6 @@ struct SurfaceFace {
   VoxelKey voxel;               ///< the filled voxel the face belongs to
   std::uint8_t axis = 0;        ///< 0 x, 1 y, 2 z: the face's normal axis
   std::int8_t side = 1;         ///< +1: face on the voxel's max side, -1: min side
-  Vec3 center_mm = Vec3::Zero();
 };
 
 /// Features whose voxels are not part of the analysed deposit.
@@ -87,6 +86,7 @@ struct DepositSurface {
   Eigen::Vector3i dims = Eigen::Vector3i::Zero();  ///< analysed voxels per axis
   /// Fixed order: columns by y then x, voxels by z, a voxel's faces consecutive.
   std::vector<SurfaceFace> faces;
+  std::vector<Vec3> face_centers_mm;      ///< centre of each face (the deposit->mesh points)
   std::vector<VoxelTag> face_tags;        ///< tag of each face's voxel
   /// Filled (not outside-reachable) voxels: per column (x fastest, then y), ceil(dims.z/64)
   /// words holding one bit per z.

@@ -11,9 +11,11 @@
 #include <array>
 #include <bit>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include "core/bits.hpp"
+#include "deviation/deposit_surface_internal.hpp"
 #include "printtwin/deviation.hpp"
 
 namespace printtwin {
@@ -89,7 +91,10 @@ std::uint64_t aux_mask_default(const VoxelGrid::BlockView& b, int z, const std::
   }
   return m;
 }
-bool cpu_has_avx2() { return __builtin_cpu_supports("avx2") != 0; }
+bool cpu_has_avx2() {
+  static const bool has = __builtin_cpu_supports("avx2") != 0;
+  return has;
+}
 #else
 std::uint64_t aux_mask_avx2(const VoxelGrid::BlockView& b, int z, const std::int32_t* aux32,
                             std::uint32_t last) {
@@ -110,18 +115,16 @@ inline std::uint64_t transpose8(std::uint64_t x) {
 }
 
 /// Bit columns (nx * ny columns of `words` words, z bits) dilated by r voxels (a cube of
-/// 2r + 1) into `out`: separable, z by word shifts, then x, then y by OR of neighbouring
-/// columns. Every pass writes every word, so `out` and `scratch` (resized here, reused across
-/// calls) need no clearing: the region's arrays are hundreds of MB, and each fresh one costs
-/// its page faults and zeroing.
-void dilate(const std::vector<std::uint64_t>& in, std::vector<std::uint64_t>& out,
-            std::vector<std::uint64_t>& scratch, int nx, int ny, int words, int r) {
-  const auto idx = [&](int x, int y) { return (static_cast<std::size_t>(y) * nx + x) * static_cast<std::size_t>(words); };
-  out.resize(in.size());
-  scratch.resize(in.size());
+/// 2r + 1), in place: separable, z by word shifts, then x, then y by OR of neighbouring
+/// columns. Only a column, a row and r + 1 rows are copied aside: the region's arrays are
+/// tens to hundreds of MB, and each fresh one costs its page faults and zeroing.
+void dilate(std::vector<std::uint64_t>& bits, int nx, int ny, int words, int r) {
+  const auto row_words = static_cast<std::size_t>(nx) * static_cast<std::size_t>(words);
+  std::vector<std::uint64_t> col(static_cast<std::size_t>(words));
   for (std::size_t c = 0; c < static_cast<std::size_t>(nx) * ny; ++c) {
-    const std::uint64_t* src = in.data() + c * words;
-    std::uint64_t* dst = scratch.data() + c * words;
+    std::uint64_t* dst = bits.data() + c * words;
+    std::copy(dst, dst + words, col.begin());
+    const std::uint64_t* src = col.data();
     for (int w = 0; w < words; ++w) {
       std::uint64_t v = src[w];
       for (int k = 1; k <= r; ++k) {
@@ -134,24 +137,36 @@ void dilate(const std::vector<std::uint64_t>& in, std::vector<std::uint64_t>& ou
       dst[w] = v;
     }
   }
-  // OR of the columns (x + d, y) (along x) or (x, y + d) (along y), d in -r..r, into dst.
-  const auto spread = [&](const std::vector<std::uint64_t>& src, std::vector<std::uint64_t>& dst, bool along_x) {
-    for (int y = 0; y < ny; ++y)
-      for (int x = 0; x < nx; ++x) {
-        std::uint64_t* d = dst.data() + idx(x, y);
-        const int lo = std::max(0, (along_x ? x : y) - r);
-        const int hi = std::min((along_x ? nx : ny) - 1, (along_x ? x : y) + r);
-        const std::uint64_t* first = src.data() + (along_x ? idx(lo, y) : idx(x, lo));
-        for (int w = 0; w < words; ++w) d[w] = first[w];
-        for (int t = lo + 1; t <= hi; ++t) {
-          const std::uint64_t* q = src.data() + (along_x ? idx(t, y) : idx(x, t));
-          for (int w = 0; w < words; ++w) d[w] |= q[w];
-        }
+  // Along x, row by row, from a copy of the row.
+  std::vector<std::uint64_t> row(row_words);
+  for (int y = 0; y < ny; ++y) {
+    std::uint64_t* dst = bits.data() + static_cast<std::size_t>(y) * row_words;
+    std::copy(dst, dst + row_words, row.begin());
+    for (int x = 0; x < nx; ++x) {
+      std::uint64_t* d = dst + static_cast<std::size_t>(x) * words;
+      for (int t = std::max(0, x - r); t <= std::min(nx - 1, x + r); ++t) {
+        if (t == x) continue;
+        const std::uint64_t* q = row.data() + static_cast<std::size_t>(t) * words;
+        for (int w = 0; w < words; ++w) d[w] |= q[w];
       }
-  };
-  spread(scratch, out, true);
-  spread(out, scratch, false);
-  std::swap(out, scratch);
+    }
+  }
+  // Along y: row y becomes the OR of rows y - r .. y + r as they were; the r + 1 rows up to y
+  // are kept (a ring), the rows above y are not written yet.
+  std::vector<std::uint64_t> ring(row_words * static_cast<std::size_t>(r + 1));
+  const auto slot = [&](int y) { return ring.data() + static_cast<std::size_t>(y % (r + 1)) * row_words; };
+  for (int y = 0; y < ny; ++y) {
+    std::uint64_t* dst = bits.data() + static_cast<std::size_t>(y) * row_words;
+    std::copy(dst, dst + row_words, slot(y));
+    for (int t = std::max(0, y - r); t < y; ++t) {
+      const std::uint64_t* q = slot(t);
+      for (std::size_t i = 0; i < row_words; ++i) dst[i] |= q[i];
+    }
+    for (int t = y + 1; t <= std::min(ny - 1, y + r); ++t) {
+      const std::uint64_t* q = bits.data() + static_cast<std::size_t>(t) * row_words;
+      for (std::size_t i = 0; i < row_words; ++i) dst[i] |= q[i];
+    }
+  }
 }
 
 }  // namespace
@@ -274,9 +289,10 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   // voxelisation artefacts): the flood runs on the occupancy dilated by r voxels, and the
   // outside it reaches is dilated back by r (a morphological opening of the empty space).
   const int seal_r = seal_gap_mm > 0 ? static_cast<int>(std::floor(seal_gap_mm / (2 * s.voxel_mm) + 1e-9)) : 0;
-  std::vector<std::uint64_t> blocked_storage, scratch;
+  std::vector<std::uint64_t> blocked_storage;
   if (seal_r > 0) {
-    dilate(occ, blocked_storage, scratch, nx, ny, words, seal_r);
+    blocked_storage = occ;
+    dilate(blocked_storage, nx, ny, words, seal_r);
     // The padding stays empty so that the outside surrounds everything.
     for (int y = 0; y < ny; ++y)
       for (int x = 0; x < nx; ++x) {
@@ -360,11 +376,8 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   }
   // The outside dilated back (when sealing) goes straight into filled_bits, then filled =
   // not (outside and not occupied).
-  if (seal_r > 0) {
-    dilate(out_bits, s.filled_bits, scratch, nx, ny, words, seal_r);
-  } else {
-    s.filled_bits = std::move(out_bits);
-  }
+  if (seal_r > 0) dilate(out_bits, nx, ny, words, seal_r);
+  s.filled_bits = std::move(out_bits);
   for (std::size_t c = 0; c < columns; ++c) {
     std::uint64_t* f = s.filled_bits.data() + c * static_cast<std::size_t>(words);
     const std::uint64_t* oc = occ.data() + c * static_cast<std::size_t>(words);
@@ -389,8 +402,8 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     f.side = static_cast<std::int8_t>(side);
     Vec3 c = s.origin_mm + v * Vec3(x + 0.5, y + 0.5, z + 0.5);
     c[axis] += 0.5 * v * side;
-    f.center_mm = c;
     s.faces.push_back(f);
+    s.face_centers_mm.push_back(c);
   };
   {  // Count first (cheap bit operations), then write the faces into place.
     std::size_t n_faces = 0;
@@ -415,6 +428,7 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
         }
       }
     s.faces.reserve(n_faces);
+    s.face_centers_mm.reserve(n_faces);
   }
   for (int y = 1; y < ny - 1; ++y)
     for (int x = 1; x < nx - 1; ++x) {
@@ -484,18 +498,17 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
 
 namespace {
 
-/// Faces bucketed by the cell of their centre (cells of kCell voxels), CSR layout.
+/// Faces bucketed by the cell of their centre (cells of kCell voxels), CSR layout, stored
+/// as columns (centre x, y, z, normal axis, face index) so the search tests 4 at a time.
 struct FaceBuckets {
   static constexpr int kCell = 4;
+  static constexpr std::size_t kPad = 4;  ///< entries past the end, so 4-wide loads stay inside
   Eigen::Vector3i cells = Eigen::Vector3i::Zero();
-  /// A face as the search reads it: contiguous per cell, no indirection.
-  struct Entry {
-    Vec3 center;
-    std::uint32_t face = 0;
-    std::uint32_t axis = 0;
-  };
-  std::vector<std::uint32_t> begin;  ///< per cell, into `entries`
-  std::vector<Entry> entries;        ///< faces sorted by cell (by index within a cell)
+  std::vector<std::uint32_t> begin;  ///< per cell, into the columns
+  /// Faces sorted by cell (by index within a cell).
+  std::vector<double> cx, cy, cz;
+  std::vector<std::uint8_t> axis;
+  std::vector<std::uint32_t> face;
   double cell_mm = 0;
   Vec3 origin_mm = Vec3::Zero();
 
@@ -507,14 +520,25 @@ struct FaceBuckets {
     begin.assign(n + 1, 0);
     std::vector<std::uint32_t> cell_of(s.faces.size());
     for (std::size_t i = 0; i < s.faces.size(); ++i) {
-      cell_of[i] = static_cast<std::uint32_t>(cell_index(cell_coord(s.faces[i].center_mm)));
+      cell_of[i] = static_cast<std::uint32_t>(cell_index(cell_coord(s.face_centers_mm[i])));
       ++begin[cell_of[i] + 1];
     }
     for (std::size_t c = 0; c < n; ++c) begin[c + 1] += begin[c];
-    entries.resize(s.faces.size());
+    const std::size_t m = s.faces.size() + kPad;
+    cx.assign(m, 0.0);
+    cy.assign(m, 0.0);
+    cz.assign(m, 0.0);
+    axis.assign(m, 0);
+    face.assign(m, 0);
     std::vector<std::uint32_t> fill(begin.begin(), begin.end() - 1);
-    for (std::size_t i = 0; i < s.faces.size(); ++i)
-      entries[fill[cell_of[i]]++] = {s.faces[i].center_mm, static_cast<std::uint32_t>(i), s.faces[i].axis};
+    for (std::size_t i = 0; i < s.faces.size(); ++i) {
+      const std::uint32_t k = fill[cell_of[i]]++;
+      cx[k] = s.face_centers_mm[i].x();
+      cy[k] = s.face_centers_mm[i].y();
+      cz[k] = s.face_centers_mm[i].z();
+      axis[k] = s.faces[i].axis;
+      face[k] = static_cast<std::uint32_t>(i);
+    }
   }
   [[nodiscard]] Eigen::Vector3i cell_coord(const Vec3& p) const {
     Eigen::Vector3i c;
@@ -527,21 +551,84 @@ struct FaceBuckets {
   }
 };
 
-/// Squared distance from p to the face square (axis-aligned, edge v).
-inline double face_dist2(const Vec3& p, const Vec3& center, int axis, double half) {
-  double d2 = 0;
-  for (int a = 0; a < 3; ++a) {
-    double e = std::abs(p[a] - center[a]);
-    if (a != axis) e = std::max(0.0, e - half);
-    d2 += e * e;
+/// The nearest so far: squared distance and face index (ties: the lowest index).
+struct Nearest {
+  double d2 = std::numeric_limits<double>::infinity();
+  std::uint32_t face = 0;
+  void offer(double x2, std::uint32_t f) {
+    if (x2 < d2 || (x2 == d2 && f < face)) {
+      d2 = x2;
+      face = f;
+    }
   }
-  return d2;
+};
+
+/// Squared distance from p to the face square k (axis-aligned, edge 2 * half): per axis
+/// max(0, |p - c| - h), h = half in the face's plane and 0 along its normal.
+inline double face_dist2(const FaceBuckets& b, std::size_t k, const Vec3& p, double half) {
+  const int ax = b.axis[k];
+  const double ex = std::max(0.0, std::abs(p.x() - b.cx[k]) - (ax == 0 ? 0.0 : half));
+  const double ey = std::max(0.0, std::abs(p.y() - b.cy[k]) - (ax == 1 ? 0.0 : half));
+  const double ez = std::max(0.0, std::abs(p.z() - b.cz[k]) - (ax == 2 ? 0.0 : half));
+  return ex * ex + ey * ey + ez * ez;
 }
+
+void scan_faces_default(const FaceBuckets& b, std::uint32_t lo, std::uint32_t hi, const Vec3& p,
+                        double half, Nearest& best) {
+  for (std::uint32_t k = lo; k < hi; ++k) best.offer(face_dist2(b, k, p, half), b.face[k]);
+}
+
+#if defined(__x86_64__) && defined(__GNUC__)
+/// The same, 4 faces at a time (same operations in the same order: the same bits). Lanes
+/// whose distance is not above the best go through the scalar rule, in index order.
+[[gnu::target("avx2")]] void scan_faces_avx2(const FaceBuckets& b, std::uint32_t lo, std::uint32_t hi,
+                                             const Vec3& p, double half, Nearest& best) {
+  const __m256d px = _mm256_set1_pd(p.x()), py = _mm256_set1_pd(p.y()), pz = _mm256_set1_pd(p.z());
+  const __m256d hv = _mm256_set1_pd(half), zero = _mm256_setzero_pd();
+  const __m256d sign = _mm256_set1_pd(-0.0);
+  const __m256i ax0 = _mm256_setzero_si256(), ax1 = _mm256_set1_epi64x(1), ax2 = _mm256_set1_epi64x(2);
+  for (std::uint32_t k = lo; k < hi; k += 4) {
+    std::uint32_t a4 = 0;
+    std::memcpy(&a4, b.axis.data() + k, 4);
+    const __m256i a = _mm256_cvtepu8_epi64(_mm_cvtsi32_si128(static_cast<int>(a4)));
+    // Per axis: max(0, |p - c| - h), h = 0 along the face's normal, else half.
+    const __m256d hx = _mm256_andnot_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(a, ax0)), hv);
+    const __m256d hy = _mm256_andnot_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(a, ax1)), hv);
+    const __m256d hz = _mm256_andnot_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(a, ax2)), hv);
+    const __m256d dx = _mm256_andnot_pd(sign, _mm256_sub_pd(px, _mm256_loadu_pd(b.cx.data() + k)));
+    const __m256d dy = _mm256_andnot_pd(sign, _mm256_sub_pd(py, _mm256_loadu_pd(b.cy.data() + k)));
+    const __m256d dz = _mm256_andnot_pd(sign, _mm256_sub_pd(pz, _mm256_loadu_pd(b.cz.data() + k)));
+    const __m256d ex = _mm256_max_pd(zero, _mm256_sub_pd(dx, hx));
+    const __m256d ey = _mm256_max_pd(zero, _mm256_sub_pd(dy, hy));
+    const __m256d ez = _mm256_max_pd(zero, _mm256_sub_pd(dz, hz));
+    const __m256d d2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(ex, ex), _mm256_mul_pd(ey, ey)), _mm256_mul_pd(ez, ez));
+    unsigned m = static_cast<unsigned>(_mm256_movemask_pd(_mm256_cmp_pd(d2, _mm256_set1_pd(best.d2), _CMP_LE_OQ)));
+    if (hi - k < 4) m &= (1U << (hi - k)) - 1;
+    if (m == 0) continue;
+    alignas(32) double lane[4];
+    _mm256_store_pd(lane, d2);
+    for (; m != 0; m &= m - 1) {
+      const int j = std::countr_zero(m);
+      best.offer(lane[j], b.face[k + static_cast<std::uint32_t>(j)]);
+    }
+  }
+}
+#else
+void scan_faces_avx2(const FaceBuckets& b, std::uint32_t lo, std::uint32_t hi, const Vec3& p, double half,
+                     Nearest& best) {
+  scan_faces_default(b, lo, hi, p, half, best);
+}
+#endif
 
 }  // namespace
 
-void distances_to_deposit(const DepositSurface& s, std::span<const Vec3> points,
-                          std::vector<double>& signed_mm, std::vector<std::uint32_t>* nearest_face) {
+namespace detail {
+
+bool deposit_distance_uses_avx2() { return cpu_has_avx2(); }
+
+void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> points,
+                               std::vector<double>& signed_mm, std::vector<std::uint32_t>* nearest_face,
+                               bool portable) {
   signed_mm.assign(points.size(), 0.0);
   if (nearest_face != nullptr) nearest_face->assign(points.size(), 0);
   if (s.faces.empty()) {
@@ -552,6 +639,7 @@ void distances_to_deposit(const DepositSurface& s, std::span<const Vec3> points,
   }
   const FaceBuckets buckets(s);
   const double half = 0.5 * s.voxel_mm;
+  const bool avx2 = !portable && cpu_has_avx2();
   // A coarse level (groups of kGroup^3 cells) flags where faces are, so that points far from
   // the deposit (a missing wall) skip empty space quickly; the search stays exact.
   constexpr int kGroup = 8;
@@ -578,8 +666,8 @@ void distances_to_deposit(const DepositSurface& s, std::span<const Vec3> points,
     double prev_d = std::numeric_limits<double>::infinity();
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
       const Vec3& p = points[i];
-      double best2 = std::numeric_limits<double>::infinity();
-      std::uint32_t best_face = 0;
+      Nearest best;
+      const double& best2 = best.d2;
       // Squared distance from p to a box of `size` at `lo`, widened by half a voxel (a face
       // centred in a cell reaches half a voxel beyond it).
       const auto box_dist2 = [&](const Vec3& lo, double size) {
@@ -598,14 +686,10 @@ void distances_to_deposit(const DepositSurface& s, std::span<const Vec3> points,
         const std::size_t ci = buckets.cell_index(c);
         if (buckets.begin[ci] == buckets.begin[ci + 1]) return;
         if (box_dist2(buckets.origin_mm + buckets.cell_mm * c.cast<double>(), buckets.cell_mm) > best2) return;
-        for (std::uint32_t k = buckets.begin[ci]; k < buckets.begin[ci + 1]; ++k) {
-          const FaceBuckets::Entry& f = buckets.entries[k];
-          const double d2 = face_dist2(p, f.center, static_cast<int>(f.axis), half);
-          if (d2 < best2 || (d2 == best2 && f.face < best_face)) {
-            best2 = d2;
-            best_face = f.face;
-          }
-        }
+        if (avx2)
+          scan_faces_avx2(buckets, buckets.begin[ci], buckets.begin[ci + 1], p, half, best);
+        else
+          scan_faces_default(buckets, buckets.begin[ci], buckets.begin[ci + 1], p, half, best);
       };
       // p's own cell first; then the bound (the previous point's, or the best face of p's
       // cell) limits the search to the cells its ball touches (at most 2 per axis): all
@@ -664,9 +748,16 @@ void distances_to_deposit(const DepositSurface& s, std::span<const Vec3> points,
       prev_p = p;
       prev_d = d;
       signed_mm[i] = s.filled(p) ? d : -d;
-      if (nearest_face != nullptr) (*nearest_face)[i] = best_face;
+      if (nearest_face != nullptr) (*nearest_face)[i] = best.face;
     }
   });
+}
+
+}  // namespace detail
+
+void distances_to_deposit(const DepositSurface& surface, std::span<const Vec3> points,
+                          std::vector<double>& signed_mm, std::vector<std::uint32_t>* nearest_face) {
+  detail::distances_to_deposit_with(surface, points, signed_mm, nearest_face, false);
 }
 
 }  // namespace printtwin

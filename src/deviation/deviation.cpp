@@ -43,8 +43,7 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
     if (i == 0 || !(surface.faces[i].voxel == surface.faces[i - 1].voxel)) ++out.surface_voxels;
 
   // Deposit -> mesh, from every exposed face centre.
-  std::vector<Vec3> face_points(surface.faces.size());
-  for (std::size_t i = 0; i < surface.faces.size(); ++i) face_points[i] = surface.faces[i].center_mm;
+  const std::vector<Vec3>& face_points = surface.face_centers_mm;
   std::vector<double> d_dep;
   std::vector<std::uint32_t> dep_triangles;
   target.signed_distances(offset, face_points, std::max(4.0 * v, settings.tolerance_mm), d_dep, &dep_triangles);

@@ -200,7 +200,11 @@ void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Ve
         const Vec3& a = v[static_cast<std::size_t>(k)];
         const Vec3& b = v[static_cast<std::size_t>((k + 1) % 3)];
         const Vec3 ab = b - a;
-        const double t = std::clamp((cp.point_mm - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+        // The segment is at least as far as its line, |(cp - a) x ab| / |ab|: clearly beyond
+        // 2 eps (rounding is ~1e-16 of the terms), the exact test below cannot pass.
+        const double ab2 = ab.squaredNorm();
+        if ((cp.point_mm - a).cross(ab).squaredNorm() > 4 * eps2_wide * ab2) continue;
+        const double t = std::clamp((cp.point_mm - a).dot(ab) / ab2, 0.0, 1.0);
         if (within_eps(a + t * ab - cp.point_mm)) {
           normal = pn.edge[cp.triangle][static_cast<std::size_t>(k)];
           open = pn.edge_open[cp.triangle][static_cast<std::size_t>(k)] != 0;

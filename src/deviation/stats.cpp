@@ -50,7 +50,9 @@ DeviationStats deviation_stats(std::span<const double> d, double tolerance_mm) {
   const long double var = std::max<long double>(0, sum2 / n - (sum / n) * (sum / n));
   s.std_mm = static_cast<double>(std::sqrt(var));
   // The order statistics the percentiles need, by selection instead of a full sort: from
-  // the highest rank down, each selection only partitions the part below the previous one.
+  // the lowest rank up, each selection only partitions the part above the previous one
+  // (half of the values for the median, a twentieth for P95 and so on); the rank right after
+  // a selected one is the least of the part above it.
   const std::size_t n_all = abs_d.size();
   std::vector<std::size_t> ranks;
   for (const double q : {0.50, 0.95, 0.99}) {
@@ -62,23 +64,22 @@ DeviationStats deviation_stats(std::span<const double> d, double tolerance_mm) {
   std::sort(ranks.begin(), ranks.end());
   ranks.erase(std::unique(ranks.begin(), ranks.end()), ranks.end());
   std::vector<std::pair<std::size_t, double>> order;
-  std::size_t end = n_all;
-  for (auto it = ranks.rbegin(); it != ranks.rend(); ++it) {
-    const std::size_t k = *it;
-    const auto first = abs_d.begin();
-    if (k + 1 == end) {  // the largest of [0, end): move it to k
-      std::iter_swap(std::max_element(first, first + static_cast<std::ptrdiff_t>(end)),
-                     first + static_cast<std::ptrdiff_t>(k));
+  std::size_t begin = 0;
+  const auto first = abs_d.begin();
+  for (const std::size_t k : ranks) {
+    const auto at = first + static_cast<std::ptrdiff_t>(k);
+    if (k == begin) {  // the least of [begin, n): move it to k
+      std::iter_swap(std::min_element(at, abs_d.end()), at);
     } else {
-      std::nth_element(first, first + static_cast<std::ptrdiff_t>(k), first + static_cast<std::ptrdiff_t>(end));
+      std::nth_element(first + static_cast<std::ptrdiff_t>(begin), at, abs_d.end());
     }
     order.emplace_back(k, abs_d[k]);
-    end = k;
+    begin = k + 1;
   }
   s.p50_abs_mm = percentile(order, n_all, 0.50);
   s.p95_abs_mm = percentile(order, n_all, 0.95);
   s.p99_abs_mm = percentile(order, n_all, 0.99);
-  s.hausdorff_mm = order.front().second;
+  s.hausdorff_mm = order.back().second;
   s.within_tolerance_pct = 100.0 * static_cast<double>(within) / static_cast<double>(d.size());
   return s;
 }

@@ -7,9 +7,11 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <numbers>
 #include <random>
 
+#include "deviation/deposit_surface_internal.hpp"
 #include "printtwin/deviation.hpp"
 #include "printtwin/mesh_query.hpp"
 #include "support/test_support.hpp"
@@ -116,9 +118,10 @@ TEST(DeviationSurface, EnclosedVoidsAreNotSurfaceOpenHolesAre) {
   EXPECT_TRUE(s.filled(Vec3(0.7, 0.7, 0.5)));
   EXPECT_FALSE(s.filled(Vec3(1.4, 1.4, 0.8)));
   EXPECT_FALSE(s.filled(Vec3(3, 3, 0.5)));
-  for (const auto& f : s.faces) {
-    EXPECT_FALSE(cavity.contains(f.center_mm, 1e-9)) << f.center_mm.transpose();
-    EXPECT_EQ(grid.tag(f.voxel).has_value(), true);
+  ASSERT_EQ(s.face_centers_mm.size(), s.faces.size());
+  for (std::size_t i = 0; i < s.faces.size(); ++i) {
+    EXPECT_FALSE(cavity.contains(s.face_centers_mm[i], 1e-9)) << s.face_centers_mm[i].transpose();
+    EXPECT_EQ(grid.tag(s.faces[i].voxel).has_value(), true);
   }
 }
 
@@ -142,6 +145,88 @@ TEST(DeviationSurface, AuxiliaryFeaturesAreIgnored) {
   std::set<std::uint32_t> lines;
   for (const auto& t : w.face_tags) lines.insert(t.line);
   EXPECT_EQ(lines, (std::set<std::uint32_t>{7U, 9U}));
+}
+
+TEST(DeviationSurface, SealingClosesPinholesButNotOpenings) {
+  // A hollow 2 x 2 x 1 mm box (0.05 mm voxels, 0.2 mm walls) whose wall has a slit: 1 voxel
+  // wide (and 2 high), sealed at 0.2 mm (gaps up to 4 voxels), so the cavity stays inside;
+  // a 0.5 x 0.4 mm window is an opening and the cavity's walls become surface.
+  const Box3 outer{Vec3(0, 0, 0), Vec3(2, 2, 1)};
+  const Box3 cavity{Vec3(0.2, 0.2, 0.2), Vec3(1.8, 1.8, 0.8)};
+  for (const double slit_mm : {0.05, 0.5}) {
+    const double half_height = slit_mm < 0.2 ? 0.05 : 0.2;
+    const Box3 slit{Vec3(0.9, -1, 0.5 - half_height), Vec3(0.9 + slit_mm, 0.3, 0.5 + half_height)};
+    const VoxelGrid grid = voxelise(0.05, outer, [&](const Vec3& c) {
+      return outer.contains(c) && !cavity.contains(c) && !slit.contains(c);
+    }, Feature::outer_perimeter, Vec3(1, 1, 1));
+    const DepositSurface sealed = extract_outer_surface(grid, outer, 0.2);
+    const DepositSurface open = extract_outer_surface(grid, outer, 0.0);
+    // Unsealed, the slit always lets the outside into the cavity.
+    EXPECT_FALSE(open.filled(Vec3(1, 1, 0.5)));
+    if (slit_mm < 0.2) {
+      EXPECT_GT(open.faces.size(), sealed.faces.size());
+      EXPECT_TRUE(sealed.filled(Vec3(1, 1, 0.5))) << slit_mm;
+      // Only the outer box and the slit's mouth: no face inside the cavity's box.
+      for (const Vec3& c : sealed.face_centers_mm) EXPECT_FALSE(cavity.contains(c, 1e-6)) << c.transpose();
+    } else {
+      // An opening wider than the seal: the same surface as without sealing.
+      EXPECT_FALSE(sealed.filled(Vec3(1, 1, 0.5))) << slit_mm;
+      EXPECT_EQ(open.faces.size(), sealed.faces.size());
+    }
+  }
+}
+
+TEST(DeviationSurface, DistancesToTheDepositAreTheNearestFaceByBruteForce) {
+  // A lumpy deposit (a block with a bump, a notch and a through hole) and points around,
+  // inside and far from it: the bucket search (dispatched and portable face tests) must give
+  // the minimum over every face, to the bit, with ties on the lowest face index.
+  const Box3 block{Vec3(0, 0, 0), Vec3(1.6, 1.2, 0.8)};
+  const Box3 bump{Vec3(0.3, 0.3, 0.8), Vec3(0.7, 0.6, 1.1)};
+  const Box3 notch{Vec3(1.0, -1, 0.4), Vec3(1.3, 0.5, 1)};
+  const Box3 hole{Vec3(0.9, 0.8, -1), Vec3(1.1, 1.0, 2)};
+  const VoxelGrid grid = voxelise(0.05, block, [&](const Vec3& c) {
+    return (block.contains(c) || bump.contains(c)) && !notch.contains(c) && !hole.contains(c);
+  });
+  const Box3 region{Vec3(-0.5, -0.5, -0.5), Vec3(2.1, 1.7, 1.6)};
+  const DepositSurface s = extract_outer_surface(grid, region, 0.2);
+  ASSERT_GT(s.faces.size(), 1000U);
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> ux(-0.6, 2.2), uy(-0.6, 1.8), uz(-0.6, 1.7);
+  std::vector<Vec3> points;
+  for (int i = 0; i < 600; ++i) points.emplace_back(ux(rng), uy(rng), uz(rng));
+  points.emplace_back(4, 5, 6);                     // far outside the region
+  points.push_back(s.face_centers_mm[17]);          // on a face (distance 0)
+  points.emplace_back(0.4, 0.2, 0.4);              // deep inside
+  const double half = 0.025;
+  for (const bool portable : {false, true}) {
+    std::vector<double> d;
+    std::vector<std::uint32_t> nearest;
+    detail::distances_to_deposit_with(s, points, d, &nearest, portable);
+    ASSERT_EQ(d.size(), points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const Vec3& p = points[i];
+      double best = std::numeric_limits<double>::infinity();
+      std::uint32_t best_face = 0;
+      for (std::size_t f = 0; f < s.faces.size(); ++f) {
+        const Vec3& c = s.face_centers_mm[f];
+        double d2 = 0;
+        for (int a = 0; a < 3; ++a) {
+          const double e = std::max(0.0, std::abs(p[a] - c[a]) - (a == s.faces[f].axis ? 0.0 : half));
+          d2 += e * e;
+        }
+        if (d2 < best) {
+          best = d2;
+          best_face = static_cast<std::uint32_t>(f);
+        }
+      }
+      const double expected = s.filled(p) ? std::sqrt(best) : -std::sqrt(best);
+      EXPECT_EQ(d[i], expected) << "point " << i << " portable " << portable;
+      EXPECT_EQ(nearest[i], best_face) << "point " << i << " portable " << portable;
+    }
+    EXPECT_GT(d[points.size() - 1], 0.1);  // inside: positive, about 0.2 from the nearest side
+    EXPECT_LT(d[points.size() - 3], -5.0);
+    EXPECT_EQ(d[points.size() - 2], 0.0);
+  }
 }
 
 class DeviationKnownOffset : public ::testing::Test {
