@@ -7,6 +7,7 @@
 #include <embree3/rtcore.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <cmath>
@@ -38,11 +39,22 @@ Vec3 closest_point_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, cons
   return a + ab * (vb * denom) + ac * (vc * denom);
 }
 
+namespace {
+/// One cache line per triangle: unit normal (zero when degenerate), its offset n . a, and
+/// the bounding box in single precision rounded outwards (never smaller than the triangle's).
+struct alignas(64) TriangleBounds {
+  double n[3] = {0, 0, 0};
+  double offset = 0;
+  float lo[3] = {0, 0, 0};
+  float hi[3] = {0, 0, 0};
+};
+}  // namespace
+
 struct MeshQuery::Impl {
   Mesh mesh;
-  /// Per triangle: unit normal (zero when degenerate) and its offset n . a, for a cheap
-  /// lower bound of the point-triangle distance (the distance to the triangle's plane).
-  std::vector<std::array<double, 4>> planes;
+  /// Per triangle, two cheap lower bounds of the point-triangle distance: its plane and its
+  /// bounding box.
+  std::vector<TriangleBounds> bounds;
   Vec3 center = Vec3::Zero();
   double scale_mm = 1.0;  // 1 + the bounding box's diagonal: the step past a ray hit scales with it
   RTCDevice device = nullptr;
@@ -58,7 +70,7 @@ namespace {
 
 struct PointQueryState {
   const Mesh* mesh;
-  const std::vector<std::array<double, 4>>* planes;
+  const std::vector<TriangleBounds>* bounds;
   Vec3 p;  // query point, original frame, double precision
   double best_d2 = std::numeric_limits<double>::infinity();
   Vec3 best_point = Vec3::Zero();
@@ -67,11 +79,18 @@ struct PointQueryState {
 
 bool point_query_callback(RTCPointQueryFunctionArguments* args) {
   auto* st = static_cast<PointQueryState*>(args->userPtr);
-  // Farther from the triangle's plane than the best so far: cannot win (the margin keeps
-  // rounding from rejecting a triangle that would tie or win in the exact test below).
-  const auto& pl = (*st->planes)[args->primID];
-  const double plane_d = pl[0] * st->p.x() + pl[1] * st->p.y() + pl[2] * st->p.z() - pl[3];
-  const double lower = std::abs(plane_d) - 1e-9 * (1.0 + std::abs(pl[3]) + st->p.cwiseAbs().maxCoeff());
+  // Farther from the triangle's box or plane than the best so far: cannot win (the margins
+  // keep rounding from rejecting a triangle that would tie or win in the exact test below).
+  const TriangleBounds& tb = (*st->bounds)[args->primID];
+  const Vec3& p = st->p;
+  double box2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    const double e = std::max({0.0, static_cast<double>(tb.lo[a]) - p[a], p[a] - static_cast<double>(tb.hi[a])});
+    box2 += e * e;
+  }
+  if (box2 > st->best_d2 * (1 + 1e-9)) return false;
+  const double plane_d = tb.n[0] * p.x() + tb.n[1] * p.y() + tb.n[2] * p.z() - tb.offset;
+  const double lower = std::abs(plane_d) - 1e-9 * (1.0 + std::abs(tb.offset) + p.cwiseAbs().maxCoeff());
   if (lower > 0 && lower * lower > st->best_d2) return false;
   const auto& tri = st->mesh->triangles[args->primID];
   const auto& v = st->mesh->vertices_mm;
@@ -136,12 +155,30 @@ Result<MeshQuery> MeshQuery::build(const Mesh& mesh) {
       }
       idx[3 * t + k] = mesh.triangles[t][k];
     }
-  impl->planes.resize(mesh.triangles.size());
+  impl->bounds.resize(mesh.triangles.size());
+  const auto down = [](double x) {
+    const auto f = static_cast<float>(x);
+    return static_cast<double>(f) > x ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
+  };
+  const auto up = [](double x) {
+    const auto f = static_cast<float>(x);
+    return static_cast<double>(f) < x ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+  };
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     const Vec3 n = triangle_normal(mesh, t);
     const double len = n.norm();
     const Vec3 u = len > 0 && std::isfinite(len) ? Vec3(n / len) : Vec3::Zero();
-    impl->planes[t] = {u.x(), u.y(), u.z(), u.dot(mesh.vertices_mm[mesh.triangles[t][0]])};
+    TriangleBounds& b = impl->bounds[t];
+    const auto& tri = mesh.triangles[t];
+    b.n[0] = u.x();
+    b.n[1] = u.y();
+    b.n[2] = u.z();
+    b.offset = u.dot(mesh.vertices_mm[tri[0]]);
+    for (int a = 0; a < 3; ++a) {
+      const double v0 = mesh.vertices_mm[tri[0]][a], v1 = mesh.vertices_mm[tri[1]][a], v2 = mesh.vertices_mm[tri[2]][a];
+      b.lo[a] = down(std::min({v0, v1, v2}));
+      b.hi[a] = up(std::max({v0, v1, v2}));
+    }
   }
   rtcCommitGeometry(geom);
   rtcAttachGeometry(impl->scene, geom);
@@ -155,7 +192,7 @@ Result<MeshQuery> MeshQuery::build(const Mesh& mesh) {
 const Mesh& MeshQuery::mesh() const { return impl_->mesh; }
 
 ClosestPoint MeshQuery::closest_point(const Vec3& p) const {
-  PointQueryState st{&impl_->mesh, &impl_->planes, p};
+  PointQueryState st{&impl_->mesh, &impl_->bounds, p};
   const Vec3 local = p - impl_->center;
   RTCPointQuery query;
   query.x = static_cast<float>(local.x());
@@ -170,7 +207,7 @@ ClosestPoint MeshQuery::closest_point(const Vec3& p) const {
 }
 
 std::optional<ClosestPoint> MeshQuery::closest_point_within(const Vec3& p, double max_distance_mm) const {
-  PointQueryState st{&impl_->mesh, &impl_->planes, p};
+  PointQueryState st{&impl_->mesh, &impl_->bounds, p};
   st.best_d2 = max_distance_mm * max_distance_mm;
   const Vec3 local = p - impl_->center;
   RTCPointQuery query;
