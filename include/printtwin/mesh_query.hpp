@@ -43,6 +43,14 @@ class MeshQuery {
   /// prunes everything outside the ball from the start).
   [[nodiscard]] std::optional<ClosestPoint> closest_point_within(const Vec3& p,
                                                                  double max_distance_mm) const;
+  /// Closest points of a group of nearby points from one BVH query: the triangles whose BVH
+  /// leaves meet the ball (center, radius) are gathered once, and each point takes the
+  /// closest of them (same answer and tie rule as closest_point). A point's answer is only
+  /// certain when the ball of that distance around it lies inside the query ball: then it
+  /// is written to out[i]; otherwise out[i] is left empty (ask closest_point_within or
+  /// closest_point). `out` is resized to points.size().
+  void closest_points_in_ball(const Vec3& center, double radius, std::span<const Vec3> points,
+                              std::vector<std::optional<ClosestPoint>>& out) const;
   /// Closest points of many query points, in parallel (TBB). `out` is resized.
   void closest_points(std::span<const Vec3> points, std::vector<ClosestPoint>& out) const;
 

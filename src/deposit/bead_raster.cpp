@@ -4,6 +4,8 @@
 // the same bits.
 #include "deposit/bead_raster.hpp"
 
+#include "core/bits.hpp"
+
 #include <cmath>
 
 #if defined(__x86_64__) && defined(__GNUC__)
@@ -95,10 +97,6 @@ inline bool inside(const BeadFrame& f, float X, float Y, float Z, std::uint32_t 
   return out;
 }
 
-bool cpu_has_avx2() {
-  static const bool has = __builtin_cpu_supports("avx2") != 0;
-  return has;
-}
 #endif
 
 int count_held_portable(const HeightMapView& m, double u, double v, double du, double dv, const double* s, int n,

@@ -91,16 +91,11 @@ std::uint64_t aux_mask_default(const VoxelGrid::BlockView& b, int z, const std::
   }
   return m;
 }
-bool cpu_has_avx2() {
-  static const bool has = __builtin_cpu_supports("avx2") != 0;
-  return has;
-}
 #else
 std::uint64_t aux_mask_avx2(const VoxelGrid::BlockView& b, int z, const std::int32_t* aux32,
                             std::uint32_t last) {
   return aux_mask_default(b, z, aux32, last);
 }
-bool cpu_has_avx2() { return false; }
 #endif
 
 /// Transposes an 8x8 bit matrix held in a word (byte r = row r, bit c = column c).

@@ -126,6 +126,111 @@ double DeviationTarget::sample_spacing_mm() const { return impl_->spacing_mm; }
 std::uint64_t DeviationTarget::sample_seed() const { return impl_->seed; }
 std::span<const SurfaceSample> DeviationTarget::samples() const { return impl_->samples; }
 
+namespace {
+
+/// Signed distance of p (mesh frame) from its exact closest point: the pseudo-normal of the
+/// feature (vertex, edge or face) that holds the closest point, or the ray-parity vote
+/// where that feature touches an open or non-manifold edge.
+double signed_from_closest(const Mesh& mesh, const MeshQuery& query, const PseudoNormals& pn, const Vec3& p,
+                           const ClosestPoint& cp) {
+  const Vec3 dir = p - cp.point_mm;
+  if (cp.distance_mm == 0) return 0.0;
+  // Which feature holds the closest point: a vertex, an edge or the face interior.
+  const auto& tri = mesh.triangles[cp.triangle];
+  const std::array<Vec3, 3> v{mesh.vertices_mm[tri[0]], mesh.vertices_mm[tri[1]],
+                              mesh.vertices_mm[tri[2]]};
+  // sqrt is monotonic and correctly rounded: the root of the largest squared edge is the
+  // largest edge, exactly.
+  const double scale = std::sqrt(std::max({(v[1] - v[0]).squaredNorm(), (v[2] - v[1]).squaredNorm(),
+                                          (v[0] - v[2]).squaredNorm()}));
+  const double eps = 1e-9 * scale;
+  // |x| <= eps, with the root taken only when |x|^2 is not clearly above eps^2 (the same
+  // answer: beyond the widened square, the rounded root is above eps too).
+  const double eps2_wide = (eps * (1 + 1e-6)) * (eps * (1 + 1e-6));
+  const auto within_eps = [&](const Vec3& x) {
+    const double x2 = x.squaredNorm();
+    return x2 <= eps2_wide && std::sqrt(x2) <= eps;
+  };
+  Vec3 normal = pn.face[cp.triangle];
+  bool open = false;
+  bool found = false;
+  for (int k = 0; k < 3 && !found; ++k) {
+    if (within_eps(cp.point_mm - v[static_cast<std::size_t>(k)])) {
+      normal = pn.vertex[tri[static_cast<std::size_t>(k)]];
+      open = pn.vertex_open[tri[static_cast<std::size_t>(k)]] != 0;
+      found = true;
+    }
+  }
+  for (int k = 0; k < 3 && !found; ++k) {
+    const Vec3& a = v[static_cast<std::size_t>(k)];
+    const Vec3& b = v[static_cast<std::size_t>((k + 1) % 3)];
+    const Vec3 ab = b - a;
+    // The segment is at least as far as its line, |(cp - a) x ab| / |ab|: clearly beyond
+    // 2 eps (rounding is ~1e-16 of the terms), the exact test below cannot pass.
+    const double ab2 = ab.squaredNorm();
+    if ((cp.point_mm - a).cross(ab).squaredNorm() > 4 * eps2_wide * ab2) continue;
+    const double t = std::clamp((cp.point_mm - a).dot(ab) / ab2, 0.0, 1.0);
+    if (within_eps(a + t * ab - cp.point_mm)) {
+      normal = pn.edge[cp.triangle][static_cast<std::size_t>(k)];
+      open = pn.edge_open[cp.triangle][static_cast<std::size_t>(k)] != 0;
+      found = true;
+    }
+  }
+  bool outside = false;
+  const double s = dir.dot(normal);
+  if (open || s == 0 || !std::isfinite(s))
+    outside = !query.inside(p);
+  else
+    outside = s > 0;
+  return outside ? cp.distance_mm : -cp.distance_mm;
+}
+
+/// Points grouped by cells of `cell_mm` along a Morton curve: `order` lists point indices
+/// cell by cell (input order within a cell), `group` the start of each cell's run (and the
+/// end). A stable two-pass radix sort of 30-bit cell codes.
+void group_by_cell(std::span<const Vec3> points, double cell_mm, std::vector<std::uint32_t>& order,
+                   std::vector<std::uint32_t>& group) {
+  const auto spread = [](std::uint32_t x) {  // bit k -> bit 3k, 10 bits
+    x &= 0x3ffU;
+    x = (x | (x << 16)) & 0x030000ffU;
+    x = (x | (x << 8)) & 0x0300f00fU;
+    x = (x | (x << 4)) & 0x030c30c3U;
+    return (x | (x << 2)) & 0x09249249U;
+  };
+  const std::size_t n = points.size();
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity());
+  for (const Vec3& p : points) lo = lo.cwiseMin(p);
+  std::vector<std::uint32_t> code(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    std::uint32_t c = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double q = std::floor((points[i][a] - lo[a]) / cell_mm);
+      c |= spread(static_cast<std::uint32_t>(std::clamp(q, 0.0, 1023.0))) << a;
+    }
+    code[i] = c;
+  }
+  constexpr int kBits = 15;
+  constexpr std::uint32_t kMask = (1U << kBits) - 1;
+  std::vector<std::uint32_t> tmp(n), count(kMask + 2);
+  order.resize(n);
+  for (int pass = 0; pass < 2; ++pass) {
+    const int shift = pass * kBits;
+    std::fill(count.begin(), count.end(), 0);
+    for (std::size_t i = 0; i < n; ++i) ++count[((code[i] >> shift) & kMask) + 1];
+    for (std::size_t k = 0; k <= kMask; ++k) count[k + 1] += count[k];
+    for (std::size_t j = 0; j < n; ++j) {
+      const std::uint32_t i = pass == 0 ? static_cast<std::uint32_t>(j) : tmp[j];
+      (pass == 0 ? tmp : order)[count[(code[i] >> shift) & kMask]++] = i;
+    }
+  }
+  group.clear();
+  for (std::size_t j = 0; j < n; ++j)
+    if (j == 0 || code[order[j]] != code[order[j - 1]]) group.push_back(static_cast<std::uint32_t>(j));
+  group.push_back(static_cast<std::uint32_t>(n));
+}
+
+}  // namespace
+
 void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Vec3> points_mm,
                                        double near_mm, std::vector<double>& out,
                                        std::vector<std::uint32_t>* triangles) const {
@@ -134,90 +239,67 @@ void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Ve
   const PseudoNormals& pn = impl_->pn;
   out.resize(points_mm.size());
   if (triangles != nullptr) triangles->resize(points_mm.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points_mm.size(), 1024),
+  // Points in cells of near_mm, a cell at a time: one BVH query gathers the triangles near
+  // the cell and each point takes the closest of them, exactly (closest_points_in_ball);
+  // the few points it cannot vouch for (farther from the mesh than the ball reaches) get a
+  // query of their own.
+  const double cell_mm = near_mm > 0 ? near_mm : 0.0;
+  std::vector<std::uint32_t> order, group;
+  if (cell_mm > 0) {
+    group_by_cell(points_mm, cell_mm, order, group);
+  } else {
+    order.resize(points_mm.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<std::uint32_t>(i);
+    group = {0, static_cast<std::uint32_t>(points_mm.size())};
+  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, group.size() - 1, 64),
                     [&](const tbb::blocked_range<std::size_t>& r) {
-    // The previous point of this chunk and its distance: the closest point of p is at most
-    // prev_d + |p - prev_p| away (triangle inequality). Neighbouring deposit faces are
-    // neighbours in the input, so this ball is small and the BVH prunes almost everything.
-    // The bound only changes the speed: the closest point (ties: lowest triangle) is exact.
-    // The previous point's closest triangle usually holds this point's closest point too (or
-    // one nearly as close): its exact distance is a second bound, often much tighter, so the
-    // BVH query visits fewer boxes and candidates.
+    std::vector<Vec3> local;
+    std::vector<std::optional<ClosestPoint>> batch;
+    // The previous point and its distance: the closest point of p is at most
+    // prev_d + |p - prev_p| away (triangle inequality), and the previous point's closest
+    // triangle is a second bound, often much tighter. The bounds only change the speed: the
+    // closest point (ties: lowest triangle) is exact.
     Vec3 prev_p = Vec3::Zero();
     double prev_d = std::numeric_limits<double>::infinity();
     std::optional<std::uint32_t> prev_tri;
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      const Vec3 p = points_mm[i] - offset_mm;  // into the mesh's frame
-      // Most points lie near the surface: a bounded query first, the full one if it fails.
-      std::optional<ClosestPoint> near;
-      double bound = (prev_d + (p - prev_p).norm()) * (1 + 1e-9) + 1e-9;
-      if (prev_tri) {
-        const auto& t = mesh.triangles[*prev_tri];
-        const double d0 =
-            (closest_point_on_triangle(p, mesh.vertices_mm[t[0]], mesh.vertices_mm[t[1]], mesh.vertices_mm[t[2]]) - p)
-                .norm();
-        bound = std::min(bound, d0 * (1 + 1e-9) + 1e-9);
+    for (std::size_t g = r.begin(); g != r.end(); ++g) {
+      const std::uint32_t g0 = group[g], g1 = group[g + 1];
+      local.clear();
+      Box3 box;
+      for (std::uint32_t j = g0; j < g1; ++j) {
+        local.push_back(points_mm[order[j]] - offset_mm);  // into the mesh's frame
+        box.extend(local.back());
       }
-      if (bound < near_mm) near = query.closest_point_within(p, bound);
-      if (!near && near_mm > 0) near = query.closest_point_within(p, near_mm);
-      const ClosestPoint cp = near ? *near : query.closest_point(p);
-      prev_p = p;
-      prev_d = cp.distance_mm;
-      prev_tri = cp.triangle;
-      if (triangles != nullptr) (*triangles)[i] = cp.triangle;
-      const Vec3 dir = p - cp.point_mm;
-      if (cp.distance_mm == 0) {
-        out[i] = 0;
-        continue;
+      batch.assign(local.size(), std::nullopt);
+      if (cell_mm > 0 && local.size() > 1) {
+        const Vec3 center = box.center();
+        query.closest_points_in_ball(center, 0.5 * box.size().norm() + 0.5 * near_mm, local, batch);
       }
-      // Which feature holds the closest point: a vertex, an edge or the face interior.
-      const auto& tri = mesh.triangles[cp.triangle];
-      const std::array<Vec3, 3> v{mesh.vertices_mm[tri[0]], mesh.vertices_mm[tri[1]],
-                                  mesh.vertices_mm[tri[2]]};
-      // sqrt is monotonic and correctly rounded: the root of the largest squared edge is the
-      // largest edge, exactly.
-      const double scale = std::sqrt(std::max({(v[1] - v[0]).squaredNorm(), (v[2] - v[1]).squaredNorm(),
-                                              (v[0] - v[2]).squaredNorm()}));
-      const double eps = 1e-9 * scale;
-      // |x| <= eps, with the root taken only when |x|^2 is not clearly above eps^2 (the same
-      // answer: beyond the widened square, the rounded root is above eps too).
-      const double eps2_wide = (eps * (1 + 1e-6)) * (eps * (1 + 1e-6));
-      const auto within_eps = [&](const Vec3& x) {
-        const double x2 = x.squaredNorm();
-        return x2 <= eps2_wide && std::sqrt(x2) <= eps;
-      };
-      Vec3 normal = pn.face[cp.triangle];
-      bool open = false;
-      bool found = false;
-      for (int k = 0; k < 3 && !found; ++k) {
-        if (within_eps(cp.point_mm - v[static_cast<std::size_t>(k)])) {
-          normal = pn.vertex[tri[static_cast<std::size_t>(k)]];
-          open = pn.vertex_open[tri[static_cast<std::size_t>(k)]] != 0;
-          found = true;
+      for (std::size_t k = 0; k < local.size(); ++k) {
+        const Vec3& p = local[k];
+        const std::size_t i = order[g0 + k];
+        if (!batch[k]) {
+          // Most points lie near the surface: a bounded query first, the full one if it fails.
+          double bound = (prev_d + (p - prev_p).norm()) * (1 + 1e-9) + 1e-9;
+          if (prev_tri) {
+            const auto& t = mesh.triangles[*prev_tri];
+            const double d0 =
+                (closest_point_on_triangle(p, mesh.vertices_mm[t[0]], mesh.vertices_mm[t[1]], mesh.vertices_mm[t[2]]) - p)
+                    .norm();
+            bound = std::min(bound, d0 * (1 + 1e-9) + 1e-9);
+          }
+          if (bound < near_mm) batch[k] = query.closest_point_within(p, bound);
+          if (!batch[k] && near_mm > 0) batch[k] = query.closest_point_within(p, near_mm);
+          if (!batch[k]) batch[k] = query.closest_point(p);
         }
+        const ClosestPoint& cp = *batch[k];
+        prev_p = p;
+        prev_d = cp.distance_mm;
+        prev_tri = cp.triangle;
+        if (triangles != nullptr) (*triangles)[i] = cp.triangle;
+        out[i] = signed_from_closest(mesh, query, pn, p, cp);
       }
-      for (int k = 0; k < 3 && !found; ++k) {
-        const Vec3& a = v[static_cast<std::size_t>(k)];
-        const Vec3& b = v[static_cast<std::size_t>((k + 1) % 3)];
-        const Vec3 ab = b - a;
-        // The segment is at least as far as its line, |(cp - a) x ab| / |ab|: clearly beyond
-        // 2 eps (rounding is ~1e-16 of the terms), the exact test below cannot pass.
-        const double ab2 = ab.squaredNorm();
-        if ((cp.point_mm - a).cross(ab).squaredNorm() > 4 * eps2_wide * ab2) continue;
-        const double t = std::clamp((cp.point_mm - a).dot(ab) / ab2, 0.0, 1.0);
-        if (within_eps(a + t * ab - cp.point_mm)) {
-          normal = pn.edge[cp.triangle][static_cast<std::size_t>(k)];
-          open = pn.edge_open[cp.triangle][static_cast<std::size_t>(k)] != 0;
-          found = true;
-        }
-      }
-      bool outside = false;
-      const double s = dir.dot(normal);
-      if (open || s == 0 || !std::isfinite(s))
-        outside = !query.inside(p);
-      else
-        outside = s > 0;
-      out[i] = outside ? cp.distance_mm : -cp.distance_mm;
     }
   });
 }

@@ -7,12 +7,18 @@
 #include <embree3/rtcore.h>
 #include <tbb/parallel_for.h>
 
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
+
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <atomic>
 #include <cmath>
 #include <limits>
 
+#include "core/bits.hpp"
 #include "printtwin/mesh_query.hpp"
 
 namespace printtwin {
@@ -77,34 +83,124 @@ struct PointQueryState {
   std::uint32_t best_triangle = 0;
 };
 
-bool point_query_callback(RTCPointQueryFunctionArguments* args) {
-  auto* st = static_cast<PointQueryState*>(args->userPtr);
-  // Farther from the triangle's box or plane than the best so far: cannot win (the margins
-  // keep rounding from rejecting a triangle that would tie or win in the exact test below).
-  const TriangleBounds& tb = (*st->bounds)[args->primID];
-  const Vec3& p = st->p;
-  double box2 = 0;
-  for (int a = 0; a < 3; ++a) {
-    const double e = std::max({0.0, static_cast<double>(tb.lo[a]) - p[a], p[a] - static_cast<double>(tb.hi[a])});
-    box2 += e * e;
-  }
-  if (box2 > st->best_d2 * (1 + 1e-9)) return false;
+/// Offers triangle `t` after its box test: rejected by its plane when it cannot win or tie
+/// (the margin keeps rounding from rejecting a triangle that would tie or win in the exact
+/// test), else tested exactly. True when it became the best.
+bool offer_unboxed(PointQueryState& st, std::uint32_t t) {
+  const TriangleBounds& tb = (*st.bounds)[t];
+  const Vec3& p = st.p;
   const double plane_d = tb.n[0] * p.x() + tb.n[1] * p.y() + tb.n[2] * p.z() - tb.offset;
   const double lower = std::abs(plane_d) - 1e-9 * (1.0 + std::abs(tb.offset) + p.cwiseAbs().maxCoeff());
-  if (lower > 0 && lower * lower > st->best_d2) return false;
-  const auto& tri = st->mesh->triangles[args->primID];
-  const auto& v = st->mesh->vertices_mm;
-  const Vec3 q = closest_point_on_triangle(st->p, v[tri[0]], v[tri[1]], v[tri[2]]);
-  const double d2 = (q - st->p).squaredNorm();
-  if (d2 < st->best_d2 || (d2 == st->best_d2 && args->primID < st->best_triangle)) {
-    st->best_d2 = d2;
-    st->best_point = q;
-    st->best_triangle = args->primID;
-    // Shrink the search radius (float, padded so that float rounding never culls a
-    // triangle that is closer in double precision).
-    args->query->radius = static_cast<float>(std::sqrt(d2) * (1.0 + 1e-6) + 1e-6);
+  if (lower > 0 && lower * lower > st.best_d2) return false;
+  const auto& tri = st.mesh->triangles[t];
+  const auto& v = st.mesh->vertices_mm;
+  const Vec3 q = closest_point_on_triangle(p, v[tri[0]], v[tri[1]], v[tri[2]]);
+  const double d2 = (q - p).squaredNorm();
+  if (d2 < st.best_d2 || (d2 == st.best_d2 && t < st.best_triangle)) {
+    st.best_d2 = d2;
+    st.best_point = q;
+    st.best_triangle = t;
     return true;
   }
+  return false;
+}
+
+/// Squared distance from p to the box [lo, hi] (0 inside).
+inline double box_distance2(const Vec3& p, const float* lo, const float* hi) {
+  double box2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    const double e = std::max({0.0, static_cast<double>(lo[a]) - p[a], p[a] - static_cast<double>(hi[a])});
+    box2 += e * e;
+  }
+  return box2;
+}
+
+/// Whether a box at squared distance box2 may hold a triangle that wins or ties.
+inline bool box_may_win(double box2, double best_d2) { return !(box2 > best_d2 * (1 + 1e-9)); }
+
+/// Offers triangle `t` to the search (box, plane, then exact). True when it became the best.
+bool offer(PointQueryState& st, std::uint32_t t) {
+  const TriangleBounds& tb = (*st.bounds)[t];
+  if (!box_may_win(box_distance2(st.p, tb.lo, tb.hi), st.best_d2)) return false;
+  return offer_unboxed(st, t);
+}
+
+/// The candidates of a ball query, their boxes as columns for the 4-wide box test.
+struct CandidateBoxes {
+  std::vector<std::uint32_t> ids;
+  std::vector<double> lo[3], hi[3];  // padded to a multiple of 4 with empty far boxes
+  void load(const std::vector<TriangleBounds>& bounds) {
+    const std::size_t n = ids.size(), m = (n + 3) & ~std::size_t{3};
+    for (int a = 0; a < 3; ++a) {
+      lo[a].resize(m);
+      hi[a].resize(m);
+    }
+    for (std::size_t k = 0; k < m; ++k)
+      for (int a = 0; a < 3; ++a) {
+        lo[a][k] = k < n ? static_cast<double>(bounds[ids[k]].lo[a]) : std::numeric_limits<double>::infinity();
+        hi[a][k] = k < n ? static_cast<double>(bounds[ids[k]].hi[a]) : std::numeric_limits<double>::infinity();
+      }
+  }
+};
+
+/// Offers every candidate whose box may win; the box test 4 at a time (same arithmetic as
+/// box_distance2, so the same candidates pass).
+void offer_candidates_default(PointQueryState& st, const CandidateBoxes& c) {
+  for (std::size_t k = 0; k < c.ids.size(); ++k) {
+    double box2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double e = std::max({0.0, c.lo[a][k] - st.p[a], st.p[a] - c.hi[a][k]});
+      box2 += e * e;
+    }
+    if (box_may_win(box2, st.best_d2)) offer_unboxed(st, c.ids[k]);
+  }
+}
+#if defined(__x86_64__) && defined(__GNUC__)
+[[gnu::target("avx2")]] void offer_candidates_avx2(PointQueryState& st, const CandidateBoxes& c) {
+  const std::size_t n = c.ids.size();
+  const __m256d zero = _mm256_setzero_pd();
+  const __m256d px = _mm256_set1_pd(st.p.x()), py = _mm256_set1_pd(st.p.y()), pz = _mm256_set1_pd(st.p.z());
+  for (std::size_t k = 0; k < n; k += 4) {
+    // max(0, lo - p, p - hi) per axis; NaN never arises (padding boxes are at +inf).
+    const __m256d ex = _mm256_max_pd(_mm256_max_pd(zero, _mm256_sub_pd(_mm256_loadu_pd(c.lo[0].data() + k), px)),
+                                     _mm256_sub_pd(px, _mm256_loadu_pd(c.hi[0].data() + k)));
+    const __m256d ey = _mm256_max_pd(_mm256_max_pd(zero, _mm256_sub_pd(_mm256_loadu_pd(c.lo[1].data() + k), py)),
+                                     _mm256_sub_pd(py, _mm256_loadu_pd(c.hi[1].data() + k)));
+    const __m256d ez = _mm256_max_pd(_mm256_max_pd(zero, _mm256_sub_pd(_mm256_loadu_pd(c.lo[2].data() + k), pz)),
+                                     _mm256_sub_pd(pz, _mm256_loadu_pd(c.hi[2].data() + k)));
+    const __m256d box2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(ex, ex), _mm256_mul_pd(ey, ey)), _mm256_mul_pd(ez, ez));
+    const __m256d limit = _mm256_set1_pd(st.best_d2 * (1 + 1e-9));
+    auto m = static_cast<unsigned>(_mm256_movemask_pd(_mm256_cmp_pd(box2, limit, _CMP_NGT_UQ)));
+    if (n - k < 4) m &= (1U << (n - k)) - 1;
+    for (; m != 0; m &= m - 1) {
+      const std::size_t j = k + static_cast<std::size_t>(std::countr_zero(m));
+      // The best may have shrunk since this block's test: test the box again, exactly as
+      // offer() would.
+      double b2 = 0;
+      for (int a = 0; a < 3; ++a) {
+        const double e = std::max({0.0, c.lo[a][j] - st.p[a], st.p[a] - c.hi[a][j]});
+        b2 += e * e;
+      }
+      if (box_may_win(b2, st.best_d2)) offer_unboxed(st, c.ids[j]);
+    }
+  }
+}
+#else
+void offer_candidates_avx2(PointQueryState& st, const CandidateBoxes& c) { offer_candidates_default(st, c); }
+#endif
+
+bool point_query_callback(RTCPointQueryFunctionArguments* args) {
+  auto* st = static_cast<PointQueryState*>(args->userPtr);
+  if (!offer(*st, args->primID)) return false;
+  // Shrink the search radius (float, padded so that float rounding never culls a
+  // triangle that is closer in double precision).
+  args->query->radius = static_cast<float>(std::sqrt(st->best_d2) * (1.0 + 1e-6) + 1e-6);
+  return true;
+}
+
+/// Gathers every triangle the BVH reports for the query ball (the radius never shrinks).
+bool gather_callback(RTCPointQueryFunctionArguments* args) {
+  static_cast<std::vector<std::uint32_t>*>(args->userPtr)->push_back(args->primID);
   return false;
 }
 
@@ -191,37 +287,64 @@ Result<MeshQuery> MeshQuery::build(const Mesh& mesh) {
 
 const Mesh& MeshQuery::mesh() const { return impl_->mesh; }
 
-ClosestPoint MeshQuery::closest_point(const Vec3& p) const {
-  PointQueryState st{&impl_->mesh, &impl_->bounds, p};
-  const Vec3 local = p - impl_->center;
+namespace {
+/// One Embree point query around p (original frame) with `radius` (infinite, or padded like
+/// the callback's shrinking radius so float rounding never culls a candidate).
+void run_point_query(RTCScene scene, const Vec3& local, double radius, RTCPointQueryFunction fn, void* user) {
   RTCPointQuery query;
   query.x = static_cast<float>(local.x());
   query.y = static_cast<float>(local.y());
   query.z = static_cast<float>(local.z());
   query.time = 0.f;
-  query.radius = std::numeric_limits<float>::infinity();
+  query.radius = std::isinf(radius) ? std::numeric_limits<float>::infinity()
+                                    : static_cast<float>(radius * (1.0 + 1e-6) + 1e-6);
   RTCPointQueryContext context;
   rtcInitPointQueryContext(&context);
-  rtcPointQuery(impl_->scene, &query, &context, point_query_callback, &st);
+  rtcPointQuery(scene, &query, &context, fn, user);
+}
+}  // namespace
+
+ClosestPoint MeshQuery::closest_point(const Vec3& p) const {
+  PointQueryState st{&impl_->mesh, &impl_->bounds, p};
+  run_point_query(impl_->scene, p - impl_->center, std::numeric_limits<double>::infinity(), point_query_callback, &st);
   return ClosestPoint{st.best_point, std::sqrt(st.best_d2), st.best_triangle};
 }
 
 std::optional<ClosestPoint> MeshQuery::closest_point_within(const Vec3& p, double max_distance_mm) const {
   PointQueryState st{&impl_->mesh, &impl_->bounds, p};
   st.best_d2 = max_distance_mm * max_distance_mm;
-  const Vec3 local = p - impl_->center;
-  RTCPointQuery query;
-  query.x = static_cast<float>(local.x());
-  query.y = static_cast<float>(local.y());
-  query.z = static_cast<float>(local.z());
-  query.time = 0.f;
-  // Padded like the callback's shrinking radius, so float rounding never culls a candidate.
-  query.radius = static_cast<float>(max_distance_mm * (1.0 + 1e-6) + 1e-6);
-  RTCPointQueryContext context;
-  rtcInitPointQueryContext(&context);
-  rtcPointQuery(impl_->scene, &query, &context, point_query_callback, &st);
+  run_point_query(impl_->scene, p - impl_->center, max_distance_mm, point_query_callback, &st);
   if (!(st.best_d2 < max_distance_mm * max_distance_mm)) return std::nullopt;
   return ClosestPoint{st.best_point, std::sqrt(st.best_d2), st.best_triangle};
+}
+
+void MeshQuery::closest_points_in_ball(const Vec3& center, double radius, std::span<const Vec3> points,
+                                       std::vector<std::optional<ClosestPoint>>& out) const {
+  out.assign(points.size(), std::nullopt);
+  thread_local CandidateBoxes boxes;
+  std::vector<std::uint32_t>& candidates = boxes.ids;
+  candidates.clear();
+  run_point_query(impl_->scene, center - impl_->center, radius, gather_callback, &candidates);
+  if (candidates.empty()) return;
+  boxes.load(impl_->bounds);
+  const bool avx2 = cpu_has_avx2();
+  std::optional<std::uint32_t> hint;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    PointQueryState st{&impl_->mesh, &impl_->bounds, points[i]};
+    // The previous point's triangle first: usually this one's too, its distance then
+    // prunes nearly every other candidate by box or plane.
+    if (hint) offer(st, *hint);
+    if (avx2)
+      offer_candidates_avx2(st, boxes);
+    else
+      offer_candidates_default(st, boxes);
+    if (!std::isfinite(st.best_d2)) continue;
+    const double d = std::sqrt(st.best_d2);
+    hint = st.best_triangle;
+    // Every triangle within d of the point meets the query ball, so was a candidate.
+    if ((points[i] - center).norm() + d * (1 + 1e-9) + 1e-9 <= radius)
+      out[i] = ClosestPoint{st.best_point, d, st.best_triangle};
+  }
 }
 
 void MeshQuery::closest_points(std::span<const Vec3> points, std::vector<ClosestPoint>& out) const {

@@ -1,6 +1,9 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <optional>
 #include <random>
+#include <vector>
 
 #include "printtwin/mesh_query.hpp"
 #include "support/test_support.hpp"
@@ -33,6 +36,55 @@ TEST(MeshQuery, ClosestPointMatchesBruteForce) {
     const auto want = brute_force(cube, p);
     EXPECT_NEAR(got.distance_mm, want.distance_mm, 1e-9 * (1 + want.distance_mm)) << "seed 7, i " << i;
   }
+}
+
+TEST(MeshQuery, BallQueryGivesClosestPointsBitForBitOrNothing) {
+  // A wavy height field of 2 x 40 x 40 triangles (10 x 10 mm): groups of nearby points around
+  // random centres, one ball query per group. Every answer it vouches for is exactly
+  // closest_point's (same point, distance and triangle); points the ball cannot vouch for
+  // (the group's far ones) get nothing.
+  Mesh m;
+  constexpr int kN = 40;
+  for (int j = 0; j <= kN; ++j)
+    for (int i = 0; i <= kN; ++i) {
+      const double x = 10.0 * i / kN, y = 10.0 * j / kN;
+      m.vertices_mm.emplace_back(x, y, 0.5 * std::sin(x) * std::cos(0.7 * y));
+    }
+  const auto vid = [](int i, int j) { return static_cast<std::uint32_t>(j * (kN + 1) + i); };
+  for (int j = 0; j < kN; ++j)
+    for (int i = 0; i < kN; ++i) {
+      m.triangles.push_back({vid(i, j), vid(i + 1, j), vid(i + 1, j + 1)});
+      m.triangles.push_back({vid(i, j), vid(i + 1, j + 1), vid(i, j + 1)});
+    }
+  auto q = MeshQuery::build(m);
+  ASSERT_TRUE(q.ok());
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(1, 9), jitter(-0.1, 0.1), far(-2.0, 2.0);
+  int vouched = 0, empty = 0;
+  for (int g = 0; g < 200; ++g) {
+    const Vec3 c(u(rng), u(rng), jitter(rng));
+    std::vector<Vec3> pts;
+    for (int k = 0; k < 12; ++k) pts.push_back(c + Vec3(jitter(rng), jitter(rng), jitter(rng)));
+    pts.push_back(c + Vec3(0, 0, far(rng)));  // often beyond the ball
+    std::vector<std::optional<ClosestPoint>> out;
+    q->closest_points_in_ball(c, 0.3, pts, out);
+    ASSERT_EQ(out.size(), pts.size());
+    for (std::size_t k = 0; k < pts.size(); ++k) {
+      const ClosestPoint want = q->closest_point(pts[k]);
+      if (!out[k]) {
+        ++empty;
+        // Nothing only when the point's ball of its distance is not inside the query ball.
+        EXPECT_GT((pts[k] - c).norm() + want.distance_mm, 0.3 * (1 - 1e-6)) << g << " " << k;
+        continue;
+      }
+      ++vouched;
+      EXPECT_EQ(out[k]->triangle, want.triangle) << g << " " << k;
+      EXPECT_EQ(out[k]->distance_mm, want.distance_mm) << g << " " << k;
+      EXPECT_EQ(out[k]->point_mm, want.point_mm) << g << " " << k;
+    }
+  }
+  EXPECT_GT(vouched, 1000);
+  EXPECT_GT(empty, 20);
 }
 
 TEST(MeshQuery, KnownDistancesAndSigns) {
