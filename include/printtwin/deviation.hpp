@@ -83,6 +83,7 @@ struct SurfaceFace {
 struct DepositSurface {
   double voxel_mm = 0;
   Vec3 origin_mm = Vec3::Zero();          ///< min corner of the analysed region (voxel aligned)
+  VoxelKey origin_key{};                  ///< grid key of the region's min-corner voxel
   Eigen::Vector3i dims = Eigen::Vector3i::Zero();  ///< analysed voxels per axis
   /// Fixed order: columns by y then x, voxels by z, a voxel's faces consecutive.
   std::vector<SurfaceFace> faces;

@@ -190,6 +190,7 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   const int nx = kmax0.x - kmin0.x + 3, ny = kmax0.y - kmin0.y + 3, nz = kmax0.z - kmin0.z + 3;
   s.dims = Eigen::Vector3i(nx, ny, nz);
   s.origin_mm = grid.origin_mm() + s.voxel_mm * Vec3(kmin.x, kmin.y, kmin.z);
+  s.origin_key = kmin;
   const int words = (nz + 63) / 64;
   const std::size_t columns = static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny);
 
@@ -512,28 +513,36 @@ struct FaceBuckets {
     origin_mm = s.origin_mm;
     cells = (s.dims.array() + kCell - 1) / kCell;
     const std::size_t n = static_cast<std::size_t>(cells.x()) * cells.y() * cells.z();
-    begin.assign(n + 1, 0);
+    // A face goes to the cell of its voxel (its square lies in the voxel's box, so in the
+    // cell's): integer arithmetic, and a column's faces fill neighbouring cells.
     std::vector<std::uint32_t> cell_of(s.faces.size());
+    begin.assign(n + 1, 0);
     for (std::size_t i = 0; i < s.faces.size(); ++i) {
-      cell_of[i] = static_cast<std::uint32_t>(cell_index(cell_coord(s.face_centers_mm[i])));
+      const VoxelKey& k = s.faces[i].voxel;
+      const Eigen::Vector3i c((k.x - s.origin_key.x) / kCell, (k.y - s.origin_key.y) / kCell,
+                              (k.z - s.origin_key.z) / kCell);
+      cell_of[i] = static_cast<std::uint32_t>(cell_index(c));
       ++begin[cell_of[i] + 1];
     }
     for (std::size_t c = 0; c < n; ++c) begin[c + 1] += begin[c];
     const std::size_t m = s.faces.size() + kPad;
-    cx.assign(m, 0.0);
-    cy.assign(m, 0.0);
-    cz.assign(m, 0.0);
-    axis.assign(m, 0);
-    face.assign(m, 0);
-    std::vector<std::uint32_t> fill(begin.begin(), begin.end() - 1);
+    cx.resize(m);
+    cy.resize(m);
+    cz.resize(m);
+    axis.resize(m);
+    face.resize(m);
+    // begin[c] serves as cell c's write cursor, which leaves it at the start of cell c + 1:
+    // shifted back by one cell afterwards.
     for (std::size_t i = 0; i < s.faces.size(); ++i) {
-      const std::uint32_t k = fill[cell_of[i]]++;
+      const std::uint32_t k = begin[cell_of[i]]++;
       cx[k] = s.face_centers_mm[i].x();
       cy[k] = s.face_centers_mm[i].y();
       cz[k] = s.face_centers_mm[i].z();
       axis[k] = s.faces[i].axis;
       face[k] = static_cast<std::uint32_t>(i);
     }
+    std::copy_backward(begin.begin(), begin.end() - 1, begin.end());
+    begin[0] = 0;
   }
   [[nodiscard]] Eigen::Vector3i cell_coord(const Vec3& p) const {
     Eigen::Vector3i c;
@@ -541,8 +550,9 @@ struct FaceBuckets {
       c[a] = std::clamp(static_cast<int>(std::floor((p[a] - origin_mm[a]) / cell_mm)), 0, cells[a] - 1);
     return c;
   }
+  /// Cells column by column (z fastest): a column's faces go to consecutive cells.
   [[nodiscard]] std::size_t cell_index(const Eigen::Vector3i& c) const {
-    return (static_cast<std::size_t>(c.z()) * cells.y() + c.y()) * cells.x() + c.x();
+    return (static_cast<std::size_t>(c.y()) * cells.x() + c.x()) * cells.z() + c.z();
   }
 };
 
