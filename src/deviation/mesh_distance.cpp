@@ -62,9 +62,24 @@ struct PseudoNormals {
                         static_cast<std::uint8_t>(k), a == lo});
       }
     }
-    std::sort(uses.begin(), uses.end(), [](const EdgeUse& x, const EdgeUse& y) {
-      return x.key != y.key ? x.key < y.key : x.tri < y.tri;
-    });
+    // Sorted by (key, triangle): a counting sort by the low vertex (uses were made in
+    // triangle order, and it is stable), then an insertion sort of each low vertex's few
+    // uses by the high vertex (stable too).
+    {
+      std::vector<std::uint32_t> start(m.vertices_mm.size() + 1, 0);
+      for (const EdgeUse& u : uses) ++start[(u.key >> 32) + 1];
+      for (std::size_t k = 0; k + 1 < start.size(); ++k) start[k + 1] += start[k];
+      std::vector<EdgeUse> sorted(uses.size());
+      for (const EdgeUse& u : uses) sorted[start[u.key >> 32]++] = u;
+      std::size_t lo = 0;
+      for (std::size_t k = 0; k + 1 < start.size(); ++k) {
+        const std::size_t hi = start[k];  // the cursor ended at the next vertex's start
+        for (std::size_t i = lo + 1; i < hi; ++i)
+          for (std::size_t j = i; j > lo && sorted[j - 1].key > sorted[j].key; --j) std::swap(sorted[j - 1], sorted[j]);
+        lo = hi;
+      }
+      uses = std::move(sorted);
+    }
     for (std::size_t i = 0; i < uses.size();) {
       std::size_t j = i;
       while (j < uses.size() && uses[j].key == uses[i].key) ++j;

@@ -1,6 +1,10 @@
 // Statistics of signed distances.
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
+#include <span>
+#include <vector>
 
 #include "printtwin/deviation.hpp"
 
@@ -20,6 +24,78 @@ double percentile(const std::vector<std::pair<std::size_t, double>>& order, std:
   }
   return vlo + (h - static_cast<double>(lo)) * (vhi - vlo);
 }
+/// |d| as an unsigned integer with the same order (IEEE 754: for non-negative doubles, the
+/// bit pattern orders like the value; NaN sorts last).
+inline std::uint64_t abs_bits(double x) { return std::bit_cast<std::uint64_t>(std::abs(x)); }
+
+/// The order statistics of |d| at `ranks` (ascending), by selection: from the lowest rank
+/// up, each selection only partitions the part above the previous one; the rank right after
+/// a selected one is the least of the part above it.
+std::vector<std::pair<std::size_t, double>> order_statistics_by_selection(std::span<const double> d,
+                                                                          const std::vector<std::size_t>& ranks) {
+  std::vector<double> abs_d(d.size());
+  for (std::size_t i = 0; i < d.size(); ++i) abs_d[i] = std::abs(d[i]);
+  std::vector<std::pair<std::size_t, double>> order;
+  std::size_t begin = 0;
+  const auto first = abs_d.begin();
+  for (const std::size_t k : ranks) {
+    const auto at = first + static_cast<std::ptrdiff_t>(k);
+    if (k == begin) {
+      std::iter_swap(std::min_element(at, abs_d.end()), at);
+    } else {
+      std::nth_element(first + static_cast<std::ptrdiff_t>(begin), at, abs_d.end());
+    }
+    order.emplace_back(k, abs_d[k]);
+    begin = k + 1;
+  }
+  return order;
+}
+
+/// From this many values on, the order statistics come from a histogram instead.
+constexpr std::size_t kHistogramMin = std::size_t{1} << 18;
+
+/// The same by a histogram of the top bits of |d| (sign aside: 11 exponent bits and 8 of
+/// the mantissa, so a bin spans 1/256 of an octave): one pass counts, the bins holding the
+/// ranks are found from the counts, a second pass gathers those bins' values, and a
+/// selection within them gives the exact order statistics. Two streaming passes instead of
+/// repeated partitions of a copy.
+std::vector<std::pair<std::size_t, double>> order_statistics_by_histogram(std::span<const double> d,
+                                                                          const std::vector<std::size_t>& ranks) {
+  constexpr int kShift = 44;  // 63 - 19: the 19 bits below the (zero) sign bit
+  std::vector<std::uint32_t> count(std::size_t{1} << 19, 0);
+  for (const double v : d) ++count[abs_bits(v) >> kShift];
+  // The bin of each rank, and the rank's place within its bin.
+  std::vector<std::size_t> bin_of(ranks.size()), before(ranks.size());
+  {
+    std::size_t acc = 0, r = 0;
+    for (std::size_t b = 0; b < count.size() && r < ranks.size(); ++b) {
+      while (r < ranks.size() && ranks[r] < acc + count[b]) {
+        bin_of[r] = b;
+        before[r] = acc;
+        ++r;
+      }
+      acc += count[b];
+    }
+  }
+  std::vector<std::size_t> bins(bin_of);
+  bins.erase(std::unique(bins.begin(), bins.end()), bins.end());
+  std::vector<std::vector<double>> values(bins.size());
+  for (std::size_t k = 0; k < bins.size(); ++k) values[k].reserve(count[bins[k]]);
+  for (const double v : d) {
+    const std::size_t b = abs_bits(v) >> kShift;
+    for (std::size_t k = 0; k < bins.size(); ++k)
+      if (bins[k] == b) values[k].push_back(std::abs(v));
+  }
+  std::vector<std::pair<std::size_t, double>> order;
+  for (std::size_t r = 0; r < ranks.size(); ++r) {
+    auto& vals = values[static_cast<std::size_t>(std::find(bins.begin(), bins.end(), bin_of[r]) - bins.begin())];
+    const auto at = vals.begin() + static_cast<std::ptrdiff_t>(ranks[r] - before[r]);
+    std::nth_element(vals.begin(), at, vals.end());
+    order.emplace_back(ranks[r], *at);
+  }
+  return order;
+}
+
 }  // namespace
 
 DeviationStats deviation_stats(std::span<const double> d, double tolerance_mm) {
@@ -32,16 +108,15 @@ DeviationStats deviation_stats(std::span<const double> d, double tolerance_mm) {
   // millions of sub-millimetre values.
   long double sum = 0, sum2 = 0, sum_abs = 0;
   std::size_t within = 0;
-  std::vector<double> abs_d(d.size());
   for (std::size_t i = 0; i < d.size(); ++i) {
     const double v = d[i];
     s.min_mm = std::min(s.min_mm, v);
     s.max_mm = std::max(s.max_mm, v);
     sum += v;
     sum2 += static_cast<long double>(v) * v;
-    abs_d[i] = std::abs(v);
-    sum_abs += abs_d[i];
-    if (abs_d[i] <= tolerance_mm) ++within;
+    const double a = std::abs(v);
+    sum_abs += a;
+    if (a <= tolerance_mm) ++within;
   }
   const auto n = static_cast<long double>(d.size());
   s.mean_mm = static_cast<double>(sum / n);
@@ -49,11 +124,7 @@ DeviationStats deviation_stats(std::span<const double> d, double tolerance_mm) {
   s.rms_mm = static_cast<double>(std::sqrt(sum2 / n));
   const long double var = std::max<long double>(0, sum2 / n - (sum / n) * (sum / n));
   s.std_mm = static_cast<double>(std::sqrt(var));
-  // The order statistics the percentiles need, by selection instead of a full sort: from
-  // the lowest rank up, each selection only partitions the part above the previous one
-  // (half of the values for the median, a twentieth for P95 and so on); the rank right after
-  // a selected one is the least of the part above it.
-  const std::size_t n_all = abs_d.size();
+  const std::size_t n_all = d.size();
   std::vector<std::size_t> ranks;
   for (const double q : {0.50, 0.95, 0.99}) {
     const auto lo = static_cast<std::size_t>(std::floor(q * static_cast<double>(n_all - 1)));
@@ -63,19 +134,8 @@ DeviationStats deviation_stats(std::span<const double> d, double tolerance_mm) {
   ranks.push_back(n_all - 1);
   std::sort(ranks.begin(), ranks.end());
   ranks.erase(std::unique(ranks.begin(), ranks.end()), ranks.end());
-  std::vector<std::pair<std::size_t, double>> order;
-  std::size_t begin = 0;
-  const auto first = abs_d.begin();
-  for (const std::size_t k : ranks) {
-    const auto at = first + static_cast<std::ptrdiff_t>(k);
-    if (k == begin) {  // the least of [begin, n): move it to k
-      std::iter_swap(std::min_element(at, abs_d.end()), at);
-    } else {
-      std::nth_element(first + static_cast<std::ptrdiff_t>(begin), at, abs_d.end());
-    }
-    order.emplace_back(k, abs_d[k]);
-    begin = k + 1;
-  }
+  const std::vector<std::pair<std::size_t, double>> order =
+      n_all >= kHistogramMin ? order_statistics_by_histogram(d, ranks) : order_statistics_by_selection(d, ranks);
   s.p50_abs_mm = percentile(order, n_all, 0.50);
   s.p95_abs_mm = percentile(order, n_all, 0.95);
   s.p99_abs_mm = percentile(order, n_all, 0.99);
