@@ -16,6 +16,7 @@
 
 #include "core/bits.hpp"
 #include "deviation/deposit_surface_internal.hpp"
+#include "deviation/point_groups.hpp"
 #include "printtwin/deviation.hpp"
 
 namespace printtwin {
@@ -663,13 +664,18 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
   const double group_mm = buckets.cell_mm * kGroup;
   const int max_group_ring = groups.maxCoeff();
   constexpr int kFineRings = 2;
+  // Queries in cells of the buckets' size, column by column: neighbouring queries read the
+  // same cells and filled bits (the input, say mesh samples in triangle order, may jump).
+  std::vector<std::uint32_t> order, group;
+  group_by_cell(points, buckets.cell_mm, order, group);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 2048),
                     [&](const tbb::blocked_range<std::size_t>& range) {
     // The previous point of this chunk and its distance: by the triangle inequality the
     // nearest face of p is at most prev_d + |p - prev_p| away, which bounds the search.
     Vec3 prev_p = Vec3::Zero();
     double prev_d = std::numeric_limits<double>::infinity();
-    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+    for (std::size_t j = range.begin(); j != range.end(); ++j) {
+      const std::size_t i = order[j];
       const Vec3& p = points[i];
       Nearest best;
       const double& best2 = best.d2;

@@ -10,6 +10,7 @@
 #include <limits>
 #include <unordered_map>
 
+#include "deviation/point_groups.hpp"
 #include "printtwin/deviation.hpp"
 #include "printtwin/mesh_query.hpp"
 
@@ -200,44 +201,6 @@ double signed_from_closest(const Mesh& mesh, const MeshQuery& query, const Pseud
   return outside ? cp.distance_mm : -cp.distance_mm;
 }
 
-/// Points grouped by cells of `cell_mm`: `order` lists point indices cell by cell (input
-/// order within a cell), `group` the start of each cell's run (and the end). Cells go
-/// column by column (z fastest), like the deposit's faces, so that reading the points in
-/// this order streams through them instead of jumping. A stable two-pass radix sort of
-/// 30-bit cell codes (10 bits per axis; beyond 1024 cells an axis shares its last cell,
-/// which only makes that group's ball larger).
-void group_by_cell(std::span<const Vec3> points, double cell_mm, std::vector<std::uint32_t>& order,
-                   std::vector<std::uint32_t>& group) {
-  const std::size_t n = points.size();
-  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity());
-  for (const Vec3& p : points) lo = lo.cwiseMin(p);
-  std::vector<std::uint32_t> code(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    std::uint32_t c[3];
-    for (int a = 0; a < 3; ++a)
-      c[a] = static_cast<std::uint32_t>(std::clamp(std::floor((points[i][a] - lo[a]) / cell_mm), 0.0, 1023.0));
-    code[i] = (c[1] << 20) | (c[0] << 10) | c[2];
-  }
-  constexpr int kBits = 15;
-  constexpr std::uint32_t kMask = (1U << kBits) - 1;
-  std::vector<std::uint32_t> tmp(n), count(kMask + 2);
-  order.resize(n);
-  for (int pass = 0; pass < 2; ++pass) {
-    const int shift = pass * kBits;
-    std::fill(count.begin(), count.end(), 0);
-    for (std::size_t i = 0; i < n; ++i) ++count[((code[i] >> shift) & kMask) + 1];
-    for (std::size_t k = 0; k <= kMask; ++k) count[k + 1] += count[k];
-    for (std::size_t j = 0; j < n; ++j) {
-      const std::uint32_t i = pass == 0 ? static_cast<std::uint32_t>(j) : tmp[j];
-      (pass == 0 ? tmp : order)[count[(code[i] >> shift) & kMask]++] = i;
-    }
-  }
-  group.clear();
-  for (std::size_t j = 0; j < n; ++j)
-    if (j == 0 || code[order[j]] != code[order[j - 1]]) group.push_back(static_cast<std::uint32_t>(j));
-  group.push_back(static_cast<std::uint32_t>(n));
-}
-
 }  // namespace
 
 void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Vec3> points_mm,
@@ -255,7 +218,7 @@ void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Ve
   const double cell_mm = near_mm > 0 ? near_mm : 0.0;
   std::vector<std::uint32_t> order, group;
   if (cell_mm > 0) {
-    group_by_cell(points_mm, cell_mm, order, group);
+    detail::group_by_cell(points_mm, cell_mm, order, group);
   } else {
     order.resize(points_mm.size());
     for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<std::uint32_t>(i);
