@@ -110,17 +110,24 @@ inline std::uint64_t transpose8(std::uint64_t x) {
   return x ^ t ^ (t << 28);
 }
 
-/// Bit columns (nx * ny columns of `words` words, z bits) dilated by r voxels (a cube of
-/// 2r + 1), in place: separable, z by word shifts, then x, then y by OR of neighbouring
-/// columns. Only a column, a row and r + 1 rows are copied aside: the region's arrays are
-/// tens to hundreds of MB, and each fresh one costs its page faults and zeroing.
-void dilate(std::vector<std::uint64_t>& bits, int nx, int ny, int words, int r) {
+/// Bit columns (nx * ny columns of `words` words, z bits) of `in` dilated by r voxels (a
+/// cube of 2r + 1) into `bits` (which may be `in` itself): separable, z by word shifts (read
+/// from `in`), then x, then y by OR of neighbouring columns, in place. Only a column, a row
+/// and r + 1 rows are copied aside: the region's arrays are tens to hundreds of MB, and each
+/// fresh one costs its page faults and zeroing.
+void dilate(const std::vector<std::uint64_t>& in, std::vector<std::uint64_t>& bits, int nx, int ny, int words,
+            int r) {
   const auto row_words = static_cast<std::size_t>(nx) * static_cast<std::size_t>(words);
+  const bool same = &in == &bits;
+  if (!same) bits.resize(in.size());
   std::vector<std::uint64_t> col(static_cast<std::size_t>(words));
   for (std::size_t c = 0; c < static_cast<std::size_t>(nx) * ny; ++c) {
     std::uint64_t* dst = bits.data() + c * words;
-    std::copy(dst, dst + words, col.begin());
-    const std::uint64_t* src = col.data();
+    const std::uint64_t* src = in.data() + c * words;
+    if (same) {
+      std::copy(src, src + words, col.begin());
+      src = col.data();
+    }
     for (int w = 0; w < words; ++w) {
       std::uint64_t v = src[w];
       for (int k = 1; k <= r; ++k) {
@@ -288,8 +295,7 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   const int seal_r = seal_gap_mm > 0 ? static_cast<int>(std::floor(seal_gap_mm / (2 * s.voxel_mm) + 1e-9)) : 0;
   std::vector<std::uint64_t> blocked_storage;
   if (seal_r > 0) {
-    blocked_storage = occ;
-    dilate(blocked_storage, nx, ny, words, seal_r);
+    dilate(occ, blocked_storage, nx, ny, words, seal_r);
     // The padding stays empty so that the outside surrounds everything.
     for (int y = 0; y < ny; ++y)
       for (int x = 0; x < nx; ++x) {
@@ -373,7 +379,7 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   }
   // The outside dilated back (when sealing) goes straight into filled_bits, then filled =
   // not (outside and not occupied).
-  if (seal_r > 0) dilate(out_bits, nx, ny, words, seal_r);
+  if (seal_r > 0) dilate(out_bits, out_bits, nx, ny, words, seal_r);
   s.filled_bits = std::move(out_bits);
   for (std::size_t c = 0; c < columns; ++c) {
     std::uint64_t* f = s.filled_bits.data() + c * static_cast<std::size_t>(words);
