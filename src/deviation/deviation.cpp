@@ -1,6 +1,7 @@
 // compute_deviation: the two-sided comparison of a deposit and a placed mesh.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <span>
 
 #include "printtwin/deviation.hpp"
@@ -98,16 +99,18 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   std::vector<double> dep_values, mesh_values;
   group(dep_samples, dep_begin, dep_values);
   group(mesh_samples, mesh_begin, mesh_values);
-  std::vector<double> layer_top(n_layers, 0.0);
-  std::vector<std::uint8_t> has_top(n_layers, 0);
+  // The highest surface voxel of each layer (a voxel's centre height grows with its z key).
+  std::vector<int> top_key(n_layers, std::numeric_limits<int>::min());
   for (std::size_t i = 0; i < dep_samples.size(); ++i) {
     const int layer = dep_samples[i].layer;
     if (layer < 0) continue;
-    const auto l = static_cast<std::size_t>(layer);
-    const double top = deposit.center_mm(surface.faces[i].voxel).z() + 0.5 * v;
-    layer_top[l] = has_top[l] != 0 ? std::max(layer_top[l], top) : top;
-    has_top[l] = 1;
+    int& t = top_key[static_cast<std::size_t>(layer)];
+    t = std::max(t, surface.faces[i].voxel.z);
   }
+  std::vector<double> layer_top(n_layers, 0.0);
+  for (std::size_t l = 0; l < n_layers; ++l)
+    if (top_key[l] != std::numeric_limits<int>::min())
+      layer_top[l] = deposit.center_mm(VoxelKey{0, 0, top_key[l]}).z() + 0.5 * v;
   for (std::size_t l = 0; l < n_layers; ++l) {
     if (dep_begin[l] == dep_begin[l + 1] && mesh_begin[l] == mesh_begin[l + 1]) continue;
     LayerDeviation ld;
