@@ -49,8 +49,14 @@ class MeshQuery {
   /// certain when the ball of that distance around it lies inside the query ball: then it
   /// is written to out[i]; otherwise out[i] is left empty (ask closest_point_within or
   /// closest_point). `out` is resized to points.size().
+  /// `scratch` holds the gathered candidates between calls (one per thread; its contents
+  /// mean nothing to the caller), so that a search over many cells allocates nothing.
+  struct BallScratch {
+    std::vector<std::uint32_t> ids;
+    std::vector<double> lo[3], hi[3];
+  };
   void closest_points_in_ball(const Vec3& center, double radius, std::span<const Vec3> points,
-                              std::vector<std::optional<ClosestPoint>>& out) const;
+                              std::vector<std::optional<ClosestPoint>>& out, BallScratch& scratch) const;
   /// Closest points of many query points, in parallel (TBB). `out` is resized.
   void closest_points(std::span<const Vec3> points, std::vector<ClosestPoint>& out) const;
 

@@ -125,27 +125,24 @@ bool offer(PointQueryState& st, std::uint32_t t) {
   return offer_unboxed(st, t);
 }
 
-/// The candidates of a ball query, their boxes as columns for the 4-wide box test.
-struct CandidateBoxes {
-  std::vector<std::uint32_t> ids;
-  std::vector<double> lo[3], hi[3];  // padded to a multiple of 4 with empty far boxes
-  void load(const std::vector<TriangleBounds>& bounds) {
-    const std::size_t n = ids.size(), m = (n + 3) & ~std::size_t{3};
-    for (int a = 0; a < 3; ++a) {
-      lo[a].resize(m);
-      hi[a].resize(m);
-    }
-    for (std::size_t k = 0; k < m; ++k)
-      for (int a = 0; a < 3; ++a) {
-        lo[a][k] = k < n ? static_cast<double>(bounds[ids[k]].lo[a]) : std::numeric_limits<double>::infinity();
-        hi[a][k] = k < n ? static_cast<double>(bounds[ids[k]].hi[a]) : std::numeric_limits<double>::infinity();
-      }
+/// The candidates of a ball query (`c.ids`), their boxes as columns for the 4-wide box
+/// test, padded to a multiple of 4 with empty far boxes.
+void load_boxes(MeshQuery::BallScratch& c, const std::vector<TriangleBounds>& bounds) {
+  const std::size_t n = c.ids.size(), m = (n + 3) & ~std::size_t{3};
+  for (int a = 0; a < 3; ++a) {
+    c.lo[a].resize(m);
+    c.hi[a].resize(m);
   }
-};
+  for (std::size_t k = 0; k < m; ++k)
+    for (int a = 0; a < 3; ++a) {
+      c.lo[a][k] = k < n ? static_cast<double>(bounds[c.ids[k]].lo[a]) : std::numeric_limits<double>::infinity();
+      c.hi[a][k] = k < n ? static_cast<double>(bounds[c.ids[k]].hi[a]) : std::numeric_limits<double>::infinity();
+    }
+}
 
 /// Offers every candidate whose box may win; the box test 4 at a time (same arithmetic as
 /// box_distance2, so the same candidates pass).
-void offer_candidates_default(PointQueryState& st, const CandidateBoxes& c) {
+void offer_candidates_default(PointQueryState& st, const MeshQuery::BallScratch& c) {
   for (std::size_t k = 0; k < c.ids.size(); ++k) {
     double box2 = 0;
     for (int a = 0; a < 3; ++a) {
@@ -156,7 +153,7 @@ void offer_candidates_default(PointQueryState& st, const CandidateBoxes& c) {
   }
 }
 #if defined(__x86_64__) && defined(__GNUC__)
-[[gnu::target("avx2")]] void offer_candidates_avx2(PointQueryState& st, const CandidateBoxes& c) {
+[[gnu::target("avx2")]] void offer_candidates_avx2(PointQueryState& st, const MeshQuery::BallScratch& c) {
   const std::size_t n = c.ids.size();
   const __m256d zero = _mm256_setzero_pd();
   const __m256d px = _mm256_set1_pd(st.p.x()), py = _mm256_set1_pd(st.p.y()), pz = _mm256_set1_pd(st.p.z());
@@ -186,7 +183,7 @@ void offer_candidates_default(PointQueryState& st, const CandidateBoxes& c) {
   }
 }
 #else
-void offer_candidates_avx2(PointQueryState& st, const CandidateBoxes& c) { offer_candidates_default(st, c); }
+void offer_candidates_avx2(PointQueryState& st, const MeshQuery::BallScratch& c) { offer_candidates_default(st, c); }
 #endif
 
 bool point_query_callback(RTCPointQueryFunctionArguments* args) {
@@ -319,14 +316,14 @@ std::optional<ClosestPoint> MeshQuery::closest_point_within(const Vec3& p, doubl
 }
 
 void MeshQuery::closest_points_in_ball(const Vec3& center, double radius, std::span<const Vec3> points,
-                                       std::vector<std::optional<ClosestPoint>>& out) const {
+                                       std::vector<std::optional<ClosestPoint>>& out,
+                                       BallScratch& boxes) const {
   out.assign(points.size(), std::nullopt);
-  thread_local CandidateBoxes boxes;
   std::vector<std::uint32_t>& candidates = boxes.ids;
   candidates.clear();
   run_point_query(impl_->scene, center - impl_->center, radius, gather_callback, &candidates);
   if (candidates.empty()) return;
-  boxes.load(impl_->bounds);
+  load_boxes(boxes, impl_->bounds);
   const bool avx2 = cpu_has_avx2();
   std::optional<std::uint32_t> hint;
   for (std::size_t i = 0; i < points.size(); ++i) {

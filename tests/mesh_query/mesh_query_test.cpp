@@ -61,13 +61,14 @@ TEST(MeshQuery, BallQueryGivesClosestPointsBitForBitOrNothing) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> u(1, 9), jitter(-0.1, 0.1), far(-2.0, 2.0);
   int vouched = 0, empty = 0;
+  MeshQuery::BallScratch scratch;
   for (int g = 0; g < 200; ++g) {
     const Vec3 c(u(rng), u(rng), jitter(rng));
     std::vector<Vec3> pts;
     for (int k = 0; k < 12; ++k) pts.push_back(c + Vec3(jitter(rng), jitter(rng), jitter(rng)));
     pts.push_back(c + Vec3(0, 0, far(rng)));  // often beyond the ball
     std::vector<std::optional<ClosestPoint>> out;
-    q->closest_points_in_ball(c, 0.3, pts, out);
+    q->closest_points_in_ball(c, 0.3, pts, out, scratch);
     ASSERT_EQ(out.size(), pts.size());
     for (std::size_t k = 0; k < pts.size(); ++k) {
       const ClosestPoint want = q->closest_point(pts[k]);
