@@ -219,12 +219,13 @@ void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Ve
   std::vector<std::uint32_t> order, group;
   if (cell_mm > 0) {
     detail::group_by_cell(points_mm, cell_mm, order, group);
-  } else {
+  } else {  // no expected distance: input order, in runs of 1024 for the threads
     order.resize(points_mm.size());
     for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<std::uint32_t>(i);
-    group = {0, static_cast<std::uint32_t>(points_mm.size())};
+    for (std::size_t i = 0; i < points_mm.size(); i += 1024) group.push_back(static_cast<std::uint32_t>(i));
+    group.push_back(static_cast<std::uint32_t>(points_mm.size()));
   }
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, group.size() - 1, 64),
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, group.size() - 1, cell_mm > 0 ? 64 : 1),
                     [&](const tbb::blocked_range<std::size_t>& r) {
     std::vector<Vec3> local;
     std::vector<std::optional<ClosestPoint>> batch;
