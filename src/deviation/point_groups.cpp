@@ -11,12 +11,19 @@ void group_by_cell(std::span<const Vec3> points, double cell_mm, std::vector<std
                    std::vector<std::uint32_t>& group) {
   const std::size_t n = points.size();
   Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity());
-  for (const Vec3& p : points) lo = lo.cwiseMin(p);
+  Vec3 hi = -lo;
+  for (const Vec3& p : points) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  // At most 1000 cells per axis (10 bits): a larger extent gets larger cells, never a
+  // catch-all last cell.
+  const double cell = n == 0 ? cell_mm : std::max(cell_mm, (hi - lo).maxCoeff() / 1000.0);
   std::vector<std::uint32_t> code(n);
   for (std::size_t i = 0; i < n; ++i) {
     std::uint32_t c[3];
     for (int a = 0; a < 3; ++a)
-      c[a] = static_cast<std::uint32_t>(std::clamp(std::floor((points[i][a] - lo[a]) / cell_mm), 0.0, 1023.0));
+      c[a] = static_cast<std::uint32_t>(std::clamp(std::floor((points[i][a] - lo[a]) / cell), 0.0, 1023.0));
     code[i] = (c[1] << 20) | (c[0] << 10) | c[2];
   }
   constexpr int kBits = 15;

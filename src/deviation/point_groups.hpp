@@ -12,8 +12,8 @@ namespace printtwin::detail {
 /// order within a cell), `group` the start of each cell's run in `order` (and the end).
 /// Cells go column by column (z fastest), like the deposit's faces, so reading points in
 /// this order streams through them instead of jumping. A stable two-pass radix sort of
-/// 30-bit cell codes (10 bits per axis; beyond 1024 cells an axis shares its last cell,
-/// which only makes that group larger).
+/// 30-bit cell codes (10 bits per axis: where the points span more than 1000 cells of
+/// `cell_mm`, the cells grow to their extent / 1000).
 void group_by_cell(std::span<const Vec3> points, double cell_mm, std::vector<std::uint32_t>& order,
                    std::vector<std::uint32_t>& group);
 

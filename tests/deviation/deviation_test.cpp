@@ -12,6 +12,7 @@
 #include <random>
 
 #include "deviation/deposit_surface_internal.hpp"
+#include "deviation/point_groups.hpp"
 #include "printtwin/deviation.hpp"
 #include "printtwin/mesh_query.hpp"
 #include "support/test_support.hpp"
@@ -179,6 +180,35 @@ TEST(DeviationSurface, AuxiliaryFeaturesAreIgnored) {
   std::set<std::uint32_t> lines;
   for (const auto& t : w.face_tags) lines.insert(t.line);
   EXPECT_EQ(lines, (std::set<std::uint32_t>{7U, 9U}));
+}
+
+TEST(DeviationPointGroups, CellsArePermutationsOfSmallGroupsEvenOnLongParts) {
+  // Points along a 300 mm bar (1500 cells of 0.2 mm: more than the 10 bits per axis hold)
+  // and 1 mm across: every point once, groups in input order inside, and no group wider
+  // than one cell (grown to 300 / 1000 mm, so that 10 bits per axis hold the bar).
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> along(0, 300), across(0, 1);
+  std::vector<Vec3> pts;
+  for (int i = 0; i < 20000; ++i) pts.emplace_back(along(rng), across(rng), across(rng));
+  std::vector<std::uint32_t> order, group;
+  detail::group_by_cell(pts, 0.2, order, group);
+  ASSERT_EQ(order.size(), pts.size());
+  std::vector<std::uint32_t> sorted = order;
+  std::sort(sorted.begin(), sorted.end());
+  for (std::size_t i = 0; i < sorted.size(); ++i) ASSERT_EQ(sorted[i], i);
+  ASSERT_GE(group.size(), 2U);
+  EXPECT_EQ(group.front(), 0U);
+  EXPECT_EQ(group.back(), pts.size());
+  for (std::size_t g = 0; g + 1 < group.size(); ++g) {
+    Box3 box;
+    for (std::uint32_t j = group[g]; j < group[g + 1]; ++j) {
+      box.extend(pts[order[j]]);
+      if (j > group[g]) {
+        EXPECT_LT(order[j - 1], order[j]);
+      }
+    }
+    EXPECT_LE(box.size().maxCoeff(), 0.3 + 1e-9) << g;
+  }
 }
 
 TEST(DeviationSurface, SealingClosesPinholesButNotOpenings) {
