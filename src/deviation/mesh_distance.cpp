@@ -28,6 +28,17 @@ struct PseudoNormals {
   /// Per triangle, per edge (v0v1, v1v2, v2v0): pseudo-normal and open flag.
   std::vector<std::array<Vec3, 3>> edge;
   std::vector<std::array<std::uint8_t, 3>> edge_open;
+  /// Per triangle, the lines of its edges in its plane (inward unit normal m and offset o:
+  /// m . q - o is q's distance from the edge's line, positive inside) and the feature test's
+  /// eps (1e-9 x the longest edge): a closest point farther than a few eps from all three
+  /// lines lies on no vertex and no edge, so the sign test needs only the face normal and
+  /// reads no vertex.
+  struct EdgeLines {
+    std::array<Vec3, 3> m;
+    std::array<double, 3> o{};
+    double eps = 0;
+  };
+  std::vector<EdgeLines> lines;
 
   explicit PseudoNormals(const Mesh& m) {
     const std::size_t nt = m.triangles.size();
@@ -36,6 +47,29 @@ struct PseudoNormals {
     vertex_open.assign(m.vertices_mm.size(), 0);
     edge.resize(nt);
     edge_open.assign(nt, {0, 0, 0});
+    lines.resize(nt);
+    for (std::size_t t = 0; t < nt; ++t) {
+      const auto& tri = m.triangles[t];
+      const std::array<Vec3, 3> v{m.vertices_mm[tri[0]], m.vertices_mm[tri[1]], m.vertices_mm[tri[2]]};
+      // The same eps as the full test in signed_from_closest.
+      lines[t].eps = 1e-9 * std::sqrt(std::max({(v[1] - v[0]).squaredNorm(), (v[2] - v[1]).squaredNorm(),
+                                                 (v[0] - v[2]).squaredNorm()}));
+      const Vec3 n = (v[1] - v[0]).cross(v[2] - v[0]);
+      for (int k = 0; k < 3; ++k) {
+        const Vec3& a = v[static_cast<std::size_t>(k)];
+        const Vec3& b = v[static_cast<std::size_t>((k + 1) % 3)];
+        const Vec3 inward = n.cross(b - a);  // in the plane, towards the third vertex
+        const double len = inward.norm();
+        auto& ln = lines[t];
+        if (!(len > 0) || !std::isfinite(len)) {  // degenerate: never certifies
+          ln.m[static_cast<std::size_t>(k)] = Vec3::Zero();
+          ln.o[static_cast<std::size_t>(k)] = std::numeric_limits<double>::infinity();
+          continue;
+        }
+        ln.m[static_cast<std::size_t>(k)] = inward / len;
+        ln.o[static_cast<std::size_t>(k)] = ln.m[static_cast<std::size_t>(k)].dot(a);
+      }
+    }
     // Edge uses sorted by their undirected key (cheaper than a hash map of vectors).
     struct EdgeUse {
       std::uint64_t key = 0;
@@ -151,6 +185,21 @@ double signed_from_closest(const Mesh& mesh, const MeshQuery& query, const Pseud
                            const ClosestPoint& cp) {
   const Vec3 dir = p - cp.point_mm;
   if (cp.distance_mm == 0) return 0.0;
+  {
+    // Clear of all three edge lines by 4 eps (plus the rounding of m . q - o): the full
+    // test below would find no vertex and no edge within eps, so the face decides.
+    const PseudoNormals::EdgeLines& ln = pn.lines[cp.triangle];
+    const Vec3& q = cp.point_mm;
+    const double round = 1e-13 * (1.0 + q.cwiseAbs().sum());
+    bool clear = true;
+    for (int k = 0; k < 3 && clear; ++k)
+      clear = ln.m[static_cast<std::size_t>(k)].dot(q) - ln.o[static_cast<std::size_t>(k)] >
+              4 * ln.eps + round + 1e-13 * std::abs(ln.o[static_cast<std::size_t>(k)]);
+    if (clear) {
+      const double s = dir.dot(pn.face[cp.triangle]);
+      if (s != 0 && std::isfinite(s)) return s > 0 ? cp.distance_mm : -cp.distance_mm;
+    }
+  }
   // Which feature holds the closest point: a vertex, an edge or the face interior.
   const auto& tri = mesh.triangles[cp.triangle];
   const std::array<Vec3, 3> v{mesh.vertices_mm[tri[0]], mesh.vertices_mm[tri[1]],
