@@ -660,9 +660,9 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
   const auto group_index = [&](const Eigen::Vector3i& g) {
     return (static_cast<std::size_t>(g.z()) * groups.y() + g.y()) * groups.x() + g.x();
   };
-  for (int z = 0; z < buckets.cells.z(); ++z)
-    for (int y = 0; y < buckets.cells.y(); ++y)
-      for (int x = 0; x < buckets.cells.x(); ++x) {
+  for (int y = 0; y < buckets.cells.y(); ++y)  // in the cells' memory order (z fastest)
+    for (int x = 0; x < buckets.cells.x(); ++x)
+      for (int z = 0; z < buckets.cells.z(); ++z) {
         const std::size_t ci = buckets.cell_index(Eigen::Vector3i(x, y, z));
         if (buckets.begin[ci] != buckets.begin[ci + 1])
           group_has[group_index(Eigen::Vector3i(x / kGroup, y / kGroup, z / kGroup))] = 1;

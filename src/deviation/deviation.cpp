@@ -48,10 +48,10 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   std::vector<double> d_dep;
   std::vector<std::uint32_t> dep_triangles;
   target.signed_distances(offset, face_points, std::max(4.0 * v, settings.tolerance_mm), d_dep, &dep_triangles);
-  std::vector<DeviationSample> dep_samples(face_points.size());
-  for (std::size_t i = 0; i < face_points.size(); ++i)
-    dep_samples[i] = {face_points[i], d_dep[i], surface.face_tags[i].layer, surface.face_tags[i].line,
-                      dep_triangles[i]};
+  const auto dep_sample = [&](std::size_t i) {
+    return DeviationSample{face_points[i], d_dep[i], surface.face_tags[i].layer, surface.face_tags[i].line,
+                           dep_triangles[i]};
+  };
 
   // Mesh -> deposit, from area-uniform samples (the target's when drawn alike).
   std::vector<SurfaceSample> own_samples;
@@ -70,11 +70,13 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   distances_to_deposit(surface, query_points, d_query, &nearest);
   const std::span<const double> d_mesh(d_query.data(), ns);
   out.vertex_deviation_mm.assign(d_query.begin() + static_cast<std::ptrdiff_t>(ns), d_query.end());
-  std::vector<DeviationSample> mesh_samples(ns);
-  for (std::size_t i = 0; i < ns; ++i) {
-    const VoxelTag tag = surface.faces.empty() ? VoxelTag{} : surface.face_tags[nearest[i]];
-    mesh_samples[i] = {query_points[i], d_mesh[i], tag.layer, tag.line, samples[i].triangle};
-  }
+  const auto mesh_tag = [&](std::size_t i) {
+    return surface.faces.empty() ? VoxelTag{} : surface.face_tags[nearest[i]];
+  };
+  const auto mesh_sample = [&](std::size_t i) {
+    const VoxelTag tag = mesh_tag(i);
+    return DeviationSample{query_points[i], d_mesh[i], tag.layer, tag.line, samples[i].triangle};
+  };
 
   out.deposit_to_mesh = deviation_stats(d_dep, settings.tolerance_mm);
   out.mesh_to_deposit = deviation_stats(d_mesh, settings.tolerance_mm);
@@ -84,25 +86,27 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   int max_layer = -1;
   for (const auto& t : surface.face_tags) max_layer = std::max(max_layer, static_cast<int>(t.layer));
   const auto n_layers = static_cast<std::size_t>(max_layer + 1);
-  const auto group = [&](const std::vector<DeviationSample>& list, std::vector<std::size_t>& begin,
-                         std::vector<double>& values) {
+  const auto group = [&](std::size_t n, const auto& layer_of, std::span<const double> d,
+                         std::vector<std::size_t>& begin, std::vector<double>& values) {
     begin.assign(n_layers + 1, 0);
-    for (const auto& x : list)
-      if (x.layer >= 0) ++begin[static_cast<std::size_t>(x.layer) + 1];
+    for (std::size_t i = 0; i < n; ++i)
+      if (const int l = layer_of(i); l >= 0) ++begin[static_cast<std::size_t>(l) + 1];
     for (std::size_t l = 0; l < n_layers; ++l) begin[l + 1] += begin[l];
     values.resize(begin[n_layers]);
     std::vector<std::size_t> fill(begin.begin(), begin.end() - 1);
-    for (const auto& x : list)
-      if (x.layer >= 0) values[fill[static_cast<std::size_t>(x.layer)]++] = x.distance_mm;
+    for (std::size_t i = 0; i < n; ++i)
+      if (const int l = layer_of(i); l >= 0) values[fill[static_cast<std::size_t>(l)]++] = d[i];
   };
   std::vector<std::size_t> dep_begin, mesh_begin;
   std::vector<double> dep_values, mesh_values;
-  group(dep_samples, dep_begin, dep_values);
-  group(mesh_samples, mesh_begin, mesh_values);
+  group(d_dep.size(), [&](std::size_t i) { return static_cast<int>(surface.face_tags[i].layer); }, d_dep,
+        dep_begin, dep_values);
+  group(ns, [&](std::size_t i) { return static_cast<int>(mesh_tag(i).layer); }, d_mesh, mesh_begin,
+        mesh_values);
   // The highest surface voxel of each layer (a voxel's centre height grows with its z key).
   std::vector<int> top_key(n_layers, std::numeric_limits<int>::min());
-  for (std::size_t i = 0; i < dep_samples.size(); ++i) {
-    const int layer = dep_samples[i].layer;
+  for (std::size_t i = 0; i < d_dep.size(); ++i) {
+    const int layer = surface.face_tags[i].layer;
     if (layer < 0) continue;
     int& t = top_key[static_cast<std::size_t>(layer)];
     t = std::max(t, surface.faces[i].voxel.z);
@@ -127,20 +131,40 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   // beyond the design.
   const double radius = settings.cluster_radius_mm > 0 ? settings.cluster_radius_mm
                                                        : std::max(2.0 * v, 3.0 * spacing);
+  // Only the out-of-tolerance samples are clustered (in sample order: the same regions as
+  // clustering all of them), so the full sample lists exist only when they are kept.
+  const auto out_of_tolerance = [&](std::size_t n, std::span<const double> d, double sign,
+                                    const auto& make) {
+    std::vector<DeviationSample> list;
+    for (std::size_t i = 0; i < n; ++i)
+      if (sign * d[i] > settings.tolerance_mm) list.push_back(make(i));
+    return list;
+  };
+  const std::vector<DeviationSample> mesh_out = out_of_tolerance(ns, d_mesh, -1.0, mesh_sample);
+  const std::vector<DeviationSample> dep_out = out_of_tolerance(d_dep.size(), d_dep, 1.0, dep_sample);
   std::vector<std::int32_t> missing_of, excess_of;
-  auto missing = cluster_regions(mesh_samples, settings.tolerance_mm, radius, spacing * spacing,
+  auto missing = cluster_regions(mesh_out, settings.tolerance_mm, radius, spacing * spacing,
                                  RegionKind::missing, settings.max_region_lines, &missing_of);
-  auto excess = cluster_regions(dep_samples, settings.tolerance_mm, radius, v * v, RegionKind::excess,
+  auto excess = cluster_regions(dep_out, settings.tolerance_mm, radius, v * v, RegionKind::excess,
                                 settings.max_region_lines, &excess_of);
   // Clusters below the minimum area are voxel noise: not regions, not in the gate figures.
   const auto is_noise = [&](const std::vector<DeviationRegion>& regions, std::int32_t r) {
     return r >= 0 && regions[static_cast<std::size_t>(r)].area_mm2 < settings.min_region_area_mm2;
   };
-  for (std::size_t i = 0; i < dep_samples.size(); ++i)
-    if (!is_noise(excess, excess_of[i])) out.max_excess_mm = std::max(out.max_excess_mm, dep_samples[i].distance_mm);
-  for (std::size_t i = 0; i < mesh_samples.size(); ++i)
-    if (!is_noise(missing, missing_of[i]))
-      out.max_deficit_mm = std::max(out.max_deficit_mm, -mesh_samples[i].distance_mm);
+  // Within tolerance: in no region. Out of it: counted unless its region is noise.
+  const auto max_within = [&](std::span<const double> d, double sign) {
+    double m = 0;
+    for (const double x : d)
+      if (!(sign * x > settings.tolerance_mm)) m = std::max(m, sign * x);
+    return m;
+  };
+  out.max_excess_mm = max_within(d_dep, 1.0);
+  for (std::size_t k = 0; k < dep_out.size(); ++k)
+    if (!is_noise(excess, excess_of[k])) out.max_excess_mm = std::max(out.max_excess_mm, dep_out[k].distance_mm);
+  out.max_deficit_mm = max_within(d_mesh, -1.0);
+  for (std::size_t k = 0; k < mesh_out.size(); ++k)
+    if (!is_noise(missing, missing_of[k]))
+      out.max_deficit_mm = std::max(out.max_deficit_mm, -mesh_out[k].distance_mm);
   for (auto* list : {&missing, &excess})
     for (auto& r : *list) {
       if (r.area_mm2 < settings.min_region_area_mm2) {
@@ -159,8 +183,10 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
     out.regions.resize(static_cast<std::size_t>(settings.max_regions));
 
   if (settings.keep_samples) {
-    out.deposit_samples = std::move(dep_samples);
-    out.mesh_samples = std::move(mesh_samples);
+    out.deposit_samples.resize(d_dep.size());
+    for (std::size_t i = 0; i < d_dep.size(); ++i) out.deposit_samples[i] = dep_sample(i);
+    out.mesh_samples.resize(ns);
+    for (std::size_t i = 0; i < ns; ++i) out.mesh_samples[i] = mesh_sample(i);
   }
   return out;
 }
