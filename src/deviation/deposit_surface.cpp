@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <memory>
 
 #include "core/bits.hpp"
 #include "deviation/deposit_surface_internal.hpp"
@@ -111,62 +112,55 @@ inline std::uint64_t transpose8(std::uint64_t x) {
 }
 
 /// Bit columns (nx * ny columns of `words` words, z bits) of `in` dilated by r voxels (a
-/// cube of 2r + 1) into `bits` (which may be `in` itself): separable, z by word shifts (read
-/// from `in`), then x, then y by OR of neighbouring columns, in place. Only a column, a row
-/// and r + 1 rows are copied aside: the region's arrays are tens to hundreds of MB, and each
-/// fresh one costs its page faults and zeroing.
+/// cube of 2r + 1) into `bits` (which may be `in` itself), in one pass over the rows: each
+/// row dilated along z (word shifts) and x (OR of neighbouring columns) goes into a ring of
+/// 2r + 1 rows, and row y is the OR of the ring's rows y - r .. y + r. The ring stays in
+/// cache; the region's arrays are tens to hundreds of MB and are read and written once.
+/// In place, row y + r is read before row y is written, so no input row is lost.
 void dilate(const std::vector<std::uint64_t>& in, std::vector<std::uint64_t>& bits, int nx, int ny, int words,
             int r) {
   const auto row_words = static_cast<std::size_t>(nx) * static_cast<std::size_t>(words);
-  const bool same = &in == &bits;
-  if (!same) bits.resize(in.size());
-  std::vector<std::uint64_t> col(static_cast<std::size_t>(words));
-  for (std::size_t c = 0; c < static_cast<std::size_t>(nx) * ny; ++c) {
-    std::uint64_t* dst = bits.data() + c * words;
-    const std::uint64_t* src = in.data() + c * words;
-    if (same) {
-      std::copy(src, src + words, col.begin());
-      src = col.data();
-    }
-    for (int w = 0; w < words; ++w) {
-      std::uint64_t v = src[w];
-      for (int k = 1; k <= r; ++k) {
-        // Up by k (bit z -> z + k) and down by k, with the bits crossing word borders.
-        v |= src[w] << k;
-        if (w > 0) v |= src[w - 1] >> (64 - k);
-        v |= src[w] >> k;
-        if (w + 1 < words) v |= src[w + 1] << (64 - k);
-      }
-      dst[w] = v;
-    }
-  }
-  // Along x, row by row, from a copy of the row.
-  std::vector<std::uint64_t> row(row_words);
-  for (int y = 0; y < ny; ++y) {
-    std::uint64_t* dst = bits.data() + static_cast<std::size_t>(y) * row_words;
-    std::copy(dst, dst + row_words, row.begin());
+  if (&in != &bits) bits.resize(in.size());
+  const int span = 2 * r + 1;
+  std::vector<std::uint64_t> ring(row_words * static_cast<std::size_t>(span));
+  std::vector<std::uint64_t> zrow(row_words);
+  const auto slot = [&](int y) { return ring.data() + static_cast<std::size_t>(y % span) * row_words; };
+  // Row y of `in` dilated along z then x, into `out`.
+  const auto zx_row = [&](int y, std::uint64_t* out) {
+    const std::uint64_t* row = in.data() + static_cast<std::size_t>(y) * row_words;
     for (int x = 0; x < nx; ++x) {
-      std::uint64_t* d = dst + static_cast<std::size_t>(x) * words;
+      const std::uint64_t* src = row + static_cast<std::size_t>(x) * words;
+      std::uint64_t* dst = zrow.data() + static_cast<std::size_t>(x) * words;
+      for (int w = 0; w < words; ++w) {
+        std::uint64_t v = src[w];
+        for (int k = 1; k <= r; ++k) {
+          // Up by k (bit z -> z + k) and down by k, with the bits crossing word borders.
+          v |= src[w] << k;
+          if (w > 0) v |= src[w - 1] >> (64 - k);
+          v |= src[w] >> k;
+          if (w + 1 < words) v |= src[w + 1] << (64 - k);
+        }
+        dst[w] = v;
+      }
+    }
+    for (int x = 0; x < nx; ++x) {
+      std::uint64_t* d = out + static_cast<std::size_t>(x) * words;
+      std::copy_n(zrow.data() + static_cast<std::size_t>(x) * words, words, d);
       for (int t = std::max(0, x - r); t <= std::min(nx - 1, x + r); ++t) {
         if (t == x) continue;
-        const std::uint64_t* q = row.data() + static_cast<std::size_t>(t) * words;
+        const std::uint64_t* q = zrow.data() + static_cast<std::size_t>(t) * words;
         for (int w = 0; w < words; ++w) d[w] |= q[w];
       }
     }
-  }
-  // Along y: row y becomes the OR of rows y - r .. y + r as they were; the r + 1 rows up to y
-  // are kept (a ring), the rows above y are not written yet.
-  std::vector<std::uint64_t> ring(row_words * static_cast<std::size_t>(r + 1));
-  const auto slot = [&](int y) { return ring.data() + static_cast<std::size_t>(y % (r + 1)) * row_words; };
+  };
+  int next = 0;  // the next row to go into the ring
   for (int y = 0; y < ny; ++y) {
+    for (; next < ny && next <= y + r; ++next) zx_row(next, slot(next));
     std::uint64_t* dst = bits.data() + static_cast<std::size_t>(y) * row_words;
-    std::copy(dst, dst + row_words, slot(y));
-    for (int t = std::max(0, y - r); t < y; ++t) {
+    const int t0 = std::max(0, y - r), t1 = std::min(ny - 1, y + r);
+    std::copy_n(slot(t0), row_words, dst);
+    for (int t = t0 + 1; t <= t1; ++t) {
       const std::uint64_t* q = slot(t);
-      for (std::size_t i = 0; i < row_words; ++i) dst[i] |= q[i];
-    }
-    for (int t = y + 1; t <= std::min(ny - 1, y + r); ++t) {
-      const std::uint64_t* q = bits.data() + static_cast<std::size_t>(t) * row_words;
       for (std::size_t i = 0; i < row_words; ++i) dst[i] |= q[i];
     }
   }
@@ -484,6 +478,10 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
                     [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
       const VoxelKey& k = s.faces[i].voxel;
+      if (i != r.begin() && s.faces[i - 1].voxel == k) {  // a voxel's faces are consecutive
+        s.face_tags[i] = s.face_tags[i - 1];
+        continue;
+      }
       const VoxelKey base{k.x - (k.x & (kE - 1)), k.y - (k.y & (kE - 1)), k.z - (k.z & (kE - 1))};
       const VoxelGrid::BlockView* b = directory[dir_index(base)];
       if (b == nullptr || !(b->base == base)) {  // not expected: faces are on gathered voxels
@@ -508,10 +506,11 @@ struct FaceBuckets {
   static constexpr std::size_t kPad = 4;  ///< entries past the end, so 4-wide loads stay inside
   Eigen::Vector3i cells = Eigen::Vector3i::Zero();
   std::vector<std::uint32_t> begin;  ///< per cell, into the columns
-  /// Faces sorted by cell (by index within a cell).
-  std::vector<double> cx, cy, cz;
-  std::vector<std::uint8_t> axis;
-  std::vector<std::uint32_t> face;
+  /// Faces sorted by cell (by index within a cell); every entry is written once, so the
+  /// columns are not zeroed first.
+  std::unique_ptr<double[]> cx, cy, cz;
+  std::unique_ptr<std::uint8_t[]> axis;
+  std::unique_ptr<std::uint32_t[]> face;
   double cell_mm = 0;
   Vec3 origin_mm = Vec3::Zero();
 
@@ -522,26 +521,30 @@ struct FaceBuckets {
     const std::size_t n = static_cast<std::size_t>(cells.x()) * cells.y() * cells.z();
     // A face goes to the cell of its voxel (its square lies in the voxel's box, so in the
     // cell's): integer arithmetic, and a column's faces fill neighbouring cells.
-    std::vector<std::uint32_t> cell_of(s.faces.size());
-    begin.assign(n + 1, 0);
-    for (std::size_t i = 0; i < s.faces.size(); ++i) {
+    const auto cell_of = [&](std::size_t i) {
       const VoxelKey& k = s.faces[i].voxel;
-      const Eigen::Vector3i c((k.x - s.origin_key.x) / kCell, (k.y - s.origin_key.y) / kCell,
-                              (k.z - s.origin_key.z) / kCell);
-      cell_of[i] = static_cast<std::uint32_t>(cell_index(c));
-      ++begin[cell_of[i] + 1];
-    }
+      return static_cast<std::uint32_t>(cell_index(Eigen::Vector3i((k.x - s.origin_key.x) / kCell,
+                                                                   (k.y - s.origin_key.y) / kCell,
+                                                                   (k.z - s.origin_key.z) / kCell)));
+    };
+    begin.assign(n + 1, 0);
+    for (std::size_t i = 0; i < s.faces.size(); ++i) ++begin[cell_of(i) + 1];
     for (std::size_t c = 0; c < n; ++c) begin[c + 1] += begin[c];
     const std::size_t m = s.faces.size() + kPad;
-    cx.resize(m);
-    cy.resize(m);
-    cz.resize(m);
-    axis.resize(m);
-    face.resize(m);
+    cx = std::make_unique_for_overwrite<double[]>(m);
+    cy = std::make_unique_for_overwrite<double[]>(m);
+    cz = std::make_unique_for_overwrite<double[]>(m);
+    axis = std::make_unique_for_overwrite<std::uint8_t[]>(m);
+    face = std::make_unique_for_overwrite<std::uint32_t[]>(m);
+    for (std::size_t k = s.faces.size(); k < m; ++k) {
+      cx[k] = cy[k] = cz[k] = 0;
+      axis[k] = 0;
+      face[k] = 0;
+    }
     // begin[c] serves as cell c's write cursor, which leaves it at the start of cell c + 1:
     // shifted back by one cell afterwards.
     for (std::size_t i = 0; i < s.faces.size(); ++i) {
-      const std::uint32_t k = begin[cell_of[i]]++;
+      const std::uint32_t k = begin[cell_of(i)]++;
       cx[k] = s.face_centers_mm[i].x();
       cy[k] = s.face_centers_mm[i].y();
       cz[k] = s.face_centers_mm[i].z();
@@ -601,15 +604,15 @@ void scan_faces_default(const FaceBuckets& b, std::uint32_t lo, std::uint32_t hi
   const __m256i ax0 = _mm256_setzero_si256(), ax1 = _mm256_set1_epi64x(1), ax2 = _mm256_set1_epi64x(2);
   for (std::uint32_t k = lo; k < hi; k += 4) {
     std::uint32_t a4 = 0;
-    std::memcpy(&a4, b.axis.data() + k, 4);
+    std::memcpy(&a4, b.axis.get() + k, 4);
     const __m256i a = _mm256_cvtepu8_epi64(_mm_cvtsi32_si128(static_cast<int>(a4)));
     // Per axis: max(0, |p - c| - h), h = 0 along the face's normal, else half.
     const __m256d hx = _mm256_andnot_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(a, ax0)), hv);
     const __m256d hy = _mm256_andnot_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(a, ax1)), hv);
     const __m256d hz = _mm256_andnot_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(a, ax2)), hv);
-    const __m256d dx = _mm256_andnot_pd(sign, _mm256_sub_pd(px, _mm256_loadu_pd(b.cx.data() + k)));
-    const __m256d dy = _mm256_andnot_pd(sign, _mm256_sub_pd(py, _mm256_loadu_pd(b.cy.data() + k)));
-    const __m256d dz = _mm256_andnot_pd(sign, _mm256_sub_pd(pz, _mm256_loadu_pd(b.cz.data() + k)));
+    const __m256d dx = _mm256_andnot_pd(sign, _mm256_sub_pd(px, _mm256_loadu_pd(b.cx.get() + k)));
+    const __m256d dy = _mm256_andnot_pd(sign, _mm256_sub_pd(py, _mm256_loadu_pd(b.cy.get() + k)));
+    const __m256d dz = _mm256_andnot_pd(sign, _mm256_sub_pd(pz, _mm256_loadu_pd(b.cz.get() + k)));
     const __m256d ex = _mm256_max_pd(zero, _mm256_sub_pd(dx, hx));
     const __m256d ey = _mm256_max_pd(zero, _mm256_sub_pd(dy, hy));
     const __m256d ez = _mm256_max_pd(zero, _mm256_sub_pd(dz, hz));

@@ -2,6 +2,8 @@
 #include "deviation/point_groups.hpp"
 
 #include <algorithm>
+#include <array>
+#include <tuple>
 #include <cmath>
 #include <limits>
 
@@ -26,19 +28,35 @@ void group_by_cell(std::span<const Vec3> points, double cell_mm, std::vector<std
       c[a] = static_cast<std::uint32_t>(std::clamp(std::floor((points[i][a] - lo[a]) / cell), 0.0, 1023.0));
     code[i] = (c[1] << 20) | (c[0] << 10) | c[2];
   }
-  constexpr int kBits = 15;
+  // A stable sort by code: by y cell first (a counting sort, skipped when the points come
+  // sorted that way, as a deposit's face centres do), then each y strip by its (x, z) code
+  // in two 10-bit passes whose counters stay in L1.
+  constexpr int kBits = 10;
   constexpr std::uint32_t kMask = (1U << kBits) - 1;
-  std::vector<std::uint32_t> tmp(n), count(kMask + 2);
   order.resize(n);
-  for (int pass = 0; pass < 2; ++pass) {
-    const int shift = pass * kBits;
-    std::fill(count.begin(), count.end(), 0);
-    for (std::size_t i = 0; i < n; ++i) ++count[((code[i] >> shift) & kMask) + 1];
+  std::vector<std::uint32_t> tmp(n);
+  std::array<std::uint32_t, kMask + 2> count{};
+  const auto digit = [&](std::uint32_t i, int shift) { return (code[i] >> shift) & kMask; };
+  bool y_sorted = true;
+  for (std::size_t i = 1; i < n && y_sorted; ++i) y_sorted = (code[i] >> 20) >= (code[i - 1] >> 20);
+  if (y_sorted) {
+    for (std::size_t i = 0; i < n; ++i) order[i] = static_cast<std::uint32_t>(i);
+  } else {
+    for (std::size_t i = 0; i < n; ++i) ++count[digit(static_cast<std::uint32_t>(i), 20) + 1];
     for (std::size_t k = 0; k <= kMask; ++k) count[k + 1] += count[k];
-    for (std::size_t j = 0; j < n; ++j) {
-      const std::uint32_t i = pass == 0 ? static_cast<std::uint32_t>(j) : tmp[j];
-      (pass == 0 ? tmp : order)[count[(code[i] >> shift) & kMask]++] = i;
+    for (std::size_t i = 0; i < n; ++i) order[count[digit(static_cast<std::uint32_t>(i), 20)]++] = static_cast<std::uint32_t>(i);
+  }
+  for (std::size_t lo_j = 0; lo_j < n;) {
+    std::size_t hi_j = lo_j + 1;
+    while (hi_j < n && (code[order[hi_j]] >> 20) == (code[order[lo_j]] >> 20)) ++hi_j;
+    // order[lo_j, hi_j) -> tmp by z, then back by x (stable: ties keep their order).
+    for (const auto& [from, to, shift] : {std::tuple{order.data(), tmp.data(), 0}, std::tuple{tmp.data(), order.data(), kBits}}) {
+      count.fill(0);
+      for (std::size_t j = lo_j; j < hi_j; ++j) ++count[digit(from[j], shift) + 1];
+      for (std::size_t k = 0; k <= kMask; ++k) count[k + 1] += count[k];
+      for (std::size_t j = lo_j; j < hi_j; ++j) to[lo_j + count[digit(from[j], shift)]++] = from[j];
     }
+    lo_j = hi_j;
   }
   group.clear();
   for (std::size_t j = 0; j < n; ++j)

@@ -81,8 +81,10 @@ std::vector<std::pair<std::size_t, double>> order_statistics_by_histogram(std::s
   bins.erase(std::unique(bins.begin(), bins.end()), bins.end());
   std::vector<std::vector<double>> values(bins.size());
   for (std::size_t k = 0; k < bins.size(); ++k) values[k].reserve(count[bins[k]]);
+  const std::size_t lowest = bins.front(), highest = bins.back();
   for (const double v : d) {
     const std::size_t b = abs_bits(v) >> kShift;
+    if (b < lowest || b > highest) continue;  // most values: in no bin of a rank
     for (std::size_t k = 0; k < bins.size(); ++k)
       if (bins[k] == b) values[k].push_back(std::abs(v));
   }
