@@ -127,6 +127,8 @@ class VoxelGrid {
   /// Occupancy words (8, one per z-slice) of block (bx, by, bz); nullptr when the block is
   /// unallocated or out of range.
   [[nodiscard]] const std::uint64_t* block_occupancy(int bx, int by, int bz) const;
+  /// Block (bx, by, bz) when it is allocated (and inside block_dims()).
+  [[nodiscard]] std::optional<BlockView> block_view(int bx, int by, int bz) const;
   /// Calls fn for every allocated block, in the fixed order of for_each (z, then y, then x).
   void visit_blocks(const std::function<void(const BlockView&)>& fn) const;
 

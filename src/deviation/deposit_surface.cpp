@@ -40,7 +40,6 @@ struct Run {
   std::int32_t z0 = 0, z1 = 0;
 };
 
-inline bool test_bit(const std::uint64_t* col, int z) { return (col[z >> 6] >> (z & 63)) & 1U; }
 
 /// First z >= from (below `nz`) whose bit equals `want`, or nz. Word at a time.
 inline int next_bit(const std::uint64_t* col, int words, int nz, int from, bool want) {
@@ -168,16 +167,26 @@ void dilate(const std::vector<std::uint64_t>& in, std::vector<std::uint64_t>& bi
 
 }  // namespace
 
-bool DepositSurface::filled(const Vec3& p_mm) const {
-  if (voxel_mm <= 0) return false;
-  const Vec3 q = (p_mm - origin_mm) / voxel_mm;
+namespace {
+/// The word of s.filled_bits holding p's voxel and the voxel's bit in it; nullptr when p is
+/// outside the region.
+const std::uint64_t* filled_word(const DepositSurface& s, const Vec3& p_mm, int& bit) {
+  if (s.voxel_mm <= 0) return nullptr;
+  const Vec3 q = (p_mm - s.origin_mm) / s.voxel_mm;
   const auto x = static_cast<long>(std::floor(q.x()));
   const auto y = static_cast<long>(std::floor(q.y()));
   const auto z = static_cast<long>(std::floor(q.z()));
-  if (x < 0 || y < 0 || z < 0 || x >= dims.x() || y >= dims.y() || z >= dims.z()) return false;
-  const long words = (dims.z() + 63) / 64;
-  const std::uint64_t* col = filled_bits.data() + (y * dims.x() + x) * words;
-  return test_bit(col, static_cast<int>(z));
+  if (x < 0 || y < 0 || z < 0 || x >= s.dims.x() || y >= s.dims.y() || z >= s.dims.z()) return nullptr;
+  const long words = (s.dims.z() + 63) / 64;
+  bit = static_cast<int>(z & 63);
+  return s.filled_bits.data() + (y * s.dims.x() + x) * words + (z >> 6);
+}
+}  // namespace
+
+bool DepositSurface::filled(const Vec3& p_mm) const {
+  int bit = 0;
+  const std::uint64_t* w = filled_word(*this, p_mm, bit);
+  return w != nullptr && ((*w >> bit) & 1U) != 0;
 }
 
 DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_mm, double seal_gap_mm) {
@@ -218,30 +227,21 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     return lo < hi && aux_before[hi] != aux_before[lo];
   };
   const bool avx2 = cpu_has_avx2();
-  // The grid visits blocks z-major; gathered column by column instead (all z-blocks of a
-  // column of blocks in a row), the 64 bit columns a block writes stay in cache.
+  // The region's blocks, column by column (the z-blocks of a column in a row), so the 64
+  // bit columns a block writes stay in cache.
   constexpr int kE = VoxelGrid::kBlockEdge;
   std::vector<VoxelGrid::BlockView> in_region;
-  grid.visit_blocks([&](const VoxelGrid::BlockView& b) {
-    const int bx = b.base.x - kmin.x, by = b.base.y - kmin.y, bz = b.base.z - kmin.z;
-    if (bx + kE <= 1 || by + kE <= 1 || bz + kE <= 1 || bx >= nx - 1 || by >= ny - 1 ||
-        bz >= nz - 1)
-      return;
-    in_region.push_back(b);
-  });
   {
-    const int nbx = (nx + 2 * kE) / kE + 2;
-    const auto column_block = [&](const VoxelGrid::BlockView& b) {
-      const int cx = (b.base.x - kmin.x + kE) / kE, cy = (b.base.y - kmin.y + kE) / kE;
-      return static_cast<std::size_t>(cy) * static_cast<std::size_t>(nbx) + static_cast<std::size_t>(cx);
-    };
-    const std::size_t nkeys = static_cast<std::size_t>(nbx) * static_cast<std::size_t>((ny + 2 * kE) / kE + 2);
-    std::vector<std::uint32_t> start(nkeys + 1, 0);
-    for (const auto& b : in_region) ++start[column_block(b) + 1];
-    for (std::size_t k = 0; k < nkeys; ++k) start[k + 1] += start[k];
-    std::vector<VoxelGrid::BlockView> sorted(in_region.size());
-    for (const auto& b : in_region) sorted[start[column_block(b)]++] = b;
-    in_region = std::move(sorted);
+    // Blocks meeting the region's interior (keys kmin + 1 .. kmin + n - 2 per axis); keys
+    // may be negative, so >> 3 (floor) gives the block.
+    static_assert(kE == 8);
+    const Eigen::Vector3i lo((kmin.x + 1) >> 3, (kmin.y + 1) >> 3, (kmin.z + 1) >> 3);
+    const Eigen::Vector3i hi((kmin.x + nx - 2) >> 3, (kmin.y + ny - 2) >> 3, (kmin.z + nz - 2) >> 3);
+    const Eigen::Vector3i dims = grid.block_dims();
+    for (int by = std::max(0, lo.y()); by <= std::min(dims.y() - 1, hi.y()); ++by)
+      for (int bx = std::max(0, lo.x()); bx <= std::min(dims.x() - 1, hi.x()); ++bx)
+        for (int bz = std::max(0, lo.z()); bz <= std::min(dims.z() - 1, hi.z()); ++bz)
+          if (const auto b = grid.block_view(bx, by, bz)) in_region.push_back(*b);
   }
   for (const VoxelGrid::BlockView& b : in_region) {
     const int bx = b.base.x - kmin.x, by = b.base.y - kmin.y, bz = b.base.z - kmin.z;
@@ -684,8 +684,21 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
     Vec3 prev_p = Vec3::Zero();
     double prev_d = std::numeric_limits<double>::infinity();
     for (std::size_t j = range.begin(); j != range.end(); ++j) {
+      // Points (say mesh samples in triangle order) and their result slots are scattered:
+      // fetched a few points ahead.
+      constexpr std::size_t kAhead = 8;
+      if (j + kAhead < range.end()) {
+        const std::size_t ahead = order[j + kAhead];
+        __builtin_prefetch(&points[ahead]);
+        __builtin_prefetch(&signed_mm[ahead], 1);
+        if (nearest_face != nullptr) __builtin_prefetch(&(*nearest_face)[ahead], 1);
+      }
       const std::size_t i = order[j];
       const Vec3& p = points[i];
+      {  // p's filled bit, read after the search
+        int bit = 0;
+        if (const std::uint64_t* w = filled_word(s, p, bit)) __builtin_prefetch(w);
+      }
       Nearest best;
       const double& best2 = best.d2;
       // Squared distance from p to a box of `size` at `lo`, widened by half a voxel (a face
