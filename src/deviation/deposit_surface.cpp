@@ -40,7 +40,6 @@ struct Run {
   std::int32_t z0 = 0, z1 = 0;
 };
 
-
 /// First z >= from (below `nz`) whose bit equals `want`, or nz. Word at a time.
 inline int next_bit(const std::uint64_t* col, int words, int nz, int from, bool want) {
   if (from >= nz) return nz;
