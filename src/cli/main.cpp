@@ -2,9 +2,6 @@
 // Each subcommand lives in its own cmd_<name>.cpp and registers itself in commands.hpp.
 #include <CLI/CLI.hpp>
 #include <clocale>
-#if defined(__GLIBC__)
-#include <malloc.h>
-#endif
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -12,6 +9,7 @@
 
 #include "cli/cli_common.hpp"
 #include "cli/commands.hpp"
+#include "printtwin/io.hpp"
 #include "printtwin/version.hpp"
 
 namespace printtwin::cli {
@@ -23,15 +21,7 @@ bool show_progress() {
 }  // namespace printtwin::cli
 
 int main(int argc, char** argv) {
-#if defined(__GLIBC__)
-  // One job per process, whose stages free and re-allocate many large temporary arrays
-  // (deviation bit columns, sample arrays, images; for compare, every variant's): keep freed
-  // blocks of up to 32 MiB in the process instead of returning them to the kernel and
-  // faulting them back in zeroed. Measured: compare sweep of the curved part sys 0.78 ->
-  // 0.45 s; verify of the benchmark part sys 1.3 -> 0.85 s; peak memory within 3 %.
-  mallopt(M_MMAP_THRESHOLD, 32 << 20);
-  mallopt(M_TRIM_THRESHOLD, 512 << 20);
-#endif
+  printtwin::tune_allocator_for_jobs();
   std::setlocale(LC_ALL, "C");  // numbers are read and written the same in every locale
   using namespace printtwin::cli;
   CLI::App app{"printtwin: a digital twin of an FDM printer. Checks a mesh, slices it, runs the\n"

@@ -1,6 +1,9 @@
 // Whole-file reads and atomic writes; locale-independent number formatting.
 #include "printtwin/io.hpp"
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 #include <algorithm>
 #include <array>
 #include <cerrno>
@@ -272,5 +275,14 @@ std::string sha256_hex(std::string_view bytes) {
 }
 
 std::string sha256_hex_portable(std::string_view bytes) { return sha256_hex_impl(bytes, false); }
+
+void tune_allocator_for_jobs() {
+#if defined(__GLIBC__)
+  // Measured (verify of the benchmark part): sys 1.3 -> 0.85 s; compare sweep of the curved
+  // part: sys 0.78 -> 0.45 s; peak memory within 3 %.
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);
+  mallopt(M_TRIM_THRESHOLD, 512 << 20);
+#endif
+}
 
 }  // namespace printtwin
