@@ -54,6 +54,7 @@ class MeshQuery {
   struct BallScratch {
     std::vector<std::uint32_t> ids;
     std::vector<double> lo[3], hi[3];
+    std::vector<double> corner[9];  ///< candidates' vertices a, b, c (x, y, z each)
   };
   void closest_points_in_ball(const Vec3& center, double radius, std::span<const Vec3> points,
                               std::vector<std::optional<ClosestPoint>>& out, BallScratch& scratch) const;

@@ -88,6 +88,59 @@ TEST(MeshQuery, BallQueryGivesClosestPointsBitForBitOrNothing) {
   EXPECT_GT(empty, 20);
 }
 
+TEST(MeshQuery, BallQueryOnATriangleSoupMatchesClosestPointInEveryRegion) {
+  // Small random triangles (every Voronoi region of a triangle gets points: corners, edges,
+  // interior) plus degenerate ones (a repeated vertex, three collinear vertices, a sliver),
+  // queried by balls: the ball query's candidates go through the 4-wide exact test where the
+  // CPU has AVX2, so its answers must be closest_point's (scalar) bit for bit, and both the
+  // brute force's.
+  Mesh m;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> pos(0, 4), edge(-0.4, 0.4);
+  const auto add = [&](const Vec3& a, const Vec3& b, const Vec3& c) {
+    const auto i = static_cast<std::uint32_t>(m.vertices_mm.size());
+    m.vertices_mm.push_back(a);
+    m.vertices_mm.push_back(b);
+    m.vertices_mm.push_back(c);
+    m.triangles.push_back({i, i + 1, i + 2});
+  };
+  for (int t = 0; t < 600; ++t) {
+    const Vec3 a(pos(rng), pos(rng), pos(rng));
+    const Vec3 b = a + Vec3(edge(rng), edge(rng), edge(rng));
+    switch (t % 10) {
+      case 0: add(a, a, b); break;                              // repeated vertex
+      case 1: add(a, b, a + 2.0 * (b - a)); break;              // collinear
+      case 2: add(a, b, b + Vec3(1e-12, 0, 0)); break;          // sliver
+      default: add(a, b, a + Vec3(edge(rng), edge(rng), edge(rng)));
+    }
+  }
+  auto q = MeshQuery::build(m);
+  ASSERT_TRUE(q.ok());
+  std::uniform_real_distribution<double> jitter(-0.3, 0.3);
+  MeshQuery::BallScratch scratch;
+  int vouched = 0;
+  for (int g = 0; g < 300; ++g) {
+    const Vec3 c(pos(rng), pos(rng), pos(rng));
+    std::vector<Vec3> pts;
+    for (int k = 0; k < 16; ++k) pts.push_back(c + Vec3(jitter(rng), jitter(rng), jitter(rng)));
+    std::vector<std::optional<ClosestPoint>> out;
+    q->closest_points_in_ball(c, 0.8, pts, out, scratch);
+    for (std::size_t k = 0; k < pts.size(); ++k) {
+      if (!out[k]) continue;
+      ++vouched;
+      const ClosestPoint want = q->closest_point(pts[k]);
+      EXPECT_EQ(out[k]->triangle, want.triangle) << g << " " << k;
+      EXPECT_EQ(out[k]->distance_mm, want.distance_mm) << g << " " << k;
+      EXPECT_EQ(out[k]->point_mm, want.point_mm) << g << " " << k;
+      // And both are the brute force's (slivers included: their plane is no bound).
+      const ClosestPoint bf = brute_force(m, pts[k]);
+      EXPECT_EQ(want.triangle, bf.triangle) << g << " " << k;
+      EXPECT_EQ(want.distance_mm, bf.distance_mm) << g << " " << k;
+    }
+  }
+  EXPECT_GT(vouched, 1000);
+}
+
 TEST(MeshQuery, KnownDistancesAndSigns) {
   const Mesh cube = test::make_cube_mm(10.0);
   auto q = MeshQuery::build(cube);
