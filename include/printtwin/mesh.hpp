@@ -55,6 +55,11 @@ struct MeshLoadOptions {
 [[nodiscard]] double surface_area_mm2(const Mesh& mesh);
 /// Unnormalised normal (cross product) of triangle `t`; its norm is twice the area.
 [[nodiscard]] Vec3 triangle_normal(const Mesh& mesh, std::size_t t);
+/// Whether triangle_normal(mesh, t) is a direction to rely on: false for slivers, whose cross
+/// product of nearly parallel edges is mostly rounding (|n| < 1e-6 x the longest edge
+/// squared: beyond that the direction's error, ~1e-16 L^2 / |n|, stays below 1e-10 rad), and
+/// for degenerate or non-finite triangles.
+[[nodiscard]] bool has_reliable_normal(const Mesh& mesh, std::size_t t);
 
 /// Moves the mesh as a slicer places it: lowest point at z = 0, bounding-box centre at
 /// (center_x_mm, center_y_mm).

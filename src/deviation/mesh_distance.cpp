@@ -55,13 +55,16 @@ struct PseudoNormals {
       lines[t].eps = 1e-9 * std::sqrt(std::max({(v[1] - v[0]).squaredNorm(), (v[2] - v[1]).squaredNorm(),
                                                  (v[0] - v[2]).squaredNorm()}));
       const Vec3 n = (v[1] - v[0]).cross(v[2] - v[0]);
+      // A sliver's computed normal is mostly rounding (as in MeshQuery's plane bound): its
+      // lines would be wrong, so they never certify and the full test decides.
+      const bool sliver = !has_reliable_normal(m, t);
       for (int k = 0; k < 3; ++k) {
         const Vec3& a = v[static_cast<std::size_t>(k)];
         const Vec3& b = v[static_cast<std::size_t>((k + 1) % 3)];
         const Vec3 inward = n.cross(b - a);  // in the plane, towards the third vertex
         const double len = inward.norm();
         auto& ln = lines[t];
-        if (!(len > 0) || !std::isfinite(len)) {  // degenerate: never certifies
+        if (sliver || !(len > 0) || !std::isfinite(len)) {  // degenerate: never certifies
           ln.m[static_cast<std::size_t>(k)] = Vec3::Zero();
           ln.o[static_cast<std::size_t>(k)] = std::numeric_limits<double>::infinity();
           continue;

@@ -1,4 +1,6 @@
 // Basic mesh measures and placement (no third-party code).
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 
@@ -17,6 +19,16 @@ Vec3 triangle_normal(const Mesh& mesh, std::size_t t) {
   const auto& tri = mesh.triangles[t];
   const Vec3& a = mesh.vertices_mm[tri[0]];
   return (mesh.vertices_mm[tri[1]] - a).cross(mesh.vertices_mm[tri[2]] - a);
+}
+
+bool has_reliable_normal(const Mesh& mesh, std::size_t t) {
+  const auto& tri = mesh.triangles[t];
+  const Vec3& a = mesh.vertices_mm[tri[0]];
+  const Vec3& b = mesh.vertices_mm[tri[1]];
+  const Vec3& c = mesh.vertices_mm[tri[2]];
+  const double longest2 = std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
+  const double len = triangle_normal(mesh, t).norm();
+  return std::isfinite(len) && len > 0 && len >= 1e-6 * longest2;
 }
 
 double signed_volume_mm3(const Mesh& mesh) {

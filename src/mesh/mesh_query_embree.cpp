@@ -357,12 +357,8 @@ Result<MeshQuery> MeshQuery::build(const Mesh& mesh) {
     const auto& tri = mesh.triangles[t];
     // A sliver's computed normal is not perpendicular to its edges (the cross product of
     // nearly parallel edges is mostly rounding), so its plane is no lower bound: a zero
-    // normal disables the plane test for it. |n| >= 1e-6 x the longest edge squared keeps
-    // the normal's direction error (~1e-16 L^2 / |n|) far inside the test's margin.
-    const double longest2 = std::max({(mesh.vertices_mm[tri[1]] - mesh.vertices_mm[tri[0]]).squaredNorm(),
-                                      (mesh.vertices_mm[tri[2]] - mesh.vertices_mm[tri[1]]).squaredNorm(),
-                                      (mesh.vertices_mm[tri[0]] - mesh.vertices_mm[tri[2]]).squaredNorm()});
-    const bool planar = len > 0 && std::isfinite(len) && len >= 1e-6 * longest2;
+    // normal disables the plane test for it.
+    const bool planar = has_reliable_normal(mesh, t);
     const Vec3 u = planar ? Vec3(n / len) : Vec3::Zero();
     TriangleBounds& b = impl->bounds[t];
     b.n[0] = u.x();

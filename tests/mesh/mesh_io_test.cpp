@@ -318,3 +318,24 @@ TEST_F(MeshIoTest, AsciiStlNumberForms) {
 
 }  // namespace
 }  // namespace printtwin
+
+namespace printtwin {
+namespace {
+
+TEST(MeshMeasures, SliversAndDegenerateTrianglesHaveNoReliableNormal) {
+  Mesh m;
+  m.vertices_mm = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0),   // a fair triangle
+                   Vec3(2, 0, 0), Vec3(3, 0, 1e-9), Vec3(4, 0, 0),  // a sliver (height 1e-9)
+                   Vec3(5, 0, 0), Vec3(6, 1, 1), Vec3(7, 2, 2),     // collinear
+                   Vec3(8, 0, 0), Vec3(8, 0, 0), Vec3(9, 1, 0),     // a repeated vertex
+                   Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0.5, 1e-5, 0)};  // thin but sound
+  for (std::uint32_t t = 0; t < 5; ++t) m.triangles.push_back({3 * t, 3 * t + 1, 3 * t + 2});
+  EXPECT_TRUE(has_reliable_normal(m, 0));
+  EXPECT_FALSE(has_reliable_normal(m, 1));
+  EXPECT_FALSE(has_reliable_normal(m, 2));
+  EXPECT_FALSE(has_reliable_normal(m, 3));
+  EXPECT_TRUE(has_reliable_normal(m, 4));
+}
+
+}  // namespace
+}  // namespace printtwin
