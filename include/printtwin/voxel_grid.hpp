@@ -154,6 +154,8 @@ class VoxelGrid {
 
  private:
   struct Impl;
+  /// The view of allocated block `b` at block coordinates (bx, by, bz).
+  [[nodiscard]] BlockView view_of_block(std::size_t b, int bx, int by, int bz) const;
   std::unique_ptr<Impl> impl_;
 };
 

@@ -398,6 +398,13 @@ const std::uint64_t* VoxelGrid::block_occupancy(int bx, int by, int bz) const {
   return d == kNoBlock ? nullptr : g.occ(d - 1);
 }
 
+VoxelGrid::BlockView VoxelGrid::view_of_block(std::size_t b, int bx, int by, int bz) const {
+  const Impl& g = *impl_;
+  return BlockView{VoxelKey{bx * kEdge, by * kEdge, bz * kEdge}, g.occ(b), g.tag_slots(b),
+                   g.bases[b], this, static_cast<std::uint32_t>(b), g.block_escapes[b] != 0,
+                   g.bases[b] + g.block_max[b]};
+}
+
 std::optional<VoxelGrid::BlockView> VoxelGrid::block_view(int bx, int by, int bz) const {
   const Impl& g = *impl_;
   if (bx < 0 || by < 0 || bz < 0 || bx >= g.block_dims.x() || by >= g.block_dims.y() ||
@@ -405,18 +412,17 @@ std::optional<VoxelGrid::BlockView> VoxelGrid::block_view(int bx, int by, int bz
     return std::nullopt;
   const std::uint32_t d = g.directory[g.dir_index(bx, by, bz)];
   if (d == kNoBlock) return std::nullopt;
-  const std::size_t b = d - 1;
-  return BlockView{VoxelKey{bx * kEdge, by * kEdge, bz * kEdge}, g.occ(b), g.tag_slots(b),
-                   g.bases[b], this, static_cast<std::uint32_t>(b), g.block_escapes[b] != 0,
-                   g.bases[b] + g.block_max[b]};
+  return view_of_block(d - 1, bx, by, bz);
 }
 
 void VoxelGrid::visit_blocks(const std::function<void(const BlockView&)>& fn) const {
   const Impl& g = *impl_;
   for (int bz = 0; bz < g.block_dims.z(); ++bz)
     for (int by = 0; by < g.block_dims.y(); ++by)
-      for (int bx = 0; bx < g.block_dims.x(); ++bx)
-        if (const auto view = block_view(bx, by, bz)) fn(*view);
+      for (int bx = 0; bx < g.block_dims.x(); ++bx) {
+        const std::uint32_t d = g.directory[g.dir_index(bx, by, bz)];
+        if (d != kNoBlock) fn(view_of_block(d - 1, bx, by, bz));
+      }
 }
 
 std::vector<VoxelKey> VoxelGrid::occupied_keys() const {
