@@ -162,10 +162,6 @@ void offer_candidates_default(PointQueryState& st, const MeshQuery::BallScratch&
   }
 }
 #if defined(__x86_64__) && defined(__GNUC__)
-/// closest_point_on_triangle for 4 candidates at once (columns k..k+3 of c.corner): every
-/// Voronoi region's answer is computed with the scalar code's operations in its order (no
-/// FMA in this target), then the region the scalar walk would take is selected, so each lane
-/// holds the scalar answer bit for bit. Writes q (x, y, z) and |q - p|^2 per lane.
 [[gnu::target("avx2")]] inline __m256d dot3_avx2(__m256d ux, __m256d uy, __m256d uz, __m256d vx, __m256d vy,
                                                  __m256d vz) {
   // (x x' + y y') + z z': the association of Eigen's 3-vector dot product.
@@ -190,6 +186,10 @@ struct Points4 {
   r.z = _mm256_blendv_pd(r.z, v.z, mask);
 }
 
+/// closest_point_on_triangle for 4 candidates at once (columns k..k+3 of c.corner): every
+/// Voronoi region's answer is computed with the scalar code's operations in its order (no
+/// FMA in this target), then the region the scalar walk would take is selected, so each lane
+/// holds the scalar answer bit for bit. Writes q (x, y, z) and |q - p|^2 per lane.
 [[gnu::target("avx2")]] void closest_points_4(const MeshQuery::BallScratch& c, std::size_t k, const Vec3& p,
                                               double qx[4], double qy[4], double qz[4], double d2[4]) {
   std::array<const double*, 9> col{};
@@ -235,11 +235,10 @@ struct Points4 {
   pick_avx2(r, along_avx2(a, _mm256_div_pd(d1, _mm256_sub_pd(d1, d3)), ab), r3);  // edge ab
   pick_avx2(r, b, r2);
   pick_avx2(r, a, r1);
-  const __m256d rx = r.x, ry = r.y, rz = r.z;
-  const __m256d ex = _mm256_sub_pd(rx, px), ey = _mm256_sub_pd(ry, py), ez = _mm256_sub_pd(rz, pz);
-  _mm256_storeu_pd(qx, rx);
-  _mm256_storeu_pd(qy, ry);
-  _mm256_storeu_pd(qz, rz);
+  const __m256d ex = _mm256_sub_pd(r.x, px), ey = _mm256_sub_pd(r.y, py), ez = _mm256_sub_pd(r.z, pz);
+  _mm256_storeu_pd(qx, r.x);
+  _mm256_storeu_pd(qy, r.y);
+  _mm256_storeu_pd(qz, r.z);
   _mm256_storeu_pd(d2, dot3_avx2(ex, ey, ez, ex, ey, ez));
 }
 
