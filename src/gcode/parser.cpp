@@ -342,6 +342,10 @@ Status parse_gcode_line(std::string_view text, long line, GcodeCommand& out) {
       // "X nan", "Xinf": letters right after a parameter letter.
       if (upper(*p) == 'N' || upper(*p) == 'I')
         return parse_error(text, line, std::string("value of ") + letter + " is not a number");
+      // "G1 Yabc": a move's axis needs a number, not more letters (a bare flag such as
+      // "G28 X Y" stands apart).
+      if (out.letter == 'G' && out.code <= 3)
+        return parse_error(text, line, std::string("expected a number after ") + letter + ", found '" + *p + "'");
     }
     const unsigned bit = static_cast<unsigned>(letter - 'A');
     out.present |= 1U << bit;

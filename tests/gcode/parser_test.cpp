@@ -90,6 +90,8 @@ TEST(GcodeParser, RejectsPlaceholdersNonFiniteAndGarbage) {
   EXPECT_NE(parse_fail("G1 X0 Y{machine_depth}").find("placeholder"), std::string::npos);
   EXPECT_NE(parse_fail("G1 Xnan").find("not a number"), std::string::npos);
   EXPECT_NE(parse_fail("G1 Xinf").find("not a number"), std::string::npos);
+  EXPECT_NE(parse_fail("G1 X20 Yabc E1").find("expected a number after Y, found 'a'"), std::string::npos);
+  EXPECT_NE(parse_fail("G0 XY").find("expected a number after X"), std::string::npos);
   EXPECT_NE(parse_fail("G1 X1e308").find("out of range"), std::string::npos);
   EXPECT_NE(parse_fail("G1 X1e400").find("out of range"), std::string::npos);
   EXPECT_NE(parse_fail("G1 X-").find("malformed number"), std::string::npos);
