@@ -18,6 +18,8 @@
 #include <utility>
 #include <vector>
 
+#include "printtwin/deposit.hpp"
+#include "printtwin/deviation.hpp"
 #include "printtwin/deviation_types.hpp"
 #include "printtwin/finding.hpp"
 #include "printtwin/geometry.hpp"
@@ -209,8 +211,36 @@ struct GcodeInput {
 [[nodiscard]] Result<SliceSettings> verify_slice_settings(const VerifySettings& settings,
                                                           std::vector<VerifyInput>* inputs);
 
-/// simulate -> deposit -> registration -> deviation -> region findings -> gates, for one
-/// G-code of a prepared part. The report's findings are the part's check findings, then the
+/// A G-code run on the twin and deposited: everything of a verification that does not need
+/// the mesh (so it can run beside prepare_part).
+struct PrintedGcode {
+  std::string name;                         ///< GcodeInput::name
+  std::string source = "file";              ///< GcodeInput::source
+  std::vector<VerifyInput> inputs;          ///< provenance (GcodeInput::inputs)
+  SimulationSummary simulation;
+  PartExtent extent;                        ///< the part's extrusions (registration)
+  DepositResult deposit;                    ///< its findings moved into `findings`
+  /// The slicer's findings, then the simulation's, then the deposit's.
+  std::vector<Finding> findings;
+  std::vector<StageTiming> timings;         ///< slice (printtwin slice), simulate, deposit
+};
+
+/// simulate -> deposit of one G-code. Errors: invalid G-code, or no extrusion of the part to
+/// register against without `settings.place_mm` (bad input); settings out of range (usage).
+/// `on_stage` (optional) is called with "simulate" and "deposit" as each starts.
+[[nodiscard]] Result<PrintedGcode> print_gcode(const PrinterProfile& printer, const VerifySettings& settings,
+                                               GcodeInput gcode,
+                                               const std::function<void(std::string_view)>& on_stage = {});
+
+/// registration -> deviation -> region findings -> gates of a printed G-code against a
+/// prepared part (the second half of verify_gcode). `on_stage` gets "deviation".
+[[nodiscard]] Result<VerifyReport> measure_printed(const PreparedPart& part, const PrinterProfile& printer,
+                                                   const VerifySettings& settings, PrintedGcode printed,
+                                                   bool include_part_timings = true,
+                                                   const std::function<void(std::string_view)>& on_stage = {});
+
+/// print_gcode then measure_printed: simulate -> deposit -> registration -> deviation ->
+/// region findings -> gates, for one G-code of a prepared part. The report's findings are the part's check findings, then the
 /// slicer's, the simulation's, the deposit's and one per deviation region; its timings are
 /// the part's (when `include_part_timings`) then slice, simulate, deposit, deviation.
 /// `on_stage` (optional) is called with "simulate", "deposit", "deviation" as each starts.

@@ -2,7 +2,10 @@
 // VerifyReport with gates and a verdict.
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <sstream>
+
+#include <tbb/task_group.h>
 
 #include "printtwin/check.hpp"
 #include "printtwin/deposit.hpp"
@@ -212,34 +215,19 @@ Result<GcodeInput> slice_for_verify(const PreparedPart& part, const PrinterProfi
   return g;
 }
 
-Result<VerifyReport> verify_gcode(const PreparedPart& part, const PrinterProfile& printer,
-                                  const VerifySettings& settings, GcodeInput gcode,
-                                  bool include_part_timings,
-                                  const std::function<void(std::string_view)>& on_stage) {
+Result<PrintedGcode> print_gcode(const PrinterProfile& printer, const VerifySettings& settings,
+                                 GcodeInput gcode, const std::function<void(std::string_view)>& on_stage) {
   auto stage = [&](std::string_view name) {
     if (on_stage) on_stage(name);
   };
   if (auto st = validate_verify_settings(settings); !st) return st.error();
-  VerifyReport report;
-  report.tool_version = kVersion;
-  report.settings = settings;
-  report.settings.gcode_source = gcode.source;
-  report.part_name = part.name;
-  report.inputs.push_back(part.mesh_input);
-  if (std::filesystem::exists(settings.printer)) {
-    auto printer_in = describe_input("printer", settings.printer);
-    if (!printer_in) return printer_in.error();
-    report.inputs.push_back(*printer_in);
-  } else {
-    report.inputs.push_back({"printer", settings.printer, "", 0});
-  }
-  for (auto& in : gcode.inputs) report.inputs.push_back(std::move(in));
-  if (include_part_timings) report.timings = part.timings;
-  if (gcode.source == "printtwin slice") report.timings.push_back({"slice", gcode.slice_time_s});
-  report.check = part.check;
-  report.findings = part.check_findings;
-  for (auto& f : gcode.findings) report.findings.push_back(std::move(f));
-  StageClock clock(report.timings);
+  PrintedGcode printed;
+  printed.name = gcode.name;
+  printed.source = gcode.source;
+  printed.inputs = std::move(gcode.inputs);
+  printed.findings = std::move(gcode.findings);
+  if (gcode.source == "printtwin slice") printed.timings.push_back({"slice", gcode.slice_time_s});
+  StageClock clock(printed.timings);
 
   // Simulate, collecting the moves.
   stage("simulate");
@@ -252,7 +240,7 @@ Result<VerifyReport> verify_gcode(const PreparedPart& part, const PrinterProfile
   }();
   if (!sim) return sim.error();
   {
-    SimulationSummary& s = report.simulation;
+    SimulationSummary& s = printed.simulation;
     s.slicer = gcode.source == "printtwin slice" ? std::string("printtwin") : sim->slicer;
     s.gcode_lines = static_cast<std::size_t>(sim->lines);
     s.moves = static_cast<std::size_t>(sim->moves);
@@ -263,23 +251,14 @@ Result<VerifyReport> verify_gcode(const PreparedPart& part, const PrinterProfile
     s.extruded_volume_mm3 = sim->filament_mm3;
     s.extrusion_bbox_mm = sim->extrusion_bounds_mm;
     count_severities(sim->findings, s.errors, s.warnings, s.infos);
-    report.findings.insert(report.findings.end(), sim->findings.begin(), sim->findings.end());
+    printed.findings.insert(printed.findings.end(), sim->findings.begin(), sim->findings.end());
   }
   clock.lap("simulate");
 
-  // Registration: where the slicer put the part.
-  const PartExtent extent = find_part_extent(collector.moves);
-  Vec3 offset = Vec3::Zero();
-  std::string method;
-  if (settings.place_mm) {
-    offset = *settings.place_mm;
-    method = "--place";
-  } else {
-    if (extent.moves == 0)
-      return bad_input("the G-code has no extrusion of the part to register the mesh against", gcode.name);
-    offset = registration_offset(part.mesh, extent);
-    method = "auto (" + extent.method + ")";
-  }
+  // Where the slicer put the part (the registration itself needs the mesh: measure_printed).
+  printed.extent = find_part_extent(collector.moves);
+  if (!settings.place_mm && printed.extent.moves == 0)
+    return bad_input("the G-code has no extrusion of the part to register the mesh against", gcode.name);
 
   // Deposit.
   stage("deposit");
@@ -288,24 +267,71 @@ Result<VerifyReport> verify_gcode(const PreparedPart& part, const PrinterProfile
   auto deposit = deposit_moves(collector.moves, printer, dep_settings);
   if (!deposit) return deposit.error();
   collector.moves = {};
-  report.deposit.voxel_mm = deposit->voxel_mm;
-  report.deposit.voxels = deposit->voxels;
-  report.deposit.volume_mm3 = deposit->volume_mm3;
-  report.deposit.extruded_volume_mm3 = deposit->extruded_mm3;
-  report.deposit.bbox_mm = deposit->bbox_mm;
-  report.deposit.part_bbox_mm = extent.bbox_mm;
-  report.deposit.memory_bytes = deposit->memory_bytes;
-  report.findings.insert(report.findings.end(), deposit->findings.begin(), deposit->findings.end());
+  printed.findings.insert(printed.findings.end(), deposit->findings.begin(), deposit->findings.end());
+  deposit->findings.clear();
+  printed.deposit = std::move(*deposit);
   clock.lap("deposit");
+  return printed;
+}
+
+Result<VerifyReport> measure_printed(const PreparedPart& part, const PrinterProfile& printer,
+                                     const VerifySettings& settings, PrintedGcode printed,
+                                     bool include_part_timings,
+                                     const std::function<void(std::string_view)>& on_stage) {
+  (void)printer;
+  if (auto st = validate_verify_settings(settings); !st) return st.error();
+  VerifyReport report;
+  report.tool_version = kVersion;
+  report.settings = settings;
+  report.settings.gcode_source = printed.source;
+  report.part_name = part.name;
+  report.inputs.push_back(part.mesh_input);
+  if (std::filesystem::exists(settings.printer)) {
+    auto printer_in = describe_input("printer", settings.printer);
+    if (!printer_in) return printer_in.error();
+    report.inputs.push_back(*printer_in);
+  } else {
+    report.inputs.push_back({"printer", settings.printer, "", 0});
+  }
+  for (auto& in : printed.inputs) report.inputs.push_back(std::move(in));
+  if (include_part_timings) report.timings = part.timings;
+  for (auto& t : printed.timings) report.timings.push_back(std::move(t));
+  report.check = part.check;
+  report.findings = part.check_findings;
+  for (auto& f : printed.findings) report.findings.push_back(std::move(f));
+  report.simulation = std::move(printed.simulation);
+  const DepositResult& deposit = printed.deposit;
+  const PartExtent& extent = printed.extent;
+  report.deposit.voxel_mm = deposit.voxel_mm;
+  report.deposit.voxels = deposit.voxels;
+  report.deposit.volume_mm3 = deposit.volume_mm3;
+  report.deposit.extruded_volume_mm3 = deposit.extruded_mm3;
+  report.deposit.bbox_mm = deposit.bbox_mm;
+  report.deposit.part_bbox_mm = extent.bbox_mm;
+  report.deposit.memory_bytes = deposit.memory_bytes;
+  StageClock clock(report.timings);
+
+  // Registration: where the slicer put the part.
+  Vec3 offset = Vec3::Zero();
+  std::string method;
+  if (settings.place_mm) {
+    offset = *settings.place_mm;
+    method = "--place";
+  } else {
+    if (extent.moves == 0)
+      return bad_input("the G-code has no extrusion of the part to register the mesh against", printed.name);
+    offset = registration_offset(part.mesh, extent);
+    method = "auto (" + extent.method + ")";
+  }
 
   // Deviation.
-  stage("deviation");
+  if (on_stage) on_stage("deviation");
   report.placed_mesh = translated(part.mesh, offset);
   const DeviationSettings dev_settings = deviation_settings_of(settings);
   // The part's prepared target (built once, shared by compare's variants), else one for
   // this call.
-  auto dev = part.target ? compute_deviation(*part.target, offset, deposit->grid, dev_settings, extent.bbox_mm)
-                         : compute_deviation(report.placed_mesh, deposit->grid, dev_settings, extent.bbox_mm);
+  auto dev = part.target ? compute_deviation(*part.target, offset, deposit.grid, dev_settings, extent.bbox_mm)
+                         : compute_deviation(report.placed_mesh, deposit.grid, dev_settings, extent.bbox_mm);
   if (!dev) return dev.error();
   report.deviation = std::move(*dev);
   report.deviation.registration_offset_mm = offset;
@@ -319,6 +345,15 @@ Result<VerifyReport> verify_gcode(const PreparedPart& part, const PrinterProfile
   return report;
 }
 
+Result<VerifyReport> verify_gcode(const PreparedPart& part, const PrinterProfile& printer,
+                                  const VerifySettings& settings, GcodeInput gcode,
+                                  bool include_part_timings,
+                                  const std::function<void(std::string_view)>& on_stage) {
+  auto printed = print_gcode(printer, settings, std::move(gcode), on_stage);
+  if (!printed) return printed.error();
+  return measure_printed(part, printer, settings, std::move(*printed), include_part_timings, on_stage);
+}
+
 Result<VerifyReport> verify(const VerifyOptions& options) {
   const VerifySettings& settings = options.settings;
   if (auto st = validate_verify_settings(settings); !st) return st.error();
@@ -327,19 +362,32 @@ Result<VerifyReport> verify(const VerifyOptions& options) {
                        "drop --gcode or the settings");
   auto printer = load_printer_profile(settings.printer);
   if (!printer) return printer.error();
+  if (!options.gcode_path.empty()) {
+    // The part's side (load, index, check) and the G-code's side (read, simulate, deposit)
+    // need nothing from each other: they run side by side. A bad mesh is reported before a
+    // bad G-code, as when they ran one after the other.
+    std::optional<Result<PreparedPart>> part;
+    std::optional<Result<PrintedGcode>> printed;
+    tbb::task_group both;
+    both.run([&] { part.emplace(prepare_part(options.mesh_path, *printer, settings)); });
+    both.run([&] {
+      auto gcode = read_gcode_input(options.gcode_path);
+      if (!gcode) printed.emplace(gcode.error());
+      else printed.emplace(print_gcode(*printer, settings, std::move(*gcode)));
+    });
+    both.wait();
+    if (!*part) return part->error();
+    if (!*printed) return printed->error();
+    return measure_printed(**part, *printer, settings, std::move(**printed));
+  }
   auto part = prepare_part(options.mesh_path, *printer, settings);
   if (!part) return part.error();
-  Result<GcodeInput> gcode = [&]() -> Result<GcodeInput> {
-    if (!options.gcode_path.empty()) return read_gcode_input(options.gcode_path);
-    std::vector<VerifyInput> ini_inputs;
-    auto slice_settings = verify_slice_settings(settings, &ini_inputs);
-    if (!slice_settings) return slice_settings.error();
-    auto g = slice_for_verify(*part, *printer, *slice_settings);
-    if (!g) return g.error();
-    g->inputs.insert(g->inputs.begin(), ini_inputs.begin(), ini_inputs.end());
-    return g;
-  }();
+  std::vector<VerifyInput> ini_inputs;
+  auto slice_settings = verify_slice_settings(settings, &ini_inputs);
+  if (!slice_settings) return slice_settings.error();
+  auto gcode = slice_for_verify(*part, *printer, *slice_settings);
   if (!gcode) return gcode.error();
+  gcode->inputs.insert(gcode->inputs.begin(), ini_inputs.begin(), ini_inputs.end());
   return verify_gcode(*part, *printer, settings, std::move(*gcode));
 }
 

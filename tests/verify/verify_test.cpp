@@ -197,5 +197,58 @@ TEST(VerifyLibrary, ReportJsonIsDeterministicApartFromTimings) {
   EXPECT_EQ(a->gates[0].name, "no_error_findings");
 }
 
+TEST(VerifyLibrary, SideBySideHalvesGiveTheReportOfTheSequentialPipeline) {
+  // verify() runs the part's side and the G-code's side concurrently; the same steps run
+  // one after the other (prepare_part, print_gcode, measure_printed) give the same report.
+  const auto dir = test::temp_dir("verify_halves");
+  VerifyOptions options;
+  options.mesh_path = cube10_stl(dir);
+  options.gcode_path = test::source_path("samples/gcode/prusa_cube10.gcode");
+  options.settings.voxel_mm = 0.1;
+  options.settings.gates.tolerance_mm = 0.3;
+  auto together = verify(options);
+  ASSERT_TRUE(together.ok()) << together.error().describe();
+
+  auto printer = load_printer_profile(options.settings.printer);
+  ASSERT_TRUE(printer.ok());
+  auto part = prepare_part(options.mesh_path, *printer, options.settings);
+  ASSERT_TRUE(part.ok());
+  auto gcode = read_gcode_input(options.gcode_path);
+  ASSERT_TRUE(gcode.ok());
+  auto printed = print_gcode(*printer, options.settings, std::move(*gcode));
+  ASSERT_TRUE(printed.ok()) << printed.error().describe();
+  EXPECT_GT(printed->deposit.voxels, 1000U);
+  EXPECT_GT(printed->extent.moves, 0U);
+  auto apart = measure_printed(*part, *printer, options.settings, std::move(*printed));
+  ASSERT_TRUE(apart.ok());
+  // The stages are timed in the same order: part's, then the G-code's, then the deviation.
+  std::vector<std::string> stages_together, stages_apart;
+  for (const auto& t : together->timings) stages_together.push_back(t.stage);
+  for (const auto& t : apart->timings) stages_apart.push_back(t.stage);
+  EXPECT_EQ(stages_together, stages_apart);
+  EXPECT_EQ(stages_together, (std::vector<std::string>{"load", "index", "check", "simulate", "deposit", "deviation"}));
+  together->timings.clear();
+  apart->timings.clear();
+  EXPECT_EQ(verify_report_json(*together), verify_report_json(*apart));
+}
+
+TEST(VerifyLibrary, ABadMeshIsReportedBeforeABadGcode) {
+  const auto dir = test::temp_dir("verify_both_bad");
+  ASSERT_TRUE(write_file_atomic(dir / "bad.stl", "solid x\nfacet normal 0 0 1\n hello\n").ok());
+  ASSERT_TRUE(write_file_atomic(dir / "bad.gcode", "G28\nG1 X10 Y10 Z0.2 E1\n").ok());
+  VerifyOptions options;
+  options.mesh_path = dir / "bad.stl";
+  options.gcode_path = dir / "missing.gcode";
+  auto r = verify(options);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().describe().find("bad.stl"), std::string::npos) << r.error().describe();
+  // A good mesh with G-code that lays nothing of the part: the G-code's error.
+  options.mesh_path = cube10_stl(dir);
+  options.gcode_path = dir / "bad.gcode";
+  r = verify(options);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().describe().find("bad.gcode"), std::string::npos) << r.error().describe();
+}
+
 }  // namespace
 }  // namespace printtwin
