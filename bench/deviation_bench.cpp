@@ -158,8 +158,8 @@ struct Hash {
       add(x);
     add(s.samples);
   }
-  void add(const std::vector<DeviationSample>& list) {
-    for (const auto& x : list) {
+  void add(const DeviationSamples& list) {
+    for (const DeviationSample x : list) {
       add(x.position_mm);
       add(x.distance_mm);
       add(x.layer);

@@ -94,7 +94,8 @@ void BM_RenderIsoView(benchmark::State& state) {
   const auto& r = big_report();
   auto query = MeshQuery::build(r.placed_mesh);
   SurfaceDeviationField field;
-  field.samples = r.deviation.mesh_samples;
+  field.sample_positions_mm = r.deviation.mesh_samples.positions_mm;
+  field.sample_distances_mm = r.deviation.mesh_samples.distances_mm;
   field.vertex_deviation_mm = r.deviation.vertex_deviation_mm;
   field.sample_spacing_mm = r.settings.mesh_sample_spacing_mm;
   const auto scale = make_color_scale(r.deviation);

@@ -2,11 +2,14 @@
 // Value types of the deviation stage (deviation.hpp computes them, report.hpp writes them).
 // Signed distances: positive = material outside the designed part (excess), negative =
 // inside it / missing (deficit). Millimetres.
+#include <cstddef>
 #include <cstdint>
+#include <iterator>
 #include <string>
 #include <vector>
 
 #include "printtwin/geometry.hpp"
+#include "printtwin/voxel_grid.hpp"
 
 namespace printtwin {
 
@@ -31,6 +34,50 @@ struct DeviationSample {
   /// Mesh triangle: of the closest point (deposit -> mesh) or the one the sample lies on
   /// (mesh -> deposit); UINT32_MAX when unknown.
   std::uint32_t triangle = 0xFFFFFFFFu;
+};
+
+/// The samples of one direction as columns: row i of every column is sample i. The stage
+/// computes its figures in these arrays and keeps them as they are (no per-sample copy:
+/// 2.9 M deposit samples would be 140 MB more). Rows read as DeviationSample values.
+struct DeviationSamples {
+  std::vector<Vec3> positions_mm;        ///< DeviationSample::position_mm
+  std::vector<double> distances_mm;      ///< DeviationSample::distance_mm
+  std::vector<VoxelTag> tags;            ///< nearest deposit voxel's tag (layer, line)
+  std::vector<std::uint32_t> triangles;  ///< DeviationSample::triangle
+
+  [[nodiscard]] std::size_t size() const { return distances_mm.size(); }
+  [[nodiscard]] bool empty() const { return distances_mm.empty(); }
+  [[nodiscard]] DeviationSample operator[](std::size_t i) const {
+    return {positions_mm[i], distances_mm[i], tags[i].layer, tags[i].line, triangles[i]};
+  }
+  void push_back(const DeviationSample& s) {
+    positions_mm.push_back(s.position_mm);
+    distances_mm.push_back(s.distance_mm);
+    tags.push_back(VoxelTag{s.line, s.layer, Feature::unknown});
+    triangles.push_back(s.triangle);
+  }
+  void clear() { *this = {}; }
+
+  /// Iterates the rows as DeviationSample values.
+  class const_iterator {
+   public:
+    using iterator_category = std::input_iterator_tag;
+    using value_type = DeviationSample;
+    using difference_type = std::ptrdiff_t;
+    using pointer = void;
+    using reference = DeviationSample;
+    const_iterator(const DeviationSamples* set, std::size_t i) : set_(set), i_(i) {}
+    DeviationSample operator*() const { return (*set_)[i_]; }
+    const_iterator& operator++() { return ++i_, *this; }
+    const_iterator operator++(int) { const_iterator old = *this; ++i_; return old; }
+    bool operator==(const const_iterator& o) const { return i_ == o.i_; }
+
+   private:
+    const DeviationSamples* set_;
+    std::size_t i_;
+  };
+  [[nodiscard]] const_iterator begin() const { return {this, 0}; }
+  [[nodiscard]] const_iterator end() const { return {this, size()}; }
 };
 
 struct LayerDeviation {
@@ -58,8 +105,8 @@ struct DeviationResult {
   double tolerance_mm = 0.2;
   DeviationStats deposit_to_mesh;
   DeviationStats mesh_to_deposit;
-  std::vector<DeviationSample> deposit_samples;  ///< deposit outer surface -> mesh
-  std::vector<DeviationSample> mesh_samples;     ///< mesh surface -> deposit
+  DeviationSamples deposit_samples;  ///< deposit outer surface -> mesh (DeviationSettings::keep_samples)
+  DeviationSamples mesh_samples;     ///< mesh surface -> deposit (DeviationSettings::keep_samples)
   std::vector<LayerDeviation> per_layer;
   std::vector<DeviationRegion> regions;      ///< largest first
   /// Gate figures (>= 0): the largest excess (deposit outside the design) and the largest

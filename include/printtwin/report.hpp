@@ -116,7 +116,8 @@ struct HeatmapView {
 /// (mesh -> deposit direction) where they are dense enough, per-vertex deviation
 /// (barycentric interpolation) elsewhere.
 struct SurfaceDeviationField {
-  std::span<const DeviationSample> samples;   ///< mesh-surface samples (may be empty)
+  std::span<const Vec3> sample_positions_mm;     ///< mesh-surface samples (may be empty)
+  std::span<const double> sample_distances_mm;   ///< their signed deviation (same size)
   std::span<const double> vertex_deviation_mm;  ///< per mesh vertex (may be empty)
   double sample_spacing_mm = 0;  ///< typical sample spacing (0: estimated from the area)
 };

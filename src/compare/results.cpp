@@ -24,15 +24,15 @@ DirectionFigures direction_figures(const DeviationStats& s) {
 }
 
 // RMS over the samples whose nearest mesh triangle is sloped.
-void slope_figures(DirectionFigures& f, std::span<const DeviationSample> samples,
+void slope_figures(DirectionFigures& f, std::span<const double> distances_mm,
                    std::span<const std::uint32_t> triangle, std::span<const std::uint8_t> sloped) {
-  if (sloped.empty() || triangle.size() != samples.size()) return;
+  if (sloped.empty() || triangle.size() != distances_mm.size()) return;
   double sum_sq = 0;
   std::size_t n = 0;
-  for (std::size_t i = 0; i < samples.size(); ++i) {
+  for (std::size_t i = 0; i < distances_mm.size(); ++i) {
     const std::uint32_t t = triangle[i];
     if (t >= sloped.size() || sloped[t] == 0) continue;
-    sum_sq += samples[i].distance_mm * samples[i].distance_mm;
+    sum_sq += distances_mm[i] * distances_mm[i];
     ++n;
   }
   f.slope_samples = n;
@@ -106,8 +106,8 @@ VariantResult summarize_variant(const VariantSpec& spec, const VerifyReport& rep
   const auto& dev = report.deviation;
   r.deposit_to_mesh = direction_figures(dev.deposit_to_mesh);
   r.mesh_to_deposit = direction_figures(dev.mesh_to_deposit);
-  slope_figures(r.deposit_to_mesh, dev.deposit_samples, deposit_triangle, slope_of_triangle);
-  slope_figures(r.mesh_to_deposit, dev.mesh_samples, mesh_triangle, slope_of_triangle);
+  slope_figures(r.deposit_to_mesh, dev.deposit_samples.distances_mm, deposit_triangle, slope_of_triangle);
+  slope_figures(r.mesh_to_deposit, dev.mesh_samples.distances_mm, mesh_triangle, slope_of_triangle);
   r.rms_mm = combined_rms_mm(r.deposit_to_mesh.rms_mm, r.mesh_to_deposit.rms_mm);
   r.slope_rms_mm = combined_rms_mm(r.deposit_to_mesh.slope_rms_mm, r.mesh_to_deposit.slope_rms_mm);
 

@@ -43,13 +43,12 @@ Result<SliceSettings> slice_settings_of(const VariantSpec& spec) {
 // Mesh triangle of each sample: the one the deviation stage found (the closest point of a
 // deposit sample, the triangle a mesh sample lies on); through the shared BVH for a sample
 // that has none. The BVH is in the mesh's own frame, so queries subtract the offset.
-std::vector<std::uint32_t> sample_triangles(const MeshQuery& query, std::span<const DeviationSample> samples,
+std::vector<std::uint32_t> sample_triangles(const MeshQuery& query, const DeviationSamples& samples,
                                             const Vec3& offset_mm, double near_mm) {
-  std::vector<std::uint32_t> out(samples.size());
-  for (std::size_t i = 0; i < samples.size(); ++i) {
-    out[i] = samples[i].triangle;
+  std::vector<std::uint32_t> out = samples.triangles;
+  for (std::size_t i = 0; i < out.size(); ++i) {
     if (out[i] != DeviationSample{}.triangle) continue;
-    const Vec3 p = samples[i].position_mm - offset_mm;
+    const Vec3 p = samples.positions_mm[i] - offset_mm;
     if (auto cp = query.closest_point_within(p, near_mm)) out[i] = cp->triangle;
     else out[i] = query.closest_point(p).triangle;
   }

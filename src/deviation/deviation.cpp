@@ -37,7 +37,7 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   region.extend(part_box_mm);
   region.min -= Vec3::Constant(settings.region_margin_mm);
   region.max += Vec3::Constant(settings.region_margin_mm);
-  const DepositSurface surface = extract_outer_surface(deposit, region, settings.seal_gap_mm);
+  DepositSurface surface = extract_outer_surface(deposit, region, settings.seal_gap_mm);
   out.deposit_volume_mm3 = static_cast<double>(surface.occupied_voxels) * v * v * v;
   out.surface_faces = surface.faces.size();
   for (std::size_t i = 0; i < surface.faces.size(); ++i)  // a voxel's faces are consecutive
@@ -182,11 +182,23 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   if (settings.max_regions >= 0 && out.regions.size() > static_cast<std::size_t>(settings.max_regions))
     out.regions.resize(static_cast<std::size_t>(settings.max_regions));
 
-  if (settings.keep_samples) {
-    out.deposit_samples.resize(d_dep.size());
-    for (std::size_t i = 0; i < d_dep.size(); ++i) out.deposit_samples[i] = dep_sample(i);
-    out.mesh_samples.resize(ns);
-    for (std::size_t i = 0; i < ns; ++i) out.mesh_samples[i] = mesh_sample(i);
+  if (settings.keep_samples) {  // the arrays computed above become the columns, no copy
+    DeviationSamples& ms = out.mesh_samples;
+    ms.tags.resize(ns);
+    ms.triangles.resize(ns);
+    for (std::size_t i = 0; i < ns; ++i) {
+      ms.tags[i] = mesh_tag(i);
+      ms.triangles[i] = samples[i].triangle;
+    }
+    query_points.resize(ns);
+    ms.positions_mm = std::move(query_points);
+    d_query.resize(ns);
+    ms.distances_mm = std::move(d_query);
+    DeviationSamples& ds = out.deposit_samples;
+    ds.positions_mm = std::move(surface.face_centers_mm);
+    ds.distances_mm = std::move(d_dep);
+    ds.tags = std::move(surface.face_tags);
+    ds.triangles = std::move(dep_triangles);
   }
   return out;
 }

@@ -43,14 +43,13 @@ std::string tick_label(double v) {
 
 }  // namespace
 
-std::string histogram_svg(const std::vector<DeviationSample>& samples, const DeviationColorScale& scale,
+std::string histogram_svg(std::span<const double> distances_mm, const DeviationColorScale& scale,
                           int bins, std::string_view title) {
   bins = std::clamp(bins, 4, 400);
   const double range = scale.range_mm, tol = scale.tolerance_mm;
   std::vector<std::size_t> counts(static_cast<std::size_t>(bins), 0);
   std::size_t total = 0, below = 0, above = 0;
-  for (const auto& s : samples) {
-    const double d = s.distance_mm;
+  for (const double d : distances_mm) {
     if (!std::isfinite(d)) continue;
     ++total;
     if (d < -range) ++below;

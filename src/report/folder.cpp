@@ -40,7 +40,8 @@ Result<ReportAssets> render_report_assets(const VerifyReport& report, const Repo
   ReportAssets assets;
   assets.scale = make_color_scale(report.deviation);
   SurfaceDeviationField field;
-  field.samples = report.deviation.mesh_samples;
+  field.sample_positions_mm = report.deviation.mesh_samples.positions_mm;
+  field.sample_distances_mm = report.deviation.mesh_samples.distances_mm;
   field.vertex_deviation_mm = report.deviation.vertex_deviation_mm;
   field.sample_spacing_mm = report.settings.mesh_sample_spacing_mm > 0 ? report.settings.mesh_sample_spacing_mm
                                                                         : report.settings.voxel_mm;

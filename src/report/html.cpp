@@ -233,9 +233,9 @@ std::string report_html(const VerifyReport& report, const ReportAssets& assets, 
   h += "<section class=\"two\"><div class=\"panel\" id=\"histogram\"><div class=\"panel-head\"><h2>Distribution"
        "</h2><p>Samples per signed distance (logarithmic count); the green band is the tolerance.</p></div>";
   h += "<h3>Deposit surface → mesh <small>" + std::to_string(dev.deposit_samples.size()) + " samples</small></h3>";
-  h += detail::histogram_svg(dev.deposit_samples, scale, options.histogram_bins, "Deposit to mesh histogram");
+  h += detail::histogram_svg(dev.deposit_samples.distances_mm, scale, options.histogram_bins, "Deposit to mesh histogram");
   h += "<h3>Mesh surface → deposit <small>" + std::to_string(dev.mesh_samples.size()) + " samples</small></h3>";
-  h += detail::histogram_svg(dev.mesh_samples, scale, options.histogram_bins, "Mesh to deposit histogram");
+  h += detail::histogram_svg(dev.mesh_samples.distances_mm, scale, options.histogram_bins, "Mesh to deposit histogram");
   h += "</div><div class=\"panel\" id=\"per-layer\"><div class=\"panel-head\"><h2>Deviation per layer</h2><p>"
        "Worst excess, worst deficit and RMS of both directions per layer. Click a layer to open it in the "
        "layer viewer.</p></div>";

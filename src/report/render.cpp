@@ -78,8 +78,8 @@ DeviationColorScale make_color_scale(const DeviationResult& deviation) {
   double worst = 0;
   for (double d : deviation.vertex_deviation_mm)
     if (std::isfinite(d)) worst = std::max(worst, std::abs(d));
-  for (const auto& smp : deviation.mesh_samples)
-    if (std::isfinite(smp.distance_mm)) worst = std::max(worst, std::abs(smp.distance_mm));
+  for (const double d : deviation.mesh_samples.distances_mm)
+    if (std::isfinite(d)) worst = std::max(worst, std::abs(d));
   worst = std::max({worst, std::abs(deviation.mesh_to_deposit.min_mm),
                     std::abs(deviation.mesh_to_deposit.max_mm)});
   s.range_mm = std::clamp(nice_ceil(worst), 2 * s.tolerance_mm, 10 * s.tolerance_mm);
@@ -240,9 +240,9 @@ HeatmapView shade_heatmap(const TracedView& traced, const Mesh& mesh, const Surf
   std::vector<float> dev_sum(tri.size(), 0.f);
   std::vector<std::uint16_t> dev_count(tri.size(), 0);
   double spacing = field.sample_spacing_mm;
-  if (!(spacing > 0) && !field.samples.empty())
-    spacing = std::sqrt(surface_area_mm2(mesh) / static_cast<double>(field.samples.size()));
-  if (!field.samples.empty() && spacing > 0) {
+  if (!(spacing > 0) && !field.sample_positions_mm.empty())
+    spacing = std::sqrt(surface_area_mm2(mesh) / static_cast<double>(field.sample_positions_mm.size()));
+  if (!field.sample_positions_mm.empty() && spacing > 0) {
     const int radius_px =
         spacing > 1.5 * cam.mm_per_px ? std::min(static_cast<int>(std::lround(0.5 * spacing / cam.mm_per_px)), 6) : 0;
     const double depth_tol = 1.5 * std::max(spacing, cam.mm_per_px) + 0.02;
@@ -272,12 +272,14 @@ HeatmapView shade_heatmap(const TracedView& traced, const Mesh& mesh, const Surf
         splat[i].depth = tdepth[i];
       }
     });
-    auto project = [&](const DeviationSample& smp, double& fx, double& fy, Vec3& d) {
-      d = smp.position_mm - c0;
+    const std::span<const Vec3> positions = field.sample_positions_mm;
+    const std::span<const double> values = field.sample_distances_mm;
+    auto project = [&](std::size_t k, double& fx, double& fy, Vec3& d) {
+      d = positions[k] - c0;
       fx = 0.5 * w + d.dot(cam.right) * inv_px;
       fy = 0.5 * h - d.dot(cam.up) * inv_px;
       return fx >= -radius_px && fy >= -radius_px && fx < w + radius_px && fy < h + radius_px &&
-             std::isfinite(smp.distance_mm);
+             std::isfinite(values[k]);
     };
     if (radius_px == 0) {
       // One pixel per sample: bucket the samples by bands of 16 rows first (a stable
@@ -293,17 +295,16 @@ HeatmapView shade_heatmap(const TracedView& traced, const Mesh& mesh, const Surf
       std::vector<std::size_t> start(bands + 1, 0);
       double fx = 0, fy = 0;
       Vec3 d;
-      for (std::size_t k = 0; k < field.samples.size(); k += stride)
-        if (project(field.samples[k], fx, fy, d)) ++start[static_cast<std::size_t>(fy) / kBandRows + 1];
+      for (std::size_t k = 0; k < positions.size(); k += stride)
+        if (project(k, fx, fy, d)) ++start[static_cast<std::size_t>(fy) / kBandRows + 1];
       for (std::size_t b = 1; b <= bands; ++b) start[b] += start[b - 1];
       std::vector<Drop> drops(start[bands]);
-      for (std::size_t k = 0; k < field.samples.size(); k += stride) {
-        const DeviationSample& smp = field.samples[k];
-        if (!project(smp, fx, fy, d)) continue;
+      for (std::size_t k = 0; k < positions.size(); k += stride) {
+        if (!project(k, fx, fy, d)) continue;
         const int cx = static_cast<int>(fx), cy = static_cast<int>(fy);
         drops[start[static_cast<std::size_t>(cy) / kBandRows]++] = {
             d.dot(cam.forward) + near_offset, static_cast<std::uint32_t>(static_cast<std::size_t>(cy) * w + cx),
-            static_cast<float>(smp.distance_mm)};
+            static_cast<float>(values[k])};
       }
       for (const Drop& drop : drops) {
         SplatPixel& p = splat[drop.pixel];
@@ -312,14 +313,13 @@ HeatmapView shade_heatmap(const TracedView& traced, const Mesh& mesh, const Surf
         if (p.count < 65535) ++p.count;
       }
     } else {
-      for (std::size_t k = 0; k < field.samples.size(); k += stride) {
-        const DeviationSample& smp = field.samples[k];
+      for (std::size_t k = 0; k < positions.size(); k += stride) {
         double fx = 0, fy = 0;
         Vec3 d;
-        if (!project(smp, fx, fy, d)) continue;
+        if (!project(k, fx, fy, d)) continue;
         const int cx = static_cast<int>(fx), cy = static_cast<int>(fy);
         const double sample_t = d.dot(cam.forward) + near_offset;
-        const auto value = static_cast<float>(smp.distance_mm);
+        const auto value = static_cast<float>(values[k]);
         for (int yy = std::max(cy - radius_px, 0); yy <= std::min(cy + radius_px, h - 1); ++yy) {
           for (int xx = std::max(cx - radius_px, 0); xx <= std::min(cx + radius_px, w - 1); ++xx) {
             SplatPixel& p = splat[static_cast<std::size_t>(yy) * w + xx];

@@ -42,7 +42,7 @@ struct SeverityCounts {
 [[nodiscard]] std::string verdict_sentence(const VerifyReport& report);
 
 /// Inline SVG histogram of signed distances, bars coloured by the scale.
-[[nodiscard]] std::string histogram_svg(const std::vector<DeviationSample>& samples,
+[[nodiscard]] std::string histogram_svg(std::span<const double> distances_mm,
                                         const DeviationColorScale& scale, int bins,
                                         std::string_view title);
 /// Inline SVG of deviation per layer (max excess, max deficit, RMS; tolerance band).

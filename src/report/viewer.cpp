@@ -96,14 +96,13 @@ std::string viewer_json(const VerifyReport& report, const DeviationColorScale& s
   };
   std::vector<std::vector<std::uint32_t>> dep_idx(chosen.size()), mesh_idx(chosen.size());
   for (std::uint32_t i = 0; i < dev.deposit_samples.size(); ++i) {
-    const std::size_t k = chosen_of(dev.deposit_samples[i].layer);
+    const std::size_t k = chosen_of(dev.deposit_samples.tags[i].layer);
     if (k != kNotChosen) dep_idx[k].push_back(i);
   }
   // Out-of-tolerance mesh samples, by the layer slab their height falls in.
   for (std::uint32_t i = 0; i < dev.mesh_samples.size(); ++i) {
-    const auto& s = dev.mesh_samples[i];
-    if (!(std::abs(s.distance_mm) > dev.tolerance_mm)) continue;
-    const double z = s.position_mm.z();
+    if (!(std::abs(dev.mesh_samples.distances_mm[i]) > dev.tolerance_mm)) continue;
+    const double z = dev.mesh_samples.positions_mm[i].z();
     const auto it = std::lower_bound(top.begin(), top.end(), z - 1e-9);
     if (it == top.end()) continue;
     const std::size_t li = static_cast<std::size_t>(it - top.begin());
@@ -131,15 +130,15 @@ std::string viewer_json(const VerifyReport& report, const DeviationColorScale& s
         for (std::size_t i = start; i < end; ++i) loops.xy(poly[i]);
       }
     }
-    auto pack_points = [&](const std::vector<DeviationSample>& all, const std::vector<std::uint32_t>& idx,
+    auto pack_points = [&](const DeviationSamples& all, const std::vector<std::uint32_t>& idx,
                            std::size_t cap, std::string& xy_b64, std::string& d_b64) {
       Packer xy = frame;
       std::string d;
       const std::size_t stride = idx.size() > cap ? (idx.size() + cap - 1) / cap : 1;
       for (std::size_t i = 0; i < idx.size(); i += stride) {
-        const auto& s = all[idx[i]];
-        xy.xy(Vec2(s.position_mm.x(), s.position_mm.y()));
-        d += static_cast<char>(quantize_dev(s.distance_mm, scale.range_mm));
+        const Vec3& at = all.positions_mm[idx[i]];
+        xy.xy(Vec2(at.x(), at.y()));
+        d += static_cast<char>(quantize_dev(all.distances_mm[idx[i]], scale.range_mm));
       }
       xy_b64 = base64(xy.bytes);
       d_b64 = base64(d);

@@ -99,7 +99,8 @@ TEST(ReportRender, TopViewOfSphereCoversItsDiscAndShowsTheBulgeInRed) {
   auto q = MeshQuery::build(r.placed_mesh);
   ASSERT_TRUE(q.ok());
   const DeviationColorScale scale = make_color_scale(r.deviation);
-  SurfaceDeviationField field{r.deviation.mesh_samples, r.deviation.vertex_deviation_mm, 0.25};
+  SurfaceDeviationField field{r.deviation.mesh_samples.positions_mm, r.deviation.mesh_samples.distances_mm,
+                              r.deviation.vertex_deviation_mm, 0.25};
   const HeatmapView top = render_heatmap(*q, field, scale, find_view("top"));
   // Disc of radius 12 mm (polygon of 96 segments: area factor sin(2pi/96)*96/(2pi)).
   const double disc_mm2 = 0.5 * 96 * std::sin(2 * 3.14159265358979 / 96) * 144.0;
@@ -132,7 +133,7 @@ TEST(ReportRender, VertexDeviationColoursWhenThereAreNoSamples) {
   // Vertices with x = 20 are +0.6 (excess), x = 0 are -0.6: the top face runs blue -> green -> red.
   std::vector<double> dev;
   for (const auto& v : box.vertices_mm) dev.push_back(v.x() > 10 ? 0.6 : -0.6);
-  SurfaceDeviationField field{{}, dev, 0};
+  SurfaceDeviationField field{{}, {}, dev, 0};
   const HeatmapView top = render_heatmap(*q, field, DeviationColorScale{0.2, 1.0}, find_view("top"));
   const auto left = pixel(top.image, top.camera.project(Vec3(1, 10, 10)));
   const auto mid = pixel(top.image, top.camera.project(Vec3(10, 10, 10)));
@@ -147,7 +148,8 @@ TEST(ReportRender, RegionMarkersKnowWhichSideTheyAreOn) {
   const auto& r = synthetic();
   auto q = MeshQuery::build(r.placed_mesh);
   ASSERT_TRUE(q.ok());
-  SurfaceDeviationField field{r.deviation.mesh_samples, r.deviation.vertex_deviation_mm, 0.25};
+  SurfaceDeviationField field{r.deviation.mesh_samples.positions_mm, r.deviation.mesh_samples.distances_mm,
+                              r.deviation.vertex_deviation_mm, 0.25};
   const auto scale = make_color_scale(r.deviation);
   const HeatmapView top = render_heatmap(*q, field, scale, find_view("top"));
   const auto m = mark_regions(*q, top.camera, r.deviation.regions);
@@ -339,7 +341,7 @@ TEST(ReportHeatmapCache, SameBytesWithAndWithoutTheCache) {
   cached.heatmap_cache = &*cache;
 
   VerifyReport other = synthetic();
-  for (auto& s : other.deviation.mesh_samples) s.distance_mm = 0.4 - 0.7 * s.distance_mm;
+  for (double& d : other.deviation.mesh_samples.distances_mm) d = 0.4 - 0.7 * d;
   for (double& d : other.deviation.vertex_deviation_mm) d = 0.4 - 0.7 * d;
   // Vertex colours only: the barycentric fallback reads the cached hits.
   VerifyReport vertex_only = synthetic();
