@@ -2,6 +2,7 @@
 // -> deviation, report.json + deviation.ply, a summary table, exit 0 pass / 1 fail.
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "cli/cli_common.hpp"
@@ -130,14 +131,21 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
         if (!parse_triplet(o->place, p)) return report_error(usage_error("--place expects x,y,z in mm, got '" + o->place + "'"));
         s.place_mm = p;
       }
+      ReportOptions report_options;
+      // The heatmaps' views are traced while the deposit runs (the report needs only the
+      // placed mesh for them); the report renders the same bytes with or without them.
+      std::optional<Result<HeatmapCache>> heatmaps;
+      options.on_placed = [&](const Mesh& placed_mesh) {
+        heatmaps.emplace(build_heatmap_cache(placed_mesh, report_options.views));
+      };
       auto report = verify(options);
       if (!report) return report_error(report.error());
       const std::string out_dir =
           o->out.empty() ? (std::filesystem::path("reports") / report->part_name).string() : o->out;
       // The whole folder (report.html, junit.xml, summary.md, heatmaps) plus report.json and
       // deviation.ply, swapped into place only when complete.
-      ReportOptions report_options;
       report_options.generated_utc = report_timestamp_utc();
+      if (heatmaps && *heatmaps) report_options.heatmap_cache = &**heatmaps;
       const VerifyReport& finished = *report;
       report_options.extra_outputs = [&finished](const std::filesystem::path& staging) {
         return write_verify_outputs(finished, staging);

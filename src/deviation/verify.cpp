@@ -2,6 +2,7 @@
 // VerifyReport with gates and a verdict.
 #include <chrono>
 #include <cmath>
+#include <mutex>
 #include <optional>
 #include <sstream>
 
@@ -60,6 +61,11 @@ Result<VerifyInput> describe_input(const std::string& role, const std::filesyste
 }
 
 std::string fmt_mm(double v) { return format_fixed(v, 3); }
+
+/// The offset that places the mesh in the G-code's frame: --place, else the registration.
+Vec3 placement_offset(const Mesh& mesh, const PartExtent& extent, const VerifySettings& settings) {
+  return settings.place_mm ? *settings.place_mm : registration_offset(mesh, extent);
+}
 
 }  // namespace
 
@@ -216,7 +222,8 @@ Result<GcodeInput> slice_for_verify(const PreparedPart& part, const PrinterProfi
 }
 
 Result<PrintedGcode> print_gcode(const PrinterProfile& printer, const VerifySettings& settings,
-                                 GcodeInput gcode, const std::function<void(std::string_view)>& on_stage) {
+                                 GcodeInput gcode, const std::function<void(std::string_view)>& on_stage,
+                                 const std::function<void(const PartExtent&)>& on_extent) {
   auto stage = [&](std::string_view name) {
     if (on_stage) on_stage(name);
   };
@@ -259,6 +266,7 @@ Result<PrintedGcode> print_gcode(const PrinterProfile& printer, const VerifySett
   printed.extent = find_part_extent(collector.moves);
   if (!settings.place_mm && printed.extent.moves == 0)
     return bad_input("the G-code has no extrusion of the part to register the mesh against", gcode.name);
+  if (on_extent) on_extent(printed.extent);
 
   // Deposit.
   stage("deposit");
@@ -312,17 +320,10 @@ Result<VerifyReport> measure_printed(const PreparedPart& part, const PrinterProf
   StageClock clock(report.timings);
 
   // Registration: where the slicer put the part.
-  Vec3 offset = Vec3::Zero();
-  std::string method;
-  if (settings.place_mm) {
-    offset = *settings.place_mm;
-    method = "--place";
-  } else {
-    if (extent.moves == 0)
-      return bad_input("the G-code has no extrusion of the part to register the mesh against", printed.name);
-    offset = registration_offset(part.mesh, extent);
-    method = "auto (" + extent.method + ")";
-  }
+  if (!settings.place_mm && extent.moves == 0)
+    return bad_input("the G-code has no extrusion of the part to register the mesh against", printed.name);
+  const Vec3 offset = placement_offset(part.mesh, extent, settings);
+  const std::string method = settings.place_mm ? std::string("--place") : "auto (" + extent.method + ")";
 
   // Deviation.
   if (on_stage) on_stage("deviation");
@@ -369,11 +370,31 @@ Result<VerifyReport> verify(const VerifyOptions& options) {
     std::optional<Result<PreparedPart>> part;
     std::optional<Result<PrintedGcode>> printed;
     tbb::task_group both;
-    both.run([&] { part.emplace(prepare_part(options.mesh_path, *printer, settings)); });
+    // on_placed runs as a third task once both the mesh and the part's extent are known,
+    // started by whichever of the two sides finishes its share last.
+    std::mutex placing;
+    std::optional<PartExtent> extent;
+    const auto place_when_ready = [&] {  // under `placing`
+      if (!options.on_placed || !part || !*part || !extent) return;
+      both.run([&] { options.on_placed(translated((*part)->mesh, placement_offset((*part)->mesh, *extent, settings))); });
+    };
+    both.run([&] {
+      auto prepared = prepare_part(options.mesh_path, *printer, settings);
+      const std::lock_guard lock(placing);
+      part.emplace(std::move(prepared));
+      place_when_ready();
+    });
     both.run([&] {
       auto gcode = read_gcode_input(options.gcode_path);
-      if (!gcode) printed.emplace(gcode.error());
-      else printed.emplace(print_gcode(*printer, settings, std::move(*gcode)));
+      if (!gcode) {
+        printed.emplace(gcode.error());
+        return;
+      }
+      printed.emplace(print_gcode(*printer, settings, std::move(*gcode), {}, [&](const PartExtent& e) {
+        const std::lock_guard lock(placing);
+        extent = e;
+        place_when_ready();
+      }));
     });
     both.wait();
     if (!*part) return part->error();

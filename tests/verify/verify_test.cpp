@@ -1,3 +1,4 @@
+#include <atomic>
 #include <cmath>
 // `printtwin verify` end to end on the committed samples, plus the library's verify().
 #include <gtest/gtest.h>
@@ -23,6 +24,15 @@ std::filesystem::path cube10_stl(const std::filesystem::path& dir) {
   const auto path = dir / "cube10.stl";
   EXPECT_TRUE(save_stl(test::make_cube_mm(10.0, Vec3(-5, -5, 0)), path).ok());
   return path;
+}
+
+/// verify() of the 10 mm cube against PrusaSlicer's G-code, at 0.1 mm voxels.
+VerifyOptions cube10_options(const std::filesystem::path& dir) {
+  VerifyOptions options;
+  options.mesh_path = cube10_stl(dir);
+  options.gcode_path = test::source_path("samples/gcode/prusa_cube10.gcode");
+  options.settings.voxel_mm = 0.1;
+  return options;
 }
 
 TEST(VerifyCli, PrusaSlicerCubePassesAtPointThreeWithAFullReport) {
@@ -178,10 +188,7 @@ TEST(VerifyCli, UsageAndBadInputExitCodes) {
 
 TEST(VerifyLibrary, ReportJsonIsDeterministicApartFromTimings) {
   const auto dir = test::temp_dir("verify_lib");
-  VerifyOptions options;
-  options.mesh_path = cube10_stl(dir);
-  options.gcode_path = test::source_path("samples/gcode/prusa_cube10.gcode");
-  options.settings.voxel_mm = 0.1;
+  VerifyOptions options = cube10_options(dir);
   options.settings.gates.tolerance_mm = 0.3;
   auto a = verify(options);
   auto b = verify(options);
@@ -201,10 +208,7 @@ TEST(VerifyLibrary, SideBySideHalvesGiveTheReportOfTheSequentialPipeline) {
   // verify() runs the part's side and the G-code's side concurrently; the same steps run
   // one after the other (prepare_part, print_gcode, measure_printed) give the same report.
   const auto dir = test::temp_dir("verify_halves");
-  VerifyOptions options;
-  options.mesh_path = cube10_stl(dir);
-  options.gcode_path = test::source_path("samples/gcode/prusa_cube10.gcode");
-  options.settings.voxel_mm = 0.1;
+  VerifyOptions options = cube10_options(dir);
   options.settings.gates.tolerance_mm = 0.3;
   auto together = verify(options);
   ASSERT_TRUE(together.ok()) << together.error().describe();
@@ -248,6 +252,35 @@ TEST(VerifyLibrary, ABadMeshIsReportedBeforeABadGcode) {
   r = verify(options);
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.error().describe().find("bad.gcode"), std::string::npos) << r.error().describe();
+}
+
+TEST(VerifyLibrary, OnPlacedGetsThePlacedMeshOnceBeforeVerifyReturns) {
+  const auto dir = test::temp_dir("verify_on_placed");
+  VerifyOptions options = cube10_options(dir);
+  std::atomic<int> calls{0};
+  Mesh seen;
+  options.on_placed = [&](const Mesh& placed) {
+    ++calls;
+    seen = placed;
+  };
+  auto r = verify(options);
+  ASSERT_TRUE(r.ok()) << r.error().describe();
+  EXPECT_EQ(calls.load(), 1);
+  EXPECT_TRUE(seen == r->placed_mesh);
+  // --place: the hook gets the mesh at the given offset.
+  options.settings.place_mm = Vec3(100, 100, 0);
+  calls = 0;
+  r = verify(options);
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(calls.load(), 1);
+  EXPECT_TRUE(seen == r->placed_mesh);
+  EXPECT_NEAR(bounding_box(seen).min.x(), 95.0, 1e-9);
+  // A bad G-code: verify fails, and the placement is never known.
+  calls = 0;
+  options.settings.place_mm.reset();
+  options.gcode_path = dir / "missing.gcode";
+  EXPECT_FALSE(verify(options).ok());
+  EXPECT_EQ(calls.load(), 0);
 }
 
 }  // namespace
