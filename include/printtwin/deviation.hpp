@@ -34,6 +34,7 @@
 #include <string>
 #include <vector>
 
+#include "printtwin/default_init_allocator.hpp"
 #include "printtwin/deviation_types.hpp"
 #include "printtwin/geometry.hpp"
 #include "printtwin/mesh.hpp"
@@ -91,7 +92,7 @@ struct DepositSurface {
   std::vector<VoxelTag> face_tags;        ///< tag of each face's voxel
   /// Filled (not outside-reachable) voxels: per column (x fastest, then y), ceil(dims.z/64)
   /// words holding one bit per z.
-  std::vector<std::uint64_t> filled_bits;
+  UninitWords filled_bits;
   std::size_t occupied_voxels = 0;        ///< occupied part voxels in the region
   std::size_t filled_voxels = 0;          ///< occupied + enclosed voids
 

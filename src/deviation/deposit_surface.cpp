@@ -18,6 +18,7 @@
 #include "core/bits.hpp"
 #include "deviation/deposit_surface_internal.hpp"
 #include "deviation/point_groups.hpp"
+#include "printtwin/default_init_allocator.hpp"
 #include "printtwin/deviation.hpp"
 
 namespace printtwin {
@@ -109,59 +110,75 @@ inline std::uint64_t transpose8(std::uint64_t x) {
   return x ^ t ^ (t << 28);
 }
 
-/// Bit columns (nx * ny columns of `words` words, z bits) of `in` dilated by r voxels (a
-/// cube of 2r + 1) into `bits` (which may be `in` itself), in one pass over the rows: each
-/// row dilated along z (word shifts) and x (OR of neighbouring columns) goes into a ring of
-/// 2r + 1 rows, and row y is the OR of the ring's rows y - r .. y + r. The ring stays in
-/// cache; the region's arrays are tens to hundreds of MB and are read and written once.
-/// In place, row y + r is read before row y is written, so no input row is lost.
-void dilate(const std::vector<std::uint64_t>& in, std::vector<std::uint64_t>& bits, int nx, int ny, int words,
-            int r) {
+/// Bit columns of `in` (nx * ny columns of `words` words, z bits) dilated by r voxels (a
+/// cube of 2r + 1) into `out` (a different array of the same size). Rows in parallel chunks;
+/// within a chunk each row dilated along z (word shifts) and x (OR of neighbouring columns)
+/// goes into a ring of 2r + 1 rows and row y is the OR of the ring's rows y - r .. y + r, so
+/// an input row is dilated once per chunk (plus r halo rows at each chunk's start) and the
+/// ring stays in cache. The result does not depend on the chunking.
+void dilate(const std::uint64_t* in, std::uint64_t* out, int nx, int ny, int words, int r) {
   const auto row_words = static_cast<std::size_t>(nx) * static_cast<std::size_t>(words);
-  if (&in != &bits) bits.resize(in.size());
   const int span = 2 * r + 1;
-  std::vector<std::uint64_t> ring(row_words * static_cast<std::size_t>(span));
-  std::vector<std::uint64_t> zrow(row_words);
-  const auto slot = [&](int y) { return ring.data() + static_cast<std::size_t>(y % span) * row_words; };
-  // Row y of `in` dilated along z then x, into `out`.
-  const auto zx_row = [&](int y, std::uint64_t* out) {
-    const std::uint64_t* row = in.data() + static_cast<std::size_t>(y) * row_words;
-    for (int x = 0; x < nx; ++x) {
-      const std::uint64_t* src = row + static_cast<std::size_t>(x) * words;
-      std::uint64_t* dst = zrow.data() + static_cast<std::size_t>(x) * words;
-      for (int w = 0; w < words; ++w) {
-        std::uint64_t v = src[w];
-        for (int k = 1; k <= r; ++k) {
-          // Up by k (bit z -> z + k) and down by k, with the bits crossing word borders.
-          v |= src[w] << k;
-          if (w > 0) v |= src[w - 1] >> (64 - k);
-          v |= src[w] >> k;
-          if (w + 1 < words) v |= src[w + 1] << (64 - k);
+  tbb::parallel_for(tbb::blocked_range<int>(0, ny, std::max(16, 4 * span)), [&](const tbb::blocked_range<int>& rows) {
+    std::vector<std::uint64_t> ring(row_words * static_cast<std::size_t>(span));
+    std::vector<std::uint64_t> zrow(row_words);
+    const auto slot = [&](int y) { return ring.data() + static_cast<std::size_t>(y % span) * row_words; };
+    // Row y of `in` dilated along z then x, into `dst`.
+    const auto zx_row = [&](int y, std::uint64_t* dst_row) {
+      const std::uint64_t* row = in + static_cast<std::size_t>(y) * row_words;
+      for (int x = 0; x < nx; ++x) {
+        const std::uint64_t* src = row + static_cast<std::size_t>(x) * words;
+        std::uint64_t* dst = zrow.data() + static_cast<std::size_t>(x) * words;
+        for (int w = 0; w < words; ++w) {
+          std::uint64_t v = src[w];
+          for (int k = 1; k <= r; ++k) {
+            // Up by k (bit z -> z + k) and down by k, with the bits crossing word borders.
+            v |= src[w] << k;
+            if (w > 0) v |= src[w - 1] >> (64 - k);
+            v |= src[w] >> k;
+            if (w + 1 < words) v |= src[w + 1] << (64 - k);
+          }
+          dst[w] = v;
         }
-        dst[w] = v;
+      }
+      for (int x = 0; x < nx; ++x) {
+        std::uint64_t* d = dst_row + static_cast<std::size_t>(x) * words;
+        std::copy_n(zrow.data() + static_cast<std::size_t>(x) * words, words, d);
+        for (int t = std::max(0, x - r); t <= std::min(nx - 1, x + r); ++t) {
+          if (t == x) continue;
+          const std::uint64_t* q = zrow.data() + static_cast<std::size_t>(t) * words;
+          for (int w = 0; w < words; ++w) d[w] |= q[w];
+        }
+      }
+    };
+    int next = std::max(0, rows.begin() - r);  // the next row to go into the ring
+    for (int y = rows.begin(); y < rows.end(); ++y) {
+      for (; next < ny && next <= y + r; ++next) zx_row(next, slot(next));
+      std::uint64_t* dst = out + static_cast<std::size_t>(y) * row_words;
+      const int t0 = std::max(0, y - r), t1 = std::min(ny - 1, y + r);
+      std::copy_n(slot(t0), row_words, dst);
+      for (int t = t0 + 1; t <= t1; ++t) {
+        const std::uint64_t* q = slot(t);
+        for (std::size_t i = 0; i < row_words; ++i) dst[i] |= q[i];
       }
     }
-    for (int x = 0; x < nx; ++x) {
-      std::uint64_t* d = out + static_cast<std::size_t>(x) * words;
-      std::copy_n(zrow.data() + static_cast<std::size_t>(x) * words, words, d);
-      for (int t = std::max(0, x - r); t <= std::min(nx - 1, x + r); ++t) {
-        if (t == x) continue;
-        const std::uint64_t* q = zrow.data() + static_cast<std::size_t>(t) * words;
-        for (int w = 0; w < words; ++w) d[w] |= q[w];
-      }
-    }
-  };
-  int next = 0;  // the next row to go into the ring
-  for (int y = 0; y < ny; ++y) {
-    for (; next < ny && next <= y + r; ++next) zx_row(next, slot(next));
-    std::uint64_t* dst = bits.data() + static_cast<std::size_t>(y) * row_words;
-    const int t0 = std::max(0, y - r), t1 = std::min(ny - 1, y + r);
-    std::copy_n(slot(t0), row_words, dst);
-    for (int t = t0 + 1; t <= t1; ++t) {
-      const std::uint64_t* q = slot(t);
-      for (std::size_t i = 0; i < row_words; ++i) dst[i] |= q[i];
-    }
-  }
+  });
+}
+
+/// Runs fn(y0, y1) over chunks of the rows 0..ny-1 in parallel.
+template <class Fn>
+void for_rows(int ny, const Fn& fn) {
+  tbb::parallel_for(tbb::blocked_range<int>(0, ny, 16),
+                    [&](const tbb::blocked_range<int>& rows) { fn(rows.begin(), rows.end()); });
+}
+
+/// `bits` sized to n words, zero, its pages first touched in parallel.
+void parallel_zeroed(UninitWords& bits, std::size_t n, std::size_t row_words, int ny) {
+  bits.resize(n);
+  for_rows(ny, [&](int y0, int y1) {
+    std::fill(bits.data() + static_cast<std::size_t>(y0) * row_words,
+              bits.data() + static_cast<std::size_t>(y1) * row_words, std::uint64_t{0});
+  });
 }
 
 }  // namespace
@@ -203,10 +220,15 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   s.origin_key = kmin;
   const int words = (nz + 63) / 64;
   const std::size_t columns = static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny);
+  const std::size_t row_words = static_cast<std::size_t>(nx) * static_cast<std::size_t>(words);
+  const std::size_t region_words = columns * static_cast<std::size_t>(words);
+  // Every pass below works on whole rows (fixed y) of the region's bit columns, rows in
+  // parallel chunks; the region-sized arrays are first touched by those passes.
 
   // 1. Occupancy of part voxels, one bit column per (x, y); the padding stays empty. Read
   // block by block (only allocated blocks cost anything).
-  std::vector<std::uint64_t> occ(columns * static_cast<std::size_t>(words), 0);
+  UninitWords occ;
+  parallel_zeroed(occ, region_words, row_words, ny);
   const auto& table = grid.tag_table();
   std::vector<std::uint8_t> auxiliary(table.size());
   for (std::size_t i = 0; i < table.size(); ++i) auxiliary[i] = is_auxiliary_feature(table[i].feature) ? 1 : 0;
@@ -230,6 +252,7 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   // bit columns a block writes stay in cache.
   constexpr int kE = VoxelGrid::kBlockEdge;
   std::vector<VoxelGrid::BlockView> in_region;
+  std::vector<std::size_t> block_row_begin;  // into in_region, per row of blocks (by)
   {
     // Blocks meeting the region's interior (keys kmin + 1 .. kmin + n - 2 per axis); keys
     // may be negative, so >> 3 (floor) gives the block.
@@ -237,92 +260,122 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     const Eigen::Vector3i lo((kmin.x + 1) >> 3, (kmin.y + 1) >> 3, (kmin.z + 1) >> 3);
     const Eigen::Vector3i hi((kmin.x + nx - 2) >> 3, (kmin.y + ny - 2) >> 3, (kmin.z + nz - 2) >> 3);
     const Eigen::Vector3i dims = grid.block_dims();
-    for (int by = std::max(0, lo.y()); by <= std::min(dims.y() - 1, hi.y()); ++by)
+    for (int by = std::max(0, lo.y()); by <= std::min(dims.y() - 1, hi.y()); ++by) {
+      block_row_begin.push_back(in_region.size());
       for (int bx = std::max(0, lo.x()); bx <= std::min(dims.x() - 1, hi.x()); ++bx)
         for (int bz = std::max(0, lo.z()); bz <= std::min(dims.z() - 1, hi.z()); ++bz)
           if (const auto b = grid.block_view(bx, by, bz)) in_region.push_back(*b);
-  }
-  for (const VoxelGrid::BlockView& b : in_region) {
-    const int bx = b.base.x - kmin.x, by = b.base.y - kmin.y, bz = b.base.z - kmin.z;
-    // The block's 8 z-slices of 64 (x, y) bits, without auxiliary voxels and z outside the
-    // region, then transposed to one byte of 8 z bits per (x, y) column.
-    std::array<std::uint64_t, kE> slice{};
-    const bool test_aux = any_auxiliary && block_may_have_aux(b);
-    for (int z = 0; z < kE; ++z) {
-      const int gz = bz + z;
-      if (gz < 1 || gz >= nz - 1) continue;
-      std::uint64_t bits = b.occupancy[z];
-      if (test_aux && bits != 0)
-        bits &= ~(avx2 && !b.escapes ? aux_mask_avx2(b, z, aux32.data(), last_tag)
-                                     : aux_mask_default(b, z, aux32.data(), last_tag));
-      slice[static_cast<std::size_t>(z)] = bits;
     }
-    for (int y = 0; y < kE; ++y) {
-      const int gy = by + y;
-      if (gy < 1 || gy >= ny - 1) continue;
-      // Row y of every slice: byte z = 8 x bits; transposed: byte x = 8 z bits.
-      std::uint64_t m = 0;
-      for (int z = 0; z < kE; ++z) m |= ((slice[static_cast<std::size_t>(z)] >> (8 * y)) & 0xFFU) << (8 * z);
-      if (m == 0) continue;
-      m = transpose8(m);
-      for (int x = 0; x < kE; ++x) {
-        const std::uint64_t zbits = (m >> (8 * x)) & 0xFFU;
-        const int gx = bx + x;
-        if (zbits == 0 || gx < 1 || gx >= nx - 1) continue;
-        std::uint64_t* col = occ.data() + (static_cast<std::size_t>(gy) * nx + gx) * words;
-        s.occupied_voxels += static_cast<std::size_t>(popcount64(zbits));
-        // z bits bz..bz+7 (bz may be negative: the clipped low bits are zero).
-        if (bz >= 0) {
-          col[bz >> 6] |= zbits << (bz & 63);
-          if ((bz & 63) > 56 && (bz >> 6) + 1 < words) col[(bz >> 6) + 1] |= zbits >> (64 - (bz & 63));
-        } else {
-          col[0] |= zbits >> (-bz);
+    block_row_begin.push_back(in_region.size());
+  }
+  // A row of blocks writes 8 rows of bit columns that no other row of blocks writes.
+  const std::size_t block_rows = block_row_begin.size() - 1;
+  std::vector<std::size_t> occupied_per_row(block_rows, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, block_rows), [&](const tbb::blocked_range<std::size_t>& rr) {
+    for (std::size_t row = rr.begin(); row != rr.end(); ++row) {
+      std::size_t occupied = 0;
+      for (std::size_t i = block_row_begin[row]; i < block_row_begin[row + 1]; ++i) {
+        const VoxelGrid::BlockView& b = in_region[i];
+        const int bx = b.base.x - kmin.x, by = b.base.y - kmin.y, bz = b.base.z - kmin.z;
+        // The block's 8 z-slices of 64 (x, y) bits, without auxiliary voxels and z outside
+        // the region, then transposed to one byte of 8 z bits per (x, y) column.
+        std::array<std::uint64_t, kE> slice{};
+        const bool test_aux = any_auxiliary && block_may_have_aux(b);
+        for (int z = 0; z < kE; ++z) {
+          const int gz = bz + z;
+          if (gz < 1 || gz >= nz - 1) continue;
+          std::uint64_t bits = b.occupancy[z];
+          if (test_aux && bits != 0)
+            bits &= ~(avx2 && !b.escapes ? aux_mask_avx2(b, z, aux32.data(), last_tag)
+                                         : aux_mask_default(b, z, aux32.data(), last_tag));
+          slice[static_cast<std::size_t>(z)] = bits;
+        }
+        for (int y = 0; y < kE; ++y) {
+          const int gy = by + y;
+          if (gy < 1 || gy >= ny - 1) continue;
+          // Row y of every slice: byte z = 8 x bits; transposed: byte x = 8 z bits.
+          std::uint64_t m = 0;
+          for (int z = 0; z < kE; ++z) m |= ((slice[static_cast<std::size_t>(z)] >> (8 * y)) & 0xFFU) << (8 * z);
+          if (m == 0) continue;
+          m = transpose8(m);
+          for (int x = 0; x < kE; ++x) {
+            const std::uint64_t zbits = (m >> (8 * x)) & 0xFFU;
+            const int gx = bx + x;
+            if (zbits == 0 || gx < 1 || gx >= nx - 1) continue;
+            std::uint64_t* col = occ.data() + (static_cast<std::size_t>(gy) * nx + gx) * words;
+            occupied += static_cast<std::size_t>(popcount64(zbits));
+            // z bits bz..bz+7 (bz may be negative: the clipped low bits are zero).
+            if (bz >= 0) {
+              col[bz >> 6] |= zbits << (bz & 63);
+              if ((bz & 63) > 56 && (bz >> 6) + 1 < words) col[(bz >> 6) + 1] |= zbits >> (64 - (bz & 63));
+            } else {
+              col[0] |= zbits >> (-bz);
+            }
+          }
         }
       }
+      occupied_per_row[row] = occupied;
     }
-  }
+  });
+  for (const std::size_t n : occupied_per_row) s.occupied_voxels += n;
 
   // Gaps narrower than seal_gap_mm must not let the outside in (pinholes between beads are
   // voxelisation artefacts): the flood runs on the occupancy dilated by r voxels, and the
   // outside it reaches is dilated back by r (a morphological opening of the empty space).
   const int seal_r = seal_gap_mm > 0 ? static_cast<int>(std::floor(seal_gap_mm / (2 * s.voxel_mm) + 1e-9)) : 0;
-  std::vector<std::uint64_t> blocked_storage;
+  UninitWords blocked_storage;
   if (seal_r > 0) {
-    dilate(occ, blocked_storage, nx, ny, words, seal_r);
+    blocked_storage.resize(region_words);
+    dilate(occ.data(), blocked_storage.data(), nx, ny, words, seal_r);
     // The padding stays empty so that the outside surrounds everything.
-    for (int y = 0; y < ny; ++y)
-      for (int x = 0; x < nx; ++x) {
-        std::uint64_t* col = blocked_storage.data() + (static_cast<std::size_t>(y) * nx + x) * words;
-        if (x == 0 || y == 0 || x == nx - 1 || y == ny - 1) {
-          std::fill(col, col + words, 0);
-          continue;
+    for_rows(ny, [&](int y0, int y1) {
+      for (int y = y0; y < y1; ++y)
+        for (int x = 0; x < nx; ++x) {
+          std::uint64_t* col = blocked_storage.data() + (static_cast<std::size_t>(y) * nx + x) * words;
+          if (x == 0 || y == 0 || x == nx - 1 || y == ny - 1) {
+            std::fill(col, col + words, 0);
+            continue;
+          }
+          col[0] &= ~std::uint64_t{1};
+          col[(nz - 1) >> 6] &= ~(std::uint64_t{1} << ((nz - 1) & 63));
+          if (nz % 64 != 0) col[words - 1] &= (std::uint64_t{1} << (nz % 64)) - 1;
         }
-        col[0] &= ~std::uint64_t{1};
-        col[(nz - 1) >> 6] &= ~(std::uint64_t{1} << ((nz - 1) & 63));
-        if (nz % 64 != 0) col[words - 1] &= (std::uint64_t{1} << (nz % 64)) - 1;
-      }
+    });
   }
-  const std::vector<std::uint64_t>& blocked = seal_r > 0 ? blocked_storage : occ;
+  const UninitWords& blocked = seal_r > 0 ? blocked_storage : occ;
 
-  // 2. Empty runs per column (CSR), then a breadth-first flood over runs. Two runs of
-  // face-adjacent columns touch when their z-intervals overlap.
-  std::vector<std::uint32_t> run_begin(columns + 1, 0);
-  std::vector<Run> runs;
-  std::vector<std::uint32_t> run_column;
-  runs.reserve(columns * 2);
-  run_column.reserve(columns * 2);
-  for (std::size_t c = 0; c < columns; ++c) {
-    run_begin[c] = static_cast<std::uint32_t>(runs.size());
+  // 2. Empty runs per column (CSR: counted per column in parallel, then written in place),
+  // then a breadth-first flood over runs. Two runs of face-adjacent columns touch when their
+  // z-intervals overlap.
+  const auto for_each_run = [&](std::size_t c, const auto& fn) {
     const std::uint64_t* col = blocked.data() + c * static_cast<std::size_t>(words);
     int z = next_bit(col, words, nz, 0, false);
     while (z < nz) {
       const int z1 = next_bit(col, words, nz, z, true);
-      runs.push_back({z, z1 - 1});
-      run_column.push_back(static_cast<std::uint32_t>(c));
+      fn(z, z1 - 1);
       z = next_bit(col, words, nz, z1, false);
     }
-  }
-  run_begin[columns] = static_cast<std::uint32_t>(runs.size());
+  };
+  std::vector<std::uint32_t> run_begin(columns + 1, 0);
+  for_rows(ny, [&](int y0, int y1) {
+    for (std::size_t c = static_cast<std::size_t>(y0) * nx; c < static_cast<std::size_t>(y1) * nx; ++c) {
+      std::uint32_t n = 0;
+      for_each_run(c, [&](int, int) { ++n; });
+      run_begin[c + 1] = n;
+    }
+  });
+  for (std::size_t c = 0; c < columns; ++c) run_begin[c + 1] += run_begin[c];
+  std::vector<Run> runs(run_begin[columns]);
+  std::vector<std::uint32_t> run_column(runs.size());
+  for_rows(ny, [&](int y0, int y1) {
+    for (std::size_t c = static_cast<std::size_t>(y0) * nx; c < static_cast<std::size_t>(y1) * nx; ++c) {
+      std::uint32_t r = run_begin[c];
+      for_each_run(c, [&](int z0, int z1) {
+        runs[r] = {z0, z1};
+        run_column[r++] = static_cast<std::uint32_t>(c);
+      });
+    }
+  });
   std::vector<std::uint8_t> outside(runs.size(), 0);
   std::vector<std::uint32_t> queue;
   queue.reserve(runs.size());
@@ -361,109 +414,83 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
 
   // 3. Filled bits = not outside (occupied voxels, enclosed voids, sealed gaps). The outside
   // bits take the storage of `blocked`, which the flood no longer needs.
-  std::vector<std::uint64_t> out_bits = std::move(blocked_storage);
-  out_bits.assign(columns * static_cast<std::size_t>(words), 0);
-  for (std::size_t c = 0; c < columns; ++c) {
-    std::uint64_t* o = out_bits.data() + c * static_cast<std::size_t>(words);
-    for (std::uint32_t r = run_begin[c]; r < run_begin[c + 1]; ++r) {
-      if (!outside[r]) continue;
-      set_bits(o, runs[r].z0, runs[r].z1 + 1);
+  UninitWords out_bits = std::move(blocked_storage);
+  out_bits.resize(region_words);
+  for_rows(ny, [&](int y0, int y1) {
+    for (std::size_t c = static_cast<std::size_t>(y0) * nx; c < static_cast<std::size_t>(y1) * nx; ++c) {
+      std::uint64_t* o = out_bits.data() + c * static_cast<std::size_t>(words);
+      std::fill(o, o + words, std::uint64_t{0});
+      for (std::uint32_t r = run_begin[c]; r < run_begin[c + 1]; ++r)
+        if (outside[r]) set_bits(o, runs[r].z0, runs[r].z1 + 1);
     }
+  });
+  // The outside dilated back (when sealing), then filled = not (outside and not occupied).
+  if (seal_r > 0) {
+    s.filled_bits.resize(region_words);
+    dilate(out_bits.data(), s.filled_bits.data(), nx, ny, words, seal_r);
+  } else {
+    s.filled_bits = std::move(out_bits);
   }
-  // The outside dilated back (when sealing) goes straight into filled_bits, then filled =
-  // not (outside and not occupied).
-  if (seal_r > 0) dilate(out_bits, out_bits, nx, ny, words, seal_r);
-  s.filled_bits = std::move(out_bits);
-  for (std::size_t c = 0; c < columns; ++c) {
-    std::uint64_t* f = s.filled_bits.data() + c * static_cast<std::size_t>(words);
-    const std::uint64_t* oc = occ.data() + c * static_cast<std::size_t>(words);
-    if (seal_r > 0) {
-      for (int w = 0; w < words; ++w) f[w] = ~(f[w] & ~oc[w]);
-    } else {
-      for (int w = 0; w < words; ++w) f[w] = ~f[w];
+  out_bits = {};
+  std::vector<std::size_t> filled_per_row(static_cast<std::size_t>(ny), 0);
+  for_rows(ny, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      std::size_t filled = 0;
+      for (std::size_t c = static_cast<std::size_t>(y) * nx; c < static_cast<std::size_t>(y + 1) * nx; ++c) {
+        std::uint64_t* f = s.filled_bits.data() + c * static_cast<std::size_t>(words);
+        const std::uint64_t* oc = occ.data() + c * static_cast<std::size_t>(words);
+        if (seal_r > 0) {
+          for (int w = 0; w < words; ++w) f[w] = ~(f[w] & ~oc[w]);
+        } else {
+          for (int w = 0; w < words; ++w) f[w] = ~f[w];
+        }
+        if (nz % 64 != 0) f[words - 1] &= (std::uint64_t{1} << (nz % 64)) - 1;
+        for (int w = 0; w < words; ++w) filled += static_cast<std::size_t>(popcount64(f[w]));
+      }
+      filled_per_row[static_cast<std::size_t>(y)] = filled;
     }
-    if (nz % 64 != 0) f[words - 1] &= (std::uint64_t{1} << (nz % 64)) - 1;
-    for (int w = 0; w < words; ++w) s.filled_voxels += static_cast<std::size_t>(popcount64(f[w]));
-  }
+  });
+  for (const std::size_t n : filled_per_row) s.filled_voxels += n;
 
-  // 4. Faces between a filled voxel and an outside voxel (= not filled), column by column.
+  // 4. Faces between a filled voxel and an outside voxel (= not filled), column by column:
+  // counted per row, then each row's faces written at its offset.
   const auto filled_col = [&](int x, int y) -> const std::uint64_t* {
     return s.filled_bits.data() + (static_cast<std::size_t>(y) * nx + x) * words;
   };
-  const double v = s.voxel_mm;
-  auto add_face = [&](int x, int y, int z, int axis, int side) {
-    SurfaceFace f;
-    f.voxel = VoxelKey{kmin.x + x, kmin.y + y, kmin.z + z};
-    f.axis = static_cast<std::uint8_t>(axis);
-    f.side = static_cast<std::int8_t>(side);
-    Vec3 c = s.origin_mm + v * Vec3(x + 0.5, y + 0.5, z + 0.5);
-    c[axis] += 0.5 * v * side;
-    s.faces.push_back(f);
-    s.face_centers_mm.push_back(c);
+  // The exposed faces of one 64-voxel word of column (x, y), one mask per direction: -x, +x,
+  // -y, +y, -z, +z. Faces belong to occupied voxels only (a sealed gap shows as a hole in
+  // the surface points, never as a leak).
+  const auto exposed = [&](int x, int y, int w, std::array<std::uint64_t, 6>& m) {
+    const std::uint64_t* f = filled_col(x, y);
+    const std::uint64_t fo = f[w] & occ[(static_cast<std::size_t>(y) * nx + x) * words + w];
+    if (fo == 0) return false;
+    const std::uint64_t up = (w + 1 < words) ? (f[w + 1] & 1U) : 0;
+    const std::uint64_t down = (w > 0) ? (f[w - 1] >> 63) : 0;
+    const std::uint64_t above = (f[w] >> 1) | (up << 63);
+    const std::uint64_t below = (f[w] << 1) | down;
+    m = {fo & ~filled_col(x - 1, y)[w], fo & ~filled_col(x + 1, y)[w], fo & ~filled_col(x, y - 1)[w],
+         fo & ~filled_col(x, y + 1)[w], fo & ~below, fo & ~above};
+    return true;
   };
-  {  // Count first (cheap bit operations), then write the faces into place.
-    std::size_t n_faces = 0;
-    for (int y = 1; y < ny - 1; ++y)
-      for (int x = 1; x < nx - 1; ++x) {
-        const std::uint64_t* f = filled_col(x, y);
-        const std::uint64_t* oc = occ.data() + (static_cast<std::size_t>(y) * nx + x) * words;
-        const std::uint64_t* n0 = filled_col(x - 1, y);
-        const std::uint64_t* n1 = filled_col(x + 1, y);
-        const std::uint64_t* n2 = filled_col(x, y - 1);
-        const std::uint64_t* n3 = filled_col(x, y + 1);
-        for (int w = 0; w < words; ++w) {
-          const std::uint64_t fo = f[w] & oc[w];
-          if (fo == 0) continue;
-          const std::uint64_t up = (w + 1 < words) ? (f[w + 1] & 1U) : 0;
-          const std::uint64_t down = (w > 0) ? (f[w - 1] >> 63) : 0;
-          const std::uint64_t above = (f[w] >> 1) | (up << 63);
-          const std::uint64_t below = (f[w] << 1) | down;
-          n_faces += static_cast<std::size_t>(popcount64(fo & ~above) + popcount64(fo & ~below) +
-                                              popcount64(fo & ~n0[w]) + popcount64(fo & ~n1[w]) +
-                                              popcount64(fo & ~n2[w]) + popcount64(fo & ~n3[w]));
-        }
-      }
-    s.faces.reserve(n_faces);
-    s.face_centers_mm.reserve(n_faces);
-  }
-  for (int y = 1; y < ny - 1; ++y)
-    for (int x = 1; x < nx - 1; ++x) {
-      const std::uint64_t* f = filled_col(x, y);
-      const std::uint64_t* oc = occ.data() + (static_cast<std::size_t>(y) * nx + x) * words;
-      const std::array<const std::uint64_t*, 4> nb{filled_col(x - 1, y), filled_col(x + 1, y),
-                                                  filled_col(x, y - 1), filled_col(x, y + 1)};
-      for (int w = 0; w < words; ++w) {
-        std::uint64_t any = 0;
-        const std::uint64_t up = (w + 1 < words) ? (f[w + 1] & 1U) : 0;
-        const std::uint64_t down = (w > 0) ? (f[w - 1] >> 63) : 0;
-        // Exposed in z: neighbour above / below not filled.
-        const std::uint64_t above = (f[w] >> 1) | (up << 63);
-        const std::uint64_t below = (f[w] << 1) | down;
-        // Faces belong to occupied voxels only (a sealed gap shows as a hole in the surface
-        // points, never as a leak).
-        const std::uint64_t fo = f[w] & oc[w];
-        const std::uint64_t zp = fo & ~above;
-        const std::uint64_t zm = fo & ~below;
-        const std::uint64_t xm = fo & ~nb[0][w], xp = fo & ~nb[1][w];
-        const std::uint64_t ym = fo & ~nb[2][w], yp = fo & ~nb[3][w];
-        any = zp | zm | xm | xp | ym | yp;
-        while (any != 0) {
-          const int b = __builtin_ctzll(any);
-          any &= any - 1;
-          const std::uint64_t bit = std::uint64_t{1} << b;
-          const int z = w * 64 + b;
-          if (xm & bit) add_face(x, y, z, 0, -1);
-          if (xp & bit) add_face(x, y, z, 0, +1);
-          if (ym & bit) add_face(x, y, z, 1, -1);
-          if (yp & bit) add_face(x, y, z, 1, +1);
-          if (zm & bit) add_face(x, y, z, 2, -1);
-          if (zp & bit) add_face(x, y, z, 2, +1);
-        }
-      }
+  std::vector<std::size_t> row_faces(static_cast<std::size_t>(ny) + 1, 0);
+  for_rows(ny, [&](int y0, int y1) {
+    std::array<std::uint64_t, 6> m{};
+    for (int y = std::max(y0, 1); y < std::min(y1, ny - 1); ++y) {
+      std::size_t n = 0;
+      for (int x = 1; x < nx - 1; ++x)
+        for (int w = 0; w < words; ++w)
+          if (exposed(x, y, w, m))
+            for (const std::uint64_t bits : m) n += static_cast<std::size_t>(popcount64(bits));
+      row_faces[static_cast<std::size_t>(y) + 1] = n;
     }
-  // Tags of the faces' voxels (all occupied).
-  // A dense directory of the region's blocks (their tag arrays), so a face's tag is two
-  // array reads instead of a grid lookup.
+  });
+  for (int y = 0; y < ny; ++y) row_faces[static_cast<std::size_t>(y) + 1] += row_faces[static_cast<std::size_t>(y)];
+  s.faces.resize(row_faces[static_cast<std::size_t>(ny)]);
+  s.face_centers_mm.resize(s.faces.size());
+  s.face_tags.resize(s.faces.size());
+  const double v = s.voxel_mm;
+  // Each face carries its voxel's tag (a voxel's faces share one lookup): a dense directory
+  // of the region's blocks, so a tag is two array reads instead of a grid lookup.
   const int dbx = (nx + 2 * kE) / kE + 2, dby = (ny + 2 * kE) / kE + 2, dbz = (nz + 2 * kE) / kE + 2;
   const auto dir_index = [&](const VoxelKey& base) {
     return (static_cast<std::size_t>((base.z - kmin.z + kE) / kE) * static_cast<std::size_t>(dby) +
@@ -472,23 +499,40 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   };
   std::vector<const VoxelGrid::BlockView*> directory(static_cast<std::size_t>(dbx) * dby * dbz, nullptr);
   for (const auto& b : in_region) directory[dir_index(b.base)] = &b;
-  s.face_tags.resize(s.faces.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, s.faces.size(), 4096),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      const VoxelKey& k = s.faces[i].voxel;
-      if (i != r.begin() && s.faces[i - 1].voxel == k) {  // a voxel's faces are consecutive
-        s.face_tags[i] = s.face_tags[i - 1];
-        continue;
-      }
-      const VoxelKey base{k.x - (k.x & (kE - 1)), k.y - (k.y & (kE - 1)), k.z - (k.z & (kE - 1))};
-      const VoxelGrid::BlockView* b = directory[dir_index(base)];
-      if (b == nullptr || !(b->base == base)) {  // not expected: faces are on gathered voxels
-        s.face_tags[i] = grid.tag(k).value_or(VoxelTag{});
-        continue;
-      }
-      const int local = (k.z - base.z) * 64 + (k.y - base.y) * 8 + (k.x - base.x);
-      s.face_tags[i] = table[b->tag_index(local)];
+  const auto tag_of = [&](const VoxelKey& k) {
+    const VoxelKey base{k.x - (k.x & (kE - 1)), k.y - (k.y & (kE - 1)), k.z - (k.z & (kE - 1))};
+    const VoxelGrid::BlockView* b = directory[dir_index(base)];
+    if (b == nullptr || !(b->base == base)) return grid.tag(k).value_or(VoxelTag{});  // not expected
+    return table[b->tag_index((k.z - base.z) * 64 + (k.y - base.y) * 8 + (k.x - base.x))];
+  };
+  for_rows(ny, [&](int y0, int y1) {
+    std::array<std::uint64_t, 6> m{};
+    for (int y = std::max(y0, 1); y < std::min(y1, ny - 1); ++y) {
+      std::size_t next = row_faces[static_cast<std::size_t>(y)];
+      const auto add_face = [&](int x, int z, int axis, int side, const VoxelTag& tag) {
+        SurfaceFace& f = s.faces[next];
+        f.voxel = VoxelKey{kmin.x + x, kmin.y + y, kmin.z + z};
+        f.axis = static_cast<std::uint8_t>(axis);
+        f.side = static_cast<std::int8_t>(side);
+        Vec3 c = s.origin_mm + v * Vec3(x + 0.5, y + 0.5, z + 0.5);
+        c[axis] += 0.5 * v * side;
+        s.face_centers_mm[next] = c;
+        s.face_tags[next++] = tag;
+      };
+      for (int x = 1; x < nx - 1; ++x)
+        for (int w = 0; w < words; ++w) {
+          if (!exposed(x, y, w, m)) continue;
+          std::uint64_t any = m[0] | m[1] | m[2] | m[3] | m[4] | m[5];
+          while (any != 0) {
+            const int b = std::countr_zero(any);
+            any &= any - 1;
+            const std::uint64_t bit = std::uint64_t{1} << b;
+            const int z = w * 64 + b;
+            const VoxelTag tag = tag_of(VoxelKey{kmin.x + x, kmin.y + y, kmin.z + z});
+            for (int k = 0; k < 6; ++k)
+              if (m[static_cast<std::size_t>(k)] & bit) add_face(x, z, k >> 1, (k & 1) != 0 ? +1 : -1, tag);
+          }
+        }
     }
   });
   return s;

@@ -5,6 +5,7 @@
 #include <set>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -208,6 +209,129 @@ TEST(DeviationPointGroups, CellsArePermutationsOfSmallGroupsEvenOnLongParts) {
       }
     }
     EXPECT_LE(box.size().maxCoeff(), 0.3 + 1e-9) << g;
+  }
+}
+
+TEST(DeviationSurface, RowParallelPassesMatchAVoxelByVoxelFloodFill) {
+  // A random deposit large enough for many row chunks (the passes run rows in parallel):
+  // solid boxes with holes, an open-topped cup and pinholes, at 0.05 mm, sealed at 0.1 mm
+  // (r = 1) and unsealed. The filled set, its count and the faces must be those of a plain
+  // voxel-by-voxel version of the same rules: the occupancy dilated by r (a cube), empty
+  // voxels 6-connected to the padding are outside, the outside dilated back by r, filled =
+  // not (outside and empty); a face wherever a filled, occupied voxel meets a not-filled one.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<Box3> solids, holes;
+  for (int i = 0; i < 14; ++i) {
+    const Vec3 lo(u(rng) * 5.0, u(rng) * 5.0, u(rng) * 1.5);
+    solids.push_back({lo, lo + Vec3(0.3 + u(rng) * 2.0, 0.3 + u(rng) * 2.0, 0.2 + u(rng) * 1.2)});
+    const Vec3 hl(u(rng) * 5.0, u(rng) * 5.0, u(rng) * 1.5);
+    holes.push_back({hl, hl + Vec3(0.05 + u(rng) * 0.6, 0.05 + u(rng) * 0.6, 0.05 + u(rng) * 0.6)});
+  }
+  const Box3 cup{Vec3(3.0, 0.5, 0.0), Vec3(4.6, 2.1, 1.4)}, cup_inside{Vec3(3.2, 0.7, 0.2), Vec3(4.4, 1.9, 2.0)};
+  const Box3 all{Vec3(0, 0, 0), Vec3(7.5, 7.5, 3.0)};
+  const VoxelGrid grid = voxelise(0.05, all, [&](const Vec3& c) {
+    bool in = cup.contains(c) && !cup_inside.contains(c);
+    for (const Box3& b : solids) in = in || b.contains(c);
+    for (const Box3& h : holes) in = in && !h.contains(c);
+    return in;
+  });
+  for (const double seal_mm : {0.1, 0.0}) {
+    const DepositSurface s = extract_outer_surface(grid, all, seal_mm);
+    const int nx = s.dims.x(), ny = s.dims.y(), nz = s.dims.z();
+    ASSERT_GT(ny, 64);  // several row chunks
+    const int r = seal_mm > 0 ? 1 : 0;
+    const auto at = [&](int x, int y, int z) {
+      return (static_cast<std::size_t>(y) * nx + x) * static_cast<std::size_t>(nz) + z;
+    };
+    const auto interior = [&](int x, int y, int z) {
+      return x > 0 && y > 0 && z > 0 && x < nx - 1 && y < ny - 1 && z < nz - 1;
+    };
+    const auto dilated = [&](const std::vector<std::uint8_t>& in) {
+      if (r == 0) return in;
+      std::vector<std::uint8_t> out(in.size(), 0);
+      for (int y = 0; y < ny; ++y)
+        for (int x = 0; x < nx; ++x)
+          for (int z = 0; z < nz; ++z) {
+            if (!in[at(x, y, z)]) continue;
+            for (int dy = -r; dy <= r; ++dy)
+              for (int dx = -r; dx <= r; ++dx)
+                for (int dz = -r; dz <= r; ++dz) {
+                  const int xx = x + dx, yy = y + dy, zz = z + dz;
+                  if (xx >= 0 && yy >= 0 && zz >= 0 && xx < nx && yy < ny && zz < nz) out[at(xx, yy, zz)] = 1;
+                }
+          }
+      return out;
+    };
+    std::vector<std::uint8_t> occ(static_cast<std::size_t>(nx) * ny * nz, 0);
+    std::size_t occupied = 0;
+    for (int y = 0; y < ny; ++y)
+      for (int x = 0; x < nx; ++x)
+        for (int z = 0; z < nz; ++z) {
+          const VoxelKey k{s.origin_key.x + x, s.origin_key.y + y, s.origin_key.z + z};
+          occ[at(x, y, z)] = interior(x, y, z) && grid.occupied(k) ? 1 : 0;
+          occupied += occ[at(x, y, z)];
+        }
+    EXPECT_EQ(s.occupied_voxels, occupied);
+    std::vector<std::uint8_t> blocked = dilated(occ);
+    for (int y = 0; y < ny; ++y)
+      for (int x = 0; x < nx; ++x)
+        for (int z = 0; z < nz; ++z)
+          if (!interior(x, y, z)) blocked[at(x, y, z)] = 0;
+    std::vector<std::uint8_t> outside(blocked.size(), 0);
+    std::vector<std::array<int, 3>> stack;
+    for (int y = 0; y < ny; ++y)
+      for (int x = 0; x < nx; ++x)
+        for (int z = 0; z < nz; ++z)
+          if (!interior(x, y, z)) {
+            outside[at(x, y, z)] = 1;
+            stack.push_back({x, y, z});
+          }
+    while (!stack.empty()) {
+      const auto [x, y, z] = stack.back();
+      stack.pop_back();
+      const int nb[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z}, {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};
+      for (const auto& n : nb) {
+        if (n[0] < 0 || n[1] < 0 || n[2] < 0 || n[0] >= nx || n[1] >= ny || n[2] >= nz) continue;
+        const std::size_t i = at(n[0], n[1], n[2]);
+        if (outside[i] || blocked[i]) continue;
+        outside[i] = 1;
+        stack.push_back({n[0], n[1], n[2]});
+      }
+    }
+    const std::vector<std::uint8_t> out_dilated = dilated(outside);
+    std::vector<std::uint8_t> filled(occ.size());
+    std::size_t n_filled = 0, mismatches = 0;
+    for (int y = 0; y < ny; ++y)
+      for (int x = 0; x < nx; ++x)
+        for (int z = 0; z < nz; ++z) {
+          const std::size_t i = at(x, y, z);
+          filled[i] = (out_dilated[i] && !occ[i]) ? 0 : 1;
+          n_filled += filled[i];
+          const Vec3 c = s.origin_mm + s.voxel_mm * Vec3(x + 0.5, y + 0.5, z + 0.5);
+          mismatches += s.filled(c) != (filled[i] != 0) ? 1 : 0;
+        }
+    EXPECT_EQ(mismatches, 0U) << "seal " << seal_mm;
+    EXPECT_EQ(s.filled_voxels, n_filled);
+    // Faces, in the surface's order: columns by y then x, voxels by z, -x +x -y +y -z +z.
+    std::vector<std::pair<VoxelKey, int>> faces;
+    for (int y = 1; y < ny - 1; ++y)
+      for (int x = 1; x < nx - 1; ++x)
+        for (int z = 0; z < nz; ++z) {
+          if (!(filled[at(x, y, z)] && occ[at(x, y, z)])) continue;
+          const bool open[6] = {!filled[at(x - 1, y, z)], !filled[at(x + 1, y, z)], !filled[at(x, y - 1, z)],
+                                !filled[at(x, y + 1, z)], z == 0 || !filled[at(x, y, z - 1)],
+                                z == nz - 1 || !filled[at(x, y, z + 1)]};
+          for (int k = 0; k < 6; ++k)
+            if (open[k]) faces.push_back({VoxelKey{s.origin_key.x + x, s.origin_key.y + y, s.origin_key.z + z}, k});
+        }
+    ASSERT_EQ(s.faces.size(), faces.size()) << "seal " << seal_mm;
+    for (std::size_t i = 0; i < faces.size(); ++i) {
+      ASSERT_EQ(s.faces[i].voxel, faces[i].first) << i;
+      ASSERT_EQ(s.faces[i].axis, faces[i].second >> 1) << i;
+      ASSERT_EQ(s.faces[i].side, (faces[i].second & 1) != 0 ? 1 : -1) << i;
+      ASSERT_EQ(s.face_tags[i], grid.tag(faces[i].first).value()) << i;
+    }
   }
 }
 
