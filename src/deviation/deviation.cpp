@@ -4,6 +4,10 @@
 #include <limits>
 #include <span>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
+
 #include "printtwin/deviation.hpp"
 
 namespace printtwin {
@@ -47,7 +51,6 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   const std::vector<Vec3>& face_points = surface.face_centers_mm;
   std::vector<double> d_dep;
   std::vector<std::uint32_t> dep_triangles;
-  target.signed_distances(offset, face_points, std::max(4.0 * v, settings.tolerance_mm), d_dep, &dep_triangles);
   const auto dep_sample = [&](std::size_t i) {
     return DeviationSample{face_points[i], d_dep[i], surface.face_tags[i].layer, surface.face_tags[i].line,
                            dep_triangles[i]};
@@ -67,7 +70,18 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   for (std::size_t i = 0; i < mesh.vertices_mm.size(); ++i) query_points[ns + i] = mesh.vertices_mm[i] + offset;
   std::vector<double> d_query;
   std::vector<std::uint32_t> nearest;
-  distances_to_deposit(surface, query_points, d_query, &nearest);
+  // The two directions need nothing from each other: side by side (each is parallel inside;
+  // together they fill the gaps of either).
+  tbb::parallel_invoke(
+      [&] {
+        target.signed_distances(offset, face_points, std::max(4.0 * v, settings.tolerance_mm), d_dep,
+                                &dep_triangles);
+        out.deposit_to_mesh = deviation_stats(d_dep, settings.tolerance_mm);
+      },
+      [&] {
+        distances_to_deposit(surface, query_points, d_query, &nearest);
+        out.mesh_to_deposit = deviation_stats(std::span<const double>(d_query.data(), ns), settings.tolerance_mm);
+      });
   const std::span<const double> d_mesh(d_query.data(), ns);
   out.vertex_deviation_mm.assign(d_query.begin() + static_cast<std::ptrdiff_t>(ns), d_query.end());
   const auto mesh_tag = [&](std::size_t i) {
@@ -77,9 +91,6 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
     const VoxelTag tag = mesh_tag(i);
     return DeviationSample{query_points[i], d_mesh[i], tag.layer, tag.line, samples[i].triangle};
   };
-
-  out.deposit_to_mesh = deviation_stats(d_dep, settings.tolerance_mm);
-  out.mesh_to_deposit = deviation_stats(d_mesh, settings.tolerance_mm);
 
   // Per layer (layer of the nearest deposit voxel); z = top of that layer's surface voxels.
   // Distances grouped by layer with a counting sort (sample order kept within a layer).
@@ -99,33 +110,44 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   };
   std::vector<std::size_t> dep_begin, mesh_begin;
   std::vector<double> dep_values, mesh_values;
-  group(d_dep.size(), [&](std::size_t i) { return static_cast<int>(surface.face_tags[i].layer); }, d_dep,
-        dep_begin, dep_values);
-  group(ns, [&](std::size_t i) { return static_cast<int>(mesh_tag(i).layer); }, d_mesh, mesh_begin,
-        mesh_values);
   // The highest surface voxel of each layer (a voxel's centre height grows with its z key).
   std::vector<int> top_key(n_layers, std::numeric_limits<int>::min());
-  for (std::size_t i = 0; i < d_dep.size(); ++i) {
-    const int layer = surface.face_tags[i].layer;
-    if (layer < 0) continue;
-    int& t = top_key[static_cast<std::size_t>(layer)];
-    t = std::max(t, surface.faces[i].voxel.z);
-  }
+  tbb::parallel_invoke(
+      [&] {
+        group(d_dep.size(), [&](std::size_t i) { return static_cast<int>(surface.face_tags[i].layer); }, d_dep,
+              dep_begin, dep_values);
+      },
+      [&] {
+        group(ns, [&](std::size_t i) { return static_cast<int>(mesh_tag(i).layer); }, d_mesh, mesh_begin,
+              mesh_values);
+      },
+      [&] {
+        for (std::size_t i = 0; i < d_dep.size(); ++i) {
+          const int layer = surface.face_tags[i].layer;
+          if (layer < 0) continue;
+          int& t = top_key[static_cast<std::size_t>(layer)];
+          t = std::max(t, surface.faces[i].voxel.z);
+        }
+      });
   std::vector<double> layer_top(n_layers, 0.0);
   for (std::size_t l = 0; l < n_layers; ++l)
     if (top_key[l] != std::numeric_limits<int>::min())
       layer_top[l] = deposit.center_mm(VoxelKey{0, 0, top_key[l]}).z() + 0.5 * v;
-  for (std::size_t l = 0; l < n_layers; ++l) {
-    if (dep_begin[l] == dep_begin[l + 1] && mesh_begin[l] == mesh_begin[l + 1]) continue;
-    LayerDeviation ld;
-    ld.layer = static_cast<int>(l);
-    ld.z_mm = layer_top[l];
-    ld.deposit_to_mesh = deviation_stats(std::span<const double>(dep_values).subspan(dep_begin[l], dep_begin[l + 1] - dep_begin[l]),
-                                         settings.tolerance_mm);
-    ld.mesh_to_deposit = deviation_stats(std::span<const double>(mesh_values).subspan(mesh_begin[l], mesh_begin[l + 1] - mesh_begin[l]),
-                                         settings.tolerance_mm);
-    out.per_layer.push_back(std::move(ld));
-  }
+  std::vector<LayerDeviation> layers(n_layers);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_layers), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t l = r.begin(); l != r.end(); ++l) {
+      LayerDeviation& ld = layers[l];
+      ld.layer = static_cast<int>(l);
+      ld.z_mm = layer_top[l];
+      ld.deposit_to_mesh = deviation_stats(
+          std::span<const double>(dep_values).subspan(dep_begin[l], dep_begin[l + 1] - dep_begin[l]), settings.tolerance_mm);
+      ld.mesh_to_deposit = deviation_stats(
+          std::span<const double>(mesh_values).subspan(mesh_begin[l], mesh_begin[l + 1] - mesh_begin[l]),
+          settings.tolerance_mm);
+    }
+  });
+  for (std::size_t l = 0; l < n_layers; ++l)  // layers no sample of either direction is nearest to: none
+    if (dep_begin[l] != dep_begin[l + 1] || mesh_begin[l] != mesh_begin[l + 1]) out.per_layer.push_back(std::move(layers[l]));
 
   // Regions: missing = design surface the deposit does not reach; excess = deposit surface
   // beyond the design.
