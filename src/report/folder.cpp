@@ -5,6 +5,8 @@
 #include <random>
 #include <system_error>
 
+#include <tbb/parallel_for.h>
+
 #include "printtwin/io.hpp"
 #include "report/report_internal.hpp"
 
@@ -45,13 +47,20 @@ Result<ReportAssets> render_report_assets(const VerifyReport& report, const Repo
   field.vertex_deviation_mm = report.deviation.vertex_deviation_mm;
   field.sample_spacing_mm = report.settings.mesh_sample_spacing_mm > 0 ? report.settings.mesh_sample_spacing_mm
                                                                         : report.settings.voxel_mm;
-  for (const TracedView& traced : cache->views) {
-    HeatmapView hv = shade_heatmap(traced, cache->query.mesh(), field, assets.scale);
+  // The views side by side (each also parallel inside); PNG encoding is one thread per image.
+  const std::size_t n = cache->views.size();
+  std::vector<std::optional<HeatmapView>> views(n);
+  std::vector<std::optional<Result<std::string>>> pngs(n);
+  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
+    HeatmapView hv = shade_heatmap(cache->views[i], cache->query.mesh(), field, assets.scale);
     hv.markers = mark_regions(cache->query, hv.camera, report.deviation.regions);
-    auto png = encode_png(hv.image);
-    if (!png) return png.error();
-    assets.view_png.push_back(std::move(png).value());
-    assets.views.push_back(std::move(hv));
+    pngs[i].emplace(encode_png(hv.image));
+    views[i].emplace(std::move(hv));
+  });
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!*pngs[i]) return pngs[i]->error();
+    assets.view_png.push_back(std::move(*pngs[i]).value());
+    assets.views.push_back(std::move(*views[i]));
   }
   return assets;
 }
