@@ -2,6 +2,7 @@
 // points to it (a bucket grid of face squares).
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #if defined(__x86_64__)
 #include <immintrin.h>
@@ -111,21 +112,56 @@ inline std::uint64_t transpose8(std::uint64_t x) {
 }
 
 /// Bit columns of `in` (nx * ny columns of `words` words, z bits) dilated by r voxels (a
-/// cube of 2r + 1) into `out` (a different array of the same size). Rows in parallel chunks;
-/// within a chunk each row dilated along z (word shifts) and x (OR of neighbouring columns)
-/// goes into a ring of 2r + 1 rows and row y is the OR of the ring's rows y - r .. y + r, so
-/// an input row is dilated once per chunk (plus r halo rows at each chunk's start) and the
-/// ring stays in cache. The result does not depend on the chunking.
+/// cube of 2r + 1) into `out`, which may be `in` itself. Rows in blocks of S, blocks in
+/// parallel; within a block each row dilated along z (word shifts) and x (OR of neighbouring
+/// columns) goes into a ring of 2r + 1 rows and row y is the OR of the ring's rows y - r ..
+/// y + r, so an input row is dilated once per block (plus r halo rows on each side) and the
+/// ring stays in cache. In place, the r rows on each side of a block that belong to its
+/// neighbours are copied before any block writes, and within a block row y + r is read
+/// before row y is written. The result does not depend on the blocking.
 void dilate(const std::uint64_t* in, std::uint64_t* out, int nx, int ny, int words, int r) {
   const auto row_words = static_cast<std::size_t>(nx) * static_cast<std::size_t>(words);
   const int span = 2 * r + 1;
-  tbb::parallel_for(tbb::blocked_range<int>(0, ny, std::max(16, 4 * span)), [&](const tbb::blocked_range<int>& rows) {
+  // About four blocks per thread (each block redoes 2r rows of its neighbours).
+  const int threads = std::max(1, tbb::this_task_arena::max_concurrency());
+  const int rows_per_block = std::max({32, 4 * span, (ny + 4 * threads - 1) / (4 * threads)});
+  const int blocks = (ny + rows_per_block - 1) / rows_per_block;
+  const bool in_place = in == out;
+  // In place: per block, its neighbours' rows [y0 - r, y0) then [y1, y1 + r) as they were.
+  std::vector<std::uint64_t> halo;
+  const auto halo_row = [&](int block, int k) {  // k in 0 .. 2r - 1
+    return halo.data() + (static_cast<std::size_t>(block) * 2 * r + k) * row_words;
+  };
+  const auto block_rows = [&](int block, int& y0, int& y1) {
+    y0 = block * rows_per_block;
+    y1 = std::min(ny, y0 + rows_per_block);
+  };
+  if (in_place && r > 0) {
+    halo.resize(static_cast<std::size_t>(blocks) * 2 * r * row_words);
+    tbb::parallel_for(0, blocks, [&](int block) {
+      int y0 = 0, y1 = 0;
+      block_rows(block, y0, y1);
+      for (int k = 0; k < r; ++k) {
+        if (y0 - r + k >= 0) std::copy_n(in + static_cast<std::size_t>(y0 - r + k) * row_words, row_words, halo_row(block, k));
+        if (y1 + k < ny) std::copy_n(in + static_cast<std::size_t>(y1 + k) * row_words, row_words, halo_row(block, r + k));
+      }
+    });
+  }
+  tbb::parallel_for(0, blocks, [&](int block) {
+    int y0 = 0, y1 = 0;
+    block_rows(block, y0, y1);
+    // Row y of the input as it was before any block wrote.
+    const auto input_row = [&](int y) -> const std::uint64_t* {
+      if (in_place && y < y0) return halo_row(block, y - (y0 - r));
+      if (in_place && y >= y1) return halo_row(block, r + (y - y1));
+      return in + static_cast<std::size_t>(y) * row_words;
+    };
     std::vector<std::uint64_t> ring(row_words * static_cast<std::size_t>(span));
     std::vector<std::uint64_t> zrow(row_words);
     const auto slot = [&](int y) { return ring.data() + static_cast<std::size_t>(y % span) * row_words; };
     // Row y of `in` dilated along z then x, into `dst`.
     const auto zx_row = [&](int y, std::uint64_t* dst_row) {
-      const std::uint64_t* row = in + static_cast<std::size_t>(y) * row_words;
+      const std::uint64_t* row = input_row(y);
       for (int x = 0; x < nx; ++x) {
         const std::uint64_t* src = row + static_cast<std::size_t>(x) * words;
         std::uint64_t* dst = zrow.data() + static_cast<std::size_t>(x) * words;
@@ -151,8 +187,8 @@ void dilate(const std::uint64_t* in, std::uint64_t* out, int nx, int ny, int wor
         }
       }
     };
-    int next = std::max(0, rows.begin() - r);  // the next row to go into the ring
-    for (int y = rows.begin(); y < rows.end(); ++y) {
+    int next = std::max(0, y0 - r);  // the next row to go into the ring
+    for (int y = y0; y < y1; ++y) {
       for (; next < ny && next <= y + r; ++next) zx_row(next, slot(next));
       std::uint64_t* dst = out + static_cast<std::size_t>(y) * row_words;
       const int t0 = std::max(0, y - r), t1 = std::min(ny - 1, y + r);
@@ -425,13 +461,8 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     }
   });
   // The outside dilated back (when sealing), then filled = not (outside and not occupied).
-  if (seal_r > 0) {
-    s.filled_bits.resize(region_words);
-    dilate(out_bits.data(), s.filled_bits.data(), nx, ny, words, seal_r);
-  } else {
-    s.filled_bits = std::move(out_bits);
-  }
-  out_bits = {};
+  if (seal_r > 0) dilate(out_bits.data(), out_bits.data(), nx, ny, words, seal_r);
+  s.filled_bits = std::move(out_bits);
   std::vector<std::size_t> filled_per_row(static_cast<std::size_t>(ny), 0);
   for_rows(ny, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
@@ -454,22 +485,29 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
 
   // 4. Faces between a filled voxel and an outside voxel (= not filled), column by column:
   // counted per row, then each row's faces written at its offset.
-  const auto filled_col = [&](int x, int y) -> const std::uint64_t* {
-    return s.filled_bits.data() + (static_cast<std::size_t>(y) * nx + x) * words;
+  // Column (x, y): its filled and occupied words and its four neighbours' filled words
+  // (-x, +x, -y, +y), found once per column. `exposed` gives the faces of one 64-voxel
+  // word of it, one mask per direction: -x, +x, -y, +y, -z, +z. Faces belong to occupied
+  // voxels only (a sealed gap shows as a hole in the surface points, never as a leak).
+  struct Column {
+    const std::uint64_t* f;
+    const std::uint64_t* oc;
+    std::array<const std::uint64_t*, 4> n;
   };
-  // The exposed faces of one 64-voxel word of column (x, y), one mask per direction: -x, +x,
-  // -y, +y, -z, +z. Faces belong to occupied voxels only (a sealed gap shows as a hole in
-  // the surface points, never as a leak).
-  const auto exposed = [&](int x, int y, int w, std::array<std::uint64_t, 6>& m) {
-    const std::uint64_t* f = filled_col(x, y);
-    const std::uint64_t fo = f[w] & occ[(static_cast<std::size_t>(y) * nx + x) * words + w];
+  const auto column = [&](int x, int y) {
+    const std::size_t c = (static_cast<std::size_t>(y) * nx + x) * static_cast<std::size_t>(words);
+    const std::uint64_t* f = s.filled_bits.data() + c;
+    return Column{f, occ.data() + c, {f - words, f + words, f - row_words, f + row_words}};
+  };
+  const auto exposed = [&](const Column& col, int w, std::array<std::uint64_t, 6>& m) {
+    const std::uint64_t* f = col.f;
+    const std::uint64_t fo = f[w] & col.oc[w];
     if (fo == 0) return false;
     const std::uint64_t up = (w + 1 < words) ? (f[w + 1] & 1U) : 0;
     const std::uint64_t down = (w > 0) ? (f[w - 1] >> 63) : 0;
     const std::uint64_t above = (f[w] >> 1) | (up << 63);
     const std::uint64_t below = (f[w] << 1) | down;
-    m = {fo & ~filled_col(x - 1, y)[w], fo & ~filled_col(x + 1, y)[w], fo & ~filled_col(x, y - 1)[w],
-         fo & ~filled_col(x, y + 1)[w], fo & ~below, fo & ~above};
+    m = {fo & ~col.n[0][w], fo & ~col.n[1][w], fo & ~col.n[2][w], fo & ~col.n[3][w], fo & ~below, fo & ~above};
     return true;
   };
   std::vector<std::size_t> row_faces(static_cast<std::size_t>(ny) + 1, 0);
@@ -477,10 +515,12 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     std::array<std::uint64_t, 6> m{};
     for (int y = std::max(y0, 1); y < std::min(y1, ny - 1); ++y) {
       std::size_t n = 0;
-      for (int x = 1; x < nx - 1; ++x)
+      for (int x = 1; x < nx - 1; ++x) {
+        const Column col = column(x, y);
         for (int w = 0; w < words; ++w)
-          if (exposed(x, y, w, m))
+          if (exposed(col, w, m))
             for (const std::uint64_t bits : m) n += static_cast<std::size_t>(popcount64(bits));
+      }
       row_faces[static_cast<std::size_t>(y) + 1] = n;
     }
   });
@@ -519,9 +559,10 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
         s.face_centers_mm[next] = c;
         s.face_tags[next++] = tag;
       };
-      for (int x = 1; x < nx - 1; ++x)
+      for (int x = 1; x < nx - 1; ++x) {
+        const Column col = column(x, y);
         for (int w = 0; w < words; ++w) {
-          if (!exposed(x, y, w, m)) continue;
+          if (!exposed(col, w, m)) continue;
           std::uint64_t any = m[0] | m[1] | m[2] | m[3] | m[4] | m[5];
           while (any != 0) {
             const int b = std::countr_zero(any);
@@ -533,6 +574,7 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
               if (m[static_cast<std::size_t>(k)] & bit) add_face(x, z, k >> 1, (k & 1) != 0 ? +1 : -1, tag);
           }
         }
+      }
     }
   });
   return s;
