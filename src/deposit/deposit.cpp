@@ -23,6 +23,7 @@
 #include <cstring>
 #include <limits>
 #include <optional>
+#include <thread>
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -30,6 +31,7 @@
 
 #include "core/bits.hpp"
 #include "deposit/bead_raster.hpp"
+#include "deposit/grid_writer.hpp"
 #include "printtwin/io.hpp"
 
 namespace printtwin {
@@ -176,7 +178,6 @@ struct PendingBead {
   double nominal_h_mm = 0;
   bool continues_path = false;  // joined to the previous bead
   Vec2 m0 = Vec2::Zero();       // cut normal at the start (xy, unit)
-  std::uint32_t tag = 0;
 };
 
 struct OpenStretch {
@@ -203,6 +204,9 @@ struct DepositBuilder::State {
   // blocks' order (top_index), so a tile of the sweep and the samples across a bead touch a
   // cache line or two instead of one page per row.
   std::vector<std::uint16_t> top;
+  // Per column (same layout as `top`): the layer of the move that last wrote the column's top
+  // voxel, so the sweep never reads the grid (whose writes may still be under way).
+  std::vector<std::int32_t> top_layer;
   int nx = 0, ny = 0, nz = 0;
   std::size_t tiles_x = 0;  // tiles (blocks) per row of the height map
   double ox_ = 0, oy_ = 0, oz_ = 0;  // grid origin (mm)
@@ -222,6 +226,9 @@ struct DepositBuilder::State {
   std::size_t beads = 0;
   std::size_t skipped = 0;
 
+  // The grid's writes, in order, on a writer thread when there is a second core.
+  detail::GridWriter writer;
+
   State(const DepositSettings& s, const PrinterProfile& p, const Vec3& origin,
         const Eigen::Vector3i& dims)
       : settings(s),
@@ -235,9 +242,11 @@ struct DepositBuilder::State {
         nz(dims.z()),
         ox_(origin.x()),
         oy_(origin.y()),
-        oz_(origin.z()) {
+        oz_(origin.z()),
+        writer(grid, s.writer_thread && std::thread::hardware_concurrency() > 1) {
     tiles_x = static_cast<std::size_t>(grid.block_dims().x());
     top.assign(tiles_x * static_cast<std::size_t>(grid.block_dims().y()) * 64 + 1, 0);  // + padding (count_held)
+    top_layer.assign(top.size(), 0);
   }
 
   // -- columns ---------------------------------------------------------------------------
@@ -258,6 +267,16 @@ struct DepositBuilder::State {
   /// Height (mm, machine frame) of the deposit top in the column under p, or the grid
   /// bottom (the bed) outside the grid.
   [[nodiscard]] double top_mm(double x_mm, double y_mm) const { return oz_ + top_rows(x_mm, y_mm) * voxel; }
+  /// Layer of the move that last wrote the top voxel of the column under (x, y) (mm);
+  /// nullopt when the column is empty or outside the grid.
+  [[nodiscard]] std::optional<std::int32_t> top_layer_at(double x_mm, double y_mm) const {
+    const double u = (x_mm - ox_) * inv_voxel, v = (y_mm - oy_) * inv_voxel;
+    const int i = floor_int(u), j = floor_int(v);
+    if (i < 0 || j < 0 || i >= nx || j >= ny) return std::nullopt;
+    const std::size_t at = top_index(i, j);
+    if (top[at] == 0) return std::nullopt;
+    return top_layer[at];
+  }
   /// Smallest row count r with oz + r * voxel >= z_mm (the same comparison top_mm makes).
   [[nodiscard]] int rows_reaching(double z_mm) const {
     int r = static_cast<int>(std::ceil((z_mm - oz_) * inv_voxel));
@@ -300,7 +319,7 @@ struct DepositBuilder::State {
     pb.nominal_h_mm = layers.nominal_mm(m, nozzle_mm, voxel);
     pb.continues_path = continues;
     pb.m0 = m0;
-    pb.tag = grid.add_tag(VoxelTag{static_cast<std::uint32_t>(std::max(m.line, 0L)), m.layer, m.feature});
+    writer.tag(VoxelTag{static_cast<std::uint32_t>(std::max(m.line, 0L)), m.layer, m.feature});
     pending = pb;
   }
 
@@ -345,9 +364,9 @@ struct DepositBuilder::State {
       const double t = top_mm(q.x(), q.y());
       const double gap = q.z() - t;
       if (gap > 1.5 * nominal + 0.5 * voxel || gap < 0.5 * voxel) continue;
-      if (gap < 0.5 * nominal) {
-        const auto tag = grid.tag(grid.key_of(Vec3(q.x(), q.y(), t - 0.5 * voxel)));
-        if (!tag || tag->layer >= mv.layer) continue;
+      if (gap < 0.5 * nominal) {  // the layer that laid the column's top voxel
+        const auto top_of = top_layer_at(q.x(), q.y());
+        if (!top_of || *top_of >= mv.layer) continue;
       }
       gaps_.push_back(gap);
     }
@@ -409,23 +428,37 @@ struct DepositBuilder::State {
 
   // -- voxelisation ----------------------------------------------------------------------
   /// Raises the 64 columns of a height-map tile to at least `rows` where `mask` (bit
-  /// y * 8 + x) is set.
-  static void raise_tops(std::uint16_t* tile, std::uint64_t mask, std::uint16_t rows) {
+  /// y * 8 + x) is set; where the write reaches the column's top (rows >= its height), the
+  /// column's top voxel is now this move's: its layer goes into `layers` (same layout).
+  static void raise_tops(std::uint16_t* tile, std::int32_t* layers, std::uint64_t mask, std::uint16_t rows,
+                         std::int32_t layer) {
 #if defined(__SSE2__)
     const __m128i bit = _mm_setr_epi16(1, 2, 4, 8, 16, 32, 64, 128);
     const __m128i value = _mm_set1_epi16(static_cast<short>(rows));
-    for (int y = 0; y < 8; ++y, tile += 8) {
+    const __m128i layer4 = _mm_set1_epi32(layer);
+    for (int y = 0; y < 8; ++y, tile += 8, layers += 8) {
       const auto m = static_cast<short>((mask >> (8 * y)) & 0xFFu);
       if (m == 0) continue;
       const __m128i lanes = _mm_cmpeq_epi16(_mm_and_si128(_mm_set1_epi16(m), bit), bit);
       auto* p = reinterpret_cast<__m128i*>(tile);
-      // Heights stay below 32768 rows (kHeightMapMax), so the signed max is exact.
-      _mm_storeu_si128(p, _mm_max_epi16(_mm_loadu_si128(p), _mm_and_si128(lanes, value)));
+      const __m128i old = _mm_loadu_si128(p);
+      // Heights stay below 32768 rows (kHeightMapMax), so the signed compare and max are exact.
+      const __m128i reach = _mm_andnot_si128(_mm_cmpgt_epi16(old, value), lanes);
+      _mm_storeu_si128(p, _mm_max_epi16(old, _mm_and_si128(lanes, value)));
+      auto* lp = reinterpret_cast<__m128i*>(layers);
+      const __m128i r_lo = _mm_unpacklo_epi16(reach, reach), r_hi = _mm_unpackhi_epi16(reach, reach);
+      _mm_storeu_si128(lp, _mm_or_si128(_mm_and_si128(r_lo, layer4), _mm_andnot_si128(r_lo, _mm_loadu_si128(lp))));
+      _mm_storeu_si128(lp + 1,
+                       _mm_or_si128(_mm_and_si128(r_hi, layer4), _mm_andnot_si128(r_hi, _mm_loadu_si128(lp + 1))));
     }
 #else
-    for (int y = 0; y < 8; ++y, tile += 8) {
+    for (int y = 0; y < 8; ++y, tile += 8, layers += 8) {
       const auto m = static_cast<unsigned>(mask >> (8 * y)) & 0xFFu;
-      for (int x = 0; x < 8; ++x) tile[x] = std::max(tile[x], static_cast<std::uint16_t>(((m >> x) & 1u) * rows));
+      for (int x = 0; x < 8; ++x) {
+        if (((m >> x) & 1u) == 0) continue;
+        if (rows >= tile[x]) layers[x] = layer;
+        tile[x] = std::max(tile[x], rows);
+      }
     }
 #endif
   }
@@ -478,7 +511,7 @@ struct DepositBuilder::State {
     // occupancy word.
     constexpr double kBoundSlack = 1e-3;
     const auto& bdims = grid.block_dims();
-    const std::uint32_t tag = pb.tag;
+    const std::int32_t layer = pb.move.layer;
     const int k_lo = std::max(0, static_cast<int>(std::floor(zt_lo - hh)));
     const int k_hi = std::min(nz - 1, static_cast<int>(std::ceil(zt_hi)) - 1);
     Footprint outer;
@@ -529,9 +562,9 @@ struct DepositBuilder::State {
           }
           const std::uint64_t mask = detail::test_tile(f, 8 * bx, 8 * by, k, t_lo, t_hi, lanes);
           if (mask == 0) continue;
-          const std::size_t fresh = grid.write_tile(bx, by, k, mask, tag);
-          overlap_voxels += static_cast<std::size_t>(popcount64(mask)) - fresh;
-          raise_tops(top.data() + top_index(8 * bx, 8 * by), mask, k1);
+          writer.tile(bx, by, k, mask);
+          const std::size_t at = top_index(8 * bx, 8 * by);
+          raise_tops(top.data() + at, top_layer.data() + at, mask, k1, layer);
         }
       }
     }
@@ -541,6 +574,7 @@ struct DepositBuilder::State {
   DepositResult finish() {
     flush(std::nullopt);
     close_stretch(false);
+    overlap_voxels = writer.finish();  // every write in the grid from here on
     DepositResult r;
     r.voxel_mm = voxel;
     r.voxels = grid.count();
@@ -553,8 +587,10 @@ struct DepositBuilder::State {
     r.bbox_mm = occupied_bbox();
     r.unsupported = std::move(all_stretches);
     r.findings = make_findings(r.unsupported);
-    r.memory_bytes = grid.memory_bytes() + top.capacity() * sizeof(std::uint16_t);
+    r.memory_bytes = grid.memory_bytes() + top.capacity() * sizeof(std::uint16_t) +
+                     top_layer.capacity() * sizeof(std::int32_t);
     top = {};
+    top_layer = {};
     r.grid = std::move(grid);
     return r;
   }
@@ -718,7 +754,8 @@ Frame frame_for(const Box3& tips, double margin_mm, double voxel) {
 double grid_bytes(const Eigen::Vector3i& dims, std::size_t blocks, std::size_t tags) {
   const Eigen::Vector3d bd = ((dims.array() + 7) / 8).cast<double>();
   return bd.prod() * 4.0 + static_cast<double>(blocks) * VoxelGrid::kBlockBytes +
-         static_cast<double>(dims.x()) * dims.y() * 2.0 + static_cast<double>(tags) * sizeof(VoxelTag) +
+         static_cast<double>(dims.x()) * dims.y() * (sizeof(std::uint16_t) + sizeof(std::int32_t)) +  // height, top layer
+         static_cast<double>(tags) * sizeof(VoxelTag) +
          1024.0 * VoxelGrid::kBlockBytes;
 }
 

@@ -16,6 +16,34 @@ namespace {
 using test::bead_e_mm;
 using test::BeadWriter;
 
+/// One closed rectangular loop of 0.45 mm beads at height z.
+void add_rectangle(BeadWriter& w, double x0, double y0, double x1, double y1, double z, double h) {
+  w.travel({x0, y0, z});
+  w.extrude({x1, y0, z}, 0.45, h);
+  w.extrude({x1, y1, z}, 0.45, h);
+  w.extrude({x0, y1, z}, 0.45, h);
+  w.extrude({x0, y0, z}, 0.45, h);
+}
+
+/// Vase-mode helix of 0.2 mm layers: one flat loop (layer 0), then `turns` turns rising
+/// 0.2 mm each (one layer per turn); like the slicers, the first rising turn ramps the flow
+/// up with the gap beneath it.
+void add_vase_spiral(BeadWriter& w, const Vec3& c, double radius, int per_turn, int turns) {
+  const double h = 0.2;
+  auto at = [&](double turn, double z) {
+    const double t = 2 * std::numbers::pi * turn;
+    return Vec3(c.x() + radius * std::cos(t), c.y() + radius * std::sin(t), z);
+  };
+  w.layer = 0;
+  w.travel(at(0, h));
+  for (int i = 1; i <= per_turn; ++i) w.extrude(at(static_cast<double>(i) / per_turn, h), 0.45, h);
+  for (int i = 1; i <= turns * per_turn; ++i) {
+    const double turn = static_cast<double>(i) / per_turn;
+    w.layer = 1 + i / per_turn;
+    w.extrude(at(turn, h + h * turn), 0.45, h, std::min(1.0, turn - 0.5 / per_turn));
+  }
+}
+
 TEST(VoxelGrid, SetTagCountAndOrder) {
   VoxelGrid g(0.1, Vec3(1, 2, 0), Eigen::Vector3i(20, 17, 9));
   EXPECT_EQ(g.count(), 0u);
@@ -188,11 +216,7 @@ TEST(DepositBead, SingleWallPrintVolumeMatchesExtrusion) {
   for (int layer = 0; layer < 40; ++layer) {
     const double z = h * (layer + 1);
     w.layer = layer;
-    w.travel({40, 40, z});
-    w.extrude({60, 40, z}, 0.45, h);
-    w.extrude({60, 55, z}, 0.45, h);
-    w.extrude({40, 55, z}, 0.45, h);
-    w.extrude({40, 40, z}, 0.45, h);
+    add_rectangle(w, 40, 40, 60, 55, z, h);
   }
   auto r = deposit_moves(w.moves, profile, DepositSettings{});
   ASSERT_TRUE(r.ok());
@@ -231,26 +255,59 @@ TEST(DepositBead, SpiralVolumeMatchesExtrusion) {
   // Vase-mode helix: one flat first loop, then Z rises 0.2 mm per turn.
   const auto profile = ender3_marlin2();
   BeadWriter w(profile);
-  const int per_turn = 120;
-  const double radius = 12, h = 0.2;
-  const Vec3 c(100, 100, 0);
-  auto at = [&](double turn, double z) {
-    const double t = 2 * std::numbers::pi * turn;
-    return Vec3(c.x() + radius * std::cos(t), c.y() + radius * std::sin(t), z);
-  };
-  w.travel(at(0, h));
-  for (int i = 1; i <= per_turn; ++i) w.extrude(at(static_cast<double>(i) / per_turn, h), 0.45, h);
-  // Like the slicers, the first rising turn ramps the flow up with the gap beneath it.
-  for (int i = 1; i <= 25 * per_turn; ++i) {
-    const double turn = static_cast<double>(i) / per_turn;
-    w.layer = 1 + i / per_turn;
-    w.extrude(at(turn, h + h * turn), 0.45, h, std::min(1.0, turn - 0.5 / per_turn));
-  }
+  add_vase_spiral(w, Vec3(100, 100, 0), 12.0, 120, 25);
   auto r = deposit_moves(w.moves, profile, DepositSettings{});
   ASSERT_TRUE(r.ok());
   EXPECT_NEAR(r->volume_mm3 / r->extruded_mm3, 1.0, 0.02);
   EXPECT_LT(r->overlap_mm3, 0.01 * r->extruded_mm3);
   EXPECT_TRUE(r->findings.empty());
+}
+
+TEST(DepositBead, WriterThreadGivesTheSameGridAsOneThread) {
+  // Walls, a vase-mode spiral over a flat loop (gaps measured over an earlier layer's top,
+  // not over this layer's neighbours) and crossing infill: more tile writes than the writer
+  // thread's ring holds, so it wraps many times. Every voxel, tag and figure must be the
+  // same with the writes on a second thread as on one.
+  const auto profile = ender3_marlin2();
+  BeadWriter w(profile);
+  const double h = 0.2;
+  for (int layer = 0; layer < 12; ++layer) {
+    const double z = h * (layer + 1);
+    w.layer = layer;
+    w.feature = Feature::outer_perimeter;
+    add_rectangle(w, 40, 40, 70, 62, z, h);
+    w.feature = Feature::sparse_infill;
+    for (int i = 0; i < 12; ++i) {
+      const double x = 42 + 2.2 * i;
+      w.travel({x, 41, z});
+      w.extrude({x + (layer % 2 == 0 ? 3.0 : -3.0), 61, z}, 0.45, h);
+    }
+  }
+  w.feature = Feature::outer_perimeter;
+  add_vase_spiral(w, Vec3(120, 120, 0), 10.0, 90, 10);
+  DepositSettings one, two;
+  one.writer_thread = false;
+  two.writer_thread = true;
+  auto a = deposit_moves(w.moves, profile, one);
+  auto b = deposit_moves(w.moves, profile, two);
+  ASSERT_TRUE(a.ok());
+  ASSERT_TRUE(b.ok());
+  EXPECT_GT(a->voxels, 3000000U);  // > 64k tile writes
+  EXPECT_EQ(a->voxels, b->voxels);
+  EXPECT_EQ(a->overlap_mm3, b->overlap_mm3);
+  EXPECT_EQ(a->unsupported_mm, b->unsupported_mm);
+  EXPECT_EQ(a->findings.size(), b->findings.size());
+  EXPECT_EQ(a->bbox_mm.min, b->bbox_mm.min);
+  EXPECT_EQ(a->bbox_mm.max, b->bbox_mm.max);
+  std::vector<std::pair<VoxelKey, VoxelTag>> va, vb;
+  a->grid.for_each([&](const VoxelKey& k, const VoxelTag& t) { va.emplace_back(k, t); });
+  b->grid.for_each([&](const VoxelKey& k, const VoxelTag& t) { vb.emplace_back(k, t); });
+  ASSERT_EQ(va.size(), vb.size());
+  for (std::size_t i = 0; i < va.size(); ++i) {
+    ASSERT_EQ(va[i].first, vb[i].first) << i;
+    ASSERT_EQ(va[i].second, vb[i].second) << i;
+  }
+  EXPECT_EQ(a->grid.tag_table(), b->grid.tag_table());
 }
 
 TEST(DepositBead, ZigZagInfillKeepsEveryBead) {
