@@ -243,8 +243,8 @@ struct PrintedGcode {
 
 /// registration -> deviation -> region findings -> gates of a printed G-code against a
 /// prepared part (the second half of verify_gcode). `on_stage` gets "deviation".
-[[nodiscard]] Result<VerifyReport> measure_printed(const PreparedPart& part, const PrinterProfile& printer,
-                                                   const VerifySettings& settings, PrintedGcode printed,
+[[nodiscard]] Result<VerifyReport> measure_printed(const PreparedPart& part, const VerifySettings& settings,
+                                                   PrintedGcode printed,
                                                    bool include_part_timings = true,
                                                    const std::function<void(std::string_view)>& on_stage = {});
 

@@ -282,11 +282,10 @@ Result<PrintedGcode> print_gcode(const PrinterProfile& printer, const VerifySett
   return printed;
 }
 
-Result<VerifyReport> measure_printed(const PreparedPart& part, const PrinterProfile& printer,
-                                     const VerifySettings& settings, PrintedGcode printed,
+Result<VerifyReport> measure_printed(const PreparedPart& part, const VerifySettings& settings,
+                                     PrintedGcode printed,
                                      bool include_part_timings,
                                      const std::function<void(std::string_view)>& on_stage) {
-  (void)printer;
   if (auto st = validate_verify_settings(settings); !st) return st.error();
   VerifyReport report;
   report.tool_version = kVersion;
@@ -352,7 +351,7 @@ Result<VerifyReport> verify_gcode(const PreparedPart& part, const PrinterProfile
                                   const std::function<void(std::string_view)>& on_stage) {
   auto printed = print_gcode(printer, settings, std::move(gcode), on_stage);
   if (!printed) return printed.error();
-  return measure_printed(part, printer, settings, std::move(*printed), include_part_timings, on_stage);
+  return measure_printed(part, settings, std::move(*printed), include_part_timings, on_stage);
 }
 
 Result<VerifyReport> verify(const VerifyOptions& options) {
@@ -399,7 +398,7 @@ Result<VerifyReport> verify(const VerifyOptions& options) {
     both.wait();
     if (!*part) return part->error();
     if (!*printed) return printed->error();
-    return measure_printed(**part, *printer, settings, std::move(**printed));
+    return measure_printed(**part, settings, std::move(**printed));
   }
   auto part = prepare_part(options.mesh_path, *printer, settings);
   if (!part) return part.error();

@@ -223,7 +223,7 @@ TEST(VerifyLibrary, SideBySideHalvesGiveTheReportOfTheSequentialPipeline) {
   ASSERT_TRUE(printed.ok()) << printed.error().describe();
   EXPECT_GT(printed->deposit.voxels, 1000U);
   EXPECT_GT(printed->extent.moves, 0U);
-  auto apart = measure_printed(*part, *printer, options.settings, std::move(*printed));
+  auto apart = measure_printed(*part, options.settings, std::move(*printed));
   ASSERT_TRUE(apart.ok());
   // The stages are timed in the same order: part's, then the G-code's, then the deviation.
   std::vector<std::string> stages_together, stages_apart;
