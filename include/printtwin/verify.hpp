@@ -143,7 +143,13 @@ struct VerifyReport {
   std::vector<GateResult> gates;
   bool pass = false;                        ///< no error finding and every gate passes
   std::vector<StageTiming> timings;
+  /// Wall time of the whole verify() call (0 when not measured, e.g. by verify_gcode). With
+  /// --gcode the part's stages run beside the G-code's, so it is less than their sum.
+  double elapsed_s = 0;
 };
+
+/// The run's time as reports show it: `elapsed_s` when measured, else the sum of the stages.
+[[nodiscard]] double total_time_s(const VerifyReport& report);
 
 /// What `verify` runs on.
 struct VerifyOptions {

@@ -69,6 +69,13 @@ Vec3 placement_offset(const Mesh& mesh, const PartExtent& extent, const VerifySe
 
 }  // namespace
 
+double total_time_s(const VerifyReport& report) {
+  if (report.elapsed_s > 0) return report.elapsed_s;
+  double sum = 0;
+  for (const auto& t : report.timings) sum += t.seconds;
+  return sum;
+}
+
 void evaluate_gates(VerifyReport& report) {
   const VerifyGates& g = report.settings.gates;
   const DeviationResult& d = report.deviation;
@@ -354,7 +361,10 @@ Result<VerifyReport> verify_gcode(const PreparedPart& part, const PrinterProfile
   return measure_printed(part, settings, std::move(*printed), include_part_timings, on_stage);
 }
 
-Result<VerifyReport> verify(const VerifyOptions& options) {
+namespace {
+
+/// verify() without its clock.
+Result<VerifyReport> verify_pipeline(const VerifyOptions& options) {
   const VerifySettings& settings = options.settings;
   if (auto st = validate_verify_settings(settings); !st) return st.error();
   if (!options.gcode_path.empty() && (!settings.slice_config_ini.empty() || !settings.slice_overrides.empty()))
@@ -409,6 +419,15 @@ Result<VerifyReport> verify(const VerifyOptions& options) {
   if (!gcode) return gcode.error();
   gcode->inputs.insert(gcode->inputs.begin(), ini_inputs.begin(), ini_inputs.end());
   return verify_gcode(*part, *printer, settings, std::move(*gcode));
+}
+
+}  // namespace
+
+Result<VerifyReport> verify(const VerifyOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  auto report = verify_pipeline(options);
+  if (report) report->elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return report;
 }
 
 }  // namespace printtwin

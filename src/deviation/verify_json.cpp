@@ -177,6 +177,7 @@ std::string verify_report_json(const VerifyReport& r) {
                    {"max_regions", st.max_regions}};
   ordered_json timings;
   for (const auto& t : r.timings) timings[t.stage] = num(t.seconds);
+  if (!r.timings.empty()) timings["total"] = num(total_time_s(r));
   j["timings_s"] = timings;
   return j.dump(2) + "\n";
 }

@@ -371,12 +371,8 @@ std::string report_html(const VerifyReport& report, const ReportAssets& assets, 
   h += kv_row("deposit part box", box_text(report.deposit.part_bbox_mm, 2));
   h += "</table></div>";
   h += "<div><h3>Run</h3><table class=\"kv\">";
-  double total_s = 0;
-  for (const auto& t : report.timings) {
-    h += kv_row(t.stage, fixed(t.seconds, 3) + " s");
-    total_s += t.seconds;
-  }
-  if (!report.timings.empty()) h += kv_row("total", fixed(total_s, 3) + " s");
+  for (const auto& t : report.timings) h += kv_row(t.stage, fixed(t.seconds, 3) + " s");
+  if (!report.timings.empty()) h += kv_row("total", fixed(total_time_s(report), 3) + " s");
   h += kv_row("printtwin", html_escape(report.tool_version));
   h += kv_row("report schema", std::to_string(report.schema_version));
   if (!options.generated_utc.empty()) h += kv_row("generated", html_escape(options.generated_utc));

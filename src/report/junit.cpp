@@ -114,8 +114,7 @@ std::string report_junit_xml(const VerifyReport& report, const ReportOptions& op
     findings.push_back(std::move(c));
   }
 
-  double total_s = 0;
-  for (const auto& t : report.timings) total_s += t.seconds;
+  const double total_s = total_time_s(report);
   int failures = 0;
   for (const auto& c : gates) failures += c.failed ? 1 : 0;
   for (const auto& c : findings) failures += c.failed ? 1 : 0;
