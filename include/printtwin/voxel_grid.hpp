@@ -71,12 +71,13 @@ class VoxelGrid {
 
   /// Edge of a block in voxels.
   static constexpr int kBlockEdge = 8;
-  /// Bytes of one allocated block: 512 occupancy bits, a 16-bit tag slot per voxel, the
-  /// block's tag base, its largest slot value and its escape flag.
+  /// Distinct tags a block stores as 4-bit palette indices; a block that needs more becomes
+  /// "wide" (a 32-bit tag index per voxel, kept beside the chunks).
+  static constexpr int kPaletteSize = 16;
+  /// Bytes of one allocated block: 512 occupancy bits, a 4-bit palette index per voxel, the
+  /// palette (16 tag indices) and its length.
   static constexpr std::size_t kBlockBytes =
-      8 * sizeof(std::uint64_t) + 512 * sizeof(std::uint16_t) + sizeof(std::uint32_t) + 3;
-  /// Tag slot value meaning "the index did not fit in 16 bits; ask escaped_tag_index()".
-  static constexpr std::uint16_t kEscapedTag = 0xFFFF;
+      8 * sizeof(std::uint64_t) + 512 / 2 + kPaletteSize * sizeof(std::uint32_t) + 1;
 
   /// Appends `tag` to the tag table (or reuses the last entry when equal); returns its index.
   std::uint32_t add_tag(const VoxelTag& tag);
@@ -99,29 +100,29 @@ class VoxelGrid {
   void reserve_blocks(std::size_t blocks);
   /// Allocated blocks.
   [[nodiscard]] std::size_t block_count() const;
+  /// Allocated blocks that hold more than kPaletteSize distinct tags (wide blocks).
+  [[nodiscard]] std::size_t wide_block_count() const;
 
   /// One allocated block: voxel (base.x + x, base.y + y, base.z + z) for x, y, z in 0..7 is
   /// occupied when bit (y * 8 + x) of occupancy[z] is set; its tag index is
-  /// tag_index(z * 64 + y * 8 + x): tag_base + tags[slot], unless the slot holds kEscapedTag.
+  /// tag_index(z * 64 + y * 8 + x) (meaningful for occupied voxels only).
   struct BlockView {
     VoxelKey base;
     const std::uint64_t* occupancy = nullptr;
-    const std::uint16_t* tags = nullptr;  ///< 16-bit slots, relative to tag_base
-    std::uint32_t tag_base = 0;
-    const VoxelGrid* grid = nullptr;
+    /// 4-bit palette index per voxel slot: slot s in byte s / 2, low nibble for even s.
+    const std::uint8_t* nibbles = nullptr;
+    /// The block's distinct tag indices (palette_size of them); unused when `wide`.
+    const std::uint32_t* palette = nullptr;
+    int palette_size = 0;
+    /// Non-null for a wide block: the tag index of every slot.
+    const std::uint32_t* wide = nullptr;
     std::uint32_t block = 0;
-    bool escapes = false;  ///< some slot holds kEscapedTag
-    /// Largest tag index any slot of the block holds (escaped slots aside): the tags of its
-    /// voxels lie in [tag_base, tag_last] (plus escaped ones, when `escapes`).
-    std::uint32_t tag_last = 0;
     /// Index into tag_table() of the voxel in `slot` (meaningful when it is occupied).
     [[nodiscard]] std::uint32_t tag_index(int slot) const {
-      const std::uint16_t v = tags[slot];
-      return v != kEscapedTag ? tag_base + v : grid->escaped_tag_index(block, slot);
+      if (wide != nullptr) return wide[slot];
+      return palette[(nibbles[slot >> 1] >> ((slot & 1) * 4)) & 15U];
     }
   };
-  /// Tag index of a slot holding kEscapedTag.
-  [[nodiscard]] std::uint32_t escaped_tag_index(std::uint32_t block, int slot) const;
   /// Size of the block directory (blocks per axis, covering dims()).
   [[nodiscard]] Eigen::Vector3i block_dims() const;
   /// Occupancy words (8, one per z-slice) of block (bx, by, bz); nullptr when the block is

@@ -1,26 +1,26 @@
 // VoxelGrid: a dense directory of 8x8x8-voxel blocks; a block is allocated on its first
-// write and holds 512 occupancy bits (one 64-bit word per z-slice, bit y*8+x) and a 16-bit
-// index per voxel into a table of distinct tags (one entry per depositing move), relative to
-// the block's own base (the first tag written into it), so a voxel costs ~2.1 bytes where its
-// block is allocated. Moves are deposited in order, so the tags of a block lie within a few
-// layers' moves of its base; an index that does not fit (more than 65534 moves after the base,
-// or before it) is stored as kEscaped with the whole index in a side table. Blocks live in
-// fixed-size chunks, so growing
-// never moves or copies them. A chunk is one anonymous mapping: the kernel hands its pages out
-// zeroed, so reserving chunks costs no time and no resident memory; when a chunk's first
-// block is taken its pages are faulted in with one madvise(MADV_POPULATE_WRITE) (on the
-// benchmark part the system time fell from ~0.8 s to ~0.5 s). (Huge
-// pages were measured: on the benchmark VM they tripled the system time, fresh 2 MiB pages
-// being far more expensive to fault in than recycled 4 KiB ones.)
+// write and holds 512 occupancy bits (one 64-bit word per z-slice, bit y*8+x), a palette of
+// up to 16 tag indices (into a table of distinct tags, one entry per depositing move) and a
+// 4-bit palette index per voxel, so a voxel costs ~0.75 bytes where its block is allocated.
+// A block's voxels are laid by a few beads of a couple of layers (on the benchmark part 2 in
+// half of the blocks, more than 16 in 0.04 %); when a 17th tag arrives the palette first
+// drops the entries no occupied voxel refers to any more (overwritten), and a block that still
+// needs more becomes wide: a 32-bit tag index per voxel, kept beside the chunks. Blocks live in
+// fixed-size chunks, so growing never moves or copies them. A chunk is one anonymous mapping:
+// the kernel hands its pages out zeroed, so reserving chunks costs no time and no resident
+// memory; when a chunk's first block is taken its pages are faulted in with one
+// madvise(MADV_POPULATE_WRITE) (on the benchmark part the system time fell from ~0.8 s to
+// ~0.5 s). (Huge pages were measured: on the benchmark VM they tripled the system time, fresh
+// 2 MiB pages being far more expensive to fault in than recycled 4 KiB ones.)
 #include "printtwin/voxel_grid.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <bit>
 #include <cstring>
 #include <new>
-#include <unordered_map>
 
 #include "core/bits.hpp"
 
@@ -35,13 +35,25 @@ namespace printtwin {
 
 namespace {
 constexpr int kEdge = VoxelGrid::kBlockEdge;
-constexpr std::size_t kChunkBlocks = 4096;  // blocks per allocation chunk (8.25 MiB)
+constexpr int kPalette = VoxelGrid::kPaletteSize;
+constexpr std::size_t kChunkBlocks = 4096;  // blocks per allocation chunk (1.5 MiB)
 constexpr std::uint32_t kNoBlock = 0;       // directory value of an unallocated block
+constexpr std::size_t kNibbleBytes = 512 / 2;  // per block
 constexpr std::size_t kOccBytes = kChunkBlocks * kEdge * sizeof(std::uint64_t);
-constexpr std::size_t kTagBytes = kChunkBlocks * 512 * sizeof(std::uint16_t);
-constexpr std::uint16_t kEscaped = VoxelGrid::kEscapedTag;
-constexpr std::uint32_t kNoBase = 0xFFFFFFFFu;  // base of a block nothing was written into yet
-constexpr std::size_t kChunkBytes = kOccBytes + kTagBytes;
+constexpr std::size_t kNibblesBytes = kChunkBlocks * kNibbleBytes;
+constexpr std::size_t kPaletteBytes = kChunkBlocks * kPalette * sizeof(std::uint32_t);
+constexpr std::size_t kChunkBytes = kOccBytes + kNibblesBytes + kPaletteBytes;
+constexpr std::uint8_t kWide = 0xFF;  // palette length of a wide block
+
+/// 4-bit lanes of a row's 8 voxels: bit x of m -> nibble x of the result.
+constexpr std::array<std::uint32_t, 256> make_nibble_masks() {
+  std::array<std::uint32_t, 256> t{};
+  for (unsigned m = 0; m < 256; ++m)
+    for (unsigned x = 0; x < 8; ++x)
+      if ((m >> x) & 1U) t[m] |= 0xFU << (4 * x);
+  return t;
+}
+constexpr std::array<std::uint32_t, 256> kNibbleMask = make_nibble_masks();
 
 /// Zero-filled memory for one chunk: an anonymous mapping on Linux, calloc elsewhere.
 class ChunkMemory {
@@ -73,7 +85,10 @@ class ChunkMemory {
 #endif
   }
   [[nodiscard]] std::uint64_t* occupancy() const { return reinterpret_cast<std::uint64_t*>(data_); }
-  [[nodiscard]] std::uint16_t* tags() const { return reinterpret_cast<std::uint16_t*>(data_ + kOccBytes); }
+  [[nodiscard]] std::uint8_t* nibbles() const { return data_ + kOccBytes; }
+  [[nodiscard]] std::uint32_t* palettes() const {
+    return reinterpret_cast<std::uint32_t*>(data_ + kOccBytes + kNibblesBytes);
+  }
   [[nodiscard]] std::uint8_t* bytes() const { return data_; }
 
  private:
@@ -92,10 +107,9 @@ struct VoxelGrid::Impl {
   std::size_t blocks = 0;
   std::size_t occupied = 0;
   std::vector<VoxelTag> tags;
-  std::vector<std::uint32_t> bases;          // per block: tag index its 16-bit slots count from
-  std::vector<std::uint8_t> block_escapes;   // per block: 1 when a slot holds kEscaped
-  std::vector<std::uint16_t> block_max;      // per block: largest slot value written (escapes aside)
-  std::unordered_map<std::uint64_t, std::uint32_t> escaped;  // (block << 9 | slot) -> tag index
+  std::vector<std::uint8_t> palette_size;  // per block: palette entries in use, or kWide
+  // Wide blocks: 512 tag indices each; a wide block's palette[0] holds its index here.
+  std::vector<std::unique_ptr<std::uint32_t[]>> wide;
 
   [[nodiscard]] std::size_t dir_index(int bx, int by, int bz) const {
     return (static_cast<std::size_t>(bz) * static_cast<std::size_t>(block_dims.y()) +
@@ -106,8 +120,14 @@ struct VoxelGrid::Impl {
   [[nodiscard]] std::uint64_t* occ(std::size_t b) const {
     return chunks[b / kChunkBlocks]->occupancy() + (b % kChunkBlocks) * kEdge;
   }
-  [[nodiscard]] std::uint16_t* tag_slots(std::size_t b) const {
-    return chunks[b / kChunkBlocks]->tags() + (b % kChunkBlocks) * 512;
+  [[nodiscard]] std::uint8_t* nibbles(std::size_t b) const {
+    return chunks[b / kChunkBlocks]->nibbles() + (b % kChunkBlocks) * kNibbleBytes;
+  }
+  [[nodiscard]] std::uint32_t* palette(std::size_t b) const {
+    return chunks[b / kChunkBlocks]->palettes() + (b % kChunkBlocks) * kPalette;
+  }
+  [[nodiscard]] std::uint32_t* wide_slots(std::size_t b) const {
+    return palette_size[b] == kWide ? wide[palette(b)[0]].get() : nullptr;
   }
   void add_chunk() { chunks.push_back(std::make_unique<ChunkMemory>()); }
   std::size_t allocate_block(std::size_t di) {
@@ -115,35 +135,84 @@ struct VoxelGrid::Impl {
     if (blocks % kChunkBlocks == 0) chunks[blocks / kChunkBlocks]->prefault();
     const std::size_t b = blocks++;
     directory[di] = static_cast<std::uint32_t>(b + 1);
-    bases.push_back(kNoBase);
-    block_escapes.push_back(0);
-    block_max.push_back(0);
+    palette_size.push_back(0);
     return b;
   }
-  /// The 16-bit slot value of tag index t in block b (fixing the block's base on its first
-  /// tag), or kEscaped when t is out of the base's reach.
-  std::uint16_t slot_value(std::size_t b, std::uint32_t t) {
-    std::uint32_t& base = bases[b];
-    if (base == kNoBase) base = t;
-    const std::uint32_t delta = t - base;
-    if (delta >= kEscaped) return kEscaped;
-    const auto v = static_cast<std::uint16_t>(delta);
-    block_max[b] = std::max(block_max[b], v);
-    return v;
+  [[nodiscard]] static unsigned nibble_at(const std::uint8_t* nib, int s) {
+    return (nib[s >> 1] >> ((s & 1) * 4)) & 0xFU;
   }
-  /// Stores tag index t in slot s of block b.
-  void store_tag(std::size_t b, int s, std::uint32_t t) {
-    const std::uint16_t v = slot_value(b, t);
-    tag_slots(b)[s] = v;
-    if (v == kEscaped) {
-      escaped[(static_cast<std::uint64_t>(b) << 9) | static_cast<std::uint64_t>(s)] = t;
-      block_escapes[b] = 1;
+  /// Drops the palette entries of block b that no occupied voxel refers to (keeping the
+  /// order of the rest). Returns the new length.
+  int compact_palette(std::size_t b) {
+    const std::uint64_t* o = occ(b);
+    std::uint8_t* nib = nibbles(b);
+    unsigned used = 0;
+    for (int z = 0; z < kEdge; ++z)
+      for (std::uint64_t m = o[z]; m != 0; m &= m - 1) used |= 1U << nibble_at(nib, z * 64 + std::countr_zero(m));
+    std::uint32_t* pal = palette(b);
+    std::array<std::uint8_t, kPalette> moved{};
+    int n = 0;
+    for (int i = 0; i < palette_size[b]; ++i)
+      if ((used >> i) & 1U) {
+        moved[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(n);
+        pal[n++] = pal[i];
+      }
+    for (int s = 0; s < 512; s += 2) {
+      const unsigned lo = moved[nib[s >> 1] & 0xFU], hi = moved[nib[s >> 1] >> 4];
+      nib[s >> 1] = static_cast<std::uint8_t>(lo | (hi << 4));
+    }
+    palette_size[b] = static_cast<std::uint8_t>(n);
+    return n;
+  }
+  /// Makes block b wide: every slot gets its tag index.
+  void widen(std::size_t b) {
+    auto slots = std::make_unique<std::uint32_t[]>(512);
+    const std::uint8_t* nib = nibbles(b);
+    const std::uint32_t* pal = palette(b);
+    for (int s = 0; s < 512; ++s) slots[static_cast<std::size_t>(s)] = pal[nibble_at(nib, s)];
+    palette(b)[0] = static_cast<std::uint32_t>(wide.size());
+    wide.push_back(std::move(slots));
+    palette_size[b] = kWide;
+  }
+  /// Palette entry of tag index t in block b, adding it (and compacting the palette or
+  /// widening the block when it is full); -1 when the block is wide.
+  int palette_entry(std::size_t b, std::uint32_t t) {
+    int n = palette_size[b];
+    if (n == kWide) return -1;
+    std::uint32_t* pal = palette(b);
+    for (int i = n - 1; i >= 0; --i)  // the newest entries are the likeliest
+      if (pal[i] == t) return i;
+    if (n == kPalette) n = compact_palette(b);
+    if (n == kPalette) {
+      widen(b);
+      return -1;
+    }
+    pal[n] = t;
+    palette_size[b] = static_cast<std::uint8_t>(n + 1);
+    return n;
+  }
+  /// Gives the voxels of `mask` (bit y * 8 + x) in z-slice z of block b tag index t.
+  void store_tags(std::size_t b, int z, std::uint64_t mask, std::uint32_t t) {
+    const int e = palette_entry(b, t);
+    if (e < 0) {
+      std::uint32_t* slots = wide_slots(b) + z * 64;
+      for (; mask != 0; mask &= mask - 1) slots[std::countr_zero(mask)] = t;
+      return;
+    }
+    const std::uint32_t fill = 0x11111111U * static_cast<std::uint32_t>(e);
+    std::uint8_t* row = nibbles(b) + z * 32;
+    for (int y = 0; y < kEdge; ++y, row += 4, mask >>= 8) {
+      const std::uint32_t m = kNibbleMask[mask & 0xFFU];
+      if (m == 0) continue;
+      std::uint32_t w;
+      std::memcpy(&w, row, 4);
+      w = (w & ~m) | (fill & m);
+      std::memcpy(row, &w, 4);
     }
   }
   [[nodiscard]] std::uint32_t load_tag(std::size_t b, int s) const {
-    const std::uint16_t v = tag_slots(b)[s];
-    return v != kEscaped ? bases[b] + v
-                         : escaped.at((static_cast<std::uint64_t>(b) << 9) | static_cast<std::uint64_t>(s));
+    if (const std::uint32_t* w = wide_slots(b)) return w[s];
+    return palette(b)[nibble_at(nibbles(b), s)];
   }
   /// Block of (bx,by,bz), allocating it if needed.
   std::size_t block_for_write(int bx, int by, int bz) {
@@ -169,16 +238,19 @@ struct VoxelGrid::Impl {
     blocks = o.blocks;
     occupied = o.occupied;
     tags = o.tags;
-    bases = o.bases;
-    block_escapes = o.block_escapes;
-    block_max = o.block_max;
-    escaped = o.escaped;
+    palette_size = o.palette_size;
+    wide.clear();
+    for (const auto& w : o.wide) {
+      wide.push_back(std::make_unique<std::uint32_t[]>(512));
+      std::memcpy(wide.back().get(), w.get(), 512 * sizeof(std::uint32_t));
+    }
     chunks.clear();
     for (std::size_t c = 0; c < o.chunks.size(); ++c) {
       add_chunk();
       const std::size_t used = std::min(kChunkBlocks, o.blocks - std::min(o.blocks, c * kChunkBlocks));
       std::memcpy(chunks.back()->occupancy(), o.chunks[c]->occupancy(), used * kEdge * sizeof(std::uint64_t));
-      std::memcpy(chunks.back()->tags(), o.chunks[c]->tags(), used * 512 * sizeof(std::uint16_t));
+      std::memcpy(chunks.back()->nibbles(), o.chunks[c]->nibbles(), used * kNibbleBytes);
+      std::memcpy(chunks.back()->palettes(), o.chunks[c]->palettes(), used * kPalette * sizeof(std::uint32_t));
     }
   }
 };
@@ -270,7 +342,7 @@ bool VoxelGrid::set_index(const VoxelKey& k, std::uint32_t tag_index) {
   const std::uint64_t bit = std::uint64_t{1} << slot;
   const bool was_empty = (word & bit) == 0;
   word |= bit;
-  g.store_tag(b, (k.z & 7) * 64 + slot, tag_index);
+  g.store_tags(b, k.z & 7, bit, tag_index);
   g.occupied += was_empty ? 1 : 0;
   return was_empty;
 }
@@ -285,7 +357,6 @@ std::size_t VoxelGrid::fill_row(std::int32_t y, std::int32_t z, std::int32_t x0,
   const int by = y >> 3;
   const int bz = z >> 3;
   const int row_shift = (y & 7) * 8;
-  const int tag_row = (z & 7) * 64 + row_shift;
   std::size_t fresh = 0;
   for (int bx = x0 >> 3; bx <= (x1 - 1) >> 3; ++bx) {
     const int lo = std::max(x0 - bx * kEdge, 0);
@@ -295,39 +366,11 @@ std::size_t VoxelGrid::fill_row(std::int32_t y, std::int32_t z, std::int32_t x0,
     std::uint64_t& word = g.occ(b)[z & 7];
     fresh += static_cast<std::size_t>(popcount64(mask & ~word));
     word |= mask;
-    const std::uint16_t v = g.slot_value(b, tag_index);
-    if (v != kEscaped) {
-      std::fill(g.tag_slots(b) + tag_row + lo, g.tag_slots(b) + tag_row + hi, v);
-    } else {
-      for (int x = lo; x < hi; ++x) g.store_tag(b, tag_row + x, tag_index);
-    }
+    g.store_tags(b, z & 7, mask, tag_index);
   }
   g.occupied += fresh;
   return fresh;
 }
-
-namespace {
-/// Writes `value` to slots[y * 8 + x] for the set bits of mask (bit y * 8 + x).
-void write_tile_slots(std::uint16_t* slots, std::uint64_t mask, std::uint16_t value) {
-#if defined(__SSE2__)
-  const __m128i bit = _mm_setr_epi16(1, 2, 4, 8, 16, 32, 64, 128);
-  const __m128i v = _mm_set1_epi16(static_cast<short>(value));
-  for (int y = 0; y < kEdge; ++y, slots += kEdge) {
-    const auto m = static_cast<short>((mask >> (8 * y)) & 0xFFu);
-    if (m == 0) continue;
-    const __m128i lanes = _mm_cmpeq_epi16(_mm_and_si128(_mm_set1_epi16(m), bit), bit);
-    auto* p = reinterpret_cast<__m128i*>(slots);
-    _mm_storeu_si128(p, _mm_or_si128(_mm_and_si128(lanes, v), _mm_andnot_si128(lanes, _mm_loadu_si128(p))));
-  }
-#else
-  for (int y = 0; y < kEdge; ++y, slots += kEdge) {
-    const auto m = static_cast<unsigned>(mask >> (8 * y)) & 0xFFu;
-    for (int t = 0; t < kEdge; ++t)
-      if ((m >> t) & 1u) slots[t] = value;
-  }
-#endif
-}
-}  // namespace
 
 std::size_t VoxelGrid::write_tile(int bx, int by, std::int32_t z, std::uint64_t mask,
                                   std::uint32_t tag_index) {
@@ -336,13 +379,7 @@ std::size_t VoxelGrid::write_tile(int bx, int by, std::int32_t z, std::uint64_t 
   std::uint64_t& word = g.occ(b)[z & 7];
   const auto fresh = static_cast<std::size_t>(popcount64(mask & ~word));
   word |= mask;
-  const std::uint16_t v = g.slot_value(b, tag_index);
-  if (v != kEscaped) {
-    write_tile_slots(g.tag_slots(b) + (z & 7) * 64, mask, v);
-  } else {
-    for (std::uint64_t m = mask; m != 0; m &= m - 1)
-      g.store_tag(b, (z & 7) * 64 + std::countr_zero(m), tag_index);
-  }
+  g.store_tags(b, z & 7, mask, tag_index);
   g.occupied += fresh;
   return fresh;
 }
@@ -361,9 +398,6 @@ void VoxelGrid::clear(const VoxelKey& k) {
 
 std::size_t VoxelGrid::count() const { return impl_->occupied; }
 
-std::uint32_t VoxelGrid::escaped_tag_index(std::uint32_t block, int slot) const {
-  return impl_->load_tag(block, slot);
-}
 
 void VoxelGrid::reserve_blocks(std::size_t blocks) {
   while (impl_->chunks.size() * kChunkBlocks < blocks) impl_->add_chunk();
@@ -371,10 +405,12 @@ void VoxelGrid::reserve_blocks(std::size_t blocks) {
 
 std::size_t VoxelGrid::block_count() const { return impl_->blocks; }
 
+std::size_t VoxelGrid::wide_block_count() const { return impl_->wide.size(); }
+
 std::size_t VoxelGrid::memory_bytes() const {
   return impl_->directory.size() * sizeof(std::uint32_t) +
          impl_->blocks * kBlockBytes +  // pages of a chunk are touched only as its blocks are used
-         impl_->escaped.size() * 2 * sizeof(std::uint64_t) +
+         impl_->wide.size() * 512 * sizeof(std::uint32_t) +
          impl_->tags.capacity() * sizeof(VoxelTag);
 }
 
@@ -400,9 +436,14 @@ const std::uint64_t* VoxelGrid::block_occupancy(int bx, int by, int bz) const {
 
 VoxelGrid::BlockView VoxelGrid::view_of_block(std::size_t b, int bx, int by, int bz) const {
   const Impl& g = *impl_;
-  return BlockView{VoxelKey{bx * kEdge, by * kEdge, bz * kEdge}, g.occ(b), g.tag_slots(b),
-                   g.bases[b], this, static_cast<std::uint32_t>(b), g.block_escapes[b] != 0,
-                   g.bases[b] + g.block_max[b]};
+  const bool wide = g.palette_size[b] == kWide;
+  return BlockView{VoxelKey{bx * kEdge, by * kEdge, bz * kEdge},
+                   g.occ(b),
+                   g.nibbles(b),
+                   g.palette(b),
+                   wide ? 0 : g.palette_size[b],
+                   wide ? g.wide_slots(b) : nullptr,
+                   static_cast<std::uint32_t>(b)};
 }
 
 std::optional<VoxelGrid::BlockView> VoxelGrid::block_view(int bx, int by, int bz) const {

@@ -66,39 +66,25 @@ inline void set_bits(std::uint64_t* col, int z0, int z1) {
   }
 }
 
-/// Bit i set when voxel i of z-slice z of block b has an auxiliary tag (`aux32`: -1 for an
-/// auxiliary tag index, else 0; indices clamped to `last`, tags of empty voxels mean nothing).
-std::uint64_t aux_mask_default(const VoxelGrid::BlockView& b, int z, const std::int32_t* aux32,
-                               std::uint32_t last) {
+/// Bit i set when voxel i of z-slice z of block b has an auxiliary tag (`auxiliary[t]` is 1
+/// for an auxiliary tag index t; indices clamped to `last`; tags of empty voxels mean nothing).
+std::uint64_t aux_mask(const VoxelGrid::BlockView& b, int z, const std::uint8_t* auxiliary, std::uint32_t last) {
   std::uint64_t m = 0;
-  for (int i = 0; i < 64; ++i)
-    m |= (static_cast<std::uint64_t>(aux32[std::min(b.tag_index(z * 64 + i), last)]) & 1U) << i;
-  return m;
-}
-#if defined(__x86_64__) && defined(__GNUC__)
-/// Same for a block without escaped slots.
-[[gnu::target("avx2")]] std::uint64_t aux_mask_avx2(const VoxelGrid::BlockView& b, int z,
-                                                    const std::int32_t* aux32, std::uint32_t last) {
-  const __m256i lastv = _mm256_set1_epi32(static_cast<int>(last));
-  const __m256i base = _mm256_set1_epi32(static_cast<int>(b.tag_base));
-  const std::uint16_t* t = b.tags + z * 64;
-  std::uint64_t m = 0;
-  for (int i = 0; i < 64; i += 8) {
-    __m256i idx = _mm256_add_epi32(
-        _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(t + i))), base);
-    idx = _mm256_min_epu32(idx, lastv);
-    const __m256i v = _mm256_i32gather_epi32(aux32, idx, 4);
-    const auto bits = static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(v)));
-    m |= static_cast<std::uint64_t>(bits) << i;
+  if (b.wide != nullptr) {
+    for (int i = 0; i < 64; ++i)
+      m |= static_cast<std::uint64_t>(auxiliary[std::min(b.wide[z * 64 + i], last)] & 1U) << i;
+    return m;
+  }
+  unsigned on = 0;  // bit e: palette entry e is auxiliary
+  for (int e = 0; e < b.palette_size; ++e) on |= (auxiliary[std::min(b.palette[e], last)] & 1U) << e;
+  const std::uint8_t* nib = b.nibbles + z * 32;
+  for (int i = 0; i < 64; i += 2) {
+    const unsigned v = nib[i >> 1];
+    m |= static_cast<std::uint64_t>((on >> (v & 0xFU)) & 1U) << i;
+    m |= static_cast<std::uint64_t>((on >> (v >> 4)) & 1U) << (i + 1);
   }
   return m;
 }
-#else
-std::uint64_t aux_mask_avx2(const VoxelGrid::BlockView& b, int z, const std::int32_t* aux32,
-                            std::uint32_t last) {
-  return aux_mask_default(b, z, aux32, last);
-}
-#endif
 
 /// Transposes an 8x8 bit matrix held in a word (byte r = row r, bit c = column c).
 inline std::uint64_t transpose8(std::uint64_t x) {
@@ -271,19 +257,14 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   bool any_auxiliary = false;
   for (const std::uint8_t a : auxiliary) any_auxiliary = any_auxiliary || a != 0;
   const auto last_tag = static_cast<std::uint32_t>(auxiliary.empty() ? 0 : auxiliary.size() - 1);
-  std::vector<std::int32_t> aux32(std::max<std::size_t>(1, auxiliary.size()), 0);
-  for (std::size_t i = 0; i < auxiliary.size(); ++i) aux32[i] = auxiliary[i] != 0 ? -1 : 0;
-  // Auxiliary tags before each index: a block whose tag range [tag_base, tag_last] holds none
-  // (and no escaped slot) needs no per-voxel test, and its tag slots are not read at all.
-  std::vector<std::uint32_t> aux_before(auxiliary.size() + 1, 0);
-  for (std::size_t i = 0; i < auxiliary.size(); ++i) aux_before[i + 1] = aux_before[i] + auxiliary[i];
+  // A block none of whose palette entries is auxiliary needs no per-voxel test, and its
+  // palette indices are not read at all.
   const auto block_may_have_aux = [&](const VoxelGrid::BlockView& b) {
-    if (b.escapes) return true;
-    const std::size_t lo = std::min<std::size_t>(b.tag_base, auxiliary.size());
-    const std::size_t hi = std::min<std::size_t>(static_cast<std::size_t>(b.tag_last) + 1, auxiliary.size());
-    return lo < hi && aux_before[hi] != aux_before[lo];
+    if (b.wide != nullptr) return true;
+    for (int e = 0; e < b.palette_size; ++e)
+      if (auxiliary[std::min(b.palette[e], last_tag)] != 0) return true;
+    return false;
   };
-  const bool avx2 = cpu_has_avx2();
   // The region's blocks, column by column (the z-blocks of a column in a row), so the 64
   // bit columns a block writes stay in cache.
   constexpr int kE = VoxelGrid::kBlockEdge;
@@ -321,9 +302,7 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
           const int gz = bz + z;
           if (gz < 1 || gz >= nz - 1) continue;
           std::uint64_t bits = b.occupancy[z];
-          if (test_aux && bits != 0)
-            bits &= ~(avx2 && !b.escapes ? aux_mask_avx2(b, z, aux32.data(), last_tag)
-                                         : aux_mask_default(b, z, aux32.data(), last_tag));
+          if (test_aux && bits != 0) bits &= ~aux_mask(b, z, auxiliary.data(), last_tag);
           slice[static_cast<std::size_t>(z)] = bits;
         }
         for (int y = 0; y < kE; ++y) {

@@ -92,39 +92,66 @@ TEST(VoxelGrid, SetTagCountAndOrder) {
   EXPECT_LE(VoxelGrid::estimate_bytes(g.dims(), 1000), 3 * 4 * 4 + 8 * VoxelGrid::kBlockBytes);
 }
 
-// Tag slots are 16 bits relative to the block's first tag; indices out of reach (70000 moves
-// later, or earlier than the base) go to the side table and still read back exactly, through
-// every reader: tag(), for_each() and the block view.
-TEST(VoxelGrid, TagsFarFromTheBlockBaseReadBackExactly) {
+// A block keeps up to 16 distinct tags as 4-bit palette indices. Tags far apart in the
+// table (70000 moves) share a palette; a 17th tag first drops the entries that only
+// overwritten voxels referred to; a block that really holds more than 16 becomes wide. Every
+// reader (tag(), for_each(), the block view, a copy) sees the same tags throughout.
+TEST(VoxelGrid, ManyTagsInOneBlockReadBackExactly) {
   VoxelGrid g(0.1, Vec3::Zero(), Eigen::Vector3i(16, 16, 16));
   std::vector<std::uint32_t> index;
-  for (std::uint32_t i = 0; i < 70010; ++i) index.push_back(g.add_tag(VoxelTag{i + 1, static_cast<std::int32_t>(i), Feature::perimeter}));
-  EXPECT_TRUE(g.set_index({1, 1, 1}, index[5]));                               // base of block 0
-  EXPECT_TRUE(g.set_index({2, 1, 1}, index[70000]));                           // escaped (too far)
-  EXPECT_EQ(g.write_tile(0, 0, 2, 0x0101ull, index[69999]), 2u);               // escaped, tile path
-  EXPECT_EQ(g.fill_row(3, 3, 0, 8, index[3]), 8u);                             // before the base
-  EXPECT_EQ(g.write_tile(0, 0, 4, 0xFFull, index[60000]), 8u);                 // in reach
+  for (std::uint32_t i = 0; i < 70010; ++i)
+    index.push_back(g.add_tag(VoxelTag{i + 1, static_cast<std::int32_t>(i), Feature::perimeter}));
+  const auto check_all = [&](const VoxelGrid& grid) {
+    std::size_t visited = 0;
+    grid.for_each([&](const VoxelKey& k, const VoxelTag& t) {
+      EXPECT_EQ(t, *grid.tag(k));
+      ++visited;
+    });
+    EXPECT_EQ(visited, grid.count());
+    grid.visit_blocks([&](const VoxelGrid::BlockView& b) {
+      for (int z = 0; z < 8; ++z)
+        for (std::uint64_t m = b.occupancy[z]; m != 0; m &= m - 1) {
+          const int bit = std::countr_zero(m);
+          const VoxelKey k{b.base.x + (bit & 7), b.base.y + (bit >> 3), b.base.z + z};
+          EXPECT_EQ(b.tag_index(z * 64 + bit), *grid.tag_index(k));
+        }
+    });
+  };
+  EXPECT_TRUE(g.set_index({1, 1, 1}, index[5]));
+  EXPECT_TRUE(g.set_index({2, 1, 1}, index[70000]));
+  EXPECT_EQ(g.write_tile(0, 0, 2, 0x0101ull, index[69999]), 2u);
+  EXPECT_EQ(g.fill_row(3, 3, 0, 8, index[3]), 8u);
+  EXPECT_EQ(g.write_tile(0, 0, 4, 0xFFull, index[60000]), 8u);
   EXPECT_EQ(g.tag({1, 1, 1})->line, 6u);
   EXPECT_EQ(g.tag({2, 1, 1})->line, 70001u);
   EXPECT_EQ(g.tag({0, 0, 2})->line, 70000u);
   EXPECT_EQ(g.tag({0, 1, 2})->line, 70000u);
   EXPECT_EQ(g.tag({5, 3, 3})->line, 4u);
   EXPECT_EQ(g.tag({7, 0, 4})->line, 60001u);
-  std::size_t visited = 0;
-  g.for_each([&](const VoxelKey& k, const VoxelTag& t) {
-    EXPECT_EQ(t, *g.tag(k));
-    ++visited;
-  });
-  EXPECT_EQ(visited, g.count());
   EXPECT_EQ(g.count(), 20u);
-  bool escapes = false;
-  g.visit_blocks([&](const VoxelGrid::BlockView& b) { escapes = escapes || b.escapes; });
-  EXPECT_TRUE(escapes);
-  // Overwriting an escaped voxel with a tag in reach stores it in the slot again.
-  g.set_index({2, 1, 1}, index[10]);
-  EXPECT_EQ(g.tag({2, 1, 1})->line, 11u);
+  check_all(g);
+
+  // Overwrite row (3, 3) with 20 tags in turn: only the last one is referred to, so the
+  // palette is compacted and the block stays narrow.
+  for (std::uint32_t i = 0; i < 20; ++i) g.fill_row(3, 3, 0, 8, index[100 + i]);
+  EXPECT_EQ(g.tag({0, 3, 3})->line, 120u);
+  EXPECT_EQ(g.wide_block_count(), 0u);
+  check_all(g);
+
+  // 30 different tags on 30 voxels of z-slice 6: the block becomes wide, nothing is lost.
+  for (int i = 0; i < 30; ++i) g.set_index({i % 8, i / 8, 6}, index[1000 + static_cast<std::size_t>(i)]);
+  EXPECT_EQ(g.wide_block_count(), 1u);
+  for (int i = 0; i < 30; ++i) EXPECT_EQ(g.tag({i % 8, i / 8, 6})->line, 1001u + static_cast<unsigned>(i));
+  EXPECT_EQ(g.tag({2, 1, 1})->line, 70001u);
+  g.write_tile(0, 0, 6, 0xFFull, index[7]);  // writes to a wide block
+  EXPECT_EQ(g.tag({3, 0, 6})->line, 8u);
+  EXPECT_EQ(g.tag({3, 1, 6})->line, 1012u);
+  check_all(g);
   const VoxelGrid copy = g;
+  EXPECT_EQ(copy.wide_block_count(), 1u);
   EXPECT_EQ(copy.tag({0, 0, 2})->line, 70000u);
+  EXPECT_EQ(copy.tag({5, 3, 6})->line, 1030u);
+  check_all(copy);
 }
 
 TEST(DepositBead, StadiumWidth) {
