@@ -31,6 +31,7 @@
 
 #include "core/bits.hpp"
 #include "deposit/bead_raster.hpp"
+#include "core/zeroed_array.hpp"
 #include "deposit/grid_writer.hpp"
 #include "printtwin/io.hpp"
 
@@ -203,10 +204,10 @@ struct DepositBuilder::State {
   // Height map, per column: rows occupied up to (0 = bed/empty). Stored in 8 x 8 tiles in the
   // blocks' order (top_index), so a tile of the sweep and the samples across a bead touch a
   // cache line or two instead of one page per row.
-  std::vector<std::uint16_t> top;
+  ZeroedArray<std::uint16_t> top;
   // Per column (same layout as `top`): the layer of the move that last wrote the column's top
   // voxel, so the sweep never reads the grid (whose writes may still be under way).
-  std::vector<std::int32_t> top_layer;
+  ZeroedArray<std::int32_t> top_layer;
   int nx = 0, ny = 0, nz = 0;
   std::size_t tiles_x = 0;  // tiles (blocks) per row of the height map
   double ox_ = 0, oy_ = 0, oz_ = 0;  // grid origin (mm)
@@ -245,8 +246,8 @@ struct DepositBuilder::State {
         oz_(origin.z()),
         writer(grid, s.writer_thread && std::thread::hardware_concurrency() > 1) {
     tiles_x = static_cast<std::size_t>(grid.block_dims().x());
-    top.assign(tiles_x * static_cast<std::size_t>(grid.block_dims().y()) * 64 + 1, 0);  // + padding (count_held)
-    top_layer.assign(top.size(), 0);
+    top = ZeroedArray<std::uint16_t>(tiles_x * static_cast<std::size_t>(grid.block_dims().y()) * 64 + 1);  // + padding (count_held)
+    top_layer = ZeroedArray<std::int32_t>(top.size());
   }
 
   // -- columns ---------------------------------------------------------------------------
@@ -587,8 +588,8 @@ struct DepositBuilder::State {
     r.bbox_mm = occupied_bbox();
     r.unsupported = std::move(all_stretches);
     r.findings = make_findings(r.unsupported);
-    r.memory_bytes = grid.memory_bytes() + top.capacity() * sizeof(std::uint16_t) +
-                     top_layer.capacity() * sizeof(std::int32_t);
+    r.memory_bytes = grid.memory_bytes() + top.size() * sizeof(std::uint16_t) +
+                     top_layer.size() * sizeof(std::int32_t);
     top = {};
     top_layer = {};
     r.grid = std::move(grid);

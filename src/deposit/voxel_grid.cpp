@@ -23,6 +23,7 @@
 #include <new>
 
 #include "core/bits.hpp"
+#include "core/zeroed_array.hpp"
 
 #if defined(__linux__)
 #include <sys/mman.h>
@@ -102,7 +103,7 @@ struct VoxelGrid::Impl {
   Vec3 origin_mm = Vec3::Zero();
   Eigen::Vector3i dims = Eigen::Vector3i::Zero();
   Eigen::Vector3i block_dims = Eigen::Vector3i::Zero();
-  std::vector<std::uint32_t> directory;  // block index + 1, or kNoBlock
+  ZeroedArray<std::uint32_t> directory;  // block index + 1, or kNoBlock
   std::vector<std::unique_ptr<ChunkMemory>> chunks;
   std::size_t blocks = 0;
   std::size_t occupied = 0;
@@ -262,10 +263,10 @@ VoxelGrid::VoxelGrid(double voxel_mm, const Vec3& origin_mm, const Eigen::Vector
   impl_->origin_mm = origin_mm;
   impl_->dims = dims.cwiseMax(0);
   impl_->block_dims = (impl_->dims.array() + (kEdge - 1)) / kEdge;
-  impl_->directory.assign(static_cast<std::size_t>(impl_->block_dims.x()) *
-                              static_cast<std::size_t>(impl_->block_dims.y()) *
-                              static_cast<std::size_t>(impl_->block_dims.z()),
-                          kNoBlock);
+  static_assert(kNoBlock == 0);  // the directory starts as zeros
+  impl_->directory = ZeroedArray<std::uint32_t>(static_cast<std::size_t>(impl_->block_dims.x()) *
+                                                static_cast<std::size_t>(impl_->block_dims.y()) *
+                                                static_cast<std::size_t>(impl_->block_dims.z()));
 }
 
 VoxelGrid::VoxelGrid(VoxelGrid&&) noexcept = default;
