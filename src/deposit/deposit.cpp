@@ -214,6 +214,7 @@ struct DepositBuilder::State {
   LayerTracker layers;
   std::optional<PendingBead> pending;
   std::vector<double> gaps_;  // scratch
+  std::vector<int> reached_;  // scratch: the voxel layers a bead reaches
   std::vector<double> offsets_;  // scratch: across-bead sample offsets (mm)
 
   // Support tracking along the current continuous path.
@@ -505,67 +506,76 @@ struct DepositBuilder::State {
     f.slope = static_cast<float>(slope);
     f.r = static_cast<float>(r), f.r2 = static_cast<float>(r2), f.flat = static_cast<float>(flat);
 
-    // Tiles: the 8 x 8 cells of a block's z-slice. For each voxel layer k the bead's footprint
-    // (at its widest over the layer, widened by kBoundSlack so that the bounds never cut a
-    // cell the single-precision test would take) gives the block rows and, per block row,
-    // the blocks to test; each tile's 64 sample points are tested at once and written as one
-    // occupancy word.
+    // Tiles: the 8 x 8 cells of a block's z-slice. The bead's footprint at its widest over
+    // its voxel layers (widened by kBoundSlack so that the bounds never cut a cell the
+    // single-precision test would take) gives the block rows it reaches, the blocks of each
+    // row and the rows of each block, once per bead; each such tile's 64 sample points are
+    // then tested layer by layer and written as one occupancy word per layer. (Bounds per
+    // layer would be tighter at the rounded top and bottom, but computing them cost more than
+    // the few extra tile tests they save.) The tiles of one bead are disjoint and carry one
+    // tag, so the order they are written in changes nothing.
     constexpr double kBoundSlack = 1e-3;
     const auto& bdims = grid.block_dims();
     const std::int32_t layer = pb.move.layer;
     const int k_lo = std::max(0, static_cast<int>(std::floor(zt_lo - hh)));
     const int k_hi = std::min(nz - 1, static_cast<int>(std::ceil(zt_hi)) - 1);
-    Footprint outer;
+    // The layers the section reaches, and its widest half-width over them.
+    reached_.clear();
+    double hw = -1;
     for (int k = k_lo; k <= k_hi; ++k) {
       // Range of the height offset from the section's centre over this layer of voxels.
       const double dz_lo = std::max(k - zc_hi, -r);
       const double dz_hi = std::min(k + 1.0 - zc_lo, r);
       if (dz_lo >= dz_hi) continue;
+      reached_.push_back(k);
       const double dz0 = std::clamp(0.0, dz_lo, dz_hi);
-      const double hw = flat + std::sqrt(std::max(0.0, r2 - dz0 * dz0)) + kBoundSlack;
-      outer.init(a2, b2, d, n, pb.m0, m1, hw);
-      double ylo, yhi;
-      outer.minor_range(ylo, yhi);
-      const bool exhaustive = settings.exhaustive_tiles;
-      const double box_lo_x = std::min(a2.x(), b2.x()) - 2 * hw - 2, box_hi_x = std::max(a2.x(), b2.x()) + 2 * hw + 2;
-      if (exhaustive) ylo = std::min(a2.y(), b2.y()) - 2 * hw - 2, yhi = std::max(a2.y(), b2.y()) + 2 * hw + 2;
-      const int j_lo = std::max(0, floor_int(std::clamp(ylo - kBoundSlack, -2.0, ny + 1.0)));
-      const int j_hi = std::min(ny - 1, floor_int(std::clamp(yhi + kBoundSlack, -2.0, ny + 1.0)));
-      const auto k1 = static_cast<std::uint16_t>(k + 1);
-      for (int by = j_lo >> 3; by <= j_hi >> 3; ++by) {
-        const int row_lo = std::max(j_lo - 8 * by, 0);
-        const int row_hi = std::min(j_hi - 8 * by + 1, 8);
-        // x-range of the footprint over the band of sample lines y in [y0, y1].
-        const double y0 = 8.0 * by + row_lo, y1 = 8.0 * by + row_hi;
-        double xl = std::numeric_limits<double>::infinity(), xh = -xl;
-        for (const double y : {y0, y1}) {
-          double lo, hi;
-          if (outer.interval(y, lo, hi)) xl = std::min(xl, lo), xh = std::max(xh, hi);
+      hw = std::max(hw, flat + std::sqrt(std::max(0.0, r2 - dz0 * dz0)) + kBoundSlack);
+    }
+    if (reached_.empty()) return;
+    Footprint outer;
+    outer.init(a2, b2, d, n, pb.m0, m1, hw);
+    double ylo, yhi;
+    outer.minor_range(ylo, yhi);
+    const bool exhaustive = settings.exhaustive_tiles;
+    const double box_lo_x = std::min(a2.x(), b2.x()) - 2 * hw - 2, box_hi_x = std::max(a2.x(), b2.x()) + 2 * hw + 2;
+    if (exhaustive) ylo = std::min(a2.y(), b2.y()) - 2 * hw - 2, yhi = std::max(a2.y(), b2.y()) + 2 * hw + 2;
+    const int j_lo = std::max(0, floor_int(std::clamp(ylo - kBoundSlack, -2.0, ny + 1.0)));
+    const int j_hi = std::min(ny - 1, floor_int(std::clamp(yhi + kBoundSlack, -2.0, ny + 1.0)));
+    for (int by = j_lo >> 3; by <= j_hi >> 3; ++by) {
+      const int row_lo = std::max(j_lo - 8 * by, 0);
+      const int row_hi = std::min(j_hi - 8 * by + 1, 8);
+      // x-range of the footprint over the band of sample lines y in [y0, y1].
+      const double y0 = 8.0 * by + row_lo, y1 = 8.0 * by + row_hi;
+      double xl = std::numeric_limits<double>::infinity(), xh = -xl;
+      for (const double y : {y0, y1}) {
+        double lo, hi;
+        if (outer.interval(y, lo, hi)) xl = std::min(xl, lo), xh = std::max(xh, hi);
+      }
+      for (const auto& v : outer.vertices)
+        if (v.y() >= y0 && v.y() <= y1) xl = std::min(xl, v.x()), xh = std::max(xh, v.x());
+      if (exhaustive) xl = box_lo_x, xh = box_hi_x;
+      if (!(xl <= xh)) continue;
+      const int i_lo = std::max(0, floor_int(std::clamp(xl - kBoundSlack, -2.0, nx + 1.0)));
+      const int i_hi = std::min(nx - 1, floor_int(std::clamp(xh + kBoundSlack, -2.0, nx + 1.0)));
+      const bool one_tile = (i_lo >> 3) == (i_hi >> 3);
+      for (int bx = i_lo >> 3; bx <= i_hi >> 3 && bx < bdims.x(); ++bx) {
+        const int x_end = std::min(8, nx - 8 * bx);  // cells of this block inside the grid
+        const unsigned lanes = (1u << x_end) - 1u;
+        // Rows of this tile the footprint reaches (over its sample columns x in [8 bx, 8 bx + 8]).
+        int t_lo = row_lo, t_hi = row_hi;
+        if (!one_tile && !exhaustive) {
+          double tyl, tyh;
+          if (!outer.minor_range_over(8.0 * bx, 8.0 * bx + 8.0, tyl, tyh)) continue;
+          t_lo = std::max(row_lo, floor_int(std::clamp(tyl - kBoundSlack - 8.0 * by, -1.0, 9.0)));
+          t_hi = std::min(row_hi, floor_int(std::clamp(tyh + kBoundSlack - 8.0 * by, -1.0, 9.0)) + 1);
+          if (t_lo >= t_hi) continue;
         }
-        for (const auto& v : outer.vertices)
-          if (v.y() >= y0 && v.y() <= y1) xl = std::min(xl, v.x()), xh = std::max(xh, v.x());
-        if (exhaustive) xl = box_lo_x, xh = box_hi_x;
-        if (!(xl <= xh)) continue;
-        const int i_lo = std::max(0, floor_int(std::clamp(xl - kBoundSlack, -2.0, nx + 1.0)));
-        const int i_hi = std::min(nx - 1, floor_int(std::clamp(xh + kBoundSlack, -2.0, nx + 1.0)));
-        const bool one_tile = (i_lo >> 3) == (i_hi >> 3);
-        for (int bx = i_lo >> 3; bx <= i_hi >> 3 && bx < bdims.x(); ++bx) {
-          const int x_end = std::min(8, nx - 8 * bx);  // cells of this block inside the grid
-          const unsigned lanes = (1u << x_end) - 1u;
-          // Rows of this tile the footprint reaches (over its sample columns x in [8 bx, 8 bx + 8]).
-          int t_lo = row_lo, t_hi = row_hi;
-          if (!one_tile && !exhaustive) {
-            double tyl, tyh;
-            if (!outer.minor_range_over(8.0 * bx, 8.0 * bx + 8.0, tyl, tyh)) continue;
-            t_lo = std::max(row_lo, floor_int(std::clamp(tyl - kBoundSlack - 8.0 * by, -1.0, 9.0)));
-            t_hi = std::min(row_hi, floor_int(std::clamp(tyh + kBoundSlack - 8.0 * by, -1.0, 9.0)) + 1);
-            if (t_lo >= t_hi) continue;
-          }
+        const std::size_t at = top_index(8 * bx, 8 * by);
+        for (const int k : reached_) {
           const std::uint64_t mask = detail::test_tile(f, 8 * bx, 8 * by, k, t_lo, t_hi, lanes);
           if (mask == 0) continue;
           writer.tile(bx, by, k, mask);
-          const std::size_t at = top_index(8 * bx, 8 * by);
-          raise_tops(top.data() + at, top_layer.data() + at, mask, k1, layer);
+          raise_tops(top.data() + at, top_layer.data() + at, mask, static_cast<std::uint16_t>(k + 1), layer);
         }
       }
     }

@@ -4,9 +4,11 @@
 
 namespace printtwin::detail {
 
-GridWriter::GridWriter(VoxelGrid& grid, bool threaded) : grid_(grid) {
+GridWriter::GridWriter(VoxelGrid& grid, bool threaded) : grid_(&grid) {
   if (!threaded) return;
-  ring_ = std::make_unique<Record[]>(kCapacity);
+  ring_owner_ = std::make_unique<Record[]>(kCapacity);
+  ring_ = ring_owner_.get();
+  threaded_ = true;
   thread_ = std::thread([this] { run(); });
 }
 
@@ -28,16 +30,16 @@ void GridWriter::tile(int bx, int by, int k, std::uint64_t mask) {
 
 void GridWriter::apply(const Record& r) {
   if (r.kind == 1) {
-    tag_index_ = grid_.add_tag(VoxelTag{static_cast<std::uint32_t>(r.bits), static_cast<std::int32_t>(r.bits >> 32),
+    tag_index_ = grid_->add_tag(VoxelTag{static_cast<std::uint32_t>(r.bits), static_cast<std::int32_t>(r.bits >> 32),
                                         static_cast<Feature>(r.by)});
     return;
   }
-  const std::size_t fresh = grid_.write_tile(r.bx, r.by, r.k, r.bits, tag_index_);
+  const std::size_t fresh = grid_->write_tile(r.bx, r.by, r.k, r.bits, tag_index_);
   overlap_ += static_cast<std::size_t>(popcount64(r.bits)) - fresh;
 }
 
 void GridWriter::push(const Record& r) {
-  if (!thread_.joinable()) {
+  if (!threaded_) {
     apply(r);
     return;
   }

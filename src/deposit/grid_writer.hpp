@@ -38,7 +38,7 @@ class GridWriter {
     std::uint16_t kind;      ///< 0 tile, 1 tag
   };
   static constexpr std::uint64_t kCapacity = std::uint64_t{1} << 16;  ///< records in the ring (1 MiB)
-  static constexpr std::uint64_t kBatch = 256;  ///< records published at a time
+  static constexpr std::uint64_t kBatch = 4096;  ///< records published at a time
   static constexpr std::uint64_t kClosed = std::uint64_t{1} << 63;  ///< in head_: no more records
 
   void push(const Record& r);
@@ -46,18 +46,27 @@ class GridWriter {
   void apply(const Record& r);
   void run();
 
-  VoxelGrid& grid_;
-  std::uint32_t tag_index_ = 0;
-  std::size_t overlap_ = 0;
+  // The producer's fields, the writer's fields and the two counters each sit on their own
+  // cache line: the writer updates tag_index_ and overlap_ with every record and the
+  // producer produced_ with every push, and on one line each write would take the line
+  // from the other core (measured: push and apply were ~18 % of simulate + deposit).
+  static constexpr std::size_t kLine = 64;
+  // Producer (the sweep's thread).
+  alignas(kLine) Record* ring_ = nullptr;  // records (threaded only); owned by ring_owner_
+  bool threaded_ = false;
   bool finished_ = false;
-  // Ring (threaded only): the producer writes records, then publishes head_; the writer
-  // applies them and advances tail_. Each side blocks with atomic wait when it must.
-  std::unique_ptr<Record[]> ring_;
-  std::atomic<std::uint64_t> head_{0};
-  std::atomic<std::uint64_t> tail_{0};
   std::uint64_t produced_ = 0;   // producer's own count
   std::uint64_t tail_seen_ = 0;  // producer's last look at tail_
-  std::exception_ptr error_;     // set by the writer thread
+  // Writer (the writer thread, or the producer when not threaded).
+  alignas(kLine) VoxelGrid* grid_;
+  std::uint32_t tag_index_ = 0;
+  std::size_t overlap_ = 0;
+  std::exception_ptr error_;  // set by the writer thread
+  // Ring (threaded only): the producer writes records, then publishes head_; the writer
+  // applies them and advances tail_. Each side blocks with atomic wait when it must.
+  alignas(kLine) std::atomic<std::uint64_t> head_{0};
+  alignas(kLine) std::atomic<std::uint64_t> tail_{0};
+  alignas(kLine) std::unique_ptr<Record[]> ring_owner_;
   std::thread thread_;
 };
 
