@@ -1,6 +1,7 @@
 // The deposit's outer surface (flood fill from outside over z-runs) and exact distances from
 // points to it (a bucket grid of face squares).
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
@@ -9,6 +10,7 @@
 #endif
 
 #include <algorithm>
+#include <atomic>
 #include <array>
 #include <bit>
 #include <cmath>
@@ -272,18 +274,35 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   std::vector<std::size_t> block_row_begin;  // into in_region, per row of blocks (by)
   {
     // Blocks meeting the region's interior (keys kmin + 1 .. kmin + n - 2 per axis); keys
-    // may be negative, so >> 3 (floor) gives the block.
+    // may be negative, so >> 3 (floor) gives the block. Counted, then listed, rows in
+    // parallel.
     static_assert(kE == 8);
     const Eigen::Vector3i lo((kmin.x + 1) >> 3, (kmin.y + 1) >> 3, (kmin.z + 1) >> 3);
     const Eigen::Vector3i hi((kmin.x + nx - 2) >> 3, (kmin.y + ny - 2) >> 3, (kmin.z + nz - 2) >> 3);
     const Eigen::Vector3i dims = grid.block_dims();
-    for (int by = std::max(0, lo.y()); by <= std::min(dims.y() - 1, hi.y()); ++by) {
-      block_row_begin.push_back(in_region.size());
-      for (int bx = std::max(0, lo.x()); bx <= std::min(dims.x() - 1, hi.x()); ++bx)
-        for (int bz = std::max(0, lo.z()); bz <= std::min(dims.z() - 1, hi.z()); ++bz)
-          if (const auto b = grid.block_view(bx, by, bz)) in_region.push_back(*b);
-    }
-    block_row_begin.push_back(in_region.size());
+    const int by0 = std::max(0, lo.y()), by1 = std::min(dims.y() - 1, hi.y());
+    const int bx0 = std::max(0, lo.x()), bx1 = std::min(dims.x() - 1, hi.x());
+    const int bz0 = std::max(0, lo.z()), bz1 = std::min(dims.z() - 1, hi.z());
+    const std::size_t rows = by1 >= by0 ? static_cast<std::size_t>(by1 - by0 + 1) : 0;
+    block_row_begin.assign(rows + 1, 0);
+    const auto for_row_blocks = [&](std::size_t r, const auto& fn) {
+      const int by = by0 + static_cast<int>(r);
+      for (int bx = bx0; bx <= bx1; ++bx)
+        for (int bz = bz0; bz <= bz1; ++bz) fn(bx, by, bz);
+    };
+    tbb::parallel_for(std::size_t{0}, rows, [&](std::size_t r) {
+      std::size_t n = 0;
+      for_row_blocks(r, [&](int bx, int by, int bz) { n += grid.block_occupancy(bx, by, bz) != nullptr ? 1 : 0; });
+      block_row_begin[r + 1] = n;
+    });
+    for (std::size_t r = 0; r < rows; ++r) block_row_begin[r + 1] += block_row_begin[r];
+    in_region.resize(block_row_begin[rows]);
+    tbb::parallel_for(std::size_t{0}, rows, [&](std::size_t r) {
+      std::size_t at = block_row_begin[r];
+      for_row_blocks(r, [&](int bx, int by, int bz) {
+        if (const auto b = grid.block_view(bx, by, bz)) in_region[at++] = *b;
+      });
+    });
   }
   // A row of blocks writes 8 rows of bit columns that no other row of blocks writes.
   const std::size_t block_rows = block_row_begin.size() - 1;
@@ -392,9 +411,8 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     }
   });
   std::vector<std::uint8_t> outside(runs.size(), 0);
-  std::vector<std::uint32_t> queue;
-  queue.reserve(runs.size());
   // Seeds: every run touching the padding (z = 0 or z = nz - 1, or a border column).
+  std::vector<std::uint32_t> frontier;
   for (int y = 0; y < ny; ++y)
     for (int x = 0; x < nx; ++x) {
       const std::size_t c = static_cast<std::size_t>(y) * nx + x;
@@ -402,11 +420,13 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
       for (std::uint32_t r = run_begin[c]; r < run_begin[c + 1]; ++r)
         if (border || runs[r].z0 == 0 || runs[r].z1 == nz - 1) {
           outside[r] = 1;
-          queue.push_back(r);
+          frontier.push_back(r);
         }
     }
-  for (std::size_t qi = 0; qi < queue.size(); ++qi) {
-    const std::uint32_t r = queue[qi];
+  // Breadth first, a level at a time, the levels' runs in parallel: a run joins the next
+  // level when this thread is the one that marks it. The set of outside runs does not
+  // depend on the order they are reached in.
+  const auto expand = [&](std::uint32_t r, const auto& reached) {
     const std::size_t c = run_column[r];
     const int x = static_cast<int>(c % static_cast<std::size_t>(nx));
     const int y = static_cast<int>(c / static_cast<std::size_t>(nx));
@@ -417,14 +437,39 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
       // Runs are sorted by z: skip those ending below r, stop at the first starting above.
       auto first = std::lower_bound(runs.begin() + run_begin[nc], runs.begin() + run_begin[nc + 1],
                                     runs[r].z0, [](const Run& a, int z) { return a.z1 < z; });
-      for (auto it = first; it != runs.begin() + run_begin[nc + 1] && it->z0 <= runs[r].z1; ++it) {
-        const auto nr = static_cast<std::uint32_t>(it - runs.begin());
-        if (!outside[nr]) {
-          outside[nr] = 1;
-          queue.push_back(nr);
-        }
-      }
+      for (auto it = first; it != runs.begin() + run_begin[nc + 1] && it->z0 <= runs[r].z1; ++it)
+        reached(static_cast<std::uint32_t>(it - runs.begin()));
     }
+  };
+  std::vector<std::uint32_t> level;
+  tbb::enumerable_thread_specific<std::vector<std::uint32_t>> found;
+  while (!frontier.empty()) {
+    level.clear();
+    constexpr std::size_t kParallelLevel = 4096;  // smaller levels: one thread, no atomics
+    if (frontier.size() < kParallelLevel) {
+      for (const std::uint32_t r : frontier)
+        expand(r, [&](std::uint32_t nr) {
+          if (outside[nr] == 0) {
+            outside[nr] = 1;
+            level.push_back(nr);
+          }
+        });
+    } else {
+      for (auto& f : found) f.clear();
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, frontier.size(), 1024),
+                        [&](const tbb::blocked_range<std::size_t>& rr) {
+                          auto& mine = found.local();
+                          for (std::size_t i = rr.begin(); i != rr.end(); ++i)
+                            expand(frontier[i], [&](std::uint32_t nr) {
+                              std::atomic_ref<std::uint8_t> flag(outside[nr]);
+                              if (flag.load(std::memory_order_relaxed) == 0 &&
+                                  flag.exchange(1, std::memory_order_relaxed) == 0)
+                                mine.push_back(nr);
+                            });
+                        });
+      for (const auto& f : found) level.insert(level.end(), f.begin(), f.end());
+    }
+    frontier.swap(level);
   }
 
   // 3. Filled bits = not outside (occupied voxels, enclosed voids, sealed gaps). The outside

@@ -472,9 +472,14 @@ std::optional<RayHit> MeshQuery::first_hit(const Vec3& origin, const Vec3& dir, 
   rtcInitIntersectContext(&context);
   rtcIntersect1(impl_->scene, &context, &rh);
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
-  Vec3 n = triangle_normal(impl_->mesh, rh.hit.primID);
-  const double nl = n.norm();
-  if (nl > 0) n /= nl;
+  // The unit normal kept for the plane bound (the same division); a sliver keeps none there.
+  const TriangleBounds& tb = impl_->bounds[rh.hit.primID];
+  Vec3 n(tb.n[0], tb.n[1], tb.n[2]);
+  if (n.isZero(0)) {
+    n = triangle_normal(impl_->mesh, rh.hit.primID);
+    const double nl = n.norm();
+    if (nl > 0) n /= nl;
+  }
   return RayHit{static_cast<double>(rh.ray.tfar), rh.hit.primID, n};
 }
 
