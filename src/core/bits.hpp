@@ -1,7 +1,7 @@
 #pragma once
 // Bit counting without a library call (std::popcount calls libgcc's __popcountdi2 on
 // baseline x86-64, without -mpopcnt, which the voxel loops cannot afford), and the CPU
-// feature test of the AVX2 kernels.
+// feature tests of the AVX2 and AVX-512 kernels.
 #include <cstdint>
 
 namespace printtwin {
@@ -19,6 +19,16 @@ inline int popcount64(std::uint64_t x) {
 inline bool cpu_has_avx2() {
 #if defined(__x86_64__) && defined(__GNUC__)
   static const bool has = __builtin_cpu_supports("avx2") != 0;
+  return has;
+#else
+  return false;
+#endif
+}
+
+/// True when the CPU runs AVX-512F (x86-64 with GCC or Clang; false elsewhere).
+inline bool cpu_has_avx512f() {
+#if defined(__x86_64__) && defined(__GNUC__)
+  static const bool has = __builtin_cpu_supports("avx512f") != 0;
   return has;
 #else
   return false;

@@ -41,14 +41,18 @@ inline std::uint32_t voxel_jitter_bits(std::int32_t i, std::int32_t j, std::int3
 
 /// Tests the 8 x 8 voxels (i0 + x, j0 + y, k) for x in 0..7 and y in row_lo..row_hi-1 (0 <= row_lo
 /// < row_hi <= 8). Bit y * 8 + x of the result is set when the voxel's sample point is inside
-/// the bead; `lanes` (bits 0..7) masks the x that may be set. Dispatches to the AVX2 kernel
-/// when the CPU has it (same results).
+/// the bead; `lanes` (bits 0..7) masks the x that may be set. Dispatches to the AVX-512
+/// kernel (two rows per instruction) or the AVX2 one (a row) when the CPU has them; every
+/// kernel gives the same bits.
 std::uint64_t test_tile(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k, int row_lo,
                         int row_hi, unsigned lanes);
 
 /// The portable kernel (what test_tile runs without AVX2), for the tests.
 std::uint64_t test_tile_scalar(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k,
                                int row_lo, int row_hi, unsigned lanes);
+/// The AVX2 kernel (the portable one without AVX2), for the tests.
+std::uint64_t test_tile_avx2_kernel(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k,
+                                    int row_lo, int row_hi, unsigned lanes);
 
 /// The deposit's height map, stored in 8 x 8 tiles (column (i, j) at
 /// ((j / 8) * tiles_x + i / 8) * 64 + (j % 8) * 8 + i % 8), with one padding entry at the end
@@ -84,5 +88,7 @@ int count_held_scalar(const HeightMapView& map, double u, double v, double du, d
 
 /// True when test_tile uses the AVX2 kernel on this CPU.
 bool bead_raster_uses_avx2();
+/// True when test_tile uses the AVX-512 kernel on this CPU.
+bool bead_raster_uses_avx512();
 
 }  // namespace printtwin::detail
