@@ -14,25 +14,22 @@ inline int popcount64(std::uint64_t x) {
   return static_cast<int>((x * 0x0101010101010101ull) >> 56);
 }
 
+#if defined(__x86_64__) && defined(__GNUC__)
+/// The CPU feature `name` (a literal for __builtin_cpu_supports), asked once per call site.
+#define PRINTTWIN_CPU_SUPPORTS(name)                                    \
+  [] {                                                                  \
+    static const bool has = __builtin_cpu_supports(name) != 0;          \
+    return has;                                                         \
+  }()
+#else
+#define PRINTTWIN_CPU_SUPPORTS(name) false
+#endif
+
 /// True when the CPU runs AVX2 (x86-64 with GCC or Clang; false elsewhere). Kernels that
 /// use it have a portable twin giving the same bits.
-inline bool cpu_has_avx2() {
-#if defined(__x86_64__) && defined(__GNUC__)
-  static const bool has = __builtin_cpu_supports("avx2") != 0;
-  return has;
-#else
-  return false;
-#endif
-}
+inline bool cpu_has_avx2() { return PRINTTWIN_CPU_SUPPORTS("avx2"); }
 
 /// True when the CPU runs AVX-512F (x86-64 with GCC or Clang; false elsewhere).
-inline bool cpu_has_avx512f() {
-#if defined(__x86_64__) && defined(__GNUC__)
-  static const bool has = __builtin_cpu_supports("avx512f") != 0;
-  return has;
-#else
-  return false;
-#endif
-}
+inline bool cpu_has_avx512f() { return PRINTTWIN_CPU_SUPPORTS("avx512f"); }
 
 }  // namespace printtwin
