@@ -4,7 +4,7 @@
 // From one VerifyReport value (verify.hpp) this stage writes, into one output folder:
 //   report.html   self-contained page (inline CSS, JS, PNG images as data: URIs; no network):
 //                 verdict and gates, key numbers, heatmaps of the part coloured by signed
-//                 deviation from several views (ray cast with Embree through MeshQuery),
+//                 deviation from several views (orthographic, rasterised),
 //                 histogram, deviation per layer, a layer viewer, regions, findings, inputs
 //                 with SHA-256, settings and the printtwin version;
 //   junit.xml     one test case per gate and per error finding (GitHub, GitLab, Jenkins);
@@ -33,7 +33,6 @@
 #include "printtwin/deviation_types.hpp"
 #include "printtwin/geometry.hpp"
 #include "printtwin/mesh.hpp"
-#include "printtwin/mesh_query.hpp"
 #include "printtwin/result.hpp"
 #include "printtwin/verify.hpp"
 
@@ -108,8 +107,11 @@ struct HeatmapView {
   std::vector<RegionMarker> markers;  ///< one per DeviationResult::regions entry, same order
 };
 
-/// Projects regions into a rendered view and tests the visibility of their worst points.
-[[nodiscard]] std::vector<RegionMarker> mark_regions(const MeshQuery& query, const Camera& camera,
+struct TracedView;
+/// Projects regions into a traced view and tests the visibility of their worst points
+/// against its depth buffer (hidden when the surface at the point's pixel is clearly in
+/// front of it; a point outside the image counts as visible).
+[[nodiscard]] std::vector<RegionMarker> mark_regions(const TracedView& traced,
                                                      std::span<const DeviationRegion> regions);
 
 /// Per-point deviation on the mesh surface used to colour the heatmap: mesh-surface samples
@@ -122,11 +124,11 @@ struct SurfaceDeviationField {
   double sample_spacing_mm = 0;  ///< typical sample spacing (0: estimated from the area)
 };
 
-/// Ray casts one view of the mesh held by `query` (one ray per pixel through MeshQuery,
-/// rows in parallel with TBB), colours each hit by the deviation field and shades it with
-/// two Lambert lights. Back faces (open meshes) are grey. Deterministic.
-/// Equals shade_heatmap(trace_heatmap_view(query, view), query.mesh(), field, scale).
-[[nodiscard]] HeatmapView render_heatmap(const MeshQuery& query, const SurfaceDeviationField& field,
+/// Renders one orthographic view of `mesh` (the nearest triangle under each pixel centre),
+/// colours it by the deviation field and shades it with two Lambert lights. Back faces (open
+/// meshes) are grey. Deterministic.
+/// Equals shade_heatmap(trace_heatmap_view(mesh, view), mesh, field, scale).
+[[nodiscard]] HeatmapView render_heatmap(const Mesh& mesh, const SurfaceDeviationField& field,
                                          const DeviationColorScale& scale, const ViewSpec& view);
 
 /// The half of a heatmap render that depends only on the mesh and the view: the camera fitted
@@ -146,26 +148,28 @@ struct TracedView {
   [[nodiscard]] Vec3 pixel_origin(int x, int y) const;
 };
 
-/// Fits the camera to the mesh held by `query` and casts one ray per covered pixel.
-[[nodiscard]] TracedView trace_heatmap_view(const MeshQuery& query, const ViewSpec& view);
+/// Fits the camera to `mesh` and rasterises it: per pixel centre, the nearest triangle along
+/// the view direction (what a ray from the pixel would hit first; equal depths: the lowest
+/// triangle index), its depth and unit normal.
+[[nodiscard]] TracedView trace_heatmap_view(const Mesh& mesh, const ViewSpec& view);
 
 /// Colours a traced view of `mesh` (the mesh it was traced from) by the deviation field.
 [[nodiscard]] HeatmapView shade_heatmap(const TracedView& traced, const Mesh& mesh,
                                         const SurfaceDeviationField& field,
                                         const DeviationColorScale& scale);
 
-/// The BVH and the traced views of one placed mesh, for reports of several deviation results
+/// The traced views of one placed mesh, for reports of several deviation results
 /// on it (compare's variants at the same placement). Built by the caller, who owns it and
 /// passes it in `ReportOptions::heatmap_cache`; a report renders byte for byte the same with
 /// or without it.
 struct HeatmapCache {
-  MeshQuery query;                ///< over the placed mesh (query.mesh())
+  Mesh mesh;                      ///< the placed mesh the views were traced from
   std::vector<TracedView> views;  ///< one per ViewSpec, same order
   /// True when the cache was traced from exactly `placed_mesh` (every coordinate) and `views`.
   [[nodiscard]] bool fits(const Mesh& placed_mesh, std::span<const ViewSpec> views) const;
 };
 
-/// Builds the BVH of `placed_mesh` and traces `views` (errors: the mesh cannot be queried).
+/// Traces `views` of `placed_mesh` (side by side; errors: the mesh has no triangles).
 [[nodiscard]] Result<HeatmapCache> build_heatmap_cache(const Mesh& placed_mesh,
                                                        std::span<const ViewSpec> views);
 

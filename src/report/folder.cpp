@@ -18,14 +18,14 @@ bool HeatmapCache::fits(const Mesh& placed_mesh, std::span<const ViewSpec> specs
   if (views.size() != specs.size()) return false;
   for (std::size_t i = 0; i < specs.size(); ++i)
     if (!(views[i].view == specs[i])) return false;
-  return query.mesh() == placed_mesh;
+  return mesh == placed_mesh;
 }
 
 Result<HeatmapCache> build_heatmap_cache(const Mesh& placed_mesh, std::span<const ViewSpec> views) {
-  auto query = MeshQuery::build(placed_mesh);
-  if (!query) return internal_error("cannot render the heatmaps: " + query.error().message);
-  HeatmapCache cache{std::move(*query), {}};
-  for (const auto& view : views) cache.views.push_back(trace_heatmap_view(cache.query, view));
+  if (placed_mesh.triangles.empty()) return bad_input("cannot render the heatmaps: the mesh has no triangles");
+  HeatmapCache cache{placed_mesh, std::vector<TracedView>(views.size())};
+  tbb::parallel_for(std::size_t{0}, views.size(),
+                    [&](std::size_t i) { cache.views[i] = trace_heatmap_view(cache.mesh, views[i]); });
   return cache;
 }
 
@@ -52,8 +52,8 @@ Result<ReportAssets> render_report_assets(const VerifyReport& report, const Repo
   std::vector<std::optional<HeatmapView>> views(n);
   std::vector<std::optional<Result<std::string>>> pngs(n);
   tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
-    HeatmapView hv = shade_heatmap(cache->views[i], cache->query.mesh(), field, assets.scale);
-    hv.markers = mark_regions(cache->query, hv.camera, report.deviation.regions);
+    HeatmapView hv = shade_heatmap(cache->views[i], cache->mesh, field, assets.scale);
+    hv.markers = mark_regions(cache->views[i], report.deviation.regions);
     pngs[i].emplace(encode_png(hv.image));
     views[i].emplace(std::move(hv));
   });

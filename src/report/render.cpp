@@ -1,5 +1,6 @@
-// Heatmap renders of the part: one orthographic ray per pixel through MeshQuery (Embree),
-// coloured by signed deviation and shaded with two Lambert lights.
+// Heatmap renders of the part: orthographic views rasterised (per pixel centre, the nearest
+// triangle along the view direction), coloured by signed deviation and shaded with two
+// Lambert lights.
 //
 // Colour comes from the mesh-surface samples (mesh -> deposit distances, dense: one per
 // voxel-sized patch) splatted into the image and depth-tested against the ray-cast depth
@@ -7,7 +8,7 @@
 // box) still show. Pixels no sample reaches fall back to the per-vertex deviation
 // interpolated with barycentric coordinates.
 //
-// A render has two halves: trace_heatmap_view (camera fit, rays, lighting and outlines; the
+// A render has two halves: trace_heatmap_view (camera fit, raster, lighting and outlines; the
 // mesh and the view only) and shade_heatmap (colours from one deviation result). Reports of
 // several results on the same placed mesh (compare's variants) trace once (HeatmapCache).
 #include <tbb/blocked_range.h>
@@ -103,8 +104,7 @@ Vec2 Camera::project(const Vec3& p_mm) const {
   return Vec2(0.5 * width_px + d.dot(right) / mm_per_px, 0.5 * height_px - d.dot(up) / mm_per_px);
 }
 
-TracedView trace_heatmap_view(const MeshQuery& query, const ViewSpec& view) {
-  const Mesh& mesh = query.mesh();
+TracedView trace_heatmap_view(const Mesh& mesh, const ViewSpec& view) {
   TracedView out;
   out.view = view;
   Camera& cam = out.camera;
@@ -137,7 +137,10 @@ TracedView trace_heatmap_view(const MeshQuery& query, const ViewSpec& view) {
   const double pad = 0.01 * depth + 1.0;
   out.near_offset_mm = 0.5 * depth + pad;
 
-  // One ray per pixel -> triangle, depth, unit normal.
+  // Per pixel: triangle, depth from the pixel's ray origin, unit normal. Each triangle is
+  // projected (pixel (x, y)'s centre at (x, y)) and the pixel centres inside it take it when
+  // it is nearer than what they hold; triangles go in index order and only a strictly nearer
+  // one replaces, so equal depths keep the lowest index.
   constexpr std::uint32_t kNone = TracedView::kNoHit;
   std::vector<std::uint32_t>& tri = out.triangle;
   std::vector<float>& tdepth = out.depth_mm;
@@ -145,42 +148,46 @@ TracedView trace_heatmap_view(const MeshQuery& query, const ViewSpec& view) {
   tri.assign(static_cast<std::size_t>(w) * h, kNone);
   tdepth.assign(tri.size(), 0.f);
   normal.assign(tri.size(), Vec3::Zero());
-  // Orthographic rays only hit triangles whose projection covers their pixel: mark each
-  // triangle's projected box (plus 2 px for rounding) and cast rays only there. Same hits,
-  // no rays through the empty background.
-  std::vector<char> covered(tri.size(), 0);
   {
     std::vector<Vec2> px(mesh.vertices_mm.size());
+    std::vector<double> pz(mesh.vertices_mm.size());
     for (std::size_t v = 0; v < px.size(); ++v) {
       const Vec3 d = mesh.vertices_mm[v] - cam.center_mm;
       px[v] = Vec2(d.dot(cam.right) / cam.mm_per_px + 0.5 * w - 0.5, 0.5 * h - 0.5 - d.dot(cam.up) / cam.mm_per_px);
+      pz[v] = d.dot(cam.forward) + out.near_offset_mm;
     }
-    for (const auto& t : mesh.triangles) {
-      const Vec2 lo = px[t[0]].cwiseMin(px[t[1]]).cwiseMin(px[t[2]]);
-      const Vec2 hi = px[t[0]].cwiseMax(px[t[1]]).cwiseMax(px[t[2]]);
-      if (!(lo.allFinite() && hi.allFinite())) continue;
-      const int x0 = std::max(0, static_cast<int>(std::floor(lo.x())) - 2);
-      const int x1 = std::min(w - 1, static_cast<int>(std::ceil(hi.x())) + 2);
-      const int y0 = std::max(0, static_cast<int>(std::floor(lo.y())) - 2);
-      const int y1 = std::min(h - 1, static_cast<int>(std::ceil(hi.y())) + 2);
+    std::vector<double> nearest(tri.size(), std::numeric_limits<double>::infinity());
+    const auto edge = [](const Vec2& a, const Vec2& b, const Vec2& p) {
+      return (b.x() - a.x()) * (p.y() - a.y()) - (b.y() - a.y()) * (p.x() - a.x());
+    };
+    for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+      const auto& f = mesh.triangles[t];
+      const Vec2 &a = px[f[0]], &b = px[f[1]], &c = px[f[2]];
+      const double area = edge(a, b, c);
+      if (!(std::abs(area) > 0) || !std::isfinite(area)) continue;  // edge-on: no pixel sees it
+      const Vec2 lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
+      const int x0 = std::max(0, static_cast<int>(std::ceil(lo.x()))), x1 = std::min(w - 1, static_cast<int>(std::floor(hi.x())));
+      const int y0 = std::max(0, static_cast<int>(std::ceil(lo.y()))), y1 = std::min(h - 1, static_cast<int>(std::floor(hi.y())));
+      if (x0 > x1 || y0 > y1) continue;
+      const double inv = 1.0 / area;
+      Vec3 n = triangle_normal(mesh, t);
+      if (const double len = n.norm(); len > 0) n /= len;
       for (int y = y0; y <= y1; ++y)
-        std::fill_n(covered.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(y) * w + x0),
-                    std::max(0, x1 - x0 + 1), char{1});
+        for (int x = x0; x <= x1; ++x) {
+          const Vec2 p(x, y);
+          // Barycentric weights (either winding: both faces are seen).
+          const double l0 = edge(b, c, p) * inv, l1 = edge(c, a, p) * inv, l2 = edge(a, b, p) * inv;
+          if (l0 < 0 || l1 < 0 || l2 < 0) continue;
+          const double z = l0 * pz[f[0]] + l1 * pz[f[1]] + l2 * pz[f[2]];
+          const std::size_t i = static_cast<std::size_t>(y) * w + x;
+          if (!(z < nearest[i])) continue;
+          nearest[i] = z;
+          tri[i] = static_cast<std::uint32_t>(t);
+          tdepth[i] = static_cast<float>(z);
+          normal[i] = n;
+        }
     }
   }
-  tbb::parallel_for(tbb::blocked_range<int>(0, h, 8), [&](const tbb::blocked_range<int>& rows) {
-    for (int y = rows.begin(); y != rows.end(); ++y)
-      for (int x = 0; x < w; ++x) {
-        if (covered[static_cast<std::size_t>(y) * w + x] == 0) continue;
-        const Vec3 origin = out.pixel_origin(x, y);
-        const auto hit = query.first_hit(origin, cam.forward, 0.0, depth + 2 * pad);
-        if (!hit) continue;
-        const std::size_t i = static_cast<std::size_t>(y) * w + x;
-        tri[i] = hit->triangle;
-        tdepth[i] = static_cast<float>(hit->t_mm);
-        normal[i] = hit->normal;
-      }
-  });
 
   // Lighting: two Lambert lights, creases and depth steps outlined (darkened where a
   // neighbour differs a lot).
@@ -404,13 +411,13 @@ HeatmapView shade_heatmap(const TracedView& traced, const Mesh& mesh, const Surf
   return out;
 }
 
-HeatmapView render_heatmap(const MeshQuery& query, const SurfaceDeviationField& field,
+HeatmapView render_heatmap(const Mesh& mesh, const SurfaceDeviationField& field,
                            const DeviationColorScale& scale, const ViewSpec& view) {
-  return shade_heatmap(trace_heatmap_view(query, view), query.mesh(), field, scale);
+  return shade_heatmap(trace_heatmap_view(mesh, view), mesh, field, scale);
 }
 
-std::vector<RegionMarker> mark_regions(const MeshQuery& query, const Camera& camera,
-                                       std::span<const DeviationRegion> regions) {
+std::vector<RegionMarker> mark_regions(const TracedView& traced, std::span<const DeviationRegion> regions) {
+  const Camera& camera = traced.camera;
   std::vector<RegionMarker> out;
   out.reserve(regions.size());
   for (const auto& r : regions) {
@@ -430,11 +437,17 @@ std::vector<RegionMarker> mark_regions(const MeshQuery& query, const Camera& cam
     } else {
       m.bbox_min_px = m.bbox_max_px = m.worst_px;
     }
-    // Hidden when the surface, seen from the camera, is clearly in front of the point.
-    const double back_off = 1e4 * camera.mm_per_px + 1000.0;
-    const Vec3 origin = r.worst_position_mm - camera.forward * back_off;
-    const auto hit = query.first_hit(origin, camera.forward, 0.0, back_off);
-    m.visible = !hit || hit->t_mm >= back_off - (3.0 * camera.mm_per_px + 0.1);
+    // Hidden when the surface seen at the point's pixel is clearly in front of the point.
+    m.visible = true;
+    const double fx = std::floor(m.worst_px.x()), fy = std::floor(m.worst_px.y());
+    if (fx >= 0 && fy >= 0 && fx < camera.width_px && fy < camera.height_px) {
+      const int x = static_cast<int>(fx), y = static_cast<int>(fy);
+      const std::size_t i = static_cast<std::size_t>(y) * camera.width_px + x;
+      if (traced.triangle[i] != TracedView::kNoHit) {
+        const double point_depth = (r.worst_position_mm - traced.pixel_origin(x, y)).dot(camera.forward);
+        m.visible = traced.depth_mm[i] >= point_depth - (3.0 * camera.mm_per_px + 0.1);
+      }
+    }
     out.push_back(m);
   }
   return out;

@@ -96,12 +96,10 @@ TEST(ReportPng, RoundTripIsExactAndDeterministic) {
 
 TEST(ReportRender, TopViewOfSphereCoversItsDiscAndShowsTheBulgeInRed) {
   const auto& r = synthetic();
-  auto q = MeshQuery::build(r.placed_mesh);
-  ASSERT_TRUE(q.ok());
   const DeviationColorScale scale = make_color_scale(r.deviation);
   SurfaceDeviationField field{r.deviation.mesh_samples.positions_mm, r.deviation.mesh_samples.distances_mm,
                               r.deviation.vertex_deviation_mm, 0.25};
-  const HeatmapView top = render_heatmap(*q, field, scale, find_view("top"));
+  const HeatmapView top = render_heatmap(r.placed_mesh, field, scale, find_view("top"));
   // Disc of radius 12 mm (polygon of 96 segments: area factor sin(2pi/96)*96/(2pi)).
   const double disc_mm2 = 0.5 * 96 * std::sin(2 * 3.14159265358979 / 96) * 144.0;
   const double px_mm2 = top.camera.mm_per_px * top.camera.mm_per_px;
@@ -119,22 +117,20 @@ TEST(ReportRender, TopViewOfSphereCoversItsDiscAndShowsTheBulgeInRed) {
   // Corners are background (transparent).
   EXPECT_EQ(top.image.rgba[3], 0);
 
-  const HeatmapView front = render_heatmap(*q, field, scale, find_view("front"));
+  const HeatmapView front = render_heatmap(r.placed_mesh, field, scale, find_view("front"));
   const auto dent = pixel(front.image, front.camera.project(kDentAt));
   EXPECT_GT(dent[2], dent[0] + 60);
   // Same inputs, same pixels.
-  EXPECT_EQ(render_heatmap(*q, field, scale, find_view("front")).image, front.image);
+  EXPECT_EQ(render_heatmap(r.placed_mesh, field, scale, find_view("front")).image, front.image);
 }
 
 TEST(ReportRender, VertexDeviationColoursWhenThereAreNoSamples) {
   const Mesh box = make_box_mesh(Vec3(0, 0, 0), Vec3(20, 20, 10));
-  auto q = MeshQuery::build(box);
-  ASSERT_TRUE(q.ok());
   // Vertices with x = 20 are +0.6 (excess), x = 0 are -0.6: the top face runs blue -> green -> red.
   std::vector<double> dev;
   for (const auto& v : box.vertices_mm) dev.push_back(v.x() > 10 ? 0.6 : -0.6);
   SurfaceDeviationField field{{}, {}, dev, 0};
-  const HeatmapView top = render_heatmap(*q, field, DeviationColorScale{0.2, 1.0}, find_view("top"));
+  const HeatmapView top = render_heatmap(box, field, DeviationColorScale{0.2, 1.0}, find_view("top"));
   const auto left = pixel(top.image, top.camera.project(Vec3(1, 10, 10)));
   const auto mid = pixel(top.image, top.camera.project(Vec3(10, 10, 10)));
   const auto right = pixel(top.image, top.camera.project(Vec3(19, 10, 10)));
@@ -146,13 +142,8 @@ TEST(ReportRender, VertexDeviationColoursWhenThereAreNoSamples) {
 
 TEST(ReportRender, RegionMarkersKnowWhichSideTheyAreOn) {
   const auto& r = synthetic();
-  auto q = MeshQuery::build(r.placed_mesh);
-  ASSERT_TRUE(q.ok());
-  SurfaceDeviationField field{r.deviation.mesh_samples.positions_mm, r.deviation.mesh_samples.distances_mm,
-                              r.deviation.vertex_deviation_mm, 0.25};
-  const auto scale = make_color_scale(r.deviation);
-  const HeatmapView top = render_heatmap(*q, field, scale, find_view("top"));
-  const auto m = mark_regions(*q, top.camera, r.deviation.regions);
+  const TracedView top = trace_heatmap_view(r.placed_mesh, find_view("top"));
+  const auto m = mark_regions(top, r.deviation.regions);
   ASSERT_EQ(m.size(), 2u);
   EXPECT_TRUE(m[0].visible);   // bulge on the upper half
   EXPECT_FALSE(m[1].visible);  // dent on the lower half
@@ -160,8 +151,7 @@ TEST(ReportRender, RegionMarkersKnowWhichSideTheyAreOn) {
   EXPECT_NEAR((m[0].worst_px - expect).norm(), 0.0, 1e-9);
   EXPECT_LE(m[0].bbox_min_px.x(), m[0].worst_px.x());
   EXPECT_GE(m[0].bbox_max_px.y(), m[0].worst_px.y());
-  const HeatmapView iso = render_heatmap(*q, field, scale, find_view("iso"));
-  const auto mi = mark_regions(*q, iso.camera, r.deviation.regions);
+  const auto mi = mark_regions(trace_heatmap_view(r.placed_mesh, find_view("iso")), r.deviation.regions);
   EXPECT_FALSE(mi[0].visible);  // bulge faces away from the front-left-top camera
   EXPECT_TRUE(mi[1].visible);
 }
