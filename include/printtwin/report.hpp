@@ -219,6 +219,9 @@ struct ReportAssets {
   DeviationColorScale scale;
   std::vector<HeatmapView> views;
   std::vector<std::string> view_png;  ///< PNG bytes of each view, same order
+  /// The layer viewer's data (JSON) for report.html, made beside the views; when empty,
+  /// report_html makes it.
+  std::string viewer_data;
 };
 
 /// Renders the heatmap views of `report.placed_mesh` (errors: the mesh cannot be queried).

@@ -6,6 +6,8 @@
 #include <system_error>
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
+#include <tbb/task_group.h>
 
 #include "printtwin/io.hpp"
 #include "report/report_internal.hpp"
@@ -47,16 +49,21 @@ Result<ReportAssets> render_report_assets(const VerifyReport& report, const Repo
   field.vertex_deviation_mm = report.deviation.vertex_deviation_mm;
   field.sample_spacing_mm = report.settings.mesh_sample_spacing_mm > 0 ? report.settings.mesh_sample_spacing_mm
                                                                         : report.settings.voxel_mm;
-  // The views side by side (each also parallel inside); PNG encoding is one thread per image.
+  // The views side by side (each also parallel inside; PNG encoding is one thread per
+  // image), and beside them the layer viewer's data.
   const std::size_t n = cache->views.size();
   std::vector<std::optional<HeatmapView>> views(n);
   std::vector<std::optional<Result<std::string>>> pngs(n);
-  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
-    HeatmapView hv = shade_heatmap(cache->views[i], cache->mesh, field, assets.scale);
-    hv.markers = mark_regions(cache->views[i], report.deviation.regions);
-    pngs[i].emplace(encode_png(hv.image));
-    views[i].emplace(std::move(hv));
-  });
+  tbb::parallel_invoke(
+      [&] {
+        tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
+          HeatmapView hv = shade_heatmap(cache->views[i], cache->mesh, field, assets.scale);
+          hv.markers = mark_regions(cache->views[i], report.deviation.regions);
+          pngs[i].emplace(encode_png(hv.image));
+          views[i].emplace(std::move(hv));
+        });
+      },
+      [&] { assets.viewer_data = detail::viewer_json(report, assets.scale, options); });
   for (std::size_t i = 0; i < n; ++i) {
     if (!*pngs[i]) return pngs[i]->error();
     assets.view_png.push_back(std::move(*pngs[i]).value());
@@ -87,9 +94,6 @@ Status write_report_folder(const VerifyReport& report, const fs::path& out_dir, 
   if (ec) return bad_input("cannot create the report's parent folder: " + ec.message(), parent.string());
   if (fs::exists(target, ec) && !fs::is_directory(target, ec))
     return bad_input("exists and is not a folder; expected a report folder", target.string());
-  auto files = build_report_files(report, options);
-  if (!files) return files.error();
-
   std::random_device rd;
   const std::string tag = std::to_string(rd() % 100000000);
   const fs::path staging = parent / ("." + name + ".staging-" + tag);
@@ -100,12 +104,18 @@ Status write_report_folder(const VerifyReport& report, const fs::path& out_dir, 
   };
   fs::create_directories(staging, ec);
   if (ec) return fail(bad_input("cannot create a staging folder: " + ec.message(), staging.string()));
-  for (const auto& f : *files) {
+  // The report's own files and the caller's extra outputs (report.json, deviation.ply) are
+  // made side by side; a failure of the former is reported first.
+  std::optional<Result<std::vector<ReportFile>>> files;
+  Status extra = Ok{};
+  tbb::task_group both;
+  both.run([&] { files.emplace(build_report_files(report, options)); });
+  if (options.extra_outputs) both.run([&] { extra = options.extra_outputs(staging); });
+  both.wait();
+  if (!*files) return fail(files->error());
+  if (!extra) return fail(extra.error());
+  for (const auto& f : **files) {
     auto st = write_file_atomic(staging / f.name, f.content);
-    if (!st) return fail(st.error());
-  }
-  if (options.extra_outputs) {
-    auto st = options.extra_outputs(staging);
     if (!st) return fail(st.error());
   }
   // Swap: move an existing report aside, move the new one in, drop the old one.

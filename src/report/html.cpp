@@ -382,7 +382,7 @@ std::string report_html(const VerifyReport& report, const ReportAssets& assets, 
        " · the same folder holds report.json, junit.xml, summary.md and the PNG views</footer>\n";
 
   // Viewer data (JSON; "</" escaped so that it cannot end the script element).
-  std::string data = detail::viewer_json(report, scale, options);
+  const std::string data = assets.viewer_data.empty() ? detail::viewer_json(report, scale, options) : assets.viewer_data;
   std::string safe;
   safe.reserve(data.size());
   for (std::size_t i = 0; i < data.size(); ++i) {
