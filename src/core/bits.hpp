@@ -1,6 +1,7 @@
 #pragma once
 // Bit counting without a library call (std::popcount calls libgcc's __popcountdi2 on
-// baseline x86-64, without -mpopcnt, which the voxel loops cannot afford), and the CPU
+// baseline x86-64, without -mpopcnt, which the voxel loops cannot afford; the x86-64-v2
+// build (CMakeLists.txt) turns this into the POPCNT instruction), and the CPU
 // feature tests of the AVX2 and AVX-512 kernels.
 #include <cstdint>
 
