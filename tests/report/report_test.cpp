@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "printtwin/io.hpp"
+#include "printtwin/mesh_query.hpp"
 #include "printtwin/report.hpp"
 #include "report/synthetic_report.hpp"
 #include "report/xml_checker.hpp"
@@ -138,6 +139,45 @@ TEST(ReportRender, VertexDeviationColoursWhenThereAreNoSamples) {
   EXPECT_GT(mid[1], mid[0] + 20);
   EXPECT_GT(mid[1], mid[2] + 20);
   EXPECT_GT(right[0], right[2] + 60);
+}
+
+// The raster is what one ray per pixel centre would see: for every pixel of every default
+// view of the synthetic sphere, Embree's first hit along the view direction from the pixel's
+// ray origin has the same triangle (or another at the same depth: a shared edge) and the same
+// depth, and a pixel is background exactly when the ray misses (a silhouette pixel or two
+// may go either way).
+TEST(ReportRender, RasterMatchesARayCastPerPixel) {
+  const auto& r = synthetic();
+  auto q = MeshQuery::build(r.placed_mesh);
+  ASSERT_TRUE(q.ok());
+  for (const ViewSpec& view : default_views()) {
+    const TracedView tv = trace_heatmap_view(r.placed_mesh, view);
+    const int w = tv.camera.width_px, h = tv.camera.height_px;
+    std::size_t hits = 0, disagree = 0;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const std::size_t i = static_cast<std::size_t>(y) * w + x;
+        const auto hit = q->first_hit(tv.pixel_origin(x, y), tv.camera.forward);
+        const bool raster = tv.triangle[i] != TracedView::kNoHit;
+        if (raster != hit.has_value()) {
+          ++disagree;
+          continue;
+        }
+        if (!raster) continue;
+        ++hits;
+        EXPECT_NEAR(tv.depth_mm[i], hit->t_mm, 1e-3) << view.name << " pixel " << x << "," << y;
+        if (tv.triangle[i] != hit->triangle) {
+          // Another triangle at the same depth: both share the point the ray hits.
+          const auto& tri = r.placed_mesh.triangles[tv.triangle[i]];
+          const Vec3 p = tv.pixel_origin(x, y) + tv.camera.forward * static_cast<double>(tv.depth_mm[i]);
+          const Vec3 c = closest_point_on_triangle(p, r.placed_mesh.vertices_mm[tri[0]],
+                                                   r.placed_mesh.vertices_mm[tri[1]], r.placed_mesh.vertices_mm[tri[2]]);
+          EXPECT_LT((c - p).norm(), 1e-3) << view.name << " pixel " << x << "," << y;
+        }
+      }
+    EXPECT_GT(hits, 10000U) << view.name;
+    EXPECT_LE(disagree, hits / 1000) << view.name;  // silhouette pixels only
+  }
 }
 
 TEST(ReportRender, RegionMarkersKnowWhichSideTheyAreOn) {
