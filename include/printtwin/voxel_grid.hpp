@@ -75,9 +75,9 @@ class VoxelGrid {
   /// "wide" (a 32-bit tag index per voxel, kept beside the chunks).
   static constexpr int kPaletteSize = 16;
   /// Bytes of one allocated block: 512 occupancy bits, a 4-bit palette index per voxel, the
-  /// palette (16 tag indices) and its length.
+  /// palette (16 tag indices), its length and the block's coordinates.
   static constexpr std::size_t kBlockBytes =
-      8 * sizeof(std::uint64_t) + 512 / 2 + kPaletteSize * sizeof(std::uint32_t) + 1;
+      8 * sizeof(std::uint64_t) + 512 / 2 + kPaletteSize * sizeof(std::uint32_t) + 1 + 3 * sizeof(std::int32_t);
 
   /// Appends `tag` to the tag table (or reuses the last entry when equal); returns its index.
   std::uint32_t add_tag(const VoxelTag& tag);
@@ -132,6 +132,9 @@ class VoxelGrid {
   [[nodiscard]] std::optional<BlockView> block_view(int bx, int by, int bz) const;
   /// Calls fn for every allocated block, in the fixed order of for_each (z, then y, then x).
   void visit_blocks(const std::function<void(const BlockView&)>& fn) const;
+  /// Calls fn for every allocated block in the order they were allocated (deterministic for
+  /// the same writes); touches the allocated blocks only, not the whole directory.
+  void visit_blocks_as_allocated(const std::function<void(const BlockView&)>& fn) const;
 
   /// Calls fn(const VoxelKey&, const VoxelTag&) for every occupied voxel, in a fixed order
   /// (block by block, z-major), so results are deterministic.

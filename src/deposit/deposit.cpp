@@ -609,7 +609,9 @@ struct DepositBuilder::State {
   [[nodiscard]] Box3 occupied_bbox() const {
     Eigen::Vector3i lo = Eigen::Vector3i::Constant(std::numeric_limits<int>::max());
     Eigen::Vector3i hi = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
-    grid.visit_blocks([&](const VoxelGrid::BlockView& blk) {
+    // Min and max do not depend on the order: the allocated blocks as they come, not the
+    // whole directory (most of which, over the bed around the part, was never touched).
+    grid.visit_blocks_as_allocated([&](const VoxelGrid::BlockView& blk) {
       std::uint64_t any = 0;
       for (int z = 0; z < 8; ++z) {
         if (blk.occupancy[z] == 0) continue;

@@ -109,6 +109,7 @@ struct VoxelGrid::Impl {
   std::size_t occupied = 0;
   std::vector<VoxelTag> tags;
   std::vector<std::uint8_t> palette_size;  // per block: palette entries in use, or kWide
+  std::vector<std::array<std::int32_t, 3>> block_coord;  // per block: (bx, by, bz)
   // Wide blocks: 512 tag indices each; a wide block's palette[0] holds its index here.
   std::vector<std::unique_ptr<std::uint32_t[]>> wide;
 
@@ -131,12 +132,13 @@ struct VoxelGrid::Impl {
     return palette_size[b] == kWide ? wide[palette(b)[0]].get() : nullptr;
   }
   void add_chunk() { chunks.push_back(std::make_unique<ChunkMemory>()); }
-  std::size_t allocate_block(std::size_t di) {
+  std::size_t allocate_block(std::size_t di, int bx, int by, int bz) {
     if (blocks == chunks.size() * kChunkBlocks) add_chunk();
     if (blocks % kChunkBlocks == 0) chunks[blocks / kChunkBlocks]->prefault();
     const std::size_t b = blocks++;
     directory[di] = static_cast<std::uint32_t>(b + 1);
     palette_size.push_back(0);
+    block_coord.push_back({bx, by, bz});
     return b;
   }
   [[nodiscard]] static unsigned nibble_at(const std::uint8_t* nib, int s) {
@@ -219,7 +221,7 @@ struct VoxelGrid::Impl {
   std::size_t block_for_write(int bx, int by, int bz) {
     const std::size_t di = dir_index(bx, by, bz);
     const std::uint32_t d = directory[di];
-    return d != kNoBlock ? d - 1 : allocate_block(di);
+    return d != kNoBlock ? d - 1 : allocate_block(di, bx, by, bz);
   }
   [[nodiscard]] bool in_range(const VoxelKey& k) const {
     return k.x >= 0 && k.y >= 0 && k.z >= 0 && k.x < dims.x() && k.y < dims.y() && k.z < dims.z();
@@ -240,6 +242,7 @@ struct VoxelGrid::Impl {
     occupied = o.occupied;
     tags = o.tags;
     palette_size = o.palette_size;
+    block_coord = o.block_coord;
     wide.clear();
     for (const auto& w : o.wide) {
       wide.push_back(std::make_unique<std::uint32_t[]>(512));
@@ -465,6 +468,14 @@ void VoxelGrid::visit_blocks(const std::function<void(const BlockView&)>& fn) co
         const std::uint32_t d = g.directory[g.dir_index(bx, by, bz)];
         if (d != kNoBlock) fn(view_of_block(d - 1, bx, by, bz));
       }
+}
+
+void VoxelGrid::visit_blocks_as_allocated(const std::function<void(const BlockView&)>& fn) const {
+  const Impl& g = *impl_;
+  for (std::size_t b = 0; b < g.blocks; ++b) {
+    const auto& c = g.block_coord[b];
+    fn(view_of_block(b, c[0], c[1], c[2]));
+  }
 }
 
 std::vector<VoxelKey> VoxelGrid::occupied_keys() const {
