@@ -3,6 +3,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/task_arena.h>
 
 #if defined(__x86_64__)
@@ -549,9 +550,10 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     }
   });
   for (int y = 0; y < ny; ++y) row_faces[static_cast<std::size_t>(y) + 1] += row_faces[static_cast<std::size_t>(y)];
-  s.faces.resize(row_faces[static_cast<std::size_t>(ny)]);
-  s.face_centers_mm.resize(s.faces.size());
-  s.face_tags.resize(s.faces.size());
+  // The face arrays sized side by side (resize writes each element's initial value).
+  const std::size_t n_faces = row_faces[static_cast<std::size_t>(ny)];
+  tbb::parallel_invoke([&] { s.faces.resize(n_faces); }, [&] { s.face_tags.resize(n_faces); },
+                       [&] { s.face_centers_mm.resize(n_faces); });
   const double v = s.voxel_mm;
   // Each face carries its voxel's tag (a voxel's faces share one lookup): a dense directory
   // of the region's blocks, so a tag is two array reads instead of a grid lookup.
