@@ -206,12 +206,13 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
 
   if (settings.keep_samples) {  // the arrays computed above become the columns, no copy
     DeviationSamples& ms = out.mesh_samples;
-    ms.tags.resize(ns);
-    ms.triangles.resize(ns);
-    for (std::size_t i = 0; i < ns; ++i) {
-      ms.tags[i] = mesh_tag(i);
-      ms.triangles[i] = samples[i].triangle;
-    }
+    tbb::parallel_invoke([&] { ms.tags.resize(ns); }, [&] { ms.triangles.resize(ns); });
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ns, 1 << 14), [&](const tbb::blocked_range<std::size_t>& r) {
+      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+        ms.tags[i] = mesh_tag(i);
+        ms.triangles[i] = samples[i].triangle;
+      }
+    });
     query_points.resize(ns);
     ms.positions_mm = std::move(query_points);
     d_query.resize(ns);
