@@ -56,44 +56,25 @@ constexpr std::array<std::uint32_t, 256> make_nibble_masks() {
 }
 constexpr std::array<std::uint32_t, 256> kNibbleMask = make_nibble_masks();
 
-/// Zero-filled memory for one chunk: an anonymous mapping on Linux, calloc elsewhere.
+/// Zero-filled memory for one chunk (ZeroedArray: an anonymous mapping on Linux).
 class ChunkMemory {
  public:
-  ChunkMemory() {
-#if defined(__linux__)
-    void* raw = mmap(nullptr, kChunkBytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-    if (raw == MAP_FAILED) throw std::bad_alloc();
-    data_ = static_cast<std::uint8_t*>(raw);
-#else
-    data_ = static_cast<std::uint8_t*>(std::calloc(kChunkBytes, 1));
-    if (data_ == nullptr) throw std::bad_alloc();
-#endif
-  }
-  ChunkMemory(const ChunkMemory&) = delete;
-  ChunkMemory& operator=(const ChunkMemory&) = delete;
-  ~ChunkMemory() {
-#if defined(__linux__)
-    munmap(data_, kChunkBytes);
-#else
-    std::free(data_);
-#endif
-  }
+  ChunkMemory() : memory_(kChunkBytes) {}
   /// Faults the chunk's pages in with one call (when its first block is taken): one kernel
   /// entry instead of one page fault per 4 KiB. Best effort: without it pages fault on touch.
-  void prefault() const {
+  void prefault() {
 #if defined(__linux__) && defined(MADV_POPULATE_WRITE)
-    madvise(data_, kChunkBytes, MADV_POPULATE_WRITE);
+    madvise(memory_.data(), kChunkBytes, MADV_POPULATE_WRITE);
 #endif
   }
-  [[nodiscard]] std::uint64_t* occupancy() const { return reinterpret_cast<std::uint64_t*>(data_); }
-  [[nodiscard]] std::uint8_t* nibbles() const { return data_ + kOccBytes; }
-  [[nodiscard]] std::uint32_t* palettes() const {
-    return reinterpret_cast<std::uint32_t*>(data_ + kOccBytes + kNibblesBytes);
+  [[nodiscard]] std::uint64_t* occupancy() { return reinterpret_cast<std::uint64_t*>(memory_.data()); }
+  [[nodiscard]] std::uint8_t* nibbles() { return memory_.data() + kOccBytes; }
+  [[nodiscard]] std::uint32_t* palettes() {
+    return reinterpret_cast<std::uint32_t*>(memory_.data() + kOccBytes + kNibblesBytes);
   }
-  [[nodiscard]] std::uint8_t* bytes() const { return data_; }
 
  private:
-  std::uint8_t* data_ = nullptr;
+  ZeroedArray<std::uint8_t> memory_;
 };
 }  // namespace
 
