@@ -30,8 +30,8 @@
 #endif
 
 #include "core/bits.hpp"
-#include "deposit/bead_raster.hpp"
 #include "core/zeroed_array.hpp"
+#include "deposit/bead_raster.hpp"
 #include "deposit/grid_writer.hpp"
 #include "printtwin/io.hpp"
 
