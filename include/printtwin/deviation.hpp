@@ -27,6 +27,7 @@
 //   unbiased. Mesh -> deposit distances are exact distances to those face squares.
 // - Voxels laid by skirt, brim, support, wipe tower and custom (purge) moves are not part of
 //   the deposit here (treated as empty), so they never count as excess.
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -90,14 +91,24 @@ struct DepositSurface {
   std::vector<SurfaceFace> faces;
   std::vector<Vec3> face_centers_mm;      ///< centre of each face (the deposit->mesh points)
   std::vector<VoxelTag> face_tags;        ///< tag of each face's voxel
-  /// Filled (not outside-reachable) voxels: per column (x fastest, then y), ceil(dims.z/64)
-  /// words holding one bit per z.
-  UninitWords filled_bits;
+  /// Filled (not outside-reachable) voxels, by 8^3 block of the grid: word z of a block is its
+  /// z-slice z, bit y * 8 + x its voxel (x, y).
+  using BlockBits = std::array<std::uint64_t, 8>;
+  /// Per block code: every region voxel of the block filled, none, or filled_masks[code - 2].
+  static constexpr std::uint32_t kAllFilled = 0, kNoneFilled = 1, kFirstMask = 2;
+  Eigen::Vector3i filled_blocks_lo = Eigen::Vector3i::Zero();    ///< first block (grid block coords)
+  Eigen::Vector3i filled_blocks_dims = Eigen::Vector3i::Zero();  ///< blocks per axis, covering the region
+  /// Codes of the blocks, y then x then z (z fastest).
+  std::vector<std::uint32_t> filled_block_code;
+  std::vector<BlockBits> filled_masks;
   std::size_t occupied_voxels = 0;        ///< occupied part voxels in the region
   std::size_t filled_voxels = 0;          ///< occupied + enclosed voids
 
   /// True when p lies in a filled voxel of the region (false outside the region).
   [[nodiscard]] bool filled(const Vec3& p_mm) const;
+  /// The code of p's block and p's bit in it (slot z * 64 + y * 8 + x); nullptr when p is
+  /// outside the region.
+  [[nodiscard]] const std::uint32_t* filled_code_of(const Vec3& p_mm, int& slot) const;
 };
 
 /// Extracts the outer surface of `grid` within `region_mm` (expanded to whole voxels and

@@ -212,10 +212,10 @@ TEST(DeviationPointGroups, CellsArePermutationsOfSmallGroupsEvenOnLongParts) {
   }
 }
 
-TEST(DeviationSurface, RowParallelPassesMatchAVoxelByVoxelFloodFill) {
-  // A random deposit large enough for many row chunks (the passes run rows in parallel):
-  // solid boxes with holes, an open-topped cup and pinholes, at 0.05 mm, sealed at 0.1 mm
-  // (r = 1) and unsealed. The filled set, its count and the faces must be those of a plain
+TEST(DeviationSurface, BlockFloodMatchesAVoxelByVoxelFloodFill) {
+  // A random deposit over many 8^3 blocks (the flood runs block by block): solid boxes with
+  // holes, an open-topped cup and pinholes, at 0.05 mm, unsealed and sealed at 0.1, 0.25
+  // and 0.95 mm (r = 1, 2 and 9: more than a block, two dilation steps). The filled set, its count and the faces must be those of a plain
   // voxel-by-voxel version of the same rules: the occupancy dilated by r (a cube), empty
   // voxels 6-connected to the padding are outside, the outside dilated back by r, filled =
   // not (outside and empty); a face wherever a filled, occupied voxel meets a not-filled one.
@@ -236,32 +236,34 @@ TEST(DeviationSurface, RowParallelPassesMatchAVoxelByVoxelFloodFill) {
     for (const Box3& h : holes) in = in && !h.contains(c);
     return in;
   });
-  for (const double seal_mm : {0.1, 0.0}) {
+  for (const double seal_mm : {0.1, 0.0, 0.25, 0.95}) {
     const DepositSurface s = extract_outer_surface(grid, all, seal_mm);
     const int nx = s.dims.x(), ny = s.dims.y(), nz = s.dims.z();
-    ASSERT_GT(ny, 64);  // several row chunks
-    const int r = seal_mm > 0 ? 1 : 0;
+    ASSERT_GT(ny, 64);  // many blocks
+    const int r = static_cast<int>(std::floor(seal_mm / 0.1 + 1e-9));
     const auto at = [&](int x, int y, int z) {
       return (static_cast<std::size_t>(y) * nx + x) * static_cast<std::size_t>(nz) + z;
     };
     const auto interior = [&](int x, int y, int z) {
       return x > 0 && y > 0 && z > 0 && x < nx - 1 && y < ny - 1 && z < nz - 1;
     };
+    // A cube of 2r + 1 voxels, clipped to the region, as three segments: along z, x, then y.
     const auto dilated = [&](const std::vector<std::uint8_t>& in) {
-      if (r == 0) return in;
-      std::vector<std::uint8_t> out(in.size(), 0);
-      for (int y = 0; y < ny; ++y)
-        for (int x = 0; x < nx; ++x)
-          for (int z = 0; z < nz; ++z) {
-            if (!in[at(x, y, z)]) continue;
-            for (int dy = -r; dy <= r; ++dy)
-              for (int dx = -r; dx <= r; ++dx)
-                for (int dz = -r; dz <= r; ++dz) {
-                  const int xx = x + dx, yy = y + dy, zz = z + dz;
-                  if (xx >= 0 && yy >= 0 && zz >= 0 && xx < nx && yy < ny && zz < nz) out[at(xx, yy, zz)] = 1;
-                }
-          }
-      return out;
+      std::vector<std::uint8_t> a = in;
+      for (int axis = 0; axis < 3 && r > 0; ++axis) {
+        std::vector<std::uint8_t> b(a.size(), 0);
+        for (int y = 0; y < ny; ++y)
+          for (int x = 0; x < nx; ++x)
+            for (int z = 0; z < nz; ++z) {
+              if (!a[at(x, y, z)]) continue;
+              for (int d = -r; d <= r; ++d) {
+                const int xx = x + (axis == 1 ? d : 0), yy = y + (axis == 2 ? d : 0), zz = z + (axis == 0 ? d : 0);
+                if (xx >= 0 && yy >= 0 && zz >= 0 && xx < nx && yy < ny && zz < nz) b[at(xx, yy, zz)] = 1;
+              }
+            }
+        a.swap(b);
+      }
+      return a;
     };
     std::vector<std::uint8_t> occ(static_cast<std::size_t>(nx) * ny * nz, 0);
     std::size_t occupied = 0;

@@ -1,0 +1,739 @@
+// The deposit's outer surface: a flood fill from outside over the grid's 8^3 blocks, where
+// only the blocks the outside reaches (and their neighbours) are ever looked at voxel by
+// voxel. The inside of a part (sparse infill, enclosed by its walls and solid layers) is
+// never visited: it stays "filled" by default.
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <memory>
+
+#include "core/bits.hpp"
+#include "core/zeroed_array.hpp"
+#include "printtwin/deviation.hpp"
+
+namespace printtwin {
+
+bool is_auxiliary_feature(Feature f) {
+  switch (f) {
+    case Feature::skirt:
+    case Feature::support:
+    case Feature::support_interface:
+    case Feature::wipe_tower:
+    case Feature::custom: return true;
+    default: return false;
+  }
+}
+
+namespace {
+
+constexpr int kE = VoxelGrid::kBlockEdge;
+static_assert(kE == 8, "a block's z-slice is one 64-bit word");
+
+/// An 8^3 block of voxel bits laid out as the grid's occupancy: word z is z-slice z, bit
+/// y * 8 + x is voxel (x, y).
+using Cube = DepositSurface::BlockBits;
+
+constexpr std::uint64_t kX0 = 0x0101010101010101ULL;  ///< x = 0 in every row
+constexpr std::uint64_t kX7 = kX0 << 7;
+constexpr std::uint64_t kY0 = 0xFFULL;  ///< the row y = 0
+constexpr std::uint64_t kY7 = kY0 << 56;
+
+/// Bits x in [lo, hi) of every row (0 <= lo <= hi <= 8).
+constexpr std::uint64_t x_bits(int lo, int hi) {
+  const unsigned row = (hi >= 8 ? 0xFFU : ((1U << hi) - 1U)) & ~((1U << lo) - 1U) & 0xFFU;
+  return static_cast<std::uint64_t>(row) * kX0;
+}
+/// Rows y in [lo, hi) (0 <= lo <= hi <= 8).
+constexpr std::uint64_t y_bits(int lo, int hi) {
+  const std::uint64_t below_hi = hi >= 8 ? ~std::uint64_t{0} : (std::uint64_t{1} << (8 * hi)) - 1;
+  const std::uint64_t below_lo = (std::uint64_t{1} << (8 * lo)) - 1;
+  return below_hi & ~below_lo;
+}
+
+bool any(const Cube& c) {
+  std::uint64_t m = 0;
+  for (const std::uint64_t w : c) m |= w;
+  return m != 0;
+}
+int count(const Cube& c) {
+  int n = 0;
+  for (const std::uint64_t w : c) n += popcount64(w);
+  return n;
+}
+
+/// The voxels of the block at `base` inside the key box [lo, hi] (inclusive).
+Cube box_cube(const VoxelKey& base, const VoxelKey& lo, const VoxelKey& hi) {
+  Cube c{};
+  const int x0 = std::max(lo.x - base.x, 0), x1 = std::min(hi.x - base.x, kE - 1);
+  const int y0 = std::max(lo.y - base.y, 0), y1 = std::min(hi.y - base.y, kE - 1);
+  const int z0 = std::max(lo.z - base.z, 0), z1 = std::min(hi.z - base.z, kE - 1);
+  if (x0 > x1 || y0 > y1 || z0 > z1) return c;
+  const std::uint64_t slice = x_bits(x0, x1 + 1) & y_bits(y0, y1 + 1);
+  for (int z = z0; z <= z1; ++z) c[static_cast<std::size_t>(z)] = slice;
+  return c;
+}
+
+constexpr Cube kNoCube{};
+inline const Cube& or_empty(const Cube* c) { return c != nullptr ? *c : kNoCube; }
+
+/// One axis of a cube dilation by r (1 <= r <= 8) of block `m` between its neighbours `lo`
+/// (at -1 along the axis) and `hi` (+1); null = empty.
+Cube dilate_z(const Cube* lo_p, const Cube* m_p, const Cube* hi_p, int r) {
+  std::array<std::uint64_t, 3 * kE> s;
+  const Cube &lo = or_empty(lo_p), &m = or_empty(m_p), &hi = or_empty(hi_p);
+  std::copy(lo.begin(), lo.end(), s.begin());
+  std::copy(m.begin(), m.end(), s.begin() + kE);
+  std::copy(hi.begin(), hi.end(), s.begin() + 2 * kE);
+  Cube out;
+  for (int z = 0; z < kE; ++z) {
+    std::uint64_t v = 0;
+    for (int k = -r; k <= r; ++k) v |= s[static_cast<std::size_t>(kE + z + k)];
+    out[static_cast<std::size_t>(z)] = v;
+  }
+  return out;
+}
+/// Word w of a slice moved by k voxels both ways along x, with the neighbours' bits that
+/// wrap in: towards +x, bit x -> x + k and bits 8 - k.. of the -x neighbour's row enter;
+/// towards -x likewise from the +x neighbour. Bits crossing into another row are masked.
+inline std::uint64_t step_x(std::uint64_t lo, std::uint64_t m, std::uint64_t hi, int k) {
+  return ((m << k) & x_bits(k, 8)) | ((lo >> (8 - k)) & x_bits(0, k)) | ((m >> k) & x_bits(0, 8 - k)) |
+         ((hi << (8 - k)) & x_bits(8 - k, 8));
+}
+/// The same along y: rows move by k, the neighbours' rows enter (a whole block at k = 8).
+inline std::uint64_t step_y(std::uint64_t lo, std::uint64_t m, std::uint64_t hi, int k) {
+  if (k == kE) return lo | hi;
+  return (m << (8 * k)) | (lo >> (64 - 8 * k)) | (m >> (8 * k)) | (hi << (64 - 8 * k));
+}
+/// One in-slice axis (x: step_x, y: step_y) of a cube dilation by r (1 <= r <= 8).
+template <class Step>
+Cube dilate_in_slices(const Cube* lo_p, const Cube* m_p, const Cube* hi_p, int r, Step step) {
+  const Cube &lo = or_empty(lo_p), &m = or_empty(m_p), &hi = or_empty(hi_p);
+  Cube out;
+  for (std::size_t z = 0; z < kE; ++z) {
+    std::uint64_t v = m[z];
+    for (int k = 1; k <= r; ++k) v |= step(lo[z], m[z], hi[z], k);
+    out[z] = v;
+  }
+  return out;
+}
+
+/// Within one block, the voxels of `open` 6-connected to `seed` (seed inside open).
+Cube flood_cube(const Cube& open, Cube o) {
+  for (bool changed = true; changed;) {
+    changed = false;
+    // Up the slices, then down: each pass carries a front through the whole block in z.
+    for (int pass = 0; pass < 2; ++pass)
+      for (int i = 0; i < kE; ++i) {
+        const auto z = static_cast<std::size_t>(pass == 0 ? i : kE - 1 - i);
+        std::uint64_t w = o[z];
+        // Within the slice: grow along x and y until it stops.
+        for (;;) {
+          std::uint64_t g = w | ((w << 1) & ~kX0) | ((w >> 1) & ~kX7) | (w << 8) | (w >> 8);
+          if (z > 0) g |= o[z - 1];
+          if (z + 1 < kE) g |= o[z + 1];
+          g &= open[z];
+          if (g == w) break;
+          w = g;
+        }
+        if (w != o[z]) {
+          o[z] = w;
+          changed = true;
+        }
+      }
+  }
+  return o;
+}
+
+/// The face bits of c that touch the neighbour in direction `dir` (0 -x, 1 +x, 2 -y, 3 +y,
+/// 4 -z, 5 +z), moved to where they land in that neighbour.
+Cube transfer(const Cube& c, int dir) {
+  Cube t{};
+  switch (dir) {
+    case 0: for (int z = 0; z < kE; ++z) t[z] = (c[z] & kX0) << 7; break;
+    case 1: for (int z = 0; z < kE; ++z) t[z] = (c[z] & kX7) >> 7; break;
+    case 2: for (int z = 0; z < kE; ++z) t[z] = (c[z] & kY0) << 56; break;
+    case 3: for (int z = 0; z < kE; ++z) t[z] = (c[z] & kY7) >> 56; break;
+    case 4: t[kE - 1] = c[0]; break;
+    default: t[0] = c[kE - 1]; break;
+  }
+  return t;
+}
+constexpr std::array<std::array<int, 3>, 6> kDirs{{{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}}};
+
+/// The grid blocks covering the region: lo .. lo + n - 1, indexed y, then x, then z.
+struct BlockBox {
+  Eigen::Vector3i lo = Eigen::Vector3i::Zero(), n = Eigen::Vector3i::Zero();
+  [[nodiscard]] std::size_t size() const { return static_cast<std::size_t>(n.x()) * n.y() * n.z(); }
+  [[nodiscard]] bool contains(int bx, int by, int bz) const {
+    return bx >= lo.x() && by >= lo.y() && bz >= lo.z() && bx < lo.x() + n.x() && by < lo.y() + n.y() &&
+           bz < lo.z() + n.z();
+  }
+  [[nodiscard]] std::size_t index(int bx, int by, int bz) const {
+    return (static_cast<std::size_t>(by - lo.y()) * n.x() + static_cast<std::size_t>(bx - lo.x())) * n.z() +
+           static_cast<std::size_t>(bz - lo.z());
+  }
+  [[nodiscard]] Eigen::Vector3i coords(std::size_t i) const {
+    const auto nz = static_cast<std::size_t>(n.z()), nx = static_cast<std::size_t>(n.x());
+    return {lo.x() + static_cast<int>((i / nz) % nx), lo.y() + static_cast<int>(i / (nz * nx)),
+            lo.z() + static_cast<int>(i % nz)};
+  }
+};
+
+/// A per-block flag set dilated by `reach` blocks (Chebyshev), in place: one pass per axis,
+/// each an OR of shifted runs (z within a column, whole columns along x, whole rows along y).
+void dilate_flags(std::vector<std::uint8_t>& f, const BlockBox& box, int reach) {
+  if (reach <= 0) return;
+  const auto nx = static_cast<std::size_t>(box.n.x()), ny = static_cast<std::size_t>(box.n.y()),
+             nz = static_cast<std::size_t>(box.n.z());
+  std::vector<std::uint8_t> g(f.size());
+  // Along an axis of `len` entries `stride` apart, in runs of `run` contiguous entries.
+  const auto pass = [&](std::size_t len, std::size_t stride, std::size_t run, std::size_t outer, std::size_t outer_stride) {
+    g = f;
+    tbb::parallel_for(std::size_t{0}, outer, [&](std::size_t o) {
+      const std::size_t base = o * outer_stride;
+      for (std::size_t k = 1; k <= static_cast<std::size_t>(reach) && k < len; ++k)
+        for (std::size_t j = 0; j + k < len; ++j) {
+          std::uint8_t* lo = g.data() + base + j * stride;
+          std::uint8_t* hi = g.data() + base + (j + k) * stride;
+          const std::uint8_t* flo = f.data() + base + j * stride;
+          const std::uint8_t* fhi = f.data() + base + (j + k) * stride;
+          for (std::size_t e = 0; e < run; ++e) {
+            lo[e] |= fhi[e];
+            hi[e] |= flo[e];
+          }
+        }
+    });
+    f.swap(g);
+  };
+  pass(nz, 1, 1, nx * ny, nz);          // z: within each column
+  pass(nx, nz, nz, ny, nx * nz);        // x: columns of a row
+  pass(ny, nx * nz, nx * nz, 1, 0);     // y: rows
+}
+
+/// Cubes appended in chunks (no copies as it grows), addressed by index.
+class CubePool {
+ public:
+  std::uint32_t push(const Cube& c) {
+    if (size_ % kChunk == 0) chunks_.push_back(std::make_unique_for_overwrite<Cube[]>(kChunk));
+    chunks_.back()[size_ % kChunk] = c;
+    return static_cast<std::uint32_t>(size_++);
+  }
+  Cube& operator[](std::size_t i) { return chunks_[i / kChunk][i % kChunk]; }
+  const Cube& operator[](std::size_t i) const { return chunks_[i / kChunk][i % kChunk]; }
+  [[nodiscard]] std::size_t size() const { return size_; }
+
+ private:
+  static constexpr std::size_t kChunk = 4096;
+  std::vector<std::unique_ptr<Cube[]>> chunks_;
+  std::size_t size_ = 0;
+};
+
+/// A field of block cubes dilated by r voxels (a cube of 2r + 1) and clipped to a box,
+/// evaluated block by block on demand. The cube is the product of its three axis segments,
+/// and dilations by a and b compose to a + b, so it runs as steps of at most 8 voxels (one
+/// block), each along z, then x, then y (each reading the two neighbours along its axis),
+/// the result of each step clipped. The base gives stable pointers (null = empty); every
+/// stage between is memoised, so each block's stages are computed once. Not thread safe.
+template <class Base, class Clip>
+class DilatedField {
+ public:
+  DilatedField(const BlockBox& box, int r, Base base, Clip clip)
+      : box_(box), base_(std::move(base)), clip_(std::move(clip)) {
+    for (int left = r; left > 0; left -= kE) steps_.push_back(std::min(left, kE));
+    top_ = 3 * static_cast<int>(steps_.size());
+    memo_.resize(static_cast<std::size_t>(std::max(top_, 1)));
+    for (int st = 1; st < top_; ++st) memo_[static_cast<std::size_t>(st)] = ZeroedArray<std::uint32_t>(box_.size());
+  }
+  /// The dilated cube of a block (null = empty); valid until the next call.
+  [[nodiscard]] const Cube* at(int bx, int by, int bz) { return stage(top_, bx, by, bz); }
+
+ private:
+  const Cube* stage(int st, int bx, int by, int bz) {
+    if (!box_.contains(bx, by, bz)) return nullptr;
+    if (st == 0) return base_(bx, by, bz);
+    const auto su = static_cast<std::size_t>(st);
+    const bool memo = st < top_;
+    std::size_t i = 0;
+    if (memo) {  // 0: not yet, 1: empty, k >= 2: pool_[k - 2]
+      i = box_.index(bx, by, bz);
+      const std::uint32_t k = memo_[su][i];
+      if (k == 1) return nullptr;
+      if (k > 1) return &pool_[k - 2];
+    }
+    const int axis = (st - 1) % 3;
+    const int r = steps_[static_cast<std::size_t>((st - 1) / 3)];
+    const int dx = axis == 1 ? 1 : 0, dy = axis == 2 ? 1 : 0, dz = axis == 0 ? 1 : 0;
+    const Cube* lo = stage(st - 1, bx - dx, by - dy, bz - dz);
+    const Cube* m = stage(st - 1, bx, by, bz);
+    const Cube* hi = stage(st - 1, bx + dx, by + dy, bz + dz);
+    Cube out{};
+    bool some = false;
+    if (lo != nullptr || m != nullptr || hi != nullptr) {
+      out = axis == 0   ? dilate_z(lo, m, hi, r)
+            : axis == 1 ? dilate_in_slices(lo, m, hi, r, step_x)
+                        : dilate_in_slices(lo, m, hi, r, step_y);
+      if (axis == 2) {
+        const Cube c = clip_(bx, by, bz);
+        for (std::size_t z = 0; z < kE; ++z) out[z] &= c[z];
+      }
+      some = any(out);
+    }
+    if (!memo) {
+      scratch_ = out;
+      return some ? &scratch_ : nullptr;
+    }
+    if (!some) {
+      memo_[su][i] = 1;
+      return nullptr;
+    }
+    const std::uint32_t k = pool_.push(out);
+    memo_[su][i] = k + 2;
+    return &pool_[k];
+  }
+
+  const BlockBox& box_;
+  Base base_;
+  Clip clip_;
+  std::vector<int> steps_;
+  int top_ = 0;
+  std::vector<ZeroedArray<std::uint32_t>> memo_;
+  CubePool pool_;
+  Cube scratch_{};
+};
+
+/// Bit i set when voxel i of z-slice z of block b has an auxiliary tag (`auxiliary[t]` is 1
+/// for an auxiliary tag index t; indices clamped to `last`; tags of empty voxels mean nothing).
+std::uint64_t aux_mask(const VoxelGrid::BlockView& b, int z, const std::uint8_t* auxiliary, std::uint32_t last) {
+  std::uint64_t m = 0;
+  if (b.wide != nullptr) {
+    for (int i = 0; i < 64; ++i)
+      m |= static_cast<std::uint64_t>(auxiliary[std::min(b.wide[z * 64 + i], last)] & 1U) << i;
+    return m;
+  }
+  unsigned on = 0;  // bit e: palette entry e is auxiliary
+  for (int e = 0; e < b.palette_size; ++e) on |= (auxiliary[std::min(b.palette[e], last)] & 1U) << e;
+  const std::uint8_t* nib = b.nibbles + z * 32;
+  for (int i = 0; i < 64; i += 2) {
+    const unsigned v = nib[i >> 1];
+    m |= static_cast<std::uint64_t>((on >> (v & 0xFU)) & 1U) << i;
+    m |= static_cast<std::uint64_t>((on >> (v >> 4)) & 1U) << (i + 1);
+  }
+  return m;
+}
+
+/// Transposes an 8x8 bit matrix held in a word (byte r = row r, bit c = column c).
+inline std::uint64_t transpose8(std::uint64_t x) {
+  // Hacker's Delight 7-3.
+  std::uint64_t t = (x ^ (x >> 7)) & 0x00AA00AA00AA00AAULL;
+  x = x ^ t ^ (t << 7);
+  t = (x ^ (x >> 14)) & 0x0000CCCC0000CCCCULL;
+  x = x ^ t ^ (t << 14);
+  t = (x ^ (x >> 28)) & 0x00000000F0F0F0F0ULL;
+  return x ^ t ^ (t << 28);
+}
+
+/// Row y of a cube's slices as z-columns: byte x of the result holds the 8 z bits of (x, y).
+inline std::uint64_t columns_of_row(const Cube& c, int y) {
+  std::uint64_t m = 0;
+  for (int z = 0; z < kE; ++z) m |= ((c[static_cast<std::size_t>(z)] >> (8 * y)) & 0xFFU) << (8 * z);
+  return transpose8(m);
+}
+
+}  // namespace
+
+namespace {
+/// The region voxel holding p: its grid key, or false when p is outside the region.
+bool region_key(const DepositSurface& s, const Vec3& p_mm, VoxelKey& key) {
+  if (s.voxel_mm <= 0) return false;
+  const Vec3 q = (p_mm - s.origin_mm) / s.voxel_mm;
+  const auto x = static_cast<long>(std::floor(q.x()));
+  const auto y = static_cast<long>(std::floor(q.y()));
+  const auto z = static_cast<long>(std::floor(q.z()));
+  if (x < 0 || y < 0 || z < 0 || x >= s.dims.x() || y >= s.dims.y() || z >= s.dims.z()) return false;
+  key = VoxelKey{s.origin_key.x + static_cast<int>(x), s.origin_key.y + static_cast<int>(y),
+                 s.origin_key.z + static_cast<int>(z)};
+  return true;
+}
+}  // namespace
+
+const std::uint32_t* DepositSurface::filled_code_of(const Vec3& p_mm, int& slot) const {
+  VoxelKey k;
+  if (!region_key(*this, p_mm, k)) return nullptr;
+  const int bx = k.x >> 3, by = k.y >> 3, bz = k.z >> 3;
+  slot = (k.z & 7) * 64 + (k.y & 7) * 8 + (k.x & 7);
+  const std::size_t i = (static_cast<std::size_t>(by - filled_blocks_lo.y()) * filled_blocks_dims.x() +
+                         static_cast<std::size_t>(bx - filled_blocks_lo.x())) *
+                            filled_blocks_dims.z() +
+                        static_cast<std::size_t>(bz - filled_blocks_lo.z());
+  return filled_block_code.data() + i;
+}
+
+bool DepositSurface::filled(const Vec3& p_mm) const {
+  int slot = 0;
+  const std::uint32_t* code = filled_code_of(p_mm, slot);
+  if (code == nullptr) return false;
+  if (*code == kAllFilled) return true;
+  if (*code == kNoneFilled) return false;
+  return ((filled_masks[*code - kFirstMask][static_cast<std::size_t>(slot >> 6)] >> (slot & 63)) & 1U) != 0;
+}
+
+DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_mm, double seal_gap_mm) {
+  DepositSurface s;
+  s.voxel_mm = grid.voxel_mm();
+  if (region_mm.empty()) return s;
+  // Region R in grid keys, padded by one voxel: the padding (R minus its interior I) is
+  // forced empty, so the outside is connected all around the part.
+  const VoxelKey kmin0 = grid.key_of(region_mm.min);
+  const VoxelKey kmax0 = grid.key_of(region_mm.max);
+  const VoxelKey kmin{kmin0.x - 1, kmin0.y - 1, kmin0.z - 1};
+  const int nx = kmax0.x - kmin0.x + 3, ny = kmax0.y - kmin0.y + 3, nz = kmax0.z - kmin0.z + 3;
+  s.dims = Eigen::Vector3i(nx, ny, nz);
+  s.origin_mm = grid.origin_mm() + s.voxel_mm * Vec3(kmin.x, kmin.y, kmin.z);
+  s.origin_key = kmin;
+  const VoxelKey rlo = kmin, rhi{kmin.x + nx - 1, kmin.y + ny - 1, kmin.z + nz - 1};
+  const VoxelKey ilo{rlo.x + 1, rlo.y + 1, rlo.z + 1}, ihi{rhi.x - 1, rhi.y - 1, rhi.z - 1};
+  // Keys may be negative: >> 3 is the floor.
+  BlockBox box;
+  box.lo = Eigen::Vector3i(rlo.x >> 3, rlo.y >> 3, rlo.z >> 3);
+  box.n = Eigen::Vector3i((rhi.x >> 3) - box.lo.x() + 1, (rhi.y >> 3) - box.lo.y() + 1, (rhi.z >> 3) - box.lo.z() + 1);
+  s.filled_blocks_lo = box.lo;
+  s.filled_blocks_dims = box.n;
+  const auto base_of = [](int bx, int by, int bz) { return VoxelKey{bx * kE, by * kE, bz * kE}; };
+  const auto inside_box = [&](int bx, int by, int bz, const VoxelKey& lo, const VoxelKey& hi) {
+    const VoxelKey b = base_of(bx, by, bz);
+    return b.x >= lo.x && b.y >= lo.y && b.z >= lo.z && b.x + kE - 1 <= hi.x && b.y + kE - 1 <= hi.y &&
+           b.z + kE - 1 <= hi.z;
+  };
+  Cube full;
+  full.fill(~std::uint64_t{0});
+  const auto region_cube = [&](int bx, int by, int bz) {
+    return inside_box(bx, by, bz, rlo, rhi) ? full : box_cube(base_of(bx, by, bz), rlo, rhi);
+  };
+  const auto interior_cube = [&](int bx, int by, int bz) {
+    return inside_box(bx, by, bz, ilo, ihi) ? full : box_cube(base_of(bx, by, bz), ilo, ihi);
+  };
+
+  // 1. Part voxels (occupied, not auxiliary, in I) per block of the box: a pointer to the
+  // grid's occupancy, or to a filtered copy where auxiliary voxels or I's border cut it. The
+  // allocated blocks are read in the order they were allocated (their memory order).
+  const auto& table = grid.tag_table();
+  std::vector<std::uint8_t> auxiliary(table.size());
+  for (std::size_t i = 0; i < table.size(); ++i) auxiliary[i] = is_auxiliary_feature(table[i].feature) ? 1 : 0;
+  const auto last_tag = static_cast<std::uint32_t>(auxiliary.empty() ? 0 : auxiliary.size() - 1);
+  const std::size_t n_blocks = box.size();
+  ZeroedArray<const Cube*> part_of(n_blocks);
+  CubePool filtered;
+  grid.visit_blocks_as_allocated([&](const VoxelGrid::BlockView& b) {
+    const int bx = b.base.x >> 3, by = b.base.y >> 3, bz = b.base.z >> 3;
+    if (!box.contains(bx, by, bz)) return;
+    Cube c;
+    std::copy(b.occupancy, b.occupancy + kE, c.begin());
+    bool cut = false;
+    // A block none of whose palette entries is auxiliary needs no per-voxel test.
+    bool aux = b.wide != nullptr;
+    for (int e = 0; e < b.palette_size && !aux; ++e) aux = auxiliary[std::min(b.palette[e], last_tag)] != 0;
+    if (aux) {
+      for (int z = 0; z < kE; ++z)
+        if (c[static_cast<std::size_t>(z)] != 0) c[static_cast<std::size_t>(z)] &= ~aux_mask(b, z, auxiliary.data(), last_tag);
+      cut = true;
+    }
+    if (!inside_box(bx, by, bz, ilo, ihi)) {
+      const Cube in = box_cube(b.base, ilo, ihi);
+      for (std::size_t z = 0; z < kE; ++z) c[z] &= in[z];
+      cut = true;
+    }
+    const int n = count(c);
+    if (n == 0) return;
+    s.occupied_voxels += static_cast<std::size_t>(n);
+    const std::size_t i = box.index(bx, by, bz);
+    if (cut) {
+      part_of[i] = &filtered[filtered.push(c)];
+    } else {
+      static_assert(sizeof(Cube) == kE * sizeof(std::uint64_t));
+      part_of[i] = reinterpret_cast<const Cube*>(b.occupancy);
+    }
+  });
+  const auto part_cube = [&](int bx, int by, int bz) -> const Cube* {
+    return box.contains(bx, by, bz) ? part_of[box.index(bx, by, bz)] : nullptr;
+  };
+
+  // Gaps narrower than seal_gap_mm must not let the outside in (pinholes between beads are
+  // voxelisation artefacts): the flood runs on the part dilated by r voxels, and the outside
+  // it reaches is dilated back by r (a morphological opening of the empty space).
+  const int seal_r = seal_gap_mm > 0 ? static_cast<int>(std::floor(seal_gap_mm / (2 * s.voxel_mm) + 1e-9)) : 0;
+  const int reach = (seal_r + kE - 1) / kE;  // in blocks
+  // A block no part voxel comes within r of is open all through (within R).
+  std::vector<std::uint8_t> near_occ(n_blocks);
+  for (std::size_t i = 0; i < n_blocks; ++i) near_occ[i] = part_of[i] != nullptr ? 1 : 0;
+  dilate_flags(near_occ, box, reach);
+
+  // 2. The flood, block by block from the padding: a block's outside grows by a fill within
+  // the block, and what reaches its faces seeds the neighbours. An open block is wholly
+  // outside as soon as anything reaches it (R within a block is a box, so connected).
+  DilatedField blocked(box, seal_r, part_cube, interior_cube);
+  enum : std::uint8_t { kUntouched = 0, kWhole = 1, kPartial = 2 };
+  std::vector<std::uint8_t> kind(n_blocks, kUntouched);
+  std::vector<std::uint8_t> queued(n_blocks, 0);
+  std::vector<std::uint32_t> slot(n_blocks, 0);  // partial blocks: into open/outside/pending
+  CubePool open, outside, pending;
+  // Queue entries carry their block's coordinates (no divisions to recover them).
+  struct Queued {
+    std::uint32_t i;
+    std::int32_t x, y, z;
+  };
+  std::vector<Queued> queue;
+  const auto make_whole = [&](std::size_t i, int bx, int by, int bz) {
+    kind[i] = kWhole;
+    queue.push_back({static_cast<std::uint32_t>(i), bx, by, bz});
+  };
+  // Seeds for block i from a neighbour (the seed's voxels lie in R when it comes from R).
+  const auto add_seed = [&](std::size_t i, int bx, int by, int bz, const Cube& seed) {
+    if (kind[i] == kWhole) return;
+    if (near_occ[i] == 0) {
+      make_whole(i, bx, by, bz);
+      return;
+    }
+    if (kind[i] == kUntouched) {
+      kind[i] = kPartial;
+      Cube e = region_cube(bx, by, bz);
+      if (const Cube* b = blocked.at(bx, by, bz))
+        for (std::size_t z = 0; z < kE; ++z) e[z] &= ~(*b)[z];
+      slot[i] = open.push(e);
+      outside.push(Cube{});
+      pending.push(Cube{});
+    }
+    const std::uint32_t k = slot[i];
+    std::uint64_t news = 0;
+    for (std::size_t z = 0; z < kE; ++z) {
+      const std::uint64_t add = seed[z] & open[k][z] & ~outside[k][z];
+      pending[k][z] |= add;
+      news |= add;
+    }
+    if (news != 0 && queued[i] == 0) {
+      queued[i] = 1;
+      queue.push_back({static_cast<std::uint32_t>(i), bx, by, bz});
+    }
+  };
+  // Seeds: the padding, in the blocks on the box's faces.
+  for (int by = box.lo.y(); by < box.lo.y() + box.n.y(); ++by)
+    for (int bx = box.lo.x(); bx < box.lo.x() + box.n.x(); ++bx)
+      for (int bz = box.lo.z(); bz < box.lo.z() + box.n.z(); ++bz) {
+        const bool face = bx == box.lo.x() || by == box.lo.y() || bz == box.lo.z() || bx == box.lo.x() + box.n.x() - 1 ||
+                          by == box.lo.y() + box.n.y() - 1 || bz == box.lo.z() + box.n.z() - 1;
+        if (!face) continue;
+        const Cube r = region_cube(bx, by, bz), in = interior_cube(bx, by, bz);
+        Cube pad;
+        for (std::size_t z = 0; z < kE; ++z) pad[z] = r[z] & ~in[z];
+        if (any(pad)) add_seed(box.index(bx, by, bz), bx, by, bz, pad);
+      }
+  // Index steps to the six neighbours (blocks are indexed y, then x, then z).
+  const std::array<std::ptrdiff_t, 6> step{-static_cast<std::ptrdiff_t>(box.n.z()), box.n.z(),
+                                           -static_cast<std::ptrdiff_t>(box.n.z()) * box.n.x(),
+                                           static_cast<std::ptrdiff_t>(box.n.z()) * box.n.x(), -1, 1};
+  for (std::size_t head = 0; head < queue.size(); ++head) {
+    const Queued q = queue[head];
+    const bool whole = kind[q.i] == kWhole;
+    Cube grown;
+    if (whole) {
+      grown = region_cube(q.x, q.y, q.z);
+    } else {
+      queued[q.i] = 0;
+      const std::uint32_t k = slot[q.i];
+      Cube o = outside[k];
+      for (std::size_t z = 0; z < kE; ++z) o[z] |= pending[k][z];
+      pending[k] = Cube{};
+      o = flood_cube(open[k], o);
+      for (std::size_t z = 0; z < kE; ++z) grown[z] = o[z] & ~outside[k][z];
+      outside[k] = o;
+    }
+    for (int d = 0; d < 6; ++d) {
+      const int nbx = q.x + kDirs[d][0], nby = q.y + kDirs[d][1], nbz = q.z + kDirs[d][2];
+      if (!box.contains(nbx, nby, nbz)) continue;
+      const auto n = static_cast<std::size_t>(static_cast<std::ptrdiff_t>(q.i) + step[static_cast<std::size_t>(d)]);
+      if (kind[n] == kWhole) continue;
+      // A whole block's face reaches every R voxel of the neighbour's facing layer (R is a
+      // box), so an open neighbour is whole at once.
+      if (whole && near_occ[n] == 0) {
+        make_whole(n, nbx, nby, nbz);
+        continue;
+      }
+      const Cube t = transfer(grown, d);
+      if (any(t)) add_seed(n, nbx, nby, nbz, t);
+    }
+  }
+  // 3. Filled = R minus (the outside dilated back by r, where not part). Only blocks within
+  // `reach` of a block the outside entered can differ from "all filled" (untouched) or "none
+  // filled" (wholly outside, which holds no part voxel).
+  std::vector<std::uint8_t> near_outside(n_blocks, 0);
+  for (std::size_t i = 0; i < n_blocks; ++i)
+    near_outside[i] = kind[i] == kWhole || (kind[i] == kPartial && any(outside[slot[i]])) ? 1 : 0;
+  dilate_flags(near_outside, box, reach);
+  s.filled_block_code.assign(n_blocks, DepositSurface::kAllFilled);
+  std::vector<std::uint32_t> mixed;
+  for (std::size_t i = 0; i < n_blocks; ++i) {
+    if (kind[i] == kWhole) s.filled_block_code[i] = DepositSurface::kNoneFilled;
+    else if (near_outside[i] != 0) mixed.push_back(static_cast<std::uint32_t>(i));
+  }
+  const auto outside_cube = [&](int bx, int by, int bz) -> const Cube* {
+    const std::size_t i = box.index(bx, by, bz);
+    if (kind[i] == kWhole) return &full;  // R's part of it: the field clips to R
+    if (kind[i] == kPartial) return &outside[slot[i]];
+    return nullptr;
+  };
+  DilatedField outside_back(box, seal_r, outside_cube, region_cube);
+  s.filled_masks.resize(mixed.size());
+  std::size_t emptied = 0;  // voxels of R the outside takes in the mixed blocks
+  for (std::size_t m = 0; m < mixed.size(); ++m) {
+    const Eigen::Vector3i b = box.coords(mixed[m]);
+    const Cube* o = outside_back.at(b.x(), b.y(), b.z());
+    const Cube& part = or_empty(part_of[mixed[m]]);
+    const Cube region = region_cube(b.x(), b.y(), b.z());
+    Cube& f = s.filled_masks[m];
+    for (std::size_t z = 0; z < kE; ++z) {
+      const std::uint64_t gone = (o != nullptr ? (*o)[z] : 0) & ~part[z] & region[z];
+      f[z] = region[z] & ~gone;
+      emptied += static_cast<std::size_t>(popcount64(gone));
+    }
+  }
+  std::size_t not_filled = emptied;
+  for (std::size_t m = 0; m < mixed.size(); ++m)
+    s.filled_block_code[mixed[m]] = DepositSurface::kFirstMask + static_cast<std::uint32_t>(m);
+  for (std::size_t i = 0; i < n_blocks; ++i)
+    if (kind[i] == kWhole) {
+      const Eigen::Vector3i b = box.coords(i);
+      not_filled += inside_box(b.x(), b.y(), b.z(), rlo, rhi) ? std::size_t{512}
+                                                              : static_cast<std::size_t>(count(region_cube(b.x(), b.y(), b.z())));
+    }
+  s.filled_voxels = static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny) * static_cast<std::size_t>(nz) - not_filled;
+  // 4. Faces between a filled part voxel and a voxel that is not filled (a part voxel is in
+  // I, so its neighbours are in R). Only blocks with part voxels that are, or touch, a block
+  // not wholly filled can have one. Per row of blocks (in parallel): each such block's six
+  // exposure cubes (-x, +x, -y, +y, -z, +z) as z-columns; faces counted per row of voxels,
+  // then written in the fixed order: voxel rows by y, then x, then z, a voxel's faces by
+  // direction.
+  // A part voxel is in I, so whether a voxel outside R counts as filled never matters here:
+  // a block "all filled" reads as a full cube.
+  const auto filled_cube = [&](int bx, int by, int bz) -> const Cube& {
+    if (!box.contains(bx, by, bz)) return kNoCube;
+    const std::uint32_t code = s.filled_block_code[box.index(bx, by, bz)];
+    if (code == DepositSurface::kAllFilled) return full;
+    if (code == DepositSurface::kNoneFilled) return kNoCube;
+    return s.filled_masks[code - DepositSurface::kFirstMask];
+  };
+  struct Exposed {
+    int bx = 0, bz = 0;
+    std::array<std::array<std::uint64_t, kE>, 6> cols{};  // [direction][y]: byte x = z bits
+  };
+  std::vector<std::vector<Exposed>> exposed(static_cast<std::size_t>(box.n.y()));
+  std::vector<std::size_t> row_faces(static_cast<std::size_t>(ny) + 1, 0);
+  tbb::parallel_for(0, box.n.y(), [&](int r) {
+    const int by = box.lo.y() + r;
+    auto& list = exposed[static_cast<std::size_t>(r)];
+    for (int bx = box.lo.x(); bx < box.lo.x() + box.n.x(); ++bx)
+      for (int bz = box.lo.z(); bz < box.lo.z() + box.n.z(); ++bz) {
+        const std::size_t i = box.index(bx, by, bz);
+        if (part_of[i] == nullptr) continue;
+        bool candidate = s.filled_block_code[i] != DepositSurface::kAllFilled;
+        for (int d = 0; d < 6 && !candidate; ++d) {
+          const int x = bx + kDirs[d][0], y = by + kDirs[d][1], z = bz + kDirs[d][2];
+          candidate = box.contains(x, y, z) && s.filled_block_code[box.index(x, y, z)] != DepositSurface::kAllFilled;
+        }
+        if (!candidate) continue;
+        const Cube &f = filled_cube(bx, by, bz), &part = *part_of[i];
+        std::array<Cube, 6> nf;  // per direction: whether that neighbour of each voxel is filled
+        {
+          const Cube &fl = filled_cube(bx - 1, by, bz), &fr = filled_cube(bx + 1, by, bz);
+          const Cube &fd = filled_cube(bx, by - 1, bz), &fu = filled_cube(bx, by + 1, bz);
+          const Cube &fb = filled_cube(bx, by, bz - 1), &ft = filled_cube(bx, by, bz + 1);
+          for (std::size_t z = 0; z < kE; ++z) {
+            nf[0][z] = ((f[z] << 1) & ~kX0) | ((fl[z] & kX7) >> 7);
+            nf[1][z] = ((f[z] >> 1) & ~kX7) | ((fr[z] & kX0) << 7);
+            nf[2][z] = (f[z] << 8) | ((fd[z] & kY7) >> 56);
+            nf[3][z] = (f[z] >> 8) | ((fu[z] & kY0) << 56);
+            nf[4][z] = z > 0 ? f[z - 1] : fb[kE - 1];
+            nf[5][z] = z + 1 < kE ? f[z + 1] : ft[0];
+          }
+        }
+        Exposed e;
+        e.bx = bx;
+        e.bz = bz;
+        bool some = false;
+        for (std::size_t d = 0; d < 6; ++d) {
+          Cube x;
+          for (std::size_t z = 0; z < kE; ++z) x[z] = f[z] & part[z] & ~nf[d][z];
+          if (!any(x)) continue;
+          some = true;
+          for (int y = 0; y < kE; ++y) e.cols[d][static_cast<std::size_t>(y)] = columns_of_row(x, y);
+        }
+        if (!some) continue;
+        for (int y = 0; y < kE; ++y) {
+          const int ly = by * kE + y - kmin.y;
+          std::size_t n = 0;
+          for (std::size_t d = 0; d < 6; ++d) n += static_cast<std::size_t>(popcount64(e.cols[d][static_cast<std::size_t>(y)]));
+          if (n != 0) row_faces[static_cast<std::size_t>(ly) + 1] += n;  // rows of one block row: this thread's
+        }
+        list.push_back(e);
+      }
+  });
+  for (int y = 0; y < ny; ++y) row_faces[static_cast<std::size_t>(y) + 1] += row_faces[static_cast<std::size_t>(y)];
+  // The face arrays sized side by side (resize writes each element's initial value).
+  const std::size_t n_faces = row_faces[static_cast<std::size_t>(ny)];
+  tbb::parallel_invoke([&] { s.faces.resize(n_faces); }, [&] { s.face_tags.resize(n_faces); },
+                       [&] { s.face_centers_mm.resize(n_faces); });
+  const double v = s.voxel_mm;
+  tbb::parallel_for(0, box.n.y(), [&](int r) {
+    const int by = box.lo.y() + r;
+    const auto& list = exposed[static_cast<std::size_t>(r)];
+    std::vector<VoxelGrid::BlockView> views(list.size());
+    for (std::size_t c = 0; c < list.size(); ++c) views[c] = *grid.block_view(list[c].bx, by, list[c].bz);
+    for (int y = 0; y < kE; ++y) {
+      const int ly = by * kE + y - kmin.y;
+      if (ly < 0 || ly >= ny) continue;
+      std::size_t next = row_faces[static_cast<std::size_t>(ly)];
+      // The blocks of the row in (bx, bz) order: a run of equal bx is one column of blocks.
+      for (std::size_t c0 = 0; c0 < list.size();) {
+        std::size_t c1 = c0 + 1;
+        while (c1 < list.size() && list[c1].bx == list[c0].bx) ++c1;
+        for (int x = 0; x < kE; ++x) {
+          const int lx = list[c0].bx * kE + x - kmin.x;
+          for (std::size_t c = c0; c < c1; ++c) {
+            std::array<unsigned, 6> m{};
+            unsigned all = 0;
+            for (std::size_t d = 0; d < 6; ++d) {
+              m[d] = static_cast<unsigned>((list[c].cols[d][static_cast<std::size_t>(y)] >> (8 * x)) & 0xFFU);
+              all |= m[d];
+            }
+            while (all != 0) {
+              const int z = std::countr_zero(all);
+              all &= all - 1;
+              const int lz = list[c].bz * kE + z - kmin.z;
+              const VoxelTag tag = table[views[c].tag_index(z * 64 + y * 8 + x)];
+              for (int d = 0; d < 6; ++d) {
+                if (((m[static_cast<std::size_t>(d)] >> z) & 1U) == 0) continue;
+                const int axis = d >> 1;
+                const int side = (d & 1) != 0 ? +1 : -1;
+                SurfaceFace& f = s.faces[next];
+                f.voxel = VoxelKey{kmin.x + lx, kmin.y + ly, kmin.z + lz};
+                f.axis = static_cast<std::uint8_t>(axis);
+                f.side = static_cast<std::int8_t>(side);
+                Vec3 ctr = s.origin_mm + v * Vec3(lx + 0.5, ly + 0.5, lz + 0.5);
+                ctr[axis] += 0.5 * v * side;
+                s.face_centers_mm[next] = ctr;
+                s.face_tags[next++] = tag;
+              }
+            }
+          }
+        }
+        c0 = c1;
+      }
+    }
+  });
+  return s;
+}
+
+}  // namespace printtwin
