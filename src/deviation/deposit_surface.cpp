@@ -165,11 +165,17 @@ void scan_faces_avx2(const FaceBuckets& b, std::uint32_t lo, std::uint32_t hi, c
 
 namespace detail {
 
+DepositQueryGroups group_deposit_queries(std::span<const Vec3> points, double voxel_mm) {
+  DepositQueryGroups g;
+  group_by_cell(points, voxel_mm * FaceBuckets::kCell, g.order, g.group);
+  return g;
+}
+
 bool deposit_distance_uses_avx2() { return cpu_has_avx2(); }
 
 void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> points,
                                std::vector<double>& signed_mm, std::vector<std::uint32_t>* nearest_face,
-                               bool portable) {
+                               bool portable, const DepositQueryGroups* pregrouped) {
   signed_mm.assign(points.size(), 0.0);
   if (nearest_face != nullptr) nearest_face->assign(points.size(), 0);
   if (s.faces.empty()) {
@@ -201,8 +207,12 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
   constexpr int kFineRings = 2;
   // Queries in cells of the buckets' size, column by column: neighbouring queries read the
   // same cells and filled bits (the input, say mesh samples in triangle order, may jump).
-  std::vector<std::uint32_t> order, group;
-  group_by_cell(points, buckets.cell_mm, order, group);
+  DepositQueryGroups own;
+  if (pregrouped == nullptr) {
+    own = group_deposit_queries(points, s.voxel_mm);
+    pregrouped = &own;
+  }
+  const std::vector<std::uint32_t>& order = pregrouped->order;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 2048),
                     [&](const tbb::blocked_range<std::size_t>& range) {
     // The previous point of this chunk and its distance: by the triangle inequality the

@@ -8,11 +8,18 @@
 
 namespace printtwin::detail {
 
+/// Query points in the order distances_to_deposit visits them (cells of 4 voxels, column by
+/// column): it depends on the voxel size only, so it can be made before the surface.
+struct DepositQueryGroups {
+  std::vector<std::uint32_t> order, group;
+};
+DepositQueryGroups group_deposit_queries(std::span<const Vec3> points, double voxel_mm);
+
 /// distances_to_deposit with the face tests of the portable kernel (`portable`) or of the
 /// one the CPU dispatches to (AVX2 when present). Both give the same bits.
 void distances_to_deposit_with(const DepositSurface& surface, std::span<const Vec3> points,
                                std::vector<double>& signed_mm, std::vector<std::uint32_t>* nearest_face,
-                               bool portable);
+                               bool portable, const DepositQueryGroups* pregrouped = nullptr);
 
 /// True when distances_to_deposit runs the AVX2 face tests on this CPU.
 bool deposit_distance_uses_avx2();

@@ -8,6 +8,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 
+#include "deviation/deposit_surface_internal.hpp"
 #include "printtwin/deviation.hpp"
 
 namespace printtwin {
@@ -41,7 +42,27 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   region.extend(part_box_mm);
   region.min -= Vec3::Constant(settings.region_margin_mm);
   region.max += Vec3::Constant(settings.region_margin_mm);
-  DepositSurface surface = extract_outer_surface(deposit, region, settings.seal_gap_mm);
+  // Mesh -> deposit, from area-uniform samples (the target's when drawn alike). Their query
+  // points and visiting order are made side by side with the deposit's surface.
+  DepositSurface surface;
+  std::vector<SurfaceSample> own_samples;
+  std::span<const SurfaceSample> samples = target.samples();
+  if (target.sample_spacing_mm() != spacing || target.sample_seed() != settings.seed) {
+    own_samples = sample_surface(mesh, spacing, settings.seed);
+    samples = own_samples;
+  }
+  const std::size_t ns = samples.size();
+  std::vector<Vec3> query_points(ns + mesh.vertices_mm.size());
+  detail::DepositQueryGroups query_groups;
+  tbb::parallel_invoke([&] { surface = extract_outer_surface(deposit, region, settings.seal_gap_mm); },
+                       [&] {
+                         // The samples and the mesh's vertices (for the per-vertex deviation)
+                         // in one search.
+                         for (std::size_t i = 0; i < ns; ++i) query_points[i] = samples[i].position_mm + offset;
+                         for (std::size_t i = 0; i < mesh.vertices_mm.size(); ++i)
+                           query_points[ns + i] = mesh.vertices_mm[i] + offset;
+                         query_groups = detail::group_deposit_queries(query_points, v);
+                       });
   out.deposit_volume_mm3 = static_cast<double>(surface.occupied_voxels) * v * v * v;
   out.surface_faces = surface.faces.size();
   for (std::size_t i = 0; i < surface.faces.size(); ++i)  // a voxel's faces are consecutive
@@ -56,18 +77,6 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
                            dep_triangles[i]};
   };
 
-  // Mesh -> deposit, from area-uniform samples (the target's when drawn alike).
-  std::vector<SurfaceSample> own_samples;
-  std::span<const SurfaceSample> samples = target.samples();
-  if (target.sample_spacing_mm() != spacing || target.sample_seed() != settings.seed) {
-    own_samples = sample_surface(mesh, spacing, settings.seed);
-    samples = own_samples;
-  }
-  // The samples and the mesh's vertices (for the per-vertex deviation) in one search.
-  const std::size_t ns = samples.size();
-  std::vector<Vec3> query_points(ns + mesh.vertices_mm.size());
-  for (std::size_t i = 0; i < ns; ++i) query_points[i] = samples[i].position_mm + offset;
-  for (std::size_t i = 0; i < mesh.vertices_mm.size(); ++i) query_points[ns + i] = mesh.vertices_mm[i] + offset;
   std::vector<double> d_query;
   std::vector<std::uint32_t> nearest;
   // The two directions need nothing from each other: side by side (each is parallel inside;
@@ -79,7 +88,7 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
         out.deposit_to_mesh = deviation_stats(d_dep, settings.tolerance_mm);
       },
       [&] {
-        distances_to_deposit(surface, query_points, d_query, &nearest);
+        detail::distances_to_deposit_with(surface, query_points, d_query, &nearest, false, &query_groups);
         out.mesh_to_deposit = deviation_stats(std::span<const double>(d_query.data(), ns), settings.tolerance_mm);
       });
   const std::span<const double> d_mesh(d_query.data(), ns);

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <memory>
@@ -226,6 +227,13 @@ class CubePool {
   Cube& operator[](std::size_t i) { return chunks_[i / kChunk][i % kChunk]; }
   const Cube& operator[](std::size_t i) const { return chunks_[i / kChunk][i % kChunk]; }
   [[nodiscard]] std::size_t size() const { return size_; }
+  /// Room for n more cubes (uninitialised), at indices from the returned one on.
+  std::size_t grow(std::size_t n) {
+    const std::size_t first = size_;
+    size_ += n;
+    while (chunks_.size() * kChunk < size_) chunks_.push_back(std::make_unique_for_overwrite<Cube[]>(kChunk));
+    return first;
+  }
 
  private:
   static constexpr std::size_t kChunk = 4096;
@@ -252,7 +260,85 @@ class DilatedField {
   /// The dilated cube of a block (null = empty); valid until the next call.
   [[nodiscard]] const Cube* at(int bx, int by, int bz) { return stage(top_, bx, by, bz); }
 
+  /// Computes every stage below the top that the blocks `targets` (box indices) read, a
+  /// stage at a time, its blocks in parallel; then top_of may run on several threads.
+  void prepare(const std::vector<std::uint32_t>& targets) {
+    std::vector<std::vector<std::uint32_t>> lists(static_cast<std::size_t>(std::max(top_, 1)));
+    std::vector<std::uint8_t> mark(box_.size(), 0);
+    const std::vector<std::uint32_t>* cur = &targets;
+    for (int st = top_ - 1; st >= 1; --st) {
+      // Stage st + 1 reads stage st of a block and its two neighbours along its axis.
+      const int axis = st % 3;
+      auto& next = lists[static_cast<std::size_t>(st)];
+      for (const std::uint32_t i : *cur) {
+        const Eigen::Vector3i b = box_.coords(i);
+        for (int d = -1; d <= 1; ++d) {
+          const int x = b.x() + (axis == 1 ? d : 0), y = b.y() + (axis == 2 ? d : 0), z = b.z() + (axis == 0 ? d : 0);
+          if (!box_.contains(x, y, z)) continue;
+          const std::size_t j = box_.index(x, y, z);
+          if (mark[j] == 0) {
+            mark[j] = 1;
+            next.push_back(static_cast<std::uint32_t>(j));
+          }
+        }
+      }
+      for (const std::uint32_t j : next) mark[j] = 0;
+      cur = &next;
+    }
+    for (int st = 1; st < top_; ++st) {
+      const auto& list = lists[static_cast<std::size_t>(st)];
+      const std::size_t first = pool_.grow(list.size());
+      tbb::parallel_for(std::size_t{0}, list.size(), [&](std::size_t k) {
+        const Eigen::Vector3i b = box_.coords(list[k]);
+        Cube out;
+        std::uint32_t& memo = memo_[static_cast<std::size_t>(st)][list[k]];
+        if (!compute(st, b.x(), b.y(), b.z(), [&](int x, int y, int z) { return read(st - 1, x, y, z); }, out)) {
+          memo = 1;
+          return;
+        }
+        pool_[first + k] = out;
+        memo = static_cast<std::uint32_t>(first + k + 2);
+      });
+    }
+  }
+  /// The top stage of a block whose stages below are prepared (false = empty).
+  [[nodiscard]] bool top_of(int bx, int by, int bz, Cube& out) const {
+    if (top_ == 0) {
+      const Cube* c = base_(bx, by, bz);
+      out = or_empty(c);
+      return c != nullptr;
+    }
+    return compute(top_, bx, by, bz, [&](int x, int y, int z) { return read(top_ - 1, x, y, z); }, out);
+  }
+
  private:
+  /// Stage st (> 0) of a block from stage st - 1 (`below`) of it and its two neighbours along
+  /// the stage's axis; false when empty.
+  template <class Below>
+  bool compute(int st, int bx, int by, int bz, const Below& below, Cube& out) const {
+    const int axis = (st - 1) % 3;
+    const int r = steps_[static_cast<std::size_t>((st - 1) / 3)];
+    const int dx = axis == 1 ? 1 : 0, dy = axis == 2 ? 1 : 0, dz = axis == 0 ? 1 : 0;
+    const Cube* lo = below(bx - dx, by - dy, bz - dz);
+    const Cube* m = below(bx, by, bz);
+    const Cube* hi = below(bx + dx, by + dy, bz + dz);
+    if (lo == nullptr && m == nullptr && hi == nullptr) return false;
+    out = axis == 0   ? dilate_z(lo, m, hi, r)
+          : axis == 1 ? dilate_in_slices(lo, m, hi, r, step_x)
+                      : dilate_in_slices(lo, m, hi, r, step_y);
+    if (axis == 2) {
+      const Cube c = clip_(bx, by, bz);
+      for (std::size_t z = 0; z < kE; ++z) out[z] &= c[z];
+    }
+    return any(out);
+  }
+  /// A computed stage (st < top), or the base.
+  const Cube* read(int st, int bx, int by, int bz) const {
+    if (!box_.contains(bx, by, bz)) return nullptr;
+    if (st == 0) return base_(bx, by, bz);
+    const std::uint32_t k = memo_[static_cast<std::size_t>(st)][box_.index(bx, by, bz)];
+    return k > 1 ? &pool_[k - 2] : nullptr;
+  }
   const Cube* stage(int st, int bx, int by, int bz) {
     if (!box_.contains(bx, by, bz)) return nullptr;
     if (st == 0) return base_(bx, by, bz);
@@ -265,24 +351,8 @@ class DilatedField {
       if (k == 1) return nullptr;
       if (k > 1) return &pool_[k - 2];
     }
-    const int axis = (st - 1) % 3;
-    const int r = steps_[static_cast<std::size_t>((st - 1) / 3)];
-    const int dx = axis == 1 ? 1 : 0, dy = axis == 2 ? 1 : 0, dz = axis == 0 ? 1 : 0;
-    const Cube* lo = stage(st - 1, bx - dx, by - dy, bz - dz);
-    const Cube* m = stage(st - 1, bx, by, bz);
-    const Cube* hi = stage(st - 1, bx + dx, by + dy, bz + dz);
     Cube out{};
-    bool some = false;
-    if (lo != nullptr || m != nullptr || hi != nullptr) {
-      out = axis == 0   ? dilate_z(lo, m, hi, r)
-            : axis == 1 ? dilate_in_slices(lo, m, hi, r, step_x)
-                        : dilate_in_slices(lo, m, hi, r, step_y);
-      if (axis == 2) {
-        const Cube c = clip_(bx, by, bz);
-        for (std::size_t z = 0; z < kE; ++z) out[z] &= c[z];
-      }
-      some = any(out);
-    }
+    const bool some = compute(st, bx, by, bz, [&](int x, int y, int z) { return stage(st - 1, x, y, z); }, out);
     if (!memo) {
       scratch_ = out;
       return some ? &scratch_ : nullptr;
@@ -469,8 +539,50 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   const int reach = (seal_r + kE - 1) / kE;  // in blocks
   // A block no part voxel comes within r of is open all through (within R).
   std::vector<std::uint8_t> near_occ(n_blocks);
-  for (std::size_t i = 0; i < n_blocks; ++i) near_occ[i] = part_of[i] != nullptr ? 1 : 0;
-  dilate_flags(near_occ, box, reach);
+  if (reach == 1) {
+    // Within one block: a neighbour is near when the block's part voxels come within r of
+    // it along every axis where it lies off (tested on the part's projections onto the
+    // axes, which can only say "near" too often).
+    const unsigned low = (1U << seal_r) - 1U, high = 0xFFU & ~((1U << (kE - seal_r)) - 1U);
+    tbb::parallel_for(0, box.n.y(), [&](int r) {
+      const int by = box.lo.y() + r;
+      for (int bx = box.lo.x(); bx < box.lo.x() + box.n.x(); ++bx)
+        for (int bz = box.lo.z(); bz < box.lo.z() + box.n.z(); ++bz) {
+          const Cube* p = part_of[box.index(bx, by, bz)];
+          if (p == nullptr) continue;
+          unsigned zs = 0;
+          std::uint64_t w = 0;
+          for (int z = 0; z < kE; ++z) {
+            zs |= (*p)[static_cast<std::size_t>(z)] != 0 ? 1U << z : 0U;
+            w |= (*p)[static_cast<std::size_t>(z)];
+          }
+          unsigned xs = 0, ys = 0;
+          for (int y = 0; y < kE; ++y) {
+            const auto row = static_cast<unsigned>((w >> (8 * y)) & 0xFFU);
+            xs |= row;
+            ys |= row != 0 ? 1U << y : 0U;
+          }
+          // Per axis, the offsets (-1, 0, +1) the part reaches.
+          const auto offsets = [&](unsigned bits) {
+            return std::array<bool, 3>{(bits & low) != 0, true, (bits & high) != 0};
+          };
+          const auto ox = offsets(xs), oy = offsets(ys), oz = offsets(zs);
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx)
+              for (int dz = -1; dz <= 1; ++dz) {
+                if (!ox[static_cast<std::size_t>(dx + 1)] || !oy[static_cast<std::size_t>(dy + 1)] ||
+                    !oz[static_cast<std::size_t>(dz + 1)] || !box.contains(bx + dx, by + dy, bz + dz))
+                  continue;
+                // Rows of blocks next to each other may mark the same block: all write 1.
+                std::atomic_ref<std::uint8_t>(near_occ[box.index(bx + dx, by + dy, bz + dz)])
+                    .store(1, std::memory_order_relaxed);
+              }
+        }
+    });
+  } else {
+    for (std::size_t i = 0; i < n_blocks; ++i) near_occ[i] = part_of[i] != nullptr ? 1 : 0;
+    dilate_flags(near_occ, box, reach);
+  }
 
   // 2. The flood, block by block from the padding: a block's outside grows by a fill within
   // the block, and what reaches its faces seeds the neighbours. An open block is wholly
@@ -586,23 +698,29 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     return nullptr;
   };
   DilatedField outside_back(box, seal_r, outside_cube, region_cube);
+  outside_back.prepare(mixed);
   s.filled_masks.resize(mixed.size());
-  std::size_t emptied = 0;  // voxels of R the outside takes in the mixed blocks
-  for (std::size_t m = 0; m < mixed.size(); ++m) {
+  std::vector<std::size_t> emptied(mixed.size(), 0);  // voxels of R the outside takes, per mixed block
+  tbb::parallel_for(std::size_t{0}, mixed.size(), [&](std::size_t m) {
     const Eigen::Vector3i b = box.coords(mixed[m]);
-    const Cube* o = outside_back.at(b.x(), b.y(), b.z());
+    Cube o{};
+    const bool some = outside_back.top_of(b.x(), b.y(), b.z(), o);
     const Cube& part = or_empty(part_of[mixed[m]]);
     const Cube region = region_cube(b.x(), b.y(), b.z());
     Cube& f = s.filled_masks[m];
+    std::size_t n = 0;
     for (std::size_t z = 0; z < kE; ++z) {
-      const std::uint64_t gone = (o != nullptr ? (*o)[z] : 0) & ~part[z] & region[z];
+      const std::uint64_t gone = (some ? o[z] : 0) & ~part[z] & region[z];
       f[z] = region[z] & ~gone;
-      emptied += static_cast<std::size_t>(popcount64(gone));
+      n += static_cast<std::size_t>(popcount64(gone));
     }
-  }
-  std::size_t not_filled = emptied;
-  for (std::size_t m = 0; m < mixed.size(); ++m)
+    emptied[m] = n;
+  });
+  std::size_t not_filled = 0;
+  for (std::size_t m = 0; m < mixed.size(); ++m) {
     s.filled_block_code[mixed[m]] = DepositSurface::kFirstMask + static_cast<std::uint32_t>(m);
+    not_filled += emptied[m];
+  }
   for (std::size_t i = 0; i < n_blocks; ++i)
     if (kind[i] == kWhole) {
       const Eigen::Vector3i b = box.coords(i);
