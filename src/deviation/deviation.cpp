@@ -79,28 +79,6 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
 
   std::vector<double> d_query;
   std::vector<std::uint32_t> nearest;
-  // The two directions need nothing from each other: side by side (each is parallel inside;
-  // together they fill the gaps of either).
-  tbb::parallel_invoke(
-      [&] {
-        target.signed_distances(offset, face_points, std::max(4.0 * v, settings.tolerance_mm), d_dep,
-                                &dep_triangles);
-        out.deposit_to_mesh = deviation_stats(d_dep, settings.tolerance_mm);
-      },
-      [&] {
-        detail::distances_to_deposit_with(surface, query_points, d_query, &nearest, false, &query_groups);
-        out.mesh_to_deposit = deviation_stats(std::span<const double>(d_query.data(), ns), settings.tolerance_mm);
-      });
-  const std::span<const double> d_mesh(d_query.data(), ns);
-  out.vertex_deviation_mm.assign(d_query.begin() + static_cast<std::ptrdiff_t>(ns), d_query.end());
-  const auto mesh_tag = [&](std::size_t i) {
-    return surface.faces.empty() ? VoxelTag{} : surface.face_tags[nearest[i]];
-  };
-  const auto mesh_sample = [&](std::size_t i) {
-    const VoxelTag tag = mesh_tag(i);
-    return DeviationSample{query_points[i], d_mesh[i], tag.layer, tag.line, samples[i].triangle};
-  };
-
   // Per layer (layer of the nearest deposit voxel); z = top of that layer's surface voxels.
   // Distances grouped by layer with a counting sort (sample order kept within a layer).
   int max_layer = -1;
@@ -117,44 +95,59 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
     for (std::size_t i = 0; i < n; ++i)
       if (const int l = layer_of(i); l >= 0) values[fill[static_cast<std::size_t>(l)]++] = d[i];
   };
+  std::vector<LayerDeviation> layers(n_layers);
+  // One direction's per-layer statistics, layers in parallel.
+  const auto layer_stats = [&](const std::vector<std::size_t>& begin, const std::vector<double>& values,
+                               DeviationStats LayerDeviation::*field) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_layers), [&](const tbb::blocked_range<std::size_t>& r) {
+      for (std::size_t l = r.begin(); l != r.end(); ++l)
+        layers[l].*field = deviation_stats(std::span<const double>(values).subspan(begin[l], begin[l + 1] - begin[l]),
+                                           settings.tolerance_mm);
+    });
+  };
   std::vector<std::size_t> dep_begin, mesh_begin;
   std::vector<double> dep_values, mesh_values;
   // The highest surface voxel of each layer (a voxel's centre height grows with its z key).
   std::vector<int> top_key(n_layers, std::numeric_limits<int>::min());
+  // The two directions need nothing from each other: side by side, each with its statistics
+  // and per-layer figures (each is parallel inside; together they fill the gaps of either).
+  const auto mesh_tag = [&](std::size_t i) {
+    return surface.faces.empty() ? VoxelTag{} : surface.face_tags[nearest[i]];
+  };
   tbb::parallel_invoke(
       [&] {
+        target.signed_distances(offset, face_points, std::max(4.0 * v, settings.tolerance_mm), d_dep,
+                                &dep_triangles);
+        out.deposit_to_mesh = deviation_stats(d_dep, settings.tolerance_mm);
         group(d_dep.size(), [&](std::size_t i) { return static_cast<int>(surface.face_tags[i].layer); }, d_dep,
               dep_begin, dep_values);
+        layer_stats(dep_begin, dep_values, &LayerDeviation::deposit_to_mesh);
       },
       [&] {
+        detail::distances_to_deposit_with(surface, query_points, d_query, &nearest, false, &query_groups);
+        const std::span<const double> d_mesh(d_query.data(), ns);
+        out.mesh_to_deposit = deviation_stats(d_mesh, settings.tolerance_mm);
         group(ns, [&](std::size_t i) { return static_cast<int>(mesh_tag(i).layer); }, d_mesh, mesh_begin,
               mesh_values);
-      },
-      [&] {
-        for (std::size_t i = 0; i < d_dep.size(); ++i) {
+        layer_stats(mesh_begin, mesh_values, &LayerDeviation::mesh_to_deposit);
+        for (std::size_t i = 0; i < surface.faces.size(); ++i) {
           const int layer = surface.face_tags[i].layer;
           if (layer < 0) continue;
           int& t = top_key[static_cast<std::size_t>(layer)];
           t = std::max(t, surface.faces[i].voxel.z);
         }
       });
-  std::vector<double> layer_top(n_layers, 0.0);
-  for (std::size_t l = 0; l < n_layers; ++l)
-    if (top_key[l] != std::numeric_limits<int>::min())
-      layer_top[l] = deposit.center_mm(VoxelKey{0, 0, top_key[l]}).z() + 0.5 * v;
-  std::vector<LayerDeviation> layers(n_layers);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_layers), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t l = r.begin(); l != r.end(); ++l) {
-      LayerDeviation& ld = layers[l];
-      ld.layer = static_cast<int>(l);
-      ld.z_mm = layer_top[l];
-      ld.deposit_to_mesh = deviation_stats(
-          std::span<const double>(dep_values).subspan(dep_begin[l], dep_begin[l + 1] - dep_begin[l]), settings.tolerance_mm);
-      ld.mesh_to_deposit = deviation_stats(
-          std::span<const double>(mesh_values).subspan(mesh_begin[l], mesh_begin[l + 1] - mesh_begin[l]),
-          settings.tolerance_mm);
-    }
-  });
+  const std::span<const double> d_mesh(d_query.data(), ns);
+  out.vertex_deviation_mm.assign(d_query.begin() + static_cast<std::ptrdiff_t>(ns), d_query.end());
+  const auto mesh_sample = [&](std::size_t i) {
+    const VoxelTag tag = mesh_tag(i);
+    return DeviationSample{query_points[i], d_mesh[i], tag.layer, tag.line, samples[i].triangle};
+  };
+  for (std::size_t l = 0; l < n_layers; ++l) {
+    LayerDeviation& ld = layers[l];
+    ld.layer = static_cast<int>(l);
+    if (top_key[l] != std::numeric_limits<int>::min()) ld.z_mm = deposit.center_mm(VoxelKey{0, 0, top_key[l]}).z() + 0.5 * v;
+  }
   for (std::size_t l = 0; l < n_layers; ++l)  // layers no sample of either direction is nearest to: none
     if (dep_begin[l] != dep_begin[l + 1] || mesh_begin[l] != mesh_begin[l + 1]) out.per_layer.push_back(std::move(layers[l]));
 
