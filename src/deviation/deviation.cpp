@@ -118,10 +118,13 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
       [&] {
         target.signed_distances(offset, face_points, std::max(4.0 * v, settings.tolerance_mm), d_dep,
                                 &dep_triangles);
-        out.deposit_to_mesh = deviation_stats(d_dep, settings.tolerance_mm);
-        group(d_dep.size(), [&](std::size_t i) { return static_cast<int>(surface.face_tags[i].layer); }, d_dep,
-              dep_begin, dep_values);
-        layer_stats(dep_begin, dep_values, &LayerDeviation::deposit_to_mesh);
+        // The longer direction: its figures for the whole and per layer side by side too.
+        tbb::parallel_invoke([&] { out.deposit_to_mesh = deviation_stats(d_dep, settings.tolerance_mm); },
+                             [&] {
+                               group(d_dep.size(), [&](std::size_t i) { return static_cast<int>(surface.face_tags[i].layer); },
+                                     d_dep, dep_begin, dep_values);
+                               layer_stats(dep_begin, dep_values, &LayerDeviation::deposit_to_mesh);
+                             });
       },
       [&] {
         detail::distances_to_deposit_with(surface, query_points, d_query, &nearest, false, &query_groups);

@@ -52,18 +52,28 @@ std::vector<std::pair<std::size_t, double>> order_statistics_by_selection(std::s
 }
 
 /// From this many values on, the order statistics come from a histogram instead.
-constexpr std::size_t kHistogramMin = std::size_t{1} << 18;
+constexpr std::size_t kHistogramMin = 512;
 
-/// The same by a histogram of the top bits of |d| (sign aside: 11 exponent bits and 8 of
-/// the mantissa, so a bin spans 1/256 of an octave): one pass counts, the bins holding the
-/// ranks are found from the counts, a second pass gathers those bins' values, and a
-/// selection within them gives the exact order statistics. Two streaming passes instead of
-/// repeated partitions of a copy.
+/// The same by a histogram of |d|'s bit patterns over their range (for non-negative doubles
+/// the pattern orders like the value, and equal-width bins of it are about equally fine in
+/// every octave): one pass finds the range, one counts, the bins holding the ranks are found
+/// from the counts, a pass gathers those bins' values, and a selection within them gives the
+/// exact order statistics. Up to 2^16 bins (fewer for fewer values, so the counts stay in
+/// cache): streaming passes instead of repeated partitions of a copy.
 std::vector<std::pair<std::size_t, double>> order_statistics_by_histogram(std::span<const double> d,
                                                                           const std::vector<std::size_t>& ranks) {
-  constexpr int kShift = 44;  // 63 - 19: the 19 bits below the (zero) sign bit
-  std::vector<std::uint32_t> count(std::size_t{1} << 19, 0);
-  for (const double v : d) ++count[abs_bits(v) >> kShift];
+  std::uint64_t lo_key = ~std::uint64_t{0}, hi_key = 0;
+  for (const double v : d) {
+    const std::uint64_t k = abs_bits(v);
+    lo_key = std::min(lo_key, k);
+    hi_key = std::max(hi_key, k);
+  }
+  const int bin_bits = std::clamp(static_cast<int>(std::bit_width(d.size())) - 2, 8, 16);
+  const int span_bits = static_cast<int>(std::bit_width(hi_key - lo_key));
+  const int shift = std::max(0, span_bits - bin_bits);
+  const auto bin = [&](double v) { return static_cast<std::size_t>((abs_bits(v) - lo_key) >> shift); };
+  std::vector<std::uint32_t> count(((hi_key - lo_key) >> shift) + 1, 0);
+  for (const double v : d) ++count[bin(v)];
   // The bin of each rank, and the rank's place within its bin.
   std::vector<std::size_t> bin_of(ranks.size()), before(ranks.size());
   {
@@ -83,7 +93,7 @@ std::vector<std::pair<std::size_t, double>> order_statistics_by_histogram(std::s
   for (std::size_t k = 0; k < bins.size(); ++k) values[k].reserve(count[bins[k]]);
   const std::size_t lowest = bins.front(), highest = bins.back();
   for (const double v : d) {
-    const std::size_t b = abs_bits(v) >> kShift;
+    const std::size_t b = bin(v);
     if (b < lowest || b > highest) continue;  // most values: in no bin of a rank
     for (std::size_t k = 0; k < bins.size(); ++k)
       if (bins[k] == b) values[k].push_back(std::abs(v));

@@ -75,38 +75,37 @@ TEST(DeviationStats, KnownValues) {
   EXPECT_EQ(empty.within_tolerance_pct, 100.0);
 }
 
-TEST(DeviationStats, LargeInputsGiveTheSortedOrderStatistics) {
-  // Above the histogram threshold (2^18 values): percentiles and Hausdorff equal the
-  // type-7 percentiles of a full sort, to the bit, with many ties (values on a 1 um grid),
-  // zeros and both signs; and the same values below the threshold (selection) agree.
+TEST(DeviationStats, PercentilesAreTheSortedOrderStatisticsAtEverySize) {
+  // Histogram selection (from 512 values on, bins over the range of |d|'s bit patterns, up
+  // to 2^16 of them) and plain selection below: percentiles and Hausdorff equal the type-7
+  // percentiles of a full sort, to the bit, with many ties (values on a 1 um grid), zeros,
+  // both signs, one far outlier, and a run of equal values (a range of one bin).
   std::mt19937_64 rng(3);
   std::normal_distribution<double> g(0.0, 0.08);
   std::vector<double> d(300000);
   for (double& x : d) x = std::round(g(rng) * 1000.0) / 1000.0;
   d[5] = 2.5;  // one far outlier
-  std::vector<double> a(d.size());
-  for (std::size_t i = 0; i < d.size(); ++i) a[i] = std::abs(d[i]);
-  std::sort(a.begin(), a.end());
   const auto type7 = [&](const std::vector<double>& v, double q) {
     const double h = q * static_cast<double>(v.size() - 1);
     const auto lo = static_cast<std::size_t>(std::floor(h));
     const std::size_t hi = std::min(lo + 1, v.size() - 1);
     return v[lo] + (h - static_cast<double>(lo)) * (v[hi] - v[lo]);
   };
-  const DeviationStats s = deviation_stats(d, 0.1);
-  EXPECT_EQ(s.p50_abs_mm, type7(a, 0.50));
-  EXPECT_EQ(s.p95_abs_mm, type7(a, 0.95));
-  EXPECT_EQ(s.p99_abs_mm, type7(a, 0.99));
-  EXPECT_EQ(s.hausdorff_mm, 2.5);
-  // A small slice goes through the selection path: same rule.
-  const std::vector<double> part(d.begin(), d.begin() + 1001);
-  std::vector<double> b(part.size());
-  for (std::size_t i = 0; i < part.size(); ++i) b[i] = std::abs(part[i]);
-  std::sort(b.begin(), b.end());
-  const DeviationStats t = deviation_stats(part, 0.1);
-  EXPECT_EQ(t.p50_abs_mm, type7(b, 0.50));
-  EXPECT_EQ(t.p99_abs_mm, type7(b, 0.99));
-  EXPECT_EQ(t.hausdorff_mm, b.back());
+  const auto check = [&](const std::vector<double>& part) {
+    std::vector<double> a(part.size());
+    for (std::size_t i = 0; i < part.size(); ++i) a[i] = std::abs(part[i]);
+    std::sort(a.begin(), a.end());
+    const DeviationStats s = deviation_stats(part, 0.1);
+    EXPECT_EQ(s.p50_abs_mm, type7(a, 0.50)) << part.size();
+    EXPECT_EQ(s.p95_abs_mm, type7(a, 0.95)) << part.size();
+    EXPECT_EQ(s.p99_abs_mm, type7(a, 0.99)) << part.size();
+    EXPECT_EQ(s.hausdorff_mm, a.back()) << part.size();
+  };
+  for (const std::size_t n : {std::size_t{300000}, std::size_t{20000}, std::size_t{1001}, std::size_t{512},
+                              std::size_t{300}, std::size_t{7}})
+    check(std::vector<double>(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(n)));
+  check(std::vector<double>(2000, -0.042));
+  EXPECT_EQ(deviation_stats(d, 0.1).hausdorff_mm, 2.5);
 }
 
 TEST(DeviationSampling, AreaUniformDeterministicAndOnSurface) {
