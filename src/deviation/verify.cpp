@@ -1,5 +1,6 @@
 // verify(): check -> (slice) -> simulate -> deposit -> deviation, aggregated into a
 // VerifyReport with gates and a verdict.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <mutex>
@@ -246,6 +247,9 @@ Result<PrintedGcode> print_gcode(const PrinterProfile& printer, const VerifySett
   // Simulate, collecting the moves.
   stage("simulate");
   CollectMoves collector;
+  // About a move per line: reserved up front, the list is never copied as it grows (the
+  // capacity no move reaches is never touched).
+  collector.moves.reserve(static_cast<std::size_t>(std::count(gcode.text.begin(), gcode.text.end(), '\n')) + 1);
   SimulateOptions sim_options;
   sim_options.source_name = gcode.name;
   auto sim = [&] {
