@@ -15,6 +15,7 @@
 #include <memory>
 
 #include "core/bits.hpp"
+#include "core/zeroed_array.hpp"
 #include "deviation/deposit_surface_internal.hpp"
 #include "deviation/point_groups.hpp"
 #include "printtwin/deviation.hpp"
@@ -25,13 +26,22 @@ namespace printtwin {
 
 namespace {
 
-/// Faces bucketed by the cell of their centre (cells of kCell voxels), CSR layout, stored
-/// as columns (centre x, y, z, normal axis, face index) so the search tests 4 at a time.
+/// Faces bucketed by the cell of their centre (cells of kCell voxels), stored as columns
+/// (centre x, y, z, normal axis, face index) so the search tests 4 at a time. The cells come
+/// in pairs along each axis (2 x 2 x 2 cells, a "pair block"): a directory over the pair
+/// blocks names the few that hold faces (the surface is thin: most of the region has none),
+/// and each of those has the ranges of its 8 cells.
 struct FaceBuckets {
   static constexpr int kCell = 4;
   static constexpr std::size_t kPad = 4;  ///< entries past the end, so 4-wide loads stay inside
   Eigen::Vector3i cells = Eigen::Vector3i::Zero();
-  std::vector<std::uint32_t> begin;  ///< per cell, into the columns
+  Eigen::Vector3i pairs = Eigen::Vector3i::Zero();  ///< pair blocks per axis
+  /// Per pair block (y, then x, then z): 0 = no face, k + 1 = ranges[9 k .. 9 k + 8] hold the
+  /// start of each of its cells (local index y * 4 + x * 2 + z, by the coordinates' low bits)
+  /// and the end of the last.
+  ZeroedArray<std::uint32_t> slot;
+  std::vector<std::uint32_t> ranges;
+  std::vector<Eigen::Vector3i> held;  ///< the pair blocks holding faces, in slot order
   /// Faces sorted by cell (by index within a cell); every entry is written once, so the
   /// columns are not zeroed first.
   std::unique_ptr<double[]> cx, cy, cz;
@@ -44,18 +54,38 @@ struct FaceBuckets {
     cell_mm = s.voxel_mm * kCell;
     origin_mm = s.origin_mm;
     cells = (s.dims.array() + kCell - 1) / kCell;
-    const std::size_t n = static_cast<std::size_t>(cells.x()) * cells.y() * cells.z();
+    pairs = (cells.array() + 1) / 2;
+    slot = ZeroedArray<std::uint32_t>(static_cast<std::size_t>(pairs.x()) * pairs.y() * pairs.z());
     // A face goes to the cell of its voxel (its square lies in the voxel's box, so in the
-    // cell's): integer arithmetic, and a column's faces fill neighbouring cells.
+    // cell's): integer arithmetic.
     const auto cell_of = [&](std::size_t i) {
       const VoxelKey& k = s.faces[i].voxel;
-      return static_cast<std::uint32_t>(cell_index(Eigen::Vector3i((k.x - s.origin_key.x) / kCell,
-                                                                   (k.y - s.origin_key.y) / kCell,
-                                                                   (k.z - s.origin_key.z) / kCell)));
+      return Eigen::Vector3i((k.x - s.origin_key.x) / kCell, (k.y - s.origin_key.y) / kCell,
+                             (k.z - s.origin_key.z) / kCell);
     };
-    begin.assign(n + 1, 0);
-    for (std::size_t i = 0; i < s.faces.size(); ++i) ++begin[cell_of(i) + 1];
-    for (std::size_t c = 0; c < n; ++c) begin[c + 1] += begin[c];
+    for (std::size_t i = 0; i < s.faces.size(); ++i) {
+      const Eigen::Vector3i c = cell_of(i);
+      slot[pair_index(c.x() >> 1, c.y() >> 1, c.z() >> 1)] = 1;
+    }
+    // Slots in the directory's order.
+    for (int y = 0; y < pairs.y(); ++y)
+      for (int x = 0; x < pairs.x(); ++x)
+        for (int z = 0; z < pairs.z(); ++z) {
+          std::uint32_t& k = slot[pair_index(x, y, z)];
+          if (k == 0) continue;
+          held.emplace_back(x, y, z);
+          k = static_cast<std::uint32_t>(held.size());
+        }
+    // Counted per cell (the entry after the cell's), summed, then each face written at its
+    // cell's cursor, which ends at the cell's end: shifted back by one entry afterwards.
+    ranges.assign(9 * held.size() + 1, 0);
+    const auto entry = [&](const Eigen::Vector3i& c) {
+      const std::uint32_t k = slot[pair_index(c.x() >> 1, c.y() >> 1, c.z() >> 1)] - 1;
+      return 9 * static_cast<std::size_t>(k) + static_cast<std::size_t>(local_of(c));
+    };
+    for (std::size_t i = 0; i < s.faces.size(); ++i) ++ranges[entry(cell_of(i)) + 1];
+    // A pair block's ninth entry (its end) counts nothing, so the running sum carries it.
+    for (std::size_t e = 0; e + 1 < ranges.size(); ++e) ranges[e + 1] += ranges[e];
     const std::size_t m = s.faces.size() + kPad;
     cx = std::make_unique_for_overwrite<double[]>(m);
     cy = std::make_unique_for_overwrite<double[]>(m);
@@ -67,28 +97,38 @@ struct FaceBuckets {
       axis[k] = 0;
       face[k] = 0;
     }
-    // begin[c] serves as cell c's write cursor, which leaves it at the start of cell c + 1:
-    // shifted back by one cell afterwards.
     for (std::size_t i = 0; i < s.faces.size(); ++i) {
-      const std::uint32_t k = begin[cell_of(i)]++;
+      const std::uint32_t k = ranges[entry(cell_of(i))]++;
       cx[k] = s.face_centers_mm[i].x();
       cy[k] = s.face_centers_mm[i].y();
       cz[k] = s.face_centers_mm[i].z();
       axis[k] = s.faces[i].axis;
       face[k] = static_cast<std::uint32_t>(i);
     }
-    std::copy_backward(begin.begin(), begin.end() - 1, begin.end());
-    begin[0] = 0;
+    std::copy_backward(ranges.begin(), ranges.end() - 1, ranges.end());
+    ranges[0] = 0;
+  }
+  [[nodiscard]] std::size_t pair_index(int x, int y, int z) const {
+    return (static_cast<std::size_t>(y) * pairs.x() + static_cast<std::size_t>(x)) * pairs.z() +
+           static_cast<std::size_t>(z);
+  }
+  static int local_of(const Eigen::Vector3i& c) { return ((c.y() & 1) << 2) | ((c.x() & 1) << 1) | (c.z() & 1); }
+  /// The faces of cell c (inside the grid of cells): [lo, hi), empty when lo == hi.
+  void cell_range(const Eigen::Vector3i& c, std::uint32_t& lo, std::uint32_t& hi) const {
+    const std::uint32_t k = slot[pair_index(c.x() >> 1, c.y() >> 1, c.z() >> 1)];
+    if (k == 0) {
+      lo = hi = 0;
+      return;
+    }
+    const std::uint32_t* r = ranges.data() + 9 * static_cast<std::size_t>(k - 1) + local_of(c);
+    lo = r[0];
+    hi = r[1];
   }
   [[nodiscard]] Eigen::Vector3i cell_coord(const Vec3& p) const {
     Eigen::Vector3i c;
     for (int a = 0; a < 3; ++a)
       c[a] = std::clamp(static_cast<int>(std::floor((p[a] - origin_mm[a]) / cell_mm)), 0, cells[a] - 1);
     return c;
-  }
-  /// Cells column by column (z fastest): a column's faces go to consecutive cells.
-  [[nodiscard]] std::size_t cell_index(const Eigen::Vector3i& c) const {
-    return (static_cast<std::size_t>(c.y()) * cells.x() + c.x()) * cells.z() + c.z();
   }
 };
 
@@ -195,13 +235,9 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
   const auto group_index = [&](const Eigen::Vector3i& g) {
     return (static_cast<std::size_t>(g.z()) * groups.y() + g.y()) * groups.x() + g.x();
   };
-  for (int y = 0; y < buckets.cells.y(); ++y)  // in the cells' memory order (z fastest)
-    for (int x = 0; x < buckets.cells.x(); ++x)
-      for (int z = 0; z < buckets.cells.z(); ++z) {
-        const std::size_t ci = buckets.cell_index(Eigen::Vector3i(x, y, z));
-        if (buckets.begin[ci] != buckets.begin[ci + 1])
-          group_has[group_index(Eigen::Vector3i(x / kGroup, y / kGroup, z / kGroup))] = 1;
-      }
+  static_assert(kGroup % 2 == 0);
+  for (const Eigen::Vector3i& b : buckets.held)  // a group is kGroup / 2 pair blocks across
+    group_has[group_index(b / (kGroup / 2))] = 1;
   const double group_mm = buckets.cell_mm * kGroup;
   const int max_group_ring = groups.maxCoeff();
   constexpr int kFineRings = 2;
@@ -252,13 +288,14 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
       // the lowest face index: the result does not depend on the order cells are scanned.
       const auto scan_cell = [&](const Eigen::Vector3i& c) {
         if ((c.array() < 0).any() || (c.array() >= buckets.cells.array()).any()) return;
-        const std::size_t ci = buckets.cell_index(c);
-        if (buckets.begin[ci] == buckets.begin[ci + 1]) return;
+        std::uint32_t lo = 0, hi = 0;
+        buckets.cell_range(c, lo, hi);
+        if (lo == hi) return;
         if (box_dist2(buckets.origin_mm + buckets.cell_mm * c.cast<double>(), buckets.cell_mm) > best2) return;
         if (avx2)
-          scan_faces_avx2(buckets, buckets.begin[ci], buckets.begin[ci + 1], p, half, best);
+          scan_faces_avx2(buckets, lo, hi, p, half, best);
         else
-          scan_faces_default(buckets, buckets.begin[ci], buckets.begin[ci + 1], p, half, best);
+          scan_faces_default(buckets, lo, hi, p, half, best);
       };
       // p's own cell first; then the bound (the previous point's, or the best face of p's
       // cell) limits the search to the cells its ball touches (at most 2 per axis): all
