@@ -3,6 +3,7 @@
 // voxel. The inside of a part (sparse infill, enclosed by its walls and solid layers) is
 // never visited: it stays "filled" by default.
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 
@@ -264,7 +265,7 @@ class DilatedField {
   /// stage at a time, its blocks in parallel; then top_of may run on several threads.
   void prepare(const std::vector<std::uint32_t>& targets) {
     std::vector<std::vector<std::uint32_t>> lists(static_cast<std::size_t>(std::max(top_, 1)));
-    std::vector<std::uint8_t> mark(box_.size(), 0);
+    if (mark_.size() != box_.size()) mark_ = ZeroedArray<std::uint8_t>(box_.size());
     const std::vector<std::uint32_t>* cur = &targets;
     for (int st = top_ - 1; st >= 1; --st) {
       // Stage st + 1 reads stage st of a block and its two neighbours along its axis.
@@ -276,13 +277,14 @@ class DilatedField {
           const int x = b.x() + (axis == 1 ? d : 0), y = b.y() + (axis == 2 ? d : 0), z = b.z() + (axis == 0 ? d : 0);
           if (!box_.contains(x, y, z)) continue;
           const std::size_t j = box_.index(x, y, z);
-          if (mark[j] == 0) {
-            mark[j] = 1;
+          // Computed by an earlier call: neither it nor what it reads is needed again.
+          if (mark_[j] == 0 && memo_[static_cast<std::size_t>(st)][j] == 0) {
+            mark_[j] = 1;
             next.push_back(static_cast<std::uint32_t>(j));
           }
         }
       }
-      for (const std::uint32_t j : next) mark[j] = 0;
+      for (const std::uint32_t j : next) mark_[j] = 0;
       cur = &next;
     }
     for (int st = 1; st < top_; ++st) {
@@ -374,6 +376,7 @@ class DilatedField {
   std::vector<ZeroedArray<std::uint32_t>> memo_;
   CubePool pool_;
   Cube scratch_{};
+  ZeroedArray<std::uint8_t> mark_;  ///< prepare's scratch: blocks already listed
 };
 
 /// Bit i set when voxel i of z-slice z of block b has an auxiliary tag (`auxiliary[t]` is 1
@@ -531,7 +534,6 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   const auto part_cube = [&](int bx, int by, int bz) -> const Cube* {
     return box.contains(bx, by, bz) ? part_of[box.index(bx, by, bz)] : nullptr;
   };
-
   // Gaps narrower than seal_gap_mm must not let the outside in (pinholes between beads are
   // voxelisation artefacts): the flood runs on the part dilated by r voxels, and the outside
   // it reaches is dilated back by r (a morphological opening of the empty space).
@@ -539,96 +541,58 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   const int reach = (seal_r + kE - 1) / kE;  // in blocks
   // A block no part voxel comes within r of is open all through (within R).
   std::vector<std::uint8_t> near_occ(n_blocks);
-  if (reach == 1) {
-    // Within one block: a neighbour is near when the block's part voxels come within r of
-    // it along every axis where it lies off (tested on the part's projections onto the
-    // axes, which can only say "near" too often).
-    const unsigned low = (1U << seal_r) - 1U, high = 0xFFU & ~((1U << (kE - seal_r)) - 1U);
-    tbb::parallel_for(0, box.n.y(), [&](int r) {
-      const int by = box.lo.y() + r;
-      for (int bx = box.lo.x(); bx < box.lo.x() + box.n.x(); ++bx)
-        for (int bz = box.lo.z(); bz < box.lo.z() + box.n.z(); ++bz) {
-          const Cube* p = part_of[box.index(bx, by, bz)];
-          if (p == nullptr) continue;
-          unsigned zs = 0;
-          std::uint64_t w = 0;
-          for (int z = 0; z < kE; ++z) {
-            zs |= (*p)[static_cast<std::size_t>(z)] != 0 ? 1U << z : 0U;
-            w |= (*p)[static_cast<std::size_t>(z)];
-          }
-          unsigned xs = 0, ys = 0;
-          for (int y = 0; y < kE; ++y) {
-            const auto row = static_cast<unsigned>((w >> (8 * y)) & 0xFFU);
-            xs |= row;
-            ys |= row != 0 ? 1U << y : 0U;
-          }
-          // Per axis, the offsets (-1, 0, +1) the part reaches.
-          const auto offsets = [&](unsigned bits) {
-            return std::array<bool, 3>{(bits & low) != 0, true, (bits & high) != 0};
-          };
-          const auto ox = offsets(xs), oy = offsets(ys), oz = offsets(zs);
-          for (int dy = -1; dy <= 1; ++dy)
-            for (int dx = -1; dx <= 1; ++dx)
-              for (int dz = -1; dz <= 1; ++dz) {
-                if (!ox[static_cast<std::size_t>(dx + 1)] || !oy[static_cast<std::size_t>(dy + 1)] ||
-                    !oz[static_cast<std::size_t>(dz + 1)] || !box.contains(bx + dx, by + dy, bz + dz))
-                  continue;
-                // Rows of blocks next to each other may mark the same block: all write 1.
-                std::atomic_ref<std::uint8_t>(near_occ[box.index(bx + dx, by + dy, bz + dz)])
-                    .store(1, std::memory_order_relaxed);
-              }
-        }
-    });
-  } else {
-    for (std::size_t i = 0; i < n_blocks; ++i) near_occ[i] = part_of[i] != nullptr ? 1 : 0;
-    dilate_flags(near_occ, box, reach);
-  }
-
-  // 2. The flood, block by block from the padding: a block's outside grows by a fill within
-  // the block, and what reaches its faces seeds the neighbours. An open block is wholly
-  // outside as soon as anything reaches it (R within a block is a box, so connected).
+  for (std::size_t i = 0; i < n_blocks; ++i) near_occ[i] = part_of[i] != nullptr ? 1 : 0;
+  dilate_flags(near_occ, box, reach);
+  // 2. The flood, block by block from the padding, in waves: every block of a wave grows its
+  // outside by a fill within the block, in parallel, and what reaches its faces seeds the
+  // neighbours for the next_wave wave. An open block is wholly outside as soon as anything
+  // reaches it (R within a block is a box, so connected). The outside found is the one
+  // component of the open voxels that holds the padding, whatever the order blocks are
+  // reached in.
   DilatedField blocked(box, seal_r, part_cube, interior_cube);
   enum : std::uint8_t { kUntouched = 0, kWhole = 1, kPartial = 2 };
   std::vector<std::uint8_t> kind(n_blocks, kUntouched);
   std::vector<std::uint8_t> queued(n_blocks, 0);
   std::vector<std::uint32_t> slot(n_blocks, 0);  // partial blocks: into open/outside/pending
   CubePool open, outside, pending;
-  // Queue entries carry their block's coordinates (no divisions to recover them).
+  std::vector<std::uint8_t> has_open;  // per slot: open (E) computed
+  // Wave entries carry their block's coordinates (no divisions to recover them).
   struct Queued {
     std::uint32_t i;
     std::int32_t x, y, z;
   };
-  std::vector<Queued> queue;
-  const auto make_whole = [&](std::size_t i, int bx, int by, int bz) {
-    kind[i] = kWhole;
-    queue.push_back({static_cast<std::uint32_t>(i), bx, by, bz});
+  struct Seed {
+    Queued to;
+    Cube bits;
   };
-  // Seeds for block i from a neighbour (the seed's voxels lie in R when it comes from R).
-  const auto add_seed = [&](std::size_t i, int bx, int by, int bz, const Cube& seed) {
+  std::vector<Queued> wave, next_wave;
+  // Seeds for a block, between waves (one thread): an open block turns whole; another gets
+  // its state (open voxels computed before the wave), the seed pending, and a place in the
+  // next_wave wave.
+  const auto add_seed = [&](const Queued& q, const Cube& seed) {
+    const std::size_t i = q.i;
     if (kind[i] == kWhole) return;
     if (near_occ[i] == 0) {
-      make_whole(i, bx, by, bz);
+      kind[i] = kWhole;
+      next_wave.push_back(q);
       return;
     }
     if (kind[i] == kUntouched) {
       kind[i] = kPartial;
-      Cube e = region_cube(bx, by, bz);
-      if (const Cube* b = blocked.at(bx, by, bz))
-        for (std::size_t z = 0; z < kE; ++z) e[z] &= ~(*b)[z];
-      slot[i] = open.push(e);
+      slot[i] = open.push(Cube{});
       outside.push(Cube{});
       pending.push(Cube{});
+      has_open.push_back(0);
     }
-    const std::uint32_t k = slot[i];
-    std::uint64_t news = 0;
+    Cube& p = pending[slot[i]];
+    std::uint64_t any_bits = 0;
     for (std::size_t z = 0; z < kE; ++z) {
-      const std::uint64_t add = seed[z] & open[k][z] & ~outside[k][z];
-      pending[k][z] |= add;
-      news |= add;
+      p[z] |= seed[z];
+      any_bits |= seed[z];
     }
-    if (news != 0 && queued[i] == 0) {
+    if (any_bits != 0 && queued[i] == 0) {
       queued[i] = 1;
-      queue.push_back({static_cast<std::uint32_t>(i), bx, by, bz});
+      next_wave.push_back(q);
     }
   };
   // Seeds: the padding, in the blocks on the box's faces.
@@ -641,42 +605,87 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
         const Cube r = region_cube(bx, by, bz), in = interior_cube(bx, by, bz);
         Cube pad;
         for (std::size_t z = 0; z < kE; ++z) pad[z] = r[z] & ~in[z];
-        if (any(pad)) add_seed(box.index(bx, by, bz), bx, by, bz, pad);
+        if (any(pad)) add_seed({static_cast<std::uint32_t>(box.index(bx, by, bz)), bx, by, bz}, pad);
       }
   // Index steps to the six neighbours (blocks are indexed y, then x, then z).
   const std::array<std::ptrdiff_t, 6> step{-static_cast<std::ptrdiff_t>(box.n.z()), box.n.z(),
                                            -static_cast<std::ptrdiff_t>(box.n.z()) * box.n.x(),
                                            static_cast<std::ptrdiff_t>(box.n.z()) * box.n.x(), -1, 1};
-  for (std::size_t head = 0; head < queue.size(); ++head) {
-    const Queued q = queue[head];
-    const bool whole = kind[q.i] == kWhole;
-    Cube grown;
-    if (whole) {
-      grown = region_cube(q.x, q.y, q.z);
-    } else {
-      queued[q.i] = 0;
-      const std::uint32_t k = slot[q.i];
-      Cube o = outside[k];
-      for (std::size_t z = 0; z < kE; ++z) o[z] |= pending[k][z];
-      pending[k] = Cube{};
-      o = flood_cube(open[k], o);
-      for (std::size_t z = 0; z < kE; ++z) grown[z] = o[z] & ~outside[k][z];
-      outside[k] = o;
+  tbb::enumerable_thread_specific<std::vector<Seed>> found;
+  tbb::enumerable_thread_specific<std::vector<Queued>> turned_whole;
+  std::vector<std::uint32_t> need_open;
+  while (!next_wave.empty()) {
+    wave.swap(next_wave);
+    next_wave.clear();
+    // The open voxels of the wave's new partial blocks: their dilation's stages prepared,
+    // then each block's, in parallel.
+    need_open.clear();
+    for (const Queued& q : wave)
+      if (kind[q.i] == kPartial && has_open[slot[q.i]] == 0) need_open.push_back(q.i);
+    if (!need_open.empty()) {
+      blocked.prepare(need_open);
+      tbb::parallel_for(std::size_t{0}, need_open.size(), [&](std::size_t k) {
+        const std::uint32_t i = need_open[k];
+        const Eigen::Vector3i b = box.coords(i);
+        Cube e = region_cube(b.x(), b.y(), b.z());
+        Cube d;
+        if (blocked.top_of(b.x(), b.y(), b.z(), d))
+          for (std::size_t z = 0; z < kE; ++z) e[z] &= ~d[z];
+        open[slot[i]] = e;
+        has_open[slot[i]] = 1;
+      });
     }
-    for (int d = 0; d < 6; ++d) {
-      const int nbx = q.x + kDirs[d][0], nby = q.y + kDirs[d][1], nbz = q.z + kDirs[d][2];
-      if (!box.contains(nbx, nby, nbz)) continue;
-      const auto n = static_cast<std::size_t>(static_cast<std::ptrdiff_t>(q.i) + step[static_cast<std::size_t>(d)]);
-      if (kind[n] == kWhole) continue;
-      // A whole block's face reaches every R voxel of the neighbour's facing layer (R is a
-      // box), so an open neighbour is whole at once.
-      if (whole && near_occ[n] == 0) {
-        make_whole(n, nbx, nby, nbz);
-        continue;
+    for (auto& f : found) f.clear();
+    for (auto& w : turned_whole) w.clear();
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, wave.size(), 256), [&](const tbb::blocked_range<std::size_t>& range) {
+      auto& mine = found.local();
+      auto& whole_now = turned_whole.local();
+      for (std::size_t w = range.begin(); w != range.end(); ++w) {
+        const Queued q = wave[w];
+        const bool whole = kind[q.i] == kWhole;
+        Cube grown;
+        if (whole) {
+          grown = region_cube(q.x, q.y, q.z);
+        } else {
+          queued[q.i] = 0;
+          const std::uint32_t k = slot[q.i];
+          Cube o = outside[k];
+          bool news = false;
+          for (std::size_t z = 0; z < kE; ++z) {
+            const std::uint64_t add = pending[k][z] & open[k][z] & ~o[z];
+            o[z] |= add;
+            news = news || add != 0;
+          }
+          pending[k] = Cube{};
+          if (!news) continue;
+          o = flood_cube(open[k], o);
+          for (std::size_t z = 0; z < kE; ++z) grown[z] = o[z] & ~outside[k][z];
+          outside[k] = o;
+        }
+        for (int d = 0; d < 6; ++d) {
+          const int nbx = q.x + kDirs[d][0], nby = q.y + kDirs[d][1], nbz = q.z + kDirs[d][2];
+          if (!box.contains(nbx, nby, nbz)) continue;
+          const auto n = static_cast<std::uint32_t>(static_cast<std::ptrdiff_t>(q.i) + step[static_cast<std::size_t>(d)]);
+          // An open block turns whole here (the one thread that claims it queues it); other
+          // blocks change kind only between waves.
+          std::atomic_ref<std::uint8_t> nk(kind[n]);
+          if (nk.load(std::memory_order_relaxed) == kWhole) continue;
+          const Cube t = transfer(grown, d);
+          if (!any(t)) continue;
+          if (near_occ[n] == 0) {
+            std::uint8_t expected = kUntouched;
+            if (nk.compare_exchange_strong(expected, kWhole, std::memory_order_relaxed))
+              whole_now.push_back({n, nbx, nby, nbz});
+          } else {
+            mine.push_back({{n, nbx, nby, nbz}, t});
+          }
+        }
       }
-      const Cube t = transfer(grown, d);
-      if (any(t)) add_seed(n, nbx, nby, nbz, t);
-    }
+    });
+    // The seeds, between waves (OR is commutative: the order they come in changes nothing).
+    for (const auto& w : turned_whole) next_wave.insert(next_wave.end(), w.begin(), w.end());
+    for (auto& f : found)
+      for (const Seed& sd : f) add_seed(sd.to, sd.bits);
   }
   // 3. Filled = R minus (the outside dilated back by r, where not part). Only blocks within
   // `reach` of a block the outside entered can differ from "all filled" (untouched) or "none
