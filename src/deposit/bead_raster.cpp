@@ -105,13 +105,14 @@ inline bool inside(const BeadFrame& f, float X, float Y, float Z, std::uint32_t 
 /// The AVX2 kernel's operations on two rows at once (lanes 0-7 row y, lanes 8-15 row y + 1),
 /// each an IEEE single-precision operation as there (no contraction into fused multiply-adds,
 /// which AVX-512 would allow), so the same bits.
-[[gnu::target("avx512f"), gnu::optimize("fp-contract=off")]] std::uint64_t test_tile_avx512(
-    const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k, int row_lo, int row_hi, unsigned lanes) {
+[[gnu::target("avx512f"), gnu::optimize("fp-contract=off")]] void test_tile_layers_avx512(
+    const BeadFrame& f, std::int32_t i0, std::int32_t j0, const std::int32_t* ks, int nk, int row_lo, int row_hi,
+    unsigned lanes, std::uint64_t* masks) {
+  // Everything but the layer's height and hash is the same for all the tile's layers.
   const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 0, 1, 2, 3, 4, 5, 6, 7);
   const __m512i vi = _mm512_add_epi32(_mm512_set1_epi32(i0), lane);
   const __m512i ihash = _mm512_mullo_epi32(vi, _mm512_set1_epi32(static_cast<int>(0x8da6b343u)));
   const __m512 X = _mm512_cvtepi32_ps(_mm512_sub_epi32(vi, _mm512_set1_epi32(f.ia)));
-  const __m512 Z = _mm512_set1_ps(static_cast<float>(k - f.ka));
   const __m512i c1 = _mm512_set1_epi32(0x7feb352d);
   const __m512i c2 = _mm512_set1_epi32(static_cast<int>(0x846ca68bu));
   const __m512i ten = _mm512_set1_epi32(0x3FF);
@@ -124,47 +125,51 @@ inline bool inside(const BeadFrame& f, float X, float Y, float Z, std::uint32_t 
   const __m512 c0 = _mm512_set1_ps(f.c0), slope = _mm512_set1_ps(f.slope);
   const __m512 r = _mm512_set1_ps(f.r), neg_r = _mm512_set1_ps(-f.r), r2 = _mm512_set1_ps(f.r2);
   const __m512 flat = _mm512_set1_ps(f.flat), zero = _mm512_setzero_ps();
-  const std::uint32_t khash = static_cast<std::uint32_t>(k) * 0xcb1ab31fu;
   const auto lanes16 = static_cast<__mmask16>(lanes | (lanes << 8));
   const __mmask16 low = 0x00FF;
-  std::uint64_t out = 0;
-  for (int y = row_lo; y < row_hi; y += 2) {
-    const std::int32_t j = j0 + y;
-    const auto row_hash = [&](std::int32_t jj) { return static_cast<int>(static_cast<std::uint32_t>(jj) * 0xd8163841u ^ khash); };
-    // Lanes 8-15 hold row y + 1 (past row_hi they are computed and dropped).
-    __m512i h = _mm512_xor_si512(ihash, _mm512_mask_blend_epi32(low, _mm512_set1_epi32(row_hash(j + 1)),
-                                                                 _mm512_set1_epi32(row_hash(j))));
-    h = _mm512_xor_si512(h, _mm512_srli_epi32(h, 16));
-    h = _mm512_mullo_epi32(h, c1);
-    h = _mm512_xor_si512(h, _mm512_srli_epi32(h, 15));
-    h = _mm512_mullo_epi32(h, c2);
-    h = _mm512_xor_si512(h, _mm512_srli_epi32(h, 16));
-    const __m512 jx = _mm512_add_ps(_mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_and_si512(h, ten)), scale), half);
-    const __m512 jy = _mm512_add_ps(
-        _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_and_si512(_mm512_srli_epi32(h, 10), ten)), scale), half);
-    const __m512 jz = _mm512_add_ps(
-        _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_and_si512(_mm512_srli_epi32(h, 20), ten)), scale), half);
-    const __m512 Y = _mm512_mask_blend_ps(low, _mm512_set1_ps(static_cast<float>(j + 1 - f.ja)),
-                                          _mm512_set1_ps(static_cast<float>(j - f.ja)));
-    const __m512 rx = _mm512_sub_ps(_mm512_add_ps(X, jx), fa_x);
-    const __m512 ry = _mm512_sub_ps(_mm512_add_ps(Y, jy), fa_y);
-    const __m512 z = _mm512_add_ps(Z, jz);
-    const __m512 s0 = _mm512_add_ps(_mm512_mul_ps(m0x, rx), _mm512_mul_ps(m0y, ry));
-    const __m512 s1 = _mm512_sub_ps(_mm512_add_ps(_mm512_mul_ps(m1x, rx), _mm512_mul_ps(m1y, ry)), e1);
-    const __m512 u = _mm512_add_ps(_mm512_mul_ps(dx, rx), _mm512_mul_ps(dy, ry));
-    const __m512 dz = _mm512_sub_ps(z, _mm512_add_ps(c0, _mm512_mul_ps(slope, u)));
-    const __m512 l = _mm512_sub_ps(_mm512_abs_ps(_mm512_add_ps(_mm512_mul_ps(nx, rx), _mm512_mul_ps(ny, ry))), flat);
-    const __mmask16 round_ok =
-        _mm512_cmp_ps_mask(l, zero, _CMP_LE_OQ) |
-        _mm512_cmp_ps_mask(_mm512_add_ps(_mm512_mul_ps(l, l), _mm512_mul_ps(dz, dz)), r2, _CMP_LE_OQ);
-    __mmask16 ok = _mm512_cmp_ps_mask(s0, zero, _CMP_GE_OQ) & _mm512_cmp_ps_mask(s1, zero, _CMP_LT_OQ);
-    ok &= _mm512_cmp_ps_mask(dz, neg_r, _CMP_GE_OQ) & _mm512_cmp_ps_mask(dz, r, _CMP_LT_OQ);
-    ok &= round_ok & lanes16;
-    unsigned bits = ok;
-    if (y + 1 >= row_hi) bits &= 0xFFu;
-    out |= static_cast<std::uint64_t>(bits) << (8 * y);
+  for (int n = 0; n < nk; ++n) {
+    const std::int32_t k = ks[n];
+    const __m512 Z = _mm512_set1_ps(static_cast<float>(k - f.ka));
+    const std::uint32_t khash = static_cast<std::uint32_t>(k) * 0xcb1ab31fu;
+    std::uint64_t out = 0;
+    for (int y = row_lo; y < row_hi; y += 2) {
+      const std::int32_t j = j0 + y;
+      const auto row_hash = [&](std::int32_t jj) { return static_cast<int>(static_cast<std::uint32_t>(jj) * 0xd8163841u ^ khash); };
+      // Lanes 8-15 hold row y + 1 (past row_hi they are computed and dropped).
+      __m512i h = _mm512_xor_si512(ihash, _mm512_mask_blend_epi32(low, _mm512_set1_epi32(row_hash(j + 1)),
+                                                                   _mm512_set1_epi32(row_hash(j))));
+      h = _mm512_xor_si512(h, _mm512_srli_epi32(h, 16));
+      h = _mm512_mullo_epi32(h, c1);
+      h = _mm512_xor_si512(h, _mm512_srli_epi32(h, 15));
+      h = _mm512_mullo_epi32(h, c2);
+      h = _mm512_xor_si512(h, _mm512_srli_epi32(h, 16));
+      const __m512 jx = _mm512_add_ps(_mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_and_si512(h, ten)), scale), half);
+      const __m512 jy = _mm512_add_ps(
+          _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_and_si512(_mm512_srli_epi32(h, 10), ten)), scale), half);
+      const __m512 jz = _mm512_add_ps(
+          _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_and_si512(_mm512_srli_epi32(h, 20), ten)), scale), half);
+      const __m512 Y = _mm512_mask_blend_ps(low, _mm512_set1_ps(static_cast<float>(j + 1 - f.ja)),
+                                            _mm512_set1_ps(static_cast<float>(j - f.ja)));
+      const __m512 rx = _mm512_sub_ps(_mm512_add_ps(X, jx), fa_x);
+      const __m512 ry = _mm512_sub_ps(_mm512_add_ps(Y, jy), fa_y);
+      const __m512 z = _mm512_add_ps(Z, jz);
+      const __m512 s0 = _mm512_add_ps(_mm512_mul_ps(m0x, rx), _mm512_mul_ps(m0y, ry));
+      const __m512 s1 = _mm512_sub_ps(_mm512_add_ps(_mm512_mul_ps(m1x, rx), _mm512_mul_ps(m1y, ry)), e1);
+      const __m512 u = _mm512_add_ps(_mm512_mul_ps(dx, rx), _mm512_mul_ps(dy, ry));
+      const __m512 dz = _mm512_sub_ps(z, _mm512_add_ps(c0, _mm512_mul_ps(slope, u)));
+      const __m512 l = _mm512_sub_ps(_mm512_abs_ps(_mm512_add_ps(_mm512_mul_ps(nx, rx), _mm512_mul_ps(ny, ry))), flat);
+      const __mmask16 round_ok =
+          _mm512_cmp_ps_mask(l, zero, _CMP_LE_OQ) |
+          _mm512_cmp_ps_mask(_mm512_add_ps(_mm512_mul_ps(l, l), _mm512_mul_ps(dz, dz)), r2, _CMP_LE_OQ);
+      __mmask16 ok = _mm512_cmp_ps_mask(s0, zero, _CMP_GE_OQ) & _mm512_cmp_ps_mask(s1, zero, _CMP_LT_OQ);
+      ok &= _mm512_cmp_ps_mask(dz, neg_r, _CMP_GE_OQ) & _mm512_cmp_ps_mask(dz, r, _CMP_LT_OQ);
+      ok &= round_ok & lanes16;
+      unsigned bits = ok;
+      if (y + 1 >= row_hi) bits &= 0xFFu;
+      out |= static_cast<std::uint64_t>(bits) << (8 * y);
+    }
+    masks[n] = out;
   }
-  return out;
 }
 #pragma GCC diagnostic pop
 #endif
@@ -252,13 +257,26 @@ std::uint64_t test_tile_avx2_kernel(const BeadFrame& f, std::int32_t i0, std::in
   return test_tile_scalar(f, i0, j0, k, row_lo, row_hi, lanes);
 }
 
+void test_tile_layers(const BeadFrame& f, std::int32_t i0, std::int32_t j0, const std::int32_t* ks, int nk,
+                      int row_lo, int row_hi, unsigned lanes, std::uint64_t* masks) {
+#if PRINTTWIN_HAVE_AVX2_KERNEL
+  if (cpu_has_avx512f()) {
+    test_tile_layers_avx512(f, i0, j0, ks, nk, row_lo, row_hi, lanes, masks);
+    return;
+  }
+  if (cpu_has_avx2()) {
+    for (int n = 0; n < nk; ++n) masks[n] = test_tile_avx2(f, i0, j0, ks[n], row_lo, row_hi, lanes);
+    return;
+  }
+#endif
+  for (int n = 0; n < nk; ++n) masks[n] = test_tile_scalar(f, i0, j0, ks[n], row_lo, row_hi, lanes);
+}
+
 std::uint64_t test_tile(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k, int row_lo,
                         int row_hi, unsigned lanes) {
-#if PRINTTWIN_HAVE_AVX2_KERNEL
-  if (cpu_has_avx512f()) return test_tile_avx512(f, i0, j0, k, row_lo, row_hi, lanes);
-  if (cpu_has_avx2()) return test_tile_avx2(f, i0, j0, k, row_lo, row_hi, lanes);
-#endif
-  return test_tile_scalar(f, i0, j0, k, row_lo, row_hi, lanes);
+  std::uint64_t mask = 0;
+  test_tile_layers(f, i0, j0, &k, 1, row_lo, row_hi, lanes, &mask);
+  return mask;
 }
 
 bool bead_raster_uses_avx2() {

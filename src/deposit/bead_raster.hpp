@@ -47,6 +47,11 @@ inline std::uint32_t voxel_jitter_bits(std::int32_t i, std::int32_t j, std::int3
 std::uint64_t test_tile(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k, int row_lo,
                         int row_hi, unsigned lanes);
 
+/// test_tile for the layers ks[0..nk) of one tile: masks[n] for layer ks[n]. The AVX-512
+/// kernel sets its constants up once for all the layers; the same bits as test_tile.
+void test_tile_layers(const BeadFrame& f, std::int32_t i0, std::int32_t j0, const std::int32_t* ks, int nk,
+                      int row_lo, int row_hi, unsigned lanes, std::uint64_t* masks);
+
 /// The portable kernel (what test_tile runs without AVX2), for the tests.
 std::uint64_t test_tile_scalar(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k,
                                int row_lo, int row_hi, unsigned lanes);

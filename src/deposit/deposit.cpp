@@ -214,7 +214,8 @@ struct DepositBuilder::State {
   LayerTracker layers;
   std::optional<PendingBead> pending;
   std::vector<double> gaps_;  // scratch
-  std::vector<int> reached_;  // scratch: the voxel layers a bead reaches
+  std::vector<std::int32_t> reached_;  // scratch: the voxel layers a bead reaches
+  std::vector<std::uint64_t> masks_;   // scratch: a tile's occupancy word per reached layer
   std::vector<double> offsets_;  // scratch: across-bead sample offsets (mm)
 
   // Support tracking along the current continuous path.
@@ -532,6 +533,7 @@ struct DepositBuilder::State {
       hw = std::max(hw, flat + std::sqrt(std::max(0.0, r2 - dz0 * dz0)) + kBoundSlack);
     }
     if (reached_.empty()) return;
+    masks_.resize(reached_.size());
     Footprint outer;
     outer.init(a2, b2, d, n, pb.m0, m1, hw);
     double ylo, yhi;
@@ -571,9 +573,12 @@ struct DepositBuilder::State {
           if (t_lo >= t_hi) continue;
         }
         const std::size_t at = top_index(8 * bx, 8 * by);
-        for (const int k : reached_) {
-          const std::uint64_t mask = detail::test_tile(f, 8 * bx, 8 * by, k, t_lo, t_hi, lanes);
+        detail::test_tile_layers(f, 8 * bx, 8 * by, reached_.data(), static_cast<int>(reached_.size()), t_lo, t_hi,
+                                 lanes, masks_.data());
+        for (std::size_t layer_at = 0; layer_at < reached_.size(); ++layer_at) {
+          const std::uint64_t mask = masks_[layer_at];
           if (mask == 0) continue;
+          const int k = reached_[layer_at];
           writer.tile(bx, by, k, mask);
           raise_tops(top.data() + at, top_layer.data() + at, mask, static_cast<std::uint16_t>(k + 1), layer);
         }

@@ -2,6 +2,7 @@
 // agree bit for bit, and the bits are the stadium geometry).
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <random>
@@ -32,7 +33,7 @@ BeadFrame bead(double ax, double ay, double z_top, double t, double len, double 
 }
 
 // Every kernel (AVX-512 two rows at a time, AVX2 a row at a time, portable) gives the same bits,
-// over odd and even row ranges.
+// over odd and even row ranges, one layer at a time or a tile's layers at once.
 TEST(BeadRaster, DispatchedKernelMatchesThePortableOne) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(0.0, 1.0);
@@ -52,6 +53,12 @@ TEST(BeadRaster, DispatchedKernelMatchesThePortableOne) {
       ASSERT_EQ(a, b) << "trial " << trial << " tile " << tile;
       // The AVX2 kernel too where the dispatch picks AVX-512 (rows one at a time vs two).
       ASSERT_EQ(test_tile_avx2_kernel(f, i0, j0, k, row_lo, row_hi, lanes), b) << "trial " << trial;
+      // All of a bead's layers of the tile at once: each layer's bits as alone.
+      const std::array<std::int32_t, 5> ks{k - 2, k - 1, k, k + 1, k + 3};
+      std::array<std::uint64_t, 5> masks{};
+      test_tile_layers(f, i0, j0, ks.data(), static_cast<int>(ks.size()), row_lo, row_hi, lanes, masks.data());
+      for (std::size_t n = 0; n < ks.size(); ++n)
+        ASSERT_EQ(masks[n], test_tile_scalar(f, i0, j0, ks[n], row_lo, row_hi, lanes)) << "trial " << trial << " layer " << n;
       set_bits += __builtin_popcountll(a);
     }
   }
