@@ -59,6 +59,11 @@ struct CheckSettings {
   /// the caller for other uses too (verify shares one with the deviation stage); null: the
   /// thickness rays build their own.
   const MeshQuery* mesh_query = nullptr;
+  /// Measure walls thicker than min_thickness_mm too (the thinnest wall overall, which
+  /// `printtwin check` prints). false: the inward rays stop at the limit, so the thin-wall
+  /// finding is the same but ThicknessResult::min_thickness_mm is +inf when no wall is thin
+  /// (what `verify` needs: it reports findings only).
+  bool thickness_beyond_limit = true;
 };
 
 /// Topological and geometric health of a mesh (frame of the input, before placement).
@@ -147,10 +152,13 @@ struct ThicknessResult {
 /// tracer cannot be built.
 /// `query` (optional): a BVH of the same mesh translated by -query_offset_mm (rays are cast
 /// from the face centroids minus the offset); null: one is built for the call.
+/// `beyond_limit` false: inward rays stop at min_thickness_mm (same thin faces, area, box and,
+/// when some wall is thin, the same thinnest wall; +inf otherwise), much cheaper on thick parts.
 [[nodiscard]] Result<ThicknessResult> measure_thickness(const Mesh& mesh, double min_thickness_mm,
                                                         double line_width_mm,
                                                         const MeshQuery* query = nullptr,
-                                                        const Vec3& query_offset_mm = Vec3::Zero());
+                                                        const Vec3& query_offset_mm = Vec3::Zero(),
+                                                        bool beyond_limit = true);
 
 /// Everything `printtwin check` reports.
 struct CheckReport {

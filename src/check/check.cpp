@@ -293,7 +293,7 @@ Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& p
 
   // Thin walls and narrow gaps.
   auto thick = measure_thickness(placed, rep.min_thickness_limit_mm, rep.line_width_mm, settings.mesh_query,
-                                 rep.placement.offset_mm);
+                                 rep.placement.offset_mm, settings.thickness_beyond_limit);
   if (!thick) return thick.error();
   rep.thickness = *thick;
   const ThicknessResult& t = *thick;

@@ -27,7 +27,7 @@ struct FaceSample {
 
 Result<ThicknessResult> measure_thickness(const Mesh& mesh, double min_thickness_mm,
                                           double line_width_mm, const MeshQuery* prebuilt,
-                                          const Vec3& query_offset_mm) {
+                                          const Vec3& query_offset_mm, bool beyond_limit) {
   std::optional<MeshQuery> own;
   if (prebuilt == nullptr) {
     auto built = MeshQuery::build(mesh);
@@ -51,7 +51,9 @@ Result<ThicknessResult> measure_thickness(const Mesh& mesh, double min_thickness
       n /= len;
       const Vec3 c = detail::face_centroid(mesh, f) - shift;
       // Inward: the first surface hit from behind is the far side of the wall.
-      if (auto hit = query.first_hit(c, -n, t_min); hit && hit->triangle != f) {
+      // Within the limit, the first hit is the unbounded ray's whenever that one is thin.
+      const double t_max = beyond_limit ? std::numeric_limits<double>::infinity() : min_thickness_mm;
+      if (auto hit = query.first_hit(c, -n, t_min, t_max); hit && hit->triangle != f) {
         if (hit->normal.dot(-n) > 0) samples[f].thickness_mm = hit->t_mm;
       }
       // Outward: the first surface hit head-on, facing back at us, bounds the gap.

@@ -155,6 +155,7 @@ Result<PreparedPart> prepare_part(Mesh mesh, std::string name, VerifyInput mesh_
   CheckSettings check_settings;
   check_settings.self_intersections = mesh.triangles.size() <= 50000;  // dominates beyond
   check_settings.mesh_query = &part.target->query();
+  check_settings.thickness_beyond_limit = false;  // verify reports the thin-wall finding, not the thinnest wall
   auto check = check_printability(mesh, printer, check_settings);
   if (!check) return check.error();
   CheckSummary& c = part.check;

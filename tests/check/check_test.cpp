@@ -302,6 +302,33 @@ TEST(CheckRisks, ThinWall) {
   EXPECT_EQ(find(run(make_box_mesh(Vec3(0, 0, 0), Vec3(20, 0.3, 10)), s), "thin_wall"), nullptr);
 }
 
+TEST(CheckRisks, RaysStoppedAtTheLimitFindTheSameThinWalls) {
+  // verify stops the inward rays at the limit: the same thin faces, area, box, thinnest
+  // wall and findings; only the thinnest wall of a part with no thin wall is not measured.
+  const Mesh thin = merged(make_box_mesh(Vec3(0, 0, 0), Vec3(20, 0.3, 10)),
+                           make_box_mesh(Vec3(0, 5, 0), Vec3(20, 25, 10)));
+  CheckSettings stopped;
+  stopped.thickness_beyond_limit = false;
+  const CheckReport full = run(thin), cut = run(thin, stopped);
+  ASSERT_TRUE(full.thickness.has_value());
+  ASSERT_TRUE(cut.thickness.has_value());
+  EXPECT_EQ(cut.thickness->thin_faces, full.thickness->thin_faces);
+  EXPECT_EQ(cut.thickness->thin_area_mm2, full.thickness->thin_area_mm2);
+  EXPECT_EQ(cut.thickness->min_thickness_mm, full.thickness->min_thickness_mm);
+  EXPECT_EQ(cut.thickness->min_thickness_at_mm, full.thickness->min_thickness_at_mm);
+  EXPECT_EQ(cut.thickness->thin_bbox_mm.min, full.thickness->thin_bbox_mm.min);
+  EXPECT_EQ(cut.thickness->thin_bbox_mm.max, full.thickness->thin_bbox_mm.max);
+  EXPECT_EQ(cut.thickness->min_gap_mm, full.thickness->min_gap_mm);
+  ASSERT_EQ(cut.findings.size(), full.findings.size());
+  for (std::size_t i = 0; i < cut.findings.size(); ++i) EXPECT_EQ(cut.findings[i].message, full.findings[i].message);
+  // A 20 mm cube: nothing thin; its walls (20 mm) are measured only without the stop.
+  const CheckReport cube_full = run(test::make_cube_mm(20)), cube_cut = run(test::make_cube_mm(20), stopped);
+  EXPECT_NEAR(cube_full.thickness->min_thickness_mm, 20.0, 1e-4);
+  EXPECT_TRUE(std::isinf(cube_cut.thickness->min_thickness_mm));
+  EXPECT_EQ(cube_cut.thickness->thin_faces, 0U);
+  EXPECT_EQ(cube_cut.findings.size(), cube_full.findings.size());
+}
+
 TEST(CheckRisks, NarrowGapBetweenFacingWalls) {
   const Mesh m = merged(make_box_mesh(Vec3(0, 0, 0), Vec3(10, 10, 10)),
                         make_box_mesh(Vec3(10.2, 0, 0), Vec3(20, 10, 10)));
