@@ -399,10 +399,14 @@ struct DepositBuilder::State {
     for (double& s : offsets_) s *= inv_voxel;
     const detail::HeightMapView map = height_map();
     const double nxv = n.x(), nyv = n.y();
+    // A level bead's samples all have the start's height (a + t * 0 is a), so the rows they
+    // need are found once.
+    const bool level = a.z() == b.z();
+    const int level_rows = level ? rows_reaching((a.z() - h) - tol) : 0;
     for (int i = 0; i < samples; ++i) {
       const Vec3 q = a + ((i + 0.5) / samples) * (b - a);
       const double bottom = q.z() - h;
-      const int need_rows = rows_reaching(bottom - tol);
+      const int need_rows = level ? level_rows : rows_reaching(bottom - tol);
       const double qx = (q.x() - ox_) * inv_voxel, qy = (q.y() - oy_) * inv_voxel;
       const int held = detail::count_held(map, qx, qy, nxv, nyv, offsets_.data(), across, need_rows);
       const bool supported = held >= settings.support_fraction * across - 1e-9;
