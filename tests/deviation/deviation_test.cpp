@@ -160,6 +160,25 @@ TEST(DeviationSurface, EnclosedVoidsAreNotSurfaceOpenHolesAre) {
   }
 }
 
+TEST(DeviationSurface, NoDepositIsAllOutside) {
+  // An empty grid (or one whose only voxels are outside the region): no faces, nothing
+  // filled, and every point of the design is missing.
+  const Box3 region{Vec3(0, 0, 0), Vec3(2, 2, 1)};
+  VoxelGrid grid(0.1, Vec3(-1, -1, -1), Eigen::Vector3i(60, 60, 40));
+  grid.set(grid.key_of(Vec3(3.5, 3.5, 0.5)), VoxelTag{1, 0, Feature::perimeter});  // far from the region
+  const DepositSurface s = extract_outer_surface(grid, region, 0.2);
+  EXPECT_TRUE(s.faces.empty());
+  EXPECT_EQ(s.occupied_voxels, 0U);
+  EXPECT_EQ(s.filled_voxels, 0U);
+  EXPECT_FALSE(s.filled(Vec3(1, 1, 0.5)));
+  std::vector<double> d;
+  const std::vector<Vec3> points{Vec3(1, 1, 0.5), Vec3(0.2, 1.8, 0.1)};
+  distances_to_deposit(s, points, d, nullptr);
+  ASSERT_EQ(d.size(), 2U);
+  EXPECT_LT(d[0], 0);
+  EXPECT_LT(d[1], 0);
+}
+
 TEST(DeviationSurface, AuxiliaryFeaturesAreIgnored) {
   const Box3 block{Vec3(0, 0, 0), Vec3(1, 1, 1)};
   VoxelGrid grid = voxelise(0.1, block, [&](const Vec3& c) { return block.contains(c); },
@@ -214,7 +233,9 @@ TEST(DeviationPointGroups, CellsArePermutationsOfSmallGroupsEvenOnLongParts) {
 TEST(DeviationSurface, BlockFloodMatchesAVoxelByVoxelFloodFill) {
   // A random deposit over many 8^3 blocks (the flood runs block by block): solid boxes with
   // holes, an open-topped cup and pinholes, at 0.05 mm, unsealed and sealed at 0.1, 0.25
-  // and 0.95 mm (r = 1, 2 and 9: more than a block, two dilation steps). The filled set, its count and the faces must be those of a plain
+  // and 0.95 mm (r = 1, 2 and 9: more than a block, two dilation steps); and in a grid whose
+  // origin lies inside the region (negative keys and blocks, part of the region outside the
+  // grid), sealed at 0.1 and 1.75 mm (r = 17, three steps). The filled set, its count and the faces must be those of a plain
   // voxel-by-voxel version of the same rules: the occupancy dilated by r (a cube), empty
   // voxels 6-connected to the padding are outside, the outside dilated back by r, filled =
   // not (outside and empty); a face wherever a filled, occupied voxel meets a not-filled one.
@@ -229,13 +250,18 @@ TEST(DeviationSurface, BlockFloodMatchesAVoxelByVoxelFloodFill) {
   }
   const Box3 cup{Vec3(3.0, 0.5, 0.0), Vec3(4.6, 2.1, 1.4)}, cup_inside{Vec3(3.2, 0.7, 0.2), Vec3(4.4, 1.9, 2.0)};
   const Box3 all{Vec3(0, 0, 0), Vec3(7.5, 7.5, 3.0)};
-  const VoxelGrid grid = voxelise(0.05, all, [&](const Vec3& c) {
+  const auto part = [&](const Vec3& c) {
     bool in = cup.contains(c) && !cup_inside.contains(c);
     for (const Box3& b : solids) in = in || b.contains(c);
     for (const Box3& h : holes) in = in && !h.contains(c);
     return in;
-  });
-  for (const double seal_mm : {0.1, 0.0, 0.25, 0.95}) {
+  };
+  const VoxelGrid padded = voxelise(0.05, all, part);
+  const VoxelGrid shifted = voxelise(0.05, all, part, Feature::outer_perimeter, Vec3(0.0, -0.3, 0.0));
+  const std::vector<std::pair<const VoxelGrid*, double>> cases{
+      {&padded, 0.1}, {&padded, 0.0}, {&padded, 0.25}, {&padded, 0.95}, {&shifted, 0.1}, {&shifted, 1.75}};
+  for (const auto& [grid_of_case, seal_mm] : cases) {
+    const VoxelGrid& grid = *grid_of_case;
     const DepositSurface s = extract_outer_surface(grid, all, seal_mm);
     const int nx = s.dims.x(), ny = s.dims.y(), nz = s.dims.z();
     ASSERT_GT(ny, 64);  // many blocks
