@@ -243,11 +243,12 @@ class CubePool {
 };
 
 /// A field of block cubes dilated by r voxels (a cube of 2r + 1) and clipped to a box,
-/// evaluated block by block on demand. The cube is the product of its three axis segments,
-/// and dilations by a and b compose to a + b, so it runs as steps of at most 8 voxels (one
+/// for the blocks asked for. The cube is the product of its three axis segments, and
+/// dilations by a and b compose to a + b, so it runs as steps of at most 8 voxels (one
 /// block), each along z, then x, then y (each reading the two neighbours along its axis),
-/// the result of each step clipped. The base gives stable pointers (null = empty); every
-/// stage between is memoised, so each block's stages are computed once. Not thread safe.
+/// the result of each step clipped. The base gives stable pointers (null = empty). prepare()
+/// computes the stages below the top that given blocks read (each block's stage once, kept
+/// for later calls), then top_of() gives the top stage of those blocks from any thread.
 template <class Base, class Clip>
 class DilatedField {
  public:
@@ -258,9 +259,6 @@ class DilatedField {
     memo_.resize(static_cast<std::size_t>(std::max(top_, 1)));
     for (int st = 1; st < top_; ++st) memo_[static_cast<std::size_t>(st)] = ZeroedArray<std::uint32_t>(box_.size());
   }
-  /// The dilated cube of a block (null = empty); valid until the next call.
-  [[nodiscard]] const Cube* at(int bx, int by, int bz) { return stage(top_, bx, by, bz); }
-
   /// Computes every stage below the top that the blocks `targets` (box indices) read, a
   /// stage at a time, its blocks in parallel; then top_of may run on several threads.
   void prepare(const std::vector<std::uint32_t>& targets) {
@@ -341,33 +339,6 @@ class DilatedField {
     const std::uint32_t k = memo_[static_cast<std::size_t>(st)][box_.index(bx, by, bz)];
     return k > 1 ? &pool_[k - 2] : nullptr;
   }
-  const Cube* stage(int st, int bx, int by, int bz) {
-    if (!box_.contains(bx, by, bz)) return nullptr;
-    if (st == 0) return base_(bx, by, bz);
-    const auto su = static_cast<std::size_t>(st);
-    const bool memo = st < top_;
-    std::size_t i = 0;
-    if (memo) {  // 0: not yet, 1: empty, k >= 2: pool_[k - 2]
-      i = box_.index(bx, by, bz);
-      const std::uint32_t k = memo_[su][i];
-      if (k == 1) return nullptr;
-      if (k > 1) return &pool_[k - 2];
-    }
-    Cube out{};
-    const bool some = compute(st, bx, by, bz, [&](int x, int y, int z) { return stage(st - 1, x, y, z); }, out);
-    if (!memo) {
-      scratch_ = out;
-      return some ? &scratch_ : nullptr;
-    }
-    if (!some) {
-      memo_[su][i] = 1;
-      return nullptr;
-    }
-    const std::uint32_t k = pool_.push(out);
-    memo_[su][i] = k + 2;
-    return &pool_[k];
-  }
-
   const BlockBox& box_;
   Base base_;
   Clip clip_;
@@ -375,7 +346,6 @@ class DilatedField {
   int top_ = 0;
   std::vector<ZeroedArray<std::uint32_t>> memo_;
   CubePool pool_;
-  Cube scratch_{};
   ZeroedArray<std::uint8_t> mark_;  ///< prepare's scratch: blocks already listed
 };
 
