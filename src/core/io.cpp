@@ -286,6 +286,12 @@ void tune_allocator_for_jobs() {
   // threshold took sys 1.3 -> 0.85 s; no mmap at all then 243k -> 204k page faults, sys
   // 0.53 -> 0.45 s, same peak. (Thread arenas still map a block too big for one of their
   // 64 MiB heaps.)
+  // One arena for every thread: a TBB worker that allocates an array (the branches of a
+  // parallel_invoke run on either thread) then reuses what the main thread freed instead of
+  // growing a heap of its own. The jobs allocate per chunk of work, not per element, so the
+  // shared lock is not contended. Measured (verify of the benchmark part, 2 cores, alternating
+  // with and without): 186k -> 174k page faults, peak 673 -> 650 MB, system time 0.46 -> 0.40 s.
+  mallopt(M_ARENA_MAX, 1);
   mallopt(M_MMAP_THRESHOLD, 32 << 20);
   mallopt(M_MMAP_MAX, 0);
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
