@@ -19,13 +19,16 @@
 //                                          bit for bit, plus the CPU time of each phase
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <ctime>
 #include <fstream>
 #include <sstream>
+#include <tuple>
 
+#include "deviation/deposit_surface_internal.hpp"
 #include "printtwin/deposit.hpp"
 #include "printtwin/deviation.hpp"
 #include "printtwin/io.hpp"
@@ -223,7 +226,8 @@ int checksum() {
   std::vector<double> d;
   std::vector<std::uint32_t> tri;
   const double near_mm = std::max(4.0 * p.deposit.grid.voxel_mm(), settings.tolerance_mm);
-  const double t_dep = least_of_3([&] { target->signed_distances(Vec3::Zero(), pts, near_mm, d, &tri); });
+  const std::vector<std::uint32_t> cells = detail::face_cell_groups(surface);
+  const double t_dep = least_of_3([&] { target->signed_distances(Vec3::Zero(), pts, near_mm, d, &tri, cells); });
   std::vector<Vec3> q;
   for (const auto& s : target->samples()) q.push_back(s.position_mm);
   q.insert(q.end(), p.placed.vertices_mm.begin(), p.placed.vertices_mm.end());
@@ -231,6 +235,41 @@ int checksum() {
   const double t_mesh = least_of_3([&] { distances_to_deposit(surface, q, d, &nearest); });
   std::printf("checksum %016llx faces %zu mesh samples %zu\n", static_cast<unsigned long long>(h.h),
               r->surface_faces, r->mesh_to_deposit.samples);
+  // The same samples whatever order the surface lists its faces in: the deposit samples by
+  // position (a face centre is unique), then every figure that does not depend on the
+  // order of summation (the regions' sets and the statistics' order statistics).
+  {
+    Hash c;
+    const DeviationSamples& ds = r->deposit_samples;
+    std::vector<std::uint32_t> by_pos(ds.size());
+    for (std::uint32_t i = 0; i < by_pos.size(); ++i) by_pos[i] = i;
+    std::sort(by_pos.begin(), by_pos.end(), [&](std::uint32_t a, std::uint32_t b) {
+      const Vec3 &pa = ds.positions_mm[a], &pb = ds.positions_mm[b];
+      return std::tie(pa.x(), pa.y(), pa.z()) < std::tie(pb.x(), pb.y(), pb.z());
+    });
+    for (const std::uint32_t i : by_pos) {
+      const DeviationSample x = ds[i];
+      c.add(x.position_mm);
+      c.add(x.distance_mm);
+      c.add(x.layer);
+      c.add(x.line);
+      c.add(x.triangle);
+    }
+    c.add(r->mesh_samples);
+    for (const double x : r->vertex_deviation_mm) c.add(x);
+    for (const DeviationStats* s : {&r->deposit_to_mesh, &r->mesh_to_deposit})
+      for (const double x : {s->min_mm, s->max_mm, s->p50_abs_mm, s->p95_abs_mm, s->p99_abs_mm, s->hausdorff_mm,
+                             s->within_tolerance_pct})
+        c.add(x);
+    for (const auto& g : r->regions) {
+      c.add(g.kind);
+      c.add(g.samples);
+      c.add(g.worst_mm);
+      for (const long l : g.gcode_lines) c.add(l);
+    }
+    std::printf("order-free checksum %016llx (samples, vertex deviation, order statistics, regions)\n",
+                static_cast<unsigned long long>(c.h));
+  }
   std::printf("cpu s: target %.3f deviation %.3f | least of 3: surface %.3f deposit->mesh %.3f mesh->deposit %.3f\n",
               t1 - t0, t2 - t1, t_surface, t_dep, t_mesh);
   return 0;

@@ -87,10 +87,18 @@ struct DepositSurface {
   Vec3 origin_mm = Vec3::Zero();          ///< min corner of the analysed region (voxel aligned)
   VoxelKey origin_key{};                  ///< grid key of the region's min-corner voxel
   Eigen::Vector3i dims = Eigen::Vector3i::Zero();  ///< analysed voxels per axis
-  /// Fixed order: columns by y then x, voxels by z, a voxel's faces consecutive.
+  /// Fixed order, by 4^3-voxel cell: the grid's 8^3 blocks in the order of
+  /// filled_block_code (y, then x, then z), each block's 8 cells by their y, x and z halves,
+  /// in a cell its voxel rows by y then x, voxels by z, a voxel's faces consecutive (-x +x -y
+  /// +y -z +z). Both distance searches visit the faces cell by cell in this order.
   std::vector<SurfaceFace> faces;
   std::vector<Vec3> face_centers_mm;      ///< centre of each face (the deposit->mesh points)
   std::vector<VoxelTag> face_tags;        ///< tag of each face's voxel
+  /// The blocks holding faces, as indices into filled_block_code, ascending.
+  std::vector<std::uint32_t> face_blocks;
+  /// First face of cell c (0..7: y half * 4 + x half * 2 + z half) of face block k:
+  /// face_cell_begin[8 k + c]; a cell ends where the next begins (one entry past the last).
+  std::vector<std::uint32_t> face_cell_begin;
   /// Filled (not outside-reachable) voxels, by 8^3 block of the grid: word z of a block is its
   /// z-slice z, bit y * 8 + x its voxel (x, y).
   using BlockBits = std::array<std::uint64_t, 8>;
@@ -171,10 +179,15 @@ class DeviationTarget {
   /// Signed distances (positive outside) from `points_mm` (in the frame where the mesh sits
   /// at `offset_mm`, i.e. the machine frame) to the mesh translated by `offset_mm`. Same
   /// rules as signed_distances_to_mesh; `near_mm` only changes the speed.
-  /// `triangles` (optional) receives the triangle of each closest point.
+  /// `triangles` (optional) receives the triangle of each closest point. `groups`
+  /// (optional): the points already come in groups of neighbours, group g being
+  /// [groups[g], groups[g + 1]) (say the deposit surface's faces, cell by cell), each no wider
+  /// than about `near_mm`; otherwise they are grouped in cells of `near_mm` here. Either way
+  /// the result is the same.
   void signed_distances(const Vec3& offset_mm, std::span<const Vec3> points_mm, double near_mm,
                         std::vector<double>& signed_mm,
-                        std::vector<std::uint32_t>* triangles = nullptr) const;
+                        std::vector<std::uint32_t>* triangles = nullptr,
+                        std::span<const std::uint32_t> groups = {}) const;
 
  private:
   struct Impl;

@@ -26,87 +26,49 @@ namespace printtwin {
 
 namespace {
 
-/// Faces bucketed by the cell of their centre (cells of kCell voxels), stored as columns
-/// (centre x, y, z, normal axis, face index) so the search tests 4 at a time. The cells come
-/// in pairs along each axis (2 x 2 x 2 cells, a "pair block"): a directory over the pair
-/// blocks names the few that hold faces (the surface is thin: most of the region has none),
-/// and each of those has the ranges of its 8 cells.
+/// The surface's faces by cell of kCell^3 voxels. The surface lists its faces cell by cell,
+/// the cells of a grid block (8^3 voxels, 2 x 2 x 2 cells: a "pair block") together, so a
+/// face's index is its place and the search reads the surface's own face centres; a
+/// directory over the surface's blocks names those holding faces (the surface is thin: most
+/// of the region has none), and the surface's cell starts are the ranges.
 struct FaceBuckets {
   static constexpr int kCell = 4;
-  static constexpr std::size_t kPad = 4;  ///< entries past the end, so 4-wide loads stay inside
   Eigen::Vector3i cells = Eigen::Vector3i::Zero();
-  Eigen::Vector3i pairs = Eigen::Vector3i::Zero();  ///< pair blocks per axis
-  /// Per pair block (y, then x, then z): 0 = no face, k + 1 = ranges[9 k .. 9 k + 8] hold the
-  /// start of each of its cells (local index y * 4 + x * 2 + z, by the coordinates' low bits)
-  /// and the end of the last.
+  Eigen::Vector3i pairs = Eigen::Vector3i::Zero();  ///< pair blocks (the surface's blocks) per axis
+  /// Per pair block (y, then x, then z): 0 = no face, k + 1 = face block k of the surface.
   ZeroedArray<std::uint32_t> slot;
-  std::vector<std::uint32_t> ranges;
-  std::vector<Eigen::Vector3i> held;  ///< the pair blocks holding faces, in slot order
-  /// Faces sorted by cell (by index within a cell); every entry is written once, so the
-  /// columns are not zeroed first.
-  std::unique_ptr<double[]> cx, cy, cz;
-  std::unique_ptr<std::uint8_t[]> axis;
-  std::unique_ptr<std::uint32_t[]> face;
+  const std::uint32_t* ranges = nullptr;  ///< the surface's face_cell_begin
+  std::vector<Eigen::Vector3i> held;      ///< the pair blocks holding faces, in slot order
+  const Vec3* center = nullptr;           ///< the surface's face centres
+  std::size_t n = 0;                      ///< faces
+  std::vector<std::uint8_t> axis;         ///< normal axis per face, packed for 4-wide loads (+ 4 past the end)
   double cell_mm = 0;
-  Vec3 origin_mm = Vec3::Zero();
+  Vec3 origin_mm = Vec3::Zero();  ///< corner of cell (0, 0, 0): the surface's first block
 
   explicit FaceBuckets(const DepositSurface& s) {
+    static_assert(2 * kCell == VoxelGrid::kBlockEdge);
+  static_assert(sizeof(Vec3) == 3 * sizeof(double), "face centres are read as rows of doubles");
     cell_mm = s.voxel_mm * kCell;
-    origin_mm = s.origin_mm;
-    cells = (s.dims.array() + kCell - 1) / kCell;
-    pairs = (cells.array() + 1) / 2;
+    pairs = s.filled_blocks_dims;
+    cells = 2 * pairs;
+    const Eigen::Vector3i first_key = VoxelGrid::kBlockEdge * s.filled_blocks_lo;
+    origin_mm = s.origin_mm + s.voxel_mm * Vec3(first_key.x() - s.origin_key.x, first_key.y() - s.origin_key.y,
+                                                 first_key.z() - s.origin_key.z);
     slot = ZeroedArray<std::uint32_t>(static_cast<std::size_t>(pairs.x()) * pairs.y() * pairs.z());
-    // A face goes to the cell of its voxel (its square lies in the voxel's box, so in the
-    // cell's): integer arithmetic.
-    const auto cell_of = [&](std::size_t i) {
-      const VoxelKey& k = s.faces[i].voxel;
-      return Eigen::Vector3i((k.x - s.origin_key.x) / kCell, (k.y - s.origin_key.y) / kCell,
-                             (k.z - s.origin_key.z) / kCell);
-    };
-    for (std::size_t i = 0; i < s.faces.size(); ++i) {
-      const Eigen::Vector3i c = cell_of(i);
-      slot[pair_index(c.x() >> 1, c.y() >> 1, c.z() >> 1)] = 1;
+    held.resize(s.face_blocks.size());
+    const auto nz = static_cast<std::size_t>(pairs.z()), nx = static_cast<std::size_t>(pairs.x());
+    for (std::size_t k = 0; k < s.face_blocks.size(); ++k) {
+      const std::size_t i = s.face_blocks[k];
+      slot[i] = static_cast<std::uint32_t>(k + 1);
+      held[k] = Eigen::Vector3i(static_cast<int>((i / nz) % nx), static_cast<int>(i / (nz * nx)), static_cast<int>(i % nz));
     }
-    // Slots in the directory's order.
-    for (int y = 0; y < pairs.y(); ++y)
-      for (int x = 0; x < pairs.x(); ++x)
-        for (int z = 0; z < pairs.z(); ++z) {
-          std::uint32_t& k = slot[pair_index(x, y, z)];
-          if (k == 0) continue;
-          held.emplace_back(x, y, z);
-          k = static_cast<std::uint32_t>(held.size());
-        }
-    // Counted per cell (the entry after the cell's), summed, then each face written at its
-    // cell's cursor, which ends at the cell's end: shifted back by one entry afterwards.
-    ranges.assign(9 * held.size() + 1, 0);
-    const auto entry = [&](const Eigen::Vector3i& c) {
-      const std::uint32_t k = slot[pair_index(c.x() >> 1, c.y() >> 1, c.z() >> 1)] - 1;
-      return 9 * static_cast<std::size_t>(k) + static_cast<std::size_t>(local_of(c));
-    };
-    for (std::size_t i = 0; i < s.faces.size(); ++i) ++ranges[entry(cell_of(i)) + 1];
-    // A pair block's ninth entry (its end) counts nothing, so the running sum carries it.
-    for (std::size_t e = 0; e + 1 < ranges.size(); ++e) ranges[e + 1] += ranges[e];
-    const std::size_t m = s.faces.size() + kPad;
-    cx = std::make_unique_for_overwrite<double[]>(m);
-    cy = std::make_unique_for_overwrite<double[]>(m);
-    cz = std::make_unique_for_overwrite<double[]>(m);
-    axis = std::make_unique_for_overwrite<std::uint8_t[]>(m);
-    face = std::make_unique_for_overwrite<std::uint32_t[]>(m);
-    for (std::size_t k = s.faces.size(); k < m; ++k) {
-      cx[k] = cy[k] = cz[k] = 0;
-      axis[k] = 0;
-      face[k] = 0;
-    }
-    for (std::size_t i = 0; i < s.faces.size(); ++i) {
-      const std::uint32_t k = ranges[entry(cell_of(i))]++;
-      cx[k] = s.face_centers_mm[i].x();
-      cy[k] = s.face_centers_mm[i].y();
-      cz[k] = s.face_centers_mm[i].z();
-      axis[k] = s.faces[i].axis;
-      face[k] = static_cast<std::uint32_t>(i);
-    }
-    std::copy_backward(ranges.begin(), ranges.end() - 1, ranges.end());
-    ranges[0] = 0;
+    ranges = s.face_cell_begin.data();
+    center = s.face_centers_mm.data();
+    n = s.faces.size();
+    axis.resize(n + 4, 0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1 << 16), [&](const tbb::blocked_range<std::size_t>& r) {
+      for (std::size_t k = r.begin(); k != r.end(); ++k) axis[k] = s.faces[k].axis;
+    });
   }
   [[nodiscard]] std::size_t pair_index(int x, int y, int z) const {
     return (static_cast<std::size_t>(y) * pairs.x() + static_cast<std::size_t>(x)) * pairs.z() +
@@ -120,7 +82,7 @@ struct FaceBuckets {
       lo = hi = 0;
       return;
     }
-    const std::uint32_t* r = ranges.data() + 9 * static_cast<std::size_t>(k - 1) + local_of(c);
+    const std::uint32_t* r = ranges + 8 * static_cast<std::size_t>(k - 1) + local_of(c);
     lo = r[0];
     hi = r[1];
   }
@@ -148,15 +110,16 @@ struct Nearest {
 /// max(0, |p - c| - h), h = half in the face's plane and 0 along its normal.
 inline double face_dist2(const FaceBuckets& b, std::size_t k, const Vec3& p, double half) {
   const int ax = b.axis[k];
-  const double ex = std::max(0.0, std::abs(p.x() - b.cx[k]) - (ax == 0 ? 0.0 : half));
-  const double ey = std::max(0.0, std::abs(p.y() - b.cy[k]) - (ax == 1 ? 0.0 : half));
-  const double ez = std::max(0.0, std::abs(p.z() - b.cz[k]) - (ax == 2 ? 0.0 : half));
+  const Vec3& c = b.center[k];
+  const double ex = std::max(0.0, std::abs(p.x() - c.x()) - (ax == 0 ? 0.0 : half));
+  const double ey = std::max(0.0, std::abs(p.y() - c.y()) - (ax == 1 ? 0.0 : half));
+  const double ez = std::max(0.0, std::abs(p.z() - c.z()) - (ax == 2 ? 0.0 : half));
   return ex * ex + ey * ey + ez * ez;
 }
 
 void scan_faces_default(const FaceBuckets& b, std::uint32_t lo, std::uint32_t hi, const Vec3& p,
                         double half, Nearest& best) {
-  for (std::uint32_t k = lo; k < hi; ++k) best.offer(face_dist2(b, k, p, half), b.face[k]);
+  for (std::uint32_t k = lo; k < hi; ++k) best.offer(face_dist2(b, k, p, half), k);
 }
 
 #if defined(__x86_64__) && defined(__GNUC__)
@@ -168,17 +131,28 @@ void scan_faces_default(const FaceBuckets& b, std::uint32_t lo, std::uint32_t hi
   const __m256d hv = _mm256_set1_pd(half), zero = _mm256_setzero_pd();
   const __m256d sign = _mm256_set1_pd(-0.0);
   const __m256i ax0 = _mm256_setzero_si256(), ax1 = _mm256_set1_epi64x(1), ax2 = _mm256_set1_epi64x(2);
-  for (std::uint32_t k = lo; k < hi; k += 4) {
+  // 4 centres (x y z x | y z x y | z x y z) read as 3 rows and transposed to x, y, z
+  // columns; the last few faces of the surface (no 4 centres left to read) one at a time.
+  const std::uint32_t wide_end = std::min<std::uint32_t>(hi, static_cast<std::uint32_t>(b.n >= 4 ? b.n - 3 : 0));
+  std::uint32_t k = lo;
+  for (; k < wide_end; k += 4) {
     std::uint32_t a4 = 0;
-    std::memcpy(&a4, b.axis.get() + k, 4);
+    std::memcpy(&a4, b.axis.data() + k, 4);
     const __m256i a = _mm256_cvtepu8_epi64(_mm_cvtsi32_si128(static_cast<int>(a4)));
     // Per axis: max(0, |p - c| - h), h = 0 along the face's normal, else half.
     const __m256d hx = _mm256_andnot_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(a, ax0)), hv);
     const __m256d hy = _mm256_andnot_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(a, ax1)), hv);
     const __m256d hz = _mm256_andnot_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(a, ax2)), hv);
-    const __m256d dx = _mm256_andnot_pd(sign, _mm256_sub_pd(px, _mm256_loadu_pd(b.cx.get() + k)));
-    const __m256d dy = _mm256_andnot_pd(sign, _mm256_sub_pd(py, _mm256_loadu_pd(b.cy.get() + k)));
-    const __m256d dz = _mm256_andnot_pd(sign, _mm256_sub_pd(pz, _mm256_loadu_pd(b.cz.get() + k)));
+    const double* row = b.center[k].data();
+    const __m256d r0 = _mm256_loadu_pd(row), r1 = _mm256_loadu_pd(row + 4), r2 = _mm256_loadu_pd(row + 8);
+    const __m256d m1 = _mm256_permute2f128_pd(r0, r1, 0x30);  // x0 y0 | x2 y2
+    const __m256d m2 = _mm256_permute2f128_pd(r0, r2, 0x21);  // z0 x1 | z2 x3
+    const __m256d m3 = _mm256_permute2f128_pd(r1, r2, 0x30);  // y1 z1 | y3 z3
+    const __m256d cx = _mm256_shuffle_pd(m1, m2, 0xA), cy = _mm256_shuffle_pd(m1, m3, 0x5),
+                  cz = _mm256_shuffle_pd(m2, m3, 0xA);
+    const __m256d dx = _mm256_andnot_pd(sign, _mm256_sub_pd(px, cx));
+    const __m256d dy = _mm256_andnot_pd(sign, _mm256_sub_pd(py, cy));
+    const __m256d dz = _mm256_andnot_pd(sign, _mm256_sub_pd(pz, cz));
     const __m256d ex = _mm256_max_pd(zero, _mm256_sub_pd(dx, hx));
     const __m256d ey = _mm256_max_pd(zero, _mm256_sub_pd(dy, hy));
     const __m256d ez = _mm256_max_pd(zero, _mm256_sub_pd(dz, hz));
@@ -190,9 +164,10 @@ void scan_faces_default(const FaceBuckets& b, std::uint32_t lo, std::uint32_t hi
     _mm256_store_pd(lane, d2);
     for (; m != 0; m &= m - 1) {
       const int j = std::countr_zero(m);
-      best.offer(lane[j], b.face[k + static_cast<std::uint32_t>(j)]);
+      best.offer(lane[j], k + static_cast<std::uint32_t>(j));
     }
   }
+  for (; k < hi; ++k) best.offer(face_dist2(b, k, p, half), k);
 }
 #else
 void scan_faces_avx2(const FaceBuckets& b, std::uint32_t lo, std::uint32_t hi, const Vec3& p, double half,
@@ -212,6 +187,14 @@ DepositQueryGroups group_deposit_queries(std::span<const Vec3> points, double vo
 }
 
 bool deposit_distance_uses_avx2() { return cpu_has_avx2(); }
+
+std::vector<std::uint32_t> face_cell_groups(const DepositSurface& surface) {
+  std::vector<std::uint32_t> cells;
+  cells.reserve(surface.face_cell_begin.size());
+  for (const std::uint32_t b : surface.face_cell_begin)
+    if (cells.empty() || b != cells.back()) cells.push_back(b);
+  return cells;
+}
 
 void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> points,
                                std::vector<double>& signed_mm, std::vector<std::uint32_t>* nearest_face,

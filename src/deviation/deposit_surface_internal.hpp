@@ -21,6 +21,10 @@ void distances_to_deposit_with(const DepositSurface& surface, std::span<const Ve
                                std::vector<double>& signed_mm, std::vector<std::uint32_t>* nearest_face,
                                bool portable, const DepositQueryGroups* pregrouped = nullptr);
 
+/// The surface's faces in groups of neighbours for DeviationTarget::signed_distances: its
+/// non-empty cells (of 4 voxels), as run boundaries into the face arrays.
+std::vector<std::uint32_t> face_cell_groups(const DepositSurface& surface);
+
 /// True when distances_to_deposit runs the AVX2 face tests on this CPU.
 bool deposit_distance_uses_avx2();
 

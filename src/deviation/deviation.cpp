@@ -116,8 +116,10 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   };
   tbb::parallel_invoke(
       [&] {
+        // The faces come cell by cell (cells of 4 voxels, near_mm at the defaults and no
+        // wider): the non-empty cells are the groups.
         target.signed_distances(offset, face_points, std::max(4.0 * v, settings.tolerance_mm), d_dep,
-                                &dep_triangles);
+                                &dep_triangles, detail::face_cell_groups(surface));
         // The longer direction: its figures for the whole and per layer side by side too.
         tbb::parallel_invoke([&] { out.deposit_to_mesh = deviation_stats(d_dep, settings.tolerance_mm); },
                              [&] {

@@ -257,7 +257,8 @@ double signed_from_closest(const Mesh& mesh, const MeshQuery& query, const Pseud
 
 void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Vec3> points_mm,
                                        double near_mm, std::vector<double>& out,
-                                       std::vector<std::uint32_t>* triangles) const {
+                                       std::vector<std::uint32_t>* triangles,
+                                       std::span<const std::uint32_t> groups) const {
   const Mesh& mesh = impl_->mesh;
   const MeshQuery& query = impl_->query;
   const PseudoNormals& pn = impl_->pn;
@@ -268,15 +269,23 @@ void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Ve
   // the few points it cannot vouch for (farther from the mesh than the ball reaches) get a
   // query of their own.
   const double cell_mm = near_mm > 0 ? near_mm : 0.0;
-  std::vector<std::uint32_t> order, group;
-  if (cell_mm > 0) {
-    detail::group_by_cell(points_mm, cell_mm, order, group);
+  std::vector<std::uint32_t> order, own_group;
+  std::span<const std::uint32_t> group = groups;
+  const bool in_order = !groups.empty() && cell_mm > 0;
+  if (in_order) {  // points come grouped: each group is a run of the input
+  } else if (cell_mm > 0) {
+    detail::group_by_cell(points_mm, cell_mm, order, own_group);
+    group = own_group;
   } else {  // no expected distance: input order, in runs of 1024 for the threads
     order.resize(points_mm.size());
     for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<std::uint32_t>(i);
-    for (std::size_t i = 0; i < points_mm.size(); i += 1024) group.push_back(static_cast<std::uint32_t>(i));
-    group.push_back(static_cast<std::uint32_t>(points_mm.size()));
+    for (std::size_t i = 0; i < points_mm.size(); i += 1024) own_group.push_back(static_cast<std::uint32_t>(i));
+    own_group.push_back(static_cast<std::uint32_t>(points_mm.size()));
+    group = own_group;
   }
+  if (group.size() < 2) return;
+  // The point at place j of the visiting order.
+  const auto point_at = [&](std::uint32_t j) -> std::size_t { return in_order ? j : order[j]; };
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, group.size() - 1, cell_mm > 0 ? 64 : 1),
                     [&](const tbb::blocked_range<std::size_t>& r) {
     std::vector<Vec3> local;
@@ -293,7 +302,7 @@ void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Ve
       const std::uint32_t g0 = group[g], g1 = group[g + 1];
       // The next cell's points and result slots are scattered over arrays of tens of MB:
       // fetched while this cell is computed.
-      if (g + 1 < r.end())
+      if (g + 1 < r.end() && !in_order)
         for (std::uint32_t j = g1; j < group[g + 2]; ++j) {
           __builtin_prefetch(&points_mm[order[j]]);
           __builtin_prefetch(&out[order[j]], 1);
@@ -302,7 +311,7 @@ void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Ve
       local.clear();
       Box3 box;
       for (std::uint32_t j = g0; j < g1; ++j) {
-        local.push_back(points_mm[order[j]] - offset_mm);  // into the mesh's frame
+        local.push_back(points_mm[point_at(j)] - offset_mm);  // into the mesh's frame
         box.extend(local.back());
       }
       batch.assign(local.size(), std::nullopt);
@@ -312,7 +321,7 @@ void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Ve
       }
       for (std::size_t k = 0; k < local.size(); ++k) {
         const Vec3& p = local[k];
-        const std::size_t i = order[g0 + k];
+        const std::size_t i = point_at(g0 + static_cast<std::uint32_t>(k));
         if (!batch[k]) {
           // Most points lie near the surface: a bounded query first, the full one if it fails.
           double bound = (prev_d + (p - prev_p).norm()) * (1 + 1e-9) + 1e-9;

@@ -725,9 +725,15 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   struct Exposed {
     int bx = 0, bz = 0;
     std::array<std::array<std::uint64_t, kE>, 6> cols{};  // [direction][y]: byte x = z bits
+    std::array<std::uint32_t, 8> cell_faces{};              // faces per cell (local y, x, z halves)
+  };
+  // Bits of a cell's voxels in a z-column row word (byte x = z bits): bytes x in the cell's
+  // x half, bits z in its z half.
+  const auto cell_columns = [](int cx, int cz) {
+    const std::uint64_t nibble = cz != 0 ? 0xF0ULL : 0x0FULL;
+    return (cx != 0 ? 0xFFFFFFFF00000000ULL : 0x00000000FFFFFFFFULL) & (nibble * kX0);
   };
   std::vector<std::vector<Exposed>> exposed(static_cast<std::size_t>(box.n.y()));
-  std::vector<std::size_t> row_faces(static_cast<std::size_t>(ny) + 1, 0);
   tbb::parallel_for(0, box.n.y(), [&](int r) {
     const int by = box.lo.y() + r;
     auto& list = exposed[static_cast<std::size_t>(r)];
@@ -768,48 +774,66 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
           for (int y = 0; y < kE; ++y) e.cols[d][static_cast<std::size_t>(y)] = columns_of_row(x, y);
         }
         if (!some) continue;
-        for (int y = 0; y < kE; ++y) {
-          const int ly = by * kE + y - kmin.y;
-          std::size_t n = 0;
-          for (std::size_t d = 0; d < 6; ++d) n += static_cast<std::size_t>(popcount64(e.cols[d][static_cast<std::size_t>(y)]));
-          if (n != 0) row_faces[static_cast<std::size_t>(ly) + 1] += n;  // rows of one block row: this thread's
+        for (int cell = 0; cell < 8; ++cell) {
+          const std::uint64_t in_cell = cell_columns((cell >> 1) & 1, cell & 1);
+          const int y0 = 4 * (cell >> 2);
+          std::uint32_t n = 0;
+          for (int y = y0; y < y0 + 4; ++y)
+            for (std::size_t d = 0; d < 6; ++d)
+              n += static_cast<std::uint32_t>(popcount64(e.cols[d][static_cast<std::size_t>(y)] & in_cell));
+          e.cell_faces[static_cast<std::size_t>(cell)] = n;
         }
         list.push_back(e);
       }
   });
-  for (int y = 0; y < ny; ++y) row_faces[static_cast<std::size_t>(y) + 1] += row_faces[static_cast<std::size_t>(y)];
+  // The face blocks in box order (y, then x, then z) and the start of each of their cells.
+  std::vector<std::size_t> row_blocks(static_cast<std::size_t>(box.n.y()) + 1, 0);
+  for (int r = 0; r < box.n.y(); ++r)
+    row_blocks[static_cast<std::size_t>(r) + 1] = row_blocks[static_cast<std::size_t>(r)] + exposed[static_cast<std::size_t>(r)].size();
+  const std::size_t n_face_blocks = row_blocks.back();
+  s.face_blocks.resize(n_face_blocks);
+  s.face_cell_begin.resize(8 * n_face_blocks + 1);
+  std::size_t n_faces = 0;
+  for (int r = 0; r < box.n.y(); ++r) {
+    const auto& list = exposed[static_cast<std::size_t>(r)];
+    for (std::size_t c = 0; c < list.size(); ++c) {
+      const std::size_t k = row_blocks[static_cast<std::size_t>(r)] + c;
+      s.face_blocks[k] = static_cast<std::uint32_t>(box.index(list[c].bx, box.lo.y() + r, list[c].bz));
+      for (std::size_t cell = 0; cell < 8; ++cell) {
+        s.face_cell_begin[8 * k + cell] = static_cast<std::uint32_t>(n_faces);
+        n_faces += list[c].cell_faces[cell];
+      }
+    }
+  }
+  s.face_cell_begin.back() = static_cast<std::uint32_t>(n_faces);
   // The face arrays sized side by side (resize writes each element's initial value).
-  const std::size_t n_faces = row_faces[static_cast<std::size_t>(ny)];
   tbb::parallel_invoke([&] { s.faces.resize(n_faces); }, [&] { s.face_tags.resize(n_faces); },
                        [&] { s.face_centers_mm.resize(n_faces); });
   const double v = s.voxel_mm;
   tbb::parallel_for(0, box.n.y(), [&](int r) {
     const int by = box.lo.y() + r;
     const auto& list = exposed[static_cast<std::size_t>(r)];
-    std::vector<VoxelGrid::BlockView> views(list.size());
-    for (std::size_t c = 0; c < list.size(); ++c) views[c] = *grid.block_view(list[c].bx, by, list[c].bz);
-    for (int y = 0; y < kE; ++y) {
-      const int ly = by * kE + y - kmin.y;
-      if (ly < 0 || ly >= ny) continue;
-      std::size_t next = row_faces[static_cast<std::size_t>(ly)];
-      // The blocks of the row in (bx, bz) order: a run of equal bx is one column of blocks.
-      for (std::size_t c0 = 0; c0 < list.size();) {
-        std::size_t c1 = c0 + 1;
-        while (c1 < list.size() && list[c1].bx == list[c0].bx) ++c1;
-        for (int x = 0; x < kE; ++x) {
-          const int lx = list[c0].bx * kE + x - kmin.x;
-          for (std::size_t c = c0; c < c1; ++c) {
+    for (std::size_t c = 0; c < list.size(); ++c) {
+      const Exposed& e = list[c];
+      const VoxelGrid::BlockView view = *grid.block_view(e.bx, by, e.bz);
+      std::size_t next = s.face_cell_begin[8 * (row_blocks[static_cast<std::size_t>(r)] + c)];
+      for (int cell = 0; cell < 8; ++cell) {
+        const int y0 = 4 * (cell >> 2), x0 = 4 * ((cell >> 1) & 1), z0 = 4 * (cell & 1);
+        for (int y = y0; y < y0 + 4; ++y) {
+          const int ly = by * kE + y - kmin.y;
+          for (int x = x0; x < x0 + 4; ++x) {
+            const int lx = e.bx * kE + x - kmin.x;
             std::array<unsigned, 6> m{};
             unsigned all = 0;
             for (std::size_t d = 0; d < 6; ++d) {
-              m[d] = static_cast<unsigned>((list[c].cols[d][static_cast<std::size_t>(y)] >> (8 * x)) & 0xFFU);
+              m[d] = static_cast<unsigned>((e.cols[d][static_cast<std::size_t>(y)] >> (8 * x)) & (0xFU << z0));
               all |= m[d];
             }
             while (all != 0) {
               const int z = std::countr_zero(all);
               all &= all - 1;
-              const int lz = list[c].bz * kE + z - kmin.z;
-              const VoxelTag tag = table[views[c].tag_index(z * 64 + y * 8 + x)];
+              const int lz = e.bz * kE + z - kmin.z;
+              const VoxelTag tag = table[view.tag_index(z * 64 + y * 8 + x)];
               for (int d = 0; d < 6; ++d) {
                 if (((m[static_cast<std::size_t>(d)] >> z) & 1U) == 0) continue;
                 const int axis = d >> 1;
@@ -826,7 +850,6 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
             }
           }
         }
-        c0 = c1;
       }
     }
   });

@@ -6,6 +6,7 @@
 #include <functional>
 #include <numbers>
 
+#include "deviation/deposit_surface_internal.hpp"
 #include "printtwin/deviation.hpp"
 #include "printtwin/mesh_query.hpp"
 
@@ -232,6 +233,43 @@ TEST_F(DeviationTargetReuse, SignedDistancesWithOffsetMatchThePlacedMesh) {
     if (r > 3.01) {
       EXPECT_GT(d[i], 0) << i;
     }
+  }
+}
+
+TEST_F(DeviationTargetReuse, SurfaceCellGroupsGiveTheSameDistancesAsAnyGrouping) {
+  // The deposit surface's faces come cell by cell; signed_distances given those cells as
+  // groups, grouping the points itself, or taking them in input order (no near_mm) finds the
+  // same closest points, bit for bit.
+  auto target = DeviationTarget::build(mesh, settings);
+  ASSERT_TRUE(target.ok());
+  const Vec3 at(10.5, -4.25, 7.0);
+  const VoxelGrid grid = deposit_at(at);
+  const DepositSurface surface =
+      extract_outer_surface(grid, Box3{at - Vec3::Constant(4.0), at + Vec3::Constant(4.0)});
+  ASSERT_GT(surface.faces.size(), 1000U);
+  const std::vector<std::uint32_t> cells = detail::face_cell_groups(surface);
+  ASSERT_GE(cells.size(), 2U);
+  EXPECT_EQ(cells.front(), 0U);
+  EXPECT_EQ(cells.back(), surface.faces.size());
+  for (std::size_t g = 0; g + 1 < cells.size(); ++g) {  // each group: one cell of 4^3 voxels
+    ASSERT_LT(cells[g], cells[g + 1]);
+    const VoxelKey& first = surface.faces[cells[g]].voxel;
+    for (std::uint32_t f = cells[g]; f < cells[g + 1]; ++f) {
+      const VoxelKey& k = surface.faces[f].voxel;
+      ASSERT_TRUE((k.x >> 2) == (first.x >> 2) && (k.y >> 2) == (first.y >> 2) && (k.z >> 2) == (first.z >> 2)) << f;
+    }
+  }
+  std::vector<double> by_cells, self_grouped, in_order;
+  std::vector<std::uint32_t> t_cells, t_self, t_order;
+  target->signed_distances(at, surface.face_centers_mm, 4 * kVoxel, by_cells, &t_cells, cells);
+  target->signed_distances(at, surface.face_centers_mm, 4 * kVoxel, self_grouped, &t_self);
+  target->signed_distances(at, surface.face_centers_mm, 0.0, in_order, &t_order);
+  ASSERT_EQ(by_cells.size(), surface.faces.size());
+  for (std::size_t i = 0; i < by_cells.size(); ++i) {
+    ASSERT_EQ(by_cells[i], self_grouped[i]) << i;
+    ASSERT_EQ(by_cells[i], in_order[i]) << i;
+    ASSERT_EQ(t_cells[i], t_self[i]) << i;
+    ASSERT_EQ(t_cells[i], t_order[i]) << i;
   }
 }
 

@@ -340,7 +340,8 @@ TEST(DeviationSurface, BlockFloodMatchesAVoxelByVoxelFloodFill) {
         }
     EXPECT_EQ(mismatches, 0U) << "seal " << seal_mm;
     EXPECT_EQ(s.filled_voxels, n_filled);
-    // Faces, in the surface's order: columns by y then x, voxels by z, -x +x -y +y -z +z.
+    // Faces, in the surface's order: by grid block (y, x, z), by 4^3 cell of the block (its y,
+    // x and z halves), then voxel rows by y then x, voxels by z, -x +x -y +y -z +z.
     std::vector<std::pair<VoxelKey, int>> faces;
     for (int y = 1; y < ny - 1; ++y)
       for (int x = 1; x < nx - 1; ++x)
@@ -352,7 +353,27 @@ TEST(DeviationSurface, BlockFloodMatchesAVoxelByVoxelFloodFill) {
           for (int k = 0; k < 6; ++k)
             if (open[k]) faces.push_back({VoxelKey{s.origin_key.x + x, s.origin_key.y + y, s.origin_key.z + z}, k});
         }
+    const auto cell_rank = [](const VoxelKey& k) {  // keys may be negative: >> is the floor
+      return std::array<int, 6>{k.y >> 3, k.x >> 3, k.z >> 3, (k.y >> 2) & 1, (k.x >> 2) & 1, (k.z >> 2) & 1};
+    };
+    std::stable_sort(faces.begin(), faces.end(), [&](const auto& a, const auto& b) {
+      return cell_rank(a.first) < cell_rank(b.first);
+    });
     ASSERT_EQ(s.faces.size(), faces.size()) << "seal " << seal_mm;
+    // The cell ranges: every face inside its cell's range, the ranges in order.
+    ASSERT_EQ(s.face_cell_begin.size(), 8 * s.face_blocks.size() + 1);
+    EXPECT_EQ(s.face_cell_begin.back(), s.faces.size());
+    for (std::size_t k = 0; k < s.face_blocks.size(); ++k)
+      for (std::size_t c = 0; c < 8; ++c)
+        for (std::uint32_t f = s.face_cell_begin[8 * k + c]; f < s.face_cell_begin[8 * k + c + 1]; ++f) {
+          const VoxelKey& key = s.faces[f].voxel;
+          const std::size_t block = (static_cast<std::size_t>((key.y >> 3) - s.filled_blocks_lo.y()) * s.filled_blocks_dims.x() +
+                                     static_cast<std::size_t>((key.x >> 3) - s.filled_blocks_lo.x())) *
+                                        s.filled_blocks_dims.z() +
+                                    static_cast<std::size_t>((key.z >> 3) - s.filled_blocks_lo.z());
+          ASSERT_EQ(block, s.face_blocks[k]) << f;
+          ASSERT_EQ(static_cast<std::size_t>((((key.y >> 2) & 1) << 2) | (((key.x >> 2) & 1) << 1) | ((key.z >> 2) & 1)), c) << f;
+        }
     for (std::size_t i = 0; i < faces.size(); ++i) {
       ASSERT_EQ(s.faces[i].voxel, faces[i].first) << i;
       ASSERT_EQ(s.faces[i].axis, faces[i].second >> 1) << i;
