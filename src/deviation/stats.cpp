@@ -56,30 +56,31 @@ constexpr std::size_t kHistogramMin = 512;
 
 /// The same by a histogram of |d|'s bit patterns over their range (for non-negative doubles
 /// the pattern orders like the value, and equal-width bins of it are about equally fine in
-/// every octave): one pass finds the range, one counts, the bins holding the ranks are found
-/// from the counts, a pass gathers those bins' values, and a selection within them gives the
-/// exact order statistics. Up to 2^16 bins (fewer for fewer values, so the counts stay in
-/// cache): streaming passes instead of repeated partitions of a copy.
+/// every octave): one pass counts, the bins holding the ranks are found from the counts, a
+/// pass gathers those bins' values (a table names each bin's list, so a value costs one
+/// lookup), and a selection within them gives the exact order statistics. Up to 2^16 bins
+/// (fewer for fewer values, so the counts stay in cache): streaming passes instead of
+/// repeated partitions of a copy. `lo_key` and `hi_key`: the least and greatest |d| bit
+/// patterns (the caller's pass finds them); the top rank, n - 1, is the greatest, without a
+/// bin.
 std::vector<std::pair<std::size_t, double>> order_statistics_by_histogram(std::span<const double> d,
-                                                                          const std::vector<std::size_t>& ranks) {
-  std::uint64_t lo_key = ~std::uint64_t{0}, hi_key = 0;
-  for (const double v : d) {
-    const std::uint64_t k = abs_bits(v);
-    lo_key = std::min(lo_key, k);
-    hi_key = std::max(hi_key, k);
-  }
+                                                                          const std::vector<std::size_t>& ranks,
+                                                                          std::uint64_t lo_key, std::uint64_t hi_key) {
   const int bin_bits = std::clamp(static_cast<int>(std::bit_width(d.size())) - 2, 8, 16);
   const int span_bits = static_cast<int>(std::bit_width(hi_key - lo_key));
   const int shift = std::max(0, span_bits - bin_bits);
   const auto bin = [&](double v) { return static_cast<std::size_t>((abs_bits(v) - lo_key) >> shift); };
   std::vector<std::uint32_t> count(((hi_key - lo_key) >> shift) + 1, 0);
   for (const double v : d) ++count[bin(v)];
-  // The bin of each rank, and the rank's place within its bin.
-  std::vector<std::size_t> bin_of(ranks.size()), before(ranks.size());
+  // The ranks below the top: the bin of each, and the rank's place within its bin.
+  std::vector<std::size_t> binned;
+  for (const std::size_t r : ranks)
+    if (r + 1 < d.size()) binned.push_back(r);
+  std::vector<std::size_t> bin_of(binned.size()), before(binned.size());
   {
     std::size_t acc = 0, r = 0;
-    for (std::size_t b = 0; b < count.size() && r < ranks.size(); ++b) {
-      while (r < ranks.size() && ranks[r] < acc + count[b]) {
+    for (std::size_t b = 0; b < count.size() && r < binned.size(); ++b) {
+      while (r < binned.size() && binned[r] < acc + count[b]) {
         bin_of[r] = b;
         before[r] = acc;
         ++r;
@@ -90,21 +91,22 @@ std::vector<std::pair<std::size_t, double>> order_statistics_by_histogram(std::s
   std::vector<std::size_t> bins(bin_of);
   bins.erase(std::unique(bins.begin(), bins.end()), bins.end());
   std::vector<std::vector<double>> values(bins.size());
-  for (std::size_t k = 0; k < bins.size(); ++k) values[k].reserve(count[bins[k]]);
-  const std::size_t lowest = bins.front(), highest = bins.back();
-  for (const double v : d) {
-    const std::size_t b = bin(v);
-    if (b < lowest || b > highest) continue;  // most values: in no bin of a rank
-    for (std::size_t k = 0; k < bins.size(); ++k)
-      if (bins[k] == b) values[k].push_back(std::abs(v));
+  std::vector<std::int8_t> list_of(count.size(), -1);  // bins.size() <= 7
+  for (std::size_t k = 0; k < bins.size(); ++k) {
+    values[k].reserve(count[bins[k]]);
+    list_of[bins[k]] = static_cast<std::int8_t>(k);
   }
+  if (!bins.empty())
+    for (const double v : d)
+      if (const int k = list_of[bin(v)]; k >= 0) values[static_cast<std::size_t>(k)].push_back(std::abs(v));
   std::vector<std::pair<std::size_t, double>> order;
-  for (std::size_t r = 0; r < ranks.size(); ++r) {
-    auto& vals = values[static_cast<std::size_t>(std::find(bins.begin(), bins.end(), bin_of[r]) - bins.begin())];
-    const auto at = vals.begin() + static_cast<std::ptrdiff_t>(ranks[r] - before[r]);
+  for (std::size_t r = 0; r < binned.size(); ++r) {
+    auto& vals = values[static_cast<std::size_t>(list_of[bin_of[r]])];
+    const auto at = vals.begin() + static_cast<std::ptrdiff_t>(binned[r] - before[r]);
     std::nth_element(vals.begin(), at, vals.end());
-    order.emplace_back(ranks[r], *at);
+    order.emplace_back(binned[r], *at);
   }
+  if (binned.size() < ranks.size()) order.emplace_back(d.size() - 1, std::bit_cast<double>(hi_key));
   return order;
 }
 
@@ -120,6 +122,7 @@ DeviationStats deviation_stats(std::span<const double> d, double tolerance_mm) {
   // millions of sub-millimetre values.
   long double sum = 0, sum2 = 0, sum_abs = 0;
   std::size_t within = 0;
+  std::uint64_t lo_key = ~std::uint64_t{0}, hi_key = 0;  // least and greatest |d| bit patterns
   for (std::size_t i = 0; i < d.size(); ++i) {
     const double v = d[i];
     s.min_mm = std::min(s.min_mm, v);
@@ -129,6 +132,9 @@ DeviationStats deviation_stats(std::span<const double> d, double tolerance_mm) {
     const double a = std::abs(v);
     sum_abs += a;
     if (a <= tolerance_mm) ++within;
+    const std::uint64_t k = abs_bits(v);
+    lo_key = std::min(lo_key, k);
+    hi_key = std::max(hi_key, k);
   }
   const auto n = static_cast<long double>(d.size());
   s.mean_mm = static_cast<double>(sum / n);
@@ -147,7 +153,8 @@ DeviationStats deviation_stats(std::span<const double> d, double tolerance_mm) {
   std::sort(ranks.begin(), ranks.end());
   ranks.erase(std::unique(ranks.begin(), ranks.end()), ranks.end());
   const std::vector<std::pair<std::size_t, double>> order =
-      n_all >= kHistogramMin ? order_statistics_by_histogram(d, ranks) : order_statistics_by_selection(d, ranks);
+      n_all >= kHistogramMin ? order_statistics_by_histogram(d, ranks, lo_key, hi_key)
+                              : order_statistics_by_selection(d, ranks);
   s.p50_abs_mm = percentile(order, n_all, 0.50);
   s.p95_abs_mm = percentile(order, n_all, 0.95);
   s.p99_abs_mm = percentile(order, n_all, 0.99);
