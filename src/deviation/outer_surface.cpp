@@ -520,7 +520,9 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   // reaches it (R within a block is a box, so connected). The outside found is the one
   // component of the open voxels that holds the padding, whatever the order blocks are
   // reached in.
-  DilatedField blocked(box, seal_r, part_cube, interior_cube);
+  // Held only through the flood: its cubes' memory then serves the dilation of step 3.
+  std::optional<DilatedField<decltype(part_cube), decltype(interior_cube)>> blocked;
+  blocked.emplace(box, seal_r, part_cube, interior_cube);
   enum : std::uint8_t { kUntouched = 0, kWhole = 1, kPartial = 2 };
   std::vector<std::uint8_t> kind(n_blocks, kUntouched);
   std::vector<std::uint8_t> queued(n_blocks, 0);
@@ -594,13 +596,13 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     for (const Queued& q : wave)
       if (kind[q.i] == kPartial && has_open[slot[q.i]] == 0) need_open.push_back(q.i);
     if (!need_open.empty()) {
-      blocked.prepare(need_open);
+      blocked->prepare(need_open);
       tbb::parallel_for(std::size_t{0}, need_open.size(), [&](std::size_t k) {
         const std::uint32_t i = need_open[k];
         const Eigen::Vector3i b = box.coords(i);
         Cube e = region_cube(b.x(), b.y(), b.z());
         Cube d;
-        if (blocked.top_of(b.x(), b.y(), b.z(), d))
+        if (blocked->top_of(b.x(), b.y(), b.z(), d))
           for (std::size_t z = 0; z < kE; ++z) e[z] &= ~d[z];
         open[slot[i]] = e;
         has_open[slot[i]] = 1;
@@ -658,6 +660,7 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     for (auto& f : found)
       for (const Seed& sd : f) add_seed(sd.to, sd.bits);
   }
+  blocked.reset();
   // 3. Filled = R minus (the outside dilated back by r, where not part). Only blocks within
   // `reach` of a block the outside entered can differ from "all filled" (untouched) or "none
   // filled" (wholly outside, which holds no part voxel).
