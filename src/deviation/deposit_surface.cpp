@@ -47,7 +47,7 @@ struct FaceBuckets {
 
   explicit FaceBuckets(const DepositSurface& s) {
     static_assert(2 * kCell == VoxelGrid::kBlockEdge);
-  static_assert(sizeof(Vec3) == 3 * sizeof(double), "face centres are read as rows of doubles");
+    static_assert(sizeof(Vec3) == 3 * sizeof(double), "face centres are read as rows of doubles");
     cell_mm = s.voxel_mm * kCell;
     pairs = s.filled_blocks_dims;
     cells = 2 * pairs;

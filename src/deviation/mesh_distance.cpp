@@ -272,7 +272,9 @@ void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Ve
   std::vector<std::uint32_t> order, own_group;
   std::span<const std::uint32_t> group = groups;
   const bool in_order = !groups.empty() && cell_mm > 0;
-  if (in_order) {  // points come grouped: each group is a run of the input
+  // Grouped by the caller, each group is a run of the input; otherwise grouped here.
+  if (in_order) {
+    group = groups;
   } else if (cell_mm > 0) {
     detail::group_by_cell(points_mm, cell_mm, order, own_group);
     group = own_group;
