@@ -288,6 +288,22 @@ struct DepositBuilder::State {
     return std::max(r, 0);
   }
 
+  /// Claims (ZeroedArray::claim) the height map's pages under the box of segment a-b widened
+  /// by `margin_mm`: the bead reads these columns before it raises them, and the first layer
+  /// reads columns nobody has written yet.
+  void claim_columns(const Vec3& a, const Vec3& b, double margin_mm) {
+    const int i0 = std::max(0, floor_int((std::min(a.x(), b.x()) - margin_mm - ox_) * inv_voxel));
+    const int i1 = std::min(nx - 1, floor_int((std::max(a.x(), b.x()) + margin_mm - ox_) * inv_voxel));
+    const int j0 = std::max(0, floor_int((std::min(a.y(), b.y()) - margin_mm - oy_) * inv_voxel));
+    const int j1 = std::min(ny - 1, floor_int((std::max(a.y(), b.y()) + margin_mm - oy_) * inv_voxel));
+    if (i0 > i1 || j0 > j1) return;
+    for (int j = j0 & ~7; j <= j1; j += 8) {
+      const std::size_t first = top_index(i0, j), last = top_index(i1, j) + 63;
+      top.claim_range(first, last);
+      top_layer.claim_range(first, last);
+    }
+  }
+
   // -- moves -----------------------------------------------------------------------------
   void add(const Move& m) {
     if (!is_bead(m)) {
@@ -353,6 +369,7 @@ struct DepositBuilder::State {
     const Vec2 d = (b - a).head<2>() / len_mm;
     const Vec2 n(-d.y(), d.x());
     const int samples = std::max(1, static_cast<int>(std::ceil(len_mm * inv_voxel)));
+    claim_columns(a, b, 2 * nozzle_mm);
 
     // Height: the gap between the tip and the surface beneath the centre line. A column whose
     // top is within half a layer of the tip holds this layer's neighbours (or a partly

@@ -276,6 +276,8 @@ class DilatedField {
           const int x = b.x() + (axis == 1 ? d : 0), y = b.y() + (axis == 2 ? d : 0), z = b.z() + (axis == 0 ? d : 0);
           if (!box_.contains(x, y, z)) continue;
           const std::size_t j = box_.index(x, y, z);
+          mark_.claim(j);
+          memo_[static_cast<std::size_t>(st)].claim(j);
           // Computed by an earlier call: neither it nor what it reads is needed again.
           if (mark_[j] == 0 && memo_[static_cast<std::size_t>(st)][j] == 0) {
             mark_[j] = 1;
