@@ -81,6 +81,7 @@ struct PointQueryState {
   double best_d2 = std::numeric_limits<double>::infinity();
   Vec3 best_point = Vec3::Zero();
   std::uint32_t best_triangle = 0;
+  std::size_t best_slot = 0;  ///< column of the best in a BallScratch (offer_candidates_*)
 };
 
 /// Offers triangle `t` after its box test: rejected by its plane when it cannot win or tie
@@ -149,6 +150,17 @@ void load_boxes(MeshQuery::BallScratch& c, const Mesh& mesh, const std::vector<T
   }
 }
 
+/// Swaps candidates i and j of a loaded BallScratch (ids, boxes and, with `corners`, corners).
+void swap_candidates(MeshQuery::BallScratch& c, std::size_t i, std::size_t j, bool corners) {
+  std::swap(c.ids[i], c.ids[j]);
+  for (int a = 0; a < 3; ++a) {
+    std::swap(c.lo[a][i], c.lo[a][j]);
+    std::swap(c.hi[a][i], c.hi[a][j]);
+  }
+  if (corners)
+    for (auto& col : c.corner) std::swap(col[i], col[j]);
+}
+
 /// Offers every candidate whose box may win; the box test 4 at a time (same arithmetic as
 /// box_distance2, so the same candidates pass).
 void offer_candidates_default(PointQueryState& st, const MeshQuery::BallScratch& c) {
@@ -158,7 +170,7 @@ void offer_candidates_default(PointQueryState& st, const MeshQuery::BallScratch&
       const double e = std::max({0.0, c.lo[a][k] - st.p[a], st.p[a] - c.hi[a][k]});
       box2 += e * e;
     }
-    if (box_may_win(box2, st.best_d2)) offer_unboxed(st, c.ids[k]);
+    if (box_may_win(box2, st.best_d2) && offer_unboxed(st, c.ids[k])) st.best_slot = k;
   }
 }
 #if defined(__x86_64__) && defined(__GNUC__)
@@ -271,6 +283,7 @@ struct Points4 {
         st.best_d2 = d2[j];
         st.best_point = Vec3(qx[j], qy[j], qz[j]);
         st.best_triangle = t;
+        st.best_slot = k + j;
       }
     }
   }
@@ -422,19 +435,17 @@ void MeshQuery::closest_points_in_ball(const Vec3& center, double radius, std::s
   if (candidates.empty()) return;
   const bool avx2 = cpu_has_avx2();
   load_boxes(boxes, impl_->mesh, impl_->bounds, avx2);
-  std::optional<std::uint32_t> hint;
   for (std::size_t i = 0; i < points.size(); ++i) {
     PointQueryState st{&impl_->mesh, &impl_->bounds, points[i]};
-    // The previous point's triangle first: usually this one's too, its distance then
-    // prunes nearly every other candidate by box or plane.
-    if (hint) offer(st, *hint);
     if (avx2)
       offer_candidates_avx2(st, boxes);
     else
       offer_candidates_default(st, boxes);
     if (!std::isfinite(st.best_d2)) continue;
+    // The winner usually wins the next point too: moved into the first block, which is
+    // tested exactly first, so its distance prunes the other blocks by box.
+    if (st.best_slot >= 4) swap_candidates(boxes, 0, st.best_slot, avx2);
     const double d = std::sqrt(st.best_d2);
-    hint = st.best_triangle;
     // Every triangle within d of the point meets the query ball, so was a candidate.
     if ((points[i] - center).norm() + d * (1 + 1e-9) + 1e-9 <= radius)
       out[i] = ClosestPoint{st.best_point, d, st.best_triangle};
