@@ -93,19 +93,6 @@ class ZeroedArray {
     for (std::size_t i = first - first % per_page; i <= last; i += per_page) claim(i);
   }
 
-  /// Makes elements [first, last) resident as private pages in one call (best effort).
-  void populate(std::size_t first, std::size_t last) {
-#if defined(__linux__) && defined(MADV_POPULATE_WRITE)
-    if (!mapped_ || first >= last) return;
-    const auto lo = reinterpret_cast<std::uintptr_t>(data_ + first) & ~(kPage - 1);
-    const auto hi = reinterpret_cast<std::uintptr_t>(data_ + std::min(last, size_));
-    madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_POPULATE_WRITE);
-#else
-    (void)first;
-    (void)last;
-#endif
-  }
-
  private:
   static constexpr std::size_t kMapBytes = std::size_t{1} << 20;
   static constexpr std::uintptr_t kPage = 4096;
