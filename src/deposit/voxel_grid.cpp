@@ -15,6 +15,9 @@
 #include "printtwin/voxel_grid.hpp"
 
 #include <algorithm>
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
 #include <array>
 #include <cmath>
 #include <cstdlib>
@@ -55,6 +58,24 @@ constexpr std::array<std::uint32_t, 256> make_nibble_masks() {
   return t;
 }
 constexpr std::array<std::uint32_t, 256> kNibbleMask = make_nibble_masks();
+
+#if defined(__x86_64__) && defined(__GNUC__)
+const bool kHaveBmi2 = __builtin_cpu_supports("bmi2");
+/// Writes nibble e at the voxels of `mask` in a z-slice's 32 bytes of nibbles, two rows (16
+/// voxels, 8 bytes) at a time: PDEP puts mask bit i at bit 4 i, times 0xF widens it to the
+/// nibble (the same bytes as the table walk below).
+[[gnu::target("bmi2")]] void store_nibbles_bmi2(std::uint8_t* row, std::uint64_t mask, unsigned e) {
+  const std::uint64_t fill = 0x1111111111111111ULL * e;
+  for (int pair = 0; pair < 4; ++pair, row += 8, mask >>= 16) {
+    const std::uint64_t m = _pdep_u64(mask & 0xFFFFU, 0x1111111111111111ULL) * 0xFU;
+    if (m == 0) continue;
+    std::uint64_t w;
+    std::memcpy(&w, row, 8);
+    w = (w & ~m) | (fill & m);
+    std::memcpy(row, &w, 8);
+  }
+}
+#endif
 
 /// Zero-filled memory for one chunk (ZeroedArray: an anonymous mapping on Linux).
 class ChunkMemory {
@@ -183,8 +204,14 @@ struct VoxelGrid::Impl {
       for (; mask != 0; mask &= mask - 1) slots[std::countr_zero(mask)] = t;
       return;
     }
-    const std::uint32_t fill = 0x11111111U * static_cast<std::uint32_t>(e);
     std::uint8_t* row = nibbles(b) + z * 32;
+#if defined(__x86_64__) && defined(__GNUC__)
+    if (kHaveBmi2) {
+      store_nibbles_bmi2(row, mask, static_cast<unsigned>(e));
+      return;
+    }
+#endif
+    const std::uint32_t fill = 0x11111111U * static_cast<std::uint32_t>(e);
     for (int y = 0; y < kEdge; ++y, row += 4, mask >>= 8) {
       const std::uint32_t m = kNibbleMask[mask & 0xFFU];
       if (m == 0) continue;
