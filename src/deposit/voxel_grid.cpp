@@ -27,6 +27,7 @@
 
 #include "core/bits.hpp"
 #include "core/zeroed_array.hpp"
+#include "deposit/nibbles.hpp"
 
 #if defined(__linux__)
 #include <sys/mman.h>
@@ -36,6 +37,63 @@
 #endif
 
 namespace printtwin {
+
+namespace detail {
+namespace {
+/// 4-bit lanes of a row's 8 voxels: bit x of m -> nibble x of the result.
+constexpr std::array<std::uint32_t, 256> make_nibble_masks() {
+  std::array<std::uint32_t, 256> t{};
+  for (unsigned m = 0; m < 256; ++m)
+    for (unsigned x = 0; x < 8; ++x)
+      if ((m >> x) & 1U) t[m] |= 0xFU << (4 * x);
+  return t;
+}
+constexpr std::array<std::uint32_t, 256> kNibbleMask = make_nibble_masks();
+#if defined(__x86_64__) && defined(__GNUC__)
+const bool kHaveBmi2 = __builtin_cpu_supports("bmi2");
+/// Two rows (16 voxels, 8 bytes) at a time: PDEP puts mask bit i at bit 4 i, and times 0xF
+/// widens it to the nibble.
+[[gnu::target("bmi2")]] void store_nibbles_pdep(std::uint8_t* row, std::uint64_t mask, unsigned e) {
+  const std::uint64_t fill = 0x1111111111111111ULL * e;
+  for (int pair = 0; pair < 4; ++pair, row += 8, mask >>= 16) {
+    const std::uint64_t m = _pdep_u64(mask & 0xFFFFU, 0x1111111111111111ULL) * 0xFU;
+    if (m == 0) continue;
+    std::uint64_t w;
+    std::memcpy(&w, row, 8);
+    w = (w & ~m) | (fill & m);
+    std::memcpy(row, &w, 8);
+  }
+}
+#endif
+}  // namespace
+
+void store_nibbles_portable(std::uint8_t* row, std::uint64_t mask, unsigned e) {
+  const std::uint32_t fill = 0x11111111U * e;
+  for (int y = 0; y < 8; ++y, row += 4, mask >>= 8) {
+    const std::uint32_t m = kNibbleMask[mask & 0xFFU];
+    if (m == 0) continue;
+    std::uint32_t w;
+    std::memcpy(&w, row, 4);
+    w = (w & ~m) | (fill & m);
+    std::memcpy(row, &w, 4);
+  }
+}
+
+bool store_nibbles_bmi2(std::uint8_t* row, std::uint64_t mask, unsigned e) {
+#if defined(__x86_64__) && defined(__GNUC__)
+  if (kHaveBmi2) {
+    store_nibbles_pdep(row, mask, e);
+    return true;
+  }
+#endif
+  (void)row, (void)mask, (void)e;
+  return false;
+}
+
+void store_nibbles(std::uint8_t* row, std::uint64_t mask, unsigned e) {
+  if (!store_nibbles_bmi2(row, mask, e)) store_nibbles_portable(row, mask, e);
+}
+}  // namespace detail
 
 namespace {
 constexpr int kEdge = VoxelGrid::kBlockEdge;
@@ -48,34 +106,6 @@ constexpr std::size_t kNibblesBytes = kChunkBlocks * kNibbleBytes;
 constexpr std::size_t kPaletteBytes = kChunkBlocks * kPalette * sizeof(std::uint32_t);
 constexpr std::size_t kChunkBytes = kOccBytes + kNibblesBytes + kPaletteBytes;
 constexpr std::uint8_t kWide = 0xFF;  // palette length of a wide block
-
-/// 4-bit lanes of a row's 8 voxels: bit x of m -> nibble x of the result.
-constexpr std::array<std::uint32_t, 256> make_nibble_masks() {
-  std::array<std::uint32_t, 256> t{};
-  for (unsigned m = 0; m < 256; ++m)
-    for (unsigned x = 0; x < 8; ++x)
-      if ((m >> x) & 1U) t[m] |= 0xFU << (4 * x);
-  return t;
-}
-constexpr std::array<std::uint32_t, 256> kNibbleMask = make_nibble_masks();
-
-#if defined(__x86_64__) && defined(__GNUC__)
-const bool kHaveBmi2 = __builtin_cpu_supports("bmi2");
-/// Writes nibble e at the voxels of `mask` in a z-slice's 32 bytes of nibbles, two rows (16
-/// voxels, 8 bytes) at a time: PDEP puts mask bit i at bit 4 i, times 0xF widens it to the
-/// nibble (the same bytes as the table walk below).
-[[gnu::target("bmi2")]] void store_nibbles_bmi2(std::uint8_t* row, std::uint64_t mask, unsigned e) {
-  const std::uint64_t fill = 0x1111111111111111ULL * e;
-  for (int pair = 0; pair < 4; ++pair, row += 8, mask >>= 16) {
-    const std::uint64_t m = _pdep_u64(mask & 0xFFFFU, 0x1111111111111111ULL) * 0xFU;
-    if (m == 0) continue;
-    std::uint64_t w;
-    std::memcpy(&w, row, 8);
-    w = (w & ~m) | (fill & m);
-    std::memcpy(row, &w, 8);
-  }
-}
-#endif
 
 /// Zero-filled memory for one chunk (ZeroedArray: an anonymous mapping on Linux).
 class ChunkMemory {
@@ -204,22 +234,7 @@ struct VoxelGrid::Impl {
       for (; mask != 0; mask &= mask - 1) slots[std::countr_zero(mask)] = t;
       return;
     }
-    std::uint8_t* row = nibbles(b) + z * 32;
-#if defined(__x86_64__) && defined(__GNUC__)
-    if (kHaveBmi2) {
-      store_nibbles_bmi2(row, mask, static_cast<unsigned>(e));
-      return;
-    }
-#endif
-    const std::uint32_t fill = 0x11111111U * static_cast<std::uint32_t>(e);
-    for (int y = 0; y < kEdge; ++y, row += 4, mask >>= 8) {
-      const std::uint32_t m = kNibbleMask[mask & 0xFFU];
-      if (m == 0) continue;
-      std::uint32_t w;
-      std::memcpy(&w, row, 4);
-      w = (w & ~m) | (fill & m);
-      std::memcpy(row, &w, 4);
-    }
+    detail::store_nibbles(nibbles(b) + z * 32, mask, static_cast<unsigned>(e));
   }
   [[nodiscard]] std::uint32_t load_tag(std::size_t b, int s) const {
     if (const std::uint32_t* w = wide_slots(b)) return w[s];
