@@ -1,5 +1,6 @@
 #pragma once
 // Internals shared by the src/check/*.cpp files (not installed, not public).
+#include <array>
 #include <cstdint>
 #include <utility>
 #include <vector>
@@ -51,6 +52,10 @@ struct ShellTable {
 };
 /// Shells = faces connected across shared edges (faces with skip[f] != 0 left out).
 ShellTable compute_shells(const Mesh& mesh, const std::vector<char>& skip, const EdgeTable& edges);
+
+/// Every pair of non-degenerate faces (f < g) that find_self_intersections must report,
+/// by CGAL's exact predicates alone on all pairs, no broad phase and no filter (tests).
+std::vector<std::array<std::uint32_t, 2>> self_intersecting_pairs_exhaustive(const Mesh& mesh);
 
 /// Reverses every inverted shell (see Shell::inverted); returns how many.
 std::size_t flip_inverted_shells(Mesh& mesh);

@@ -11,7 +11,10 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
+#include <initializer_list>
 
 #include "check/check_internal.hpp"
 #include "printtwin/check.hpp"
@@ -26,11 +29,47 @@ using T3 = K::Triangle_3;
 using S3 = K::Segment_3;
 
 P3 to_p3(const Vec3& v) { return P3(v.x(), v.y(), v.z()); }
-Vec3 to_vec(const P3& p) { return Vec3(p.x(), p.y(), p.z()); }
 
-/// Do faces f and g intersect other than along what they share (PMP's rules)?
+/// Sign of the orientation of d against the plane of (a, b, c) when floating point decides
+/// it for certain, else 0. Shewchuk's orient3d with its first error bound (Adaptive
+/// Precision Floating-Point Arithmetic and Fast Robust Geometric Predicates, 1997): the
+/// rounded determinant has the exact one's sign whenever its magnitude exceeds the bound.
+/// Only the sign's consistency matters here (same side or not), not its convention.
+inline int certain_orientation(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+  constexpr double kEps = 0x1p-53;
+  constexpr double kBound = (7.0 + 56.0 * kEps) * kEps;
+  const double adx = a.x() - d.x(), bdx = b.x() - d.x(), cdx = c.x() - d.x();
+  const double ady = a.y() - d.y(), bdy = b.y() - d.y(), cdy = c.y() - d.y();
+  const double adz = a.z() - d.z(), bdz = b.z() - d.z(), cdz = c.z() - d.z();
+  const double bdxcdy = bdx * cdy, cdxbdy = cdx * bdy;
+  const double cdxady = cdx * ady, adxcdy = adx * cdy;
+  const double adxbdy = adx * bdy, bdxady = bdx * ady;
+  const double det = adz * (bdxcdy - cdxbdy) + bdz * (cdxady - adxcdy) + cdz * (adxbdy - bdxady);
+  const double permanent = (std::abs(bdxcdy) + std::abs(cdxbdy)) * std::abs(adz) +
+                           (std::abs(cdxady) + std::abs(adxcdy)) * std::abs(bdz) +
+                           (std::abs(adxbdy) + std::abs(bdxady)) * std::abs(cdz);
+  const double bound = kBound * permanent;
+  return det > bound ? 1 : (-det > bound ? -1 : 0);
+}
+
+/// True when every point of `pts` lies strictly on one side of the plane of (a, b, c),
+/// certainly (so nothing of theirs can meet the plane's triangle).
+inline bool certainly_one_side(const Vec3& a, const Vec3& b, const Vec3& c, std::initializer_list<const Vec3*> pts) {
+  int side = 0;
+  for (const Vec3* q : pts) {
+    const int s = certain_orientation(a, b, c, *q);
+    if (s == 0 || (side != 0 && s != side)) return false;
+    side = s;
+  }
+  return true;
+}
+
+/// Do faces f and g intersect other than along what they share (PMP's rules)? A
+/// floating-point filter first: a pair it settles (nearly every pair of a mesh's
+/// neighbouring faces, which is most of what the broad phase hands over) gets the exact
+/// predicates' answer without them.
 bool faces_intersect(const Mesh& mesh, const std::array<std::uint32_t, 3>& f,
-                     const std::array<std::uint32_t, 3>& g) {
+                     const std::array<std::uint32_t, 3>& g, bool filter = true) {
   int shared = 0;
   int fi[3] = {-1, -1, -1};  // for each corner of f, the corner of g with the same vertex
   for (int i = 0; i < 3; ++i)
@@ -39,7 +78,8 @@ bool faces_intersect(const Mesh& mesh, const std::array<std::uint32_t, 3>& f,
         fi[i] = j;
         ++shared;
       }
-  const auto p = [&](std::uint32_t v) { return to_p3(mesh.vertices_mm[v]); };
+  const auto& v = mesh.vertices_mm;
+  const auto p = [&](std::uint32_t k) { return to_p3(v[k]); };
   if (shared >= 3) return false;  // duplicate face: reported as such
   if (shared == 2) {
     // Shared edge (a, b); opposite corners r (of f) and s (of g). They overlap only when
@@ -49,48 +89,92 @@ bool faces_intersect(const Mesh& mesh, const std::array<std::uint32_t, 3>& f,
     const std::uint32_t a = f[(r + 1) % 3];
     const std::uint32_t b = f[(r + 2) % 3];
     std::uint32_t s = 0;
-    for (auto v : g)
-      if (v != a && v != b) s = v;
+    for (auto k : g)
+      if (k != a && k != b) s = k;
+    if (filter && certain_orientation(v[a], v[b], v[f[r]], v[s]) != 0) return false;  // not coplanar
     const P3 pa = p(a), pb = p(b), pr = p(f[r]), ps = p(s);
     return CGAL::coplanar(pa, pb, pr, ps) &&
            CGAL::coplanar_orientation(pa, pb, pr, ps) == CGAL::POSITIVE;
   }
-  const T3 tf(p(f[0]), p(f[1]), p(f[2]));
-  const T3 tg(p(g[0]), p(g[1]), p(g[2]));
+  const Vec3 &f0 = v[f[0]], &f1 = v[f[1]], &f2 = v[f[2]];
+  const Vec3 &g0 = v[g[0]], &g1 = v[g[1]], &g2 = v[g[2]];
   if (shared == 1) {
     // Shared vertex: they intersect elsewhere iff an edge opposite the shared vertex meets
     // the other face.
     int i = 0;
     while (fi[i] < 0) ++i;
     const int j = fi[i];
-    const S3 opp_f(p(f[(i + 1) % 3]), p(f[(i + 2) % 3]));
-    const S3 opp_g(p(g[(j + 1) % 3]), p(g[(j + 2) % 3]));
-    return CGAL::do_intersect(opp_f, tg) || CGAL::do_intersect(opp_g, tf);
+    const Vec3& fa = v[f[(i + 1) % 3]];
+    const Vec3& fb = v[f[(i + 2) % 3]];
+    const Vec3& ga = v[g[(j + 1) % 3]];
+    const Vec3& gb = v[g[(j + 2) % 3]];
+    const bool f_edge_clear = filter && certainly_one_side(g0, g1, g2, {&fa, &fb});
+    const bool g_edge_clear = filter && certainly_one_side(f0, f1, f2, {&ga, &gb});
+    if (f_edge_clear && g_edge_clear) return false;
+    const T3 tf(p(f[0]), p(f[1]), p(f[2]));
+    const T3 tg(p(g[0]), p(g[1]), p(g[2]));
+    return (!f_edge_clear && CGAL::do_intersect(S3(to_p3(fa), to_p3(fb)), tg)) ||
+           (!g_edge_clear && CGAL::do_intersect(S3(to_p3(ga), to_p3(gb)), tf));
   }
-  return CGAL::do_intersect(tf, tg);
+  if (filter &&
+      (certainly_one_side(f0, f1, f2, {&g0, &g1, &g2}) || certainly_one_side(g0, g1, g2, {&f0, &f1, &f2})))
+    return false;
+  return CGAL::do_intersect(T3(p(f[0]), p(f[1]), p(f[2])), T3(p(g[0]), p(g[1]), p(g[2])));
 }
 
-/// A point of the intersection of two faces known to intersect (for the report).
+/// Whether q, a point of the plane of (a, b, c), lies in that triangle (barycentric
+/// coordinates of its projection on the plane, with a little slack).
+bool in_triangle(const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 n = (b - a).cross(c - a);
+  const double n2 = n.squaredNorm();
+  if (!(n2 > 0)) return false;
+  const double u = (c - b).cross(q - b).dot(n) / n2, v = (a - c).cross(q - c).dot(n) / n2;
+  constexpr double kSlack = 1e-9;
+  return u >= -kSlack && v >= -kSlack && 1 - u - v >= -kSlack;
+}
+
+/// A point of the intersection of two faces known to intersect (for the report): the mean
+/// of the points where an edge of one crosses the other, else (coplanar overlap) of the
+/// corners of each inside the other, else the midpoint of their centroids. Plain double
+/// arithmetic: CGAL's intersection constructions in an inexact kernel can divide by zero
+/// on nearly coplanar faces, and the exact fallback then traps on the infinity.
 Vec3 intersection_point(const Mesh& mesh, const std::array<std::uint32_t, 3>& f,
                         const std::array<std::uint32_t, 3>& g) {
-  const auto p = [&](std::uint32_t v) { return to_p3(mesh.vertices_mm[v]); };
-  const T3 tf(p(f[0]), p(f[1]), p(f[2]));
-  const T3 tg(p(g[0]), p(g[1]), p(g[2]));
-  const auto result = CGAL::intersection(tf, tg);
-  if (result) {
-    if (const P3* pt = boost::get<P3>(&*result)) return to_vec(*pt);
-    if (const S3* sg = boost::get<S3>(&*result)) return to_vec(CGAL::midpoint(sg->source(), sg->target()));
-    if (const T3* tr = boost::get<T3>(&*result)) return to_vec(CGAL::centroid(*tr));
-    if (const auto* poly = boost::get<std::vector<P3>>(&*result); poly != nullptr && !poly->empty()) {
-      Vec3 sum = Vec3::Zero();
-      for (const auto& q : *poly) sum += to_vec(q);
-      return sum / static_cast<double>(poly->size());
+  const auto& v = mesh.vertices_mm;
+  const std::array<Vec3, 3> tf{v[f[0]], v[f[1]], v[f[2]]}, tg{v[g[0]], v[g[1]], v[g[2]]};
+  Vec3 sum = Vec3::Zero();
+  int count = 0;
+  for (int side = 0; side < 2; ++side) {
+    const auto& e = side == 0 ? tf : tg;  // edges of e against the face t
+    const auto& t = side == 0 ? tg : tf;
+    const Vec3 n = (t[1] - t[0]).cross(t[2] - t[0]);
+    for (int k = 0; k < 3; ++k) {
+      const Vec3& p = e[k];
+      const Vec3& q = e[(k + 1) % 3];
+      const double dp = n.dot(p - t[0]), dq = n.dot(q - t[0]);
+      if (!((dp < 0 && dq > 0) || (dp > 0 && dq < 0))) continue;
+      const Vec3 x = p + (dp / (dp - dq)) * (q - p);
+      if (in_triangle(x, t[0], t[1], t[2])) {
+        sum += x;
+        ++count;
+      }
     }
   }
+  if (count == 0)
+    for (int side = 0; side < 2; ++side) {
+      const auto& e = side == 0 ? tf : tg;
+      const auto& t = side == 0 ? tg : tf;
+      for (const Vec3& p : e)
+        if (in_triangle(p, t[0], t[1], t[2])) {
+          sum += p;
+          ++count;
+        }
+    }
+  if (count > 0 && sum.allFinite()) return sum / count;
   // Touching only through the shared-vertex/edge rules: the midpoint of the centroids.
-  Vec3 sum = Vec3::Zero();
-  for (auto v : f) sum += mesh.vertices_mm[v];
-  for (auto v : g) sum += mesh.vertices_mm[v];
+  sum = Vec3::Zero();
+  for (const Vec3& p : tf) sum += p;
+  for (const Vec3& p : tg) sum += p;
   return sum / 6.0;
 }
 
@@ -121,60 +205,91 @@ SelfIntersections find_self_intersections(const Mesh& mesh, std::size_t max_loca
   double cell = 2.0 * extent_sum / static_cast<double>(faces.size());
   cell = std::max({cell, size.maxCoeff() / 1e6, 1e-9});
   const Vec3 origin = all.min;
-  const auto cells_along = [&](double len) {
-    return static_cast<std::int64_t>(std::floor(len / cell)) + 1;
+  using Cell3 = std::array<std::int32_t, 3>;
+  const auto cell_of = [&](const Vec3& q) {
+    Cell3 c{};
+    for (int a = 0; a < 3; ++a) c[a] = static_cast<std::int32_t>(std::floor((q[a] - origin[a]) / cell));
+    return c;
   };
-  const std::int64_t nx = cells_along(size.x()), ny = cells_along(size.y());
-  auto cell_range = [&](const Box3& b, Eigen::Matrix<std::int64_t, 3, 1>& lo,
-                        Eigen::Matrix<std::int64_t, 3, 1>& hi) {
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = static_cast<std::int64_t>(std::floor((b.min[a] - origin[a]) / cell));
-      hi[a] = static_cast<std::int64_t>(std::floor((b.max[a] - origin[a]) / cell));
-    }
+  const Cell3 top = cell_of(all.max);
+  const auto nx = static_cast<std::uint64_t>(top[0]) + 1, ny = static_cast<std::uint64_t>(top[1]) + 1,
+             nz = static_cast<std::uint64_t>(top[2]) + 1;
+  const auto cell_id = [&](std::int32_t x, std::int32_t y, std::int32_t z) {
+    return static_cast<std::uint64_t>(x) + nx * (static_cast<std::uint64_t>(y) + ny * static_cast<std::uint64_t>(z));
   };
-
-  std::vector<std::pair<std::int64_t, std::uint32_t>> entries;
-  entries.reserve(faces.size() * 4);
+  // The cells of each face's box. The cell of a box's min corner is monotone in the
+  // corner, so the cell of the min corner of two boxes' overlap is the per-axis max of
+  // their min cells: each box pair is tested only there, never twice.
+  std::vector<Cell3> lo_cell(nf), hi_cell(nf);
+  std::size_t n_entries = 0;
   for (auto f : faces) {
-    Eigen::Matrix<std::int64_t, 3, 1> lo, hi;
-    cell_range(boxes[f], lo, hi);
-    for (std::int64_t z = lo.z(); z <= hi.z(); ++z)
-      for (std::int64_t y = lo.y(); y <= hi.y(); ++y)
-        for (std::int64_t x = lo.x(); x <= hi.x(); ++x)
-          entries.emplace_back(x + nx * (y + ny * z), f);
+    lo_cell[f] = cell_of(boxes[f].min);
+    hi_cell[f] = cell_of(boxes[f].max);
+    n_entries += static_cast<std::size_t>(hi_cell[f][0] - lo_cell[f][0] + 1) *
+                 static_cast<std::size_t>(hi_cell[f][1] - lo_cell[f][1] + 1) *
+                 static_cast<std::size_t>(hi_cell[f][2] - lo_cell[f][2] + 1);
   }
-  std::sort(entries.begin(), entries.end());
-  std::vector<std::pair<std::size_t, std::size_t>> runs;
-  for (std::size_t i = 0; i < entries.size();) {
-    std::size_t j = i + 1;
-    while (j < entries.size() && entries[j].first == entries[i].first) ++j;
-    if (j - i > 1) runs.emplace_back(i, j);
-    i = j;
+  const auto for_each_cell = [&](std::uint32_t f, auto&& fn) {
+    for (std::int32_t z = lo_cell[f][2]; z <= hi_cell[f][2]; ++z)
+      for (std::int32_t y = lo_cell[f][1]; y <= hi_cell[f][1]; ++y)
+        for (std::int32_t x = lo_cell[f][0]; x <= hi_cell[f][0]; ++x) fn(cell_id(x, y, z));
+  };
+  // Faces by cell, ascending within a cell (faces are visited in order): a counting sort
+  // when the cells are not many more than the entries, else a comparison sort of the
+  // (cell, face) entries; both give the same runs.
+  std::vector<std::uint32_t> cell_faces(n_entries);
+  std::vector<std::pair<std::size_t, std::size_t>> runs;  // [begin, end) of cells with 2+ faces
+  std::vector<std::uint64_t> run_cell;
+  const double n_cells = static_cast<double>(nx) * static_cast<double>(ny) * static_cast<double>(nz);
+  if (n_cells <= 4.0 * static_cast<double>(n_entries) + 1e6) {
+    std::vector<std::uint32_t> start(static_cast<std::size_t>(n_cells) + 1, 0);
+    for (auto f : faces) for_each_cell(f, [&](std::uint64_t id) { ++start[id + 1]; });
+    for (std::size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
+    for (std::size_t k = 0; k + 1 < start.size(); ++k)
+      if (start[k + 1] - start[k] > 1) {
+        runs.emplace_back(start[k], start[k + 1]);
+        run_cell.push_back(k);
+      }
+    for (auto f : faces) for_each_cell(f, [&](std::uint64_t id) { cell_faces[start[id]++] = f; });
+  } else {
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> entries;
+    entries.reserve(n_entries);
+    for (auto f : faces) for_each_cell(f, [&](std::uint64_t id) { entries.emplace_back(id, f); });
+    std::sort(entries.begin(), entries.end());
+    for (std::size_t i = 0; i < entries.size();) {
+      std::size_t j = i + 1;
+      while (j < entries.size() && entries[j].first == entries[i].first) ++j;
+      if (j - i > 1) {
+        runs.emplace_back(i, j);
+        run_cell.push_back(entries[i].first);
+      }
+      i = j;
+    }
+    for (std::size_t i = 0; i < entries.size(); ++i) cell_faces[i] = entries[i].second;
   }
 
-  // Each box pair is tested only in the cell that holds the min corner of the boxes'
-  // overlap, so no pair is tested twice.
   tbb::enumerable_thread_specific<std::vector<std::array<std::uint32_t, 2>>> found;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, runs.size(), 64),
                     [&](const tbb::blocked_range<std::size_t>& r) {
     auto& local = found.local();
     for (std::size_t ri = r.begin(); ri != r.end(); ++ri) {
       const auto [begin, end] = runs[ri];
-      const std::int64_t id = entries[begin].first;
+      const std::uint64_t id = run_cell[ri];
+      const Cell3 here{static_cast<std::int32_t>(id % nx), static_cast<std::int32_t>((id / nx) % ny),
+                       static_cast<std::int32_t>(id / (nx * ny))};
       for (std::size_t i = begin; i < end; ++i) {
-        const std::uint32_t f = entries[i].second;
+        const std::uint32_t f = cell_faces[i];
+        const Box3& bf = boxes[f];
+        const Cell3& lf = lo_cell[f];
         for (std::size_t j = i + 1; j < end; ++j) {
-          const std::uint32_t g = entries[j].second;
-          const Box3& bf = boxes[f];
+          const std::uint32_t g = cell_faces[j];
+          const Cell3& lg = lo_cell[g];
+          if (std::max(lf[0], lg[0]) != here[0] || std::max(lf[1], lg[1]) != here[1] ||
+              std::max(lf[2], lg[2]) != here[2])
+            continue;
           const Box3& bg = boxes[g];
           if ((bf.min.array() > bg.max.array()).any() || (bg.min.array() > bf.max.array()).any())
             continue;
-          Box3 overlap;
-          overlap.min = bf.min.cwiseMax(bg.min);
-          overlap.max = bf.max.cwiseMin(bg.max);
-          Eigen::Matrix<std::int64_t, 3, 1> lo, hi;
-          cell_range(overlap, lo, hi);
-          if (lo.x() + nx * (lo.y() + ny * lo.z()) != id) continue;
           if (faces_intersect(mesh, mesh.triangles[f], mesh.triangles[g]))
             local.push_back({std::min(f, g), std::max(f, g)});
         }
@@ -192,5 +307,21 @@ SelfIntersections find_self_intersections(const Mesh& mesh, std::size_t max_loca
   }
   return out;
 }
+
+namespace detail {
+
+std::vector<std::array<std::uint32_t, 2>> self_intersecting_pairs_exhaustive(const Mesh& mesh) {
+  std::vector<std::array<std::uint32_t, 2>> pairs;
+  const auto nf = static_cast<std::uint32_t>(mesh.triangles.size());
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    if (is_degenerate_face(mesh, f)) continue;
+    for (std::uint32_t g = f + 1; g < nf; ++g)
+      if (!is_degenerate_face(mesh, g) && faces_intersect(mesh, mesh.triangles[f], mesh.triangles[g], false))
+        pairs.push_back({f, g});
+  }
+  return pairs;
+}
+
+}  // namespace detail
 
 }  // namespace printtwin

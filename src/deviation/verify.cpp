@@ -153,7 +153,6 @@ Result<PreparedPart> prepare_part(Mesh mesh, std::string name, VerifyInput mesh_
   part.target = std::make_shared<const DeviationTarget>(std::move(*target));
   clock.lap("index");
   CheckSettings check_settings;
-  check_settings.self_intersections = mesh.triangles.size() <= 50000;  // dominates beyond
   check_settings.mesh_query = &part.target->query();
   check_settings.thickness_beyond_limit = false;  // verify reports the thin-wall finding, not the thinnest wall
   auto check = check_printability(mesh, printer, check_settings);

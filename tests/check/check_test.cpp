@@ -4,8 +4,10 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <random>
 #include <nlohmann/json.hpp>
 
+#include "check/check_internal.hpp"
 #include "printtwin/check.hpp"
 #include "printtwin/mesh_query.hpp"
 #include "support/test_support.hpp"
@@ -485,6 +487,64 @@ TEST(CheckJson, SchemaKeys) {
   EXPECT_TRUE(thin);
   EXPECT_EQ(doc["printable"], true);
   EXPECT_EQ(check_report_to_json(r, src), check_report_to_json(run(m), src)) << "deterministic";
+}
+
+/// A closed UV sphere of radius r with bumps (outward CCW), centred at c.
+Mesh bumpy_sphere(double r, int stacks, int slices, const Vec3& c) {
+  Mesh m;
+  m.vertices_mm.push_back(c + Vec3(0, 0, r));
+  for (int i = 1; i < stacks; ++i)
+    for (int j = 0; j < slices; ++j) {
+      const double t = kPi * i / stacks, p = 2 * kPi * j / slices;
+      const double rr = r * (1 + 0.08 * std::sin(5 * p) * std::sin(3 * t));
+      m.vertices_mm.push_back(c + rr * Vec3(std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t)));
+    }
+  m.vertices_mm.push_back(c + Vec3(0, 0, -r));
+  const auto ring = [&](int i, int j) { return static_cast<std::uint32_t>(1 + (i - 1) * slices + (j % slices)); };
+  const auto south = static_cast<std::uint32_t>(m.vertices_mm.size() - 1);
+  for (int j = 0; j < slices; ++j) {
+    m.triangles.push_back({0, ring(1, j), ring(1, j + 1)});
+    for (int i = 1; i + 1 < stacks; ++i) {
+      m.triangles.push_back({ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)});
+      m.triangles.push_back({ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)});
+    }
+    m.triangles.push_back({ring(stacks - 1, j), south, ring(stacks - 1, j + 1)});
+  }
+  return m;
+}
+
+std::vector<std::array<std::uint32_t, 2>> all_pairs(const Mesh& m) {
+  return find_self_intersections(m, m.triangles.size() * m.triangles.size()).first_pairs;
+}
+
+TEST(CheckSelfIntersections, GridAndFilterFindExactlyTheExhaustivePairs) {
+  // Overlapping bumpy spheres: pairs crossing between shells, none within one.
+  Mesh spheres = bumpy_sphere(5, 12, 24, Vec3(0, 0, 0));
+  spheres = merged(spheres, bumpy_sphere(4, 10, 20, Vec3(6, 1, 0.5)));
+  spheres = merged(spheres, bumpy_sphere(3, 9, 18, Vec3(2, 5, -1)));
+  const auto expected = detail::self_intersecting_pairs_exhaustive(spheres);
+  EXPECT_GT(expected.size(), 50U);
+  EXPECT_EQ(all_pairs(spheres), expected);
+
+  // A soup over a small lattice: many faces share vertices and edges, many lie in one plane
+  // (z = 0) or touch exactly, so the filter must hand the undecided ones to CGAL.
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> coord(0, 3), pick(0, 63);
+  Mesh soup;
+  for (int k = 0; k < 64; ++k)
+    soup.vertices_mm.emplace_back(coord(rng), coord(rng), k % 3 == 0 ? 0.0 : 0.5 * coord(rng));
+  for (int t = 0; t < 400; ++t)
+    soup.triangles.push_back({static_cast<std::uint32_t>(pick(rng)), static_cast<std::uint32_t>(pick(rng)),
+                              static_cast<std::uint32_t>(pick(rng))});
+  const auto soup_expected = detail::self_intersecting_pairs_exhaustive(soup);
+  EXPECT_GT(soup_expected.size(), 100U);
+  EXPECT_EQ(all_pairs(soup), soup_expected);
+  // Every pair gets a finite location, even nearly coplanar slivers.
+  for (const Vec3& p : find_self_intersections(soup, soup_expected.size()).locations_mm)
+    EXPECT_TRUE(p.allFinite()) << p.transpose();
+
+  // A closed bumpy sphere alone: no pair at all.
+  EXPECT_EQ(find_self_intersections(bumpy_sphere(10, 60, 120, Vec3(1, 2, 3))).pairs, 0U);
 }
 
 }  // namespace
