@@ -64,6 +64,21 @@ inline bool certainly_one_side(const Vec3& a, const Vec3& b, const Vec3& c, std:
   return true;
 }
 
+/// True when segment pq certainly misses triangle abc: both ends strictly on one side of
+/// its plane, or on strictly opposite sides with the line through them certainly passing
+/// outside the triangle (two of the line's orientations against the triangle's edges of
+/// certainly opposite signs: the line meets the plane at one point, the segment's).
+inline bool segment_certainly_misses(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const int sp = certain_orientation(a, b, c, p);
+  if (sp == 0) return false;
+  const int sq = certain_orientation(a, b, c, q);
+  if (sq == sp) return true;
+  if (sq == 0) return false;
+  const int o1 = certain_orientation(p, q, a, b), o2 = certain_orientation(p, q, b, c),
+            o3 = certain_orientation(p, q, c, a);
+  return (o1 > 0 || o2 > 0 || o3 > 0) && (o1 < 0 || o2 < 0 || o3 < 0);
+}
+
 /// Do faces f and g intersect other than along what they share (PMP's rules)? A
 /// floating-point filter first: a pair it settles (nearly every pair of a mesh's
 /// neighbouring faces, which is most of what the broad phase hands over) gets the exact
@@ -108,8 +123,8 @@ bool faces_intersect(const Mesh& mesh, const std::array<std::uint32_t, 3>& f,
     const Vec3& fb = v[f[(i + 2) % 3]];
     const Vec3& ga = v[g[(j + 1) % 3]];
     const Vec3& gb = v[g[(j + 2) % 3]];
-    const bool f_edge_clear = filter && certainly_one_side(g0, g1, g2, {&fa, &fb});
-    const bool g_edge_clear = filter && certainly_one_side(f0, f1, f2, {&ga, &gb});
+    const bool f_edge_clear = filter && segment_certainly_misses(fa, fb, g0, g1, g2);
+    const bool g_edge_clear = filter && segment_certainly_misses(ga, gb, f0, f1, f2);
     if (f_edge_clear && g_edge_clear) return false;
     const T3 tf(p(f[0]), p(f[1]), p(f[2]));
     const T3 tg(p(g[0]), p(g[1]), p(g[2]));
