@@ -543,6 +543,15 @@ TEST(CheckSelfIntersections, GridAndFilterFindExactlyTheExhaustivePairs) {
   for (const Vec3& p : find_self_intersections(soup, soup_expected.size()).locations_mm)
     EXPECT_TRUE(p.allFinite()) << p.transpose();
 
+  // Tiny faces far apart: the cell grid (cells of ~2 x 0.02 mm over a 100 mm box) would be
+  // sparse beyond the counting sort's limit, so the faces are sorted by cell instead; the
+  // same pairs either way.
+  Mesh sparse = merged(test::make_cube_mm(0.02), test::make_cube_mm(0.02, Vec3(0.01, 0.01, 0.01)));
+  sparse = merged(sparse, test::make_cube_mm(0.02, Vec3(100, 100, 100)));
+  const auto sparse_expected = detail::self_intersecting_pairs_exhaustive(sparse);
+  EXPECT_GT(sparse_expected.size(), 0U);
+  EXPECT_EQ(all_pairs(sparse), sparse_expected);
+
   // A closed bumpy sphere alone: no pair at all.
   EXPECT_EQ(find_self_intersections(bumpy_sphere(10, 60, 120, Vec3(1, 2, 3))).pairs, 0U);
 }
