@@ -98,6 +98,12 @@ struct InterpreterOptions {
   double power_on_bed_c = std::numeric_limits<double>::quiet_NaN();
   /// At most this many findings are listed per code; the rest are counted in the last one.
   int max_findings_per_code = 20;
+  /// Temperatures a printer-side start macro (Klipper START_PRINT, PRINT_START, ...) heats to
+  /// when it is called without temperature parameters: the first-layer temperatures the
+  /// slicer's embedded settings state (°C). NaN = unknown (then the macro heats to at least
+  /// the profile's min_extrude_temp_c, reported as an info finding).
+  double macro_hotend_c = std::numeric_limits<double>::quiet_NaN();
+  double macro_bed_c = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Where the interpreter's output goes, in order. Implemented by the simulation pipeline.

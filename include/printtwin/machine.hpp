@@ -16,7 +16,12 @@ enum class JunctionModel { junction_deviation, classic_jerk };
 /// Per-axis values are ordered X, Y, Z, E.
 struct PrinterProfile {
   std::string name = "Creality Ender-3 (Marlin 2.1)";
-  std::string firmware = "marlin2";    ///< "marlin2", "marlin1", "klipper": behaviour hints
+  /// Firmware flavour: "marlin2", "marlin1", "prusa" (Prusa's Marlin fork), "klipper",
+  /// "rrf" (RepRapFirmware), "bambu". Decides how flavour-specific commands and start/end
+  /// macros behave (docs/gcode-coverage.md) and which planner times the moves.
+  std::string firmware = "marlin2";
+  /// Printer model as the vendor names it ("MK4S", "K1 Max"), "" when unknown.
+  std::string model;
 
   // Build volume (machine frame, mm). The seed's gantry: Joint_X moves the head along the
   // X beam, Joint_Y moves the bed, Joint_Z lifts the gantry.
@@ -41,6 +46,11 @@ struct PrinterProfile {
   double min_segment_time_s = 0.02;      ///< M205 B (Marlin MIN_SEGMENT_TIME_US 20000)
   int block_buffer_size = 16;            ///< look-ahead window (Marlin BLOCK_BUFFER_SIZE)
   double max_accel_to_decel_ratio = 1.0;  ///< Klipper's minimum_cruise_ratio-style limit (1 = off)
+  // Klipper's planner ([printer] section of printer.cfg); used when firmware == "klipper".
+  double square_corner_velocity_mm_s = 5.0;  ///< Klipper square_corner_velocity
+  double minimum_cruise_ratio = 0.5;         ///< Klipper minimum_cruise_ratio (0 = off)
+  double max_extrude_only_velocity_mm_s = 0; ///< [extruder] max_extrude_only_velocity (0 = derived)
+  double max_extrude_only_accel_mm_s2 = 0;   ///< [extruder] max_extrude_only_accel (0 = derived)
 
   // Homing (G28): min endstops, fast approach, bump back, slow re-approach.
   Eigen::Vector3d homing_feedrate_mm_s{20, 20, 4};
