@@ -53,6 +53,12 @@ struct MotionLimits {
   double min_segment_time_s = 0.02;
   /// Ratio of the feedrate override M220 (1 = 100 %); applied by the interpreter.
   double feedrate_scale = 1.0;
+  // Klipper's planner (used when the profile's firmware is "klipper"); SET_VELOCITY_LIMIT
+  // changes them mid-file. Velocity and accel above are Klipper's max_velocity/max_accel.
+  double square_corner_velocity_mm_s = 5.0;   ///< SQUARE_CORNER_VELOCITY
+  double minimum_cruise_ratio = 0.5;          ///< MINIMUM_CRUISE_RATIO
+  double max_extrude_only_velocity_mm_s = 0;  ///< [extruder]; 0 = derived as Klipper does
+  double max_extrude_only_accel_mm_s2 = 0;    ///< [extruder]; 0 = derived as Klipper does
 };
 
 /// The limits of a printer profile at power-on.
