@@ -154,6 +154,11 @@ class GcodeInterpreter {
   [[nodiscard]] const std::string& slicer() const { return slicer_; }
   /// Estimates the slicer wrote into the file (s), NaN when absent.
   [[nodiscard]] double slicer_estimate_s() const { return slicer_estimate_s_; }
+  /// Filament the slicer says the file uses (mm of filament), NaN when it states none.
+  [[nodiscard]] double slicer_filament_mm() const { return slicer_filament_mm_; }
+  /// True once a slicer layer marker (`;LAYER_CHANGE`, `; CHANGE_LAYER`, `;LAYER:n`,
+  /// `; BEGIN_LAYER_OBJECT z=`, `; layer N, Z = `) was seen: layers then follow the markers.
+  [[nodiscard]] bool layers_from_markers() const { return marker_seen_; }
   [[nodiscard]] long moves_emitted() const { return moves_; }
 
  private:
@@ -170,6 +175,17 @@ class GcodeInterpreter {
             bool is_forced, long line, std::string_view text, InterpreterOutput& out);
   void heat_wait(bool hotend, double target_c, bool wait_cooling, long line,
                  InterpreterOutput& out);
+  void set_hotend_target(double target_c);
+  void set_bed_target(double target_c);
+  /// An info finding listed once per code; later occurrences are counted in it.
+  void note(std::string code, std::string message, long line);
+  Status extended(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
+  Status start_macro(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
+  Status firmware_retract(const GcodeCommand& c, bool retract, std::string_view text,
+                          InterpreterOutput& out);
+  Status klipper_m204(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
+  void layer_marker(double z_mm);
+  void stated_figures(std::string_view comment);
   double hotend_temp_now() const;
 
   PrinterProfile profile_;
@@ -183,6 +199,21 @@ class GcodeInterpreter {
   std::vector<double> layer_z_;
   std::string slicer_;
   double slicer_estimate_s_;
+  double slicer_filament_mm_;
+  int slicer_estimate_rank_ = 0;  ///< which stated time won (normal mode beats totals)
+
+  /// Firmware flavour (PrinterProfile::firmware).
+  enum class Flavour : std::uint8_t { marlin2, marlin1, prusa, klipper, rrf, bambu };
+  Flavour flavour_ = Flavour::marlin2;
+  // Firmware retraction in force (G10/G11; M207 / SET_RETRACTION change it).
+  double min_extrude_temp_c_ = 170;  ///< M302 S (P1: cold extrusion allowed)
+  double fw_length_mm_ = 0, fw_speed_mm_s_ = 0, fw_recover_speed_mm_s_ = 0;
+  double fw_recover_extra_mm_ = 0, fw_zraise_mm_ = 0;
+  // Layer markers.
+  bool markers_expected_ = false;  ///< the header names a slicer that writes layer markers
+  bool marker_seen_ = false;
+  bool layer_pending_ = false;     ///< a marker was seen; its layer starts at the next extrusion
+  double pending_layer_z_ = 0;     ///< NaN: Z of the first extrusion
 
   // Modal state (Marlin's names in comments).
   Vec3 logical_mm_ = Vec3::Zero();    ///< current_position (XYZ, logical)
