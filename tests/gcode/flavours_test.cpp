@@ -3,7 +3,11 @@
 // markers, on small G-code written in the test in each dialect.
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <set>
 #include <sstream>
 
 #include "printtwin/io.hpp"
@@ -474,6 +478,60 @@ TEST(SlicerMarkers, FeatureLabelsOfEverySlicerMapToTheTwinsKinds) {
   EXPECT_EQ(feature_from_label("PRIME-TOWER"), Feature::wipe_tower);
   EXPECT_EQ(feature_from_label("Ironing"), Feature::top_solid_infill);
   EXPECT_EQ(feature_from_label("Crown Path"), Feature::top_solid_infill);
+}
+
+}  // namespace
+}  // namespace printtwin
+
+namespace printtwin {
+namespace {
+
+/// The layer count a slicer states or marks in its own file, counted here independently of
+/// the interpreter: "; total layer number: N" when the header says it, else the number of
+/// distinct layer markers.
+long slicers_layer_count(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  std::string line;
+  long stated = -1, markers = 0;
+  std::set<std::string> object_layers;  // KISSlicer writes one marker per object and layer
+  while (std::getline(in, line)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.rfind("; total layer number: ", 0) == 0) stated = std::stol(line.substr(22));
+    if (line == ";LAYER_CHANGE" || line == "; CHANGE_LAYER" || line.rfind("; layer ", 0) == 0) ++markers;
+    if (line.rfind(";LAYER:", 0) == 0 && line.size() > 7 && (std::isdigit(line[7]) || line[7] == '-')) ++markers;
+    if (line.rfind("; BEGIN_LAYER_OBJECT z=", 0) == 0) object_layers.insert(line.substr(23));
+  }
+  markers += static_cast<long>(object_layers.size());
+  return stated >= 0 ? stated : markers;
+}
+
+TEST(RealWorldGcode, LayersFilamentAndNoMacroErrorsOnEveryRealFile) {
+  const auto dir = test::realworld_dir();
+  if (!dir) GTEST_SKIP() << "no shared/realworld folder (set PRINTTWIN_REALWORLD_DIR)";
+  int files = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(*dir / "gcode")) {
+    if (entry.path().extension() != ".gcode") continue;
+    ++files;
+    const std::string name = entry.path().filename().string();
+    auto r = simulate_gcode_file(entry.path(), ender3_marlin2(), {});
+    ASSERT_TRUE(r.ok()) << name << ": " << r.error().describe();
+    for (const auto& f : r->findings) {
+      EXPECT_NE(f.severity, Severity::error) << name << ": " << f.code << " " << f.message;
+      EXPECT_NE(f.code, "cold_extrusion") << name;
+      EXPECT_NE(f.code, "move_before_homing") << name;
+    }
+    EXPECT_GT(r->filament_mm, 0.0) << name;
+    EXPECT_EQ(static_cast<long>(r->layers.size()), slicers_layer_count(entry.path())) << name;
+    EXPECT_EQ(r->layers_from, "markers") << name;
+    ASSERT_TRUE(r->slicer_filament_mm.has_value()) << name;
+    const double s = *r->slicer_filament_mm;
+    const double off = std::min(std::fabs(r->filament_part_mm - s), std::fabs(r->filament_mm - s)) / s;
+    EXPECT_LT(off, 0.005) << name << ": part " << r->filament_part_mm << ", total " << r->filament_mm
+                          << ", slicer " << s;
+    EXPECT_TRUE(r->slicer_estimate_s.has_value()) << name;
+    EXPECT_FALSE(r->slicer.empty()) << name;
+  }
+  if (files == 0) GTEST_SKIP() << "no .gcode in " << dir->string();
 }
 
 }  // namespace
