@@ -9,6 +9,7 @@
 
 #include <tbb/task_group.h>
 
+#include "printtwin/bgcode.hpp"
 #include "printtwin/check.hpp"
 #include "printtwin/deposit.hpp"
 #include "printtwin/deviation.hpp"
@@ -252,7 +253,14 @@ Result<PrintedGcode> print_gcode(const PrinterProfile& printer, const VerifySett
   collector.moves.reserve(static_cast<std::size_t>(std::count(gcode.text.begin(), gcode.text.end(), '\n')) + 1);
   SimulateOptions sim_options;
   sim_options.source_name = gcode.name;
-  auto sim = [&] {
+  auto sim = [&]() -> Result<SimulationResult> {
+    if (is_bgcode_input(gcode.text, gcode.name)) {  // binary G-code (bgcode.hpp): decoded block by block
+      auto stream = BgcodeGcodeStream::from_memory(gcode.text, gcode.name);
+      if (!stream) return stream.error();
+      auto r = simulate_gcode(**stream, printer, sim_options, &collector);
+      if ((*stream)->error()) return *(*stream)->error();
+      return r;
+    }
     std::istringstream gcode_stream(std::move(gcode.text));
     return simulate_gcode(gcode_stream, printer, sim_options, &collector);
   }();

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "printtwin/bgcode.hpp"
 #include "printtwin/io.hpp"
 #include "printtwin/simulate.hpp"
 
@@ -223,6 +224,17 @@ Result<SimulationResult> run(std::istream& in, const PrinterProfile& profile, co
 
 double round_to(double v, double q) { return std::round(v / q) * q; }
 
+/// Runs `run` on the G-code text of a binary G-code file (bgcode.hpp); a decode error in
+/// the middle of the file wins over the result of the text read up to it.
+template <class Run>
+auto run_on_bgcode(const std::filesystem::path& path, Run run) -> decltype(run(std::declval<std::istream&>())) {
+  auto stream = BgcodeGcodeStream::open(path);
+  if (!stream) return stream.error();
+  auto r = run(**stream);
+  if ((*stream)->error()) return *(*stream)->error();
+  return r;
+}
+
 
 }  // namespace
 
@@ -235,10 +247,11 @@ Result<SimulationResult> simulate_gcode_file(const std::filesystem::path& path, 
                                              const SimulateOptions& options, MoveSink* sink) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) return bad_input("is a directory, expected a G-code file", path.string());
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return bad_input("cannot open G-code file", path.string());
   SimulateOptions o = options;
   if (o.source_name.empty()) o.source_name = path.string();
+  if (is_bgcode_file(path)) return run_on_bgcode(path, [&](std::istream& in) { return simulate_gcode(in, profile, o, sink); });
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return bad_input("cannot open G-code file", path.string());
   return simulate_gcode(in, profile, o, sink);
 }
 
@@ -255,10 +268,11 @@ Result<std::vector<Move>> interpret_gcode(std::istream& in, const PrinterProfile
 
 Result<std::vector<Move>> interpret_gcode_file(const std::filesystem::path& path, const PrinterProfile& profile,
                                                const SimulateOptions& options) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return bad_input("cannot open G-code file", path.string());
   SimulateOptions o = options;
   if (o.source_name.empty()) o.source_name = path.string();
+  if (is_bgcode_file(path)) return run_on_bgcode(path, [&](std::istream& in) { return interpret_gcode(in, profile, o); });
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return bad_input("cannot open G-code file", path.string());
   return interpret_gcode(in, profile, o);
 }
 

@@ -1,0 +1,642 @@
+// PrusaSlicer's binary G-code v1: block reader, metadata and the G-code text stream.
+// Format and limits: include/printtwin/bgcode.hpp.
+#include "printtwin/bgcode.hpp"
+
+#include <zlib.h>
+
+#include <array>
+#include <cstring>
+#include <fstream>
+#include <streambuf>
+
+#include "gcode/heatshrink.hpp"
+#include "gcode/meatpack.hpp"
+
+namespace printtwin {
+
+namespace {
+
+constexpr std::string_view kMagic = "GCDE";
+constexpr std::size_t kFileHeaderBytes = 10;
+constexpr std::uint16_t kLastBlockType = 5;
+constexpr std::uint16_t kLastCompression = 3;
+
+std::uint16_t le16(const unsigned char* p) { return static_cast<std::uint16_t>(p[0] | (p[1] << 8)); }
+std::uint32_t le32(const unsigned char* p) {
+  return static_cast<std::uint32_t>(p[0]) | (static_cast<std::uint32_t>(p[1]) << 8) |
+         (static_cast<std::uint32_t>(p[2]) << 16) | (static_cast<std::uint32_t>(p[3]) << 24);
+}
+
+std::string hex32(std::uint32_t v) {
+  static constexpr char kDigits[] = "0123456789abcdef";
+  std::string s = "0x";
+  for (int shift = 28; shift >= 0; shift -= 4) s.push_back(kDigits[(v >> shift) & 15u]);
+  return s;
+}
+
+/// The bytes as text, non-printable ones as \xNN (for "it starts with ..." messages).
+std::string printable(std::string_view bytes) {
+  static constexpr char kDigits[] = "0123456789ABCDEF";
+  std::string s;
+  for (char c : bytes) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u >= 0x20 && u < 0x7F && c != '\\' && c != '"') {
+      s.push_back(c);
+    } else {
+      s += "\\x";
+      s.push_back(kDigits[u >> 4]);
+      s.push_back(kDigits[u & 15u]);
+    }
+  }
+  return s;
+}
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  return s;
+}
+
+std::uint32_t crc32_of(std::uint32_t crc, const void* data, std::size_t n) {
+  const auto* p = static_cast<const Bytef*>(data);
+  while (n > 0) {  // zlib takes uInt lengths
+    const auto chunk = static_cast<uInt>(std::min<std::size_t>(n, 1u << 30));
+    crc = static_cast<std::uint32_t>(::crc32(crc, p, chunk));
+    p += chunk;
+    n -= chunk;
+  }
+  return crc;
+}
+
+/// A read-only, seekable stream buffer over bytes in memory.
+class MemoryBuf final : public std::streambuf {
+ public:
+  explicit MemoryBuf(std::string_view bytes) {
+    char* p = const_cast<char*>(bytes.data());  // never written: no put area, no putback writes
+    setg(p, p, p + bytes.size());
+  }
+
+ protected:
+  pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode /*which*/) override {
+    const off_type base = dir == std::ios_base::beg ? 0 : dir == std::ios_base::cur ? gptr() - eback() : egptr() - eback();
+    return seekpos(pos_type(base + off), std::ios_base::in);
+  }
+  pos_type seekpos(pos_type pos, std::ios_base::openmode /*which*/) override {
+    const off_type p = off_type(pos);
+    if (p < 0 || p > egptr() - eback()) return pos_type(off_type(-1));
+    setg(eback(), eback() + p, egptr());
+    return pos;
+  }
+};
+
+/// Reads blocks one after the other from a seekable byte stream of known size.
+class BlockReader {
+ public:
+  BlockReader(std::istream& in, std::uint64_t size, std::string name)
+      : in_(in), size_(size), name_(std::move(name)) {}
+
+  const std::string& name() const { return name_; }
+
+  Status read_file_header(BgcodeMetadata& meta) {
+    std::array<unsigned char, kFileHeaderBytes> h{};
+    const auto got = read_at(0, h.data(), h.size());
+    const std::string_view head(reinterpret_cast<const char*>(h.data()), std::min<std::size_t>(got, 4));
+    if (got < 4 || head != kMagic)
+      return bad_input("not a binary G-code file: it starts with \"" + printable(head) + "\" where \"GCDE\" was expected",
+                       name_);
+    if (got < h.size())
+      return bad_input("binary G-code file header cut short: " + std::to_string(kFileHeaderBytes) +
+                           " bytes expected, the file has " + std::to_string(got), name_);
+    meta.version = le32(h.data() + 4);
+    if (meta.version != 1)
+      return bad_input("binary G-code version " + std::to_string(meta.version) +
+                           " is not supported (printtwin reads version 1)", name_);
+    const std::uint16_t checksum = le16(h.data() + 8);
+    if (checksum > 1)
+      return bad_input("unknown checksum type " + std::to_string(checksum) +
+                           " in the binary G-code file header (expected 0 = none or 1 = CRC32)", name_);
+    meta.crc32 = checksum == 1;
+    crc_ = meta.crc32;
+    offset_ = kFileHeaderBytes;
+    index_ = 0;
+    return Ok{};
+  }
+
+  /// Moves to the block header at `offset`, which is block number `index` (1-based).
+  void seek(std::uint64_t offset, int index) {
+    offset_ = offset;
+    index_ = index - 1;
+  }
+  std::uint64_t offset() const { return offset_; }
+
+  /// Reads the next block's header, parameters and stored data and checks its CRC.
+  /// False at the end of the file.
+  Result<bool> next() {
+    if (offset_ >= size_) return false;
+    info_ = {};
+    info_.index = ++index_;
+    info_.offset = offset_;
+    std::array<unsigned char, 12> h{};
+    const std::uint64_t left = size_ - offset_;
+    if (left < 8)
+      return error("truncated inside the block header (" + std::to_string(left) + " of 8 bytes)", false);
+    if (read_at(offset_, h.data(), 8) != 8) return io_error();
+    const std::uint16_t type = le16(h.data());
+    const std::uint16_t compression = le16(h.data() + 2);
+    const std::uint32_t uncompressed = le32(h.data() + 4);
+    if (type > kLastBlockType)
+      return error("unknown block type " + std::to_string(type) +
+                       " (expected 0-5: file metadata, G-code, slicer metadata, printer metadata, print metadata, "
+                       "thumbnail)", false);
+    info_.type = static_cast<BgcodeBlockType>(type);
+    if (compression > kLastCompression)
+      return error("unknown compression " + std::to_string(compression) +
+                       " (expected 0 = none, 1 = deflate, 2 = heatshrink 11/4, 3 = heatshrink 12/4)", true);
+    info_.compression = static_cast<BgcodeCompression>(compression);
+    const std::size_t header_bytes = compression == 0 ? 8 : 12;
+    if (left < header_bytes)
+      return error("truncated inside the block header (" + std::to_string(left) + " of " +
+                       std::to_string(header_bytes) + " bytes)", true);
+    if (header_bytes == 12 && read_at(offset_ + 8, h.data() + 8, 4) != 4) return io_error();
+    info_.data_bytes = uncompressed;
+    info_.stored_bytes = compression == 0 ? uncompressed : le32(h.data() + 8);
+    params_bytes_ = info_.type == BgcodeBlockType::thumbnail ? 6 : 2;
+    const std::uint64_t crc_bytes = crc_ ? 4 : 0;
+    const std::uint64_t need = header_bytes + params_bytes_ + info_.stored_bytes + crc_bytes;
+    if (need > left)
+      return error("truncated: the block needs " + std::to_string(need) + " bytes (header " +
+                       std::to_string(header_bytes) + ", parameters " + std::to_string(params_bytes_) + ", data " +
+                       std::to_string(info_.stored_bytes) + ", checksum " + std::to_string(crc_bytes) +
+                       "), the file ends " + std::to_string(left) + " bytes after the block's start", true);
+    if (info_.data_bytes > kMaxBgcodeBlockBytes)
+      return error("the block states " + std::to_string(info_.data_bytes) + " bytes of data, more than the " +
+                       std::to_string(kMaxBgcodeBlockBytes) + " printtwin accepts in one block", true);
+    if (read_at(offset_ + header_bytes, params_.data(), params_bytes_) != params_bytes_) return io_error();
+    stored_.resize(info_.stored_bytes);
+    if (read_at(offset_ + header_bytes + params_bytes_, stored_.data(), stored_.size()) != stored_.size())
+      return io_error();
+    if (crc_) {
+      std::array<unsigned char, 4> c{};
+      if (read_at(offset_ + header_bytes + params_bytes_ + info_.stored_bytes, c.data(), 4) != 4) return io_error();
+      std::uint32_t crc = crc32_of(0, h.data(), header_bytes);
+      crc = crc32_of(crc, params_.data(), params_bytes_);
+      crc = crc32_of(crc, stored_.data(), stored_.size());
+      if (crc != le32(c.data()))
+        return error("CRC32 mismatch (stored " + hex32(le32(c.data())) + ", computed " + hex32(crc) +
+                         "): the block is corrupt", true);
+    }
+    offset_ += need;
+    return true;
+  }
+
+  const BgcodeBlockInfo& info() const { return info_; }
+  /// The first 16-bit parameter (encoding, or image format for thumbnails).
+  std::uint16_t param(int i) const { return le16(params_.data() + 2 * i); }
+
+  /// The block's data, decompressed into `scratch` (or the stored bytes when not compressed).
+  Result<std::string_view> data(std::string& scratch) {
+    const std::size_t expected = info_.data_bytes;
+    std::string why;
+    switch (info_.compression) {
+      case BgcodeCompression::none:
+        return std::string_view(stored_);
+      case BgcodeCompression::deflate: {
+        // Deflate expands at most about 1032:1: reject impossible sizes before allocating.
+        if (expected / 1032 > stored_.size() + 1) return error("deflate data cannot expand to the " + std::to_string(expected) + " bytes the block header states", true).error();
+        scratch.resize(expected);
+        uLongf out_len = static_cast<uLongf>(expected);
+        uLong in_len = static_cast<uLong>(stored_.size());
+        Bytef dummy = 0;
+        const int rc = ::uncompress2(expected > 0 ? reinterpret_cast<Bytef*>(scratch.data()) : &dummy, &out_len,
+                                     reinterpret_cast<const Bytef*>(stored_.data()), &in_len);
+        if (rc == Z_BUF_ERROR)
+          return error("deflate data decodes to more than the " + std::to_string(expected) +
+                           " bytes the block header states", true).error();
+        if (rc != Z_OK)
+          return error(std::string("deflate data is corrupt (zlib: ") + (rc == Z_DATA_ERROR ? "invalid or incomplete data" : rc == Z_MEM_ERROR ? "out of memory" : "stream ends early") + ")", true).error();
+        if (out_len != expected)
+          return error("deflate data decodes to " + std::to_string(out_len) + " bytes, the block header states " +
+                           std::to_string(expected), true).error();
+        if (in_len != stored_.size())
+          return error(std::to_string(stored_.size() - in_len) + " bytes follow the end of the deflate stream", true).error();
+        return std::string_view(scratch);
+      }
+      case BgcodeCompression::heatshrink_11_4:
+      case BgcodeCompression::heatshrink_12_4: {
+        const int window = info_.compression == BgcodeCompression::heatshrink_11_4 ? 11 : 12;
+        if (expected / detail::heatshrink_max_expansion(window, 4) > stored_.size() + 1)
+          return error("heatshrink data cannot expand to the " + std::to_string(expected) +
+                           " bytes the block header states", true).error();
+        if (!detail::heatshrink_decode(stored_, window, 4, expected, scratch, why)) return error(why, true).error();
+        return std::string_view(scratch);
+      }
+    }
+    return error("unknown compression", true).error();
+  }
+
+  /// "block 3 (thumbnail, deflate) at byte 996: <what>" as a bad-input error.
+  Result<bool> error(const std::string& what, bool type_known) const {
+    std::string where = "block " + std::to_string(info_.index);
+    if (type_known) {
+      where += " (" + std::string(bgcode_block_type_name(info_.type));
+      if (info_.compression != BgcodeCompression::none)
+        where += ", " + std::string(bgcode_compression_name(info_.compression));
+      where += ")";
+    }
+    return bad_input(where + " at byte " + std::to_string(info_.offset) + ": " + what, name_);
+  }
+
+ private:
+  std::size_t read_at(std::uint64_t offset, void* dst, std::size_t n) {
+    if (n == 0) return 0;
+    in_.clear();
+    in_.seekg(static_cast<std::streamoff>(offset));
+    in_.read(static_cast<char*>(dst), static_cast<std::streamsize>(n));
+    return static_cast<std::size_t>(in_.gcount());
+  }
+  Result<bool> io_error() const { return error("read error (the file changed or cannot be read)", false); }
+
+  std::istream& in_;
+  std::uint64_t size_;
+  std::string name_;
+  bool crc_ = true;
+  std::uint64_t offset_ = 0;
+  int index_ = 0;
+  BgcodeBlockInfo info_;
+  std::array<unsigned char, 6> params_{};
+  std::size_t params_bytes_ = 2;
+  std::string stored_;
+};
+
+Status parse_ini(std::string_view text, BgcodeKeyValues& out, const BlockReader& reader) {
+  std::size_t line_no = 0;
+  while (!text.empty()) {
+    const auto nl = text.find('\n');
+    const std::string_view line = trim(text.substr(0, nl));
+    text = nl == std::string_view::npos ? std::string_view() : text.substr(nl + 1);
+    ++line_no;
+    if (line.empty()) continue;
+    const auto eq = line.find('=');
+    if (eq == std::string_view::npos)
+      return reader.error("line " + std::to_string(line_no) + " has no '=' (metadata is key=value lines): \"" +
+                              printable(line.substr(0, 60)) + "\"", true).error();
+    out.emplace_back(std::string(trim(line.substr(0, eq))), std::string(trim(line.substr(eq + 1))));
+  }
+  return Ok{};
+}
+
+/// Reads a metadata or thumbnail block (the reader stands on it) into `meta`.
+Status store_metadata_block(BlockReader& reader, BgcodeMetadata& meta, std::string& scratch) {
+  const BgcodeBlockInfo& info = reader.info();
+  if (info.type == BgcodeBlockType::thumbnail) {
+    const std::uint16_t format = reader.param(0);
+    if (format > 2)
+      return reader.error("unknown thumbnail image format " + std::to_string(format) +
+                              " (expected 0 = PNG, 1 = JPG, 2 = QOI)", true).error();
+    auto data = reader.data(scratch);
+    if (!data) return data.error();
+    BgcodeThumbnail t;
+    t.format = static_cast<BgcodeImageFormat>(format);
+    t.width = reader.param(1);
+    t.height = reader.param(2);
+    t.bytes = std::string(*data);
+    meta.thumbnails.push_back(std::move(t));
+  } else {
+    if (const std::uint16_t encoding = reader.param(0); encoding != 0)
+      return reader.error("unknown metadata encoding " + std::to_string(encoding) + " (expected 0 = INI)", true).error();
+    auto data = reader.data(scratch);
+    if (!data) return data.error();
+    BgcodeKeyValues* target = info.type == BgcodeBlockType::file_metadata      ? &meta.file
+                              : info.type == BgcodeBlockType::printer_metadata ? &meta.printer
+                              : info.type == BgcodeBlockType::print_metadata   ? &meta.print
+                                                                               : &meta.slicer;
+    if (auto st = parse_ini(*data, *target, reader); !st) return st;
+  }
+  meta.blocks.push_back(info);
+  return Ok{};
+}
+
+/// Reads the file header and the blocks before the first G-code block; leaves the reader
+/// on that G-code block (read, CRC checked, not decoded).
+Result<BgcodeMetadata> read_metadata(BlockReader& reader) {
+  BgcodeMetadata meta;
+  if (auto st = reader.read_file_header(meta); !st) return st.error();
+  std::string scratch;
+  for (;;) {
+    auto more = reader.next();
+    if (!more) return more.error();
+    if (!*more)
+      return bad_input("the binary G-code has no G-code block: the file ends after block " +
+                           std::to_string(meta.blocks.size()) + " (byte " + std::to_string(reader.offset()) + ")",
+                       reader.name());
+    if (reader.info().type == BgcodeBlockType::gcode) {
+      meta.first_gcode_block_offset = reader.info().offset;
+      return meta;
+    }
+    if (auto st = store_metadata_block(reader, meta, scratch); !st) return st.error();
+  }
+}
+
+std::uint64_t stream_size(std::istream& in) {
+  in.seekg(0, std::ios::end);
+  const auto end = in.tellg();
+  in.clear();
+  in.seekg(0);
+  return end < 0 ? 0 : static_cast<std::uint64_t>(end);
+}
+
+void append_pairs(std::string& out, const BgcodeKeyValues& pairs) {
+  for (const auto& [key, value] : pairs) {
+    out += "; ";
+    out += key;
+    out += " = ";
+    out += value;
+    out += '\n';
+  }
+}
+
+}  // namespace
+
+std::string_view bgcode_block_type_name(BgcodeBlockType type) {
+  switch (type) {
+    case BgcodeBlockType::file_metadata: return "file metadata";
+    case BgcodeBlockType::gcode: return "G-code";
+    case BgcodeBlockType::slicer_metadata: return "slicer metadata";
+    case BgcodeBlockType::printer_metadata: return "printer metadata";
+    case BgcodeBlockType::print_metadata: return "print metadata";
+    case BgcodeBlockType::thumbnail: return "thumbnail";
+  }
+  return "unknown";
+}
+
+std::string_view bgcode_compression_name(BgcodeCompression compression) {
+  switch (compression) {
+    case BgcodeCompression::none: return "none";
+    case BgcodeCompression::deflate: return "deflate";
+    case BgcodeCompression::heatshrink_11_4: return "heatshrink 11/4";
+    case BgcodeCompression::heatshrink_12_4: return "heatshrink 12/4";
+  }
+  return "unknown";
+}
+
+std::string_view bgcode_image_format_name(BgcodeImageFormat format) {
+  switch (format) {
+    case BgcodeImageFormat::png: return "PNG";
+    case BgcodeImageFormat::jpg: return "JPG";
+    case BgcodeImageFormat::qoi: return "QOI";
+  }
+  return "unknown";
+}
+
+std::optional<std::string_view> bgcode_find(const BgcodeKeyValues& pairs, std::string_view key) {
+  for (const auto& [k, v] : pairs)
+    if (k == key) return std::string_view(v);
+  return std::nullopt;
+}
+
+bool looks_like_bgcode(std::string_view head) { return head.substr(0, kMagic.size()) == kMagic; }
+
+bool is_bgcode_input(std::string_view head, const std::filesystem::path& name) {
+  if (looks_like_bgcode(head)) return true;
+  std::string ext = name.extension().string();
+  for (char& c : ext) c = static_cast<char>(c >= 'A' && c <= 'Z' ? c - 'A' + 'a' : c);
+  return ext == ".bgcode";
+}
+
+bool is_bgcode_file(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return false;
+  std::ifstream in(path, std::ios::binary);
+  std::array<char, 4> head{};
+  in.read(head.data(), head.size());
+  return is_bgcode_input(std::string_view(head.data(), static_cast<std::size_t>(in.gcount())), path);
+}
+
+Result<BgcodeMetadata> read_bgcode_metadata(std::string_view bytes, const std::string& name) {
+  MemoryBuf buf(bytes);
+  std::istream in(&buf);
+  BlockReader reader(in, bytes.size(), name);
+  return read_metadata(reader);
+}
+
+Result<BgcodeMetadata> read_bgcode_metadata(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) return bad_input("is a directory, expected a binary G-code file", path.string());
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return bad_input("cannot open binary G-code file", path.string());
+  BlockReader reader(in, stream_size(in), path.string());
+  return read_metadata(reader);
+}
+
+// ---------------------------------------------------------------------------------------
+// The G-code text stream: the header comments, each G-code block decoded in turn, then the
+// slicer's settings. The get area holds one of these chunks at a time.
+
+class BgcodeStreamBuf final : public std::streambuf {
+ public:
+  BgcodeStreamBuf(std::unique_ptr<std::streambuf> source_buf, std::unique_ptr<std::istream> source,
+                  std::uint64_t size, const std::string& name)
+      : source_buf_(std::move(source_buf)), source_(std::move(source)), reader_(*source_, size, name) {}
+
+  Status open() {
+    auto meta = read_metadata(reader_);
+    if (!meta) return meta.error();
+    meta_ = std::move(*meta);
+    if (auto producer = bgcode_find(meta_.file, "Producer")) {
+      header_ = "; generated by " + std::string(*producer);
+      if (auto on = bgcode_find(meta_.file, "Produced on")) header_ += " on " + std::string(*on);
+      header_ += '\n';
+    }
+    append_pairs(header_, meta_.printer);
+    append_pairs(header_, meta_.print);
+    if (!meta_.slicer.empty()) {
+      trailer_ = "; prusaslicer_config = begin\n";
+      append_pairs(trailer_, meta_.slicer);
+      trailer_ += "; prusaslicer_config = end\n";
+    }
+    first_gcode_index_ = reader_.info().index;
+    rewind();
+    return Ok{};
+  }
+
+  const BgcodeMetadata& metadata() const { return meta_; }
+  const std::optional<Error>& error() const { return error_; }
+  std::size_t gcode_blocks_read() const { return gcode_blocks_read_; }
+
+ protected:
+  int_type underflow() override {
+    while (gptr() == egptr()) {
+      if (!next_chunk()) return traits_type::eof();
+    }
+    return traits_type::to_int_type(*gptr());
+  }
+
+  pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode which) override {
+    if (error_ || (which & std::ios_base::in) == 0) return fail();
+    off_type base = 0;
+    if (dir == std::ios_base::cur) {
+      base = static_cast<off_type>(chunk_start_) + (gptr() - eback());
+    } else if (dir == std::ios_base::end) {
+      while (next_chunk()) {
+      }
+      if (error_) return fail();
+      base = static_cast<off_type>(chunk_start_);
+    }
+    if (dir == std::ios_base::cur && off == 0) return pos_type(base);
+    return seekpos(pos_type(base + off), which);
+  }
+
+  pos_type seekpos(pos_type pos, std::ios_base::openmode which) override {
+    const off_type target = off_type(pos);
+    if (error_ || target < 0 || (which & std::ios_base::in) == 0) return fail();
+    const auto t = static_cast<std::uint64_t>(target);
+    if (t < chunk_start_) rewind();
+    for (;;) {
+      const auto size = static_cast<std::uint64_t>(egptr() - eback());
+      if (t < chunk_start_ + size) {
+        setg(eback(), eback() + (t - chunk_start_), egptr());
+        return pos;
+      }
+      if (!next_chunk()) {
+        if (!error_ && t == chunk_start_) return pos;
+        return fail();
+      }
+    }
+  }
+
+ private:
+  enum class Phase { header, gcode, trailer, done };
+
+  static pos_type fail() { return pos_type(off_type(-1)); }
+
+  void rewind() {
+    reader_.seek(meta_.first_gcode_block_offset, first_gcode_index_);
+    phase_ = Phase::header;
+    chunk_start_ = 0;
+    last_char_ = '\n';
+    setg(nullptr, nullptr, nullptr);
+  }
+
+  void show(std::string& chunk) {
+    char* p = chunk.data();
+    setg(p, p, p + chunk.size());
+    if (!chunk.empty()) last_char_ = chunk.back();
+  }
+
+  /// Moves to the next chunk of text (possibly empty). False at the end or on an error.
+  bool next_chunk() {
+    chunk_start_ += static_cast<std::uint64_t>(egptr() - eback());
+    setg(nullptr, nullptr, nullptr);
+    switch (phase_) {
+      case Phase::header:
+        phase_ = Phase::gcode;
+        show(header_);
+        return true;
+      case Phase::gcode: {
+        auto more = reader_.next();
+        if (!more) return stop(more.error());
+        if (!*more) {
+          phase_ = Phase::trailer;
+          chunk_.clear();
+          if (!trailer_.empty()) {
+            if (last_char_ != '\n') chunk_ += '\n';
+            chunk_ += trailer_;
+          }
+          show(chunk_);
+          return true;
+        }
+        if (reader_.info().type != BgcodeBlockType::gcode)
+          return stop(reader_.error("a " + std::string(bgcode_block_type_name(reader_.info().type)) +
+                                        " block after the G-code blocks (the format puts every metadata block "
+                                        "before the G-code)", true).error());
+        const std::uint16_t encoding = reader_.param(0);
+        if (encoding > 2)
+          return stop(reader_.error("unknown G-code encoding " + std::to_string(encoding) +
+                                        " (expected 0 = none, 1 = MeatPack, 2 = MeatPack with comments)", true).error());
+        auto data = reader_.data(decompressed_);
+        if (!data) return stop(data.error());
+        ++gcode_blocks_read_;
+        if (encoding == 0) {
+          if (data->data() == decompressed_.data()) {
+            chunk_.swap(decompressed_);
+          } else {
+            chunk_.assign(*data);
+          }
+        } else {
+          chunk_.clear();
+          std::string why;
+          if (!detail::meatpack_decode(*data, chunk_, why)) return stop(reader_.error(why, true).error());
+        }
+        show(chunk_);
+        return true;
+      }
+      case Phase::trailer:
+        phase_ = Phase::done;
+        return false;
+      case Phase::done:
+        return false;
+    }
+    return false;
+  }
+
+  bool stop(Error e) {
+    error_ = std::move(e);
+    phase_ = Phase::done;
+    setg(nullptr, nullptr, nullptr);
+    return false;
+  }
+
+  std::unique_ptr<std::streambuf> source_buf_;
+  std::unique_ptr<std::istream> source_;
+  BlockReader reader_;
+  BgcodeMetadata meta_;
+  std::string header_, trailer_, chunk_, decompressed_;
+  int first_gcode_index_ = 1;
+  Phase phase_ = Phase::header;
+  std::uint64_t chunk_start_ = 0;  ///< stream position of eback()
+  char last_char_ = '\n';
+  std::size_t gcode_blocks_read_ = 0;
+  std::optional<Error> error_;
+};
+
+BgcodeGcodeStream::BgcodeGcodeStream(std::unique_ptr<BgcodeStreamBuf> buf)
+    : std::istream(buf.get()), buf_(std::move(buf)) {}
+
+BgcodeGcodeStream::~BgcodeGcodeStream() = default;
+
+const BgcodeMetadata& BgcodeGcodeStream::metadata() const { return buf_->metadata(); }
+const std::optional<Error>& BgcodeGcodeStream::error() const { return buf_->error(); }
+std::size_t BgcodeGcodeStream::gcode_blocks_read() const { return buf_->gcode_blocks_read(); }
+
+Result<std::unique_ptr<BgcodeGcodeStream>> BgcodeGcodeStream::open(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) return bad_input("is a directory, expected a G-code file", path.string());
+  auto file = std::make_unique<std::ifstream>(path, std::ios::binary);
+  if (!*file) return bad_input("cannot open G-code file", path.string());
+  const std::uint64_t size = stream_size(*file);
+  auto buf = std::make_unique<BgcodeStreamBuf>(nullptr, std::move(file), size, path.string());
+  if (auto st = buf->open(); !st) return st.error();
+  return std::unique_ptr<BgcodeGcodeStream>(new BgcodeGcodeStream(std::move(buf)));
+}
+
+Result<std::unique_ptr<BgcodeGcodeStream>> BgcodeGcodeStream::from_memory(std::string_view bytes,
+                                                                          const std::string& name) {
+  auto mem = std::make_unique<MemoryBuf>(bytes);
+  auto in = std::make_unique<std::istream>(mem.get());
+  auto buf = std::make_unique<BgcodeStreamBuf>(std::move(mem), std::move(in), bytes.size(), name);
+  if (auto st = buf->open(); !st) return st.error();
+  return std::unique_ptr<BgcodeGcodeStream>(new BgcodeGcodeStream(std::move(buf)));
+}
+
+Result<std::string> decode_bgcode(std::string_view bytes, const std::string& name) {
+  auto stream = BgcodeGcodeStream::from_memory(bytes, name);
+  if (!stream) return stream.error();
+  std::string text;
+  std::array<char, 64 * 1024> chunk{};
+  while ((*stream)->read(chunk.data(), chunk.size()) || (*stream)->gcount() > 0)
+    text.append(chunk.data(), static_cast<std::size_t>((*stream)->gcount()));
+  if ((*stream)->error()) return *(*stream)->error();
+  return text;
+}
+
+}  // namespace printtwin
