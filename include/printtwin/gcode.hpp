@@ -201,6 +201,7 @@ class GcodeInterpreter {
   double slicer_estimate_s_;
   double slicer_filament_mm_;
   int slicer_estimate_rank_ = 0;  ///< which stated time won (normal mode beats totals)
+  bool estimate_from_time_tag_ = false;  ///< Cura's ";TIME:" (a placeholder when unfilled)
 
   /// Firmware flavour (PrinterProfile::firmware).
   enum class Flavour : std::uint8_t { marlin2, marlin1, prusa, klipper, rrf, bambu };
