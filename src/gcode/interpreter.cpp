@@ -1,7 +1,10 @@
-// The firmware's G-code interpreter: Marlin 2.1's modal state turned into Moves.
+// The firmware's G-code interpreter: Marlin 2.1's modal state turned into Moves, with the
+// commands of each firmware flavour, start/end macros and the slicers' markers.
 // References for behaviour (not code): Marlin gcode/motion/G0_G1.cpp, G2_G3.cpp (plan_arc),
 // G28.cpp + module/motion.cpp (homing, soft endstops), gcode/config/M200-M205.cpp,
-// gcode/temp/M104_M109.cpp, module/planner.cpp (PREVENT_COLD_EXTRUSION / LENGTHY_EXTRUDE).
+// gcode/temp/M104_M109.cpp, module/planner.cpp (PREVENT_COLD_EXTRUSION / LENGTHY_EXTRUDE);
+// Klipper klippy/toolhead.py (SET_VELOCITY_LIMIT, M204), klippy/extras/firmware_retraction.py;
+// Prusa-Firmware-Buddy (M862.x); RepRapFirmware's G-code dictionary (M566, M203, G10, M0).
 #include <algorithm>
 #include <charconv>
 #include <cmath>
@@ -1239,7 +1242,9 @@ Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text, I
               if (ch != ' ') folded.push_back(static_cast<char>(std::tolower(static_cast<unsigned char>(ch))));
             return folded;
           };
-          if (lower(c.args) != lower(profile_.model))
+          // Lenient: "MK4S" matches a profile model "Original Prusa MK4S".
+          const std::string want = lower(c.args), have = lower(profile_.model);
+          if (have.find(want) == std::string::npos && want.find(have) == std::string::npos)
             return warn(c.line, text, "the G-code was sliced for a " + std::string(c.args) + ", the printer is a " +
                         profile_.model + ": Prusa firmware warns before printing", "printer_model_mismatch");
         }

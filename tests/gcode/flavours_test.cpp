@@ -132,7 +132,7 @@ TEST(FlavourPrusa, StartCodeOfAnMk4sRunsWithoutErrorsOrUnknownCommands) {
 
 TEST(FlavourPrusa, M862ChecksTheNozzleAndTheModelLikeTheFirmware) {
   PrinterProfile mk4s = with_firmware("prusa");
-  mk4s.model = "MK4S";
+  mk4s.model = "Original Prusa MK4S";
   const auto same = sim("M862.1 P0.4\nM862.3 P \"MK4S\"\n", mk4s);
   expect_clean(same);
   PrinterProfile mini = with_firmware("prusa");
