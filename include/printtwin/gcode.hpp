@@ -4,9 +4,10 @@
 // GcodeLineReader cuts a stream into lines (bounded memory, 1-based line numbers, no
 // allocation per line); parse_gcode_line() splits one line into a GcodeCommand without
 // allocating; GcodeInterpreter executes commands with Marlin 2.1's modal state (G90/G91,
-// M82/M83, G92, G20/G21, M200/M220/M221, temperatures, homing state) and emits Moves plus
-// the events the planner needs (limit changes, dwells, heating waits) to an
-// InterpreterOutput. simulate.hpp chains these with the planner; most callers want
+// M82/M83, G92, G20/G21, M200/M220/M221, temperatures, homing state), the commands of the
+// profile's firmware flavour (Prusa, Klipper, RepRapFirmware, Bambu), printer-side start
+// and end macros, and the slicers' layer and feature markers, and emits Moves plus the
+// events the planner needs (limit changes, dwells, heating waits) to an InterpreterOutput. simulate.hpp chains these with the planner; most callers want
 // simulate_gcode() or interpret_gcode_file() from there.
 //
 // Supported commands and slicer markers: docs/gcode-coverage.md.
@@ -201,6 +202,7 @@ class GcodeInterpreter {
   double slicer_estimate_s_;
   double slicer_filament_mm_;
   int slicer_estimate_rank_ = 0;  ///< which stated time won (normal mode beats totals)
+  bool estimate_from_time_tag_ = false;  ///< Cura's ";TIME:" (a placeholder when unfilled)
 
   /// Firmware flavour (PrinterProfile::firmware).
   enum class Flavour : std::uint8_t { marlin2, marlin1, prusa, klipper, rrf, bambu };

@@ -1,7 +1,10 @@
-// The firmware's G-code interpreter: Marlin 2.1's modal state turned into Moves.
+// The firmware's G-code interpreter: Marlin 2.1's modal state turned into Moves, with the
+// commands of each firmware flavour, start/end macros and the slicers' markers.
 // References for behaviour (not code): Marlin gcode/motion/G0_G1.cpp, G2_G3.cpp (plan_arc),
 // G28.cpp + module/motion.cpp (homing, soft endstops), gcode/config/M200-M205.cpp,
-// gcode/temp/M104_M109.cpp, module/planner.cpp (PREVENT_COLD_EXTRUSION / LENGTHY_EXTRUDE).
+// gcode/temp/M104_M109.cpp, module/planner.cpp (PREVENT_COLD_EXTRUSION / LENGTHY_EXTRUDE);
+// Klipper klippy/toolhead.py (SET_VELOCITY_LIMIT, M204), klippy/extras/firmware_retraction.py;
+// Prusa-Firmware-Buddy (M862.x); RepRapFirmware's G-code dictionary (M566, M203, G10, M0).
 #include <algorithm>
 #include <charconv>
 #include <cmath>
@@ -256,6 +259,7 @@ void GcodeInterpreter::stated_figures(std::string_view c) {
     set_time(parse_duration(after("total estimated time:")), 2);     // Orca, Creality Print
   } else if (starts_with(c, "TIME:") && parse_double(c.substr(5), v)) {
     set_time(v, 2);                                                  // Cura (s)
+    estimate_from_time_tag_ = true;
   } else if (starts_with(c, "Print Time:") && parse_double(c.substr(11), v)) {
     set_time(v, 2);                                                  // ideaMaker (s)
   } else if (starts_with(c, "Estimated Build Time:")) {
@@ -276,19 +280,32 @@ void GcodeInterpreter::stated_figures(std::string_view c) {
   } else if (starts_with(c, "filament used [mm]")) {                 // PrusaSlicer, Orca family
     const std::string_view rest = trim(c.substr(18));
     if (!rest.empty() && (rest.front() == '=' || rest.front() == ':'))
-      if (const double f = sum_list(rest.substr(1)); !std::isnan(f)) slicer_filament_mm_ = f;
+      if (const double f = sum_list(rest.substr(1)); f > 0) slicer_filament_mm_ = f;
   } else if (starts_with(c, "total filament length [mm]")) {          // Bambu Studio
     const std::string_view rest = trim(c.substr(26));
     if (!rest.empty() && (rest.front() == '=' || rest.front() == ':'))
-      if (const double f = sum_list(rest.substr(1)); !std::isnan(f)) slicer_filament_mm_ = f;
+      if (const double f = sum_list(rest.substr(1)); f > 0) slicer_filament_mm_ = f;
   } else if (starts_with(c, "Filament used:")) {                      // Cura (metres)
-    if (const double f = sum_list(c.substr(14)); !std::isnan(f)) slicer_filament_mm_ = f * 1000.0;
+    const double f = sum_list(c.substr(14));
+    if (f > 0) {
+      slicer_filament_mm_ = f * 1000.0;
+    } else if (f == 0) {
+      // CuraEngine run without its front end leaves the header's placeholders
+      // (";TIME:6666", ";Filament used: 0m"): neither figure is the slicer's.
+      if (estimate_from_time_tag_) {
+        slicer_estimate_s_ = std::numeric_limits<double>::quiet_NaN();
+        slicer_estimate_rank_ = 0;
+      }
+      note("slicer_header_placeholders",
+           "the slicer's header holds placeholders (\"Filament used: 0m\"): its time and filament "
+           "figures are not used", last_line_);
+    }
   } else if (starts_with(c, "Material#1 Used:")) {                    // ideaMaker (mm)
-    if (const double f = sum_list(c.substr(16)); !std::isnan(f)) slicer_filament_mm_ = f;
+    if (const double f = sum_list(c.substr(16)); f > 0) slicer_filament_mm_ = f;
   } else if (starts_with(c, "Filament length:")) {                    // Simplify3D (mm)
-    if (const double f = sum_list(c.substr(16)); !std::isnan(f)) slicer_filament_mm_ = f;
+    if (const double f = sum_list(c.substr(16)); f > 0) slicer_filament_mm_ = f;
   } else if (starts_with(c, "Estimated Build Volume:")) {             // KISSlicer (cm^3)
-    if (const double f = sum_list(c.substr(23)); !std::isnan(f) && profile_.filament_area_mm2() > 0)
+    if (const double f = sum_list(c.substr(23)); f > 0 && profile_.filament_area_mm2() > 0)
       slicer_filament_mm_ = f * 1000.0 / profile_.filament_area_mm2();
   }
 }
@@ -388,6 +405,17 @@ void GcodeInterpreter::comment(std::string_view c) {
     case 'P':  // "Print Time:" (ideaMaker)
     case 'E':  // "Estimated Build Time:" (KISSlicer)
     case 't':  // "total estimated time:", "total filament length [mm]" (Orca, Bambu)
+      if (starts_with(c, "tool H")) {
+        // Simplify3D: "; tool H0.200 W0.480" (layer height and extrusion width).
+        const auto wpos = c.find(" W");
+        if (parse_double(c.substr(6, wpos == std::string_view::npos ? std::string_view::npos : wpos - 6), v) &&
+            v > 0 && v < 100)
+          height_hint_mm_ = static_cast<float>(v);
+        if (wpos != std::string_view::npos && parse_double(c.substr(wpos + 2), v) && v > 0 && v < 100)
+          width_hint_mm_ = static_cast<float>(v);
+        return;
+      }
+      [[fallthrough]];
     case 'm':  // "model printing time: ...; total estimated time: ..." (Orca)
     case 'e':  // "estimated printing time (normal mode) = " (PrusaSlicer)
       stated_figures(c);
@@ -1199,6 +1227,28 @@ Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text, I
         if (c.has('P')) min_extrude_temp_c_ = c.get('P') > 0 ? -1000.0 : profile_.min_extrude_temp_c;
         return Ok{};
       }
+      case 862:
+        // Prusa firmware's checks: M862.1 P<nozzle diameter>, M862.3 P"<model>". The
+        // firmware warns when the G-code was sliced for another nozzle or printer.
+        if (flavour_ == Flavour::prusa && c.subcode == 1 && c.has('P') &&
+            std::fabs(c.get('P') - profile_.nozzle_diameter_mm) > 0.005)
+          return warn(c.line, text, "the G-code was sliced for a " + format_fixed(c.get('P'), 2) +
+                      " mm nozzle, the printer has " + format_fixed(profile_.nozzle_diameter_mm, 2) +
+                      " mm: extrusion widths and flow will be off", "nozzle_mismatch");
+        if (flavour_ == Flavour::prusa && c.subcode == 3 && !c.args.empty() && !profile_.model.empty()) {
+          auto lower = [](std::string_view v) {
+            std::string folded;
+            for (char ch : v)
+              if (ch != ' ') folded.push_back(static_cast<char>(std::tolower(static_cast<unsigned char>(ch))));
+            return folded;
+          };
+          // Lenient: "MK4S" matches a profile model "Original Prusa MK4S".
+          const std::string want = lower(c.args), have = lower(profile_.model);
+          if (have.find(want) == std::string::npos && want.find(have) == std::string::npos)
+            return warn(c.line, text, "the G-code was sliced for a " + std::string(c.args) + ", the printer is a " +
+                        profile_.model + ": Prusa firmware warns before printing", "printer_model_mismatch");
+        }
+        return Ok{};
       case 0:
       case 1:
       case 601:
@@ -1269,7 +1319,7 @@ Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text, I
       // Prusa firmware: printer/nozzle checks (M862.x), print area (M555), stepper mode
       // (M569), input shaper (M593), pressure advance (M572, also RRF), heatbreak fan (M142),
       // mass estimate (M74), fan and LED settings.
-      case 862: case 555: case 569: case 593: case 572: case 142: case 74: case 150:
+      case 555: case 569: case 593: case 572: case 142: case 74: case 150:
       case 141: case 191: case 92:
       // Bambu Studio: status (M1002), AMS (M620/M621), conditions (M622/M623), calibrations
       // (M960..M991), filament runout (M412), sounds (M1006), M1003..M1007.

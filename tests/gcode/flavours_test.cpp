@@ -130,6 +130,33 @@ TEST(FlavourPrusa, StartCodeOfAnMk4sRunsWithoutErrorsOrUnknownCommands) {
   EXPECT_NEAR(r.filament_mm, 2.0, 1e-9);
 }
 
+TEST(FlavourPrusa, M862ChecksTheNozzleAndTheModelLikeTheFirmware) {
+  PrinterProfile mk4s = with_firmware("prusa");
+  mk4s.model = "Original Prusa MK4S";
+  const auto same = sim("M862.1 P0.4\nM862.3 P \"MK4S\"\n", mk4s);
+  expect_clean(same);
+  PrinterProfile mini = with_firmware("prusa");
+  mini.model = "MINI";
+  mini.nozzle_diameter_mm = 0.6;
+  const auto other = sim("M862.1 P0.4\nM862.3 P \"MK4S\"\n", mini);
+  ASSERT_NE(find(other, "nozzle_mismatch"), nullptr);
+  EXPECT_EQ(find(other, "nozzle_mismatch")->line, 1);
+  ASSERT_NE(find(other, "printer_model_mismatch"), nullptr);
+  EXPECT_NE(find(other, "printer_model_mismatch")->message.find("MK4S"), std::string::npos);
+  // Marlin does not know M862: nothing to check.
+  const auto marlin = sim("M862.3 P \"MK4S\"\n", ender3_marlin2());
+  EXPECT_EQ(find(marlin, "printer_model_mismatch"), nullptr);
+}
+
+TEST(GcodeStatedFigures, CuraEnginesUnfilledHeaderIsNotTheSlicersFigure) {
+  const auto r = sim(";FLAVOR:Marlin\n;TIME:6666\n;Filament used: 0m\n;Layer height: 0.2\n"
+                     ";Generated with Cura_SteamEngine 4.13.0\nG28\nM109 S200\nM83\n;LAYER:0\n" + square(0.2));
+  EXPECT_FALSE(r.slicer_estimate_s.has_value());
+  EXPECT_FALSE(r.slicer_filament_mm.has_value());
+  ASSERT_NE(find(r, "slicer_header_placeholders"), nullptr);
+  EXPECT_EQ(r.layers.size(), 1u);
+}
+
 TEST(FlavourPrusa, M302SetsTheColdExtrusionLimit) {
   // M302 S160 then 165 C: extrusion allowed; the profile's 170 C would have refused it.
   const auto r = sim("G28\nM302 S160\nM109 S165\nM83\n" + square(0.2), with_firmware("prusa"));
@@ -456,6 +483,15 @@ TEST(SlicerMarkers, SpiralVaseCountsTheSlicersLayersNotEveryZStep) {
   const auto by_z = sim(bare);
   EXPECT_EQ(by_z.layers_from, "z");
   EXPECT_GT(by_z.layers.size(), 500u);
+}
+
+TEST(SlicerMarkers, Simplify3DToolLineGivesHeightAndWidthHints) {
+  const auto ms = moves("G28\nM109 S210\nM83\n; feature outer perimeter\n; tool H0.250 W0.480\nG1 Z0.25\n"
+                        "G1 X20 Y20 E1 F1200\n");
+  ASSERT_FALSE(ms.empty());
+  EXPECT_EQ(ms.back().feature, Feature::outer_perimeter);
+  EXPECT_FLOAT_EQ(ms.back().height_hint_mm, 0.25f);
+  EXPECT_FLOAT_EQ(ms.back().width_hint_mm, 0.48f);
 }
 
 TEST(SlicerMarkers, FeatureLabelsOfEverySlicerMapToTheTwinsKinds) {
