@@ -4,6 +4,7 @@
 
 #include <zlib.h>
 
+#include <algorithm>
 #include <array>
 #include <cstring>
 #include <fstream>
@@ -68,32 +69,14 @@ std::uint32_t crc32_of(std::uint32_t crc, const void* data, std::size_t n) {
   return crc;
 }
 
-/// A read-only, seekable stream buffer over bytes in memory.
-class MemoryBuf final : public std::streambuf {
- public:
-  explicit MemoryBuf(std::string_view bytes) {
-    char* p = const_cast<char*>(bytes.data());  // never written: no put area, no putback writes
-    setg(p, p, p + bytes.size());
-  }
-
- protected:
-  pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode /*which*/) override {
-    const off_type base = dir == std::ios_base::beg ? 0 : dir == std::ios_base::cur ? gptr() - eback() : egptr() - eback();
-    return seekpos(pos_type(base + off), std::ios_base::in);
-  }
-  pos_type seekpos(pos_type pos, std::ios_base::openmode /*which*/) override {
-    const off_type p = off_type(pos);
-    if (p < 0 || p > egptr() - eback()) return pos_type(off_type(-1));
-    setg(eback(), eback() + p, egptr());
-    return pos;
-  }
-};
-
-/// Reads blocks one after the other from a seekable byte stream of known size.
+/// Reads blocks one after the other from a seekable byte stream of known size, or from
+/// bytes in memory (then the stored data is a view of them, never copied).
 class BlockReader {
  public:
   BlockReader(std::istream& in, std::uint64_t size, std::string name)
-      : in_(in), size_(size), name_(std::move(name)) {}
+      : in_(&in), size_(size), name_(std::move(name)) {}
+  BlockReader(std::string_view memory, std::string name)
+      : memory_(memory), size_(memory.size()), name_(std::move(name)) {}
 
   const std::string& name() const { return name_; }
 
@@ -172,15 +155,20 @@ class BlockReader {
       return error("the block states " + std::to_string(info_.data_bytes) + " bytes of data, more than the " +
                        std::to_string(kMaxBgcodeBlockBytes) + " printtwin accepts in one block", true);
     if (read_at(offset_ + header_bytes, params_.data(), params_bytes_) != params_bytes_) return io_error();
-    stored_.resize(info_.stored_bytes);
-    if (read_at(offset_ + header_bytes + params_bytes_, stored_.data(), stored_.size()) != stored_.size())
-      return io_error();
+    const std::uint64_t data_at = offset_ + header_bytes + params_bytes_;
+    if (in_ == nullptr) {
+      stored_view_ = memory_.substr(static_cast<std::size_t>(data_at), info_.stored_bytes);
+    } else {
+      stored_.resize(info_.stored_bytes);
+      if (read_at(data_at, stored_.data(), stored_.size()) != stored_.size()) return io_error();
+      stored_view_ = std::string_view(stored_.data(), stored_.size());
+    }
     if (crc_) {
       std::array<unsigned char, 4> c{};
       if (read_at(offset_ + header_bytes + params_bytes_ + info_.stored_bytes, c.data(), 4) != 4) return io_error();
       std::uint32_t crc = crc32_of(0, h.data(), header_bytes);
       crc = crc32_of(crc, params_.data(), params_bytes_);
-      crc = crc32_of(crc, stored_.data(), stored_.size());
+      crc = crc32_of(crc, stored_view_.data(), stored_view_.size());
       if (crc != le32(c.data()))
         return error("CRC32 mismatch (stored " + hex32(le32(c.data())) + ", computed " + hex32(crc) +
                          "): the block is corrupt", true);
@@ -194,21 +182,21 @@ class BlockReader {
   std::uint16_t param(int i) const { return le16(params_.data() + 2 * i); }
 
   /// The block's data, decompressed into `scratch` (or the stored bytes when not compressed).
-  Result<std::string_view> data(std::string& scratch) {
+  Result<std::string_view> data(detail::Bytes& scratch) {
     const std::size_t expected = info_.data_bytes;
     std::string why;
     switch (info_.compression) {
       case BgcodeCompression::none:
-        return std::string_view(stored_);
+        return stored_view_;
       case BgcodeCompression::deflate: {
         // Deflate expands at most about 1032:1: reject impossible sizes before allocating.
-        if (expected / 1032 > stored_.size() + 1) return error("deflate data cannot expand to the " + std::to_string(expected) + " bytes the block header states", true).error();
+        if (expected / 1032 > stored_view_.size() + 1) return error("deflate data cannot expand to the " + std::to_string(expected) + " bytes the block header states", true).error();
         scratch.resize(expected);
         uLongf out_len = static_cast<uLongf>(expected);
-        uLong in_len = static_cast<uLong>(stored_.size());
+        uLong in_len = static_cast<uLong>(stored_view_.size());
         Bytef dummy = 0;
         const int rc = ::uncompress2(expected > 0 ? reinterpret_cast<Bytef*>(scratch.data()) : &dummy, &out_len,
-                                     reinterpret_cast<const Bytef*>(stored_.data()), &in_len);
+                                     reinterpret_cast<const Bytef*>(stored_view_.data()), &in_len);
         if (rc == Z_BUF_ERROR)
           return error("deflate data decodes to more than the " + std::to_string(expected) +
                            " bytes the block header states", true).error();
@@ -217,18 +205,18 @@ class BlockReader {
         if (out_len != expected)
           return error("deflate data decodes to " + std::to_string(out_len) + " bytes, the block header states " +
                            std::to_string(expected), true).error();
-        if (in_len != stored_.size())
-          return error(std::to_string(stored_.size() - in_len) + " bytes follow the end of the deflate stream", true).error();
-        return std::string_view(scratch);
+        if (in_len != stored_view_.size())
+          return error(std::to_string(stored_view_.size() - in_len) + " bytes follow the end of the deflate stream", true).error();
+        return std::string_view(scratch.data(), scratch.size());
       }
       case BgcodeCompression::heatshrink_11_4:
       case BgcodeCompression::heatshrink_12_4: {
         const int window = info_.compression == BgcodeCompression::heatshrink_11_4 ? 11 : 12;
-        if (expected / detail::heatshrink_max_expansion(window, 4) > stored_.size() + 1)
+        if (expected / detail::heatshrink_max_expansion(window, 4) > stored_view_.size() + 1)
           return error("heatshrink data cannot expand to the " + std::to_string(expected) +
                            " bytes the block header states", true).error();
-        if (!detail::heatshrink_decode(stored_, window, 4, expected, scratch, why)) return error(why, true).error();
-        return std::string_view(scratch);
+        if (!detail::heatshrink_decode(stored_view_, window, 4, expected, scratch, why)) return error(why, true).error();
+        return std::string_view(scratch.data(), scratch.size());
       }
     }
     return error("unknown compression", true).error();
@@ -248,15 +236,21 @@ class BlockReader {
 
  private:
   std::size_t read_at(std::uint64_t offset, void* dst, std::size_t n) {
-    if (n == 0) return 0;
-    in_.clear();
-    in_.seekg(static_cast<std::streamoff>(offset));
-    in_.read(static_cast<char*>(dst), static_cast<std::streamsize>(n));
-    return static_cast<std::size_t>(in_.gcount());
+    if (n == 0 || offset >= size_) return 0;
+    if (in_ == nullptr) {
+      n = std::min<std::size_t>(n, static_cast<std::size_t>(size_ - offset));
+      std::memcpy(dst, memory_.data() + offset, n);
+      return n;
+    }
+    in_->clear();
+    in_->seekg(static_cast<std::streamoff>(offset));
+    in_->read(static_cast<char*>(dst), static_cast<std::streamsize>(n));
+    return static_cast<std::size_t>(in_->gcount());
   }
   Result<bool> io_error() const { return error("read error (the file changed or cannot be read)", false); }
 
-  std::istream& in_;
+  std::istream* in_ = nullptr;  ///< the file, or null when reading `memory_`
+  std::string_view memory_;
   std::uint64_t size_;
   std::string name_;
   bool crc_ = true;
@@ -265,7 +259,8 @@ class BlockReader {
   BgcodeBlockInfo info_;
   std::array<unsigned char, 6> params_{};
   std::size_t params_bytes_ = 2;
-  std::string stored_;
+  detail::Bytes stored_;        ///< the stored data read from the file
+  std::string_view stored_view_;  ///< the stored data of the current block
 };
 
 Status parse_ini(std::string_view text, BgcodeKeyValues& out, const BlockReader& reader) {
@@ -286,7 +281,7 @@ Status parse_ini(std::string_view text, BgcodeKeyValues& out, const BlockReader&
 }
 
 /// Reads a metadata or thumbnail block (the reader stands on it) into `meta`.
-Status store_metadata_block(BlockReader& reader, BgcodeMetadata& meta, std::string& scratch) {
+Status store_metadata_block(BlockReader& reader, BgcodeMetadata& meta, detail::Bytes& scratch) {
   const BgcodeBlockInfo& info = reader.info();
   if (info.type == BgcodeBlockType::thumbnail) {
     const std::uint16_t format = reader.param(0);
@@ -321,7 +316,7 @@ Status store_metadata_block(BlockReader& reader, BgcodeMetadata& meta, std::stri
 Result<BgcodeMetadata> read_metadata(BlockReader& reader) {
   BgcodeMetadata meta;
   if (auto st = reader.read_file_header(meta); !st) return st.error();
-  std::string scratch;
+  detail::Bytes scratch;
   for (;;) {
     auto more = reader.next();
     if (!more) return more.error();
@@ -413,9 +408,7 @@ bool is_bgcode_file(const std::filesystem::path& path) {
 }
 
 Result<BgcodeMetadata> read_bgcode_metadata(std::string_view bytes, const std::string& name) {
-  MemoryBuf buf(bytes);
-  std::istream in(&buf);
-  BlockReader reader(in, bytes.size(), name);
+  BlockReader reader(bytes, name);
   return read_metadata(reader);
 }
 
@@ -434,9 +427,11 @@ Result<BgcodeMetadata> read_bgcode_metadata(const std::filesystem::path& path) {
 
 class BgcodeStreamBuf final : public std::streambuf {
  public:
-  BgcodeStreamBuf(std::unique_ptr<std::streambuf> source_buf, std::unique_ptr<std::istream> source,
-                  std::uint64_t size, const std::string& name)
-      : source_buf_(std::move(source_buf)), source_(std::move(source)), reader_(*source_, size, name) {}
+  /// Over a file (owned).
+  BgcodeStreamBuf(std::unique_ptr<std::istream> file, std::uint64_t size, const std::string& name)
+      : file_(std::move(file)), reader_(*file_, size, name) {}
+  /// Over bytes in memory (not owned).
+  BgcodeStreamBuf(std::string_view bytes, const std::string& name) : reader_(bytes, name) {}
 
   Status open() {
     auto meta = read_metadata(reader_);
@@ -517,11 +512,11 @@ class BgcodeStreamBuf final : public std::streambuf {
     setg(nullptr, nullptr, nullptr);
   }
 
-  void show(std::string& chunk) {
-    char* p = chunk.data();
-    setg(p, p, p + chunk.size());
-    if (!chunk.empty()) last_char_ = chunk.back();
+  void show(char* p, std::size_t n) {
+    setg(p, p, p + n);
+    if (n > 0) last_char_ = p[n - 1];
   }
+  void show(std::string& chunk) { show(chunk.data(), chunk.size()); }
 
   /// Moves to the next chunk of text (possibly empty). False at the end or on an error.
   bool next_chunk() {
@@ -557,17 +552,15 @@ class BgcodeStreamBuf final : public std::streambuf {
         if (!data) return stop(data.error());
         ++gcode_blocks_read_;
         if (encoding == 0) {
-          if (data->data() == decompressed_.data()) {
-            chunk_.swap(decompressed_);
-          } else {
-            chunk_.assign(*data);
-          }
+          // The get area shows the data where it is (never written: no put area, and a
+          // putback of another character fails instead of writing).
+          show(const_cast<char*>(data->data()), data->size());
         } else {
-          chunk_.clear();
+          std::size_t size = 0;
           std::string why;
-          if (!detail::meatpack_decode(*data, chunk_, why)) return stop(reader_.error(why, true).error());
+          if (!detail::meatpack_decode(*data, unpacked_, size, why)) return stop(reader_.error(why, true).error());
+          show(unpacked_.data(), size);
         }
-        show(chunk_);
         return true;
       }
       case Phase::trailer:
@@ -586,11 +579,11 @@ class BgcodeStreamBuf final : public std::streambuf {
     return false;
   }
 
-  std::unique_ptr<std::streambuf> source_buf_;
-  std::unique_ptr<std::istream> source_;
+  std::unique_ptr<std::istream> file_;
   BlockReader reader_;
   BgcodeMetadata meta_;
-  std::string header_, trailer_, chunk_, decompressed_;
+  std::string header_, trailer_, chunk_;
+  detail::Bytes decompressed_, unpacked_;
   int first_gcode_index_ = 1;
   Phase phase_ = Phase::header;
   std::uint64_t chunk_start_ = 0;  ///< stream position of eback()
@@ -614,16 +607,14 @@ Result<std::unique_ptr<BgcodeGcodeStream>> BgcodeGcodeStream::open(const std::fi
   auto file = std::make_unique<std::ifstream>(path, std::ios::binary);
   if (!*file) return bad_input("cannot open G-code file", path.string());
   const std::uint64_t size = stream_size(*file);
-  auto buf = std::make_unique<BgcodeStreamBuf>(nullptr, std::move(file), size, path.string());
+  auto buf = std::make_unique<BgcodeStreamBuf>(std::move(file), size, path.string());
   if (auto st = buf->open(); !st) return st.error();
   return std::unique_ptr<BgcodeGcodeStream>(new BgcodeGcodeStream(std::move(buf)));
 }
 
 Result<std::unique_ptr<BgcodeGcodeStream>> BgcodeGcodeStream::from_memory(std::string_view bytes,
                                                                           const std::string& name) {
-  auto mem = std::make_unique<MemoryBuf>(bytes);
-  auto in = std::make_unique<std::istream>(mem.get());
-  auto buf = std::make_unique<BgcodeStreamBuf>(std::move(mem), std::move(in), bytes.size(), name);
+  auto buf = std::make_unique<BgcodeStreamBuf>(bytes, name);
   if (auto st = buf->open(); !st) return st.error();
   return std::unique_ptr<BgcodeGcodeStream>(new BgcodeGcodeStream(std::move(buf)));
 }

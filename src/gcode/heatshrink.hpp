@@ -11,13 +11,20 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <vector>
+
+#include "printtwin/default_init_allocator.hpp"
 
 namespace printtwin::detail {
 
+/// A byte buffer whose resize() does not zero what it adds (decoders overwrite it all).
+using Bytes = std::vector<char, DefaultInitAllocator<char>>;
+
 /// Decodes `in` into `out` (resized to `expected_size`). False, with `why` set, when the
-/// stream does not produce exactly `expected_size` bytes.
+/// stream does not produce exactly `expected_size` bytes. window_bits <= 15,
+/// lookahead_bits <= 8.
 [[nodiscard]] bool heatshrink_decode(std::string_view in, int window_bits, int lookahead_bits,
-                                     std::size_t expected_size, std::string& out, std::string& why);
+                                     std::size_t expected_size, Bytes& out, std::string& why);
 
 /// Most bytes one input byte can expand to (a back-reference of 2^lookahead bytes in
 /// 1 + window + lookahead bits): bounds the output before anything is allocated.

@@ -20,61 +20,64 @@ constexpr std::uint8_t kNotPacked = 0x0F;
 constexpr std::array<char, 15> kCodes = {'0', '1', '2', '3', '4', '5', '6', '7', '8', '9', '.', ' ', '\n', 'G', 'X'};
 
 /// The letters before which a G line gets its space back.
-constexpr bool is_g_parameter(char c) {
-  switch (c) {
-    case 'X': case 'Y': case 'Z': case 'E': case 'F': case 'I': case 'J': case 'R':
-    case 'G': case 'P': case 'W': case 'H': case 'C': case 'A':
-      return true;
-    default:
-      return false;
-  }
-}
+constexpr std::array<bool, 256> kGParameter = [] {
+  std::array<bool, 256> t{};
+  for (unsigned char c : std::string_view("XYZEFIJRGPWHCA")) t[c] = true;
+  return t;
+}();
 
-/// Writes characters as PrusaSlicer's reader does (spaces back in G lines, no empty lines).
-class TextWriter {
- public:
-  TextWriter(std::string& out) : out_(out), start_(out.size()) {}
-  void put(char c) {
-    const bool at_start = out_.size() == start_;
-    const char prev = at_start ? '\0' : out_.back();
-    bool line_start_g = false;
-    if (c == 'G' && (at_start || prev == '\n')) {
-      in_g_line_ = true;
-      line_start_g = true;
-    } else if (c == '\n') {
-      in_g_line_ = false;
-    }
-    if (!line_start_g && in_g_line_ && (at_start || prev != ' ') && is_g_parameter(c)) out_.push_back(' ');
-    if (c != '\n' || at_start || prev != '\n') out_.push_back(c);
-  }
-
- private:
-  std::string& out_;
-  std::size_t start_;
-  bool in_g_line_ = false;
-};
+/// Packed bytes whose two characters are both digits or '.' (the bulk of G-code): none of
+/// the writer's rules apply to them, whatever the "no spaces" mode.
+constexpr std::array<bool, 256> kPlainPair = [] {
+  std::array<bool, 256> t{};
+  for (int b = 0; b < 256; ++b) t[static_cast<std::size_t>(b)] = (b & 15) <= 10 && (b >> 4) <= 10;
+  return t;
+}();
 
 }  // namespace
 
-bool meatpack_decode(std::string_view in, std::string& out, std::string& why) {
-  out.reserve(out.size() + 2 * in.size());
-  TextWriter text(out);
-  bool packing = false, no_spaces = false;
-  int signals = 0;           // 0xFF bytes seen in a row (0 or 1) before a possible command
+bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size, std::string& why) {
+  // Each input byte gives at most two characters, each of which may get a space before it.
+  if (buf.size() < 4 * in.size() + 8) buf.resize(4 * in.size() + 8);
+  char* const begin = buf.data();
+  char* o = begin;
+  size = 0;
+
+  // The text writer (PrusaSlicer's reader): spaces back before the parameters of a line
+  // that starts with 'G', no empty lines. `prev` is the last character written, '\0' at
+  // the start of the block.
+  char prev = '\0';
+  bool g_line = false;
+  auto put = [&](char c) {
+    if (c == '\n') {
+      g_line = false;
+      if (prev != '\n') *o++ = prev = c;
+      return;
+    }
+    if (c == 'G' && (prev == '\n' || prev == '\0')) {
+      g_line = true;
+    } else if (g_line && prev != ' ' && kGParameter[static_cast<unsigned char>(c)]) {
+      *o++ = ' ';
+    }
+    *o++ = prev = c;
+  };
+
+  bool packing = false;
+  char code11 = ' ';          // ' ', or 'E' once "no spaces" is on
+  int signals = 0;            // 0xFF bytes seen in a row (0 or 1) before a possible command
   bool command_next = false;  // two 0xFF seen: the next byte is a command
   int full_pending = 0;       // whole-byte characters still to come for the current pair
   char held = '\0';           // a packed second character waiting behind a whole-byte first one
-
-  auto unpacked = [&](std::uint8_t code) { return code == 11 && no_spaces ? 'E' : kCodes[code]; };
+  auto unpacked = [&](std::uint8_t code) { return code == 11 ? code11 : kCodes[code]; };
   auto receive = [&](std::uint8_t b) {
     if (!packing) {
-      text.put(static_cast<char>(b));
+      put(static_cast<char>(b));
       return;
     }
     if (full_pending > 0) {
-      text.put(static_cast<char>(b));
+      put(static_cast<char>(b));
       if (held != '\0') {
-        text.put(held);
+        put(held);
         held = '\0';
       }
       --full_pending;
@@ -88,13 +91,30 @@ bool meatpack_decode(std::string_view in, std::string& out, std::string& why) {
       return;
     }
     const char first = unpacked(lo);
-    text.put(first);
+    put(first);
     if (first == '\n') return;
     if (hi == kNotPacked) ++full_pending;
-    else text.put(unpacked(hi));
+    else put(unpacked(hi));
   };
 
-  for (std::size_t i = 0; i < in.size(); ++i) {
+  const auto* bytes = reinterpret_cast<const std::uint8_t*>(in.data());
+  const std::size_t n = in.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    // Fast paths, when no pair, character or command is pending: runs of packed digits and
+    // '.' (the bulk of G-code), and the plain bytes of comment lines.
+    if (full_pending == 0 && signals == 0 && !command_next) {
+      if (packing) {
+        while (i < n && kPlainPair[bytes[i]]) {
+          o[0] = kCodes[bytes[i] & 15];
+          o[1] = prev = kCodes[bytes[i] >> 4];
+          o += 2;
+          ++i;
+        }
+      } else if (!g_line) {
+        while (i < n && bytes[i] != kSignal && bytes[i] != '\n' && bytes[i] != 'G') *o++ = prev = static_cast<char>(bytes[i++]);
+      }
+      if (i == n) break;
+    }
     const auto b = static_cast<std::uint8_t>(in[i]);
     if (b == kSignal) {
       if (signals > 0) {
@@ -112,8 +132,8 @@ bool meatpack_decode(std::string_view in, std::string& out, std::string& why) {
         case kDisablePacking: packing = false; break;
         case kResetAll: packing = false; break;
         case kQueryConfig: break;
-        case kEnableNoSpaces: no_spaces = true; break;
-        case kDisableNoSpaces: no_spaces = false; break;
+        case kEnableNoSpaces: code11 = 'E'; break;
+        case kDisableNoSpaces: code11 = ' '; break;
         default:
           why = "unknown MeatPack command 0x" + std::string(1, "0123456789ABCDEF"[b >> 4]) +
                 std::string(1, "0123456789ABCDEF"[b & 15]) + " at byte " + std::to_string(i) +
@@ -128,6 +148,7 @@ bool meatpack_decode(std::string_view in, std::string& out, std::string& why) {
     }
     receive(b);
   }
+  size = static_cast<std::size_t>(o - begin);
   if (signals > 0 || command_next) {
     why = "MeatPack data ends inside a command (0xFF 0xFF <command>)";
     return false;

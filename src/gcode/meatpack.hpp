@@ -17,11 +17,15 @@
 #include <string>
 #include <string_view>
 
+#include "gcode/heatshrink.hpp"  // Bytes
+
 namespace printtwin::detail {
 
-/// Appends the text of one MeatPack-encoded block to `out`. False, with `why` set (naming
-/// the byte offset in the block's data), on an unknown command byte or a block that ends
-/// inside a pair, a command or a pending full-width character.
-[[nodiscard]] bool meatpack_decode(std::string_view in, std::string& out, std::string& why);
+/// Decodes one MeatPack-encoded block into the first `size` bytes of `buf` (grown as
+/// needed, never shrunk, so a buffer reused block after block is not cleared each time).
+/// False, with `why` set (naming the byte offset in the block's data), on an unknown
+/// command byte or a block that ends inside a command or before a pending full-width
+/// character.
+[[nodiscard]] bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size, std::string& why);
 
 }  // namespace printtwin::detail

@@ -1,0 +1,42 @@
+// libFuzzer target: arbitrary bytes through the binary G-code reader (bgcode.hpp): file
+// header, blocks, CRC32, deflate, heatshrink, MeatPack, metadata, and the seekable text
+// stream. Besides crashes and sanitizer reports, it traps when the reader's answers
+// disagree: the metadata reader and the stream must accept the same headers, an error must
+// say something, and seeking must give back the bytes of a straight read.
+// Seeds (fuzz/corpus_bgcode/) carry checksum type 0, so mutations reach the decoders
+// instead of stopping at the CRC.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+#include "printtwin/bgcode.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  const std::string_view bytes(reinterpret_cast<const char*>(data), size);
+  auto meta = printtwin::read_bgcode_metadata(bytes, "fuzz.bgcode");
+  auto text = printtwin::decode_bgcode(bytes, "fuzz.bgcode");
+  if (!meta.ok() && meta.error().message.empty()) __builtin_trap();
+  if (!text.ok()) {
+    if (text.error().message.empty() || text.error().file != "fuzz.bgcode") __builtin_trap();
+    return 0;
+  }
+  if (!meta.ok()) __builtin_trap();  // the stream read these same blocks first
+
+  // Seeks: to the end, into the middle, back to the start.
+  auto stream = printtwin::BgcodeGcodeStream::from_memory(bytes, "fuzz.bgcode");
+  if (!stream.ok()) __builtin_trap();
+  auto& in = **stream;
+  in.seekg(0, std::ios::end);
+  if (static_cast<std::size_t>(in.tellg()) != text->size()) __builtin_trap();
+  for (std::size_t at : {text->size() / 2, std::size_t{0}, text->size() - text->size() / 3}) {
+    in.clear();
+    in.seekg(static_cast<std::streamoff>(at));
+    char buf[64];
+    in.read(buf, sizeof buf);
+    const auto got = static_cast<std::size_t>(in.gcount());
+    if (std::string_view(buf, got) != std::string_view(*text).substr(at, sizeof buf)) __builtin_trap();
+  }
+  if (in.error()) __builtin_trap();
+  return 0;
+}
