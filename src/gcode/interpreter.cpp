@@ -481,7 +481,10 @@ Status GcodeInterpreter::arc_move(const GcodeCommand& c, std::string_view text, 
   // each between arc_min_segment_mm and arc_max_segment_mm.
   const double seg = std::clamp(radius * 2 * kPi / profile_.arc_min_segments_per_circle,
                                 profile_.arc_min_segment_mm, profile_.arc_max_segment_mm);
-  const long segments = std::max(1L, std::lround(travel / seg));
+  // Klipper's [gcode_arcs] takes floor(length / resolution) segments; Marlin rounds.
+  const double n_seg = travel / seg;
+  const long segments = std::max(1L, profile_.firmware == "klipper" ? static_cast<long>(std::floor(n_seg))
+                                                                     : std::lround(n_seg));
   if (segments > 20000) return warn(c.line, text, "arc needs more than 20000 segments; ignored", "bad_arc");
   const Vec3 start = logical_mm_;
   const double theta_step = angular / static_cast<double>(segments);

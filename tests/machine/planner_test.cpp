@@ -206,5 +206,189 @@ TEST(Planner, WindowBoundsMemoryAndClassicJerkStartsAtSafeSpeed) {
   for (std::size_t k = 1; k + 1 < rec.segments.size(); ++k) EXPECT_LE(rec.segments[k].end_speed_mm_s, 10.0 + 1e-9);
 }
 
+// ---------------------------------------------------------------------------------------
+// Klipper's planning model (toolhead.py). Expected figures are worked out from Klipper's
+// published rules, not read back from the planner.
+
+MotionLimits klipper_limits(double accel = 3000) {
+  MotionLimits l = motion_limits_from_profile(ender3_klipper());
+  EXPECT_TRUE(l.klipper);
+  l.print_accel_mm_s2 = accel;
+  return l;
+}
+
+/// Plans `moves` with `limits` to a stop; the segments in order.
+std::vector<MotionSegment> plan(const MotionLimits& limits, std::initializer_list<Move> moves) {
+  Planner planner(limits, 16);
+  Recorder rec;
+  for (const Move& m : moves) planner.add(m, rec);
+  planner.flush(rec);
+  EXPECT_EQ(rec.segments.size(), moves.size());
+  return rec.segments;
+}
+
+TEST(KlipperPlanner, SquareCornerVelocityStaysConstantWhenTheAccelerationChanges) {
+  for (double accel : {1000.0, 3000.0, 20000.0}) {
+    const auto seg = plan(klipper_limits(accel), {line_move(Vec3(0, 0, 0), Vec3(100, 0, 0), 200),
+                                                  line_move(Vec3(100, 0, 0), Vec3(100, 100, 0), 200)});
+    ASSERT_EQ(seg.size(), 2u);
+    // 90 degrees: the junction deviation scv^2 (sqrt2 - 1) / a makes v = scv = 5 mm/s.
+    EXPECT_NEAR(seg[0].end_speed_mm_s, 5.0, 1e-9) << accel;
+    EXPECT_NEAR(seg[1].start_speed_mm_s, 5.0, 1e-9) << accel;
+    EXPECT_DOUBLE_EQ(seg[0].accel_mm_s2, accel);
+  }
+  EXPECT_NEAR(klipper_junction_deviation_mm(5, 3000), 25 * (std::sqrt(2.0) - 1) / 3000, 1e-15);
+}
+
+TEST(KlipperPlanner, MinimumCruiseRatioLowersThePeakOfAShortMove) {
+  // 10 mm at 300 mm/s, 3000 mm/s^2, from rest to rest. Without the ratio the peak is
+  // v^2 = L a (173 mm/s); with minimum_cruise_ratio 0.5 it is v^2 = L a (1 - 0.5), so half
+  // of the move is cruise.
+  for (double mcr : {0.0, 0.5}) {
+    MotionLimits l = klipper_limits();
+    l.minimum_cruise_ratio = mcr;
+    const auto seg = plan(l, {line_move(Vec3(0, 0, 0), Vec3(10, 0, 0), 300)});
+    ASSERT_EQ(seg.size(), 1u);
+    const MotionSegment& s = seg[0];
+    EXPECT_NEAR(s.cruise_speed_mm_s, std::sqrt(10 * 3000 * (1 - mcr)), 1e-9) << mcr;
+    EXPECT_NEAR(s.cruise_time_s * s.cruise_speed_mm_s, 10 * mcr, 1e-9) << mcr;
+    EXPECT_NEAR(profile_distance(s), 10.0, 1e-9);
+  }
+}
+
+TEST(KlipperPlanner, JunctionSpeedIsCappedByTheLengthsOfBothMoves) {
+  // A 10 degree bend through a 0.1 mm move: the corner's circle may touch each move no
+  // further than its middle, so v^2 <= 0.5 L a tan(theta / 2) with theta = 170 degrees
+  // (far below the 52 mm/s that the junction deviation alone allows).
+  const double dev = 10 * M_PI / 180;
+  const Vec3 a(0, 0, 0), b(50, 0, 0);
+  const Vec3 c = b + 0.1 * Vec3(std::cos(dev), std::sin(dev), 0);
+  const Vec3 d = c + 50 * Vec3(std::cos(2 * dev), std::sin(2 * dev), 0);
+  const auto seg = plan(klipper_limits(), {line_move(a, b, 200), line_move(b, c, 200), line_move(c, d, 200)});
+  ASSERT_EQ(seg.size(), 3u);
+  const double expected = std::sqrt(0.5 * 0.1 * 3000 * std::tan(0.5 * (M_PI - dev)));
+  EXPECT_NEAR(seg[0].end_speed_mm_s, expected, 1e-9);
+  EXPECT_NEAR(seg[1].end_speed_mm_s, expected, 1e-9);
+  // The junction deviation alone would allow more.
+  const double s2 = std::sqrt(0.5 * (1 + std::cos(dev)));
+  EXPECT_GT(std::sqrt(s2 / (1 - s2) * klipper_junction_deviation_mm(5, 3000) * 3000), expected + 5);
+}
+
+TEST(KlipperPlanner, CornerAnglesComeFromXyzOnly) {
+  // A travel then a collinear extrusion: E does not bend the corner (Marlin's junction
+  // vector includes E); the extruder's instantaneous corner velocity (1 mm/s over a change
+  // of 0.05 mm of filament per mm) caps it at 20 mm/s.
+  const auto seg = plan(klipper_limits(), {line_move(Vec3(0, 0, 0), Vec3(50, 0, 0), 100),
+                                           line_move(Vec3(50, 0, 0), Vec3(100, 0, 0), 100, 2.5),
+                                           line_move(Vec3(100, 0, 0), Vec3(150, 0, 0), 100, 2.5)});
+  ASSERT_EQ(seg.size(), 3u);
+  EXPECT_NEAR(seg[0].end_speed_mm_s, 20.0, 1e-9);
+  EXPECT_NEAR(seg[1].end_speed_mm_s, 100.0, 1e-9);  // same ratio: no corner at all
+}
+
+TEST(KlipperPlanner, ExtrudeOnlyMovesUseTheExtruderLimits) {
+  // No max_extrude_only_* in the profile: Klipper derives them from max_velocity (300) and
+  // max_accel (3000) times 4 d^2 / filament area (0.4 mm nozzle, 1.75 mm filament).
+  const double ratio = 4 * 0.4 * 0.4 / (M_PI * 1.75 * 1.75 / 4);
+  EXPECT_NEAR(klipper_default_extrude_ratio(0.4, 1.75), ratio, 1e-12);
+  MotionLimits l = klipper_limits();
+  EXPECT_NEAR(l.max_extrude_only_velocity_mm_s, 300 * ratio, 1e-9);
+  EXPECT_NEAR(l.max_extrude_only_accel_mm_s2, 3000 * ratio, 1e-9);
+  // Retraction at 200 mm/s requested, then a wipe (XY with E < 0), then a travel.
+  const auto seg = plan(l, {line_move(Vec3(0, 0, 0), Vec3(0, 0, 0), 200, -5),
+                            line_move(Vec3(0, 0, 0), Vec3(10, 0, 0), 200, -5),
+                            line_move(Vec3(10, 0, 0), Vec3(60, 0, 0), 200)});
+  ASSERT_EQ(seg.size(), 3u);
+  const MotionSegment& r = seg[0];
+  EXPECT_NEAR(r.length_mm, 5.0, 1e-12);
+  EXPECT_NEAR(r.nominal_speed_mm_s, 300 * ratio, 1e-9);
+  EXPECT_NEAR(r.accel_mm_s2, 3000 * ratio, 1e-9);
+  EXPECT_EQ(r.start_speed_mm_s, 0.0);
+  EXPECT_EQ(r.end_speed_mm_s, 0.0);  // extrude-only moves start and end at rest
+  // The wipe: E moves 0.5 mm per mm, so XY is limited to (extruder limit) / 0.5.
+  const MotionSegment& w = seg[1];
+  EXPECT_NEAR(w.nominal_speed_mm_s, 300 * ratio / 0.5, 1e-9);
+  EXPECT_NEAR(w.accel_mm_s2, 3000 * ratio / 0.5, 1e-9);
+  EXPECT_EQ(w.start_speed_mm_s, 0.0);
+  // Configured values win over the derived ones.
+  l.max_extrude_only_velocity_mm_s = 40;
+  l.max_extrude_only_accel_mm_s2 = 1000;
+  const auto push = plan(l, {line_move(Vec3(0, 0, 0), Vec3(0, 0, 0), 200, 3)});
+  ASSERT_EQ(push.size(), 1u);
+  EXPECT_NEAR(push[0].nominal_speed_mm_s, 40.0, 1e-12);
+  EXPECT_NEAR(push[0].accel_mm_s2, 1000.0, 1e-12);
+}
+
+TEST(KlipperPlanner, ZMovesAreLimitedByMaxZVelocityAndAccel) {
+  const auto seg = plan(klipper_limits(), {line_move(Vec3(0, 0, 0), Vec3(3, 0, 4), 100)});  // 4 of 5 mm in Z
+  ASSERT_EQ(seg.size(), 1u);
+  EXPECT_NEAR(seg[0].nominal_speed_mm_s, 5.0 * 5 / 4, 1e-12);
+  EXPECT_NEAR(seg[0].accel_mm_s2, 100.0 * 5 / 4, 1e-12);
+}
+
+TEST(KlipperPlanner, LazyFlushStreamsWithBoundedQueueAndContinuousSpeed) {
+  // 2000 collinear 1 mm moves at 100 mm/s: Klipper releases moves once 150 ms of them are
+  // queued, so segments arrive long before the end and the queue stays short; the chain
+  // is one trapezoid: 0 -> 100 mm/s -> 0.
+  Planner planner(klipper_limits(), 16);
+  Recorder rec;
+  int max_queued = 0;
+  for (int i = 0; i < 2000; ++i) {
+    planner.add(line_move(Vec3(i, 0, 0), Vec3(i + 1, 0, 0), 100), rec);
+    max_queued = std::max(max_queued, planner.queued());
+  }
+  EXPECT_GT(rec.segments.size(), 1900u);
+  EXPECT_LT(max_queued, 120);
+  planner.flush(rec);
+  ASSERT_EQ(rec.segments.size(), 2000u);
+  double clock = 0;
+  for (std::size_t k = 0; k < rec.segments.size(); ++k) {
+    const MotionSegment& s = rec.segments[k];
+    EXPECT_NEAR(s.start_time_s, clock, 1e-9);
+    clock = s.end_time_s();
+    EXPECT_NEAR(profile_distance(s), 1.0, 1e-9);
+    if (k + 1 < rec.segments.size()) {
+      EXPECT_NEAR(rec.segments[k + 1].start_speed_mm_s, s.end_speed_mm_s, 1e-9);
+    }
+  }
+  // 2000 mm at 100 mm/s with 3000 mm/s^2 ramps: 20 s + v/a = 20.0333 s.
+  EXPECT_NEAR(planner.clock_s(), 2000.0 / 100 + 100.0 / 3000, 1e-9);
+}
+
+TEST(KlipperPlanner, MatchesKlippersOwnPlannerOnTheSamples) {
+  // Reference: Klipper (klippy/toolhead.py, 2026) in batch mode with the numbers of the
+  // ender3-klipper profile, summing accel_t + cruise_t + decel_t of every move its
+  // look-ahead queue released (docs/simulate.md, "Klipper's planner against Klipper").
+  const std::pair<const char*, double> reference[] = {
+      {"cura_cube10.gcode", 332.659372284}, {"slic3r_cube10.gcode", 381.115914979},
+      {"seed_square_box.gcode", 37.663976913}};
+  for (const auto& [file, klipper_s] : reference) {
+    auto r = simulate_gcode_file(test::source_path(std::string("samples/gcode/") + file), ender3_klipper(), {});
+    ASSERT_TRUE(r.ok()) << r.error().describe();
+    EXPECT_NEAR(r->motion_time_s, klipper_s, 1e-6 * klipper_s) << file;
+  }
+}
+
+TEST_P(PlannerOnFixture, KlipperSegmentsAreContinuousAndAddUpToTheClock) {
+  Recorder rec;
+  const PrinterProfile p = ender3_klipper();
+  auto r = simulate_gcode_file(test::source_path("samples/gcode/" + GetParam()), p, {}, &rec);
+  ASSERT_TRUE(r.ok()) << r.error().describe();
+  ASSERT_FALSE(rec.segments.empty());
+  double total = 0;
+  for (const auto& w : rec.waits) total += w.second;
+  for (std::size_t k = 0; k < rec.segments.size(); ++k) {
+    const MotionSegment& s = rec.segments[k];
+    total += s.duration_s();
+    EXPECT_NEAR(profile_distance(s), s.length_mm, 1e-6 * std::max(1.0, s.length_mm)) << "line " << s.line;
+    EXPECT_LE(s.cruise_speed_mm_s, s.nominal_speed_mm_s + 1e-9);
+    EXPECT_LE(s.cruise_speed_mm_s, 300 + 1e-9);
+    if (k + 1 < rec.segments.size() && std::fabs(rec.segments[k + 1].start_time_s - s.end_time_s()) < 1e-9) {
+      EXPECT_NEAR(rec.segments[k + 1].start_speed_mm_s, s.end_speed_mm_s, 1e-6) << "line " << s.line;
+    }
+  }
+  EXPECT_NEAR(total, r->print_time_s, 1e-6 * r->print_time_s);
+}
+
 }  // namespace
 }  // namespace printtwin
