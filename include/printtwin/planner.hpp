@@ -51,6 +51,14 @@ struct MotionLimits {
   /// acceleration, and E-only moves are limited per axis like any other. Used by
   /// `--limits-from-gcode` to reproduce PrusaSlicer's estimate (docs/simulate.md).
   bool prusaslicer_compat = false;
+  /// With prusaslicer_compat: plan like the estimator of OrcaSlicer, Bambu Studio and
+  /// Creality Print (PrusaSlicer's GCodeProcessor with Bambu's changes): the X, Y, Z jerk of
+  /// a junction is the difference of the velocity vectors (no coasting rule), XY bends of
+  /// less than 29 degrees cap the speed at sqrt(print accel * r) of the circle through the
+  /// move, moves with E > 0 and Z only count as travel, and the X/Y jerk is
+  /// square_corner_velocity_mm_s (Orca reads SET_VELOCITY_LIMIT SQUARE_CORNER_VELOCITY as
+  /// X/Y jerk; limits_from_slicer_config sets it to machine_max_jerk_x).
+  bool orca_compat = false;
   /// M204 values are clamped to these (PrusaSlicer's machine_max_acceleration_extruding,
   /// _retracting, _travel); infinity = no clamp, as in Marlin.
   Eigen::Vector3d accel_cap_mm_s2 = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
@@ -232,6 +240,9 @@ class Planner {
   Eigen::Vector4d previous_axis_speed_mm_s_ = Eigen::Vector4d::Zero();
   double previous_nominal_speed_mm_s_ = 0;
   double previous_safe_speed_mm_s_ = 0;
+  Eigen::Vector2d previous_xy_dir_ = Eigen::Vector2d::Zero();  ///< unit XY direction (Orca's centripetal cap)
+  double previous_xy_len_ = 0;
+  long previous_line_ = -1;  ///< G-code line of the previous move (segments of one arc share it)
 };
 
 }  // namespace printtwin

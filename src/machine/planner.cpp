@@ -141,6 +141,22 @@ void Planner::add(const Move& move, MoveSink& sink) {
       v = b.length_mm / stretched;
     }
   }
+  // Orca's estimator: a gentle XY bend (< 29 degrees) caps the speed at sqrt(a r), r the
+  // radius of the circle through this move's chord and the bend.
+  const double xy_len = b.delta_mm.head<2>().norm();
+  if (L.orca_compat && xy_len > 0 && previous_xy_len_ > 0) {
+    const Eigen::Vector2d dir = b.delta_mm.head<2>() / xy_len;
+    const double diff = (dir - previous_xy_dir_).norm();
+    if (diff < 0.5 && diff > 1e-5) {
+      const double cos_a = std::clamp(dir.dot(previous_xy_dir_), -1.0, 1.0);
+      const double sin_half = std::sqrt(0.5 * (1.0 - cos_a));
+      if (sin_half > 0) v = std::min(v, std::sqrt(L.print_accel_mm_s2 * xy_len * 0.5 / sin_half));
+    }
+  }
+  if (L.orca_compat) {
+    previous_xy_len_ = xy_len;
+    if (xy_len > 0) previous_xy_dir_ = b.delta_mm.head<2>() / xy_len;
+  }
   // Per-axis feedrate limits (M203), E included.
   double factor = 1.0;
   for (int i = 0; i < 4; ++i) {
@@ -152,9 +168,10 @@ void Planner::add(const Move& move, MoveSink& sink) {
   // Acceleration: M204 R for E-only moves, T for moves without E, P otherwise, then per axis.
   double accel;
   if (L.prusaslicer_compat) {
-    // PrusaSlicer's move types: retracting while moving (wipe) counts as travel.
-    accel = e_only ? L.retract_accel_mm_s2
-                   : (move.e_mm > 0 ? L.print_accel_mm_s2 : L.travel_accel_mm_s2);
+    // PrusaSlicer's move types: retracting while moving (wipe) counts as travel; for Orca an
+    // extrusion with Z and no XY too.
+    const bool extrude = move.e_mm > 0 && !(L.orca_compat && xy_len == 0);
+    accel = e_only ? L.retract_accel_mm_s2 : (extrude ? L.print_accel_mm_s2 : L.travel_accel_mm_s2);
     for (int i = 0; i < 4; ++i)
       if (accel * std::fabs(b.unit[i]) > L.max_accel_mm_s2[i]) accel = L.max_accel_mm_s2[i] / std::fabs(b.unit[i]);
   } else if (e_only) {
@@ -203,8 +220,10 @@ void Planner::add(const Move& move, MoveSink& sink) {
     // Classic jerk: the speed from which the block may start (or end) at once.
     double safe = b.nominal_speed_mm_s;
     if (L.prusaslicer_compat) {
+      Eigen::Vector4d jerk = L.jerk_mm_s;
+      if (L.orca_compat) jerk[0] = jerk[1] = L.square_corner_velocity_mm_s;
       for (int i = 0; i < 4; ++i)
-        if (std::fabs(axis_speed[i]) > L.jerk_mm_s[i]) safe = std::min(safe, L.jerk_mm_s[i]);
+        if (std::fabs(axis_speed[i]) > jerk[i]) safe = std::min(safe, jerk[i]);
     } else {
       bool limited = false;
       for (int i = 0; i < 4; ++i) {
@@ -228,7 +247,22 @@ void Planner::add(const Move& move, MoveSink& sink) {
       const double smaller_factor = vmax_junction / previous_nominal_speed_mm_s_;
       double v_factor = 1.0;
       bool limited = false;
-      for (int i = 0; i < 4; ++i) {
+      int first_axis = 0;
+      if (L.orca_compat) {
+        // X, Y, Z together: the jerk is |entry velocity - exit velocity| per axis, and
+        // each limit found scales what is left (Bambu's rule, kept as it is).
+        const Eigen::Vector3d jerk_xyz(L.square_corner_velocity_mm_s, L.square_corner_velocity_mm_s, L.jerk_mm_s[2]);
+        Eigen::Vector3d jv = (axis_speed.head<3>() - previous_axis_speed_mm_s_.head<3>() * smaller_factor).cwiseAbs();
+        for (int i = 0; i < 3; ++i) {
+          if (jv[i] > jerk_xyz[i]) {
+            v_factor *= jerk_xyz[i] / jv[i];
+            jv *= v_factor;
+            limited = true;
+          }
+        }
+        first_axis = 3;
+      }
+      for (int i = first_axis; i < 4; ++i) {
         double v_exit = previous_axis_speed_mm_s_[i] * smaller_factor;
         double v_entry = axis_speed[i];
         if (limited) {
@@ -243,6 +277,8 @@ void Planner::add(const Move& move, MoveSink& sink) {
           limited = true;
         }
       }
+      // Orca plans an arc (G2/G3) as one block: its segments join without a jerk limit.
+      if (L.orca_compat && move.line == previous_line_ && move.line > 0 && xy_len > 0) limited = false;
       if (limited) vmax_junction *= v_factor;
       const double threshold = vmax_junction * 0.99;
       if (previous_safe_speed_mm_s_ > threshold && safe > threshold) vmax_junction = safe;
@@ -261,6 +297,7 @@ void Planner::add(const Move& move, MoveSink& sink) {
   previous_axis_speed_mm_s_ = axis_speed;
   previous_nominal_speed_mm_s_ = b.nominal_speed_mm_s;
   previous_safe_speed_mm_s_ = b.safe_speed_mm_s;
+  previous_line_ = move.line;
 
   window_.push_back(std::move(b));
   ++queued_since_sync_;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <fstream>
 
+#include "printtwin/gcode.hpp"
 #include "printtwin/planner.hpp"
 #include "printtwin/simulate.hpp"
 #include "support/test_support.hpp"
@@ -388,6 +389,100 @@ TEST_P(PlannerOnFixture, KlipperSegmentsAreContinuousAndAddUpToTheClock) {
     }
   }
   EXPECT_NEAR(total, r->print_time_s, 1e-6 * r->print_time_s);
+}
+
+// ---------------------------------------------------------------------------------------
+// The estimator of OrcaSlicer / Bambu Studio / Creality Print (--limits-from-gcode).
+
+MotionLimits orca_limits() {
+  // A config block as these slicers write it (speeds as machine_max_speed_*, "normal,silent").
+  const std::string block =
+      "; HEADER_BLOCK_START\n; CONFIG_BLOCK_START\n"
+      "; machine_max_acceleration_e = 5000,5000\n; machine_max_acceleration_extruding = 20000,20000\n"
+      "; machine_max_acceleration_retracting = 5000,5000\n; machine_max_acceleration_travel = 9000,9000\n"
+      "; machine_max_acceleration_x = 20000,20000\n; machine_max_acceleration_y = 20000,20000\n"
+      "; machine_max_acceleration_z = 500,500\n; machine_max_jerk_e = 2.5,2.5\n"
+      "; machine_max_jerk_x = 12,12\n; machine_max_jerk_y = 12,12\n; machine_max_jerk_z = 2,2\n"
+      "; machine_max_speed_e = 100,100\n; machine_max_speed_x = 800,800\n; machine_max_speed_y = 800,800\n"
+      "; machine_max_speed_z = 20,20\n; CONFIG_BLOCK_END\n";
+  auto l = limits_from_prusaslicer_config(block, motion_limits_from_profile(ender3_klipper()));
+  EXPECT_TRUE(l.ok());
+  return l.ok() ? *l : MotionLimits{};
+}
+
+TEST(OrcaEstimator, ReadsTheOrcaConfigBlockAndItsKeys) {
+  const MotionLimits l = orca_limits();
+  EXPECT_TRUE(l.prusaslicer_compat);
+  EXPECT_TRUE(l.orca_compat);
+  EXPECT_FALSE(l.klipper);  // the slicer's estimator, not the firmware
+  EXPECT_EQ(l.junction, JunctionModel::classic_jerk);
+  EXPECT_DOUBLE_EQ(l.max_feedrate_mm_s[0], 800.0);
+  EXPECT_DOUBLE_EQ(l.max_feedrate_mm_s[2], 20.0);
+  EXPECT_DOUBLE_EQ(l.print_accel_mm_s2, 20000.0);
+  EXPECT_DOUBLE_EQ(l.travel_accel_mm_s2, 9000.0);
+  EXPECT_DOUBLE_EQ(l.square_corner_velocity_mm_s, 12.0);  // X/Y jerk until SET_VELOCITY_LIMIT
+  // PrusaSlicer's names keep PrusaSlicer's estimator.
+  auto prusa = limits_from_prusaslicer_config(
+      "; machine_max_acceleration_e = 5000\n; machine_max_acceleration_extruding = 1250\n"
+      "; machine_max_acceleration_retracting = 1250\n; machine_max_acceleration_travel = 1250\n"
+      "; machine_max_acceleration_x = 1000\n; machine_max_acceleration_y = 1000\n"
+      "; machine_max_acceleration_z = 200\n; machine_max_feedrate_e = 120\n; machine_max_feedrate_x = 200\n"
+      "; machine_max_feedrate_y = 200\n; machine_max_feedrate_z = 12\n; machine_max_jerk_x = 8\n",
+      MotionLimits{});
+  ASSERT_TRUE(prusa.ok());
+  EXPECT_FALSE(prusa->orca_compat);
+  EXPECT_FALSE(limits_from_prusaslicer_config("; no limits here\n", MotionLimits{}).ok());
+}
+
+TEST(OrcaEstimator, SquareCornerVelocityIsTheXyJerk) {
+  // 90 degrees at 200 mm/s: the junction is the X/Y jerk, which SET_VELOCITY_LIMIT
+  // SQUARE_CORNER_VELOCITY sets in Orca's estimator.
+  for (double scv : {7.0, 12.0}) {
+    MotionLimits l = orca_limits();
+    l.square_corner_velocity_mm_s = scv;
+    const auto seg = plan(l, {line_move(Vec3(0, 0, 0), Vec3(100, 0, 0), 200, 5),
+                              line_move(Vec3(100, 0, 0), Vec3(100, 100, 0), 200, 5)});
+    ASSERT_EQ(seg.size(), 2u);
+    EXPECT_NEAR(seg[0].end_speed_mm_s, scv, 1e-9) << scv;
+  }
+}
+
+TEST(OrcaEstimator, GentleBendsAreCappedByTheCircleThroughTheMove) {
+  // A 10 degree bend into a 0.5 mm move: Orca caps the second move at sqrt(a r), r the radius
+  // of the circle through the 0.5 mm chord and the bend.
+  const double dev = 10 * M_PI / 180;
+  const Vec3 b(50, 0, 0), c = b + 0.5 * Vec3(std::cos(dev), std::sin(dev), 0);
+  const auto seg = plan(orca_limits(), {line_move(Vec3(0, 0, 0), b, 400, 2), line_move(b, c, 400, 0.1)});
+  ASSERT_EQ(seg.size(), 2u);
+  const double r = 0.5 * 0.5 / std::sin(dev / 2);
+  EXPECT_NEAR(seg[1].nominal_speed_mm_s, std::sqrt(20000 * r), 1e-6);
+  EXPECT_NEAR(seg[0].nominal_speed_mm_s, 400.0, 1e-9);
+}
+
+TEST(OrcaEstimator, SegmentsOfOneArcJoinWithoutAJerkLimit) {
+  // Orca plans a G2/G3 as one block; the twin's segments of it (same G-code line) join at
+  // full speed, while separate G1 lines with the same bends are jerk-limited.
+  for (bool one_arc : {true, false}) {
+    Planner planner(orca_limits(), 64);
+    Recorder rec;
+    Vec3 prev(20, 0, 0);
+    for (int i = 1; i <= 36; ++i) {
+      const double t = 2 * M_PI * i / 36;
+      const Vec3 p(20 * std::cos(t), 20 * std::sin(t), 0);
+      Move m = line_move(prev, p, 100, 0.1);
+      m.line = one_arc ? 7 : 7 + i;
+      planner.add(m, rec);
+      prev = p;
+    }
+    planner.flush(rec);
+    ASSERT_EQ(rec.segments.size(), 36u);
+    const double mid = rec.segments[18].end_speed_mm_s;
+    if (one_arc) {
+      EXPECT_NEAR(mid, 100.0, 1e-6);  // sqrt(20000 * 20) = 632 > 100 requested
+    } else {
+      EXPECT_LT(mid, 100.0 - 1);
+    }
+  }
 }
 
 }  // namespace
