@@ -243,11 +243,13 @@ class GcodeInterpreter {
   long last_line_ = 0;
 };
 
-/// Machine limits that PrusaSlicer wrote in the config block at the end of its G-code
-/// (`; machine_max_acceleration_x = 500`, `; machine_max_jerk_x = 8`, ...), as the
-/// limits its own time estimator used (classic jerk with PrusaSlicer's safe-speed rule,
-/// no minimum segment time). Reads only the last 256 KB of `text`.
-/// Error when the block is missing.
+/// Machine limits that the slicer wrote in its config block (`; machine_max_acceleration_x =
+/// 500`, `; machine_max_jerk_x = 8`, ...; PrusaSlicer and SuperSlicer at the end,
+/// OrcaSlicer / Bambu Studio / Creality Print name the speeds `machine_max_speed_*` and put
+/// the block at the end or the start), as the limits its own time estimator used: classic
+/// jerk with PrusaSlicer's safe-speed rule, no minimum segment time, and for the Orca family
+/// MotionLimits::orca_compat. `text` is the part of the file to search (the caller passes
+/// the head and the tail). Error when no block is found.
 [[nodiscard]] Result<MotionLimits> limits_from_prusaslicer_config(std::string_view text,
                                                                   const MotionLimits& base);
 

@@ -702,7 +702,10 @@ Status GcodeInterpreter::arc_move(const GcodeCommand& c, std::string_view text, 
   // each between arc_min_segment_mm and arc_max_segment_mm.
   const double seg = std::clamp(radius * 2 * kPi / profile_.arc_min_segments_per_circle,
                                 profile_.arc_min_segment_mm, profile_.arc_max_segment_mm);
-  const long segments = std::max(1L, std::lround(travel / seg));
+  // Klipper's [gcode_arcs] takes floor(length / resolution) segments; Marlin rounds.
+  const double n_seg = travel / seg;
+  const long segments = std::max(1L, profile_.firmware == "klipper" ? static_cast<long>(std::floor(n_seg))
+                                                                     : std::lround(n_seg));
   if (segments > 20000) return reject("arc needs more than 20000 segments; ignored");
   const Vec3 start = logical_mm_;
   const double theta_step = angular / static_cast<double>(segments);
@@ -1340,12 +1343,17 @@ Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text, I
 }
 
 Result<MotionLimits> limits_from_prusaslicer_config(std::string_view text, const MotionLimits& base) {
-  constexpr std::size_t kTail = 256 * 1024;
-  if (text.size() > kTail) text = text.substr(text.size() - kTail);
   MotionLimits l = base;
   int found = 0;
+  bool orca_keys = false;  // machine_max_speed_*: OrcaSlicer, Bambu Studio, Creality Print
   double extruding = 0, retracting = 0, travel = 0, min_extruding = 0, min_travel = 0;
   std::size_t pos = 0;
+  // The axis letter after `prefix`, as an index X Y Z E; -1 when `key` is not prefix + axis.
+  auto axis_of = [](std::string_view key, std::string_view prefix) {
+    if (key.size() != prefix.size() + 1 || key.substr(0, prefix.size()) != prefix) return -1;
+    const auto i = std::string_view("xyze").find(key.back());
+    return i == std::string_view::npos ? -1 : static_cast<int>(i);
+  };
   while (pos < text.size()) {
     std::size_t eol = text.find('\n', pos);
     if (eol == std::string_view::npos) eol = text.size();
@@ -1360,25 +1368,31 @@ Result<MotionLimits> limits_from_prusaslicer_config(std::string_view text, const
     value = value.substr(0, value.find(','));  // "1500,1250": normal mode first
     double v = 0;
     if (!parse_double(value, v) || v < 0) continue;
-    static constexpr std::string_view kAxes[4] = {"x", "y", "z", "e"};
-    for (int i = 0; i < 4; ++i) {
-      if (key.substr(0, key.size() - 1) == "machine_max_acceleration_" && key.back() == kAxes[i][0] && key.size() == 26) {
-        if (v > 0) l.max_accel_mm_s2[i] = v, ++found;
-      } else if (key.substr(0, key.size() - 1) == "machine_max_feedrate_" && key.back() == kAxes[i][0] && key.size() == 22) {
-        if (v > 0) l.max_feedrate_mm_s[i] = v, ++found;
-      } else if (key.substr(0, key.size() - 1) == "machine_max_jerk_" && key.back() == kAxes[i][0] && key.size() == 18) {
-        l.jerk_mm_s[i] = v, ++found;
-      }
+    if (const int i = axis_of(key, "machine_max_acceleration_"); i >= 0) {
+      if (v > 0) l.max_accel_mm_s2[i] = v, ++found;
+    } else if (const int f = axis_of(key, "machine_max_feedrate_"); f >= 0) {
+      if (v > 0) l.max_feedrate_mm_s[f] = v, ++found;
+    } else if (const int o = axis_of(key, "machine_max_speed_"); o >= 0) {
+      if (v > 0) l.max_feedrate_mm_s[o] = v, ++found;
+      orca_keys = true;
+    } else if (const int j = axis_of(key, "machine_max_jerk_"); j >= 0) {
+      l.jerk_mm_s[j] = v, ++found;
+    } else if (key == "machine_max_acceleration_extruding") {
+      extruding = v, ++found;
+    } else if (key == "machine_max_acceleration_retracting") {
+      retracting = v, ++found;
+    } else if (key == "machine_max_acceleration_travel") {
+      travel = v, ++found;
+    } else if (key == "machine_min_extruding_rate") {
+      min_extruding = v;
+    } else if (key == "machine_min_travel_rate") {
+      min_travel = v;
     }
-    if (key == "machine_max_acceleration_extruding") extruding = v, ++found;
-    else if (key == "machine_max_acceleration_retracting") retracting = v, ++found;
-    else if (key == "machine_max_acceleration_travel") travel = v, ++found;
-    else if (key == "machine_min_extruding_rate") min_extruding = v;
-    else if (key == "machine_min_travel_rate") min_travel = v;
   }
   if (found < 12)
-    return bad_input("no PrusaSlicer machine limits (\"; machine_max_acceleration_x = ...\") at the end "
-                     "of the G-code; --limits-from-gcode needs PrusaSlicer's config block");
+    return bad_input("no slicer machine limits (\"; machine_max_acceleration_x = ...\") in the G-code; "
+                     "--limits-from-gcode needs the config block of PrusaSlicer, SuperSlicer, OrcaSlicer, "
+                     "Bambu Studio or Creality Print");
   // PrusaSlicer's defaults when a value is 0 (GCodeProcessor: DEFAULT_ACCELERATION 1500,
   // DEFAULT_RETRACT_ACCELERATION 1500, DEFAULT_TRAVEL_ACCELERATION 1250).
   l.print_accel_mm_s2 = extruding > 0 ? extruding : 1500;
@@ -1391,6 +1405,12 @@ Result<MotionLimits> limits_from_prusaslicer_config(std::string_view text, const
   l.min_travel_feedrate_mm_s = min_travel;
   l.junction = JunctionModel::classic_jerk;
   l.prusaslicer_compat = true;
+  // OrcaSlicer's family (Bambu Studio, Creality Print) names the speeds machine_max_speed_*
+  // and estimates with Bambu's changes to PrusaSlicer's planner; SET_VELOCITY_LIMIT
+  // SQUARE_CORNER_VELOCITY replaces its X/Y jerk.
+  l.orca_compat = orca_keys;
+  if (orca_keys) l.square_corner_velocity_mm_s = l.jerk_mm_s[0];
+  l.klipper = false;
   l.min_segment_time_s = 0;
   return l;
 }

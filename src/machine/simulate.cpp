@@ -152,16 +152,20 @@ Result<SimulationResult> run(std::istream& in, const PrinterProfile& profile, co
   MotionLimits limits = motion_limits_from_profile(profile);
   int window = profile.block_buffer_size;
   if (options.limits_from_gcode) {
-    // PrusaSlicer writes its config block at the end: read the tail, then rewind.
+    // Slicers write their config block at the end (PrusaSlicer) or the start (Bambu
+    // Studio): read the head and the tail, then rewind.
     in.clear();
     in.seekg(0, std::ios::end);
     const std::streamoff size = in.tellg();
     if (size < 0 || !in)
-      return bad_input("--limits-from-gcode needs a seekable file (PrusaSlicer writes its limits at the end)", file);
-    const std::streamoff tail = std::min<std::streamoff>(size, 256 * 1024);
-    in.seekg(size - tail);
-    std::string text(static_cast<std::size_t>(tail), '\0');
-    in.read(text.data(), tail);
+      return bad_input("--limits-from-gcode needs a seekable file (slicers write their limits at the end)", file);
+    const std::streamoff part = std::min<std::streamoff>(size, 256 * 1024);
+    std::string text(static_cast<std::size_t>(2 * part + 1), '\n');
+    in.seekg(0);
+    in.read(text.data(), part);
+    in.clear();
+    in.seekg(size - part);
+    in.read(text.data() + part + 1, part);
     in.clear();
     in.seekg(0);
     auto l = limits_from_prusaslicer_config(text, limits);
@@ -341,7 +345,10 @@ std::string simulation_to_json(const SimulationResult& r, const std::string& inp
       {"retract_accel_mm_s2", L.retract_accel_mm_s2},
       {"travel_accel_mm_s2", L.travel_accel_mm_s2},
       {"min_segment_time_s", L.min_segment_time_s},
-      {"prusaslicer_compat", L.prusaslicer_compat}};
+      {"prusaslicer_compat", L.prusaslicer_compat},
+      {"planner", L.klipper ? "klipper"
+                  : L.orca_compat ? "orcaslicer_estimator"
+                  : L.prusaslicer_compat ? "prusaslicer_estimator" : "marlin"}};
   return doc.dump(2) + "\n";
 }
 
