@@ -410,7 +410,9 @@ void Planner::klipper_add(const Move& move, MoveSink& sink) {
   Eigen::Vector4d d;
   d.head<3>() = move.end_mm - move.start_mm;
   d[3] = move.e_mm;
-  const double max_velocity = L.max_feedrate_mm_s[0];
+  // Limits that are not positive (an incomplete profile) limit nothing, as an absent one.
+  constexpr double kNone = std::numeric_limits<double>::infinity();
+  const double max_velocity = L.max_feedrate_mm_s[0] > 0 ? L.max_feedrate_mm_s[0] : kNone;
   const double max_accel = std::max(L.print_accel_mm_s2, 1e-6);
   const double speed = move.feedrate_mm_s > 0 ? move.feedrate_mm_s : kVmin;
   double velocity = std::min(speed, max_velocity);
@@ -432,6 +434,7 @@ void Planner::klipper_add(const Move& move, MoveSink& sink) {
   m.delta_v2 = 2.0 * m.move_d * m.accel;
   m.mcr_delta_v2 = 2.0 * m.move_d * max_accel * (1.0 - L.minimum_cruise_ratio);
   auto limit_speed = [&m](double v, double a) {
+    if (!(v > 0) || !(a > 0)) return;
     if (v * v < m.max_cruise_v2) {
       m.max_cruise_v2 = v * v;
       m.min_move_t = m.move_d / v;
@@ -450,7 +453,7 @@ void Planner::klipper_add(const Move& move, MoveSink& sink) {
   if (d[3] != 0 && ((d[0] == 0 && d[1] == 0) || m.axes_r[3] < 0)) {
     double ev = L.max_extrude_only_velocity_mm_s, ea = L.max_extrude_only_accel_mm_s2;
     const double ratio = klipper_default_extrude_ratio(0.4, 1.75);
-    if (!(ev > 0)) ev = max_velocity * ratio;
+    if (!(ev > 0)) ev = std::min(max_velocity, 1e9) * ratio;
     if (!(ea > 0)) ea = max_accel * ratio;
     const double inv = 1.0 / std::fabs(m.axes_r[3]);
     limit_speed(ev * inv, ea * inv);

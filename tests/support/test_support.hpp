@@ -1,6 +1,7 @@
 #pragma once
 // Shared test helpers: paths to fixtures, running the CLI, small meshes built in code.
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "printtwin/mesh.hpp"
@@ -9,6 +10,9 @@ namespace printtwin::test {
 
 /// Path of a file in the source tree (e.g. "samples/cube_20mm.stl").
 std::filesystem::path source_path(const std::string& relative);
+/// The shared folder of real slicer files (PRINTTWIN_REALWORLD_DIR, else
+/// <source>/../shared/realworld, else /work/shared/realworld); nullopt when absent (skip).
+std::optional<std::filesystem::path> realworld_dir();
 /// A fresh empty folder under the system temp dir, unique to this test process.
 std::filesystem::path temp_dir(const std::string& name);
 
