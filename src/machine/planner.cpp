@@ -171,7 +171,11 @@ void Planner::add(const Move& move, MoveSink& sink) {
     // PrusaSlicer's move types: retracting while moving (wipe) counts as travel; for Orca an
     // extrusion with Z and no XY too.
     const bool extrude = move.e_mm > 0 && !(L.orca_compat && xy_len == 0);
-    accel = e_only ? L.retract_accel_mm_s2 : (extrude ? L.print_accel_mm_s2 : L.travel_accel_mm_s2);
+    // The estimators clamp each acceleration by machine_max_acceleration_* whoever set it
+    // (M204, SET_VELOCITY_LIMIT).
+    const int type = e_only ? 1 : (extrude ? 0 : 2);
+    accel = std::min(type == 1 ? L.retract_accel_mm_s2 : (type == 0 ? L.print_accel_mm_s2 : L.travel_accel_mm_s2),
+                     L.accel_cap_mm_s2[type]);
     for (int i = 0; i < 4; ++i)
       if (accel * std::fabs(b.unit[i]) > L.max_accel_mm_s2[i]) accel = L.max_accel_mm_s2[i] / std::fabs(b.unit[i]);
   } else if (e_only) {
