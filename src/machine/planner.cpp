@@ -171,7 +171,11 @@ void Planner::add(const Move& move, MoveSink& sink) {
     // PrusaSlicer's move types: retracting while moving (wipe) counts as travel; for Orca an
     // extrusion with Z and no XY too.
     const bool extrude = move.e_mm > 0 && !(L.orca_compat && xy_len == 0);
-    accel = e_only ? L.retract_accel_mm_s2 : (extrude ? L.print_accel_mm_s2 : L.travel_accel_mm_s2);
+    // The estimators clamp each acceleration by machine_max_acceleration_* whoever set it
+    // (M204, SET_VELOCITY_LIMIT).
+    const int type = e_only ? 1 : (extrude ? 0 : 2);
+    accel = std::min(type == 1 ? L.retract_accel_mm_s2 : (type == 0 ? L.print_accel_mm_s2 : L.travel_accel_mm_s2),
+                     L.accel_cap_mm_s2[type]);
     for (int i = 0; i < 4; ++i)
       if (accel * std::fabs(b.unit[i]) > L.max_accel_mm_s2[i]) accel = L.max_accel_mm_s2[i] / std::fabs(b.unit[i]);
   } else if (e_only) {
@@ -410,7 +414,9 @@ void Planner::klipper_add(const Move& move, MoveSink& sink) {
   Eigen::Vector4d d;
   d.head<3>() = move.end_mm - move.start_mm;
   d[3] = move.e_mm;
-  const double max_velocity = L.max_feedrate_mm_s[0];
+  // Limits that are not positive (an incomplete profile) limit nothing, as an absent one.
+  constexpr double kNone = std::numeric_limits<double>::infinity();
+  const double max_velocity = L.max_feedrate_mm_s[0] > 0 ? L.max_feedrate_mm_s[0] : kNone;
   const double max_accel = std::max(L.print_accel_mm_s2, 1e-6);
   const double speed = move.feedrate_mm_s > 0 ? move.feedrate_mm_s : kVmin;
   double velocity = std::min(speed, max_velocity);
@@ -432,6 +438,7 @@ void Planner::klipper_add(const Move& move, MoveSink& sink) {
   m.delta_v2 = 2.0 * m.move_d * m.accel;
   m.mcr_delta_v2 = 2.0 * m.move_d * max_accel * (1.0 - L.minimum_cruise_ratio);
   auto limit_speed = [&m](double v, double a) {
+    if (!(v > 0) || !(a > 0)) return;
     if (v * v < m.max_cruise_v2) {
       m.max_cruise_v2 = v * v;
       m.min_move_t = m.move_d / v;
@@ -450,7 +457,7 @@ void Planner::klipper_add(const Move& move, MoveSink& sink) {
   if (d[3] != 0 && ((d[0] == 0 && d[1] == 0) || m.axes_r[3] < 0)) {
     double ev = L.max_extrude_only_velocity_mm_s, ea = L.max_extrude_only_accel_mm_s2;
     const double ratio = klipper_default_extrude_ratio(0.4, 1.75);
-    if (!(ev > 0)) ev = max_velocity * ratio;
+    if (!(ev > 0)) ev = std::min(max_velocity, 1e9) * ratio;
     if (!(ea > 0)) ea = max_accel * ratio;
     const double inv = 1.0 / std::fabs(m.axes_r[3]);
     limit_speed(ev * inv, ea * inv);

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 
 #include "printtwin/gcode.hpp"
@@ -356,6 +357,23 @@ TEST(KlipperPlanner, LazyFlushStreamsWithBoundedQueueAndContinuousSpeed) {
   EXPECT_NEAR(planner.clock_s(), 2000.0 / 100 + 100.0 / 3000, 1e-9);
 }
 
+TEST(KlipperPlanner, LimitsThatAreNotPositiveLimitNothing) {
+  // An incomplete profile (max velocity, Z and extruder limits 0) must not give infinite or
+  // zero-length times: those limits are treated as absent.
+  MotionLimits l = klipper_limits();
+  l.max_feedrate_mm_s.setZero();
+  l.max_accel_mm_s2.setZero();
+  l.max_extrude_only_velocity_mm_s = l.max_extrude_only_accel_mm_s2 = 0;
+  const auto seg = plan(l, {line_move(Vec3(0, 0, 0), Vec3(30, 0, 4), 100, 1), line_move(Vec3(30, 0, 4), Vec3(30, 0, 4), 30, -1)});
+  ASSERT_EQ(seg.size(), 2u);
+  for (const auto& s : seg) {
+    EXPECT_TRUE(std::isfinite(s.duration_s()));
+    EXPECT_GT(s.duration_s(), 0.0);
+    EXPECT_NEAR(profile_distance(s), s.length_mm, 1e-9);
+  }
+  EXPECT_NEAR(seg[0].nominal_speed_mm_s, 100.0, 1e-9);
+}
+
 TEST(KlipperPlanner, MatchesKlippersOwnPlannerOnTheSamples) {
   // Reference: Klipper (klippy/toolhead.py, 2026) in batch mode with the numbers of the
   // ender3-klipper profile, summing accel_t + cruise_t + decel_t of every move its
@@ -483,6 +501,25 @@ TEST(OrcaEstimator, SegmentsOfOneArcJoinWithoutAJerkLimit) {
       EXPECT_LT(mid, 100.0 - 1);
     }
   }
+}
+
+TEST(SlicerEstimate, RealPrusaSlicerFileWithinTwoPercentOfItsEstimate) {
+  // A real PrusaSlicer 2.8 file for the MK4S (../shared/realworld; skipped without it).
+  const auto dir = test::realworld_dir();
+  if (!dir) GTEST_SKIP() << "no realworld folder";
+  std::filesystem::path file;
+  for (const auto& entry : std::filesystem::directory_iterator(*dir / "gcode")) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind("prusaslicer-", 0) == 0 && entry.path().extension() == ".gcode") file = entry.path();
+  }
+  if (file.empty()) GTEST_SKIP() << "no PrusaSlicer text G-code in " << dir->string();
+  SimulateOptions o;
+  o.limits_from_gcode = true;
+  auto r = simulate_gcode_file(file, ender3_marlin2(), o);
+  ASSERT_TRUE(r.ok()) << r.error().describe();
+  ASSERT_TRUE(r->slicer_estimate_s.has_value());
+  EXPECT_FALSE(r->limits_used.orca_compat);
+  EXPECT_NEAR(r->motion_time_s, *r->slicer_estimate_s, 0.02 * *r->slicer_estimate_s) << file;
 }
 
 }  // namespace
