@@ -816,6 +816,12 @@ bool name_has_part(std::string_view name, std::string_view part) {
 
 enum class MacroKind { none, start, end };
 
+/// The info note of bed levelling and gantry levelling commands (G29, BED_MESH_CALIBRATE...).
+std::string levelling_message(std::string_view command) {
+  return "bed levelling (" + std::string(command) + " and the like) is not simulated: its probing "
+         "moves take time on the printer (often 1-3 min) that the print time does not include";
+}
+
 /// Printer-side start/end macros by the shape of their names: START_PRINT, PRINT_START,
 /// START_PRINT_K1, PRINT_BEGIN, END_PRINT, PRINT_END, PRINT_FINISH, CANCEL_PRINT...
 MacroKind macro_kind(std::string_view name) {
@@ -1000,6 +1006,25 @@ Status GcodeInterpreter::extended(const GcodeCommand& c, std::string_view text, 
     if (macro_arg(c.args, "UNRETRACT_SPEED", v) && v > 0) fw_recover_speed_mm_s_ = v;
     return Ok{};
   }
+  if (w == "TEMPERATURE_WAIT") {
+    // Klipper: SENSOR=extruder|heater_bed MINIMUM=<C> [MAXIMUM=<C>]: waits until reached.
+    const auto h = c.args.find("SENSOR=");
+    const std::string_view sensor = h == std::string_view::npos ? std::string_view{} : c.args.substr(h + 7);
+    if (!macro_arg(c.args, "MINIMUM", v)) return Ok{};
+    if (v < 0 || v > 500) return warn(c.line, text, "temperature outside 0..500 C; ignored", "bad_temperature");
+    // Wait until MINIMUM is reached; the heater keeps heating to its own target.
+    const bool hotend = starts_with(sensor, "extruder");
+    if (!hotend && !starts_with(sensor, "heater_bed")) return Ok{};
+    const double target = hotend ? hotend_target_c_ : bed_target_c_;
+    if (v <= (hotend ? hotend_temp_now() : bed_c_at_set_)) return Ok{};
+    heat_wait(hotend, v, false, c.line, out);
+    if (target > v) hotend ? set_hotend_target(target) : set_bed_target(target);
+    return Ok{};
+  }
+  if (w == "BED_MESH_CALIBRATE" || w == "QUAD_GANTRY_LEVEL" || w == "Z_TILT_ADJUST") {
+    note("bed_levelling_not_timed", levelling_message(w), c.line);
+    return Ok{};
+  }
   if (w == "SET_HEATER_TEMPERATURE") {
     // Klipper: HEATER=extruder|heater_bed TARGET=<C> (no wait, like M104/M140).
     const auto h = c.args.find("HEATER=");
@@ -1060,6 +1085,7 @@ Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text, I
       }
       case 10:
       case 11: {
+        if (c.code == 10 && flavour_ == Flavour::rrf && c.has('L')) return Ok{};  // RRF: tool/work offsets
         if (c.code == 10 && flavour_ == Flavour::rrf && (c.has('P') || c.has('S') || c.has('R'))) {
           // RepRapFirmware: G10 P<tool> S<active C> R<standby C> sets tool temperatures.
           if (c.has('S')) {
@@ -1087,10 +1113,7 @@ Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text, I
       case 81:
         // Bed levelling (G29 and its variants P1, P9, A, T...; Prusa G80/G81): the probing
         // takes time on the printer; the twin does not move or count it.
-        note("bed_levelling_not_timed",
-             "bed levelling (" + command_name(c) + " and the like) is not simulated: its probing moves "
-             "take time on the printer (often 1-3 min) that the print time does not include",
-             c.line);
+        note("bed_levelling_not_timed", levelling_message(command_name(c)), c.line);
         return Ok{};
       case 380:  // Bambu: probing move towards the bed
       case 150:  // Bambu: nozzle wipe / load

@@ -212,6 +212,20 @@ TEST(FlavourKlipper, MacrosAreRecognisedByShapeNotByOneName) {
   EXPECT_EQ(r.unknown_commands.at("START_TIMER"), 2);
 }
 
+TEST(FlavourKlipper, TemperatureWaitAndLevellingMacros) {
+  const std::string text =
+      "G28\nSET_HEATER_TEMPERATURE HEATER=heater_bed TARGET=60\nTEMPERATURE_WAIT SENSOR=heater_bed MINIMUM=60\n"
+      "SET_HEATER_TEMPERATURE HEATER=extruder TARGET=215\nTEMPERATURE_WAIT SENSOR=extruder MINIMUM=210\n"
+      "QUAD_GANTRY_LEVEL\nBED_MESH_CALIBRATE\nM83\n" + square(0.2);
+  const auto r = sim(text, with_firmware("klipper"));
+  EXPECT_EQ(count_severity(r, Severity::error), 0);
+  EXPECT_TRUE(r.unknown_commands.empty());
+  EXPECT_NEAR(r.heating_time_s, 35.0 / 0.5 + 185.0 / 2.0, 1e-6);
+  ASSERT_NE(find(r, "bed_levelling_not_timed"), nullptr);
+  EXPECT_EQ(find(r, "bed_levelling_not_timed")->count, 2);
+  EXPECT_NEAR(r.filament_mm, 2.0, 1e-9);
+}
+
 TEST(FlavourKlipper, SetVelocityLimitAndM204AsKlipperReadsThem) {
   GcodeInterpreter interp(with_firmware("klipper"), {});
   Recorder out;
