@@ -213,11 +213,9 @@ void GcodeInterpreter::heat_wait(bool hotend, double target_c, bool wait_cooling
 void GcodeInterpreter::layer_marker(double z_mm) {
   // A slicer's layer change. Its layer starts at the next extrusion that is not start/end
   // code; a marker at the Z of the current layer (one per object, KISSlicer) adds none.
-  if (!marker_seen_) {
-    marker_seen_ = true;
-    // Extrusions before the first marker were start code (purge lines) when the slicer was
-    // expected to mark its layers; otherwise the layers they made stay.
-  }
+  // From the first marker on, only markers start layers (layers made by Z before it, in a
+  // file whose header named no marking slicer, stay).
+  marker_seen_ = true;
   if (!std::isnan(z_mm) && layer_ >= 0 && !layer_pending_ &&
       std::fabs(layer_z_[static_cast<std::size_t>(layer_)] - z_mm) <= kLayerZTolerance_mm)
     return;
