@@ -258,8 +258,8 @@ void GcodeInterpreter::stated_figures(std::string_view c) {
   } else if (starts_with(c, "TIME:") && parse_double(c.substr(5), v)) {
     set_time(v, 2);                                                  // Cura (s)
     estimate_from_time_tag_ = true;
-  } else if (starts_with(c, "Print Time:") && parse_double(c.substr(11), v)) {
-    set_time(v, 2);                                                  // ideaMaker (s)
+  } else if (starts_with(c, "Print Time:")) {                       // ideaMaker (s, or "1h 2m 3s")
+    set_time(parse_double(c.substr(11), v) ? v : parse_duration(c.substr(11)), 2);
   } else if (starts_with(c, "Estimated Build Time:")) {
     std::string_view m = trim(c.substr(21));                         // KISSlicer (minutes)
     if (parse_double(m.substr(0, m.find(' ')), v)) set_time(v * 60.0, 2);
