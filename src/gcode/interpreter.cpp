@@ -162,6 +162,17 @@ Status GcodeInterpreter::warn_input(const Error& problem) {
 }
 
 Status GcodeInterpreter::finish(bool ended_mid_line, long last_line) {
+  if (markers_expected_ && !marker_seen_ && filament_mm_ > 0) {
+    // A marking slicer's file without a single layer marker (stripped or post-processed):
+    // its extrusions were waiting for the first layer, so no layer is counted. Say so.
+    Finding f;
+    f.severity = Severity::warning;
+    f.code = "no_layer_markers";
+    f.message = slicer_ + " marks its layers but the file has no layer marker: the twin counts no "
+                "layers (per-layer figures are empty; time and filament are complete)";
+    f.line = last_line;
+    add_finding(std::move(f));
+  }
   if (ended_mid_line) {
     // The last line had no newline: a streamed file may have been cut. Marlin would
     // wait for the rest of the line; we execute it but say so.
