@@ -162,6 +162,17 @@ Status GcodeInterpreter::warn_input(const Error& problem) {
 }
 
 Status GcodeInterpreter::finish(bool ended_mid_line, long last_line) {
+  if (markers_expected_ && !marker_seen_ && filament_mm_ > 0) {
+    // A marking slicer's file without a single layer marker (stripped or post-processed):
+    // its extrusions were waiting for the first layer, so no layer is counted. Say so.
+    Finding f;
+    f.severity = Severity::warning;
+    f.code = "no_layer_markers";
+    f.message = slicer_ + " marks its layers but the file has no layer marker: the twin counts no "
+                "layers (per-layer figures are empty; time and filament are complete)";
+    f.line = last_line;
+    add_finding(std::move(f));
+  }
   if (ended_mid_line) {
     // The last line had no newline: a streamed file may have been cut. Marlin would
     // wait for the rest of the line; we execute it but say so.
@@ -213,11 +224,9 @@ void GcodeInterpreter::heat_wait(bool hotend, double target_c, bool wait_cooling
 void GcodeInterpreter::layer_marker(double z_mm) {
   // A slicer's layer change. Its layer starts at the next extrusion that is not start/end
   // code; a marker at the Z of the current layer (one per object, KISSlicer) adds none.
-  if (!marker_seen_) {
-    marker_seen_ = true;
-    // Extrusions before the first marker were start code (purge lines) when the slicer was
-    // expected to mark its layers; otherwise the layers they made stay.
-  }
+  // From the first marker on, only markers start layers (layers made by Z before it, in a
+  // file whose header named no marking slicer, stay).
+  marker_seen_ = true;
   if (!std::isnan(z_mm) && layer_ >= 0 && !layer_pending_ &&
       std::fabs(layer_z_[static_cast<std::size_t>(layer_)] - z_mm) <= kLayerZTolerance_mm)
     return;
@@ -260,8 +269,8 @@ void GcodeInterpreter::stated_figures(std::string_view c) {
   } else if (starts_with(c, "TIME:") && parse_double(c.substr(5), v)) {
     set_time(v, 2);                                                  // Cura (s)
     estimate_from_time_tag_ = true;
-  } else if (starts_with(c, "Print Time:") && parse_double(c.substr(11), v)) {
-    set_time(v, 2);                                                  // ideaMaker (s)
+  } else if (starts_with(c, "Print Time:")) {                       // ideaMaker (s, or "1h 2m 3s")
+    set_time(parse_double(c.substr(11), v) ? v : parse_duration(c.substr(11)), 2);
   } else if (starts_with(c, "Estimated Build Time:")) {
     std::string_view m = trim(c.substr(21));                         // KISSlicer (minutes)
     if (parse_double(m.substr(0, m.find(' ')), v)) set_time(v * 60.0, 2);
@@ -819,6 +828,12 @@ bool name_has_part(std::string_view name, std::string_view part) {
 
 enum class MacroKind { none, start, end };
 
+/// The info note of bed levelling and gantry levelling commands (G29, BED_MESH_CALIBRATE...).
+std::string levelling_message(std::string_view command) {
+  return "bed levelling (" + std::string(command) + " and the like) is not simulated: its probing "
+         "moves take time on the printer (often 1-3 min) that the print time does not include";
+}
+
 /// Printer-side start/end macros by the shape of their names: START_PRINT, PRINT_START,
 /// START_PRINT_K1, PRINT_BEGIN, END_PRINT, PRINT_END, PRINT_FINISH, CANCEL_PRINT...
 MacroKind macro_kind(std::string_view name) {
@@ -1003,6 +1018,25 @@ Status GcodeInterpreter::extended(const GcodeCommand& c, std::string_view text, 
     if (macro_arg(c.args, "UNRETRACT_SPEED", v) && v > 0) fw_recover_speed_mm_s_ = v;
     return Ok{};
   }
+  if (w == "TEMPERATURE_WAIT") {
+    // Klipper: SENSOR=extruder|heater_bed MINIMUM=<C> [MAXIMUM=<C>]: waits until reached.
+    const auto h = c.args.find("SENSOR=");
+    const std::string_view sensor = h == std::string_view::npos ? std::string_view{} : c.args.substr(h + 7);
+    if (!macro_arg(c.args, "MINIMUM", v)) return Ok{};
+    if (v < 0 || v > 500) return warn(c.line, text, "temperature outside 0..500 C; ignored", "bad_temperature");
+    // Wait until MINIMUM is reached; the heater keeps heating to its own target.
+    const bool hotend = starts_with(sensor, "extruder");
+    if (!hotend && !starts_with(sensor, "heater_bed")) return Ok{};
+    const double target = hotend ? hotend_target_c_ : bed_target_c_;
+    if (v <= (hotend ? hotend_temp_now() : bed_c_at_set_)) return Ok{};
+    heat_wait(hotend, v, false, c.line, out);
+    if (target > v) hotend ? set_hotend_target(target) : set_bed_target(target);
+    return Ok{};
+  }
+  if (w == "BED_MESH_CALIBRATE" || w == "QUAD_GANTRY_LEVEL" || w == "Z_TILT_ADJUST") {
+    note("bed_levelling_not_timed", levelling_message(w), c.line);
+    return Ok{};
+  }
   if (w == "SET_HEATER_TEMPERATURE") {
     // Klipper: HEATER=extruder|heater_bed TARGET=<C> (no wait, like M104/M140).
     const auto h = c.args.find("HEATER=");
@@ -1063,6 +1097,7 @@ Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text, I
       }
       case 10:
       case 11: {
+        if (c.code == 10 && flavour_ == Flavour::rrf && c.has('L')) return Ok{};  // RRF: tool/work offsets
         if (c.code == 10 && flavour_ == Flavour::rrf && (c.has('P') || c.has('S') || c.has('R'))) {
           // RepRapFirmware: G10 P<tool> S<active C> R<standby C> sets tool temperatures.
           if (c.has('S')) {
@@ -1090,10 +1125,7 @@ Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text, I
       case 81:
         // Bed levelling (G29 and its variants P1, P9, A, T...; Prusa G80/G81): the probing
         // takes time on the printer; the twin does not move or count it.
-        note("bed_levelling_not_timed",
-             "bed levelling (" + command_name(c) + " and the like) is not simulated: its probing moves "
-             "take time on the printer (often 1-3 min) that the print time does not include",
-             c.line);
+        note("bed_levelling_not_timed", levelling_message(command_name(c)), c.line);
         return Ok{};
       case 380:  // Bambu: probing move towards the bed
       case 150:  // Bambu: nozzle wipe / load

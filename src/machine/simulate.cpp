@@ -293,7 +293,7 @@ std::string simulation_to_json(const SimulationResult& r, const std::string& inp
   doc["homing_time_s"] = q(r.homing_time_s);
   doc["dwell_time_s"] = q(r.dwell_time_s);
   doc["heating_time_s"] = q(r.heating_time_s);
-  doc["slicer_filament_mm"] = r.slicer_filament_mm ? json(*r.slicer_filament_mm) : json(nullptr);
+  doc["slicer_filament_mm"] = r.slicer_filament_mm ? json(q(*r.slicer_filament_mm)) : json(nullptr);
   doc["filament_mm"] = q(r.filament_mm);
   doc["filament_part_mm"] = q(r.filament_part_mm);
   doc["filament_mm3"] = q(r.filament_mm3);
