@@ -1204,6 +1204,13 @@ Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text, I
       case 201:
       case 203:
       case 205: {
+        // Klipper has no M201/M203/M205: it answers "Unknown command" and keeps its
+        // [printer] limits (SET_VELOCITY_LIMIT changes them).
+        if (flavour_ == Flavour::klipper) {
+          note("klipper_ignores", command_name(c) + " is not a Klipper command: Klipper keeps its "
+               "configured limits (SET_VELOCITY_LIMIT changes them)", c.line);
+          return Ok{};
+        }
         static constexpr char kAxes[4] = {'X', 'Y', 'Z', 'E'};
         for (int i = 0; i < 4; ++i) {
           if (!c.has(kAxes[i])) continue;

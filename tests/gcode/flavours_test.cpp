@@ -258,6 +258,27 @@ TEST(FlavourKlipper, SetVelocityLimitAndM204AsKlipperReadsThem) {
   EXPECT_DOUBLE_EQ(marlin.limits().print_accel_mm_s2, 800);
 }
 
+TEST(FlavourKlipper, MarlinLimitCommandsLeaveKlippersLimitsAlone) {
+  // Klipper has no M201/M203/M205: its [printer] limits stay, and the twin says so once.
+  GcodeInterpreter interp(with_firmware("klipper"), {});
+  Recorder out;
+  const MotionLimits before = interp.limits();
+  for (const char* line : {"M201 X20000 Y20000", "M203 X900 Y900", "M205 X20 Y20"})
+    execute_line(interp, line, out);
+  EXPECT_EQ(out.changes, 0);
+  EXPECT_DOUBLE_EQ(interp.limits().max_accel_mm_s2[0], before.max_accel_mm_s2[0]);
+  EXPECT_DOUBLE_EQ(interp.limits().max_feedrate_mm_s[0], before.max_feedrate_mm_s[0]);
+  EXPECT_DOUBLE_EQ(interp.limits().jerk_mm_s[0], before.jerk_mm_s[0]);
+  int notes = 0;
+  for (const auto& f : interp.findings())
+    if (f.code == "klipper_ignores") {
+      ++notes;
+      EXPECT_EQ(f.severity, Severity::info);
+      EXPECT_EQ(f.count, 3);
+    }
+  EXPECT_EQ(notes, 1);
+}
+
 TEST(FlavourKlipper, QuietCommandsAndFirmwareRetraction) {
   PrinterProfile p = with_firmware("klipper");
   const std::string text =
