@@ -498,6 +498,87 @@ Result<Mesh> read_off(std::string_view text, double s, const std::string& name) 
   return mesh;
 }
 
+/// PLY's header, checked before assimp sees the file: assimp's PLY importer trusts the
+/// counts and leaks what it allocated when it then gives up. Checked here: the magic, the
+/// format, element and property lines, the end of the header, and that the body can hold
+/// what the header announces (ASCII: a line per element; binary: the fixed-size properties'
+/// bytes, lists at their smallest).
+Status check_ply_header(std::string_view bytes, const std::string& name) {
+  LineReader lines(bytes);
+  std::string_view line;
+  long at = 0;
+  std::vector<std::string_view> tok;
+  if (!lines.next(line, at) || line.substr(0, 3) != "ply")
+    return bad_input("PLY: expected the magic word 'ply' on the first line", name, 1);
+  enum class Format { none, ascii, binary } format = Format::none;
+  struct Element {
+    std::uint64_t count = 0;
+    std::uint64_t min_bytes = 0;  ///< binary: bytes of one element at least
+    long line = 0;
+    std::string name;
+  };
+  std::vector<Element> elements;
+  auto type_bytes = [](std::string_view t) -> int {
+    if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
+    if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
+    if (t == "int" || t == "uint" || t == "float" || t == "int32" || t == "uint32" || t == "float32") return 4;
+    if (t == "double" || t == "float64") return 8;
+    return 0;
+  };
+  std::size_t body = std::string_view::npos;
+  while (lines.next(line, at)) {
+    split_tokens(line, tok);
+    if (tok[0] == "end_header") {
+      const std::size_t end = bytes.find("end_header");
+      const std::size_t nl = bytes.find('\n', end);
+      body = nl == std::string_view::npos ? bytes.size() : nl + 1;
+      break;
+    }
+    if (tok[0] == "comment" || tok[0] == "obj_info") continue;
+    if (tok[0] == "format") {
+      if (tok.size() < 2 || (tok[1] != "ascii" && tok[1] != "binary_little_endian" && tok[1] != "binary_big_endian"))
+        return bad_input("PLY: expected 'format ascii|binary_little_endian|binary_big_endian 1.0'", name, at);
+      format = tok[1] == "ascii" ? Format::ascii : Format::binary;
+    } else if (tok[0] == "element") {
+      Element e;
+      if (tok.size() != 3 || !parse_token(tok[2], e.count))
+        return bad_input("PLY: expected 'element <name> <count>', found '" + shown(line) + "'", name, at);
+      e.line = at;
+      e.name = std::string(tok[1].substr(0, 40));
+      elements.push_back(e);
+    } else if (tok[0] == "property") {
+      if (elements.empty()) return bad_input("PLY: a property before any element", name, at);
+      const bool list = tok.size() == 5 && tok[1] == "list";
+      if (list ? (type_bytes(tok[2]) == 0 || type_bytes(tok[3]) == 0) : (tok.size() != 3 || type_bytes(tok[1]) == 0))
+        return bad_input("PLY: expected 'property <type> <name>' or 'property list <type> <type> <name>', found '" +
+                             shown(line) + "'",
+                         name, at);
+      elements.back().min_bytes += static_cast<std::uint64_t>(type_bytes(tok[list ? 2 : 1]));
+    } else {
+      return bad_input("PLY: unknown header line '" + shown(line) + "'", name, at);
+    }
+  }
+  if (body == std::string_view::npos) return bad_input("PLY: the header has no 'end_header'", name, lines.line());
+  if (format == Format::none) return bad_input("PLY: the header has no 'format' line", name);
+  // What the body holds: ASCII, lines with content (an element per line); binary, bytes.
+  std::uint64_t room = bytes.size() - body;
+  if (format == Format::ascii) {
+    room = 0;
+    LineReader rest(bytes.substr(body));
+    while (rest.next(line, at)) ++room;
+  }
+  for (const auto& e : elements) {
+    const std::uint64_t per = format == Format::ascii ? 1 : std::max<std::uint64_t>(e.min_bytes, 1);
+    if (e.count > room / per)
+      return bad_input("PLY: the header (line " + std::to_string(e.line) + ") announces " + std::to_string(e.count) +
+                           " '" + e.name + "' elements, more than the rest of the file holds" +
+                           (format == Format::ascii ? " (one per line)" : " (" + std::to_string(per) + " bytes each at least)"),
+                       name, e.line);
+    room -= e.count * per;
+  }
+  return Ok{};
+}
+
 /// 3MF is a zip archive; AMF is XML, plain or zipped. Anything else would reach assimp's zip
 /// or XML reader and come back as an error in assimp's terms.
 Status check_container(std::string_view bytes, const std::string& ext, const std::string& name) {
@@ -562,6 +643,8 @@ Result<Mesh> load_mesh_from_memory(std::string_view bytes, const fs::path& path,
     return finish_mesh(std::move(*mesh), s, name);
   }
   if (auto st = check_container(bytes, ext, name); !st) return st.error();
+  if (ext == ".ply")
+    if (auto st = check_ply_header(bytes, name); !st) return st.error();
 
   Assimp::Importer importer;
   // Identical vertices are joined after import (welded_mesh): without it an STL is a soup of

@@ -151,7 +151,7 @@ std::vector<Case> corpus() {
                                       "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
                                       "0 0 0\n1 0 0\n");
                  return "check " + q(d / "short.ply");
-               }, 3, {"short.ply", "holds no triangles"}});
+               }, 3, {"short.ply:3:", "announces 8 'vertex' elements", "one per line"}});
   c.push_back({"OBJ face index out of range", [](const fs::path& d) {
                  put(d / "index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
                  return "check " + q(d / "index.obj");
