@@ -41,8 +41,9 @@
 // stream that meets an error mid-file stops there and keeps the error (error()); callers
 // must check it after reading, as simulate_gcode_file() does.
 //
-// Limits: one block decodes to at most kMaxBgcodeBlockBytes; memory is one block's raw and
-// decoded bytes plus the metadata, whatever the file size. Version 1 only.
+// Limits: one block is stored in, and decodes to, at most kMaxBgcodeBlockBytes; memory is
+// one block's raw and decoded bytes plus the metadata, whatever the file size. Version 1
+// only.
 #include <cstdint>
 #include <filesystem>
 #include <istream>

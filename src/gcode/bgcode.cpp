@@ -151,9 +151,10 @@ class BlockReader {
                        std::to_string(header_bytes) + ", parameters " + std::to_string(params_bytes_) + ", data " +
                        std::to_string(info_.stored_bytes) + ", checksum " + std::to_string(crc_bytes) +
                        "), the file ends " + std::to_string(left) + " bytes after the block's start", true);
-    if (info_.data_bytes > kMaxBgcodeBlockBytes)
-      return error("the block states " + std::to_string(info_.data_bytes) + " bytes of data, more than the " +
-                       std::to_string(kMaxBgcodeBlockBytes) + " printtwin accepts in one block", true);
+    if (info_.data_bytes > kMaxBgcodeBlockBytes || info_.stored_bytes > kMaxBgcodeBlockBytes)
+      return error("the block states " + std::to_string(std::max(info_.data_bytes, info_.stored_bytes)) +
+                       " bytes of data, more than the " + std::to_string(kMaxBgcodeBlockBytes) +
+                       " printtwin accepts in one block", true);
     if (read_at(offset_ + header_bytes, params_.data(), params_bytes_) != params_bytes_) return io_error();
     const std::uint64_t data_at = offset_ + header_bytes + params_bytes_;
     if (in_ == nullptr) {

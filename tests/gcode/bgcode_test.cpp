@@ -283,6 +283,31 @@ TEST(Bgcode, MeatPackDecodesWithAndWithoutComments) {
   }
 }
 
+TEST(Bgcode, DecoderCornerCases) {
+  auto gcode_only = [](const std::string& data, std::uint16_t encoding, std::uint16_t compression = 0) {
+    return decoded(encode_file({gcode_block(data, compression, encoding)}));
+  };
+  // MeatPack: both characters whole bytes (first one first); a whole first byte with a
+  // packed second; a '\n' in the low nibble ends the pair; a lone 0xFF in plain mode is a
+  // byte; "no spaces" turns code 11 into 'E'; the G line gets its spaces back.
+  EXPECT_EQ(gcode_only("\xFF\xFF\xFB" "\xFFMY" "\x1F" "A" "\x5C", 1), "MYA1\n");
+  EXPECT_EQ(gcode_only("\xFF\xFF\xF7\xFF\xFF\xFB" "\x1D" "\x1B" "\xCE", 1), "G1 E1 X\n");
+  EXPECT_EQ(gcode_only(";a\xFF;\n\n\n;b\n", 2), ";a\xFF;\n;b\n");
+  // Heatshrink: a back-reference reaching before the start reads the zeroed window, and
+  // overlapping copies repeat the last bytes.
+  BitWriter w;
+  w.put(0, 1), w.put(2, 12), w.put(1, 4);         // offset 3, count 2: two zero bytes
+  w.put(1, 1), w.put('A', 8);                     // literal 'A'
+  w.put(0, 1), w.put(0, 12), w.put(4, 4);         // offset 1, count 5: "AAAAA"
+  const std::string stored = w.finish();
+  std::string file = "GCDE";
+  put32(file, 1);
+  put16(file, 0);
+  put16(file, 1), put16(file, 3), put32(file, 8), put32(file, static_cast<std::uint32_t>(stored.size()));
+  file += encoding_param(0) + stored;
+  EXPECT_EQ(decoded(file), std::string("\0\0AAAAAA", 8));
+}
+
 TEST(Bgcode, MetadataAndThumbnailsAreExposed) {
   const std::string bytes = encode_file(file_with({gcode_block(kGcode, 0, 0)}));
   auto meta = read_bgcode_metadata(bytes, "test.bgcode");
