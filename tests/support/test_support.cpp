@@ -1,6 +1,8 @@
 #include "support/test_support.hpp"
 
 #include <array>
+#include <cstdlib>
+#include <vector>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -11,6 +13,18 @@ namespace printtwin::test {
 
 std::filesystem::path source_path(const std::string& relative) {
   return std::filesystem::path(PRINTTWIN_SOURCE_DIR) / relative;
+}
+
+std::filesystem::path realworld_dir() {
+  std::vector<std::filesystem::path> candidates;
+  if (const char* env = std::getenv("PRINTTWIN_REALWORLD_DIR"); env != nullptr && *env != '\0') candidates.emplace_back(env);
+  candidates.push_back(std::filesystem::path(PRINTTWIN_SOURCE_DIR) / ".." / "shared" / "realworld");
+  candidates.emplace_back("/work/shared/realworld");
+  for (const auto& c : candidates) {
+    std::error_code ec;
+    if (std::filesystem::is_directory(c, ec)) return c;
+  }
+  return {};
 }
 
 std::filesystem::path temp_dir(const std::string& name) {

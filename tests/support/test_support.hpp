@@ -9,6 +9,10 @@ namespace printtwin::test {
 
 /// Path of a file in the source tree (e.g. "samples/cube_20mm.stl").
 std::filesystem::path source_path(const std::string& relative);
+/// The shared folder of real slicer files (shared/realworld): $PRINTTWIN_REALWORLD_DIR, else
+/// <source>/../shared/realworld, else /work/shared/realworld; empty when none exists (tests
+/// then GTEST_SKIP).
+std::filesystem::path realworld_dir();
 /// A fresh empty folder under the system temp dir, unique to this test process.
 std::filesystem::path temp_dir(const std::string& name);
 
