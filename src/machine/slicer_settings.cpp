@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdint>
 #include <fstream>
 
 #include "printtwin/printer.hpp"
@@ -241,6 +242,61 @@ void scan(std::string_view text, long first_line, bool leading, bool trailing, S
   sc.finish();
 }
 
+/// Little-endian integers of a binary G-code.
+std::uint32_t le(const std::string& b, std::size_t at, int bytes) {
+  std::uint32_t v = 0;
+  for (int i = bytes - 1; i >= 0; --i) v = (v << 8) | static_cast<unsigned char>(b[at + static_cast<std::size_t>(i)]);
+  return v;
+}
+
+/// The metadata blocks of a binary G-code (.bgcode v1) that are stored uncompressed, up to
+/// the first G-code block: "key=value" lines (file metadata names the producer; printer
+/// metadata has printer_model, nozzle_diameter, ...). Compressed blocks are the binary
+/// reader's (it fills SlicerSettings with everything); a malformed file stops the scan
+/// and is left to that reader to report.
+SlicerSettings bgcode_settings(std::ifstream& in, std::streamoff size) {
+  SlicerSettings s;
+  std::string head(static_cast<std::size_t>(std::min<std::streamoff>(size, 4 * 1024 * 1024)), '\0');
+  in.seekg(0);
+  in.read(head.data(), static_cast<std::streamsize>(head.size()));
+  if (!in || head.size() < 10) return s;
+  const bool crc = le(head, 8, 2) == 1;
+  std::size_t pos = 10;
+  while (pos + 8 <= head.size()) {
+    const auto type = le(head, pos, 2), compression = le(head, pos + 2, 2), usize = le(head, pos + 4, 4);
+    pos += 8;
+    std::uint32_t csize = usize;
+    if (compression != 0) {
+      if (pos + 4 > head.size()) break;
+      csize = le(head, pos, 4);
+      pos += 4;
+    }
+    const std::size_t params = type == 5 ? 6 : 2;
+    if (type == 1 || type > 5 || pos + params + csize > head.size()) break;  // G-code, unknown, or truncated
+    if (compression == 0 && type != 5) {
+      const std::string_view data(head.data() + pos + params, csize);
+      std::size_t start = 0;
+      while (start < data.size()) {
+        std::size_t end = data.find('\n', start);
+        if (end == std::string_view::npos) end = data.size();
+        const std::string_view line = trim(data.substr(start, end - start));
+        start = end + 1;
+        const auto eq = line.find('=');
+        if (eq == std::string_view::npos || eq == 0) continue;
+        std::string key(trim(line.substr(0, eq))), value(trim(line.substr(eq + 1)));
+        if (type == 0 && key == "Producer") {
+          const auto sp = value.rfind(' ');
+          s.slicer = sp == std::string::npos ? value : value.substr(0, sp);
+          s.slicer_version = sp == std::string::npos ? "" : value.substr(sp + 1);
+        }
+        s.add(std::move(key), std::move(value), 0);
+      }
+    }
+    pos += params + csize + (crc ? 4 : 0);
+  }
+  return s;
+}
+
 }  // namespace
 
 SlicerSettings parse_slicer_settings(std::string_view head, std::string_view tail, long tail_first_line) {
@@ -270,6 +326,11 @@ Result<SlicerSettings> read_slicer_settings(const std::filesystem::path& path, s
   if (size < 0) return bad_input("cannot read G-code file", path.string());
   in.seekg(0);
   const auto usize = static_cast<std::size_t>(size);
+  char magic[4] = {};
+  in.read(magic, 4);
+  if (in && std::string_view(magic, 4) == "GCDE") return bgcode_settings(in, size);
+  in.clear();
+  in.seekg(0);
   if (usize <= 2 * window) {
     std::string text(usize, '\0');
     in.read(text.data(), size);

@@ -290,6 +290,40 @@ TEST(PrinterExplicit, AFileForABiggerPrinterIsAFinding) {
   EXPECT_EQ(r.profile.origin.how, "explicit");
 }
 
+TEST(PrinterAuto, BinaryGcodeUncompressedMetadata) {
+  // A .bgcode v1 written here: file header, file metadata, printer metadata (INI, no
+  // compression, CRC32 slots unchecked by this scan), then a G-code block.
+  std::string b = "GCDE";
+  auto u32 = [&](std::uint32_t v) {
+    for (int i = 0; i < 4; ++i) b += static_cast<char>((v >> (8 * i)) & 0xff);
+  };
+  auto u16 = [&](std::uint16_t v) {
+    b += static_cast<char>(v & 0xff);
+    b += static_cast<char>(v >> 8);
+  };
+  u32(1);  // version
+  u16(1);  // CRC32 checksums
+  auto block = [&](std::uint16_t type, const std::string& data) {
+    u16(type);
+    u16(0);  // no compression
+    u32(static_cast<std::uint32_t>(data.size()));
+    u16(0);  // INI encoding
+    b += data;
+    u32(0);  // checksum
+  };
+  block(0, "Producer=PrusaSlicer 2.9.0\n");
+  block(3, "printer_model=COREONE\nnozzle_diameter=0.6\n");
+  block(1, "G28\n");
+  const auto path = test::temp_dir("bgcode_settings") / "tiny.bgcode";
+  std::ofstream(path, std::ios::binary) << b;
+  auto r = resolve_printer("auto", path);
+  ASSERT_TRUE(r) << r.error().describe();
+  EXPECT_EQ(r->settings.slicer, "PrusaSlicer");
+  EXPECT_EQ(r->settings.slicer_version, "2.9.0");
+  EXPECT_EQ(r->profile.origin.library_id, "prusa-core-one");
+  EXPECT_EQ(r->profile.nozzle_diameter_mm, 0.6);
+}
+
 // ---- the library
 
 TEST(PrinterLibrary, EveryProfileLoadsAndCitesItsSources) {
@@ -415,6 +449,12 @@ TEST(PrinterRealWorld, EveryFileGetsItsOwnPrinter) {
       {"cura-3.6.0_Ender3_bedlevel_base_bracket_FR.gcode", "Cura", "", "marlin2"},
       {"kisslicer-1.4.5.10_musicutility_lid.gcode", "KISSlicer", "", "marlin2"},
   };
+  // The binary twin of the MK4S file names its printer in its printer metadata block.
+  if (const auto bg = dir / "gcode" / "prusaslicer-2.8.1_MK4S_mini_cube_arcs_BINARY.bgcode"; std::filesystem::exists(bg)) {
+    auto r = resolve_printer("auto", bg);
+    ASSERT_TRUE(r) << r.error().describe();
+    EXPECT_EQ(r->profile.origin.library_id, "prusa-mk4s");
+  }
   for (const auto& e : expect) {
     const auto path = dir / "gcode" / e.file;
     if (!std::filesystem::exists(path)) continue;
