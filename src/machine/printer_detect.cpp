@@ -91,6 +91,7 @@ std::optional<std::string> map_flavour(const std::string& slicer, std::string_vi
     return slic3r_family ? "marlin1" : "marlin2";
   }
   if (f.find("marlin") != std::string::npos) return "marlin2";  // "RepRap (Marlin/Sprinter)", ...
+  if (f == "griffin" || f == "ultigcode") return "marlin2";     // Ultimaker's Marlin-derived firmware
   return std::nullopt;
 }
 

@@ -201,6 +201,27 @@ TEST(PrinterAuto, CuraHeaderAndSetting3) {
   EXPECT_TRUE(has_finding(p, "printer_not_in_library"));
 }
 
+TEST(PrinterAuto, Cura5GriffinHeader) {
+  const auto r = resolve(
+      ";START_OF_HEADER\n"
+      ";HEADER_VERSION:0.1\n"
+      ";FLAVOR:Griffin\n"
+      ";GENERATOR.NAME:Cura_SteamEngine\n"
+      ";GENERATOR.VERSION:5.4.0\n"
+      ";TARGET_MACHINE.NAME:Creality Ender-3 Pro\n"
+      ";EXTRUDER_TRAIN.0.NOZZLE.DIAMETER:0.6\n"
+      ";EXTRUDER_TRAIN.0.INITIAL_TEMPERATURE:205\n"
+      ";BUILD_PLATE.INITIAL_TEMPERATURE:55\n"
+      ";END_OF_HEADER\n"
+      "G28\n");
+  EXPECT_EQ(r.settings.slicer, "Cura");
+  EXPECT_EQ(r.settings.slicer_version, "5.4.0");
+  EXPECT_EQ(r.profile.origin.library_id, "creality-ender3");
+  EXPECT_EQ(r.profile.nozzle_diameter_mm, 0.6);
+  EXPECT_DOUBLE_EQ(r.profile.origin.macro_hotend_c, 205);
+  EXPECT_DOUBLE_EQ(r.profile.origin.macro_bed_c, 55);
+}
+
 TEST(PrinterAuto, KisslicerCentredOrigin) {
   const std::string text =
       "; KISSlicer - FREE\n"
