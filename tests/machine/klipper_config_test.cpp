@@ -153,5 +153,20 @@ TEST(KlipperConfig, TheRepositorysEnder3ConfigNumbers) {
   EXPECT_EQ(p->origin.find("square_corner_velocity_mm_s")->source, "default");
 }
 
+TEST(KlipperConfig, SimulateWithAPrinterCfg) {
+  const auto dir = test::temp_dir("klipper_cfg_cli");
+  write(dir / "printer.cfg",
+        "[printer]\nkinematics: corexy\nmax_velocity: 250\nmax_accel: 4000\n"
+        "[stepper_x]\nposition_max: 120\n[stepper_y]\nposition_max: 120\n[stepper_z]\nposition_max: 120\n");
+  write(dir / "part.gcode", "G28\nG1 X100 Y100 Z1 F6000\nG1 X130 Y10\n");
+  const auto run = test::run_cli("simulate --printer " + (dir / "printer.cfg").string() + " " + (dir / "part.gcode").string());
+  EXPECT_NE(run.out.find("printer       Klipper corexy printer (printer.cfg)"), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("out_of_bounds"), std::string::npos) << run.out;  // X 130 on a 120 mm printer
+  write(dir / "bad.cfg", "[printer]\nkinematics: corexy\nmax_velocity: -\n");
+  const auto bad = test::run_cli("simulate --printer " + (dir / "bad.cfg").string() + " " + (dir / "part.gcode").string());
+  EXPECT_EQ(bad.exit_code, 3);
+  EXPECT_NE(bad.err.find("bad.cfg:3: [printer] max_velocity: expected a number"), std::string::npos) << bad.err;
+}
+
 }  // namespace
 }  // namespace printtwin
