@@ -345,6 +345,25 @@ TEST(PrinterAuto, BinaryGcodeUncompressedMetadata) {
   EXPECT_EQ(r->profile.nozzle_diameter_mm, 0.6);
 }
 
+TEST(PrinterAuto, GarbageAndTruncatedFilesIdentifyNothingAndDoNotCrash) {
+  const auto dir = test::temp_dir("settings_garbage");
+  std::string bytes;
+  std::uint32_t x = 12345;
+  for (int i = 0; i < 5000; ++i) {
+    x = x * 1664525u + 1013904223u;
+    bytes += static_cast<char>(x >> 24);
+  }
+  const std::string bg = std::string("GCDE\x01\x00\x00\x00\x01\x00", 10) + "\x03\x00\x00\x00\xff\xff\xff\x7f";
+  for (const std::string& text : {bytes, std::string("GCDE"), bg, bg + bytes, std::string(";SETTING_3 {\\n[values]\\n"),
+                                  std::string("; CONFIG_BLOCK_START\n; = \n;=\n; a =\n")}) {
+    const auto path = dir / "f.gcode";
+    std::ofstream(path, std::ios::binary) << text;
+    auto r = resolve_printer("auto", path);
+    ASSERT_TRUE(r);
+    EXPECT_TRUE(r->profile.origin.library_id.empty());
+  }
+}
+
 // ---- the library
 
 TEST(PrinterLibrary, EveryProfileLoadsAndCitesItsSources) {
