@@ -127,7 +127,7 @@ struct SweepSpec {
 struct ComparePlan {
   std::string mesh_path;           ///< as given (relative paths resolve against the worker's cwd)
   std::string mesh_sha256;         ///< of the mesh file; shares with another hash do not merge
-  std::string printer = "ender3";  ///< profile name or path
+  std::string printer = "auto";    ///< "auto", a profile name or a path (printer.hpp)
   VerifySettings verify;           ///< tolerance, voxel, gates shared by every variant
   double filament_density_g_cm3 = kDefaultFilamentDensityGCm3;  ///< for G-code variants
   std::vector<VariantSpec> variants;

@@ -3,15 +3,45 @@
 // is built in (`ender3_marlin2()`); JSON files in samples/printers/ replace or override any
 // value (docs/printer-profile.md lists the keys).
 #include <Eigen/Core>
+#include <limits>
 #include <string>
 #include <string_view>
+#include <vector>
 
+#include "printtwin/finding.hpp"
 #include "printtwin/result.hpp"
 
 namespace printtwin {
 
 /// How the planner limits speed at the junction between two moves.
 enum class JunctionModel { junction_deviation, classic_jerk };
+
+/// Where one value of a profile came from (docs/printer-profile.md, "Provenance").
+struct ValueOrigin {
+  std::string key;     ///< profile key, e.g. "bed_max_x_mm"
+  std::string source;  ///< "file", "library", "config" (a JSON or printer.cfg), "default"
+  std::string detail;  ///< the G-code setting key, the library id, or "file:line"
+};
+
+/// How a run's printer was chosen (printer.hpp, resolve_printer) and where each value came
+/// from. Empty `values` means nothing was recorded (a profile built in code).
+struct PrinterOrigin {
+  std::string how;         ///< "auto", "explicit" or "" (built in code)
+  std::string summary;     ///< one line for people: which printer and why
+  std::string library_id;  ///< library profile used ("" if none)
+  std::string slicer;      ///< slicer whose embedded settings were read ("" if none)
+  std::vector<ValueOrigin> values;
+  /// About the identification itself (unknown printer, file made for a larger bed...).
+  std::vector<Finding> findings;
+  /// First-layer temperatures the file's settings state (°C, NaN = not stated): what a
+  /// start macro called without parameters heats to.
+  double macro_hotend_c = std::numeric_limits<double>::quiet_NaN();
+  double macro_bed_c = std::numeric_limits<double>::quiet_NaN();
+
+  /// Records (or replaces) the origin of `key`.
+  void set(const std::string& key, const std::string& source, const std::string& detail);
+  [[nodiscard]] const ValueOrigin* find(std::string_view key) const;
+};
 
 /// Per-axis values are ordered X, Y, Z, E.
 struct PrinterProfile {
@@ -79,6 +109,8 @@ struct PrinterProfile {
   std::string start_gcode;  ///< used by the slicer
   std::string end_gcode;
 
+  PrinterOrigin origin;  ///< where the values came from (filled by resolve_printer)
+
   [[nodiscard]] double filament_area_mm2() const {
     return 0.25 * 3.14159265358979323846 * filament_diameter_mm * filament_diameter_mm;
   }
@@ -102,5 +134,12 @@ struct PrinterProfile {
                                                            std::string_view source);
 /// The profile as JSON (every key), e.g. for reports.
 [[nodiscard]] std::string printer_profile_to_json(const PrinterProfile& profile);
+/// The `printer` object of the simulate JSON and report.json: name, model, firmware, how it
+/// was chosen, and every value the run used with its source (docs/printer-profile.md).
+[[nodiscard]] std::string printer_provenance_json(const PrinterProfile& profile);
+/// One line for text summaries: "Prusa MK4S (library prusa-mk4s, 21 values from the file)".
+[[nodiscard]] std::string printer_provenance_summary(const PrinterProfile& profile);
+/// Names of the profile keys (as in JSON profiles), in a stable order.
+[[nodiscard]] std::vector<std::string> printer_profile_keys();
 
 }  // namespace printtwin

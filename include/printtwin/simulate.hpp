@@ -89,6 +89,8 @@ struct SimulationResult {
   std::string layers_from = "z";
   MotionLimits limits_used;   ///< limits in force at the start (after --limits-from-gcode)
   bool limits_from_gcode = false;
+  /// The printer the run used, with the source of each value (profile.origin; JSON "printer").
+  PrinterProfile printer;
 };
 
 /// Runs G-code text on the simulated printer. `sink` (optional) sees every Move and

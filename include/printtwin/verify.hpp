@@ -66,7 +66,7 @@ struct VerifySettings {
   double voxel_mm = 0.05;                   ///< deposit voxel edge
   double mesh_sample_spacing_mm = 0;        ///< mesh->deposit sample spacing (0: 2 x voxel_mm)
   std::optional<Vec3> place_mm;             ///< --place override of the registration offset
-  std::string printer = "ender3";           ///< profile name or path
+  std::string printer = "auto";             ///< "auto", a profile name or a path (printer.hpp)
   std::string gcode_source = "file";        ///< "file" or "printtwin slice"
   /// Without G-code: a PrusaSlicer .ini for printtwin's slicer (empty: its defaults).
   std::string slice_config_ini;
@@ -136,6 +136,8 @@ struct VerifyReport {
   /// Mesh as placed in the machine frame (vertex order kept, so
   /// `deviation.vertex_deviation_mm[i]` belongs to `placed_mesh.vertices_mm[i]`).
   Mesh placed_mesh;
+  /// The printer the G-code ran on, with where each value came from (report.json "printer").
+  PrinterProfile printer;
 
   /// Findings of every stage (check, simulate, deposit) plus one `deviation_out_of_tolerance`
   /// finding per region, in stage order.
@@ -235,6 +237,7 @@ struct PrintedGcode {
   /// The slicer's findings, then the simulation's, then the deposit's.
   std::vector<Finding> findings;
   std::vector<StageTiming> timings;         ///< slice (printtwin slice), simulate, deposit
+  PrinterProfile printer;                   ///< the printer it ran on (with value sources)
 };
 
 /// simulate -> deposit of one G-code. Errors: invalid G-code, or no extrusion of the part to

@@ -169,7 +169,8 @@ void add_check_command(CLI::App& app, CommandRunner& runner) {
                "2 usage, 3 bad input, 4 internal error. Findings: docs/check.md");
   cmd->add_option("mesh", opts->input, "STL, OBJ, PLY, OFF, 3MF or AMF file")->required();
   cmd->add_option("--printer", opts->printer,
-                  "ender3, ender3-marlin1, ender3-klipper or a profile FILE.json")
+                  "ender3, ender3-marlin1, ender3-klipper, a library printer (printtwin printers), "
+                  "a profile FILE.json or a Klipper printer.cfg")
       ->capture_default_str();
   cmd->add_option("--json", opts->json_out, "write the report as JSON (schema printtwin.check v1)");
   cmd->add_option("--repair", opts->repair_out,

@@ -25,7 +25,7 @@ namespace fs = std::filesystem;
 struct CompareOptions {
   std::string mesh;
   std::vector<std::string> varies, sets, configs, gcodes, labels;
-  std::string printer = "ender3";
+  std::string printer = "auto";
   double tolerance_mm = 0.2;
   std::optional<double> max_excess_mm, max_deficit_mm, max_rms_mm;
   double voxel_mm = 0.05;
@@ -277,7 +277,9 @@ void add_compare_command(CLI::App& app, CommandRunner& runner) {
   cmd->add_option("--config", o->configs, "a PrusaSlicer .ini: one variant (set) per file");
   cmd->add_option("--gcode", o->gcodes, "an external G-code file of the same part: one variant each");
   cmd->add_option("--label", o->labels, "names of the variants, in variant order (one per variant)");
-  cmd->add_option("--printer", o->printer, "printer profile: ender3, ender3-marlin1, ender3-klipper or a JSON file");
+  cmd->add_option("--printer", o->printer,
+                  "auto (default: each G-code's own printer; ender3 for printtwin's slices), a library printer "
+                  "(printtwin printers), ender3, ender3-marlin1, ender3-klipper, a profile .json or a printer.cfg");
   cmd->add_option("--tolerance", o->tolerance_mm, "deviation tolerance, mm (default 0.2)");
   cmd->add_option("--max-excess", o->max_excess_mm, "gate on the largest excess, mm (default: tolerance)");
   cmd->add_option("--max-deficit", o->max_deficit_mm, "gate on the largest deficit, mm (default: tolerance)");

@@ -8,6 +8,7 @@
 #include "cli/commands.hpp"
 #include "cli/deposit_options.hpp"
 #include "printtwin/io.hpp"
+#include "printtwin/printer.hpp"
 #include "printtwin/simulate.hpp"
 
 namespace printtwin::cli {
@@ -15,7 +16,7 @@ namespace printtwin::cli {
 namespace {
 struct SimulateCliOptions {
   std::string input;
-  std::string printer = "ender3";
+  std::string printer = "auto";
   std::string json_path;
   std::string trace_path;
   double trace_hz = 10;
@@ -74,7 +75,9 @@ void add_simulate_command(CLI::App& app, CommandRunner& runner) {
   auto o = std::make_shared<SimulateCliOptions>();
   auto* cmd = app.add_subcommand("simulate", "Run G-code on the simulated printer (timing, filament, layers, findings)");
   cmd->add_option("gcode", o->input, "G-code file from any slicer")->required();
-  cmd->add_option("--printer", o->printer, "ender3, ender3-marlin1, ender3-klipper or a profile .json")
+  cmd->add_option("--printer", o->printer,
+                  "auto (the printer the file's settings name), a library printer (printtwin printers), "
+                  "ender3, ender3-marlin1, ender3-klipper, a profile .json or a Klipper printer.cfg")
       ->capture_default_str();
   cmd->add_option("--json", o->json_path, "Write the result as JSON (schema printtwin.simulate/1)");
   cmd->add_option("--trace", o->trace_path, "Write the twin's state over time as CSV");
@@ -95,8 +98,9 @@ void add_simulate_command(CLI::App& app, CommandRunner& runner) {
         return report_error(st.error());
       // Missing, a directory, a symbolic link loop: said in those words, before any work.
       if (auto size = input_file_size(o->input); !size) return report_error(size.error());
-      auto profile = load_printer_profile(o->printer);
-      if (!profile) return report_error(profile.error());
+      auto resolved = resolve_printer(o->printer, o->input);
+      if (!resolved) return report_error(resolved.error());
+      auto profile = std::optional<PrinterProfile>(std::move(resolved->profile));
       SimulateOptions options;
       options.interpreter.strict = o->strict;
       options.limits_from_gcode = o->limits_from_gcode;

@@ -198,7 +198,8 @@ void add_slice_command(CLI::App& app, CommandRunner& runner) {
   auto* cmd = app.add_subcommand("slice", "Slice a mesh into Marlin G-code (PrusaSlicer Ender-3 defaults)");
   cmd->add_option("mesh", opts->input, "STL, OBJ, PLY, OFF, 3MF or AMF file")->required();
   cmd->add_option("-o,--output", opts->output, "G-code file to write (default: <mesh>.gcode)");
-  cmd->add_option("--printer", opts->printer, "printer profile: ender3, ender3-marlin1, ender3-klipper or a JSON file");
+  cmd->add_option("--printer", opts->printer, "printer profile: ender3, ender3-marlin1, ender3-klipper, a library printer "
+                  "(printtwin printers), a JSON file or a Klipper printer.cfg");
   cmd->add_option("--config", opts->configs, "flat PrusaSlicer .ini config (supported keys used, others listed)");
   cmd->add_option("--set", opts->sets, "any setting as key=value (PrusaSlicer key names, docs/slicer.md)");
   for (const auto& [flag, key] : flag_keys()) {

@@ -20,7 +20,7 @@ struct VerifyCliOptions {
   std::string gcode;
   double tolerance_mm = 0.2;
   double max_excess_mm = -1, max_deficit_mm = -1, max_rms_mm = -1;
-  std::string printer = "ender3";
+  std::string printer = "auto";
   double voxel_mm = 0.05;
   double spacing_mm = 0;
   std::string place;
@@ -93,7 +93,9 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
   cmd->add_option("--max-excess", o->max_excess_mm, "largest allowed excess in mm (default: tolerance)");
   cmd->add_option("--max-deficit", o->max_deficit_mm, "largest allowed deficit in mm (default: tolerance)");
   cmd->add_option("--max-rms", o->max_rms_mm, "largest allowed RMS deviation in mm (default: not checked)");
-  cmd->add_option("--printer", o->printer, "printer profile: ender3, ender3-marlin1, ender3-klipper or a JSON file");
+  cmd->add_option("--printer", o->printer,
+                  "auto (default: the printer the G-code's settings name), a library printer (printtwin printers), "
+                  "ender3, ender3-marlin1, ender3-klipper, a profile .json or a Klipper printer.cfg");
   cmd->add_option("--voxel", o->voxel_mm, "deposit voxel edge in mm (default 0.05)");
   cmd->add_option("--sample-spacing", o->spacing_mm, "mesh surface sample spacing in mm (default: twice the voxel)");
   cmd->add_option("--place", o->place, "x,y,z offset that places the mesh in the G-code frame (default: automatic)");

@@ -15,6 +15,7 @@ void add_slice_command(CLI::App& app, CommandRunner& runner);
 void add_simulate_command(CLI::App& app, CommandRunner& runner);
 void add_verify_command(CLI::App& app, CommandRunner& runner);
 void add_compare_command(CLI::App& app, CommandRunner& runner);
+void add_printers_command(CLI::App& app, CommandRunner& runner);
 
 /// Registers every subcommand, in pipeline order (the order `--help` lists them).
 inline void register_commands(CLI::App& app, CommandRunner& runner) {
@@ -23,6 +24,7 @@ inline void register_commands(CLI::App& app, CommandRunner& runner) {
   add_simulate_command(app, runner);
   add_verify_command(app, runner);
   add_compare_command(app, runner);
+  add_printers_command(app, runner);
 }
 
 }  // namespace printtwin::cli

@@ -7,6 +7,7 @@
 #include <cstdio>
 
 
+#include "printtwin/printer.hpp"
 #include "printtwin/compare.hpp"
 #include "printtwin/deviation.hpp"
 #include "printtwin/mesh_query.hpp"
@@ -161,6 +162,12 @@ Result<VerifyReport> run_variant_verify(const SharedPart& part, const PrinterPro
   if (!gcode) return gcode.error();
   VerifySettings settings = plan.verify;
   settings.printer = plan.printer;
+  if (spec.kind != VariantKind::slicer && (plan.printer.empty() || plan.printer == "auto")) {
+    // --printer auto: each G-code variant runs on the printer its own settings name.
+    auto resolved = resolve_printer(plan.printer, spec.gcode_path);
+    if (!resolved) return resolved.error();
+    return verify_gcode(part.prepared, resolved->profile, settings, std::move(*gcode), false, on_stage);
+  }
   // The part's load and check ran once for every variant: not in the variant's timings.
   return verify_gcode(part.prepared, printer, settings, std::move(*gcode), false, on_stage);
 }

@@ -15,6 +15,7 @@
 #include "printtwin/deviation.hpp"
 #include "printtwin/io.hpp"
 #include "printtwin/planner.hpp"
+#include "printtwin/printer.hpp"
 #include "printtwin/simulate.hpp"
 #include "printtwin/slice.hpp"
 #include "printtwin/verify.hpp"
@@ -260,6 +261,7 @@ Result<PrintedGcode> print_gcode(const PrinterProfile& printer, const VerifySett
   printed.source = gcode.source;
   printed.inputs = std::move(gcode.inputs);
   printed.findings = std::move(gcode.findings);
+  printed.printer = printer;
   if (gcode.source == "printtwin slice") printed.timings.push_back({"slice", gcode.slice_time_s});
   StageClock clock(printed.timings);
 
@@ -344,6 +346,7 @@ Result<VerifyReport> measure_printed(const PreparedPart& part, const VerifySetti
   report.findings = part.check_findings;
   for (auto& f : printed.findings) report.findings.push_back(std::move(f));
   report.simulation = std::move(printed.simulation);
+  report.printer = std::move(printed.printer);
   const DepositResult& deposit = printed.deposit;
   const PartExtent& extent = printed.extent;
   report.deposit.voxel_mm = deposit.voxel_mm;
@@ -400,8 +403,10 @@ Result<VerifyReport> verify_pipeline(const VerifyOptions& options) {
   if (!options.gcode_path.empty() && (!settings.slice_config_ini.empty() || !settings.slice_overrides.empty()))
     return usage_error("slicer settings (--set, --config) apply only when printtwin slices the part; "
                        "drop --gcode or the settings");
-  auto printer = load_printer_profile(settings.printer);
-  if (!printer) return printer.error();
+  // --printer auto (the default) reads the printer from the G-code's embedded settings.
+  auto resolved = resolve_printer(settings.printer, options.gcode_path);
+  if (!resolved) return resolved.error();
+  std::optional<PrinterProfile> printer(std::move(resolved->profile));
   if (!options.gcode_path.empty()) {
     // The part's side (load, index, check) and the G-code's side (read, simulate, deposit)
     // need nothing from each other: they run side by side. A bad mesh is reported before a

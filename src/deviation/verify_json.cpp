@@ -161,6 +161,7 @@ std::string verify_report_json(const VerifyReport& r) {
   for (const auto& in : r.inputs)
     inputs.push_back({{"role", in.role}, {"path", in.path}, {"sha256", in.sha256}, {"size_bytes", in.size_bytes}});
   j["inputs"] = inputs;
+  j["printer"] = ordered_json::parse(printer_provenance_json(r.printer));
   const VerifySettings& st = r.settings;
   j["settings"] = {{"tolerance_mm", num(st.gates.tolerance_mm)},
                    {"max_excess_mm", optional_mm(st.gates.max_excess_mm)},

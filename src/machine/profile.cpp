@@ -1,11 +1,15 @@
 // Printer profiles: the built-in Ender-3 variants and JSON profile files.
 #include <filesystem>
+#include <algorithm>
 #include <functional>
 #include <map>
+#include <set>
 #include <nlohmann/json.hpp>
 
 #include "printtwin/io.hpp"
 #include "printtwin/machine.hpp"
+#include "printtwin/printer.hpp"
+#include "machine/printer_internal.hpp"
 
 namespace printtwin {
 
@@ -168,6 +172,7 @@ const std::map<std::string, Key>& keys() {
   static const std::map<std::string, Key> k = {
       {"name", text(&P::name)},
       {"firmware", text(&P::firmware)},
+      {"model", text(&P::model)},
       {"bed_min_x_mm", number(&P::bed_min_x_mm, -1000, 1000)},
       {"bed_min_y_mm", number(&P::bed_min_y_mm, -1000, 1000)},
       {"bed_max_x_mm", number(&P::bed_max_x_mm, 1, 2000)},
@@ -193,6 +198,10 @@ const std::map<std::string, Key>& keys() {
       {"min_segment_time_s", number(&P::min_segment_time_s, 0, 10)},
       {"block_buffer_size", integer(&P::block_buffer_size, 2, 4096)},
       {"max_accel_to_decel_ratio", number(&P::max_accel_to_decel_ratio, 0.01, 1)},
+      {"square_corner_velocity_mm_s", number(&P::square_corner_velocity_mm_s, 0, 1e4)},
+      {"minimum_cruise_ratio", number(&P::minimum_cruise_ratio, 0, 0.99)},
+      {"max_extrude_only_velocity_mm_s", number(&P::max_extrude_only_velocity_mm_s, 0, 1e5)},
+      {"max_extrude_only_accel_mm_s2", number(&P::max_extrude_only_accel_mm_s2, 0, 1e7)},
       {"homing_feedrate_mm_s", vector(&P::homing_feedrate_mm_s, 1e-3, 1e4)},
       {"homing_bump_mm", vector(&P::homing_bump_mm, 0, 100)},
       {"homing_bump_divisor", vector(&P::homing_bump_divisor, 1, 100)},
@@ -217,17 +226,33 @@ const std::map<std::string, Key>& keys() {
   return k;
 }
 
-Result<PrinterProfile> builtin(std::string_view name) {
-  if (name == "ender3" || name == "ender3-marlin2") return ender3_marlin2();
-  if (name == "ender3-marlin1") return ender3_marlin1();
-  if (name == "ender3-klipper") return ender3_klipper();
-  return usage_error("unknown printer \"" + std::string(name) +
-                     "\": expected ender3, ender3-marlin1, ender3-klipper or a .json file");
+/// Keys of a profile file that describe it rather than set a value.
+bool is_metadata_key(const std::string& key) {
+  return key == "base" || key == "$schema" || key == "comment" || key == "junction" || key == "id" ||
+         key == "aliases" || key == "sources";
 }
+
+const std::set<std::string> kFirmwares = {"marlin2", "marlin1", "prusa", "klipper", "rrf", "bambu"};
 
 }  // namespace
 
-Result<PrinterProfile> parse_printer_profile(std::string_view json_text, std::string_view source) {
+Result<PrinterProfile> builtin_printer(std::string_view name) {
+  PrinterProfile p;
+  if (name == "ender3" || name == "ender3-marlin2") p = ender3_marlin2();
+  else if (name == "ender3-marlin1") p = ender3_marlin1();
+  else if (name == "ender3-klipper") p = ender3_klipper();
+  else if (const auto* lib = find_library_printer(name)) return lib->profile;
+  else
+    return usage_error("unknown printer \"" + std::string(name) +
+                       "\": expected auto, a library printer (printtwin printers lists them), "
+                       "ender3, ender3-marlin1, ender3-klipper, a .json profile or a Klipper .cfg");
+  p.origin.library_id = std::string(name == "ender3-marlin2" ? "ender3" : name);
+  return p;
+}
+
+Result<PrinterProfile> parse_printer_profile_with(std::string_view json_text, std::string_view source,
+                                                  const ProfileBaseLookup& lookup,
+                                                  const std::string& origin_source) {
   const std::string src(source);
   json doc;
   try {
@@ -238,25 +263,35 @@ Result<PrinterProfile> parse_printer_profile(std::string_view json_text, std::st
   if (!doc.is_object()) return bad_input("expected a JSON object of profile keys", src);
 
   PrinterProfile profile = ender3_marlin2();
+  profile.origin = {};
   if (auto it = doc.find("base"); it != doc.end()) {
     if (!it->is_string()) return key_error(src, "base", "expected a built-in printer name");
-    auto base = builtin(it->get<std::string>());
+    auto base = lookup(it->get<std::string>());
     if (!base) return key_error(src, "base", base.error().message);
     profile = *base;
   }
   for (const auto& [key, value] : doc.items()) {
-    if (key == "base" || key == "$schema" || key == "comment" || key == "junction") continue;
+    if (is_metadata_key(key)) {
+      if ((key == "aliases" || key == "sources") &&
+          !(value.is_array() && std::all_of(value.begin(), value.end(), [](const json& v) { return v.is_string(); })))
+        return key_error(src, key, "expected an array of strings");
+      continue;
+    }
     const auto it = keys().find(key);
     if (it == keys().end()) return key_error(src, key, "unknown key (see docs/printer-profile.md)");
     auto st = it->second.set(profile, value, src);
     if (!st) return key_error(src, key, st.error().message.substr(st.error().message.find(": ") + 2));
+    profile.origin.set(key, origin_source, src);
   }
   if (auto it = doc.find("junction"); it != doc.end()) {
     const std::string j = it->is_string() ? it->get<std::string>() : "";
     if (j == "junction_deviation") profile.junction = JunctionModel::junction_deviation;
     else if (j == "classic_jerk") profile.junction = JunctionModel::classic_jerk;
     else return key_error(src, "junction", "expected \"junction_deviation\" or \"classic_jerk\"");
+    profile.origin.set("junction", origin_source, src);
   }
+  if (kFirmwares.count(profile.firmware) == 0)
+    return key_error(src, "firmware", "expected marlin2, marlin1, prusa, klipper, rrf or bambu");
   if (profile.bed_max_x_mm <= profile.bed_min_x_mm || profile.bed_max_y_mm <= profile.bed_min_y_mm)
     return key_error(src, "bed_max_x_mm", "bed max must exceed bed min");
   if (profile.arc_max_segment_mm < profile.arc_min_segment_mm)
@@ -264,9 +299,25 @@ Result<PrinterProfile> parse_printer_profile(std::string_view json_text, std::st
   return profile;
 }
 
+
+Result<PrinterProfile> parse_printer_profile(std::string_view json_text, std::string_view source) {
+  return parse_printer_profile_with(json_text, source, builtin_printer, "config");
+}
+
 Result<PrinterProfile> load_printer_profile(std::string_view name_or_path) {
   const std::filesystem::path path{std::string(name_or_path)};
-  if (path.extension() != ".json") return builtin(name_or_path);
+  if (path.extension() == ".cfg") return load_klipper_printer_cfg(path);
+  if (path.extension() != ".json") {
+    if (name_or_path == "auto" || name_or_path.empty()) {
+      // Nothing to detect from: the default printer.
+      auto p = builtin_printer("ender3");
+      p->origin.how = "auto";
+      p->origin.library_id.clear();
+      p->origin.summary = p->name + " (default: no G-code to read the printer from)";
+      return p;
+    }
+    return builtin_printer(name_or_path);
+  }
   auto text = read_file(path);
   if (!text) return text.error();
   return parse_printer_profile(*text, path.string());
@@ -277,6 +328,71 @@ std::string printer_profile_to_json(const PrinterProfile& profile) {
   for (const auto& [key, k] : keys()) doc[key] = k.get(profile);
   doc["junction"] = profile.junction == JunctionModel::classic_jerk ? "classic_jerk" : "junction_deviation";
   return doc.dump(2);
+}
+
+}  // namespace printtwin
+
+namespace printtwin {
+
+void PrinterOrigin::set(const std::string& key, const std::string& source, const std::string& detail) {
+  for (auto& v : values)
+    if (v.key == key) {
+      v.source = source;
+      v.detail = detail;
+      return;
+    }
+  values.push_back({key, source, detail});
+}
+
+const ValueOrigin* PrinterOrigin::find(std::string_view key) const {
+  for (const auto& v : values)
+    if (v.key == key) return &v;
+  return nullptr;
+}
+
+std::vector<std::string> printer_profile_keys() {
+  std::vector<std::string> out;
+  for (const auto& [key, k] : keys()) out.push_back(key);
+  out.emplace_back("junction");
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::string printer_provenance_json(const PrinterProfile& p) {
+  json doc = json::object();
+  doc["name"] = p.name;
+  doc["model"] = p.model;
+  doc["firmware"] = p.firmware;
+  doc["how"] = p.origin.how.empty() ? "explicit" : p.origin.how;
+  doc["summary"] = printer_provenance_summary(p);
+  doc["library_id"] = p.origin.library_id.empty() ? json(nullptr) : json(p.origin.library_id);
+  doc["slicer_settings"] = p.origin.slicer.empty() ? json(nullptr) : json(p.origin.slicer);
+  json values = json::object();
+  const json all = json::parse(printer_profile_to_json(p));
+  for (const auto& [key, value] : all.items()) {
+    if (key == "name" || key == "start_gcode" || key == "end_gcode") continue;
+    json v{{"value", value}};
+    if (const auto* o = p.origin.find(key)) {
+      v["source"] = o->source;
+      if (o->source == "file") v["key"] = o->detail;
+      else if (o->source == "library") v["profile"] = o->detail;
+      else if (o->source == "config") v["file"] = o->detail;
+    } else if (!p.origin.library_id.empty()) {
+      v["source"] = "library";
+      v["profile"] = p.origin.library_id;
+    } else {
+      v["source"] = "default";
+    }
+    values[key] = v;
+  }
+  doc["values"] = values;
+  return doc.dump(2);
+}
+
+std::string printer_provenance_summary(const PrinterProfile& p) {
+  if (!p.origin.summary.empty()) return p.origin.summary;
+  if (!p.origin.library_id.empty()) return p.name + " (" + p.origin.library_id + ")";
+  return p.name;
 }
 
 }  // namespace printtwin

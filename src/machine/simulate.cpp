@@ -175,7 +175,12 @@ Result<SimulationResult> run(std::istream& in, const PrinterProfile& profile, co
     window = std::max(window, 64);
   }
 
-  GcodeInterpreter interp(profile, options.interpreter);
+  // A start macro without parameters heats to the file's first-layer temperatures
+  // (resolve_printer read them from the slicer's settings into the profile's origin).
+  InterpreterOptions interp_options = options.interpreter;
+  if (std::isnan(interp_options.macro_hotend_c)) interp_options.macro_hotend_c = profile.origin.macro_hotend_c;
+  if (std::isnan(interp_options.macro_bed_c)) interp_options.macro_bed_c = profile.origin.macro_bed_c;
+  GcodeInterpreter interp(profile, interp_options);
   Pipeline pipe(limits, window, sink, plan);
   if (options.limits_from_gcode) interp.set_limits(limits, pipe);
 
@@ -206,7 +211,8 @@ Result<SimulationResult> run(std::istream& in, const PrinterProfile& profile, co
   SimulationResult r = std::move(pipe.r);
   r.lines = lines;
   r.filament_mm3 = r.filament_mm * profile.filament_area_mm2();
-  r.findings = interp.findings();
+  r.findings = profile.origin.findings;  // how the printer was identified (printer.hpp)
+  for (auto& f : interp.findings()) r.findings.push_back(f);
   r.unknown_commands = interp.unknown_commands();
   for (const auto& [name, count] : r.unknown_commands) {
     Finding f;
@@ -223,6 +229,7 @@ Result<SimulationResult> run(std::istream& in, const PrinterProfile& profile, co
   r.layers_from = interp.layers_from_markers() ? "markers" : "z";
   r.limits_used = limits;
   r.limits_from_gcode = options.limits_from_gcode;
+  r.printer = profile;
   return r;
 }
 
@@ -349,12 +356,14 @@ std::string simulation_to_json(const SimulationResult& r, const std::string& inp
       {"planner", L.klipper ? "klipper"
                   : L.orca_compat ? "orcaslicer_estimator"
                   : L.prusaslicer_compat ? "prusaslicer_estimator" : "marlin"}};
+  doc["printer"] = json::parse(printer_provenance_json(r.printer));
   return doc.dump(2) + "\n";
 }
 
 std::string simulation_summary(const SimulationResult& r) {
   std::string s;
   if (!r.slicer.empty()) s += "slicer        " + r.slicer + "\n";
+  s += "printer       " + printer_provenance_summary(r.printer) + "\n";
   s += "lines         " + std::to_string(r.lines) + " (" + std::to_string(r.moves) + " moves, " +
        std::to_string(r.segments) + " planned segments)\n";
   s += "print time    " + format_duration_compact(r.print_time_s) + " (" + format_fixed(r.print_time_s, 1) + " s)\n";

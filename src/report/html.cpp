@@ -4,7 +4,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include <nlohmann/json.hpp>
+
 #include "printtwin/io.hpp"
+#include "printtwin/machine.hpp"
 #include "report/report_internal.hpp"
 
 namespace printtwin {
@@ -76,6 +79,24 @@ std::string stat_cells(const DeviationStats& s) {
         fixed(s.hausdorff_mm, 3), fixed(s.within_tolerance_pct, 2) + " %", std::to_string(s.samples)})
     h += "<td>" + v + "</td>";
   return h;
+}
+
+std::string kv_row(const std::string& k, const std::string& v);
+
+/// Every value of the printer the run used, with its source (file setting, library
+/// profile, config file or default): the same list as report.json's "printer".
+std::string printer_values_html(const PrinterProfile& printer) {
+  const auto doc = nlohmann::json::parse(printer_provenance_json(printer));
+  std::string h = "<div><h3>Printer</h3><p>" + html_escape(doc.value("summary", std::string())) +
+                  "</p><details><summary>every value and its source</summary><table class=\"kv\">";
+  for (const auto& [key, v] : doc.at("values").items()) {
+    std::string source = v.value("source", std::string());
+    if (v.contains("key")) source += ": " + v.at("key").get<std::string>();
+    else if (v.contains("profile")) source += ": " + v.at("profile").get<std::string>();
+    else if (v.contains("file")) source += ": " + v.at("file").get<std::string>();
+    h += kv_row(key, html_escape(v.at("value").dump()) + " · " + html_escape(source));
+  }
+  return h + "</table></details></div>";
 }
 
 std::string kv_row(const std::string& k, const std::string& v) {
@@ -168,7 +189,7 @@ std::string report_html(const VerifyReport& report, const ReportAssets& assets, 
        "12v10\"/></svg>printtwin <span>verify</span></div><div class=\"top-meta\">";
   h += "<span>" + html_escape(part) + "</span>";
   if (!sim.slicer.empty()) h += "<span>G-code: " + html_escape(sim.slicer) + "</span>";
-  h += "<span>printer: " + html_escape(report.settings.printer) + "</span>";
+  h += "<span>printer: " + html_escape(report.printer.name) + "</span>";
   if (!options.generated_utc.empty()) h += "<span>" + html_escape(options.generated_utc) + "</span>";
   h += "<span>v" + html_escape(report.tool_version) + "</span></div></div></header>\n<main class=\"wrap\">\n";
 
@@ -347,7 +368,7 @@ std::string report_html(const VerifyReport& report, const ReportAssets& assets, 
   h += kv_row("voxel", fixed(st.voxel_mm, 3) + " mm");
   h += kv_row("mesh sample spacing",
               st.mesh_sample_spacing_mm > 0 ? fixed(st.mesh_sample_spacing_mm, 3) + " mm" : "= voxel");
-  h += kv_row("printer", html_escape(st.printer));
+  h += kv_row("printer", html_escape(printer_provenance_summary(report.printer)));
   h += kv_row("G-code source", html_escape(st.gcode_source));
   h += kv_row("registration", html_escape(dev.registration_method.empty() ? std::string("auto")
                                                                             : dev.registration_method) +
@@ -370,6 +391,7 @@ std::string report_html(const VerifyReport& report, const ReportAssets& assets, 
                              size_text(report.deposit.memory_bytes));
   h += kv_row("deposit part box", box_text(report.deposit.part_bbox_mm, 2));
   h += "</table></div>";
+  h += printer_values_html(report.printer);
   h += "<div><h3>Run</h3><table class=\"kv\">";
   for (const auto& t : report.timings) h += kv_row(t.stage, fixed(t.seconds, 3) + " s");
   if (!report.timings.empty()) h += kv_row("total", fixed(total_time_s(report), 3) + " s");

@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "printtwin/printer.hpp"
 #include "printtwin/io.hpp"
 #include "printtwin/verify.hpp"
 #include "support/test_support.hpp"
@@ -215,8 +216,10 @@ TEST(VerifyLibrary, SideBySideHalvesGiveTheReportOfTheSequentialPipeline) {
   auto together = verify(options);
   ASSERT_TRUE(together.ok()) << together.error().describe();
 
-  auto printer = load_printer_profile(options.settings.printer);
-  ASSERT_TRUE(printer.ok());
+  // --printer auto (the default): the printer the G-code names, as verify() resolves it.
+  auto resolved = resolve_printer(options.settings.printer, options.gcode_path);
+  ASSERT_TRUE(resolved.ok());
+  const std::optional<PrinterProfile> printer(resolved->profile);
   auto part = prepare_part(options.mesh_path, *printer, options.settings);
   ASSERT_TRUE(part.ok());
   auto gcode = read_gcode_input(options.gcode_path);
