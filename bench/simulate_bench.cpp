@@ -75,6 +75,7 @@ void BM_Simulate(benchmark::State& state, printtwin::PrinterProfile profile, boo
 BENCHMARK_CAPTURE(BM_Simulate, marlin2_junction_deviation, printtwin::ender3_marlin2(), false)
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Simulate, marlin1_classic_jerk, printtwin::ender3_marlin1(), false)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Simulate, klipper, printtwin::ender3_klipper(), false)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

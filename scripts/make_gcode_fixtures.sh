@@ -18,13 +18,16 @@ trap 'rm -rf "$tmp"' EXIT
 mkdir -p "$out"
 
 # --- PrusaSlicer 2.5 (machine_limits_usage = time_estimate_only: limits only in the config block)
-prusa() {  # name model scale layer_height
-  prusa-slicer --load "$peers/prusa_ender3.ini" --layer-height "$4" --scale "$3" \
+prusa() {  # name model scale layer_height [more options]
+  prusa-slicer --load "$peers/prusa_ender3.ini" --layer-height "$4" --scale "$3" "${@:5}" \
     --center 110,110 --export-gcode -o "$out/$1.gcode" "$models/$2" >/dev/null
 }
 prusa prusa_cube10 calibration_cube_20mm.stl 0.5 0.2
 prusa prusa_thin_walls thin_walls.stl 1 0.3
 prusa prusa_curved_part curved_part.stl 0.3 0.3
+# Spiral vase: one ;LAYER_CHANGE per turn while Z rises along every extrusion.
+prusa prusa_vase10 calibration_cube_20mm.stl 0.5 0.2 --spiral-vase --perimeters 1 \
+  --top-solid-layers 0 --fill-density 0
 
 # --- Slic3r 1.3 (its end G-code leaves `G1 Z[next_layer_z]` unexpanded: kept on purpose)
 slic3r --load "$peers/slic3r_ender3.ini" --layer-height 0.3 --scale 0.5 --print-center 110,110 \
@@ -90,7 +93,8 @@ for g in sorted(out.glob("prusa_*.gcode")):
     fil = float(re.search(r"; filament used \[mm\] = ([0-9.]+)", text).group(1))
     figures["files"][g.name] = {"slicer": "PrusaSlicer 2.5.0",
                                 "estimated_time_normal_s": hms(est),
-                                "filament_mm": fil}
+                                "filament_mm": fil,
+                                "layers": text.count(";LAYER_CHANGE\n")}
 for line in pathlib.Path(sys.argv[2]).read_text().split("\n"):
     if not line.strip():
         continue

@@ -61,6 +61,11 @@ struct SurfaceSample {
 [[nodiscard]] std::vector<SurfaceSample> sample_surface(const Mesh& mesh, double spacing_mm,
                                                         std::uint64_t seed = 1);
 
+/// Checks, before anything is drawn, that sample_surface's samples (area / spacing^2 of
+/// them) and the per-sample arrays of the deviation fit in memory: a bad_input error giving
+/// the count, the estimate and the limit (the host's physical memory) otherwise.
+[[nodiscard]] Status check_sample_budget(const Mesh& mesh, double spacing_mm);
+
 // ---------------------------------------------------------------- statistics
 
 /// Statistics of signed distances. Percentiles are of |d| with linear interpolation between

@@ -4,9 +4,10 @@
 // GcodeLineReader cuts a stream into lines (bounded memory, 1-based line numbers, no
 // allocation per line); parse_gcode_line() splits one line into a GcodeCommand without
 // allocating; GcodeInterpreter executes commands with Marlin 2.1's modal state (G90/G91,
-// M82/M83, G92, G20/G21, M200/M220/M221, temperatures, homing state) and emits Moves plus
-// the events the planner needs (limit changes, dwells, heating waits) to an
-// InterpreterOutput. simulate.hpp chains these with the planner; most callers want
+// M82/M83, G92, G20/G21, M200/M220/M221, temperatures, homing state), the commands of the
+// profile's firmware flavour (Prusa, Klipper, RepRapFirmware, Bambu), printer-side start
+// and end macros, and the slicers' layer and feature markers, and emits Moves plus the
+// events the planner needs (limit changes, dwells, heating waits) to an InterpreterOutput. simulate.hpp chains these with the planner; most callers want
 // simulate_gcode() or interpret_gcode_file() from there.
 //
 // Supported commands and slicer markers: docs/gcode-coverage.md.
@@ -154,6 +155,11 @@ class GcodeInterpreter {
   [[nodiscard]] const std::string& slicer() const { return slicer_; }
   /// Estimates the slicer wrote into the file (s), NaN when absent.
   [[nodiscard]] double slicer_estimate_s() const { return slicer_estimate_s_; }
+  /// Filament the slicer says the file uses (mm of filament), NaN when it states none.
+  [[nodiscard]] double slicer_filament_mm() const { return slicer_filament_mm_; }
+  /// True once a slicer layer marker (`;LAYER_CHANGE`, `; CHANGE_LAYER`, `;LAYER:n`,
+  /// `; BEGIN_LAYER_OBJECT z=`, `; layer N, Z = `) was seen: layers then follow the markers.
+  [[nodiscard]] bool layers_from_markers() const { return marker_seen_; }
   [[nodiscard]] long moves_emitted() const { return moves_; }
 
  private:
@@ -170,6 +176,17 @@ class GcodeInterpreter {
             bool is_forced, long line, std::string_view text, InterpreterOutput& out);
   void heat_wait(bool hotend, double target_c, bool wait_cooling, long line,
                  InterpreterOutput& out);
+  void set_hotend_target(double target_c);
+  void set_bed_target(double target_c);
+  /// An info finding listed once per code; later occurrences are counted in it.
+  void note(std::string code, std::string message, long line);
+  Status extended(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
+  Status start_macro(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
+  Status firmware_retract(const GcodeCommand& c, bool retract, std::string_view text,
+                          InterpreterOutput& out);
+  Status klipper_m204(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
+  void layer_marker(double z_mm);
+  void stated_figures(std::string_view comment);
   double hotend_temp_now() const;
 
   PrinterProfile profile_;
@@ -183,6 +200,22 @@ class GcodeInterpreter {
   std::vector<double> layer_z_;
   std::string slicer_;
   double slicer_estimate_s_;
+  double slicer_filament_mm_;
+  int slicer_estimate_rank_ = 0;  ///< which stated time won (normal mode beats totals)
+  bool estimate_from_time_tag_ = false;  ///< Cura's ";TIME:" (a placeholder when unfilled)
+
+  /// Firmware flavour (PrinterProfile::firmware).
+  enum class Flavour : std::uint8_t { marlin2, marlin1, prusa, klipper, rrf, bambu };
+  Flavour flavour_ = Flavour::marlin2;
+  // Firmware retraction in force (G10/G11; M207 / SET_RETRACTION change it).
+  double min_extrude_temp_c_ = 170;  ///< M302 S (P1: cold extrusion allowed)
+  double fw_length_mm_ = 0, fw_speed_mm_s_ = 0, fw_recover_speed_mm_s_ = 0;
+  double fw_recover_extra_mm_ = 0, fw_zraise_mm_ = 0;
+  // Layer markers.
+  bool markers_expected_ = false;  ///< the header names a slicer that writes layer markers
+  bool marker_seen_ = false;
+  bool layer_pending_ = false;     ///< a marker was seen; its layer starts at the next extrusion
+  double pending_layer_z_ = 0;     ///< NaN: Z of the first extrusion
 
   // Modal state (Marlin's names in comments).
   Vec3 logical_mm_ = Vec3::Zero();    ///< current_position (XYZ, logical)
@@ -210,11 +243,13 @@ class GcodeInterpreter {
   long last_line_ = 0;
 };
 
-/// Machine limits that PrusaSlicer wrote in the config block at the end of its G-code
-/// (`; machine_max_acceleration_x = 500`, `; machine_max_jerk_x = 8`, ...), as the
-/// limits its own time estimator used (classic jerk with PrusaSlicer's safe-speed rule,
-/// no minimum segment time). Reads only the last 256 KB of `text`.
-/// Error when the block is missing.
+/// Machine limits that the slicer wrote in its config block (`; machine_max_acceleration_x =
+/// 500`, `; machine_max_jerk_x = 8`, ...; PrusaSlicer and SuperSlicer at the end,
+/// OrcaSlicer / Bambu Studio / Creality Print name the speeds `machine_max_speed_*` and put
+/// the block at the end or the start), as the limits its own time estimator used: classic
+/// jerk with PrusaSlicer's safe-speed rule, no minimum segment time, and for the Orca family
+/// MotionLimits::orca_compat. `text` is the part of the file to search (the caller passes
+/// the head and the tail). Error when no block is found.
 [[nodiscard]] Result<MotionLimits> limits_from_prusaslicer_config(std::string_view text,
                                                                   const MotionLimits& base);
 

@@ -2,6 +2,7 @@
 // File helpers shared by every stage: whole-file reads with clear errors, and atomic writes
 // (temporary file in the same folder, then rename) so that a failed run never leaves a
 // half-written output that looks complete.
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -12,6 +13,12 @@ namespace printtwin {
 
 /// Reads a whole file. Errors name the file: missing, a directory, unreadable.
 [[nodiscard]] Result<std::string> read_file(const std::filesystem::path& path);
+
+/// Size of an input file without reading it; the same errors as read_file.
+[[nodiscard]] Result<std::uint64_t> input_file_size(const std::filesystem::path& path);
+/// The first `max_bytes` bytes of a file (fewer when it is shorter): a format's header can
+/// be checked before the whole body is read. The same errors as read_file.
+[[nodiscard]] Result<std::string> read_file_head(const std::filesystem::path& path, std::size_t max_bytes);
 
 /// Writes `content` to `path` atomically (creates parent folders).
 [[nodiscard]] Status write_file_atomic(const std::filesystem::path& path, std::string_view content);

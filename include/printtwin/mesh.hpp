@@ -46,6 +46,11 @@ struct MeshLoadOptions {
                                                  const std::filesystem::path& name,
                                                  const MeshLoadOptions& options = {});
 
+/// The checks of a mesh file that need only its size and first bytes (a binary STL's
+/// triangle count against the file size): load_mesh runs them before reading the body, and
+/// a caller that reads the file itself (to hash it) can run them first too.
+[[nodiscard]] Status check_mesh_file_header(const std::filesystem::path& path);
+
 /// Writes a binary STL (temporary file + rename).
 [[nodiscard]] Status save_stl(const Mesh& mesh, const std::filesystem::path& path);
 

@@ -1,7 +1,8 @@
 #pragma once
 // Motion planner of the simulated printer: Moves in, timed MotionSegments out.
 //
-// Follows Marlin 2.1's planner (planner.cpp): every Move becomes a block with a nominal speed
+// Two planning models. Marlin's (the default) follows Marlin 2.1's planner (planner.cpp):
+// every Move becomes a block with a nominal speed
 // limited per axis (X, Y, Z, E), an acceleration chosen from M204 P/R/T and limited per axis,
 // and a maximum entry speed from the junction model (junction deviation with the small
 // segment rule, or classic jerk). Blocks wait in a look-ahead window of
@@ -13,6 +14,13 @@
 // The printer's clock is continuous: dwells and heating waits first drain the window (the
 // printer stops, as Marlin's planner.synchronize()) and then advance the clock, so
 // `MotionSegment::start_time_s` already includes every wait before it.
+//
+// Klipper's (MotionLimits::klipper, chosen for profiles whose firmware is "klipper") follows
+// klippy/toolhead.py: one acceleration for every move, junction speeds from the junction
+// deviation derived from square_corner_velocity, the approximated-centripetal and
+// smoothed-reachability caps, minimum_cruise_ratio, the extruder's extrude-only and
+// instantaneous-corner limits, and Klipper's look-ahead queue that is flushed lazily once
+// 150 ms of moves are queued (docs/simulate.md, "Planning models").
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
@@ -43,6 +51,14 @@ struct MotionLimits {
   /// acceleration, and E-only moves are limited per axis like any other. Used by
   /// `--limits-from-gcode` to reproduce PrusaSlicer's estimate (docs/simulate.md).
   bool prusaslicer_compat = false;
+  /// With prusaslicer_compat: plan like the estimator of OrcaSlicer, Bambu Studio and
+  /// Creality Print (PrusaSlicer's GCodeProcessor with Bambu's changes): the X, Y, Z jerk of
+  /// a junction is the difference of the velocity vectors (no coasting rule), XY bends of
+  /// less than 29 degrees cap the speed at sqrt(print accel * r) of the circle through the
+  /// move, moves with E > 0 and Z only count as travel, and the X/Y jerk is
+  /// square_corner_velocity_mm_s (Orca reads SET_VELOCITY_LIMIT SQUARE_CORNER_VELOCITY as
+  /// X/Y jerk; limits_from_slicer_config sets it to machine_max_jerk_x).
+  bool orca_compat = false;
   /// M204 values are clamped to these (PrusaSlicer's machine_max_acceleration_extruding,
   /// _retracting, _travel); infinity = no clamp, as in Marlin.
   Eigen::Vector3d accel_cap_mm_s2 = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
@@ -59,7 +75,22 @@ struct MotionLimits {
   double minimum_cruise_ratio = 0.5;          ///< MINIMUM_CRUISE_RATIO
   double max_extrude_only_velocity_mm_s = 0;  ///< [extruder]; 0 = derived as Klipper does
   double max_extrude_only_accel_mm_s2 = 0;    ///< [extruder]; 0 = derived as Klipper does
+  /// Plan like Klipper's toolhead. Then max_velocity is max_feedrate_mm_s[0], max_accel is
+  /// print_accel_mm_s2 (Klipper has one acceleration: M204 and SET_VELOCITY_LIMIT ACCEL set
+  /// it), max_z_velocity / max_z_accel are max_feedrate_mm_s[2] / max_accel_mm_s2[2]; the
+  /// other per-axis limits, jerk, junction deviation and M205 values are not used.
+  bool klipper = false;
+  /// [extruder] instantaneous_corner_velocity: caps a junction where the extrusion ratio
+  /// (E per mm of XYZ) changes by d to (v / d)^2.
+  double extruder_corner_velocity_mm_s = 1.0;
 };
+
+/// Klipper's junction deviation (mm) for a square corner velocity and an acceleration:
+/// scv^2 (sqrt 2 - 1) / accel, so a 90-degree corner is taken at scv whatever the accel.
+[[nodiscard]] double klipper_junction_deviation_mm(double square_corner_velocity_mm_s, double accel_mm_s2);
+/// Klipper's default max_extrude_only_velocity / _accel ratio: a 4 d_nozzle^2 cross
+/// section over the filament's area (times max_velocity or max_accel of the config).
+[[nodiscard]] double klipper_default_extrude_ratio(double nozzle_diameter_mm, double filament_diameter_mm);
 
 /// The limits of a printer profile at power-on.
 [[nodiscard]] MotionLimits motion_limits_from_profile(const PrinterProfile& profile);
@@ -119,7 +150,8 @@ class MoveSink {
   }
 };
 
-/// Marlin's look-ahead planner over a window of `block_buffer_size` blocks.
+/// Marlin's look-ahead planner over a window of `block_buffer_size` blocks, or Klipper's
+/// look-ahead queue when `limits.klipper` (the window size is then unused).
 ///
 ///   Planner planner(motion_limits_from_profile(profile), profile.block_buffer_size);
 ///   planner.add(move, sink);  ...  planner.flush(sink);
@@ -145,7 +177,7 @@ class Planner {
   /// Printer clock: end of the last emitted segment or wait (s).
   [[nodiscard]] double clock_s() const { return clock_s_; }
   /// Number of blocks waiting in the look-ahead window.
-  [[nodiscard]] int queued() const { return static_cast<int>(window_.size()); }
+  [[nodiscard]] int queued() const { return static_cast<int>(window_.size() + kqueue_.size()); }
 
  private:
   struct Block {
@@ -168,6 +200,33 @@ class Planner {
   void emit_front(MoveSink& sink, double exit_speed_mm_s);
   void recalculate();
 
+  // Klipper's planner (toolhead.py: Move, LookAheadQueue), squared speeds as Klipper keeps them.
+  struct KlipperMove {
+    Move move;
+    double e_start_mm = 0;
+    long index = 0;
+    Eigen::Vector4d axes_r = Eigen::Vector4d::Zero();  ///< X Y Z E per mm of move_d
+    double move_d = 0;            ///< XYZ length, or |E| for extrude-only moves
+    bool kinematic = true;        ///< moves XYZ
+    double accel = 0;
+    double junction_deviation = 0;
+    double min_move_t = 0;        ///< move_d at the cruise speed (for the flush timer)
+    double max_cruise_v2 = 0;
+    double delta_v2 = 0;          ///< 2 * move_d * accel
+    double max_start_v2 = 0;
+    double max_mcr_start_v2 = 0;  ///< minimum_cruise_ratio's start limit
+    double mcr_delta_v2 = 0;      ///< 2 * move_d * accel * (1 - minimum_cruise_ratio)
+    // Set by the flush.
+    double start_v2 = 0, cruise_v2 = -1, end_v2 = 0;
+  };
+  void klipper_add(const Move& move, MoveSink& sink);
+  /// LookAheadQueue.flush: plans the queue to a stop at its end; `lazy` emits only the moves
+  /// whose speeds later moves can no longer change.
+  void klipper_flush(MoveSink& sink, bool lazy);
+  void klipper_emit(const KlipperMove& m, MoveSink& sink);
+  std::vector<KlipperMove> kqueue_;
+  double junction_flush_s_ = 1.0;  ///< queued move time left before a lazy flush
+
   MotionLimits limits_;
   std::size_t capacity_;
   std::deque<Block> window_;
@@ -181,6 +240,9 @@ class Planner {
   Eigen::Vector4d previous_axis_speed_mm_s_ = Eigen::Vector4d::Zero();
   double previous_nominal_speed_mm_s_ = 0;
   double previous_safe_speed_mm_s_ = 0;
+  Eigen::Vector2d previous_xy_dir_ = Eigen::Vector2d::Zero();  ///< unit XY direction (Orca's centripetal cap)
+  double previous_xy_len_ = 0;
+  long previous_line_ = -1;  ///< G-code line of the previous move (segments of one arc share it)
 };
 
 }  // namespace printtwin

@@ -39,7 +39,8 @@ struct SimulateOptions {
   std::string source_name;
 };
 
-/// One layer (index = Move::layer): layers are made by the Z of extrusion moves.
+/// One layer (index = Move::layer): the slicer's layer markers when the file has them
+/// (docs/gcode-coverage.md), otherwise made by the Z of extrusion moves.
 struct LayerStats {
   int index = 0;
   double z_mm = 0;         ///< Z of its extrusions
@@ -57,6 +58,10 @@ struct SimulationResult {
   double dwell_time_s = 0;    ///< G4
   double heating_time_s = 0;  ///< M109/M190 waits (profile heat rates)
   double filament_mm = 0;     ///< net filament pushed (sum of Move::e_mm)
+  /// Filament of the part alone: net filament of the moves in the slicer's layers that are
+  /// not start/end code (purge lines, priming, anything before the first layer marker),
+  /// up to the last extrusion of the last layer (the end code's retraction is not counted).
+  double filament_part_mm = 0;
   double filament_mm3 = 0;    ///< filament_mm times the filament cross-section
   double retracted_mm = 0;    ///< sum of retractions (positive)
   double extrude_distance_mm = 0;  ///< nozzle path length of extrusion moves
@@ -75,8 +80,13 @@ struct SimulationResult {
   Box3 extrusion_bounds_mm;   ///< box of all extrusion moves (machine frame)
   Box3 motion_bounds_mm;      ///< box of all nozzle positions
   std::string slicer;         ///< "PrusaSlicer 2.5.0", "Cura_SteamEngine 4.13.1", ...
-  /// The slicer's own time estimate found in the file (PrusaSlicer normal mode), if any.
+  /// The slicer's own time estimate found in the file (PrusaSlicer normal mode, Orca's total
+  /// estimated time, Cura ;TIME:, ...; docs/gcode-coverage.md), if any.
   std::optional<double> slicer_estimate_s;
+  /// The filament the slicer says the file uses (mm), if it states it.
+  std::optional<double> slicer_filament_mm;
+  /// "markers" when layers follow the slicer's layer markers, "z" when made by Z.
+  std::string layers_from = "z";
   MotionLimits limits_used;   ///< limits in force at the start (after --limits-from-gcode)
   bool limits_from_gcode = false;
 };

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "check/check_internal.hpp"
 #include "printtwin/check.hpp"
@@ -320,22 +321,44 @@ Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& p
     f.value = t.min_gap_mm;
     out.push_back(f);
   }
-  // Shells smaller than a line width across do not print at all.
-  std::size_t small = 0;
-  std::optional<Vec3> first_small;
+  // Shells narrower than a line width across print as one thin line at best; narrower than
+  // the thinnest line a slicer prints (about a third of the nozzle, PrusaSlicer's thin-wall
+  // limit and printtwin's slicer default), not at all. When no shell prints, nothing does:
+  // an error, so that the verdict says what the finding says.
+  const double vanish_mm = printer.nozzle_diameter_mm / 3.0;
+  std::size_t narrow = 0, vanishing = 0;
+  std::optional<Vec3> first_narrow, first_vanishing;
   for (const Box3& b : rep.health.shell_bbox_mm) {
-    const Vec3 s = b.size();
-    if (std::min(s.x(), s.y()) < rep.line_width_mm) {
-      if (!first_small) first_small = b.center() + offset;
-      ++small;
+    const double across = std::min(b.size().x(), b.size().y());
+    if (across >= rep.line_width_mm) continue;
+    ++narrow;
+    if (!first_narrow) first_narrow = b.center() + offset;
+    if (across < vanish_mm) {
+      ++vanishing;
+      if (!first_vanishing) first_vanishing = b.center() + offset;
     }
   }
-  if (small > 0)
+  const std::size_t shells = rep.health.shell_bbox_mm.size();
+  if (vanishing > 0 && vanishing == shells) {
+    out.push_back(make_finding(Severity::error, "small_feature",
+                               std::string(shells == 1 ? "the part is" : "every part is") +
+                                   " narrower than the thinnest line a slicer prints (" + mm(vanish_mm) +
+                                   ", a third of the nozzle) (at " + xyz(*first_vanishing) +
+                                   "): nothing will print",
+                               first_vanishing, static_cast<long>(vanishing)));
+  } else if (vanishing > 0) {
     out.push_back(make_finding(Severity::warning, "small_feature",
-                               plural(small, "separate part") + " narrower than one line width (" +
-                                   mm(rep.line_width_mm) + ") (first at " + xyz(*first_small) +
-                                   "): will not print",
-                               first_small, static_cast<long>(small)));
+                               plural(vanishing, "separate part") + " of " + std::to_string(shells) +
+                                   " narrower than the thinnest line a slicer prints (" + mm(vanish_mm) +
+                                   ") (first at " + xyz(*first_vanishing) + "): they will not print",
+                               first_vanishing, static_cast<long>(vanishing)));
+  } else if (narrow > 0) {
+    out.push_back(make_finding(Severity::warning, "small_feature",
+                               plural(narrow, "separate part") + " narrower than one line width (" +
+                                   mm(rep.line_width_mm) + ") (first at " + xyz(*first_narrow) +
+                                   "): printed as one thin line at best, weak or incomplete",
+                               first_narrow, static_cast<long>(narrow)));
+  }
 
   std::stable_sort(out.begin(), out.end(), [](const Finding& a, const Finding& b) {
     return static_cast<int>(a.severity) > static_cast<int>(b.severity);

@@ -83,7 +83,9 @@ Result<RepairResult> repair_mesh(const Mesh& mesh, const RepairSettings& setting
     const std::size_t duplicates = PMP::merge_duplicate_polygons_in_polygon_soup(points, polygons);
     add(out.changes, "removed_duplicate_faces", duplicates, "duplicate faces removed");
     PMP::remove_isolated_points_in_polygon_soup(points, polygons);
-    if (polygons.empty()) return bad_input("nothing left to repair: every face is degenerate");
+    if (polygons.empty())
+      return bad_input("repair would leave no triangles: every face is degenerate (zero area); "
+                       "nothing to write");
 
     const std::vector<P3> points_before = points;
     const std::vector<Polygon> polygons_before = polygons;
@@ -105,6 +107,9 @@ Result<RepairResult> repair_mesh(const Mesh& mesh, const RepairSettings& setting
     // their "hole" would only add a reversed copy of them.
     const std::size_t pieces = PMP::keep_large_connected_components(sm, 4);
     sm.collect_garbage();
+    if (sm.number_of_faces() == 0)
+      return bad_input("repair would leave no triangles: the mesh is only loose pieces of fewer than 4 "
+                       "faces, which cannot bound a volume; nothing to write");
     add(out.changes, "removed_small_pieces", pieces,
         "loose pieces of fewer than 4 faces removed (fins, stray triangles)");
 

@@ -102,6 +102,9 @@ void print_text(const CheckOptions& o, const PrinterProfile& printer, const Chec
 }
 
 int run_check(const CheckOptions& o) {
+  if (auto st = check_output_paths({{o.json_out, "--json", OutputKind::file}, {o.repair_out, "--repair", OutputKind::file}});
+      !st)
+    return report_error(st.error());
   auto printer = load_printer_profile(o.printer);
   if (!printer) return report_error(printer.error());
 
@@ -132,7 +135,11 @@ int run_check(const CheckOptions& o) {
   std::optional<RepairResult> repaired;
   if (!o.repair_out.empty()) {
     auto rr = repair_mesh(*mesh);
-    if (!rr) return report_error(rr.error());
+    if (!rr) {
+      Error e = rr.error();
+      if (e.file.empty()) e.file = o.input;
+      return report_error(e);
+    }
     if (auto s = save_stl(rr->mesh, o.repair_out); !s) return report_error(s.error());
     repaired = std::move(*rr);
   }

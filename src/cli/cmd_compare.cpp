@@ -175,6 +175,10 @@ Result<ComparePlan> build_plan(const CompareOptions& o) {
 }
 
 int run_compare_command(const CompareOptions& o) {
+  if (auto st = check_output_paths({{o.out, "--out", OutputKind::folder},
+                                    {o.write_manifest, "--write-manifest", OutputKind::file}});
+      !st)
+    return report_error(st.error());
   if (!o.merge.empty()) {
     if (!o.mesh.empty() || !o.manifest.empty())
       return report_error(usage_error("--merge takes only compare JSON files and --out"));

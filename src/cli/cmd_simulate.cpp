@@ -87,6 +87,14 @@ void add_simulate_command(CLI::App& app, CommandRunner& runner) {
   add_deposit_options(*cmd, o->deposit);
   cmd->callback([o, &runner] {
     runner.run = [o]() -> int {
+      if (auto st = check_output_paths({{o->json_path, "--json", OutputKind::file},
+                                        {o->trace_path, "--trace", OutputKind::file},
+                                        {o->deposit.octomap_path, "--deposit", OutputKind::file},
+                                        {o->deposit.ply_path, "--deposit-ply", OutputKind::file}});
+          !st)
+        return report_error(st.error());
+      // Missing, a directory, a symbolic link loop: said in those words, before any work.
+      if (auto size = input_file_size(o->input); !size) return report_error(size.error());
       auto profile = load_printer_profile(o->printer);
       if (!profile) return report_error(profile.error());
       SimulateOptions options;
@@ -97,6 +105,11 @@ void add_simulate_command(CLI::App& app, CommandRunner& runner) {
       DepositStage deposit(o->deposit, trace.get());
       auto sim = simulate_gcode_file(o->input, *profile, options, deposit.sink());
       if (!sim) return report_error(sim.error());
+      // Nothing moved: whatever the file is, it was not understood as a print.
+      if (sim->moves == 0)
+        return report_error(bad_input("no moves: " + std::to_string(sim->lines) +
+                                          (sim->lines == 1 ? " line" : " lines") + " but not one G0/G1/G2/G3 move, expected a print's G-code",
+                                      o->input));
       if (auto st = deposit.run(*profile, *sim); !st) return report_error(st.error());
       if (!o->json_path.empty()) {
         if (auto st = write_file_atomic(o->json_path, deposit.patch_json(simulation_to_json(*sim, o->input))); !st)

@@ -82,6 +82,7 @@ std::optional<Error> parse_pair(const std::string& text, std::string& key, std::
 }
 
 int run_slice(const SliceOptions& o) {
+  if (auto st = check_output_path(o.output, "--output", OutputKind::file); !st) return report_error(st.error());
   SliceSettings settings;
   std::vector<std::string> ignored;
   for (const auto& cfg : o.configs) {
@@ -112,7 +113,14 @@ int run_slice(const SliceOptions& o) {
   if (!printer) return report_error(printer.error());
   auto mesh = load_mesh(o.input);
   if (!mesh) return report_error(mesh.error());
+  // A mesh without area has nothing to slice (check: NOT PRINTABLE).
+  if (!(surface_area_mm2(*mesh) > 0))
+    return report_error(bad_input("the mesh has zero area (all " + std::to_string(mesh->triangles.size()) +
+                                      " triangles are degenerate): nothing to slice, not printable",
+                                  o.input));
 
+  std::string out_path = o.output;
+  if (out_path.empty()) out_path = std::filesystem::path(o.input).replace_extension(".gcode").string();
   const auto t0 = std::chrono::steady_clock::now();
   auto sliced = slice_mesh(*mesh, *printer, settings);
   if (!sliced) {
@@ -121,8 +129,10 @@ int run_slice(const SliceOptions& o) {
     return report_error(e);
   }
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::string out_path = o.output;
-  if (out_path.empty()) out_path = std::filesystem::path(o.input).replace_extension(".gcode").string();
+  if (!(sliced->stats.filament_mm > 0))
+    return report_error(bad_input("the slice extrudes nothing (" + std::to_string(sliced->stats.layer_count) +
+                                      " layers, 0 mm of filament): no part of the mesh would print, not printable",
+                                  o.input));
   if (auto st = write_file_atomic(out_path, sliced->gcode); !st) return report_error(st.error());
 
   const SliceStats& s = sliced->stats;

@@ -107,6 +107,10 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
   cmd->add_flag("-q,--quiet", o->quiet, "no summary table");
   cmd->callback([o, &runner] {
     runner.run = [o]() -> int {
+      if (auto st = check_output_paths({{o->out, "--out", OutputKind::folder},
+                                        {o->deviation_ply, "--deviation-ply", OutputKind::file}});
+          !st)
+        return report_error(st.error());
       VerifyOptions options;
       options.mesh_path = o->mesh;
       options.gcode_path = o->gcode;

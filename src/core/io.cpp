@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <system_error>
@@ -25,11 +26,58 @@ namespace printtwin {
 
 namespace fs = std::filesystem;
 
-Result<std::string> read_file(const fs::path& path) {
+namespace {
+
+/// Why `path` cannot be read, in the user's terms ("file not found", "symbolic link loop",
+/// "permission denied", ...), or nothing when it is a readable-looking regular file.
+std::optional<Error> input_problem(const fs::path& path) {
   std::error_code ec;
   const auto status = fs::status(path, ec);
-  if (ec || !fs::exists(status)) return bad_input("file not found", path.string());
+  if (ec && ec != std::errc::no_such_file_or_directory) {
+    if (ec == std::errc::too_many_symbolic_link_levels)
+      return bad_input("symbolic link loop (too many levels of symbolic links), expected a file",
+                       path.string());
+    if (ec == std::errc::permission_denied)
+      return bad_input("permission denied (a folder on the path cannot be searched)", path.string());
+    if (ec == std::errc::not_a_directory)
+      return bad_input("file not found (a part of the path is a file, not a folder)", path.string());
+    return bad_input("cannot access: " + ec.message(), path.string());
+  }
+  if (!fs::exists(status)) {
+    std::error_code lec;
+    if (fs::is_symlink(fs::symlink_status(path, lec)))
+      return bad_input("dangling symbolic link: its target does not exist", path.string());
+    return bad_input("file not found", path.string());
+  }
   if (fs::is_directory(status)) return bad_input("is a directory, expected a file", path.string());
+  return std::nullopt;
+}
+
+}  // namespace
+
+Result<std::uint64_t> input_file_size(const fs::path& path) {
+  if (auto problem = input_problem(path)) return *problem;
+  std::error_code ec;
+  const auto size = fs::file_size(path, ec);
+  if (ec) return bad_input("cannot read its size (not a regular file?): " + ec.message(), path.string());
+  return static_cast<std::uint64_t>(size);
+}
+
+Result<std::string> read_file_head(const fs::path& path, std::size_t max_bytes) {
+  if (auto problem = input_problem(path)) return *problem;
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (f == nullptr) return bad_input(std::string("cannot open: ") + std::strerror(errno), path.string());
+  std::string data(max_bytes, '\0');
+  const std::size_t got = data.empty() ? 0 : std::fread(data.data(), 1, data.size(), f);
+  const bool failed = std::ferror(f) != 0;
+  std::fclose(f);
+  if (failed) return bad_input("read error", path.string());
+  data.resize(got);
+  return data;
+}
+
+Result<std::string> read_file(const fs::path& path) {
+  if (auto problem = input_problem(path)) return *problem;
   // C stdio with one fread into the final buffer: no stream buffer copy in between.
   std::FILE* f = std::fopen(path.c_str(), "rb");
   if (f == nullptr) return bad_input(std::string("cannot open: ") + std::strerror(errno), path.string());
@@ -55,6 +103,7 @@ Result<std::string> read_file(const fs::path& path) {
 
 Status write_file_atomic(const fs::path& path, std::string_view content) {
   std::error_code ec;
+  if (fs::is_directory(path, ec)) return bad_input("is a folder, expected a file to write", path.string());
   if (path.has_parent_path()) fs::create_directories(path.parent_path(), ec);
   // A unique temporary name beside the target, so that rename() is atomic.
   std::random_device rd;
@@ -75,8 +124,11 @@ Status write_file_atomic(const fs::path& path, std::string_view content) {
   }
   fs::rename(tmp, path, ec);
   if (ec) {
-    fs::remove(tmp, ec);
-    return Error{ErrorCode::bad_input, "cannot rename temporary file: " + ec.message(),
+    // The rename's reason, read before the clean-up reuses an error code.
+    const std::string why = ec == std::errc::is_a_directory ? "it is a folder, expected a file" : ec.message();
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
+    return Error{ErrorCode::bad_input, "cannot rename the temporary file into place: " + why,
                  path.string(), {}};
   }
   return Ok{};

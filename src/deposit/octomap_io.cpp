@@ -269,7 +269,9 @@ Status write_octomap(const VoxelGrid& grid, const std::filesystem::path& path, V
           node->setColor(c.r, c.g, c.b);
         });
     // ColorOcTree's pruning ignores colours: keep every voxel a leaf so colours survive.
-    tree.updateInnerOccupancy();
+    // An empty deposit leaves the tree without a root, which updateInnerOccupancy does not
+    // expect; written as it is, it is a valid empty tree.
+    if (tree.size() > 0) tree.updateInnerOccupancy();
     if (!tree.write(bytes)) return internal_error("OctoMap could not serialise " + path.string());
   }
   return write_file_atomic(path, bytes.str());

@@ -159,14 +159,16 @@ Result<DeviationTarget> DeviationTarget::build(const Mesh& mesh, const Deviation
   if (mesh.triangles.empty()) return bad_input("deviation: the mesh has no triangles");
   if (settings.mesh_sample_spacing_mm < 0)
     return usage_error("deviation: mesh sample spacing must be >= 0 mm");
+  const double spacing = settings.mesh_sample_spacing_mm > 0 ? settings.mesh_sample_spacing_mm
+                                                               : (voxel_mm > 0 ? 2.0 * voxel_mm : 0.0);
+  if (auto st = check_sample_budget(mesh, spacing); !st) return st.error();
   auto query = MeshQuery::build(mesh);
   if (!query) return query.error();
   auto impl = std::make_shared<Impl>(mesh, std::move(*query));
   impl->bbox = bounding_box(mesh);
   impl->volume_mm3 = signed_volume_mm3(mesh);
   impl->seed = settings.seed;
-  impl->spacing_mm = settings.mesh_sample_spacing_mm > 0 ? settings.mesh_sample_spacing_mm
-                                                         : (voxel_mm > 0 ? 2.0 * voxel_mm : 0.0);
+  impl->spacing_mm = spacing;
   if (impl->spacing_mm > 0) impl->samples = sample_surface(mesh, impl->spacing_mm, impl->seed);
   return DeviationTarget(std::move(impl));
 }

@@ -1,5 +1,9 @@
 // Area-uniform, seeded, deterministic sampling of a mesh surface.
+#include <algorithm>
 #include <cmath>
+#include <unistd.h>
+
+#include "printtwin/io.hpp"
 
 #include "printtwin/deviation.hpp"
 
@@ -23,11 +27,32 @@ struct SplitMix64 {
 
 }  // namespace
 
+// Bytes per sample through the deviation: the sample, its query point, its closest point,
+// distance and group entries (measured arrays of verify, rounded up).
+constexpr double kBytesPerSample = 128;
+
+Status check_sample_budget(const Mesh& mesh, double spacing_mm) {
+  if (!(spacing_mm > 0) || mesh.triangles.empty()) return Ok{};
+  const double area = surface_area_mm2(mesh);
+  const double samples = area / (spacing_mm * spacing_mm);
+  const double bytes = samples * kBytesPerSample;
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
+  const double limit = pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : 64.0e9;
+  if (std::isfinite(bytes) && bytes <= limit) return Ok{};
+  const double fitting_spacing = spacing_mm * std::sqrt(std::isfinite(bytes) ? bytes / (0.5 * limit) : 1e30);
+  return bad_input("the mesh's surface (" + format_fixed(area, 0) + " mm2) at a sample spacing of " +
+                   format_number(spacing_mm) + " mm needs " + format_fixed(samples, 0) + " samples, about " +
+                   format_fixed(bytes / 1e9, 1) + " GB, more than this computer's " + format_fixed(limit / 1e9, 1) +
+                   " GB of memory; use a sample spacing of at least " + format_fixed(fitting_spacing, 2) + " mm");
+}
+
 std::vector<SurfaceSample> sample_surface(const Mesh& mesh, double spacing_mm, std::uint64_t seed) {
   std::vector<SurfaceSample> out;
   if (!(spacing_mm > 0) || mesh.triangles.empty()) return out;
   const double per_mm2 = 1.0 / (spacing_mm * spacing_mm);
-  out.reserve(static_cast<std::size_t>(surface_area_mm2(mesh) * per_mm2 * 1.05) + 16);
+  // Clamped: a count beyond any memory (check_sample_budget refuses those first) must not
+  // overflow the conversion.
+  out.reserve(static_cast<std::size_t>(std::min(surface_area_mm2(mesh) * per_mm2 * 1.05, 1.0e9)) + 16);
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     const auto& tri = mesh.triangles[t];
     const Vec3& a = mesh.vertices_mm[tri[0]];
@@ -37,7 +62,7 @@ std::vector<SurfaceSample> sample_surface(const Mesh& mesh, double spacing_mm, s
     if (!(area > 0)) continue;
     // One stream per triangle: the samples of a triangle do not depend on the others.
     SplitMix64 rng{seed * 0xD1B54A32D192ED03ULL + t * 0x9E3779B97F4A7C15ULL + 1};
-    const double expected = area * per_mm2;
+    const double expected = std::min(area * per_mm2, 1.0e12);
     auto n = static_cast<std::size_t>(expected);
     if (rng.uniform() < expected - static_cast<double>(n)) ++n;
     for (std::size_t i = 0; i < n; ++i) {

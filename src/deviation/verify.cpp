@@ -138,12 +138,30 @@ Finding region_finding(const DeviationRegion& r, double tolerance_mm) {
   return f;
 }
 
+/// The part's size against the printer's build volume (wherever the G-code places it).
+Status check_fits_printer(const Mesh& mesh, const PrinterProfile& printer, const std::string& file) {
+  const Vec3 size = bounding_box(mesh).size();
+  const Vec3 room(printer.bed_max_x_mm - printer.bed_min_x_mm, printer.bed_max_y_mm - printer.bed_min_y_mm,
+                  printer.max_z_mm);
+  constexpr double eps = 1e-6;
+  if (size.allFinite() && (size.array() <= room.array() + eps).all()) return Ok{};
+  auto box = [](const Vec3& v) {
+    return format_fixed(v.x(), 2) + " x " + format_fixed(v.y(), 2) + " x " + format_fixed(v.z(), 2) + " mm";
+  };
+  return bad_input("the part (" + box(size) + ") is larger than the build volume of " + printer.name + " (" +
+                       box(room) + "): it cannot print, so there is nothing to verify",
+                   file);
+}
+
 }  // namespace
 
 Result<PreparedPart> prepare_part(Mesh mesh, std::string name, VerifyInput mesh_input,
                                   const PrinterProfile& printer, const VerifySettings& settings) {
   if (mesh.triangles.empty()) return bad_input("the mesh has no triangles", mesh_input.path);
   if (auto st = validate_verify_settings(settings); !st) return st.error();
+  // The fit first, as check and slice do: a part larger than the printer cannot print, and
+  // its deviation samples could outgrow the memory.
+  if (auto st = check_fits_printer(mesh, printer, mesh_input.path); !st) return st.error();
   PreparedPart part;
   part.name = std::move(name);
   part.mesh_input = std::move(mesh_input);

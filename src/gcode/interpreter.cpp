@@ -1,7 +1,10 @@
-// The firmware's G-code interpreter: Marlin 2.1's modal state turned into Moves.
+// The firmware's G-code interpreter: Marlin 2.1's modal state turned into Moves, with the
+// commands of each firmware flavour, start/end macros and the slicers' markers.
 // References for behaviour (not code): Marlin gcode/motion/G0_G1.cpp, G2_G3.cpp (plan_arc),
 // G28.cpp + module/motion.cpp (homing, soft endstops), gcode/config/M200-M205.cpp,
-// gcode/temp/M104_M109.cpp, module/planner.cpp (PREVENT_COLD_EXTRUSION / LENGTHY_EXTRUDE).
+// gcode/temp/M104_M109.cpp, module/planner.cpp (PREVENT_COLD_EXTRUSION / LENGTHY_EXTRUDE);
+// Klipper klippy/toolhead.py (SET_VELOCITY_LIMIT, M204), klippy/extras/firmware_retraction.py;
+// Prusa-Firmware-Buddy (M862.x); RepRapFirmware's G-code dictionary (M566, M203, G10, M0).
 #include <algorithm>
 #include <charconv>
 #include <cmath>
@@ -21,6 +24,8 @@ constexpr double kExtrudeMaxLength_mm = 200.0;
 /// Marlin's power-on feedrate (1500 mm/min).
 constexpr double kDefaultFeedrate_mm_s = 25.0;
 constexpr double kLayerZTolerance_mm = 1e-4;
+/// A layer marker's Z is believed when it lies this close to the layer's first extrusion.
+constexpr double kMarkerZTolerance_mm = 1.0;
 
 bool starts_with(std::string_view s, std::string_view p) { return s.substr(0, p.size()) == p; }
 
@@ -75,7 +80,26 @@ GcodeInterpreter::GcodeInterpreter(const PrinterProfile& profile, const Interpre
     : profile_(profile),
       options_(options),
       limits_(motion_limits_from_profile(profile)),
-      slicer_estimate_s_(std::numeric_limits<double>::quiet_NaN()) {
+      slicer_estimate_s_(std::numeric_limits<double>::quiet_NaN()),
+      slicer_filament_mm_(std::numeric_limits<double>::quiet_NaN()) {
+  min_extrude_temp_c_ = profile.min_extrude_temp_c;
+  const std::string& fw = profile.firmware;
+  flavour_ = fw == "klipper" ? Flavour::klipper
+             : fw == "prusa" ? Flavour::prusa
+             : fw == "rrf"   ? Flavour::rrf
+             : fw == "bambu" ? Flavour::bambu
+             : fw == "marlin1" ? Flavour::marlin1
+                               : Flavour::marlin2;
+  if (profile.firmware_retraction) {
+    fw_length_mm_ = profile.fw_retract_length_mm;
+    fw_speed_mm_s_ = profile.fw_retract_speed_mm_s;
+    fw_recover_speed_mm_s_ = profile.fw_recover_speed_mm_s;
+    fw_zraise_mm_ = profile.fw_retract_zraise_mm;
+  } else {
+    // Klipper's [firmware_retraction] defaults (retract_length 0, speeds 20 / 10 mm/s).
+    fw_speed_mm_s_ = 20;
+    fw_recover_speed_mm_s_ = 10;
+  }
   Vec3 power_on(profile.bed_center_x_mm(), profile.bed_center_y_mm(), 10.0);
   for (int i = 0; i < 3; ++i)
     if (!std::isnan(options.power_on_position_mm[i])) power_on[i] = options.power_on_position_mm[i];
@@ -138,6 +162,17 @@ Status GcodeInterpreter::warn_input(const Error& problem) {
 }
 
 Status GcodeInterpreter::finish(bool ended_mid_line, long last_line) {
+  if (markers_expected_ && !marker_seen_ && filament_mm_ > 0) {
+    // A marking slicer's file without a single layer marker (stripped or post-processed):
+    // its extrusions were waiting for the first layer, so no layer is counted. Say so.
+    Finding f;
+    f.severity = Severity::warning;
+    f.code = "no_layer_markers";
+    f.message = slicer_ + " marks its layers but the file has no layer marker: the twin counts no "
+                "layers (per-layer figures are empty; time and filament are complete)";
+    f.line = last_line;
+    add_finding(std::move(f));
+  }
   if (ended_mid_line) {
     // The last line had no newline: a streamed file may have been cut. Marlin would
     // wait for the rest of the line; we execute it but say so.
@@ -168,6 +203,7 @@ double GcodeInterpreter::hotend_temp_now() const {
 void GcodeInterpreter::heat_wait(bool hotend, double target_c, bool wait_cooling, long line,
                                  InterpreterOutput& out) {
   const double rate = hotend ? profile_.hotend_heat_rate_c_s : profile_.bed_heat_rate_c_s;
+  target_c = std::max(target_c, profile_.ambient_temp_c);
   double& target = hotend ? hotend_target_c_ : bed_target_c_;
   double& at_set = hotend ? hotend_c_at_set_ : bed_c_at_set_;
   double& set_clock = hotend ? hotend_set_clock_s_ : bed_set_clock_s_;
@@ -185,39 +221,181 @@ void GcodeInterpreter::heat_wait(bool hotend, double target_c, bool wait_cooling
   set_clock = nominal_clock_s_;
 }
 
+void GcodeInterpreter::layer_marker(double z_mm) {
+  // A slicer's layer change. Its layer starts at the next extrusion that is not start/end
+  // code; a marker at the Z of the current layer (one per object, KISSlicer) adds none.
+  // From the first marker on, only markers start layers (layers made by Z before it, in a
+  // file whose header named no marking slicer, stay).
+  marker_seen_ = true;
+  if (!std::isnan(z_mm) && layer_ >= 0 && !layer_pending_ &&
+      std::fabs(layer_z_[static_cast<std::size_t>(layer_)] - z_mm) <= kLayerZTolerance_mm)
+    return;
+  layer_pending_ = true;
+  pending_layer_z_ = z_mm;
+}
+
+void GcodeInterpreter::stated_figures(std::string_view c) {
+  // The slicer's own time and filament, in each slicer's words (docs/gcode-coverage.md).
+  auto set_time = [&](double s, int rank) {
+    if (s > 0 && rank >= slicer_estimate_rank_) {
+      slicer_estimate_s_ = s;
+      slicer_estimate_rank_ = rank;
+    }
+  };
+  auto after = [&](std::string_view key) -> std::string_view {
+    const auto pos = c.find(key);
+    return pos == std::string_view::npos ? std::string_view{} : trim(c.substr(pos + key.size()));
+  };
+  auto sum_list = [](std::string_view v) {  // "252.22, 0.00" (one value per extruder)
+    double total = 0;
+    bool any = false;
+    while (!v.empty()) {
+      const auto comma = v.find(',');
+      double x = 0;
+      std::string_view item = trim(v.substr(0, comma));
+      std::size_t n = 0;
+      while (n < item.size() && ((item[n] >= '0' && item[n] <= '9') || item[n] == '.')) ++n;
+      if (parse_double(item.substr(0, n), x)) total += x, any = true;
+      if (comma == std::string_view::npos) break;
+      v.remove_prefix(comma + 1);
+    }
+    return any ? total : std::numeric_limits<double>::quiet_NaN();
+  };
+  double v = 0;
+  if (starts_with(c, "estimated printing time (normal mode) = ")) {
+    set_time(parse_duration(c.substr(40)), 3);                      // PrusaSlicer, Orca family
+  } else if (c.find("total estimated time:") != std::string_view::npos) {
+    set_time(parse_duration(after("total estimated time:")), 2);     // Orca, Creality Print
+  } else if (starts_with(c, "TIME:") && parse_double(c.substr(5), v)) {
+    set_time(v, 2);                                                  // Cura (s)
+    estimate_from_time_tag_ = true;
+  } else if (starts_with(c, "Print Time:")) {                       // ideaMaker (s, or "1h 2m 3s")
+    set_time(parse_double(c.substr(11), v) ? v : parse_duration(c.substr(11)), 2);
+  } else if (starts_with(c, "Estimated Build Time:")) {
+    std::string_view m = trim(c.substr(21));                         // KISSlicer (minutes)
+    if (parse_double(m.substr(0, m.find(' ')), v)) set_time(v * 60.0, 2);
+  } else if (starts_with(c, "Build time:")) {
+    // Simplify3D: "1 hours 23 minutes" (the words' first letters as units).
+    double total = 0, number = 0;
+    bool have = false;
+    for (char ch : c.substr(11)) {
+      if (ch >= '0' && ch <= '9') number = number * 10 + (ch - '0'), have = true;
+      else if (have && (ch == 'h' || ch == 'm' || ch == 's' || ch == 'd')) {
+        total += number * (ch == 'd' ? 86400 : ch == 'h' ? 3600 : ch == 'm' ? 60 : 1);
+        number = 0, have = false;
+      }
+    }
+    set_time(total, 2);
+  } else if (starts_with(c, "filament used [mm]")) {                 // PrusaSlicer, Orca family
+    const std::string_view rest = trim(c.substr(18));
+    if (!rest.empty() && (rest.front() == '=' || rest.front() == ':'))
+      if (const double f = sum_list(rest.substr(1)); f > 0) slicer_filament_mm_ = f;
+  } else if (starts_with(c, "total filament length [mm]")) {          // Bambu Studio
+    const std::string_view rest = trim(c.substr(26));
+    if (!rest.empty() && (rest.front() == '=' || rest.front() == ':'))
+      if (const double f = sum_list(rest.substr(1)); f > 0) slicer_filament_mm_ = f;
+  } else if (starts_with(c, "Filament used:")) {                      // Cura (metres)
+    const double f = sum_list(c.substr(14));
+    if (f > 0) {
+      slicer_filament_mm_ = f * 1000.0;
+    } else if (f == 0) {
+      // CuraEngine run without its front end leaves the header's placeholders
+      // (";TIME:6666", ";Filament used: 0m"): neither figure is the slicer's.
+      if (estimate_from_time_tag_) {
+        slicer_estimate_s_ = std::numeric_limits<double>::quiet_NaN();
+        slicer_estimate_rank_ = 0;
+      }
+      note("slicer_header_placeholders",
+           "the slicer's header holds placeholders (\"Filament used: 0m\"): its time and filament "
+           "figures are not used", last_line_);
+    }
+  } else if (starts_with(c, "Material#1 Used:")) {                    // ideaMaker (mm)
+    if (const double f = sum_list(c.substr(16)); f > 0) slicer_filament_mm_ = f;
+  } else if (starts_with(c, "Filament length:")) {                    // Simplify3D (mm)
+    if (const double f = sum_list(c.substr(16)); f > 0) slicer_filament_mm_ = f;
+  } else if (starts_with(c, "Estimated Build Volume:")) {             // KISSlicer (cm^3)
+    if (const double f = sum_list(c.substr(23)); f > 0 && profile_.filament_area_mm2() > 0)
+      slicer_filament_mm_ = f * 1000.0 / profile_.filament_area_mm2();
+  }
+}
+
 void GcodeInterpreter::comment(std::string_view c) {
-  // Slicer tags. Z never comes from comments (layers are made by the Z of extrusions).
+  // Slicer tags: features, widths, objects, layer markers (docs/gcode-coverage.md).
   if (c.empty()) return;
+  double v = 0;
   switch (c.front()) {
     case 'T':
       if (starts_with(c, "TYPE:")) feature_ = feature_from_label(c.substr(5));
-      else if (starts_with(c, "TIME:") && slicer_.empty()) {}
+      else if (starts_with(c, "TIME:")) stated_figures(c);
       return;
     case 'F':
       if (starts_with(c, "FEATURE:")) feature_ = feature_from_label(trim(c.substr(8)));
+      else if (starts_with(c, "Filament ")) stated_figures(c);
       return;
+    case 'f':
+      if (starts_with(c, "feature ")) feature_ = feature_from_label(trim(c.substr(8)));  // Simplify3D
+      else if (starts_with(c, "filament used")) stated_figures(c);
+      return;
+    case '\'': {
+      // KISSlicer: "'Perimeter Path', 0.3 [feed mm/s], 9.5 [head mm/s]"
+      const auto close = c.find('\'', 1);
+      if (close != std::string_view::npos) feature_ = feature_from_label(c.substr(1, close - 1));
+      return;
+    }
     case 'W':
       if (starts_with(c, "WIDTH:")) {
-        double w = 0;
-        if (parse_double(c.substr(6), w) && w > 0 && w < 100) width_hint_mm_ = static_cast<float>(w);
+        if (parse_double(c.substr(6), v) && v > 0 && v < 100) width_hint_mm_ = static_cast<float>(v);
       }
       return;
     case 'L':
       if (starts_with(c, "LINE_WIDTH:")) {
-        double w = 0;
-        if (parse_double(c.substr(11), w) && w > 0 && w < 100) width_hint_mm_ = static_cast<float>(w);
-      } else if (starts_with(c, "LAYER:")) {
+        if (parse_double(c.substr(11), v) && v > 0 && v < 100) width_hint_mm_ = static_cast<float>(v);
+      } else if (c == "LAYER_CHANGE") {                   // PrusaSlicer, SuperSlicer, Orca, Creality
+        layer_marker(std::numeric_limits<double>::quiet_NaN());
+      } else if (starts_with(c, "LAYER:")) {              // Cura, ideaMaker: ";LAYER:n"
         // Cura: its start G-code (purge lines) ends at the first ;LAYER: tag.
         if (feature_ == Feature::custom && starts_with(slicer_, "Cura")) feature_ = Feature::unknown;
+        std::string_view n = trim(c.substr(6));
+        if (!n.empty() && (n.front() == '-' || (n.front() >= '0' && n.front() <= '9')))
+          layer_marker(std::numeric_limits<double>::quiet_NaN());
       } else if (starts_with(c, "LAYER_HEIGHT:")) {
-        double h = 0;
-        if (parse_double(c.substr(13), h) && h > 0 && h < 100) height_hint_mm_ = static_cast<float>(h);
+        if (parse_double(c.substr(13), v) && v > 0 && v < 100) height_hint_mm_ = static_cast<float>(v);
+      }
+      return;
+    case 'C':
+      if (c == "CHANGE_LAYER") layer_marker(std::numeric_limits<double>::quiet_NaN());  // Orca, Bambu
+      return;
+    case 'Z':
+      // The Z that follows a marker: ";Z:0.2" (PrusaSlicer), "; Z_HEIGHT: 0.2" (Orca, Bambu).
+      if (layer_pending_) {
+        std::string_view z = starts_with(c, "Z:") ? c.substr(2) : starts_with(c, "Z_HEIGHT:") ? c.substr(9)
+                                                                                              : std::string_view{};
+        if (!z.empty() && parse_double(z, v) && v > -1000 && v < 10000) {
+          pending_layer_z_ = v;
+          if (layer_ >= 0 && std::fabs(layer_z_[static_cast<std::size_t>(layer_)] - v) <= kLayerZTolerance_mm)
+            layer_pending_ = false;  // a second marker at the same height
+        }
+      }
+      return;
+    case 'B':
+      if (starts_with(c, "BEGIN_LAYER_OBJECT z=")) {      // KISSlicer
+        layer_marker(parse_double(c.substr(21), v) ? v : std::numeric_limits<double>::quiet_NaN());
+      } else if (starts_with(c, "Build time:")) {
+        stated_figures(c);
+      } else if (slicer_.empty() && last_line_ <= 200 && starts_with(c, "BambuStudio ")) {
+        slicer_ = std::string(trim(c));
+        markers_expected_ = true;
+      }
+      return;
+    case 'l':
+      if (starts_with(c, "layer ")) {                     // Simplify3D: "layer 12, Z = 2.450"
+        const auto zpos = c.find("Z = ");
+        if (zpos != std::string_view::npos && parse_double(c.substr(zpos + 4), v)) layer_marker(v);
       }
       return;
     case 'H':
       if (starts_with(c, "HEIGHT:")) {
-        double h = 0;
-        if (parse_double(c.substr(7), h) && h > 0 && h < 100) height_hint_mm_ = static_cast<float>(h);
+        if (parse_double(c.substr(7), v) && v > 0 && v < 100) height_hint_mm_ = static_cast<float>(v);
       }
       return;
     case 'M':
@@ -229,7 +407,27 @@ void GcodeInterpreter::comment(std::string_view c) {
           auto [it, inserted] = object_names_.try_emplace(name, static_cast<int>(object_names_.size()));
           object_id_ = it->second;
         }
+      } else if (starts_with(c, "Material#")) {
+        stated_figures(c);
       }
+      return;
+    case 'P':  // "Print Time:" (ideaMaker)
+    case 'E':  // "Estimated Build Time:" (KISSlicer)
+    case 't':  // "total estimated time:", "total filament length [mm]" (Orca, Bambu)
+      if (starts_with(c, "tool H")) {
+        // Simplify3D: "; tool H0.200 W0.480" (layer height and extrusion width).
+        const auto wpos = c.find(" W");
+        if (parse_double(c.substr(6, wpos == std::string_view::npos ? std::string_view::npos : wpos - 6), v) &&
+            v > 0 && v < 100)
+          height_hint_mm_ = static_cast<float>(v);
+        if (wpos != std::string_view::npos && parse_double(c.substr(wpos + 2), v) && v > 0 && v < 100)
+          width_hint_mm_ = static_cast<float>(v);
+        return;
+      }
+      [[fallthrough]];
+    case 'm':  // "model printing time: ...; total estimated time: ..." (Orca)
+    case 'e':  // "estimated printing time (normal mode) = " (PrusaSlicer)
+      stated_figures(c);
       return;
     case 'p':
       if (starts_with(c, "printing object ")) {
@@ -242,25 +440,32 @@ void GcodeInterpreter::comment(std::string_view c) {
     case 's':
       if (starts_with(c, "stop printing object")) object_id_ = -1;
       return;
+    case 'K':
+    case 'S':
     case 'g':
     case 'G':
-      if (slicer_.empty()) {
-        // "; generated by PrusaSlicer 2.5.0 on ...", ";Generated with Cura_SteamEngine 4.13.0"
-        for (std::string_view prefix : {"generated by ", "Generated with ", "generated with "}) {
-          if (starts_with(c, prefix)) {
-            std::string_view rest = c.substr(prefix.size());
+      if (slicer_.empty() && last_line_ <= 200) {
+        // "; generated by PrusaSlicer 2.5.0 on ...", ";Generated with Cura_SteamEngine 4.13.0",
+        // "; G-Code generated by Simplify3D(R) Version 4.1.2", ";Sliced by ideaMaker 4.2.1",
+        // "; KISSlicer - FREE".
+        if (starts_with(c, "KISSlicer")) {
+          slicer_ = "KISSlicer";
+        } else {
+          for (std::string_view key : {"generated by ", "Generated with ", "generated with ", "Sliced by "}) {
+            const auto at = c.find(key);
+            if (at == std::string_view::npos || at > 8) continue;
+            std::string_view rest = c.substr(at + key.size());
             const auto on = rest.find(" on ");
-            slicer_ = std::string(trim(rest.substr(0, on)));
+            rest = rest.substr(0, std::min(on, rest.find(',')));
+            slicer_ = std::string(trim(rest));
             // Cura tags nothing before ;LAYER:0: what comes before is its start G-code.
             if (starts_with(slicer_, "Cura")) feature_ = Feature::custom;
             break;
           }
         }
+        // Every current slicer marks its layers; Slic3r 1.x does not.
+        if (!slicer_.empty()) markers_expected_ = !starts_with(slicer_, "Slic3r ");
       }
-      return;
-    case 'e':
-      if (starts_with(c, "estimated printing time (normal mode) = "))
-        slicer_estimate_s_ = parse_duration(c.substr(40));
       return;
     default:
       return;
@@ -339,12 +544,12 @@ void GcodeInterpreter::emit(const Vec3& target_logical_in, double e_delta_mm, do
       f.value = e_mm;
       add_finding(std::move(f));
       e_mm = 0;
-    } else if (hotend_temp_now() < profile_.min_extrude_temp_c) {
+    } else if (hotend_temp_now() < min_extrude_temp_c_) {
       Finding f;
       f.severity = Severity::error;
       f.code = "cold_extrusion";
       f.message = "extrusion with the hotend at " + format_fixed(hotend_temp_now(), 0) +
-                  " C, below the minimum " + format_fixed(profile_.min_extrude_temp_c, 0) + " C" +
+                  " C, below the minimum " + format_fixed(min_extrude_temp_c_, 0) + " C" +
                   (options_.prevent_cold_extrusion ? "; the firmware drops the E part" : "");
       f.line = line;
       f.position_mm = start;
@@ -372,9 +577,19 @@ void GcodeInterpreter::emit(const Vec3& target_logical_in, double e_delta_mm, do
   else if (e_mm < 0) m.kind = MoveKind::retract;
   else m.kind = MoveKind::travel;
 
-  // Layers are made by the Z of extrusions; start/end code (purge lines, tagged custom)
-  // joins the current layer instead of making one.
-  if (m.kind == MoveKind::extrude && feature_ != Feature::custom) {
+  // Layers follow the slicer's layer markers when the file has them; otherwise they are
+  // made by the Z of extrusions. Start/end code (purge lines, tagged custom) joins the
+  // current layer instead of making one; before the first marker of a slicer that marks its
+  // layers it belongs to no layer.
+  if (m.kind == MoveKind::extrude && feature_ != Feature::custom && layer_pending_) {
+    layer_pending_ = false;
+    // The marker's Z (the layer's top: right for a spiral vase whose first extrusion starts
+    // lower) unless it contradicts the extrusion by more than a layer could be thick.
+    const bool trust = !std::isnan(pending_layer_z_) && std::fabs(pending_layer_z_ - target.z()) <= kMarkerZTolerance_mm;
+    layer_z_.push_back(trust ? pending_layer_z_ : target.z());
+    layer_ = static_cast<int>(layer_z_.size()) - 1;
+  } else if (m.kind == MoveKind::extrude && feature_ != Feature::custom && !marker_seen_ &&
+             !markers_expected_) {
     const double z = target.z();
     if (layer_ < 0 || std::fabs(layer_z_[static_cast<std::size_t>(layer_)] - z) > kLayerZTolerance_mm) {
       int found = -1;
@@ -445,15 +660,20 @@ Status GcodeInterpreter::arc_move(const GcodeCommand& c, std::string_view text, 
   const bool clockwise = c.code == 2;
   Vec3 target;
   double de = 0;
+  const double e_before = e_logical_mm_;
   if (auto st = motion_words(c, text, target, de); !st) return st;
+  // A rejected arc leaves the position, E included, where it was (Marlin skips the command).
+  auto reject = [&](std::string message) {
+    e_logical_mm_ = e_before;
+    return warn(c.line, text, std::move(message), "bad_arc");
+  };
   // Centre offset from the start: I/J, or from the radius R (Marlin G2_G3.cpp).
   Vec2 offset(c.get('I') * unit, c.get('J') * unit);
   const Vec2 p1 = logical_mm_.head<2>(), p2 = target.head<2>();
   if (c.has('R')) {
     const double r = c.get('R') * unit;
     if (r == 0 || (p1 - p2).norm() < 1e-9)
-      return warn(c.line, text, "arc with R needs a non-zero radius and distinct end points; ignored",
-                  "bad_arc");
+      return reject("arc with R needs a non-zero radius and distinct end points; ignored");
     const Vec2 d2 = 0.5 * (p2 - p1);
     const double e = (clockwise ^ (r < 0)) ? -1.0 : 1.0;
     const double len = d2.norm();
@@ -462,7 +682,11 @@ Status GcodeInterpreter::arc_move(const GcodeCommand& c, std::string_view text, 
     const Vec2 s(-d2.y(), d2.x());
     offset = d2 + s / len * e * h;
   } else if (!c.has('I') && !c.has('J')) {
-    return warn(c.line, text, "arc without I, J or R; ignored", "bad_arc");
+    return reject("arc without I, J or R; ignored");
+  } else if (offset.norm() < 1e-9) {
+    // I0 J0: a zero radius. Marlin answers "G2/G3 bad parameters" and skips the move.
+    return reject("arc with a zero radius (I and J both 0): the firmware rejects it and skips the move" +
+                  (de != 0 ? ", and its " + format_fixed(std::fabs(de), 3) + " mm of filament is not laid" : std::string()));
   }
   const double rp = -offset.x(), rq = -offset.y();  // centre -> start
   const double radius = std::hypot(rp, rq);
@@ -471,18 +695,27 @@ Status GcodeInterpreter::arc_move(const GcodeCommand& c, std::string_view text, 
   double angular = std::atan2(rp * rty - rq * rtx, rp * rtx + rq * rty);
   if (angular < 0) angular += 2 * kPi;
   if (clockwise) angular -= 2 * kPi;
-  if (angular == 0 && (p1 - p2).norm() < 1e-12) angular = clockwise ? -2 * kPi : 2 * kPi;
+  // P<n>: n full turns on top of the partial arc. An arc that ends where it starts is a full
+  // circle without P, and only its P turns with P (OrcaSlicer's / Bambu Studio's spiral lift
+  // "G3 Z.. I.. J.. P1" is one turn of a helix).
+  const bool closed = (p1 - p2).norm() < 1e-9;
+  const double turns = c.has('P') ? std::floor(std::clamp(c.get('P'), 0.0, 1000.0)) : 0.0;
+  if (closed) angular = turns > 0 ? 0.0 : (clockwise ? -2 * kPi : 2 * kPi);
+  angular += (clockwise ? -2 * kPi : 2 * kPi) * turns;
   const double dz = target.z() - logical_mm_.z();
   const double flat = radius * std::fabs(angular);
   const double travel = std::hypot(flat, dz);
   if (travel < 0.001) return Ok{};
-  if (radius > 1e6) return warn(c.line, text, "arc radius too large; ignored", "bad_arc");
+  if (radius > 1e6) return reject("arc radius too large; ignored");
   // Segment length like Marlin: a circle has at least arc_min_segments_per_circle segments,
   // each between arc_min_segment_mm and arc_max_segment_mm.
   const double seg = std::clamp(radius * 2 * kPi / profile_.arc_min_segments_per_circle,
                                 profile_.arc_min_segment_mm, profile_.arc_max_segment_mm);
-  const long segments = std::max(1L, std::lround(travel / seg));
-  if (segments > 20000) return warn(c.line, text, "arc needs more than 20000 segments; ignored", "bad_arc");
+  // Klipper's [gcode_arcs] takes floor(length / resolution) segments; Marlin rounds.
+  const double n_seg = travel / seg;
+  const long segments = std::max(1L, profile_.firmware == "klipper" ? static_cast<long>(std::floor(n_seg))
+                                                                     : std::lround(n_seg));
+  if (segments > 20000) return reject("arc needs more than 20000 segments; ignored");
   const Vec3 start = logical_mm_;
   const double theta_step = angular / static_cast<double>(segments);
   for (long i = 1; i <= segments; ++i) {
@@ -555,6 +788,288 @@ Status GcodeInterpreter::home(const GcodeCommand& c, InterpreterOutput& out) {
   return Ok{};
 }
 
+namespace {
+/// Value of KEY=VALUE in the arguments of an extended command ("ACCEL=500 SQUARE_CORNER_VELOCITY=9");
+/// keys match case-insensitively. False when absent or not a number.
+bool macro_arg(std::string_view args, std::string_view key, double& v) {
+  std::size_t pos = 0;
+  while (pos < args.size()) {
+    while (pos < args.size() && (args[pos] == ' ' || args[pos] == '\t')) ++pos;
+    const std::size_t start = pos;
+    while (pos < args.size() && args[pos] != ' ' && args[pos] != '\t') ++pos;
+    const std::string_view item = args.substr(start, pos - start);
+    const auto eq = item.find('=');
+    if (eq == std::string_view::npos || eq != key.size()) continue;
+    bool same = true;
+    for (std::size_t i = 0; i < eq && same; ++i)
+      same = std::toupper(static_cast<unsigned char>(item[i])) == key[i];
+    if (same) return parse_double(item.substr(eq + 1), v);
+  }
+  return false;
+}
+
+/// The `_`-separated parts of a macro name, upper-cased ("PRINT_START" -> PRINT, START).
+bool name_has_part(std::string_view name, std::string_view part) {
+  std::size_t pos = 0;
+  while (pos <= name.size()) {
+    const auto us = name.find('_', pos);
+    const std::string_view p = name.substr(pos, us == std::string_view::npos ? std::string_view::npos : us - pos);
+    if (p.size() == part.size()) {
+      bool same = true;
+      for (std::size_t i = 0; i < p.size() && same; ++i)
+        same = std::toupper(static_cast<unsigned char>(p[i])) == part[i];
+      if (same) return true;
+    }
+    if (us == std::string_view::npos) break;
+    pos = us + 1;
+  }
+  return false;
+}
+
+enum class MacroKind { none, start, end };
+
+/// The info note of bed levelling and gantry levelling commands (G29, BED_MESH_CALIBRATE...).
+std::string levelling_message(std::string_view command) {
+  return "bed levelling (" + std::string(command) + " and the like) is not simulated: its probing "
+         "moves take time on the printer (often 1-3 min) that the print time does not include";
+}
+
+/// Printer-side start/end macros by the shape of their names: START_PRINT, PRINT_START,
+/// START_PRINT_K1, PRINT_BEGIN, END_PRINT, PRINT_END, PRINT_FINISH, CANCEL_PRINT...
+MacroKind macro_kind(std::string_view name) {
+  if (name_has_part(name, "PRINT") || name_has_part(name, "PRINTING")) {
+    if (name_has_part(name, "START") || name_has_part(name, "BEGIN")) return MacroKind::start;
+    if (name_has_part(name, "END") || name_has_part(name, "FINISH") || name_has_part(name, "CANCEL"))
+      return MacroKind::end;
+  }
+  return MacroKind::none;
+}
+}  // namespace
+
+void GcodeInterpreter::note(std::string code, std::string message, long line) {
+  for (auto& f : findings_)
+    if (f.code == code) {
+      ++f.count;
+      return;
+    }
+  Finding f;
+  f.severity = Severity::info;
+  f.code = std::move(code);
+  f.message = std::move(message);
+  f.line = line;
+  findings_.push_back(std::move(f));
+}
+
+void GcodeInterpreter::set_hotend_target(double t) {
+  t = std::max(t, profile_.ambient_temp_c);  // a heater off cools to the room, not below
+  hotend_c_at_set_ = hotend_temp_now();
+  hotend_target_c_ = t;
+  hotend_set_clock_s_ = nominal_clock_s_;
+}
+
+void GcodeInterpreter::set_bed_target(double t) {
+  t = std::max(t, profile_.ambient_temp_c);
+  const double dt = nominal_clock_s_ - bed_set_clock_s_;
+  const double rate = profile_.bed_heat_rate_c_s;
+  bed_c_at_set_ = bed_target_c_ >= bed_c_at_set_ ? std::min(bed_target_c_, bed_c_at_set_ + rate * dt)
+                                                 : std::max(bed_target_c_, bed_c_at_set_ - rate * dt);
+  bed_target_c_ = t;
+  bed_set_clock_s_ = nominal_clock_s_;
+}
+
+Status GcodeInterpreter::start_macro(const GcodeCommand& c, std::string_view text, InterpreterOutput& out) {
+  // A printer-side start sequence (Klipper START_PRINT / PRINT_START and the like): the
+  // printer homes all axes and heats to the temperatures passed, else to those of the
+  // slicer's settings, else to an assumed printing temperature. What else the macro does
+  // (bed mesh, purge line) is not known to the twin.
+  double hotend = std::numeric_limits<double>::quiet_NaN(), bed = hotend;
+  for (std::string_view key : {"EXTRUDER_TEMP", "EXTRUDER", "HOTEND_TEMP", "HOTEND", "NOZZLE_TEMP", "NOZZLE",
+                               "TOOL_TEMP", "EXTRUDER_TEMPERATURE", "TEMP"}) {
+    double v = 0;
+    if (std::isnan(hotend) && macro_arg(c.args, key, v)) hotend = v;
+  }
+  for (std::string_view key : {"BED_TEMP", "BED", "BED_TEMPERATURE", "BEDTEMP"}) {
+    double v = 0;
+    if (std::isnan(bed) && macro_arg(c.args, key, v)) bed = v;
+  }
+  bool assumed = false;
+  if (std::isnan(hotend)) hotend = options_.macro_hotend_c;
+  if (std::isnan(bed)) bed = options_.macro_bed_c;
+  if (std::isnan(hotend)) {
+    hotend = std::max(profile_.min_extrude_temp_c + 30.0, 200.0);
+    assumed = true;
+  }
+  if (std::isnan(bed)) {
+    bed = 60.0;
+    assumed = true;
+  }
+  if (hotend < 0 || hotend > 500 || bed < 0 || bed > 200)
+    return warn(c.line, text, "start macro temperature outside 0..500 C (hotend) or 0..200 C (bed); ignored",
+                "bad_temperature");
+  if (assumed)
+    note("macro_temperature_assumed",
+         std::string(c.word) + " is given no temperature and the slicer's settings state none: the twin "
+             "assumes it heats the hotend to " + format_fixed(hotend, 0) + " C and the bed to " +
+             format_fixed(bed, 0) + " C (heating time is approximate)",
+         c.line);
+  GcodeCommand home_all;
+  home_all.letter = 'G';
+  home_all.code = 28;
+  home_all.line = c.line;
+  if (auto st = home(home_all, out); !st) return st;
+  heat_wait(false, bed, false, c.line, out);
+  heat_wait(true, hotend, false, c.line, out);
+  e_logical_mm_ = 0;  // start macros end with G92 E0
+  return Ok{};
+}
+
+Status GcodeInterpreter::firmware_retract(const GcodeCommand& c, bool retract, std::string_view text,
+                                          InterpreterOutput& out) {
+  // G10/G11: Marlin FWRETRACT (with its Z raise), Klipper [firmware_retraction] (no Z
+  // raise; G11 adds unretract_extra_length), RepRapFirmware M207.
+  if (retract == fw_retracted_) return Ok{};
+  fw_retracted_ = retract;
+  const double len = retract ? -fw_length_mm_ : fw_length_mm_ + fw_recover_extra_mm_;
+  const double speed = retract ? fw_speed_mm_s_ : fw_recover_speed_mm_s_;
+  const double lift = flavour_ == Flavour::klipper ? 0.0 : fw_zraise_mm_;
+  Vec3 t = logical_mm_;
+  if (lift > 0 && retract) {
+    emit(t, len, speed, MoveKind::travel, false, c.line, text, out);
+    t.z() += lift;
+    emit(t, 0, speed, MoveKind::travel, false, c.line, text, out);
+  } else if (lift > 0) {
+    t.z() -= lift;
+    emit(t, 0, speed, MoveKind::travel, false, c.line, text, out);
+    emit(t, len, speed, MoveKind::travel, false, c.line, text, out);
+  } else if (len != 0) {
+    emit(t, len, speed, MoveKind::travel, false, c.line, text, out);
+  }
+  return Ok{};
+}
+
+Status GcodeInterpreter::klipper_m204(const GcodeCommand& c, std::string_view text, InterpreterOutput& out) {
+  // Klipper's M204: S sets max_accel; otherwise both P and T set it to min(P, T); a lone P
+  // or T is ignored (Klipper answers "Invalid M204 command").
+  double accel = 0;
+  if (c.has('S')) accel = c.get('S');
+  else if (c.has('P') && c.has('T')) accel = std::min(c.get('P'), c.get('T'));
+  else {
+    note("klipper_m204_ignored", "M204 without S, or with only one of P and T, is ignored by Klipper "
+         "(\"" + excerpt(text) + "\"): the acceleration stays as it was", c.line);
+    return Ok{};
+  }
+  if (accel <= 0) return warn(c.line, text, "acceleration must be positive; ignored", "bad_parameter");
+  limits_.print_accel_mm_s2 = limits_.travel_accel_mm_s2 = limits_.retract_accel_mm_s2 = accel;
+  out.limits(limits_);
+  return Ok{};
+}
+
+Status GcodeInterpreter::extended(const GcodeCommand& c, std::string_view text, InterpreterOutput& out) {
+  const std::string_view w = c.word;
+  double v = 0;
+  if (w == "EXCLUDE_OBJECT_START") {
+    const auto pos = c.args.find("NAME=");
+    std::string_view name = pos == std::string_view::npos ? c.args : trim(c.args.substr(pos + 5));
+    name = name.substr(0, name.find(' '));
+    auto [it, inserted] = object_names_.try_emplace(std::string(name), static_cast<int>(object_names_.size()));
+    object_id_ = it->second;
+    return Ok{};
+  }
+  if (w == "EXCLUDE_OBJECT_END") {
+    object_id_ = -1;
+    return Ok{};
+  }
+  if (w == "SET_VELOCITY_LIMIT") {
+    // Klipper: VELOCITY (max_velocity), ACCEL (max_accel), SQUARE_CORNER_VELOCITY,
+    // MINIMUM_CRUISE_RATIO, and the older ACCEL_TO_DECEL (minimum_cruise_ratio =
+    // 1 - accel_to_decel / max_accel).
+    bool any = false;
+    if (macro_arg(c.args, "VELOCITY", v) && v > 0) {
+      limits_.max_feedrate_mm_s[0] = limits_.max_feedrate_mm_s[1] = v;
+      any = true;
+    }
+    if (macro_arg(c.args, "ACCEL", v) && v > 0) {
+      limits_.print_accel_mm_s2 = limits_.travel_accel_mm_s2 = limits_.retract_accel_mm_s2 = v;
+      any = true;
+    }
+    if (macro_arg(c.args, "SQUARE_CORNER_VELOCITY", v) && v >= 0) {
+      limits_.square_corner_velocity_mm_s = v;
+      any = true;
+    }
+    if (macro_arg(c.args, "MINIMUM_CRUISE_RATIO", v) && v >= 0 && v < 1) {
+      limits_.minimum_cruise_ratio = v;
+      any = true;
+    } else if (macro_arg(c.args, "ACCEL_TO_DECEL", v) && v > 0) {
+      limits_.minimum_cruise_ratio = 1.0 - std::min(1.0, v / limits_.print_accel_mm_s2);
+      any = true;
+    }
+    if (!any && !trim(c.args).empty())
+      return warn(c.line, text, "SET_VELOCITY_LIMIT with no valid VELOCITY, ACCEL, SQUARE_CORNER_VELOCITY, "
+                  "MINIMUM_CRUISE_RATIO or ACCEL_TO_DECEL; ignored", "bad_parameter");
+    if (any) out.limits(limits_);
+    return Ok{};
+  }
+  if (w == "SET_RETRACTION") {
+    // Klipper [firmware_retraction]: RETRACT_LENGTH, RETRACT_SPEED, UNRETRACT_EXTRA_LENGTH,
+    // UNRETRACT_SPEED.
+    if (macro_arg(c.args, "RETRACT_LENGTH", v) && v >= 0) fw_length_mm_ = v;
+    if (macro_arg(c.args, "RETRACT_SPEED", v) && v > 0) fw_speed_mm_s_ = v;
+    if (macro_arg(c.args, "UNRETRACT_EXTRA_LENGTH", v) && v >= 0) fw_recover_extra_mm_ = v;
+    if (macro_arg(c.args, "UNRETRACT_SPEED", v) && v > 0) fw_recover_speed_mm_s_ = v;
+    return Ok{};
+  }
+  if (w == "TEMPERATURE_WAIT") {
+    // Klipper: SENSOR=extruder|heater_bed MINIMUM=<C> [MAXIMUM=<C>]: waits until reached.
+    const auto h = c.args.find("SENSOR=");
+    const std::string_view sensor = h == std::string_view::npos ? std::string_view{} : c.args.substr(h + 7);
+    if (!macro_arg(c.args, "MINIMUM", v)) return Ok{};
+    if (v < 0 || v > 500) return warn(c.line, text, "temperature outside 0..500 C; ignored", "bad_temperature");
+    // Wait until MINIMUM is reached; the heater keeps heating to its own target.
+    const bool hotend = starts_with(sensor, "extruder");
+    if (!hotend && !starts_with(sensor, "heater_bed")) return Ok{};
+    const double target = hotend ? hotend_target_c_ : bed_target_c_;
+    if (v <= (hotend ? hotend_temp_now() : bed_c_at_set_)) return Ok{};
+    heat_wait(hotend, v, false, c.line, out);
+    if (target > v) hotend ? set_hotend_target(target) : set_bed_target(target);
+    return Ok{};
+  }
+  if (w == "BED_MESH_CALIBRATE" || w == "QUAD_GANTRY_LEVEL" || w == "Z_TILT_ADJUST") {
+    note("bed_levelling_not_timed", levelling_message(w), c.line);
+    return Ok{};
+  }
+  if (w == "SET_HEATER_TEMPERATURE") {
+    // Klipper: HEATER=extruder|heater_bed TARGET=<C> (no wait, like M104/M140).
+    const auto h = c.args.find("HEATER=");
+    const std::string_view heater = h == std::string_view::npos ? std::string_view{} : c.args.substr(h + 7);
+    const double target = macro_arg(c.args, "TARGET", v) ? v : 0.0;
+    if (target < 0 || target > 500) return warn(c.line, text, "heater target outside 0..500 C; ignored", "bad_temperature");
+    if (starts_with(heater, "extruder")) set_hotend_target(target);
+    else if (starts_with(heater, "heater_bed")) set_bed_target(target);
+    return Ok{};
+  }
+  // Klipper commands without effect on motion or material in the twin.
+  static constexpr std::string_view kQuiet[] = {
+      "EXCLUDE_OBJECT_DEFINE", "EXCLUDE_OBJECT", "SET_PRINT_STATS_INFO", "SET_PRESSURE_ADVANCE",
+      "TIMELAPSE_TAKE_FRAME", "SET_FAN_SPEED", "SET_IDLE_TIMEOUT", "SET_INPUT_SHAPER",
+      "BED_MESH_PROFILE", "RESPOND", "SAVE_GCODE_STATE",
+      "RESTORE_GCODE_STATE", "SET_LED", "SET_PIN", "UPDATE_DELAYED_GCODE", "SET_SKEW", "SET_TMC_CURRENT"};
+  for (std::string_view q : kQuiet)
+    if (w == q) return Ok{};
+  switch (macro_kind(w)) {
+    case MacroKind::start: return start_macro(c, text, out);
+    case MacroKind::end:
+      // END_PRINT-like: the printer retracts, parks, cools down and stops. No motion the
+      // twin can know; the heaters go off.
+      out.synchronize();
+      set_hotend_target(profile_.ambient_temp_c);
+      set_bed_target(profile_.ambient_temp_c);
+      return Ok{};
+    case MacroKind::none: break;
+  }
+  if (++unknown_[std::string(w)] == 1) unknown_first_line_[std::string(w)] = c.line;
+  return Ok{};
+}
+
 Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text, InterpreterOutput& out) {
   last_line_ = c.line;
   if (c.letter == 0) {
@@ -562,21 +1077,7 @@ Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text, I
       comment(c.comment);
       return Ok{};
     }
-    const std::string_view w = c.word;
-    if (w == "EXCLUDE_OBJECT_START") {
-      const auto pos = c.args.find("NAME=");
-      const std::string name(pos == std::string_view::npos ? c.args : trim(c.args.substr(pos + 5)));
-      auto [it, inserted] = object_names_.try_emplace(name, static_cast<int>(object_names_.size()));
-      object_id_ = it->second;
-      return Ok{};
-    }
-    if (w == "EXCLUDE_OBJECT_END") {
-      object_id_ = -1;
-      return Ok{};
-    }
-    if (w == "EXCLUDE_OBJECT_DEFINE" || w == "SET_PRINT_STATS_INFO") return Ok{};
-    if (++unknown_[std::string(w)] == 1) unknown_first_line_[std::string(w)] = c.line;
-    return Ok{};
+    return extended(c, text, out);
   }
 
   const double unit = inches_ ? kInch_mm : 1.0;
@@ -596,29 +1097,40 @@ Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text, I
       }
       case 10:
       case 11: {
-        if (!profile_.firmware_retraction) {
+        if (c.code == 10 && flavour_ == Flavour::rrf && c.has('L')) return Ok{};  // RRF: tool/work offsets
+        if (c.code == 10 && flavour_ == Flavour::rrf && (c.has('P') || c.has('S') || c.has('R'))) {
+          // RepRapFirmware: G10 P<tool> S<active C> R<standby C> sets tool temperatures.
+          if (c.has('S')) {
+            const double t = c.get('S');
+            if (t < 0 || t > 500) return warn(c.line, text, "tool temperature outside 0..500 C; ignored", "bad_temperature");
+            if (c.get('P', 0) == 0) set_hotend_target(t);
+          }
+          return Ok{};
+        }
+        if (!profile_.firmware_retraction && flavour_ != Flavour::klipper && flavour_ != Flavour::rrf) {
           if (++unknown_[command_name(c)] == 1) unknown_first_line_[command_name(c)] = c.line;
           return Ok{};
         }
-        const bool retract = c.code == 10;
-        if (retract == fw_retracted_) return Ok{};
-        fw_retracted_ = retract;
-        const double len = profile_.fw_retract_length_mm;
-        const double speed = retract ? profile_.fw_retract_speed_mm_s : profile_.fw_recover_speed_mm_s;
-        Vec3 t = logical_mm_;
-        if (profile_.fw_retract_zraise_mm > 0 && retract) {
-          emit(t, -len, speed, MoveKind::travel, false, c.line, text, out);
-          t.z() += profile_.fw_retract_zraise_mm;
-          emit(t, 0, speed, MoveKind::travel, false, c.line, text, out);
-        } else if (profile_.fw_retract_zraise_mm > 0) {
-          t.z() -= profile_.fw_retract_zraise_mm;
-          emit(t, 0, speed, MoveKind::travel, false, c.line, text, out);
-          emit(t, len, speed, MoveKind::travel, false, c.line, text, out);
-        } else {
-          emit(t, retract ? -len : len, speed, MoveKind::travel, false, c.line, text, out);
-        }
-        return Ok{};
+        if (!profile_.firmware_retraction && fw_length_mm_ == 0)
+          note("firmware_retraction_unset",
+               "G10/G11 firmware retraction with no retraction length in the printer profile: the "
+               "twin retracts 0 mm (Klipper's default); set fw_retract_length_mm or SET_RETRACTION",
+               c.line);
+        return firmware_retract(c, c.code == 10, text, out);
       }
+      case 29:
+        if (c.subcode >= 1) return Ok{};  // Bambu G29.1 (Z offset), G29.2 (mesh on/off)
+        [[fallthrough]];
+      case 80:
+      case 81:
+        // Bed levelling (G29 and its variants P1, P9, A, T...; Prusa G80/G81): the probing
+        // takes time on the printer; the twin does not move or count it.
+        note("bed_levelling_not_timed", levelling_message(command_name(c)), c.line);
+        return Ok{};
+      case 380:  // Bambu: probing move towards the bed
+      case 150:  // Bambu: nozzle wipe / load
+      case 39:   // Bambu: nozzle-to-bed calibration
+        return Ok{};
       case 17: return Ok{};
       case 18:
       case 19: return warn(c.line, text, "only the XY plane (G17) is supported for arcs", "unsupported_plane");
@@ -661,9 +1173,7 @@ Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text, I
         const double t = c.has('S') ? c.get('S') : c.get('R');
         if (t < 0 || t > 500) return warn(c.line, text, "hotend temperature outside 0..500 C; ignored", "bad_temperature");
         if (c.code == 104) {
-          hotend_c_at_set_ = hotend_temp_now();
-          hotend_target_c_ = t;
-          hotend_set_clock_s_ = nominal_clock_s_;
+          set_hotend_target(t);
           return Ok{};
         }
         heat_wait(true, t, c.has('R'), c.line, out);
@@ -675,12 +1185,7 @@ Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text, I
         const double t = c.has('S') ? c.get('S') : c.get('R');
         if (t < 0 || t > 200) return warn(c.line, text, "bed temperature outside 0..200 C; ignored", "bad_temperature");
         if (c.code == 140) {
-          const double dt = nominal_clock_s_ - bed_set_clock_s_;
-          const double rate = profile_.bed_heat_rate_c_s;
-          bed_c_at_set_ = bed_target_c_ >= bed_c_at_set_ ? std::min(bed_target_c_, bed_c_at_set_ + rate * dt)
-                                                         : std::max(bed_target_c_, bed_c_at_set_ - rate * dt);
-          bed_target_c_ = t;
-          bed_set_clock_s_ = nominal_clock_s_;
+          set_bed_target(t);
           return Ok{};
         }
         heat_wait(false, t, c.has('R'), c.line, out);
@@ -699,6 +1204,13 @@ Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text, I
       case 201:
       case 203:
       case 205: {
+        // Klipper has no M201/M203/M205: it answers "Unknown command" and keeps its
+        // [printer] limits (SET_VELOCITY_LIMIT changes them).
+        if (flavour_ == Flavour::klipper) {
+          note("klipper_ignores", command_name(c) + " is not a Klipper command: Klipper keeps its "
+               "configured limits (SET_VELOCITY_LIMIT changes them)", c.line);
+          return Ok{};
+        }
         static constexpr char kAxes[4] = {'X', 'Y', 'Z', 'E'};
         for (int i = 0; i < 4; ++i) {
           if (!c.has(kAxes[i])) continue;
@@ -706,7 +1218,7 @@ Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text, I
           if (c.code == 205 ? v < 0 : v <= 0)
             return warn(c.line, text, "limit must be positive; ignored", "bad_parameter");
           if (c.code == 201) limits_.max_accel_mm_s2[i] = v;
-          else if (c.code == 203) limits_.max_feedrate_mm_s[i] = v;
+          else if (c.code == 203) limits_.max_feedrate_mm_s[i] = flavour_ == Flavour::rrf ? v / 60.0 : v;  // RRF: mm/min
           else limits_.jerk_mm_s[i] = v;
         }
         if (c.code == 205) {
@@ -718,7 +1230,85 @@ Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text, I
         out.limits(limits_);
         return Ok{};
       }
+      case 116:
+        // RepRapFirmware M116: wait for every heater to reach its target.
+        heat_wait(false, bed_target_c_, false, c.line, out);
+        heat_wait(true, hotend_target_c_, false, c.line, out);
+        return Ok{};
+      case 566: {
+        // RepRapFirmware: maximum instantaneous speed change ("jerk") per axis, in mm/min.
+        static constexpr char kAxes[4] = {'X', 'Y', 'Z', 'E'};
+        for (int i = 0; i < 4; ++i) {
+          if (!c.has(kAxes[i])) continue;
+          const double jerk = c.get(kAxes[i]) * unit / 60.0;
+          if (jerk < 0) return warn(c.line, text, "jerk must not be negative; ignored", "bad_parameter");
+          limits_.jerk_mm_s[i] = jerk;
+        }
+        out.limits(limits_);
+        return Ok{};
+      }
+      case 207:
+      case 208: {
+        // Firmware retraction settings. M207: S length, F speed (mm/min), Z lift; RRF adds
+        // R extra unretract and T unretract speed. M208 (Marlin): S extra, F unretract speed.
+        if (c.code == 207) {
+          if (c.has('S') && c.get('S') >= 0) fw_length_mm_ = c.get('S') * unit;
+          if (c.has('F') && c.get('F') > 0) fw_speed_mm_s_ = c.get('F') * unit / 60.0;
+          if (c.has('Z') && c.get('Z') >= 0) fw_zraise_mm_ = c.get('Z') * unit;
+          if (c.has('R') && c.get('R') >= 0) fw_recover_extra_mm_ = c.get('R') * unit;
+          if (c.has('T') && c.get('T') > 0) fw_recover_speed_mm_s_ = c.get('T') * unit / 60.0;
+        } else {
+          if (c.has('S') && c.get('S') >= 0) fw_recover_extra_mm_ = c.get('S') * unit;
+          if (c.has('F') && c.get('F') > 0) fw_recover_speed_mm_s_ = c.get('F') * unit / 60.0;
+        }
+        return Ok{};
+      }
+      case 302: {
+        // M302 S<C>: minimum extrusion temperature; M302 P1: cold extrusion allowed.
+        if (c.has('S') && c.get('S') >= 0 && c.get('S') <= 500) min_extrude_temp_c_ = c.get('S');
+        if (c.has('P')) min_extrude_temp_c_ = c.get('P') > 0 ? -1000.0 : profile_.min_extrude_temp_c;
+        return Ok{};
+      }
+      case 862:
+        // Prusa firmware's checks: M862.1 P<nozzle diameter>, M862.3 P"<model>". The
+        // firmware warns when the G-code was sliced for another nozzle or printer.
+        if (flavour_ == Flavour::prusa && c.subcode == 1 && c.has('P') &&
+            std::fabs(c.get('P') - profile_.nozzle_diameter_mm) > 0.005)
+          return warn(c.line, text, "the G-code was sliced for a " + format_fixed(c.get('P'), 2) +
+                      " mm nozzle, the printer has " + format_fixed(profile_.nozzle_diameter_mm, 2) +
+                      " mm: extrusion widths and flow will be off", "nozzle_mismatch");
+        if (flavour_ == Flavour::prusa && c.subcode == 3 && !c.args.empty() && !profile_.model.empty()) {
+          auto lower = [](std::string_view v) {
+            std::string folded;
+            for (char ch : v)
+              if (ch != ' ') folded.push_back(static_cast<char>(std::tolower(static_cast<unsigned char>(ch))));
+            return folded;
+          };
+          // Lenient: "MK4S" matches a profile model "Original Prusa MK4S".
+          const std::string want = lower(c.args), have = lower(profile_.model);
+          if (have.find(want) == std::string::npos && want.find(have) == std::string::npos)
+            return warn(c.line, text, "the G-code was sliced for a " + std::string(c.args) + ", the printer is a " +
+                        profile_.model + ": Prusa firmware warns before printing", "printer_model_mismatch");
+        }
+        return Ok{};
+      case 0:
+      case 1:
+      case 601:
+      case 600:
+        if (c.code == 0 && flavour_ == Flavour::rrf) {
+          // RepRapFirmware M0: stop the print; the heaters go off.
+          out.synchronize();
+          set_hotend_target(profile_.ambient_temp_c);
+          set_bed_target(profile_.ambient_temp_c);
+          return Ok{};
+        }
+        // Marlin M0/M1, Prusa M601, M600 filament change: the printer waits for the user.
+        note("user_pause", command_name(c) + " pauses the print until the user resumes it: the "
+             "wait is not counted in the print time", c.line);
+        out.synchronize();
+        return Ok{};
       case 204: {
+        if (flavour_ == Flavour::klipper) return klipper_m204(c, text, out);
         auto take = [&](char p, double& dst, double cap) -> Status {
           const double v = c.get(p) * unit;
           if (v <= 0) return warn(c.line, text, "acceleration must be positive; ignored", "bad_parameter");
@@ -768,6 +1358,17 @@ Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text, I
       case 108: case 110: case 111: case 114: case 115: case 117: case 118: case 119:
       case 155: case 300: case 420: case 500: case 501: case 503: case 900: case 907:
       case 23: case 24: case 25: case 28: case 29: case 30: case 32: case 81: case 928:
+      // Prusa firmware: printer/nozzle checks (M862.x), print area (M555), stepper mode
+      // (M569), input shaper (M593), pressure advance (M572, also RRF), heatbreak fan (M142),
+      // mass estimate (M74), fan and LED settings.
+      case 555: case 569: case 593: case 572: case 142: case 74: case 150:
+      case 141: case 191: case 92:
+      // Bambu Studio: status (M1002), AMS (M620/M621), conditions (M622/M623), calibrations
+      // (M960..M991), filament runout (M412), sounds (M1006), M1003..M1007.
+      case 1002: case 1003: case 1004: case 1005: case 1006: case 1007:
+      case 620: case 621: case 622: case 623: case 624: case 625:
+      case 960: case 970: case 971: case 972: case 973: case 974: case 975: case 976:
+      case 980: case 981: case 982: case 983: case 991: case 412:
         return Ok{};
       default: break;
     }
@@ -781,12 +1382,17 @@ Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text, I
 }
 
 Result<MotionLimits> limits_from_prusaslicer_config(std::string_view text, const MotionLimits& base) {
-  constexpr std::size_t kTail = 256 * 1024;
-  if (text.size() > kTail) text = text.substr(text.size() - kTail);
   MotionLimits l = base;
   int found = 0;
+  bool orca_keys = false;  // machine_max_speed_*: OrcaSlicer, Bambu Studio, Creality Print
   double extruding = 0, retracting = 0, travel = 0, min_extruding = 0, min_travel = 0;
   std::size_t pos = 0;
+  // The axis letter after `prefix`, as an index X Y Z E; -1 when `key` is not prefix + axis.
+  auto axis_of = [](std::string_view key, std::string_view prefix) {
+    if (key.size() != prefix.size() + 1 || key.substr(0, prefix.size()) != prefix) return -1;
+    const auto i = std::string_view("xyze").find(key.back());
+    return i == std::string_view::npos ? -1 : static_cast<int>(i);
+  };
   while (pos < text.size()) {
     std::size_t eol = text.find('\n', pos);
     if (eol == std::string_view::npos) eol = text.size();
@@ -801,25 +1407,31 @@ Result<MotionLimits> limits_from_prusaslicer_config(std::string_view text, const
     value = value.substr(0, value.find(','));  // "1500,1250": normal mode first
     double v = 0;
     if (!parse_double(value, v) || v < 0) continue;
-    static constexpr std::string_view kAxes[4] = {"x", "y", "z", "e"};
-    for (int i = 0; i < 4; ++i) {
-      if (key.substr(0, key.size() - 1) == "machine_max_acceleration_" && key.back() == kAxes[i][0] && key.size() == 26) {
-        if (v > 0) l.max_accel_mm_s2[i] = v, ++found;
-      } else if (key.substr(0, key.size() - 1) == "machine_max_feedrate_" && key.back() == kAxes[i][0] && key.size() == 22) {
-        if (v > 0) l.max_feedrate_mm_s[i] = v, ++found;
-      } else if (key.substr(0, key.size() - 1) == "machine_max_jerk_" && key.back() == kAxes[i][0] && key.size() == 18) {
-        l.jerk_mm_s[i] = v, ++found;
-      }
+    if (const int i = axis_of(key, "machine_max_acceleration_"); i >= 0) {
+      if (v > 0) l.max_accel_mm_s2[i] = v, ++found;
+    } else if (const int f = axis_of(key, "machine_max_feedrate_"); f >= 0) {
+      if (v > 0) l.max_feedrate_mm_s[f] = v, ++found;
+    } else if (const int o = axis_of(key, "machine_max_speed_"); o >= 0) {
+      if (v > 0) l.max_feedrate_mm_s[o] = v, ++found;
+      orca_keys = true;
+    } else if (const int j = axis_of(key, "machine_max_jerk_"); j >= 0) {
+      l.jerk_mm_s[j] = v, ++found;
+    } else if (key == "machine_max_acceleration_extruding") {
+      extruding = v, ++found;
+    } else if (key == "machine_max_acceleration_retracting") {
+      retracting = v, ++found;
+    } else if (key == "machine_max_acceleration_travel") {
+      travel = v, ++found;
+    } else if (key == "machine_min_extruding_rate") {
+      min_extruding = v;
+    } else if (key == "machine_min_travel_rate") {
+      min_travel = v;
     }
-    if (key == "machine_max_acceleration_extruding") extruding = v, ++found;
-    else if (key == "machine_max_acceleration_retracting") retracting = v, ++found;
-    else if (key == "machine_max_acceleration_travel") travel = v, ++found;
-    else if (key == "machine_min_extruding_rate") min_extruding = v;
-    else if (key == "machine_min_travel_rate") min_travel = v;
   }
   if (found < 12)
-    return bad_input("no PrusaSlicer machine limits (\"; machine_max_acceleration_x = ...\") at the end "
-                     "of the G-code; --limits-from-gcode needs PrusaSlicer's config block");
+    return bad_input("no slicer machine limits (\"; machine_max_acceleration_x = ...\") in the G-code; "
+                     "--limits-from-gcode needs the config block of PrusaSlicer, SuperSlicer, OrcaSlicer, "
+                     "Bambu Studio or Creality Print");
   // PrusaSlicer's defaults when a value is 0 (GCodeProcessor: DEFAULT_ACCELERATION 1500,
   // DEFAULT_RETRACT_ACCELERATION 1500, DEFAULT_TRAVEL_ACCELERATION 1250).
   l.print_accel_mm_s2 = extruding > 0 ? extruding : 1500;
@@ -832,6 +1444,12 @@ Result<MotionLimits> limits_from_prusaslicer_config(std::string_view text, const
   l.min_travel_feedrate_mm_s = min_travel;
   l.junction = JunctionModel::classic_jerk;
   l.prusaslicer_compat = true;
+  // OrcaSlicer's family (Bambu Studio, Creality Print) names the speeds machine_max_speed_*
+  // and estimates with Bambu's changes to PrusaSlicer's planner; SET_VELOCITY_LIMIT
+  // SQUARE_CORNER_VELOCITY replaces its X/Y jerk.
+  l.orca_compat = orca_keys;
+  if (orca_keys) l.square_corner_velocity_mm_s = l.jerk_mm_s[0];
+  l.klipper = false;
   l.min_segment_time_s = 0;
   return l;
 }

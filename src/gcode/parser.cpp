@@ -271,8 +271,8 @@ Status parse_gcode_line(std::string_view text, long line, GcodeCommand& out) {
       }
       out.subcode = sub;
     }
-  } else if (is_upper(c0)) {
-    // Extended command (Klipper style): EXCLUDE_OBJECT_START NAME=part
+  } else if (is_upper(c0) || (c0 == '_' && p + 1 < end && is_upper(upper(p[1])))) {
+    // Extended command (Klipper style): EXCLUDE_OBJECT_START NAME=part, _PRINT_START
     const char* w = p;
     while (p < end && (is_upper(upper(*p)) || is_digit(*p) || *p == '_')) ++p;
     out.word = std::string_view(w, static_cast<std::size_t>(p - w));
@@ -288,10 +288,12 @@ Status parse_gcode_line(std::string_view text, long line, GcodeCommand& out) {
                        std::string("expected a command (G, M, T) but found '") + *p + "'");
   }
 
-  // Commands whose argument is free text.
+  // Commands whose argument is free text: messages and file names; M115 U<version>
+  // (Prusa's firmware-version check, "U6.1.3+7898"); Bambu's M1002 (status actions such
+  // as "gcode_claim_action : 2").
   if (out.letter == 'M' && (out.code == 117 || out.code == 118 || out.code == 23 ||
                             out.code == 28 || out.code == 30 || out.code == 32 ||
-                            out.code == 928)) {
+                            out.code == 928 || out.code == 115 || out.code == 1002)) {
     while (p < end && is_space(*p)) ++p;
     out.args = std::string_view(p, static_cast<std::size_t>(end - p));
     return check_text(p);
@@ -328,7 +330,16 @@ Status parse_gcode_line(std::string_view text, long line, GcodeCommand& out) {
     ++p;
     while (p < end && is_space(*p)) ++p;
     double v = 0;
-    if (p < end && (is_digit(*p) || *p == '.' || *p == '-' || *p == '+')) {
+    if (p < end && *p == '"') {
+      // A quoted string argument (Prusa `M862.3 P "MK4S"`, RepRapFirmware `M98 P"x.g"`):
+      // the parameter is present with value 0; the first string is kept in `args`.
+      const void* close = p + 1 < end ? std::memchr(p + 1, '"', static_cast<std::size_t>(end - p - 1)) : nullptr;
+      if (close == nullptr) return parse_error(text, line, "quoted string without a closing '\"'");
+      const char* q = static_cast<const char*>(close);
+      if (auto st = check_text(p + 1); !st) return st;
+      if (out.args.empty()) out.args = std::string_view(p + 1, static_cast<std::size_t>(q - p - 1));
+      p = q + 1;
+    } else if (p < end && (is_digit(*p) || *p == '.' || *p == '-' || *p == '+')) {
       const char* q = read_number(p, end, v);
       if (q == nullptr)
         return parse_error(text, line, std::string("malformed number after ") + letter);

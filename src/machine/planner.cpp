@@ -1,8 +1,9 @@
-// Marlin 2.1's look-ahead planner in millimetres and seconds.
-// Behaviour follows Marlin module/planner.cpp (_populate_block, reverse_pass_kernel,
-// forward_pass_kernel, recalculate_trapezoids) and, for `prusaslicer_compat`, PrusaSlicer's
-// GCodeProcessor::TimeProcessor (classic jerk with its safe-speed rule). Written from the
-// published algorithms, not copied.
+// Marlin 2.1's and Klipper's look-ahead planners in millimetres and seconds.
+// Marlin: module/planner.cpp (_populate_block, reverse_pass_kernel, forward_pass_kernel,
+// recalculate_trapezoids) and, for `prusaslicer_compat`, PrusaSlicer's
+// GCodeProcessor::TimeProcessor (classic jerk with its safe-speed rule). Klipper:
+// klippy/toolhead.py (Move, LookAheadQueue), kinematics/cartesian.py and extruder.py
+// (check_move, calc_junction). Written from the published algorithms, not copied.
 #include <algorithm>
 #include <cmath>
 
@@ -12,12 +13,39 @@ namespace printtwin {
 
 namespace {
 constexpr double kVmin = kMinimumPlannerSpeed_mm_s;
+// Klipper's toolhead.py: LOOKAHEAD_FLUSH_TIME and BUFFER_TIME_HIGH (the queued move time
+// before a lazy flush, right after a full flush).
+constexpr double kLookaheadFlushTime_s = 0.150;
+constexpr double kBufferTimeHigh_s = 1.0;
+
+/// The segment's description of the Move it times (where, what, which line).
+void copy_move_fields(MotionSegment& s, const Move& m, double e_start_mm, long index) {
+  s.start_mm = m.start_mm;
+  s.end_mm = m.end_mm;
+  s.e_start_mm = e_start_mm;
+  s.e_mm = m.e_mm;
+  s.line = m.line;
+  s.layer = m.layer;
+  s.feature = m.feature;
+  s.kind = m.kind;
+  s.object_id = m.object_id;
+  s.index = index;
+}
 
 /// Highest speed at the start of a distance `s` from which `accel` reaches `v_end`.
 double max_allowable_speed(double accel, double v_end, double s) {
   return std::sqrt(v_end * v_end + 2.0 * accel * s);
 }
 }  // namespace
+
+double klipper_junction_deviation_mm(double scv, double accel) {
+  return accel > 0 ? scv * scv * (std::sqrt(2.0) - 1.0) / accel : 0.0;
+}
+
+double klipper_default_extrude_ratio(double nozzle_diameter_mm, double filament_diameter_mm) {
+  const double area = 0.25 * 3.14159265358979323846 * filament_diameter_mm * filament_diameter_mm;
+  return area > 0 ? 4.0 * nozzle_diameter_mm * nozzle_diameter_mm / area : 0.0;
+}
 
 MotionLimits motion_limits_from_profile(const PrinterProfile& p) {
   MotionLimits l;
@@ -32,6 +60,18 @@ MotionLimits motion_limits_from_profile(const PrinterProfile& p) {
   l.min_feedrate_mm_s = p.min_feedrate_mm_s;
   l.min_travel_feedrate_mm_s = p.min_travel_feedrate_mm_s;
   l.min_segment_time_s = p.min_segment_time_s;
+  l.square_corner_velocity_mm_s = p.square_corner_velocity_mm_s;
+  l.minimum_cruise_ratio = p.minimum_cruise_ratio;
+  l.max_extrude_only_velocity_mm_s = p.max_extrude_only_velocity_mm_s;
+  l.max_extrude_only_accel_mm_s2 = p.max_extrude_only_accel_mm_s2;
+  if (p.firmware == "klipper") {
+    l.klipper = true;
+    // [extruder] defaults: derived from the config's max_velocity and max_accel once, at
+    // start-up (SET_VELOCITY_LIMIT later does not change them).
+    const double ratio = klipper_default_extrude_ratio(p.nozzle_diameter_mm, p.filament_diameter_mm);
+    if (!(l.max_extrude_only_velocity_mm_s > 0)) l.max_extrude_only_velocity_mm_s = p.max_feedrate_mm_s[0] * ratio;
+    if (!(l.max_extrude_only_accel_mm_s2 > 0)) l.max_extrude_only_accel_mm_s2 = p.print_accel_mm_s2 * ratio;
+  }
   return l;
 }
 
@@ -69,6 +109,10 @@ Planner::Planner(const MotionLimits& limits, int block_buffer_size)
 void Planner::set_limits(const MotionLimits& limits) { limits_ = limits; }
 
 void Planner::add(const Move& move, MoveSink& sink) {
+  if (limits_.klipper) {
+    klipper_add(move, sink);
+    return;
+  }
   Block b;
   b.delta_mm.head<3>() = move.end_mm - move.start_mm;
   b.delta_mm[3] = move.e_mm;
@@ -97,6 +141,22 @@ void Planner::add(const Move& move, MoveSink& sink) {
       v = b.length_mm / stretched;
     }
   }
+  // Orca's estimator: a gentle XY bend (< 29 degrees) caps the speed at sqrt(a r), r the
+  // radius of the circle through this move's chord and the bend.
+  const double xy_len = b.delta_mm.head<2>().norm();
+  if (L.orca_compat && xy_len > 0 && previous_xy_len_ > 0) {
+    const Eigen::Vector2d dir = b.delta_mm.head<2>() / xy_len;
+    const double diff = (dir - previous_xy_dir_).norm();
+    if (diff < 0.5 && diff > 1e-5) {
+      const double cos_a = std::clamp(dir.dot(previous_xy_dir_), -1.0, 1.0);
+      const double sin_half = std::sqrt(0.5 * (1.0 - cos_a));
+      if (sin_half > 0) v = std::min(v, std::sqrt(L.print_accel_mm_s2 * xy_len * 0.5 / sin_half));
+    }
+  }
+  if (L.orca_compat) {
+    previous_xy_len_ = xy_len;
+    if (xy_len > 0) previous_xy_dir_ = b.delta_mm.head<2>() / xy_len;
+  }
   // Per-axis feedrate limits (M203), E included.
   double factor = 1.0;
   for (int i = 0; i < 4; ++i) {
@@ -108,9 +168,14 @@ void Planner::add(const Move& move, MoveSink& sink) {
   // Acceleration: M204 R for E-only moves, T for moves without E, P otherwise, then per axis.
   double accel;
   if (L.prusaslicer_compat) {
-    // PrusaSlicer's move types: retracting while moving (wipe) counts as travel.
-    accel = e_only ? L.retract_accel_mm_s2
-                   : (move.e_mm > 0 ? L.print_accel_mm_s2 : L.travel_accel_mm_s2);
+    // PrusaSlicer's move types: retracting while moving (wipe) counts as travel; for Orca an
+    // extrusion with Z and no XY too.
+    const bool extrude = move.e_mm > 0 && !(L.orca_compat && xy_len == 0);
+    // The estimators clamp each acceleration by machine_max_acceleration_* whoever set it
+    // (M204, SET_VELOCITY_LIMIT).
+    const int type = e_only ? 1 : (extrude ? 0 : 2);
+    accel = std::min(type == 1 ? L.retract_accel_mm_s2 : (type == 0 ? L.print_accel_mm_s2 : L.travel_accel_mm_s2),
+                     L.accel_cap_mm_s2[type]);
     for (int i = 0; i < 4; ++i)
       if (accel * std::fabs(b.unit[i]) > L.max_accel_mm_s2[i]) accel = L.max_accel_mm_s2[i] / std::fabs(b.unit[i]);
   } else if (e_only) {
@@ -159,8 +224,10 @@ void Planner::add(const Move& move, MoveSink& sink) {
     // Classic jerk: the speed from which the block may start (or end) at once.
     double safe = b.nominal_speed_mm_s;
     if (L.prusaslicer_compat) {
+      Eigen::Vector4d jerk = L.jerk_mm_s;
+      if (L.orca_compat) jerk[0] = jerk[1] = L.square_corner_velocity_mm_s;
       for (int i = 0; i < 4; ++i)
-        if (std::fabs(axis_speed[i]) > L.jerk_mm_s[i]) safe = std::min(safe, L.jerk_mm_s[i]);
+        if (std::fabs(axis_speed[i]) > jerk[i]) safe = std::min(safe, jerk[i]);
     } else {
       bool limited = false;
       for (int i = 0; i < 4; ++i) {
@@ -184,7 +251,22 @@ void Planner::add(const Move& move, MoveSink& sink) {
       const double smaller_factor = vmax_junction / previous_nominal_speed_mm_s_;
       double v_factor = 1.0;
       bool limited = false;
-      for (int i = 0; i < 4; ++i) {
+      int first_axis = 0;
+      if (L.orca_compat) {
+        // X, Y, Z together: the jerk is |entry velocity - exit velocity| per axis, and
+        // each limit found scales what is left (Bambu's rule, kept as it is).
+        const Eigen::Vector3d jerk_xyz(L.square_corner_velocity_mm_s, L.square_corner_velocity_mm_s, L.jerk_mm_s[2]);
+        Eigen::Vector3d jv = (axis_speed.head<3>() - previous_axis_speed_mm_s_.head<3>() * smaller_factor).cwiseAbs();
+        for (int i = 0; i < 3; ++i) {
+          if (jv[i] > jerk_xyz[i]) {
+            v_factor *= jerk_xyz[i] / jv[i];
+            jv *= v_factor;
+            limited = true;
+          }
+        }
+        first_axis = 3;
+      }
+      for (int i = first_axis; i < 4; ++i) {
         double v_exit = previous_axis_speed_mm_s_[i] * smaller_factor;
         double v_entry = axis_speed[i];
         if (limited) {
@@ -199,6 +281,8 @@ void Planner::add(const Move& move, MoveSink& sink) {
           limited = true;
         }
       }
+      // Orca plans an arc (G2/G3) as one block: its segments join without a jerk limit.
+      if (L.orca_compat && move.line == previous_line_ && move.line > 0 && xy_len > 0) limited = false;
       if (limited) vmax_junction *= v_factor;
       const double threshold = vmax_junction * 0.99;
       if (previous_safe_speed_mm_s_ > threshold && safe > threshold) vmax_junction = safe;
@@ -217,6 +301,7 @@ void Planner::add(const Move& move, MoveSink& sink) {
   previous_axis_speed_mm_s_ = axis_speed;
   previous_nominal_speed_mm_s_ = b.nominal_speed_mm_s;
   previous_safe_speed_mm_s_ = b.safe_speed_mm_s;
+  previous_line_ = move.line;
 
   window_.push_back(std::move(b));
   ++queued_since_sync_;
@@ -295,16 +380,7 @@ void Planner::emit_front(MoveSink& sink, double exit_speed) {
   if (cruise_d <= 0 && L - profile_d > 1e-12 && s.cruise_speed_mm_s > 0)
     s.cruise_time_s = (L - profile_d) / s.cruise_speed_mm_s;
   s.length_mm = L;
-  s.start_mm = b.move.start_mm;
-  s.end_mm = b.move.end_mm;
-  s.e_start_mm = b.e_start_mm;
-  s.e_mm = b.move.e_mm;
-  s.line = b.move.line;
-  s.layer = b.move.layer;
-  s.feature = b.move.feature;
-  s.kind = b.move.kind;
-  s.object_id = b.move.object_id;
-  s.index = b.index;
+  copy_move_fields(s, b.move, b.e_start_mm, b.index);
   clock_s_ += s.duration_s();
   window_.pop_front();
   if (!window_.empty()) {
@@ -315,6 +391,10 @@ void Planner::emit_front(MoveSink& sink, double exit_speed) {
 }
 
 void Planner::flush(MoveSink& sink) {
+  if (limits_.klipper || !kqueue_.empty()) {
+    klipper_flush(sink, false);
+    junction_flush_s_ = kBufferTimeHigh_s;
+  }
   while (!window_.empty()) {
     const double exit = window_.size() > 1
                             ? window_[1].entry_speed_mm_s
@@ -323,6 +403,177 @@ void Planner::flush(MoveSink& sink) {
   }
   have_previous_ = false;
   queued_since_sync_ = 0;
+}
+
+// ---------------------------------------------------------------------------------------
+// Klipper
+
+void Planner::klipper_add(const Move& move, MoveSink& sink) {
+  const MotionLimits& L = limits_;
+  KlipperMove m;
+  Eigen::Vector4d d;
+  d.head<3>() = move.end_mm - move.start_mm;
+  d[3] = move.e_mm;
+  // Limits that are not positive (an incomplete profile) limit nothing, as an absent one.
+  constexpr double kNone = std::numeric_limits<double>::infinity();
+  const double max_velocity = L.max_feedrate_mm_s[0] > 0 ? L.max_feedrate_mm_s[0] : kNone;
+  const double max_accel = std::max(L.print_accel_mm_s2, 1e-6);
+  const double speed = move.feedrate_mm_s > 0 ? move.feedrate_mm_s : kVmin;
+  double velocity = std::min(speed, max_velocity);
+  m.move_d = d.head<3>().norm();
+  m.accel = max_accel;
+  if (m.move_d < 1e-9) {
+    // Extrude-only move: its own speed, no toolhead acceleration (the extruder limits it).
+    d.head<3>().setZero();
+    m.move_d = std::fabs(d[3]);
+    if (m.move_d <= 0) return;
+    m.kinematic = false;
+    m.accel = 99999999.9;
+    velocity = speed;
+  }
+  m.axes_r = d / m.move_d;
+  m.junction_deviation = klipper_junction_deviation_mm(L.square_corner_velocity_mm_s, max_accel);
+  m.min_move_t = m.move_d / velocity;
+  m.max_cruise_v2 = velocity * velocity;
+  m.delta_v2 = 2.0 * m.move_d * m.accel;
+  m.mcr_delta_v2 = 2.0 * m.move_d * max_accel * (1.0 - L.minimum_cruise_ratio);
+  auto limit_speed = [&m](double v, double a) {
+    if (!(v > 0) || !(a > 0)) return;
+    if (v * v < m.max_cruise_v2) {
+      m.max_cruise_v2 = v * v;
+      m.min_move_t = m.move_d / v;
+    }
+    m.accel = std::min(m.accel, a);
+    m.delta_v2 = 2.0 * m.move_d * m.accel;
+    m.mcr_delta_v2 = std::min(m.mcr_delta_v2, m.delta_v2);
+  };
+  // Kinematics: a move with Z is limited by max_z_velocity and max_z_accel along Z.
+  if (m.kinematic && d[2] != 0) {
+    const double z_ratio = m.move_d / std::fabs(d[2]);
+    limit_speed(L.max_feedrate_mm_s[2] * z_ratio, L.max_accel_mm_s2[2] * z_ratio);
+  }
+  // Extruder: extrude-only moves, moves without XY (Z hop with E) and every retraction are
+  // limited by max_extrude_only_velocity / _accel along E.
+  if (d[3] != 0 && ((d[0] == 0 && d[1] == 0) || m.axes_r[3] < 0)) {
+    double ev = L.max_extrude_only_velocity_mm_s, ea = L.max_extrude_only_accel_mm_s2;
+    const double ratio = klipper_default_extrude_ratio(0.4, 1.75);
+    if (!(ev > 0)) ev = std::min(max_velocity, 1e9) * ratio;
+    if (!(ea > 0)) ea = max_accel * ratio;
+    const double inv = 1.0 / std::fabs(m.axes_r[3]);
+    limit_speed(ev * inv, ea * inv);
+  }
+  m.move = move;
+  m.e_start_mm = e_total_mm_;
+  e_total_mm_ += move.e_mm;
+  m.index = next_index_++;
+
+  if (kqueue_.empty()) {
+    kqueue_.push_back(std::move(m));
+    return;
+  }
+  const KlipperMove& prev = kqueue_.back();
+  if (m.kinematic && prev.kinematic) {
+    // Junction: never above either cruise speed or what the previous move can reach
+    // (smoothed by its own start limit), nor the extruder's instantaneous corner velocity.
+    double max_start_v2 = std::min({m.max_cruise_v2, prev.max_cruise_v2, prev.max_start_v2 + prev.delta_v2});
+    const double diff_r = m.axes_r[3] - prev.axes_r[3];
+    if (diff_r != 0) {
+      const double v = L.extruder_corner_velocity_mm_s / std::fabs(diff_r);
+      max_start_v2 = std::min(max_start_v2, v * v);
+    }
+    // Approximated centripetal velocity, corner angle from XYZ only.
+    const double cos_theta = -m.axes_r.head<3>().dot(prev.axes_r.head<3>());
+    const double sin_d2 = std::sqrt(std::max(0.5 * (1.0 - cos_theta), 0.0));
+    const double cos_d2 = std::sqrt(std::max(0.5 * (1.0 + cos_theta), 0.0));
+    const double one_minus_sin_d2 = 1.0 - sin_d2;
+    if (one_minus_sin_d2 > 0 && cos_d2 > 0) {
+      const double r_jd = sin_d2 / one_minus_sin_d2;
+      // The approximated circle must touch both moves no further than their middles.
+      const double quarter_tan_d2 = 0.25 * sin_d2 / cos_d2;
+      max_start_v2 = std::min({max_start_v2, r_jd * m.junction_deviation * m.accel,
+                               r_jd * prev.junction_deviation * prev.accel, m.delta_v2 * quarter_tan_d2,
+                               prev.delta_v2 * quarter_tan_d2});
+    }
+    m.max_start_v2 = max_start_v2;
+    m.max_mcr_start_v2 = std::min(max_start_v2, prev.max_mcr_start_v2 + prev.mcr_delta_v2);
+  }
+  junction_flush_s_ -= m.min_move_t;
+  kqueue_.push_back(std::move(m));
+  if (junction_flush_s_ <= 0) klipper_flush(sink, true);
+}
+
+void Planner::klipper_flush(MoveSink& sink, bool lazy) {
+  junction_flush_s_ = kLookaheadFlushTime_s;
+  bool update_flush_count = lazy;
+  const std::size_t n = kqueue_.size();
+  std::size_t flush_count = n;
+  // Backward: the highest start speed of each move, given a stop after the last one, and
+  // the cruise speed of the moves that can accelerate (limited by minimum_cruise_ratio).
+  double next_start_v2 = 0, next_mcr_start_v2 = 0, peak_cruise_v2 = 0;
+  std::size_t pending = 0;
+  for (std::size_t i = n; i-- > 0;) {
+    KlipperMove& m = kqueue_[i];
+    const double reachable_start_v2 = next_start_v2 + m.delta_v2;
+    const double start_v2 = std::min(m.max_start_v2, reachable_start_v2);
+    double cruise_v2 = -1;
+    ++pending;
+    const double reach_mcr_start_v2 = next_mcr_start_v2 + m.mcr_delta_v2;
+    const double mcr_start_v2 = std::min(m.max_mcr_start_v2, reach_mcr_start_v2);
+    if (mcr_start_v2 < reach_mcr_start_v2) {
+      // This move can accelerate.
+      if (mcr_start_v2 + m.mcr_delta_v2 > next_mcr_start_v2 || pending > 1) {
+        // It can both accelerate and decelerate, or a full acceleration is followed by a
+        // full deceleration: the moves before it no longer depend on what comes later.
+        if (update_flush_count && peak_cruise_v2 > 0) {
+          flush_count = i + pending;
+          update_flush_count = false;
+        }
+        peak_cruise_v2 = 0.5 * (mcr_start_v2 + reach_mcr_start_v2);
+      }
+      cruise_v2 = std::min({0.5 * (start_v2 + reachable_start_v2), m.max_cruise_v2, peak_cruise_v2});
+      pending = 0;
+    }
+    m.start_v2 = start_v2;
+    m.cruise_v2 = cruise_v2;
+    m.end_v2 = next_start_v2;
+    next_start_v2 = start_v2;
+    next_mcr_start_v2 = mcr_start_v2;
+  }
+  if (update_flush_count || flush_count == 0) return;
+  // Forward: moves that cannot accelerate keep the cruise speed of the one before.
+  double prev_cruise_v2 = 0;
+  for (std::size_t i = 0; i < flush_count; ++i) {
+    KlipperMove& m = kqueue_[i];
+    if (m.cruise_v2 < 0) m.cruise_v2 = std::min(prev_cruise_v2, m.start_v2);
+    m.start_v2 = std::min(m.start_v2, m.cruise_v2);
+    m.end_v2 = std::min(m.end_v2, m.cruise_v2);
+    prev_cruise_v2 = m.cruise_v2;
+    klipper_emit(m, sink);
+  }
+  kqueue_.erase(kqueue_.begin(), kqueue_.begin() + static_cast<std::ptrdiff_t>(flush_count));
+}
+
+void Planner::klipper_emit(const KlipperMove& m, MoveSink& sink) {
+  const double half_inv_accel = 0.5 / m.accel;
+  const double accel_d = std::max(0.0, (m.cruise_v2 - m.start_v2) * half_inv_accel);
+  const double decel_d = std::max(0.0, (m.cruise_v2 - m.end_v2) * half_inv_accel);
+  const double cruise_d = std::max(0.0, m.move_d - accel_d - decel_d);
+  MotionSegment s;
+  s.start_time_s = clock_s_;
+  s.start_speed_mm_s = std::sqrt(m.start_v2);
+  s.cruise_speed_mm_s = std::sqrt(m.cruise_v2);
+  s.end_speed_mm_s = std::sqrt(m.end_v2);
+  // Time of each phase: its distance over its average speed (as Klipper's set_junction).
+  if (accel_d > 0) s.accel_time_s = accel_d / (0.5 * (s.start_speed_mm_s + s.cruise_speed_mm_s));
+  if (s.cruise_speed_mm_s > 0) s.cruise_time_s = cruise_d / s.cruise_speed_mm_s;
+  if (decel_d > 0) s.decel_time_s = decel_d / (0.5 * (s.end_speed_mm_s + s.cruise_speed_mm_s));
+  s.nominal_speed_mm_s = std::sqrt(m.max_cruise_v2);
+  s.accel_mm_s2 = m.accel;
+  s.length_mm = m.move_d;
+  copy_move_fields(s, m.move, m.e_start_mm, m.index);
+  if (!m.kinematic) s.end_mm = s.start_mm;
+  clock_s_ += s.duration_s();
+  sink.on_segment(s);
 }
 
 void Planner::wait(double duration_s, bool heating, long line, MoveSink& sink) {

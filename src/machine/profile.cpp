@@ -55,18 +55,23 @@ PrinterProfile ender3_marlin1() {
 
 PrinterProfile ender3_klipper() {
   PrinterProfile p = ender3_marlin2();
-  // Klipper's config/printer-creality-ender3-2018.cfg: max_velocity 300, max_accel 3000,
-  // max_z_velocity 5, max_z_accel 100; square_corner_velocity 5 (its junction model is
-  // approximated with an equivalent junction deviation).
+  // Klipper's config/printer-creality-ender3-2018.cfg: [printer] max_velocity 300,
+  // max_accel 3000, max_z_velocity 5, max_z_accel 100, and Klipper's defaults
+  // square_corner_velocity 5, minimum_cruise_ratio 0.5; [extruder] nozzle 0.4, filament
+  // 1.75 and no max_extrude_only_* (derived by the planner as Klipper does). Timed by
+  // Klipper's planning model (firmware "klipper"); the Marlin fields are unused there.
   p.name = "Creality Ender-3 (Klipper)";
   p.firmware = "klipper";
   p.max_feedrate_mm_s = Eigen::Vector4d(300, 300, 5, 120);
   p.max_accel_mm_s2 = Eigen::Vector4d(3000, 3000, 100, 3000);
   p.print_accel_mm_s2 = p.retract_accel_mm_s2 = p.travel_accel_mm_s2 = 3000;
-  // Klipper: scv = 5 mm/s -> junction_deviation = scv^2 * (sqrt(2) - 1) / accel.
-  p.junction_deviation_mm = 25.0 * (1.4142135623730951 - 1.0) / 3000.0;
-  p.max_accel_to_decel_ratio = 0.5;
+  p.square_corner_velocity_mm_s = 5.0;
+  p.minimum_cruise_ratio = 0.5;
+  p.max_extrude_only_velocity_mm_s = 0;
+  p.max_extrude_only_accel_mm_s2 = 0;
   p.min_segment_time_s = 0.0;
+  // [gcode_arcs] resolution 1 mm: floor(length / 1 mm) segments per arc.
+  p.arc_min_segment_mm = p.arc_max_segment_mm = 1.0;
   return p;
 }
 

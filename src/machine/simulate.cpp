@@ -34,6 +34,10 @@ class Pipeline final : public InterpreterOutput, public MoveSink {
     }
     r.motion_bounds_mm.extend(m.end_mm);
     r.filament_mm += m.e_mm;
+    if (m.layer >= 0 && m.feature != Feature::custom) {
+      part_net_mm_ += m.e_mm;
+      if (m.kind == MoveKind::extrude) r.filament_part_mm = part_net_mm_;
+    }
     if (m.e_mm < 0) r.retracted_mm -= m.e_mm;
     if (m.layer >= 0) {
       grow_layers(m.layer);
@@ -131,6 +135,7 @@ class Pipeline final : public InterpreterOutput, public MoveSink {
   MoveSink* user_;
   bool plan_;
   int current_layer_ = -1;
+  double part_net_mm_ = 0;
   std::array<double, kKeys> feature_time_{};
   std::vector<double> layer_time_, layer_filament_;
   std::vector<long> layer_first_line_;
@@ -147,16 +152,20 @@ Result<SimulationResult> run(std::istream& in, const PrinterProfile& profile, co
   MotionLimits limits = motion_limits_from_profile(profile);
   int window = profile.block_buffer_size;
   if (options.limits_from_gcode) {
-    // PrusaSlicer writes its config block at the end: read the tail, then rewind.
+    // Slicers write their config block at the end (PrusaSlicer) or the start (Bambu
+    // Studio): read the head and the tail, then rewind.
     in.clear();
     in.seekg(0, std::ios::end);
     const std::streamoff size = in.tellg();
     if (size < 0 || !in)
-      return bad_input("--limits-from-gcode needs a seekable file (PrusaSlicer writes its limits at the end)", file);
-    const std::streamoff tail = std::min<std::streamoff>(size, 256 * 1024);
-    in.seekg(size - tail);
-    std::string text(static_cast<std::size_t>(tail), '\0');
-    in.read(text.data(), tail);
+      return bad_input("--limits-from-gcode needs a seekable file (slicers write their limits at the end)", file);
+    const std::streamoff part = std::min<std::streamoff>(size, 256 * 1024);
+    std::string text(static_cast<std::size_t>(2 * part + 1), '\n');
+    in.seekg(0);
+    in.read(text.data(), part);
+    in.clear();
+    in.seekg(size - part);
+    in.read(text.data() + part + 1, part);
     in.clear();
     in.seekg(0);
     auto l = limits_from_prusaslicer_config(text, limits);
@@ -210,6 +219,8 @@ Result<SimulationResult> run(std::istream& in, const PrinterProfile& profile, co
   }
   r.slicer = interp.slicer();
   if (!std::isnan(interp.slicer_estimate_s())) r.slicer_estimate_s = interp.slicer_estimate_s();
+  if (!std::isnan(interp.slicer_filament_mm())) r.slicer_filament_mm = interp.slicer_filament_mm();
+  r.layers_from = interp.layers_from_markers() ? "markers" : "z";
   r.limits_used = limits;
   r.limits_from_gcode = options.limits_from_gcode;
   return r;
@@ -282,7 +293,9 @@ std::string simulation_to_json(const SimulationResult& r, const std::string& inp
   doc["homing_time_s"] = q(r.homing_time_s);
   doc["dwell_time_s"] = q(r.dwell_time_s);
   doc["heating_time_s"] = q(r.heating_time_s);
+  doc["slicer_filament_mm"] = r.slicer_filament_mm ? json(q(*r.slicer_filament_mm)) : json(nullptr);
   doc["filament_mm"] = q(r.filament_mm);
+  doc["filament_part_mm"] = q(r.filament_part_mm);
   doc["filament_mm3"] = q(r.filament_mm3);
   doc["retracted_mm"] = q(r.retracted_mm);
   doc["extrude_distance_mm"] = q(r.extrude_distance_mm);
@@ -295,7 +308,7 @@ std::string simulation_to_json(const SimulationResult& r, const std::string& inp
   for (const auto& l : r.layers)
     layers.push_back({{"index", l.index}, {"z_mm", q(l.z_mm)}, {"height_mm", q(l.height_mm)},
                       {"time_s", q(l.time_s)}, {"filament_mm", q(l.filament_mm)}, {"first_line", l.first_line}});
-  doc["layers"] = {{"count", r.layers.size()}, {"items", layers}};
+  doc["layers"] = {{"count", r.layers.size()}, {"from", r.layers_from}, {"items", layers}};
   json tf = json::object();
   for (const auto& [k, v] : r.time_by_feature_s) tf[k] = q(v);
   doc["time_by_feature_s"] = tf;
@@ -332,7 +345,10 @@ std::string simulation_to_json(const SimulationResult& r, const std::string& inp
       {"retract_accel_mm_s2", L.retract_accel_mm_s2},
       {"travel_accel_mm_s2", L.travel_accel_mm_s2},
       {"min_segment_time_s", L.min_segment_time_s},
-      {"prusaslicer_compat", L.prusaslicer_compat}};
+      {"prusaslicer_compat", L.prusaslicer_compat},
+      {"planner", L.klipper ? "klipper"
+                  : L.orca_compat ? "orcaslicer_estimator"
+                  : L.prusaslicer_compat ? "prusaslicer_estimator" : "marlin"}};
   return doc.dump(2) + "\n";
 }
 
@@ -354,12 +370,20 @@ std::string simulation_summary(const SimulationResult& r) {
          format_fixed(100.0 * (ours - *r.slicer_estimate_s) / std::max(1.0, *r.slicer_estimate_s), 2) + " %" +
          (r.limits_from_gcode ? "" : " (try --limits-from-gcode)") + "\n";
   }
-  s += "filament      " + format_fixed(r.filament_mm, 2) + " mm (" + format_fixed(r.filament_mm3, 1) + " mm3)\n";
+  s += "filament      " + format_fixed(r.filament_mm, 2) + " mm (" + format_fixed(r.filament_mm3, 1) + " mm3); part " +
+       format_fixed(r.filament_part_mm, 2) + " mm without start/end code\n";
+  if (r.slicer_filament_mm) {
+    const double ref = std::max(1e-9, *r.slicer_filament_mm);
+    s += "slicer says   " + format_fixed(*r.slicer_filament_mm, 2) + " mm of filament; part differs by " +
+         format_fixed(100.0 * (r.filament_part_mm - ref) / ref, 2) + " %, total by " +
+         format_fixed(100.0 * (r.filament_mm - ref) / ref, 2) + " %\n";
+  }
   if (!r.layers.empty()) {
     double zmin = r.layers.front().z_mm, zmax = zmin;
     for (const auto& l : r.layers) zmin = std::min(zmin, l.z_mm), zmax = std::max(zmax, l.z_mm);
     s += "layers        " + std::to_string(r.layers.size()) + " (z " + format_fixed(zmin, 2) + " .. " +
-         format_fixed(zmax, 2) + " mm)\n";
+         format_fixed(zmax, 2) + " mm, " + (r.layers_from == "markers" ? "the slicer's layer markers" : "by Z of extrusions") +
+         ")\n";
   } else {
     s += "layers        0\n";
   }

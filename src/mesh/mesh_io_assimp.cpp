@@ -36,6 +36,7 @@ namespace {
 
 constexpr std::size_t kStlHeaderBytes = 84;     // 80-byte header + uint32 triangle count
 constexpr std::size_t kStlTriangleBytes = 50;   // normal, 3 vertices (12 floats) + uint16
+constexpr double kStlMaxCoordinate = 3.4028234663852886e38;  // FLT_MAX
 
 std::string lower(std::string s) {
   std::transform(s.begin(), s.end(), s.begin(),
@@ -55,6 +56,20 @@ std::uint32_t stl_header_count(std::string_view bytes) {
   return n;
 }
 
+/// A binary STL's triangle count against its file size (at least the 84-byte header).
+Status check_binary_stl_size(std::uint64_t count, std::uint64_t size, const std::string& name) {
+  if (count == 0) return bad_input("binary STL with 0 triangles, expected a mesh", name);
+  const std::uint64_t need = kStlHeaderBytes + kStlTriangleBytes * count;
+  if (need > size) {
+    const std::uint64_t present = (size - kStlHeaderBytes) / kStlTriangleBytes;
+    return bad_input("binary STL header announces " + std::to_string(count) + " triangles (" +
+                         std::to_string(need) + " bytes) but the file has " + std::to_string(size) +
+                         " bytes (" + std::to_string(present) + " whole triangles): truncated or corrupt",
+                     name);
+  }
+  return Ok{};
+}
+
 /// A binary STL's size must be 84 + 50 * count. Some writers append a few bytes; more
 /// bytes than announced is accepted, fewer is not.
 Status validate_binary_stl(std::string_view bytes, const std::string& name) {
@@ -63,16 +78,7 @@ Status validate_binary_stl(std::string_view bytes, const std::string& name) {
                          " bytes, the header alone needs 84",
                      name);
   const std::uint64_t count = stl_header_count(bytes);
-  if (count == 0) return bad_input("binary STL with 0 triangles, expected a mesh", name);
-  const std::uint64_t need = kStlHeaderBytes + kStlTriangleBytes * count;
-  if (need > bytes.size()) {
-    const std::uint64_t present = (bytes.size() - kStlHeaderBytes) / kStlTriangleBytes;
-    return bad_input("binary STL header announces " + std::to_string(count) +
-                         " triangles (" + std::to_string(need) + " bytes) but the file has " +
-                         std::to_string(bytes.size()) + " bytes (" + std::to_string(present) +
-                         " whole triangles): truncated or corrupt",
-                     name);
-  }
+  if (auto st = check_binary_stl_size(count, bytes.size(), name); !st) return st;
   for (std::uint64_t t = 0; t < count; ++t) {
     std::array<float, 9> v{};
     std::memcpy(v.data(), bytes.data() + kStlHeaderBytes + t * kStlTriangleBytes + 12,
@@ -97,25 +103,40 @@ bool is_space(char c) { return kSpace[static_cast<unsigned char>(c)]; }
 bool is_digit(char c) { return c >= '0' && c <= '9'; }
 
 /// True when `tok` is a plain decimal number ([-]digits[.digits][e[+-]digits]) that
-/// std::from_chars reads whole into a finite double: at most 40 characters and a one- or
-/// two-digit exponent. False means "not sure" (the caller asks from_chars).
+/// std::from_chars reads whole into a double that is finite as a float: at most 40
+/// characters, at most 20 integer digits, a one- or two-digit exponent and a value below
+/// 1e31. False means "not sure" (the caller asks from_chars).
 bool is_plain_finite_decimal(std::string_view tok) {
   if (tok.empty() || tok.size() > 40) return false;
   std::size_t i = tok[0] == '-' ? 1 : 0;
   std::size_t digits = 0;
   while (i < tok.size() && is_digit(tok[i])) ++i, ++digits;
+  const std::size_t int_digits = digits;
   if (i < tok.size() && tok[i] == '.') {
     ++i;
     while (i < tok.size() && is_digit(tok[i])) ++i, ++digits;
   }
-  if (digits == 0) return false;
+  if (digits == 0 || int_digits > 20) return false;  // beyond 1e20: ask from_chars
   if (i == tok.size()) return true;
   if (tok[i] != 'e' && tok[i] != 'E') return false;
   ++i;
+  const bool negative_exp = i < tok.size() && tok[i] == '-';
   if (i < tok.size() && (tok[i] == '+' || tok[i] == '-')) ++i;
   std::size_t exp_digits = 0;
-  while (i < tok.size() && is_digit(tok[i])) ++i, ++exp_digits;
-  return i == tok.size() && exp_digits >= 1 && exp_digits <= 2;
+  std::size_t exp_value = 0;
+  while (i < tok.size() && is_digit(tok[i])) exp_value = 10 * exp_value + static_cast<std::size_t>(tok[i] - '0'), ++i, ++exp_digits;
+  // Below 1e31, well inside float's range (3.4e38); tiny values just round to 0.
+  return i == tok.size() && exp_digits >= 1 && exp_digits <= 2 && (negative_exp || int_digits + exp_value <= 30);
+}
+
+/// A token as it may be shown in a message: at most 40 bytes, control bytes (a NUL in a
+/// damaged file) as '?'.
+std::string shown(std::string_view tok) {
+  if (tok.empty()) return "end of file";
+  std::string out(tok.substr(0, 40));
+  for (char& ch : out)
+    if (static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f) ch = '?';
+  return out;
 }
 
 /// Checks the ASCII STL grammar: solid, { facet normal n n n, outer loop, 3 x vertex x y z,
@@ -139,9 +160,8 @@ Status validate_ascii_stl(std::string_view text, const std::string& name) {
     while (pos < end && *pos != '\n') ++pos;
   };
   auto fail_expect = [&](std::string_view word, std::string_view got) -> Status {
-    return bad_input("ASCII STL: expected '" + std::string(word) + "', found '" +
-                         std::string(got.empty() ? "end of file" : got.substr(0, 40)) + "'",
-                     name, token_line);
+    return bad_input("ASCII STL: expected '" + std::string(word) + "', found '" + shown(got) + "'", name,
+                     token_line);
   };
   // Normals are ignored (recomputed from the vertices), so writers' "nan" normals of
   // zero-area facets pass; vertex coordinates must be finite.
@@ -152,12 +172,14 @@ Status validate_ascii_stl(std::string_view text, const std::string& name) {
     double out = 0;
     const auto [ptr, ec] = std::from_chars(first, last, out);
     if (tok.empty() || ec != std::errc() || ptr != last)
-      return bad_input("ASCII STL: expected a number, found '" +
-                           std::string(tok.empty() ? "end of file" : tok.substr(0, 40)) + "'",
-                       name, token_line);
+      return bad_input("ASCII STL: expected a number, found '" + shown(tok) + "'", name, token_line);
     if (must_be_finite && !std::isfinite(out))
-      return bad_input("ASCII STL: NaN or infinite coordinate '" + std::string(tok) + "'", name,
-                       token_line);
+      return bad_input("ASCII STL: NaN or infinite coordinate '" + shown(tok) + "'", name, token_line);
+    // STL stores single-precision floats: a larger coordinate becomes infinite when read.
+    if (must_be_finite && std::abs(out) > kStlMaxCoordinate)
+      return bad_input("ASCII STL: coordinate '" + shown(tok) +
+                           "' is beyond the single-precision range of STL (+-3.4e38)",
+                       name, token_line);
     return Ok{};
   };
   // One token per call, checked on the fast path; anything unusual takes the slow path,
@@ -315,10 +337,281 @@ Result<Mesh> welded_mesh(const aiScene& scene, double s, const std::string& name
   return mesh;
 }
 
+
+/// The checks every format's mesh ends with.
+Result<Mesh> finish_mesh(Mesh mesh, double s, const std::string& name) {
+  if (mesh.triangles.empty()) return bad_input("the file holds no triangles, expected a mesh", name);
+  for (const auto& v : mesh.vertices_mm)
+    if (!v.allFinite()) return bad_input("a coordinate overflows after scaling by " + format_number(s), name);
+  return mesh;
+}
+
+// --- OFF, read here -----------------------------------------------------------------------
+// assimp's OFF importer trusts the header's counts: a file announcing more faces than it
+// holds reaches an assertion inside assimp (an abort, no message). OFF is a few lines of
+// grammar, so it is read here with every count and index checked:
+//   [ST][C][N]OFF [nv nf ne]   (the counts may also stand on the next line)
+//   nv lines: x y z [normal, colour, texture: ignored]
+//   nf lines: n i1 .. in [colour: ignored]
+// '#' starts a comment anywhere. Faces of 4 or more corners are split into a fan from their
+// first corner (exact for convex faces, as OFF writers emit them).
+
+/// Cursor over the non-blank, non-comment lines of a text, with their 1-based numbers.
+class LineReader {
+ public:
+  explicit LineReader(std::string_view text) : text_(text) {}
+  /// The next line with content (comment stripped), or false at the end.
+  bool next(std::string_view& line, long& number) {
+    while (pos_ < text_.size()) {
+      const std::size_t nl = text_.find('\n', pos_);
+      const std::size_t end = nl == std::string_view::npos ? text_.size() : nl;
+      std::string_view l = text_.substr(pos_, end - pos_);
+      pos_ = end + 1;
+      ++line_;
+      if (const auto hash = l.find('#'); hash != std::string_view::npos) l = l.substr(0, hash);
+      std::size_t b = 0;
+      while (b < l.size() && is_space(l[b])) ++b;
+      if (b == l.size()) continue;
+      line = l.substr(b);
+      number = line_;
+      return true;
+    }
+    return false;
+  }
+  [[nodiscard]] long line() const { return line_; }
+
+ private:
+  std::string_view text_;
+  std::size_t pos_ = 0;
+  long line_ = 0;
+};
+
+/// Splits a line into tokens separated by blanks (no allocation beyond the vector's reuse).
+void split_tokens(std::string_view line, std::vector<std::string_view>& out) {
+  out.clear();
+  std::size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && is_space(line[i])) ++i;
+    const std::size_t b = i;
+    while (i < line.size() && !is_space(line[i])) ++i;
+    if (i > b) out.push_back(line.substr(b, i - b));
+  }
+}
+
+template <class T>
+bool parse_token(std::string_view tok, T& out) {
+  const char* first = tok.data();
+  const char* last = tok.data() + tok.size();
+  if (first != last && *first == '+') ++first;
+  const auto [ptr, ec] = std::from_chars(first, last, out);
+  return ec == std::errc() && ptr == last;
+}
+
+Result<Mesh> read_off(std::string_view text, double s, const std::string& name) {
+  LineReader lines(text);
+  std::string_view line;
+  long at = 0;
+  std::vector<std::string_view> tok;
+  if (!lines.next(line, at)) return bad_input("OFF: empty file, expected the 'OFF' keyword", name);
+  split_tokens(line, tok);
+  const std::string_view key = tok[0];
+  if (key.size() < 3 || key.substr(key.size() - 3) != "OFF")
+    return bad_input("OFF: expected the keyword 'OFF' (or COFF, NOFF, STOFF...), found '" +
+                         shown(key) + "'",
+                     name, at);
+  const std::string_view prefix = key.substr(0, key.size() - 3);
+  if (prefix.find_first_not_of("STCN") != std::string_view::npos)
+    return bad_input("OFF: '" + shown(key) +
+                         "' (4D, n-dimensional or homogeneous OFF) is not supported, expected 3D OFF",
+                     name, at);
+  if (tok.size() > 1 && tok[1] == "BINARY")
+    return bad_input("OFF: binary OFF is not supported, expected ASCII OFF", name, at);
+  std::size_t first_count = 1;
+  if (tok.size() == 1) {
+    if (!lines.next(line, at)) return bad_input("OFF: missing the vertex and face counts", name, lines.line());
+    split_tokens(line, tok);
+    first_count = 0;
+  }
+  std::uint64_t nv = 0, nf = 0;
+  if (tok.size() < first_count + 2 || !parse_token(tok[first_count], nv) || !parse_token(tok[first_count + 1], nf))
+    return bad_input("OFF: expected the counts 'vertices faces edges', found '" +
+                         shown(line) + "'",
+                     name, at);
+  const long header_line = at;
+  // Every vertex needs at least "0 0 0\n" and every face "3 0 0 0\n": counts the file cannot
+  // hold are rejected before anything is allocated for them.
+  if (nv > text.size() / 6 || nf > text.size() / 8)
+    return bad_input("OFF: the header announces " + std::to_string(nv) + " vertices and " +
+                         std::to_string(nf) + " faces, more than a file of " +
+                         std::to_string(text.size()) + " bytes can hold",
+                     name, header_line);
+  if (nf == 0) return bad_input("OFF: the header announces 0 faces, expected a mesh", name, header_line);
+  auto ended_early = [&](std::uint64_t announced, const char* what, std::uint64_t read) -> Error {
+    return bad_input("OFF: the header (line " + std::to_string(header_line) + ") announces " +
+                         std::to_string(announced) + " " + what + ", the file ends after " + std::to_string(read),
+                     name, lines.line());
+  };
+  std::vector<Vec3> points;
+  points.reserve(nv);
+  for (std::uint64_t v = 0; v < nv; ++v) {
+    if (!lines.next(line, at)) return ended_early(nv, "vertices", v);
+    split_tokens(line, tok);
+    std::array<double, 3> c{};
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (k >= tok.size() || !parse_token(tok[k], c[k]))
+        return bad_input("OFF: vertex " + std::to_string(v) + ": expected three numbers x y z, found '" +
+                             shown(line) + "'",
+                         name, at);
+      if (!std::isfinite(c[k]))
+        return bad_input("OFF: vertex " + std::to_string(v) + " has a NaN or infinite coordinate", name, at);
+    }
+    points.emplace_back(s * c[0], s * c[1], s * c[2]);
+  }
+  Mesh mesh;
+  mesh.triangles.reserve(nf);
+  PointIndex index(nv + 16);
+  std::vector<std::uint32_t> corners;
+  for (std::uint64_t f = 0; f < nf; ++f) {
+    if (!lines.next(line, at)) return ended_early(nf, "faces", f);
+    split_tokens(line, tok);
+    std::uint64_t n = 0;
+    if (tok.empty() || !parse_token(tok[0], n) || n == 0 || tok.size() < n + 1)
+      return bad_input("OFF: face " + std::to_string(f) +
+                           ": expected a corner count n and n vertex indices, found '" +
+                           shown(line) + "'",
+                       name, at);
+    corners.clear();
+    for (std::uint64_t k = 1; k <= n; ++k) {
+      std::uint64_t i = 0;
+      if (!parse_token(tok[k], i) || i >= nv)
+        return bad_input("OFF: face " + std::to_string(f) + ": vertex index '" +
+                             shown(tok[k]) + "' is not one of the " +
+                             std::to_string(nv) + " vertices (0.." + std::to_string(nv == 0 ? 0 : nv - 1) + ")",
+                         name, at);
+      corners.push_back(index.find_or_add(points[i], mesh.vertices_mm));
+    }
+    // Points and lines carry no volume; polygons become a fan of triangles.
+    for (std::size_t k = 1; k + 1 < corners.size(); ++k)
+      mesh.triangles.push_back({corners[0], corners[k], corners[k + 1]});
+  }
+  // Numbering: vertices in order of first use by the faces, as for the other formats.
+  return mesh;
+}
+
+/// PLY's header, checked before assimp sees the file: assimp's PLY importer trusts the
+/// counts and leaks what it allocated when it then gives up. Checked here: the magic, the
+/// format, element and property lines, the end of the header, and that the body can hold
+/// what the header announces (ASCII: a line per element; binary: the fixed-size properties'
+/// bytes, lists at their smallest).
+Status check_ply_header(std::string_view bytes, const std::string& name) {
+  LineReader lines(bytes);
+  std::string_view line;
+  long at = 0;
+  std::vector<std::string_view> tok;
+  if (!lines.next(line, at) || line.substr(0, 3) != "ply")
+    return bad_input("PLY: expected the magic word 'ply' on the first line", name, 1);
+  enum class Format { none, ascii, binary } format = Format::none;
+  struct Element {
+    std::uint64_t count = 0;
+    std::uint64_t min_bytes = 0;  ///< binary: bytes of one element at least
+    long line = 0;
+    std::string name;
+  };
+  std::vector<Element> elements;
+  auto type_bytes = [](std::string_view t) -> int {
+    if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
+    if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
+    if (t == "int" || t == "uint" || t == "float" || t == "int32" || t == "uint32" || t == "float32") return 4;
+    if (t == "double" || t == "float64") return 8;
+    return 0;
+  };
+  std::size_t body = std::string_view::npos;
+  while (lines.next(line, at)) {
+    split_tokens(line, tok);
+    if (tok[0] == "end_header") {
+      const std::size_t end = bytes.find("end_header");
+      const std::size_t nl = bytes.find('\n', end);
+      body = nl == std::string_view::npos ? bytes.size() : nl + 1;
+      break;
+    }
+    if (tok[0] == "comment" || tok[0] == "obj_info") continue;
+    if (tok[0] == "format") {
+      if (tok.size() < 2 || (tok[1] != "ascii" && tok[1] != "binary_little_endian" && tok[1] != "binary_big_endian"))
+        return bad_input("PLY: expected 'format ascii|binary_little_endian|binary_big_endian 1.0'", name, at);
+      format = tok[1] == "ascii" ? Format::ascii : Format::binary;
+    } else if (tok[0] == "element") {
+      Element e;
+      if (tok.size() != 3 || !parse_token(tok[2], e.count))
+        return bad_input("PLY: expected 'element <name> <count>', found '" + shown(line) + "'", name, at);
+      e.line = at;
+      e.name = std::string(tok[1].substr(0, 40));
+      elements.push_back(e);
+    } else if (tok[0] == "property") {
+      if (elements.empty()) return bad_input("PLY: a property before any element", name, at);
+      const bool list = tok.size() == 5 && tok[1] == "list";
+      if (list ? (type_bytes(tok[2]) == 0 || type_bytes(tok[3]) == 0) : (tok.size() != 3 || type_bytes(tok[1]) == 0))
+        return bad_input("PLY: expected 'property <type> <name>' or 'property list <type> <type> <name>', found '" +
+                             shown(line) + "'",
+                         name, at);
+      elements.back().min_bytes += static_cast<std::uint64_t>(type_bytes(tok[list ? 2 : 1]));
+    } else {
+      return bad_input("PLY: unknown header line '" + shown(line) + "'", name, at);
+    }
+  }
+  if (body == std::string_view::npos) return bad_input("PLY: the header has no 'end_header'", name, lines.line());
+  if (format == Format::none) return bad_input("PLY: the header has no 'format' line", name);
+  // What the body holds: ASCII, lines with content (an element per line); binary, bytes.
+  std::uint64_t room = bytes.size() - body;
+  if (format == Format::ascii) {
+    room = 0;
+    LineReader rest(bytes.substr(body));
+    while (rest.next(line, at)) ++room;
+  }
+  for (const auto& e : elements) {
+    const std::uint64_t per = format == Format::ascii ? 1 : std::max<std::uint64_t>(e.min_bytes, 1);
+    if (e.count > room / per)
+      return bad_input("PLY: the header (line " + std::to_string(e.line) + ") announces " + std::to_string(e.count) +
+                           " '" + e.name + "' elements, more than the rest of the file holds" +
+                           (format == Format::ascii ? " (one per line)" : " (" + std::to_string(per) + " bytes each at least)"),
+                       name, e.line);
+    room -= e.count * per;
+  }
+  return Ok{};
+}
+
+/// 3MF is a zip archive; AMF is XML, plain or zipped. Anything else would reach assimp's zip
+/// or XML reader and come back as an error in assimp's terms.
+Status check_container(std::string_view bytes, const std::string& ext, const std::string& name) {
+  const bool zip = bytes.size() >= 4 && bytes.substr(0, 4) == std::string_view("PK\x03\x04", 4);
+  if (ext == ".3mf" && !zip)
+    return bad_input("not a 3MF file: a 3MF is a zip archive (it starts with 'PK'), this file does not", name);
+  if (ext == ".amf" && !zip) {
+    std::size_t i = bytes.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0;  // UTF-8 byte order mark
+    while (i < bytes.size() && is_space(bytes[i])) ++i;
+    if (i >= bytes.size() || bytes[i] != '<')
+      return bad_input("not an AMF file: expected XML (starting with '<') or a zip archive", name);
+  }
+  return Ok{};
+}
 }  // namespace
+
+Status check_mesh_file_header(const fs::path& path) {
+  auto size = input_file_size(path);
+  if (!size) return size.error();
+  if (lower(path.extension().string()) != ".stl") return Ok{};
+  // A binary STL's 84-byte header gives its size: a count of 0 or one the file cannot hold
+  // is reported before the body is read (a 1 GB file of zeros is 0 triangles).
+  auto head = read_file_head(path, kStlHeaderBytes);
+  if (!head) return head.error();
+  if (starts_with_solid(*head) || head->size() < kStlHeaderBytes) return Ok{};  // ASCII, or checked when read
+  const std::uint64_t count = stl_header_count(*head);
+  if (kStlHeaderBytes + kStlTriangleBytes * count == *size) return Ok{};
+  return check_binary_stl_size(count, *size, path.string());
+}
 
 Result<Mesh> load_mesh(const fs::path& path, const MeshLoadOptions& options) {
   if (auto st = check_mesh_request(path, options); !st) return st.error();
+  if (auto st = check_mesh_file_header(path); !st) return st.error();
   auto bytes = read_file(path);  // existence, directory and readability errors
   if (!bytes) return bytes.error();
   return load_mesh_from_memory(*bytes, path, options);
@@ -343,31 +636,41 @@ Result<Mesh> load_mesh_from_memory(std::string_view bytes, const fs::path& path,
     if (!valid) return valid.error();
   }
 
+  const double s = unit_factor(options.units) * options.scale;
+  if (ext == ".off") {
+    auto mesh = read_off(bytes, s, name);
+    if (!mesh) return mesh.error();
+    return finish_mesh(std::move(*mesh), s, name);
+  }
+  if (auto st = check_container(bytes, ext, name); !st) return st.error();
+  if (ext == ".ply")
+    if (auto st = check_ply_header(bytes, name); !st) return st.error();
+
   Assimp::Importer importer;
   // Identical vertices are joined after import (welded_mesh): without it an STL is a soup of
   // loose triangles and nothing is closed. assimp's own aiProcess_JoinIdenticalVertices also
   // compares normals (an STL gives every corner its facet's normal) and took 0.2 s of CPU for
   // 200k triangles. STL needs no post-processing at all (triangles only, one identity node);
   // other formats are triangulated and their node transforms baked in (3MF/AMF build items).
-  const unsigned flags = is_stl ? 0U : unsigned{aiProcess_Triangulate | aiProcess_PreTransformVertices};
+  // For them assimp's validation step runs first: a face indexing past its mesh's vertices,
+  // or any other inconsistent structure an importer let through, is then an error instead of
+  // an assertion inside the triangulation.
+  const unsigned flags =
+      is_stl ? 0U
+             : unsigned{aiProcess_ValidateDataStructure | aiProcess_Triangulate | aiProcess_PreTransformVertices};
   const aiScene* scene = importer.ReadFileFromMemory(bytes.data(), bytes.size(), flags, ext.c_str() + 1);
   if (scene == nullptr) {
     std::string why = importer.GetErrorString();
     if (why.empty()) why = "unknown reason";
     if (lower(why).find("no output meshes") != std::string::npos ||
-        lower(why).find("no meshes") != std::string::npos)
+        lower(why).find("no meshes") != std::string::npos || lower(why).find("contains no faces") != std::string::npos)
       return bad_input("the file holds no triangles, expected a mesh (assimp: " + why + ")", name);
     return bad_input("cannot read mesh: " + why, name);
   }
 
-  const double s = unit_factor(options.units) * options.scale;
   auto mesh = welded_mesh(*scene, s, name);
   if (!mesh) return mesh.error();
-  if (mesh->triangles.empty()) return bad_input("the file holds no triangles, expected a mesh", name);
-  for (const auto& v : mesh->vertices_mm)
-    if (!v.allFinite())
-      return bad_input("a coordinate overflows after scaling by " + format_number(s), name);
-  return mesh;
+  return finish_mesh(std::move(*mesh), s, name);
 }
 
 }  // namespace printtwin

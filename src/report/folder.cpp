@@ -1,9 +1,21 @@
 // The report folder: every file built in memory, written into a hidden staging folder beside
 // the target, then swapped into place with renames. A killed or failed run leaves at most a
-// hidden ".<name>.staging-*" folder, never a report that looks complete.
+// hidden ".<name>.staging-<pid>-*" folder, never a report that looks complete; the next run
+// for the same report removes such leftovers once their process is gone.
+#include <fcntl.h>
+#include <signal.h>
+#include <stdio.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <charconv>
+#include <chrono>
+#include <cstring>
 #include <optional>
 #include <random>
+#include <string_view>
 #include <system_error>
+#include <vector>
 
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
@@ -85,6 +97,83 @@ Result<std::vector<ReportFile>> build_report_files(const VerifyReport& report, c
   return files;
 }
 
+namespace {
+
+constexpr std::string_view kStaging = ".staging-";
+
+/// The process id in a staging folder's tag ("<pid>-<random>"), 0 when there is none.
+long staging_owner(std::string_view tag) {
+  const auto dash = tag.find('-');
+  long pid = 0;
+  const auto [ptr, ec] = std::from_chars(tag.data(), tag.data() + (dash == std::string_view::npos ? 0 : dash), pid);
+  return ec == std::errc() && ptr == tag.data() + dash ? pid : 0;
+}
+
+/// Removes the staging folders of earlier runs for this report that were killed before they
+/// finished (their process is gone). A staging folder of a live process (another run
+/// writing the same report right now) is left alone; one without a process id in its name
+/// is removed when it is older than an hour.
+void remove_stale_staging(const fs::path& parent, const std::string& name) {
+  const std::string prefix = "." + name + std::string(kStaging);
+  std::error_code ec;
+  std::vector<fs::path> stale;
+  for (fs::directory_iterator it(parent, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string entry = it->path().filename().string();
+    if (!entry.starts_with(prefix)) continue;
+    const long pid = staging_owner(std::string_view(entry).substr(prefix.size()));
+    bool dead = false;
+    if (pid > 0) {
+      dead = ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH;
+    } else {
+      std::error_code tec;
+      const auto age = fs::file_time_type::clock::now() - fs::last_write_time(it->path(), tec);
+      dead = !tec && age > std::chrono::hours(1);
+    }
+    if (dead) stale.push_back(it->path());
+  }
+  for (const auto& p : stale) fs::remove_all(p, ec);
+}
+
+/// Moves the finished `staging` folder to `target` in one step, whether or not a report is
+/// there already, with no moment at which `target` is missing or partly written. On Linux:
+/// renameat2 with RENAME_NOREPLACE when there is no report yet, else RENAME_EXCHANGE (the old
+/// report then sits in `staging`, and is removed). Two runs finishing at the same time each
+/// put a whole report in place; the last one stays. Elsewhere: rename aside, then in.
+Status swap_into_place(const fs::path& staging, const fs::path& target) {
+  std::error_code ec;
+#if defined(__linux__) && defined(RENAME_EXCHANGE)
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    if (::renameat2(AT_FDCWD, staging.c_str(), AT_FDCWD, target.c_str(), RENAME_NOREPLACE) == 0) return Ok{};
+    if (errno != EEXIST) break;
+    if (::renameat2(AT_FDCWD, staging.c_str(), AT_FDCWD, target.c_str(), RENAME_EXCHANGE) == 0) {
+      fs::remove_all(staging, ec);  // the report that was replaced
+      return Ok{};
+    }
+    if (errno != ENOENT) break;  // the target went away in between: try again
+  }
+  if (errno != EINVAL && errno != ENOSYS)  // else: a file system without renameat2's flags
+    return bad_input(std::string("cannot move the finished report into place: ") + std::strerror(errno),
+                     target.string());
+#endif
+  const fs::path old = staging.string() + ".old";
+  const bool had_old = fs::exists(target, ec);
+  if (had_old) {
+    fs::rename(target, old, ec);
+    if (ec) return bad_input("cannot replace the existing report: " + ec.message(), target.string());
+  }
+  fs::rename(staging, target, ec);
+  if (ec) {
+    const std::string msg = ec.message();
+    std::error_code ignored;
+    if (had_old) fs::rename(old, target, ignored);
+    return bad_input("cannot move the finished report into place: " + msg, target.string());
+  }
+  if (had_old) fs::remove_all(old, ec);
+  return Ok{};
+}
+
+}  // namespace
+
 Status write_report_folder(const VerifyReport& report, const fs::path& out_dir, const ReportOptions& options) {
   const fs::path target = out_dir.has_filename() ? out_dir : out_dir.parent_path();
   const fs::path parent = target.has_parent_path() ? target.parent_path() : fs::path(".");
@@ -94,10 +183,12 @@ Status write_report_folder(const VerifyReport& report, const fs::path& out_dir, 
   if (ec) return bad_input("cannot create the report's parent folder: " + ec.message(), parent.string());
   if (fs::exists(target, ec) && !fs::is_directory(target, ec))
     return bad_input("exists and is not a folder; expected a report folder", target.string());
+  remove_stale_staging(parent, name);
+  // The staging folder's name carries this process's id, so that a later run can tell a
+  // killed run's leftovers from a run still in progress.
   std::random_device rd;
-  const std::string tag = std::to_string(rd() % 100000000);
-  const fs::path staging = parent / ("." + name + ".staging-" + tag);
-  const fs::path old = parent / ("." + name + ".old-" + tag);
+  const std::string tag = std::to_string(::getpid()) + "-" + std::to_string(rd() % 100000000);
+  const fs::path staging = parent / ("." + name + std::string(kStaging) + tag);
   auto fail = [&](Error e) -> Status {
     fs::remove_all(staging, ec);
     return e;
@@ -118,19 +209,7 @@ Status write_report_folder(const VerifyReport& report, const fs::path& out_dir, 
     auto st = write_file_atomic(staging / f.name, f.content);
     if (!st) return fail(st.error());
   }
-  // Swap: move an existing report aside, move the new one in, drop the old one.
-  const bool had_old = fs::exists(target, ec);
-  if (had_old) {
-    fs::rename(target, old, ec);
-    if (ec) return fail(bad_input("cannot replace the existing report: " + ec.message(), target.string()));
-  }
-  fs::rename(staging, target, ec);
-  if (ec) {
-    const std::string msg = ec.message();
-    if (had_old) fs::rename(old, target, ec);
-    return fail(bad_input("cannot move the finished report into place: " + msg, target.string()));
-  }
-  if (had_old) fs::remove_all(old, ec);
+  if (auto st = swap_into_place(staging, target); !st) return fail(st.error());
   return Ok{};
 }
 

@@ -302,10 +302,18 @@ TEST_F(MeshIoTest, AsciiStlNumberForms) {
            " 0 0\nvertex 10 0 0\nvertex 0 10 0\nendloop\nendfacet\nendsolid t\n";
   };
   for (const std::string num : {"1.", ".5", "-0", "+2", "1e1", "1E+01", "-1.5e-2", "0.000000000000000000000000000001",
-                                "12345678901234567890123456789012345678901234567890"}) {
+                                "12345678901234567890123456789012345678", "3.4e38"}) {
     auto m = load_mesh_from_memory(stl("nan", num), "n.stl");
     ASSERT_TRUE(m.ok()) << num << ": " << m.error().describe();
     EXPECT_NEAR(bounding_box(*m).min.x(), std::min(0.0, std::stod(num)), 1e-6) << num;
+  }
+  // Beyond single precision (STL's type; assimp would read a wrong finite number or infinity).
+  for (const std::string num : {"1e39", "-1e308", "12345678901234567890123456789012345678901234567890"}) {
+    auto m = load_mesh_from_memory(stl("0", num), "n.stl");
+    ASSERT_FALSE(m.ok()) << num;
+    EXPECT_EQ(m.error().line, 4) << num;
+    EXPECT_NE(m.error().message.find("beyond the single-precision range"), std::string::npos)
+        << m.error().describe();
   }
   for (const std::string num : {"1e400", "1.5.5", "1e", "--1", "0x10", "1,5"}) {
     auto m = load_mesh_from_memory(stl("0", num), "n.stl");
