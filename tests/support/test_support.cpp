@@ -1,6 +1,10 @@
 #include "support/test_support.hpp"
 
+#include <gtest/gtest.h>
+
 #include <array>
+#include <cstdlib>
+#include <vector>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -11,6 +15,26 @@ namespace printtwin::test {
 
 std::filesystem::path source_path(const std::string& relative) {
   return std::filesystem::path(PRINTTWIN_SOURCE_DIR) / relative;
+}
+
+std::filesystem::path realworld_dir() {
+  std::vector<std::filesystem::path> tries;
+  if (const char* env = std::getenv("PRINTTWIN_REALWORLD_DIR"); env != nullptr && *env != 0) {
+    tries.emplace_back(env);  // when set, the only place looked at
+  } else {
+    tries.push_back(source_path("../shared/realworld"));
+    tries.emplace_back("/work/shared/realworld");
+  }
+  for (const auto& dir : tries)
+    if (std::error_code ec; std::filesystem::is_directory(dir, ec)) return dir;
+  return {};
+}
+
+nlohmann::json read_json(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  EXPECT_TRUE(in.good()) << path;
+  if (!in.good()) return nullptr;
+  return nlohmann::json::parse(in, nullptr, false);
 }
 
 std::filesystem::path temp_dir(const std::string& name) {

@@ -3,12 +3,20 @@
 #include <filesystem>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "printtwin/mesh.hpp"
 
 namespace printtwin::test {
 
 /// Path of a file in the source tree (e.g. "samples/cube_20mm.stl").
 std::filesystem::path source_path(const std::string& relative);
+/// The shared real-world files (README there): $PRINTTWIN_REALWORLD_DIR when set, else
+/// <source>/../shared/realworld, else /work/shared/realworld; empty when none exists (tests
+/// that need them skip).
+std::filesystem::path realworld_dir();
+/// The JSON document in a file (a failed expectation and null when unreadable).
+nlohmann::json read_json(const std::filesystem::path& path);
 /// A fresh empty folder under the system temp dir, unique to this test process.
 std::filesystem::path temp_dir(const std::string& name);
 

@@ -1,0 +1,138 @@
+// verify's registration end to end: --place with a rotation, --units, --object, a G-code of
+// another part, and the real files of ../shared/realworld (skipped when absent).
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "printtwin/io.hpp"
+#include "printtwin/verify.hpp"
+#include "support/test_support.hpp"
+
+namespace printtwin {
+namespace {
+
+using test::read_json;
+
+TEST(VerifyPlaceOption, ParsesTranslationRotationAndErrors) {
+  VerifySettings s;
+  ASSERT_TRUE(parse_place_option("110,110,0", s).ok());
+  EXPECT_EQ(*s.place_mm, Vec3(110, 110, 0));
+  EXPECT_FALSE(s.place_rotation_deg);
+  ASSERT_TRUE(parse_place_option("110, 95.5, 0, 30", s).ok());
+  EXPECT_EQ(*s.place_rotation_deg, Vec3(0, 0, 30));
+  ASSERT_TRUE(parse_place_option("1,2,3;90,0,-45", s).ok());
+  EXPECT_EQ(*s.place_mm, Vec3(1, 2, 3));
+  EXPECT_EQ(*s.place_rotation_deg, Vec3(90, 0, -45));
+  for (const char* bad : {"", "1,2", "1,2,3,4,5", "1,2,x", "1,2,3;4,5", "1,2;3,4,5", "1,2,3;", "nan,1,2", "1,,2"}) {
+    VerifySettings t;
+    const auto st = parse_place_option(bad, t);
+    ASSERT_FALSE(st.ok()) << bad;
+    EXPECT_NE(st.error().message.find("--place"), std::string::npos);
+    EXPECT_NE(st.error().message.find("x,y,z;rx,ry,rz"), std::string::npos);
+  }
+}
+
+TEST(VerifyUnitsOption, NamesAndNumbers) {
+  VerifySettings s;
+  ASSERT_TRUE(parse_units_option("m", s).ok());
+  EXPECT_EQ(*s.mesh_scale, 1000);
+  ASSERT_TRUE(parse_units_option("in", s).ok());
+  EXPECT_EQ(*s.mesh_scale, 25.4);
+  ASSERT_TRUE(parse_units_option("2.5", s).ok());
+  EXPECT_EQ(*s.mesh_scale, 2.5);
+  for (const char* bad : {"", "feet", "0", "-1", "inf"}) EXPECT_FALSE(parse_units_option(bad, s).ok()) << bad;
+}
+
+TEST(VerifyRegistrationCli, AnotherPartsGcodeIsSaidPlainly) {
+  // A 30 x 8 x 4 mm bar against the G-code of a 10 mm cube.
+  const auto dir = test::temp_dir("verify_wrong_part");
+  const auto stl = dir / "bar.stl";
+  ASSERT_TRUE(save_stl(make_box_mesh(Vec3(0, 0, 0), Vec3(30, 8, 4)), stl).ok());
+  const auto run = test::run_cli("verify " + stl.string() + " --gcode " +
+                                 test::source_path("samples/gcode/prusa_cube10.gcode").string() +
+                                 " --voxel 0.1 --out " + (dir / "r").string());
+  EXPECT_EQ(run.exit_code, 1) << run.out << run.err;
+  EXPECT_NE(run.out.find("does not appear to be this part"), std::string::npos) << run.out;
+  const auto j = read_json(dir / "r" / "report.json");
+  const auto& reg = j["deviation"]["registration"];
+  EXPECT_EQ(reg["matches"], false);
+  bool finding = false;
+  for (const auto& f : j["findings"]) finding = finding || f["code"] == "registration_mismatch";
+  EXPECT_TRUE(finding);
+}
+
+TEST(VerifyRegistrationCli, PlaceWithRotationAndUnknownObject) {
+  const auto dir = test::temp_dir("verify_place_rot");
+  const auto stl = dir / "cube.stl";
+  ASSERT_TRUE(save_stl(test::make_cube_mm(10.0, Vec3(-5, -5, 0)), stl).ok());
+  const std::string gcode = test::source_path("samples/gcode/prusa_cube10.gcode").string();
+  // A cube turned 90 degrees about Z is the same cube: the given pose fits.
+  auto run = test::run_cli("verify " + stl.string() + " --gcode " + gcode + " --voxel 0.1 --tolerance 0.3 --place '110,110,0,90' --out " +
+                           (dir / "r").string());
+  EXPECT_EQ(run.exit_code, 0) << run.out << run.err;
+  const auto j = read_json(dir / "r" / "report.json");
+  EXPECT_EQ(j["deviation"]["registration"]["method"], "--place");
+  EXPECT_NEAR(j["deviation"]["registration"]["euler_xyz_deg"][2].get<double>(), 90, 1e-9);
+  EXPECT_NEAR(j["settings"]["place_rotation_deg"][2].get<double>(), 90, 1e-9);
+  run = test::run_cli("verify " + stl.string() + " --gcode " + gcode + " --place '1,2' --out " + (dir / "x").string());
+  EXPECT_EQ(run.exit_code, 2) << run.err;
+  EXPECT_NE(run.err.find("--place"), std::string::npos);
+  run = test::run_cli("verify " + stl.string() + " --gcode " + gcode + " --object nothing --out " + (dir / "y").string());
+  EXPECT_EQ(run.exit_code, 2) << run.err;
+  EXPECT_NE(run.err.find("no such object"), std::string::npos) << run.err;
+}
+
+/// A G-code and its model from shared/realworld; empty paths when either is missing.
+std::pair<std::filesystem::path, std::filesystem::path> realworld_pair(const char* gcode, const char* model) {
+  const auto rw = test::realworld_dir();
+  if (rw.empty() || !std::filesystem::exists(rw / "gcode" / gcode) || !std::filesystem::exists(rw / "models" / model))
+    return {};
+  return {rw / "gcode" / gcode, rw / "models" / model};
+}
+
+TEST(VerifyRealworld, CuraBracketIsFoundLaidFlatWithP95DeviationBelowPointThree) {
+  const auto [gcode, stl] = realworld_pair("cura-3.6.0_Ender3_bedlevel_base_bracket_FR.gcode", "ender3_bedlevel_base_bracket_FR.stl");
+  if (gcode.empty()) GTEST_SKIP() << "no shared/realworld with cura-3.6.0_Ender3_bedlevel_base_bracket_FR.gcode";
+  VerifyOptions options;
+  options.mesh_path = stl;
+  options.gcode_path = gcode;
+  options.settings.gates.tolerance_mm = 0.3;
+  options.settings.voxel_mm = 0.1;
+  auto r = verify(options);
+  ASSERT_TRUE(r.ok()) << r.error().describe();
+  const Registration& reg = r->registration;
+  EXPECT_TRUE(reg.matches) << reg.mismatch;
+  EXPECT_FALSE(reg.transform.rotation.isIdentity(1e-6));
+  EXPECT_LT(reg.residual_rms_mm, 0.5);
+  EXPECT_GT(reg.coverage_pct, 95);
+  EXPECT_LT(r->deviation.deposit_to_mesh.p95_abs_mm, 0.3);
+  EXPECT_LT(r->deviation.mesh_to_deposit.p95_abs_mm, 0.3);
+}
+
+TEST(VerifyRealworld, KisslicerLidInMetresRegisters) {
+  const auto [gcode, stl] = realworld_pair("kisslicer-1.4.5.10_musicutility_lid.gcode", "kisslicer_pair_musicutility_lid.stl");
+  if (gcode.empty()) GTEST_SKIP() << "no shared/realworld with kisslicer-1.4.5.10_musicutility_lid.gcode";
+  // KISSlicer's origin is the bed's centre: a 220 mm bed from -110 to 110 (the file states
+  // only its printer's name), given as a profile so that no move is clamped.
+  const auto dir = test::temp_dir("verify_lid");
+  const auto printer = dir / "centred220.json";
+  ASSERT_TRUE(write_file_atomic(printer, R"({"base": "ender3", "name": "centred 220",
+    "bed_min_x_mm": -110, "bed_min_y_mm": -110, "bed_max_x_mm": 110, "bed_max_y_mm": 110,
+    "travel_min_x_mm": -110, "travel_min_y_mm": -110, "travel_max_x_mm": 110, "travel_max_y_mm": 110})").ok());
+  VerifyOptions options;
+  options.mesh_path = stl;
+  options.gcode_path = gcode;
+  options.settings.voxel_mm = 0.1;
+  options.settings.printer = printer.string();
+  auto r = verify(options);
+  ASSERT_TRUE(r.ok()) << r.error().describe();
+  const Registration& reg = r->registration;
+  EXPECT_DOUBLE_EQ(reg.transform.scale, 1000);
+  // Printed standing on its long edge.
+  EXPECT_NEAR(std::abs(reg.transform.rotation(2, 1)), 1.0, 1e-9) << reg.transform.rotation;
+  EXPECT_TRUE(reg.matches) << reg.mismatch;
+  EXPECT_GT(reg.coverage_pct, 90);
+}
+
+}  // namespace
+}  // namespace printtwin
