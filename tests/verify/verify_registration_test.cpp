@@ -2,6 +2,8 @@
 // another part, and the real files of ../shared/realworld (skipped when absent).
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+
 #include <nlohmann/json.hpp>
 
 #include "printtwin/io.hpp"
@@ -80,6 +82,45 @@ TEST(VerifyRegistrationCli, PlaceWithRotationAndUnknownObject) {
   run = test::run_cli("verify " + stl.string() + " --gcode " + gcode + " --object nothing --out " + (dir / "y").string());
   EXPECT_EQ(run.exit_code, 2) << run.err;
   EXPECT_NE(run.err.find("no such object"), std::string::npos) << run.err;
+}
+
+TEST(VerifyRegistrationPrusaSlicer, FourBridgesSideBySideArePlacedByAllFour) {
+  // Four bridges of different spans side by side, 9 mm apart: four islands on the bed. The
+  // largest alone is centred 13.5 mm from the part's centre in Y and 0 in X.
+  if (std::system("command -v prusa-slicer >/dev/null 2>&1") != 0) GTEST_SKIP() << "prusa-slicer not installed";
+  const auto dir = test::temp_dir("verify_bridges");
+  Mesh mesh;
+  const double spans[4] = {40, 30, 20, 12};
+  for (int i = 0; i < 4; ++i) {
+    const double y = 9.0 * i;
+    for (const Mesh& b : {make_box_mesh(Vec3(0, y, 0), Vec3(5, y + 5, 10)),
+                          make_box_mesh(Vec3(spans[i] - 5, y, 0), Vec3(spans[i], y + 5, 10)),
+                          make_box_mesh(Vec3(0, y, 10), Vec3(spans[i], y + 5, 12))}) {
+      const auto base = static_cast<std::uint32_t>(mesh.vertices_mm.size());
+      mesh.vertices_mm.insert(mesh.vertices_mm.end(), b.vertices_mm.begin(), b.vertices_mm.end());
+      for (const auto& t : b.triangles) mesh.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
+    }
+  }
+  const auto stl = dir / "bridges.stl";
+  const auto gcode = dir / "bridges.gcode";
+  ASSERT_TRUE(save_stl(mesh, stl).ok());
+  const std::string cmd = "timeout 300 prusa-slicer --export-gcode --center 110,110 -o " + gcode.string() + " " +
+                          stl.string() + " >/dev/null 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  VerifyOptions options;
+  options.mesh_path = stl;
+  options.gcode_path = gcode;
+  options.settings.voxel_mm = 0.1;
+  auto r = verify(options);
+  ASSERT_TRUE(r.ok()) << r.error().describe();
+  const Registration& reg = r->registration;
+  EXPECT_TRUE(reg.matches) << reg.mismatch;
+  EXPECT_TRUE(reg.transform.translation_only());
+  // PrusaSlicer centres the object's box (40 x 32 mm from the origin) on (110, 110).
+  EXPECT_NEAR(reg.transform.translation_mm.x(), 90, 0.05);
+  EXPECT_NEAR(reg.transform.translation_mm.y(), 94, 0.05);
+  EXPECT_GT(reg.coverage_pct, 95);
+  EXPECT_LT(r->deviation.deposit_to_mesh.p95_abs_mm, 0.2);
 }
 
 /// A G-code and its model from shared/realworld; empty paths when either is missing.
