@@ -223,6 +223,7 @@ class Search {
 
   [[nodiscard]] double residual(const Pose& pose) const { return walls_tagged_ ? pose.rms : pose.p50; }
   [[nodiscard]] double layer() const { return layer_; }
+  [[nodiscard]] bool walls_tagged() const { return walls_tagged_; }
 
  private:
   const Mesh& mesh_;
@@ -270,9 +271,8 @@ void describe(Registration& reg, const Pose& pose, const Search& search, const M
   if (pose.size_error > 1)
     why = "its size matches no orientation of the mesh";
   else if (res > limit)
-    why = "its walls lie " + format_fixed(res, 2) + " mm from the mesh (" +
-          (search.residual(pose) == pose.rms ? "RMS" : "median") + "; a match gives about half a bead, limit " +
-          format_fixed(limit, 2) + " mm)";
+    why = "its walls lie " + format_fixed(res, 2) + " mm from the mesh (" + (search.walls_tagged() ? "RMS" : "median") +
+          "; a match gives about half a bead, limit " + format_fixed(limit, 2) + " mm)";
   else if (pose.coverage < 0.7)
     why = "it covers only " + format_fixed(100.0 * pose.coverage, 0) + " % of the mesh surface";
   if (!why.empty()) {

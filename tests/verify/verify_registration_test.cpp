@@ -2,6 +2,8 @@
 // another part, and the real files of ../shared/realworld (skipped when absent).
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdio>
 #include <cstdlib>
 
 #include <nlohmann/json.hpp>
@@ -82,6 +84,76 @@ TEST(VerifyRegistrationCli, PlaceWithRotationAndUnknownObject) {
   run = test::run_cli("verify " + stl.string() + " --gcode " + gcode + " --object nothing --out " + (dir / "y").string());
   EXPECT_EQ(run.exit_code, 2) << run.err;
   EXPECT_NE(run.err.find("no such object"), std::string::npos) << run.err;
+}
+
+/// Klipper-style G-code of two labelled boxes (EXCLUDE_OBJECT): walls (outer perimeter and
+/// one inner loop) and a sparse zig-zag per 0.2 mm layer. `boxes`: name, min corner, size.
+std::string two_box_gcode(const std::vector<std::pair<std::string, Box3>>& boxes) {
+  std::string g = "G90\nM83\nM104 S210\nM140 S60\nG28\nM109 S210\nM190 S60\n";
+  const double e_per_mm = 0.4 * 0.2 / (M_PI * 1.75 * 1.75 / 4);
+  char buf[160];
+  const auto move = [&](double x, double y, double e) {
+    std::snprintf(buf, sizeof buf, "G1 X%.3f Y%.3f E%.5f F1800\n", x, y, e);
+    g += buf;
+  };
+  const auto loop = [&](const Box3& b, double inset) {
+    const double x0 = b.min.x() + inset, y0 = b.min.y() + inset, x1 = b.max.x() - inset, y1 = b.max.y() - inset;
+    std::snprintf(buf, sizeof buf, "G0 X%.3f Y%.3f F6000\n", x0, y0);
+    g += buf;
+    move(x1, y0, (x1 - x0) * e_per_mm);
+    move(x1, y1, (y1 - y0) * e_per_mm);
+    move(x0, y1, (x1 - x0) * e_per_mm);
+    move(x0, y0, (y1 - y0) * e_per_mm);
+  };
+  const double top = std::max(boxes[0].second.max.z(), boxes[1].second.max.z());
+  for (int layer = 1; 0.2 * layer <= top + 1e-9; ++layer) {
+    const double z = 0.2 * layer;
+    std::snprintf(buf, sizeof buf, ";LAYER_CHANGE\n;Z:%.1f\nG0 Z%.3f F600\n", z, z);
+    g += buf;
+    for (const auto& [name, b] : boxes) {
+      if (z > b.max.z() + 1e-9) continue;
+      g += "EXCLUDE_OBJECT_START NAME=" + name + "\n;TYPE:External perimeter\n";
+      loop(b, 0.2);
+      g += ";TYPE:Perimeter\n";
+      loop(b, 0.6);
+      g += ";TYPE:Internal infill\n";
+      for (double x = b.min.x() + 1.5; x < b.max.x() - 1.5; x += 2.0) {
+        std::snprintf(buf, sizeof buf, "G0 X%.3f Y%.3f F6000\n", x, b.min.y() + 0.8);
+        g += buf;
+        move(x, b.max.y() - 0.8, (b.max.y() - b.min.y() - 1.6) * e_per_mm);
+      }
+      g += "EXCLUDE_OBJECT_END NAME=" + name + "\n";
+    }
+  }
+  return g + "M104 S0\nM140 S0\n";
+}
+
+TEST(VerifyRegistrationCli, BedOfTwoLabelledObjectsMatchesTheOneThatFits) {
+  const auto dir = test::temp_dir("verify_two_objects");
+  const auto gcode = dir / "bed.gcode";
+  ASSERT_TRUE(write_file_atomic(gcode, two_box_gcode({{"tower", Box3{Vec3(60, 100, 0), Vec3(72, 110, 16)}},
+                                                     {"plate", Box3{Vec3(140, 90, 0), Vec3(170, 120, 4)}}}))
+                  .ok());
+  const auto stl = dir / "plate.stl";  // the plate, designed around its own origin
+  ASSERT_TRUE(save_stl(make_box_mesh(Vec3(-15, -15, 0), Vec3(15, 15, 4)), stl).ok());
+  const std::string base = "verify " + stl.string() + " --gcode " + gcode.string() + " --voxel 0.1 --tolerance 0.3 ";
+  auto run = test::run_cli(base + "--out " + (dir / "a").string());
+  EXPECT_NE(run.out.find("object plate"), std::string::npos) << run.out << run.err;
+  auto j = read_json(dir / "a" / "report.json");
+  const auto& reg = j["deviation"]["registration"];
+  EXPECT_EQ(reg["object"], "plate");
+  EXPECT_EQ(reg["matches"], true) << reg;
+  EXPECT_NEAR(reg["translation_mm"][0].get<double>(), 155, 0.05);
+  EXPECT_NEAR(reg["translation_mm"][1].get<double>(), 105, 0.05);
+  // The tower's voxels are not in the analysed region: no excess from them.
+  EXPECT_LT(j["deviation"]["max_excess_mm"].get<double>(), 0.3);
+  // Told to measure the tower, the plate mesh does not fit it: exit 1 and the reason.
+  run = test::run_cli(base + "--object tower --out " + (dir / "b").string());
+  EXPECT_EQ(run.exit_code, 1) << run.out << run.err;
+  EXPECT_NE(run.out.find("does not appear to be this part"), std::string::npos) << run.out;
+  run = test::run_cli(base + "--object lid --out " + (dir / "c").string());
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("'tower', 'plate'"), std::string::npos) << run.err;
 }
 
 TEST(VerifyRegistrationPrusaSlicer, FourBridgesSideBySideArePlacedByAllFour) {
