@@ -183,7 +183,7 @@ class Search {
       const Vec2 txy = r2 * pose.t.head<2>() + shift;
       const double moved = (txy - pose.t.head<2>()).norm();
       pose.t.head<2>() = txy;
-      if (std::abs(delta) < 1e-7 && moved < 1e-5) break;
+      if (std::abs(delta) < 1e-6 && moved < 1e-4) break;  // 0.00006 degrees, 0.1 um
     }
   }
 
@@ -387,11 +387,11 @@ Result<Registration> register_mesh(const Mesh& mesh, const MeshQuery& query, con
     candidates.insert(candidates.end(), sweep.begin(), sweep.end());
     std::stable_sort(candidates.begin(), candidates.end(), by_score);
   }
-  // Fine ICP on every wall point for the two best.
+  // Fine ICP on up to 1500 wall points for the two best, scored on every wall point.
   const std::size_t finalists = std::min<std::size_t>(candidates.size(), 2);
   for (std::size_t i = 0; i < finalists; ++i) {
     Pose& p = candidates[i];
-    if (options.allow_rotation) search.refine(p, p.object->wall_points_mm, 30);
+    if (options.allow_rotation) search.refine(p, subset(p.object->wall_points_mm, 1500), 20);
     search.evaluate(p, p.object->wall_points_mm);
   }
   std::stable_sort(candidates.begin(), candidates.begin() + static_cast<std::ptrdiff_t>(finalists), by_score);
