@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "deviation/registration_internal.hpp"
 #include "printtwin/deviation.hpp"
@@ -249,6 +250,22 @@ bool names_object(const PrintedObject& o, const std::string& wanted) {
   return o.name == wanted || (o.id >= 0 && (wanted == std::to_string(o.id) || wanted == "#" + std::to_string(o.id)));
 }
 
+/// The candidates `options.object` allows (those with wall points). Error: it names none.
+Result<std::vector<const PrintedObject*>> objects_to_match(const PartExtent& part, const RegistrationOptions& options) {
+  std::vector<const PrintedObject*> objects;
+  for (const auto& o : part.objects)
+    if (options.object.empty() || names_object(o, options.object)) objects.push_back(&o);
+  if (objects.empty() && !options.object.empty()) {
+    std::string list;
+    for (const auto& o : part.objects)
+      if (o.id >= 0) list += (list.empty() ? "" : ", ") + ("'" + o.name + "'");
+    return usage_error("--object '" + options.object + "': the G-code has no such object" +
+                       (list.empty() ? std::string(" (it labels none)") : " (it has " + list + ")"));
+  }
+  std::erase_if(objects, [](const PrintedObject* o) { return o->wall_points_mm.empty(); });
+  return objects;
+}
+
 std::string size_text(const Vec3& v) {
   return format_fixed(v.x(), 1) + " x " + format_fixed(v.y(), 1) + " x " + format_fixed(v.z(), 1) + " mm";
 }
@@ -288,17 +305,9 @@ void describe(Registration& reg, const Pose& pose, const Search& search, const M
 Result<Registration> register_mesh(const Mesh& mesh, const MeshQuery& query, const PartExtent& part,
                                    const RegistrationOptions& options) {
   const auto start = std::chrono::steady_clock::now();
-  std::vector<const PrintedObject*> objects;
-  for (const auto& o : part.objects)
-    if (options.object.empty() || names_object(o, options.object)) objects.push_back(&o);
-  if (objects.empty() && !options.object.empty()) {
-    std::string list;
-    for (const auto& o : part.objects)
-      if (o.id >= 0) list += (list.empty() ? "" : ", ") + ("'" + o.name + "'");
-    return usage_error("--object '" + options.object + "': the G-code has no such object" +
-                       (list.empty() ? std::string(" (it labels none)") : " (it has " + list + ")"));
-  }
-  std::erase_if(objects, [](const PrintedObject* o) { return o->wall_points_mm.empty(); });
+  auto chosen = objects_to_match(part, options);
+  if (!chosen) return chosen.error();
+  const std::vector<const PrintedObject*>& objects = *chosen;
   if (objects.empty()) return bad_input("the G-code has no extrusion of the part to register the mesh against");
   if (mesh.vertices_mm.empty()) return bad_input("registration: the mesh has no vertices");
 
@@ -427,16 +436,17 @@ Result<Registration> register_mesh(const Mesh& mesh, const MeshQuery& query, con
 Result<Registration> evaluate_registration(const Mesh& mesh, const MeshQuery& query, const PartExtent& part,
                                            const RigidTransform& transform, const RegistrationOptions& options) {
   const auto start = std::chrono::steady_clock::now();
+  auto chosen = objects_to_match(part, options);
+  if (!chosen) return chosen.error();
   Search search(mesh, query, part);
   std::optional<Pose> best;
-  for (const auto& o : part.objects) {
-    if ((!options.object.empty() && !names_object(o, options.object)) || o.wall_points_mm.empty()) continue;
+  for (const PrintedObject* o : *chosen) {
     Pose p;
-    p.object = &o;
+    p.object = o;
     p.up_matrix = transform.rotation;
     p.scale = transform.scale;
     p.t = transform.translation_mm;
-    search.evaluate(p, o.wall_points_mm);
+    search.evaluate(p, o->wall_points_mm);
     if (!best || p.score < best->score) best = p;
   }
   Registration reg;

@@ -274,6 +274,21 @@ TEST(Registration, SaysWhenTheGcodeIsAnotherPart) {
   EXPECT_FALSE(reg2->matches);
 }
 
+TEST(Registration, SaysWhenAnotherPartHasTheSameSize) {
+  // The G-code of a full 30 x 20 x 6 block; the mesh is the L bracket with the same box: the
+  // sizes fit, but the block's walls across the L's notch lie up to 12 mm from the mesh.
+  const Printed block = slice_and_print(make_prism({{0, 0}, {30, 0}, {30, 20}, {0, 20}}, 0, 6));
+  const PartExtent part = find_part_extent(block.moves, block.names);
+  const Mesh design = bracket();
+  auto query = MeshQuery::build(design);
+  ASSERT_TRUE(query.ok());
+  auto reg = register_mesh(design, *query, part);
+  ASSERT_TRUE(reg.ok());
+  EXPECT_FALSE(reg->matches);
+  EXPECT_GT(reg->residual_rms_mm, 1.0);
+  EXPECT_NE(reg->mismatch.find("walls lie"), std::string::npos) << reg->mismatch;
+}
+
 TEST(Registration, IsDeterministic) {
   const Mesh design = bracket();
   const Mesh turned = rotate(design, Vec3(0, 0, 30));
