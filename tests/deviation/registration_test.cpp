@@ -254,35 +254,31 @@ TEST(Registration, MatchesTheObjectThatFitsOnABedOfTwo) {
   EXPECT_NE(none.error().message.find("'bracket.stl', 'cube.stl'"), std::string::npos) << none.error().message;
 }
 
+/// The registration of `design` against a printed G-code (search, default options).
+Result<Registration> register_on(const Mesh& design, const Printed& printed) {
+  auto query = MeshQuery::build(design);
+  if (!query) return query.error();
+  return register_mesh(design, *query, find_part_extent(printed.moves, printed.names));
+}
+
 TEST(Registration, SaysWhenTheGcodeIsAnotherPart) {
   // The G-code of a 20 mm cube; the mesh is the bracket.
   const Printed cube = slice_and_print(make_prism({{0, 0}, {20, 0}, {20, 20}, {0, 20}}, 0, 20));
-  const PartExtent part = find_part_extent(cube.moves, cube.names);
-  const Mesh design = bracket();
-  auto query = MeshQuery::build(design);
-  ASSERT_TRUE(query.ok());
-  auto reg = register_mesh(design, *query, part);
+  auto reg = register_on(bracket(), cube);
   ASSERT_TRUE(reg.ok());
   EXPECT_FALSE(reg->matches);
   EXPECT_NE(reg->mismatch.find("printed 19."), std::string::npos) << reg->mismatch;
   // A cube of nearly the same size as the print but shorter also fails, on its height.
-  const Mesh flat = make_prism({{0, 0}, {20, 0}, {20, 20}, {0, 20}}, 0, 12);
-  auto flat_query = MeshQuery::build(flat);
-  ASSERT_TRUE(flat_query.ok());
-  auto reg2 = register_mesh(flat, *flat_query, part);
-  ASSERT_TRUE(reg2.ok());
-  EXPECT_FALSE(reg2->matches);
+  auto flat = register_on(make_prism({{0, 0}, {20, 0}, {20, 20}, {0, 20}}, 0, 12), cube);
+  ASSERT_TRUE(flat.ok());
+  EXPECT_FALSE(flat->matches);
 }
 
 TEST(Registration, SaysWhenAnotherPartHasTheSameSize) {
   // The G-code of a full 30 x 20 x 6 block; the mesh is the L bracket with the same box: the
   // sizes fit, but the block's walls across the L's notch lie up to 12 mm from the mesh.
   const Printed block = slice_and_print(make_prism({{0, 0}, {30, 0}, {30, 20}, {0, 20}}, 0, 6));
-  const PartExtent part = find_part_extent(block.moves, block.names);
-  const Mesh design = bracket();
-  auto query = MeshQuery::build(design);
-  ASSERT_TRUE(query.ok());
-  auto reg = register_mesh(design, *query, part);
+  auto reg = register_on(bracket(), block);
   ASSERT_TRUE(reg.ok());
   EXPECT_FALSE(reg->matches);
   EXPECT_GT(reg->residual_rms_mm, 1.0);
@@ -291,13 +287,9 @@ TEST(Registration, SaysWhenAnotherPartHasTheSameSize) {
 
 TEST(Registration, IsDeterministic) {
   const Mesh design = bracket();
-  const Mesh turned = rotate(design, Vec3(0, 0, 30));
-  const Printed printed = slice_and_print(turned);
-  const PartExtent part = find_part_extent(printed.moves, printed.names);
-  auto query = MeshQuery::build(design);
-  ASSERT_TRUE(query.ok());
-  auto a = register_mesh(design, *query, part);
-  auto b = register_mesh(design, *query, part);
+  const Printed printed = slice_and_print(rotate(design, Vec3(0, 0, 30)));
+  auto a = register_on(design, printed);
+  auto b = register_on(design, printed);
   ASSERT_TRUE(a.ok() && b.ok());
   EXPECT_EQ(a->transform.rotation, b->transform.rotation);
   EXPECT_EQ(a->transform.translation_mm, b->transform.translation_mm);
