@@ -439,6 +439,9 @@ Result<VerifyReport> verify_pipeline(const VerifyOptions& options) {
   if (!options.gcode_path.empty() && (!settings.slice_config_ini.empty() || !settings.slice_overrides.empty()))
     return usage_error("slicer settings (--set, --config) apply only when printtwin slices the part; "
                        "drop --gcode or the settings");
+  if (options.gcode_path.empty() && settings.mesh_scale && *settings.mesh_scale != 1.0)
+    return usage_error("--units applies to a G-code from another slicer (--gcode); printtwin's slicer "
+                       "slices the mesh in millimetres as it is");
   auto printer = load_printer_profile(settings.printer);
   if (!printer) return printer.error();
   if (!options.gcode_path.empty()) {

@@ -81,6 +81,9 @@ TEST(VerifyRegistrationCli, PlaceWithRotationAndUnknownObject) {
   run = test::run_cli("verify " + stl.string() + " --gcode " + gcode + " --place '1,2' --out " + (dir / "x").string());
   EXPECT_EQ(run.exit_code, 2) << run.err;
   EXPECT_NE(run.err.find("--place"), std::string::npos);
+  run = test::run_cli("verify " + stl.string() + " --units in --out " + (dir / "z").string());
+  EXPECT_EQ(run.exit_code, 2) << run.err;
+  EXPECT_NE(run.err.find("--units applies"), std::string::npos) << run.err;
   run = test::run_cli("verify " + stl.string() + " --gcode " + gcode + " --object nothing --out " + (dir / "y").string());
   EXPECT_EQ(run.exit_code, 2) << run.err;
   EXPECT_NE(run.err.find("no such object"), std::string::npos) << run.err;
