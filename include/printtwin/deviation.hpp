@@ -230,7 +230,8 @@ struct PartExtent {
   Box3 bbox_mm;              ///< extrusion centre lines of the part (all candidate objects)
   std::size_t moves = 0;     ///< extrusion moves counted as the part
   std::string method;        ///< "tags" (features), "connectivity" (untagged) or "objects" (labels)
-  /// The candidates the mesh is matched against, largest first (one for a single part).
+  /// The candidates the mesh is matched against: the labelled objects by id, or the whole
+  /// part ("part") followed by each of its larger islands ("footprint <n>") when it has several.
   std::vector<PrintedObject> objects;
   bool walls_tagged = false;         ///< wall_points_mm are outer walls
   double layer_height_mm = 0;        ///< median Z step between extrusion layers (0: unknown)
@@ -281,8 +282,9 @@ struct Registration {
   /// centre line lies half a bead inside the surface, so a right match gives about 0.2 mm.
   double residual_rms_mm = 0;
   double residual_p50_mm = 0;
-  /// Mesh surface samples with a printed point of the object within 1 mm + a layer: the
-  /// share of the design the print covers (%).
+  /// Mesh surface samples (about 1500) with an extrusion of the object in the same or a
+  /// neighbouring occupancy cell (PrintedObject::cell_mm, at least 1 mm): the share of the
+  /// design the print covers (%).
   double coverage_pct = 0;
   std::size_t wall_points = 0;     ///< points the residual is measured on
   double seconds = 0;              ///< wall time of the search
