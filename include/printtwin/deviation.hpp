@@ -30,6 +30,8 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <map>
+#include <optional>
 #include <memory>
 #include <span>
 #include <string>
@@ -207,22 +209,125 @@ class DeviationTarget {
 
 // ---------------------------------------------------------------- registration
 
-/// Where the part is in the G-code: the XY box of the part's extrusions.
+/// One object of the bed as printed: a labelled object (M486, EXCLUDE_OBJECT, PrusaSlicer's
+/// "printing object", Cura's ;MESH:) or, without labels, a group of connected extrusions.
+struct PrintedObject {
+  int id = -1;                      ///< Move::object_id; -1: unlabelled (a footprint group)
+  std::string name;                 ///< label name (or "#<id>", or "footprint <n>")
+  Box3 bbox_mm;                     ///< extrusion centre lines of the object
+  std::size_t moves = 0;            ///< its extrusion moves
+  double extruded_mm = 0;           ///< XY length of its extrusions
+  /// Points along the outer walls (Feature::outer_perimeter; every extrusion when the
+  /// G-code has no wall tags), evenly spaced, at most kMaxWallSamples. Machine frame.
+  std::vector<Vec3> wall_points_mm;
+  /// Convex hull of the walls' XY footprint (counter-clockwise).
+  std::vector<Vec2> hull_xy_mm;
+  /// Cells of `cell_mm` that the object's extrusions pass through (packed keys, sorted):
+  /// what the print covers, for the registration's coverage figure.
+  double cell_mm = 1.0;
+  Vec3 cell_origin_mm = Vec3::Zero();
+  std::vector<std::uint64_t> cells;
+  static constexpr std::size_t kMaxWallSamples = 3000;
+};
+
+/// Where the part is in the G-code.
 struct PartExtent {
-  Box3 bbox_mm;              ///< extrusion centre lines of the part
+  Box3 bbox_mm;              ///< extrusion centre lines of the part (all candidate objects)
   std::size_t moves = 0;     ///< extrusion moves counted as the part
-  std::string method;        ///< "tags" (features) or "connectivity" (untagged G-code)
+  std::string method;        ///< "tags" (features), "connectivity" (untagged) or "objects" (labels)
+  /// The candidates the mesh is matched against: the labelled objects by id, or the whole
+  /// part ("part") followed by each of its larger islands ("footprint <n>") when it has several.
+  std::vector<PrintedObject> objects;
+  bool walls_tagged = false;         ///< wall_points_mm are outer walls
+  double layer_height_mm = 0;        ///< median Z step between extrusion layers (0: unknown)
 };
 
 /// Finds the part among the extrusion moves: drops skirt/brim, support, wipe tower and
-/// custom (purge) features by their tags, then keeps the largest connected group of the
-/// remaining extrusions (XY footprint on a 0.5 mm raster, 8-connected, weighted by
-/// extruded length), which also removes untagged skirts and purge lines.
-[[nodiscard]] PartExtent find_part_extent(std::span<const Move> moves);
+/// custom (purge) features by their tags. Labelled objects are the candidates when the
+/// G-code names them; otherwise the remaining extrusions are grouped by their XY footprint
+/// (0.5 mm raster, 8-connected, weighted by extruded length): with feature tags, every group
+/// of at least 2 % of the largest is part of the part (a part may be several islands: bridges
+/// side by side, a multi-body mesh); without tags, groups no taller than two layers while
+/// others are taller (untagged skirts, purge lines) are dropped. `names` maps object ids to
+/// their labels (SimulationResult::object_names).
+[[nodiscard]] PartExtent find_part_extent(std::span<const Move> moves,
+                                          const std::map<int, std::string>& names = {});
 
 /// Offset that places the mesh in the G-code frame the way slicers do: mesh bounding-box XY
-/// centre onto the part's XY centre, lowest point at z = 0.
+/// centre onto the part's XY centre, lowest point at z = 0 (translation only).
 [[nodiscard]] Vec3 registration_offset(const Mesh& mesh, const PartExtent& part);
+
+/// A similarity transform mesh frame -> machine frame: x' = scale * rotation * x + translation.
+struct RigidTransform {
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  Vec3 translation_mm = Vec3::Zero();
+  double scale = 1.0;
+  [[nodiscard]] Vec3 apply(const Vec3& p) const { return scale * (rotation * p) + translation_mm; }
+  [[nodiscard]] bool translation_only() const {
+    return scale == 1.0 && rotation == Eigen::Matrix3d::Identity();
+  }
+};
+
+/// Rotation from angles in degrees about the machine's fixed X, then Y, then Z axes
+/// (R = Rz * Ry * Rx).
+[[nodiscard]] Eigen::Matrix3d rotation_from_xyz_deg(const Vec3& xyz_deg);
+/// Angles of `rotation_from_xyz_deg` (Z-Y-X Euler decomposition), degrees.
+[[nodiscard]] Vec3 xyz_deg_of(const Eigen::Matrix3d& rotation);
+/// The mesh transformed (triangle order and vertex order kept).
+[[nodiscard]] Mesh transformed(Mesh mesh, const RigidTransform& transform);
+
+/// What the registration found.
+struct Registration {
+  RigidTransform transform;
+  std::string method;        ///< "--place", "auto (...)"; see docs/registration.md
+  std::string object;        ///< name of the object matched ("" when the G-code has one part)
+  int object_id = -1;
+  Box3 object_bbox_mm;       ///< extrusions of the matched object
+  /// Outer-wall points of the matched object: distance to the placed mesh (mm). A wall's
+  /// centre line lies half a bead inside the surface, so a right match gives about 0.2 mm.
+  double residual_rms_mm = 0;
+  double residual_p50_mm = 0;
+  /// Mesh surface samples (about 1500) with an extrusion of the object in the same or a
+  /// neighbouring occupancy cell (PrintedObject::cell_mm, at least 1 mm): the share of the
+  /// design the print covers (%).
+  double coverage_pct = 0;
+  std::size_t wall_points = 0;     ///< points the residual is measured on
+  double seconds = 0;              ///< wall time of the search
+  int candidates = 0;              ///< poses refined (orientations x scales x Z angles x objects)
+  /// False when even the best pose leaves the G-code far from the mesh: the G-code does not
+  /// appear to be this part. `mismatch` says why, with the figures.
+  bool matches = true;
+  std::string mismatch;
+  Vec3 mesh_size_mm = Vec3::Zero();     ///< placed mesh box size
+  Vec3 printed_size_mm = Vec3::Zero();  ///< the object's printed box size (centre lines)
+};
+
+/// Options of `register_mesh`.
+struct RegistrationOptions {
+  std::optional<double> scale;           ///< mesh units -> mm when known (--units); else searched
+  std::string object;                    ///< choose this object (name or id); "" = best fit
+  bool allow_rotation = true;            ///< false: translation only (tests, benchmarks)
+};
+
+class MeshQuery;
+
+/// Finds the similarity transform that maps `mesh` onto the printed part: candidate
+/// orientations (the 6 "up" axes of the 24 axis-aligned rotations) and unit scales whose
+/// height matches the printed height, the Z rotation from the minimum-area rectangles of
+/// both footprints (4 symmetric candidates, plus a 15 degree sweep when none fits), each
+/// refined by ICP of the outer-wall points against the mesh (closest points from `query`,
+/// the BVH of `mesh` in its own frame), scored by the residual and the coverage; the best
+/// pose over the candidate objects wins. Deterministic. Errors: no object to match, or
+/// `options.object` names none (usage, listing the objects).
+[[nodiscard]] Result<Registration> register_mesh(const Mesh& mesh, const MeshQuery& query,
+                                                 const PartExtent& part,
+                                                 const RegistrationOptions& options = {});
+
+/// The figures of a given pose (--place): residual, coverage and the mismatch verdict on the
+/// object that fits it best (`options.object` to choose); method "--place".
+[[nodiscard]] Result<Registration> evaluate_registration(const Mesh& mesh, const MeshQuery& query,
+                                                         const PartExtent& part, const RigidTransform& transform,
+                                                         const RegistrationOptions& options = {});
 
 // ---------------------------------------------------------------- the whole analysis
 

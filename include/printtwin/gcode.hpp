@@ -139,6 +139,8 @@ class GcodeInterpreter {
   [[nodiscard]] const std::vector<Finding>& findings() const { return findings_; }
   /// Commands the interpreter does not know, with how often each occurred.
   [[nodiscard]] const std::map<std::string, long>& unknown_commands() const { return unknown_; }
+  /// Labelled objects seen so far (EXCLUDE_OBJECT / "printing object" / ;MESH: name -> Move::object_id).
+  [[nodiscard]] const std::map<std::string, int>& object_names() const { return object_names_; }
   /// Line of the first occurrence of each unknown command.
   [[nodiscard]] const std::map<std::string, long>& unknown_first_lines() const { return unknown_first_line_; }
   /// Motion limits currently in force.

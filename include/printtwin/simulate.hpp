@@ -80,6 +80,9 @@ struct SimulationResult {
   Box3 extrusion_bounds_mm;   ///< box of all extrusion moves (machine frame)
   Box3 motion_bounds_mm;      ///< box of all nozzle positions
   std::string slicer;         ///< "PrusaSlicer 2.5.0", "Cura_SteamEngine 4.13.1", ...
+  /// Names of the labelled objects by Move::object_id (EXCLUDE_OBJECT, PrusaSlicer's
+  /// "printing object", Cura's ;MESH:); M486 objects numbered only are absent.
+  std::map<int, std::string> object_names;
   /// The slicer's own time estimate found in the file (PrusaSlicer normal mode, Orca's total
   /// estimated time, Cura ;TIME:, ...; docs/gcode-coverage.md), if any.
   std::optional<double> slicer_estimate_s;

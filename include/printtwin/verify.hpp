@@ -33,7 +33,7 @@ namespace printtwin {
 class DeviationTarget;  // deviation.hpp
 
 /// Version of the report.json layout written by `verify_report_json` (docs/report-schema.md).
-inline constexpr int kVerifySchemaVersion = 1;
+inline constexpr int kVerifySchemaVersion = 2;
 
 /// One input file, for provenance.
 struct VerifyInput {
@@ -66,6 +66,13 @@ struct VerifySettings {
   double voxel_mm = 0.05;                   ///< deposit voxel edge
   double mesh_sample_spacing_mm = 0;        ///< mesh->deposit sample spacing (0: 2 x voxel_mm)
   std::optional<Vec3> place_mm;             ///< --place override of the registration offset
+  /// --place rotation (degrees about the machine's X, then Y, then Z axes, applied to the
+  /// mesh before place_mm); only with place_mm.
+  std::optional<Vec3> place_rotation_deg;
+  /// --units: mesh units in mm (25.4 for inches, 1000 for metres); unset: searched.
+  std::optional<double> mesh_scale;
+  /// --object: the labelled object to measure (name or id); "": the one that fits best.
+  std::string object;
   std::string printer = "auto";             ///< "auto", a profile name or a path (printer.hpp)
   std::string gcode_source = "file";        ///< "file" or "printtwin slice"
   /// Without G-code: a PrusaSlicer .ini for printtwin's slicer (empty: its defaults).
@@ -131,6 +138,8 @@ struct VerifyReport {
   CheckSummary check;
   SimulationSummary simulation;
   DepositSummary deposit;
+  /// Where the mesh sits in the G-code frame and how well it fits (registration).
+  Registration registration;
   /// Deviation in the G-code (machine) frame; registration offset inside.
   DeviationResult deviation;
   /// Mesh as placed in the machine frame (vertex order kept, so
@@ -275,6 +284,14 @@ struct PrintedGcode {
 /// Writes report.json and deviation.ply into `out_dir` (created), atomically per file.
 [[nodiscard]] Status write_verify_outputs(const VerifyReport& report,
                                           const std::filesystem::path& out_dir);
+
+/// Parses --place into `settings`: "x,y,z" (mm, the mesh translated), "x,y,z,rz" (also
+/// rotated rz degrees about Z) or "x,y,z;rx,ry,rz" (rotated about the machine's X, then Y,
+/// then Z axes, then translated). Errors name the option and the text (usage).
+[[nodiscard]] Status parse_place_option(std::string_view text, VerifySettings& settings);
+/// Parses --units into `settings.mesh_scale`: mm, cm, m, in (inch), um, or a number (mm per
+/// mesh unit). Errors: anything else, or a number that is not finite and > 0 (usage).
+[[nodiscard]] Status parse_units_option(std::string_view text, VerifySettings& settings);
 
 /// Evaluates the gates of `settings` on a deviation and findings; sets `gates` and `pass`.
 void evaluate_gates(VerifyReport& report);

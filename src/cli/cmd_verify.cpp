@@ -24,6 +24,8 @@ struct VerifyCliOptions {
   double voxel_mm = 0.05;
   double spacing_mm = 0;
   std::string place;
+  std::string units;
+  std::string object;
   std::string out;
   std::string deviation_ply;
   std::uint64_t seed = 1;
@@ -32,15 +34,6 @@ struct VerifyCliOptions {
   bool quiet = false;
 };
 
-/// "x,y,z" -> Vec3.
-bool parse_triplet(const std::string& text, Vec3& out) {
-  double v[3];
-  char tail = 0;
-  if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &v[0], &v[1], &v[2], &tail) != 3) return false;
-  out = Vec3(v[0], v[1], v[2]);
-  return out.allFinite();
-}
-
 void print_stats_row(const char* name, const DeviationStats& s) {
   std::printf("  %-16s %9s %9s %9s %9s %9s %8s%%\n", name, format_fixed(s.min_mm, 3).c_str(),
               format_fixed(s.max_mm, 3).c_str(), format_fixed(s.mean_mm, 3).c_str(),
@@ -48,13 +41,31 @@ void print_stats_row(const char* name, const DeviationStats& s) {
               format_fixed(s.within_tolerance_pct, 1).c_str());
 }
 
-void print_summary(const VerifyReport& r, const std::string& out_dir) {
-  const DeviationResult& d = r.deviation;
-  std::printf("printtwin verify %s: %s\n", r.part_name.c_str(), r.pass ? "PASS" : "FAIL");
-  std::printf("  registration %s, offset %s, %s, %s mm\n", d.registration_method.c_str(),
+void print_registration(const Registration& reg, const DeviationResult& d) {
+  const RigidTransform& t = reg.transform;
+  std::printf("  registration %s, offset %s, %s, %s mm", d.registration_method.c_str(),
               format_fixed(d.registration_offset_mm.x(), 3).c_str(),
               format_fixed(d.registration_offset_mm.y(), 3).c_str(),
               format_fixed(d.registration_offset_mm.z(), 3).c_str());
+  if (!t.rotation.isIdentity(0)) {
+    const Vec3 e = xyz_deg_of(t.rotation);
+    std::printf(", rotated %s, %s, %s deg (about X, Y, Z)", format_fixed(e.x(), 2).c_str(),
+                format_fixed(e.y(), 2).c_str(), format_fixed(e.z(), 2).c_str());
+  }
+  if (t.scale != 1.0) std::printf(", scale %s", format_number(t.scale).c_str());
+  std::printf("\n");
+  if (reg.wall_points > 0)
+    std::printf("  registration fit: walls %s mm RMS from the mesh, %s %% of the mesh covered%s%s\n",
+                format_fixed(reg.residual_rms_mm, 3).c_str(), format_fixed(reg.coverage_pct, 1).c_str(),
+                reg.object.empty() || reg.object_id < 0 ? "" : ", object ",
+                reg.object.empty() || reg.object_id < 0 ? "" : reg.object.c_str());
+  if (!reg.matches) std::printf("  %s\n", reg.mismatch.c_str());
+}
+
+void print_summary(const VerifyReport& r, const std::string& out_dir) {
+  const DeviationResult& d = r.deviation;
+  std::printf("printtwin verify %s: %s\n", r.part_name.c_str(), r.pass ? "PASS" : "FAIL");
+  print_registration(r.registration, d);
   std::printf("  deposit %zu voxels of %s mm, volume %s mm3 vs mesh %s mm3\n", r.deposit.voxels,
               format_number(r.deposit.voxel_mm).c_str(), format_fixed(d.deposit_volume_mm3, 1).c_str(),
               format_fixed(d.mesh_volume_mm3, 1).c_str());
@@ -98,7 +109,12 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
                   "ender3, ender3-marlin1, ender3-klipper, a profile .json or a Klipper printer.cfg");
   cmd->add_option("--voxel", o->voxel_mm, "deposit voxel edge in mm (default 0.05)");
   cmd->add_option("--sample-spacing", o->spacing_mm, "mesh surface sample spacing in mm (default: twice the voxel)");
-  cmd->add_option("--place", o->place, "x,y,z offset that places the mesh in the G-code frame (default: automatic)");
+  cmd->add_option("--place", o->place,
+                  "place the mesh yourself (default: automatic): x,y,z mm, x,y,z,rz with a Z rotation in "
+                  "degrees, or \"x,y,z;rx,ry,rz\" (rotations about X, then Y, then Z, then the offset)");
+  cmd->add_option("--units", o->units, "mesh units: mm, cm, m, in, um or mm per unit (default: found by the registration)");
+  cmd->add_option("--object", o->object,
+                  "the labelled object of the G-code to measure, by name or id (default: the best fit)");
   cmd->add_option("--out", o->out, "output folder (default reports/<part>)");
   cmd->add_option("--deviation-ply", o->deviation_ply, "also write the deviation-coloured mesh PLY here");
   cmd->add_option("--seed", o->seed, "seed of the mesh surface sampling (default 1)");
@@ -132,11 +148,11 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
           return report_error(usage_error("--set expects key=value, got '" + kv + "'"));
         s.slice_overrides.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
       }
-      if (!o->place.empty()) {
-        Vec3 p;
-        if (!parse_triplet(o->place, p)) return report_error(usage_error("--place expects x,y,z in mm, got '" + o->place + "'"));
-        s.place_mm = p;
-      }
+      if (!o->place.empty())
+        if (auto st = parse_place_option(o->place, s); !st) return report_error(st.error());
+      if (!o->units.empty())
+        if (auto st = parse_units_option(o->units, s); !st) return report_error(st.error());
+      s.object = o->object;
       ReportOptions report_options;
       // The heatmaps' views are traced while the deposit runs (the report needs only the
       // placed mesh for them); the report renders the same bytes with or without them.

@@ -45,11 +45,13 @@ Result<SliceSettings> slice_settings_of(const VariantSpec& spec) {
 // deposit sample, the triangle a mesh sample lies on); through the shared BVH for a sample
 // that has none. The BVH is in the mesh's own frame, so queries subtract the offset.
 std::vector<std::uint32_t> sample_triangles(const MeshQuery& query, const DeviationSamples& samples,
-                                            const Vec3& offset_mm, double near_mm) {
+                                            const RigidTransform& placement, double near_mm) {
   std::vector<std::uint32_t> out = samples.triangles;
   for (std::size_t i = 0; i < out.size(); ++i) {
     if (out[i] != DeviationSample{}.triangle) continue;
-    const Vec3 p = samples.positions_mm[i] - offset_mm;
+    // Back into the mesh's own frame (the registration may rotate and scale).
+    const Vec3 p = placement.rotation.transpose() * (samples.positions_mm[i] - placement.translation_mm) /
+                   placement.scale;
     if (auto cp = query.closest_point_within(p, near_mm)) out[i] = cp->triangle;
     else out[i] = query.closest_point(p).triangle;
   }
@@ -230,9 +232,9 @@ Result<CompareResult> run_compare(const SharedPart& part, const ComparePlan& pla
     } else {
       // Slope figures: nearest mesh triangle of every sample, through the shared BVH.
       on_stage("slopes");
-      const Vec3 offset = report->deviation.registration_offset_mm;
-      const auto dep_tri = sample_triangles(target.query(), report->deviation.deposit_samples, offset, near_mm);
-      const auto mesh_tri = sample_triangles(target.query(), report->deviation.mesh_samples, offset, near_mm);
+      const RigidTransform& placement = report->registration.transform;
+      const auto dep_tri = sample_triangles(target.query(), report->deviation.deposit_samples, placement, near_mm);
+      const auto mesh_tri = sample_triangles(target.query(), report->deviation.mesh_samples, placement, near_mm);
       double density = plan.filament_density_g_cm3;
       if (spec.kind == VariantKind::slicer)
         if (auto s = slice_settings_of(spec)) density = s->filament_density_g_cm3;

@@ -14,6 +14,7 @@
 #include "printtwin/deposit.hpp"
 #include "printtwin/deviation.hpp"
 #include "printtwin/io.hpp"
+#include "printtwin/mesh_query.hpp"
 #include "printtwin/planner.hpp"
 #include "printtwin/printer.hpp"
 #include "printtwin/simulate.hpp"
@@ -65,9 +66,41 @@ Result<VerifyInput> describe_input(const std::string& role, const std::filesyste
 
 std::string fmt_mm(double v) { return format_fixed(v, 3); }
 
-/// The offset that places the mesh in the G-code's frame: --place, else the registration.
-Vec3 placement_offset(const Mesh& mesh, const PartExtent& extent, const VerifySettings& settings) {
-  return settings.place_mm ? *settings.place_mm : registration_offset(mesh, extent);
+/// The transform of --place (rotation, then translation; --units scale first).
+RigidTransform place_transform(const VerifySettings& settings) {
+  RigidTransform t;
+  if (settings.place_rotation_deg) t.rotation = rotation_from_xyz_deg(*settings.place_rotation_deg);
+  t.scale = settings.mesh_scale.value_or(1.0);
+  t.translation_mm = settings.place_mm.value_or(Vec3::Zero());
+  return t;
+}
+
+/// Where the mesh sits in the G-code frame: --place (with its figures), else the search.
+Result<Registration> place_part(const PreparedPart& part, const PartExtent& extent, const VerifySettings& settings) {
+  RegistrationOptions options;
+  options.scale = settings.mesh_scale;
+  options.object = settings.object;
+  std::optional<MeshQuery> own;
+  if (!part.target) {
+    auto built = MeshQuery::build(part.mesh);
+    if (!built) return built.error();
+    own.emplace(std::move(*built));
+  }
+  const MeshQuery& query = part.target ? part.target->query() : *own;
+  if (settings.place_mm) {
+    if (extent.objects.empty()) {
+      Registration r;
+      r.transform = place_transform(settings);
+      r.method = "--place";
+      return r;
+    }
+    return evaluate_registration(part.mesh, query, extent, place_transform(settings), options);
+  }
+  return register_mesh(part.mesh, query, extent, options);
+}
+
+Mesh placed(const Mesh& mesh, const RigidTransform& t) {
+  return t.translation_only() ? translated(mesh, t.translation_mm) : transformed(mesh, t);
 }
 
 }  // namespace
@@ -302,7 +335,7 @@ Result<PrintedGcode> print_gcode(const PrinterProfile& printer, const VerifySett
   clock.lap("simulate");
 
   // Where the slicer put the part (the registration itself needs the mesh: measure_printed).
-  printed.extent = find_part_extent(collector.moves);
+  printed.extent = find_part_extent(collector.moves, sim->object_names);
   if (!settings.place_mm && printed.extent.moves == 0)
     return bad_input("the G-code has no extrusion of the part to register the mesh against", gcode.name);
   if (on_extent) on_extent(printed.extent);
@@ -321,10 +354,13 @@ Result<PrintedGcode> print_gcode(const PrinterProfile& printer, const VerifySett
   return printed;
 }
 
-Result<VerifyReport> measure_printed(const PreparedPart& part, const VerifySettings& settings,
-                                     PrintedGcode printed,
-                                     bool include_part_timings,
-                                     const std::function<void(std::string_view)>& on_stage) {
+namespace {
+
+/// measure_printed with the registration when already known (verify() finds it while the
+/// deposit runs).
+Result<VerifyReport> measure_with(const PreparedPart& part, const VerifySettings& settings, PrintedGcode printed,
+                                  bool include_part_timings, const std::function<void(std::string_view)>& on_stage,
+                                  const Registration* known) {
   if (auto st = validate_verify_settings(settings); !st) return st.error();
   VerifyReport report;
   report.tool_version = kVersion;
@@ -354,28 +390,49 @@ Result<VerifyReport> measure_printed(const PreparedPart& part, const VerifySetti
   report.deposit.volume_mm3 = deposit.volume_mm3;
   report.deposit.extruded_volume_mm3 = deposit.extruded_mm3;
   report.deposit.bbox_mm = deposit.bbox_mm;
-  report.deposit.part_bbox_mm = extent.bbox_mm;
   report.deposit.memory_bytes = deposit.memory_bytes;
   StageClock clock(report.timings);
 
   // Registration: where the slicer put the part.
   if (!settings.place_mm && extent.moves == 0)
     return bad_input("the G-code has no extrusion of the part to register the mesh against", printed.name);
-  const Vec3 offset = placement_offset(part.mesh, extent, settings);
-  const std::string method = settings.place_mm ? std::string("--place") : "auto (" + extent.method + ")";
+  if (known == nullptr) {
+    auto found = place_part(part, extent, settings);
+    if (!found) return found.error();
+    report.registration = std::move(*found);
+  } else {
+    report.registration = *known;
+  }
+  const Registration& reg = report.registration;
+  // Only the matched object's extrusions widen the analysed region.
+  const Box3 part_box = reg.object_bbox_mm.empty() ? extent.bbox_mm : reg.object_bbox_mm;
+  report.deposit.part_bbox_mm = part_box;
+  if (!reg.matches) {
+    Finding f;
+    f.severity = Severity::error;
+    f.code = "registration_mismatch";
+    f.message = reg.mismatch;
+    f.extent_mm = part_box;
+    f.value = reg.residual_rms_mm;
+    report.findings.push_back(std::move(f));
+  }
+  clock.lap("registration");
+  report.timings.back().seconds = reg.seconds;  // found beside the deposit when known
 
   // Deviation.
   if (on_stage) on_stage("deviation");
-  report.placed_mesh = translated(part.mesh, offset);
+  report.placed_mesh = placed(part.mesh, reg.transform);
   const DeviationSettings dev_settings = deviation_settings_of(settings);
-  // The part's prepared target (built once, shared by compare's variants), else one for
-  // this call.
-  auto dev = part.target ? compute_deviation(*part.target, offset, deposit.grid, dev_settings, extent.bbox_mm)
-                         : compute_deviation(report.placed_mesh, deposit.grid, dev_settings, extent.bbox_mm);
+  // The part's prepared target (built once, shared by compare's variants) when the mesh is
+  // only translated, else one for this call.
+  const Vec3 offset = reg.transform.translation_mm;
+  auto dev = part.target && reg.transform.translation_only()
+                 ? compute_deviation(*part.target, offset, deposit.grid, dev_settings, part_box)
+                 : compute_deviation(report.placed_mesh, deposit.grid, dev_settings, part_box);
   if (!dev) return dev.error();
   report.deviation = std::move(*dev);
   report.deviation.registration_offset_mm = offset;
-  report.deviation.registration_method = method;
+  report.deviation.registration_method = reg.method;
   report.deposit.surface_voxels = report.deviation.surface_voxels;
   clock.lap("deviation");
 
@@ -383,6 +440,14 @@ Result<VerifyReport> measure_printed(const PreparedPart& part, const VerifySetti
     report.findings.push_back(region_finding(r, settings.gates.tolerance_mm));
   evaluate_gates(report);
   return report;
+}
+
+}  // namespace
+
+Result<VerifyReport> measure_printed(const PreparedPart& part, const VerifySettings& settings, PrintedGcode printed,
+                                     bool include_part_timings,
+                                     const std::function<void(std::string_view)>& on_stage) {
+  return measure_with(part, settings, std::move(printed), include_part_timings, on_stage, nullptr);
 }
 
 Result<VerifyReport> verify_gcode(const PreparedPart& part, const PrinterProfile& printer,
@@ -403,6 +468,9 @@ Result<VerifyReport> verify_pipeline(const VerifyOptions& options) {
   if (!options.gcode_path.empty() && (!settings.slice_config_ini.empty() || !settings.slice_overrides.empty()))
     return usage_error("slicer settings (--set, --config) apply only when printtwin slices the part; "
                        "drop --gcode or the settings");
+  if (options.gcode_path.empty() && settings.mesh_scale && *settings.mesh_scale != 1.0)
+    return usage_error("--units applies to a G-code from another slicer (--gcode); printtwin's slicer "
+                       "slices the mesh in millimetres as it is");
   // --printer auto (the default) reads the printer from the G-code's embedded settings.
   auto resolved = resolve_printer(settings.printer, options.gcode_path);
   if (!resolved) return resolved.error();
@@ -418,9 +486,13 @@ Result<VerifyReport> verify_pipeline(const VerifyOptions& options) {
     // started by whichever of the two sides finishes its share last.
     std::mutex placing;
     std::optional<PartExtent> extent;
+    std::optional<Result<Registration>> registration;
     const auto place_when_ready = [&] {  // under `placing`
-      if (!options.on_placed || !part || !*part || !extent) return;
-      both.run([&] { options.on_placed(translated((*part)->mesh, placement_offset((*part)->mesh, *extent, settings))); });
+      if (!part || !*part || !extent) return;
+      both.run([&] {
+        registration.emplace(place_part(**part, *extent, settings));
+        if (options.on_placed && *registration) options.on_placed(placed((*part)->mesh, (*registration)->transform));
+      });
     };
     both.run([&] {
       auto prepared = prepare_part(options.mesh_path, *printer, settings);
@@ -443,7 +515,8 @@ Result<VerifyReport> verify_pipeline(const VerifyOptions& options) {
     both.wait();
     if (!*part) return part->error();
     if (!*printed) return printed->error();
-    return measure_printed(**part, settings, std::move(**printed));
+    const Registration* known = registration && *registration ? &**registration : nullptr;
+    return measure_with(**part, settings, std::move(**printed), true, {}, known);
   }
   auto part = prepare_part(options.mesh_path, *printer, settings);
   if (!part) return part.error();

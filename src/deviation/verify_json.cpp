@@ -59,6 +59,35 @@ ordered_json optional_mm(const std::optional<double>& v) { return v ? num(*v) : 
 }  // namespace
 
 namespace {
+/// The registration: the transform (matrix, axis-angle, angles), how it was found and how
+/// well it fits (docs/registration.md).
+ordered_json registration_json(const Registration& reg, const DeviationResult& d) {
+  const RigidTransform& t = reg.transform;
+  ordered_json rows = ordered_json::array();
+  for (int i = 0; i < 3; ++i) rows.push_back({num(t.rotation(i, 0)), num(t.rotation(i, 1)), num(t.rotation(i, 2))});
+  const Eigen::AngleAxisd aa(t.rotation);
+  const bool turned = std::abs(aa.angle()) > 1e-12;
+  return ordered_json{{"offset_mm", vec(d.registration_offset_mm)},
+                      {"method", d.registration_method},
+                      {"rotation", rows},
+                      {"axis_angle", {{"axis", turned ? vec(aa.axis()) : vec(Vec3::UnitZ())},
+                                      {"angle_deg", num(turned ? aa.angle() * 180.0 / M_PI : 0.0)}}},
+                      {"euler_xyz_deg", vec(xyz_deg_of(t.rotation))},
+                      {"translation_mm", vec(t.translation_mm)},
+                      {"scale", num(t.scale)},
+                      {"object", reg.object.empty() ? ordered_json(nullptr) : ordered_json(reg.object)},
+                      {"object_id", reg.object_id},
+                      {"residual_rms_mm", num(reg.residual_rms_mm)},
+                      {"residual_p50_mm", num(reg.residual_p50_mm)},
+                      {"coverage_pct", num(reg.coverage_pct)},
+                      {"wall_points", reg.wall_points},
+                      {"candidates", reg.candidates},
+                      {"mesh_size_mm", vec(reg.mesh_size_mm)},
+                      {"printed_size_mm", vec(reg.printed_size_mm)},
+                      {"matches", reg.matches},
+                      {"mismatch", reg.mismatch.empty() ? ordered_json(nullptr) : ordered_json(reg.mismatch)}};
+}
+
 ordered_json slice_overrides_json(const VerifySettings& st) {
   ordered_json o = ordered_json::object();
   for (const auto& [key, value] : st.slice_overrides) o[key] = value;
@@ -94,7 +123,7 @@ std::string verify_report_json(const VerifyReport& r) {
                              : ordered_json(nullptr);
   dev["surface_faces"] = d.surface_faces;
   dev["surface_voxels"] = d.surface_voxels;
-  dev["registration"] = {{"offset_mm", vec(d.registration_offset_mm)}, {"method", d.registration_method}};
+  dev["registration"] = registration_json(r.registration, d);
   j["deviation"] = dev;
 
   ordered_json regions = ordered_json::array();
@@ -170,6 +199,9 @@ std::string verify_report_json(const VerifyReport& r) {
                    {"voxel_mm", num(st.voxel_mm)},
                    {"mesh_sample_spacing_mm", num(st.mesh_sample_spacing_mm > 0 ? st.mesh_sample_spacing_mm : 2 * st.voxel_mm)},
                    {"place_mm", st.place_mm ? vec(*st.place_mm) : ordered_json(nullptr)},
+                   {"place_rotation_deg", st.place_rotation_deg ? vec(*st.place_rotation_deg) : ordered_json(nullptr)},
+                   {"mesh_scale", st.mesh_scale ? num(*st.mesh_scale) : ordered_json(nullptr)},
+                   {"object", st.object.empty() ? ordered_json(nullptr) : ordered_json(st.object)},
                    {"printer", st.printer},
                    {"gcode_source", st.gcode_source},
                    {"slice_config", st.slice_config_ini.empty() ? ordered_json(nullptr) : ordered_json(st.slice_config_ini)},

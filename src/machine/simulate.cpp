@@ -224,6 +224,7 @@ Result<SimulationResult> run(std::istream& in, const PrinterProfile& profile, co
     r.findings.push_back(std::move(f));
   }
   r.slicer = interp.slicer();
+  for (const auto& [name, id] : interp.object_names()) r.object_names[id] = name;
   if (!std::isnan(interp.slicer_estimate_s())) r.slicer_estimate_s = interp.slicer_estimate_s();
   if (!std::isnan(interp.slicer_filament_mm())) r.slicer_filament_mm = interp.slicer_filament_mm();
   r.layers_from = interp.layers_from_markers() ? "markers" : "z";

@@ -373,6 +373,17 @@ std::string report_html(const VerifyReport& report, const ReportAssets& assets, 
   h += kv_row("registration", html_escape(dev.registration_method.empty() ? std::string("auto")
                                                                             : dev.registration_method) +
                                   ", offset " + vec_text(dev.registration_offset_mm, 3) + " mm");
+  {
+    const Registration& reg = report.registration;
+    if (!reg.transform.rotation.isIdentity(0))
+      h += kv_row("rotation", vec_text(xyz_deg_of(reg.transform.rotation), 2) + " deg about X, Y, Z");
+    if (reg.transform.scale != 1.0) h += kv_row("mesh scale", fixed(reg.transform.scale, 4) + " mm per unit");
+    if (reg.object_id >= 0) h += kv_row("object", html_escape(reg.object));
+    if (reg.wall_points > 0)
+      h += kv_row("registration fit", "walls " + fixed(reg.residual_rms_mm, 3) + " mm RMS from the mesh, " +
+                                          fixed(reg.coverage_pct, 1) + " % of the mesh covered" +
+                                          (reg.matches ? std::string() : " — " + html_escape(reg.mismatch)));
+  }
   h += kv_row("sampling seed", std::to_string(st.seed));
   h += kv_row("max regions", std::to_string(st.max_regions));
   h += "</table></div>";

@@ -1,5 +1,7 @@
 #include "support/test_support.hpp"
 
+#include <gtest/gtest.h>
+
 #include <array>
 #include <cstdlib>
 #include <vector>
@@ -23,6 +25,13 @@ std::optional<std::filesystem::path> realworld_dir() {
   for (const auto& dir : candidates)
     if (std::error_code ec; std::filesystem::is_directory(dir, ec)) return dir;
   return std::nullopt;
+}
+
+nlohmann::json read_json(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  EXPECT_TRUE(in.good()) << path;
+  if (!in.good()) return nullptr;
+  return nlohmann::json::parse(in, nullptr, false);
 }
 
 std::filesystem::path temp_dir(const std::string& name) {

@@ -4,6 +4,8 @@
 #include <optional>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "printtwin/mesh.hpp"
 
 namespace printtwin::test {
@@ -13,6 +15,8 @@ std::filesystem::path source_path(const std::string& relative);
 /// The shared folder of real slicer files (PRINTTWIN_REALWORLD_DIR, else
 /// <source>/../shared/realworld, else /work/shared/realworld); nullopt when absent (skip).
 std::optional<std::filesystem::path> realworld_dir();
+/// The JSON document in a file (a failed expectation and null when unreadable).
+nlohmann::json read_json(const std::filesystem::path& path);
 /// A fresh empty folder under the system temp dir, unique to this test process.
 std::filesystem::path temp_dir(const std::string& name);
 

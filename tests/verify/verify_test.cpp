@@ -13,11 +13,7 @@
 namespace printtwin {
 namespace {
 
-nlohmann::json read_json(const std::filesystem::path& p) {
-  auto text = read_file(p);
-  EXPECT_TRUE(text.ok()) << p;
-  return text.ok() ? nlohmann::json::parse(*text) : nlohmann::json{};
-}
+using test::read_json;
 
 /// The 10 mm cube PrusaSlicer sliced for samples/gcode/prusa_cube10.gcode (the 20 mm
 /// calibration cube at scale 0.5), written where the test can pass it to the CLI.
@@ -46,7 +42,7 @@ TEST(VerifyCli, PrusaSlicerCubePassesAtPointThreeWithAFullReport) {
   ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
   EXPECT_NE(run.out.find("PASS"), std::string::npos);
   const auto j = read_json(out / "report.json");
-  EXPECT_EQ(j["schema"], "printtwin.verify/1");
+  EXPECT_EQ(j["schema"], "printtwin.verify/2");
   EXPECT_EQ(j["pass"], true);
   EXPECT_DOUBLE_EQ(j["tolerance_mm"].get<double>(), 0.3);
   // PrusaSlicer centred the part on (110, 110): the cube's min corner (-5, -5) lands on 105.
@@ -235,7 +231,7 @@ TEST(VerifyLibrary, SideBySideHalvesGiveTheReportOfTheSequentialPipeline) {
   for (const auto& t : together->timings) stages_together.push_back(t.stage);
   for (const auto& t : apart->timings) stages_apart.push_back(t.stage);
   EXPECT_EQ(stages_together, stages_apart);
-  EXPECT_EQ(stages_together, (std::vector<std::string>{"load", "index", "check", "simulate", "deposit", "deviation"}));
+  EXPECT_EQ(stages_together, (std::vector<std::string>{"load", "index", "check", "simulate", "deposit", "registration", "deviation"}));
   // verify() measures its own wall time; the halves called one by one do not.
   EXPECT_GT(together->elapsed_s, 0.0);
   EXPECT_EQ(apart->elapsed_s, 0.0);
