@@ -151,7 +151,25 @@ std::vector<Case> corpus() {
                                       "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
                                       "0 0 0\n1 0 0\n");
                  return "check " + q(d / "short.ply");
-               }, 3, {"short.ply:3:", "announces 8 'vertex' elements", "one per line"}});
+               }, 3, {"short.ply:3:", "announces 8 'vertex' elements", "more than the rest of the file holds"}});
+  // Found by fuzzing: a binary PLY face of 0 corners reached an assertion in assimp.
+  c.push_back({"binary PLY face of 0 corners", [](const fs::path& d) {
+                 put(d / "zero.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                     "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n" +
+                                         std::string(37, '\0'));
+                 return "check " + q(d / "zero.ply");
+               }, 3, {"zero.ply", "holds no triangles"}});
+  c.push_back({"binary PLY ending inside a face", [](const fs::path& d) {
+                 put(d / "cut.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                    "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n" +
+                                        std::string(36, '\0') + "\x03" + std::string(5, '\0'));
+                 return "check " + q(d / "cut.ply");
+               }, 3, {"cut.ply", "ends inside element 'face' 0"}});
+  c.push_back({"PLY face index out of range", [](const fs::path& d) {
+                 put(d / "idx.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                                    "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n");
+                 return "check " + q(d / "idx.ply");
+               }, 3, {"idx.ply:13:", "vertex index 7", "3 vertices"}});
   c.push_back({"OBJ face index out of range", [](const fs::path& d) {
                  put(d / "index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
                  return "check " + q(d / "index.obj");
@@ -270,6 +288,16 @@ std::vector<Case> corpus() {
   c.push_back({"slice --set unknown key", [cube20](const fs::path& d) {
                  return "slice " + q(cube20) + " --set no_such_setting=1 -o " + q(d / "c.gcode");
                }, 2, {"no_such_setting"}, 10});
+  // Found by fuzzing: a number beyond double's range made the JSON reader throw past the
+  // error handling (exit 4).
+  c.push_back({"printer profile with a number overflow", [cube20](const fs::path& d) {
+                 put(d / "printer.json", "{\"bed_max_x_mm\": 1E7777}");
+                 return "check " + q(cube20) + " --printer " + q(d / "printer.json");
+               }, 3, {"printer.json", "not valid JSON", "number overflow"}, 10});
+  c.push_back({"compare manifest with a number overflow", [](const fs::path& d) {
+                 put(d / "plan.json", "{\"schema\": \"printtwin.compare-plan\", \"x\": 1E7777}");
+                 return "compare --manifest " + q(d / "plan.json") + " --out " + q(d / "c");
+               }, 3, {"plan.json", "not valid JSON", "number overflow"}, 10});
   c.push_back({"printer profile that is not JSON", [cube20](const fs::path& d) {
                  put(d / "printer.json", "{ not json");
                  return "check " + q(cube20) + " --printer " + q(d / "printer.json");
