@@ -25,12 +25,31 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <stdexcept>
+#include <string>
 #include <string_view>
 #include <tuple>
 #include <vector>
 
 #include "printtwin/io.hpp"
 #include "printtwin/mesh.hpp"
+
+// assimp checks its own invariants with ai_assert, whose failure calls this function and
+// then abort(): a malformed 3MF (a package whose root model cannot be opened) reaches one.
+// printtwin defines the function itself, so that the dynamic linker binds assimp's calls to
+// this definition: the failure becomes an exception, which assimp's importer catches and
+// turns into an error (the import returns no scene), and load_mesh reports it as bad input
+// naming the file. Defined once, in the only file that links assimp.
+namespace Assimp {
+namespace {
+thread_local std::string last_assertion;
+}  // namespace
+[[noreturn]] void aiAssertViolation(const char* expression, const char* file, int line) {
+  last_assertion = std::string(expression != nullptr ? expression : "?") + " (" + (file != nullptr ? file : "?") +
+                   ":" + std::to_string(line) + ")";
+  throw std::runtime_error("assimp's internal check failed: " + last_assertion);
+}
+}  // namespace Assimp
 
 namespace printtwin {
 
@@ -760,6 +779,7 @@ Result<Mesh> load_mesh_from_memory(std::string_view bytes, const fs::path& path,
   if (auto st = check_container(bytes, ext, name); !st) return st.error();
 
 
+  Assimp::last_assertion.clear();
   Assimp::Importer importer;
   // Identical vertices are joined after import (welded_mesh): without it an STL is a soup of
   // loose triangles and nothing is closed. assimp's own aiProcess_JoinIdenticalVertices also
@@ -775,6 +795,7 @@ Result<Mesh> load_mesh_from_memory(std::string_view bytes, const fs::path& path,
   const aiScene* scene = importer.ReadFileFromMemory(bytes.data(), bytes.size(), flags, ext.c_str() + 1);
   if (scene == nullptr) {
     std::string why = importer.GetErrorString();
+    if (why.empty() && !Assimp::last_assertion.empty()) why = "assimp's internal check failed: " + Assimp::last_assertion;
     if (why.empty()) why = "unknown reason";
     if (lower(why).find("no output meshes") != std::string::npos ||
         lower(why).find("no meshes") != std::string::npos || lower(why).find("contains no faces") != std::string::npos)

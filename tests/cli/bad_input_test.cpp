@@ -176,6 +176,11 @@ std::vector<Case> corpus() {
                }, 3, {"index.obj"}});
   c.push_back({"3MF that is not a zip", [](const fs::path& d) { put(d / "part.3mf", "<model>not a zip</model>"); return "check " + q(d / "part.3mf"); },
                3, {"part.3mf", "not a 3MF file", "zip"}});
+  // Found by fuzzing: a zip whose package relations name no readable model reached an
+  // assertion inside assimp (an abort); assimp's assertions are errors now.
+  c.push_back({"3MF package without its root model", [](const fs::path&) {
+                 return "check " + q(test::source_path("tests/data/mesh/no_root_model.3mf"));
+               }, 3, {"no_root_model.3mf", "cannot read mesh", "mRootStream"}});
   c.push_back({"AMF that is neither XML nor zip", [](const fs::path& d) { put(d / "part.amf", "solid a\n"); return "check " + q(d / "part.amf"); },
                3, {"part.amf", "not an AMF file"}});
   // --- meshes that load but cannot print: the verdict follows the findings
