@@ -719,6 +719,15 @@ Status check_container(std::string_view bytes, const std::string& ext, const std
   const bool zip = bytes.size() >= 4 && bytes.substr(0, 4) == std::string_view("PK\x03\x04", 4);
   if (ext == ".3mf" && !zip)
     return bad_input("not a 3MF file: a 3MF is a zip archive (it starts with 'PK'), this file does not", name);
+  // A zip ends with its central directory's end record (22 bytes and a comment of up to
+  // 64 KiB): without it the archive is truncated, and assimp's zip reader leaks on it.
+  if (zip) {
+    const std::size_t tail = std::min<std::size_t>(bytes.size(), 22 + 65535);
+    if (bytes.substr(bytes.size() - tail).rfind(std::string_view("PK\x05\x06", 4)) == std::string_view::npos)
+      return bad_input("not a complete zip archive (no end-of-central-directory record): truncated or damaged " +
+                           std::string(ext == ".3mf" ? "3MF" : "AMF") + " file",
+                       name);
+  }
   if (ext == ".amf" && !zip) {
     std::size_t i = bytes.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0;  // UTF-8 byte order mark
     while (i < bytes.size() && is_space(bytes[i])) ++i;

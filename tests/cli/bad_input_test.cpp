@@ -176,6 +176,8 @@ std::vector<Case> corpus() {
                }, 3, {"index.obj"}});
   c.push_back({"3MF that is not a zip", [](const fs::path& d) { put(d / "part.3mf", "<model>not a zip</model>"); return "check " + q(d / "part.3mf"); },
                3, {"part.3mf", "not a 3MF file", "zip"}});
+  c.push_back({"truncated 3MF zip", [](const fs::path& d) { put(d / "cut.3mf", std::string("PK\x03\x04\x04\0]\0", 8)); return "check " + q(d / "cut.3mf"); },
+               3, {"cut.3mf", "not a complete zip archive"}});
   // Found by fuzzing: a zip whose package relations name no readable model reached an
   // assertion inside assimp (an abort); assimp's assertions are errors now.
   c.push_back({"3MF package without its root model", [](const fs::path&) {
