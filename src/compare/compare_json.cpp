@@ -326,7 +326,7 @@ VariantResult read_variant_result(Reader& rd, const Json& j, const std::string& 
 Result<Json> parse_text(std::string_view text, std::string_view source) {
   try {
     return Json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {  // parse_error, also out_of_range for a number overflow
     return bad_input(std::string("not valid JSON: ") + e.what(), std::string(source));
   }
 }

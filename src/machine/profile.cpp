@@ -257,7 +257,7 @@ Result<PrinterProfile> parse_printer_profile_with(std::string_view json_text, st
   json doc;
   try {
     doc = json::parse(json_text);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // parse_error, also out_of_range for a number overflow
     return bad_input(std::string("not valid JSON: ") + e.what(), src);
   }
   if (!doc.is_object()) return bad_input("expected a JSON object of profile keys", src);

@@ -1,4 +1,7 @@
-// The only file that includes assimp: loads any supported mesh format into a Mesh.
+// The only file that includes assimp: loads any supported mesh format into a Mesh. OFF and
+// PLY are read here (assimp's readers trust their headers' counts and abort or leak on
+// malformed files); STL is validated here and then read by assimp, OBJ, 3MF and AMF by
+// assimp behind a container check and its structure validation.
 //
 // assimp is forgiving to a fault: it reads an ASCII STL full of garbage as "some triangles",
 // and a binary STL whose header promises more triangles than the file holds as a shorter
@@ -22,11 +25,31 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <stdexcept>
+#include <string>
 #include <string_view>
+#include <tuple>
 #include <vector>
 
 #include "printtwin/io.hpp"
 #include "printtwin/mesh.hpp"
+
+// assimp checks its own invariants with ai_assert, whose failure calls this function and
+// then abort(): a malformed 3MF (a package whose root model cannot be opened) reaches one.
+// printtwin defines the function itself, so that the dynamic linker binds assimp's calls to
+// this definition: the failure becomes an exception, which assimp's importer catches and
+// turns into an error (the import returns no scene), and load_mesh reports it as bad input
+// naming the file. Defined once, in the only file that links assimp.
+namespace Assimp {
+namespace {
+thread_local std::string last_assertion;
+}  // namespace
+[[noreturn]] void aiAssertViolation(const char* expression, const char* file, int line) {
+  last_assertion = std::string(expression != nullptr ? expression : "?") + " (" + (file != nullptr ? file : "?") +
+                   ":" + std::to_string(line) + ")";
+  throw std::runtime_error("assimp's internal check failed: " + last_assertion);
+}
+}  // namespace Assimp
 
 namespace printtwin {
 
@@ -498,39 +521,77 @@ Result<Mesh> read_off(std::string_view text, double s, const std::string& name) 
   return mesh;
 }
 
-/// PLY's header, checked before assimp sees the file: assimp's PLY importer trusts the
-/// counts and leaks what it allocated when it then gives up. Checked here: the magic, the
-/// format, element and property lines, the end of the header, and that the body can hold
-/// what the header announces (ASCII: a line per element; binary: the fixed-size properties'
-/// bytes, lists at their smallest).
-Status check_ply_header(std::string_view bytes, const std::string& name) {
+// --- PLY, read here --------------------------------------------------------------------
+// assimp's PLY importer trusts the header's counts and the list lengths: a face with no
+// corners reaches an assertion in its triangulation, and its error paths leak. PLY is read
+// here instead, every count, length and index checked against the file:
+//   ply / format ascii|binary_little_endian|binary_big_endian 1.0 / comment, obj_info
+//   element <name> <count> / property <type> <name> / property list <type> <type> <name>
+//   end_header, then the elements in header order.
+// Vertices are the `vertex` element's x, y, z; faces the `face` element's `vertex_indices`
+// (or `vertex_index`) lists, split into fans; other elements and properties are skipped.
+
+struct PlyProperty {
+  std::string name;
+  char kind = 'f';        ///< 'i' signed, 'u' unsigned, 'f' floating
+  int bytes = 4;
+  bool list = false;
+  char count_kind = 'u';  ///< the list length's type
+  int count_bytes = 1;
+};
+struct PlyElement {
+  std::string name;
+  std::uint64_t count = 0;
+  long line = 0;
+  std::vector<PlyProperty> properties;
+};
+
+bool ply_type(std::string_view t, char& kind, int& bytes) {
+  static constexpr std::array<std::tuple<std::string_view, char, int>, 16> kTypes = {{
+      {"char", 'i', 1}, {"int8", 'i', 1}, {"uchar", 'u', 1}, {"uint8", 'u', 1},
+      {"short", 'i', 2}, {"int16", 'i', 2}, {"ushort", 'u', 2}, {"uint16", 'u', 2},
+      {"int", 'i', 4}, {"int32", 'i', 4}, {"uint", 'u', 4}, {"uint32", 'u', 4},
+      {"float", 'f', 4}, {"float32", 'f', 4}, {"double", 'f', 8}, {"float64", 'f', 8}}};
+  for (const auto& [n, k, b] : kTypes)
+    if (n == t) {
+      kind = k;
+      bytes = b;
+      return true;
+    }
+  return false;
+}
+
+/// One binary value at `p` (bounds checked by the caller) as a double.
+double ply_binary_value(const char* p, char kind, int bytes, bool big_endian) {
+  std::array<unsigned char, 8> b{};
+  const auto n = static_cast<std::size_t>(std::clamp(bytes, 1, 8));
+  for (std::size_t i = 0; i < n; ++i) b[i] = static_cast<unsigned char>(p[big_endian ? n - 1 - i : i]);
+  switch (kind == 'f' ? bytes : (kind == 'i' ? -bytes : 10 + bytes)) {
+    case 4: { float v; std::memcpy(&v, b.data(), 4); return v; }
+    case 8: { double v; std::memcpy(&v, b.data(), 8); return v; }
+    case -1: { std::int8_t v; std::memcpy(&v, b.data(), 1); return v; }
+    case -2: { std::int16_t v; std::memcpy(&v, b.data(), 2); return v; }
+    case -4: { std::int32_t v; std::memcpy(&v, b.data(), 4); return v; }
+    case 11: return b[0];
+    case 12: { std::uint16_t v; std::memcpy(&v, b.data(), 2); return v; }
+    default: { std::uint32_t v; std::memcpy(&v, b.data(), 4); return v; }
+  }
+}
+
+Result<Mesh> read_ply(std::string_view bytes, double s, const std::string& name) {
   LineReader lines(bytes);
   std::string_view line;
   long at = 0;
   std::vector<std::string_view> tok;
   if (!lines.next(line, at) || line.substr(0, 3) != "ply")
     return bad_input("PLY: expected the magic word 'ply' on the first line", name, 1);
-  enum class Format { none, ascii, binary } format = Format::none;
-  struct Element {
-    std::uint64_t count = 0;
-    std::uint64_t min_bytes = 0;  ///< binary: bytes of one element at least
-    long line = 0;
-    std::string name;
-  };
-  std::vector<Element> elements;
-  auto type_bytes = [](std::string_view t) -> int {
-    if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
-    if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
-    if (t == "int" || t == "uint" || t == "float" || t == "int32" || t == "uint32" || t == "float32") return 4;
-    if (t == "double" || t == "float64") return 8;
-    return 0;
-  };
+  int format = -1;  // 0 ascii, 1 little endian, 2 big endian
+  std::vector<PlyElement> elements;
   std::size_t body = std::string_view::npos;
   while (lines.next(line, at)) {
     split_tokens(line, tok);
     if (tok[0] == "end_header") {
-      const std::size_t end = bytes.find("end_header");
-      const std::size_t nl = bytes.find('\n', end);
+      const std::size_t nl = bytes.find('\n', static_cast<std::size_t>(tok[0].data() - bytes.data()));
       body = nl == std::string_view::npos ? bytes.size() : nl + 1;
       break;
     }
@@ -538,45 +599,118 @@ Status check_ply_header(std::string_view bytes, const std::string& name) {
     if (tok[0] == "format") {
       if (tok.size() < 2 || (tok[1] != "ascii" && tok[1] != "binary_little_endian" && tok[1] != "binary_big_endian"))
         return bad_input("PLY: expected 'format ascii|binary_little_endian|binary_big_endian 1.0'", name, at);
-      format = tok[1] == "ascii" ? Format::ascii : Format::binary;
+      format = tok[1] == "ascii" ? 0 : (tok[1] == "binary_little_endian" ? 1 : 2);
     } else if (tok[0] == "element") {
-      Element e;
+      PlyElement e;
       if (tok.size() != 3 || !parse_token(tok[2], e.count))
         return bad_input("PLY: expected 'element <name> <count>', found '" + shown(line) + "'", name, at);
-      e.line = at;
       e.name = std::string(tok[1].substr(0, 40));
-      elements.push_back(e);
+      e.line = at;
+      elements.push_back(std::move(e));
     } else if (tok[0] == "property") {
       if (elements.empty()) return bad_input("PLY: a property before any element", name, at);
-      const bool list = tok.size() == 5 && tok[1] == "list";
-      if (list ? (type_bytes(tok[2]) == 0 || type_bytes(tok[3]) == 0) : (tok.size() != 3 || type_bytes(tok[1]) == 0))
-        return bad_input("PLY: expected 'property <type> <name>' or 'property list <type> <type> <name>', found '" +
-                             shown(line) + "'",
+      PlyProperty p;
+      p.list = tok.size() == 5 && tok[1] == "list";
+      const bool ok = p.list ? ply_type(tok[2], p.count_kind, p.count_bytes) && p.count_kind != 'f' &&
+                                   ply_type(tok[3], p.kind, p.bytes)
+                             : tok.size() == 3 && ply_type(tok[1], p.kind, p.bytes);
+      if (!ok)
+        return bad_input("PLY: expected 'property <type> <name>' or 'property list <integer type> <type> <name>', "
+                         "found '" + shown(line) + "'",
                          name, at);
-      elements.back().min_bytes += static_cast<std::uint64_t>(type_bytes(tok[list ? 2 : 1]));
+      p.name = std::string(tok.back().substr(0, 40));
+      elements.back().properties.push_back(std::move(p));
     } else {
       return bad_input("PLY: unknown header line '" + shown(line) + "'", name, at);
     }
   }
   if (body == std::string_view::npos) return bad_input("PLY: the header has no 'end_header'", name, lines.line());
-  if (format == Format::none) return bad_input("PLY: the header has no 'format' line", name);
-  // What the body holds: ASCII, lines with content (an element per line); binary, bytes.
-  std::uint64_t room = bytes.size() - body;
-  if (format == Format::ascii) {
-    room = 0;
-    LineReader rest(bytes.substr(body));
-    while (rest.next(line, at)) ++room;
-  }
-  for (const auto& e : elements) {
-    const std::uint64_t per = format == Format::ascii ? 1 : std::max<std::uint64_t>(e.min_bytes, 1);
-    if (e.count > room / per)
+  if (format < 0) return bad_input("PLY: the header has no 'format' line", name);
+
+  // The body as a stream of values: binary reads, or the ASCII tokens with their lines.
+  const char* pos = bytes.data() + body;
+  const char* const end = bytes.data() + bytes.size();
+  long ascii_line = at + 1;
+  const std::string* element_name = nullptr;  // where the stream is, for messages
+  std::uint64_t element_index = 0;
+  auto where = [&] { return "element '" + *element_name + "' " + std::to_string(element_index); };
+  auto next_value = [&](char kind, int size, double& out) -> Status {
+    if (format != 0) {
+      if (end - pos < size) return bad_input("PLY: the file ends inside " + where(), name);
+      out = ply_binary_value(pos, kind, size, format == 2);
+      pos += size;
+    } else {
+      while (pos < end && is_space(*pos)) ascii_line += *pos++ == '\n' ? 1 : 0;
+      const char* b = pos;
+      while (pos < end && !is_space(*pos)) ++pos;
+      const std::string_view t(b, static_cast<std::size_t>(pos - b));
+      if (t.empty()) return bad_input("PLY: the file ends inside " + where(), name, ascii_line);
+      if (!parse_token(t, out)) return bad_input("PLY: " + where() + ": expected a number, found '" + shown(t) + "'", name, ascii_line);
+    }
+    if (!std::isfinite(out)) return bad_input("PLY: " + where() + " has a NaN or infinite value", name, format == 0 ? std::optional<long>(ascii_line) : std::nullopt);
+    return Ok{};
+  };
+  std::vector<Vec3> points;
+  Mesh mesh;
+  PointIndex index(16);
+  std::vector<std::uint32_t> corners;
+  bool have_faces = false;
+  for (const PlyElement& e : elements) {
+    // A count the rest of the file cannot hold (one byte or one token per value at least).
+    if (e.count > static_cast<std::uint64_t>(end - pos) / std::max<std::size_t>(e.properties.size(), 1) + 1)
       return bad_input("PLY: the header (line " + std::to_string(e.line) + ") announces " + std::to_string(e.count) +
-                           " '" + e.name + "' elements, more than the rest of the file holds" +
-                           (format == Format::ascii ? " (one per line)" : " (" + std::to_string(per) + " bytes each at least)"),
+                           " '" + e.name + "' elements, more than the rest of the file holds",
                        name, e.line);
-    room -= e.count * per;
+    const bool is_vertex = e.name == "vertex", is_face = e.name == "face";
+    std::array<int, 3> xyz = {-1, -1, -1};
+    int indices = -1;
+    for (std::size_t k = 0; k < e.properties.size(); ++k) {
+      const auto& p = e.properties[k];
+      if (is_vertex && !p.list && (p.name == "x" || p.name == "y" || p.name == "z")) xyz[static_cast<std::size_t>(p.name[0] - 'x')] = static_cast<int>(k);
+      if (is_face && p.list && (p.name == "vertex_indices" || p.name == "vertex_index")) indices = static_cast<int>(k);
+    }
+    if (is_vertex && (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0))
+      return bad_input("PLY: the 'vertex' element (line " + std::to_string(e.line) + ") has no x, y and z properties", name, e.line);
+    if (is_face && indices < 0)
+      return bad_input("PLY: the 'face' element (line " + std::to_string(e.line) + ") has no 'vertex_indices' list", name, e.line);
+    if (is_vertex) points.reserve(e.count);
+    if (is_face) have_faces = true;
+    for (std::uint64_t i = 0; i < e.count; ++i) {
+      element_name = &e.name;
+      element_index = i;
+      std::array<double, 3> c{};
+      for (std::size_t k = 0; k < e.properties.size(); ++k) {
+        const auto& p = e.properties[k];
+        double v = 0;
+        if (auto st = next_value(p.list ? p.count_kind : p.kind, p.list ? p.count_bytes : p.bytes, v); !st) return st.error();
+        if (!p.list) {
+          for (int a = 0; a < 3; ++a)
+            if (xyz[static_cast<std::size_t>(a)] == static_cast<int>(k)) c[static_cast<std::size_t>(a)] = v;
+          continue;
+        }
+        if (v < 0 || v > static_cast<double>(end - pos) + 1)
+          return bad_input("PLY: " + where() + ": a list of " + format_number(v) + " values does not fit the file", name);
+        const auto n = static_cast<std::size_t>(v);
+        const bool take = static_cast<int>(k) == indices;
+        if (take) corners.clear();
+        for (std::size_t j = 0; j < n; ++j) {
+          double idx = 0;
+          if (auto st = next_value(p.kind, p.bytes, idx); !st) return st.error();
+          if (!take) continue;
+          if (!(idx >= 0 && idx < static_cast<double>(points.size())) || idx != std::floor(idx))
+            return bad_input("PLY: " + where() + ": vertex index " + format_number(idx) + " is not one of the " +
+                                 std::to_string(points.size()) + " vertices read before the faces",
+                             name, format == 0 ? std::optional<long>(ascii_line) : std::nullopt);
+          corners.push_back(index.find_or_add(points[static_cast<std::size_t>(idx)], mesh.vertices_mm));
+        }
+        if (take)  // points and lines carry no volume; polygons become a fan
+          for (std::size_t j = 1; j + 1 < corners.size(); ++j) mesh.triangles.push_back({corners[0], corners[j], corners[j + 1]});
+      }
+      if (is_vertex) points.emplace_back(s * c[0], s * c[1], s * c[2]);
+    }
   }
-  return Ok{};
+  if (!have_faces) return bad_input("PLY: no 'face' element: a point cloud, expected a mesh", name);
+  return mesh;
 }
 
 /// 3MF is a zip archive; AMF is XML, plain or zipped. Anything else would reach assimp's zip
@@ -585,6 +719,15 @@ Status check_container(std::string_view bytes, const std::string& ext, const std
   const bool zip = bytes.size() >= 4 && bytes.substr(0, 4) == std::string_view("PK\x03\x04", 4);
   if (ext == ".3mf" && !zip)
     return bad_input("not a 3MF file: a 3MF is a zip archive (it starts with 'PK'), this file does not", name);
+  // A zip ends with its central directory's end record (22 bytes and a comment of up to
+  // 64 KiB): without it the archive is truncated, and assimp's zip reader leaks on it.
+  if (zip) {
+    const std::size_t tail = std::min<std::size_t>(bytes.size(), 22 + 65535);
+    if (bytes.substr(bytes.size() - tail).rfind(std::string_view("PK\x05\x06", 4)) == std::string_view::npos)
+      return bad_input("not a complete zip archive (no end-of-central-directory record): truncated or damaged " +
+                           std::string(ext == ".3mf" ? "3MF" : "AMF") + " file",
+                       name);
+  }
   if (ext == ".amf" && !zip) {
     std::size_t i = bytes.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0;  // UTF-8 byte order mark
     while (i < bytes.size() && is_space(bytes[i])) ++i;
@@ -637,15 +780,15 @@ Result<Mesh> load_mesh_from_memory(std::string_view bytes, const fs::path& path,
   }
 
   const double s = unit_factor(options.units) * options.scale;
-  if (ext == ".off") {
-    auto mesh = read_off(bytes, s, name);
+  if (ext == ".off" || ext == ".ply") {
+    auto mesh = ext == ".off" ? read_off(bytes, s, name) : read_ply(bytes, s, name);
     if (!mesh) return mesh.error();
     return finish_mesh(std::move(*mesh), s, name);
   }
   if (auto st = check_container(bytes, ext, name); !st) return st.error();
-  if (ext == ".ply")
-    if (auto st = check_ply_header(bytes, name); !st) return st.error();
 
+
+  Assimp::last_assertion.clear();
   Assimp::Importer importer;
   // Identical vertices are joined after import (welded_mesh): without it an STL is a soup of
   // loose triangles and nothing is closed. assimp's own aiProcess_JoinIdenticalVertices also
@@ -661,6 +804,7 @@ Result<Mesh> load_mesh_from_memory(std::string_view bytes, const fs::path& path,
   const aiScene* scene = importer.ReadFileFromMemory(bytes.data(), bytes.size(), flags, ext.c_str() + 1);
   if (scene == nullptr) {
     std::string why = importer.GetErrorString();
+    if (why.empty() && !Assimp::last_assertion.empty()) why = "assimp's internal check failed: " + Assimp::last_assertion;
     if (why.empty()) why = "unknown reason";
     if (lower(why).find("no output meshes") != std::string::npos ||
         lower(why).find("no meshes") != std::string::npos || lower(why).find("contains no faces") != std::string::npos)

@@ -151,13 +151,38 @@ std::vector<Case> corpus() {
                                       "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
                                       "0 0 0\n1 0 0\n");
                  return "check " + q(d / "short.ply");
-               }, 3, {"short.ply:3:", "announces 8 'vertex' elements", "one per line"}});
+               }, 3, {"short.ply:3:", "announces 8 'vertex' elements", "more than the rest of the file holds"}});
+  // Found by fuzzing: a binary PLY face of 0 corners reached an assertion in assimp.
+  c.push_back({"binary PLY face of 0 corners", [](const fs::path& d) {
+                 put(d / "zero.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                     "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n" +
+                                         std::string(37, '\0'));
+                 return "check " + q(d / "zero.ply");
+               }, 3, {"zero.ply", "holds no triangles"}});
+  c.push_back({"binary PLY ending inside a face", [](const fs::path& d) {
+                 put(d / "cut.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                    "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n" +
+                                        std::string(36, '\0') + "\x03" + std::string(5, '\0'));
+                 return "check " + q(d / "cut.ply");
+               }, 3, {"cut.ply", "ends inside element 'face' 0"}});
+  c.push_back({"PLY face index out of range", [](const fs::path& d) {
+                 put(d / "idx.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                                    "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n");
+                 return "check " + q(d / "idx.ply");
+               }, 3, {"idx.ply:13:", "vertex index 7", "3 vertices"}});
   c.push_back({"OBJ face index out of range", [](const fs::path& d) {
                  put(d / "index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
                  return "check " + q(d / "index.obj");
                }, 3, {"index.obj"}});
   c.push_back({"3MF that is not a zip", [](const fs::path& d) { put(d / "part.3mf", "<model>not a zip</model>"); return "check " + q(d / "part.3mf"); },
                3, {"part.3mf", "not a 3MF file", "zip"}});
+  c.push_back({"truncated 3MF zip", [](const fs::path& d) { put(d / "cut.3mf", std::string("PK\x03\x04\x04\0]\0", 8)); return "check " + q(d / "cut.3mf"); },
+               3, {"cut.3mf", "not a complete zip archive"}});
+  // Found by fuzzing: a zip whose package relations name no readable model reached an
+  // assertion inside assimp (an abort); assimp's assertions are errors now.
+  c.push_back({"3MF package without its root model", [](const fs::path&) {
+                 return "check " + q(test::source_path("tests/data/mesh/no_root_model.3mf"));
+               }, 3, {"no_root_model.3mf", "cannot read mesh", "mRootStream"}});
   c.push_back({"AMF that is neither XML nor zip", [](const fs::path& d) { put(d / "part.amf", "solid a\n"); return "check " + q(d / "part.amf"); },
                3, {"part.amf", "not an AMF file"}});
   // --- meshes that load but cannot print: the verdict follows the findings
@@ -270,6 +295,16 @@ std::vector<Case> corpus() {
   c.push_back({"slice --set unknown key", [cube20](const fs::path& d) {
                  return "slice " + q(cube20) + " --set no_such_setting=1 -o " + q(d / "c.gcode");
                }, 2, {"no_such_setting"}, 10});
+  // Found by fuzzing: a number beyond double's range made the JSON reader throw past the
+  // error handling (exit 4).
+  c.push_back({"printer profile with a number overflow", [cube20](const fs::path& d) {
+                 put(d / "printer.json", "{\"bed_max_x_mm\": 1E7777}");
+                 return "check " + q(cube20) + " --printer " + q(d / "printer.json");
+               }, 3, {"printer.json", "not valid JSON", "number overflow"}, 10});
+  c.push_back({"compare manifest with a number overflow", [](const fs::path& d) {
+                 put(d / "plan.json", "{\"schema\": \"printtwin.compare-plan\", \"x\": 1E7777}");
+                 return "compare --manifest " + q(d / "plan.json") + " --out " + q(d / "c");
+               }, 3, {"plan.json", "not valid JSON", "number overflow"}, 10});
   c.push_back({"printer profile that is not JSON", [cube20](const fs::path& d) {
                  put(d / "printer.json", "{ not json");
                  return "check " + q(cube20) + " --printer " + q(d / "printer.json");
