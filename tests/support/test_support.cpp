@@ -19,9 +19,12 @@ std::filesystem::path source_path(const std::string& relative) {
 
 std::optional<std::filesystem::path> realworld_dir() {
   std::vector<std::filesystem::path> candidates;
-  if (const char* env = std::getenv("PRINTTWIN_REALWORLD_DIR"); env != nullptr && *env != '\0') candidates.emplace_back(env);
-  candidates.push_back(std::filesystem::path(PRINTTWIN_SOURCE_DIR) / ".." / "shared" / "realworld");
-  candidates.emplace_back("/work/shared/realworld");
+  if (const char* env = std::getenv("PRINTTWIN_REALWORLD_DIR"); env != nullptr && *env != '\0') {
+    candidates.emplace_back(env);  // when set, the only place looked at (so a run can go without)
+  } else {
+    candidates.push_back(std::filesystem::path(PRINTTWIN_SOURCE_DIR) / ".." / "shared" / "realworld");
+    candidates.emplace_back("/work/shared/realworld");
+  }
   for (const auto& dir : candidates)
     if (std::error_code ec; std::filesystem::is_directory(dir, ec)) return dir;
   return std::nullopt;

@@ -12,7 +12,7 @@ namespace printtwin::test {
 
 /// Path of a file in the source tree (e.g. "samples/cube_20mm.stl").
 std::filesystem::path source_path(const std::string& relative);
-/// The shared folder of real slicer files (PRINTTWIN_REALWORLD_DIR, else
+/// The shared folder of real slicer files (PRINTTWIN_REALWORLD_DIR alone when set, else
 /// <source>/../shared/realworld, else /work/shared/realworld); nullopt when absent (skip).
 std::optional<std::filesystem::path> realworld_dir();
 /// The JSON document in a file (a failed expectation and null when unreadable).
