@@ -237,6 +237,33 @@ struct RepairResult {
 /// volume. Never called implicitly; the caller reports `changes`.
 [[nodiscard]] Result<RepairResult> repair_mesh(const Mesh& mesh, const RepairSettings& settings = {});
 
+/// The unit a mesh was likely modelled in, judged by its size (`--units auto`).
+struct UnitGuess {
+  std::string unit;           ///< "m", "in" or "um" (the names of `--units`)
+  double mm_per_unit = 1.0;   ///< scale to apply
+  double size_units = 0;      ///< largest dimension of the largest shell, in file units
+};
+
+/// Judges the size of the largest shell (stray far-away facets do not count): under 0.3 units
+/// a part in millimetres would not print at all, so metres (x1000); under 3 units, inches
+/// (x25.4; centimetres are as likely and need `--units cm`); over 3000 units (3 m), microns
+/// (x0.001). nullopt when millimetres are plausible.
+[[nodiscard]] std::optional<UnitGuess> guess_mesh_units(const Mesh& mesh);
+
+/// The finding that states a unit guess (code units_guessed, warning): the size before and
+/// after, the unit applied, and the option that overrides it.
+[[nodiscard]] Finding units_guessed_finding(const UnitGuess& guess, const Vec3& size_mm);
+
+/// How a part too big for the printer could fit: a rotation by quarter turns about the axes
+/// (dimensions permuted), or failing that the largest uniform scale with the best of them.
+struct FitAdvice {
+  bool fits_as_is = false;
+  std::string rotation;        ///< e.g. "rotated 90 deg about X"; empty: as it is
+  double scale = 1.0;          ///< < 1 when only a smaller part fits (rounded down to 0.1 %)
+  Vec3 size_mm = Vec3::Zero(); ///< its size after the rotation and the scale
+};
+[[nodiscard]] FitAdvice advise_fit(const Vec3& size_mm, const PrinterProfile& printer);
+
 /// Where the checked mesh came from, for the JSON report.
 struct CheckSource {
   std::string file;           ///< as given on the command line

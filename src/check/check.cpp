@@ -126,6 +126,18 @@ void health_findings(const MeshHealth& h, const Vec3& offset, std::vector<Findin
                                std::nullopt, static_cast<long>(h.shells)));
 }
 
+/// "; it fits rotated ..." or "; the largest scale that fits is ..." for does_not_fit.
+std::string fit_advice_text(const Vec3& size, const PrinterProfile& printer) {
+  const FitAdvice a = advise_fit(size, printer);
+  const std::string dims = format_fixed(a.size_mm.x(), 2) + " x " + format_fixed(a.size_mm.y(), 2) +
+                           " x " + format_fixed(a.size_mm.z(), 2) + " mm";
+  if (a.scale >= 1.0) return "; it fits " + a.rotation + " (" + dims + ")";
+  if (!(a.scale > 0)) return "";
+  return "; no rotation by quarter turns fits; the largest scale that fits is " +
+         format_fixed(100.0 * a.scale, 1) + " % (--scale " + format_fixed(a.scale, 3) + ")" +
+         (a.rotation.empty() ? std::string(" as it stands") : ", " + a.rotation) + ": " + dims;
+}
+
 /// The self-intersection finding, graded by what the intersections do to the layers.
 void self_intersection_finding(const MeshHealth& h, const std::optional<IntersectionEffect>& eff,
                                double line_width_mm, const Vec3& offset, std::vector<Finding>& out) {
@@ -286,7 +298,7 @@ Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& p
             " (x " + format_fixed(printer.bed_min_x_mm, 0) + ".." +
             format_fixed(printer.bed_max_x_mm, 0) + ", y " +
             format_fixed(printer.bed_min_y_mm, 0) + ".." + format_fixed(printer.bed_max_y_mm, 0) +
-            ", z 0.." + format_fixed(printer.max_z_mm, 0) + " mm)",
+            ", z 0.." + format_fixed(printer.max_z_mm, 0) + " mm)" + fit_advice_text(size, printer),
         pb.center());
     f.extent_mm = pb;
     out.push_back(f);

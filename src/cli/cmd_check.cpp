@@ -11,6 +11,7 @@
 #include "printtwin/io.hpp"
 #include "printtwin/machine.hpp"
 #include "printtwin/mesh.hpp"
+#include "printtwin/verify.hpp"
 
 namespace printtwin::cli {
 
@@ -25,13 +26,25 @@ struct CheckOptions {
   double min_thickness_mm = 0.0;
   double line_width_mm = 0.0;
   double scale = 1.0;
-  std::string units = "mm";
+  std::string units = "auto";
   std::string center;
   bool no_center = false;
   bool no_self_intersections = false;
 };
 
 std::string f2(double v) { return format_fixed(v, 2); }
+
+Mesh scaled_mesh(Mesh m, double s) {
+  for (auto& v : m.vertices_mm) v *= s;
+  return m;
+}
+
+/// Index of the first finding that is not an error (findings are sorted errors first).
+std::size_t first_warning(const std::vector<Finding>& fs) {
+  std::size_t i = 0;
+  while (i < fs.size() && fs[i].severity == Severity::error) ++i;
+  return i;
+}
 
 /// "x,y" -> two numbers, or a usage error.
 Result<Vec2> parse_center(const std::string& text) {
@@ -123,14 +136,32 @@ int run_check(const CheckOptions& o) {
     settings.center_y_mm = c->y();
   }
 
+  // --units: the names and numbers `verify --units` takes, or auto (judged by the size).
+  std::optional<double> mm_per_unit;
+  if (o.units != "auto") {
+    VerifySettings units;
+    if (auto st = parse_units_option(o.units, units); !st) return report_error(st.error());
+    mm_per_unit = units.mesh_scale;
+  }
   MeshLoadOptions load;
-  load.scale = o.scale;
-  load.units = o.units == "cm" ? LengthUnit::cm : (o.units == "inch" ? LengthUnit::inch : LengthUnit::mm);
+  load.scale = o.scale * mm_per_unit.value_or(1.0);
   auto mesh = load_mesh(o.input, load);
   if (!mesh) return report_error(mesh.error());
+  std::string units_used = mm_per_unit ? o.units : "mm";
+  std::optional<UnitGuess> guess;
+  if (!mm_per_unit) {
+    // Judged on the file's own numbers (before --scale), then applied.
+    guess = guess_mesh_units(o.scale == 1.0 ? *mesh : scaled_mesh(*mesh, 1.0 / o.scale));
+    if (guess) {
+      *mesh = scaled_mesh(std::move(*mesh), guess->mm_per_unit);
+      units_used = guess->unit;
+    }
+  }
 
   auto report = check_printability(*mesh, *printer, settings);
   if (!report) return report_error(report.error());
+  if (guess) report->findings.insert(report->findings.begin() + static_cast<std::ptrdiff_t>(first_warning(report->findings)),
+                                     units_guessed_finding(*guess, report->health.bbox_mm.size()));
 
   std::optional<RepairResult> repaired;
   if (!o.repair_out.empty()) {
@@ -150,7 +181,7 @@ int run_check(const CheckOptions& o) {
     CheckSource source;
     source.file = o.input;
     if (auto bytes = read_file(o.input)) source.sha256 = sha256_hex(*bytes);
-    source.units = o.units;
+    source.units = units_used;
     source.scale = o.scale;
     source.printer = printer->name;
     const std::string text =
@@ -188,8 +219,9 @@ void add_check_command(CLI::App& app, CommandRunner& runner) {
   cmd->add_option("--scale", opts->scale, "uniform scale applied after the unit conversion")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  cmd->add_option("--units", opts->units, "unit the file is written in")
-      ->check(CLI::IsMember({"mm", "cm", "inch"}))
+  cmd->add_option("--units", opts->units,
+                  "unit the file is written in: auto (judged by the size, stated as a finding), "
+                  "mm, cm, m, in, um or the unit's length in mm")
       ->capture_default_str();
   cmd->add_option("--center", opts->center, "centre the part at x,y mm (default: bed centre)");
   cmd->add_flag("--no-center", opts->no_center, "keep x and y as in the file (only lift to z = 0)");

@@ -151,6 +151,45 @@ TEST(CheckCli, UnitsScaleAndPlacementOptions) {
   EXPECT_NEAR(jn["placement"]["bbox_mm"]["min"][0].get<double>(), 0.0, 1e-9);
 }
 
+TEST(CheckCli, UnitsAutoReadsAMetreFileAtItsTrueSize) {
+  const fs::path out = test::temp_dir("check_cli_units_auto");
+  ASSERT_TRUE(save_stl(make_box_mesh(Vec3(0, 0, 0), Vec3(0.02, 0.03, 0.01)), out / "metres.stl").ok());
+  const auto r = test::run_cli("check " + q(out / "metres.stl") + " --json " + q(out / "a.json"));
+  EXPECT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_NE(r.out.find("units_guessed"), std::string::npos) << r.out;
+  const json j = read_json(out / "a.json");
+  EXPECT_NEAR(j["mesh"]["bbox_mm"]["size"][1].get<double>(), 30.0, 1e-3);
+  EXPECT_EQ(j["input"]["units"], "m");
+  // An explicit --units wins (the same names as verify --units).
+  const auto mm = test::run_cli("check " + q(out / "metres.stl") + " --units mm --json " + q(out / "b.json"));
+  EXPECT_EQ(mm.exit_code, 1);
+  EXPECT_EQ(mm.out.find("units_guessed"), std::string::npos);
+  EXPECT_NEAR(read_json(out / "b.json")["mesh"]["bbox_mm"]["size"][1].get<double>(), 0.03, 1e-6);
+  EXPECT_EQ(test::run_cli("check " + q(out / "metres.stl") + " --units m").exit_code, 0);
+  EXPECT_EQ(test::run_cli("check " + q(out / "metres.stl") + " --units 1000").exit_code, 0);
+}
+
+TEST(CheckCli, RealPartsInMetresAndTooBig) {
+  const auto dir = test::realworld_dir();
+  if (!dir) GTEST_SKIP() << "no realworld folder";
+  const fs::path out = test::temp_dir("check_cli_realworld_units");
+  const fs::path lid = *dir / "models" / "kisslicer_pair_musicutility_lid.stl";
+  if (fs::exists(lid)) {
+    const auto r = test::run_cli("check " + q(lid) + " --json " + q(out / "lid.json"));
+    EXPECT_NE(r.out.find("read as metres"), std::string::npos) << r.out;
+    const double y = read_json(out / "lid.json")["mesh"]["bbox_mm"]["size"][1].get<double>();
+    EXPECT_GT(y, 100.0);
+    EXPECT_LT(y, 200.0);
+  }
+  const fs::path scan = *dir / "models" / "nefertiti_scan.obj";
+  if (fs::exists(scan)) {
+    const auto r = test::run_cli("check " + q(scan));
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_EQ(r.out.find("units_guessed"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("the largest scale that fits is"), std::string::npos) << r.out;
+  }
+}
+
 TEST(CheckCli, PrinterProfiles) {
   const fs::path dir = test::temp_dir("check_cli_printer");
   const fs::path cube = test::source_path("samples/models/calibration_cube_20mm.stl");

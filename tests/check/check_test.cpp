@@ -652,3 +652,53 @@ TEST(CheckSelfIntersections, GridAndFilterFindExactlyTheExhaustivePairs) {
 
 }  // namespace
 }  // namespace printtwin
+
+namespace printtwin {
+namespace {
+
+TEST(CheckUnits, GuessedFromTheSizeOfTheLargestShell) {
+  auto g = guess_mesh_units(test::make_cube_mm(0.02));
+  ASSERT_TRUE(g.has_value());
+  EXPECT_EQ(g->unit, "m");
+  EXPECT_EQ(g->mm_per_unit, 1000.0);
+  g = guess_mesh_units(test::make_cube_mm(0.75));
+  ASSERT_TRUE(g.has_value());
+  EXPECT_EQ(g->unit, "in");
+  g = guess_mesh_units(test::make_cube_mm(20000));
+  ASSERT_TRUE(g.has_value());
+  EXPECT_EQ(g->unit, "um");
+  EXPECT_FALSE(guess_mesh_units(test::make_cube_mm(20)).has_value());
+  EXPECT_FALSE(guess_mesh_units(test::make_cube_mm(495)).has_value());
+  // A stray facet kilometres away does not make a 20 mm part look like microns.
+  Mesh stray = test::make_cube_mm(20);
+  const auto b = static_cast<std::uint32_t>(stray.vertices_mm.size());
+  stray.vertices_mm.insert(stray.vertices_mm.end(), {Vec3(1e6, 0, 0), Vec3(1e6 + 1, 0, 0), Vec3(1e6, 1, 0)});
+  stray.triangles.push_back({b, b + 1, b + 2});
+  EXPECT_FALSE(guess_mesh_units(stray).has_value());
+  const Finding f = units_guessed_finding(*guess_mesh_units(test::make_cube_mm(0.02)), Vec3(20, 20, 20));
+  EXPECT_EQ(f.code, "units_guessed");
+  EXPECT_NE(f.message.find("read as metres"), std::string::npos) << f.message;
+  EXPECT_NE(f.message.find("20.00 x 20.00 x 20.00 mm"), std::string::npos) << f.message;
+}
+
+TEST(CheckPlacement, FitAdviceRotatesOrScales) {
+  const PrinterProfile p = ender3_marlin2();  // 235 x 235 x 250 mm
+  FitAdvice a = advise_fit(Vec3(240, 100, 50), p);
+  EXPECT_EQ(a.scale, 1.0);
+  EXPECT_EQ(a.rotation, "rotated 90 deg about Y");
+  EXPECT_TRUE(a.size_mm.isApprox(Vec3(50, 100, 240)));
+  a = advise_fit(Vec3(238.69, 362.53, 494.61), p);  // the 495 mm scan
+  EXPECT_NEAR(a.scale, 0.505, 1e-9);
+  EXPECT_LE(a.size_mm.x(), 235.0);
+  EXPECT_LE(a.size_mm.y(), 235.0);
+  EXPECT_LE(a.size_mm.z(), 250.0);
+  // In the report: does_not_fit says how it would fit.
+  const CheckReport r = run(make_box_mesh(Vec3(0, 0, 0), Vec3(240, 100, 50)));
+  const Finding* f = find(r, "does_not_fit");
+  ASSERT_NE(f, nullptr);
+  EXPECT_NE(f->message.find("it fits rotated 90 deg about Y (50.00 x 100.00 x 240.00 mm)"),
+            std::string::npos) << f->message;
+}
+
+}  // namespace
+}  // namespace printtwin
