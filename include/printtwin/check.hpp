@@ -239,15 +239,15 @@ struct RepairResult {
 
 /// The unit a mesh was likely modelled in, judged by its size (`--units auto`).
 struct UnitGuess {
-  std::string unit;           ///< "m", "in" or "um" (the names of `--units`)
+  std::string unit;           ///< "m" or "in" (the names of `--units`)
   double mm_per_unit = 1.0;   ///< scale to apply
   double size_units = 0;      ///< largest dimension of the largest shell, in file units
 };
 
 /// Judges the size of the largest shell (stray far-away facets do not count): under 0.3 units
 /// a part in millimetres would not print at all, so metres (x1000); under 3 units, inches
-/// (x25.4; centimetres are as likely and need `--units cm`); over 3000 units (3 m), microns
-/// (x0.001). nullopt when millimetres are plausible.
+/// (x25.4; centimetres are as likely and need `--units cm`). nullopt when millimetres are
+/// plausible; a part too large is left alone (does_not_fit says what scale fits).
 [[nodiscard]] std::optional<UnitGuess> guess_mesh_units(const Mesh& mesh);
 
 /// The finding that states a unit guess (code units_guessed, warning): the size before and

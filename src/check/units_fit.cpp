@@ -23,9 +23,6 @@ std::optional<UnitGuess> guess_mesh_units(const Mesh& mesh) {
   } else if (size < 3.0) {
     g.unit = "in";
     g.mm_per_unit = 25.4;
-  } else if (size > 3000.0) {
-    g.unit = "um";
-    g.mm_per_unit = 0.001;
   } else {
     return std::nullopt;
   }
@@ -33,8 +30,8 @@ std::optional<UnitGuess> guess_mesh_units(const Mesh& mesh) {
 }
 
 Finding units_guessed_finding(const UnitGuess& g, const Vec3& size_mm) {
-  const std::string name = g.unit == "m" ? "metres" : g.unit == "in" ? "inches" : "microns";
-  const std::string why = g.mm_per_unit > 1 ? "too small" : "too large";
+  const std::string name = g.unit == "m" ? "metres" : "inches";
+  const std::string why = "too small";
   std::string msg = "the largest part is " + format_fixed(g.size_units, 4) + " units across, " + why +
                     " for millimetres: read as " + name + " (x" + format_fixed(g.mm_per_unit, 3) +
                     "), " + format_fixed(size_mm.x(), 2) + " x " + format_fixed(size_mm.y(), 2) + " x " +
