@@ -101,7 +101,33 @@ struct SelfIntersections {
   std::vector<Vec3> locations_mm;          ///< a point of each of the first pairs (centroid
                                            ///< of the first face's intersecting region)
   std::vector<std::array<std::uint32_t, 2>> first_pairs;  ///< their face indices
+  std::vector<std::uint32_t> faces;        ///< every face in at least one pair, sorted
 };
+
+/// What self-intersections do to the sliced part. Layers are cut at the heights of the
+/// intersecting faces; each section is measured by its winding number w (loops oriented by
+/// the face normals): where w >= 2 the surface encloses the same solid twice (slicers merge
+/// it: printed once, but the mesh volume counts it twice); where w < 0 the surface is folded
+/// inside out (union slicers drop that area, even-odd ones fill it: the print depends on the
+/// slicer). w in {0, 1} everywhere: the intersections change no layer outline.
+struct IntersectionEffect {
+  bool measured = false;            ///< false: the mesh is open (sections are not closed)
+  double layer_height_mm = 0.2;
+  std::size_t layers = 0;           ///< layers cut through the intersecting faces
+  std::size_t layers_changed = 0;   ///< layers with area enclosed twice or inside out
+  double twice_volume_mm3 = 0;      ///< enclosed more than once (w - 1 summed where w >= 2)
+  double max_twice_area_mm2 = 0;    ///< largest in one layer
+  double inverted_volume_mm3 = 0;   ///< w < 0
+  double max_inverted_area_mm2 = 0;
+  Box3 changed_bbox_mm;             ///< bounding box of the layers that change (input frame)
+};
+
+/// Measures the effect of the faces `faces` (find_self_intersections' SelfIntersections::faces)
+/// on the layer sections of a closed mesh (see IntersectionEffect). At most 400 layers are cut
+/// (evenly spread when the faces span more).
+[[nodiscard]] IntersectionEffect measure_intersection_effect(const Mesh& mesh,
+                                                             const std::vector<std::uint32_t>& faces,
+                                                             double layer_height_mm = 0.2);
 
 /// Pairs of faces that intersect other than along a shared edge or at a shared vertex.
 /// Broad phase over a uniform grid of face bounding boxes, exact predicates (CGAL Epick)
@@ -154,11 +180,17 @@ struct ThicknessResult {
 /// from the face centroids minus the offset); null: one is built for the call.
 /// `beyond_limit` false: inward rays stop at min_thickness_mm (same thin faces, area, box and,
 /// when some wall is thin, the same thinnest wall; +inf otherwise), much cheaper on thick parts.
+/// `skip_internal_faces`: faces lying inside the solid or on another shell's surface (shells
+/// that overlap or touch; found by the winding number just outside each face) neither cast
+/// rays nor stop them, so touching faces do not read as 0 mm walls or gaps. It costs one
+/// more ray walk per face; check_printability turns it on when the mesh has several shells
+/// or self-intersections.
 [[nodiscard]] Result<ThicknessResult> measure_thickness(const Mesh& mesh, double min_thickness_mm,
                                                         double line_width_mm,
                                                         const MeshQuery* query = nullptr,
                                                         const Vec3& query_offset_mm = Vec3::Zero(),
-                                                        bool beyond_limit = true);
+                                                        bool beyond_limit = true,
+                                                        bool skip_internal_faces = false);
 
 /// Everything `printtwin check` reports.
 struct CheckReport {
@@ -166,6 +198,7 @@ struct CheckReport {
   Placement placement;
   std::vector<OverhangRegion> overhangs;  ///< placed frame
   std::optional<ThicknessResult> thickness;  ///< unset when the mesh could not be ray traced
+  std::optional<IntersectionEffect> intersection_effect;  ///< set when self-intersections were found
   double min_thickness_limit_mm = 0;  ///< thresholds actually used
   double line_width_mm = 0;
   double overhang_angle_deg = 0;
@@ -203,6 +236,33 @@ struct RepairResult {
 /// duplicate faces, orient, stitch borders, fill small holes, make closed shells bound a
 /// volume. Never called implicitly; the caller reports `changes`.
 [[nodiscard]] Result<RepairResult> repair_mesh(const Mesh& mesh, const RepairSettings& settings = {});
+
+/// The unit a mesh was likely modelled in, judged by its size (`--units auto`).
+struct UnitGuess {
+  std::string unit;           ///< "m" or "in" (the names of `--units`)
+  double mm_per_unit = 1.0;   ///< scale to apply
+  double size_units = 0;      ///< largest dimension of the largest shell, in file units
+};
+
+/// Judges the size of the largest shell (stray far-away facets do not count): under 0.3 units
+/// a part in millimetres would not print at all, so metres (x1000); under 3 units, inches
+/// (x25.4; centimetres are as likely and need `--units cm`). nullopt when millimetres are
+/// plausible; a part too large is left alone (does_not_fit says what scale fits).
+[[nodiscard]] std::optional<UnitGuess> guess_mesh_units(const Mesh& mesh);
+
+/// The finding that states a unit guess (code units_guessed, warning): the size before and
+/// after, the unit applied, and the option that overrides it.
+[[nodiscard]] Finding units_guessed_finding(const UnitGuess& guess, const Vec3& size_mm);
+
+/// How a part too big for the printer could fit: a rotation by quarter turns about the axes
+/// (dimensions permuted), or failing that the largest uniform scale with the best of them.
+struct FitAdvice {
+  bool fits_as_is = false;
+  std::string rotation;        ///< e.g. "rotated 90 deg about X"; empty: as it is
+  double scale = 1.0;          ///< < 1 when only a smaller part fits (rounded down to 0.1 %)
+  Vec3 size_mm = Vec3::Zero(); ///< its size after the rotation and the scale
+};
+[[nodiscard]] FitAdvice advise_fit(const Vec3& size_mm, const PrinterProfile& printer);
 
 /// Where the checked mesh came from, for the JSON report.
 struct CheckSource {

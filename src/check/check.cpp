@@ -13,6 +13,9 @@ namespace printtwin {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+/// Layer height at which the effect of self-intersections is measured (a common 0.4 mm
+/// nozzle layer; the outlines of finer layers differ by the same areas).
+constexpr double kEffectLayerMm = 0.2;
 
 std::string mm(double v) { return format_fixed(v, 2) + " mm"; }
 
@@ -99,18 +102,6 @@ void health_findings(const MeshHealth& h, const Vec3& offset, std::vector<Findin
                                plural(h.inverted_shells, "closed shell") +
                                    " inside out (negative volume, not a cavity)",
                                std::nullopt, static_cast<long>(h.inverted_shells)));
-  if (h.self_intersections > 0) {
-    std::string where;
-    for (std::size_t i = 0; i < h.self_intersection_locations_mm.size() && i < 3; ++i)
-      where += (i ? ", " : "") + xyz(h.self_intersection_locations_mm[i] + offset);
-    std::optional<Vec3> first;
-    if (!h.self_intersection_locations_mm.empty())
-      first = h.self_intersection_locations_mm.front() + offset;
-    out.push_back(make_finding(Severity::error, "self_intersection",
-                               plural(h.self_intersections, "pair") +
-                                   " of intersecting faces (first at " + where + ")",
-                               first, static_cast<long>(h.self_intersections)));
-  }
   if (h.non_manifold_vertices > 0)
     out.push_back(make_finding(
         Severity::warning, "non_manifold_vertex",
@@ -133,6 +124,73 @@ void health_findings(const MeshHealth& h, const Vec3& offset, std::vector<Findin
                                "the mesh has " + std::to_string(h.shells) +
                                    " separate shells (parts or cavities)",
                                std::nullopt, static_cast<long>(h.shells)));
+}
+
+/// "; it fits rotated ..." or "; the largest scale that fits is ..." for does_not_fit.
+std::string fit_advice_text(const Vec3& size, const PrinterProfile& printer) {
+  const FitAdvice a = advise_fit(size, printer);
+  const std::string dims = format_fixed(a.size_mm.x(), 2) + " x " + format_fixed(a.size_mm.y(), 2) +
+                           " x " + format_fixed(a.size_mm.z(), 2) + " mm";
+  if (a.scale >= 1.0) return "; it fits " + a.rotation + " (" + dims + ")";
+  if (!(a.scale > 0)) return "";
+  return "; no rotation by quarter turns fits; the largest scale that fits is " +
+         format_fixed(100.0 * a.scale, 1) + " % (--scale " + format_fixed(a.scale, 3) + ")" +
+         (a.rotation.empty() ? std::string(" as it stands") : ", " + a.rotation) + ": " + dims;
+}
+
+/// The self-intersection finding, graded by what the intersections do to the layers.
+void self_intersection_finding(const MeshHealth& h, const std::optional<IntersectionEffect>& eff,
+                               double line_width_mm, const Vec3& offset, std::vector<Finding>& out) {
+  if (h.self_intersections == 0) return;
+  std::string where;
+  for (std::size_t i = 0; i < h.self_intersection_locations_mm.size() && i < 3; ++i)
+    where += (i ? ", " : "") + xyz(h.self_intersection_locations_mm[i] + offset);
+  std::optional<Vec3> first;
+  if (!h.self_intersection_locations_mm.empty()) first = h.self_intersection_locations_mm.front() + offset;
+  const std::string pairs = plural(h.self_intersections, "pair") + " of intersecting faces";
+  const std::string at = " (first at " + where + ")";
+  Severity sev = Severity::info;
+  std::string msg;
+  if (!eff || !eff->measured) {
+    sev = Severity::warning;
+    msg = pairs + at + "; their effect on the layers is not measured because the mesh is open";
+  } else {
+    const IntersectionEffect& e = *eff;
+    const std::string layers = plural(e.layers_changed, "layer") + " of " + std::to_string(e.layers) +
+                               " at " + format_fixed(e.layer_height_mm, 2) + " mm";
+    const std::string zr = e.changed_bbox_mm.empty()
+                               ? std::string()
+                               : ", z " + format_fixed(e.changed_bbox_mm.min.z() + offset.z(), 2) + ".." +
+                                     format_fixed(e.changed_bbox_mm.max.z() + offset.z(), 2) + " mm";
+    const std::string twice =
+        e.twice_volume_mm3 > 0 ? format_fixed(e.twice_volume_mm3, 2) + " mm3 enclosed twice (up to " +
+                                     format_fixed(e.max_twice_area_mm2, 2) + " mm2 per layer)"
+                               : std::string();
+    if (e.inverted_volume_mm3 > 0) {
+      // A fold at least one line square in some layer changes what is printed there.
+      sev = e.max_inverted_area_mm2 >= line_width_mm * line_width_mm ? Severity::error : Severity::warning;
+      msg = pairs + " fold the surface inside out in " + layers + zr + ": up to " +
+            format_fixed(e.max_inverted_area_mm2, 2) + " mm2 per layer (" +
+            format_fixed(e.inverted_volume_mm3, 2) +
+            " mm3) is solid or empty depending on the slicer's fill rule" +
+            (twice.empty() ? std::string() : "; " + twice) + at;
+    } else if (e.twice_volume_mm3 > 0) {
+      msg = pairs + " where the surface overlaps itself: " + twice + " in " + layers + zr +
+            "; slicers merge the overlap and print it once (the layer outlines do not change), only "
+            "volumes taken from the mesh count it twice" + at;
+    } else {
+      msg = pairs + " touch or cross without changing any layer outline (" +
+            std::to_string(e.layers) + " layers cut at " + format_fixed(e.layer_height_mm, 2) +
+            " mm through them: no area enclosed twice or inside out)" + at;
+    }
+  }
+  Finding f = make_finding(sev, "self_intersection", msg, first, static_cast<long>(h.self_intersections));
+  if (eff && !eff->changed_bbox_mm.empty()) {
+    f.extent_mm = eff->changed_bbox_mm;
+    f.extent_mm->min += offset;
+    f.extent_mm->max += offset;
+  }
+  out.push_back(f);
 }
 
 }  // namespace
@@ -214,6 +272,10 @@ Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& p
     rep.health.self_intersections = si.pairs;
     rep.health.self_intersection_locations_mm = si.locations_mm;
     rep.health.self_intersections_checked = true;
+    if (si.pairs > 0)
+      rep.intersection_effect = rep.health.closed
+                                    ? measure_intersection_effect(mesh, si.faces, kEffectLayerMm)
+                                    : IntersectionEffect{};
   }
 
   Mesh placed;
@@ -221,6 +283,7 @@ Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& p
   const Vec3 offset = rep.placement.offset_mm;
   std::vector<Finding>& out = rep.findings;
   health_findings(rep.health, offset, out);
+  self_intersection_finding(rep.health, rep.intersection_effect, rep.line_width_mm, offset, out);
 
   // Placement.
   const Box3& pb = rep.placement.bbox_mm;
@@ -235,7 +298,7 @@ Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& p
             " (x " + format_fixed(printer.bed_min_x_mm, 0) + ".." +
             format_fixed(printer.bed_max_x_mm, 0) + ", y " +
             format_fixed(printer.bed_min_y_mm, 0) + ".." + format_fixed(printer.bed_max_y_mm, 0) +
-            ", z 0.." + format_fixed(printer.max_z_mm, 0) + " mm)",
+            ", z 0.." + format_fixed(printer.max_z_mm, 0) + " mm)" + fit_advice_text(size, printer),
         pb.center());
     f.extent_mm = pb;
     out.push_back(f);
@@ -294,7 +357,8 @@ Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& p
 
   // Thin walls and narrow gaps.
   auto thick = measure_thickness(placed, rep.min_thickness_limit_mm, rep.line_width_mm, settings.mesh_query,
-                                 rep.placement.offset_mm, settings.thickness_beyond_limit);
+                                 rep.placement.offset_mm, settings.thickness_beyond_limit,
+                                 rep.health.shells > 1 || rep.health.self_intersections > 0);
   if (!thick) return thick.error();
   rep.thickness = *thick;
   const ThicknessResult& t = *thick;
@@ -303,8 +367,9 @@ Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& p
         Severity::warning, "thin_wall",
         "walls down to " + format_fixed(t.min_thickness_mm, 2) + " mm thick at " +
             xyz(t.min_thickness_at_mm) + ", thinner than " + mm(rep.min_thickness_limit_mm) +
-            " over " + format_fixed(t.thin_area_mm2, 1) +
-            " mm2: the slicer may drop or weaken them",
+            " over " + format_fixed(t.thin_area_mm2, 1) + " mm2 (z " +
+            format_fixed(t.thin_bbox_mm.min.z(), 2) + ".." + format_fixed(t.thin_bbox_mm.max.z(), 2) +
+            " mm): the slicer may drop or weaken them",
         t.min_thickness_at_mm, static_cast<long>(t.thin_faces));
     f.extent_mm = t.thin_bbox_mm;
     f.value = t.min_thickness_mm;
@@ -315,7 +380,9 @@ Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& p
         Severity::warning, "narrow_gap",
         "gaps or holes down to " + format_fixed(t.min_gap_mm, 2) + " mm wide at " +
             xyz(t.min_gap_at_mm) + ", narrower than one line width (" + mm(rep.line_width_mm) +
-            "): they will close up",
+            ") over " + format_fixed(t.narrow_gap_area_mm2, 1) + " mm2 (z " +
+            format_fixed(t.narrow_gap_bbox_mm.min.z(), 2) + ".." +
+            format_fixed(t.narrow_gap_bbox_mm.max.z(), 2) + " mm): they will close up",
         t.min_gap_at_mm, static_cast<long>(t.narrow_gap_faces));
     f.extent_mm = t.narrow_gap_bbox_mm;
     f.value = t.min_gap_mm;

@@ -315,6 +315,12 @@ SelfIntersections find_self_intersections(const Mesh& mesh, std::size_t max_loca
   for (auto& local : found) pairs.insert(pairs.end(), local.begin(), local.end());
   std::sort(pairs.begin(), pairs.end());
   out.pairs = pairs.size();
+  for (const auto& pr : pairs) {
+    out.faces.push_back(pr[0]);
+    out.faces.push_back(pr[1]);
+  }
+  std::sort(out.faces.begin(), out.faces.end());
+  out.faces.erase(std::unique(out.faces.begin(), out.faces.end()), out.faces.end());
   for (std::size_t i = 0; i < pairs.size() && i < max_locations; ++i) {
     out.first_pairs.push_back(pairs[i]);
     out.locations_mm.push_back(

@@ -18,6 +18,15 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 /// corner between two faces at an angle is not a gap.
 const double kFacingCos = std::cos(30.0 * 3.14159265358979323846 / 180.0);
 
+const double kWallCos = std::cos(60.0 * 3.14159265358979323846 / 180.0);
+
+bool shares_vertex(const Mesh& mesh, std::size_t f, std::size_t g) {
+  for (auto a : mesh.triangles[f])
+    for (auto b : mesh.triangles[g])
+      if (a == b) return true;
+  return false;
+}
+
 struct FaceSample {
   double thickness_mm = kInf;
   double gap_mm = kInf;
@@ -27,7 +36,8 @@ struct FaceSample {
 
 Result<ThicknessResult> measure_thickness(const Mesh& mesh, double min_thickness_mm,
                                           double line_width_mm, const MeshQuery* prebuilt,
-                                          const Vec3& query_offset_mm, bool beyond_limit) {
+                                          const Vec3& query_offset_mm, bool beyond_limit,
+                                          bool skip_internal_faces) {
   std::optional<MeshQuery> own;
   if (prebuilt == nullptr) {
     auto built = MeshQuery::build(mesh);
@@ -41,24 +51,66 @@ Result<ThicknessResult> measure_thickness(const Mesh& mesh, double min_thickness
   // the mesh, so hits closer than ~1e-4 mm of the origin are the face itself or a neighbour.
   const double t_min = 1e-4 + 1e-7 * bounding_box(mesh).size().norm();
 
+  // Faces inside the solid (a shell overlapping or touching another): the point just off
+  // the face, outside its own shell, is still inside the part when the surfaces crossed
+  // along its normal, exits minus entries, number more than zero. Such a face is no surface
+  // of the print: it casts no ray and rays pass through it.
+  std::vector<char> internal(nf, 0);
+  if (skip_internal_faces) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nf, 1024),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+      for (std::size_t f = r.begin(); f != r.end(); ++f) {
+        Vec3 n = triangle_normal(mesh, f);
+        const double len = n.norm();
+        if (!(len > 0)) continue;
+        n /= len;
+        const Vec3 c = detail::face_centroid(mesh, f) - shift;
+        int winding = 0;
+        double t = t_min;
+        for (int i = 0; i < 256; ++i) {
+          auto hit = query.first_hit(c, n, t);
+          if (!hit) break;
+          if (hit->triangle != f) winding += hit->normal.dot(n) > 0 ? 1 : -1;
+          t = hit->t_mm + t_min;
+        }
+        internal[f] = winding > 0 ? 1 : 0;
+      }
+    });
+  }
+  // First hit along the ray that is not an internal face.
+  auto first_surface = [&](const Vec3& c, const Vec3& dir, double t0, double t1,
+                           std::size_t f) -> std::optional<RayHit> {
+    double t = t0;
+    for (int i = 0; i < 64; ++i) {
+      auto hit = query.first_hit(c, dir, t, t1);
+      if (!hit || (hit->triangle != f && !internal[hit->triangle])) return hit;
+      t = hit->t_mm + t_min;
+    }
+    return std::nullopt;
+  };
+
   std::vector<FaceSample> samples(nf);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nf, 1024),
                     [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t f = r.begin(); f != r.end(); ++f) {
       Vec3 n = triangle_normal(mesh, f);
       const double len = n.norm();
-      if (!(len > 0) || detail::is_degenerate_face(mesh, f)) continue;
+      if (!(len > 0) || detail::is_degenerate_face(mesh, f) || internal[f]) continue;
       n /= len;
       const Vec3 c = detail::face_centroid(mesh, f) - shift;
       // Inward: the first surface hit from behind is the far side of the wall.
       // Within the limit, the first hit is the unbounded ray's whenever that one is thin.
       const double t_max = beyond_limit ? std::numeric_limits<double>::infinity() : min_thickness_mm;
-      if (auto hit = query.first_hit(c, -n, t_min, t_max); hit && hit->triangle != f) {
-        if (hit->normal.dot(-n) > 0) samples[f].thickness_mm = hit->t_mm;
+      if (auto hit = first_surface(c, -n, t_min, t_max, f)) {
+        // The far side of a wall faces back within 60 degrees and is no neighbour of f: a
+        // ray leaving through a face beside f (a corner or a chamfer) measures no wall.
+        if (hit->normal.dot(-n) > kWallCos && !shares_vertex(mesh, f, hit->triangle))
+          samples[f].thickness_mm = hit->t_mm;
       }
       // Outward: the first surface hit head-on, facing back at us, bounds the gap.
-      if (auto hit = query.first_hit(c, n, t_min, line_width_mm * 4); hit && hit->triangle != f) {
-        if (hit->normal.dot(n) < -kFacingCos) samples[f].gap_mm = hit->t_mm;
+      if (auto hit = first_surface(c, n, t_min, line_width_mm * 4, f)) {
+        if (hit->normal.dot(n) < -kFacingCos && !shares_vertex(mesh, f, hit->triangle))
+          samples[f].gap_mm = hit->t_mm;
       }
     }
   });

@@ -1,7 +1,18 @@
 // `printtwin check part.stl`: printability of a mesh before slicing.
 //   exit 0 printable, 1 errors found, 2 usage, 3 bad input, 4 internal error.
+#include <glob.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cctype>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <thread>
+#include <vector>
 #include <memory>
 #include <string>
 
@@ -11,13 +22,21 @@
 #include "printtwin/io.hpp"
 #include "printtwin/machine.hpp"
 #include "printtwin/mesh.hpp"
+#include "printtwin/verify.hpp"
+#include "report/report_internal.hpp"
 
 namespace printtwin::cli {
 
 namespace {
 
+using detail::md_cell;
+using detail::xml_escape;
+
 struct CheckOptions {
-  std::string input;
+  std::vector<std::string> inputs;
+  std::string input;  ///< the part being checked
+  std::string summary_out;
+  std::string junit_out;
   std::string printer = "ender3";
   std::string json_out;
   std::string repair_out;
@@ -25,13 +44,25 @@ struct CheckOptions {
   double min_thickness_mm = 0.0;
   double line_width_mm = 0.0;
   double scale = 1.0;
-  std::string units = "mm";
+  std::string units = "auto";
   std::string center;
   bool no_center = false;
   bool no_self_intersections = false;
 };
 
 std::string f2(double v) { return format_fixed(v, 2); }
+
+Mesh scaled_mesh(Mesh m, double s) {
+  for (auto& v : m.vertices_mm) v *= s;
+  return m;
+}
+
+/// Index of the first finding that is not an error (findings are sorted errors first).
+std::size_t first_warning(const std::vector<Finding>& fs) {
+  std::size_t i = 0;
+  while (i < fs.size() && fs[i].severity == Severity::error) ++i;
+  return i;
+}
 
 /// "x,y" -> two numbers, or a usage error.
 Result<Vec2> parse_center(const std::string& text) {
@@ -101,8 +132,236 @@ void print_text(const CheckOptions& o, const PrinterProfile& printer, const Chec
               counts[1], counts[1] == 1 ? "" : "s");
 }
 
+/// One part checked: its report, or the error that stopped it (bad input, internal).
+struct PartOutcome {
+  std::string file;
+  int exit_code = kPass;
+  std::optional<Error> error;
+  std::optional<CheckReport> report;
+  CheckSource source;
+  std::optional<RepairResult> repaired;
+  double seconds = 0;
+};
+
+PartOutcome check_part(const CheckOptions& o, const std::string& file, const PrinterProfile& printer,
+                       const CheckSettings& settings, std::optional<double> mm_per_unit) {
+  const auto t0 = std::chrono::steady_clock::now();
+  PartOutcome out;
+  out.file = file;
+  auto fail = [&](Error e) {
+    if (e.file.empty()) e.file = file;
+    out.exit_code = e.code == ErrorCode::bad_input ? kBadInput : (e.code == ErrorCode::usage ? kUsage : kInternal);
+    out.error = std::move(e);
+    return out;
+  };
+  MeshLoadOptions load;
+  load.scale = o.scale * mm_per_unit.value_or(1.0);
+  auto mesh = load_mesh(file, load);
+  if (!mesh) return fail(mesh.error());
+  std::string units_used = mm_per_unit ? o.units : "mm";
+  std::optional<UnitGuess> guess;
+  if (!mm_per_unit) {
+    // Judged on the file's own numbers (before --scale), then applied.
+    guess = guess_mesh_units(o.scale == 1.0 ? *mesh : scaled_mesh(*mesh, 1.0 / o.scale));
+    if (guess) {
+      *mesh = scaled_mesh(std::move(*mesh), guess->mm_per_unit);
+      units_used = guess->unit;
+    }
+  }
+  auto report = check_printability(*mesh, printer, settings);
+  if (!report) return fail(report.error());
+  if (guess) report->findings.insert(report->findings.begin() + static_cast<std::ptrdiff_t>(first_warning(report->findings)),
+                                     units_guessed_finding(*guess, report->health.bbox_mm.size()));
+  if (!o.repair_out.empty()) {
+    auto rr = repair_mesh(*mesh);
+    if (!rr) return fail(rr.error());
+    if (auto st = save_stl(rr->mesh, o.repair_out); !st) return fail(st.error());
+    out.repaired = std::move(*rr);
+  }
+  out.source.file = file;
+  if (auto bytes = read_file(file)) out.source.sha256 = sha256_hex(*bytes);
+  out.source.units = units_used;
+  out.source.scale = o.scale;
+  out.source.printer = printer.name;
+  out.exit_code = report->printable ? kPass : kFail;
+  out.report = std::move(*report);
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+constexpr const char* kMeshExtensions[] = {".stl", ".obj", ".ply", ".off", ".3mf", ".amf"};
+
+bool has_mesh_extension(const std::filesystem::path& p) {
+  std::string ext = p.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return std::find(std::begin(kMeshExtensions), std::end(kMeshExtensions), ext) != std::end(kMeshExtensions);
+}
+
+/// Files, folders (every mesh file below them, sorted) and globs -> the parts, in order,
+/// each once. A glob that matches nothing and a folder without meshes are usage errors.
+Result<std::vector<std::string>> expand_inputs(const std::vector<std::string>& inputs) {
+  namespace fs = std::filesystem;
+  std::vector<std::string> parts;
+  auto add_folder = [&](const fs::path& dir) -> Status {
+    std::vector<std::string> found;
+    std::error_code ec;
+    for (fs::recursive_directory_iterator it(dir, fs::directory_options::skip_permission_denied, ec), end;
+         !ec && it != end; it.increment(ec))
+      if (has_mesh_extension(it->path())) found.push_back(it->path().string());
+    if (ec) return bad_input(dir.string() + ": cannot list the folder: " + ec.message());
+    if (found.empty()) return usage_error(dir.string() + ": no mesh files (" + ".stl .obj .ply .off .3mf .amf) in the folder");
+    std::sort(found.begin(), found.end());
+    parts.insert(parts.end(), found.begin(), found.end());
+    return Ok{};
+  };
+  for (const std::string& in : inputs) {
+    std::error_code ec;
+    if (in.find_first_of("*?[") != std::string::npos && !fs::exists(in, ec)) {
+      glob_t g{};
+      const int rc = ::glob(in.c_str(), 0, nullptr, &g);
+      if (rc == GLOB_NOMATCH || (rc == 0 && g.gl_pathc == 0)) {
+        globfree(&g);
+        return usage_error("'" + in + "' matches no file");
+      }
+      for (std::size_t i = 0; rc == 0 && i < g.gl_pathc; ++i) parts.emplace_back(g.gl_pathv[i]);
+      globfree(&g);
+      if (rc != 0) return usage_error("'" + in + "': cannot expand the pattern");
+    } else if (fs::is_directory(in, ec) && !has_mesh_extension(in)) {
+      if (auto st = add_folder(in); !st) return st.error();
+    } else {
+      parts.push_back(in);  // read errors (missing, empty, unreadable) become failed cases
+    }
+  }
+  std::vector<std::string> unique;
+  for (auto& p : parts)
+    if (std::find(unique.begin(), unique.end(), p) == unique.end()) unique.push_back(std::move(p));
+  return unique;
+}
+
+std::string verdict(const PartOutcome& p) {
+  if (p.error) return p.error->code == ErrorCode::bad_input ? "UNREADABLE" : "ERROR";
+  return p.report->printable ? "PRINTABLE" : "NOT PRINTABLE";
+}
+
+/// The first error finding (or the first warning), for the summary table.
+std::string main_problem(const PartOutcome& p) {
+  if (p.error) return p.error->describe();
+  for (const auto& f : p.report->findings)
+    if (f.severity == Severity::error) return f.code + ": " + f.message;
+  for (const auto& f : p.report->findings)
+    if (f.severity == Severity::warning) return f.code + ": " + f.message;
+  return "";
+}
+
+std::array<std::size_t, 3> severity_counts(const PartOutcome& p) {
+  std::array<std::size_t, 3> c{0, 0, 0};
+  if (p.report)
+    for (const auto& f : p.report->findings) ++c[static_cast<int>(f.severity)];
+  return c;
+}
+
+std::string summary_markdown(const std::vector<PartOutcome>& parts, const std::string& printer) {
+  std::size_t ok = 0;
+  for (const auto& p : parts) ok += p.exit_code == kPass;
+  std::string md = "### printtwin check: " + std::to_string(ok) + " of " + std::to_string(parts.size()) +
+                   " parts printable on " + md_cell(printer) + "\n\n";
+  md += "| part | verdict | errors | warnings | triangles | size (mm) | first problem |\n";
+  md += "|---|---|---:|---:|---:|---|---|\n";
+  for (const auto& p : parts) {
+    const auto c = severity_counts(p);
+    std::string tri = "-", size = "-";
+    if (p.report) {
+      tri = std::to_string(p.report->health.triangles);
+      const Vec3 s = p.report->health.bbox_mm.size();
+      size = f2(s.x()) + " x " + f2(s.y()) + " x " + f2(s.z());
+    }
+    std::string problem = main_problem(p);
+    if (problem.size() > 200) problem = problem.substr(0, 197) + "...";
+    md += "| " + md_cell(p.file) + " | " + (p.exit_code == kPass ? "" : "**") + verdict(p) +
+          (p.exit_code == kPass ? "" : "**") + " | " + std::to_string(c[2]) + " | " + std::to_string(c[1]) +
+          " | " + tri + " | " + size + " | " + md_cell(problem) + " |\n";
+  }
+  return md;
+}
+
+std::string junit_xml(const std::vector<PartOutcome>& parts) {
+  std::size_t failures = 0;
+  double total = 0;
+  for (const auto& p : parts) {
+    failures += p.exit_code != kPass;
+    total += p.seconds;
+  }
+  std::string x = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<testsuites>\n";
+  x += "  <testsuite name=\"printtwin check\" tests=\"" + std::to_string(parts.size()) + "\" failures=\"" +
+       std::to_string(failures) + "\" errors=\"0\" time=\"" + format_fixed(total, 3) + "\">\n";
+  for (const auto& p : parts) {
+    x += "    <testcase classname=\"printtwin.check\" name=\"" + xml_escape(p.file) + "\" time=\"" +
+         format_fixed(p.seconds, 3) + "\"";
+    if (p.exit_code == kPass) {
+      x += "/>\n";
+      continue;
+    }
+    x += ">\n      <failure type=\"" + std::string(p.error ? "unreadable" : "not_printable") + "\" message=\"" +
+         xml_escape(verdict(p) + ": " + main_problem(p)) + "\">";
+    if (p.report)
+      for (const auto& f : p.report->findings)
+        x += xml_escape(std::string(to_string(f.severity)) + " " + f.code + ": " + f.message) + "\n";
+    else
+      x += xml_escape(p.error->describe());
+    x += "</failure>\n    </testcase>\n";
+  }
+  x += "  </testsuite>\n</testsuites>\n";
+  return x;
+}
+
+std::string batch_json(const std::vector<PartOutcome>& parts) {
+  nlohmann::ordered_json j;
+  j["schema"] = "printtwin.check.batch";
+  j["version"] = 1;
+  j["parts"] = nlohmann::ordered_json::array();
+  for (const auto& p : parts) {
+    nlohmann::ordered_json e;
+    e["file"] = p.file;
+    e["verdict"] = verdict(p);
+    e["exit_code"] = p.exit_code;
+    if (p.report) e["report"] = nlohmann::ordered_json::parse(check_report_to_json(*p.report, p.source));
+    else e["error"] = p.error->describe();
+    j["parts"].push_back(std::move(e));
+  }
+  return j.dump(2) + "\n";
+}
+
+int run_batch(const CheckOptions& o, const std::vector<std::string>& files, const PrinterProfile& printer,
+              const CheckSettings& settings, std::optional<double> mm_per_unit) {
+  std::vector<PartOutcome> parts(files.size());
+  std::atomic<std::size_t> next{0};
+  const std::size_t workers =
+      std::max<std::size_t>(1, std::min<std::size_t>(files.size(), std::thread::hardware_concurrency()));
+  std::vector<std::thread> pool;
+  for (std::size_t w = 0; w < workers; ++w)
+    pool.emplace_back([&] {
+      for (std::size_t i = next++; i < files.size(); i = next++)
+        parts[i] = check_part(o, files[i], printer, settings, mm_per_unit);
+    });
+  for (auto& t : pool) t.join();
+
+  const std::string md = summary_markdown(parts, printer.name);
+  std::fputs(md.c_str(), stdout);
+  int worst = kPass;
+  for (const auto& p : parts) worst = std::max(worst, p.exit_code);
+  for (const auto& [path, text] : {std::pair<const std::string&, std::string>{o.summary_out, md},
+                                   {o.junit_out, o.junit_out.empty() ? std::string() : junit_xml(parts)},
+                                   {o.json_out, o.json_out.empty() ? std::string() : batch_json(parts)}})
+    if (!path.empty())
+      if (auto st = write_file_atomic(path, text); !st) return report_error(st.error());
+  return worst;
+}
+
 int run_check(const CheckOptions& o) {
-  if (auto st = check_output_paths({{o.json_out, "--json", OutputKind::file}, {o.repair_out, "--repair", OutputKind::file}});
+  if (auto st = check_output_paths({{o.json_out, "--json", OutputKind::file},
+                                    {o.repair_out, "--repair", OutputKind::file},
+                                    {o.summary_out, "--summary", OutputKind::file},
+                                    {o.junit_out, "--junit", OutputKind::file}});
       !st)
     return report_error(st.error());
   auto printer = load_printer_profile(o.printer);
@@ -122,42 +381,37 @@ int run_check(const CheckOptions& o) {
     settings.center_x_mm = c->x();
     settings.center_y_mm = c->y();
   }
-
-  MeshLoadOptions load;
-  load.scale = o.scale;
-  load.units = o.units == "cm" ? LengthUnit::cm : (o.units == "inch" ? LengthUnit::inch : LengthUnit::mm);
-  auto mesh = load_mesh(o.input, load);
-  if (!mesh) return report_error(mesh.error());
-
-  auto report = check_printability(*mesh, *printer, settings);
-  if (!report) return report_error(report.error());
-
-  std::optional<RepairResult> repaired;
-  if (!o.repair_out.empty()) {
-    auto rr = repair_mesh(*mesh);
-    if (!rr) {
-      Error e = rr.error();
-      if (e.file.empty()) e.file = o.input;
-      return report_error(e);
-    }
-    if (auto s = save_stl(rr->mesh, o.repair_out); !s) return report_error(s.error());
-    repaired = std::move(*rr);
+  // --units: the names and numbers `verify --units` takes, or auto (judged by the size).
+  std::optional<double> mm_per_unit;
+  if (o.units != "auto") {
+    VerifySettings units;
+    if (auto st = parse_units_option(o.units, units); !st) return report_error(st.error());
+    mm_per_unit = units.mesh_scale;
   }
 
-  print_text(o, *printer, *report, repaired ? &*repaired : nullptr);
+  // Several parts, a folder or a glob: the batch run (summary table, JUnit, one JSON).
+  std::error_code ec;
+  const bool batch = o.inputs.size() > 1 || !o.summary_out.empty() || !o.junit_out.empty() ||
+                     (std::filesystem::is_directory(o.inputs[0], ec) && !has_mesh_extension(o.inputs[0])) ||
+                     (o.inputs[0].find_first_of("*?[") != std::string::npos && !std::filesystem::exists(o.inputs[0], ec));
+  if (batch) {
+    if (!o.repair_out.empty()) return report_error(usage_error("--repair takes one part, not a batch"));
+    auto files = expand_inputs(o.inputs);
+    if (!files) return report_error(files.error());
+    return run_batch(o, *files, *printer, settings, mm_per_unit);
+  }
 
+  CheckOptions one = o;
+  one.input = o.inputs[0];
+  PartOutcome part = check_part(one, one.input, *printer, settings, mm_per_unit);
+  if (part.error) return report_error(*part.error);
+  print_text(one, *printer, *part.report, part.repaired ? &*part.repaired : nullptr);
   if (!o.json_out.empty()) {
-    CheckSource source;
-    source.file = o.input;
-    if (auto bytes = read_file(o.input)) source.sha256 = sha256_hex(*bytes);
-    source.units = o.units;
-    source.scale = o.scale;
-    source.printer = printer->name;
-    const std::string text =
-        check_report_to_json(*report, source, repaired ? &*repaired : nullptr, o.repair_out);
-    if (auto s = write_file_atomic(o.json_out, text); !s) return report_error(s.error());
+    const std::string text = check_report_to_json(*part.report, part.source,
+                                                  part.repaired ? &*part.repaired : nullptr, o.repair_out);
+    if (auto st = write_file_atomic(o.json_out, text); !st) return report_error(st.error());
   }
-  return report->printable ? kPass : kFail;
+  return part.exit_code;
 }
 
 }  // namespace
@@ -167,12 +421,20 @@ void add_check_command(CLI::App& app, CommandRunner& runner) {
   auto* cmd = app.add_subcommand(
       "check", "Check whether a mesh is printable (no slicing). Exit 0 printable, 1 errors found,\n"
                "2 usage, 3 bad input, 4 internal error. Findings: docs/check.md");
-  cmd->add_option("mesh", opts->input, "STL, OBJ, PLY, OFF, 3MF or AMF file")->required();
+  cmd->add_option("mesh", opts->inputs,
+                  "STL, OBJ, PLY, OFF, 3MF or AMF files, folders (every mesh below them) or globs; "
+                  "several parts make a batch: a summary table, exit code of the worst part")
+      ->required();
+  cmd->add_option("--summary", opts->summary_out,
+                  "write the batch's Markdown summary table (for $GITHUB_STEP_SUMMARY)");
+  cmd->add_option("--junit", opts->junit_out, "write a JUnit XML file with a test case per part");
   cmd->add_option("--printer", opts->printer,
                   "ender3, ender3-marlin1, ender3-klipper, a library printer (printtwin printers), "
                   "a profile FILE.json or a Klipper printer.cfg")
       ->capture_default_str();
-  cmd->add_option("--json", opts->json_out, "write the report as JSON (schema printtwin.check v1)");
+  cmd->add_option("--json", opts->json_out,
+                  "write the report as JSON (schema printtwin.check v1; a batch: printtwin.check.batch "
+                  "v1, one report per part)");
   cmd->add_option("--repair", opts->repair_out,
                   "write a repaired mesh (binary STL) and list what changed");
   cmd->add_option("--overhang-angle", opts->overhang_angle_deg,
@@ -188,8 +450,9 @@ void add_check_command(CLI::App& app, CommandRunner& runner) {
   cmd->add_option("--scale", opts->scale, "uniform scale applied after the unit conversion")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  cmd->add_option("--units", opts->units, "unit the file is written in")
-      ->check(CLI::IsMember({"mm", "cm", "inch"}))
+  cmd->add_option("--units", opts->units,
+                  "unit the file is written in: auto (judged by the size, stated as a finding), "
+                  "mm, cm, m, in, um or the unit's length in mm")
       ->capture_default_str();
   cmd->add_option("--center", opts->center, "centre the part at x,y mm (default: bed centre)");
   cmd->add_flag("--no-center", opts->no_center, "keep x and y as in the file (only lift to z = 0)");

@@ -1,5 +1,6 @@
 #pragma once
-// Private helpers of the report writers (src/report/ only).
+// Private helpers of the report writers (src/report/; the escapes also serve the batch
+// summary and JUnit file of `printtwin check`, src/cli/cmd_check.cpp).
 #include <string>
 #include <string_view>
 #include <vector>

@@ -151,6 +151,99 @@ TEST(CheckCli, UnitsScaleAndPlacementOptions) {
   EXPECT_NEAR(jn["placement"]["bbox_mm"]["min"][0].get<double>(), 0.0, 1e-9);
 }
 
+TEST(CheckCli, UnitsAutoReadsAMetreFileAtItsTrueSize) {
+  const fs::path out = test::temp_dir("check_cli_units_auto");
+  ASSERT_TRUE(save_stl(make_box_mesh(Vec3(0, 0, 0), Vec3(0.02, 0.03, 0.01)), out / "metres.stl").ok());
+  const auto r = test::run_cli("check " + q(out / "metres.stl") + " --json " + q(out / "a.json"));
+  EXPECT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_NE(r.out.find("units_guessed"), std::string::npos) << r.out;
+  const json j = read_json(out / "a.json");
+  EXPECT_NEAR(j["mesh"]["bbox_mm"]["size"][1].get<double>(), 30.0, 1e-3);
+  EXPECT_EQ(j["input"]["units"], "m");
+  // An explicit --units wins (the same names as verify --units).
+  const auto mm = test::run_cli("check " + q(out / "metres.stl") + " --units mm --json " + q(out / "b.json"));
+  EXPECT_EQ(mm.exit_code, 1);
+  EXPECT_EQ(mm.out.find("units_guessed"), std::string::npos);
+  EXPECT_NEAR(read_json(out / "b.json")["mesh"]["bbox_mm"]["size"][1].get<double>(), 0.03, 1e-6);
+  EXPECT_EQ(test::run_cli("check " + q(out / "metres.stl") + " --units m").exit_code, 0);
+  EXPECT_EQ(test::run_cli("check " + q(out / "metres.stl") + " --units 1000").exit_code, 0);
+}
+
+TEST(CheckCli, RealPartsInMetresAndTooBig) {
+  const auto dir = test::realworld_dir();
+  if (!dir) GTEST_SKIP() << "no realworld folder";
+  const fs::path out = test::temp_dir("check_cli_realworld_units");
+  const fs::path lid = *dir / "models" / "kisslicer_pair_musicutility_lid.stl";
+  if (fs::exists(lid)) {
+    const auto r = test::run_cli("check " + q(lid) + " --json " + q(out / "lid.json"));
+    EXPECT_NE(r.out.find("read as metres"), std::string::npos) << r.out;
+    const double y = read_json(out / "lid.json")["mesh"]["bbox_mm"]["size"][1].get<double>();
+    EXPECT_GT(y, 100.0);
+    EXPECT_LT(y, 200.0);
+  }
+  const fs::path scan = *dir / "models" / "nefertiti_scan.obj";
+  if (fs::exists(scan)) {
+    const auto r = test::run_cli("check " + q(scan));
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_EQ(r.out.find("units_guessed"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("the largest scale that fits is"), std::string::npos) << r.out;
+  }
+}
+
+TEST(CheckCli, BatchOfPartsGivesOneSummaryJunitAndJson) {
+  const fs::path dir = test::temp_dir("check_cli_batch");
+  fs::remove_all(dir / "parts");
+  fs::create_directories(dir / "parts" / "folder.stl");  // a folder where a part should be
+  ASSERT_TRUE(save_stl(test::make_cube_mm(20), dir / "parts" / "good.stl").ok());
+  Mesh open = test::make_cube_mm(20);
+  open.triangles.pop_back();
+  ASSERT_TRUE(save_stl(open, dir / "parts" / "open.stl").ok());
+  { std::ofstream(dir / "parts" / "empty.stl"); }
+  {
+    auto bytes = read_file(dir / "parts" / "good.stl");
+    ASSERT_TRUE(bytes.ok());
+    std::ofstream(dir / "parts" / "truncated.stl", std::ios::binary) << bytes->substr(0, 200);
+  }
+  { std::ofstream(dir / "parts" / "notes.txt") << "not a mesh"; }
+  const auto r = test::run_cli("check " + q(dir / "parts") + " --summary " + q(dir / "s.md") + " --junit " +
+                               q(dir / "j.xml") + " --json " + q(dir / "all.json"));
+  EXPECT_EQ(r.exit_code, 3) << "the worst part is unreadable\n" << r.out << r.err;
+  auto md = read_file(dir / "s.md");
+  ASSERT_TRUE(md.ok());
+  EXPECT_EQ(*md, r.out);
+  EXPECT_NE(md->find("1 of 5 parts printable"), std::string::npos) << *md;
+  EXPECT_EQ(md->find("notes.txt"), std::string::npos);
+  for (const char* name : {"good.stl", "open.stl", "empty.stl", "truncated.stl", "folder.stl"})
+    EXPECT_NE(md->find(name), std::string::npos) << name;
+  EXPECT_NE(md->find("| **UNREADABLE** |"), std::string::npos);
+  EXPECT_NE(md->find("| **NOT PRINTABLE** |"), std::string::npos);
+  auto xml = read_file(dir / "j.xml");
+  ASSERT_TRUE(xml.ok());
+  EXPECT_NE(xml->find("tests=\"5\" failures=\"4\""), std::string::npos) << *xml;
+  std::size_t cases = 0;
+  for (auto at = xml->find("<testcase "); at != std::string::npos; at = xml->find("<testcase ", at + 1)) ++cases;
+  EXPECT_EQ(cases, 5U);
+  const json j = read_json(dir / "all.json");
+  EXPECT_EQ(j["schema"], "printtwin.check.batch");
+  ASSERT_EQ(j["parts"].size(), 5U);
+  std::map<std::string, std::string> verdicts;
+  for (const auto& p : j["parts"]) verdicts[fs::path(p["file"].get<std::string>()).filename().string()] = p["verdict"];
+  EXPECT_EQ(verdicts["good.stl"], "PRINTABLE");
+  EXPECT_EQ(verdicts["open.stl"], "NOT PRINTABLE");
+  EXPECT_EQ(verdicts["empty.stl"], "UNREADABLE");
+  EXPECT_EQ(verdicts["truncated.stl"], "UNREADABLE");
+  EXPECT_EQ(verdicts["folder.stl"], "UNREADABLE");
+  for (const auto& p : j["parts"])
+    if (p["verdict"] == "PRINTABLE") {
+      EXPECT_EQ(p["report"]["schema"], "printtwin.check");
+    }
+  // A glob of printable and not printable parts: exit 1; a glob that matches nothing: usage.
+  EXPECT_EQ(test::run_cli("check " + q(dir / "parts" / "good.stl") + " " + q(dir / "parts" / "o*.stl")).exit_code, 1);
+  EXPECT_EQ(test::run_cli("check " + q(dir / "parts" / "g*.stl")).exit_code, 0);
+  EXPECT_EQ(test::run_cli("check " + q(dir / "parts" / "zz*.stl")).exit_code, 2);
+  EXPECT_EQ(test::run_cli("check " + q(dir / "parts") + " --repair " + q(dir / "r.stl")).exit_code, 2);
+}
+
 TEST(CheckCli, PrinterProfiles) {
   const fs::path dir = test::temp_dir("check_cli_printer");
   const fs::path cube = test::source_path("samples/models/calibration_cube_20mm.stl");

@@ -199,7 +199,101 @@ TEST(CheckSelfIntersections, OverlappingCubes) {
   const Finding* f = find(r, "self_intersection");
   ASSERT_NE(f, nullptr);
   EXPECT_EQ(f->count, static_cast<long>(si.pairs));
+  // Slicers merge overlapping shells: the 5 mm cube enclosed twice prints once.
+  ASSERT_TRUE(r.intersection_effect.has_value());
+  EXPECT_TRUE(r.intersection_effect->measured);
+  EXPECT_NEAR(r.intersection_effect->twice_volume_mm3, 125.0, 0.5);
+  EXPECT_NEAR(r.intersection_effect->max_twice_area_mm2, 25.0, 0.01);
+  EXPECT_EQ(r.intersection_effect->layers_changed, 25U);  // z 5..10 at 0.2 mm
+  EXPECT_EQ(r.intersection_effect->inverted_volume_mm3, 0.0);
+  EXPECT_EQ(f->severity, Severity::info);
+  EXPECT_NE(f->message.find("125.00 mm3 enclosed twice"), std::string::npos) << f->message;
+  EXPECT_TRUE(r.printable);
+}
+
+// The pattern of models built from several bodies (3DBenchy): closed shells that overlap by
+// a few microns or touch face to face, cut along the seam into sliver triangles. The seam
+// changes no layer outline and no wall is 0 mm thick there.
+TEST(CheckSelfIntersections, ShellsOverlappingByMicronsChangeNothing) {
+  Mesh hull = test::make_cube_mm(10);
+  // A deck 0.005 mm into the hull, its side along the seam split into slivers.
+  Mesh deck = make_box_mesh(Vec3(9.995, 2, 0), Vec3(20, 8, 10));
+  Mesh slivers;
+  for (int i = 0; i < 40; ++i) {
+    const double y0 = 2 + 6.0 * i / 40, y1 = 2 + 6.0 * (i + 1) / 40;
+    const auto b = static_cast<std::uint32_t>(slivers.vertices_mm.size());
+    slivers.vertices_mm.insert(slivers.vertices_mm.end(),
+                               {Vec3(10.0, y0, 4.0), Vec3(10.0, y1, 4.0), Vec3(10.0, y0, 4.0001)});
+    slivers.triangles.push_back({b, b + 1, b + 2});
+  }
+  const Mesh m = merged(merged(hull, deck), slivers);
+  const CheckReport r = run(merged(hull, deck));
+  ASSERT_GT(r.health.self_intersections, 0U);
+  const Finding* f = find(r, "self_intersection");
+  ASSERT_NE(f, nullptr);
+  EXPECT_NE(f->severity, Severity::error) << f->message;
+  ASSERT_TRUE(r.intersection_effect.has_value());
+  EXPECT_NEAR(r.intersection_effect->twice_volume_mm3, 0.3, 0.01);  // 0.005 x 6 x 10 mm
+  EXPECT_EQ(r.intersection_effect->inverted_volume_mm3, 0.0);
+  ASSERT_TRUE(r.thickness.has_value());
+  EXPECT_GT(r.thickness->min_thickness_mm, 5.0);  // the deck is 6 mm, the hull 10 mm
+  EXPECT_EQ(find(r, "thin_wall"), nullptr);
+  EXPECT_EQ(find(r, "narrow_gap"), nullptr);
+  EXPECT_TRUE(r.printable);
+  // Loose slivers on the seam (open, so the mesh is no longer closed) do not hide that.
+  const CheckReport with_slivers = run(m);
+  EXPECT_GT(with_slivers.health.boundary_edges, 0U);
+  EXPECT_GT(with_slivers.thickness->min_thickness_mm, 5.0);
+}
+
+TEST(CheckSelfIntersections, TouchingShellsChangeNoOutline) {
+  const Mesh m = merged(test::make_cube_mm(10), make_box_mesh(Vec3(10, 2, 0), Vec3(20, 8, 10)));
+  const CheckReport r = run(m);
+  const Finding* f = find(r, "self_intersection");
+  if (f != nullptr) {
+    EXPECT_EQ(f->severity, Severity::info) << f->message;
+    EXPECT_NE(f->message.find("without changing any layer outline"), std::string::npos) << f->message;
+  }
+  EXPECT_EQ(find(r, "narrow_gap"), nullptr);
+  ASSERT_TRUE(r.thickness.has_value());
+  EXPECT_GT(r.thickness->min_thickness_mm, 5.0);
+  EXPECT_TRUE(r.printable);
+}
+
+TEST(CheckSelfIntersections, InsideOutFoldIsAnErrorWithItsArea) {
+  // A shell turned inside out that crosses a good one: 5 x 10 x 10 mm of it lies outside the
+  // good shell, with winding number -1 there: union slicers drop it, even-odd ones fill it.
+  const Mesh m = merged(test::make_cube_mm(10), flipped(make_box_mesh(Vec3(5, 0, 0), Vec3(15, 10, 10))));
+  const CheckReport r = run(m);
+  ASSERT_TRUE(r.intersection_effect.has_value());
+  EXPECT_NEAR(r.intersection_effect->inverted_volume_mm3, 500.0, 1.0);
+  EXPECT_NEAR(r.intersection_effect->max_inverted_area_mm2, 50.0, 0.01);
+  const Finding* f = find(r, "self_intersection");
+  ASSERT_NE(f, nullptr);
+  EXPECT_EQ(f->severity, Severity::error);
+  EXPECT_NE(f->message.find("inside out"), std::string::npos) << f->message;
   EXPECT_FALSE(r.printable);
+}
+
+// Known-good real parts are PRINTABLE (skipped when the shared folder is absent).
+TEST(CheckRealWorld, KnownGoodPartsArePrintable) {
+  const auto dir = test::realworld_dir();
+  if (!dir) GTEST_SKIP() << "no realworld folder";
+  for (const char* name : {"prusa_mk3s_x-end-idler.stl", "xyz_calibration_cube_20mm.stl",
+                           "voron24_octopus_bracket_set_multibody.stl"}) {
+    const auto path = *dir / "models" / name;
+    if (!std::filesystem::exists(path)) continue;
+    auto mesh = load_mesh(path.string());
+    ASSERT_TRUE(mesh) << name;
+    const CheckReport r = run(*mesh);
+    std::string errors;
+    for (const auto& f : r.findings)
+      if (f.severity == Severity::error) errors += f.code + ": " + f.message + "\n";
+    EXPECT_TRUE(r.printable) << name << "\n" << errors;
+    if (r.thickness) {
+      EXPECT_GT(r.thickness->min_thickness_mm, 0.05) << name;
+    }
+  }
 }
 
 TEST(CheckSelfIntersections, NoneOnClosedMeshesAndTouchingNeighbours) {
@@ -554,6 +648,54 @@ TEST(CheckSelfIntersections, GridAndFilterFindExactlyTheExhaustivePairs) {
 
   // A closed bumpy sphere alone: no pair at all.
   EXPECT_EQ(find_self_intersections(bumpy_sphere(10, 60, 120, Vec3(1, 2, 3))).pairs, 0U);
+}
+
+}  // namespace
+}  // namespace printtwin
+
+namespace printtwin {
+namespace {
+
+TEST(CheckUnits, GuessedFromTheSizeOfTheLargestShell) {
+  auto g = guess_mesh_units(test::make_cube_mm(0.02));
+  ASSERT_TRUE(g.has_value());
+  EXPECT_EQ(g->unit, "m");
+  EXPECT_EQ(g->mm_per_unit, 1000.0);
+  g = guess_mesh_units(test::make_cube_mm(0.75));
+  ASSERT_TRUE(g.has_value());
+  EXPECT_EQ(g->unit, "in");
+  EXPECT_FALSE(guess_mesh_units(test::make_cube_mm(20000)).has_value());  // fit advice instead
+  EXPECT_FALSE(guess_mesh_units(test::make_cube_mm(20)).has_value());
+  EXPECT_FALSE(guess_mesh_units(test::make_cube_mm(495)).has_value());
+  // A stray facet kilometres away does not make a 20 mm part look like microns.
+  Mesh stray = test::make_cube_mm(20);
+  const auto b = static_cast<std::uint32_t>(stray.vertices_mm.size());
+  stray.vertices_mm.insert(stray.vertices_mm.end(), {Vec3(1e6, 0, 0), Vec3(1e6 + 1, 0, 0), Vec3(1e6, 1, 0)});
+  stray.triangles.push_back({b, b + 1, b + 2});
+  EXPECT_FALSE(guess_mesh_units(stray).has_value());
+  const Finding f = units_guessed_finding(*guess_mesh_units(test::make_cube_mm(0.02)), Vec3(20, 20, 20));
+  EXPECT_EQ(f.code, "units_guessed");
+  EXPECT_NE(f.message.find("read as metres"), std::string::npos) << f.message;
+  EXPECT_NE(f.message.find("20.00 x 20.00 x 20.00 mm"), std::string::npos) << f.message;
+}
+
+TEST(CheckPlacement, FitAdviceRotatesOrScales) {
+  const PrinterProfile p = ender3_marlin2();  // 235 x 235 x 250 mm
+  FitAdvice a = advise_fit(Vec3(240, 100, 50), p);
+  EXPECT_EQ(a.scale, 1.0);
+  EXPECT_EQ(a.rotation, "rotated 90 deg about Y");
+  EXPECT_TRUE(a.size_mm.isApprox(Vec3(50, 100, 240)));
+  a = advise_fit(Vec3(238.69, 362.53, 494.61), p);  // the 495 mm scan
+  EXPECT_NEAR(a.scale, 0.505, 1e-9);
+  EXPECT_LE(a.size_mm.x(), 235.0);
+  EXPECT_LE(a.size_mm.y(), 235.0);
+  EXPECT_LE(a.size_mm.z(), 250.0);
+  // In the report: does_not_fit says how it would fit.
+  const CheckReport r = run(make_box_mesh(Vec3(0, 0, 0), Vec3(240, 100, 50)));
+  const Finding* f = find(r, "does_not_fit");
+  ASSERT_NE(f, nullptr);
+  EXPECT_NE(f->message.find("it fits rotated 90 deg about Y (50.00 x 100.00 x 240.00 mm)"),
+            std::string::npos) << f->message;
 }
 
 }  // namespace

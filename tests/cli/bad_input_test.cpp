@@ -186,7 +186,7 @@ std::vector<Case> corpus() {
   c.push_back({"AMF that is neither XML nor zip", [](const fs::path& d) { put(d / "part.amf", "solid a\n"); return "check " + q(d / "part.amf"); },
                3, {"part.amf", "not an AMF file"}});
   // --- meshes that load but cannot print: the verdict follows the findings
-  c.push_back({"0.01 mm cube", [](const fs::path& d) { return "check " + q(stl_of(d, "tiny.stl", test::make_cube_mm(0.01))); },
+  c.push_back({"0.01 mm cube", [](const fs::path& d) { return "check " + q(stl_of(d, "tiny.stl", test::make_cube_mm(0.01))) + " --units mm"; },
                1, {"NOT PRINTABLE", "small_feature", "nothing will print"}});
   c.push_back({"zero-area mesh: check", [](const fs::path& d) {
                  put(d / "flat.stl", "solid a\n" + ascii_facet("0 0 0", "1 0 0", "2 0 0") + ascii_facet("0 0 0", "2 0 0", "1 0 0") + "endsolid a\n");
