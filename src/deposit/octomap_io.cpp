@@ -170,66 +170,67 @@ class BtEncoder {
   std::size_t nodes_ = 0;
 };
 
-/// The voxels of the grid as 8^3 cubes aligned on OctoMap keys, in tree order.
+/// The voxels of the grid as 8^3 cubes aligned on OctoMap keys, in tree order. The grid's
+/// blocks are offset from the cubes by the same (sx, sy, sz) voxels: block (bx, by, bz)
+/// feeds cubes (bx, by, bz) + (0|1, 0|1, 0|1) (relative to the cube of block 0). Cubes are
+/// assembled two layers at a time, so memory is the finished cubes plus two layers.
 std::vector<Cube> cubes_of(const VoxelGrid& grid) {
   // OctoMap key of voxel k: k + offset (its centre's coordinate / resolution, floored, + 2^15).
   Eigen::Vector3i offset;
   for (int a = 0; a < 3; ++a)
     offset[a] = static_cast<int>(std::llround(grid.origin_mm()[a] / grid.voxel_mm())) + 32768;
+  const auto sx = static_cast<unsigned>(offset.x() & 7), sy = static_cast<unsigned>(offset.y() & 7),
+             sz = static_cast<unsigned>(offset.z() & 7);
+  const auto qx = static_cast<std::uint32_t>(offset.x() >> 3), qy = static_cast<std::uint32_t>(offset.y() >> 3),
+             qz = static_cast<std::uint32_t>(offset.z() >> 3);
+  const Eigen::Vector3i nb = grid.block_dims();
+  const int ncx = nb.x() + 1, ncy = nb.y() + 1;
+  using Bits = std::array<std::uint64_t, 8>;
+  std::array<std::vector<Bits>, 2> layers;
+  for (auto& l : layers) l.assign(static_cast<std::size_t>(ncx) * static_cast<std::size_t>(ncy), Bits{});
   std::vector<Cube> cubes;
-  auto cube_at = [&](std::uint32_t cx, std::uint32_t cy, std::uint32_t cz) -> Cube& {
-    const std::uint64_t m = morton3(cx, cy, cz);
-    if (cubes.empty() || cubes.back().morton != m) {
-      cubes.emplace_back();
-      cubes.back().morton = m;
-    }
-    return cubes.back();
-  };
-  const bool aligned = offset.x() % 8 == 0 && offset.y() % 8 == 0 && offset.z() % 8 == 0;
-  grid.visit_blocks([&](const VoxelGrid::BlockView& b) {
-    const auto kx = static_cast<std::uint32_t>(b.base.x + offset.x());
-    const auto ky = static_cast<std::uint32_t>(b.base.y + offset.y());
-    const auto kz = static_cast<std::uint32_t>(b.base.z + offset.z());
-    if (aligned) {
-      Cube& c = cube_at(kx >> 3, ky >> 3, kz >> 3);
-      for (int z = 0; z < 8; ++z) c.bits[static_cast<std::size_t>(z)] |= b.occupancy[z];
-      return;
-    }
-    // A block straddles up to 2 x 2 x 2 cubes: shift each z-slice's rows and columns into
-    // them (bit y * 8 + x), keep the non-empty.
-    const unsigned sx = kx & 7u, sy = ky & 7u, sz = kz & 7u;
-    const std::uint64_t low_columns = 0x0101010101010101ull * (0xFFu >> sx);  // x < 8 - sx
-    std::array<Cube, 8> local{};
-    for (unsigned z = 0; z < 8; ++z) {
-      const std::uint64_t w = b.occupancy[z];
-      if (w == 0) continue;
-      const unsigned zz = z + sz, cz = zz >> 3;
-      const std::uint64_t x_parts[2] = {(w & low_columns) << sx, sx == 0 ? 0 : (w & ~low_columns) >> (8 - sx)};
-      for (unsigned cx = 0; cx < 2; ++cx) {
-        const std::uint64_t p = x_parts[cx];
-        if (p == 0) continue;
-        local[cx | (cz << 2)].bits[zz & 7u] |= p << (8 * sy);  // rows y < 8 - sy
-        if (sy != 0) local[cx | 2u | (cz << 2)].bits[zz & 7u] |= p >> (8 * (8 - sy));
+  auto flush = [&](int cz) {  // cube layer cz is complete
+    auto& layer = layers[static_cast<std::size_t>(cz & 1)];
+    for (int cy = 0; cy < ncy; ++cy)
+      for (int cx = 0; cx < ncx; ++cx) {
+        Bits& bits = layer[static_cast<std::size_t>(cy) * static_cast<std::size_t>(ncx) + static_cast<std::size_t>(cx)];
+        if (std::all_of(bits.begin(), bits.end(), [](std::uint64_t v) { return v == 0; })) continue;
+        Cube c;
+        c.morton = morton3(qx + static_cast<std::uint32_t>(cx), qy + static_cast<std::uint32_t>(cy),
+                           qz + static_cast<std::uint32_t>(cz));
+        c.bits = bits;
+        cubes.push_back(c);
+        bits = Bits{};
       }
-    }
-    for (std::uint32_t c = 0; c < 8; ++c) {
-      if (std::all_of(local[c].bits.begin(), local[c].bits.end(), [](std::uint64_t v) { return v == 0; })) continue;
-      Cube& out = cube_at((kx >> 3) + (c & 1u), (ky >> 3) + ((c >> 1) & 1u), (kz >> 3) + (c >> 2));
-      for (std::size_t z = 0; z < 8; ++z) out.bits[z] |= local[c].bits[z];
-    }
-  });
-  std::sort(cubes.begin(), cubes.end(), [](const Cube& a, const Cube& b) { return a.morton < b.morton; });
-  // Unaligned grids (and blocks visited out of Morton order) leave several pieces per cube.
-  std::vector<Cube> merged;
-  merged.reserve(cubes.size());
-  for (const auto& c : cubes) {
-    if (!merged.empty() && merged.back().morton == c.morton) {
-      for (std::size_t z = 0; z < 8; ++z) merged.back().bits[z] |= c.bits[z];
-    } else {
-      merged.push_back(c);
-    }
+  };
+  // A block straddles up to 2 x 2 x 2 cubes: each z-slice's columns and rows are shifted
+  // into them (bit y * 8 + x).
+  const std::uint64_t low_columns = 0x0101010101010101ull * (0xFFu >> sx);  // x < 8 - sx
+  for (int bz = 0; bz < nb.z(); ++bz) {
+    for (int by = 0; by < nb.y(); ++by)
+      for (int bx = 0; bx < nb.x(); ++bx) {
+        const std::uint64_t* occupancy = grid.block_occupancy(bx, by, bz);
+        if (occupancy == nullptr) continue;
+        for (unsigned z = 0; z < 8; ++z) {
+          const std::uint64_t w = occupancy[z];
+          if (w == 0) continue;
+          const unsigned zz = z + sz;
+          auto& layer = layers[static_cast<std::size_t>((bz + static_cast<int>(zz >> 3)) & 1)];
+          const std::uint64_t x_parts[2] = {(w & low_columns) << sx, sx == 0 ? 0 : (w & ~low_columns) >> (8 - sx)};
+          for (int dx = 0; dx < 2; ++dx) {
+            const std::uint64_t p = x_parts[dx];
+            if (p == 0) continue;
+            const auto cell = static_cast<std::size_t>(by) * static_cast<std::size_t>(ncx) + static_cast<std::size_t>(bx + dx);
+            layer[cell][zz & 7u] |= p << (8 * sy);  // rows y < 8 - sy
+            if (sy != 0) layer[cell + static_cast<std::size_t>(ncx)][zz & 7u] |= p >> (8 * (8 - sy));
+          }
+        }
+      }
+    flush(bz);
   }
-  return merged;
+  flush(nb.z());
+  std::sort(cubes.begin(), cubes.end(), [](const Cube& a, const Cube& b) { return a.morton < b.morton; });
+  return cubes;
 }
 
 /// The text header OctoMap writes before the nodes (`binary`: .bt, else .ot).
@@ -365,35 +366,64 @@ class OtEncoder {
     return node;
   }
   /// The packed leaf of every voxel of the cube (slot z * 64 + y * 8 + x; 0 where empty).
-  void gather(const Cube& cube) {
+  /// Returns the colour all of them share when every grid block they come from has one
+  /// colour for all its tags (then the voxels are filled without a per-voxel look-up),
+  /// else 0.
+  OtNode gather(const Cube& cube) {
     std::uint32_t k[3] = {0, 0, 0};
     for (int level = 0; level < kCubeLevels; ++level)
       for (int a = 0; a < 3; ++a)
         k[a] |= static_cast<std::uint32_t>((cube.morton >> (3 * level + a)) & 1u) << level;
-    const int g0[3] = {static_cast<int>(k[0] * 8) - offset_[0], static_cast<int>(k[1] * 8) - offset_[1],
-                       static_cast<int>(k[2] * 8) - offset_[2]};
+    int g0[3], b0[3], spans[3];
+    for (int a = 0; a < 3; ++a) {
+      g0[a] = static_cast<int>(k[a] * 8) - offset_[a];
+      b0[a] = g0[a] >> 3;
+      spans[a] = ((g0[a] + 7) >> 3) - b0[a] + 1;  // 1 when aligned, else 2
+    }
+    // The blocks the cube overlaps, each with its one colour (0 when its tags differ).
     std::array<std::optional<VoxelGrid::BlockView>, 8> blocks;
-    std::array<bool, 8> looked{};
+    std::array<OtNode, 8> block_colour{};
+    OtNode shared = ~OtNode{0};  // not yet known
+    for (int dz = 0; dz < spans[2]; ++dz)
+      for (int dy = 0; dy < spans[1]; ++dy)
+        for (int dx = 0; dx < spans[0]; ++dx) {
+          const auto bi = static_cast<std::size_t>(dx | (dy << 1) | (dz << 2));
+          blocks[bi] = grid_.block_view(b0[0] + dx, b0[1] + dy, b0[2] + dz);
+          if (!blocks[bi]) continue;
+          const auto& v = *blocks[bi];
+          OtNode c = v.wide == nullptr && v.palette_size > 0 ? colours_[v.palette[0]] : 0;
+          for (int i = 1; i < v.palette_size && c != 0; ++i)
+            if (colours_[v.palette[i]] != c) c = 0;
+          block_colour[bi] = c;
+          shared = shared == ~OtNode{0} ? c : (shared == c ? c : 0);
+        }
+    if (shared != 0 && cube.full()) return shared;  // the caller writes one leaf
     voxel_.fill(0);
     for (int z = 0; z < 8; ++z) {
       std::uint64_t w = cube.bits[static_cast<std::size_t>(z)];
       while (w != 0) {
         const int bit = std::countr_zero(w);
         w &= w - 1;
-        const int gx = g0[0] + (bit & 7), gy = g0[1] + (bit >> 3), gz = g0[2] + z;
-        const auto bi = static_cast<unsigned>(((gx >> 3) - (g0[0] >> 3)) | (((gy >> 3) - (g0[1] >> 3)) << 1) |
-                                              (((gz >> 3) - (g0[2] >> 3)) << 2));
-        if (!looked[bi]) {
-          blocks[bi] = grid_.block_view(gx >> 3, gy >> 3, gz >> 3);
-          looked[bi] = true;
+        if (shared != 0) {
+          voxel_[static_cast<std::size_t>(z * 64 + bit)] = shared;
+          continue;
         }
-        const int slot = (gz & 7) * 64 + (gy & 7) * 8 + (gx & 7);
-        voxel_[static_cast<std::size_t>(z * 64 + bit)] = colours_[blocks[bi]->tag_index(slot)];
+        const int gx = g0[0] + (bit & 7), gy = g0[1] + (bit >> 3), gz = g0[2] + z;
+        const auto bi = static_cast<std::size_t>(((gx >> 3) - b0[0]) | (((gy >> 3) - b0[1]) << 1) |
+                                                 (((gz >> 3) - b0[2]) << 2));
+        voxel_[static_cast<std::size_t>(z * 64 + bit)] =
+            block_colour[bi] != 0 ? block_colour[bi]
+                                  : colours_[blocks[bi]->tag_index((gz & 7) * 64 + (gy & 7) * 8 + (gx & 7))];
       }
     }
+    return shared;
   }
   OtNode encode_cube(const Cube& cube) {
-    gather(cube);
+    const OtNode shared = gather(cube);
+    if (shared != 0 && cube.full()) {
+      put_node(shared, 0);
+      return shared;
+    }
     // Levels inside the cube, bottom-up: 8^3 voxels -> 4^3 -> 2^3 -> the cube's node.
     reduce(voxel_.data(), 8, l1_.data());
     reduce(l1_.data(), 4, l2_.data());
