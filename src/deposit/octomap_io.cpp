@@ -462,6 +462,11 @@ class OtEncoder {
       if (children[c] != 0) mask = static_cast<std::uint8_t>(mask | (1u << c));
     }
     put_node(node, mask);
+    if (level == 1) {  // the children are voxels: leaves
+      for (const OtNode c : children)
+        if (c != 0) put_node(c, 0);
+      return;
+    }
     for (unsigned c = 0; c < 8; ++c)
       if (children[c] != 0)
         write_cube_node(children[c], level - 1, 2 * x + static_cast<int>(c & 1u),
