@@ -1,0 +1,169 @@
+// The .ot export is written straight from the grid. These tests build the same tree the
+// way OctoMap's API would (a ColorOcTree leaf per voxel, then updateInnerOccupancy) and
+// compare, through OctoMap's own reader: the same occupied voxels with the same colours,
+// and every node of the written tree has the colour OctoMap gives the node at that place.
+#include <gtest/gtest.h>
+#include <octomap/ColorOcTree.h>
+
+#include <map>
+#include <memory>
+#include <tuple>
+
+#include "deposit/deposit_test_support.hpp"
+#include "deposit/palette.hpp"
+#include "printtwin/deposit.hpp"
+#include "support/test_support.hpp"
+
+namespace printtwin {
+namespace {
+
+using Colour = std::tuple<int, int, int>;
+using VoxelColours = std::map<std::tuple<int, int, int>, Colour>;
+
+/// The .ot as OctoMap's insert path builds it (the export before it was written directly).
+std::unique_ptr<octomap::ColorOcTree> tree_by_insertion(const VoxelGrid& grid, VoxelColoring coloring) {
+  auto tree = std::make_unique<octomap::ColorOcTree>(grid.voxel_mm());
+  const float occupied = tree->getClampingThresMaxLog();
+  grid.for_each([&](const VoxelKey& k, const VoxelTag& tag) {
+    const Vec3 c = grid.center_mm(k);
+    const auto key = tree->coordToKey(octomap::point3d(static_cast<float>(c.x()), static_cast<float>(c.y()),
+                                                       static_cast<float>(c.z())));
+    auto* node = tree->setNodeValue(key, occupied, /*lazy_eval=*/true);
+    const auto rgb = coloring == VoxelColoring::layer ? deposit_detail::layer_color(tag.layer)
+                                                      : deposit_detail::feature_color(tag.feature);
+    node->setColor(rgb.r, rgb.g, rgb.b);
+  });
+  if (tree->size() > 0) tree->updateInnerOccupancy();
+  return tree;
+}
+
+std::unique_ptr<octomap::ColorOcTree> read_ot(const std::filesystem::path& file) {
+  std::unique_ptr<octomap::AbstractOcTree> any(octomap::AbstractOcTree::read(file.string()));
+  if (!any) return nullptr;
+  auto* colour = dynamic_cast<octomap::ColorOcTree*>(any.get());
+  if (colour == nullptr) return nullptr;
+  any.release();
+  return std::unique_ptr<octomap::ColorOcTree>(colour);
+}
+
+/// Every occupied voxel (OctoMap key) with its colour; a leaf above the bottom stands for
+/// all the voxels it covers.
+VoxelColours voxels_of(const octomap::ColorOcTree& tree) {
+  VoxelColours out;
+  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
+    if (!tree.isNodeOccupied(*it)) continue;
+    const int edge = 1 << (tree.getTreeDepth() - it.getDepth());
+    const auto k = it.getIndexKey();  // the leaf's lowest key
+    const auto c = it->getColor();
+    for (int z = 0; z < edge; ++z)
+      for (int y = 0; y < edge; ++y)
+        for (int x = 0; x < edge; ++x) out[{k[0] + x, k[1] + y, k[2] + z}] = {c.r, c.g, c.b};
+  }
+  return out;
+}
+
+void expect_same_as_insertion(const VoxelGrid& grid, VoxelColoring coloring, const std::string& what) {
+  const auto dir = test::temp_dir("octomap_ot");
+  const auto file = dir / "grid.ot";
+  ASSERT_TRUE(write_octomap(grid, file, coloring).ok()) << what;
+  const auto written = read_ot(file);
+  ASSERT_NE(written, nullptr) << what;
+  const auto reference = tree_by_insertion(grid, coloring);
+  const auto voxels = voxels_of(*written);
+  EXPECT_EQ(voxels.size(), grid.count()) << what;
+  EXPECT_TRUE(voxels == voxels_of(*reference)) << what;
+  auto n = count_octomap_voxels(file);
+  ASSERT_TRUE(n.ok()) << n.error().describe();
+  EXPECT_EQ(*n, grid.count()) << what;
+  // Inner nodes: the same occupancy and colour as OctoMap's updateInnerOccupancy gives.
+  std::size_t nodes = 0, mismatched = 0;
+  for (auto it = written->begin_tree(), end = written->end_tree(); it != end; ++it, ++nodes) {
+    // search() reads depth 0 as "the bottom": the root is compared as itself.
+    const auto* ref = it.getDepth() == 0 ? reference->getRoot() : reference->search(it.getKey(), it.getDepth());
+    if (ref == nullptr || ref->getLogOdds() != it->getLogOdds() || !(ref->getColor() == it->getColor())) ++mismatched;
+  }
+  EXPECT_EQ(nodes, written->size()) << what;
+  EXPECT_EQ(mismatched, 0u) << what;
+  EXPECT_LE(written->size(), reference->size()) << what;
+}
+
+void fill_box(VoxelGrid& g, const Eigen::Vector3i& lo, const Eigen::Vector3i& hi, std::uint32_t tag) {
+  for (int z = lo.z(); z < hi.z(); ++z)
+    for (int y = lo.y(); y < hi.y(); ++y) g.fill_row(y, z, lo.x(), hi.x(), tag);
+}
+
+// Boxes of several layers and features, holes, a lone voxel in the grid's far corner and
+// one at its origin, over grids whose blocks do and do not line up with OctoMap's cubes.
+TEST(OctomapOt, SameVoxelsAndColoursAsOctomapsInsertPath) {
+  for (const double origin : {0.0, 0.3, -1.15}) {
+    VoxelGrid g(0.05, Vec3(origin, origin + 0.1, 0), Eigen::Vector3i(70, 50, 40));
+    for (int layer = 0; layer < 8; ++layer) {
+      const auto t = g.add_tag({static_cast<std::uint32_t>(layer + 1), layer,
+                                layer % 3 == 0 ? Feature::gap_fill : Feature::sparse_infill});
+      fill_box(g, {3, 5, 4 * layer}, {60, 45, 4 * layer + 4}, t);
+    }
+    const auto outer = g.add_tag({100, 2, Feature::outer_perimeter});
+    fill_box(g, {0, 0, 8}, {3, 50, 12}, outer);
+    for (int z = 10; z < 20; ++z) g.clear({30, 20, z});
+    g.set({69, 49, 39}, VoxelTag{200, 9, Feature::support});
+    g.set({0, 0, 0}, VoxelTag{201, 0, Feature::skirt});
+    for (const auto coloring : {VoxelColoring::layer, VoxelColoring::feature})
+      expect_same_as_insertion(g, coloring, "origin " + std::to_string(origin));
+  }
+}
+
+TEST(OctomapOt, SimulatedBeadsAndASingleBead) {
+  const auto profile = ender3_marlin2();
+  test::BeadWriter w(profile);
+  w.feature = Feature::outer_perimeter;
+  w.travel({40, 40, 0.2});
+  w.extrude({43, 41, 0.2}, 0.45, 0.2);
+  auto one = deposit_moves(w.moves, profile, DepositSettings{});
+  ASSERT_TRUE(one.ok());
+  ASSERT_GT(one->voxels, 0u);
+  expect_same_as_insertion(one->grid, VoxelColoring::layer, "single bead");
+  for (int layer = 1; layer < 4; ++layer) {
+    w.layer = layer;
+    const double z = 0.2 * (layer + 1);
+    w.feature = Feature::perimeter;
+    w.travel({40, 40, z});
+    w.extrude({44, 40, z}, 0.45, 0.2);
+    w.feature = Feature::solid_infill;
+    w.extrude({44, 43, z}, 0.45, 0.2);
+  }
+  auto several = deposit_moves(w.moves, profile, DepositSettings{});
+  ASSERT_TRUE(several.ok());
+  expect_same_as_insertion(several->grid, VoxelColoring::feature, "beads");
+  expect_same_as_insertion(several->grid, VoxelColoring::layer, "beads");
+}
+
+// A whole cube of one colour is one node, and the tree is far smaller than a leaf per voxel.
+TEST(OctomapOt, UniformCubesArePrunedWithoutLosingColour) {
+  VoxelGrid g(0.05, Vec3::Zero(), Eigen::Vector3i(64, 64, 64));
+  fill_box(g, {0, 0, 0}, {64, 64, 32}, g.add_tag({1, 0, Feature::sparse_infill}));
+  fill_box(g, {0, 0, 32}, {64, 64, 64}, g.add_tag({2, 1, Feature::sparse_infill}));
+  const auto dir = test::temp_dir("octomap_ot_uniform");
+  ASSERT_TRUE(write_octomap(g, dir / "layer.ot", VoxelColoring::layer).ok());
+  ASSERT_TRUE(write_octomap(g, dir / "feature.ot", VoxelColoring::feature).ok());
+  const auto by_layer = read_ot(dir / "layer.ot");
+  const auto by_feature = read_ot(dir / "feature.ot");
+  ASSERT_NE(by_layer, nullptr);
+  ASSERT_NE(by_feature, nullptr);
+  EXPECT_EQ(by_feature->getNumLeafNodes(), 1u);  // the 64^3 block, one colour
+  EXPECT_EQ(by_layer->getNumLeafNodes(), 8u);    // its two halves, 4 nodes of 32^3 each
+  expect_same_as_insertion(g, VoxelColoring::layer, "two halves");
+}
+
+TEST(OctomapOt, EmptyDepositIsAValidEmptyTree) {
+  const VoxelGrid empty(0.05, Vec3::Zero(), Eigen::Vector3i(8, 8, 8));
+  const auto dir = test::temp_dir("octomap_ot_empty");
+  for (const char* name : {"empty.ot", "empty.bt"}) {
+    ASSERT_TRUE(write_octomap(empty, dir / name).ok()) << name;
+    auto n = count_octomap_voxels(dir / name);
+    ASSERT_TRUE(n.ok()) << n.error().describe();
+    EXPECT_EQ(*n, 0u) << name;
+  }
+}
+
+}  // namespace
+}  // namespace printtwin
