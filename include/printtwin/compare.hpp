@@ -91,7 +91,10 @@ struct VariantSpec {
   int index = 0;                   ///< 0-based position in the whole variant list
   std::string label;               ///< short, unique: "layer_height=0.1 fill_density=15"
   VariantKind kind = VariantKind::slicer;
-  std::string config_path;         ///< PrusaSlicer .ini applied first (slicer; may be empty)
+  /// Slicer variants: which slicer makes the G-code: "printtwin" (built in), or an external
+  /// program: "prusa-slicer", "cura" (CuraEngine), "slic3r" (slicer_backend.cpp).
+  std::string slicer = "printtwin";
+  std::string config_path;         ///< slicer's config applied first (slicer; may be empty)
   std::vector<SettingKV> settings; ///< applied in order after the config (slicer)
   std::string gcode_path;          ///< the G-code file (gcode)
   bool operator==(const VariantSpec&) const = default;
@@ -99,6 +102,8 @@ struct VariantSpec {
 
 /// What the command line asks for.
 struct SweepSpec {
+  /// `--slicer`: one variant set per slicer, in order (empty: printtwin).
+  std::vector<std::string> slicers;
   std::vector<SettingKV> common_settings;  ///< `--set key=value`, for every slicer variant
   std::vector<SweepAxis> axes;             ///< `--vary`, crossed in order (first slowest)
   std::vector<std::string> configs;        ///< `--config a.ini`, one variant set each
@@ -128,6 +133,11 @@ struct ComparePlan {
   std::string mesh_path;           ///< as given (relative paths resolve against the worker's cwd)
   std::string mesh_sha256;         ///< of the mesh file; shares with another hash do not merge
   std::string printer = "auto";    ///< "auto", a profile name or a path (printer.hpp)
+  /// External slicers: the program per slicer name (`--slicer-path`; machine specific, so
+  /// not part of the plan id), the time limit of one slicing run, Cura's definition (-j).
+  std::vector<std::pair<std::string, std::string>> slicer_paths;
+  double slicer_timeout_s = 600;
+  std::string cura_definition;
   VerifySettings verify;           ///< tolerance, voxel, gates shared by every variant
   double filament_density_g_cm3 = kDefaultFilamentDensityGCm3;  ///< for G-code variants
   std::vector<VariantSpec> variants;
@@ -181,6 +191,9 @@ struct VariantResult {
   std::string error;
 
   std::string slicer;             ///< "printtwin", "PrusaSlicer 2.5.0", ...
+  /// External slicers: the exact command line that made the G-code (shell quoted), so the
+  /// variant can be re-run by hand; "" for printtwin's slicer and G-code files.
+  std::string command;
   int layers = 0;
   double layer_height_mm = 0;     ///< slicer variants: the setting; G-code: most common step
   double print_time_s = 0;        ///< simulated, heating and dwell included
@@ -290,6 +303,75 @@ struct CompareHtmlOptions {
 
 /// File name of a share's JSON: "compare-<k>-of-<n>.json" (k 0-based).
 [[nodiscard]] std::string shard_file_name(int k, int n);
+
+// ---------------------------------------------------------------- external slicers
+
+/// The slicers `--slicer` accepts: "printtwin", "prusa-slicer", "cura", "slic3r".
+[[nodiscard]] bool is_known_slicer(std::string_view name);
+/// Usage error for an unknown name (listing the known ones).
+[[nodiscard]] Status check_slicer_name(std::string_view name);
+
+/// An external slicer found on this machine.
+struct SlicerProgram {
+  std::string name;               ///< "prusa-slicer", "cura", "slic3r"
+  std::string program;            ///< absolute path of the executable
+  std::string version;            ///< "PrusaSlicer 2.5.0", "CuraEngine 4.13.0" ("" if unknown)
+};
+
+/// Finds the program of `name`: `path` when given (must be an executable file), else the
+/// PATH (prusa-slicer / PrusaSlicer, CuraEngine, slic3r), and asks it for its version.
+/// Errors (usage, exit 2): not installed, naming the Debian package that provides it.
+[[nodiscard]] Result<SlicerProgram> find_slicer_program(std::string_view name, std::string_view path);
+
+/// `--slicer-path` values: "name=path" pairs, or one bare path when exactly one external
+/// slicer is in `slicers`. Errors (usage): a bare path with several slicers, unknown name.
+[[nodiscard]] Result<std::vector<SettingKV>> parse_slicer_paths(const std::vector<std::string>& values,
+                                                                const std::vector<std::string>& slicers);
+
+/// What one external slicing run needs.
+struct SlicerJob {
+  std::string mesh_path;
+  std::string config_path;        ///< PrusaSlicer/Slic3r .ini, Cura key=value file ("" none)
+  std::vector<SettingKV> settings;  ///< applied after the config, later keys win
+  std::string cura_definition;    ///< Cura: the printer's .def.json (-j)
+  std::string out_gcode;
+};
+
+/// The argument vector that slices `job` with `program` (argv[0] is the program).
+/// PrusaSlicer/Slic3r: `--load <ini> --<key> <value> ... --export-gcode -o out part.stl`;
+/// CuraEngine: `slice -v -j def.json -s key=value ... (config lines first) -l part -o out`.
+/// Errors (usage): Cura without a definition; an unreadable Cura settings file (bad input).
+[[nodiscard]] Result<std::vector<std::string>> slicer_command(const SlicerProgram& program,
+                                                              const SlicerJob& job);
+/// The effective settings of a job: the last value of each key, sorted by key; two variants
+/// with the same slicer, config and effective settings make the same G-code.
+[[nodiscard]] std::vector<SettingKV> effective_settings(const std::vector<SettingKV>& settings);
+/// Variables the slicer needs (Cura: CURA_ENGINE_SEARCH_PATH, the definition's folder and
+/// the extruders beside it, unless already set).
+[[nodiscard]] std::vector<SettingKV> slicer_environment(const SlicerProgram& program, const SlicerJob& job);
+/// The command as a user re-runs it in a shell: variables first, then the quoted argv.
+[[nodiscard]] Result<std::string> slicer_command_line(const SlicerProgram& program, const SlicerJob& job);
+/// One line a shell reads back as `argv` (single quotes where needed).
+[[nodiscard]] std::string shell_quote(const std::vector<std::string>& argv);
+
+/// How a child process ended.
+struct ProcessRun {
+  int exit_code = -1;             ///< -1: killed by a signal or not started
+  bool timed_out = false;
+  bool started = false;
+  std::string output;             ///< stdout then stderr, at most 64 KiB of each (tail)
+  double seconds = 0;
+};
+/// Runs `argv` (no shell) with `env` added to the environment, stops it (and its children)
+/// after `timeout_s` seconds.
+[[nodiscard]] ProcessRun run_process(const std::vector<std::string>& argv,
+                                     const std::vector<SettingKV>& env, double timeout_s);
+
+/// Slices `job` with `program`: runs the command, checks that a G-code was written.
+/// Errors (bad input) quote the slicer's own last lines of output, or say it timed out.
+/// `command_out` receives the quoted command line in every case.
+[[nodiscard]] Status run_external_slicer(const SlicerProgram& program, const SlicerJob& job,
+                                         double timeout_s, std::string* command_out = nullptr);
 
 // ---------------------------------------------------------------- running
 

@@ -25,6 +25,9 @@ namespace fs = std::filesystem;
 struct CompareOptions {
   std::string mesh;
   std::vector<std::string> varies, sets, configs, gcodes, labels;
+  std::vector<std::string> slicers, slicer_paths;
+  double slicer_timeout_s = 600;
+  std::string cura_definition;
   std::string printer = "auto";
   double tolerance_mm = 0.2;
   std::optional<double> max_excess_mm, max_deficit_mm, max_rms_mm;
@@ -126,14 +129,27 @@ int run_merge(const CompareOptions& o) {
 Result<ComparePlan> build_plan(const CompareOptions& o) {
   ComparePlan plan;
   if (!o.manifest.empty()) {
-    if (!o.varies.empty() || !o.sets.empty() || !o.configs.empty() || !o.gcodes.empty() || !o.labels.empty())
-      return usage_error("--manifest holds the variants; do not give --vary/--set/--config/--gcode/--label too");
+    if (!o.varies.empty() || !o.sets.empty() || !o.configs.empty() || !o.gcodes.empty() || !o.labels.empty() ||
+        !o.slicers.empty())
+      return usage_error(
+          "--manifest holds the variants; do not give --vary/--set/--config/--gcode/--label/--slicer too");
     auto text = read_file(o.manifest);
     if (!text) return text.error();
     auto parsed = parse_compare_plan(*text, o.manifest);
     if (!parsed) return parsed.error();
     plan = std::move(*parsed);
     if (!o.mesh.empty()) plan.mesh_path = o.mesh;  // the mesh may live elsewhere on a worker
+    // So may the slicer programs: a worker's --slicer-path wins over the manifest's.
+    if (!o.slicer_paths.empty()) {
+      std::vector<std::string> names;
+      for (const auto& v : plan.variants)
+        if (v.kind == VariantKind::slicer && v.slicer != "printtwin" &&
+            std::find(names.begin(), names.end(), v.slicer) == names.end())
+          names.push_back(v.slicer);
+      auto paths = parse_slicer_paths(o.slicer_paths, names);
+      if (!paths) return paths.error();
+      plan.slicer_paths = std::move(*paths);
+    }
     return plan;
   }
   if (o.mesh.empty()) return usage_error("compare needs a mesh (or --manifest, or --merge)");
@@ -148,6 +164,7 @@ Result<ComparePlan> build_plan(const CompareOptions& o) {
     if (!kv) return usage_error("--set " + kv.error().message);
     spec.common_settings.push_back(std::move(*kv));
   }
+  spec.slicers = o.slicers;
   spec.configs = o.configs;
   spec.gcodes = o.gcodes;
   spec.labels = o.labels;
@@ -165,6 +182,11 @@ Result<ComparePlan> build_plan(const CompareOptions& o) {
   plan.verify.printer = o.printer;
   if (o.place.size() == 3) plan.verify.place_mm = Vec3(o.place[0], o.place[1], o.place[2]);
   plan.filament_density_g_cm3 = o.filament_density;
+  plan.slicer_timeout_s = o.slicer_timeout_s;
+  plan.cura_definition = o.cura_definition;
+  auto paths = parse_slicer_paths(o.slicer_paths, o.slicers);
+  if (!paths) return paths.error();
+  plan.slicer_paths = std::move(*paths);
   if (!(o.tolerance_mm > 0)) return usage_error("--tolerance must be > 0 mm");
   if (!(o.voxel_mm > 0)) return usage_error("--voxel must be > 0 mm");
   if (!(o.filament_density > 0)) return usage_error("--filament-density must be > 0 g/cm3");
@@ -274,8 +296,14 @@ void add_compare_command(CLI::App& app, CommandRunner& runner) {
   cmd->add_option("mesh", o->mesh, "STL, OBJ, PLY, OFF, 3MF or AMF file");
   cmd->add_option("--vary", o->varies, "sweep a slicer setting: key=v1,v2,... (several: cross product)");
   cmd->add_option("--set", o->sets, "a slicer setting for every variant: key=value");
-  cmd->add_option("--config", o->configs, "a PrusaSlicer .ini: one variant (set) per file");
+  cmd->add_option("--config", o->configs,
+                  "the slicer's config: a PrusaSlicer/Slic3r .ini, for Cura a file of key=value lines; "
+                  "one variant (set) per file");
   cmd->add_option("--gcode", o->gcodes, "an external G-code file of the same part: one variant each");
+  add_slicer_options(cmd, o->slicers, o->slicer_paths, o->slicer_timeout_s, o->cura_definition,
+                     "who slices the slicer variants: printtwin (default), prusa-slicer, cura (CuraEngine) or "
+                     "slic3r; several: one variant set each (a failed slicing run is that variant's row)",
+                     "the slicer's program (default: found on the PATH); with several --slicer: name=path");
   cmd->add_option("--label", o->labels, "names of the variants, in variant order (one per variant)");
   cmd->add_option("--printer", o->printer,
                   "auto (default: each G-code's own printer; ender3 for printtwin's slices), a library printer "

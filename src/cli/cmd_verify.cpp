@@ -7,6 +7,7 @@
 
 #include "cli/cli_common.hpp"
 #include "cli/commands.hpp"
+#include "printtwin/compare.hpp"
 #include "printtwin/io.hpp"
 #include "printtwin/report.hpp"
 #include "printtwin/verify.hpp"
@@ -31,6 +32,8 @@ struct VerifyCliOptions {
   std::uint64_t seed = 1;
   std::string slice_config;
   std::vector<std::string> slice_sets;
+  std::string slicer = "printtwin", slicer_path, cura_definition;
+  double slicer_timeout_s = 600;
   bool quiet = false;
 };
 
@@ -122,6 +125,10 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
                   "without --gcode: PrusaSlicer .ini for printtwin's slicer (docs/slicer.md)");
   cmd->add_option("--set", o->slice_sets,
                   "without --gcode: slicer setting key=value (repeatable), e.g. --set layer_height=0.1");
+  add_slicer_options(cmd, o->slicer, o->slicer_path, o->slicer_timeout_s, o->cura_definition,
+                     "without --gcode: who slices the part: printtwin (default), prusa-slicer, cura (CuraEngine) "
+                     "or slic3r; --config and --set then go to that slicer (docs/compare.md)",
+                     "the slicer's program (default: found on the PATH)");
   cmd->add_flag("-q,--quiet", o->quiet, "no summary table");
   cmd->callback([o, &runner] {
     runner.run = [o]() -> int {
@@ -153,6 +160,30 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
       if (!o->units.empty())
         if (auto st = parse_units_option(o->units, s); !st) return report_error(st.error());
       s.object = o->object;
+      if (auto st = check_slicer_name(o->slicer); !st) return report_error(st.error());
+      if (o->slicer != "printtwin") {
+        // An external slicer writes the G-code beside the report; the twin then verifies it
+        // as any --gcode, on the printer its embedded settings name (--printer auto).
+        if (!o->gcode.empty()) return report_error(usage_error("--slicer slices the part; do not give --gcode too"));
+        if (!(o->slicer_timeout_s > 0)) return report_error(usage_error("--slicer-timeout must be > 0 s"));
+        auto program = find_slicer_program(o->slicer, o->slicer_path);
+        if (!program) return report_error(program.error());
+        SlicerJob job;
+        job.mesh_path = o->mesh;
+        job.config_path = o->slice_config;
+        job.settings = s.slice_overrides;
+        job.cura_definition = o->cura_definition;
+        const std::filesystem::path dir =
+            o->out.empty() ? std::filesystem::path("reports") / std::filesystem::path(o->mesh).stem() : std::filesystem::path(o->out);
+        job.out_gcode = (dir.parent_path() / (dir.filename().string() + "-" + o->slicer + ".gcode")).string();
+        std::string command;
+        const Status sliced = run_external_slicer(*program, job, o->slicer_timeout_s, &command);
+        if (!o->quiet) std::printf("sliced with %s: %s\n", program->version.c_str(), command.c_str());
+        if (!sliced) return report_error(sliced.error());
+        options.gcode_path = job.out_gcode;
+        s.slice_config_ini.clear();
+        s.slice_overrides.clear();
+      }
       ReportOptions report_options;
       // The heatmaps' views are traced while the deposit runs (the report needs only the
       // placed mesh for them); the report renders the same bytes with or without them.

@@ -44,6 +44,7 @@ Json variant_spec_json(const VariantSpec& v) {
   j["index"] = v.index;
   j["label"] = v.label;
   j["kind"] = std::string(to_string(v.kind));
+  j["slicer_backend"] = v.slicer;
   j["config"] = v.config_path;
   j["settings"] = settings_json(v.settings);
   j["gcode"] = v.gcode_path;
@@ -81,6 +82,7 @@ Json variant_result_json(const VariantResult& r) {
   j["status"] = r.ran ? "ok" : "error";
   j["error"] = r.error;
   j["slicer"] = r.slicer;
+  j["command"] = r.command;
   j["layers"] = r.layers;
   j["layer_height_mm"] = num(r.layer_height_mm);
   j["print_time_s"] = num(r.print_time_s);
@@ -199,13 +201,14 @@ class Reader {
   std::optional<Error> error_;
 };
 
-std::vector<SettingKV> read_settings(Reader& rd, const Json& obj, const std::string& where) {
+std::vector<SettingKV> read_settings(Reader& rd, const Json& obj, const std::string& where,
+                                     const char* key = "settings") {
   std::vector<SettingKV> out;
-  const Json& a = rd.array(obj, "settings", where);
+  const Json& a = rd.array(obj, key, where);
   for (std::size_t i = 0; i < a.size(); ++i) {
     const Json& kv = a[i];
     if (!kv.is_array() || kv.size() != 2 || !kv[0].is_string() || !kv[1].is_string()) {
-      rd.fail(where + ".settings[" + std::to_string(i) + "]", "expected [\"key\", \"value\"]");
+      rd.fail(where + "." + key + "[" + std::to_string(i) + "]", "expected [\"key\", \"value\"]");
       break;
     }
     out.emplace_back(kv[0].get<std::string>(), kv[1].get<std::string>());
@@ -221,6 +224,10 @@ VariantSpec read_variant_spec(Reader& rd, const Json& j, const std::string& wher
   if (kind == "gcode") v.kind = VariantKind::gcode;
   else if (kind == "slicer") v.kind = VariantKind::slicer;
   else rd.fail(where + ".kind", "expected \"slicer\" or \"gcode\", got \"" + kind + "\"");
+  // Written since the external slicer back-ends; older files are printtwin's slicer.
+  if (j.contains("slicer_backend")) v.slicer = rd.text(j, "slicer_backend", where);
+  if (v.kind == VariantKind::slicer && !is_known_slicer(v.slicer))
+    rd.fail(where + ".slicer_backend", "expected printtwin, prusa-slicer, cura or slic3r, got \"" + v.slicer + "\"");
   v.config_path = rd.text(j, "config", where);
   v.settings = read_settings(rd, j, where);
   v.gcode_path = rd.text(j, "gcode", where);
@@ -265,6 +272,7 @@ VariantResult read_variant_result(Reader& rd, const Json& j, const std::string& 
   r.ran = status == "ok";
   r.error = rd.text(j, "error", where);
   r.slicer = rd.text(j, "slicer", where);
+  if (j.contains("command")) r.command = rd.text(j, "command", where);
   r.layers = static_cast<int>(rd.integer(j, "layers", where));
   r.layer_height_mm = rd.number(j, "layer_height_mm", where);
   r.print_time_s = rd.number(j, "print_time_s", where);
@@ -358,6 +366,9 @@ Json plan_body(const ComparePlan& plan, bool with_path) {
   j["printer"] = plan.printer;
   j["verify"] = verify_settings_json(plan.verify);
   j["filament_density_g_cm3"] = num(plan.filament_density_g_cm3);
+  j["slicer_timeout_s"] = num(plan.slicer_timeout_s);
+  j["cura_definition"] = plan.cura_definition;
+  if (with_path) j["slicer_paths"] = settings_json(plan.slicer_paths);
   Json vs = Json::array();
   for (const auto& v : plan.variants) vs.push_back(variant_spec_json(v));
   j["variants"] = vs;
@@ -386,6 +397,9 @@ Result<ComparePlan> parse_compare_plan(std::string_view json_text, std::string_v
   plan.printer = rd.text(*doc, "printer", "");
   if (const Json* v = rd.at(*doc, "verify", "")) plan.verify = read_verify_settings(rd, *v, "verify");
   plan.filament_density_g_cm3 = rd.number(*doc, "filament_density_g_cm3", "");
+  if (doc->contains("slicer_timeout_s")) plan.slicer_timeout_s = rd.number(*doc, "slicer_timeout_s", "");
+  if (doc->contains("cura_definition")) plan.cura_definition = rd.text(*doc, "cura_definition", "");
+  if (doc->contains("slicer_paths")) plan.slicer_paths = read_settings(rd, *doc, "", "slicer_paths");
   const Json& vs = rd.array(*doc, "variants", "");
   for (std::size_t i = 0; i < vs.size(); ++i) {
     plan.variants.push_back(read_variant_spec(rd, vs[i], "variants[" + std::to_string(i) + "]"));

@@ -192,6 +192,15 @@ std::string compare_markdown(const CompareResult& r) {
     any_error = true;
     md << "- " << v.variant.index << " " << md_cell(v.variant.label) << ": " << md_cell(v.error) << "\n";
   }
+  // External slicers: how to make each variant's G-code again by hand.
+  bool any_command = false;
+  for (const auto& v : r.variants) {
+    if (v.command.empty()) continue;
+    if (!any_command) md << "\n**Slicer commands** (re-run a variant's G-code by hand)\n\n";
+    any_command = true;
+    md << "- " << v.variant.index << " " << md_cell(v.variant.label) << " (" << md_cell(v.slicer) << "): `"
+       << v.command << "`\n";
+  }
   return md.str();
 }
 
@@ -401,9 +410,13 @@ std::string compare_html(const CompareResult& r, const CompareHtmlOptions& optio
       << verdict_of(v) << "</span>" << (v.pareto ? "<span class=\"star\">★ Pareto</span>" : "")
       << "</summary>";
     h << "<div class=\"kv-grid\"><table class=\"kv\"><tbody><tr><th>Source</th><td>"
-      << (v.variant.kind == VariantKind::gcode ? "G-code file" : "printtwin slice")
+      << (v.variant.kind == VariantKind::gcode ? std::string("G-code file")
+          : v.variant.slicer == "printtwin"    ? std::string("printtwin slice")
+                                               : v.variant.slicer + " slice")
       << "</td></tr><tr><th>Settings</th><td class=\"mono\">" << html_escape(settings_text(v.variant))
       << "</td></tr>";
+    if (!v.command.empty())
+      h << "<tr><th>Command</th><td class=\"mono\">" << html_escape(v.command) << "</td></tr>";
     if (v.ran) {
       h << "<tr><th>Slicer</th><td>" << html_escape(v.slicer) << "</td></tr><tr><th>Layers</th><td>"
         << v.layers << " (" << fx(v.layer_height_mm, 3) << " mm)</td></tr><tr><th>Print time</th><td>"

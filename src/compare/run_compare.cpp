@@ -4,8 +4,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
+#include <map>
+#include <mutex>
+#include <thread>
+#include <unistd.h>
 
+#include <nlohmann/json.hpp>
 
 #include "printtwin/printer.hpp"
 #include "printtwin/compare.hpp"
@@ -75,14 +81,26 @@ std::string slug(const std::string& label) {
 
 Status validate_plan(const ComparePlan& plan) {
   if (plan.variants.empty()) return usage_error("the comparison has no variants");
+  if (!(plan.slicer_timeout_s > 0)) return usage_error("--slicer-timeout must be > 0 s");
   for (const auto& v : plan.variants) {
-    if (v.kind == VariantKind::slicer) {
+    auto named = [&](Error e) {
+      e.message = "variant " + std::to_string(v.index) + " (" + v.label + "): " + e.message;
+      return e;
+    };
+    if (v.kind == VariantKind::slicer && v.slicer != "printtwin") {
+      // The external slicer reads its own config; here only that the files are there.
+      if (auto st = check_slicer_name(v.slicer); !st) return named(st.error());
+      std::error_code ec;
+      if (!v.config_path.empty() && !std::filesystem::is_regular_file(v.config_path, ec))
+        return named(bad_input("the slicer config does not exist or is not a file", v.config_path));
+      if (v.slicer == "cura" && plan.cura_definition.empty())
+        return named(usage_error("--slicer cura needs the printer's definition: --cura-definition "
+                                 "/usr/share/cura/resources/definitions/creality_ender3.def.json (package cura)"));
+      if (v.slicer == "cura" && !std::filesystem::is_regular_file(plan.cura_definition, ec))
+        return named(bad_input("the Cura definition does not exist or is not a file", plan.cura_definition));
+    } else if (v.kind == VariantKind::slicer) {
       auto s = slice_settings_of(v);
-      if (!s) {
-        Error e = s.error();
-        e.message = "variant " + std::to_string(v.index) + " (" + v.label + "): " + e.message;
-        return e;
-      }
+      if (!s) return named(s.error());
     } else if (std::error_code ec; !std::filesystem::is_regular_file(v.gcode_path, ec)) {
       return bad_input("variant " + std::to_string(v.index) + " (" + v.label +
                            "): the G-code file does not exist or is not a file",
@@ -165,6 +183,7 @@ Result<VerifyReport> run_variant_verify(const SharedPart& part, const PrinterPro
   VerifySettings settings = plan.verify;
   settings.printer = plan.printer;
   if (spec.kind != VariantKind::slicer && (plan.printer.empty() || plan.printer == "auto")) {
+    // (An external slicer's variant arrives here as the G-code it wrote.)
     // --printer auto: each G-code variant runs on the printer its own settings name.
     auto resolved = resolve_printer(plan.printer, spec.gcode_path);
     if (!resolved) return resolved.error();
@@ -175,6 +194,121 @@ Result<VerifyReport> run_variant_verify(const SharedPart& part, const PrinterPro
 }
 
 // ---------------------------------------------------------------- the sweep
+
+namespace {
+
+// The library printer a Cura definition names (its "name", e.g. "Creality Ender-3"), or "".
+std::string cura_definition_printer(const std::string& definition) {
+  auto text = read_file(definition);
+  if (!text) return {};
+  const auto doc = nlohmann::json::parse(*text, nullptr, false);
+  if (!doc.is_object() || !doc.contains("name") || !doc["name"].is_string()) return {};
+  const LibraryPrinter* p = match_library_printer(doc["name"].get<std::string>());
+  return p ? p->id : std::string();
+}
+
+// The external slicing runs of a sweep: one job per distinct (slicer, config, effective
+// settings), run in order on a worker thread; variants wait for their job's G-code.
+class ExternalSlicing {
+ public:
+  struct Job {
+    SlicerProgram program;
+    SlicerJob input;
+    std::string gcode, command, version;
+    /// Cura: the library printer the definition names (its G-code names none), "" if none.
+    std::string printer;
+    Status status = Ok{};
+    bool done = false;
+  };
+
+  Status plan(const ComparePlan& plan, const std::vector<int>& run, const std::filesystem::path& out_dir,
+              const std::string& mesh_path) {
+    std::map<std::string, SlicerProgram> programs;
+    std::map<std::string, std::size_t> by_key;
+    std::filesystem::path dir = out_dir.empty()
+                                    ? std::filesystem::temp_directory_path() /
+                                          ("printtwin-compare-" + std::to_string(::getpid()))
+                                    : out_dir;
+    for (int i : run) {
+      const VariantSpec& v = plan.variants[static_cast<std::size_t>(i)];
+      if (v.kind != VariantKind::slicer || v.slicer == "printtwin") continue;
+      if (!programs.count(v.slicer)) {
+        std::string path;
+        for (const auto& [name, p] : plan.slicer_paths)
+          if (name == v.slicer) path = p;
+        auto found = find_slicer_program(v.slicer, path);
+        if (!found) return found.error();
+        programs.emplace(v.slicer, std::move(*found));
+      }
+      std::string key = v.slicer + '\n' + v.config_path;
+      for (const auto& [k, val] : effective_settings(v.settings)) key += '\n' + k + '=' + val;
+      auto [it, fresh] = by_key.emplace(key, jobs_.size());
+      if (fresh) {
+        auto job = std::make_unique<Job>();
+        job->program = programs.at(v.slicer);
+        job->version = job->program.version;
+        job->input.mesh_path = mesh_path;
+        job->input.config_path = v.config_path;
+        job->input.settings = v.settings;
+        job->input.cura_definition = plan.cura_definition;
+        char prefix[16];
+        std::snprintf(prefix, sizeof prefix, "%02d-", v.index);
+        job->gcode = (dir / "gcode" / (std::string(prefix) + slug(v.label) + ".gcode")).string();
+        job->input.out_gcode = job->gcode;
+        if (v.slicer == "cura") job->printer = cura_definition_printer(plan.cura_definition);
+        auto command = slicer_command_line(job->program, job->input);
+        if (!command) {
+          job->status = command.error();
+          job->done = true;
+        } else {
+          job->command = std::move(*command);
+        }
+        jobs_.push_back(std::move(job));
+      }
+      job_of_[i] = it->second;
+    }
+    return Ok{};
+  }
+
+  void start(double timeout_s) {
+    if (jobs_.empty()) return;
+    worker_ = std::jthread([this, timeout_s](std::stop_token stop) {
+      for (auto& job : jobs_) {
+        if (stop.stop_requested()) break;
+        Status st = job->done ? job->status : run_external_slicer(job->program, job->input, timeout_s);
+        std::lock_guard lock(mutex_);
+        job->status = std::move(st);
+        job->done = true;
+        cv_.notify_all();
+      }
+      std::lock_guard lock(mutex_);
+      finished_ = true;
+      cv_.notify_all();
+    });
+  }
+
+  [[nodiscard]] const Job* job_of(int variant) const {
+    auto it = job_of_.find(variant);
+    return it == job_of_.end() ? nullptr : jobs_[it->second].get();
+  }
+
+  Status wait(const Job& job) {
+    std::unique_lock lock(mutex_);
+    cv_.wait(lock, [&] { return job.done || finished_; });
+    if (!job.done) return bad_input("the slicing run was cancelled");
+    return job.status;
+  }
+
+ private:
+  std::vector<std::unique_ptr<Job>> jobs_;
+  std::map<int, std::size_t> job_of_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  bool finished_ = false;
+  std::jthread worker_;  // last: joined (after a stop request) before the jobs go
+};
+
+}  // namespace
 
 CompareResult make_compare_result(const SharedPart& part, const ComparePlan& plan) {
   CompareResult out;
@@ -207,6 +341,14 @@ Result<CompareResult> run_compare(const SharedPart& part, const ComparePlan& pla
 
   CompareResult out = make_compare_result(part, plan);
 
+  // External slicers: every distinct job sliced once, in variant order, on a thread of its
+  // own, so that the slicer works on the next variant while this one is measured.
+  ExternalSlicing slicing;
+  if (auto st = slicing.plan(plan, run, options.out_dir, part.info.path.empty() ? plan.mesh_path : part.info.path);
+      !st)
+    return st.error();
+  slicing.start(plan.slicer_timeout_s);
+
   // The deviation target of the part (built once) holds the BVH and the mesh samples every
   // variant's deviation used; the slope figures look up triangles through them.
   const DeviationTarget& target = *part.prepared.target;
@@ -224,7 +366,24 @@ Result<CompareResult> run_compare(const SharedPart& part, const ComparePlan& pla
       options.progress(progress);
     };
     VariantResult row;
-    auto report = run_variant_verify(part, *printer, plan, spec, on_stage);
+    const ExternalSlicing::Job* job = slicing.job_of(i);
+    Result<VerifyReport> report = [&]() -> Result<VerifyReport> {
+      if (job == nullptr) return run_variant_verify(part, *printer, plan, spec, on_stage);
+      on_stage("slice");
+      if (auto st = slicing.wait(*job); !st) return st.error();
+      VariantSpec as_gcode = spec;  // the twin measures the G-code the slicer wrote
+      as_gcode.kind = VariantKind::gcode;
+      as_gcode.gcode_path = job->gcode;
+      if (!job->printer.empty() && (plan.printer.empty() || plan.printer == "auto")) {
+        // A Cura G-code states only its flavour: the printer is the definition's.
+        ComparePlan own = plan;
+        own.printer = job->printer;
+        auto resolved = resolve_printer(job->printer, job->gcode);
+        if (!resolved) return resolved.error();
+        return run_variant_verify(part, resolved->profile, own, as_gcode, on_stage);
+      }
+      return run_variant_verify(part, *printer, plan, as_gcode, on_stage);
+    }();
     if (!report) {
       row.variant = spec;
       row.ran = false;
@@ -236,10 +395,11 @@ Result<CompareResult> run_compare(const SharedPart& part, const ComparePlan& pla
       const auto dep_tri = sample_triangles(target.query(), report->deviation.deposit_samples, placement, near_mm);
       const auto mesh_tri = sample_triangles(target.query(), report->deviation.mesh_samples, placement, near_mm);
       double density = plan.filament_density_g_cm3;
-      if (spec.kind == VariantKind::slicer)
+      const bool own_slicer = spec.kind == VariantKind::slicer && job == nullptr;
+      if (own_slicer)
         if (auto s = slice_settings_of(spec)) density = s->filament_density_g_cm3;
       row = summarize_variant(spec, *report, part.sloped, dep_tri, mesh_tri, density);
-      if (spec.kind == VariantKind::slicer)
+      if (own_slicer)
         if (auto s = slice_settings_of(spec)) row.layer_height_mm = s->layer_height_mm;
       if (options.variant_reports && !options.out_dir.empty()) {
         on_stage("report");
@@ -252,6 +412,10 @@ Result<CompareResult> run_compare(const SharedPart& part, const ComparePlan& pla
         if (!written) return written.error();
         row.report_dir = rel;
       }
+    }
+    if (job != nullptr) {
+      row.command = job->command;
+      if (!job->version.empty()) row.slicer = job->version;
     }
     row.run_time_s = seconds_since(tv);
     out.variants.push_back(std::move(row));

@@ -92,8 +92,18 @@ Result<std::vector<VariantSpec>> expand_variants(const SweepSpec& spec) {
     if (combos > kMaxVariants) break;
   }
   const std::size_t config_sets = std::max<std::size_t>(spec.configs.size(), 1);
-  const bool slicer_variants = !spec.axes.empty() || !spec.configs.empty() || spec.gcodes.empty();
-  const std::size_t total = (slicer_variants ? config_sets * combos : 0) + spec.gcodes.size();
+  std::vector<std::string> slicers = spec.slicers;
+  if (slicers.empty()) slicers.emplace_back("printtwin");
+  {
+    std::set<std::string> seen;
+    for (const auto& s : slicers) {
+      if (auto st = check_slicer_name(s); !st) return st.error();
+      if (!seen.insert(s).second) return usage_error("--slicer " + s + " is given twice");
+    }
+  }
+  const bool slicer_variants = !spec.axes.empty() || !spec.configs.empty() || !spec.slicers.empty() ||
+                               spec.gcodes.empty();
+  const std::size_t total = (slicer_variants ? slicers.size() * config_sets * combos : 0) + spec.gcodes.size();
   if (combos > kMaxVariants || total > kMaxVariants)
     return usage_error("the sweep has more than " + std::to_string(kMaxVariants) +
                        " variants; split it into several comparisons");
@@ -109,16 +119,20 @@ Result<std::vector<VariantSpec>> expand_variants(const SweepSpec& spec) {
   make_unique(config_names);
 
   if (slicer_variants) {
+   for (const auto& slicer : slicers) {
     for (std::size_t c = 0; c < config_sets; ++c) {
       // Odometer over the axes, last axis fastest.
       std::vector<std::size_t> at(spec.axes.size(), 0);
       for (std::size_t n = 0; n < combos; ++n) {
         VariantSpec v;
         v.kind = VariantKind::slicer;
-        std::string label;
+        v.slicer = slicer;
+        // Several slicers: each label starts with its slicer's name.
+        std::string label = slicers.size() > 1 ? slicer : std::string();
         if (!spec.configs.empty()) {
+          if (!label.empty()) label += ' ';
           v.config_path = spec.configs[c];
-          label = config_names[c];
+          label += config_names[c];
         }
         v.settings = spec.common_settings;
         for (std::size_t a = 0; a < spec.axes.size(); ++a) {
@@ -127,7 +141,8 @@ Result<std::vector<VariantSpec>> expand_variants(const SweepSpec& spec) {
           if (!label.empty()) label += ' ';
           label += normalized_key(axis.key) + "=" + axis.values[at[a]];
         }
-        v.label = label.empty() ? std::string("printtwin defaults") : label;
+        if (label.empty()) label = slicer == "printtwin" ? std::string("printtwin defaults") : slicer;
+        v.label = label;
         out.push_back(std::move(v));
         for (std::size_t a = spec.axes.size(); a-- > 0;) {
           if (++at[a] < spec.axes[a].values.size()) break;
@@ -135,6 +150,7 @@ Result<std::vector<VariantSpec>> expand_variants(const SweepSpec& spec) {
         }
       }
     }
+   }
   }
   std::vector<std::string> gcode_names;
   for (const auto& g : spec.gcodes) gcode_names.push_back(stem_of(g));

@@ -1,0 +1,281 @@
+// External slicer back-ends: the command lines built for PrusaSlicer, CuraEngine and Slic3r,
+// the error paths without a slicer (not installed, failing, hanging) through stand-in
+// scripts, the slicing of shared variants once, and a real PrusaSlicer run when installed.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include "printtwin/compare.hpp"
+#include "printtwin/io.hpp"
+#include "support/test_support.hpp"
+
+namespace printtwin {
+namespace {
+
+namespace fs = std::filesystem;
+
+SlicerProgram program(const std::string& name) { return SlicerProgram{name, "/usr/bin/" + name, ""}; }
+
+// A shell script standing in for a slicer.
+fs::path script(const fs::path& dir, const std::string& name, const std::string& body) {
+  fs::create_directories(dir);
+  const fs::path p = dir / name;
+  std::ofstream(p) << "#!/bin/sh\n" << body << "\n";
+  fs::permissions(p, fs::perms::owner_all);
+  return p;
+}
+
+TEST(SlicerBackend, PrusaSlicerCommandLoadsTheConfigThenTheSettings) {
+  SlicerJob job{"part.stl", "ender3.ini", {{"layer_height", "0.3"}, {"fill_density", "15%"}, {"layer_height", "0.1"}},
+                "", "out/a.gcode"};
+  auto argv = slicer_command(program("prusa-slicer"), job);
+  ASSERT_TRUE(argv) << argv.error().describe();
+  // The last value of a key wins; keys become the slicer's --flags, sorted.
+  EXPECT_EQ(shell_quote(*argv),
+            "/usr/bin/prusa-slicer --load ender3.ini --fill-density 15% --layer-height 0.1 --export-gcode "
+            "-o out/a.gcode part.stl");
+}
+
+TEST(SlicerBackend, Slic3rCommandHasNoExportFlag) {
+  SlicerJob job{"part.stl", "", {{"perimeters", "3"}}, "", "a.gcode"};
+  auto argv = slicer_command(program("slic3r"), job);
+  ASSERT_TRUE(argv);
+  EXPECT_EQ(shell_quote(*argv), "/usr/bin/slic3r --perimeters 3 -o a.gcode part.stl");
+}
+
+TEST(SlicerBackend, CuraCommandPassesConfigLinesThenSettingsWithS) {
+  const auto dir = test::temp_dir("slicer_cura_cfg");
+  std::ofstream(dir / "ender.cfg") << "# Ender-3 settings\nlayer_height = 0.2\n\nwall_line_count=2\n";
+  SlicerJob job{"part.stl", (dir / "ender.cfg").string(), {{"layer_height", "0.1"}}, "/defs/creality_ender3.def.json",
+                "a.gcode"};
+  auto argv = slicer_command(program("cura"), job);
+  ASSERT_TRUE(argv) << argv.error().describe();
+  EXPECT_EQ(shell_quote(*argv), "/usr/bin/cura slice -v -j /defs/creality_ender3.def.json -s layer_height=0.1 -s "
+                                "wall_line_count=2 -l part.stl -o a.gcode");
+  job.cura_definition.clear();
+  auto missing = slicer_command(program("cura"), job);
+  ASSERT_FALSE(missing);
+  EXPECT_EQ(missing.error().code, ErrorCode::usage);
+  EXPECT_NE(missing.error().message.find("--cura-definition"), std::string::npos);
+  std::ofstream(dir / "bad.cfg") << "layer_height 0.2\n";
+  job.cura_definition = "/defs/x.def.json";
+  job.config_path = (dir / "bad.cfg").string();
+  auto bad = slicer_command(program("cura"), job);
+  ASSERT_FALSE(bad);
+  EXPECT_EQ(bad.error().line, 1);
+}
+
+// CuraEngine evaluates no formula: the children of a varied parent are written out.
+TEST(SlicerBackend, CuraParentsReachTheirChildren) {
+  const auto dir = test::temp_dir("slicer_cura_children");
+  std::ofstream(dir / "c.cfg") << "infill_line_distance = 9\ntop_bottom_thickness = 0.8\nspeed_wall_0 = 20\n";
+  SlicerJob job{"p.stl", (dir / "c.cfg").string(),
+                {{"infill_sparse_density", "10"}, {"layer_height", "0.2"}, {"speed_print", "60"}},
+                "/d/x.def.json", "o.gcode"};
+  auto argv = slicer_command(program("cura"), job);
+  ASSERT_TRUE(argv) << argv.error().describe();
+  const std::string line = shell_quote(*argv);
+  // A child the user set is kept (as Cura keeps it): the file's infill_line_distance stays.
+  EXPECT_NE(line.find("-s infill_line_distance=9 "), std::string::npos) << line;
+  EXPECT_NE(line.find("-s top_layers=4 "), std::string::npos) << line;
+  EXPECT_NE(line.find("-s speed_infill=60 "), std::string::npos) << line;
+  EXPECT_NE(line.find("-s speed_wall=30 "), std::string::npos) << line;
+  EXPECT_NE(line.find("-s speed_wall_0=20 "), std::string::npos) << line;
+  job.config_path.clear();
+  auto fresh = slicer_command(program("cura"), job);
+  ASSERT_TRUE(fresh);
+  // grid: 0.4 mm lines * 100 / 10 % * 2 lines per cell.
+  EXPECT_NE(shell_quote(*fresh).find("-s infill_line_distance=8 "), std::string::npos) << shell_quote(*fresh);
+  // The re-run line names the search path the definition needs.
+  auto text = slicer_command_line(program("cura"), job);
+  ASSERT_TRUE(text);
+  EXPECT_EQ(text->rfind("CURA_ENGINE_SEARCH_PATH=", 0), 0u) << *text;
+}
+
+TEST(SlicerBackend, ShellQuoteQuotesSpacesAndQuotes) {
+  EXPECT_EQ(shell_quote({"a b", "it's", "plain-1.0"}), "'a b' 'it'\\''s' plain-1.0");
+}
+
+TEST(SlicerBackend, SlicerPathsNeedANameWithSeveralSlicers) {
+  auto one = parse_slicer_paths({"/opt/ps"}, {"prusa-slicer"});
+  ASSERT_TRUE(one);
+  EXPECT_EQ(one->at(0), (SettingKV{"prusa-slicer", "/opt/ps"}));
+  EXPECT_FALSE(parse_slicer_paths({"/opt/ps"}, {"prusa-slicer", "cura"}));
+  auto named = parse_slicer_paths({"cura=/opt/CuraEngine"}, {"prusa-slicer", "cura"});
+  ASSERT_TRUE(named);
+  EXPECT_EQ(named->at(0), (SettingKV{"cura", "/opt/CuraEngine"}));
+}
+
+TEST(SlicerBackend, UnknownSlicerIsAUsageError) {
+  SweepSpec spec;
+  spec.slicers = {"simplify3d"};
+  auto v = expand_variants(spec);
+  ASSERT_FALSE(v);
+  EXPECT_EQ(v.error().code, ErrorCode::usage);
+}
+
+TEST(SlicerBackend, SeveralSlicersMakeOneVariantSetEach) {
+  SweepSpec spec;
+  spec.slicers = {"prusa-slicer", "cura"};
+  spec.axes = {SweepAxis{"layer_height", {"0.1", "0.2"}}};
+  auto v = expand_variants(spec);
+  ASSERT_TRUE(v);
+  ASSERT_EQ(v->size(), 4u);
+  EXPECT_EQ((*v)[0].slicer, "prusa-slicer");
+  EXPECT_EQ((*v)[0].label, "prusa-slicer layer_height=0.1");
+  EXPECT_EQ((*v)[3].slicer, "cura");
+  EXPECT_EQ((*v)[3].label, "cura layer_height=0.2");
+}
+
+TEST(SlicerBackend, MissingSlicerNamesTheDebianPackage) {
+  const char* old = std::getenv("PATH");
+  const std::string saved = old ? old : "";
+  const auto empty = test::temp_dir("slicer_empty_path");
+  ::setenv("PATH", empty.c_str(), 1);
+  auto cura = find_slicer_program("cura", "");
+  auto slic3r = find_slicer_program("slic3r", "");
+  ::setenv("PATH", saved.c_str(), 1);
+  ASSERT_FALSE(cura);
+  EXPECT_EQ(cura.error().code, ErrorCode::usage);  // exit 2
+  EXPECT_NE(cura.error().message.find("cura-engine"), std::string::npos) << cura.error().message;
+  ASSERT_FALSE(slic3r);
+  EXPECT_NE(slic3r.error().message.find("package slic3r"), std::string::npos);
+  auto wrong = find_slicer_program("prusa-slicer", "/nonexistent/prusa-slicer");
+  ASSERT_FALSE(wrong);
+  EXPECT_EQ(wrong.error().code, ErrorCode::usage);
+}
+
+TEST(SlicerBackend, FailingSlicerReportsItsOwnMessage) {
+  const auto dir = test::temp_dir("slicer_failing");
+  const auto fake = script(dir, "prusa-slicer", "echo 'Objects could not fit on the bed' >&2; exit 1");
+  SlicerProgram p{"prusa-slicer", fake.string(), "PrusaSlicer 9.9"};
+  SlicerJob job{"part.stl", "", {}, "", (dir / "out.gcode").string()};
+  std::string command;
+  const Status st = run_external_slicer(p, job, 10, &command);
+  ASSERT_FALSE(st);
+  EXPECT_NE(st.error().message.find("Objects could not fit on the bed"), std::string::npos) << st.error().message;
+  EXPECT_NE(st.error().message.find("exit 1"), std::string::npos);
+  EXPECT_NE(command.find("--export-gcode"), std::string::npos);
+}
+
+TEST(SlicerBackend, HangingSlicerIsStoppedAtTheTimeout) {
+  const auto dir = test::temp_dir("slicer_hanging");
+  const auto fake = script(dir, "slic3r", "sleep 30");
+  SlicerProgram p{"slic3r", fake.string(), ""};
+  SlicerJob job{"part.stl", "", {}, "", (dir / "out.gcode").string()};
+  const Status st = run_external_slicer(p, job, 0.3);
+  ASSERT_FALSE(st);
+  EXPECT_NE(st.error().message.find("--slicer-timeout"), std::string::npos) << st.error().message;
+  const ProcessRun r = run_process({fake.string()}, {}, 0.2);
+  EXPECT_TRUE(r.timed_out);
+  EXPECT_LT(r.seconds, 5.0);
+}
+
+// Two variants with the same effective settings: the slicer runs once, both rows carry its
+// message; the sweep goes on past the failures.
+TEST(SlicerBackend, SharedVariantsAreSlicedOnceAndFailuresAreRows) {
+  const auto dir = test::temp_dir("slicer_shared");
+  const auto log = dir / "calls.log";
+  const auto fake = script(dir, "prusa-slicer",
+                           "case \"$1\" in --help) echo 'PrusaSlicer-7.7.7+test'; exit 0;; esac\n"
+                           "echo called >> '" + log.string() + "'\necho 'Nothing to print' >&2; exit 3");
+  auto printer = load_printer_profile("ender3");
+  ASSERT_TRUE(printer);
+  auto part = prepare_shared_part(test::make_cube_mm(10), "cube", *printer);
+  ASSERT_TRUE(part) << part.error().describe();
+  ComparePlan plan;
+  plan.printer = "ender3";
+  plan.mesh_path = (dir / "cube.stl").string();
+  plan.slicer_paths = {{"prusa-slicer", fake.string()}};
+  VariantSpec a;
+  a.slicer = "prusa-slicer";
+  a.settings = {{"layer_height", "0.2"}, {"perimeters", "2"}};
+  a.label = "a";
+  VariantSpec b = a;
+  b.index = 1;
+  b.label = "b";
+  b.settings = {{"perimeters", "2"}, {"layer_height", "0.3"}, {"layer_height", "0.2"}};
+  plan.variants = {a, b};
+  ASSERT_TRUE(validate_plan(plan));
+  CompareRunOptions options;
+  options.out_dir = dir / "out";
+  options.variant_reports = false;
+  auto result = run_compare(*part, plan, {}, options);
+  ASSERT_TRUE(result) << result.error().describe();
+  ASSERT_EQ(result->variants.size(), 2u);
+  for (const auto& row : result->variants) {
+    EXPECT_FALSE(row.ran);
+    EXPECT_NE(row.error.find("Nothing to print"), std::string::npos) << row.error;
+    EXPECT_NE(row.error.find("PrusaSlicer 7.7.7"), std::string::npos) << row.error;
+  }
+  std::ifstream in(log);
+  int calls = 0;
+  for (std::string line; std::getline(in, line);) ++calls;
+  EXPECT_EQ(calls, 1);
+  // The JSON keeps the back-end of each variant.
+  auto back = parse_compare_json(compare_json(*result), "compare.json");
+  ASSERT_TRUE(back) << back.error().describe();
+  EXPECT_EQ(back->variants[0].variant.slicer, "prusa-slicer");
+}
+
+// The real PrusaSlicer, when installed: a layer-height pair of the 20 mm cube.
+TEST(SlicerBackend, RealPrusaSlicerSweep) {
+  auto found = find_slicer_program("prusa-slicer", "");
+  if (!found) GTEST_SKIP() << "prusa-slicer is not installed (" << found.error().message << ")";
+  EXPECT_NE(found->version.find("PrusaSlicer"), std::string::npos) << found->version;
+  const auto dir = test::temp_dir("slicer_real_prusa");
+  const std::string ini = test::source_path("samples/configs/ender3_prusaslicer.ini").string();
+  const std::string mesh = test::source_path("samples/models/calibration_cube_20mm.stl").string();
+  auto printer = load_printer_profile("auto");
+  ASSERT_TRUE(printer);
+  auto part = prepare_shared_part(fs::path(mesh), *printer);
+  ASSERT_TRUE(part) << part.error().describe();
+  ComparePlan plan;
+  plan.mesh_path = mesh;
+  plan.verify.voxel_mm = 0.1;
+  SweepSpec spec;
+  spec.slicers = {"prusa-slicer"};
+  spec.configs = {ini};
+  spec.axes = {SweepAxis{"layer_height", {"0.1", "0.3"}}};
+  plan.variants = expand_variants(spec).value();
+  ASSERT_TRUE(validate_plan(plan));
+  CompareRunOptions options;
+  options.out_dir = dir;
+  options.variant_reports = false;
+  auto result = run_compare(*part, plan, {}, options);
+  ASSERT_TRUE(result) << result.error().describe();
+  ASSERT_EQ(result->variants.size(), 2u);
+  for (const auto& row : result->variants) {
+    ASSERT_TRUE(row.ran) << row.error;
+    EXPECT_NE(row.slicer.find("PrusaSlicer"), std::string::npos);
+    EXPECT_NE(row.command.find("--layer-height"), std::string::npos);
+  }
+  EXPECT_GT(result->variants[0].print_time_s, result->variants[1].print_time_s);
+  EXPECT_NEAR(result->variants[0].layer_height_mm, 0.1, 0.005);
+  EXPECT_NEAR(result->variants[1].layer_height_mm, 0.3, 0.005);
+}
+
+}  // namespace
+}  // namespace printtwin
+
+namespace printtwin {
+namespace {
+
+TEST(SlicerBackendCli, MissingOrUnknownSlicerExitsTwo) {
+  const std::string cube = test::source_path("samples/models/calibration_cube_20mm.stl").string();
+  const auto out = test::temp_dir("slicer_cli");
+  auto unknown = test::run_cli("compare " + cube + " --slicer simplify3d -o " + (out / "a").string());
+  EXPECT_EQ(unknown.exit_code, 2) << unknown.err;
+  auto missing = test::run_cli("verify " + cube + " --slicer slic3r --slicer-path /nonexistent/slic3r --out " +
+                               (out / "b").string());
+  EXPECT_EQ(missing.exit_code, 2) << missing.err;
+  EXPECT_NE(missing.err.find("--slicer-path"), std::string::npos) << missing.err;
+  auto no_definition = test::run_cli("compare " + cube + " --slicer cura -o " + (out / "c").string());
+  EXPECT_EQ(no_definition.exit_code, 2) << no_definition.err;
+  EXPECT_NE(no_definition.err.find("--cura-definition"), std::string::npos) << no_definition.err;
+}
+
+}  // namespace
+}  // namespace printtwin
