@@ -427,6 +427,23 @@ Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& p
                                first_narrow, static_cast<long>(narrow)));
   }
 
+  // Orientation: the side to stand it on (advice only; --orient applies it).
+  rep.orientation = advise_orientation(mesh, settings);
+  if (rep.orientation->better) {
+    const OrientationAdvice& a = *rep.orientation;
+    const Vec3& r = a.best.rotation_xyz_deg;
+    Finding f = make_finding(
+        Severity::info, "orientation",
+        "stood on " + a.best.label + " (rotate " + format_fixed(r.x(), 1) + ", " + format_fixed(r.y(), 1) +
+            ", " + format_fixed(r.z(), 1) + " deg about X, Y, Z; --orient applies it) it needs " +
+            format_fixed(a.best.overhang_mm2, 1) + " mm2 of support instead of " +
+            format_fixed(a.current.overhang_mm2, 1) + " mm2 and rests " + format_fixed(a.best.contact_mm2, 1) +
+            " mm2 on the bed instead of " + format_fixed(a.current.contact_mm2, 1) + " mm2 (best of " +
+            std::to_string(a.candidates) + " orientations)");
+    f.value = a.current.overhang_mm2 - a.best.overhang_mm2;
+    out.push_back(f);
+  }
+
   std::stable_sort(out.begin(), out.end(), [](const Finding& a, const Finding& b) {
     return static_cast<int>(a.severity) > static_cast<int>(b.severity);
   });

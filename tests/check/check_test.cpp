@@ -208,6 +208,8 @@ TEST(CheckSelfIntersections, OverlappingCubes) {
   EXPECT_EQ(r.intersection_effect->inverted_volume_mm3, 0.0);
   EXPECT_EQ(f->severity, Severity::info);
   EXPECT_NE(f->message.find("125.00 mm3 enclosed twice"), std::string::npos) << f->message;
+  const auto j = nlohmann::json::parse(check_report_to_json(r, CheckSource{}));
+  EXPECT_NEAR(j["intersection_effect"]["twice_volume_mm3"].get<double>(), 125.0, 0.5);
   EXPECT_TRUE(r.printable);
 }
 
@@ -696,6 +698,43 @@ TEST(CheckPlacement, FitAdviceRotatesOrScales) {
   ASSERT_NE(f, nullptr);
   EXPECT_NE(f->message.find("it fits rotated 90 deg about Y (50.00 x 100.00 x 240.00 mm)"),
             std::string::npos) << f->message;
+}
+
+TEST(CheckOrientation, APlateStandingOnEdgeIsLaidFlat) {
+  // 40 x 2 x 30 mm plate standing on its 40 x 2 edge: no overhang, 80 mm2 on the bed.
+  const Mesh plate = make_box_mesh(Vec3(0, 0, 0), Vec3(40, 2, 30));
+  const OrientationAdvice a = advise_orientation(plate);
+  EXPECT_NEAR(a.current.contact_mm2, 80.0, 1e-9);
+  EXPECT_NEAR(a.best.contact_mm2, 1200.0, 1e-9);
+  EXPECT_NEAR(a.best.overhang_mm2, 0.0, 1e-9);
+  EXPECT_NEAR(std::abs(a.best.down.y()), 1.0, 1e-12);
+  EXPECT_NEAR(a.best.height_mm, 2.0, 1e-9);
+  EXPECT_TRUE(a.better);
+  // Rotating as advised lays it flat.
+  const Box3 b = bounding_box(rotated_mesh(plate, a.best.rotation_xyz_deg));
+  EXPECT_NEAR(b.size().z(), 2.0, 1e-9);
+  const Finding* f = find(run(plate), "orientation");
+  ASSERT_NE(f, nullptr);
+  EXPECT_NE(f->message.find("1200.0 mm2 on the bed"), std::string::npos) << f->message;
+  const auto j = nlohmann::json::parse(check_report_to_json(run(plate), CheckSource{}));
+  EXPECT_EQ(j["orientation"]["better"], true);
+  EXPECT_NEAR(j["orientation"]["best"]["contact_mm2"].get<double>(), 1200.0, 1e-6);
+}
+
+TEST(CheckOrientation, AnOverhangingArmGoesOnTheBedFace) {
+  // A "7": a 5 mm post with a 25 mm arm on top; its underside (20 x 10 mm2) needs support
+  // as modelled. Laid on its back (the post's 30 x 10 mm outer face) it needs none and rests
+  // on more than on its 7-shaped side (250 mm2).
+  const Mesh seven = prism({Vec2(0, 0), Vec2(5, 0), Vec2(5, 25), Vec2(25, 25), Vec2(25, 30), Vec2(0, 30)}, 10);
+  const OrientationAdvice a = advise_orientation(seven);
+  EXPECT_NEAR(a.current.overhang_mm2, 200.0, 1e-6);
+  EXPECT_NEAR(a.best.overhang_mm2, 0.0, 1e-9);
+  EXPECT_NEAR(a.best.contact_mm2, 300.0, 1e-6);
+  EXPECT_NEAR(a.best.down.x(), -1.0, 1e-12);
+  EXPECT_TRUE(a.better);
+  // A cube is best as it stands: no advice.
+  EXPECT_FALSE(advise_orientation(test::make_cube_mm(10)).better);
+  EXPECT_EQ(find(run(test::make_cube_mm(10)), "orientation"), nullptr);
 }
 
 }  // namespace
