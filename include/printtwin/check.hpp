@@ -86,6 +86,7 @@ struct MeshHealth {
   double area_mm2 = 0;
   Box3 bbox_mm;
   std::vector<Box3> shell_bbox_mm;     ///< bounding box of each shell
+  std::vector<std::size_t> shell_faces; ///< faces of each shell
   std::optional<Vec3> first_boundary_edge_mm;     ///< midpoint of one open edge
   std::optional<Vec3> first_non_manifold_edge_mm; ///< midpoint of one non-manifold edge
   std::optional<Vec3> first_non_manifold_vertex_mm;

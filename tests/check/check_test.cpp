@@ -737,5 +737,29 @@ TEST(CheckOrientation, AnOverhangingArmGoesOnTheBedFace) {
   EXPECT_EQ(find(run(test::make_cube_mm(10)), "orientation"), nullptr);
 }
 
+TEST(CheckHealth, StrayFacetFarAwayIsAnError) {
+  // A 20 mm cube and one facet 5 m away.
+  Mesh m = test::make_cube_mm(20);
+  const auto b = static_cast<std::uint32_t>(m.vertices_mm.size());
+  m.vertices_mm.insert(m.vertices_mm.end(), {Vec3(5000, 0, 0), Vec3(5010, 0, 0), Vec3(5000, 10, 5)});
+  m.triangles.push_back({b, b + 1, b + 2});
+  // 1 face against 12 is more than 1 %: a second body, not a stray facet.
+  EXPECT_EQ(find(run(m), "stray_shell"), nullptr);
+  std::vector<Vec2> circle;
+  for (int i = 0; i < 60; ++i) circle.emplace_back(10 + 10 * std::cos(i * kPi / 30), 10 + 10 * std::sin(i * kPi / 30));
+  Mesh big = prism(circle, 20);  // 236 faces
+  big = merged(big, Mesh{{Vec3(5000, 0, 0), Vec3(5010, 0, 0), Vec3(5000, 10, 5)}, {{0, 1, 2}}});
+  const CheckReport r = run(big);
+  const Finding* f = find(r, "stray_shell");
+  ASSERT_NE(f, nullptr);
+  EXPECT_EQ(f->severity, Severity::error);
+  EXPECT_NE(f->message.find("instead of 20.0 x 20.0 x 20.0 mm"), std::string::npos) << f->message;
+  const Finding* fit = find(r, "does_not_fit");
+  ASSERT_NE(fit, nullptr);
+  EXPECT_NE(fit->message.find("without the stray shells it fits"), std::string::npos) << fit->message;
+  // Two bodies side by side are no stray shells.
+  EXPECT_EQ(find(run(merged(test::make_cube_mm(20), test::make_cube_mm(1, Vec3(25, 0, 0)))), "stray_shell"), nullptr);
+}
+
 }  // namespace
 }  // namespace printtwin
