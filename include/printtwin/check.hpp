@@ -86,6 +86,7 @@ struct MeshHealth {
   double area_mm2 = 0;
   Box3 bbox_mm;
   std::vector<Box3> shell_bbox_mm;     ///< bounding box of each shell
+  std::vector<std::size_t> shell_faces; ///< faces of each shell
   std::optional<Vec3> first_boundary_edge_mm;     ///< midpoint of one open edge
   std::optional<Vec3> first_non_manifold_edge_mm; ///< midpoint of one non-manifold edge
   std::optional<Vec3> first_non_manifold_vertex_mm;
@@ -192,6 +193,35 @@ struct ThicknessResult {
                                                         bool beyond_limit = true,
                                                         bool skip_internal_faces = false);
 
+/// One way to stand the part on the bed, and how it scores.
+struct OrientationCandidate {
+  Vec3 down = Vec3(0, 0, -1);      ///< direction of the part (input frame) that points down
+  Vec3 rotation_xyz_deg = Vec3::Zero();  ///< rotation about X, then Y, then Z (as `--place`)
+  std::string label;               ///< "as modelled", "axis +X down", "flat face of 120.0 mm2"
+  double overhang_mm2 = 0;         ///< faces steeper than the overhang limit, not on the bed
+  double contact_mm2 = 0;          ///< faces resting on the bed
+  double height_mm = 0;
+  double score = 0;                ///< overhang - contact (lower is better)
+};
+
+/// Orientation advice: the 6 axis directions (the 24 axis-aligned rotations differ only by a
+/// turn about Z, which changes neither overhang nor contact) and every flat face group of at
+/// least 1 % of the area (faces with the same normal within 1 degree) laid down, scored by
+/// overhang area minus bed contact area. `best` is the lowest score (ties: the lower part,
+/// then the earlier candidate); `current` is the part as modelled.
+struct OrientationAdvice {
+  OrientationCandidate current;
+  OrientationCandidate best;
+  std::size_t candidates = 0;
+  /// best saves at least 10 % of the current overhang and 1 mm2, or adds contact with no
+  /// more overhang.
+  bool better = false;
+};
+[[nodiscard]] OrientationAdvice advise_orientation(const Mesh& mesh, const CheckSettings& settings = {});
+
+/// The mesh rotated by `rotation_xyz_deg` (about X, then Y, then Z, around the origin).
+[[nodiscard]] Mesh rotated_mesh(const Mesh& mesh, const Vec3& rotation_xyz_deg);
+
 /// Everything `printtwin check` reports.
 struct CheckReport {
   MeshHealth health;                 ///< input frame
@@ -199,6 +229,7 @@ struct CheckReport {
   std::vector<OverhangRegion> overhangs;  ///< placed frame
   std::optional<ThicknessResult> thickness;  ///< unset when the mesh could not be ray traced
   std::optional<IntersectionEffect> intersection_effect;  ///< set when self-intersections were found
+  std::optional<OrientationAdvice> orientation;  ///< set by check_printability (finding orientation)
   double min_thickness_limit_mm = 0;  ///< thresholds actually used
   double line_width_mm = 0;
   double overhang_angle_deg = 0;

@@ -285,6 +285,47 @@ Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& p
   health_findings(rep.health, offset, out);
   self_intersection_finding(rep.health, rep.intersection_effect, rep.line_width_mm, offset, out);
 
+  // Stray shells: small bodies far from the main one (a facet left kilometres away) make the
+  // slicer place, scale and centre the whole object around them.
+  std::optional<Box3> main_body;
+  {
+    const auto& boxes = rep.health.shell_bbox_mm;
+    const auto& faces = rep.health.shell_faces;
+    std::size_t main = 0;
+    for (std::size_t i = 1; i < faces.size(); ++i)
+      if (faces[i] > faces[main]) main = i;
+    std::size_t stray = 0;
+    double farthest = 0;
+    std::optional<Vec3> first;
+    Box3 kept;
+    for (std::size_t i = 0; i < boxes.size(); ++i) {
+      const double main_size = boxes[main].size().norm();
+      const Vec3 gap = (boxes[i].min - boxes[main].max).cwiseMax(boxes[main].min - boxes[i].max).cwiseMax(0.0);
+      // Stray: at most 1 % of the main body's faces, and farther from it than its own size.
+      if (i != main && faces[i] * 100 <= faces[main] && gap.norm() > main_size) {
+        ++stray;
+        farthest = std::max(farthest, gap.norm());
+        if (!first) first = boxes[i].center() + offset;
+      } else {
+        kept.extend(boxes[i]);
+      }
+    }
+    if (stray > 0) {
+      main_body = kept;
+      const Vec3 ks = kept.size();
+      out.push_back(make_finding(
+          Severity::error, "stray_shell",
+          plural(stray, "stray shell") + " up to " + mm(farthest) + " away from the part (first at " +
+              xyz(*first) + "): the slicer places and sizes the object with them, " +
+              format_fixed(rep.placement.bbox_mm.size().x(), 1) + " x " +
+              format_fixed(rep.placement.bbox_mm.size().y(), 1) + " x " +
+              format_fixed(rep.placement.bbox_mm.size().z(), 1) + " mm instead of " + format_fixed(ks.x(), 1) +
+              " x " + format_fixed(ks.y(), 1) + " x " + format_fixed(ks.z(), 1) +
+              " mm; delete them (admesh --remove-unconnected)",
+          first, static_cast<long>(stray)));
+    }
+  }
+
   // Placement.
   const Box3& pb = rep.placement.bbox_mm;
   const Vec3 size = pb.size();
@@ -298,7 +339,13 @@ Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& p
             " (x " + format_fixed(printer.bed_min_x_mm, 0) + ".." +
             format_fixed(printer.bed_max_x_mm, 0) + ", y " +
             format_fixed(printer.bed_min_y_mm, 0) + ".." + format_fixed(printer.bed_max_y_mm, 0) +
-            ", z 0.." + format_fixed(printer.max_z_mm, 0) + " mm)" + fit_advice_text(size, printer),
+            ", z 0.." + format_fixed(printer.max_z_mm, 0) + " mm)" +
+            (main_body ? std::string(main_body->size().x() <= printer.bed_max_x_mm - printer.bed_min_x_mm &&
+                                             main_body->size().y() <= printer.bed_max_y_mm - printer.bed_min_y_mm &&
+                                             main_body->size().z() <= printer.max_z_mm
+                                         ? "; without the stray shells it fits"
+                                         : "; without the stray shells: " + fit_advice_text(main_body->size(), printer).substr(2))
+                       : fit_advice_text(size, printer)),
         pb.center());
     f.extent_mm = pb;
     out.push_back(f);
@@ -425,6 +472,23 @@ Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& p
                                    mm(rep.line_width_mm) + ") (first at " + xyz(*first_narrow) +
                                    "): printed as one thin line at best, weak or incomplete",
                                first_narrow, static_cast<long>(narrow)));
+  }
+
+  // Orientation: the side to stand it on (advice only; --orient applies it).
+  rep.orientation = advise_orientation(mesh, settings);
+  if (rep.orientation->better) {
+    const OrientationAdvice& a = *rep.orientation;
+    const Vec3& r = a.best.rotation_xyz_deg;
+    Finding f = make_finding(
+        Severity::info, "orientation",
+        "stood on " + a.best.label + " (rotate " + format_fixed(r.x(), 1) + ", " + format_fixed(r.y(), 1) +
+            ", " + format_fixed(r.z(), 1) + " deg about X, Y, Z; --orient applies it) it needs " +
+            format_fixed(a.best.overhang_mm2, 1) + " mm2 of support instead of " +
+            format_fixed(a.current.overhang_mm2, 1) + " mm2 and rests " + format_fixed(a.best.contact_mm2, 1) +
+            " mm2 on the bed instead of " + format_fixed(a.current.contact_mm2, 1) + " mm2 (best of " +
+            std::to_string(a.candidates) + " orientations)");
+    f.value = a.current.overhang_mm2 - a.best.overhang_mm2;
+    out.push_back(f);
   }
 
   std::stable_sort(out.begin(), out.end(), [](const Finding& a, const Finding& b) {

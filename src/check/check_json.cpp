@@ -93,6 +93,31 @@ std::string check_report_to_json(const CheckReport& r, const CheckSource& source
                          {"bbox_mm", box(o.bbox_mm)},
                          {"faces", o.faces}});
   doc["overhangs"] = overhangs;
+  if (r.intersection_effect) {
+    const IntersectionEffect& e = *r.intersection_effect;
+    doc["intersection_effect"] = {{"measured", e.measured},
+                                  {"layer_height_mm", num(e.layer_height_mm)},
+                                  {"layers", e.layers},
+                                  {"layers_changed", e.layers_changed},
+                                  {"twice_volume_mm3", num(e.twice_volume_mm3)},
+                                  {"max_twice_area_mm2", num(e.max_twice_area_mm2)},
+                                  {"inverted_volume_mm3", num(e.inverted_volume_mm3)},
+                                  {"max_inverted_area_mm2", num(e.max_inverted_area_mm2)}};
+  }
+  if (r.orientation) {
+    auto cand = [](const OrientationCandidate& c) {
+      return json{{"label", c.label},
+                  {"down", vec(c.down)},
+                  {"rotation_xyz_deg", vec(c.rotation_xyz_deg)},
+                  {"overhang_mm2", num(c.overhang_mm2)},
+                  {"contact_mm2", num(c.contact_mm2)},
+                  {"height_mm", num(c.height_mm)}};
+    };
+    doc["orientation"] = {{"candidates", r.orientation->candidates},
+                          {"better", r.orientation->better},
+                          {"current", cand(r.orientation->current)},
+                          {"best", cand(r.orientation->best)}};
+  }
   json findings = json::array();
   std::size_t counts[3] = {0, 0, 0};
   for (const auto& f : r.findings) {

@@ -289,6 +289,9 @@ MeshHealth analyze_mesh_health(const Mesh& mesh) {
   const ShellTable shells_table = compute_shells(mesh, skip, edges);
   h.shells = shells_table.shells.size();
   for (const auto& s : shells_table.shells) h.shell_bbox_mm.push_back(s.box);
+  h.shell_faces.assign(shells_table.shells.size(), 0);
+  for (auto sh : shells_table.shell_of_face)
+    if (sh != UINT32_MAX) ++h.shell_faces[sh];
   for (const auto& s : shells_table.shells) h.inverted_shells += s.inverted ? 1 : 0;
   return h;
 }

@@ -48,6 +48,7 @@ struct CheckOptions {
   std::string center;
   bool no_center = false;
   bool no_self_intersections = false;
+  bool orient = false;
 };
 
 std::string f2(double v) { return format_fixed(v, 2); }
@@ -168,8 +169,24 @@ PartOutcome check_part(const CheckOptions& o, const std::string& file, const Pri
       units_used = guess->unit;
     }
   }
+  std::optional<Finding> oriented;
+  if (o.orient) {
+    const OrientationAdvice a = advise_orientation(*mesh, settings);
+    if (a.better) {
+      *mesh = rotated_mesh(*mesh, a.best.rotation_xyz_deg);
+      const Vec3& r = a.best.rotation_xyz_deg;
+      Finding f;
+      f.severity = Severity::info;
+      f.code = "oriented";
+      f.message = "checked stood on " + a.best.label + " (--orient: rotated " + f2(r.x()) + ", " + f2(r.y()) +
+                  ", " + f2(r.z()) + " deg about X, Y, Z): " + format_fixed(a.best.overhang_mm2, 1) +
+                  " mm2 of support instead of " + format_fixed(a.current.overhang_mm2, 1) + " mm2";
+      oriented = std::move(f);
+    }
+  }
   auto report = check_printability(*mesh, printer, settings);
   if (!report) return fail(report.error());
+  if (oriented) report->findings.push_back(*oriented);
   if (guess) report->findings.insert(report->findings.begin() + static_cast<std::ptrdiff_t>(first_warning(report->findings)),
                                      units_guessed_finding(*guess, report->health.bbox_mm.size()));
   if (!o.repair_out.empty()) {
@@ -456,6 +473,9 @@ void add_check_command(CLI::App& app, CommandRunner& runner) {
       ->capture_default_str();
   cmd->add_option("--center", opts->center, "centre the part at x,y mm (default: bed centre)");
   cmd->add_flag("--no-center", opts->no_center, "keep x and y as in the file (only lift to z = 0)");
+  cmd->add_flag("--orient", opts->orient,
+                "stand the part as the orientation finding advises before checking it (and in "
+                "--repair's output)");
   cmd->add_flag("--no-self-intersections", opts->no_self_intersections,
                 "skip the self-intersection test");
   cmd->callback([opts, &runner] { runner.run = [opts]() -> int { return run_check(*opts); }; });

@@ -244,6 +244,19 @@ TEST(CheckCli, BatchOfPartsGivesOneSummaryJunitAndJson) {
   EXPECT_EQ(test::run_cli("check " + q(dir / "parts") + " --repair " + q(dir / "r.stl")).exit_code, 2);
 }
 
+TEST(CheckCli, OrientAppliesTheAdviceToTheRepairedMesh) {
+  const fs::path dir = test::temp_dir("check_cli_orient");
+  ASSERT_TRUE(save_stl(make_box_mesh(Vec3(0, 0, 0), Vec3(40, 2, 30)), dir / "plate.stl").ok());
+  const auto plain = test::run_cli("check " + q(dir / "plate.stl"));
+  EXPECT_NE(plain.out.find("orientation"), std::string::npos) << plain.out;
+  const auto r = test::run_cli("check " + q(dir / "plate.stl") + " --orient --repair " + q(dir / "flat.stl"));
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("oriented"), std::string::npos) << r.out;
+  auto flat = load_mesh(dir / "flat.stl");
+  ASSERT_TRUE(flat.ok());
+  EXPECT_NEAR(bounding_box(*flat).size().z(), 2.0, 1e-4);
+}
+
 TEST(CheckCli, PrinterProfiles) {
   const fs::path dir = test::temp_dir("check_cli_printer");
   const fs::path cube = test::source_path("samples/models/calibration_cube_20mm.stl");

@@ -208,6 +208,8 @@ TEST(CheckSelfIntersections, OverlappingCubes) {
   EXPECT_EQ(r.intersection_effect->inverted_volume_mm3, 0.0);
   EXPECT_EQ(f->severity, Severity::info);
   EXPECT_NE(f->message.find("125.00 mm3 enclosed twice"), std::string::npos) << f->message;
+  const auto j = nlohmann::json::parse(check_report_to_json(r, CheckSource{}));
+  EXPECT_NEAR(j["intersection_effect"]["twice_volume_mm3"].get<double>(), 125.0, 0.5);
   EXPECT_TRUE(r.printable);
 }
 
@@ -696,6 +698,67 @@ TEST(CheckPlacement, FitAdviceRotatesOrScales) {
   ASSERT_NE(f, nullptr);
   EXPECT_NE(f->message.find("it fits rotated 90 deg about Y (50.00 x 100.00 x 240.00 mm)"),
             std::string::npos) << f->message;
+}
+
+TEST(CheckOrientation, APlateStandingOnEdgeIsLaidFlat) {
+  // 40 x 2 x 30 mm plate standing on its 40 x 2 edge: no overhang, 80 mm2 on the bed.
+  const Mesh plate = make_box_mesh(Vec3(0, 0, 0), Vec3(40, 2, 30));
+  const OrientationAdvice a = advise_orientation(plate);
+  EXPECT_NEAR(a.current.contact_mm2, 80.0, 1e-9);
+  EXPECT_NEAR(a.best.contact_mm2, 1200.0, 1e-9);
+  EXPECT_NEAR(a.best.overhang_mm2, 0.0, 1e-9);
+  EXPECT_NEAR(std::abs(a.best.down.y()), 1.0, 1e-12);
+  EXPECT_NEAR(a.best.height_mm, 2.0, 1e-9);
+  EXPECT_TRUE(a.better);
+  // Rotating as advised lays it flat.
+  const Box3 b = bounding_box(rotated_mesh(plate, a.best.rotation_xyz_deg));
+  EXPECT_NEAR(b.size().z(), 2.0, 1e-9);
+  const Finding* f = find(run(plate), "orientation");
+  ASSERT_NE(f, nullptr);
+  EXPECT_NE(f->message.find("1200.0 mm2 on the bed"), std::string::npos) << f->message;
+  const auto j = nlohmann::json::parse(check_report_to_json(run(plate), CheckSource{}));
+  EXPECT_EQ(j["orientation"]["better"], true);
+  EXPECT_NEAR(j["orientation"]["best"]["contact_mm2"].get<double>(), 1200.0, 1e-6);
+}
+
+TEST(CheckOrientation, AnOverhangingArmGoesOnTheBedFace) {
+  // A "7": a 5 mm post with a 25 mm arm on top; its underside (20 x 10 mm2) needs support
+  // as modelled. Laid on its back (the post's 30 x 10 mm outer face) it needs none and rests
+  // on more than on its 7-shaped side (250 mm2).
+  const Mesh seven = prism({Vec2(0, 0), Vec2(5, 0), Vec2(5, 25), Vec2(25, 25), Vec2(25, 30), Vec2(0, 30)}, 10);
+  const OrientationAdvice a = advise_orientation(seven);
+  EXPECT_NEAR(a.current.overhang_mm2, 200.0, 1e-6);
+  EXPECT_NEAR(a.best.overhang_mm2, 0.0, 1e-9);
+  EXPECT_NEAR(a.best.contact_mm2, 300.0, 1e-6);
+  EXPECT_NEAR(a.best.down.x(), -1.0, 1e-12);
+  EXPECT_TRUE(a.better);
+  // A cube is best as it stands: no advice.
+  EXPECT_FALSE(advise_orientation(test::make_cube_mm(10)).better);
+  EXPECT_EQ(find(run(test::make_cube_mm(10)), "orientation"), nullptr);
+}
+
+TEST(CheckHealth, StrayFacetFarAwayIsAnError) {
+  // A 20 mm cube and one facet 5 m away.
+  Mesh m = test::make_cube_mm(20);
+  const auto b = static_cast<std::uint32_t>(m.vertices_mm.size());
+  m.vertices_mm.insert(m.vertices_mm.end(), {Vec3(5000, 0, 0), Vec3(5010, 0, 0), Vec3(5000, 10, 5)});
+  m.triangles.push_back({b, b + 1, b + 2});
+  // 1 face against 12 is more than 1 %: a second body, not a stray facet.
+  EXPECT_EQ(find(run(m), "stray_shell"), nullptr);
+  std::vector<Vec2> circle;
+  for (int i = 0; i < 60; ++i) circle.emplace_back(10 + 10 * std::cos(i * kPi / 30), 10 + 10 * std::sin(i * kPi / 30));
+  Mesh big = prism(circle, 20);  // 236 faces
+  big = merged(big, Mesh{{Vec3(5000, 0, 0), Vec3(5010, 0, 0), Vec3(5000, 10, 5)}, {{0, 1, 2}}});
+  const CheckReport r = run(big);
+  const Finding* f = find(r, "stray_shell");
+  ASSERT_NE(f, nullptr);
+  EXPECT_EQ(f->severity, Severity::error);
+  EXPECT_NE(f->message.find("instead of 20.0 x 20.0 x 20.0 mm"), std::string::npos) << f->message;
+  const Finding* fit = find(r, "does_not_fit");
+  ASSERT_NE(fit, nullptr);
+  EXPECT_NE(fit->message.find("without the stray shells it fits"), std::string::npos) << fit->message;
+  // Two bodies side by side are no stray shells.
+  EXPECT_EQ(find(run(merged(test::make_cube_mm(20), test::make_cube_mm(1, Vec3(25, 0, 0)))), "stray_shell"), nullptr);
 }
 
 }  // namespace

@@ -1,0 +1,132 @@
+// Orientation advice: which side of the part to stand on the bed (least overhang, most contact).
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <tuple>
+
+#include "check/check_internal.hpp"
+#include "printtwin/check.hpp"
+#include "printtwin/deviation.hpp"
+#include "printtwin/io.hpp"
+
+namespace printtwin {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr std::size_t kMaxFlatFaces = 20;
+
+/// Rotation that turns `down` to -Z: a quarter or half turn about an axis for the axis
+/// directions, the shortest turn otherwise.
+Vec3 rotation_for(const Vec3& down) {
+  const Vec3 target(0, 0, -1);
+  Eigen::Matrix3d r;
+  if (down.dot(target) < -1 + 1e-12) {
+    r = Eigen::AngleAxisd(kPi, Vec3::UnitX()).toRotationMatrix();  // upside down: half turn about X
+  } else {
+    r = Eigen::Quaterniond::FromTwoVectors(down, target).toRotationMatrix();
+  }
+  Vec3 deg = xyz_deg_of(r);
+  for (int i = 0; i < 3; ++i) {
+    deg[i] = std::round(deg[i] * 1e6) / 1e6;
+    if (deg[i] == 0) deg[i] = 0;  // no -0
+  }
+  return deg;
+}
+
+void score(const Mesh& mesh, const std::vector<Vec3>& normals, const std::vector<double>& areas,
+           const CheckSettings& s, OrientationCandidate& c) {
+  const Vec3 up = -c.down;
+  double zmin = std::numeric_limits<double>::infinity(), zmax = -zmin;
+  std::vector<double> z(mesh.vertices_mm.size());
+  for (std::size_t v = 0; v < z.size(); ++v) {
+    z[v] = mesh.vertices_mm[v].dot(up);
+    zmin = std::min(zmin, z[v]);
+    zmax = std::max(zmax, z[v]);
+  }
+  const double limit = std::sin((s.overhang_angle_deg + 0.01) * kPi / 180.0);
+  c.overhang_mm2 = c.contact_mm2 = 0;
+  for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+    if (!(areas[f] > 0)) continue;
+    const double down = normals[f].dot(c.down);
+    if (down <= 0) continue;
+    bool on_bed = true;
+    for (auto v : mesh.triangles[f]) on_bed = on_bed && z[v] - zmin <= s.bed_contact_mm;
+    if (on_bed) c.contact_mm2 += areas[f];
+    else if (down > limit) c.overhang_mm2 += areas[f];
+  }
+  c.height_mm = zmax - zmin;
+  c.score = c.overhang_mm2 - c.contact_mm2;
+}
+
+}  // namespace
+
+Mesh rotated_mesh(const Mesh& mesh, const Vec3& rotation_xyz_deg) {
+  const Eigen::Matrix3d r = rotation_from_xyz_deg(rotation_xyz_deg);
+  Mesh out = mesh;
+  for (auto& v : out.vertices_mm) v = r * v;
+  return out;
+}
+
+OrientationAdvice advise_orientation(const Mesh& mesh, const CheckSettings& s) {
+  OrientationAdvice adv;
+  const std::size_t nf = mesh.triangles.size();
+  std::vector<Vec3> normals(nf);
+  std::vector<double> areas(nf);
+  double total = 0;
+  for (std::size_t f = 0; f < nf; ++f) {
+    const Vec3 n = triangle_normal(mesh, f);
+    areas[f] = 0.5 * n.norm();
+    normals[f] = areas[f] > 0 ? Vec3(n.normalized()) : Vec3::Zero();
+    total += areas[f];
+  }
+  std::vector<OrientationCandidate> cands;
+  auto add = [&](const Vec3& down, std::string label) {
+    for (const auto& c : cands)
+      if (c.down.dot(down) > std::cos(1.0 * kPi / 180.0)) return;
+    OrientationCandidate c;
+    c.down = down;
+    c.label = std::move(label);
+    c.rotation_xyz_deg = rotation_for(down);
+    score(mesh, normals, areas, s, c);
+    cands.push_back(std::move(c));
+  };
+  add(Vec3(0, 0, -1), "as modelled");
+  add(Vec3(0, 0, 1), "upside down (+Z down)");
+  add(Vec3(1, 0, 0), "+X side down");
+  add(Vec3(-1, 0, 0), "-X side down");
+  add(Vec3(0, 1, 0), "+Y side down");
+  add(Vec3(0, -1, 0), "-Y side down");
+  // Flat faces: normals equal within ~0.6 degrees, by area.
+  std::map<std::tuple<long, long, long>, std::pair<double, Vec3>> groups;
+  for (std::size_t f = 0; f < nf; ++f) {
+    if (!(areas[f] > 0)) continue;
+    const Vec3& n = normals[f];
+    auto [it, fresh] = groups.try_emplace({std::lround(n.x() * 100), std::lround(n.y() * 100), std::lround(n.z() * 100)},
+                                          0.0, Vec3::Zero());
+    auto& g = it->second;
+    g.first += areas[f];
+    g.second += areas[f] * n;
+  }
+  std::vector<std::pair<double, Vec3>> flat;
+  for (const auto& [key, g] : groups)
+    if (g.first >= 0.01 * total && g.second.norm() > 0) flat.push_back({g.first, g.second.normalized()});
+  std::stable_sort(flat.begin(), flat.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  for (std::size_t i = 0; i < flat.size() && i < kMaxFlatFaces; ++i)
+    add(flat[i].second, "its flat face of " + format_fixed(flat[i].first, 1) + " mm2");
+  adv.candidates = cands.size();
+  adv.current = cands.front();
+  adv.best = cands.front();
+  for (const auto& c : cands)
+    if (c.score < adv.best.score - 1e-9 ||
+        (std::abs(c.score - adv.best.score) <= 1e-9 && c.height_mm < adv.best.height_mm - 1e-9))
+      adv.best = c;
+  const double saved = adv.current.overhang_mm2 - adv.best.overhang_mm2;
+  adv.better = (saved >= 1.0 && saved >= 0.1 * adv.current.overhang_mm2) ||
+               (saved >= 0 && adv.best.contact_mm2 > adv.current.contact_mm2 + 1.0 &&
+                adv.best.score < adv.current.score - 1.0);
+  return adv;
+}
+
+}  // namespace printtwin
