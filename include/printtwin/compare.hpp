@@ -337,6 +337,14 @@ struct SlicerJob {
   std::string out_gcode;
 };
 
+/// `settings` in the names of `slicer`: the settings PrusaSlicer/Slic3r and Cura share
+/// (first layer height, perimeters/wall_line_count, top/bottom layers, fill_density/
+/// infill_sparse_density with or without '%', the speeds, temperatures, skirts, retraction
+/// length) are renamed from the other vocabulary; layer_height and every other key pass as
+/// given. slicer_command applies it, so one --vary serves a mixed comparison.
+[[nodiscard]] std::vector<SettingKV> slicer_settings(std::string_view slicer,
+                                                     const std::vector<SettingKV>& settings);
+
 /// The argument vector that slices `job` with `program` (argv[0] is the program).
 /// PrusaSlicer/Slic3r: `--load <ini> --<key> <value> ... --export-gcode -o out part.stl`;
 /// CuraEngine: `slice -v -j def.json -s key=value ... (config lines first) -l part -o out`.

@@ -211,7 +211,56 @@ void add_cura_children(std::map<std::string, std::string>& s, const std::set<std
   }
 }
 
+// Settings both vocabularies have: PrusaSlicer/Slic3r name, Cura name, whether PrusaSlicer
+// writes the value as a percentage. A mixed comparison gives them in either vocabulary.
+struct SharedSetting {
+  std::string_view prusa, cura;
+  bool percent;
+};
+constexpr std::array<SharedSetting, 15> kSharedSettings{{
+    {"first_layer_height", "layer_height_0", false},
+    {"perimeters", "wall_line_count", false},
+    {"top_solid_layers", "top_layers", false},
+    {"bottom_solid_layers", "bottom_layers", false},
+    {"fill_density", "infill_sparse_density", true},
+    {"perimeter_speed", "speed_wall_x", false},
+    {"external_perimeter_speed", "speed_wall_0", false},
+    {"infill_speed", "speed_infill", false},
+    {"top_solid_infill_speed", "speed_topbottom", false},
+    {"travel_speed", "speed_travel", false},
+    {"first_layer_speed", "speed_layer_0", false},
+    {"temperature", "material_print_temperature", false},
+    {"bed_temperature", "material_bed_temperature", false},
+    {"skirts", "skirt_line_count", false},
+    {"retract_length", "retraction_amount", false},
+}};
+
+// `key`/`value` in the vocabulary of `slicer` (layer_height is the same in all three).
+SettingKV in_vocabulary(std::string_view slicer, const SettingKV& kv) {
+  const bool cura = slicer == "cura";
+  for (const auto& s : kSharedSettings) {
+    if (cura && kv.first == s.prusa) {
+      std::string v = kv.second;
+      if (s.percent && !v.empty() && v.back() == '%') v.pop_back();
+      return {std::string(s.cura), v};
+    }
+    if (!cura && kv.first == s.cura) {
+      std::string v = kv.second;
+      if (s.percent && !v.empty() && v.back() != '%') v += '%';
+      return {std::string(s.prusa), v};
+    }
+  }
+  return kv;
+}
+
 }  // namespace
+
+std::vector<SettingKV> slicer_settings(std::string_view slicer, const std::vector<SettingKV>& settings) {
+  std::vector<SettingKV> out;
+  out.reserve(settings.size());
+  for (const auto& kv : settings) out.push_back(in_vocabulary(slicer, kv));
+  return out;
+}
 
 bool is_known_slicer(std::string_view name) { return name == "printtwin" || info_of(name) != nullptr; }
 
@@ -275,7 +324,8 @@ std::vector<SettingKV> effective_settings(const std::vector<SettingKV>& settings
 
 Result<std::vector<std::string>> slicer_command(const SlicerProgram& program, const SlicerJob& job) {
   std::vector<std::string> argv{program.program};
-  const auto settings = effective_settings(job.settings);
+  const auto translated = slicer_settings(program.name, job.settings);
+  const auto settings = effective_settings(translated);
   if (program.name == "cura") {
     if (job.cura_definition.empty())
       return usage_error("--slicer cura needs the printer's definition: --cura-definition "
@@ -292,7 +342,7 @@ Result<std::vector<std::string>> slicer_command(const SlicerProgram& program, co
         from_file.insert(k);
       }
     }
-    for (const auto& [k, v] : job.settings) {
+    for (const auto& [k, v] : translated) {
       effective[k] = v;
       from_command.insert(k);
     }

@@ -129,6 +129,25 @@ TEST(SlicerBackend, SeveralSlicersMakeOneVariantSetEach) {
   EXPECT_EQ((*v)[3].label, "cura layer_height=0.2");
 }
 
+TEST(SlicerBackend, MixedComparisonMapsSharedSettingsAndConfigsPerSlicer) {
+  SweepSpec spec;
+  spec.slicers = {"prusa-slicer", "cura"};
+  spec.configs = {"prusa-slicer=p.ini", "cura=c.cfg"};
+  spec.common_settings = {{"perimeters", "3"}, {"fill_density", "15%"}};
+  auto v = expand_variants(spec);
+  ASSERT_TRUE(v) << v.error().describe();
+  ASSERT_EQ(v->size(), 2u);
+  EXPECT_EQ((*v)[0].config_path, "p.ini");
+  EXPECT_EQ((*v)[1].config_path, "c.cfg");
+  EXPECT_EQ((*v)[1].label, "cura c");
+  EXPECT_EQ(slicer_settings("cura", (*v)[1].settings),
+            (std::vector<SettingKV>{{"wall_line_count", "3"}, {"infill_sparse_density", "15"}}));
+  EXPECT_EQ(slicer_settings("slic3r", {{"infill_sparse_density", "15"}, {"layer_height", "0.2"}}),
+            (std::vector<SettingKV>{{"fill_density", "15%"}, {"layer_height", "0.2"}}));
+  spec.configs = {"slic3r=s.ini"};
+  EXPECT_FALSE(expand_variants(spec));  // a config for a slicer that is not in the comparison
+}
+
 TEST(SlicerBackend, MissingSlicerNamesTheDebianPackage) {
   const char* old = std::getenv("PATH");
   const std::string saved = old ? old : "";
