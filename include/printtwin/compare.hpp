@@ -328,6 +328,11 @@ struct SlicerProgram {
 [[nodiscard]] Result<std::vector<SettingKV>> parse_slicer_paths(const std::vector<std::string>& values,
                                                                 const std::vector<std::string>& slicers);
 
+/// The library printer (id) a Cura definition names by its "name" ("Creality Ender-3"), or
+/// "" when the file is unreadable or names no library printer. A Cura G-code states only
+/// its flavour, so this is the twin's printer for Cura variants under `--printer auto`.
+[[nodiscard]] std::string cura_definition_printer(const std::string& definition_path);
+
 /// What one external slicing run needs.
 struct SlicerJob {
   std::string mesh_path;

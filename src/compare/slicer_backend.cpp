@@ -19,8 +19,11 @@
 #include <set>
 #include <thread>
 
+#include <nlohmann/json.hpp>
+
 #include "printtwin/compare.hpp"
 #include "printtwin/io.hpp"
+#include "printtwin/printer.hpp"
 
 namespace printtwin {
 
@@ -260,6 +263,15 @@ std::vector<SettingKV> slicer_settings(std::string_view slicer, const std::vecto
   out.reserve(settings.size());
   for (const auto& kv : settings) out.push_back(in_vocabulary(slicer, kv));
   return out;
+}
+
+std::string cura_definition_printer(const std::string& definition) {
+  auto text = read_file(definition);
+  if (!text) return {};
+  const auto doc = nlohmann::json::parse(*text, nullptr, false);
+  if (!doc.is_object() || !doc.contains("name") || !doc["name"].is_string()) return {};
+  const LibraryPrinter* p = match_library_printer(doc["name"].get<std::string>());
+  return p ? p->id : std::string();
 }
 
 bool is_known_slicer(std::string_view name) { return name == "printtwin" || info_of(name) != nullptr; }
