@@ -128,6 +128,20 @@ std::string last_lines(std::string_view text, int count) {
     if (!chatter) lines.push_back(line);
     b = e + 1;
   }
+  // Lines that say what went wrong beat the last lines (a slicer may print its whole help
+  // after "Unknown option ...").
+  std::vector<std::string_view> errors;
+  for (auto line : lines) {
+    std::string lower(line);
+    std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
+    for (std::string_view word : {"error", "unknown", "invalid", "failed", "cannot", "could not"})
+      if (lower.find(word) != std::string::npos) {
+        errors.push_back(line);
+        break;
+      }
+  }
+  // The first such line: what follows it is often a consequence or the help text.
+  if (!errors.empty()) lines.assign(1, errors.front());
   std::string out;
   const std::size_t from = lines.size() > static_cast<std::size_t>(count) ? lines.size() - count : 0;
   for (std::size_t i = from; i < lines.size(); ++i) {

@@ -202,6 +202,19 @@ TEST(SlicerBackend, FailingSlicerReportsItsOwnMessage) {
   EXPECT_NE(command.find("--export-gcode"), std::string::npos);
 }
 
+TEST(SlicerBackend, TheSlicersErrorLineBeatsItsHelpText) {
+  const auto dir = test::temp_dir("slicer_help");
+  const auto fake = script(dir, "prusa-slicer",
+                           "echo 'Unknown option --layer-heigth'; echo; echo 'Usage: prusa-slicer [ ACTIONS ]';"
+                           "echo '  --help  shows this'; echo '  --info  prints info'; exit 1");
+  SlicerProgram p{"prusa-slicer", fake.string(), ""};
+  SlicerJob job{"part.stl", "", {}, "", (dir / "out.gcode").string()};
+  const Status st = run_external_slicer(p, job, 10);
+  ASSERT_FALSE(st);
+  EXPECT_NE(st.error().message.find("Unknown option --layer-heigth"), std::string::npos) << st.error().message;
+  EXPECT_EQ(st.error().message.find("--info"), std::string::npos) << st.error().message;
+}
+
 TEST(SlicerBackend, HangingSlicerIsStoppedAtTheTimeout) {
   const auto dir = test::temp_dir("slicer_hanging");
   const auto fake = script(dir, "slic3r", "sleep 30");
