@@ -3,7 +3,9 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # The report tests drive a real browser (headless Chromium).
-export PRINTTWIN_EXTRA_PACKAGES="${PRINTTWIN_EXTRA_PACKAGES:-} chromium"
+# The slicer back-end tests drive the real slicers (docs/compare.md); cura holds Cura's
+# printer definitions.
+export PRINTTWIN_EXTRA_PACKAGES="${PRINTTWIN_EXTRA_PACKAGES:-} chromium prusa-slicer cura-engine cura slic3r"
 scripts/setup.sh
 BUILD_DIR=${PRINTTWIN_BUILD_DIR:-build}
 ctest --test-dir "$BUILD_DIR" --output-on-failure --parallel "$(nproc)" --timeout 900

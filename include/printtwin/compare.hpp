@@ -328,6 +328,11 @@ struct SlicerProgram {
 [[nodiscard]] Result<std::vector<SettingKV>> parse_slicer_paths(const std::vector<std::string>& values,
                                                                 const std::vector<std::string>& slicers);
 
+/// The library printer (id) a Cura definition names by its "name" ("Creality Ender-3"), or
+/// "" when the file is unreadable or names no library printer. A Cura G-code states only
+/// its flavour, so this is the twin's printer for Cura variants under `--printer auto`.
+[[nodiscard]] std::string cura_definition_printer(const std::string& definition_path);
+
 /// What one external slicing run needs.
 struct SlicerJob {
   std::string mesh_path;
@@ -336,6 +341,14 @@ struct SlicerJob {
   std::string cura_definition;    ///< Cura: the printer's .def.json (-j)
   std::string out_gcode;
 };
+
+/// `settings` in the names of `slicer`: the settings PrusaSlicer/Slic3r and Cura share
+/// (first layer height, perimeters/wall_line_count, top/bottom layers, fill_density/
+/// infill_sparse_density with or without '%', the speeds, temperatures, skirts, retraction
+/// length) are renamed from the other vocabulary; layer_height and every other key pass as
+/// given. slicer_command applies it, so one --vary serves a mixed comparison.
+[[nodiscard]] std::vector<SettingKV> slicer_settings(std::string_view slicer,
+                                                     const std::vector<SettingKV>& settings);
 
 /// The argument vector that slices `job` with `program` (argv[0] is the program).
 /// PrusaSlicer/Slic3r: `--load <ini> --<key> <value> ... --export-gcode -o out part.stl`;

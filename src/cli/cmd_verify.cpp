@@ -181,6 +181,9 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
         if (!o->quiet) std::printf("sliced with %s: %s\n", program->version.c_str(), command.c_str());
         if (!sliced) return report_error(sliced.error());
         options.gcode_path = job.out_gcode;
+        // A Cura G-code names no printer: under auto the definition's printer is the twin's.
+        if (o->slicer == "cura" && (s.printer.empty() || s.printer == "auto"))
+          if (auto id = cura_definition_printer(o->cura_definition); !id.empty()) s.printer = id;
         s.slice_config_ini.clear();
         s.slice_overrides.clear();
       }

@@ -11,8 +11,6 @@
 #include <thread>
 #include <unistd.h>
 
-#include <nlohmann/json.hpp>
-
 #include "printtwin/printer.hpp"
 #include "printtwin/compare.hpp"
 #include "printtwin/deviation.hpp"
@@ -196,16 +194,6 @@ Result<VerifyReport> run_variant_verify(const SharedPart& part, const PrinterPro
 // ---------------------------------------------------------------- the sweep
 
 namespace {
-
-// The library printer a Cura definition names (its "name", e.g. "Creality Ender-3"), or "".
-std::string cura_definition_printer(const std::string& definition) {
-  auto text = read_file(definition);
-  if (!text) return {};
-  const auto doc = nlohmann::json::parse(*text, nullptr, false);
-  if (!doc.is_object() || !doc.contains("name") || !doc["name"].is_string()) return {};
-  const LibraryPrinter* p = match_library_printer(doc["name"].get<std::string>());
-  return p ? p->id : std::string();
-}
 
 // The external slicing runs of a sweep: one job per distinct (slicer, config, effective
 // settings), run in order on a worker thread; variants wait for their job's G-code.

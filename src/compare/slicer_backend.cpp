@@ -19,8 +19,11 @@
 #include <set>
 #include <thread>
 
+#include <nlohmann/json.hpp>
+
 #include "printtwin/compare.hpp"
 #include "printtwin/io.hpp"
+#include "printtwin/printer.hpp"
 
 namespace printtwin {
 
@@ -125,6 +128,20 @@ std::string last_lines(std::string_view text, int count) {
     if (!chatter) lines.push_back(line);
     b = e + 1;
   }
+  // Lines that say what went wrong beat the last lines (a slicer may print its whole help
+  // after "Unknown option ...").
+  std::vector<std::string_view> errors;
+  for (auto line : lines) {
+    std::string lower(line);
+    std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
+    for (std::string_view word : {"error", "unknown", "invalid", "failed", "cannot", "could not"})
+      if (lower.find(word) != std::string::npos) {
+        errors.push_back(line);
+        break;
+      }
+  }
+  // The first such line: what follows it is often a consequence or the help text.
+  if (!errors.empty()) lines.assign(1, errors.front());
   std::string out;
   const std::size_t from = lines.size() > static_cast<std::size_t>(count) ? lines.size() - count : 0;
   for (std::size_t i = from; i < lines.size(); ++i) {
@@ -211,7 +228,65 @@ void add_cura_children(std::map<std::string, std::string>& s, const std::set<std
   }
 }
 
+// Settings both vocabularies have: PrusaSlicer/Slic3r name, Cura name, whether PrusaSlicer
+// writes the value as a percentage. A mixed comparison gives them in either vocabulary.
+struct SharedSetting {
+  std::string_view prusa, cura;
+  bool percent;
+};
+constexpr std::array<SharedSetting, 15> kSharedSettings{{
+    {"first_layer_height", "layer_height_0", false},
+    {"perimeters", "wall_line_count", false},
+    {"top_solid_layers", "top_layers", false},
+    {"bottom_solid_layers", "bottom_layers", false},
+    {"fill_density", "infill_sparse_density", true},
+    {"perimeter_speed", "speed_wall_x", false},
+    {"external_perimeter_speed", "speed_wall_0", false},
+    {"infill_speed", "speed_infill", false},
+    {"top_solid_infill_speed", "speed_topbottom", false},
+    {"travel_speed", "speed_travel", false},
+    {"first_layer_speed", "speed_layer_0", false},
+    {"temperature", "material_print_temperature", false},
+    {"bed_temperature", "material_bed_temperature", false},
+    {"skirts", "skirt_line_count", false},
+    {"retract_length", "retraction_amount", false},
+}};
+
+// `key`/`value` in the vocabulary of `slicer` (layer_height is the same in all three).
+SettingKV in_vocabulary(std::string_view slicer, const SettingKV& kv) {
+  const bool cura = slicer == "cura";
+  for (const auto& s : kSharedSettings) {
+    if (cura && kv.first == s.prusa) {
+      std::string v = kv.second;
+      if (s.percent && !v.empty() && v.back() == '%') v.pop_back();
+      return {std::string(s.cura), v};
+    }
+    if (!cura && kv.first == s.cura) {
+      std::string v = kv.second;
+      if (s.percent && !v.empty() && v.back() != '%') v += '%';
+      return {std::string(s.prusa), v};
+    }
+  }
+  return kv;
+}
+
 }  // namespace
+
+std::vector<SettingKV> slicer_settings(std::string_view slicer, const std::vector<SettingKV>& settings) {
+  std::vector<SettingKV> out;
+  out.reserve(settings.size());
+  for (const auto& kv : settings) out.push_back(in_vocabulary(slicer, kv));
+  return out;
+}
+
+std::string cura_definition_printer(const std::string& definition) {
+  auto text = read_file(definition);
+  if (!text) return {};
+  const auto doc = nlohmann::json::parse(*text, nullptr, false);
+  if (!doc.is_object() || !doc.contains("name") || !doc["name"].is_string()) return {};
+  const LibraryPrinter* p = match_library_printer(doc["name"].get<std::string>());
+  return p ? p->id : std::string();
+}
 
 bool is_known_slicer(std::string_view name) { return name == "printtwin" || info_of(name) != nullptr; }
 
@@ -275,7 +350,8 @@ std::vector<SettingKV> effective_settings(const std::vector<SettingKV>& settings
 
 Result<std::vector<std::string>> slicer_command(const SlicerProgram& program, const SlicerJob& job) {
   std::vector<std::string> argv{program.program};
-  const auto settings = effective_settings(job.settings);
+  const auto translated = slicer_settings(program.name, job.settings);
+  const auto settings = effective_settings(translated);
   if (program.name == "cura") {
     if (job.cura_definition.empty())
       return usage_error("--slicer cura needs the printer's definition: --cura-definition "
@@ -292,7 +368,7 @@ Result<std::vector<std::string>> slicer_command(const SlicerProgram& program, co
         from_file.insert(k);
       }
     }
-    for (const auto& [k, v] : job.settings) {
+    for (const auto& [k, v] : translated) {
       effective[k] = v;
       from_command.insert(k);
     }
@@ -344,6 +420,21 @@ ProcessRun run_process(const std::vector<std::string>& argv, const std::vector<S
   std::vector<char*> args;
   for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
   args.push_back(nullptr);
+  // The child's environment is built here: between fork and exec a threaded process may
+  // only make async-signal-safe calls (no setenv, no allocation).
+  std::vector<std::string> env_text;
+  for (char** e = environ; e != nullptr && *e != nullptr; ++e) {
+    const std::string_view entry(*e);
+    const bool replaced = std::any_of(env.begin(), env.end(), [&](const SettingKV& kv) {
+      return entry.size() > kv.first.size() && entry.substr(0, kv.first.size()) == kv.first &&
+             entry[kv.first.size()] == '=';
+    });
+    if (!replaced) env_text.emplace_back(entry);
+  }
+  for (const auto& [k, v] : env) env_text.push_back(k + "=" + v);
+  std::vector<char*> envp;
+  for (auto& e : env_text) envp.push_back(e.data());
+  envp.push_back(nullptr);
   const pid_t pid = ::fork();
   if (pid < 0) {
     ::close(out_fd);
@@ -356,8 +447,7 @@ ProcessRun run_process(const std::vector<std::string>& argv, const std::vector<S
     if (devnull >= 0) ::dup2(devnull, 0);
     ::dup2(out_fd, 1);
     ::dup2(out_fd, 2);
-    for (const auto& [k, v] : env) ::setenv(k.c_str(), v.c_str(), 1);
-    ::execv(args[0], args.data());
+    ::execve(args[0], args.data(), envp.data());
     const char msg[] = "could not start the program\n";
     (void)!::write(2, msg, sizeof msg - 1);
     ::_exit(127);

@@ -91,9 +91,27 @@ Result<std::vector<VariantSpec>> expand_variants(const SweepSpec& spec) {
     combos *= axis.values.size();
     if (combos > kMaxVariants) break;
   }
-  const std::size_t config_sets = std::max<std::size_t>(spec.configs.size(), 1);
   std::vector<std::string> slicers = spec.slicers;
   if (slicers.empty()) slicers.emplace_back("printtwin");
+  // `--config cura=ender3.cfg`: a config for one slicer only; a bare path is for every one.
+  std::vector<std::string> config_slicer, config_path;
+  for (const auto& c : spec.configs) {
+    const auto eq = c.find('=');
+    const std::string prefix = eq == std::string::npos ? std::string() : c.substr(0, eq);
+    const bool named = !prefix.empty() && is_known_slicer(prefix);
+    if (named && std::find(slicers.begin(), slicers.end(), prefix) == slicers.end())
+      return usage_error("--config " + c + " is for " + prefix + ", which is not a --slicer of this comparison");
+    config_slicer.push_back(named ? prefix : std::string());
+    config_path.push_back(named ? c.substr(eq + 1) : c);
+  }
+  auto configs_of = [&](const std::string& slicer) {
+    std::vector<std::size_t> out;
+    for (std::size_t c = 0; c < config_path.size(); ++c)
+      if (config_slicer[c].empty() || config_slicer[c] == slicer) out.push_back(c);
+    return out;
+  };
+  std::size_t config_sets = 0;
+  for (const auto& s : slicers) config_sets += std::max<std::size_t>(configs_of(s).size(), 1);
   {
     std::set<std::string> seen;
     for (const auto& s : slicers) {
@@ -103,7 +121,7 @@ Result<std::vector<VariantSpec>> expand_variants(const SweepSpec& spec) {
   }
   const bool slicer_variants = !spec.axes.empty() || !spec.configs.empty() || !spec.slicers.empty() ||
                                spec.gcodes.empty();
-  const std::size_t total = (slicer_variants ? slicers.size() * config_sets * combos : 0) + spec.gcodes.size();
+  const std::size_t total = (slicer_variants ? config_sets * combos : 0) + spec.gcodes.size();
   if (combos > kMaxVariants || total > kMaxVariants)
     return usage_error("the sweep has more than " + std::to_string(kMaxVariants) +
                        " variants; split it into several comparisons");
@@ -115,12 +133,15 @@ Result<std::vector<VariantSpec>> expand_variants(const SweepSpec& spec) {
   std::vector<VariantSpec> out;
   out.reserve(total);
   std::vector<std::string> config_names;
-  for (const auto& c : spec.configs) config_names.push_back(stem_of(c));
+  for (const auto& c : config_path) config_names.push_back(stem_of(c));
   make_unique(config_names);
 
   if (slicer_variants) {
    for (const auto& slicer : slicers) {
-    for (std::size_t c = 0; c < config_sets; ++c) {
+    std::vector<std::size_t> configs = configs_of(slicer);
+    const bool with_config = !configs.empty();
+    if (configs.empty()) configs.push_back(0);
+    for (std::size_t c : configs) {
       // Odometer over the axes, last axis fastest.
       std::vector<std::size_t> at(spec.axes.size(), 0);
       for (std::size_t n = 0; n < combos; ++n) {
@@ -129,9 +150,9 @@ Result<std::vector<VariantSpec>> expand_variants(const SweepSpec& spec) {
         v.slicer = slicer;
         // Several slicers: each label starts with its slicer's name.
         std::string label = slicers.size() > 1 ? slicer : std::string();
-        if (!spec.configs.empty()) {
+        if (with_config) {
           if (!label.empty()) label += ' ';
-          v.config_path = spec.configs[c];
+          v.config_path = config_path[c];
           label += config_names[c];
         }
         v.settings = spec.common_settings;

@@ -129,6 +129,48 @@ TEST(SlicerBackend, SeveralSlicersMakeOneVariantSetEach) {
   EXPECT_EQ((*v)[3].label, "cura layer_height=0.2");
 }
 
+TEST(SlicerBackend, MixedComparisonMapsSharedSettingsAndConfigsPerSlicer) {
+  SweepSpec spec;
+  spec.slicers = {"prusa-slicer", "cura"};
+  spec.configs = {"prusa-slicer=p.ini", "cura=c.cfg"};
+  spec.common_settings = {{"perimeters", "3"}, {"fill_density", "15%"}};
+  auto v = expand_variants(spec);
+  ASSERT_TRUE(v) << v.error().describe();
+  ASSERT_EQ(v->size(), 2u);
+  EXPECT_EQ((*v)[0].config_path, "p.ini");
+  EXPECT_EQ((*v)[1].config_path, "c.cfg");
+  EXPECT_EQ((*v)[1].label, "cura c");
+  EXPECT_EQ(slicer_settings("cura", (*v)[1].settings),
+            (std::vector<SettingKV>{{"wall_line_count", "3"}, {"infill_sparse_density", "15"}}));
+  EXPECT_EQ(slicer_settings("slic3r", {{"infill_sparse_density", "15"}, {"layer_height", "0.2"}}),
+            (std::vector<SettingKV>{{"fill_density", "15%"}, {"layer_height", "0.2"}}));
+  spec.configs = {"slic3r=s.ini"};
+  EXPECT_FALSE(expand_variants(spec));  // a config for a slicer that is not in the comparison
+}
+
+// Shares and merges run slicer variants unchanged: the manifest keeps the back-end, the
+// timeout and the definition; the programs' paths do not change the plan id.
+TEST(SlicerBackend, ManifestKeepsTheSlicerBackEnd) {
+  ComparePlan plan;
+  plan.mesh_path = "part.stl";
+  plan.slicer_timeout_s = 42;
+  plan.cura_definition = "/defs/creality_ender3.def.json";
+  plan.slicer_paths = {{"cura", "/opt/CuraEngine"}};
+  SweepSpec spec;
+  spec.slicers = {"prusa-slicer", "cura"};
+  spec.axes = {SweepAxis{"layer_height", {"0.1", "0.2"}}};
+  plan.variants = expand_variants(spec).value();
+  auto back = parse_compare_plan(compare_plan_json(plan), "plan.json");
+  ASSERT_TRUE(back) << back.error().describe();
+  EXPECT_EQ(back->variants, plan.variants);
+  EXPECT_EQ(back->slicer_timeout_s, 42);
+  EXPECT_EQ(back->cura_definition, plan.cura_definition);
+  EXPECT_EQ(back->slicer_paths, plan.slicer_paths);
+  ComparePlan elsewhere = plan;
+  elsewhere.slicer_paths = {{"cura", "/usr/bin/CuraEngine"}};
+  EXPECT_EQ(compare_plan_id(elsewhere), compare_plan_id(plan));
+}
+
 TEST(SlicerBackend, MissingSlicerNamesTheDebianPackage) {
   const char* old = std::getenv("PATH");
   const std::string saved = old ? old : "";
@@ -158,6 +200,19 @@ TEST(SlicerBackend, FailingSlicerReportsItsOwnMessage) {
   EXPECT_NE(st.error().message.find("Objects could not fit on the bed"), std::string::npos) << st.error().message;
   EXPECT_NE(st.error().message.find("exit 1"), std::string::npos);
   EXPECT_NE(command.find("--export-gcode"), std::string::npos);
+}
+
+TEST(SlicerBackend, TheSlicersErrorLineBeatsItsHelpText) {
+  const auto dir = test::temp_dir("slicer_help");
+  const auto fake = script(dir, "prusa-slicer",
+                           "echo 'Unknown option --layer-heigth'; echo; echo 'Usage: prusa-slicer [ ACTIONS ]';"
+                           "echo '  --help  shows this'; echo '  --info  prints info'; exit 1");
+  SlicerProgram p{"prusa-slicer", fake.string(), ""};
+  SlicerJob job{"part.stl", "", {}, "", (dir / "out.gcode").string()};
+  const Status st = run_external_slicer(p, job, 10);
+  ASSERT_FALSE(st);
+  EXPECT_NE(st.error().message.find("Unknown option --layer-heigth"), std::string::npos) << st.error().message;
+  EXPECT_EQ(st.error().message.find("--info"), std::string::npos) << st.error().message;
 }
 
 TEST(SlicerBackend, HangingSlicerIsStoppedAtTheTimeout) {
@@ -255,6 +310,42 @@ TEST(SlicerBackend, RealPrusaSlicerSweep) {
   EXPECT_GT(result->variants[0].print_time_s, result->variants[1].print_time_s);
   EXPECT_NEAR(result->variants[0].layer_height_mm, 0.1, 0.005);
   EXPECT_NEAR(result->variants[1].layer_height_mm, 0.3, 0.005);
+}
+
+// The real CuraEngine with the cura package's Ender-3 definition, when both are installed.
+TEST(SlicerBackend, RealCuraEngineSlicesWithTheDefinitionsPrinter) {
+  auto found = find_slicer_program("cura", "");
+  if (!found) GTEST_SKIP() << "CuraEngine is not installed (" << found.error().message << ")";
+  const fs::path def = "/usr/share/cura/resources/definitions/creality_ender3.def.json";
+  if (!fs::exists(def)) GTEST_SKIP() << "the cura package (Cura's definitions) is not installed";
+  EXPECT_NE(found->version.find("CuraEngine"), std::string::npos) << found->version;
+  const auto dir = test::temp_dir("slicer_real_cura");
+  const std::string mesh = test::source_path("samples/models/calibration_cube_20mm.stl").string();
+  auto printer = load_printer_profile("auto");
+  ASSERT_TRUE(printer);
+  auto part = prepare_shared_part(fs::path(mesh), *printer);
+  ASSERT_TRUE(part) << part.error().describe();
+  ComparePlan plan;
+  plan.mesh_path = mesh;
+  plan.verify.voxel_mm = 0.1;
+  plan.cura_definition = def.string();
+  SweepSpec spec;
+  spec.slicers = {"cura"};
+  spec.configs = {test::source_path("samples/configs/ender3_cura.cfg").string()};
+  spec.axes = {SweepAxis{"layer_height", {"0.15", "0.3"}}};
+  plan.variants = expand_variants(spec).value();
+  ASSERT_TRUE(validate_plan(plan));
+  CompareRunOptions options;
+  options.out_dir = dir;
+  options.variant_reports = false;
+  auto result = run_compare(*part, plan, {}, options);
+  ASSERT_TRUE(result) << result.error().describe();
+  for (const auto& row : result->variants) {
+    ASSERT_TRUE(row.ran) << row.error;
+    EXPECT_NE(row.command.find("CURA_ENGINE_SEARCH_PATH="), std::string::npos);
+    EXPECT_NE(row.command.find("-s infill_line_distance="), std::string::npos);
+  }
+  EXPECT_GT(result->variants[0].print_time_s, result->variants[1].print_time_s);
 }
 
 }  // namespace
