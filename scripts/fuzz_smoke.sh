@@ -12,15 +12,18 @@ launcher=()
 command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 CC=clang CXX=clang++ cmake -S . -B "$BUILD" -DPRINTTWIN_BUILD_FUZZ=ON -DPRINTTWIN_BUILD_TESTS=OFF \
   -DPRINTTWIN_BUILD_BENCH=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo "${launcher[@]}" >/dev/null
-cmake --build "$BUILD" -j"${PRINTTWIN_JOBS:-2}" --target printtwin_fuzz_targets >/dev/null
+cmake --build "$BUILD" -j"${PRINTTWIN_JOBS:-2}" --target printtwin_fuzz_targets >"$BUILD/build.log" 2>&1 ||
+  { tail -40 "$BUILD/build.log"; echo "fuzz_smoke: build failed (full log: $BUILD/build.log)" >&2; exit 1; }
 # assimp is not built with the sanitizers: its own leaks on some malformed files (the
 # importers' error paths) are suppressed by name here, ours are not.
 export LSAN_OPTIONS="suppressions=$PWD/fuzz/lsan_suppressions.txt:print_suppressions=0"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 status=0
-for target in gcode mesh profile slice_ini compare; do
+# Every target fuzz/<name>_fuzz.cpp, with its seed corpus fuzz/corpus_<name>.
+for source in fuzz/*_fuzz.cpp; do
+  target=$(basename "$source" _fuzz.cpp)
   corpus=fuzz/corpus_$target
-  [ "$target" = gcode ] && corpus=fuzz/corpus
+  [ -d "$corpus" ] || { echo "fuzz_smoke: $corpus (seed corpus of $source) is missing" >&2; exit 1; }
   work="$BUILD/corpus/$target"
   findings="$BUILD/findings/$target"
   mkdir -p "$work" "$findings"

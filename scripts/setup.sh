@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs the Debian packages printtwin needs (only those missing; quiet when all are
 # present), then configures and builds printtwin in Release under build/.
-# Usage: scripts/setup.sh   (as root, or with sudo available, on Debian 12)
+# Usage: scripts/setup.sh [--packages-only]   (as root, or with sudo available, on Debian 12)
+# PRINTTWIN_EXTRA_PACKAGES adds packages; --packages-only stops after installing them.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -23,6 +24,7 @@ if [ ${#missing[@]} -gt 0 ]; then
   $SUDO apt-get update -qq
   $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
+[ "${1:-}" = "--packages-only" ] && exit 0
 
 BUILD_DIR=${PRINTTWIN_BUILD_DIR:-build}
 launcher=()

@@ -59,14 +59,20 @@ struct SlicerSettings {
 [[nodiscard]] SlicerSettings parse_slicer_settings(std::string_view head, std::string_view tail,
                                                    long tail_first_line = 0);
 
+/// One value the settings state, with the setting's key it came from.
+/// (At namespace scope: clang 14 crashes generating code for a class template nested in
+/// StatedPrinter when it holds an Eigen vector, so the fuzz build could not compile.)
+template <class T>
+struct StatedValue {
+  T value{};
+  std::string key;  ///< the setting's key, e.g. "bed_shape"
+};
+
 /// What the settings say about the machine, in profile units. Each value names the setting
 /// key it came from. Unset optionals: the file does not say.
 struct StatedPrinter {
   template <class T>
-  struct Value {
-    T value{};
-    std::string key;  ///< the setting's key, e.g. "bed_shape"
-  };
+  using Value = StatedValue<T>;
   std::optional<Value<std::string>> model;     ///< printer_model, machine name, ...
   std::vector<std::string> names;              ///< every string that may name the printer
   std::optional<Value<std::string>> firmware;  ///< mapped flavour: marlin2, marlin1, klipper, rrf

@@ -313,6 +313,21 @@ Result<PrinterProfile> load_klipper_printer_cfg(const fs::path& path) {
       p.origin.set(k, "config", path.string() + " [firmware_retraction]");
   }
   p.origin.summary = p.name;
+  // The options above are range-checked one by one; what they make together (a bed or a
+  // height from the steppers' ranges) must also be a profile printtwin simulates: the same
+  // limits as a .json profile, named by the option that set the value.
+  if (auto back = parse_printer_profile(printer_profile_to_json(p), path.string()); !back) {
+    const std::string message = "the printer this config describes is not simulated: " + back.error().message;
+    const std::string& what = back.error().message;  // key "<profile key>": ...
+    const auto open = what.find("key \"");
+    const auto close = open == std::string::npos ? open : what.find('"', open + 5);
+    const ValueOrigin* o = close == std::string::npos ? nullptr : p.origin.find(what.substr(open + 5, close - open - 5));
+    const auto colon = o ? o->detail.rfind(':') : std::string::npos;
+    if (colon != std::string::npos && colon + 1 < o->detail.size() &&
+        o->detail.find_first_not_of("0123456789", colon + 1) == std::string::npos)
+      return bad_input(message, o->detail.substr(0, colon), std::stol(o->detail.substr(colon + 1)));
+    return bad_input(message, path.string());
+  }
   return p;
 }
 

@@ -130,6 +130,13 @@ TEST(KlipperConfig, BadInputNamesTheFileAndLine) {
             std::string::npos);
   EXPECT_NE(error_of("[printer\n").find("printer.cfg:1: expected \"[section]\""), std::string::npos);
   EXPECT_NE(error_of("[printer]\njust words\n").find("printer.cfg:2: expected \"key: value\""), std::string::npos);
+  // Each option in range, but the Z range makes a 0.27 mm tall printer (found by
+  // klipper_cfg_fuzz): refused with the option's line, as a .json profile would be.
+  EXPECT_NE(error_of("[printer]\nkinematics: corexy\nmax_velocity: 300\nmax_accel: 1000\n[stepper_x]\nposition_max: "
+                     "200\n[stepper_y]\nposition_max: 200\n[stepper_z]\nposition_max: .27\n")
+                .find("printer.cfg:10: the printer this config describes is not simulated: key \"max_z_mm\": value 0.27 "
+                      "outside [1, 2000]"),
+            std::string::npos);
   write(dir / "loop.cfg", "[include printer.cfg]\n");
   EXPECT_NE(error_of("[include loop.cfg]\n").find("recursive [include]"), std::string::npos);
   // A glob that matches nothing is fine (as in Klipper); the config still needs [printer].
