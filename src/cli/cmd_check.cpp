@@ -23,7 +23,7 @@
 #include "printtwin/machine.hpp"
 #include "printtwin/mesh.hpp"
 #include "printtwin/verify.hpp"
-#include "report/report_internal.hpp"
+#include "report/markup.hpp"
 
 namespace printtwin::cli {
 

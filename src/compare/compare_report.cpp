@@ -7,7 +7,7 @@
 
 #include "printtwin/compare.hpp"
 #include "printtwin/io.hpp"
-#include "report/report_internal.hpp"
+#include "report/markup.hpp"
 
 namespace printtwin {
 
