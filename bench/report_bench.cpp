@@ -8,6 +8,7 @@
 
 #include "../tests/report/synthetic_report.hpp"
 #include "printtwin/report.hpp"
+#include "report/heatmap.hpp"
 
 namespace {
 
@@ -65,9 +66,8 @@ void BM_RenderViewsCached(benchmark::State& state) {
     state.SkipWithError(cache.error().message.c_str());
     return;
   }
-  options.heatmap_cache = &*cache;
   for (auto _ : state) {
-    auto assets = render_report_assets(r, options);
+    auto assets = detail::render_report_assets(r, options, &*cache);
     benchmark::DoNotOptimize(assets);
   }
 }

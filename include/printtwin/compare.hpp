@@ -23,7 +23,7 @@
 // once per process and passed in (`SharedPart`): the loaded mesh, its printability check,
 // the Embree BVH of the mesh and the slope class of every triangle. The variant report
 // folders written by `printtwin compare` also share the heatmaps' BVH and traced views
-// (HeatmapCache, report.hpp) while the variants' placed meshes are the same.
+// (ReportFolderWriter, report.hpp) while the variants' placed meshes are the same.
 //
 // Sharding
 // Variants are independent. Share k of n (0-based k, as SLURM_ARRAY_TASK_ID and GitHub's

@@ -25,6 +25,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <span>
 #include <string>
 #include <string_view>
@@ -107,13 +108,6 @@ struct HeatmapView {
   std::vector<RegionMarker> markers;  ///< one per DeviationResult::regions entry, same order
 };
 
-struct TracedView;
-/// Projects regions into a traced view and tests the visibility of their worst points
-/// against its depth buffer (hidden when the surface at the point's pixel is clearly in
-/// front of it; a point outside the image counts as visible).
-[[nodiscard]] std::vector<RegionMarker> mark_regions(const TracedView& traced,
-                                                     std::span<const DeviationRegion> regions);
-
 /// Per-point deviation on the mesh surface used to colour the heatmap: mesh-surface samples
 /// (mesh -> deposit direction) where they are dense enough, per-vertex deviation
 /// (barycentric interpolation) elsewhere.
@@ -126,52 +120,9 @@ struct SurfaceDeviationField {
 
 /// Renders one orthographic view of `mesh` (the nearest triangle under each pixel centre),
 /// colours it by the deviation field and shades it with two Lambert lights. Back faces (open
-/// meshes) are grey. Deterministic.
-/// Equals shade_heatmap(trace_heatmap_view(mesh, view), mesh, field, scale).
+/// meshes) are grey. Deterministic. `markers` is left empty.
 [[nodiscard]] HeatmapView render_heatmap(const Mesh& mesh, const SurfaceDeviationField& field,
                                          const DeviationColorScale& scale, const ViewSpec& view);
-
-/// The half of a heatmap render that depends only on the mesh and the view: the camera fitted
-/// to the mesh and, per pixel (rows top to bottom), the ray hit and its lighting. Every
-/// deviation result on the same placed mesh colours the same traced view.
-struct TracedView {
-  static constexpr std::uint32_t kNoHit = 0xffffffffu;
-  ViewSpec view;
-  Camera camera;
-  double near_offset_mm = 0;            ///< rays start this far before the camera centre
-  std::vector<std::uint32_t> triangle;  ///< hit triangle per pixel; kNoHit: background
-  std::vector<float> depth_mm;          ///< hit distance from the ray origin
-  std::vector<Vec3> normal;             ///< unit geometric normal of the hit triangle
-  std::vector<double> shade;            ///< two Lambert lights times the outline darkening
-  std::size_t hit_pixels = 0;
-  /// Origin of the ray through pixel (x, y).
-  [[nodiscard]] Vec3 pixel_origin(int x, int y) const;
-};
-
-/// Fits the camera to `mesh` and rasterises it: per pixel centre, the nearest triangle along
-/// the view direction (what a ray from the pixel would hit first; equal depths: the lowest
-/// triangle index), its depth and unit normal.
-[[nodiscard]] TracedView trace_heatmap_view(const Mesh& mesh, const ViewSpec& view);
-
-/// Colours a traced view of `mesh` (the mesh it was traced from) by the deviation field.
-[[nodiscard]] HeatmapView shade_heatmap(const TracedView& traced, const Mesh& mesh,
-                                        const SurfaceDeviationField& field,
-                                        const DeviationColorScale& scale);
-
-/// The traced views of one placed mesh, for reports of several deviation results
-/// on it (compare's variants at the same placement). Built by the caller, who owns it and
-/// passes it in `ReportOptions::heatmap_cache`; a report renders byte for byte the same with
-/// or without it.
-struct HeatmapCache {
-  Mesh mesh;                      ///< the placed mesh the views were traced from
-  std::vector<TracedView> views;  ///< one per ViewSpec, same order
-  /// True when the cache was traced from exactly `placed_mesh` (every coordinate) and `views`.
-  [[nodiscard]] bool fits(const Mesh& placed_mesh, std::span<const ViewSpec> views) const;
-};
-
-/// Traces `views` of `placed_mesh` (side by side; errors: the mesh has no triangles).
-[[nodiscard]] Result<HeatmapCache> build_heatmap_cache(const Mesh& placed_mesh,
-                                                       std::span<const ViewSpec> views);
 
 /// Cuts `mesh` at each height of `z_mm` (sorted or not) and chains the cuts into polylines
 /// (machine frame XY, mm; closed loops repeat their first point), simplified with
@@ -200,9 +151,6 @@ struct ReportOptions {
   /// Called with the staging folder before it is renamed into place, to add more files
   /// (e.g. deposit.ot). An error aborts the report and leaves no folder behind.
   std::function<Status(const std::filesystem::path& staging_dir)> extra_outputs;
-  /// Traced heatmap views to reuse (not owned). Used when it fits the report's placed mesh
-  /// and `views`; otherwise the report traces its own. The images are the same either way.
-  const HeatmapCache* heatmap_cache = nullptr;
 };
 
 /// JUnit XML (testsuites/testsuite/testcase, failures with messages): one case per gate
@@ -249,6 +197,35 @@ struct ReportFile {
 [[nodiscard]] Status write_report_folder(const VerifyReport& report,
                                          const std::filesystem::path& out_dir,
                                          const ReportOptions& options = {});
+
+/// Writes the report folders of several reports of one part (compare's variants), each the
+/// same bytes as write_report_folder would write. Reports whose placed mesh is the same as
+/// the previous one's share the work that depends only on the mesh (the heatmaps' rays), so
+/// a series of variants at one placement is faster. One writer per thread.
+class ReportFolderWriter {
+ public:
+  ReportFolderWriter();
+  ReportFolderWriter(ReportFolderWriter&&) noexcept;
+  ReportFolderWriter& operator=(ReportFolderWriter&&) noexcept;
+  ~ReportFolderWriter();
+  /// write_report_folder(report, out_dir, options).
+  [[nodiscard]] Status write(const VerifyReport& report, const std::filesystem::path& out_dir,
+                             const ReportOptions& options = {});
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+/// verify() and the whole report folder in one call: runs the pipeline of `options`, then
+/// writes `out_dir` as write_report_folder does, with report.json and deviation.ply
+/// (write_verify_outputs) beside the files of `report_options.extra_outputs`. The same bytes
+/// as the calls one after the other; faster, since the report's work that needs only the
+/// placed mesh runs while the deposit is still being laid. Errors: those of verify (no
+/// folder is written) and of write_report_folder.
+[[nodiscard]] Result<VerifyReport> verify_to_folder(const VerifyOptions& options,
+                                                    const std::filesystem::path& out_dir,
+                                                    const ReportOptions& report_options = {});
 
 /// Current UTC time as "YYYY-MM-DDTHH:MM:SSZ", or the time of $SOURCE_DATE_EPOCH when set
 /// (reproducible builds convention), for `ReportOptions::generated_utc`.

@@ -169,17 +169,13 @@ struct VerifyOptions {
   /// otherwise an usage error).
   std::filesystem::path gcode_path;
   VerifySettings settings;
-  /// Optional: called once, on a worker thread, as soon as the mesh's place in the G-code
-  /// frame is known, with the mesh as the report will hold it (VerifyReport::placed_mesh),
-  /// while the deposit may still be running: e.g. to trace the report's heatmap views
-  /// meanwhile. verify() returns after it has returned; not called when verify() fails
-  /// before the placement is known.
-  std::function<void(const Mesh& placed_mesh)> on_placed;
 };
 
 /// Runs the pipeline. Errors: unreadable/invalid mesh, G-code or printer profile (bad_input),
 /// impossible settings (usage). Print defects never error: they are findings and gates.
-/// Same as prepare_part + (slice_for_verify or read_gcode_input) + verify_gcode.
+/// Same as prepare_part + (slice_for_verify or read_gcode_input) + verify_gcode; with a
+/// G-code file the part's side and the G-code's side run side by side.
+/// verify_to_folder (report.hpp) also writes the report folder.
 [[nodiscard]] Result<VerifyReport> verify(const VerifyOptions& options);
 
 // ---------------------------------------------------------------- the pipeline in parts
@@ -252,12 +248,9 @@ struct PrintedGcode {
 /// simulate -> deposit of one G-code. Errors: invalid G-code, or no extrusion of the part to
 /// register against without `settings.place_mm` (bad input); settings out of range (usage).
 /// `on_stage` (optional) is called with "simulate" and "deposit" as each starts.
-/// `on_extent` (optional) gets the part's extent as soon as the simulation has found it,
-/// before the deposit.
 [[nodiscard]] Result<PrintedGcode> print_gcode(const PrinterProfile& printer, const VerifySettings& settings,
                                                GcodeInput gcode,
-                                               const std::function<void(std::string_view)>& on_stage = {},
-                                               const std::function<void(const PartExtent&)>& on_extent = {});
+                                               const std::function<void(std::string_view)>& on_stage = {});
 
 /// registration -> deviation -> region findings -> gates of a printed G-code against a
 /// prepared part (the second half of verify_gcode). `on_stage` gets "deviation".

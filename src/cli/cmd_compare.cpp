@@ -251,21 +251,14 @@ int run_compare_command(const CompareOptions& o) {
   run.progress = progress_printer();
   const std::string stamp = report_timestamp_utc();
   if (o.variant_reports == "full") {
-    // The variants place the same mesh, mostly at the same offset: their heatmaps share one
-    // BVH and one set of traced views, rebuilt only when a variant's placed mesh differs.
-    auto heatmaps = std::make_shared<std::optional<HeatmapCache>>();
-    run.write_variant_report = [stamp, heatmaps](const VerifyReport& rep, const fs::path& dir) -> Status {
+    // The variants place the same mesh, mostly at the same offset: one writer shares the
+    // work that depends only on the placed mesh between them.
+    auto writer = std::make_shared<ReportFolderWriter>();
+    run.write_variant_report = [stamp, writer](const VerifyReport& rep, const fs::path& dir) -> Status {
       ReportOptions ro;
       ro.generated_utc = stamp;
-      if (!*heatmaps || !(*heatmaps)->fits(rep.placed_mesh, ro.views)) {
-        heatmaps->reset();
-        auto built = build_heatmap_cache(rep.placed_mesh, ro.views);
-        if (!built) return built.error();
-        heatmaps->emplace(std::move(*built));
-      }
-      ro.heatmap_cache = &**heatmaps;
       ro.extra_outputs = [&rep](const fs::path& staging) { return write_verify_outputs(rep, staging); };
-      return write_report_folder(rep, dir, ro);
+      return writer->write(rep, dir, ro);
     };
   }
   // An empty share (more shares than variants) still writes its JSON, so that a merge of

@@ -187,26 +187,14 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
         s.slice_config_ini.clear();
         s.slice_overrides.clear();
       }
-      ReportOptions report_options;
-      // The heatmaps' views are traced while the deposit runs (the report needs only the
-      // placed mesh for them); the report renders the same bytes with or without them.
-      std::optional<Result<HeatmapCache>> heatmaps;
-      options.on_placed = [&](const Mesh& placed_mesh) {
-        heatmaps.emplace(build_heatmap_cache(placed_mesh, report_options.views));
-      };
-      auto report = verify(options);
-      if (!report) return report_error(report.error());
-      const std::string out_dir =
-          o->out.empty() ? (std::filesystem::path("reports") / report->part_name).string() : o->out;
       // The whole folder (report.html, junit.xml, summary.md, heatmaps) plus report.json and
       // deviation.ply, swapped into place only when complete.
+      const std::string out_dir =
+          o->out.empty() ? (std::filesystem::path("reports") / std::filesystem::path(o->mesh).stem()).string() : o->out;
+      ReportOptions report_options;
       report_options.generated_utc = report_timestamp_utc();
-      if (heatmaps && *heatmaps) report_options.heatmap_cache = &**heatmaps;
-      const VerifyReport& finished = *report;
-      report_options.extra_outputs = [&finished](const std::filesystem::path& staging) {
-        return write_verify_outputs(finished, staging);
-      };
-      if (auto st = write_report_folder(*report, out_dir, report_options); !st) return report_error(st.error());
+      auto report = verify_to_folder(options, out_dir, report_options);
+      if (!report) return report_error(report.error());
       if (!o->deviation_ply.empty()) {
         auto ply = read_file(std::filesystem::path(out_dir) / "deviation.ply");
         if (!ply) return report_error(ply.error());

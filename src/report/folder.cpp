@@ -44,8 +44,12 @@ Result<HeatmapCache> build_heatmap_cache(const Mesh& placed_mesh, std::span<cons
 }
 
 Result<ReportAssets> render_report_assets(const VerifyReport& report, const ReportOptions& options) {
+  return detail::render_report_assets(report, options, nullptr);
+}
+
+Result<ReportAssets> detail::render_report_assets(const VerifyReport& report, const ReportOptions& options,
+                                                  const HeatmapCache* cache) {
   // The caller's traced views when they belong to this mesh, else this report's own.
-  const HeatmapCache* cache = options.heatmap_cache;
   std::optional<HeatmapCache> own;
   if (cache == nullptr || !cache->fits(report.placed_mesh, options.views)) {
     auto built = build_heatmap_cache(report.placed_mesh, options.views);
@@ -85,7 +89,12 @@ Result<ReportAssets> render_report_assets(const VerifyReport& report, const Repo
 }
 
 Result<std::vector<ReportFile>> build_report_files(const VerifyReport& report, const ReportOptions& options) {
-  auto assets = render_report_assets(report, options);
+  return detail::build_report_files(report, options, nullptr);
+}
+
+Result<std::vector<ReportFile>> detail::build_report_files(const VerifyReport& report, const ReportOptions& options,
+                                                           const HeatmapCache* cache) {
+  auto assets = render_report_assets(report, options, cache);
   if (!assets) return assets.error();
   std::vector<ReportFile> files;
   files.push_back({"report.html", report_html(report, *assets, options)});
@@ -175,6 +184,11 @@ Status swap_into_place(const fs::path& staging, const fs::path& target) {
 }  // namespace
 
 Status write_report_folder(const VerifyReport& report, const fs::path& out_dir, const ReportOptions& options) {
+  return detail::write_report_folder(report, out_dir, options, nullptr);
+}
+
+Status detail::write_report_folder(const VerifyReport& report, const fs::path& out_dir, const ReportOptions& options,
+                                   const HeatmapCache* cache) {
   const fs::path target = out_dir.has_filename() ? out_dir : out_dir.parent_path();
   const fs::path parent = target.has_parent_path() ? target.parent_path() : fs::path(".");
   const std::string name = target.filename().string();
@@ -200,7 +214,7 @@ Status write_report_folder(const VerifyReport& report, const fs::path& out_dir, 
   std::optional<Result<std::vector<ReportFile>>> files;
   Status extra = Ok{};
   tbb::task_group both;
-  both.run([&] { files.emplace(build_report_files(report, options)); });
+  both.run([&] { files.emplace(build_report_files(report, options, cache)); });
   if (options.extra_outputs) both.run([&] { extra = options.extra_outputs(staging); });
   both.wait();
   if (!*files) return fail(files->error());
@@ -211,6 +225,26 @@ Status write_report_folder(const VerifyReport& report, const fs::path& out_dir, 
   }
   if (auto st = swap_into_place(staging, target); !st) return fail(st.error());
   return Ok{};
+}
+
+struct ReportFolderWriter::State {
+  std::optional<HeatmapCache> heatmaps;  ///< the views of the last report's placed mesh
+};
+
+ReportFolderWriter::ReportFolderWriter() : state_(std::make_unique<State>()) {}
+ReportFolderWriter::ReportFolderWriter(ReportFolderWriter&&) noexcept = default;
+ReportFolderWriter& ReportFolderWriter::operator=(ReportFolderWriter&&) noexcept = default;
+ReportFolderWriter::~ReportFolderWriter() = default;
+
+Status ReportFolderWriter::write(const VerifyReport& report, const fs::path& out_dir, const ReportOptions& options) {
+  auto& heatmaps = state_->heatmaps;
+  if (!heatmaps || !heatmaps->fits(report.placed_mesh, options.views)) {
+    heatmaps.reset();
+    auto built = build_heatmap_cache(report.placed_mesh, options.views);
+    if (!built) return built.error();
+    heatmaps.emplace(std::move(*built));
+  }
+  return detail::write_report_folder(report, out_dir, options, &*heatmaps);
 }
 
 }  // namespace printtwin

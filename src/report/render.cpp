@@ -19,6 +19,7 @@
 #include <limits>
 
 #include "printtwin/report.hpp"
+#include "report/heatmap.hpp"
 
 namespace printtwin {
 

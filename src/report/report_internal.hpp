@@ -1,39 +1,27 @@
 #pragma once
-// Private helpers of the report writers (src/report/; the escapes also serve the batch
-// summary and JUnit file of `printtwin check`, src/cli/cmd_check.cpp).
+// Private helpers of the report writers (src/report/ only). What other stages' pages share
+// with the report (escapes, gate labels, the stylesheet) is in report/markup.hpp.
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "printtwin/report.hpp"
+#include "report/heatmap.hpp"
+#include "report/markup.hpp"
 
 namespace printtwin::detail {
 
-/// Escapes &, <, >, " and ' for HTML text and attribute values.
-[[nodiscard]] std::string html_escape(std::string_view s);
-/// Escapes for XML 1.0 text/attributes and drops characters XML 1.0 forbids.
-[[nodiscard]] std::string xml_escape(std::string_view s);
-/// Escapes Markdown table cells (pipes, backslashes, newlines).
-[[nodiscard]] std::string md_cell(std::string_view s);
 /// Standard base64 (RFC 4648) with padding.
 [[nodiscard]] std::string base64(std::string_view bytes);
 
 /// Fixed decimals with an ASCII minus ("-0.000" printed as "0.000").
 [[nodiscard]] std::string fixed(double v, int decimals);
-/// Signed with an explicit "+" for positive values.
-[[nodiscard]] std::string signed_fixed(double v, int decimals);
 /// "1 h 02 min", "12 min 05 s", "8.4 s".
 [[nodiscard]] std::string duration_text(double seconds);
-/// Human label of a gate name ("max_excess" -> "Max excess").
-[[nodiscard]] std::string gate_label(std::string_view name);
-/// Unit of a gate's limit/value: "mm" or "" (counts).
-[[nodiscard]] bool gate_is_count(std::string_view name);
 /// "missing" / "excess".
 [[nodiscard]] std::string_view region_kind_name(RegionKind k);
 /// "412-418, 530, +12 more" (at most `max_items` numbers).
 [[nodiscard]] std::string line_list(const std::vector<long>& lines, std::size_t max_items);
-/// "12" or "12-18"; "—" when unknown.
-[[nodiscard]] std::string layer_range(int lo, int hi);
 /// Counts of findings by severity.
 struct SeverityCounts {
   int errors = 0, warnings = 0, infos = 0;
@@ -53,8 +41,8 @@ struct SeverityCounts {
 [[nodiscard]] std::string viewer_json(const VerifyReport& report, const DeviationColorScale& scale,
                                       const ReportOptions& options);
 
-/// The page's stylesheet and script (html_assets.cpp).
-[[nodiscard]] std::string_view report_css();
+
+/// The page's script (html_assets.cpp).
 [[nodiscard]] std::string_view report_js();
 
 }  // namespace printtwin::detail

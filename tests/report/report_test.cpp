@@ -12,6 +12,7 @@
 #include "printtwin/io.hpp"
 #include "printtwin/mesh_query.hpp"
 #include "printtwin/report.hpp"
+#include "report/heatmap.hpp"
 #include "report/synthetic_report.hpp"
 #include "report/xml_checker.hpp"
 #include "support/test_support.hpp"
@@ -367,8 +368,7 @@ TEST(ReportHeatmapCache, SameBytesWithAndWithoutTheCache) {
   auto cache = build_heatmap_cache(synthetic().placed_mesh, plain.views);
   ASSERT_TRUE(cache.ok()) << cache.error().message;
   ASSERT_TRUE(cache->fits(synthetic().placed_mesh, plain.views));
-  ReportOptions cached = plain;
-  cached.heatmap_cache = &*cache;
+  const HeatmapCache* cached = &*cache;
 
   VerifyReport other = synthetic();
   for (double& d : other.deviation.mesh_samples.distances_mm) d = 0.4 - 0.7 * d;
@@ -379,7 +379,7 @@ TEST(ReportHeatmapCache, SameBytesWithAndWithoutTheCache) {
   const std::array<const VerifyReport*, 3> reports{&synthetic(), &other, &vertex_only};
   for (const VerifyReport* r : reports) {
     auto a = render_report_assets(*r, plain);
-    auto b = render_report_assets(*r, cached);
+    auto b = detail::render_report_assets(*r, plain, cached);
     ASSERT_TRUE(a.ok() && b.ok());
     ASSERT_EQ(a->views.size(), b->views.size());
     for (std::size_t i = 0; i < a->views.size(); ++i) {
@@ -393,19 +393,19 @@ TEST(ReportHeatmapCache, SameBytesWithAndWithoutTheCache) {
       }
     }
     auto fa = build_report_files(*r, plain);
-    auto fb = build_report_files(*r, cached);
+    auto fb = detail::build_report_files(*r, plain, cached);
     ASSERT_TRUE(fa.ok() && fb.ok());
     ASSERT_EQ(fa->size(), fb->size());
     for (std::size_t i = 0; i < fa->size(); ++i) EXPECT_EQ((*fa)[i].content, (*fb)[i].content) << (*fa)[i].name;
   }
   // The colours differ between the two results: the cache holds no colour.
-  EXPECT_NE(render_report_assets(other, cached)->views[0].image, render_report_assets(synthetic(), cached)->views[0].image);
+  EXPECT_NE(detail::render_report_assets(other, plain, cached)->views[0].image, detail::render_report_assets(synthetic(), plain, cached)->views[0].image);
 
   // The cache is what the renders read: a tampered one shows.
   HeatmapCache dark = std::move(*cache);
   for (double& s : dark.views[0].shade) s *= 0.5;
-  cached.heatmap_cache = &dark;
-  EXPECT_NE(render_report_assets(synthetic(), cached)->views[0].image,
+  cached = &dark;
+  EXPECT_NE(detail::render_report_assets(synthetic(), plain, cached)->views[0].image,
             render_report_assets(synthetic(), plain)->views[0].image);
 
   // Another placement (a variant registered 0.25 mm off) or other views: not used.
@@ -414,9 +414,37 @@ TEST(ReportHeatmapCache, SameBytesWithAndWithoutTheCache) {
   EXPECT_FALSE(dark.fits(moved.placed_mesh, plain.views));
   EXPECT_FALSE(dark.fits(synthetic().placed_mesh, std::vector<ViewSpec>(plain.views.begin(), plain.views.end() - 1)));
   auto m_plain = render_report_assets(moved, plain);
-  auto m_cached = render_report_assets(moved, cached);
+  auto m_cached = detail::render_report_assets(moved, plain, cached);
   ASSERT_TRUE(m_plain.ok() && m_cached.ok());
   for (std::size_t i = 0; i < m_plain->views.size(); ++i) EXPECT_EQ(m_plain->view_png[i], m_cached->view_png[i]);
+}
+
+// A writer of several reports (compare's variants) writes the same bytes as
+// write_report_folder, whether the next report's placed mesh is the same or another.
+TEST(ReportFolderWriter, SameFilesAsWriteReportFolder) {
+  const auto dir = test::temp_dir("report_folder_writer");
+  ReportOptions options;
+  options.generated_utc = "2026-11-21T10:20:00Z";
+  VerifyReport other = synthetic();
+  for (double& d : other.deviation.vertex_deviation_mm) d = 0.4 - 0.7 * d;
+  VerifyReport moved = synthetic();
+  for (Vec3& v : moved.placed_mesh.vertices_mm) v += Vec3(0.25, 0, 0);
+  ReportFolderWriter writer;
+  const std::array<const VerifyReport*, 3> reports{&synthetic(), &other, &moved};
+  for (std::size_t i = 0; i < reports.size(); ++i) {
+    const auto a = dir / ("plain" + std::to_string(i)), b = dir / ("writer" + std::to_string(i));
+    ASSERT_TRUE(write_report_folder(*reports[i], a, options).ok());
+    ASSERT_TRUE(writer.write(*reports[i], b, options).ok());
+    std::size_t files = 0;
+    for (const auto& entry : std::filesystem::directory_iterator(a)) {
+      const auto name = entry.path().filename();
+      EXPECT_EQ(*read_file(entry.path()), *read_file(b / name)) << name;
+      ++files;
+    }
+    EXPECT_EQ(files, static_cast<std::size_t>(std::distance(std::filesystem::directory_iterator(b),
+                                                            std::filesystem::directory_iterator())));
+    EXPECT_GT(files, 3u);
+  }
 }
 
 TEST(ReportFolder, WritesEveryFileAndReplacesAnOldReportAtomically) {

@@ -7,8 +7,10 @@
 
 #include "printtwin/printer.hpp"
 #include "printtwin/io.hpp"
+#include "printtwin/report.hpp"
 #include "printtwin/verify.hpp"
 #include "support/test_support.hpp"
+#include "verify/pipeline.hpp"
 
 namespace printtwin {
 namespace {
@@ -264,18 +266,18 @@ TEST(VerifyLibrary, OnPlacedGetsThePlacedMeshOnceBeforeVerifyReturns) {
   VerifyOptions options = cube10_options(dir);
   std::atomic<int> calls{0};
   Mesh seen;
-  options.on_placed = [&](const Mesh& placed) {
+  const auto on_placed = [&](const Mesh& placed) {
     ++calls;
     seen = placed;
   };
-  auto r = verify(options);
+  auto r = verify_detail::verify_with(options, on_placed);
   ASSERT_TRUE(r.ok()) << r.error().describe();
   EXPECT_EQ(calls.load(), 1);
   EXPECT_TRUE(seen == r->placed_mesh);
   // --place: the hook gets the mesh at the given offset.
   options.settings.place_mm = Vec3(100, 100, 0);
   calls = 0;
-  r = verify(options);
+  r = verify_detail::verify_with(options, on_placed);
   ASSERT_TRUE(r.ok());
   EXPECT_EQ(calls.load(), 1);
   EXPECT_TRUE(seen == r->placed_mesh);
@@ -284,8 +286,45 @@ TEST(VerifyLibrary, OnPlacedGetsThePlacedMeshOnceBeforeVerifyReturns) {
   calls = 0;
   options.settings.place_mm.reset();
   options.gcode_path = dir / "missing.gcode";
-  EXPECT_FALSE(verify(options).ok());
+  EXPECT_FALSE(verify_detail::verify_with(options, on_placed).ok());
   EXPECT_EQ(calls.load(), 0);
+}
+
+// verify_to_folder traces the heatmaps while the deposit runs: the folder holds the same
+// files as verify + write_report_folder + write_verify_outputs, the same bytes wherever the
+// run's timings do not show (the images, the deviation PLY).
+TEST(VerifyLibrary, VerifyToFolderWritesWhatTheCallsOneAfterTheOtherWrite) {
+  const auto dir = test::temp_dir("verify_to_folder");
+  const VerifyOptions options = cube10_options(dir);
+  ReportOptions report_options;
+  report_options.generated_utc = "2026-11-21T10:20:00Z";
+  auto together = verify_to_folder(options, dir / "together", report_options);
+  ASSERT_TRUE(together.ok()) << together.error().describe();
+  auto alone = verify(options);
+  ASSERT_TRUE(alone.ok());
+  ReportOptions with_outputs = report_options;
+  with_outputs.extra_outputs = [&](const std::filesystem::path& staging) {
+    return write_verify_outputs(*alone, staging);
+  };
+  ASSERT_TRUE(write_report_folder(*alone, dir / "apart", with_outputs).ok());
+  EXPECT_TRUE(together->placed_mesh == alone->placed_mesh);
+  EXPECT_EQ(together->deviation.max_excess_mm, alone->deviation.max_excess_mm);
+  std::size_t compared = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(dir / "apart")) {
+    const std::string name = entry.path().filename().string();
+    ASSERT_TRUE(std::filesystem::exists(dir / "together" / name)) << name;
+    if (name.ends_with(".png") || name.ends_with(".ply")) {
+      EXPECT_EQ(*read_file(entry.path()), *read_file(dir / "together" / name)) << name;
+      ++compared;
+    }
+  }
+  EXPECT_GE(compared, 2u);
+  EXPECT_TRUE(std::filesystem::exists(dir / "together" / "report.json"));
+  // A failing verify writes no folder.
+  VerifyOptions bad = options;
+  bad.gcode_path = dir / "missing.gcode";
+  EXPECT_FALSE(verify_to_folder(bad, dir / "failed", report_options).ok());
+  EXPECT_FALSE(std::filesystem::exists(dir / "failed"));
 }
 
 }  // namespace
