@@ -14,6 +14,10 @@
 
 namespace printtwin {
 
+namespace detail {
+struct MeshQueryAccess;
+}  // namespace detail
+
 struct ClosestPoint {
   Vec3 point_mm = Vec3::Zero();   ///< closest point on the surface
   double distance_mm = 0;         ///< unsigned distance to it
@@ -43,21 +47,6 @@ class MeshQuery {
   /// prunes everything outside the ball from the start).
   [[nodiscard]] std::optional<ClosestPoint> closest_point_within(const Vec3& p,
                                                                  double max_distance_mm) const;
-  /// Closest points of a group of nearby points from one BVH query: the triangles whose BVH
-  /// leaves meet the ball (center, radius) are gathered once, and each point takes the
-  /// closest of them (same answer and tie rule as closest_point). A point's answer is only
-  /// certain when the ball of that distance around it lies inside the query ball: then it
-  /// is written to out[i]; otherwise out[i] is left empty (ask closest_point_within or
-  /// closest_point). `out` is resized to points.size().
-  /// `scratch` holds the gathered candidates between calls (one per thread; its contents
-  /// mean nothing to the caller), so that a search over many cells allocates nothing.
-  struct BallScratch {
-    std::vector<std::uint32_t> ids;
-    std::vector<double> lo[3], hi[3];
-    std::vector<double> corner[9];  ///< candidates' vertices a, b, c (x, y, z each)
-  };
-  void closest_points_in_ball(const Vec3& center, double radius, std::span<const Vec3> points,
-                              std::vector<std::optional<ClosestPoint>>& out, BallScratch& scratch) const;
   /// Closest points of many query points, in parallel (TBB). `out` is resized.
   void closest_points(std::span<const Vec3> points, std::vector<ClosestPoint>& out) const;
 
@@ -76,6 +65,7 @@ class MeshQuery {
   [[nodiscard]] const Mesh& mesh() const;
 
  private:
+  friend struct detail::MeshQueryAccess;  // batched queries of the deviation stage (src/mesh/)
   struct Impl;
   explicit MeshQuery(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;

@@ -11,8 +11,8 @@
 #include <unordered_map>
 
 #include "deviation/point_groups.hpp"
+#include "mesh/mesh_query_ball.hpp"
 #include "printtwin/deviation.hpp"
-#include "printtwin/mesh_query.hpp"
 
 namespace printtwin {
 
@@ -294,7 +294,7 @@ void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Ve
                     [&](const tbb::blocked_range<std::size_t>& r) {
     std::vector<Vec3> local;
     std::vector<std::optional<ClosestPoint>> batch;
-    MeshQuery::BallScratch scratch;
+    detail::BallScratch scratch;
     // The previous point and its distance: the closest point of p is at most
     // prev_d + |p - prev_p| away (triangle inequality), and the previous point's closest
     // triangle is a second bound, often much tighter. The bounds only change the speed: the
@@ -321,7 +321,7 @@ void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Ve
       batch.assign(local.size(), std::nullopt);
       if (cell_mm > 0 && local.size() > 1) {
         const Vec3 center = box.center();
-        query.closest_points_in_ball(center, 0.5 * box.size().norm() + 0.5 * near_mm, local, batch, scratch);
+        detail::closest_points_in_ball(query, center, 0.5 * box.size().norm() + 0.5 * near_mm, local, batch, scratch);
       }
       for (std::size_t k = 0; k < local.size(); ++k) {
         const Vec3& p = local[k];

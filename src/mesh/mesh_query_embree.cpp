@@ -19,7 +19,7 @@
 #include <limits>
 
 #include "core/bits.hpp"
-#include "printtwin/mesh_query.hpp"
+#include "mesh/mesh_query_ball.hpp"
 
 namespace printtwin {
 
@@ -129,7 +129,7 @@ bool offer(PointQueryState& st, std::uint32_t t) {
 /// The candidates of a ball query (`c.ids`) as columns: their boxes (for the 4-wide box
 /// test) and, with AVX2, their corners (for the 4-wide exact test); padded to a multiple of
 /// 4 with empty far boxes.
-void load_boxes(MeshQuery::BallScratch& c, const Mesh& mesh, const std::vector<TriangleBounds>& bounds,
+void load_boxes(detail::BallScratch& c, const Mesh& mesh, const std::vector<TriangleBounds>& bounds,
                 bool corners) {
   const std::size_t n = c.ids.size(), m = (n + 3) & ~std::size_t{3};
   for (int a = 0; a < 3; ++a) {
@@ -151,7 +151,7 @@ void load_boxes(MeshQuery::BallScratch& c, const Mesh& mesh, const std::vector<T
 }
 
 /// Swaps candidates i and j of a loaded BallScratch (ids, boxes and, with `corners`, corners).
-void swap_candidates(MeshQuery::BallScratch& c, std::size_t i, std::size_t j, bool corners) {
+void swap_candidates(detail::BallScratch& c, std::size_t i, std::size_t j, bool corners) {
   std::swap(c.ids[i], c.ids[j]);
   for (int a = 0; a < 3; ++a) {
     std::swap(c.lo[a][i], c.lo[a][j]);
@@ -163,7 +163,7 @@ void swap_candidates(MeshQuery::BallScratch& c, std::size_t i, std::size_t j, bo
 
 /// Offers every candidate whose box may win; the box test 4 at a time (same arithmetic as
 /// box_distance2, so the same candidates pass).
-void offer_candidates_default(PointQueryState& st, const MeshQuery::BallScratch& c) {
+void offer_candidates_default(PointQueryState& st, const detail::BallScratch& c) {
   for (std::size_t k = 0; k < c.ids.size(); ++k) {
     double box2 = 0;
     for (int a = 0; a < 3; ++a) {
@@ -202,7 +202,7 @@ struct Points4 {
 /// Voronoi region's answer is computed with the scalar code's operations in its order (no
 /// FMA in this target), then the region the scalar walk would take is selected, so each lane
 /// holds the scalar answer bit for bit. Writes q (x, y, z) and |q - p|^2 per lane.
-[[gnu::target("avx2")]] void closest_points_4(const MeshQuery::BallScratch& c, std::size_t k, const Vec3& p,
+[[gnu::target("avx2")]] void closest_points_4(const detail::BallScratch& c, std::size_t k, const Vec3& p,
                                               double qx[4], double qy[4], double qz[4], double d2[4]) {
   std::array<const double*, 9> col{};
   for (std::size_t i = 0; i < 9; ++i) col[i] = c.corner[i].data() + k;
@@ -257,7 +257,7 @@ struct Points4 {
 /// Every candidate whose box may win, 4 at a time: the box test, then (when a lane passes)
 /// the exact test of all 4 lanes at once. The best is the least (distance, triangle) over
 /// the candidates, as offer() finds it: a lane whose box could not win cannot be it.
-[[gnu::target("avx2")]] void offer_candidates_avx2(PointQueryState& st, const MeshQuery::BallScratch& c) {
+[[gnu::target("avx2")]] void offer_candidates_avx2(PointQueryState& st, const detail::BallScratch& c) {
   const std::size_t n = c.ids.size();
   const __m256d zero = _mm256_setzero_pd();
   const __m256d px = _mm256_set1_pd(st.p.x()), py = _mm256_set1_pd(st.p.y()), pz = _mm256_set1_pd(st.p.z());
@@ -289,7 +289,7 @@ struct Points4 {
   }
 }
 #else
-void offer_candidates_avx2(PointQueryState& st, const MeshQuery::BallScratch& c) { offer_candidates_default(st, c); }
+void offer_candidates_avx2(PointQueryState& st, const detail::BallScratch& c) { offer_candidates_default(st, c); }
 #endif
 
 bool point_query_callback(RTCPointQueryFunctionArguments* args) {
@@ -425,18 +425,19 @@ std::optional<ClosestPoint> MeshQuery::closest_point_within(const Vec3& p, doubl
   return ClosestPoint{st.best_point, std::sqrt(st.best_d2), st.best_triangle};
 }
 
-void MeshQuery::closest_points_in_ball(const Vec3& center, double radius, std::span<const Vec3> points,
-                                       std::vector<std::optional<ClosestPoint>>& out,
-                                       BallScratch& boxes) const {
+void detail::closest_points_in_ball(const MeshQuery& query, const Vec3& center, double radius,
+                                    std::span<const Vec3> points, std::vector<std::optional<ClosestPoint>>& out,
+                                    BallScratch& boxes) {
+  const auto* impl = &MeshQueryAccess::impl(query);
   out.assign(points.size(), std::nullopt);
   std::vector<std::uint32_t>& candidates = boxes.ids;
   candidates.clear();
-  run_point_query(impl_->scene, center - impl_->center, radius, gather_callback, &candidates);
+  run_point_query(impl->scene, center - impl->center, radius, gather_callback, &candidates);
   if (candidates.empty()) return;
   const bool avx2 = cpu_has_avx2();
-  load_boxes(boxes, impl_->mesh, impl_->bounds, avx2);
+  load_boxes(boxes, impl->mesh, impl->bounds, avx2);
   for (std::size_t i = 0; i < points.size(); ++i) {
-    PointQueryState st{&impl_->mesh, &impl_->bounds, points[i]};
+    PointQueryState st{&impl->mesh, &impl->bounds, points[i]};
     if (avx2)
       offer_candidates_avx2(st, boxes);
     else

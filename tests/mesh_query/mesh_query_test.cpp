@@ -5,7 +5,7 @@
 #include <random>
 #include <vector>
 
-#include "printtwin/mesh_query.hpp"
+#include "mesh/mesh_query_ball.hpp"
 #include "support/test_support.hpp"
 
 namespace printtwin {
@@ -61,14 +61,14 @@ TEST(MeshQuery, BallQueryGivesClosestPointsBitForBitOrNothing) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> u(1, 9), jitter(-0.1, 0.1), far(-2.0, 2.0);
   int vouched = 0, empty = 0;
-  MeshQuery::BallScratch scratch;
+  detail::BallScratch scratch;
   for (int g = 0; g < 200; ++g) {
     const Vec3 c(u(rng), u(rng), jitter(rng));
     std::vector<Vec3> pts;
     for (int k = 0; k < 12; ++k) pts.push_back(c + Vec3(jitter(rng), jitter(rng), jitter(rng)));
     pts.push_back(c + Vec3(0, 0, far(rng)));  // often beyond the ball
     std::vector<std::optional<ClosestPoint>> out;
-    q->closest_points_in_ball(c, 0.3, pts, out, scratch);
+    detail::closest_points_in_ball(*q, c, 0.3, pts, out, scratch);
     ASSERT_EQ(out.size(), pts.size());
     for (std::size_t k = 0; k < pts.size(); ++k) {
       const ClosestPoint want = q->closest_point(pts[k]);
@@ -117,14 +117,14 @@ TEST(MeshQuery, BallQueryOnATriangleSoupMatchesClosestPointInEveryRegion) {
   auto q = MeshQuery::build(m);
   ASSERT_TRUE(q.ok());
   std::uniform_real_distribution<double> jitter(-0.3, 0.3);
-  MeshQuery::BallScratch scratch;
+  detail::BallScratch scratch;
   int vouched = 0;
   for (int g = 0; g < 300; ++g) {
     const Vec3 c(pos(rng), pos(rng), pos(rng));
     std::vector<Vec3> pts;
     for (int k = 0; k < 16; ++k) pts.push_back(c + Vec3(jitter(rng), jitter(rng), jitter(rng)));
     std::vector<std::optional<ClosestPoint>> out;
-    q->closest_points_in_ball(c, 0.8, pts, out, scratch);
+    detail::closest_points_in_ball(*q, c, 0.8, pts, out, scratch);
     for (std::size_t k = 0; k < pts.size(); ++k) {
       if (!out[k]) continue;
       ++vouched;
