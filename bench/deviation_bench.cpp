@@ -28,6 +28,7 @@
 #include <sstream>
 #include <tuple>
 
+#include "core/allocator.hpp"
 #include "deviation/deposit_surface_internal.hpp"
 #include "printtwin/deposit.hpp"
 #include "printtwin/deviation.hpp"

@@ -9,6 +9,7 @@
 
 #include "cli/cli_common.hpp"
 #include "cli/commands.hpp"
+#include "core/allocator.hpp"
 #include "printtwin/io.hpp"
 #include "printtwin/version.hpp"
 

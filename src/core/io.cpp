@@ -1,6 +1,8 @@
 // Whole-file reads and atomic writes; locale-independent number formatting.
 #include "printtwin/io.hpp"
 
+#include "core/allocator.hpp"
+
 #if defined(__GLIBC__)
 #include <malloc.h>
 #endif
