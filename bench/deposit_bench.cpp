@@ -14,10 +14,13 @@
 #include <string>
 #include <vector>
 
+#include "deposit/voxel_blocks.hpp"
 #include "printtwin/deposit.hpp"
 #include "printtwin/simulate.hpp"
 
 namespace printtwin {
+
+using detail::VoxelBlocks;
 namespace {
 
 /// Checksum of every occupied voxel and its tag (FNV-1a over keys and tag fields, in the
@@ -50,10 +53,10 @@ void BM_VoxelGridFillRows(benchmark::State& state) {
   std::size_t written = 0;
   for (auto _ : state) {
     VoxelGrid g(0.05, Vec3::Zero(), Eigen::Vector3i(n, n, nz));
-    const auto tag = g.add_tag(VoxelTag{1, 0, Feature::perimeter});
+    const auto tag = VoxelBlocks::add_tag(g, VoxelTag{1, 0, Feature::perimeter});
     for (int z = 0; z < nz; ++z)
       for (int y = 0; y < n; ++y)
-        for (int x = 0; x + 64 <= n; x += 64) written += g.fill_row(y, z, x, x + 64, tag);
+        for (int x = 0; x + 64 <= n; x += 64) written += VoxelBlocks::fill_row(g, y, z, x, x + 64, tag);
     benchmark::DoNotOptimize(g.count());
   }
   state.SetItemsProcessed(static_cast<std::int64_t>(written));
@@ -69,12 +72,12 @@ void BM_VoxelGridWriteTiles(benchmark::State& state) {
   std::size_t written = 0;
   for (auto _ : state) {
     VoxelGrid g(0.05, Vec3::Zero(), Eigen::Vector3i(n, n, nz));
-    const auto tag = g.add_tag(VoxelTag{1, 0, Feature::perimeter});
+    const auto tag = VoxelBlocks::add_tag(g, VoxelTag{1, 0, Feature::perimeter});
     for (int z = 0; z < nz; ++z)
       for (int by = 0; by < n / 8; ++by)
         for (int bx = 0; bx < n / 8; ++bx) {
           const std::uint64_t mask = (bx + by + z) % 2 == 0 ? ~std::uint64_t{0} : 0xAA55AA55AA55AA55ull;
-          written += g.write_tile(bx, by, z, mask, tag);
+          written += VoxelBlocks::write_tile(g, bx, by, z, mask, tag);
         }
     benchmark::DoNotOptimize(g.count());
   }
@@ -89,10 +92,10 @@ void BM_VoxelGridSetIndex(benchmark::State& state) {
   std::size_t written = 0;
   for (auto _ : state) {
     VoxelGrid g(0.05, Vec3::Zero(), Eigen::Vector3i(n, n, nz));
-    const auto tag = g.add_tag(VoxelTag{1, 0, Feature::perimeter});
+    const auto tag = VoxelBlocks::add_tag(g, VoxelTag{1, 0, Feature::perimeter});
     for (int z = 0; z < nz; ++z)
       for (int y = 0; y < n; ++y)
-        for (int x = 0; x < n; ++x) written += g.set_index(VoxelKey{x, y, z}, tag) ? 1 : 0;
+        for (int x = 0; x < n; ++x) written += VoxelBlocks::set_index(g, VoxelKey{x, y, z}, tag) ? 1 : 0;
     benchmark::DoNotOptimize(g.count());
   }
   state.SetItemsProcessed(static_cast<std::int64_t>(written));

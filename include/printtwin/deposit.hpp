@@ -24,6 +24,10 @@
 
 namespace printtwin {
 
+namespace detail {
+struct DepositRun;
+}  // namespace detail
+
 struct DepositSettings {
   double voxel_mm = 0.05;             ///< voxel edge
   /// A bead is supported when at least this fraction of its width rests on the bed or on
@@ -33,12 +37,6 @@ struct DepositSettings {
   std::size_t max_memory_bytes = std::size_t{2} << 30;
   /// Unsupported stretches shorter than this are not reported (still in `unsupported`).
   double min_unsupported_mm = 1.0;
-  /// Test every voxel of each bead's bounding box instead of the footprint's tiles (slow;
-  /// the tests use it to check that the footprint bounds never miss a voxel).
-  bool exhaustive_tiles = false;
-  /// Write the voxels on a second thread that runs behind the bead sweep (when the machine
-  /// has more than one hardware thread). The grid is the same bit for bit either way.
-  bool writer_thread = true;
 };
 
 /// A run of consecutive unsupported bead samples along one continuous extrusion path.
@@ -113,8 +111,7 @@ class DepositBuilder {
  private:
   struct State;
   explicit DepositBuilder(std::unique_ptr<State> state);
-  friend Result<DepositResult> deposit_moves(std::span<const Move>, const PrinterProfile&,
-                                             const DepositSettings&);
+  friend struct detail::DepositRun;  // deposit_moves (src/deposit/)
   std::unique_ptr<State> state_;
 };
 

@@ -37,7 +37,6 @@
 #include <string>
 #include <vector>
 
-#include "printtwin/default_init_allocator.hpp"
 #include "printtwin/deviation_types.hpp"
 #include "printtwin/geometry.hpp"
 #include "printtwin/mesh.hpp"
@@ -76,70 +75,11 @@ struct SurfaceSample {
 [[nodiscard]] DeviationStats deviation_stats(std::span<const double> signed_mm,
                                              double tolerance_mm);
 
-// ---------------------------------------------------------------- the deposit's surface
+// ---------------------------------------------------------------- the analysed deposit
 
-/// One exposed face of the deposit's outer surface.
-struct SurfaceFace {
-  VoxelKey voxel;               ///< the filled voxel the face belongs to
-  std::uint8_t axis = 0;        ///< 0 x, 1 y, 2 z: the face's normal axis
-  std::int8_t side = 1;         ///< +1: face on the voxel's max side, -1: min side
-};
-
-/// Features whose voxels are not part of the analysed deposit.
+/// Features whose voxels are not part of the analysed deposit (skirt, brim, support, wipe
+/// tower, purge): compute_deviation treats them as empty.
 [[nodiscard]] bool is_auxiliary_feature(Feature f);
-
-/// The outer surface of the deposit inside `region_mm`, plus the filled volume.
-struct DepositSurface {
-  double voxel_mm = 0;
-  Vec3 origin_mm = Vec3::Zero();          ///< min corner of the analysed region (voxel aligned)
-  VoxelKey origin_key{};                  ///< grid key of the region's min-corner voxel
-  Eigen::Vector3i dims = Eigen::Vector3i::Zero();  ///< analysed voxels per axis
-  /// Fixed order, by 4^3-voxel cell: the grid's 8^3 blocks in the order of
-  /// filled_block_code (y, then x, then z), each block's 8 cells by their y, x and z halves,
-  /// in a cell its voxel rows by y then x, voxels by z, a voxel's faces consecutive (-x +x -y
-  /// +y -z +z). Both distance searches visit the faces cell by cell in this order.
-  std::vector<SurfaceFace> faces;
-  std::vector<Vec3> face_centers_mm;      ///< centre of each face (the deposit->mesh points)
-  std::vector<VoxelTag> face_tags;        ///< tag of each face's voxel
-  /// The blocks holding faces, as indices into filled_block_code, ascending.
-  std::vector<std::uint32_t> face_blocks;
-  /// First face of cell c (0..7: y half * 4 + x half * 2 + z half) of face block k:
-  /// face_cell_begin[8 k + c]; a cell ends where the next begins (one entry past the last).
-  std::vector<std::uint32_t> face_cell_begin;
-  /// Filled (not outside-reachable) voxels, by 8^3 block of the grid: word z of a block is its
-  /// z-slice z, bit y * 8 + x its voxel (x, y).
-  using BlockBits = std::array<std::uint64_t, 8>;
-  /// Per block code: every region voxel of the block filled, none, or filled_masks[code - 2].
-  static constexpr std::uint32_t kAllFilled = 0, kNoneFilled = 1, kFirstMask = 2;
-  Eigen::Vector3i filled_blocks_lo = Eigen::Vector3i::Zero();    ///< first block (grid block coords)
-  Eigen::Vector3i filled_blocks_dims = Eigen::Vector3i::Zero();  ///< blocks per axis, covering the region
-  /// Codes of the blocks, y then x then z (z fastest).
-  std::vector<std::uint32_t> filled_block_code;
-  std::vector<BlockBits> filled_masks;
-  std::size_t occupied_voxels = 0;        ///< occupied part voxels in the region
-  std::size_t filled_voxels = 0;          ///< occupied + enclosed voids
-
-  /// True when p lies in a filled voxel of the region (false outside the region).
-  [[nodiscard]] bool filled(const Vec3& p_mm) const;
-  /// The code of p's block and p's bit in it (slot z * 64 + y * 8 + x); nullptr when p is
-  /// outside the region.
-  [[nodiscard]] const std::uint32_t* filled_code_of(const Vec3& p_mm, int& slot) const;
-};
-
-/// Extracts the outer surface of `grid` within `region_mm` (expanded to whole voxels and
-/// padded by one voxel so the border is outside). Voxels of auxiliary features are empty.
-/// `seal_gap_mm` > 0: gaps up to about that width (2r voxels, r = floor(seal / (2 voxel)))
-/// do not let the outside in: the flood fill runs on the occupancy dilated by r voxels and
-/// the outside found is dilated back by r (a morphological opening of the empty space), so
-/// pinholes between beads do not expose the infill. Faces belong to occupied voxels only.
-[[nodiscard]] DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_mm,
-                                                   double seal_gap_mm = 0);
-
-/// Exact distances from points to the union of the surface's face squares, signed
-/// positive when the point is in the filled volume. Nearest face index per point in
-/// `nearest_face` (may be null). Parallel (TBB).
-void distances_to_deposit(const DepositSurface& surface, std::span<const Vec3> points,
-                          std::vector<double>& signed_mm, std::vector<std::uint32_t>* nearest_face);
 
 // ---------------------------------------------------------------- mesh distances
 
@@ -337,7 +277,7 @@ struct DeviationSettings {
   std::uint64_t seed = 1;
   double cluster_radius_mm = 0;       ///< 0: max(2 voxels, 3 x the mesh sample spacing)
   double region_margin_mm = 1.0;      ///< analysed region = mesh box (+ part box) + margin
-  /// Gaps in the deposit narrower than this do not let the outside in (extract_outer_surface).
+  /// Gaps in the deposit narrower than this do not let the outside in (the outer surface).
   double seal_gap_mm = 0.2;
   int max_regions = 50;               ///< keep the largest regions (by area)
   /// Out-of-tolerance clusters smaller than this are voxel noise, not defects: they are not

@@ -32,10 +32,14 @@
 #include "core/bits.hpp"
 #include "core/zeroed_array.hpp"
 #include "deposit/bead_raster.hpp"
+#include "deposit/deposit_run.hpp"
 #include "deposit/grid_writer.hpp"
+#include "deposit/voxel_blocks.hpp"
 #include "printtwin/io.hpp"
 
 namespace printtwin {
+
+using detail::VoxelBlocks;
 
 namespace {
 
@@ -195,7 +199,7 @@ double stadium_width_mm(double area_mm2, double height_mm) {
 
 // ---------------------------------------------------------------------------------------
 struct DepositBuilder::State {
-  DepositSettings settings;
+  detail::DepositRunSettings settings;
   double voxel = 0.05;
   double inv_voxel = 20;
   double filament_area_mm2 = 0;
@@ -232,7 +236,7 @@ struct DepositBuilder::State {
   // The grid's writes, in order, on a writer thread when there is a second core.
   detail::GridWriter writer;
 
-  State(const DepositSettings& s, const PrinterProfile& p, const Vec3& origin,
+  State(const detail::DepositRunSettings& s, const PrinterProfile& p, const Vec3& origin,
         const Eigen::Vector3i& dims)
       : settings(s),
         voxel(s.voxel_mm),
@@ -247,8 +251,8 @@ struct DepositBuilder::State {
         oy_(origin.y()),
         oz_(origin.z()),
         writer(grid, s.writer_thread && std::thread::hardware_concurrency() > 1) {
-    tiles_x = static_cast<std::size_t>(grid.block_dims().x());
-    top = ZeroedArray<std::uint16_t>(tiles_x * static_cast<std::size_t>(grid.block_dims().y()) * 64 + 1);  // + padding (count_held)
+    tiles_x = static_cast<std::size_t>(VoxelBlocks::block_dims(grid).x());
+    top = ZeroedArray<std::uint16_t>(tiles_x * static_cast<std::size_t>(VoxelBlocks::block_dims(grid).y()) * 64 + 1);  // + padding (count_held)
     top_layer = ZeroedArray<std::int32_t>(top.size());
   }
 
@@ -537,7 +541,7 @@ struct DepositBuilder::State {
     // the few extra tile tests they save.) The tiles of one bead are disjoint and carry one
     // tag, so the order they are written in changes nothing.
     constexpr double kBoundSlack = 1e-3;
-    const auto& bdims = grid.block_dims();
+    const auto& bdims = VoxelBlocks::block_dims(grid);
     const std::int32_t layer = pb.move.layer;
     const int k_lo = std::max(0, static_cast<int>(std::floor(zt_lo - hh)));
     const int k_hi = std::min(nz - 1, static_cast<int>(std::ceil(zt_hi)) - 1);
@@ -637,7 +641,7 @@ struct DepositBuilder::State {
     Eigen::Vector3i hi = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
     // Min and max do not depend on the order: the allocated blocks as they come, not the
     // whole directory (most of which, over the bed around the part, was never touched).
-    grid.visit_blocks_as_allocated([&](const VoxelGrid::BlockView& blk) {
+    VoxelBlocks::visit_blocks_as_allocated(grid, [&](const VoxelBlocks::BlockView& blk) {
       std::uint64_t any = 0;
       for (int z = 0; z < 8; ++z) {
         if (blk.occupancy[z] == 0) continue;
@@ -792,10 +796,10 @@ Frame frame_for(const Box3& tips, double margin_mm, double voxel) {
 
 double grid_bytes(const Eigen::Vector3i& dims, std::size_t blocks, std::size_t tags) {
   const Eigen::Vector3d bd = ((dims.array() + 7) / 8).cast<double>();
-  return bd.prod() * 4.0 + static_cast<double>(blocks) * VoxelGrid::kBlockBytes +
+  return bd.prod() * 4.0 + static_cast<double>(blocks) * VoxelBlocks::kBlockBytes +
          static_cast<double>(dims.x()) * dims.y() * (sizeof(std::uint16_t) + sizeof(std::int32_t)) +  // height, top layer
          static_cast<double>(tags) * sizeof(VoxelTag) +
-         1024.0 * VoxelGrid::kBlockBytes;
+         1024.0 * VoxelBlocks::kBlockBytes;
 }
 
 /// The estimate at one voxel size: bead footprints marked block by block.
@@ -881,6 +885,11 @@ Result<DepositEstimate> estimate_deposit(std::span<const Move> moves, const Prin
 
 Result<DepositResult> deposit_moves(std::span<const Move> moves, const PrinterProfile& profile,
                                     const DepositSettings& settings) {
+  return detail::DepositRun::moves(moves, profile, detail::DepositRunSettings(settings));
+}
+
+Result<DepositResult> detail::DepositRun::moves(std::span<const Move> moves, const PrinterProfile& profile,
+                                                const DepositRunSettings& settings) {
   if (auto st = check_settings(settings); !st) return st.error();
   const DepositEstimate e = estimate_at(moves, profile, settings.voxel_mm);
   const auto budget = static_cast<double>(settings.max_memory_bytes);
@@ -896,7 +905,7 @@ Result<DepositResult> deposit_moves(std::span<const Move> moves, const PrinterPr
     return over_budget(static_cast<double>(e.bytes), budget, settings.voxel_mm, v);
   }
   auto state = std::make_unique<DepositBuilder::State>(settings, profile, e.origin_mm, e.dims);
-  state->grid.reserve_blocks(e.blocks);
+  VoxelBlocks::reserve_blocks(state->grid, e.blocks);
   for (const auto& m : moves) state->add(m);
   return state->finish();
 }
@@ -920,8 +929,8 @@ Result<DepositBuilder> DepositBuilder::create(const Box3& extent_mm, const Print
     const double suggested = std::ceil(v * std::cbrt(bytes / (0.9 * budget)) * 100.0) / 100.0;
     return over_budget(bytes, budget, v, std::max(suggested, v + 0.01));
   }
-  auto state = std::make_unique<State>(settings, profile, f.origin, f.dims);
-  state->grid.reserve_blocks(blocks);
+  auto state = std::make_unique<State>(detail::DepositRunSettings(settings), profile, f.origin, f.dims);
+  VoxelBlocks::reserve_blocks(state->grid, blocks);
   return DepositBuilder(std::move(state));
 }
 

@@ -7,10 +7,13 @@
 #include <string>
 
 #include "deposit/palette.hpp"
+#include "deposit/voxel_blocks.hpp"
 #include "printtwin/deposit.hpp"
 #include "printtwin/io.hpp"
 
 namespace printtwin {
+
+using detail::VoxelBlocks;
 
 namespace {
 
@@ -42,7 +45,7 @@ nlohmann::json box_json(const Box3& b) {
 
 Status write_deposit_ply(const VoxelGrid& grid, const std::filesystem::path& path) {
   const std::vector<SurfaceVoxel> surface = outer_surface(grid);
-  const auto& tags = grid.tag_table();
+  const auto& tags = VoxelBlocks::tag_table(grid);
   std::string out;
   out += "ply\nformat binary_little_endian 1.0\n";
   out += "comment printtwin deposit: outer surface voxels (centres, mm), voxel_mm " +
@@ -64,7 +67,7 @@ Status write_deposit_ply(const VoxelGrid& grid, const std::filesystem::path& pat
            (s.exposed_faces >> 3 & 1) - (s.exposed_faces >> 2 & 1),
            (s.exposed_faces >> 5 & 1) - (s.exposed_faces >> 4 & 1));
     if (n.squaredNorm() > 0) n.normalize();
-    const auto ti = grid.tag_index(s.key);
+    const auto ti = VoxelBlocks::tag_index(grid, s.key);
     const VoxelTag tag = ti ? tags[*ti] : VoxelTag{};
     const auto rgb = deposit_detail::layer_color(tag.layer);
     put(out, static_cast<float>(c.x()));

@@ -1,6 +1,7 @@
 #include "deposit/grid_writer.hpp"
 
 #include "core/bits.hpp"
+#include "deposit/voxel_blocks.hpp"
 
 namespace printtwin::detail {
 
@@ -30,11 +31,11 @@ void GridWriter::tile(int bx, int by, int k, std::uint64_t mask) {
 
 void GridWriter::apply(const Record& r) {
   if (r.kind == 1) {
-    tag_index_ = grid_->add_tag(VoxelTag{static_cast<std::uint32_t>(r.bits), static_cast<std::int32_t>(r.bits >> 32),
+    tag_index_ = VoxelBlocks::add_tag(*grid_, VoxelTag{static_cast<std::uint32_t>(r.bits), static_cast<std::int32_t>(r.bits >> 32),
                                         static_cast<Feature>(r.by)});
     return;
   }
-  const std::size_t fresh = grid_->write_tile(r.bx, r.by, r.k, r.bits, tag_index_);
+  const std::size_t fresh = VoxelBlocks::write_tile(*grid_, r.bx, r.by, r.k, r.bits, tag_index_);
   overlap_ += static_cast<std::size_t>(popcount64(r.bits)) - fresh;
 }
 

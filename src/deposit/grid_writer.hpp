@@ -22,9 +22,9 @@ class GridWriter {
   GridWriter& operator=(const GridWriter&) = delete;
   ~GridWriter();
 
-  /// The tag of the writes that follow (VoxelGrid::add_tag, in order).
+  /// The tag of the writes that follow (VoxelBlocks::add_tag, in order).
   void tag(const VoxelTag& tag);
-  /// ORs `mask` into z-slice k of block (bx, by) with the current tag (VoxelGrid::write_tile).
+  /// ORs `mask` into z-slice k of block (bx, by) with the current tag (VoxelBlocks::write_tile).
   void tile(int bx, int by, int k, std::uint64_t mask);
   /// Waits until every write is in the grid (stops the writer thread); returns how many of
   /// the voxels written were occupied already. Rethrows what the writer thread threw.

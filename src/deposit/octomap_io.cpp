@@ -23,10 +23,13 @@
 #include <sstream>
 
 #include "deposit/palette.hpp"
+#include "deposit/voxel_blocks.hpp"
 #include "printtwin/deposit.hpp"
 #include "printtwin/io.hpp"
 
 namespace printtwin {
+
+using detail::VoxelBlocks;
 
 namespace {
 
@@ -183,7 +186,7 @@ std::vector<Cube> cubes_of(const VoxelGrid& grid) {
              sz = static_cast<unsigned>(offset.z() & 7);
   const auto qx = static_cast<std::uint32_t>(offset.x() >> 3), qy = static_cast<std::uint32_t>(offset.y() >> 3),
              qz = static_cast<std::uint32_t>(offset.z() >> 3);
-  const Eigen::Vector3i nb = grid.block_dims();
+  const Eigen::Vector3i nb = VoxelBlocks::block_dims(grid);
   const int ncx = nb.x() + 1, ncy = nb.y() + 1;
   using Bits = std::array<std::uint64_t, 8>;
   std::array<std::vector<Bits>, 2> layers;
@@ -209,7 +212,7 @@ std::vector<Cube> cubes_of(const VoxelGrid& grid) {
   for (int bz = 0; bz < nb.z(); ++bz) {
     for (int by = 0; by < nb.y(); ++by)
       for (int bx = 0; bx < nb.x(); ++bx) {
-        const std::uint64_t* occupancy = grid.block_occupancy(bx, by, bz);
+        const std::uint64_t* occupancy = VoxelBlocks::block_occupancy(grid, bx, by, bz);
         if (occupancy == nullptr) continue;
         for (unsigned z = 0; z < 8; ++z) {
           const std::uint64_t w = occupancy[z];
@@ -291,7 +294,7 @@ class OtEncoder {
  public:
   OtEncoder(const VoxelGrid& grid, std::vector<Cube> cubes, VoxelColoring coloring, float occupied_log_odds)
       : grid_(grid), cubes_(std::move(cubes)) {
-    const auto& table = grid.tag_table();
+    const auto& table = VoxelBlocks::tag_table(grid);
     colours_.reserve(table.size());
     for (const auto& tag : table)
       colours_.push_back(pack(coloring == VoxelColoring::layer ? deposit_detail::layer_color(tag.layer)
@@ -381,14 +384,14 @@ class OtEncoder {
       spans[a] = ((g0[a] + 7) >> 3) - b0[a] + 1;  // 1 when aligned, else 2
     }
     // The blocks the cube overlaps, each with its one colour (0 when its tags differ).
-    std::array<std::optional<VoxelGrid::BlockView>, 8> blocks;
+    std::array<std::optional<VoxelBlocks::BlockView>, 8> blocks;
     std::array<OtNode, 8> block_colour{};
     OtNode shared = ~OtNode{0};  // not yet known
     for (int dz = 0; dz < spans[2]; ++dz)
       for (int dy = 0; dy < spans[1]; ++dy)
         for (int dx = 0; dx < spans[0]; ++dx) {
           const auto bi = static_cast<std::size_t>(dx | (dy << 1) | (dz << 2));
-          blocks[bi] = grid_.block_view(b0[0] + dx, b0[1] + dy, b0[2] + dz);
+          blocks[bi] = VoxelBlocks::block_view(grid_, b0[0] + dx, b0[1] + dy, b0[2] + dz);
           if (!blocks[bi]) continue;
           const auto& v = *blocks[bi];
           OtNode c = v.wide == nullptr && v.palette_size > 0 ? colours_[v.palette[0]] : 0;

@@ -8,9 +8,12 @@
 #include <deque>
 #include <vector>
 
+#include "deposit/voxel_blocks.hpp"
 #include "printtwin/deposit.hpp"
 
 namespace printtwin {
+
+using detail::VoxelBlocks;
 
 namespace {
 
@@ -63,7 +66,7 @@ const std::array<Eigen::Vector3i, 6> kStep = {Eigen::Vector3i(-1, 0, 0), Eigen::
 }  // namespace
 
 std::vector<SurfaceVoxel> outer_surface(const VoxelGrid& grid) {
-  const Eigen::Vector3i bd = grid.block_dims();
+  const Eigen::Vector3i bd = VoxelBlocks::block_dims(grid);
   const std::size_t nblocks = static_cast<std::size_t>(bd.x()) * static_cast<std::size_t>(bd.y()) *
                               static_cast<std::size_t>(bd.z());
   std::vector<SurfaceVoxel> out;
@@ -85,7 +88,7 @@ std::vector<SurfaceVoxel> outer_surface(const VoxelGrid& grid) {
 
   auto seed = [&](const Eigen::Vector3i& b, const Mask& candidates) {
     const std::size_t i = index(b);
-    const std::uint64_t* occ = grid.block_occupancy(b.x(), b.y(), b.z());
+    const std::uint64_t* occ = VoxelBlocks::block_occupancy(grid, b.x(), b.y(), b.z());
     if (occ == nullptr) {
       if (!reached[i]) {
         reached[i] = 1;
@@ -131,7 +134,7 @@ std::vector<SurfaceVoxel> outer_surface(const VoxelGrid& grid) {
     const Eigen::Vector3i b = work.front();
     work.pop_front();
     const std::size_t i = index(b);
-    const std::uint64_t* occ = grid.block_occupancy(b.x(), b.y(), b.z());
+    const std::uint64_t* occ = VoxelBlocks::block_occupancy(grid, b.x(), b.y(), b.z());
     Mask reach;
     if (occ == nullptr) {
       reach.fill(~0ull);
@@ -161,7 +164,7 @@ std::vector<SurfaceVoxel> outer_surface(const VoxelGrid& grid) {
   }
 
   // Surface: occupied voxels next to outside air (inside the block, or across a face).
-  grid.visit_blocks([&](const VoxelGrid::BlockView& blk) {
+  VoxelBlocks::visit_blocks(grid, [&](const VoxelBlocks::BlockView& blk) {
     const Eigen::Vector3i b(blk.base.x / 8, blk.base.y / 8, blk.base.z / 8);
     const std::size_t i = index(b);
     const Mask a = slot[i] ? air[slot[i] - 1] : Mask{};
@@ -174,7 +177,7 @@ std::vector<SurfaceVoxel> outer_surface(const VoxelGrid& grid) {
         nair.fill(~0ull);
       } else {
         const std::size_t ni = index(nb);
-        if (grid.block_occupancy(nb.x(), nb.y(), nb.z()) == nullptr) {
+        if (VoxelBlocks::block_occupancy(grid, nb.x(), nb.y(), nb.z()) == nullptr) {
           if (reached[ni]) nair.fill(~0ull); else nair = Mask{};
         } else {
           nair = slot[ni] ? air[slot[ni] - 1] : Mask{};

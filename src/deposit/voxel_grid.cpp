@@ -28,6 +28,7 @@
 #include "core/bits.hpp"
 #include "core/zeroed_array.hpp"
 #include "deposit/nibbles.hpp"
+#include "deposit/voxel_blocks.hpp"
 
 #if defined(__linux__)
 #include <sys/mman.h>
@@ -96,8 +97,10 @@ void store_nibbles(std::uint8_t* row, std::uint64_t mask, unsigned e) {
 }  // namespace detail
 
 namespace {
-constexpr int kEdge = VoxelGrid::kBlockEdge;
-constexpr int kPalette = VoxelGrid::kPaletteSize;
+using detail::VoxelBlocks;
+constexpr int kEdge = VoxelBlocks::kBlockEdge;
+constexpr int kPalette = VoxelBlocks::kPaletteSize;
+constexpr std::size_t kBlockBytes = VoxelBlocks::kBlockBytes;
 constexpr std::size_t kChunkBlocks = 4096;  // blocks per allocation chunk (1.5 MiB)
 constexpr std::uint32_t kNoBlock = 0;       // directory value of an unallocated block
 constexpr std::size_t kNibbleBytes = 512 / 2;  // per block
@@ -336,33 +339,33 @@ bool VoxelGrid::occupied(const VoxelKey& k) const {
   return (impl_->occ(static_cast<std::size_t>(b))[k.z & 7] & bit) != 0;
 }
 
-std::optional<std::uint32_t> VoxelGrid::tag_index(const VoxelKey& k) const {
-  if (!occupied(k)) return std::nullopt;
-  const auto b = static_cast<std::size_t>(impl_->block_of(k));
-  return impl_->load_tag(b, (k.z & 7) * 64 + (k.y & 7) * 8 + (k.x & 7));
+std::optional<std::uint32_t> VoxelBlocks::tag_index(const VoxelGrid& grid, const VoxelKey& k) {
+  if (!grid.occupied(k)) return std::nullopt;
+  const auto b = static_cast<std::size_t>(grid.impl_->block_of(k));
+  return grid.impl_->load_tag(b, (k.z & 7) * 64 + (k.y & 7) * 8 + (k.x & 7));
 }
 
 std::optional<VoxelTag> VoxelGrid::tag(const VoxelKey& k) const {
-  const auto i = tag_index(k);
+  const auto i = VoxelBlocks::tag_index(*this, k);
   if (!i) return std::nullopt;
   return impl_->tags[*i];
 }
 
-std::uint32_t VoxelGrid::add_tag(const VoxelTag& tag) {
-  auto& t = impl_->tags;
+std::uint32_t VoxelBlocks::add_tag(VoxelGrid& grid, const VoxelTag& tag) {
+  auto& t = grid.impl_->tags;
   if (t.empty() || !(t.back() == tag)) t.push_back(tag);
   return static_cast<std::uint32_t>(t.size() - 1);
 }
 
-const std::vector<VoxelTag>& VoxelGrid::tag_table() const { return impl_->tags; }
+const std::vector<VoxelTag>& VoxelBlocks::tag_table(const VoxelGrid& grid) { return grid.impl_->tags; }
 
 bool VoxelGrid::set(const VoxelKey& k, const VoxelTag& tag) {
   if (!impl_->in_range(k)) return false;
-  return set_index(k, add_tag(tag));
+  return VoxelBlocks::set_index(*this, k, VoxelBlocks::add_tag(*this, tag));
 }
 
-bool VoxelGrid::set_index(const VoxelKey& k, std::uint32_t tag_index) {
-  Impl& g = *impl_;
+bool VoxelBlocks::set_index(VoxelGrid& grid, const VoxelKey& k, std::uint32_t tag_index) {
+  VoxelGrid::Impl& g = *grid.impl_;
   if (!g.in_range(k)) return false;
   const std::size_t b = g.block_for_write(k.x >> 3, k.y >> 3, k.z >> 3);
   const int slot = (k.y & 7) * 8 + (k.x & 7);
@@ -375,9 +378,9 @@ bool VoxelGrid::set_index(const VoxelKey& k, std::uint32_t tag_index) {
   return was_empty;
 }
 
-std::size_t VoxelGrid::fill_row(std::int32_t y, std::int32_t z, std::int32_t x0, std::int32_t x1,
-                                std::uint32_t tag_index) {
-  Impl& g = *impl_;
+std::size_t VoxelBlocks::fill_row(VoxelGrid& grid, std::int32_t y, std::int32_t z, std::int32_t x0,
+                                  std::int32_t x1, std::uint32_t tag_index) {
+  VoxelGrid::Impl& g = *grid.impl_;
   if (y < 0 || z < 0 || y >= g.dims.y() || z >= g.dims.z()) return 0;
   x0 = std::max(x0, 0);
   x1 = std::min(x1, g.dims.x());
@@ -400,9 +403,9 @@ std::size_t VoxelGrid::fill_row(std::int32_t y, std::int32_t z, std::int32_t x0,
   return fresh;
 }
 
-std::size_t VoxelGrid::write_tile(int bx, int by, std::int32_t z, std::uint64_t mask,
-                                  std::uint32_t tag_index) {
-  Impl& g = *impl_;
+std::size_t VoxelBlocks::write_tile(VoxelGrid& grid, int bx, int by, std::int32_t z, std::uint64_t mask,
+                                    std::uint32_t tag_index) {
+  VoxelGrid::Impl& g = *grid.impl_;
   const std::size_t b = g.block_for_write(bx, by, z >> 3);
   std::uint64_t& word = g.occ(b)[z & 7];
   const auto fresh = static_cast<std::size_t>(popcount64(mask & ~word));
@@ -426,14 +429,13 @@ void VoxelGrid::clear(const VoxelKey& k) {
 
 std::size_t VoxelGrid::count() const { return impl_->occupied; }
 
-
-void VoxelGrid::reserve_blocks(std::size_t blocks) {
-  while (impl_->chunks.size() * kChunkBlocks < blocks) impl_->add_chunk();
+void VoxelBlocks::reserve_blocks(VoxelGrid& grid, std::size_t blocks) {
+  while (grid.impl_->chunks.size() * kChunkBlocks < blocks) grid.impl_->add_chunk();
 }
 
-std::size_t VoxelGrid::block_count() const { return impl_->blocks; }
+std::size_t VoxelBlocks::block_count(const VoxelGrid& grid) { return grid.impl_->blocks; }
 
-std::size_t VoxelGrid::wide_block_count() const { return impl_->wide.size(); }
+std::size_t VoxelBlocks::wide_block_count(const VoxelGrid& grid) { return grid.impl_->wide.size(); }
 
 std::size_t VoxelGrid::memory_bytes() const {
   return impl_->directory.size() * sizeof(std::uint32_t) +
@@ -451,10 +453,10 @@ std::size_t VoxelGrid::estimate_bytes(const Eigen::Vector3i& dims, std::size_t o
   return directory + blocks * kBlockBytes;
 }
 
-Eigen::Vector3i VoxelGrid::block_dims() const { return impl_->block_dims; }
+Eigen::Vector3i VoxelBlocks::block_dims(const VoxelGrid& grid) { return grid.impl_->block_dims; }
 
-const std::uint64_t* VoxelGrid::block_occupancy(int bx, int by, int bz) const {
-  const Impl& g = *impl_;
+const std::uint64_t* VoxelBlocks::block_occupancy(const VoxelGrid& grid, int bx, int by, int bz) {
+  const VoxelGrid::Impl& g = *grid.impl_;
   if (bx < 0 || by < 0 || bz < 0 || bx >= g.block_dims.x() || by >= g.block_dims.y() ||
       bz >= g.block_dims.z())
     return nullptr;
@@ -462,8 +464,8 @@ const std::uint64_t* VoxelGrid::block_occupancy(int bx, int by, int bz) const {
   return d == kNoBlock ? nullptr : g.occ(d - 1);
 }
 
-VoxelGrid::BlockView VoxelGrid::view_of_block(std::size_t b, int bx, int by, int bz) const {
-  const Impl& g = *impl_;
+VoxelBlocks::BlockView VoxelBlocks::view_of_block(const VoxelGrid& grid, std::size_t b, int bx, int by, int bz) {
+  const VoxelGrid::Impl& g = *grid.impl_;
   const bool wide = g.palette_size[b] == kWide;
   return BlockView{VoxelKey{bx * kEdge, by * kEdge, bz * kEdge},
                    g.occ(b),
@@ -474,32 +476,47 @@ VoxelGrid::BlockView VoxelGrid::view_of_block(std::size_t b, int bx, int by, int
                    static_cast<std::uint32_t>(b)};
 }
 
-std::optional<VoxelGrid::BlockView> VoxelGrid::block_view(int bx, int by, int bz) const {
-  const Impl& g = *impl_;
+std::optional<VoxelBlocks::BlockView> VoxelBlocks::block_view(const VoxelGrid& grid, int bx, int by, int bz) {
+  const VoxelGrid::Impl& g = *grid.impl_;
   if (bx < 0 || by < 0 || bz < 0 || bx >= g.block_dims.x() || by >= g.block_dims.y() ||
       bz >= g.block_dims.z())
     return std::nullopt;
   const std::uint32_t d = g.directory[g.dir_index(bx, by, bz)];
   if (d == kNoBlock) return std::nullopt;
-  return view_of_block(d - 1, bx, by, bz);
+  return view_of_block(grid, d - 1, bx, by, bz);
 }
 
-void VoxelGrid::visit_blocks(const std::function<void(const BlockView&)>& fn) const {
-  const Impl& g = *impl_;
+void VoxelBlocks::visit_blocks(const VoxelGrid& grid, const std::function<void(const BlockView&)>& fn) {
+  const VoxelGrid::Impl& g = *grid.impl_;
   for (int bz = 0; bz < g.block_dims.z(); ++bz)
     for (int by = 0; by < g.block_dims.y(); ++by)
       for (int bx = 0; bx < g.block_dims.x(); ++bx) {
         const std::uint32_t d = g.directory[g.dir_index(bx, by, bz)];
-        if (d != kNoBlock) fn(view_of_block(d - 1, bx, by, bz));
+        if (d != kNoBlock) fn(view_of_block(grid, d - 1, bx, by, bz));
       }
 }
 
-void VoxelGrid::visit_blocks_as_allocated(const std::function<void(const BlockView&)>& fn) const {
-  const Impl& g = *impl_;
+void VoxelBlocks::visit_blocks_as_allocated(const VoxelGrid& grid, const std::function<void(const BlockView&)>& fn) {
+  const VoxelGrid::Impl& g = *grid.impl_;
   for (std::size_t b = 0; b < g.blocks; ++b) {
     const auto& c = g.block_coord[b];
-    fn(view_of_block(b, c[0], c[1], c[2]));
+    fn(view_of_block(grid, b, c[0], c[1], c[2]));
   }
+}
+
+void VoxelGrid::for_each(const std::function<void(const VoxelKey&, const VoxelTag&)>& fn) const {
+  const auto& table = impl_->tags;
+  VoxelBlocks::visit_blocks(*this, [&](const VoxelBlocks::BlockView& b) {
+    for (int z = 0; z < kEdge; ++z) {
+      std::uint64_t bits = b.occupancy[z];
+      while (bits != 0) {
+        const int bit = std::countr_zero(bits);
+        bits &= bits - 1;
+        const VoxelKey k{b.base.x + (bit & 7), b.base.y + (bit >> 3), b.base.z + z};
+        fn(k, table[b.tag_index(z * 64 + bit)]);
+      }
+    }
+  });
 }
 
 std::vector<VoxelKey> VoxelGrid::occupied_keys() const {

@@ -16,11 +16,14 @@
 
 #include "core/bits.hpp"
 #include "core/zeroed_array.hpp"
+#include "deposit/voxel_blocks.hpp"
 #include "deviation/deposit_surface_internal.hpp"
 #include "deviation/point_groups.hpp"
 #include "printtwin/deviation.hpp"
 
 namespace printtwin {
+
+using detail::VoxelBlocks;
 
 // ---------------------------------------------------------------- distances to the faces
 
@@ -46,12 +49,12 @@ struct FaceBuckets {
   Vec3 origin_mm = Vec3::Zero();  ///< corner of cell (0, 0, 0): the surface's first block
 
   explicit FaceBuckets(const DepositSurface& s) {
-    static_assert(2 * kCell == VoxelGrid::kBlockEdge);
+    static_assert(2 * kCell == VoxelBlocks::kBlockEdge);
     static_assert(sizeof(Vec3) == 3 * sizeof(double), "face centres are read as rows of doubles");
     cell_mm = s.voxel_mm * kCell;
     pairs = s.filled_blocks_dims;
     cells = 2 * pairs;
-    const Eigen::Vector3i first_key = VoxelGrid::kBlockEdge * s.filled_blocks_lo;
+    const Eigen::Vector3i first_key = VoxelBlocks::kBlockEdge * s.filled_blocks_lo;
     origin_mm = s.origin_mm + s.voxel_mm * Vec3(first_key.x() - s.origin_key.x, first_key.y() - s.origin_key.y,
                                                  first_key.z() - s.origin_key.z);
     slot = ZeroedArray<std::uint32_t>(static_cast<std::size_t>(pairs.x()) * pairs.y() * pairs.z());

@@ -4,7 +4,7 @@
 #include <span>
 #include <vector>
 
-#include "printtwin/deviation.hpp"
+#include "deviation/outer_surface.hpp"
 
 namespace printtwin::detail {
 

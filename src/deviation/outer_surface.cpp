@@ -17,9 +17,12 @@
 
 #include "core/bits.hpp"
 #include "core/zeroed_array.hpp"
-#include "printtwin/deviation.hpp"
+#include "deposit/voxel_blocks.hpp"
+#include "deviation/outer_surface.hpp"
 
 namespace printtwin {
+
+using detail::VoxelBlocks;
 
 bool is_auxiliary_feature(Feature f) {
   switch (f) {
@@ -34,7 +37,7 @@ bool is_auxiliary_feature(Feature f) {
 
 namespace {
 
-constexpr int kE = VoxelGrid::kBlockEdge;
+constexpr int kE = VoxelBlocks::kBlockEdge;
 static_assert(kE == 8, "a block's z-slice is one 64-bit word");
 
 /// An 8^3 block of voxel bits laid out as the grid's occupancy: word z is z-slice z, bit
@@ -354,7 +357,7 @@ class DilatedField {
 
 /// Bit i set when voxel i of z-slice z of block b has an auxiliary tag (`auxiliary[t]` is 1
 /// for an auxiliary tag index t; indices clamped to `last`; tags of empty voxels mean nothing).
-std::uint64_t aux_mask(const VoxelGrid::BlockView& b, int z, const std::uint8_t* auxiliary, std::uint32_t last) {
+std::uint64_t aux_mask(const VoxelBlocks::BlockView& b, int z, const std::uint8_t* auxiliary, std::uint32_t last) {
   std::uint64_t m = 0;
   if (b.wide != nullptr) {
     for (int i = 0; i < 64; ++i)
@@ -467,14 +470,14 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   // 1. Part voxels (occupied, not auxiliary, in I) per block of the box: a pointer to the
   // grid's occupancy, or to a filtered copy where auxiliary voxels or I's border cut it. The
   // allocated blocks are read in the order they were allocated (their memory order).
-  const auto& table = grid.tag_table();
+  const auto& table = VoxelBlocks::tag_table(grid);
   std::vector<std::uint8_t> auxiliary(table.size());
   for (std::size_t i = 0; i < table.size(); ++i) auxiliary[i] = is_auxiliary_feature(table[i].feature) ? 1 : 0;
   const auto last_tag = static_cast<std::uint32_t>(auxiliary.empty() ? 0 : auxiliary.size() - 1);
   const std::size_t n_blocks = box.size();
   ZeroedArray<const Cube*> part_of(n_blocks);
   CubePool filtered;
-  grid.visit_blocks_as_allocated([&](const VoxelGrid::BlockView& b) {
+  VoxelBlocks::visit_blocks_as_allocated(grid, [&](const VoxelBlocks::BlockView& b) {
     const int bx = b.base.x >> 3, by = b.base.y >> 3, bz = b.base.z >> 3;
     if (!box.contains(bx, by, bz)) return;
     Cube c;
@@ -821,18 +824,18 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     const auto& list = exposed[static_cast<std::size_t>(r)];
     // A block's tag slots are read at random, a few per voxel row: the next block's are
     // fetched while this one is written (its view found one block ahead).
-    const auto fetch_tags = [](const VoxelGrid::BlockView& b) {
+    const auto fetch_tags = [](const VoxelBlocks::BlockView& b) {
       if (b.wide != nullptr) return;
       for (int line = 0; line < 256; line += 64) __builtin_prefetch(b.nibbles + line);
       __builtin_prefetch(b.palette);
     };
-    std::optional<VoxelGrid::BlockView> next_view;
-    if (!list.empty()) next_view = grid.block_view(list[0].bx, by, list[0].bz);
+    std::optional<VoxelBlocks::BlockView> next_view;
+    if (!list.empty()) next_view = VoxelBlocks::block_view(grid, list[0].bx, by, list[0].bz);
     for (std::size_t c = 0; c < list.size(); ++c) {
       const Exposed& e = list[c];
-      const VoxelGrid::BlockView view = *next_view;
+      const VoxelBlocks::BlockView view = *next_view;
       if (c + 1 < list.size()) {
-        next_view = grid.block_view(list[c + 1].bx, by, list[c + 1].bz);
+        next_view = VoxelBlocks::block_view(grid, list[c + 1].bx, by, list[c + 1].bz);
         fetch_tags(*next_view);
       }
       std::size_t next = s.face_cell_begin[8 * (row_blocks[static_cast<std::size_t>(r)] + c)];

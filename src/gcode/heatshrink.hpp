@@ -13,7 +13,7 @@
 #include <string_view>
 #include <vector>
 
-#include "printtwin/default_init_allocator.hpp"
+#include "core/default_init_allocator.hpp"
 
 namespace printtwin::detail {
 

@@ -6,22 +6,25 @@
 #include <nlohmann/json.hpp>
 
 #include "deposit/deposit_test_support.hpp"
+#include "deposit/voxel_blocks.hpp"
 #include "printtwin/deposit.hpp"
 #include "printtwin/io.hpp"
 #include "support/test_support.hpp"
 
 namespace printtwin {
+
+using detail::VoxelBlocks;
 namespace {
 
 /// Fills the box [lo, hi) of voxels.
 void fill_box(VoxelGrid& g, const Eigen::Vector3i& lo, const Eigen::Vector3i& hi, std::uint32_t tag) {
   for (int z = lo.z(); z < hi.z(); ++z)
-    for (int y = lo.y(); y < hi.y(); ++y) g.fill_row(y, z, lo.x(), hi.x(), tag);
+    for (int y = lo.y(); y < hi.y(); ++y) VoxelBlocks::fill_row(g, y, z, lo.x(), hi.x(), tag);
 }
 
 TEST(DepositOuterSurface, SolidBoxShowsItsShell) {
   VoxelGrid g(0.1, Vec3::Zero(), Eigen::Vector3i(40, 40, 40));
-  fill_box(g, {5, 6, 7}, {25, 21, 30}, g.add_tag({1, 0, Feature::perimeter}));
+  fill_box(g, {5, 6, 7}, {25, 21, 30}, VoxelBlocks::add_tag(g, {1, 0, Feature::perimeter}));
   const auto s = outer_surface(g);
   const long nx = 20, ny = 15, nz = 23;
   EXPECT_EQ(static_cast<long>(s.size()), nx * ny * nz - (nx - 2) * (ny - 2) * (nz - 2));
@@ -33,7 +36,7 @@ TEST(DepositOuterSurface, SolidBoxShowsItsShell) {
 
 TEST(DepositOuterSurface, EnclosedCavityIsNotOutsideButAnOpenCupIs) {
   VoxelGrid g(0.1, Vec3::Zero(), Eigen::Vector3i(60, 60, 60));
-  const auto t = g.add_tag({1, 0, Feature::perimeter});
+  const auto t = VoxelBlocks::add_tag(g, {1, 0, Feature::perimeter});
   // Hollow closed box: 30^3 outside, 2-voxel walls, a 26^3 cavity (spans several blocks).
   fill_box(g, {10, 10, 10}, {40, 40, 40}, t);
   for (int z = 12; z < 38; ++z)
@@ -90,7 +93,7 @@ TEST(DepositExport, BinaryOctomapOfFullAndPartialCubesReadsBack) {
   const auto dir = test::temp_dir("deposit_bt");
   for (const double origin : {0.0, 0.3, -1.15}) {  // key offsets 0, 3, -23 voxels (mod 8: 0, 3, 1)
     VoxelGrid g(0.05, Vec3(origin, origin + 0.1, 0), Eigen::Vector3i(70, 50, 40));
-    const auto t = g.add_tag({1, 0, Feature::perimeter});
+    const auto t = VoxelBlocks::add_tag(g, {1, 0, Feature::perimeter});
     fill_box(g, {3, 5, 0}, {60, 45, 33}, t);  // spans many whole cubes
     for (int z = 10; z < 20; ++z) g.clear({30, 20, z});  // holes inside
     g.set({69, 49, 39}, VoxelTag{2, 1, Feature::sparse_infill});  // a lone voxel in a corner

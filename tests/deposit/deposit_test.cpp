@@ -7,10 +7,14 @@
 #include <random>
 #include <vector>
 
+#include "deposit/deposit_run.hpp"
 #include "deposit/deposit_test_support.hpp"
+#include "deposit/voxel_blocks.hpp"
 #include "printtwin/deposit.hpp"
 
 namespace printtwin {
+
+using detail::VoxelBlocks;
 namespace {
 
 using test::bead_e_mm;
@@ -59,17 +63,17 @@ TEST(VoxelGrid, SetTagCountAndOrder) {
   EXPECT_EQ(*g.tag({3, 4, 5}), t1);
   EXPECT_EQ(g.tag({19, 16, 8})->line, 13u);
   EXPECT_FALSE(g.tag({0, 0, 0}).has_value());
-  EXPECT_EQ(g.block_count(), 2u);
+  EXPECT_EQ(VoxelBlocks::block_count(g), 2u);
 
   const VoxelKey k = g.key_of(Vec3(1.35, 2.05, 0.99));
   EXPECT_EQ(k, (VoxelKey{3, 0, 9}));
   EXPECT_NEAR(g.center_mm({3, 4, 5}).x(), 1.35, 1e-12);
 
   // fill_row across block borders, overlap counted by the return value.
-  EXPECT_EQ(g.fill_row(4, 5, 0, 20, g.add_tag(VoxelTag{20, 3, Feature::solid_infill})), 19u);
+  EXPECT_EQ(VoxelBlocks::fill_row(g, 4, 5, 0, 20, VoxelBlocks::add_tag(g, VoxelTag{20, 3, Feature::solid_infill})), 19u);
   EXPECT_EQ(g.count(), 21u);
   EXPECT_EQ(g.tag({3, 4, 5})->line, 20u);  // the last writer owns the voxel
-  EXPECT_EQ(g.fill_row(4, 5, -5, 40, 0), 0u);
+  EXPECT_EQ(VoxelBlocks::fill_row(g, 4, 5, -5, 40, 0), 0u);
 
   // Deterministic order: z-major by block, then within the block.
   const auto keys = g.occupied_keys();
@@ -89,7 +93,7 @@ TEST(VoxelGrid, SetTagCountAndOrder) {
   EXPECT_EQ(g.count(), 20u);
   EXPECT_EQ(copy.count(), 21u);
   EXPECT_TRUE(copy.occupied({3, 4, 5}));
-  EXPECT_LE(VoxelGrid::estimate_bytes(g.dims(), 1000), 3 * 4 * 4 + 8 * VoxelGrid::kBlockBytes);
+  EXPECT_LE(VoxelGrid::estimate_bytes(g.dims(), 1000), 3 * 4 * 4 + 8 * VoxelBlocks::kBlockBytes);
 }
 
 // A block keeps up to 16 distinct tags as 4-bit palette indices. Tags far apart in the
@@ -100,7 +104,7 @@ TEST(VoxelGrid, ManyTagsInOneBlockReadBackExactly) {
   VoxelGrid g(0.1, Vec3::Zero(), Eigen::Vector3i(16, 16, 16));
   std::vector<std::uint32_t> index;
   for (std::uint32_t i = 0; i < 70010; ++i)
-    index.push_back(g.add_tag(VoxelTag{i + 1, static_cast<std::int32_t>(i), Feature::perimeter}));
+    index.push_back(VoxelBlocks::add_tag(g, VoxelTag{i + 1, static_cast<std::int32_t>(i), Feature::perimeter}));
   const auto check_all = [&](const VoxelGrid& grid) {
     std::size_t visited = 0;
     grid.for_each([&](const VoxelKey& k, const VoxelTag& t) {
@@ -108,20 +112,20 @@ TEST(VoxelGrid, ManyTagsInOneBlockReadBackExactly) {
       ++visited;
     });
     EXPECT_EQ(visited, grid.count());
-    grid.visit_blocks([&](const VoxelGrid::BlockView& b) {
+    VoxelBlocks::visit_blocks(grid, [&](const VoxelBlocks::BlockView& b) {
       for (int z = 0; z < 8; ++z)
         for (std::uint64_t m = b.occupancy[z]; m != 0; m &= m - 1) {
           const int bit = std::countr_zero(m);
           const VoxelKey k{b.base.x + (bit & 7), b.base.y + (bit >> 3), b.base.z + z};
-          EXPECT_EQ(b.tag_index(z * 64 + bit), *grid.tag_index(k));
+          EXPECT_EQ(b.tag_index(z * 64 + bit), *VoxelBlocks::tag_index(grid, k));
         }
     });
   };
-  EXPECT_TRUE(g.set_index({1, 1, 1}, index[5]));
-  EXPECT_TRUE(g.set_index({2, 1, 1}, index[70000]));
-  EXPECT_EQ(g.write_tile(0, 0, 2, 0x0101ull, index[69999]), 2u);
-  EXPECT_EQ(g.fill_row(3, 3, 0, 8, index[3]), 8u);
-  EXPECT_EQ(g.write_tile(0, 0, 4, 0xFFull, index[60000]), 8u);
+  EXPECT_TRUE(VoxelBlocks::set_index(g, {1, 1, 1}, index[5]));
+  EXPECT_TRUE(VoxelBlocks::set_index(g, {2, 1, 1}, index[70000]));
+  EXPECT_EQ(VoxelBlocks::write_tile(g, 0, 0, 2, 0x0101ull, index[69999]), 2u);
+  EXPECT_EQ(VoxelBlocks::fill_row(g, 3, 3, 0, 8, index[3]), 8u);
+  EXPECT_EQ(VoxelBlocks::write_tile(g, 0, 0, 4, 0xFFull, index[60000]), 8u);
   EXPECT_EQ(g.tag({1, 1, 1})->line, 6u);
   EXPECT_EQ(g.tag({2, 1, 1})->line, 70001u);
   EXPECT_EQ(g.tag({0, 0, 2})->line, 70000u);
@@ -133,22 +137,22 @@ TEST(VoxelGrid, ManyTagsInOneBlockReadBackExactly) {
 
   // Overwrite row (3, 3) with 20 tags in turn: only the last one is referred to, so the
   // palette is compacted and the block stays narrow.
-  for (std::uint32_t i = 0; i < 20; ++i) g.fill_row(3, 3, 0, 8, index[100 + i]);
+  for (std::uint32_t i = 0; i < 20; ++i) VoxelBlocks::fill_row(g, 3, 3, 0, 8, index[100 + i]);
   EXPECT_EQ(g.tag({0, 3, 3})->line, 120u);
-  EXPECT_EQ(g.wide_block_count(), 0u);
+  EXPECT_EQ(VoxelBlocks::wide_block_count(g), 0u);
   check_all(g);
 
   // 30 different tags on 30 voxels of z-slice 6: the block becomes wide, nothing is lost.
-  for (int i = 0; i < 30; ++i) g.set_index({i % 8, i / 8, 6}, index[1000 + static_cast<std::size_t>(i)]);
-  EXPECT_EQ(g.wide_block_count(), 1u);
+  for (int i = 0; i < 30; ++i) VoxelBlocks::set_index(g, {i % 8, i / 8, 6}, index[1000 + static_cast<std::size_t>(i)]);
+  EXPECT_EQ(VoxelBlocks::wide_block_count(g), 1u);
   for (int i = 0; i < 30; ++i) EXPECT_EQ(g.tag({i % 8, i / 8, 6})->line, 1001u + static_cast<unsigned>(i));
   EXPECT_EQ(g.tag({2, 1, 1})->line, 70001u);
-  g.write_tile(0, 0, 6, 0xFFull, index[7]);  // writes to a wide block
+  VoxelBlocks::write_tile(g, 0, 0, 6, 0xFFull, index[7]);  // writes to a wide block
   EXPECT_EQ(g.tag({3, 0, 6})->line, 8u);
   EXPECT_EQ(g.tag({3, 1, 6})->line, 1012u);
   check_all(g);
   const VoxelGrid copy = g;
-  EXPECT_EQ(copy.wide_block_count(), 1u);
+  EXPECT_EQ(VoxelBlocks::wide_block_count(copy), 1u);
   EXPECT_EQ(copy.tag({0, 0, 2})->line, 70000u);
   EXPECT_EQ(copy.tag({5, 3, 6})->line, 1030u);
   check_all(copy);
@@ -213,10 +217,10 @@ TEST(DepositBead, FootprintBoundsMissNoVoxel) {
     w.extrude({50 + 5 * std::cos(t), 45 + 5 * std::sin(t), 0.9 + 0.001 * i}, 0.45, 0.2);
   }
   DepositSettings fast;
-  DepositSettings exhaustive;
+  detail::DepositRunSettings exhaustive;
   exhaustive.exhaustive_tiles = true;
   auto a = deposit_moves(w.moves, profile, fast);
-  auto b = deposit_moves(w.moves, profile, exhaustive);
+  auto b = detail::DepositRun::moves(w.moves, profile, exhaustive);
   ASSERT_TRUE(a.ok() && b.ok());
   EXPECT_GT(a->voxels, 100000u);
   EXPECT_EQ(a->voxels, b->voxels);
@@ -312,11 +316,11 @@ TEST(DepositBead, WriterThreadGivesTheSameGridAsOneThread) {
   }
   w.feature = Feature::outer_perimeter;
   add_vase_spiral(w, Vec3(120, 120, 0), 10.0, 90, 10);
-  DepositSettings one, two;
+  detail::DepositRunSettings one, two;
   one.writer_thread = false;
   two.writer_thread = true;
-  auto a = deposit_moves(w.moves, profile, one);
-  auto b = deposit_moves(w.moves, profile, two);
+  auto a = detail::DepositRun::moves(w.moves, profile, one);
+  auto b = detail::DepositRun::moves(w.moves, profile, two);
   ASSERT_TRUE(a.ok());
   ASSERT_TRUE(b.ok());
   EXPECT_GT(a->voxels, 3000000U);  // > 64k tile writes
@@ -334,7 +338,7 @@ TEST(DepositBead, WriterThreadGivesTheSameGridAsOneThread) {
     ASSERT_EQ(va[i].first, vb[i].first) << i;
     ASSERT_EQ(va[i].second, vb[i].second) << i;
   }
-  EXPECT_EQ(a->grid.tag_table(), b->grid.tag_table());
+  EXPECT_EQ(VoxelBlocks::tag_table(a->grid), VoxelBlocks::tag_table(b->grid));
 }
 
 TEST(DepositBead, ZigZagInfillKeepsEveryBead) {
@@ -454,7 +458,7 @@ TEST(DepositBead, EstimateIsCloseToTheMemoryUsed) {
   auto est = estimate_deposit(w.moves, profile, DepositSettings{});
   auto r = deposit_moves(w.moves, profile, DepositSettings{});
   ASSERT_TRUE(est.ok() && r.ok());
-  EXPECT_NEAR(static_cast<double>(r->grid.block_count()) / static_cast<double>(est->blocks), 1.0, 0.25);
+  EXPECT_NEAR(static_cast<double>(VoxelBlocks::block_count(r->grid)) / static_cast<double>(est->blocks), 1.0, 0.25);
   EXPECT_GE(static_cast<double>(est->bytes), 0.8 * static_cast<double>(r->memory_bytes));
 }
 

@@ -11,10 +11,13 @@
 
 #include "deposit/deposit_test_support.hpp"
 #include "deposit/palette.hpp"
+#include "deposit/voxel_blocks.hpp"
 #include "printtwin/deposit.hpp"
 #include "support/test_support.hpp"
 
 namespace printtwin {
+
+using detail::VoxelBlocks;
 namespace {
 
 using Colour = std::tuple<int, int, int>;
@@ -89,7 +92,7 @@ void expect_same_as_insertion(const VoxelGrid& grid, VoxelColoring coloring, con
 
 void fill_box(VoxelGrid& g, const Eigen::Vector3i& lo, const Eigen::Vector3i& hi, std::uint32_t tag) {
   for (int z = lo.z(); z < hi.z(); ++z)
-    for (int y = lo.y(); y < hi.y(); ++y) g.fill_row(y, z, lo.x(), hi.x(), tag);
+    for (int y = lo.y(); y < hi.y(); ++y) VoxelBlocks::fill_row(g, y, z, lo.x(), hi.x(), tag);
 }
 
 // Boxes of several layers and features, holes, a lone voxel in the grid's far corner and
@@ -98,11 +101,11 @@ TEST(OctomapOt, SameVoxelsAndColoursAsOctomapsInsertPath) {
   for (const double origin : {0.0, 0.3, -1.15}) {
     VoxelGrid g(0.05, Vec3(origin, origin + 0.1, 0), Eigen::Vector3i(70, 50, 40));
     for (int layer = 0; layer < 8; ++layer) {
-      const auto t = g.add_tag({static_cast<std::uint32_t>(layer + 1), layer,
+      const auto t = VoxelBlocks::add_tag(g, {static_cast<std::uint32_t>(layer + 1), layer,
                                 layer % 3 == 0 ? Feature::gap_fill : Feature::sparse_infill});
       fill_box(g, {3, 5, 4 * layer}, {60, 45, 4 * layer + 4}, t);
     }
-    const auto outer = g.add_tag({100, 2, Feature::outer_perimeter});
+    const auto outer = VoxelBlocks::add_tag(g, {100, 2, Feature::outer_perimeter});
     fill_box(g, {0, 0, 8}, {3, 50, 12}, outer);
     for (int z = 10; z < 20; ++z) g.clear({30, 20, z});
     g.set({69, 49, 39}, VoxelTag{200, 9, Feature::support});
@@ -140,8 +143,8 @@ TEST(OctomapOt, SimulatedBeadsAndASingleBead) {
 // A whole cube of one colour is one node, and the tree is far smaller than a leaf per voxel.
 TEST(OctomapOt, UniformCubesArePrunedWithoutLosingColour) {
   VoxelGrid g(0.05, Vec3::Zero(), Eigen::Vector3i(64, 64, 64));
-  fill_box(g, {0, 0, 0}, {64, 64, 32}, g.add_tag({1, 0, Feature::sparse_infill}));
-  fill_box(g, {0, 0, 32}, {64, 64, 64}, g.add_tag({2, 1, Feature::sparse_infill}));
+  fill_box(g, {0, 0, 0}, {64, 64, 32}, VoxelBlocks::add_tag(g, {1, 0, Feature::sparse_infill}));
+  fill_box(g, {0, 0, 32}, {64, 64, 64}, VoxelBlocks::add_tag(g, {2, 1, Feature::sparse_infill}));
   const auto dir = test::temp_dir("octomap_ot_uniform");
   ASSERT_TRUE(write_octomap(g, dir / "layer.ot", VoxelColoring::layer).ok());
   ASSERT_TRUE(write_octomap(g, dir / "feature.ot", VoxelColoring::feature).ok());

@@ -1,10 +1,10 @@
 #pragma once
+// Private (src/ only).
 // An allocator whose value-initialisation is default-initialisation, so that
 // std::vector<T, DefaultInitAllocator<T>>::resize(n) leaves trivially constructible elements
 // (integers, bit words) unwritten: a large array's pages are then first touched by the code
 // that fills it, which may run in parallel, instead of by one thread zero-filling it in
 // resize (a first touch costs ~0.45 ms per MB on the machines this was measured on).
-#include <cstdint>
 #include <memory>
 #include <type_traits>
 #include <utility>
@@ -31,8 +31,5 @@ struct DefaultInitAllocator : std::allocator<T> {
     ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
   }
 };
-
-/// A vector of bit words whose resize() does not write them.
-using UninitWords = std::vector<std::uint64_t, DefaultInitAllocator<std::uint64_t>>;
 
 }  // namespace printtwin

@@ -1,0 +1,28 @@
+#pragma once
+// Private to src/deposit/ and its tests: switches that change how the deposit runs, never
+// what it lays.
+#include <span>
+
+#include "printtwin/deposit.hpp"
+
+namespace printtwin::detail {
+
+/// DepositSettings plus the deposit's run switches.
+struct DepositRunSettings : DepositSettings {
+  DepositRunSettings() = default;
+  explicit DepositRunSettings(const DepositSettings& settings) : DepositSettings(settings) {}
+  /// Test every voxel of each bead's bounding box instead of the footprint's tiles (slow;
+  /// the tests use it to check that the footprint bounds never miss a voxel).
+  bool exhaustive_tiles = false;
+  /// Write the voxels on a second thread that runs behind the bead sweep (when the machine
+  /// has more than one hardware thread). The grid is the same bit for bit either way.
+  bool writer_thread = true;
+};
+
+/// deposit_moves with the run switches.
+struct DepositRun {
+  [[nodiscard]] static Result<DepositResult> moves(std::span<const Move> moves, const PrinterProfile& profile,
+                                                   const DepositRunSettings& settings);
+};
+
+}  // namespace printtwin::detail
