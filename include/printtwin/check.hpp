@@ -262,7 +262,8 @@ struct RepairSettings {
 struct RepairCounters {
   std::size_t degenerate_facets = 0;  ///< zero-area faces of the input
   /// Facet edges of kept input faces that were open or non-manifold and are shared by exactly
-  /// two faces afterwards, none of them added (closed by stitching or by removing extra faces).
+  /// two faces afterwards (vertices at one position joined, as the written file reads), none
+  /// of them added (closed by stitching or by removing extra faces).
   std::size_t edges_fixed = 0;
   std::size_t facets_removed = 0;     ///< input faces not in the result (degenerate, duplicate, loose)
   std::size_t facets_added = 0;       ///< result faces not in the input (hole fills)
@@ -285,7 +286,7 @@ struct RepairResult {
   std::vector<RepairChange> changes;   ///< only kinds with count > 0
   RepairCounters counters;             ///< measured from the meshes (measure_repair)
   MeshHealth before;
-  MeshHealth after;
+  MeshHealth after;  ///< of the repaired mesh with vertices at one position joined (as its STL reads)
 };
 
 /// Repairs with CGAL Polygon_mesh_processing: merge duplicate points, remove degenerate and

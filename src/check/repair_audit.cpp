@@ -103,6 +103,19 @@ FacetEdges facet_edges(const Mesh& m) {
 
 }  // namespace
 
+Mesh detail::welded_by_position(const Mesh& mesh) {
+  Mesh out;
+  std::vector<std::uint32_t> ids, unused;
+  canonical_ids(mesh, Mesh{}, ids, unused);
+  std::uint32_t count = 0;
+  for (const std::uint32_t id : ids) count = std::max(count, id + 1);
+  out.vertices_mm.resize(count);
+  for (std::size_t v = 0; v < ids.size(); ++v) out.vertices_mm[ids[v]] = mesh.vertices_mm[v];
+  out.triangles.reserve(mesh.triangles.size());
+  for (const auto& t : mesh.triangles) out.triangles.push_back({ids[t[0]], ids[t[1]], ids[t[2]]});
+  return out;
+}
+
 RepairCounters measure_repair(const Mesh& before, const Mesh& after) {
   RepairCounters c;
   std::vector<std::uint32_t> ids_b, ids_a;
@@ -142,8 +155,11 @@ RepairCounters measure_repair(const Mesh& before, const Mesh& after) {
   }
   for (char a : added) c.facets_added += a != 0;
 
+  // The result as a reader of its file sees it: vertices at one position are one vertex
+  // (faces keep their indices), so vertices split apart by the repair do not close edges.
+  const Mesh welded = detail::welded_by_position(after);
   const FacetEdges eb = facet_edges(before);
-  const FacetEdges ea = facet_edges(after);
+  const FacetEdges ea = facet_edges(welded);
   std::vector<char> group_has_added(ea.group_size.size(), 0);
   for (std::size_t s = 0; s < ea.group.size(); ++s)
     if (added[s / 3] != 0) group_has_added[ea.group[s]] = 1;
@@ -179,7 +195,7 @@ RepairCounters measure_repair(const Mesh& before, const Mesh& after) {
   for (std::uint32_t f = 0; f < after.triangles.size(); ++f) c.holes_filled += added[f] != 0 && uf.find(f) == f;
 
   const MeshHealth hb = analyze_mesh_health(before);
-  const MeshHealth ha = analyze_mesh_health(after);
+  const MeshHealth ha = analyze_mesh_health(welded);
   c.degenerate_facets = hb.degenerate_faces;
   c.backwards_edges = 2 * ha.inconsistent_edges;
   c.parts = ha.shells;
