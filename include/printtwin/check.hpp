@@ -301,7 +301,8 @@ struct UnitGuess {
   double size_units = 0;      ///< largest dimension of the largest shell, in file units
 };
 
-/// Judges the size of the largest shell (stray far-away facets do not count): under 0.3 units
+/// Judges the size of the largest piece (faces connected through shared vertices; stray
+/// far-away facets do not count): under 0.3 units
 /// a part in millimetres would not print at all, so metres (x1000); under 3 units, inches
 /// (x25.4; centimetres are as likely and need `--units cm`). nullopt when millimetres are
 /// plausible; a part too large is left alone (does_not_fit says what scale fits).
