@@ -256,11 +256,37 @@ struct RepairSettings {
   std::size_t max_hole_edges = 64;
 };
 
+/// What a repair changed, measured by comparing the mesh before and after (faces matched by
+/// their corner positions), in the counters admesh prints. Edge counters count facet edges,
+/// as admesh does: an edge shared by two faces counts twice.
+struct RepairCounters {
+  std::size_t degenerate_facets = 0;  ///< zero-area faces of the input
+  /// Facet edges of kept input faces that were open or non-manifold and are shared by exactly
+  /// two faces afterwards (vertices at one position joined, as the written file reads), none
+  /// of them added (closed by stitching or by removing extra faces).
+  std::size_t edges_fixed = 0;
+  std::size_t facets_removed = 0;     ///< input faces not in the result (degenerate, duplicate, loose)
+  std::size_t facets_added = 0;       ///< result faces not in the input (hole fills)
+  std::size_t facets_reversed = 0;    ///< faces kept with their winding turned (net, once each)
+  std::size_t backwards_edges = 0;    ///< facet edges of the result whose neighbour runs the same way
+  std::size_t holes_filled = 0;       ///< patches of added faces (connected over shared edges)
+  std::size_t parts = 0;              ///< shells of the result
+};
+
+/// Counts what changed from `before` to `after` (see RepairCounters). `after` must reuse the
+/// input's vertex positions (repair_mesh moves none).
+[[nodiscard]] RepairCounters measure_repair(const Mesh& before, const Mesh& after);
+
+/// "edges fixed 0, facets removed 2, facets added 2, facets reversed 2, backwards edges 0,
+/// holes filled 1, degenerate facets 0, parts 1": every counter, admesh's names and order.
+[[nodiscard]] std::string repair_counters_text(const RepairCounters& c);
+
 struct RepairResult {
   Mesh mesh;
   std::vector<RepairChange> changes;   ///< only kinds with count > 0
+  RepairCounters counters;             ///< measured from the meshes (measure_repair)
   MeshHealth before;
-  MeshHealth after;
+  MeshHealth after;  ///< of the repaired mesh with vertices at one position joined (as its STL reads)
 };
 
 /// Repairs with CGAL Polygon_mesh_processing: merge duplicate points, remove degenerate and
@@ -275,7 +301,8 @@ struct UnitGuess {
   double size_units = 0;      ///< largest dimension of the largest shell, in file units
 };
 
-/// Judges the size of the largest shell (stray far-away facets do not count): under 0.3 units
+/// Judges the size of the largest piece (faces connected through shared vertices; stray
+/// far-away facets do not count): under 0.3 units
 /// a part in millimetres would not print at all, so metres (x1000); under 3 units, inches
 /// (x25.4; centimetres are as likely and need `--units cm`). nullopt when millimetres are
 /// plausible; a part too large is left alone (does_not_fit says what scale fits).

@@ -57,6 +57,9 @@ ShellTable compute_shells(const Mesh& mesh, const std::vector<char>& skip, const
 /// by CGAL's exact predicates alone on all pairs, no broad phase and no filter (tests).
 std::vector<std::array<std::uint32_t, 2>> self_intersecting_pairs_exhaustive(const Mesh& mesh);
 
+/// The mesh with vertices at the same position joined (as a reader of its STL sees it).
+Mesh welded_by_position(const Mesh& mesh);
+
 /// Reverses every inverted shell (see Shell::inverted); returns how many.
 std::size_t flip_inverted_shells(Mesh& mesh);
 

@@ -138,7 +138,16 @@ std::string check_report_to_json(const CheckReport& r, const CheckSource& source
     json changes = json::array();
     for (const auto& c : repair->changes)
       changes.push_back({{"code", c.code}, {"count", c.count}, {"message", c.message}});
+    const RepairCounters& k = repair->counters;
     doc["repair"] = {{"output", repair_file},
+                     {"counters", {{"edges_fixed", k.edges_fixed},
+                                   {"facets_removed", k.facets_removed},
+                                   {"facets_added", k.facets_added},
+                                   {"facets_reversed", k.facets_reversed},
+                                   {"backwards_edges", k.backwards_edges},
+                                   {"holes_filled", k.holes_filled},
+                                   {"degenerate_facets", k.degenerate_facets},
+                                   {"parts", k.parts}}},
                      {"changes", changes},
                      {"after", health_json(repair->after, Vec3::Zero())}};
   }

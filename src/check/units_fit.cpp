@@ -2,6 +2,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <vector>
 
 #include "check/check_internal.hpp"
 #include "printtwin/check.hpp"
@@ -11,9 +13,19 @@ namespace printtwin {
 
 std::optional<UnitGuess> guess_mesh_units(const Mesh& mesh) {
   if (mesh.triangles.empty()) return std::nullopt;
-  const MeshHealth h = analyze_mesh_health(mesh);
+  // Pieces = faces connected through shared vertices (cheaper than the edge-based shells of
+  // analyze_mesh_health, and the same for sizing: stray facets share no vertex with the part).
+  detail::UnionFind pieces(mesh.vertices_mm.size());
+  for (const auto& t : mesh.triangles) {
+    pieces.unite(t[0], t[1]);
+    pieces.unite(t[0], t[2]);
+  }
+  std::vector<Box3> boxes(mesh.vertices_mm.size());
+  for (const auto& t : mesh.triangles)
+    for (const std::uint32_t v : t) boxes[pieces.find(v)].extend(mesh.vertices_mm[v]);
   double size = 0;
-  for (const Box3& b : h.shell_bbox_mm) size = std::max(size, b.size().maxCoeff());
+  for (const Box3& b : boxes)
+    if (!b.empty()) size = std::max(size, b.size().maxCoeff());
   if (!(size > 0)) return std::nullopt;
   UnitGuess g;
   g.size_units = size;

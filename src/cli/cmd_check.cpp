@@ -18,6 +18,7 @@
 
 #include "cli/cli_common.hpp"
 #include "cli/commands.hpp"
+#include "cli/manifest.hpp"
 #include "printtwin/check.hpp"
 #include "printtwin/io.hpp"
 #include "printtwin/machine.hpp"
@@ -30,7 +31,6 @@ namespace printtwin::cli {
 namespace {
 
 using detail::md_cell;
-using detail::xml_escape;
 
 struct CheckOptions {
   std::vector<std::string> inputs;
@@ -49,6 +49,7 @@ struct CheckOptions {
   bool no_center = false;
   bool no_self_intersections = false;
   bool orient = false;
+  std::string manifest;  ///< --manifest FILE
 };
 
 std::string f2(double v) { return format_fixed(v, 2); }
@@ -121,6 +122,7 @@ void print_text(const CheckOptions& o, const PrinterProfile& printer, const Chec
                 f.message.c_str());
   if (repair != nullptr) {
     std::printf("repair     wrote %s\n", o.repair_out.c_str());
+    std::printf("           %s\n", repair_counters_text(repair->counters).c_str());
     if (repair->changes.empty()) std::printf("           nothing to change\n");
     for (const auto& c : repair->changes) std::printf("           %s\n", c.message.c_str());
     const MeshHealth& a = repair->after;
@@ -141,11 +143,13 @@ struct PartOutcome {
   std::optional<CheckReport> report;
   CheckSource source;
   std::optional<RepairResult> repaired;
+  std::string repair_file;  ///< where the repaired mesh was written
   double seconds = 0;
 };
 
 PartOutcome check_part(const CheckOptions& o, const std::string& file, const PrinterProfile& printer,
-                       const CheckSettings& settings, std::optional<double> mm_per_unit) {
+                       const CheckSettings& settings, std::optional<double> mm_per_unit,
+                       const std::string& repair_out) {
   const auto t0 = std::chrono::steady_clock::now();
   PartOutcome out;
   out.file = file;
@@ -189,11 +193,12 @@ PartOutcome check_part(const CheckOptions& o, const std::string& file, const Pri
   if (oriented) report->findings.push_back(*oriented);
   if (guess) report->findings.insert(report->findings.begin() + static_cast<std::ptrdiff_t>(first_warning(report->findings)),
                                      units_guessed_finding(*guess, report->health.bbox_mm.size()));
-  if (!o.repair_out.empty()) {
+  if (!repair_out.empty()) {
     auto rr = repair_mesh(*mesh);
     if (!rr) return fail(rr.error());
-    if (auto st = save_stl(rr->mesh, o.repair_out); !st) return fail(st.error());
+    if (auto st = save_stl(rr->mesh, repair_out); !st) return fail(st.error());
     out.repaired = std::move(*rr);
+    out.repair_file = repair_out;
   }
   out.source.file = file;
   if (auto bytes = read_file(file)) out.source.sha256 = sha256_hex(*bytes);
@@ -282,8 +287,10 @@ std::string summary_markdown(const std::vector<PartOutcome>& parts, const std::s
   for (const auto& p : parts) ok += p.exit_code == kPass;
   std::string md = "### printtwin check: " + std::to_string(ok) + " of " + std::to_string(parts.size()) +
                    " parts printable on " + md_cell(printer) + "\n\n";
-  md += "| part | verdict | errors | warnings | triangles | size (mm) | first problem |\n";
-  md += "|---|---|---:|---:|---:|---|---|\n";
+  const bool repaired = std::any_of(parts.begin(), parts.end(), [](const PartOutcome& p) { return p.repaired.has_value(); });
+  md += std::string("| part | verdict | errors | warnings | triangles | size (mm) | first problem |") +
+        (repaired ? " repair |" : "") + "\n";
+  md += std::string("|---|---|---:|---:|---:|---|---|") + (repaired ? "---|" : "") + "\n";
   for (const auto& p : parts) {
     const auto c = severity_counts(p);
     std::string tri = "-", size = "-";
@@ -296,39 +303,26 @@ std::string summary_markdown(const std::vector<PartOutcome>& parts, const std::s
     if (problem.size() > 200) problem = problem.substr(0, 197) + "...";
     md += "| " + md_cell(p.file) + " | " + (p.exit_code == kPass ? "" : "**") + verdict(p) +
           (p.exit_code == kPass ? "" : "**") + " | " + std::to_string(c[2]) + " | " + std::to_string(c[1]) +
-          " | " + tri + " | " + size + " | " + md_cell(problem) + " |\n";
+          " | " + tri + " | " + size + " | " + md_cell(problem) + " |" +
+          (repaired ? " " + (p.repaired ? md_cell(repair_counters_text(p.repaired->counters)) : std::string("-")) + " |" : "") +
+          "\n";
   }
   return md;
 }
 
-std::string junit_xml(const std::vector<PartOutcome>& parts) {
-  std::size_t failures = 0;
-  double total = 0;
+std::string check_junit(const std::vector<PartOutcome>& parts) {
+  std::vector<CaseOutcome> cases;
   for (const auto& p : parts) {
-    failures += p.exit_code != kPass;
-    total += p.seconds;
-  }
-  std::string x = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<testsuites>\n";
-  x += "  <testsuite name=\"printtwin check\" tests=\"" + std::to_string(parts.size()) + "\" failures=\"" +
-       std::to_string(failures) + "\" errors=\"0\" time=\"" + format_fixed(total, 3) + "\">\n";
-  for (const auto& p : parts) {
-    x += "    <testcase classname=\"printtwin.check\" name=\"" + xml_escape(p.file) + "\" time=\"" +
-         format_fixed(p.seconds, 3) + "\"";
-    if (p.exit_code == kPass) {
-      x += "/>\n";
-      continue;
-    }
-    x += ">\n      <failure type=\"" + std::string(p.error ? "unreadable" : "not_printable") + "\" message=\"" +
-         xml_escape(verdict(p) + ": " + main_problem(p)) + "\">";
+    CaseOutcome c{p.file, p.seconds, p.exit_code == kPass, p.error ? "unreadable" : "not_printable",
+                  verdict(p) + ": " + main_problem(p), ""};
     if (p.report)
       for (const auto& f : p.report->findings)
-        x += xml_escape(std::string(to_string(f.severity)) + " " + f.code + ": " + f.message) + "\n";
+        c.details += std::string(to_string(f.severity)) + " " + f.code + ": " + f.message + "\n";
     else
-      x += xml_escape(p.error->describe());
-    x += "</failure>\n    </testcase>\n";
+      c.details = p.error->describe();
+    cases.push_back(std::move(c));
   }
-  x += "  </testsuite>\n</testsuites>\n";
-  return x;
+  return junit_xml("printtwin check", "printtwin.check", cases);
 }
 
 std::string batch_json(const std::vector<PartOutcome>& parts) {
@@ -341,33 +335,158 @@ std::string batch_json(const std::vector<PartOutcome>& parts) {
     e["file"] = p.file;
     e["verdict"] = verdict(p);
     e["exit_code"] = p.exit_code;
-    if (p.report) e["report"] = nlohmann::ordered_json::parse(check_report_to_json(*p.report, p.source));
+    if (p.report)
+      e["report"] = nlohmann::ordered_json::parse(
+          check_report_to_json(*p.report, p.source, p.repaired ? &*p.repaired : nullptr, p.repair_file));
     else e["error"] = p.error->describe();
     j["parts"].push_back(std::move(e));
   }
   return j.dump(2) + "\n";
 }
 
-int run_batch(const CheckOptions& o, const std::vector<std::string>& files, const PrinterProfile& printer,
-              const CheckSettings& settings, std::optional<double> mm_per_unit) {
-  std::vector<PartOutcome> parts(files.size());
+/// --repair FOLDER of a batch: FOLDER/<name of the part>.stl, "-2", "-3"... when names repeat;
+/// all empty without --repair.
+std::vector<std::string> repair_paths(const std::string& folder, const std::vector<std::string>& files) {
+  std::vector<std::string> out(files.size());
+  if (folder.empty()) return out;
+  std::vector<std::string> used;
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    const std::string stem = std::filesystem::path(files[i]).stem().string();
+    std::string name = stem + ".stl";
+    for (int n = 2; std::find(used.begin(), used.end(), name) != used.end(); ++n)
+      name = stem + "-" + std::to_string(n) + ".stl";
+    used.push_back(name);
+    out[i] = (std::filesystem::path(folder) / name).string();
+  }
+  return out;
+}
+
+/// The options of one part resolved into what check_part needs.
+struct PartSetup {
+  CheckOptions options;
+  PrinterProfile printer;
+  CheckSettings settings;
+  std::optional<double> mm_per_unit;  ///< unset: --units auto
+};
+
+Result<PartSetup> resolve_setup(const CheckOptions& o) {
+  PartSetup s;
+  s.options = o;
+  auto printer = load_printer_profile(o.printer);
+  if (!printer) return printer.error();
+  s.printer = std::move(*printer);
+  CheckSettings& settings = s.settings;
+  settings.overhang_angle_deg = o.overhang_angle_deg;
+  settings.min_thickness_mm = o.min_thickness_mm;
+  settings.line_width_mm = o.line_width_mm;
+  settings.self_intersections = !o.no_self_intersections;
+  if (o.no_center && !o.center.empty()) return usage_error("--center and --no-center exclude each other");
+  settings.center = !o.no_center;
+  if (!o.center.empty()) {
+    auto c = parse_center(o.center);
+    if (!c) return c.error();
+    settings.center_x_mm = c->x();
+    settings.center_y_mm = c->y();
+  }
+  // --units: the names and numbers `verify --units` takes, or auto (judged by the size).
+  if (o.units != "auto") {
+    VerifySettings units;
+    if (auto st = parse_units_option(o.units, units); !st) return st.error();
+    s.mm_per_unit = units.mesh_scale;
+  }
+  return s;
+}
+
+/// The command line's options with a manifest entry's settings on top.
+CheckOptions with_part_settings(CheckOptions o, const PartSettings& p) {
+  if (p.printer) o.printer = *p.printer;
+  if (p.units) o.units = *p.units;
+  if (p.scale) o.scale = *p.scale;
+  if (p.orient) o.orient = *p.orient;
+  if (p.overhang_angle_deg) o.overhang_angle_deg = *p.overhang_angle_deg;
+  if (p.min_thickness_mm) o.min_thickness_mm = *p.min_thickness_mm;
+  if (p.line_width_mm) o.line_width_mm = *p.line_width_mm;
+  if (p.self_intersections) o.no_self_intersections = !*p.self_intersections;
+  return o;
+}
+
+/// One part of a batch: its file and its setup, or the error that fails it before reading.
+struct PartJob {
+  std::string file;
+  Result<PartSetup> setup;
+};
+
+/// The batch's parts with their settings: every file found, then every part a manifest lists
+/// that was not found (a listed part that does not exist fails with that message).
+std::vector<PartJob> batch_jobs(const CheckOptions& o, std::vector<std::string> files,
+                                const std::vector<Manifest>& manifests) {
+  for (const auto& m : manifests)
+    for (const auto& part : m.parts)
+      if (std::none_of(files.begin(), files.end(), [&](const std::string& f) { return same_file(f, part.file); }))
+        files.push_back(part.file);
+  std::vector<PartJob> jobs;
+  for (const auto& file : files) {
+    const ManifestPart* listed = find_manifest_part(manifests, file);
+    std::error_code ec;
+    if (listed != nullptr && !std::filesystem::exists(file, ec)) {
+      const auto& in = *std::find_if(manifests.begin(), manifests.end(), [&](const Manifest& m) {
+        return std::any_of(m.parts.begin(), m.parts.end(), [&](const ManifestPart& p) { return &p == listed; });
+      });
+      jobs.push_back({file, bad_input("listed in " + in.path + " but not found", file)});
+      continue;
+    }
+    jobs.push_back({file, resolve_setup(listed ? with_part_settings(o, listed->settings) : o)});
+  }
+  return jobs;
+}
+
+/// "Ender-3" when every part is checked on it, else "their printers (see the JSON)".
+std::string printers_label(const std::vector<PartOutcome>& parts, const std::string& fallback) {
+  std::string name;
+  for (const auto& p : parts) {
+    if (p.source.printer.empty()) continue;
+    if (!name.empty() && name != p.source.printer) return "the printers the manifest names";
+    name = p.source.printer;
+  }
+  return name.empty() ? fallback : name;
+}
+
+int run_batch(const CheckOptions& o, const std::vector<PartJob>& jobs, const std::string& printer_name) {
+  std::vector<PartOutcome> parts(jobs.size());
+  std::vector<std::string> files;
+  for (const auto& j : jobs) files.push_back(j.file);
+  const std::vector<std::string> repair_files = repair_paths(o.repair_out, files);
+  if (!o.repair_out.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(o.repair_out, ec);
+    if (ec) return report_error(bad_input(o.repair_out + ": cannot create the --repair folder: " + ec.message()));
+  }
   std::atomic<std::size_t> next{0};
   const std::size_t workers =
-      std::max<std::size_t>(1, std::min<std::size_t>(files.size(), std::thread::hardware_concurrency()));
+      std::max<std::size_t>(1, std::min<std::size_t>(jobs.size(), std::thread::hardware_concurrency()));
   std::vector<std::thread> pool;
   for (std::size_t w = 0; w < workers; ++w)
     pool.emplace_back([&] {
-      for (std::size_t i = next++; i < files.size(); i = next++)
-        parts[i] = check_part(o, files[i], printer, settings, mm_per_unit);
+      for (std::size_t i = next++; i < jobs.size(); i = next++) {
+        const PartJob& job = jobs[i];
+        if (!job.setup) {
+          parts[i].file = job.file;
+          parts[i].error = job.setup.error();
+          parts[i].exit_code = job.setup.error().code == ErrorCode::internal ? kInternal : kBadInput;
+          continue;
+        }
+        const PartSetup& s = *job.setup;
+        parts[i] = check_part(s.options, job.file, s.printer, s.settings, s.mm_per_unit, repair_files[i]);
+      }
     });
   for (auto& t : pool) t.join();
 
-  const std::string md = summary_markdown(parts, printer.name);
+  const std::string md = summary_markdown(parts, printers_label(parts, printer_name));
   std::fputs(md.c_str(), stdout);
   int worst = kPass;
   for (const auto& p : parts) worst = std::max(worst, p.exit_code);
   for (const auto& [path, text] : {std::pair<const std::string&, std::string>{o.summary_out, md},
-                                   {o.junit_out, o.junit_out.empty() ? std::string() : junit_xml(parts)},
+                                   {o.junit_out, o.junit_out.empty() ? std::string() : check_junit(parts)},
                                    {o.json_out, o.json_out.empty() ? std::string() : batch_json(parts)}})
     if (!path.empty())
       if (auto st = write_file_atomic(path, text); !st) return report_error(st.error());
@@ -376,53 +495,43 @@ int run_batch(const CheckOptions& o, const std::vector<std::string>& files, cons
 
 int run_check(const CheckOptions& o) {
   if (auto st = check_output_paths({{o.json_out, "--json", OutputKind::file},
-                                    {o.repair_out, "--repair", OutputKind::file},
                                     {o.summary_out, "--summary", OutputKind::file},
                                     {o.junit_out, "--junit", OutputKind::file}});
       !st)
     return report_error(st.error());
-  auto printer = load_printer_profile(o.printer);
-  if (!printer) return report_error(printer.error());
+  if (o.inputs.empty() && o.manifest.empty())
+    return report_error(usage_error("give the parts (files, folders or globs) or --manifest FILE"));
+  auto base = resolve_setup(o);
+  if (!base) return report_error(base.error());
+  auto manifests = find_manifests(o.inputs, o.manifest);
+  if (!manifests) return report_error(manifests.error());
 
-  CheckSettings settings;
-  settings.overhang_angle_deg = o.overhang_angle_deg;
-  settings.min_thickness_mm = o.min_thickness_mm;
-  settings.line_width_mm = o.line_width_mm;
-  settings.self_intersections = !o.no_self_intersections;
-  if (o.no_center && !o.center.empty())
-    return report_error(usage_error("--center and --no-center exclude each other"));
-  settings.center = !o.no_center;
-  if (!o.center.empty()) {
-    auto c = parse_center(o.center);
-    if (!c) return report_error(c.error());
-    settings.center_x_mm = c->x();
-    settings.center_y_mm = c->y();
-  }
-  // --units: the names and numbers `verify --units` takes, or auto (judged by the size).
-  std::optional<double> mm_per_unit;
-  if (o.units != "auto") {
-    VerifySettings units;
-    if (auto st = parse_units_option(o.units, units); !st) return report_error(st.error());
-    mm_per_unit = units.mesh_scale;
-  }
-
-  // Several parts, a folder or a glob: the batch run (summary table, JUnit, one JSON).
+  // Several parts, a folder, a glob or a manifest alone: the batch run (summary table, JUnit,
+  // one JSON).
   std::error_code ec;
-  const bool batch = o.inputs.size() > 1 || !o.summary_out.empty() || !o.junit_out.empty() ||
+  const bool batch = o.inputs.size() != 1 || !o.summary_out.empty() || !o.junit_out.empty() ||
                      (std::filesystem::is_directory(o.inputs[0], ec) && !has_mesh_extension(o.inputs[0])) ||
                      (o.inputs[0].find_first_of("*?[") != std::string::npos && !std::filesystem::exists(o.inputs[0], ec));
   if (batch) {
-    if (!o.repair_out.empty()) return report_error(usage_error("--repair takes one part, not a batch"));
-    auto files = expand_inputs(o.inputs);
-    if (!files) return report_error(files.error());
-    return run_batch(o, *files, *printer, settings, mm_per_unit);
+    if (auto st = check_output_path(o.repair_out, "--repair", OutputKind::folder); !st) return report_error(st.error());
+    std::vector<std::string> files;
+    if (!o.inputs.empty()) {
+      auto found = expand_inputs(o.inputs);
+      if (!found) return report_error(found.error());
+      files = std::move(*found);
+    }
+    return run_batch(o, batch_jobs(o, std::move(files), *manifests), base->printer.name);
   }
 
-  CheckOptions one = o;
+  if (auto st = check_output_path(o.repair_out, "--repair", OutputKind::file); !st) return report_error(st.error());
+  const ManifestPart* listed = find_manifest_part(*manifests, o.inputs[0]);
+  auto setup = listed ? resolve_setup(with_part_settings(o, listed->settings)) : std::move(base);
+  if (!setup) return report_error(setup.error());
+  CheckOptions& one = setup->options;
   one.input = o.inputs[0];
-  PartOutcome part = check_part(one, one.input, *printer, settings, mm_per_unit);
+  PartOutcome part = check_part(one, one.input, setup->printer, setup->settings, setup->mm_per_unit, o.repair_out);
   if (part.error) return report_error(*part.error);
-  print_text(one, *printer, *part.report, part.repaired ? &*part.repaired : nullptr);
+  print_text(one, setup->printer, *part.report, part.repaired ? &*part.repaired : nullptr);
   if (!o.json_out.empty()) {
     const std::string text = check_report_to_json(*part.report, part.source,
                                                   part.repaired ? &*part.repaired : nullptr, o.repair_out);
@@ -440,8 +549,10 @@ void add_check_command(CLI::App& app, CommandRunner& runner) {
                "2 usage, 3 bad input, 4 internal error. Findings: docs/check.md");
   cmd->add_option("mesh", opts->inputs,
                   "STL, OBJ, PLY, OFF, 3MF or AMF files, folders (every mesh below them) or globs; "
-                  "several parts make a batch: a summary table, exit code of the worst part")
-      ->required();
+                  "several parts make a batch: a summary table, exit code of the worst part");
+  cmd->add_option("--manifest", opts->manifest,
+                  "per-part settings (JSON, docs/ci.md); default: printtwin.json in each folder given and "
+                  "beside each file; without parts: check the parts it lists");
   cmd->add_option("--summary", opts->summary_out,
                   "write the batch's Markdown summary table (for $GITHUB_STEP_SUMMARY)");
   cmd->add_option("--junit", opts->junit_out, "write a JUnit XML file with a test case per part");
@@ -453,7 +564,8 @@ void add_check_command(CLI::App& app, CommandRunner& runner) {
                   "write the report as JSON (schema printtwin.check v1; a batch: printtwin.check.batch "
                   "v1, one report per part)");
   cmd->add_option("--repair", opts->repair_out,
-                  "write a repaired mesh (binary STL) and list what changed");
+                  "write a repaired mesh (binary STL) and count what changed (admesh's counters); "
+                  "a batch: a folder, one <part>.stl each");
   cmd->add_option("--overhang-angle", opts->overhang_angle_deg,
                   "overhang limit in degrees from vertical")
       ->check(CLI::Range(0.0, 90.0))

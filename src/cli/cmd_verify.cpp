@@ -7,6 +7,7 @@
 
 #include "cli/cli_common.hpp"
 #include "cli/commands.hpp"
+#include "cli/manifest.hpp"
 #include "printtwin/compare.hpp"
 #include "printtwin/io.hpp"
 #include "printtwin/report.hpp"
@@ -35,6 +36,7 @@ struct VerifyCliOptions {
   std::string slicer = "printtwin", slicer_path, cura_definition;
   double slicer_timeout_s = 600;
   bool quiet = false;
+  std::string manifest, summary_out, junit_out;  ///< verify --manifest (verify_manifest.cpp)
 };
 
 void print_stats_row(const char* name, const DeviationStats& s) {
@@ -101,7 +103,11 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
   auto o = std::make_shared<VerifyCliOptions>();
   auto* cmd = app.add_subcommand(
       "verify", "Check, simulate and deposit a part's G-code and measure the deposit against the mesh");
-  cmd->add_option("mesh", o->mesh, "the designed part: STL, OBJ, PLY, OFF, 3MF or AMF")->required();
+  cmd->add_option("mesh", o->mesh, "the designed part: STL, OBJ, PLY, OFF, 3MF or AMF");
+  cmd->add_option("--manifest", o->manifest,
+                  "verify every part a manifest lists against its \"gcode\" (docs/ci.md), instead of one part");
+  cmd->add_option("--summary", o->summary_out, "with --manifest: write the Markdown summary table");
+  cmd->add_option("--junit", o->junit_out, "with --manifest: write a JUnit file with a test case per part");
   cmd->add_option("--gcode", o->gcode, "G-code to verify (any slicer); without it printtwin slices the part");
   cmd->add_option("--tolerance", o->tolerance_mm, "deviation tolerance in mm (default 0.2)");
   cmd->add_option("--max-excess", o->max_excess_mm, "largest allowed excess in mm (default: tolerance)");
@@ -160,6 +166,15 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
       if (!o->units.empty())
         if (auto st = parse_units_option(o->units, s); !st) return report_error(st.error());
       s.object = o->object;
+      if (o->mesh.empty() == o->manifest.empty())
+        return report_error(usage_error("give one part (mesh) or --manifest FILE"));
+      if (!o->manifest.empty()) {
+        if (o->slicer != "printtwin" || !o->gcode.empty() || !o->deviation_ply.empty())
+          return report_error(usage_error("--manifest names each part's G-code; --gcode, --slicer and --deviation-ply take one part"));
+        return run_verify_manifest({o->manifest, o->out, o->summary_out, o->junit_out, o->quiet}, s);
+      }
+      if (!o->summary_out.empty() || !o->junit_out.empty())
+        return report_error(usage_error("--summary and --junit go with --manifest (one part writes them into --out)"));
       if (auto st = check_slicer_name(o->slicer); !st) return report_error(st.error());
       if (o->slicer != "printtwin") {
         // An external slicer writes the G-code beside the report; the twin then verifies it

@@ -241,7 +241,25 @@ TEST(CheckCli, BatchOfPartsGivesOneSummaryJunitAndJson) {
   EXPECT_EQ(test::run_cli("check " + q(dir / "parts" / "good.stl") + " " + q(dir / "parts" / "o*.stl")).exit_code, 1);
   EXPECT_EQ(test::run_cli("check " + q(dir / "parts" / "g*.stl")).exit_code, 0);
   EXPECT_EQ(test::run_cli("check " + q(dir / "parts" / "zz*.stl")).exit_code, 2);
+  // --repair of a batch names a folder: one repaired mesh per part, counters in the summary.
+  std::ofstream(dir / "r.stl") << "a file, not a folder";
   EXPECT_EQ(test::run_cli("check " + q(dir / "parts") + " --repair " + q(dir / "r.stl")).exit_code, 2);
+  const auto rep = test::run_cli("check " + q(dir / "parts" / "good.stl") + " " + q(dir / "parts" / "open.stl") +
+                                 " --repair " + q(dir / "fixed") + " --summary " + q(dir / "r.md") + " --json " +
+                                 q(dir / "r.json"));
+  EXPECT_EQ(rep.exit_code, 1) << rep.out << rep.err;
+  EXPECT_TRUE(fs::exists(dir / "fixed" / "good.stl"));
+  EXPECT_TRUE(fs::exists(dir / "fixed" / "open.stl"));
+  auto summary = read_file(dir / "r.md");
+  ASSERT_TRUE(summary.ok());
+  EXPECT_NE(summary->find("| repair |"), std::string::npos) << *summary;
+  EXPECT_NE(summary->find("holes filled 1"), std::string::npos) << *summary;
+  const json rj = read_json(dir / "r.json");
+  for (const auto& p : rj["parts"]) {
+    if (fs::path(p["file"].get<std::string>()).filename() == "open.stl") {
+      EXPECT_EQ(p["report"]["repair"]["counters"]["holes_filled"], 1);
+    }
+  }
 }
 
 TEST(CheckCli, OrientAppliesTheAdviceToTheRepairedMesh) {

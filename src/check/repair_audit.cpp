@@ -1,0 +1,219 @@
+// measure_repair: what a repair changed, found by comparing the meshes (not by trusting the
+// repair steps' own counts), in admesh's counters.
+//
+// Faces are matched by their corner positions (the repair moves no vertex), so vertices
+// that were split or merged by index do not matter. Within a group of faces on the same
+// three positions, faces of the same winding pair first; the rest pair across windings
+// (reversed); what is left over was removed (input) or added (result).
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <tuple>
+#include <vector>
+
+#include "check/check_internal.hpp"
+#include "printtwin/check.hpp"
+
+namespace printtwin {
+
+namespace {
+
+constexpr std::uint32_t kNone = UINT32_MAX;
+
+/// A canonical id per distinct position over both meshes: ids_a[v], ids_b[v].
+void canonical_ids(const Mesh& a, const Mesh& b, std::vector<std::uint32_t>& ids_a,
+                   std::vector<std::uint32_t>& ids_b) {
+  std::vector<Vec3> all;
+  all.reserve(a.vertices_mm.size() + b.vertices_mm.size());
+  all.insert(all.end(), a.vertices_mm.begin(), a.vertices_mm.end());
+  all.insert(all.end(), b.vertices_mm.begin(), b.vertices_mm.end());
+  const auto less = [](const Vec3& p, const Vec3& q) {
+    return std::tie(p.x(), p.y(), p.z()) < std::tie(q.x(), q.y(), q.z());
+  };
+  std::vector<Vec3> sorted = all;
+  std::sort(sorted.begin(), sorted.end(), less);
+  sorted.erase(std::unique(sorted.begin(), sorted.end()), sorted.end());
+  const auto id = [&](const Vec3& p) {
+    return static_cast<std::uint32_t>(std::lower_bound(sorted.begin(), sorted.end(), p, less) - sorted.begin());
+  };
+  ids_a.resize(a.vertices_mm.size());
+  ids_b.resize(b.vertices_mm.size());
+  for (std::size_t i = 0; i < ids_a.size(); ++i) ids_a[i] = id(a.vertices_mm[i]);
+  for (std::size_t i = 0; i < ids_b.size(); ++i) ids_b[i] = id(b.vertices_mm[i]);
+}
+
+/// A face by its sorted position ids, its winding (parity of the sort) and its index.
+struct FaceKey {
+  std::array<std::uint32_t, 3> ids{};
+  bool odd = false;
+  std::uint32_t face = 0;
+  bool operator<(const FaceKey& o) const { return std::tie(ids, odd, face) < std::tie(o.ids, o.odd, o.face); }
+};
+
+std::vector<FaceKey> face_keys(const Mesh& m, const std::vector<std::uint32_t>& ids) {
+  std::vector<FaceKey> keys(m.triangles.size());
+  for (std::size_t f = 0; f < m.triangles.size(); ++f) {
+    std::array<std::uint32_t, 3> v = {ids[m.triangles[f][0]], ids[m.triangles[f][1]], ids[m.triangles[f][2]]};
+    bool odd = false;  // bubble sort of three, counting swaps
+    for (int pass = 0; pass < 2; ++pass)
+      for (int i = 0; i < 2 - pass; ++i)
+        if (v[i] > v[i + 1]) {
+          std::swap(v[i], v[i + 1]);
+          odd = !odd;
+        }
+    if (v[0] == v[1] || v[1] == v[2]) odd = false;  // repeated corner: no winding
+    keys[f] = {v, odd, static_cast<std::uint32_t>(f)};
+  }
+  std::sort(keys.begin(), keys.end());
+  return keys;
+}
+
+/// Per facet edge (3 f + k, the edge from corner k to k + 1) the index of its edge group
+/// (faces sharing the two vertex indices) and the size of each group.
+struct FacetEdges {
+  std::vector<std::uint32_t> group;
+  std::vector<std::uint32_t> group_size;
+};
+
+FacetEdges facet_edges(const Mesh& m) {
+  struct E {
+    std::uint32_t lo, hi, slot;
+  };
+  std::vector<E> es;
+  es.reserve(3 * m.triangles.size());
+  for (std::size_t f = 0; f < m.triangles.size(); ++f)
+    for (std::uint32_t k = 0; k < 3; ++k) {
+      const std::uint32_t a = m.triangles[f][k], b = m.triangles[f][(k + 1) % 3];
+      es.push_back({std::min(a, b), std::max(a, b), static_cast<std::uint32_t>(3 * f + k)});
+    }
+  std::sort(es.begin(), es.end(), [](const E& x, const E& y) { return std::tie(x.lo, x.hi, x.slot) < std::tie(y.lo, y.hi, y.slot); });
+  FacetEdges out;
+  out.group.assign(es.size(), kNone);
+  for (std::size_t i = 0; i < es.size();) {
+    std::size_t j = i;
+    while (j < es.size() && es[j].lo == es[i].lo && es[j].hi == es[i].hi) ++j;
+    for (std::size_t k = i; k < j; ++k) out.group[es[k].slot] = static_cast<std::uint32_t>(out.group_size.size());
+    out.group_size.push_back(static_cast<std::uint32_t>(j - i));
+    i = j;
+  }
+  return out;
+}
+
+}  // namespace
+
+Mesh detail::welded_by_position(const Mesh& mesh) {
+  Mesh out;
+  std::vector<std::uint32_t> ids, unused;
+  canonical_ids(mesh, Mesh{}, ids, unused);
+  std::uint32_t count = 0;
+  for (const std::uint32_t id : ids) count = std::max(count, id + 1);
+  out.vertices_mm.resize(count);
+  for (std::size_t v = 0; v < ids.size(); ++v) out.vertices_mm[ids[v]] = mesh.vertices_mm[v];
+  out.triangles.reserve(mesh.triangles.size());
+  for (const auto& t : mesh.triangles) out.triangles.push_back({ids[t[0]], ids[t[1]], ids[t[2]]});
+  return out;
+}
+
+RepairCounters measure_repair(const Mesh& before, const Mesh& after) {
+  RepairCounters c;
+  std::vector<std::uint32_t> ids_b, ids_a;
+  canonical_ids(before, after, ids_b, ids_a);
+  const std::vector<FaceKey> kb = face_keys(before, ids_b);
+  const std::vector<FaceKey> ka = face_keys(after, ids_a);
+
+  // Match faces group by group: match_of[input face] = result face (kNone: removed).
+  std::vector<std::uint32_t> match_of(before.triangles.size(), kNone);
+  std::vector<char> added(after.triangles.size(), 1);
+  for (std::size_t i = 0, j = 0; i < kb.size() || j < ka.size();) {
+    if (j == ka.size() || (i < kb.size() && kb[i].ids < ka[j].ids)) {
+      ++c.facets_removed;
+      ++i;
+      continue;
+    }
+    if (i == kb.size() || ka[j].ids < kb[i].ids) {
+      ++j;  // added: counted below from `added`
+      continue;
+    }
+    std::size_t ie = i, je = j;
+    while (ie < kb.size() && kb[ie].ids == kb[i].ids) ++ie;
+    while (je < ka.size() && ka[je].ids == ka[j].ids) ++je;
+    std::vector<char> used_b(ie - i, 0), used_a(je - j, 0);
+    for (int pass = 0; pass < 2; ++pass)  // same winding first, then reversed
+      for (std::size_t x = i; x < ie; ++x)
+        for (std::size_t y = j; y < je && used_b[x - i] == 0; ++y)
+          if (used_a[y - j] == 0 && (pass == 1 || kb[x].odd == ka[y].odd)) {
+            used_b[x - i] = used_a[y - j] = 1;
+            match_of[kb[x].face] = ka[y].face;
+            added[ka[y].face] = 0;
+            if (kb[x].odd != ka[y].odd) ++c.facets_reversed;
+          }
+    for (char u : used_b) c.facets_removed += u == 0;
+    i = ie;
+    j = je;
+  }
+  for (char a : added) c.facets_added += a != 0;
+
+  // The result as a reader of its file sees it: vertices at one position are one vertex
+  // (faces keep their indices), so vertices split apart by the repair do not close edges.
+  const Mesh welded = detail::welded_by_position(after);
+  const FacetEdges eb = facet_edges(before);
+  const FacetEdges ea = facet_edges(welded);
+  std::vector<char> group_has_added(ea.group_size.size(), 0);
+  for (std::size_t s = 0; s < ea.group.size(); ++s)
+    if (added[s / 3] != 0) group_has_added[ea.group[s]] = 1;
+
+  // Edges fixed: open or non-manifold facet edges of kept faces, closed by input faces.
+  for (std::size_t f = 0; f < before.triangles.size(); ++f) {
+    const std::uint32_t g = match_of[f];
+    if (g == kNone) continue;
+    for (std::uint32_t k = 0; k < 3; ++k) {
+      if (eb.group_size[eb.group[3 * f + k]] == 2) continue;
+      const std::uint32_t p = ids_b[before.triangles[f][k]], q = ids_b[before.triangles[f][(k + 1) % 3]];
+      if (p == q) continue;
+      for (std::uint32_t m = 0; m < 3; ++m) {
+        const std::uint32_t r = ids_a[after.triangles[g][m]], s = ids_a[after.triangles[g][(m + 1) % 3]];
+        if (!((r == p && s == q) || (r == q && s == p))) continue;
+        const std::uint32_t grp = ea.group[3 * g + m];
+        if (ea.group_size[grp] == 2 && group_has_added[grp] == 0) ++c.edges_fixed;
+        break;
+      }
+    }
+  }
+
+  // Holes filled: added faces connected over shared edges.
+  detail::UnionFind uf(after.triangles.size());
+  std::vector<std::uint32_t> first_added_in_group(ea.group_size.size(), kNone);
+  for (std::size_t s = 0; s < ea.group.size(); ++s) {
+    const auto f = static_cast<std::uint32_t>(s / 3);
+    if (added[f] == 0) continue;
+    std::uint32_t& first = first_added_in_group[ea.group[s]];
+    if (first == kNone) first = f;
+    else uf.unite(first, f);
+  }
+  for (std::uint32_t f = 0; f < after.triangles.size(); ++f) c.holes_filled += added[f] != 0 && uf.find(f) == f;
+
+  const MeshHealth hb = analyze_mesh_health(before);
+  const MeshHealth ha = analyze_mesh_health(welded);
+  c.degenerate_facets = hb.degenerate_faces;
+  c.backwards_edges = 2 * ha.inconsistent_edges;
+  c.parts = ha.shells;
+  return c;
+}
+
+std::string repair_counters_text(const RepairCounters& c) {
+  std::string t;
+  for (const auto& [name, n] : {std::pair<const char*, std::size_t>{"edges fixed", c.edges_fixed},
+                                {"facets removed", c.facets_removed},
+                                {"facets added", c.facets_added},
+                                {"facets reversed", c.facets_reversed},
+                                {"backwards edges", c.backwards_edges},
+                                {"holes filled", c.holes_filled},
+                                {"degenerate facets", c.degenerate_facets},
+                                {"parts", c.parts}})
+    t += (t.empty() ? "" : ", ") + std::string(name) + " " + std::to_string(n);
+  return t;
+}
+
+}  // namespace printtwin
