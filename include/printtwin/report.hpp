@@ -203,6 +203,10 @@ struct ReportOptions {
   /// Traced heatmap views to reuse (not owned). Used when it fits the report's placed mesh
   /// and `views`; otherwise the report traces its own. The images are the same either way.
   const HeatmapCache* heatmap_cache = nullptr;
+  /// The as-printed mesh written beside the report (--deposit-mesh): link relative to
+  /// report.html (empty: none) and one line about it (plain text).
+  std::string deposit_mesh_href;
+  std::string deposit_mesh_text;
 };
 
 /// JUnit XML (testsuites/testsuite/testcase, failures with messages): one case per gate

@@ -316,8 +316,11 @@ std::uint64_t face_key(int axis, int side, int c, int u, int v) {
          (static_cast<std::uint64_t>(c) << 32) | (static_cast<std::uint64_t>(v) << 16) | static_cast<std::uint64_t>(u);
 }
 
-void radix_sort(std::vector<std::uint64_t>& keys) {
+/// Sorts `keys` ascending, LSD radix on 16-bit digits (a digit all keys share is skipped);
+/// `vals` (optional, same length) are moved along with their keys (stable).
+void radix_sort(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>* vals = nullptr) {
   std::vector<std::uint64_t> tmp(keys.size());
+  std::vector<std::uint32_t> tmp_vals(vals != nullptr ? vals->size() : 0);
   std::vector<std::size_t> count(65536);
   for (int pass = 0; pass < 4; ++pass) {
     const int shift = pass * 16;
@@ -330,8 +333,13 @@ void radix_sort(std::vector<std::uint64_t>& keys) {
       c = sum;
       sum += n;
     }
-    for (const std::uint64_t k : keys) tmp[count[(k >> shift) & 0xFFFF]++] = k;
+    for (std::size_t i = 0; i < keys.size(); ++i) {
+      const std::size_t at = count[(keys[i] >> shift) & 0xFFFF]++;
+      tmp[at] = keys[i];
+      if (vals != nullptr) tmp_vals[at] = (*vals)[i];
+    }
     keys.swap(tmp);
+    if (vals != nullptr) vals->swap(tmp_vals);
   }
 }
 
@@ -450,26 +458,90 @@ struct Triangulated {
 };
 
 /// Triangles of the rectangles, with every rectangle corner that lies on another
-/// rectangle's side inserted into that side (no T-junctions).
+/// rectangle's side inserted into that side (no T-junctions). Lookups are done by sorting
+/// and sweeping (corners -> vertices, side ranges -> points on their lattice line), which
+/// keeps the memory access sequential.
 Triangulated triangulate(const Solid& s, const std::vector<Rect>& rects, double voxel_mm, const Vec3& grid_origin_mm) {
+  const std::size_t nr = rects.size();
+  auto corner_uv = [](const Rect& r, int k) {
+    return std::array<int, 2>{(k == 1 || k == 2) ? r.u1 : r.u0, k >= 2 ? r.v1 : r.v0};
+  };
+  auto corner_point = [&](const Rect& r, int k) {
+    const auto uv = corner_uv(r, k);
+    return lattice_point(r.axis, r.c, uv[0], uv[1]);
+  };
+  // Corners -> unique vertices.
+  std::vector<std::uint64_t> keys(4 * nr);
+  std::vector<std::uint32_t> ids(4 * nr);
+  for (std::size_t ri = 0; ri < nr; ++ri)
+    for (int k = 0; k < 4; ++k) {
+      keys[4 * ri + static_cast<std::size_t>(k)] = point_key(corner_point(rects[ri], k));
+      ids[4 * ri + static_cast<std::size_t>(k)] = static_cast<std::uint32_t>(4 * ri + static_cast<std::size_t>(k));
+    }
+  radix_sort(keys, &ids);
+  std::vector<std::uint32_t> corner_vertex(4 * nr);
   std::vector<std::uint64_t> verts;
-  verts.reserve(rects.size() * 4);
-  for (const Rect& r : rects) {
-    verts.push_back(point_key(lattice_point(r.axis, r.c, r.u0, r.v0)));
-    verts.push_back(point_key(lattice_point(r.axis, r.c, r.u1, r.v0)));
-    verts.push_back(point_key(lattice_point(r.axis, r.c, r.u1, r.v1)));
-    verts.push_back(point_key(lattice_point(r.axis, r.c, r.u0, r.v1)));
+  for (std::size_t i = 0; i < keys.size(); ++i) {
+    if (verts.empty() || verts.back() != keys[i]) verts.push_back(keys[i]);
+    corner_vertex[ids[i]] = static_cast<std::uint32_t>(verts.size() - 1);
   }
-  radix_sort(verts);
-  verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
-  std::vector<std::uint64_t> lines;
-  lines.reserve(verts.size() * 3);
-  for (const std::uint64_t k : verts) {
+  // Every vertex on its three lattice lines.
+  std::vector<std::uint64_t> lines(3 * verts.size());
+  std::vector<std::uint32_t> line_vertex(3 * verts.size());
+  for (std::size_t i = 0; i < verts.size(); ++i) {
+    const std::uint64_t k = verts[i];
     const std::array<int, 3> p = {static_cast<int>(k >> 32), static_cast<int>((k >> 16) & 0xFFFF),
                                   static_cast<int>(k & 0xFFFF)};
-    for (int t = 0; t < 3; ++t) lines.push_back(line_key(t, p));
+    for (int t = 0; t < 3; ++t) {
+      lines[3 * i + static_cast<std::size_t>(t)] = line_key(t, p);
+      line_vertex[3 * i + static_cast<std::size_t>(t)] = static_cast<std::uint32_t>(i);
+    }
   }
-  radix_sort(lines);
+  radix_sort(lines, &line_vertex);
+  // Sides two or more cells long may carry points: query (line, lo + 1) .. (line, hi - 1).
+  // Side k runs from corner k to corner k + 1 along u (k even) or v (k odd).
+  keys.clear();
+  ids.clear();
+  std::vector<std::uint32_t> side_hi;
+  for (std::size_t ri = 0; ri < nr; ++ri) {
+    const Rect& r = rects[ri];
+    for (int k = 0; k < 4; ++k) {
+      const int len = k % 2 == 0 ? r.u1 - r.u0 : r.v1 - r.v0;
+      if (len < 2) continue;
+      const int t = k % 2 == 0 ? (r.axis + 1) % 3 : (r.axis + 2) % 3;
+      auto p = corner_point(r, k);
+      const int lo = k % 2 == 0 ? r.u0 : r.v0;
+      p[static_cast<std::size_t>(t)] = lo + 1;
+      keys.push_back(line_key(t, p));
+      ids.push_back(static_cast<std::uint32_t>(4 * ri + static_cast<std::size_t>(k)));
+    }
+  }
+  radix_sort(keys, &ids);
+  std::vector<std::uint32_t> begin(4 * nr + 1, 0);
+  std::vector<std::uint32_t> inserted;
+  for (int pass = 0; pass < 2; ++pass) {
+    std::size_t j = 0;
+    for (std::size_t q = 0; q < keys.size(); ++q) {
+      const Rect& r = rects[ids[q] / 4];
+      const int k = static_cast<int>(ids[q] % 4);
+      const std::uint64_t hi = (keys[q] & ~0xFFFFull) | static_cast<std::uint64_t>(k % 2 == 0 ? r.u1 : r.v1);
+      while (j < lines.size() && lines[j] < keys[q]) ++j;
+      std::size_t e = j;
+      while (e < lines.size() && lines[e] < hi) ++e;
+      if (pass == 0) {
+        begin[ids[q] + 1] = static_cast<std::uint32_t>(e - j);
+      } else {
+        std::uint32_t at = begin[ids[q]];
+        for (std::size_t x = j; x < e; ++x) inserted[at++] = line_vertex[x];
+      }
+    }
+    if (pass == 0) {
+      for (std::size_t i = 1; i < begin.size(); ++i) begin[i] += begin[i - 1];
+      inserted.resize(begin.back());
+    }
+  }
+  keys = {};
+  lines = {};
 
   Triangulated out;
   Mesh& m = out.mesh;
@@ -479,37 +551,22 @@ Triangulated triangulate(const Solid& s, const std::vector<Rect>& rects, double 
   for (const std::uint64_t k : verts)
     m.vertices_mm.push_back(base + step * Vec3(static_cast<double>(k >> 32), static_cast<double>((k >> 16) & 0xFFFF),
                                                static_cast<double>(k & 0xFFFF)));
-  auto vertex_of = [&](const std::array<int, 3>& p) {
-    return static_cast<std::uint32_t>(std::lower_bound(verts.begin(), verts.end(), point_key(p)) - verts.begin());
-  };
+  m.triangles.reserve(2 * nr + inserted.size());
+  out.rect_of_triangle.reserve(2 * nr + inserted.size());
   std::vector<std::uint32_t> loop;
-  for (std::size_t ri = 0; ri < rects.size(); ++ri) {
+  for (std::size_t ri = 0; ri < nr; ++ri) {
     const Rect& r = rects[ri];
-    const std::array<std::array<int, 2>, 4> corner = {{{r.u0, r.v0}, {r.u1, r.v0}, {r.u1, r.v1}, {r.u0, r.v1}}};
     loop.clear();
-    std::array<int, 4> start{};  // position of each corner in the loop
-    std::array<int, 4> inserted{};
-    for (int side = 0; side < 4; ++side) {
-      const auto a = lattice_point(r.axis, r.c, corner[side][0], corner[side][1]);
-      const auto b = lattice_point(r.axis, r.c, corner[(side + 1) % 4][0], corner[(side + 1) % 4][1]);
-      start[static_cast<std::size_t>(side)] = static_cast<int>(loop.size());
-      loop.push_back(vertex_of(a));
-      const int t = (side % 2 == 0) ? (r.axis + 1) % 3 : (r.axis + 2) % 3;  // the side's axis
-      const int lo = std::min(a[static_cast<std::size_t>(t)], b[static_cast<std::size_t>(t)]);
-      const int hi = std::max(a[static_cast<std::size_t>(t)], b[static_cast<std::size_t>(t)]);
-      auto p = a;
-      p[static_cast<std::size_t>(t)] = lo + 1;
-      const auto first = std::lower_bound(lines.begin(), lines.end(), line_key(t, p));
-      p[static_cast<std::size_t>(t)] = hi;
-      const auto last = std::lower_bound(first, lines.end(), line_key(t, p));
-      const std::size_t before = loop.size();
-      for (auto it = first; it != last; ++it) {
-        p[static_cast<std::size_t>(t)] = static_cast<int>(*it & 0xFFFF);
-        loop.push_back(vertex_of(p));
-      }
-      if (a[static_cast<std::size_t>(t)] > b[static_cast<std::size_t>(t)])
-        std::reverse(loop.begin() + static_cast<std::ptrdiff_t>(before), loop.end());
-      inserted[static_cast<std::size_t>(side)] = static_cast<int>(loop.size() - before);
+    std::array<int, 4> start{}, count{};
+    for (int k = 0; k < 4; ++k) {
+      const std::size_t side = 4 * ri + static_cast<std::size_t>(k);
+      start[static_cast<std::size_t>(k)] = static_cast<int>(loop.size());
+      loop.push_back(corner_vertex[side]);
+      // The points come in increasing lattice order; sides 2 and 3 run backwards.
+      const std::size_t at = loop.size();
+      loop.insert(loop.end(), inserted.begin() + begin[side], inserted.begin() + begin[side + 1]);
+      if (k >= 2) std::reverse(loop.begin() + static_cast<std::ptrdiff_t>(at), loop.end());
+      count[static_cast<std::size_t>(k)] = static_cast<int>(begin[side + 1] - begin[side]);
     }
     const bool flip = r.side == 0;  // the loop runs counter-clockwise seen from +axis
     auto add = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
@@ -521,7 +578,7 @@ Triangulated triangulate(const Solid& s, const std::vector<Rect>& rects, double 
     // triangle. Otherwise a fan from the rectangle's centre.
     int apex = -1;
     for (int k = 0; k < 4 && apex < 0; ++k)
-      if (inserted[static_cast<std::size_t>(k)] == 0 && inserted[static_cast<std::size_t>((k + 3) % 4)] == 0)
+      if (count[static_cast<std::size_t>(k)] == 0 && count[static_cast<std::size_t>((k + 3) % 4)] == 0)
         apex = start[static_cast<std::size_t>(k)];
     if (apex >= 0) {
       for (int i = 1; i + 1 < n; ++i)

@@ -64,12 +64,18 @@ struct DepositMesh {
 
 /// Writes the mesh atomically as binary STL, 3MF (zip with 3D/3dmodel.model) or binary
 /// little-endian PLY, by extension. `deviation_mm` (PLY only, one per vertex, or empty): the
-/// signed deviation from the design, written as the vertex property `quality` (float).
+/// signed deviation from the design, written as the vertex properties `quality` (MeshLab)
+/// and `scalar_deviation` (CloudCompare), float.
 [[nodiscard]] Status write_deposit_mesh(const DepositMesh& mesh, const std::filesystem::path& path,
                                         std::span<const float> deviation_mm = {});
 
 /// One line for the log: triangles, size, error bound, volume, dropped pieces.
 [[nodiscard]] std::string deposit_mesh_summary(const DepositMesh& mesh, const std::filesystem::path& path);
+
+/// The mesh's figures as compact JSON (path, triangles, vertices, bytes, cell_voxels,
+/// error_bound_mm, volume_mm3, filled_volume_mm3, repaired_voxels, components,
+/// dropped_components); no timings, so the same input gives the same text.
+[[nodiscard]] std::string deposit_mesh_json(const DepositMesh& mesh, const std::filesystem::path& path);
 
 /// Parses --deposit-mesh-include: comma list of skirt, brim, support, custom, purge,
 /// wipe_tower, all (usage error for anything else).

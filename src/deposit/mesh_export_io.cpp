@@ -3,6 +3,8 @@
 // [Content_Types].xml, _rels/.rels and 3D/3dmodel.model, deflated with zlib).
 #include <zlib.h>
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 #include <array>
 #include <charconv>
@@ -38,15 +40,20 @@ std::string ply_bytes(const DepositMesh& dm, std::span<const float> deviation) {
   std::string out = "ply\nformat binary_little_endian 1.0\ncomment printtwin as-printed deposit mesh\n";
   out += "comment voxel " + format_number(dm.voxel_mm) + " mm, cells of " + std::to_string(dm.cell_voxels) +
          " voxels, within " + format_number(dm.error_bound_mm) + " mm of the voxel surface\n";
-  if (quality) out += "comment quality: signed deviation from the design in mm (positive: excess)\n";
+  if (quality)
+    out += "comment quality and scalar_deviation: signed deviation from the design in mm (positive: excess)\n";
   out += "element vertex " + std::to_string(m.vertices_mm.size()) +
          "\nproperty float x\nproperty float y\nproperty float z\n";
-  if (quality) out += "property float quality\n";
+  // The same value twice: MeshLab colours by `quality`, CloudCompare reads `scalar_*`.
+  if (quality) out += "property float quality\nproperty float scalar_deviation\n";
   out += "element face " + std::to_string(m.triangles.size()) + "\nproperty list uchar int vertex_indices\nend_header\n";
-  out.reserve(out.size() + m.vertices_mm.size() * (quality ? 16 : 12) + m.triangles.size() * 13);
+  out.reserve(out.size() + m.vertices_mm.size() * (quality ? 20 : 12) + m.triangles.size() * 13);
   for (std::size_t i = 0; i < m.vertices_mm.size(); ++i) {
     for (int k = 0; k < 3; ++k) put(out, static_cast<float>(m.vertices_mm[i][k]));
-    if (quality) put(out, deviation[i]);
+    if (quality) {
+      put(out, deviation[i]);
+      put(out, deviation[i]);
+    }
   }
   for (const auto& t : m.triangles) {
     put(out, std::uint8_t{3});
@@ -226,6 +233,24 @@ std::string deposit_mesh_summary(const DepositMesh& dm, const std::filesystem::p
     s += "  left out " + std::to_string(dm.dropped_components) +
          " piece(s) without part voxels (skirt, purge line); --deposit-mesh-include adds auxiliary features\n";
   return s;
+}
+
+std::string deposit_mesh_json(const DepositMesh& dm, const std::filesystem::path& path) {
+  std::error_code ec;
+  const auto bytes = std::filesystem::file_size(path, ec);
+  nlohmann::json j;
+  j["path"] = path.string();
+  j["triangles"] = dm.mesh.triangles.size();
+  j["vertices"] = dm.mesh.vertices_mm.size();
+  j["bytes"] = ec ? 0 : bytes;
+  j["cell_voxels"] = dm.cell_voxels;
+  j["error_bound_mm"] = dm.error_bound_mm;
+  j["volume_mm3"] = dm.volume_mm3;
+  j["filled_volume_mm3"] = dm.filled_volume_mm3;
+  j["repaired_voxels"] = dm.repaired_cells;
+  j["components"] = dm.components;
+  j["dropped_components"] = dm.dropped_components;
+  return j.dump();
 }
 
 Status parse_deposit_mesh_include(const std::string& list, DepositMeshOptions& o) {

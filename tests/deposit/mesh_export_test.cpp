@@ -289,3 +289,62 @@ TEST(DepositMesh, BadExtensionIsAUsageError) {
 
 }  // namespace
 }  // namespace printtwin
+
+namespace printtwin {
+namespace {
+
+TEST(DepositMeshCli, SimulateWritesEachFormatAndReportsIt) {
+  const auto dir = test::temp_dir("deposit_mesh_cli");
+  const auto gcode = test::source_path("samples/gcode/prusa_cube10.gcode");
+  const auto run = test::run_cli("simulate '" + gcode.string() + "' --voxel 0.2 --deposit-mesh '" +
+                                 (dir / "cube.3mf").string() + "' --json '" + (dir / "cube.json").string() + "'");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("deposit mesh: "), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("closed and oriented outward"), std::string::npos) << run.out;
+  auto back = load_mesh(dir / "cube.3mf");
+  ASSERT_TRUE(back.ok()) << back.error().describe();
+  const auto j = test::read_json(dir / "cube.json");
+  ASSERT_TRUE(j["deposit"].contains("mesh"));
+  EXPECT_EQ(j["deposit"]["mesh"]["triangles"].get<std::size_t>(), back->triangles.size());
+  // The 10 mm cube's filled volume: about 1000 mm3 at this coarse voxel.
+  EXPECT_NEAR(signed_volume_mm3(*back), 1000.0, 150.0);
+
+  const auto bad = test::run_cli("simulate '" + gcode.string() + "' --deposit-mesh '" + (dir / "cube.obj").string() + "'");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find(".stl, .3mf or .ply"), std::string::npos) << bad.err;
+  const auto folder = test::run_cli("simulate '" + gcode.string() + "' --deposit-mesh '" + dir.string() + "'");
+  EXPECT_EQ(folder.exit_code, 2);
+}
+
+TEST(DepositMeshCli, EmptyDepositGivesAClearMessageAndValidFiles) {
+  const auto dir = test::temp_dir("deposit_mesh_cli_empty");
+  ASSERT_TRUE(write_file_atomic(dir / "travel.gcode", "G28\nG90\nG1 X10 Y10 Z5 F3000\nG1 X20 Y20\n").ok());
+  for (const char* name : {"e.stl", "e.3mf", "e.ply"}) {
+    SCOPED_TRACE(name);
+    const auto run = test::run_cli("simulate '" + (dir / "travel.gcode").string() + "' --deposit-mesh '" +
+                                   (dir / name).string() + "'");
+    EXPECT_EQ(run.exit_code, 0) << run.err;
+    EXPECT_NE(run.out.find("no part voxels"), std::string::npos) << run.out;
+    EXPECT_TRUE(std::filesystem::exists(dir / name));
+  }
+}
+
+TEST(DepositMeshCli, VerifyWritesTheDeviationAndLinksIt) {
+  const auto dir = test::temp_dir("deposit_mesh_verify");
+  const auto run = test::run_cli("verify '" + test::source_path("samples/models/curved_part.stl").string() +
+                                 "' --gcode '" + test::source_path("samples/gcode/prusa_curved_part.gcode").string() +
+                                 "' --voxel 0.2 --out '" + (dir / "rep").string() + "' --deposit-mesh '" +
+                                 (dir / "part.ply").string() + "'");
+  ASSERT_LE(run.exit_code, 1) << run.err;
+  auto ply = read_file(dir / "part.ply");
+  ASSERT_TRUE(ply.ok());
+  EXPECT_NE(ply->find("property float quality\n"), std::string::npos);
+  auto html = read_file(dir / "rep" / "report.html");
+  ASSERT_TRUE(html.ok());
+  EXPECT_NE(html->find("href=\"../part.ply\""), std::string::npos);
+  auto back = load_mesh(dir / "part.ply");
+  ASSERT_TRUE(back.ok()) << back.error().describe();
+}
+
+}  // namespace
+}  // namespace printtwin
