@@ -316,16 +316,20 @@ std::uint64_t face_key(int axis, int side, int c, int u, int v) {
          (static_cast<std::uint64_t>(c) << 32) | (static_cast<std::uint64_t>(v) << 16) | static_cast<std::uint64_t>(u);
 }
 
-/// Sorts `keys` ascending, LSD radix on 16-bit digits (a digit all keys share is skipped);
-/// `vals` (optional, same length) are moved along with their keys (stable).
+/// Sorts `keys` ascending, LSD radix on 11-bit digits (2048 buckets stay in cache; digits
+/// above the largest key, or shared by all keys, are skipped); `vals` (optional, same
+/// length) move along with their keys (stable).
 void radix_sort(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>* vals = nullptr) {
+  constexpr int kBits = 11;
+  constexpr std::size_t kBuckets = std::size_t{1} << kBits;
+  std::uint64_t all_bits = 0;
+  for (const std::uint64_t k : keys) all_bits |= k;
   std::vector<std::uint64_t> tmp(keys.size());
   std::vector<std::uint32_t> tmp_vals(vals != nullptr ? vals->size() : 0);
-  std::vector<std::size_t> count(65536);
-  for (int pass = 0; pass < 4; ++pass) {
-    const int shift = pass * 16;
+  std::vector<std::size_t> count(kBuckets);
+  for (int shift = 0; shift < 64 && (all_bits >> shift) != 0; shift += kBits) {
     std::fill(count.begin(), count.end(), 0);
-    for (const std::uint64_t k : keys) ++count[(k >> shift) & 0xFFFF];
+    for (const std::uint64_t k : keys) ++count[(k >> shift) & (kBuckets - 1)];
     if (std::count(count.begin(), count.end(), keys.size()) == 1) continue;  // one digit: in order
     std::size_t sum = 0;
     for (auto& c : count) {
@@ -334,7 +338,7 @@ void radix_sort(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>* va
       sum += n;
     }
     for (std::size_t i = 0; i < keys.size(); ++i) {
-      const std::size_t at = count[(keys[i] >> shift) & 0xFFFF]++;
+      const std::size_t at = count[(keys[i] >> shift) & (kBuckets - 1)]++;
       tmp[at] = keys[i];
       if (vals != nullptr) tmp_vals[at] = (*vals)[i];
     }
@@ -797,7 +801,8 @@ Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid, const DepositMeshO
   for (const bool k : pieces.keep) (k ? out.components : out.dropped_components) += 1;
   out.repaired_cells = full.repaired;
   out.filled_volume_mm3 = static_cast<double>(fine.count()) * std::pow(grid.voxel_mm(), 3);
-  out.mesh = kept_part(full.tris, pieces);
+  if (out.dropped_components == 0) out.mesh = std::move(full.tris.mesh);
+  else out.mesh = kept_part(full.tris, pieces);
   out.full_res_triangles = out.mesh.triangles.size();
   std::size_t kept_rects = 0;
   for (std::size_t ri = 0; ri < full.rects.size(); ++ri) kept_rects += pieces.keep[pieces.component_of_rect[ri]] ? 1 : 0;
