@@ -151,6 +151,10 @@ struct ReportOptions {
   /// Called with the staging folder before it is renamed into place, to add more files
   /// (e.g. deposit.ot). An error aborts the report and leaves no folder behind.
   std::function<Status(const std::filesystem::path& staging_dir)> extra_outputs;
+  /// The as-printed mesh written beside the report (--deposit-mesh): link relative to
+  /// report.html (empty: none) and one line about it (plain text).
+  std::string deposit_mesh_href;
+  std::string deposit_mesh_text;
 };
 
 /// JUnit XML (testsuites/testsuite/testcase, failures with messages): one case per gate
@@ -222,10 +226,15 @@ class ReportFolderWriter {
 /// (write_verify_outputs) beside the files of `report_options.extra_outputs`. The same bytes
 /// as the calls one after the other; faster, since the report's work that needs only the
 /// placed mesh runs while the deposit is still being laid. Errors: those of verify (no
-/// folder is written) and of write_report_folder.
+/// folder is written) and of write_report_folder. `derived_outputs`, when given, runs on the
+/// finished report before the folder is written: it writes files derived from the report
+/// (e.g. the as-printed mesh, --deposit-mesh) and sets their links in the options; its error
+/// aborts the report.
+using DerivedOutputs = std::function<Status(VerifyReport& report, ReportOptions& options)>;
 [[nodiscard]] Result<VerifyReport> verify_to_folder(const VerifyOptions& options,
                                                     const std::filesystem::path& out_dir,
-                                                    const ReportOptions& report_options = {});
+                                                    const ReportOptions& report_options = {},
+                                                    const DerivedOutputs& derived_outputs = {});
 
 /// Current UTC time as "YYYY-MM-DDTHH:MM:SSZ", or the time of $SOURCE_DATE_EPOCH when set
 /// (reproducible builds convention), for `ReportOptions::generated_utc`.

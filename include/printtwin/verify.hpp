@@ -82,6 +82,8 @@ struct VerifySettings {
   std::vector<std::pair<std::string, std::string>> slice_overrides;
   std::uint64_t seed = 1;                   ///< seed of the mesh surface sampling
   int max_regions = 50;                     ///< largest regions kept in the report
+  /// Keep the deposit's voxels in VerifyReport::deposit_grid (e.g. for --deposit-mesh).
+  bool keep_deposit_grid = false;
 };
 
 /// Summary of the mesh check (check.hpp) and of the mesh itself.
@@ -157,6 +159,8 @@ struct VerifyReport {
   /// Wall time of the whole verify() call (0 when not measured, e.g. by verify_gcode). With
   /// --gcode the part's stages run beside the G-code's, so it is less than their sum.
   double elapsed_s = 0;
+  /// The deposit's voxels, when settings.keep_deposit_grid (machine frame).
+  std::shared_ptr<const VoxelGrid> deposit_grid;
 };
 
 /// The run's time as reports show it: `elapsed_s` when measured, else the sum of the stages.

@@ -93,9 +93,11 @@ void add_simulate_command(CLI::App& app, CommandRunner& runner) {
       if (auto st = check_output_paths({{o->json_path, "--json", OutputKind::file},
                                         {o->trace_path, "--trace", OutputKind::file},
                                         {o->deposit.octomap_path, "--deposit", OutputKind::file},
-                                        {o->deposit.ply_path, "--deposit-ply", OutputKind::file}});
+                                        {o->deposit.ply_path, "--deposit-ply", OutputKind::file},
+                                        {o->deposit.mesh.path, "--deposit-mesh", OutputKind::file}});
           !st)
         return report_error(st.error());
+      if (auto mesh = deposit_mesh_options(o->deposit.mesh); !mesh) return report_error(mesh.error());
       // Missing, a directory, a symbolic link loop: said in those words, before any work.
       if (auto size = input_file_size(o->input); !size) return report_error(size.error());
       auto resolved = resolve_printer(o->printer, o->input);

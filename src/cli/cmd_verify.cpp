@@ -1,5 +1,6 @@
 // `printtwin verify part.stl [--gcode part.gcode]`: check -> (slice) -> simulate -> deposit
 // -> deviation, report.json + deviation.ply, a summary table, exit 0 pass / 1 fail.
+#include <cctype>
 #include <cstdio>
 #include <memory>
 #include <optional>
@@ -7,6 +8,7 @@
 
 #include "cli/cli_common.hpp"
 #include "cli/commands.hpp"
+#include "cli/deposit_options.hpp"
 #include "cli/manifest.hpp"
 #include "printtwin/compare.hpp"
 #include "printtwin/io.hpp"
@@ -35,6 +37,7 @@ struct VerifyCliOptions {
   std::vector<std::string> slice_sets;
   std::string slicer = "printtwin", slicer_path, cura_definition;
   double slicer_timeout_s = 600;
+  DepositMeshCliOptions deposit_mesh;  // --deposit-mesh ... (deposit_options.hpp)
   bool quiet = false;
   std::string manifest, summary_out, junit_out;  ///< verify --manifest (verify_manifest.cpp)
 };
@@ -97,6 +100,35 @@ void print_summary(const VerifyReport& r, const std::string& out_dir) {
   std::printf("  report: %s/report.html (report.json, junit.xml, summary.md, deviation.ply)\n", out_dir.c_str());
 }
 
+/// --deposit-mesh under verify: the as-printed mesh with the deviation from the placed design
+/// per vertex (PLY `quality`), linked from report.html. Returns the summary lines.
+Result<std::string> write_verified_deposit_mesh(VerifyReport& report, const DepositMeshOptions& options,
+                                                const std::string& path, const std::string& out_dir,
+                                                ReportOptions& report_options) {
+  if (!report.deposit_grid) return internal_error("verify kept no deposit grid for --deposit-mesh");
+  auto mesh = build_deposit_mesh(*report.deposit_grid, options);
+  report.deposit_grid.reset();
+  if (!mesh) return mesh.error();
+  std::vector<float> deviation;  // PLY only: the other formats carry no per-vertex value
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext == ".ply" && !mesh->mesh.vertices_mm.empty()) {
+    auto d = signed_distances_to_mesh(report.placed_mesh, mesh->mesh.vertices_mm, 4 * report.deposit.voxel_mm);
+    if (!d) return d.error();
+    deviation.assign(d->begin(), d->end());
+  }
+  if (auto st = write_deposit_mesh(*mesh, path, deviation); !st) return st.error();
+  namespace fs = std::filesystem;
+  const fs::path rel = fs::absolute(path).lexically_normal().lexically_relative(fs::absolute(out_dir).lexically_normal());
+  report_options.deposit_mesh_href = rel.empty() ? fs::absolute(path).string() : rel.generic_string();
+  report_options.deposit_mesh_text = std::to_string(mesh->mesh.triangles.size()) + " triangles, closed" +
+                                     (mesh->cell_voxels > 1 ? ", within " + format_fixed(mesh->error_bound_mm, 3) +
+                                                                  " mm of the voxel surface"
+                                                            : ", on the voxel faces") +
+                                     (deviation.empty() ? std::string() : "; deviation from the design per vertex (PLY quality)");
+  return deposit_mesh_summary(*mesh, path);
+}
+
 }  // namespace
 
 void add_verify_command(CLI::App& app, CommandRunner& runner) {
@@ -135,13 +167,17 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
                      "without --gcode: who slices the part: printtwin (default), prusa-slicer, cura (CuraEngine) "
                      "or slic3r; --config and --set then go to that slicer (docs/compare.md)",
                      "the slicer's program (default: found on the PATH)");
+  add_deposit_mesh_options(*cmd, o->deposit_mesh);
   cmd->add_flag("-q,--quiet", o->quiet, "no summary table");
   cmd->callback([o, &runner] {
     runner.run = [o]() -> int {
       if (auto st = check_output_paths({{o->out, "--out", OutputKind::folder},
-                                        {o->deviation_ply, "--deviation-ply", OutputKind::file}});
+                                        {o->deviation_ply, "--deviation-ply", OutputKind::file},
+                                        {o->deposit_mesh.path, "--deposit-mesh", OutputKind::file}});
           !st)
         return report_error(st.error());
+      auto mesh_options = deposit_mesh_options(o->deposit_mesh);
+      if (!mesh_options) return report_error(mesh_options.error());
       VerifyOptions options;
       options.mesh_path = o->mesh;
       options.gcode_path = o->gcode;
@@ -154,6 +190,7 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
       s.voxel_mm = o->voxel_mm;
       s.mesh_sample_spacing_mm = o->spacing_mm;
       s.seed = o->seed;
+      s.keep_deposit_grid = !o->deposit_mesh.path.empty();
       s.slice_config_ini = o->slice_config;
       for (const auto& kv : o->slice_sets) {
         const auto eq = kv.find('=');
@@ -208,7 +245,16 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
           o->out.empty() ? (std::filesystem::path("reports") / std::filesystem::path(o->mesh).stem()).string() : o->out;
       ReportOptions report_options;
       report_options.generated_utc = report_timestamp_utc();
-      auto report = verify_to_folder(options, out_dir, report_options);
+      std::string mesh_summary;
+      DerivedOutputs derived;
+      if (!o->deposit_mesh.path.empty())
+        derived = [&](VerifyReport& finished, ReportOptions& with_link) -> Status {
+          auto written = write_verified_deposit_mesh(finished, *mesh_options, o->deposit_mesh.path, out_dir, with_link);
+          if (!written) return written.error();
+          mesh_summary = *written;
+          return Ok{};
+        };
+      auto report = verify_to_folder(options, out_dir, report_options, derived);
       if (!report) return report_error(report.error());
       if (!o->deviation_ply.empty()) {
         auto ply = read_file(std::filesystem::path(out_dir) / "deviation.ply");
@@ -216,6 +262,7 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
         if (auto st = write_file_atomic(o->deviation_ply, *ply); !st) return report_error(st.error());
       }
       if (!o->quiet) print_summary(*report, out_dir);
+      if (!o->quiet) std::fputs(mesh_summary.c_str(), stdout);
       return report->pass ? kPass : kFail;
     };
   });

@@ -31,6 +31,27 @@ void add_deposit_options(CLI::App& cmd, DepositCliOptions& o) {
   cmd.add_option("--deposit-color", o.color, "Colour of .ot voxels: layer or feature")
       ->capture_default_str()
       ->check(CLI::IsMember({"layer", "feature"}));
+  add_deposit_mesh_options(cmd, o.mesh);
+}
+
+void add_deposit_mesh_options(CLI::App& cmd, DepositMeshCliOptions& o) {
+  cmd.add_option("--deposit-mesh", o.path,
+                 "Write the as-printed part (the deposit's outer surface) as a closed mesh: .stl, .3mf or .ply");
+  cmd.add_option("--deposit-mesh-include", o.include,
+                 "Keep these in the mesh too (comma list): skirt (and brim), support, purge (start code, purge "
+                 "lines, wipe tower), all");
+  cmd.add_option("--deposit-mesh-max-triangles", o.max_triangles,
+                 "Decimate the mesh to at most this many triangles (coarser cells; the error bound is printed)");
+}
+
+Result<DepositMeshOptions> deposit_mesh_options(const DepositMeshCliOptions& o) {
+  DepositMeshOptions out;
+  if (o.path.empty()) return out;
+  if (auto st = check_deposit_mesh_path(o.path); !st) return st.error();
+  if (!o.include.empty())
+    if (auto st = parse_deposit_mesh_include(o.include, out); !st) return st.error();
+  out.max_triangles = o.max_triangles;
+  return out;
 }
 
 Result<std::size_t> parse_memory_size(const std::string& text) {
@@ -88,6 +109,15 @@ Status DepositStage::run(const PrinterProfile& profile, SimulationResult& sim) {
   if (!options_.ply_path.empty()) {
     if (auto st = write_deposit_ply(deposit->grid, options_.ply_path); !st) return st.error();
   }
+  if (!options_.mesh.path.empty()) {
+    auto mesh_options = deposit_mesh_options(options_.mesh);
+    if (!mesh_options) return mesh_options.error();
+    auto mesh = build_deposit_mesh(deposit->grid, *mesh_options);
+    if (!mesh) return mesh.error();
+    if (auto st = write_deposit_mesh(*mesh, options_.mesh.path); !st) return st.error();
+    mesh_summary_ = deposit_mesh_summary(*mesh, options_.mesh.path);
+    mesh_json_ = deposit_mesh_json(*mesh, options_.mesh.path);
+  }
   sim.findings.insert(sim.findings.end(), deposit->findings.begin(), deposit->findings.end());
   result_ = std::move(deposit).value();
   return Ok{};
@@ -98,6 +128,7 @@ std::string DepositStage::patch_json(const std::string& simulate_json) const {
   auto j = nlohmann::json::parse(simulate_json, nullptr, /*allow_exceptions=*/false);
   if (j.is_discarded() || !j.is_object()) return simulate_json;
   j["deposit"] = nlohmann::json::parse(deposit_json(*result_));
+  if (!mesh_json_.empty()) j["deposit"]["mesh"] = nlohmann::json::parse(mesh_json_);
   return j.dump(2) + "\n";
 }
 
@@ -114,7 +145,7 @@ std::string DepositStage::summary() const {
   out += "extrusion into air: " + format_fixed(d.unsupported_mm, 1) + " mm unsupported; " +
          std::to_string(bridges) + " bridged and " + std::to_string(cantilevers) +
          " cantilevered stretches of at least 1 mm\n";
-  return out;
+  return out + mesh_summary_;
 }
 
 }  // namespace printtwin::cli

@@ -13,11 +13,24 @@
 #include <string>
 #include <vector>
 
+#include "deposit/mesh_export.hpp"
 #include "printtwin/deposit.hpp"
 #include "printtwin/planner.hpp"
 #include "printtwin/simulate.hpp"
 
 namespace printtwin::cli {
+
+/// --deposit-mesh, --deposit-mesh-include, --deposit-mesh-max-triangles (simulate and verify).
+struct DepositMeshCliOptions {
+  std::string path;              ///< out.stl|out.3mf|out.ply
+  std::string include;           ///< comma list: skirt, support, purge, all
+  std::size_t max_triangles = 0; ///< 0: full resolution
+};
+
+/// Declares the --deposit-mesh options on a subcommand.
+void add_deposit_mesh_options(CLI::App& cmd, DepositMeshCliOptions& options);
+/// The options as build_deposit_mesh takes them; usage errors for a bad extension or list.
+[[nodiscard]] Result<DepositMeshOptions> deposit_mesh_options(const DepositMeshCliOptions& options);
 
 struct DepositCliOptions {
   std::string octomap_path;   ///< --deposit out.bt|out.ot
@@ -27,7 +40,10 @@ struct DepositCliOptions {
   double support_fraction = 0.5;  ///< --support-fraction
   std::string color = "layer";    ///< --deposit-color layer|feature (.ot)
   bool deposit = false;           ///< --deposit-summary: deposit without writing files
-  [[nodiscard]] bool enabled() const { return deposit || !octomap_path.empty() || !ply_path.empty(); }
+  DepositMeshCliOptions mesh;     ///< --deposit-mesh ...
+  [[nodiscard]] bool enabled() const {
+    return deposit || !octomap_path.empty() || !ply_path.empty() || !mesh.path.empty();
+  }
 };
 
 /// Declares the deposit options on the simulate subcommand.
@@ -60,6 +76,8 @@ class DepositStage final : public MoveSink {
   MoveSink* next_;
   std::vector<Move> moves_;
   std::optional<DepositResult> result_;
+  std::string mesh_summary_;
+  std::string mesh_json_;
 };
 
 }  // namespace printtwin::cli

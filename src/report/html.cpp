@@ -401,6 +401,10 @@ std::string report_html(const VerifyReport& report, const ReportAssets& assets, 
                              std::to_string(report.deposit.surface_voxels) + " on the surface) · " +
                              size_text(report.deposit.memory_bytes));
   h += kv_row("deposit part box", box_text(report.deposit.part_bbox_mm, 2));
+  if (!options.deposit_mesh_href.empty())
+    h += kv_row("as-printed mesh", "<a href=\"" + html_escape(options.deposit_mesh_href) + "\">" +
+                                       html_escape(options.deposit_mesh_href) + "</a> · " +
+                                       html_escape(options.deposit_mesh_text));
   h += "</table></div>";
   h += printer_values_html(report.printer);
   h += "<div><h3>Run</h3><table class=\"kv\">";

@@ -2,6 +2,8 @@
 // printed G-code against a prepared part.
 #include <filesystem>
 
+#include <memory>
+
 #include "printtwin/io.hpp"
 #include "printtwin/version.hpp"
 #include "verify/pipeline.hpp"
@@ -125,6 +127,8 @@ Result<VerifyReport> measure_with(const PreparedPart& part, const VerifySettings
   for (const auto& r : report.deviation.regions)
     report.findings.push_back(region_finding(r, settings.gates.tolerance_mm));
   evaluate_gates(report);
+  if (settings.keep_deposit_grid)
+    report.deposit_grid = std::make_shared<const VoxelGrid>(std::move(printed.deposit.grid));
   return report;
 }
 

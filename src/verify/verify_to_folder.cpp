@@ -10,7 +10,8 @@
 namespace printtwin {
 
 Result<VerifyReport> verify_to_folder(const VerifyOptions& options, const std::filesystem::path& out_dir,
-                                      const ReportOptions& report_options) {
+                                      const ReportOptions& report_options,
+                                      const DerivedOutputs& derived_outputs) {
   std::optional<Result<HeatmapCache>> heatmaps;
   auto report = verify_detail::verify_with(options, [&](const Mesh& placed_mesh) {
     heatmaps.emplace(build_heatmap_cache(placed_mesh, report_options.views));
@@ -18,6 +19,8 @@ Result<VerifyReport> verify_to_folder(const VerifyOptions& options, const std::f
   if (!report) return report.error();
   const HeatmapCache* traced = heatmaps && *heatmaps ? &**heatmaps : nullptr;
   ReportOptions with_outputs = report_options;
+  if (derived_outputs)
+    if (auto st = derived_outputs(*report, with_outputs); !st) return st.error();
   const VerifyReport& finished = *report;
   with_outputs.extra_outputs = [&](const std::filesystem::path& staging) -> Status {
     if (auto st = write_verify_outputs(finished, staging); !st) return st;

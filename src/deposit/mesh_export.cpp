@@ -1,0 +1,843 @@
+// The as-printed part as a closed triangle mesh (see mesh_export.hpp for the model).
+//
+// Steps: the filled volume from the outer-surface routine (filled_volume_of, the one place
+// that calls it) -> a blocked bit solid -> manifold repair -> exposed faces, sorted by plane
+// -> rectangles -> vertices and T-junction splits -> triangles -> components (skirt and
+// purge pieces dropped) -> optionally the same on coarser cells until the size fits.
+#include "deposit/mesh_export.hpp"
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <numeric>
+#include <optional>
+#include <vector>
+
+#include "deposit/voxel_blocks.hpp"
+#include "deviation/outer_surface.hpp"
+#include "printtwin/deviation.hpp"
+
+namespace printtwin {
+
+namespace {
+
+using Mask = std::array<std::uint64_t, 8>;
+constexpr std::uint64_t kColX0 = 0x0101010101010101ull;
+constexpr std::uint64_t kColX7 = 0x8080808080808080ull;
+constexpr int kMaxCoord = 65535;  // lattice coordinates are packed in 16 bits
+
+// ---------------------------------------------------------------- the solid
+
+/// A set of cells on a blocked grid: cell (x, y, z) covers grid keys origin + s * (x, y, z)
+/// .. + s - 1 on each axis. Blocks of 8^3 cells: code 0 empty, 1 full, k + 2 masks[k].
+struct Solid {
+  VoxelKey origin{};
+  int cell = 1;
+  Eigen::Vector3i nb = Eigen::Vector3i::Zero();  // blocks per axis
+  std::vector<std::uint32_t> code;
+  std::vector<Mask> masks;
+
+  static constexpr std::uint32_t kEmpty = 0, kFull = 1;
+
+  [[nodiscard]] Eigen::Vector3i dims() const { return nb * 8; }
+  [[nodiscard]] bool block_in(int bx, int by, int bz) const {
+    return bx >= 0 && by >= 0 && bz >= 0 && bx < nb.x() && by < nb.y() && bz < nb.z();
+  }
+  [[nodiscard]] std::size_t index(int bx, int by, int bz) const {
+    return (static_cast<std::size_t>(bz) * static_cast<std::size_t>(nb.y()) + static_cast<std::size_t>(by)) *
+               static_cast<std::size_t>(nb.x()) +
+           static_cast<std::size_t>(bx);
+  }
+  [[nodiscard]] std::uint32_t code_at(int bx, int by, int bz) const {
+    return block_in(bx, by, bz) ? code[index(bx, by, bz)] : kEmpty;
+  }
+  /// Slice z (0..7) of block (bx, by, bz): bit y * 8 + x.
+  [[nodiscard]] std::uint64_t word(int bx, int by, int bz, int z) const {
+    const std::uint32_t c = code_at(bx, by, bz);
+    if (c == kEmpty) return 0;
+    if (c == kFull) return ~0ull;
+    return masks[c - 2][static_cast<std::size_t>(z)];
+  }
+  [[nodiscard]] bool get(int x, int y, int z) const {
+    if (x < 0 || y < 0 || z < 0) return false;
+    return ((word(x >> 3, y >> 3, z >> 3, z & 7) >> ((y & 7) * 8 + (x & 7))) & 1U) != 0;
+  }
+  Mask& mask_for_write(int bx, int by, int bz) {
+    std::uint32_t& c = code[index(bx, by, bz)];
+    if (c < 2) {
+      Mask m;
+      m.fill(c == kFull ? ~0ull : 0ull);
+      masks.push_back(m);
+      c = static_cast<std::uint32_t>(masks.size() + 1);
+    }
+    return masks[c - 2];
+  }
+  void set(int x, int y, int z, bool on) {
+    if (x < 0 || y < 0 || z < 0 || !block_in(x >> 3, y >> 3, z >> 3)) return;
+    Mask& m = mask_for_write(x >> 3, y >> 3, z >> 3);
+    const std::uint64_t bit = 1ull << ((y & 7) * 8 + (x & 7));
+    if (on) m[static_cast<std::size_t>(z & 7)] |= bit;
+    else m[static_cast<std::size_t>(z & 7)] &= ~bit;
+  }
+  [[nodiscard]] std::size_t count() const {
+    std::size_t n = 0;
+    for (const std::uint32_t c : code) {
+      if (c == kFull) n += 512;
+      else if (c >= 2)
+        for (const std::uint64_t w : masks[c - 2]) n += static_cast<std::size_t>(std::popcount(w));
+    }
+    return n;
+  }
+  /// Grid key of the min corner of cell (x, y, z).
+  [[nodiscard]] VoxelKey key_of_cell(int x, int y, int z) const {
+    return {origin.x + cell * x, origin.y + cell * y, origin.z + cell * z};
+  }
+};
+
+Solid empty_solid(const VoxelKey& origin, int cell, const Eigen::Vector3i& cells) {
+  Solid s;
+  s.origin = origin;
+  s.cell = cell;
+  s.nb = Eigen::Vector3i((cells.x() + 7) / 8, (cells.y() + 7) / 8, (cells.z() + 7) / 8);
+  s.code.assign(static_cast<std::size_t>(s.nb.x()) * static_cast<std::size_t>(s.nb.y()) *
+                    static_cast<std::size_t>(s.nb.z()),
+                Solid::kEmpty);
+  return s;
+}
+
+/// The grid with the auxiliary voxels the options include relabelled as unknown, so that the
+/// outer-surface routine keeps them (it treats auxiliary features as air).
+VoxelGrid with_included_features(const VoxelGrid& grid, const DepositMeshOptions& o) {
+  VoxelGrid copy = grid;
+  const auto& table = detail::VoxelBlocks::tag_table(grid);
+  std::vector<std::int64_t> relabel(table.size(), -1);
+  for (std::size_t i = 0; i < table.size(); ++i) {
+    const Feature f = table[i].feature;
+    const bool inc = (o.include_skirt && f == Feature::skirt) ||
+                     (o.include_support && (f == Feature::support || f == Feature::support_interface)) ||
+                     (o.include_custom && (f == Feature::custom || f == Feature::wipe_tower));
+    if (!inc) continue;
+    VoxelTag t = table[i];
+    t.feature = Feature::unknown;
+    relabel[i] = detail::VoxelBlocks::add_tag(copy, t);
+  }
+  std::vector<std::pair<VoxelKey, std::uint32_t>> changes;
+  detail::VoxelBlocks::visit_blocks(grid, [&](const detail::VoxelBlocks::BlockView& b) {
+    for (int z = 0; z < 8; ++z)
+      for (std::uint64_t bits = b.occupancy[z]; bits != 0; bits &= bits - 1) {
+        const int bit = std::countr_zero(bits);
+        const std::uint32_t ti = b.tag_index(z * 64 + bit);
+        if (relabel[ti] >= 0)
+          changes.push_back({{b.base.x + (bit & 7), b.base.y + (bit >> 3), b.base.z + z},
+                             static_cast<std::uint32_t>(relabel[ti])});
+      }
+  });
+  for (const auto& [k, ti] : changes) detail::VoxelBlocks::set_index(copy, k, ti);
+  return copy;
+}
+
+/// Adapter to the deposit's outer-surface routine (the lead re-points it when the routines
+/// are unified): the filled volume (occupied voxels plus the cavities the outside air does
+/// not reach) of the non-auxiliary voxels, as a Solid of single voxels whose origin is
+/// block-aligned with the grid and padded by one empty block on every side.
+Result<Solid> filled_volume_of(const VoxelGrid& grid, const DepositMeshOptions& o) {
+  const bool relabel = o.include_skirt || o.include_support || o.include_custom;
+  std::optional<VoxelGrid> relabelled;
+  if (relabel) relabelled.emplace(with_included_features(grid, o));
+  const VoxelGrid& g = relabelled ? *relabelled : grid;
+  Box3 box;
+  detail::VoxelBlocks::visit_blocks(g, [&](const detail::VoxelBlocks::BlockView& b) {
+    box.extend(g.center_mm(b.base));
+    box.extend(g.center_mm({b.base.x + 7, b.base.y + 7, b.base.z + 7}));
+  });
+  if (box.empty()) return Solid{};
+  const DepositSurface surf = extract_outer_surface(g, box, 0.0);
+  if (surf.filled_blocks_dims.minCoeff() <= 0) return Solid{};
+  const Eigen::Vector3i lo = surf.filled_blocks_lo - Eigen::Vector3i::Ones();
+  const Eigen::Vector3i cells = (surf.filled_blocks_dims + Eigen::Vector3i(2, 2, 2)) * 8;
+  if (cells.maxCoeff() > kMaxCoord)
+    return usage_error("--deposit-mesh: the deposit spans " + std::to_string(cells.maxCoeff()) +
+                       " voxels on one axis; at most " + std::to_string(kMaxCoord) + " are supported (use a larger --voxel)");
+  Solid s = empty_solid({lo.x() * 8, lo.y() * 8, lo.z() * 8}, 1, cells);
+  // Region voxels only (the codes speak for the region's voxels of each block).
+  const VoxelKey rlo = surf.origin_key;
+  const VoxelKey rhi{rlo.x + surf.dims.x(), rlo.y + surf.dims.y(), rlo.z + surf.dims.z()};
+  const Eigen::Vector3i& fd = surf.filled_blocks_dims;
+  for (int by = 0; by < fd.y(); ++by)
+    for (int bx = 0; bx < fd.x(); ++bx)
+      for (int bz = 0; bz < fd.z(); ++bz) {
+        const std::size_t i = (static_cast<std::size_t>(by) * fd.x() + static_cast<std::size_t>(bx)) * fd.z() +
+                              static_cast<std::size_t>(bz);
+        const std::uint32_t c = surf.filled_block_code[i];
+        if (c == DepositSurface::kNoneFilled) continue;
+        const int gx = bx + surf.filled_blocks_lo.x(), gy = by + surf.filled_blocks_lo.y(),
+                  gz = bz + surf.filled_blocks_lo.z();
+        Mask m{};
+        for (int z = 0; z < 8; ++z)
+          m[static_cast<std::size_t>(z)] =
+              c == DepositSurface::kAllFilled ? ~0ull : surf.filled_masks[c - DepositSurface::kFirstMask][static_cast<std::size_t>(z)];
+        const bool inside = gx * 8 >= rlo.x && gy * 8 >= rlo.y && gz * 8 >= rlo.z && gx * 8 + 8 <= rhi.x &&
+                            gy * 8 + 8 <= rhi.y && gz * 8 + 8 <= rhi.z;
+        if (!inside)  // a block on the region's border: its voxels outside the region are air
+          for (int slot = 0; slot < 512; ++slot) {
+            const int kx = gx * 8 + (slot & 7), ky = gy * 8 + ((slot >> 3) & 7), kz = gz * 8 + (slot >> 6);
+            if (kx < rlo.x || ky < rlo.y || kz < rlo.z || kx >= rhi.x || ky >= rhi.y || kz >= rhi.z)
+              m[static_cast<std::size_t>(slot >> 6)] &= ~(1ull << (slot & 63));
+          }
+        const int sbx = gx - lo.x(), sby = gy - lo.y(), sbz = gz - lo.z();
+        std::uint32_t& dst = s.code[s.index(sbx, sby, sbz)];
+        if (std::all_of(m.begin(), m.end(), [](std::uint64_t w) { return w == ~0ull; })) {
+          dst = Solid::kFull;
+        } else if (std::any_of(m.begin(), m.end(), [](std::uint64_t w) { return w != 0; })) {
+          s.masks.push_back(m);
+          dst = static_cast<std::uint32_t>(s.masks.size() + 1);
+        }
+      }
+  return s;
+}
+
+// ---------------------------------------------------------------- slices of neighbours
+
+/// Voxel (x + 1, y) in lane y * 8 + x, from a slice and the slice of the +x block.
+std::uint64_t next_x(std::uint64_t w, std::uint64_t wx) { return ((w >> 1) & ~kColX7) | ((wx & kColX0) << 7); }
+/// Voxel (x - 1, y), from a slice and the slice of the -x block.
+std::uint64_t prev_x(std::uint64_t w, std::uint64_t wx) { return ((w << 1) & ~kColX0) | ((wx & kColX7) >> 7); }
+std::uint64_t next_y(std::uint64_t w, std::uint64_t wy) { return (w >> 8) | (wy << 56); }
+std::uint64_t prev_y(std::uint64_t w, std::uint64_t wy) { return (w << 8) | (wy >> 56); }
+
+/// The four cells (x, y), (x+1, y), (x, y+1), (x+1, y+1) of slice z of block (bx, by, bz), one
+/// lane per (x, y).
+std::array<std::uint64_t, 4> quad(const Solid& s, int bx, int by, int bz, int z) {
+  const int zb = bz + (z >> 3), zz = z & 7;
+  const std::uint64_t w = s.word(bx, by, zb, zz), wx = s.word(bx + 1, by, zb, zz);
+  const std::uint64_t wy = s.word(bx, by + 1, zb, zz), wxy = s.word(bx + 1, by + 1, zb, zz);
+  const std::uint64_t b = next_x(w, wx);
+  return {w, b, next_y(w, wy), next_y(b, next_x(wy, wxy))};
+}
+
+// ---------------------------------------------------------------- manifold repair
+
+// Cell i of a 2x2x2 cube: (i & 1, i >> 1 & 1, i >> 2).
+constexpr std::array<std::array<int, 4>, 6> kSquares = {{{0, 1, 2, 3}, {4, 5, 6, 7}, {0, 1, 4, 5},
+                                                         {2, 3, 6, 7}, {0, 2, 4, 6}, {1, 3, 5, 7}}};
+
+/// The cell to fill for a cube configuration (bit i: cell i filled), or -1 when the
+/// configuration is well-composed.
+std::array<std::int8_t, 256> make_fill_table() {
+  std::array<std::int8_t, 256> t{};
+  for (int cfg = 0; cfg < 256; ++cfg) {
+    auto in = [&](int i) { return ((cfg >> i) & 1) != 0; };
+    int fill = -1;
+    for (const auto& q : kSquares) {  // p q / r s with p-s and q-r diagonal
+      const int p = q[0], a = q[1], b = q[2], d = q[3];
+      if (in(p) && in(d) && !in(a) && !in(b)) fill = std::min(a, b);
+      else if (in(a) && in(b) && !in(p) && !in(d)) fill = std::min(p, d);
+      if (fill >= 0) break;
+    }
+    if (fill < 0)
+      for (int i = 0; i < 4; ++i) {
+        const int pair = (1 << i) | (1 << (7 - i));
+        if (cfg == pair) fill = i ^ 1;          // two opposite corners alone: join them
+        else if (cfg == (255 & ~pair)) fill = i;  // two opposite corners empty: fill one
+        if (fill >= 0) break;
+      }
+    t[static_cast<std::size_t>(cfg)] = static_cast<std::int8_t>(fill);
+  }
+  return t;
+}
+
+/// Fills cells until no critical configuration is left; returns how many were filled.
+std::size_t make_well_composed(Solid& s) {
+  static const std::array<std::int8_t, 256> kFill = make_fill_table();
+  std::vector<std::array<int, 3>> work;
+  for (int bz = 0; bz < s.nb.z(); ++bz)
+    for (int by = 0; by < s.nb.y(); ++by)
+      for (int bx = 0; bx < s.nb.x(); ++bx) {
+        // Cubes with their min cell in this block touch the blocks b + {0,1}^3 only.
+        const std::uint32_t c0 = s.code[s.index(bx, by, bz)];
+        bool uniform = c0 < 2;
+        for (int d = 1; d < 8 && uniform; ++d)
+          uniform = s.code_at(bx + (d & 1), by + ((d >> 1) & 1), bz + (d >> 2)) == c0;
+        if (uniform) continue;
+        for (int z = 0; z < 8; ++z) {
+          const auto lo = quad(s, bx, by, bz, z), hi = quad(s, bx, by, bz, z + 1);
+          const std::array<std::uint64_t, 8> v = {lo[0], lo[1], lo[2], lo[3], hi[0], hi[1], hi[2], hi[3]};
+          std::uint64_t bad = 0;
+          for (const auto& q : kSquares) {
+            const std::uint64_t p = v[q[0]], a = v[q[1]], b = v[q[2]], d = v[q[3]];
+            bad |= (p & d & ~a & ~b) | (a & b & ~p & ~d);
+          }
+          std::uint64_t all = ~0ull, none = ~0ull;
+          for (const std::uint64_t w : v) {
+            all &= w;
+            none &= ~w;
+          }
+          for (int i = 0; i < 4; ++i) {
+            std::uint64_t others_in = ~0ull, others_out = ~0ull;
+            for (int j = 0; j < 8; ++j)
+              if (j != i && j != 7 - i) {
+                others_in &= v[j];
+                others_out &= ~v[j];
+              }
+            bad |= (v[i] & v[7 - i] & others_out) | (~v[i] & ~v[7 - i] & others_in);
+          }
+          for (; bad != 0; bad &= bad - 1) {
+            const int bit = std::countr_zero(bad);
+            work.push_back({bx * 8 + (bit & 7), by * 8 + (bit >> 3), bz * 8 + z});
+          }
+        }
+      }
+  std::size_t filled = 0;
+  while (!work.empty()) {
+    const auto c = work.back();
+    work.pop_back();
+    int cfg = 0;
+    for (int i = 0; i < 8; ++i)
+      if (s.get(c[0] + (i & 1), c[1] + ((i >> 1) & 1), c[2] + (i >> 2))) cfg |= 1 << i;
+    const int f = kFill[static_cast<std::size_t>(cfg)];
+    if (f < 0) continue;
+    const int x = c[0] + (f & 1), y = c[1] + ((f >> 1) & 1), z = c[2] + (f >> 2);
+    s.set(x, y, z, true);
+    ++filled;
+    for (int i = 0; i < 8; ++i) work.push_back({x - (i & 1), y - ((i >> 1) & 1), z - (i >> 2)});
+    work.push_back(c);
+  }
+  return filled;
+}
+
+// ---------------------------------------------------------------- faces and rectangles
+
+/// Exposed face key: axis (2 bits) | side (1) | plane coordinate c (16) | v (16) | u (16),
+/// (u, v) the two other axes in cyclic order (a + 1, a + 2), so e_u x e_v = e_a.
+std::uint64_t face_key(int axis, int side, int c, int u, int v) {
+  return (static_cast<std::uint64_t>(axis) << 49) | (static_cast<std::uint64_t>(side) << 48) |
+         (static_cast<std::uint64_t>(c) << 32) | (static_cast<std::uint64_t>(v) << 16) | static_cast<std::uint64_t>(u);
+}
+
+/// Sorts `keys` ascending, LSD radix on 11-bit digits (2048 buckets stay in cache; digits
+/// above the largest key, or shared by all keys, are skipped); `vals` (optional, same
+/// length) move along with their keys (stable).
+void radix_sort(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>* vals = nullptr) {
+  constexpr int kBits = 11;
+  constexpr std::size_t kBuckets = std::size_t{1} << kBits;
+  std::uint64_t all_bits = 0;
+  for (const std::uint64_t k : keys) all_bits |= k;
+  std::vector<std::uint64_t> tmp(keys.size());
+  std::vector<std::uint32_t> tmp_vals(vals != nullptr ? vals->size() : 0);
+  std::vector<std::size_t> count(kBuckets);
+  for (int shift = 0; shift < 64 && (all_bits >> shift) != 0; shift += kBits) {
+    std::fill(count.begin(), count.end(), 0);
+    for (const std::uint64_t k : keys) ++count[(k >> shift) & (kBuckets - 1)];
+    if (std::count(count.begin(), count.end(), keys.size()) == 1) continue;  // one digit: in order
+    std::size_t sum = 0;
+    for (auto& c : count) {
+      const std::size_t n = c;
+      c = sum;
+      sum += n;
+    }
+    for (std::size_t i = 0; i < keys.size(); ++i) {
+      const std::size_t at = count[(keys[i] >> shift) & (kBuckets - 1)]++;
+      tmp[at] = keys[i];
+      if (vals != nullptr) tmp_vals[at] = (*vals)[i];
+    }
+    keys.swap(tmp);
+    if (vals != nullptr) vals->swap(tmp_vals);
+  }
+}
+
+std::vector<std::uint64_t> exposed_faces(const Solid& s) {
+  std::vector<std::uint64_t> keys;
+  auto emit = [&](std::uint64_t bits, int axis, int side, int bx, int by, int bz, int z) {
+    for (; bits != 0; bits &= bits - 1) {
+      const int bit = std::countr_zero(bits);
+      const int x = bx * 8 + (bit & 7), y = by * 8 + (bit >> 3), zz = bz * 8 + z;
+      const std::array<int, 3> p = {x, y, zz};
+      const int u = p[static_cast<std::size_t>((axis + 1) % 3)], v = p[static_cast<std::size_t>((axis + 2) % 3)];
+      keys.push_back(face_key(axis, side, p[static_cast<std::size_t>(axis)] + side, u, v));
+    }
+  };
+  for (int bz = 0; bz < s.nb.z(); ++bz)
+    for (int by = 0; by < s.nb.y(); ++by)
+      for (int bx = 0; bx < s.nb.x(); ++bx) {
+        const std::uint32_t c = s.code[s.index(bx, by, bz)];
+        if (c == Solid::kEmpty) continue;
+        if (c == Solid::kFull && s.code_at(bx - 1, by, bz) == Solid::kFull &&
+            s.code_at(bx + 1, by, bz) == Solid::kFull && s.code_at(bx, by - 1, bz) == Solid::kFull &&
+            s.code_at(bx, by + 1, bz) == Solid::kFull && s.code_at(bx, by, bz - 1) == Solid::kFull &&
+            s.code_at(bx, by, bz + 1) == Solid::kFull)
+          continue;
+        for (int z = 0; z < 8; ++z) {
+          const std::uint64_t w = s.word(bx, by, bz, z);
+          if (w == 0) continue;
+          emit(w & ~prev_x(w, s.word(bx - 1, by, bz, z)), 0, 0, bx, by, bz, z);
+          emit(w & ~next_x(w, s.word(bx + 1, by, bz, z)), 0, 1, bx, by, bz, z);
+          emit(w & ~prev_y(w, s.word(bx, by - 1, bz, z)), 1, 0, bx, by, bz, z);
+          emit(w & ~next_y(w, s.word(bx, by + 1, bz, z)), 1, 1, bx, by, bz, z);
+          const std::uint64_t below = z > 0 ? s.word(bx, by, bz, z - 1) : s.word(bx, by, bz - 1, 7);
+          const std::uint64_t above = z < 7 ? s.word(bx, by, bz, z + 1) : s.word(bx, by, bz + 1, 0);
+          emit(w & ~below, 2, 0, bx, by, bz, z);
+          emit(w & ~above, 2, 1, bx, by, bz, z);
+        }
+      }
+  radix_sort(keys);
+  return keys;
+}
+
+struct Rect {
+  std::uint8_t axis = 0, side = 0;
+  int c = 0, u0 = 0, u1 = 0, v0 = 0, v1 = 0;  // lattice: [u0, u1] x [v0, v1] at coordinate c
+};
+
+/// Runs of faces along u, stacked along v while their extent is equal.
+std::vector<Rect> merge_faces(const std::vector<std::uint64_t>& keys) {
+  std::vector<Rect> rects;
+  std::vector<std::size_t> open, next_open;  // rectangles ending at the previous row, by u0
+  std::uint64_t plane = ~0ull;
+  int row = -2;
+  std::size_t oi = 0;
+  for (std::size_t i = 0; i < keys.size();) {
+    const std::uint64_t k = keys[i];
+    const std::uint64_t pl = k >> 32;
+    const int v = static_cast<int>((k >> 16) & 0xFFFF), u0 = static_cast<int>(k & 0xFFFF);
+    std::size_t j = i + 1;
+    while (j < keys.size() && (keys[j] >> 16) == (k >> 16) &&
+           static_cast<int>(keys[j] & 0xFFFF) == u0 + static_cast<int>(j - i))
+      ++j;
+    const int u1 = u0 + static_cast<int>(j - i);
+    if (pl != plane || v != row) {  // a new row: the rectangles of the row before may grow
+      if (pl == plane && v == row + 1) open.swap(next_open);
+      else open.clear();
+      next_open.clear();
+      oi = 0;
+      plane = pl;
+      row = v;
+    }
+    while (oi < open.size() && rects[open[oi]].u0 < u0) ++oi;
+    if (oi < open.size() && rects[open[oi]].u0 == u0 && rects[open[oi]].u1 == u1) {
+      rects[open[oi]].v1 = v + 1;
+      next_open.push_back(open[oi]);
+      ++oi;
+    } else {
+      Rect r;
+      r.axis = static_cast<std::uint8_t>(pl >> 17);
+      r.side = static_cast<std::uint8_t>((pl >> 16) & 1);
+      r.c = static_cast<int>(pl & 0xFFFF);
+      r.u0 = u0;
+      r.u1 = u1;
+      r.v0 = v;
+      r.v1 = v + 1;
+      next_open.push_back(rects.size());
+      rects.push_back(r);
+    }
+    i = j;
+  }
+  return rects;
+}
+
+// ---------------------------------------------------------------- triangles
+
+std::array<int, 3> lattice_point(int axis, int c, int u, int v) {
+  std::array<int, 3> p{};
+  p[static_cast<std::size_t>(axis)] = c;
+  p[static_cast<std::size_t>((axis + 1) % 3)] = u;
+  p[static_cast<std::size_t>((axis + 2) % 3)] = v;
+  return p;
+}
+std::uint64_t point_key(const std::array<int, 3>& p) {
+  return (static_cast<std::uint64_t>(p[0]) << 32) | (static_cast<std::uint64_t>(p[1]) << 16) |
+         static_cast<std::uint64_t>(p[2]);
+}
+/// Key of point p on the lattice line along axis t through it: t | other coords | position.
+std::uint64_t line_key(int t, const std::array<int, 3>& p) {
+  const int o1 = p[static_cast<std::size_t>((t + 1) % 3)], o2 = p[static_cast<std::size_t>((t + 2) % 3)];
+  return (static_cast<std::uint64_t>(t) << 48) | (static_cast<std::uint64_t>(o1) << 32) |
+         (static_cast<std::uint64_t>(o2) << 16) | static_cast<std::uint64_t>(p[static_cast<std::size_t>(t)]);
+}
+
+struct Triangulated {
+  Mesh mesh;
+  std::vector<std::uint32_t> rect_of_triangle;
+};
+
+/// Triangles of the rectangles, with every rectangle corner that lies on another
+/// rectangle's side inserted into that side (no T-junctions). Lookups are done by sorting
+/// and sweeping (corners -> vertices, side ranges -> points on their lattice line), which
+/// keeps the memory access sequential.
+Triangulated triangulate(const Solid& s, const std::vector<Rect>& rects, double voxel_mm, const Vec3& grid_origin_mm) {
+  const std::size_t nr = rects.size();
+  auto corner_uv = [](const Rect& r, int k) {
+    return std::array<int, 2>{(k == 1 || k == 2) ? r.u1 : r.u0, k >= 2 ? r.v1 : r.v0};
+  };
+  auto corner_point = [&](const Rect& r, int k) {
+    const auto uv = corner_uv(r, k);
+    return lattice_point(r.axis, r.c, uv[0], uv[1]);
+  };
+  // Corners -> unique vertices.
+  std::vector<std::uint64_t> keys(4 * nr);
+  std::vector<std::uint32_t> ids(4 * nr);
+  for (std::size_t ri = 0; ri < nr; ++ri)
+    for (int k = 0; k < 4; ++k) {
+      keys[4 * ri + static_cast<std::size_t>(k)] = point_key(corner_point(rects[ri], k));
+      ids[4 * ri + static_cast<std::size_t>(k)] = static_cast<std::uint32_t>(4 * ri + static_cast<std::size_t>(k));
+    }
+  radix_sort(keys, &ids);
+  std::vector<std::uint32_t> corner_vertex(4 * nr);
+  std::vector<std::uint64_t> verts;
+  for (std::size_t i = 0; i < keys.size(); ++i) {
+    if (verts.empty() || verts.back() != keys[i]) verts.push_back(keys[i]);
+    corner_vertex[ids[i]] = static_cast<std::uint32_t>(verts.size() - 1);
+  }
+  // Every vertex on its three lattice lines.
+  std::vector<std::uint64_t> lines(3 * verts.size());
+  std::vector<std::uint32_t> line_vertex(3 * verts.size());
+  for (std::size_t i = 0; i < verts.size(); ++i) {
+    const std::uint64_t k = verts[i];
+    const std::array<int, 3> p = {static_cast<int>(k >> 32), static_cast<int>((k >> 16) & 0xFFFF),
+                                  static_cast<int>(k & 0xFFFF)};
+    for (int t = 0; t < 3; ++t) {
+      lines[3 * i + static_cast<std::size_t>(t)] = line_key(t, p);
+      line_vertex[3 * i + static_cast<std::size_t>(t)] = static_cast<std::uint32_t>(i);
+    }
+  }
+  radix_sort(lines, &line_vertex);
+  // Sides two or more cells long may carry points: query (line, lo + 1) .. (line, hi - 1).
+  // Side k runs from corner k to corner k + 1 along u (k even) or v (k odd).
+  keys.clear();
+  ids.clear();
+  std::vector<std::uint32_t> side_hi;
+  for (std::size_t ri = 0; ri < nr; ++ri) {
+    const Rect& r = rects[ri];
+    for (int k = 0; k < 4; ++k) {
+      const int len = k % 2 == 0 ? r.u1 - r.u0 : r.v1 - r.v0;
+      if (len < 2) continue;
+      const int t = k % 2 == 0 ? (r.axis + 1) % 3 : (r.axis + 2) % 3;
+      auto p = corner_point(r, k);
+      const int lo = k % 2 == 0 ? r.u0 : r.v0;
+      p[static_cast<std::size_t>(t)] = lo + 1;
+      keys.push_back(line_key(t, p));
+      ids.push_back(static_cast<std::uint32_t>(4 * ri + static_cast<std::size_t>(k)));
+    }
+  }
+  radix_sort(keys, &ids);
+  std::vector<std::uint32_t> begin(4 * nr + 1, 0);
+  std::vector<std::uint32_t> inserted;
+  for (int pass = 0; pass < 2; ++pass) {
+    std::size_t j = 0;
+    for (std::size_t q = 0; q < keys.size(); ++q) {
+      const Rect& r = rects[ids[q] / 4];
+      const int k = static_cast<int>(ids[q] % 4);
+      const std::uint64_t hi = (keys[q] & ~0xFFFFull) | static_cast<std::uint64_t>(k % 2 == 0 ? r.u1 : r.v1);
+      while (j < lines.size() && lines[j] < keys[q]) ++j;
+      std::size_t e = j;
+      while (e < lines.size() && lines[e] < hi) ++e;
+      if (pass == 0) {
+        begin[ids[q] + 1] = static_cast<std::uint32_t>(e - j);
+      } else {
+        std::uint32_t at = begin[ids[q]];
+        for (std::size_t x = j; x < e; ++x) inserted[at++] = line_vertex[x];
+      }
+    }
+    if (pass == 0) {
+      for (std::size_t i = 1; i < begin.size(); ++i) begin[i] += begin[i - 1];
+      inserted.resize(begin.back());
+    }
+  }
+  keys = {};
+  lines = {};
+
+  Triangulated out;
+  Mesh& m = out.mesh;
+  const double step = voxel_mm * s.cell;
+  const Vec3 base = grid_origin_mm + voxel_mm * Vec3(s.origin.x, s.origin.y, s.origin.z);
+  m.vertices_mm.reserve(verts.size());
+  for (const std::uint64_t k : verts)
+    m.vertices_mm.push_back(base + step * Vec3(static_cast<double>(k >> 32), static_cast<double>((k >> 16) & 0xFFFF),
+                                               static_cast<double>(k & 0xFFFF)));
+  m.triangles.reserve(2 * nr + inserted.size());
+  out.rect_of_triangle.reserve(2 * nr + inserted.size());
+  std::vector<std::uint32_t> loop;
+  for (std::size_t ri = 0; ri < nr; ++ri) {
+    const Rect& r = rects[ri];
+    loop.clear();
+    std::array<int, 4> start{}, count{};
+    for (int k = 0; k < 4; ++k) {
+      const std::size_t side = 4 * ri + static_cast<std::size_t>(k);
+      start[static_cast<std::size_t>(k)] = static_cast<int>(loop.size());
+      loop.push_back(corner_vertex[side]);
+      // The points come in increasing lattice order; sides 2 and 3 run backwards.
+      const std::size_t at = loop.size();
+      loop.insert(loop.end(), inserted.begin() + begin[side], inserted.begin() + begin[side + 1]);
+      if (k >= 2) std::reverse(loop.begin() + static_cast<std::ptrdiff_t>(at), loop.end());
+      count[static_cast<std::size_t>(k)] = static_cast<int>(begin[side + 1] - begin[side]);
+    }
+    const bool flip = r.side == 0;  // the loop runs counter-clockwise seen from +axis
+    auto add = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+      m.triangles.push_back(flip ? std::array<std::uint32_t, 3>{a, c, b} : std::array<std::uint32_t, 3>{a, b, c});
+      out.rect_of_triangle.push_back(static_cast<std::uint32_t>(ri));
+    };
+    const int n = static_cast<int>(loop.size());
+    // A corner whose two sides carry no inserted point: a fan from it has no degenerate
+    // triangle. Otherwise a fan from the rectangle's centre.
+    int apex = -1;
+    for (int k = 0; k < 4 && apex < 0; ++k)
+      if (count[static_cast<std::size_t>(k)] == 0 && count[static_cast<std::size_t>((k + 3) % 4)] == 0)
+        apex = start[static_cast<std::size_t>(k)];
+    if (apex >= 0) {
+      for (int i = 1; i + 1 < n; ++i)
+        add(loop[static_cast<std::size_t>(apex)], loop[static_cast<std::size_t>((apex + i) % n)],
+            loop[static_cast<std::size_t>((apex + i + 1) % n)]);
+    } else {
+      const auto centre = static_cast<std::uint32_t>(m.vertices_mm.size());
+      const auto p = lattice_point(r.axis, r.c, 0, 0);
+      Vec3 cp = base + step * Vec3(p[0], p[1], p[2]);
+      const int ua = (r.axis + 1) % 3, va = (r.axis + 2) % 3;
+      cp[ua] += step * 0.5 * (r.u0 + r.u1);
+      cp[va] += step * 0.5 * (r.v0 + r.v1);
+      m.vertices_mm.push_back(cp);
+      for (int i = 0; i < n; ++i)
+        add(centre, loop[static_cast<std::size_t>(i)], loop[static_cast<std::size_t>((i + 1) % n)]);
+    }
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------- components
+
+std::uint32_t find_root(std::vector<std::uint32_t>& parent, std::uint32_t i) {
+  while (parent[i] != i) {
+    parent[i] = parent[parent[i]];
+    i = parent[i];
+  }
+  return i;
+}
+
+bool is_part_feature(Feature f) {
+  switch (f) {
+    case Feature::outer_perimeter:
+    case Feature::perimeter:
+    case Feature::overhang_perimeter:
+    case Feature::sparse_infill:
+    case Feature::solid_infill:
+    case Feature::top_solid_infill:
+    case Feature::bridge_infill:
+    case Feature::gap_fill: return true;
+    default: return false;
+  }
+}
+
+bool kept_feature(Feature f, const DepositMeshOptions& o) {
+  return is_part_feature(f) || (o.include_skirt && f == Feature::skirt) ||
+         (o.include_support && (f == Feature::support || f == Feature::support_interface)) ||
+         (o.include_custom && (f == Feature::custom || f == Feature::wipe_tower));
+}
+
+/// The cell inside the solid behind a rectangle's first face.
+std::array<int, 3> inner_cell(const Rect& r) {
+  return lattice_point(r.axis, r.side == 1 ? r.c - 1 : r.c, r.u0, r.v0);
+}
+
+struct Pieces {
+  std::vector<std::uint32_t> component_of_rect;
+  std::vector<bool> keep;  // per component
+};
+
+/// Connected pieces of the surface and which of them are part (see mesh_export.hpp).
+Pieces classify(const Solid& s, const std::vector<Rect>& rects, const Triangulated& t, const VoxelGrid& grid,
+                const DepositMeshOptions& o) {
+  std::vector<std::uint32_t> parent(t.mesh.vertices_mm.size());
+  std::iota(parent.begin(), parent.end(), 0U);
+  for (const auto& tri : t.mesh.triangles) {
+    const std::uint32_t a = find_root(parent, tri[0]);
+    parent[find_root(parent, tri[1])] = a;
+    parent[find_root(parent, tri[2])] = a;
+  }
+  Pieces p;
+  p.component_of_rect.assign(rects.size(), 0);
+  std::vector<std::uint32_t> id(parent.size(), ~0U);
+  std::uint32_t n = 0;
+  for (std::size_t ti = 0; ti < t.mesh.triangles.size(); ++ti) {
+    const std::uint32_t root = find_root(parent, t.mesh.triangles[ti][0]);
+    if (id[root] == ~0U) id[root] = n++;
+    p.component_of_rect[t.rect_of_triangle[ti]] = id[root];
+  }
+  bool tagged = false;
+  for (const auto& tag : detail::VoxelBlocks::tag_table(grid)) tagged |= kept_feature(tag.feature, o);
+  std::vector<char> has_part(n, 0);
+  std::vector<int> layer_min(n, 1 << 30), layer_max(n, -1);
+  for (std::size_t ri = 0; ri < rects.size(); ++ri) {
+    const std::uint32_t c = p.component_of_rect[ri];
+    if (tagged && has_part[c]) continue;
+    const auto cell = inner_cell(rects[ri]);
+    const VoxelKey k0 = s.key_of_cell(cell[0], cell[1], cell[2]);
+    for (int i = 0; i < s.cell * s.cell * s.cell; ++i) {
+      const VoxelKey k{k0.x + i % s.cell, k0.y + (i / s.cell) % s.cell, k0.z + i / (s.cell * s.cell)};
+      const auto tag = grid.tag(k);
+      if (!tag) continue;
+      if (kept_feature(tag->feature, o)) has_part[c] = 1;
+      layer_min[c] = std::min(layer_min[c], tag->layer);
+      layer_max[c] = std::max(layer_max[c], tag->layer);
+    }
+  }
+  p.keep.assign(n, false);
+  bool any = false;
+  for (std::uint32_t c = 0; c < n; ++c) {
+    p.keep[c] = tagged ? has_part[c] != 0 : layer_max[c] > layer_min[c];
+    any |= p.keep[c];
+  }
+  if (!tagged && !any) p.keep.assign(n, true);  // every piece one layer tall: keep them all
+  return p;
+}
+
+/// Clears the 6-connected piece of the solid holding `seed`; returns the cells cleared.
+std::size_t clear_piece(Solid& s, const std::array<int, 3>& seed) {
+  std::size_t cleared = 0;
+  std::vector<std::array<int, 3>> stack{seed};
+  while (!stack.empty()) {
+    const auto c = stack.back();
+    stack.pop_back();
+    if (!s.get(c[0], c[1], c[2])) continue;
+    s.set(c[0], c[1], c[2], false);
+    ++cleared;
+    for (int a = 0; a < 3; ++a)
+      for (int d = -1; d <= 1; d += 2) {
+        auto n = c;
+        n[static_cast<std::size_t>(a)] += d;
+        stack.push_back(n);
+      }
+  }
+  return cleared;
+}
+
+/// The solid on cells of `factor` of its own cells (a cell is filled when any is).
+Solid coarsen(const Solid& fine, int factor) {
+  // One empty block of padding below: coarse cell X covers fine cells (X - 8) * f ...
+  const VoxelKey origin{fine.origin.x - 8 * factor * fine.cell, fine.origin.y - 8 * factor * fine.cell,
+                        fine.origin.z - 8 * factor * fine.cell};
+  const Eigen::Vector3i cells = (fine.dims().array() + factor - 1) / factor + 16;
+  Solid c = empty_solid(origin, fine.cell * factor, cells);
+  for (int bz = 0; bz < fine.nb.z(); ++bz)
+    for (int by = 0; by < fine.nb.y(); ++by)
+      for (int bx = 0; bx < fine.nb.x(); ++bx) {
+        const std::uint32_t code = fine.code[fine.index(bx, by, bz)];
+        if (code == Solid::kEmpty) continue;
+        for (int z = 0; z < 8; ++z) {
+          const std::uint64_t w = fine.word(bx, by, bz, z);
+          const int cz = (bz * 8 + z) / factor + 8;
+          std::uint64_t done = 0;  // lanes whose coarse cell was set already in this slice
+          for (std::uint64_t bits = w; bits != 0; bits &= bits - 1) {
+            const int bit = std::countr_zero(bits);
+            if ((done >> bit) & 1U) continue;
+            const int cx = (bx * 8 + (bit & 7)) / factor + 8, cy = (by * 8 + (bit >> 3)) / factor + 8;
+            c.set(cx, cy, cz, true);
+            // Lanes of the same coarse cell in this slice need no second set.
+            for (int y = 0; y < 8; ++y)
+              if ((by * 8 + y) / factor + 8 == cy)
+                for (int x = 0; x < 8; ++x)
+                  if ((bx * 8 + x) / factor + 8 == cx) done |= 1ull << (y * 8 + x);
+          }
+        }
+      }
+  return c;
+}
+
+struct Built {
+  Triangulated tris;
+  std::vector<Rect> rects;
+  std::size_t repaired = 0;
+};
+
+Built mesh_solid(Solid& s, double voxel_mm, const Vec3& origin_mm) {
+  Built b;
+  b.repaired = make_well_composed(s);
+  b.rects = merge_faces(exposed_faces(s));
+  b.tris = triangulate(s, b.rects, voxel_mm, origin_mm);
+  return b;
+}
+
+/// Keeps the triangles of the kept components, with their vertices renumbered.
+Mesh kept_part(const Triangulated& t, const Pieces& p) {
+  Mesh out;
+  std::vector<std::uint32_t> remap(t.mesh.vertices_mm.size(), ~0U);
+  for (std::size_t ti = 0; ti < t.mesh.triangles.size(); ++ti) {
+    if (!p.keep[p.component_of_rect[t.rect_of_triangle[ti]]]) continue;
+    std::array<std::uint32_t, 3> tri{};
+    for (int k = 0; k < 3; ++k) {
+      std::uint32_t& r = remap[t.mesh.triangles[ti][static_cast<std::size_t>(k)]];
+      if (r == ~0U) {
+        r = static_cast<std::uint32_t>(out.vertices_mm.size());
+        out.vertices_mm.push_back(t.mesh.vertices_mm[t.mesh.triangles[ti][static_cast<std::size_t>(k)]]);
+      }
+      tri[static_cast<std::size_t>(k)] = r;
+    }
+    out.triangles.push_back(tri);
+  }
+  return out;
+}
+
+}  // namespace
+
+Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid, const DepositMeshOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  DepositMesh out;
+  out.voxel_mm = grid.voxel_mm();
+  auto solid = filled_volume_of(grid, options);
+  if (!solid) return solid.error();
+  Solid& fine = *solid;
+  if (fine.code.empty()) {
+    out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return out;
+  }
+  Built full = mesh_solid(fine, grid.voxel_mm(), grid.origin_mm());
+  const Pieces pieces = classify(fine, full.rects, full.tris, grid, options);
+  std::vector<bool> cleared(pieces.keep.size(), false);
+  for (std::size_t ri = 0; ri < full.rects.size(); ++ri) {
+    const std::uint32_t c = pieces.component_of_rect[ri];
+    if (pieces.keep[c] || cleared[c]) continue;
+    cleared[c] = true;
+    clear_piece(fine, inner_cell(full.rects[ri]));
+  }
+  for (const bool k : pieces.keep) (k ? out.components : out.dropped_components) += 1;
+  out.repaired_cells = full.repaired;
+  out.filled_volume_mm3 = static_cast<double>(fine.count()) * std::pow(grid.voxel_mm(), 3);
+  if (out.dropped_components == 0) out.mesh = std::move(full.tris.mesh);
+  else out.mesh = kept_part(full.tris, pieces);
+  out.full_res_triangles = out.mesh.triangles.size();
+  std::size_t kept_rects = 0;
+  for (std::size_t ri = 0; ri < full.rects.size(); ++ri) kept_rects += pieces.keep[pieces.component_of_rect[ri]] ? 1 : 0;
+  out.rectangles = kept_rects;
+  out.error_bound_mm = full.repaired > 0 ? std::sqrt(6.0) * grid.voxel_mm() : 0.0;
+  full = {};
+
+  const std::size_t n_max = options.max_triangles;
+  if (n_max > 0 && out.mesh.triangles.size() > n_max) {
+    const int max_factor = std::max(2, fine.dims().maxCoeff());
+    int factor = std::max(2, static_cast<int>(std::floor(std::sqrt(static_cast<double>(out.mesh.triangles.size()) / n_max))));
+    for (;;) {
+      Solid coarse = coarsen(fine, factor);
+      Built b = mesh_solid(coarse, grid.voxel_mm(), grid.origin_mm());
+      const std::size_t n = b.tris.mesh.triangles.size();
+      if (n <= n_max) {
+        out.mesh = std::move(b.tris.mesh);
+        out.cell_voxels = factor;
+        out.rectangles = b.rects.size();
+        out.repaired_cells = b.repaired;
+        out.error_bound_mm = (b.repaired > 0 ? std::sqrt(6.0) : std::sqrt(3.0)) * factor * grid.voxel_mm();
+        break;
+      }
+      if (factor >= max_factor)
+        return usage_error("--deposit-mesh-max-triangles " + std::to_string(n_max) + " is below the smallest mesh of the part (" +
+                           std::to_string(n) + " triangles on cells of " + std::to_string(factor) + " voxels)");
+      const int grown = static_cast<int>(std::ceil(factor * std::sqrt(static_cast<double>(n) / n_max)));
+      factor = std::min(max_factor, std::max(factor + 1, grown));
+    }
+  }
+  out.volume_mm3 = signed_volume_mm3(out.mesh);
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+}  // namespace printtwin

@@ -1,0 +1,84 @@
+#pragma once
+// The as-printed part as a triangle mesh (`--deposit-mesh part.stl|part.3mf|part.ply`): the
+// outer surface of the deposit's filled volume (voxels plus the cavities the outside cannot
+// reach), made 2-manifold, its coplanar voxel faces merged into rectangles, triangulated
+// without T-junctions, so the mesh is closed and consistently oriented (outward).
+//
+// Model:
+// - Filled volume: the deposit's outer-surface routine (a flood of the outside air); voxels of
+//   skirt/brim, support, wipe tower and custom (start code, purge) are air unless included.
+// - Manifold: a voxel surface is a 2-manifold exactly when no 2x2 square of voxels holds two
+//   diagonal filled voxels beside two empty ones and no 2x2x2 cube holds exactly two
+//   opposite-corner filled (or empty) voxels (well-composed sets). Each such configuration
+//   is repaired by filling one empty voxel (counted), until none is left.
+// - Faces: per plane, runs of faces along one axis, stacked into rectangles when equal; every
+//   rectangle corner lying on another rectangle's side is inserted into that side, so
+//   neighbouring rectangles share their edges exactly.
+// - Components: connected pieces of the surface with no voxel of a part feature (perimeter,
+//   infill, ...) are dropped (a purge line or skirt that lies apart); a G-code without
+//   feature labels keeps the pieces that span more than one layer.
+// - Decimation (max_triangles): the filled volume on cells of s x s x s voxels (a cell is
+//   filled when any of its voxels is), s the smallest that fits. The coarse solid contains
+//   the fine one and every point of its surface lies within error_bound_mm of the
+//   full-resolution voxel surface.
+#include <cstddef>
+#include <filesystem>
+#include <span>
+#include <string>
+
+#include "printtwin/mesh.hpp"
+#include "printtwin/result.hpp"
+#include "printtwin/voxel_grid.hpp"
+
+namespace printtwin {
+
+struct DepositMeshOptions {
+  bool include_skirt = false;    ///< skirt and brim
+  bool include_support = false;  ///< support and support interface
+  bool include_custom = false;   ///< wipe tower, start/end code and purge lines
+  std::size_t max_triangles = 0; ///< 0: full resolution
+};
+
+struct DepositMesh {
+  Mesh mesh;
+  double voxel_mm = 0;          ///< the deposit's voxel edge
+  int cell_voxels = 1;          ///< s: the mesh is built on cells of s^3 voxels (1: no decimation)
+  /// Every point of the mesh lies within this distance of the full-resolution voxel surface
+  /// of the kept components (0 at full resolution without repairs).
+  double error_bound_mm = 0;
+  double volume_mm3 = 0;        ///< enclosed by the mesh
+  double filled_volume_mm3 = 0; ///< kept components' filled voxels (full resolution, before repairs)
+  std::size_t repaired_cells = 0;     ///< cells filled to make the surface a 2-manifold
+  std::size_t rectangles = 0;         ///< merged faces
+  std::size_t full_res_triangles = 0; ///< triangles of the full-resolution mesh
+  std::size_t components = 0;         ///< kept connected pieces
+  std::size_t dropped_components = 0; ///< pieces without part voxels (skirt, purge line)
+  double seconds = 0;                 ///< time to build
+};
+
+/// Builds the mesh. Errors: max_triangles too small for any mesh of the part (usage).
+[[nodiscard]] Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid, const DepositMeshOptions& options);
+
+/// Checks that `path` ends in .stl, .3mf or .ply (usage error otherwise).
+[[nodiscard]] Status check_deposit_mesh_path(const std::filesystem::path& path);
+
+/// Writes the mesh atomically as binary STL, 3MF (zip with 3D/3dmodel.model) or binary
+/// little-endian PLY, by extension. `deviation_mm` (PLY only, one per vertex, or empty): the
+/// signed deviation from the design, written as the vertex properties `quality` (MeshLab)
+/// and `scalar_deviation` (CloudCompare), float.
+[[nodiscard]] Status write_deposit_mesh(const DepositMesh& mesh, const std::filesystem::path& path,
+                                        std::span<const float> deviation_mm = {});
+
+/// One line for the log: triangles, size, error bound, volume, dropped pieces.
+[[nodiscard]] std::string deposit_mesh_summary(const DepositMesh& mesh, const std::filesystem::path& path);
+
+/// The mesh's figures as compact JSON (path, triangles, vertices, bytes, cell_voxels,
+/// error_bound_mm, volume_mm3, filled_volume_mm3, repaired_voxels, components,
+/// dropped_components); no timings, so the same input gives the same text.
+[[nodiscard]] std::string deposit_mesh_json(const DepositMesh& mesh, const std::filesystem::path& path);
+
+/// Parses --deposit-mesh-include: comma list of skirt, brim, support, custom, purge,
+/// wipe_tower, all (usage error for anything else).
+[[nodiscard]] Status parse_deposit_mesh_include(const std::string& list, DepositMeshOptions& options);
+
+}  // namespace printtwin
