@@ -105,7 +105,7 @@ void BM_DeviationStage(benchmark::State& state) {
   state.counters["mesh_samples"] = static_cast<double>(samples);
   state.counters["triangles"] = static_cast<double>(p.placed.triangles.size());
 }
-BENCHMARK(BM_DeviationStage)->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK(BM_DeviationStage)->Unit(benchmark::kMillisecond)->Iterations(3)->MeasureProcessCPUTime();
 
 /// The design side alone (what `compare` shares between variants): BVH, pseudo-normals,
 /// surface samples.

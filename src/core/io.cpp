@@ -22,6 +22,8 @@
 #include <immintrin.h>
 #endif
 
+#include "core/plain_path.hpp"
+
 namespace printtwin {
 
 namespace fs = std::filesystem;
@@ -320,7 +322,7 @@ std::string sha256_hex_impl(std::string_view bytes, bool use_extensions) {
 
 std::string sha256_hex(std::string_view bytes) {
 #ifdef PRINTTWIN_SHA_NI
-  return sha256_hex_impl(bytes, cpu_has_sha_extensions());
+  return sha256_hex_impl(bytes, cpu_has_sha_extensions() && !detail::plain_path("sha_ni"));
 #else
   return sha256_hex_impl(bytes, false);
 #endif
@@ -330,6 +332,7 @@ std::string sha256_hex_portable(std::string_view bytes) { return sha256_hex_impl
 
 void tune_allocator_for_jobs() {
 #if defined(__GLIBC__)
+  if (detail::plain_path("tune_allocator")) return;  // the plain twin: glibc's defaults
   // A job allocates and frees arrays of tens of MB in turn (file text, mesh import, the
   // outer surface's bit columns, face arrays). Fresh pages cost ~1.5 us each here (the kernel
   // zeroes and maps them, ~0.4 ms per MB), so freed memory is kept for reuse: no block goes

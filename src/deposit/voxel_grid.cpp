@@ -26,6 +26,7 @@
 #include <new>
 
 #include "core/bits.hpp"
+#include "core/plain_path.hpp"
 #include "core/zeroed_array.hpp"
 #include "deposit/nibbles.hpp"
 
@@ -144,6 +145,9 @@ struct VoxelGrid::Impl {
   std::vector<std::array<std::int32_t, 3>> block_coord;  // per block: (bx, by, bz)
   // Wide blocks: 512 tag indices each; a wide block's palette[0] holds its index here.
   std::vector<std::unique_ptr<std::uint32_t[]>> wide;
+  // The special paths and their plain twins (PRINTTWIN_PLAIN, core/plain_path.hpp).
+  bool pdep = !detail::plain_path("nibbles_pdep");        ///< BMI2 nibble writes (when the CPU has BMI2)
+  bool prefault = !detail::plain_path("chunk_prefault");  ///< one madvise per fresh chunk
 
   [[nodiscard]] std::size_t dir_index(int bx, int by, int bz) const {
     return (static_cast<std::size_t>(bz) * static_cast<std::size_t>(block_dims.y()) +
@@ -166,7 +170,7 @@ struct VoxelGrid::Impl {
   void add_chunk() { chunks.push_back(std::make_unique<ChunkMemory>()); }
   std::size_t allocate_block(std::size_t di, int bx, int by, int bz) {
     if (blocks == chunks.size() * kChunkBlocks) add_chunk();
-    if (blocks % kChunkBlocks == 0) chunks[blocks / kChunkBlocks]->prefault();
+    if (prefault && blocks % kChunkBlocks == 0) chunks[blocks / kChunkBlocks]->prefault();
     const std::size_t b = blocks++;
     directory[di] = static_cast<std::uint32_t>(b + 1);
     palette_size.push_back(0);
@@ -234,7 +238,9 @@ struct VoxelGrid::Impl {
       for (; mask != 0; mask &= mask - 1) slots[std::countr_zero(mask)] = t;
       return;
     }
-    detail::store_nibbles(nibbles(b) + z * 32, mask, static_cast<unsigned>(e));
+    std::uint8_t* row = nibbles(b) + z * 32;
+    if (!(pdep && detail::store_nibbles_bmi2(row, mask, static_cast<unsigned>(e))))
+      detail::store_nibbles_portable(row, mask, static_cast<unsigned>(e));
   }
   [[nodiscard]] std::uint32_t load_tag(std::size_t b, int s) const {
     if (const std::uint32_t* w = wide_slots(b)) return w[s];

@@ -15,6 +15,7 @@
 #include <memory>
 
 #include "core/bits.hpp"
+#include "core/plain_path.hpp"
 #include "core/zeroed_array.hpp"
 #include "deviation/deposit_surface_internal.hpp"
 #include "deviation/point_groups.hpp"
@@ -209,7 +210,8 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
   }
   const FaceBuckets buckets(s);
   const double half = 0.5 * s.voxel_mm;
-  const bool avx2 = !portable && cpu_has_avx2();
+  const bool avx2 = !portable && cpu_has_avx2() && !plain_path("face_avx2");
+  const bool prefetch = !plain_path("distance_prefetch");
   // A coarse level (groups of kGroup^3 cells) flags where faces are, so that points far from
   // the deposit (a missing wall) skip empty space quickly; the search stays exact.
   constexpr int kGroup = 8;
@@ -242,7 +244,7 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
       // Points (say mesh samples in triangle order) and their result slots are scattered:
       // fetched a few points ahead.
       constexpr std::size_t kAhead = 8;
-      if (j + kAhead < range.end()) {
+      if (prefetch && j + kAhead < range.end()) {
         const std::size_t ahead = order[j + kAhead];
         __builtin_prefetch(&points[ahead]);
         __builtin_prefetch(&signed_mm[ahead], 1);
@@ -250,7 +252,7 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
       }
       const std::size_t i = order[j];
       const Vec3& p = points[i];
-      {  // p's filled code, read after the search
+      if (prefetch) {  // p's filled code, read after the search
         int slot = 0;
         if (const std::uint32_t* code = s.filled_code_of(p, slot)) __builtin_prefetch(code);
       }

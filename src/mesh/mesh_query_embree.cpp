@@ -19,6 +19,7 @@
 #include <limits>
 
 #include "core/bits.hpp"
+#include "core/plain_path.hpp"
 #include "printtwin/mesh_query.hpp"
 
 namespace printtwin {
@@ -433,7 +434,7 @@ void MeshQuery::closest_points_in_ball(const Vec3& center, double radius, std::s
   candidates.clear();
   run_point_query(impl_->scene, center - impl_->center, radius, gather_callback, &candidates);
   if (candidates.empty()) return;
-  const bool avx2 = cpu_has_avx2();
+  static const bool avx2 = cpu_has_avx2() && !detail::plain_path("mesh_query_avx2");
   load_boxes(boxes, impl_->mesh, impl_->bounds, avx2);
   for (std::size_t i = 0; i < points.size(); ++i) {
     PointQueryState st{&impl_->mesh, &impl_->bounds, points[i]};
