@@ -347,7 +347,6 @@ int c2m(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  printtwin::tune_allocator_for_jobs();  // as the command line runs the stage
   if (argc > 1 && std::strcmp(argv[1], "--export") == 0) return export_points(argc, argv);
   if (argc > 1 && std::strcmp(argv[1], "--c2m") == 0) return c2m(argc, argv);
   if (argc > 1 && std::strcmp(argv[1], "--checksum") == 0) return checksum();

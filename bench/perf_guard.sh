@@ -35,6 +35,9 @@ targets=(printtwin_cli)
 for s in $STAGES; do [[ "$s" == bench:* ]] && { p=${s#bench:}; targets+=("${p%%:*}"); }; done
 launcher=()
 command -v ccache > /dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+# Paths under the temporary directory hash as relative ones: the two checkouts (and any
+# other checkout built the same way) share the cache.
+export CCACHE_BASEDIR="$tmp"
 for side in base head; do
   rev=$1; [ "$side" = head ] && rev=$2
   git -C "$repo" worktree add --detach "$tmp/$side" "$rev" > /dev/null 2>&1

@@ -37,7 +37,6 @@
 #include <string>
 #include <vector>
 
-#include "printtwin/default_init_allocator.hpp"
 #include "printtwin/deviation_types.hpp"
 #include "printtwin/geometry.hpp"
 #include "printtwin/mesh.hpp"

@@ -34,14 +34,6 @@ namespace printtwin {
 /// Duration for reports: "1 h 02 min", "25 min 53 s", "48 s"; "—" when not finite or negative.
 [[nodiscard]] std::string format_duration(double seconds);
 
-/// Tunes the C library's allocator for printtwin's jobs, one job per process whose stages
-/// free and re-allocate many large temporary arrays (deviation bit columns, sample arrays,
-/// images; for compare, every variant's): freed blocks of up to 32 MiB stay in the process
-/// instead of going back to the kernel and being faulted back in zeroed. Called first by
-/// the command line and by the deviation benchmark (so it measures the stage as the command
-/// line runs it). glibc only; elsewhere it does nothing.
-void tune_allocator_for_jobs();
-
 /// SHA-256 of a byte string as lowercase hex (for report provenance).
 /// Uses the CPU's SHA extensions when present (x86-64), a portable implementation otherwise.
 [[nodiscard]] std::string sha256_hex(std::string_view bytes);

@@ -10,7 +10,6 @@
 #include <limits>
 #include <unordered_map>
 
-#include "core/plain_path.hpp"
 #include "deviation/point_groups.hpp"
 #include "printtwin/deviation.hpp"
 #include "printtwin/mesh_query.hpp"
@@ -291,7 +290,6 @@ void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Ve
   if (group.size() < 2) return;
   // The point at place j of the visiting order.
   const auto point_at = [&](std::uint32_t j) -> std::size_t { return in_order ? j : order[j]; };
-  const bool prefetch = !detail::plain_path("distance_prefetch");
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, group.size() - 1, cell_mm > 0 ? 64 : 1),
                     [&](const tbb::blocked_range<std::size_t>& r) {
     std::vector<Vec3> local;
@@ -306,14 +304,6 @@ void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Ve
     std::optional<std::uint32_t> prev_tri;
     for (std::size_t g = r.begin(); g != r.end(); ++g) {
       const std::uint32_t g0 = group[g], g1 = group[g + 1];
-      // The next cell's points and result slots are scattered over arrays of tens of MB:
-      // fetched while this cell is computed.
-      if (prefetch && g + 1 < r.end() && !in_order)
-        for (std::uint32_t j = g1; j < group[g + 2]; ++j) {
-          __builtin_prefetch(&points_mm[order[j]]);
-          __builtin_prefetch(&out[order[j]], 1);
-          if (triangles != nullptr) __builtin_prefetch(&(*triangles)[order[j]], 1);
-        }
       local.clear();
       Box3 box;
       for (std::uint32_t j = g0; j < g1; ++j) {

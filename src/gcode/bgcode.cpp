@@ -160,7 +160,7 @@ class BlockReader {
     if (in_ == nullptr) {
       stored_view_ = memory_.substr(static_cast<std::size_t>(data_at), info_.stored_bytes);
     } else {
-      detail::resize_bytes(stored_, info_.stored_bytes);
+      stored_.resize(info_.stored_bytes);
       if (read_at(data_at, stored_.data(), stored_.size()) != stored_.size()) return io_error();
       stored_view_ = std::string_view(stored_.data(), stored_.size());
     }
@@ -192,7 +192,7 @@ class BlockReader {
       case BgcodeCompression::deflate: {
         // Deflate expands at most about 1032:1: reject impossible sizes before allocating.
         if (expected / 1032 > stored_view_.size() + 1) return error("deflate data cannot expand to the " + std::to_string(expected) + " bytes the block header states", true).error();
-        detail::resize_bytes(scratch, expected);
+        scratch.resize(expected);
         uLongf out_len = static_cast<uLongf>(expected);
         uLong in_len = static_cast<uLong>(stored_view_.size());
         Bytef dummy = 0;

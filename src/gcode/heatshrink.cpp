@@ -9,7 +9,7 @@ bool heatshrink_decode(std::string_view in, int window_bits, int lookahead_bits,
                        Bytes& out, std::string& why) {
   // 16 bytes of slack past the end let a back-reference copy a whole 16-byte word.
   constexpr std::size_t kSlack = 16;
-  resize_bytes(out, expected_size + kSlack);
+  out.resize(expected_size + kSlack);
   char* const dst = out.data();
   std::size_t n = 0;
   // MSB-first bit buffer: `bits` valid bits in the low end of `acc`, refilled a byte at a

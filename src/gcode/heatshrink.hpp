@@ -7,29 +7,16 @@
 // in the output, the copy may overlap what it writes. The window starts as zero bytes, so an
 // offset past the start of the output reads zeros. The encoder pads the last byte with
 // zero bits, fewer than a whole literal or back-reference, which the decoder ignores.
-#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <string>
 #include <string_view>
 #include <vector>
 
-#include "core/plain_path.hpp"
-#include "printtwin/default_init_allocator.hpp"
-
 namespace printtwin::detail {
 
-/// A byte buffer whose resize() does not zero what it adds (decoders overwrite it all).
-using Bytes = std::vector<char, DefaultInitAllocator<char>>;
-
-/// b.resize(n); the plain twin (PRINTTWIN_PLAIN=default_init) zero-fills what it adds, as a
-/// std::vector<char> would.
-inline void resize_bytes(Bytes& b, std::size_t n) {
-  static const bool plain = plain_path("default_init");
-  const std::size_t old = b.size();
-  b.resize(n);
-  if (plain && n > old) std::fill(b.begin() + static_cast<std::ptrdiff_t>(old), b.end(), '\0');
-}
+/// A byte buffer of the decoders.
+using Bytes = std::vector<char>;
 
 /// Decodes `in` into `out` (resized to `expected_size`). False, with `why` set, when the
 /// stream does not produce exactly `expected_size` bytes. window_bits <= 15,

@@ -38,7 +38,7 @@ constexpr std::array<bool, 256> kPlainPair = [] {
 
 bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size, std::string& why) {
   // Each input byte gives at most two characters, each of which may get a space before it.
-  if (buf.size() < 4 * in.size() + 8) resize_bytes(buf, 4 * in.size() + 8);
+  if (buf.size() < 4 * in.size() + 8) buf.resize(4 * in.size() + 8);
   char* const begin = buf.data();
   char* o = begin;
   size = 0;
