@@ -42,7 +42,7 @@ for side in base head; do
   rev=$1; [ "$side" = head ] && rev=$2
   git -C "$repo" worktree add --detach "$tmp/$side" "$rev" > /dev/null 2>&1
   echo "building $side ($rev = $(git -C "$repo" rev-parse --short "$rev"))" >&2
-  cmake -S "$tmp/$side" -B "$tmp/$side/build" -DCMAKE_BUILD_TYPE=Release -DPRINTTWIN_BUILD_TESTS=OFF \
+  cmake -S "$tmp/$side" -B "$tmp/$side/build" -DCMAKE_BUILD_TYPE=Release -DPRINTTWIN_WERROR=ON -DPRINTTWIN_BUILD_TESTS=OFF \
     "${launcher[@]}" > "$tmp/$side.log" 2>&1
   cmake --build "$tmp/$side/build" -j"$(nproc)" --target "${targets[@]}" >> "$tmp/$side.log" 2>&1 ||
     { tail -30 "$tmp/$side.log" >&2; echo "perf_guard: $side does not build" >&2; exit 2; }
