@@ -259,7 +259,7 @@ void BM_DepositOnly(benchmark::State& state) {
   state.counters["overlap_mm3"] = overlap;
   state.counters["checksum"] = checksum;
 }
-BENCHMARK(BM_DepositOnly)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3);
+BENCHMARK(BM_DepositOnly)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3)->MeasureProcessCPUTime();
 
 /// Where the overlap of real G-code comes from: the deposit of each feature group alone
 /// (overlap within the group: neighbouring beads of one kind) and of everything (the rest is

@@ -28,7 +28,6 @@
 #include <sstream>
 #include <tuple>
 
-#include "core/allocator.hpp"
 #include "deviation/deposit_surface_internal.hpp"
 #include "printtwin/deposit.hpp"
 #include "printtwin/deviation.hpp"
@@ -106,7 +105,7 @@ void BM_DeviationStage(benchmark::State& state) {
   state.counters["mesh_samples"] = static_cast<double>(samples);
   state.counters["triangles"] = static_cast<double>(p.placed.triangles.size());
 }
-BENCHMARK(BM_DeviationStage)->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK(BM_DeviationStage)->Unit(benchmark::kMillisecond)->Iterations(3)->MeasureProcessCPUTime();
 
 /// The design side alone (what `compare` shares between variants): BVH, pseudo-normals,
 /// surface samples.
@@ -348,7 +347,6 @@ int c2m(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  printtwin::tune_allocator_for_jobs();  // as the command line runs the stage
   if (argc > 1 && std::strcmp(argv[1], "--export") == 0) return export_points(argc, argv);
   if (argc > 1 && std::strcmp(argv[1], "--c2m") == 0) return c2m(argc, argv);
   if (argc > 1 && std::strcmp(argv[1], "--checksum") == 0) return checksum();

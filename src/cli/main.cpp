@@ -9,7 +9,6 @@
 
 #include "cli/cli_common.hpp"
 #include "cli/commands.hpp"
-#include "core/allocator.hpp"
 #include "printtwin/io.hpp"
 #include "printtwin/version.hpp"
 
@@ -22,7 +21,6 @@ bool show_progress() {
 }  // namespace printtwin::cli
 
 int main(int argc, char** argv) {
-  printtwin::tune_allocator_for_jobs();
   std::setlocale(LC_ALL, "C");  // numbers are read and written the same in every locale
   using namespace printtwin::cli;
   CLI::App app{"printtwin: a digital twin of an FDM printer. Checks a mesh, slices it, runs the\n"

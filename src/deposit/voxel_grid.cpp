@@ -8,16 +8,10 @@
 // needs more becomes wide: a 32-bit tag index per voxel, kept beside the chunks. Blocks live in
 // fixed-size chunks, so growing never moves or copies them. A chunk is one anonymous mapping:
 // the kernel hands its pages out zeroed, so reserving chunks costs no time and no resident
-// memory; when a chunk's first block is taken its pages are faulted in with one
-// madvise(MADV_POPULATE_WRITE) (on the benchmark part the system time fell from ~0.8 s to
-// ~0.5 s). (Huge pages were measured: on the benchmark VM they tripled the system time, fresh
-// 2 MiB pages being far more expensive to fault in than recycled 4 KiB ones.)
+// memory; pages fault in as blocks are written.
 #include "printtwin/voxel_grid.hpp"
 
 #include <algorithm>
-#if defined(__x86_64__)
-#include <immintrin.h>
-#endif
 #include <array>
 #include <cmath>
 #include <cstdlib>
@@ -29,13 +23,6 @@
 #include "core/zeroed_array.hpp"
 #include "deposit/nibbles.hpp"
 #include "deposit/voxel_blocks.hpp"
-
-#if defined(__linux__)
-#include <sys/mman.h>
-#endif
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
 
 namespace printtwin {
 
@@ -50,25 +37,9 @@ constexpr std::array<std::uint32_t, 256> make_nibble_masks() {
   return t;
 }
 constexpr std::array<std::uint32_t, 256> kNibbleMask = make_nibble_masks();
-#if defined(__x86_64__) && defined(__GNUC__)
-const bool kHaveBmi2 = __builtin_cpu_supports("bmi2");
-/// Two rows (16 voxels, 8 bytes) at a time: PDEP puts mask bit i at bit 4 i, and times 0xF
-/// widens it to the nibble.
-[[gnu::target("bmi2")]] void store_nibbles_pdep(std::uint8_t* row, std::uint64_t mask, unsigned e) {
-  const std::uint64_t fill = 0x1111111111111111ULL * e;
-  for (int pair = 0; pair < 4; ++pair, row += 8, mask >>= 16) {
-    const std::uint64_t m = _pdep_u64(mask & 0xFFFFU, 0x1111111111111111ULL) * 0xFU;
-    if (m == 0) continue;
-    std::uint64_t w;
-    std::memcpy(&w, row, 8);
-    w = (w & ~m) | (fill & m);
-    std::memcpy(row, &w, 8);
-  }
-}
-#endif
 }  // namespace
 
-void store_nibbles_portable(std::uint8_t* row, std::uint64_t mask, unsigned e) {
+void store_nibbles(std::uint8_t* row, std::uint64_t mask, unsigned e) {
   const std::uint32_t fill = 0x11111111U * e;
   for (int y = 0; y < 8; ++y, row += 4, mask >>= 8) {
     const std::uint32_t m = kNibbleMask[mask & 0xFFU];
@@ -80,20 +51,6 @@ void store_nibbles_portable(std::uint8_t* row, std::uint64_t mask, unsigned e) {
   }
 }
 
-bool store_nibbles_bmi2(std::uint8_t* row, std::uint64_t mask, unsigned e) {
-#if defined(__x86_64__) && defined(__GNUC__)
-  if (kHaveBmi2) {
-    store_nibbles_pdep(row, mask, e);
-    return true;
-  }
-#endif
-  (void)row, (void)mask, (void)e;
-  return false;
-}
-
-void store_nibbles(std::uint8_t* row, std::uint64_t mask, unsigned e) {
-  if (!store_nibbles_bmi2(row, mask, e)) store_nibbles_portable(row, mask, e);
-}
 }  // namespace detail
 
 namespace {
@@ -114,13 +71,6 @@ constexpr std::uint8_t kWide = 0xFF;  // palette length of a wide block
 class ChunkMemory {
  public:
   ChunkMemory() : memory_(kChunkBytes) {}
-  /// Faults the chunk's pages in with one call (when its first block is taken): one kernel
-  /// entry instead of one page fault per 4 KiB. Best effort: without it pages fault on touch.
-  void prefault() {
-#if defined(__linux__) && defined(MADV_POPULATE_WRITE)
-    madvise(memory_.data(), kChunkBytes, MADV_POPULATE_WRITE);
-#endif
-  }
   [[nodiscard]] std::uint64_t* occupancy() { return reinterpret_cast<std::uint64_t*>(memory_.data()); }
   [[nodiscard]] std::uint8_t* nibbles() { return memory_.data() + kOccBytes; }
   [[nodiscard]] std::uint32_t* palettes() {
@@ -169,7 +119,6 @@ struct VoxelGrid::Impl {
   void add_chunk() { chunks.push_back(std::make_unique<ChunkMemory>()); }
   std::size_t allocate_block(std::size_t di, int bx, int by, int bz) {
     if (blocks == chunks.size() * kChunkBlocks) add_chunk();
-    if (blocks % kChunkBlocks == 0) chunks[blocks / kChunkBlocks]->prefault();
     const std::size_t b = blocks++;
     directory[di] = static_cast<std::uint32_t>(b + 1);
     palette_size.push_back(0);

@@ -2,10 +2,6 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#if defined(__x86_64__)
-#include <immintrin.h>
-#endif
-
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -14,10 +10,10 @@
 #include <limits>
 #include <memory>
 
-#include "core/bits.hpp"
 #include "core/zeroed_array.hpp"
 #include "deposit/voxel_blocks.hpp"
 #include "deviation/deposit_surface_internal.hpp"
+#include "deviation/kernels.hpp"
 #include "deviation/point_groups.hpp"
 #include "printtwin/deviation.hpp"
 
@@ -50,7 +46,6 @@ struct FaceBuckets {
 
   explicit FaceBuckets(const DepositSurface& s) {
     static_assert(2 * kCell == VoxelBlocks::kBlockEdge);
-    static_assert(sizeof(Vec3) == 3 * sizeof(double), "face centres are read as rows of doubles");
     cell_mm = s.voxel_mm * kCell;
     pairs = s.filled_blocks_dims;
     cells = 2 * pairs;
@@ -97,88 +92,6 @@ struct FaceBuckets {
   }
 };
 
-/// The nearest so far: squared distance and face index (ties: the lowest index).
-struct Nearest {
-  double d2 = std::numeric_limits<double>::infinity();
-  std::uint32_t face = 0;
-  void offer(double x2, std::uint32_t f) {
-    if (x2 < d2 || (x2 == d2 && f < face)) {
-      d2 = x2;
-      face = f;
-    }
-  }
-};
-
-/// Squared distance from p to the face square k (axis-aligned, edge 2 * half): per axis
-/// max(0, |p - c| - h), h = half in the face's plane and 0 along its normal.
-inline double face_dist2(const FaceBuckets& b, std::size_t k, const Vec3& p, double half) {
-  const int ax = b.axis[k];
-  const Vec3& c = b.center[k];
-  const double ex = std::max(0.0, std::abs(p.x() - c.x()) - (ax == 0 ? 0.0 : half));
-  const double ey = std::max(0.0, std::abs(p.y() - c.y()) - (ax == 1 ? 0.0 : half));
-  const double ez = std::max(0.0, std::abs(p.z() - c.z()) - (ax == 2 ? 0.0 : half));
-  return ex * ex + ey * ey + ez * ez;
-}
-
-void scan_faces_default(const FaceBuckets& b, std::uint32_t lo, std::uint32_t hi, const Vec3& p,
-                        double half, Nearest& best) {
-  for (std::uint32_t k = lo; k < hi; ++k) best.offer(face_dist2(b, k, p, half), k);
-}
-
-#if defined(__x86_64__) && defined(__GNUC__)
-/// The same, 4 faces at a time (same operations in the same order: the same bits). Lanes
-/// whose distance is not above the best go through the scalar rule, in index order.
-[[gnu::target("avx2")]] void scan_faces_avx2(const FaceBuckets& b, std::uint32_t lo, std::uint32_t hi,
-                                             const Vec3& p, double half, Nearest& best) {
-  const __m256d px = _mm256_set1_pd(p.x()), py = _mm256_set1_pd(p.y()), pz = _mm256_set1_pd(p.z());
-  const __m256d hv = _mm256_set1_pd(half), zero = _mm256_setzero_pd();
-  const __m256d sign = _mm256_set1_pd(-0.0);
-  const __m256i ax0 = _mm256_setzero_si256(), ax1 = _mm256_set1_epi64x(1), ax2 = _mm256_set1_epi64x(2);
-  // 4 centres (x y z x | y z x y | z x y z) read as 3 rows and transposed to x, y, z
-  // columns; the last few faces of the surface (no 4 centres left to read) one at a time.
-  const std::uint32_t wide_end = std::min<std::uint32_t>(hi, static_cast<std::uint32_t>(b.n >= 4 ? b.n - 3 : 0));
-  std::uint32_t k = lo;
-  for (; k < wide_end; k += 4) {
-    std::uint32_t a4 = 0;
-    std::memcpy(&a4, b.axis.data() + k, 4);
-    const __m256i a = _mm256_cvtepu8_epi64(_mm_cvtsi32_si128(static_cast<int>(a4)));
-    // Per axis: max(0, |p - c| - h), h = 0 along the face's normal, else half.
-    const __m256d hx = _mm256_andnot_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(a, ax0)), hv);
-    const __m256d hy = _mm256_andnot_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(a, ax1)), hv);
-    const __m256d hz = _mm256_andnot_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(a, ax2)), hv);
-    const double* row = b.center[k].data();
-    const __m256d r0 = _mm256_loadu_pd(row), r1 = _mm256_loadu_pd(row + 4), r2 = _mm256_loadu_pd(row + 8);
-    const __m256d m1 = _mm256_permute2f128_pd(r0, r1, 0x30);  // x0 y0 | x2 y2
-    const __m256d m2 = _mm256_permute2f128_pd(r0, r2, 0x21);  // z0 x1 | z2 x3
-    const __m256d m3 = _mm256_permute2f128_pd(r1, r2, 0x30);  // y1 z1 | y3 z3
-    const __m256d cx = _mm256_shuffle_pd(m1, m2, 0xA), cy = _mm256_shuffle_pd(m1, m3, 0x5),
-                  cz = _mm256_shuffle_pd(m2, m3, 0xA);
-    const __m256d dx = _mm256_andnot_pd(sign, _mm256_sub_pd(px, cx));
-    const __m256d dy = _mm256_andnot_pd(sign, _mm256_sub_pd(py, cy));
-    const __m256d dz = _mm256_andnot_pd(sign, _mm256_sub_pd(pz, cz));
-    const __m256d ex = _mm256_max_pd(zero, _mm256_sub_pd(dx, hx));
-    const __m256d ey = _mm256_max_pd(zero, _mm256_sub_pd(dy, hy));
-    const __m256d ez = _mm256_max_pd(zero, _mm256_sub_pd(dz, hz));
-    const __m256d d2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(ex, ex), _mm256_mul_pd(ey, ey)), _mm256_mul_pd(ez, ez));
-    unsigned m = static_cast<unsigned>(_mm256_movemask_pd(_mm256_cmp_pd(d2, _mm256_set1_pd(best.d2), _CMP_LE_OQ)));
-    if (hi - k < 4) m &= (1U << (hi - k)) - 1;
-    if (m == 0) continue;
-    alignas(32) double lane[4];
-    _mm256_store_pd(lane, d2);
-    for (; m != 0; m &= m - 1) {
-      const int j = std::countr_zero(m);
-      best.offer(lane[j], k + static_cast<std::uint32_t>(j));
-    }
-  }
-  for (; k < hi; ++k) best.offer(face_dist2(b, k, p, half), k);
-}
-#else
-void scan_faces_avx2(const FaceBuckets& b, std::uint32_t lo, std::uint32_t hi, const Vec3& p, double half,
-                     Nearest& best) {
-  scan_faces_default(b, lo, hi, p, half, best);
-}
-#endif
-
 }  // namespace
 
 namespace detail {
@@ -188,8 +101,6 @@ DepositQueryGroups group_deposit_queries(std::span<const Vec3> points, double vo
   group_by_cell(points, voxel_mm * FaceBuckets::kCell, g.order, g.group);
   return g;
 }
-
-bool deposit_distance_uses_avx2() { return cpu_has_avx2(); }
 
 std::vector<std::uint32_t> face_cell_groups(const DepositSurface& surface) {
   std::vector<std::uint32_t> cells;
@@ -212,7 +123,8 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
   }
   const FaceBuckets buckets(s);
   const double half = 0.5 * s.voxel_mm;
-  const bool avx2 = !portable && cpu_has_avx2();
+  const FaceScan scan_faces = face_scan_kernel(portable);
+  const FaceArrays faces{buckets.center, buckets.axis.data(), buckets.n};
   // A coarse level (groups of kGroup^3 cells) flags where faces are, so that points far from
   // the deposit (a missing wall) skip empty space quickly; the search stays exact.
   constexpr int kGroup = 8;
@@ -242,22 +154,9 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
     Vec3 prev_p = Vec3::Zero();
     double prev_d = std::numeric_limits<double>::infinity();
     for (std::size_t j = range.begin(); j != range.end(); ++j) {
-      // Points (say mesh samples in triangle order) and their result slots are scattered:
-      // fetched a few points ahead.
-      constexpr std::size_t kAhead = 8;
-      if (j + kAhead < range.end()) {
-        const std::size_t ahead = order[j + kAhead];
-        __builtin_prefetch(&points[ahead]);
-        __builtin_prefetch(&signed_mm[ahead], 1);
-        if (nearest_face != nullptr) __builtin_prefetch(&(*nearest_face)[ahead], 1);
-      }
       const std::size_t i = order[j];
       const Vec3& p = points[i];
-      {  // p's filled code, read after the search
-        int slot = 0;
-        if (const std::uint32_t* code = s.filled_code_of(p, slot)) __builtin_prefetch(code);
-      }
-      Nearest best;
+      NearestFace best;
       const double& best2 = best.d2;
       // Squared distance from p to a box of `size` at `lo`, widened by half a voxel (a face
       // centred in a cell reaches half a voxel beyond it).
@@ -278,10 +177,7 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
         buckets.cell_range(c, lo, hi);
         if (lo == hi) return;
         if (box_dist2(buckets.origin_mm + buckets.cell_mm * c.cast<double>(), buckets.cell_mm) > best2) return;
-        if (avx2)
-          scan_faces_avx2(buckets, lo, hi, p, half, best);
-        else
-          scan_faces_default(buckets, lo, hi, p, half, best);
+        scan_faces(faces, lo, hi, p, half, best);
       };
       // p's own cell first; then the bound (the previous point's, or the best face of p's
       // cell) limits the search to the cells its ball touches (at most 2 per axis): all

@@ -15,8 +15,8 @@ struct DepositQueryGroups {
 };
 DepositQueryGroups group_deposit_queries(std::span<const Vec3> points, double voxel_mm);
 
-/// distances_to_deposit with the face tests of the portable kernel (`portable`) or of the
-/// one the CPU dispatches to (AVX2 when present). Both give the same bits.
+/// distances_to_deposit with the face tests of the plain kernel (`portable`) or of the one
+/// deviation/kernels.hpp dispatches to (AVX2 when present). Both give the same bits.
 void distances_to_deposit_with(const DepositSurface& surface, std::span<const Vec3> points,
                                std::vector<double>& signed_mm, std::vector<std::uint32_t>* nearest_face,
                                bool portable, const DepositQueryGroups* pregrouped = nullptr);
@@ -24,8 +24,5 @@ void distances_to_deposit_with(const DepositSurface& surface, std::span<const Ve
 /// The surface's faces in groups of neighbours for DeviationTarget::signed_distances: its
 /// non-empty cells (of 4 voxels), as run boundaries into the face arrays.
 std::vector<std::uint32_t> face_cell_groups(const DepositSurface& surface);
-
-/// True when distances_to_deposit runs the AVX2 face tests on this CPU.
-bool deposit_distance_uses_avx2();
 
 }  // namespace printtwin::detail

@@ -304,14 +304,6 @@ void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Ve
     std::optional<std::uint32_t> prev_tri;
     for (std::size_t g = r.begin(); g != r.end(); ++g) {
       const std::uint32_t g0 = group[g], g1 = group[g + 1];
-      // The next cell's points and result slots are scattered over arrays of tens of MB:
-      // fetched while this cell is computed.
-      if (g + 1 < r.end() && !in_order)
-        for (std::uint32_t j = g1; j < group[g + 2]; ++j) {
-          __builtin_prefetch(&points_mm[order[j]]);
-          __builtin_prefetch(&out[order[j]], 1);
-          if (triangles != nullptr) __builtin_prefetch(&(*triangles)[order[j]], 1);
-        }
       local.clear();
       Box3 box;
       for (std::uint32_t j = g0; j < g1; ++j) {

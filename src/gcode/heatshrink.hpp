@@ -13,12 +13,10 @@
 #include <string_view>
 #include <vector>
 
-#include "core/default_init_allocator.hpp"
-
 namespace printtwin::detail {
 
-/// A byte buffer whose resize() does not zero what it adds (decoders overwrite it all).
-using Bytes = std::vector<char, DefaultInitAllocator<char>>;
+/// A byte buffer of the decoders.
+using Bytes = std::vector<char>;
 
 /// Decodes `in` into `out` (resized to `expected_size`). False, with `why` set, when the
 /// stream does not produce exactly `expected_size` bytes. window_bits <= 15,

@@ -1,0 +1,134 @@
+#!/usr/bin/env bash
+# Regenerates bench/RESULTS.md: every special path (SIMD kernel, memory trick, helper
+# thread) timed against its plain twin on this machine, side by side, and the 10 % rule
+# applied (a path stays only when it saves at least 10 % of its stage's time).
+#
+# The twins are switched at run time in one binary with PRINTTWIN_PLAIN=<name>
+# (src/core/plain_path.hpp); a name the binary does not know measures no difference. The
+# compiler flag -march=x86-64-v2 cannot be switched at run time: its rows compare this build
+# with a build configured with -DPRINTTWIN_X86_64_V2=OFF, given as MARCH_BASE_BUILD (the
+# rows are skipped without it).
+#
+# Per stage and run, the stage is timed once with every special path on and once with each
+# path's twin, in an order rotated from run to run; the table gives the medians over RUNS.
+# Timings on a shared machine are noisy: the machine's load is recorded with the results.
+#
+# Usage: bench/results.sh [build-dir]   env: RUNS (default 3), MARCH_BASE_BUILD, OUT
+#   (default bench/RESULTS.md), RAW (default OUT with .raw: every timing, one line each
+#   "stage|configuration|wall cpu"), FROM_RAW=file (no timing: the table from that file).
+#   Needs the bench programs and printtwin built in build-dir and the benchmark part
+#   (bench/make_bench_data.sh, run first by this script).
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+build="$(cd "${1:-$root/build}" && pwd)"
+runs="${RUNS:-3}"
+out="${OUT:-$root/bench/RESULTS.md}"
+raw="${RAW:-${out%.md}.raw}"
+# shellcheck source=bench/timing_lib.sh
+. "$root/bench/timing_lib.sh"
+
+# The special paths: name | stage (see timing_lib.sh; "build:" = the -march rows) |
+# verdict basis (cpu: user + system of all threads, robust under load; wall: for a path
+# that trades CPU for elapsed time) | what it is. Edit this list only.
+PATHS='
+face_avx2         | bench:deviation_bench:BM_DeviationStage/ | cpu  | AVX2 4-wide face-square distance test (deviation/kernels.cpp)
+mesh_query_avx2   | bench:deviation_bench:BM_DeviationStage/ | cpu  | AVX2 candidate box filter + 4-wide exact closest point (mesh/kernels.cpp)
+distance_prefetch | bench:deviation_bench:BM_DeviationStage/ | cpu  | software prefetch of scattered query points (deviation/deposit_surface.cpp, mesh_distance.cpp)
+nibbles_pdep      | bench:deposit_bench:BM_DepositOnly/      | cpu  | BMI2 PDEP tag-nibble writes (deposit/voxel_grid.cpp)
+chunk_prefault    | bench:deposit_bench:BM_DepositOnly/      | cpu  | madvise(MADV_POPULATE_WRITE) per fresh grid chunk (deposit/voxel_grid.cpp)
+bead_avx512       | bench:deposit_bench:BM_DepositOnly/      | cpu  | AVX-512 bead tile kernel (deposit/bead_raster.cpp)
+bead_avx2         | bench:deposit_bench:BM_DepositOnly/      | cpu  | AVX2 bead tile kernel (deposit/bead_raster.cpp)
+writer_thread     | bench:deposit_bench:BM_DepositOnly/      | wall | grid writer helper thread (deposit/grid_writer.cpp)
+claim_pages       | bench:deposit_bench:BM_DepositOnly/      | cpu  | ZeroedArray::claim page reuse (deposit/deposit.cpp)
+default_init      | bench:bgcode_bench:BM_DecodeBinary/1    | cpu  | default-initialised byte buffers, no zero fill (gcode/heatshrink.hpp)
+sha_ni            | cli:verify:load                          | wall | SHA extensions for the input hashes (core/kernels.cpp); stage: verify "load"
+tune_allocator    | cli:verify                               | cpu  | mallopt tuning of glibc malloc (core/io.cpp tune_allocator_for_jobs)
+march_x86_64_v2   | build:bench:deviation_bench:BM_DeviationStage/ | cpu | -march=x86-64-v2 for all code (CMakeLists.txt PRINTTWIN_X86_64_V2)
+march_x86_64_v2   | build:bench:deposit_bench:BM_DepositOnly/      | cpu | -march=x86-64-v2 for all code (CMakeLists.txt PRINTTWIN_X86_64_V2)
+march_x86_64_v2   | build:cli:verify                               | cpu | -march=x86-64-v2 for all code (CMakeLists.txt PRINTTWIN_X86_64_V2)
+'
+
+tmp="$(mktemp -d)"
+trap 'rm -rf "$tmp"' EXIT
+field() { echo "$1" | cut -d'|' -f"$2" | sed 's/^ *//; s/ *$//'; }
+rows=()
+while IFS= read -r line; do [ -n "${line// }" ] && rows+=("$line"); done <<< "$PATHS"
+
+if [ -n "${FROM_RAW:-}" ]; then
+  cp "$FROM_RAW" "$tmp/raw"
+  started=$(sed -n 's/^# started //p' "$tmp/raw") machine_before=$(sed -n 's/^# machine //p' "$tmp/raw")
+  machine_after=$(sed -n 's/^# after //p' "$tmp/raw")
+else
+  "$root/bench/make_bench_data.sh" "$build" > /dev/null
+  [ -n "${MARCH_BASE_BUILD:-}" ] && [ ! -d "$MARCH_BASE_BUILD/benchdata" ] && ln -s "$build/benchdata" "$MARCH_BASE_BUILD/benchdata"
+  # The stages, each with its configurations: "special" and one per row (the row's name).
+  stages=()
+  for line in "${rows[@]}"; do
+    s=$(field "$line" 2)
+    [[ " ${stages[*]-} " == *" $s "* ]] || stages+=("$s")
+  done
+  started=$(date -u '+%Y-%m-%d %H:%M UTC')
+  machine_before=$(machine_line)
+  printf '# started %s\n# machine %s\n' "$started" "$machine_before" > "$raw"
+  for stage in "${stages[@]}"; do
+    if [[ "$stage" == build:* ]] && [ -z "${MARCH_BASE_BUILD:-}" ]; then continue; fi
+    configs=(special)
+    for line in "${rows[@]}"; do [ "$(field "$line" 2)" = "$stage" ] && configs+=("$(field "$line" 1)"); done
+    n=${#configs[@]}
+    for ((r = 0; r < runs; ++r)); do
+      for ((k = 0; k < n; ++k)); do
+        c=${configs[$(( (k + r) % n ))]}
+        if [[ "$stage" == build:* ]]; then
+          b="$build"; [ "$c" = special ] || b="$MARCH_BASE_BUILD"
+          t=$(DATA_BUILD="$build" time_stage "$b" "${stage#build:}" "")
+        else
+          plain=""; [ "$c" = special ] || plain="$c"
+          t=$(time_stage "$build" "$stage" "$plain")
+        fi
+        echo "$stage|$c|$t" >> "$raw"
+        echo "  $stage run $((r + 1))/$runs $c: $t" >&2
+      done
+    done
+  done
+  machine_after="load average $(cut -d' ' -f1-3 /proc/loadavg)"
+  echo "# after $machine_after" >> "$raw"
+  cp "$raw" "$tmp/raw"
+fi
+# The median of column COL (1 wall, 2 cpu) of STAGE's CONFIG timings.
+med() { awk -F'|' -v s="$1" -v c="$2" '$1 == s && $2 == c {print $3}' "$tmp/raw" | awk -v k="$3" '{print $k}' | median; }
+runs_done=$(awk -F'|' '!/^#/ && $2 == "special" {n[$1]++} END {m = 0; for (s in n) if (n[s] > m) m = n[s]; print m}' "$tmp/raw")
+
+{
+  echo "# Special paths against their plain twins"
+  echo
+  echo "Generated by \`bench/results.sh\` (do not edit by hand). Measured $started on:"
+  echo "$machine_before (at the start; at the end: $machine_after)."
+  echo
+  echo "Each stage was timed $runs_done times per configuration, alternating (every special path on, then"
+  echo "each path's plain twin via \`PRINTTWIN_PLAIN=<name>\`, the order rotated per run); medians in ms."
+  echo "CPU = user + system time of every thread of the stage; wall = elapsed. The machine is shared"
+  echo "(2 cores, other jobs running): wall times are noisy, so most verdicts use CPU time. A path is"
+  echo "kept when its twin takes at least 10 % more of the stage's time (saving = (plain - special) / plain)."
+  echo "Benchmark part: bench/make_bench_data.sh (201k triangles, PrusaSlicer G-code at 0.2 mm)."
+  echo "A dropped path is removed from the code afterwards; a name the binary no longer knows then"
+  echo "measures no difference (the measurement that dropped it stays in the history of this file)."
+  echo
+  echo "| path | what | stage | special wall / CPU | plain wall / CPU | saving (basis) | verdict |"
+  echo "|---|---|---|---:|---:|---:|---|"
+  for i in "${!rows[@]}"; do
+    line=${rows[$i]}
+    name=$(field "$line" 1) stage=$(field "$line" 2) basis=$(field "$line" 3) what=$(field "$line" 4)
+    if [ -z "$(med "$stage" "$name" 1)" ] || [ "$(med "$stage" "$name" 1)" = nan ]; then
+      echo "| \`$name\` | $what | \`$stage\` | | | not measured | (build rows: set MARCH_BASE_BUILD) |"
+      continue
+    fi
+    col=2; [ "$basis" = wall ] && col=1
+    sw=$(med "$stage" special 1) sc=$(med "$stage" special 2) pw=$(med "$stage" "$name" 1) pc=$(med "$stage" "$name" 2)
+    s=$(med "$stage" special $col) p=$(med "$stage" "$name" $col)
+    saving=$(awk -v s="$s" -v p="$p" 'BEGIN {printf "%.1f", (p > 0) ? 100 * (p - s) / p : 0}')
+    verdict=$(awk -v x="$saving" 'BEGIN {print (x >= 10) ? "keep" : "drop"}')
+    printf '| `%s` | %s | `%s` | %.0f / %.0f | %.0f / %.0f | %s %% (%s) | %s |\n' \
+      "$name" "$what" "$stage" "$sw" "$sc" "$pw" "$pc" "$saving" "$basis" "$verdict"
+  done
+} > "$out"
+echo "wrote $out" >&2
