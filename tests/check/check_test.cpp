@@ -713,7 +713,8 @@ TEST(CheckOrientation, APlateStandingOnEdgeIsLaidFlat) {
   // Rotating as advised lays it flat.
   const Box3 b = bounding_box(rotated_mesh(plate, a.best.rotation_xyz_deg));
   EXPECT_NEAR(b.size().z(), 2.0, 1e-9);
-  const Finding* f = find(run(plate), "orientation");
+  const CheckReport report = run(plate);
+  const Finding* f = find(report, "orientation");
   ASSERT_NE(f, nullptr);
   EXPECT_NE(f->message.find("1200.0 mm2 on the bed"), std::string::npos) << f->message;
   const auto j = nlohmann::json::parse(check_report_to_json(run(plate), CheckSource{}));
