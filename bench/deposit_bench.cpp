@@ -37,6 +37,14 @@ double grid_checksum(const VoxelGrid& g) {
   return static_cast<double>(h & ((std::uint64_t{1} << 48) - 1));
 }
 
+/// CPU time (user + sys) of the whole process so far, in ms: every thread's.
+double process_cpu_ms() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return 1e3 * static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         1e-3 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
 double peak_rss_mb() {
   rusage u{};
   getrusage(RUSAGE_SELF, &u);
@@ -222,7 +230,8 @@ void BM_SimulateAndDeposit(benchmark::State& state) {
 }
 BENCHMARK(BM_SimulateAndDeposit)->Arg(50)->Arg(100)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3);
 
-/// The deposit alone (Moves interpreted once, outside the timing).
+/// The deposit alone (Moves interpreted once, outside the timing). Argument: conserve
+/// volume (1, the default) or lose the overlap (0), to measure what the squeeze costs.
 void BM_DepositOnly(benchmark::State& state) {
   const char* path = gcode_path();
   if (path == nullptr) {
@@ -237,10 +246,13 @@ void BM_DepositOnly(benchmark::State& state) {
   }
   DepositSettings s;
   s.max_memory_bytes = std::size_t{8} << 30;
+  s.conserve_volume = state.range(0) != 0;
   std::size_t voxels = 0;
-  double checksum = 0, overlap = 0;
+  double checksum = 0, overlap = 0, cpu_ms = 0;
   for (auto _ : state) {
+    const double cpu0 = process_cpu_ms();
     auto r = deposit_moves(*moves, profile, s);
+    cpu_ms += process_cpu_ms() - cpu0;
     if (!r) {
       state.SkipWithError(r.error().describe().c_str());
       return;
@@ -255,8 +267,10 @@ void BM_DepositOnly(benchmark::State& state) {
   state.counters["voxels"] = static_cast<double>(voxels);
   state.counters["overlap_mm3"] = overlap;
   state.counters["checksum"] = checksum;
+  // Every thread's CPU time (cpu_time is the benchmark thread's alone, without the writer's).
+  state.counters["process_cpu_ms"] = cpu_ms / static_cast<double>(state.iterations());
 }
-BENCHMARK(BM_DepositOnly)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3);
+BENCHMARK(BM_DepositOnly)->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3);
 
 /// Where the overlap of real G-code comes from: the deposit of each feature group alone
 /// (overlap within the group: neighbouring beads of one kind) and of everything (the rest is

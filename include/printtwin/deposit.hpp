@@ -36,9 +36,11 @@ struct DepositSettings {
   /// Test every voxel of each bead's bounding box instead of the footprint's tiles (slow;
   /// the tests use it to check that the footprint bounds never miss a voxel).
   bool exhaustive_tiles = false;
-  /// Write the voxels on a second thread that runs behind the bead sweep (when the machine
-  /// has more than one hardware thread). The grid is the same bit for bit either way.
-  bool writer_thread = true;
+  /// Conserve volume: the part of a bead that falls on earlier plastic squeezes into the
+  /// free voxels nearest its section, up to half the nozzle diameter away (beside and below
+  /// it first, above its top only when those are full). Off: that material is lost (it still
+  /// counts in overlap_mm3).
+  bool conserve_volume = true;
 };
 
 /// A run of consecutive unsupported bead samples along one continuous extrusion path.
@@ -70,6 +72,7 @@ struct DepositResult {
   double volume_mm3 = 0;        ///< voxels * voxel^3
   double extruded_mm3 = 0;      ///< filament volume pushed by extruding moves
   double overlap_mm3 = 0;       ///< bead volume that fell on already occupied voxels
+  double squeezed_mm3 = 0;      ///< of that, the volume squeezed into free voxels nearby
   Box3 bbox_mm;                 ///< of the occupied voxels (empty when none)
   std::size_t beads = 0;        ///< extruding moves laid
   std::size_t skipped_moves = 0;  ///< extruding moves with no XY length or no room (lay nothing)

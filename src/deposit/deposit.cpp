@@ -3,8 +3,8 @@
 // DepositBuilder::State drives the stages of each bead: the bead model (bead_model.cpp)
 // gives its section from the height map (height_map.cpp), the support test
 // (support.cpp) samples what lies beneath it, and the sweep (sweep.cpp) turns it into
-// voxels, written to the grid in order by the GridWriter (grid_writer.cpp). This file also
-// holds the memory estimate and the public entry points.
+// voxels and squeezes the material that falls on earlier plastic into the free voxels
+// beside and below it. This file also holds the memory estimate and the public entry points.
 #include "printtwin/deposit.hpp"
 
 #include <algorithm>
@@ -12,10 +12,8 @@
 #include <cstdint>
 #include <limits>
 #include <optional>
-#include <thread>
 
 #include "deposit/bead_model.hpp"
-#include "deposit/grid_writer.hpp"
 #include "deposit/height_map.hpp"
 #include "deposit/support.hpp"
 #include "deposit/sweep.hpp"
@@ -50,9 +48,9 @@ struct DepositBuilder::State {
   double extruded_mm3 = 0;
   std::size_t beads = 0;
   std::size_t skipped = 0;
-
-  // The grid's writes, in order, on a writer thread when there is a second core.
-  detail::GridWriter writer;
+  std::uint32_t tag = 0;             // the pending bead's tag index
+  std::size_t overlap_voxels = 0;    // bead voxels that fell on occupied ones
+  std::size_t squeezed_voxels = 0;   // free voxels that took their material
 
   State(const DepositSettings& s, const PrinterProfile& p, const Vec3& origin, const Eigen::Vector3i& dims)
       : settings(s),
@@ -63,8 +61,7 @@ struct DepositBuilder::State {
         map(s.voxel_mm, origin, dims.x(), dims.y(), static_cast<std::size_t>(grid.block_dims().x()),
             static_cast<std::size_t>(grid.block_dims().y())),
         support(s.support_fraction, s.min_unsupported_mm, s.voxel_mm),
-        sweeper(grid, s.exhaustive_tiles),
-        writer(grid, s.writer_thread && std::thread::hardware_concurrency() > 1) {}
+        sweeper(grid, s.exhaustive_tiles) {}
 
   // -- moves -----------------------------------------------------------------------------
   void add(const Move& m) {
@@ -100,7 +97,7 @@ struct DepositBuilder::State {
     pb.nominal_h_mm = layers.nominal_mm(m, nozzle_mm, voxel);
     pb.continues_path = continues;
     pb.m0 = m0;
-    writer.tag(VoxelTag{static_cast<std::uint32_t>(std::max(m.line, 0L)), m.layer, m.feature});
+    tag = grid.add_tag(VoxelTag{static_cast<std::uint32_t>(std::max(m.line, 0L)), m.layer, m.feature});
     pending = pb;
   }
 
@@ -122,10 +119,13 @@ struct DepositBuilder::State {
     const Vec2 d = (b - a).head<2>() / len_mm;
     const Vec2 n(-d.y(), d.x());
     const int samples = std::max(1, static_cast<int>(std::ceil(len_mm * (1.0 / voxel))));
-    map.claim_columns(a, b, 2 * nozzle_mm);
     const BeadSection s = detail::bead_section(pb, area_mm2, samples, map, voxel, gaps_);
     support.check_bead(mv, a, b, n, samples, s.h_mm, s.w_mm, pb.continues_path, map);
-    sweeper.lay(detail::SweptBead{a, b, d, n, pb.m0, m1, s.h_mm, s.w_mm, mv.layer}, writer, map);
+    const double squeeze_mm = settings.conserve_volume ? 0.5 * nozzle_mm : 0.0;
+    const auto laid =
+        sweeper.lay(detail::SweptBead{a, b, d, n, pb.m0, m1, s.h_mm, s.w_mm, mv.layer, squeeze_mm}, grid, tag, map);
+    overlap_voxels += laid.overlap;
+    squeezed_voxels += laid.squeezed;
     ++beads;
   }
 
@@ -133,13 +133,13 @@ struct DepositBuilder::State {
   DepositResult finish() {
     flush(std::nullopt);
     support.close_stretch(false);
-    const std::size_t overlap_voxels = writer.finish();  // every write in the grid from here on
     DepositResult r;
     r.voxel_mm = voxel;
     r.voxels = grid.count();
     r.volume_mm3 = static_cast<double>(r.voxels) * voxel * voxel * voxel;
     r.extruded_mm3 = extruded_mm3;
     r.overlap_mm3 = static_cast<double>(overlap_voxels) * voxel * voxel * voxel;
+    r.squeezed_mm3 = static_cast<double>(squeezed_voxels) * voxel * voxel * voxel;
     r.beads = beads;
     r.skipped_moves = skipped;
     r.unsupported_mm = support.unsupported_mm();

@@ -39,19 +39,6 @@ int HeightMap::rows_reaching(double z_mm) const {
   return std::max(r, 0);
 }
 
-void HeightMap::claim_columns(const Vec3& a, const Vec3& b, double margin_mm) {
-  const int i0 = std::max(0, floor_int((std::min(a.x(), b.x()) - margin_mm - ox_) * inv_voxel_));
-  const int i1 = std::min(nx_ - 1, floor_int((std::max(a.x(), b.x()) + margin_mm - ox_) * inv_voxel_));
-  const int j0 = std::max(0, floor_int((std::min(a.y(), b.y()) - margin_mm - oy_) * inv_voxel_));
-  const int j1 = std::min(ny_ - 1, floor_int((std::max(a.y(), b.y()) + margin_mm - oy_) * inv_voxel_));
-  if (i0 > i1 || j0 > j1) return;
-  for (int j = j0 & ~7; j <= j1; j += 8) {
-    const std::size_t first = index(i0, j), last = index(i1, j) + 63;
-    top_.claim_range(first, last);
-    top_layer_.claim_range(first, last);
-  }
-}
-
 void HeightMap::raise_tops(std::uint16_t* tile, std::int32_t* layers, std::uint64_t mask, std::uint16_t rows,
                            std::int32_t layer) {
 #if defined(__SSE2__)

@@ -11,7 +11,7 @@
 #include <optional>
 
 #include "core/zeroed_array.hpp"
-#include "deposit/bead_raster.hpp"
+#include "deposit/kernels.hpp"
 #include "printtwin/geometry.hpp"
 
 namespace printtwin::detail {
@@ -49,11 +49,6 @@ class HeightMap {
   [[nodiscard]] std::optional<std::int32_t> top_layer_at(double x_mm, double y_mm) const;
   /// Smallest row count r with oz + r * voxel >= z_mm (the same comparison top_mm makes).
   [[nodiscard]] int rows_reaching(double z_mm) const;
-
-  /// Claims (ZeroedArray::claim) the pages under the box of segment a-b widened by
-  /// `margin_mm`: the bead reads these columns before it raises them, and the first layer
-  /// reads columns nobody has written yet.
-  void claim_columns(const Vec3& a, const Vec3& b, double margin_mm);
 
   /// Raises the 64 columns of the tile whose first column has index `at` to at least `rows`
   /// where `mask` (bit y * 8 + x) is set; where the write reaches a column's top (rows >= its

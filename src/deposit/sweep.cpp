@@ -4,7 +4,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <bit>
 #include <limits>
+#include <tuple>
 
 namespace printtwin::detail {
 
@@ -172,18 +174,14 @@ bool BeadSweep::set_up(const SweptBead& bead, BeadFrame& f, Vec2& a2, Vec2& b2, 
 }
 
 // Tiles: the 8 x 8 cells of a block's z-slice. The bead's footprint at its widest over its
-// voxel layers (widened by kBoundSlack) gives the block rows it reaches, the blocks of each
-// row and the rows of each block, once per bead; each such tile's 64 sample points are then
-// tested layer by layer and written as one occupancy word per layer. (Bounds per layer would
-// be tighter at the rounded top and bottom, but computing them cost more than the few extra
-// tile tests they save.) The tiles of one bead are disjoint and carry one tag, so the order
-// they are written in changes nothing.
-void BeadSweep::lay(const SweptBead& bead, GridWriter& writer, HeightMap& map) {
-  BeadFrame f;
-  Vec2 a2, b2;
-  double hw;
-  if (!set_up(bead, f, a2, b2, hw)) return;
-  masks_.resize(reached_.size());
+// voxel layers (half-width hw, widened by kBoundSlack) gives the block rows it reaches, the
+// blocks of each row and the rows of each block, once per bead; each such tile's 64 sample
+// points are then tested layer by layer and written as one occupancy word per layer. (Bounds
+// per layer would be tighter at the rounded top and bottom, but computing them cost more than
+// the few extra tile tests they save.) The tiles of one bead are disjoint and carry one tag,
+// so the order they are written in changes nothing.
+template <class Fn>
+void BeadSweep::for_each_tile(const SweptBead& bead, const Vec2& a2, const Vec2& b2, double hw, Fn&& fn) const {
   Footprint outer;
   outer.init(a2, b2, bead.d, bead.n, bead.m0, bead.m1, hw);
   double ylo, yhi;
@@ -215,18 +213,105 @@ void BeadSweep::lay(const SweptBead& bead, GridWriter& writer, HeightMap& map) {
         t_hi = std::min(row_hi, floor_int(std::clamp(tyh + kBoundSlack - 8.0 * by, -1.0, 9.0)) + 1);
         if (t_lo >= t_hi) continue;
       }
-      const std::size_t at = map.index(8 * bx, 8 * by);
-      test_tile_layers(f, 8 * bx, 8 * by, reached_.data(), static_cast<int>(reached_.size()), t_lo, t_hi, lanes,
-                       masks_.data());
-      for (std::size_t layer_at = 0; layer_at < reached_.size(); ++layer_at) {
-        const std::uint64_t mask = masks_[layer_at];
-        if (mask == 0) continue;
-        const int k = reached_[layer_at];
-        writer.tile(bx, by, k, mask);
-        map.raise_tile(at, mask, static_cast<std::uint16_t>(k + 1), bead.layer);
-      }
+      fn(bx, by, t_lo, t_hi, lanes);
     }
   }
+}
+
+BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint32_t tag, HeightMap& map) {
+  BeadFrame f;
+  Vec2 a2, b2;
+  double hw;
+  Laid laid;
+  if (!set_up(bead, f, a2, b2, hw)) return laid;
+  masks_.resize(reached_.size());
+  for_each_tile(bead, a2, b2, hw, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
+    const std::size_t at = map.index(8 * bx, 8 * by);
+    test_tile_layers(f, 8 * bx, 8 * by, reached_.data(), static_cast<int>(reached_.size()), t_lo, t_hi, lanes,
+                     masks_.data());
+    for (std::size_t layer_at = 0; layer_at < reached_.size(); ++layer_at) {
+      const std::uint64_t mask = masks_[layer_at];
+      if (mask == 0) continue;
+      const int k = reached_[layer_at];
+      const std::size_t fresh = grid.write_tile(bx, by, k, mask, tag);
+      laid.overlap += static_cast<std::size_t>(std::popcount(mask)) - fresh;
+      map.raise_tile(at, mask, static_cast<std::uint16_t>(k + 1), bead.layer);
+    }
+  });
+  if (laid.overlap > 0 && bead.squeeze_mm > 0) laid.squeezed = squeeze(bead, f, a2, b2, laid.overlap, grid, tag, map);
+  return laid;
+}
+
+// The squeeze: the material that fell on occupied voxels goes to the free voxels nearest the
+// bead's section (distance from the section's stadium), up to squeeze_mm away, within the
+// bead's own cuts: beside it and below it first; above the tip (the layer rising, as in an
+// over-full solid layer) only when nothing beside or below is free.
+std::size_t BeadSweep::squeeze(const SweptBead& bead, const BeadFrame& f, const Vec2& a2, const Vec2& b2,
+                               std::size_t lost, VoxelGrid& grid, std::uint32_t tag, HeightMap& map) {
+  const double delta = bead.squeeze_mm * inv_voxel_;
+  // The section grown by delta (a stadium is a segment's disc sweep: grow the disc).
+  BeadFrame g = f;
+  const double rg = static_cast<double>(f.r) + delta;
+  g.r = static_cast<float>(rg);
+  g.r2 = static_cast<float>(rg * rg);
+  // Layers: from the lowest grown bottom to the highest grown top.
+  const int k_top = std::min(nz_ - 1, reached_.back() + static_cast<int>(std::ceil(delta)) + 1);
+  const int k_bottom = std::max(0, floor_int(static_cast<double>(reached_.front()) - delta - 1.0));
+  layers_.clear();
+  for (int k = k_bottom; k <= k_top; ++k) layers_.push_back(k);
+  masks_.resize(layers_.size());
+  const double hw = static_cast<double>(f.flat) + rg + kBoundSlack;
+  const auto fdelta = static_cast<float>(delta);
+  candidates_.clear();
+  for_each_tile(bead, a2, b2, hw, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
+    test_tile_layers(g, 8 * bx, 8 * by, layers_.data(), static_cast<int>(layers_.size()), t_lo, t_hi, lanes,
+                     masks_.data());
+    for (std::size_t n = 0; n < layers_.size(); ++n) {
+      const int k = layers_[n];
+      const std::uint64_t* occ = grid.block_occupancy(bx, by, k >> 3);
+      std::uint64_t free = masks_[n] & ~(occ != nullptr ? occ[k & 7] : 0);
+      for (; free != 0; free &= free - 1) {
+        const int bit = std::countr_zero(free);
+        const std::int32_t i = 8 * bx + (bit & 7), j = 8 * by + (bit >> 3);
+        float l, dz;
+        section_offset(f, i, j, k, l, dz);
+        const float lp = std::max(l, 0.0f);
+        float d = std::sqrt(lp * lp + dz * dz) - f.r;
+        if (!(d <= fdelta)) continue;
+        // Above the tip only when nothing beside or below is free: the layer rises there.
+        if (!(dz < f.r)) d += 2.0f * fdelta;
+        candidates_.push_back(Candidate{d, voxel_jitter_bits(i, j, k), i, j, k});
+      }
+    }
+  });
+  // The `lost` nearest (ties by the voxel's hash, then its key: the same choice every run).
+  auto nearer = [](const Candidate& x, const Candidate& y) {
+    if (x.d != y.d) return x.d < y.d;
+    if (x.hash != y.hash) return x.hash < y.hash;
+    return std::tie(x.k, x.j, x.i) < std::tie(y.k, y.j, y.i);
+  };
+  if (candidates_.size() > lost) {
+    std::nth_element(candidates_.begin(), candidates_.begin() + static_cast<std::ptrdiff_t>(lost),
+                     candidates_.end(), nearer);
+    candidates_.resize(lost);
+  }
+  // Written tile by tile (block row, block, layer).
+  std::sort(candidates_.begin(), candidates_.end(), [](const Candidate& x, const Candidate& y) {
+    return std::make_tuple(x.j >> 3, x.i >> 3, x.k) < std::make_tuple(y.j >> 3, y.i >> 3, y.k);
+  });
+  std::size_t placed = 0;
+  for (std::size_t c = 0; c < candidates_.size();) {
+    const Candidate& first = candidates_[c];
+    const int bx = first.i >> 3, by = first.j >> 3, k = first.k;
+    std::uint64_t mask = 0;
+    for (; c < candidates_.size() && candidates_[c].i >> 3 == bx && candidates_[c].j >> 3 == by &&
+           candidates_[c].k == k;
+         ++c)
+      mask |= std::uint64_t{1} << ((candidates_[c].j & 7) * 8 + (candidates_[c].i & 7));
+    placed += grid.write_tile(bx, by, k, mask, tag);
+    map.raise_tile(map.index(8 * bx, 8 * by), mask, static_cast<std::uint16_t>(k + 1), bead.layer);
+  }
+  return placed;
 }
 
 }  // namespace printtwin::detail
