@@ -141,7 +141,8 @@ std::string DepositStage::summary() const {
   std::string out = "deposit: " + std::to_string(d.voxels) + " voxels of " + format_number(d.voxel_mm) +
                     " mm, " + format_fixed(d.volume_mm3, 1) + " mm3 (" + format_fixed(100 * ratio, 1) +
                     " % of " + format_fixed(d.extruded_mm3, 1) + " mm3 extruded), overlap " +
-                    format_fixed(d.overlap_mm3, 1) + " mm3\n";
+                    format_fixed(d.overlap_mm3, 1) + " mm3 (" + format_fixed(d.squeezed_mm3, 1) +
+                    " mm3 of it squeezed into free space nearby)\n";
   out += "extrusion into air: " + format_fixed(d.unsupported_mm, 1) + " mm unsupported; " +
          std::to_string(bridges) + " bridged and " + std::to_string(cantilevers) +
          " cantilevered stretches of at least 1 mm\n";

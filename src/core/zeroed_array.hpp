@@ -14,6 +14,8 @@
 #include <type_traits>
 #include <utility>
 
+#include "core/plain_path.hpp"
+
 #if defined(__linux__)
 #include <sys/mman.h>
 #endif
@@ -35,6 +37,7 @@ class ZeroedArray {
       if (p == MAP_FAILED) throw std::bad_alloc();
       data_ = static_cast<T*>(p);
       mapped_ = true;
+      if (detail::plain_path("claim_pages")) return;  // claim() does nothing
       claimed_ = static_cast<std::uint8_t*>(std::calloc((bytes + kPage - 1) / kPage, 1));
       if (claimed_ == nullptr) {
         munmap(p, bytes);
@@ -75,6 +78,7 @@ class ZeroedArray {
   /// runs one of the process's threads (an interrupt each, costly in a VM). Claiming writes
   /// the page first (a locked OR of zero: it never changes a value, so threads may claim the
   /// same page at once), making it private and resident in one fault. Once per page.
+  /// PRINTTWIN_PLAIN=claim_pages turns claiming off (core/plain_path.hpp).
   void claim(std::size_t i) {
     if (claimed_ == nullptr) return;
     const std::size_t page = i * sizeof(T) / kPage;

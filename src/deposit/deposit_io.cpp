@@ -93,6 +93,7 @@ std::string deposit_json(const DepositResult& d) {
   j["volume_mm3"] = rounded(d.volume_mm3, 4);
   j["extruded_mm3"] = rounded(d.extruded_mm3, 4);
   j["overlap_mm3"] = rounded(d.overlap_mm3, 4);
+  j["squeezed_mm3"] = rounded(d.squeezed_mm3, 4);
   j["bbox_mm"] = box_json(d.bbox_mm);
   j["beads"] = d.beads;
   j["unsupported_mm"] = rounded(d.unsupported_mm, 3);

@@ -14,9 +14,6 @@ struct DepositRunSettings : DepositSettings {
   /// Test every voxel of each bead's bounding box instead of the footprint's tiles (slow;
   /// the tests use it to check that the footprint bounds never miss a voxel).
   bool exhaustive_tiles = false;
-  /// Write the voxels on a second thread that runs behind the bead sweep (when the machine
-  /// has more than one hardware thread). The grid is the same bit for bit either way.
-  bool writer_thread = true;
 };
 
 /// deposit_moves with the run switches.

@@ -195,7 +195,6 @@ struct VoxelGrid::Impl {
   /// Block of (bx,by,bz), allocating it if needed.
   std::size_t block_for_write(int bx, int by, int bz) {
     const std::size_t di = dir_index(bx, by, bz);
-    directory.claim(di);
     const std::uint32_t d = directory[di];
     return d != kNoBlock ? d - 1 : allocate_block(di, bx, by, bz);
   }

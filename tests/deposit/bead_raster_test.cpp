@@ -8,7 +8,7 @@
 #include <random>
 #include <vector>
 
-#include "deposit/bead_raster.hpp"
+#include "deposit/kernels.hpp"
 #include "deposit/nibbles.hpp"
 
 namespace printtwin::detail {

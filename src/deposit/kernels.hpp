@@ -1,12 +1,17 @@
 #pragma once
-// Sample-point tests of a bead, 64 voxels at a time: the inner loop of the deposit.
+// The deposit's kernels: the sample-point tests of a bead, 64 voxels at a time (the inner
+// loop of the deposit), and the support count across a bead. Each has a portable twin that
+// gives the same bits; the SIMD kernels are chosen at run time in one place (kernels() in
+// kernels.cpp), and PRINTTWIN_PLAIN (core/plain_path.hpp) turns them off by name:
+// `bead_avx512` (the AVX-512 tile kernel), `bead_avx2` (the AVX2 tile and support kernels).
+// Each was kept because it saves at least 10 % of the deposit's time against its twin.
 //
 // A voxel (i, j, k) is occupied by a bead when its sample point lies inside the bead. The
 // sample point is fixed per voxel: (i + jx, j + jy, k + jz) in voxel units, the jitter
 // (jx, jy, jz) in (0, 1)^3 taken from an integer hash of the key (10 bits per axis). The
 // test is evaluated in single precision on coordinates relative to the bead's start, in a
-// fixed order of operations, so the scalar kernel and the AVX2 kernel (chosen at run time)
-// give the same voxels bit for bit.
+// fixed order of operations, so the portable, AVX2 and AVX-512 kernels give the same voxels
+// bit for bit.
 #include <cstddef>
 #include <cstdint>
 
@@ -51,6 +56,11 @@ std::uint64_t test_tile(const BeadFrame& f, std::int32_t i0, std::int32_t j0, st
 /// kernel sets its constants up once for all the layers; the same bits as test_tile.
 void test_tile_layers(const BeadFrame& f, std::int32_t i0, std::int32_t j0, const std::int32_t* ks, int nk,
                       int row_lo, int row_hi, unsigned lanes, std::uint64_t* masks);
+
+/// Where the sample point of voxel (i, j, k) lies in the bead's section, as the kernels
+/// compute it: `l`, its lateral distance beyond the flat part of the section (|n . r| - flat,
+/// negative over the flat part), and `dz`, its height above the section's centre line.
+void section_offset(const BeadFrame& f, std::int32_t i, std::int32_t j, std::int32_t k, float& l, float& dz);
 
 /// The portable kernel (what test_tile runs without AVX2), for the tests.
 std::uint64_t test_tile_scalar(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k,

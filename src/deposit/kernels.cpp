@@ -1,10 +1,11 @@
-// Sample-point tests of a bead, one 8 x 8 tile of a block's z-slice at a time. Both kernels
-// evaluate the same single-precision operations in the same order (no fused multiply-add:
-// the AVX2 kernel is compiled for AVX2 only, and the build does not contract), so they set
-// the same bits.
-#include "deposit/bead_raster.hpp"
+// The deposit's kernels (see kernels.hpp). The tile kernels evaluate the same
+// single-precision operations in the same order (no fused multiply-add: the AVX2 kernel is
+// compiled for AVX2 only, the AVX-512 one with contraction off, and the build does not
+// contract), so they set the same bits.
+#include "deposit/kernels.hpp"
 
 #include "core/bits.hpp"
+#include "core/plain_path.hpp"
 
 #include <cmath>
 
@@ -20,21 +21,33 @@ namespace {
 constexpr float kJitterScale = 1.0f / 1024.0f;
 constexpr float kJitterHalf = 0.5f / 1024.0f;
 
-/// The sample-point test of one voxel; X, Y, Z are its integer offsets from (ia, ja, ka).
-inline bool inside(const BeadFrame& f, float X, float Y, float Z, std::uint32_t h) {
+/// The sample point of one voxel relative to the bead; X, Y, Z are its integer offsets from
+/// (ia, ja, ka), h its jitter bits.
+struct SamplePoint {
+  float s0, s1;  // start cut (inside >= 0), end cut (inside < 0)
+  float l, dz;   // beyond the flat part laterally, above the section centre
+};
+inline SamplePoint sample_point(const BeadFrame& f, float X, float Y, float Z, std::uint32_t h) {
   const float jx = static_cast<float>(static_cast<std::int32_t>(h & 0x3FFu)) * kJitterScale + kJitterHalf;
   const float jy = static_cast<float>(static_cast<std::int32_t>((h >> 10) & 0x3FFu)) * kJitterScale + kJitterHalf;
   const float jz = static_cast<float>(static_cast<std::int32_t>((h >> 20) & 0x3FFu)) * kJitterScale + kJitterHalf;
   const float rx = (X + jx) - f.fa_x;
   const float ry = (Y + jy) - f.fa_y;
   const float z = Z + jz;
-  const float s0 = f.m0_x * rx + f.m0_y * ry;
-  const float s1 = (f.m1_x * rx + f.m1_y * ry) - f.e1;
+  SamplePoint p;
+  p.s0 = f.m0_x * rx + f.m0_y * ry;
+  p.s1 = (f.m1_x * rx + f.m1_y * ry) - f.e1;
   const float u = f.d_x * rx + f.d_y * ry;
-  const float dz = z - (f.c0 + f.slope * u);
-  const float l = std::fabs(f.n_x * rx + f.n_y * ry) - f.flat;
-  const bool round_ok = (l <= 0.0f) | (l * l + dz * dz <= f.r2);
-  return (s0 >= 0.0f) & (s1 < 0.0f) & (dz >= -f.r) & (dz < f.r) & round_ok;
+  p.dz = z - (f.c0 + f.slope * u);
+  p.l = std::fabs(f.n_x * rx + f.n_y * ry) - f.flat;
+  return p;
+}
+
+/// The sample-point test of one voxel (arguments as sample_point's).
+inline bool inside(const BeadFrame& f, float X, float Y, float Z, std::uint32_t h) {
+  const SamplePoint p = sample_point(f, X, Y, Z, h);
+  const bool round_ok = (p.l <= 0.0f) | (p.l * p.l + p.dz * p.dz <= f.r2);
+  return (p.s0 >= 0.0f) & (p.s1 < 0.0f) & (p.dz >= -f.r) & (p.dz < f.r) & round_ok;
 }
 
 #if PRINTTWIN_HAVE_AVX2_KERNEL
@@ -216,12 +229,29 @@ int count_held_portable(const HeightMapView& m, double u, double v, double du, d
 }
 #endif
 
+/// The kernels this run uses: the CPU's, less those PRINTTWIN_PLAIN turns off
+/// (`bead_avx512`, `bead_avx2`; core/plain_path.hpp).
+struct KernelChoice {
+  bool avx512 = false, avx2 = false;
+};
+const KernelChoice& kernels() {
+  static const KernelChoice choice = [] {
+    KernelChoice c;
+#if PRINTTWIN_HAVE_AVX2_KERNEL
+    c.avx512 = cpu_has_avx512f() && !plain_path("bead_avx512");
+    c.avx2 = cpu_has_avx2() && !plain_path("bead_avx2");
+#endif
+    return c;
+  }();
+  return choice;
+}
+
 }  // namespace
 
 int count_held(const HeightMapView& map, double u, double v, double du, double dv, const double* s, int n,
                int need) {
 #if PRINTTWIN_HAVE_AVX2_KERNEL
-  if (cpu_has_avx2()) return count_held_avx2(map, u, v, du, dv, s, n, need);
+  if (kernels().avx2) return count_held_avx2(map, u, v, du, dv, s, n, need);
 #endif
   return count_held_portable(map, u, v, du, dv, s, n, need);
 }
@@ -229,6 +259,13 @@ int count_held(const HeightMapView& map, double u, double v, double du, double d
 int count_held_scalar(const HeightMapView& map, double u, double v, double du, double dv, const double* s, int n,
                       int need) {
   return count_held_portable(map, u, v, du, dv, s, n, need);
+}
+
+void section_offset(const BeadFrame& f, std::int32_t i, std::int32_t j, std::int32_t k, float& l, float& dz) {
+  const SamplePoint p = sample_point(f, static_cast<float>(i - f.ia), static_cast<float>(j - f.ja),
+                                     static_cast<float>(k - f.ka), voxel_jitter_bits(i, j, k));
+  l = p.l;
+  dz = p.dz;
 }
 
 std::uint64_t test_tile_scalar(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k,
@@ -260,11 +297,11 @@ std::uint64_t test_tile_avx2_kernel(const BeadFrame& f, std::int32_t i0, std::in
 void test_tile_layers(const BeadFrame& f, std::int32_t i0, std::int32_t j0, const std::int32_t* ks, int nk,
                       int row_lo, int row_hi, unsigned lanes, std::uint64_t* masks) {
 #if PRINTTWIN_HAVE_AVX2_KERNEL
-  if (cpu_has_avx512f()) {
+  if (kernels().avx512) {
     test_tile_layers_avx512(f, i0, j0, ks, nk, row_lo, row_hi, lanes, masks);
     return;
   }
-  if (cpu_has_avx2()) {
+  if (kernels().avx2) {
     for (int n = 0; n < nk; ++n) masks[n] = test_tile_avx2(f, i0, j0, ks[n], row_lo, row_hi, lanes);
     return;
   }
@@ -279,20 +316,8 @@ std::uint64_t test_tile(const BeadFrame& f, std::int32_t i0, std::int32_t j0, st
   return mask;
 }
 
-bool bead_raster_uses_avx2() {
-#if PRINTTWIN_HAVE_AVX2_KERNEL
-  return cpu_has_avx2() && !cpu_has_avx512f();
-#else
-  return false;
-#endif
-}
+bool bead_raster_uses_avx2() { return kernels().avx2 && !kernels().avx512; }
 
-bool bead_raster_uses_avx512() {
-#if PRINTTWIN_HAVE_AVX2_KERNEL
-  return cpu_has_avx512f();
-#else
-  return false;
-#endif
-}
+bool bead_raster_uses_avx512() { return kernels().avx512; }
 
 }  // namespace printtwin::detail

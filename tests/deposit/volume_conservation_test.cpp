@@ -1,0 +1,112 @@
+// Volume conservation: the material of a bead that falls on earlier plastic squeezes into
+// the free voxels nearest its section (beside and below it, up to half the nozzle diameter
+// away), so the deposit holds the extruded volume. Samples, beads laid in code, and
+// PrusaSlicer's G-code of the 20 mm calibration cube.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <string>
+
+#include "deposit/deposit_test_support.hpp"
+#include "printtwin/deposit.hpp"
+#include "printtwin/simulate.hpp"
+#include "support/test_support.hpp"
+
+namespace printtwin {
+namespace {
+
+using test::BeadWriter;
+
+DepositResult deposit_file(const std::filesystem::path& gcode, bool conserve = true) {
+  const auto profile = ender3_marlin2();
+  auto moves = interpret_gcode_file(gcode, profile, SimulateOptions{});
+  EXPECT_TRUE(moves.ok()) << moves.error().describe();
+  DepositSettings s;
+  s.conserve_volume = conserve;
+  auto r = deposit_moves(*moves, profile, s);
+  EXPECT_TRUE(r.ok()) << r.error().describe();
+  return std::move(r).value();
+}
+
+/// Settings with the squeeze on (it is off by default: see DepositSettings::conserve_volume).
+DepositSettings conserving() {
+  DepositSettings s;
+  s.conserve_volume = true;
+  return s;
+}
+
+/// Deposited over extruded volume minus one.
+double shortfall(const DepositResult& r) { return r.volume_mm3 / r.extruded_mm3 - 1.0; }
+
+TEST(VolumeConservation, SpiralVaseDepositsItsExtrudedVolume) {
+  const auto path = test::source_path("samples/gcode/prusa_vase10.gcode");
+  const DepositResult lost = deposit_file(path, false);
+  const DepositResult kept = deposit_file(path);
+  // Without the squeeze the overlap is lost; with it, it is placed nearby.
+  EXPECT_LT(shortfall(lost), -0.02);
+  EXPECT_NEAR(shortfall(kept), 0.0, 0.005) << kept.volume_mm3 << " of " << kept.extruded_mm3;
+  // The overlap is still reported (larger: squeezed material takes room later beads lay on).
+  EXPECT_GE(kept.overlap_mm3, lost.overlap_mm3);
+  EXPECT_GT(kept.squeezed_mm3, 0.95 * kept.overlap_mm3);
+  EXPECT_LE(kept.squeezed_mm3, kept.overlap_mm3);
+}
+
+TEST(VolumeConservation, SingleWallBoxDepositsItsExtrudedVolume) {
+  const auto profile = ender3_marlin2();
+  BeadWriter w(profile);
+  const double h = 0.2;
+  for (int layer = 0; layer < 30; ++layer) {
+    const double z = h * (layer + 1);
+    w.layer = layer;
+    w.travel({50, 50, z});
+    w.extrude({70, 50, z}, 0.45, h);
+    w.extrude({70, 65, z}, 0.45, h);
+    w.extrude({50, 65, z}, 0.45, h);
+    w.extrude({50, 50, z}, 0.45, h);
+  }
+  auto r = deposit_moves(w.moves, profile, conserving());
+  ASSERT_TRUE(r.ok());
+  EXPECT_NEAR(shortfall(*r), 0.0, 0.005) << r->volume_mm3 << " of " << r->extruded_mm3;
+}
+
+TEST(VolumeConservation, SqueezeStaysWithinHalfANozzleOfTheBead) {
+  // The same 0.45 x 0.2 mm bead laid twice on the bed: the second one's material has
+  // nowhere to go but beside the first (the bed is below); it goes there, no further than
+  // half the nozzle width from the bead's side, and on top of it only when the sides are full.
+  const auto profile = ender3_marlin2();
+  BeadWriter w(profile);
+  w.travel({50, 50, 0.2});
+  w.extrude({70, 50, 0.2}, 0.45, 0.2);
+  w.travel({50, 50, 0.2});
+  w.extrude({70, 50, 0.2}, 0.45, 0.2);
+  auto r = deposit_moves(w.moves, profile, conserving());
+  ASSERT_TRUE(r.ok());
+  const double one = 0.5 * r->extruded_mm3;
+  EXPECT_NEAR(r->overlap_mm3, one, 0.01 * one);
+  EXPECT_GT(r->squeezed_mm3, 0.5 * one);
+  EXPECT_NEAR(r->volume_mm3 - r->squeezed_mm3, one, 0.01 * one);  // the first bead
+  const double reach = 0.5 * 0.45 + 0.5 * profile.nozzle_diameter_mm;
+  r->grid.for_each([&](const VoxelKey& k, const VoxelTag&) {
+    const Vec3 c = r->grid.center_mm(k);
+    ASSERT_LE(std::abs(c.y() - 50.0), reach + r->voxel_mm) << c.transpose();
+    ASSERT_LE(c.z(), 0.2 + 0.5 * profile.nozzle_diameter_mm) << c.transpose();
+  });
+}
+
+TEST(VolumeConservation, PrusaSlicerCubeWithInfillDepositsItsExtrudedVolume) {
+  if (std::system("command -v prusa-slicer >/dev/null 2>&1") != 0) GTEST_SKIP() << "prusa-slicer not installed";
+  const auto dir = test::temp_dir("volume_cube20");
+  const auto gcode = dir / "cube20.gcode";
+  const std::string cmd = "timeout 300 prusa-slicer --load " +
+                          test::source_path("samples/configs/ender3_prusaslicer.ini").string() +
+                          " --export-gcode --center 110,110 -o " + gcode.string() + " " +
+                          test::source_path("samples/models/calibration_cube_20mm.stl").string() + " >/dev/null 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  const DepositResult r = deposit_file(gcode);
+  EXPECT_NEAR(shortfall(r), 0.0, 0.005) << r.volume_mm3 << " of " << r.extruded_mm3 << ", overlap "
+                                        << r.overlap_mm3 << ", squeezed " << r.squeezed_mm3;
+}
+
+}  // namespace
+}  // namespace printtwin
