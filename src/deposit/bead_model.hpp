@@ -1,0 +1,69 @@
+#pragma once
+// The bead model: what one extruding move lays down, before it becomes voxels.
+//
+// The nozzle tip runs from A to B; the bead's top follows the tip, its height h is the gap to
+// what lies beneath (read from the height map), its cross-section is a stadium of width w
+// and height h (a (w-h) x h rectangle with half-discs of diameter h on its sides, area
+// (w-h) h + pi h^2 / 4). Along the path the bead is cut by vertical planes: the mitre
+// (bisector) plane at a joint with the previous/next move of the same continuous path, a
+// plane square to the move at a path end or at a sharp turn. Mitred sweeps of a laterally
+// symmetric section have exactly area x length volume and tile the path without gaps or
+// double counting.
+#include <vector>
+
+#include "deposit/height_map.hpp"
+#include "printtwin/geometry.hpp"
+#include "printtwin/toolpath.hpp"
+
+namespace printtwin::detail {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kJoinTolMm = 1e-3;    // path continuity: end of one move = start of next
+constexpr double kMitreMinCos = -0.5;  // turns sharper than 120 deg get square cuts
+
+/// Nominal layer height: the slicer's `;HEIGHT:` when given, else the Z step from the
+/// previous layer's extrusions to this move. Sloped extrusions (vase-mode spirals, where
+/// every move has its own Z) keep the nominal height of the last flat layer.
+class LayerTracker {
+ public:
+  double nominal_mm(const Move& m, double nozzle_mm, double voxel_mm);
+
+ private:
+  static double clamp(double h, double nozzle_mm, double voxel_mm);
+  bool have_layer_ = false;
+  bool have_nominal_ = false;
+  int layer_ = 0;
+  double layer_z_ = 0;
+  double prev_z_ = 0;
+  double nominal_ = 0;
+};
+
+/// An extruding move with material (the moves the deposit lays or counts).
+inline bool is_bead(const Move& m) { return m.kind == MoveKind::extrude && m.e_mm > 0; }
+
+/// A bead waiting for the next move, which decides its end cut.
+struct PendingBead {
+  Move move;
+  double nominal_h_mm = 0;
+  bool continues_path = false;  // joined to the previous bead
+  Vec2 m0 = Vec2::Zero();       // cut normal at the start (xy, unit)
+};
+
+/// The section of one bead.
+struct BeadSection {
+  double h_mm = 0;  ///< height (tip to bottom)
+  double w_mm = 0;  ///< width
+};
+
+/// The section of the bead `pb` with cross-section area `area_mm2` over the deposit in `map`,
+/// sampled `samples` times along its centre line (`gaps`: scratch). Height: the gap between the tip and the surface beneath the centre
+/// line. A column whose top is within half a layer of the tip holds this layer's neighbours
+/// (or a partly covered corner) and says nothing about what is beneath, unless its top voxel
+/// was laid by an earlier layer (the first turn of a vase-mode spiral); gaps over 1.5 layers
+/// are air. The median of the remaining gaps is the bead height (the nominal layer height
+/// when none remain, or when they agree with it to within the voxel quantisation). Width:
+/// the stadium of that height and area; a round strand when the area is too small.
+BeadSection bead_section(const PendingBead& pb, double area_mm2, int samples, const HeightMap& map, double voxel_mm,
+                         std::vector<double>& gaps);
+
+}  // namespace printtwin::detail

@@ -1,0 +1,88 @@
+// The deposit's height map (see height_map.hpp).
+#include "deposit/height_map.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
+namespace printtwin::detail {
+
+HeightMap::HeightMap(double voxel_mm, const Vec3& origin_mm, int nx, int ny, std::size_t tiles_x,
+                     std::size_t tiles_y)
+    : voxel_(voxel_mm),
+      inv_voxel_(1.0 / voxel_mm),
+      ox_(origin_mm.x()),
+      oy_(origin_mm.y()),
+      oz_(origin_mm.z()),
+      nx_(nx),
+      ny_(ny),
+      tiles_x_(tiles_x),
+      top_(tiles_x * tiles_y * 64 + 1),
+      top_layer_(top_.size()) {}
+
+std::optional<std::int32_t> HeightMap::top_layer_at(double x_mm, double y_mm) const {
+  const double u = (x_mm - ox_) * inv_voxel_, v = (y_mm - oy_) * inv_voxel_;
+  const int i = floor_int(u), j = floor_int(v);
+  if (i < 0 || j < 0 || i >= nx_ || j >= ny_) return std::nullopt;
+  const std::size_t at = index(i, j);
+  if (top_[at] == 0) return std::nullopt;
+  return top_layer_[at];
+}
+
+int HeightMap::rows_reaching(double z_mm) const {
+  int r = static_cast<int>(std::ceil((z_mm - oz_) * inv_voxel_));
+  while (r > 0 && oz_ + (r - 1) * voxel_ >= z_mm) --r;
+  while (!(oz_ + r * voxel_ >= z_mm)) ++r;
+  return std::max(r, 0);
+}
+
+void HeightMap::claim_columns(const Vec3& a, const Vec3& b, double margin_mm) {
+  const int i0 = std::max(0, floor_int((std::min(a.x(), b.x()) - margin_mm - ox_) * inv_voxel_));
+  const int i1 = std::min(nx_ - 1, floor_int((std::max(a.x(), b.x()) + margin_mm - ox_) * inv_voxel_));
+  const int j0 = std::max(0, floor_int((std::min(a.y(), b.y()) - margin_mm - oy_) * inv_voxel_));
+  const int j1 = std::min(ny_ - 1, floor_int((std::max(a.y(), b.y()) + margin_mm - oy_) * inv_voxel_));
+  if (i0 > i1 || j0 > j1) return;
+  for (int j = j0 & ~7; j <= j1; j += 8) {
+    const std::size_t first = index(i0, j), last = index(i1, j) + 63;
+    top_.claim_range(first, last);
+    top_layer_.claim_range(first, last);
+  }
+}
+
+void HeightMap::raise_tops(std::uint16_t* tile, std::int32_t* layers, std::uint64_t mask, std::uint16_t rows,
+                           std::int32_t layer) {
+#if defined(__SSE2__)
+  const __m128i bit = _mm_setr_epi16(1, 2, 4, 8, 16, 32, 64, 128);
+  const __m128i value = _mm_set1_epi16(static_cast<short>(rows));
+  const __m128i layer4 = _mm_set1_epi32(layer);
+  for (int y = 0; y < 8; ++y, tile += 8, layers += 8) {
+    const auto m = static_cast<short>((mask >> (8 * y)) & 0xFFu);
+    if (m == 0) continue;
+    const __m128i lanes = _mm_cmpeq_epi16(_mm_and_si128(_mm_set1_epi16(m), bit), bit);
+    auto* p = reinterpret_cast<__m128i*>(tile);
+    const __m128i old = _mm_loadu_si128(p);
+    // Heights stay below 32768 rows (kMaxRows), so the signed compare and max are exact.
+    const __m128i reach = _mm_andnot_si128(_mm_cmpgt_epi16(old, value), lanes);
+    _mm_storeu_si128(p, _mm_max_epi16(old, _mm_and_si128(lanes, value)));
+    auto* lp = reinterpret_cast<__m128i*>(layers);
+    const __m128i r_lo = _mm_unpacklo_epi16(reach, reach), r_hi = _mm_unpackhi_epi16(reach, reach);
+    _mm_storeu_si128(lp, _mm_or_si128(_mm_and_si128(r_lo, layer4), _mm_andnot_si128(r_lo, _mm_loadu_si128(lp))));
+    _mm_storeu_si128(lp + 1,
+                     _mm_or_si128(_mm_and_si128(r_hi, layer4), _mm_andnot_si128(r_hi, _mm_loadu_si128(lp + 1))));
+  }
+#else
+  for (int y = 0; y < 8; ++y, tile += 8, layers += 8) {
+    const auto m = static_cast<unsigned>(mask >> (8 * y)) & 0xFFu;
+    for (int x = 0; x < 8; ++x) {
+      if (((m >> x) & 1u) == 0) continue;
+      if (rows >= tile[x]) layers[x] = layer;
+      tile[x] = std::max(tile[x], rows);
+    }
+  }
+#endif
+}
+
+}  // namespace printtwin::detail
