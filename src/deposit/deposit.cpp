@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "deposit/bead_model.hpp"
+#include "deposit/droop_probe.hpp"
 #include "deposit/grid_writer.hpp"
 #include "deposit/height_map.hpp"
 #include "deposit/support.hpp"
@@ -46,6 +47,7 @@ struct DepositBuilder::State {
   std::vector<double> gaps_;  // scratch of bead_section
   detail::SupportTracker support;
   detail::BeadSweep sweeper;
+  detail::DroopProbe droop;  // sag, droop, elephant's foot
 
   double extruded_mm3 = 0;
   std::size_t beads = 0;
@@ -64,6 +66,7 @@ struct DepositBuilder::State {
             static_cast<std::size_t>(grid.block_dims().y())),
         support(s.support_fraction, s.min_unsupported_mm, s.voxel_mm),
         sweeper(grid, s.exhaustive_tiles),
+        droop(detail::DroopModel::from(p), s.voxel_mm),
         writer(grid, s.writer_thread && std::thread::hardware_concurrency() > 1) {}
 
   // -- moves -----------------------------------------------------------------------------
@@ -124,8 +127,11 @@ struct DepositBuilder::State {
     const int samples = std::max(1, static_cast<int>(std::ceil(len_mm * (1.0 / voxel))));
     map.claim_columns(a, b, 2 * nozzle_mm);
     const BeadSection s = detail::bead_section(pb, area_mm2, samples, map, voxel, gaps_);
-    support.check_bead(mv, a, b, n, samples, s.h_mm, s.w_mm, pb.continues_path, map);
-    sweeper.lay(detail::SweptBead{a, b, d, n, pb.m0, m1, s.h_mm, s.w_mm, mv.layer}, writer, map);
+    detail::SweptBead bead{a, b, d, n, pb.m0, m1, s.h_mm, s.w_mm, mv.layer};
+    droop.elephant_foot(bead, mv.feature, area_mm2, map);
+    droop.begin_bead(mv, bead.a_mm, bead.b_mm, samples, bead.h_mm, bead.w_mm, map);
+    support.check_bead(mv, bead.a_mm, bead.b_mm, n, samples, bead.h_mm, bead.w_mm, pb.continues_path, map, &droop);
+    droop.lay(bead, sweeper, writer, map);
     ++beads;
   }
 

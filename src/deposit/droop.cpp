@@ -33,14 +33,16 @@ double DroopModel::cantilever_droop(double e_mm) const {
   return overhang_droop_mm * r * r;
 }
 
-Drop predict_drop(const DroopModel& m, double back_mm, double fwd_mm, double edge_mm, double room_mm) {
+Drop predict_drop(const DroopModel& m, double back_mm, double fwd_mm, double edge_mm, double room_mm,
+                  double back_low_mm, double fwd_low_mm) {
   Drop d;
   const double room = std::max(room_mm, 0.0);
   // Held along the path at both ends: a bridge; held by the edge below: a cantilever. A bead
   // held both ways takes the smaller drop (the stiffer hold).
   double drop = kNoAnchor;
   if (back_mm < kNoAnchor && fwd_mm < kNoAnchor) {
-    drop = m.bridge_sag(back_mm + fwd_mm, back_mm);
+    const double span = back_mm + fwd_mm;
+    drop = back_low_mm + (fwd_low_mm - back_low_mm) * (back_mm / span) + m.bridge_sag(span, back_mm);
     d.kind = DropKind::bridge;
   }
   const bool falls = !(edge_mm <= m.overhang_fall_mm);

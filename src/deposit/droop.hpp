@@ -56,8 +56,10 @@ constexpr double kNoAnchor = std::numeric_limits<double>::infinity();
 /// anchor behind / ahead (kNoAnchor: none within max_span_mm); edge_mm: distance to the nearest
 /// edge of the layer below (kNoAnchor: none within overhang_fall_mm); room_mm: how far the
 /// bead can go down before it touches the deposit or the bed.
+/// back_low_mm / fwd_low_mm: how far those anchors themselves were lowered (a bridge between
+/// sagging anchors hangs from them).
 [[nodiscard]] Drop predict_drop(const DroopModel& m, double back_mm, double fwd_mm, double edge_mm,
-                                double room_mm);
+                                double room_mm, double back_low_mm = 0, double fwd_low_mm = 0);
 
 /// A point of the piecewise-linear lowering of one bead: t in [0, 1] from its start to its end.
 struct DropKnot {
