@@ -3,6 +3,7 @@
 # openscad and python3; the test suite does not). Each STL is written as binary STL.
 # broken.stl is written by this script directly (an open, non-manifold cube).
 #   scripts/make_samples.sh            # all samples
+#   scripts/make_samples.sh bridges    # only samples/models/bridges.scad
 set -eu
 here=$(cd "$(dirname "$0")/.." && pwd)
 models="$here/samples/models"
@@ -32,11 +33,19 @@ with open(dst, "wb") as f:
 PY
 }
 
+make_one() {
+  openscad -q -o "$tmp/$1.stl" "$models/$1.scad"
+  to_binary "$tmp/$1.stl" "$models/$1.stl"
+  echo "$1.stl: $(wc -c < "$models/$1.stl") bytes"
+}
+
+if [ $# -gt 0 ]; then
+  for name in "$@"; do make_one "$name"; done
+  exit 0
+fi
+
 for scad in "$models"/*.scad; do
-  name=$(basename "$scad" .scad)
-  openscad -q -o "$tmp/$name.stl" "$scad"
-  to_binary "$tmp/$name.stl" "$models/$name.stl"
-  echo "$name.stl: $(wc -c < "$models/$name.stl") bytes"
+  make_one "$(basename "$scad" .scad)"
 done
 
 # broken.stl: a 20 mm cube without its top face (open: 4 boundary edges), a fin triangle

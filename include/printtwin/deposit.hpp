@@ -56,6 +56,11 @@ struct UnsupportedStretch {
   /// Supported at both ends (a bridge); otherwise a cantilever that droops.
   bool bridge = false;
   Feature feature = Feature::unknown;
+  /// The most the stretch's bead is lowered by sag or droop (mm; docs/deposit.md, "Sag,
+  /// droop and elephant's foot").
+  double drop_mm = 0;
+  /// Part of it is beyond the fall limit: it falls onto what is below or dangles.
+  bool falls = false;
 };
 
 /// What a deposit job will need, computed before allocating anything.

@@ -106,6 +106,14 @@ struct PrinterProfile {
   double fw_recover_speed_mm_s = 45.0;
   double fw_retract_zraise_mm = 0.0;
 
+  // How the material behaves where it is laid over air or pressed on the bed (the deposit's
+  // sag, droop and elephant's foot; docs/deposit.md gives the model and the sources).
+  double bridge_sag_mm = 0.8;        ///< mid-span sag of a bridge of bridge_sag_span_mm (sag ~ span^2)
+  double bridge_sag_span_mm = 50;    ///< reference span of bridge_sag_mm
+  double overhang_fall_mm = 1.5;     ///< a cantilevered bead this far beyond the layer below falls
+  double overhang_droop_mm = 2.0;    ///< droop at overhang_fall_mm (droop ~ distance^2); a fallen bead's hang
+  double elephant_foot_mm = 0.1;     ///< outward bulge of the first layer's outer edge
+
   std::string start_gcode;  ///< used by the slicer
   std::string end_gcode;
 

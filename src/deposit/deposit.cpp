@@ -16,6 +16,7 @@
 #include <optional>
 
 #include "deposit/bead_model.hpp"
+#include "deposit/droop_probe.hpp"
 #include "deposit/height_map.hpp"
 #include "deposit/support.hpp"
 #include "deposit/sweep.hpp"
@@ -46,6 +47,7 @@ struct DepositBuilder::State {
   std::vector<double> gaps_;  // scratch of bead_section
   detail::SupportTracker support;
   detail::BeadSweep sweeper;
+  detail::DroopProbe droop;  // sag, droop, elephant's foot
 
   double extruded_mm3 = 0;
   std::size_t beads = 0;
@@ -63,7 +65,8 @@ struct DepositBuilder::State {
         map(s.voxel_mm, origin, dims.x(), dims.y(), static_cast<std::size_t>(detail::VoxelBlocks::block_dims(grid).x()),
             static_cast<std::size_t>(detail::VoxelBlocks::block_dims(grid).y())),
         support(s.support_fraction, s.min_unsupported_mm, s.voxel_mm),
-        sweeper(grid, s.exhaustive_tiles) {}
+        sweeper(grid, s.exhaustive_tiles),
+        droop(detail::DroopModel::from(p), s.voxel_mm) {}
 
   // -- moves -----------------------------------------------------------------------------
   void add(const Move& m) {
@@ -122,10 +125,11 @@ struct DepositBuilder::State {
     const Vec2 n(-d.y(), d.x());
     const int samples = std::max(1, static_cast<int>(std::ceil(len_mm * (1.0 / voxel))));
     const BeadSection s = detail::bead_section(pb, area_mm2, samples, map, voxel, gaps_);
-    support.check_bead(mv, a, b, n, samples, s.h_mm, s.w_mm, pb.continues_path, map);
-    const double squeeze_mm = settings.conserve_volume ? 0.5 * nozzle_mm : 0.0;
-    const auto laid =
-        sweeper.lay(detail::SweptBead{a, b, d, n, pb.m0, m1, s.h_mm, s.w_mm, mv.layer, squeeze_mm}, grid, tag, map);
+    detail::SweptBead bead{a, b, d, n, pb.m0, m1, s.h_mm, s.w_mm, mv.layer, settings.conserve_volume ? 0.5 * nozzle_mm : 0.0};
+    droop.elephant_foot(bead, mv.feature, area_mm2, map);
+    droop.begin_bead(mv, bead.a_mm, bead.b_mm, samples, bead.h_mm, bead.w_mm, map);
+    support.check_bead(mv, bead.a_mm, bead.b_mm, n, samples, bead.h_mm, bead.w_mm, pb.continues_path, map, &droop);
+    const auto laid = droop.lay(bead, sweeper, grid, tag, map);
     overlap_voxels += laid.overlap;
     squeezed_voxels += laid.squeezed;
     ++beads;

@@ -15,7 +15,7 @@ constexpr std::size_t kMaxClustered = 4000;  // beyond this, one finding per lay
 }  // namespace
 
 void SupportTracker::check_bead(const Move& mv, const Vec3& a, const Vec3& b, const Vec2& n, int samples,
-                                double h, double w, bool continues_path, const HeightMap& map) {
+                                double h, double w, bool continues_path, const HeightMap& map, DroopProbe* droop) {
   if (!continues_path) {
     close_stretch(false);
     path_has_support_ = false;
@@ -39,12 +39,13 @@ void SupportTracker::check_bead(const Move& mv, const Vec3& a, const Vec3& b, co
     const double bottom = q.z() - h;
     const int need_rows = level ? level_rows : map.rows_reaching(bottom - tol);
     const int held = count_held(view, map.u(q.x()), map.v(q.y()), nxv, nyv, offsets_.data(), across, need_rows);
-    sample(mv, a, b, i, samples, step_mm, held >= support_fraction_ * across - 1e-9);
+    const bool supported = held >= support_fraction_ * across - 1e-9;
+    sample(mv, a, b, i, samples, step_mm, supported, supported || droop == nullptr ? Drop{} : droop->sample(i));
   }
 }
 
 void SupportTracker::sample(const Move& mv, const Vec3& a, const Vec3& b, int i, int samples, double step_mm,
-                            bool supported) {
+                            bool supported, const Drop& drop) {
   if (supported) {
     close_stretch(true);
     path_has_support_ = true;
@@ -62,6 +63,8 @@ void SupportTracker::sample(const Move& mv, const Vec3& a, const Vec3& b, int i,
   open_.last_line = mv.line;
   open_.end_mm = a + ((i + 1.0) / samples) * (b - a);
   open_.length_mm += step_mm;
+  open_.drop_mm = std::max(open_.drop_mm, drop.mm);
+  open_.falls = open_.falls || drop.kind == DropKind::fallen;
 }
 
 void SupportTracker::close_stretch(bool end_supported) {
@@ -74,9 +77,17 @@ void SupportTracker::close_stretch(bool end_supported) {
 
 namespace {
 
+/// Kinds of stretches, each its own finding: a bead held on one side, a bridge, and sparse
+/// infill crossing the cells of the sparse infill below (normal, not deformed).
+enum Kind { kCantilever = 0, kBridge = 1, kSparse = 2 };
+
+int kind_of(const UnsupportedStretch& s) {
+  return s.feature == Feature::sparse_infill ? kSparse : s.bridge ? kBridge : kCantilever;
+}
+
 struct Group {
   int layer;
-  bool bridge;
+  int kind;
   Box3 box;
   std::vector<const UnsupportedStretch*> items;
 };
@@ -101,7 +112,7 @@ std::vector<Group> group_stretches(const std::vector<UnsupportedStretch>& stretc
     Group* target = nullptr;
     const std::size_t n = groups.size();
     for (std::size_t g = layer_begin; g < n; ++g) {
-      if (groups[g].layer != s.layer || groups[g].bridge != s.bridge) continue;
+      if (groups[g].layer != s.layer || groups[g].kind != kind_of(s)) continue;
       if (n - layer_begin > kMaxClustered || near(groups[g].box, b)) {
         target = &groups[g];
         break;
@@ -109,7 +120,7 @@ std::vector<Group> group_stretches(const std::vector<UnsupportedStretch>& stretc
     }
     if (target == nullptr) {
       if (!groups.empty() && groups.back().layer != s.layer) layer_begin = groups.size();
-      groups.push_back(Group{s.layer, s.bridge, Box3{}, {}});
+      groups.push_back(Group{s.layer, kind_of(s), Box3{}, {}});
       target = &groups.back();
     }
     target->box.extend(b);
@@ -120,7 +131,7 @@ std::vector<Group> group_stretches(const std::vector<UnsupportedStretch>& stretc
     merged = false;
     for (std::size_t i = 0; i < groups.size() && !merged; ++i)
       for (std::size_t j = i + 1; j < groups.size() && groups[j].layer == groups[i].layer; ++j)
-        if (groups[j].bridge == groups[i].bridge && near(groups[i].box, groups[j].box)) {
+        if (groups[j].kind == groups[i].kind && near(groups[i].box, groups[j].box)) {
           groups[i].box.extend(groups[j].box);
           groups[i].items.insert(groups[i].items.end(), groups[j].items.begin(), groups[j].items.end());
           groups.erase(groups.begin() + static_cast<std::ptrdiff_t>(j));
@@ -130,7 +141,7 @@ std::vector<Group> group_stretches(const std::vector<UnsupportedStretch>& stretc
   }
   std::stable_sort(groups.begin(), groups.end(), [](const Group& x, const Group& y) {
     if (x.layer != y.layer) return x.layer < y.layer;
-    if (x.bridge != y.bridge) return x.bridge < y.bridge;
+    if (x.kind != y.kind) return x.kind < y.kind;
     return x.items.front()->first_line < y.items.front()->first_line;
   });
   return groups;
@@ -140,21 +151,37 @@ Finding finding_of(const Group& g) {
   double total = 0;
   const UnsupportedStretch* longest = g.items.front();
   Box3 extent;
+  double drop = 0;
+  bool falls = false;
   for (const auto* s : g.items) {
     total += s->length_mm;
+    drop = std::max(drop, s->drop_mm);
+    falls = falls || s->falls;
     if (s->length_mm > longest->length_mm) longest = s;
     extent.extend(s->start_mm);
     extent.extend(s->end_mm);
   }
   Finding f;
-  f.severity = g.bridge ? Severity::info : Severity::warning;
-  f.code = g.bridge ? "extrusion_into_air_bridge" : "extrusion_into_air_cantilever";
-  const std::string kind = g.bridge ? "bridged (supported at both ends)" : "cantilevered (droops)";
-  f.message = "layer " + std::to_string(g.layer) + ": " + std::to_string(g.items.size()) + " unsupported " + kind +
-              " stretch" + (g.items.size() == 1 ? "" : "es") + ", " + format_fixed(total, 1) +
+  static constexpr const char* kCodes[] = {"extrusion_into_air_cantilever", "extrusion_into_air_bridge",
+                                           "extrusion_into_air_sparse_infill"};
+  static constexpr const char* kWhat[] = {"cantilevered (held on one side)", "bridged (supported at both ends)",
+                                          "sparse infill crossing the gaps of the infill below"};
+  f.severity = g.kind == kCantilever ? Severity::warning : Severity::info;
+  f.code = kCodes[g.kind];
+  f.message = "layer " + std::to_string(g.layer) + ": " + std::to_string(g.items.size()) + " unsupported " +
+              kWhat[g.kind] + " stretch" + (g.items.size() == 1 ? "" : "es") + ", " + format_fixed(total, 1) +
               " mm in total; longest " + format_fixed(longest->length_mm, 1) + " mm at G-code lines " +
               std::to_string(longest->first_line) + "-" + std::to_string(longest->last_line) + " (" +
               std::string(to_string(longest->feature)) + ")";
+  if (g.kind == kSparse) {
+    f.message += "; normal for sparse infill, which spans the cells below (not deformed)";
+  } else {
+    f.message += std::string("; predicted to ") + (g.kind == kBridge ? "sag" : "droop") + " up to " +
+                 format_fixed(drop, 2) + " mm below its layer" +
+                 (drop >= 0.005 ? " (that much lower and rougher underside)" : " (no visible effect)");
+    if (falls)
+      f.message += "; part of it is beyond the fall limit and falls onto what is below or dangles as a string";
+  }
   f.position_mm = longest->start_mm;
   f.extent_mm = extent;
   f.line = longest->first_line;

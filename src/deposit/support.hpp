@@ -10,6 +10,7 @@
 // path, otherwise a cantilever.
 #include <vector>
 
+#include "deposit/droop_probe.hpp"
 #include "deposit/height_map.hpp"
 #include "printtwin/deposit.hpp"
 
@@ -23,8 +24,10 @@ class SupportTracker {
   /// Tests the bead `mv` (tip a -> b, `samples` samples along it, section h x w, lateral
   /// normal n) against the deposit in `map` before the bead is laid. `continues_path`: the
   /// bead joins the previous one (a stretch may run on across the joint).
+  /// `droop` (optional, begun on this bead) predicts how far each unsupported sample drops;
+  /// the stretches keep the largest drop.
   void check_bead(const Move& mv, const Vec3& a, const Vec3& b, const Vec2& n, int samples, double h, double w,
-                  bool continues_path, const HeightMap& map);
+                  bool continues_path, const HeightMap& map, DroopProbe* droop = nullptr);
   /// Ends the open stretch, if any; `end_supported`: supported material follows it.
   void close_stretch(bool end_supported);
 
@@ -33,7 +36,8 @@ class SupportTracker {
   std::vector<UnsupportedStretch> take_stretches() { return std::move(stretches_); }
 
  private:
-  void sample(const Move& mv, const Vec3& a, const Vec3& b, int i, int samples, double step_mm, bool supported);
+  void sample(const Move& mv, const Vec3& a, const Vec3& b, int i, int samples, double step_mm, bool supported,
+              const Drop& drop);
 
   double support_fraction_, min_unsupported_mm_, voxel_;
   bool path_has_support_ = false;  // along the current continuous path

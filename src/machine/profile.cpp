@@ -220,6 +220,11 @@ const std::map<std::string, Key>& keys() {
       {"fw_retract_speed_mm_s", number(&P::fw_retract_speed_mm_s, 1e-3, 1000)},
       {"fw_recover_speed_mm_s", number(&P::fw_recover_speed_mm_s, 1e-3, 1000)},
       {"fw_retract_zraise_mm", number(&P::fw_retract_zraise_mm, 0, 100)},
+      {"bridge_sag_mm", number(&P::bridge_sag_mm, 0, 100)},
+      {"bridge_sag_span_mm", number(&P::bridge_sag_span_mm, 0.1, 10000)},
+      {"overhang_fall_mm", number(&P::overhang_fall_mm, 0.01, 100)},
+      {"overhang_droop_mm", number(&P::overhang_droop_mm, 0, 100)},
+      {"elephant_foot_mm", number(&P::elephant_foot_mm, 0, 5)},
       {"start_gcode", text(&P::start_gcode)},
       {"end_gcode", text(&P::end_gcode)},
   };

@@ -1,0 +1,195 @@
+// Sag and droop of laid beads (see droop_probe.hpp).
+#include "deposit/droop_probe.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace printtwin::detail {
+
+void DroopProbe::begin_bead(const Move& mv, const Vec3& a, const Vec3& b, int samples, double h, double w,
+                            const HeightMap& map) {
+  map_ = &map;
+  mv_ = mv;
+  a_ = a;
+  b_ = b;
+  const double len = (b - a).head<2>().norm();
+  d_ = (b - a).head<2>() / len;
+  n_ = Vec2(-d_.y(), d_.x());
+  samples_ = samples;
+  h_ = h;
+  w_ = w;
+  step_mm_ = len / samples;
+  // Sparse infill spans the cells below; support is removed after printing; solid infill is
+  // laid as a sheet over support or infill, each line beside the last (not modelled: a limit).
+  skip_ = !model_.deforms() || mv.feature == Feature::sparse_infill || mv.feature == Feature::support ||
+          mv.feature == Feature::support_interface || mv.feature == Feature::solid_infill ||
+          mv.feature == Feature::top_solid_infill;
+  if (model_.deforms() && below_rows_.size() == 0) {
+    const HeightMapView v = map.view();
+    const std::size_t n = v.tiles_x * static_cast<std::size_t>((v.ny + 7) / 8) * 64;
+    below_rows_ = ZeroedArray<std::uint16_t>(n);
+    below_stamp_ = ZeroedArray<std::int32_t>(n);
+    oz_ = map.top_mm(a.x(), a.y()) - map.rows(a.x(), a.y()) * voxel_;
+  }
+  drops_.assign(static_cast<std::size_t>(samples), 0.0);
+  fwd_ = back_ = kNoAnchor;
+  fwd_at_ = back_at_ = -1;
+}
+
+bool DroopProbe::column(double x, double y, std::size_t& at) const {
+  const HeightMapView v = map_->view();
+  const int i = floor_int(map_->u(x)), j = floor_int(map_->v(y));
+  if (i < 0 || j < 0 || i >= v.nx || j >= v.ny) return false;
+  at = v.index(i, j);
+  return true;
+}
+
+double DroopProbe::earlier_top(double x, double y) const {
+  const auto layer = map_->top_layer_at(x, y);
+  if (!layer) return oz_;
+  if (*layer < mv_.layer) return map_->top_mm(x, y);
+  std::size_t at = 0;
+  if (column(x, y, at) && below_stamp_[at] == mv_.layer + 1) return oz_ + below_rows_[at] * voxel_;
+  return oz_;
+}
+
+bool DroopProbe::holds(double x, double y, double bottom) const {
+  const auto layer = map_->top_layer_at(x, y);
+  if (!layer) return false;
+  if (*layer < mv_.layer) return map_->top_mm(x, y) >= bottom - 2.0 * h_;
+  std::size_t at = 0;
+  if (*layer != mv_.layer || !column(x, y, at) || below_stamp_[at] != mv_.layer + 1 || below_rows_[at] == 0) return false;
+  return oz_ + below_rows_[at] * voxel_ >= bottom - 2.0 * h_;
+}
+
+void DroopProbe::remember_below(const SweptBead& bead, const HeightMap& map) {
+  map_ = &map;
+  const Vec2 a = bead.a_mm.head<2>(), b = bead.b_mm.head<2>();
+  const double len = (b - a).norm();
+  const int along = std::max(1, static_cast<int>(std::ceil(len / voxel_)));
+  const int across = std::max(1, static_cast<int>(std::ceil(bead.w_mm / voxel_))) + 2;
+  for (int i = 0; i <= along; ++i) {
+    const Vec2 q = a + (static_cast<double>(i) / along) * (b - a);
+    for (int j = 0; j <= across; ++j) {
+      const Vec2 p = q + (-0.5 * bead.w_mm - voxel_ + (bead.w_mm + 2 * voxel_) * j / across) * bead.n;
+      std::size_t at = 0;
+      if (!column(p.x(), p.y(), at) || below_stamp_[at] == bead.layer + 1) continue;
+      const auto layer = map.top_layer_at(p.x(), p.y());
+      if (layer && *layer >= bead.layer) continue;  // covered by this layer already: unknown
+      below_rows_[at] = static_cast<std::uint16_t>(map.rows(p.x(), p.y()));
+      below_stamp_[at] = bead.layer + 1;
+    }
+  }
+}
+
+bool DroopProbe::anchors(double x, double y, double bottom, double top, double& low) const {
+  const auto layer = map_->top_layer_at(x, y);
+  if (!layer) return false;
+  const double t = map_->top_mm(x, y);
+  low = std::max(0.0, top - t);
+  if (*layer < mv_.layer) {
+    low = std::max(0.0, bottom - t);
+    return t >= bottom - 2.0 * h_;
+  }
+  return *layer == mv_.layer;  // a bead of this layer, hanging `low` below its tip
+}
+
+Drop DroopProbe::sample(int i) {
+  if (skip_) return Drop{};
+  const Vec3 q = a_ + ((i + 0.5) / samples_) * (b_ - a_);
+  const double bottom = q.z() - h_;
+  const Vec2 p = q.head<2>();
+  // Room beneath: the highest material of earlier layers (or the bed) under the bead's width;
+  // this layer's beads beside it are no floor.
+  const int across = std::max(3, static_cast<int>(std::ceil(w_ / voxel_)));
+  double below = oz_;
+  for (int j = 0; j < across; ++j) {
+    const Vec2 at = p + (-0.5 * w_ + (j + 0.5) * w_ / across) * n_;
+    below = std::max(below, earlier_top(at.x(), at.y()));
+  }
+  const double room = bottom - below;
+  // The edge that holds it: nearest earlier-layer material within the fall limit.
+  auto hold = [&](double x, double y) { return holds(x, y, bottom); };
+  const double edge = hold(p.x(), p.y()) ? 0.0 : nearest_anchor(p, d_, voxel_, model_.overhang_fall_mm, hold);
+  // Anchors ahead and behind along the path (a bridge), found once per bead and carried on.
+  double low = 0;
+  auto anchor = [&](double x, double y) { return anchors(x, y, bottom, q.z(), low); };
+  if (fwd_at_ < 0 || fwd_ - (i - fwd_at_) * step_mm_ <= 0) {
+    fwd_ = distance_to_anchor(p, d_, voxel_, model_.max_span_mm(), anchor);
+    fwd_low_ = fwd_ < kNoAnchor ? low : 0;
+    fwd_at_ = i;
+  }
+  if (back_at_ < 0) {
+    back_ = distance_to_anchor(p, -d_, voxel_, model_.max_span_mm(), anchor);
+    back_low_ = back_ < kNoAnchor ? low : 0;
+    back_at_ = i;
+  }
+  const double fwd = fwd_ - (i - fwd_at_) * step_mm_;
+  const double back = back_ + (i - back_at_) * step_mm_;
+  Drop drop = predict_drop(model_, back, fwd, edge, room, back_low_, fwd_low_);
+  // Between half a layer and a layer of air beneath (the support test holds a bead on half a
+  // layer): the bead settles onto what is there.
+  if (room > drop.mm && room >= 0.5 * h_ && room <= h_) {
+    drop.mm = room;
+    if (drop.kind == DropKind::none) drop.kind = DropKind::cantilever;
+  }
+  drops_[static_cast<std::size_t>(i)] = drop.mm;
+  return drop;
+}
+
+BeadSweep::Laid DroopProbe::lay(const SweptBead& bead, BeadSweep& sweep, VoxelGrid& grid, std::uint32_t tag,
+                                HeightMap& map) {
+  // Knots every half millimetre at most, kept where the lowering bends by a fifth of a voxel.
+  const int stride = std::max(1, static_cast<int>(std::lround(0.5 / std::max(step_mm_, 1e-9))));
+  // Perimeters are what a later bead of the same layer hangs beside (slicers lay the inner
+  // perimeters before the outer one); infill is not remembered, to keep the cost down.
+  if (model_.deforms() && (mv_.feature == Feature::perimeter || mv_.feature == Feature::outer_perimeter ||
+                           mv_.feature == Feature::overhang_perimeter || mv_.feature == Feature::unknown))
+    remember_below(bead, map);
+  if (skip_ || drops_.empty()) knots_.clear();
+  else drop_knots(drops_, stride, 0.2 * voxel_, knots_);
+  if (knots_.empty()) return sweep.lay(bead, grid, tag, map);
+  // Pieces between knots, joined by square cuts (the pieces are collinear in XY); the first
+  // and last keep the bead's own cuts. Each piece keeps the section, so the volume stays.
+  SweptBead piece = bead;
+  BeadSweep::Laid total;
+  for (std::size_t k = 0; k + 1 < knots_.size(); ++k) {
+    const DropKnot& k0 = knots_[k];
+    const DropKnot& k1 = knots_[k + 1];
+    piece.a_mm = bead.a_mm + k0.t * (bead.b_mm - bead.a_mm) - Vec3(0, 0, k0.mm);
+    piece.b_mm = bead.a_mm + k1.t * (bead.b_mm - bead.a_mm) - Vec3(0, 0, k1.mm);
+    piece.m0 = k == 0 ? bead.m0 : bead.d;
+    piece.m1 = k + 2 == knots_.size() ? bead.m1 : bead.d;
+    const BeadSweep::Laid laid = sweep.lay(piece, grid, tag, map);
+    total.overlap += laid.overlap;
+    total.squeezed += laid.squeezed;
+  }
+  return total;
+}
+
+void DroopProbe::elephant_foot(SweptBead& bead, Feature feature, double area_mm2, const HeightMap& map) const {
+  if (!(model_.elephant_foot_mm > 0)) return;
+  if (feature != Feature::outer_perimeter && feature != Feature::overhang_perimeter) return;
+  const double bottom_a = bead.a_mm.z() - bead.h_mm, bottom_b = bead.b_mm.z() - bead.h_mm;
+  if (bottom_a > 0.5 * voxel_ || bottom_b > 0.5 * voxel_) return;  // not on the bed
+  // A side is open when most of the points just beyond it hold nothing of this layer yet.
+  auto open = [&](double side) {
+    int empty = 0;
+    for (const double t : {0.25, 0.5, 0.75}) {
+      const Vec3 q = bead.a_mm + t * (bead.b_mm - bead.a_mm);
+      const Vec2 at = q.head<2>() + side * (0.5 * bead.w_mm + 1.5 * voxel_) * bead.n;
+      if (map.top_mm(at.x(), at.y()) < 0.5 * bead.h_mm) ++empty;
+    }
+    return empty >= 2;
+  };
+  const FootSection f = detail::elephant_foot(area_mm2, bead.w_mm, bead.h_mm, model_.elephant_foot_mm, open(1.0),
+                                              open(-1.0));
+  if (f.w == bead.w_mm) return;
+  const Vec3 shift(f.shift * bead.n.x(), f.shift * bead.n.y(), -(bead.h_mm - f.h));
+  bead.a_mm += shift;
+  bead.b_mm += shift;
+  bead.w_mm = f.w;
+  bead.h_mm = f.h;
+}
+
+}  // namespace printtwin::detail
