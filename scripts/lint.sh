@@ -31,14 +31,14 @@ if [ "$mode" = all ] || [ "$mode" = --tidy ]; then
   fi
   echo "lint: clang-tidy on src/ with $JOBS jobs"
   start=$(date +%s)
-  log=$(mktemp)
-  # GCC-only warning flags in the database are unknown to clang: ignore them.
+  log="$BUILD_DIR/clang-tidy.log"
+  # GCC-only warning flags in the database are unknown to clang: ignore them. Colours off.
   run-clang-tidy -p "$BUILD_DIR" -j "$JOBS" -quiet \
-    -extra-arg=-Wno-unknown-warning-option "$PWD/src/.*\.cpp\$" >"$log" 2>&1 || true
-  findings=$(grep -cE '^/.*: (warning|error):' "$log" || true)
+    -extra-arg=-Wno-unknown-warning-option "$PWD/src/.*\.cpp\$" 2>&1 |
+    sed 's/\x1b\[[0-9;]*m//g' >"$log" || true
   grep -E -A3 '^/.*: (warning|error):' "$log" || true
-  echo "lint: clang-tidy found $findings issue(s) in $(( $(date +%s) - start )) s"
+  findings=$(grep -cE '^/.*: (warning|error):' "$log" || true)
+  echo "lint: clang-tidy found $findings issue(s) in $(( $(date +%s) - start )) s (log: $log)"
   [ "$findings" -eq 0 ] || status=1
-  rm -f "$log"
 fi
 exit $status
