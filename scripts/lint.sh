@@ -32,9 +32,13 @@ if [ "$mode" = all ] || [ "$mode" = --tidy ]; then
   echo "lint: clang-tidy on src/ with $JOBS jobs"
   start=$(date +%s)
   log="$BUILD_DIR/clang-tidy.log"
-  # GCC-only warning flags in the database are unknown to clang: ignore them. Colours off.
+  # The database holds GCC's flags: clang ignores the GCC-only warning options and
+  # attributes, and reports its own compiler warnings as warnings, not errors (the GCC
+  # build with -Werror owns compiler warnings; .clang-tidy filters clang-diagnostic-*).
+  # Colours off.
   run-clang-tidy -p "$BUILD_DIR" -j "$JOBS" -quiet \
-    -extra-arg=-Wno-unknown-warning-option "$PWD/src/.*\.cpp\$" 2>&1 |
+    -extra-arg=-Wno-unknown-warning-option -extra-arg=-Wno-unknown-attributes \
+    -extra-arg=-Wno-error "$PWD/src/.*\.cpp\$" 2>&1 |
     sed 's/\x1b\[[0-9;]*m//g' >"$log" || true
   grep -E -A3 '^/.*: (warning|error):' "$log" || true
   findings=$(grep -cE '^/.*: (warning|error):' "$log" || true)
