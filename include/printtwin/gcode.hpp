@@ -174,6 +174,9 @@ class GcodeInterpreter {
   Status motion_words(const GcodeCommand& c, std::string_view text, Vec3& target, double& de);
   Status home(const GcodeCommand& c, InterpreterOutput& out);
   void comment(std::string_view comment);
+  void layer_tag(std::string_view c);
+  void z_tag(std::string_view c);
+  void slicer_tag(std::string_view c);
   void emit(const Vec3& target_logical, double e_delta_mm, double feedrate_mm_s, MoveKind forced,
             bool is_forced, long line, std::string_view text, InterpreterOutput& out);
   void heat_wait(bool hotend, double target_c, bool wait_cooling, long line,
@@ -183,6 +186,17 @@ class GcodeInterpreter {
   /// An info finding listed once per code; later occurrences are counted in it.
   void note(std::string code, std::string message, long line);
   Status extended(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
+  Status execute_g(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
+  Status execute_m(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
+  Status unknown_command(const GcodeCommand& c);
+  Status g10_g11(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
+  void set_position(const GcodeCommand& c);
+  Status set_temperature(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
+  Status set_axis_limits(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
+  Status set_rrf_jerk(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
+  void set_retraction(const GcodeCommand& c);
+  Status prusa_printer_check(const GcodeCommand& c, std::string_view text);
+  Status set_acceleration(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
   Status start_macro(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
   Status firmware_retract(const GcodeCommand& c, bool retract, std::string_view text,
                           InterpreterOutput& out);

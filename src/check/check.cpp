@@ -256,77 +256,55 @@ std::vector<OverhangRegion> find_overhangs(const Mesh& placed, const CheckSettin
   return out;
 }
 
-Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& printer,
-                                       const CheckSettings& settings) {
-  if (mesh.triangles.empty()) return bad_input("the mesh has no triangles");
-  CheckReport rep;
-  rep.min_thickness_limit_mm =
-      settings.min_thickness_mm > 0 ? settings.min_thickness_mm : printer.nozzle_diameter_mm;
-  rep.line_width_mm =
-      settings.line_width_mm > 0 ? settings.line_width_mm : 1.125 * printer.nozzle_diameter_mm;
-
-  rep.overhang_angle_deg = settings.overhang_angle_deg;
-  rep.health = analyze_mesh_health(mesh);
-  if (settings.self_intersections) {
-    const SelfIntersections si = find_self_intersections(mesh, settings.max_locations);
-    rep.health.self_intersections = si.pairs;
-    rep.health.self_intersection_locations_mm = si.locations_mm;
-    rep.health.self_intersections_checked = true;
-    if (si.pairs > 0)
-      rep.intersection_effect = rep.health.closed
-                                    ? measure_intersection_effect(mesh, si.faces, kEffectLayerMm)
-                                    : IntersectionEffect{};
-  }
-
-  Mesh placed;
-  rep.placement = place(mesh, printer, settings, placed);
-  const Vec3 offset = rep.placement.offset_mm;
-  std::vector<Finding>& out = rep.findings;
-  health_findings(rep.health, offset, out);
-  self_intersection_finding(rep.health, rep.intersection_effect, rep.line_width_mm, offset, out);
-
-  // Stray shells: small bodies far from the main one (a facet left kilometres away) make the
-  // slicer place, scale and centre the whole object around them.
+namespace {
+/// Stray shells: small bodies far from the main one (a facet left kilometres away) make the
+/// slicer place, scale and centre the whole object around them. Returns the box of the part
+/// without them when there are any.
+std::optional<Box3> stray_shell_findings(const CheckReport& rep, const Vec3& offset,
+                                         std::vector<Finding>& out) {
   std::optional<Box3> main_body;
-  {
-    const auto& boxes = rep.health.shell_bbox_mm;
-    const auto& faces = rep.health.shell_faces;
-    std::size_t main = 0;
-    for (std::size_t i = 1; i < faces.size(); ++i)
-      if (faces[i] > faces[main]) main = i;
-    std::size_t stray = 0;
-    double farthest = 0;
-    std::optional<Vec3> first;
-    Box3 kept;
-    for (std::size_t i = 0; i < boxes.size(); ++i) {
-      const double main_size = boxes[main].size().norm();
-      const Vec3 gap = (boxes[i].min - boxes[main].max).cwiseMax(boxes[main].min - boxes[i].max).cwiseMax(0.0);
-      // Stray: at most 1 % of the main body's faces, and farther from it than its own size.
-      if (i != main && faces[i] * 100 <= faces[main] && gap.norm() > main_size) {
-        ++stray;
-        farthest = std::max(farthest, gap.norm());
-        if (!first) first = boxes[i].center() + offset;
-      } else {
-        kept.extend(boxes[i]);
-      }
-    }
-    if (stray > 0) {
-      main_body = kept;
-      const Vec3 ks = kept.size();
-      out.push_back(make_finding(
-          Severity::error, "stray_shell",
-          plural(stray, "stray shell") + " up to " + mm(farthest) + " away from the part (first at " +
-              xyz(*first) + "): the slicer places and sizes the object with them, " +
-              format_fixed(rep.placement.bbox_mm.size().x(), 1) + " x " +
-              format_fixed(rep.placement.bbox_mm.size().y(), 1) + " x " +
-              format_fixed(rep.placement.bbox_mm.size().z(), 1) + " mm instead of " + format_fixed(ks.x(), 1) +
-              " x " + format_fixed(ks.y(), 1) + " x " + format_fixed(ks.z(), 1) +
-              " mm; delete them (admesh --remove-unconnected)",
-          first, static_cast<long>(stray)));
+  const auto& boxes = rep.health.shell_bbox_mm;
+  const auto& faces = rep.health.shell_faces;
+  std::size_t main = 0;
+  for (std::size_t i = 1; i < faces.size(); ++i)
+    if (faces[i] > faces[main]) main = i;
+  std::size_t stray = 0;
+  double farthest = 0;
+  std::optional<Vec3> first;
+  Box3 kept;
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    const double main_size = boxes[main].size().norm();
+    const Vec3 gap = (boxes[i].min - boxes[main].max).cwiseMax(boxes[main].min - boxes[i].max).cwiseMax(0.0);
+    // Stray: at most 1 % of the main body's faces, and farther from it than its own size.
+    if (i != main && faces[i] * 100 <= faces[main] && gap.norm() > main_size) {
+      ++stray;
+      farthest = std::max(farthest, gap.norm());
+      if (!first) first = boxes[i].center() + offset;
+    } else {
+      kept.extend(boxes[i]);
     }
   }
+  if (stray > 0) {
+    main_body = kept;
+    const Vec3 ks = kept.size();
+    out.push_back(make_finding(
+        Severity::error, "stray_shell",
+        plural(stray, "stray shell") + " up to " + mm(farthest) + " away from the part (first at " +
+            xyz(*first) + "): the slicer places and sizes the object with them, " +
+            format_fixed(rep.placement.bbox_mm.size().x(), 1) + " x " +
+            format_fixed(rep.placement.bbox_mm.size().y(), 1) + " x " +
+            format_fixed(rep.placement.bbox_mm.size().z(), 1) + " mm instead of " + format_fixed(ks.x(), 1) +
+            " x " + format_fixed(ks.y(), 1) + " x " + format_fixed(ks.z(), 1) +
+            " mm; delete them (admesh --remove-unconnected)",
+        first, static_cast<long>(stray)));
+  }
+  return main_body;
+}
 
-  // Placement.
+/// Placement: does the part fit, does it rest on enough bed, is it tall and slender.
+void placement_findings(const CheckReport& rep, const PrinterProfile& printer,
+                        const CheckSettings& settings, const std::optional<Box3>& main_body,
+                        std::vector<Finding>& out) {
   const Box3& pb = rep.placement.bbox_mm;
   const Vec3 size = pb.size();
   if (!rep.placement.fits) {
@@ -376,8 +354,11 @@ Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& p
     }
   }
 
-  // Overhangs.
-  rep.overhangs = find_overhangs(placed, settings);
+}
+
+/// One finding per overhang region (the largest `max_locations`), then a count of the rest.
+void overhang_findings(const CheckReport& rep, const CheckSettings& settings,
+                       std::vector<Finding>& out) {
   double overhang_total = 0;
   for (const auto& r : rep.overhangs) overhang_total += r.area_mm2;
   for (std::size_t i = 0; i < rep.overhangs.size() && i < settings.max_locations; ++i) {
@@ -402,13 +383,11 @@ Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& p
             " mm2 of overhang in all",
         std::nullopt, static_cast<long>(rep.overhangs.size() - settings.max_locations)));
 
-  // Thin walls and narrow gaps.
-  auto thick = measure_thickness(placed, rep.min_thickness_limit_mm, rep.line_width_mm, settings.mesh_query,
-                                 rep.placement.offset_mm, settings.thickness_beyond_limit,
-                                 rep.health.shells > 1 || rep.health.self_intersections > 0);
-  if (!thick) return thick.error();
-  rep.thickness = *thick;
-  const ThicknessResult& t = *thick;
+}
+
+/// Thin walls and narrow gaps from the thickness rays.
+void thickness_findings(const CheckReport& rep, const ThicknessResult& t,
+                        std::vector<Finding>& out) {
   if (t.thin_faces > 0) {
     Finding f = make_finding(
         Severity::warning, "thin_wall",
@@ -435,10 +414,14 @@ Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& p
     f.value = t.min_gap_mm;
     out.push_back(f);
   }
-  // Shells narrower than a line width across print as one thin line at best; narrower than
-  // the thinnest line a slicer prints (about a third of the nozzle, PrusaSlicer's thin-wall
-  // limit and printtwin's slicer default), not at all. When no shell prints, nothing does:
-  // an error, so that the verdict says what the finding says.
+}
+
+/// Shells narrower than a line width across print as one thin line at best; narrower than
+/// the thinnest line a slicer prints (about a third of the nozzle, PrusaSlicer's thin-wall
+/// limit and printtwin's slicer default), not at all. When no shell prints, nothing does:
+/// an error, so that the verdict says what the finding says.
+void small_feature_findings(const CheckReport& rep, const PrinterProfile& printer,
+                            const Vec3& offset, std::vector<Finding>& out) {
   const double vanish_mm = printer.nozzle_diameter_mm / 3.0;
   std::size_t narrow = 0, vanishing = 0;
   std::optional<Vec3> first_narrow, first_vanishing;
@@ -473,23 +456,73 @@ Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& p
                                    "): printed as one thin line at best, weak or incomplete",
                                first_narrow, static_cast<long>(narrow)));
   }
+}
+
+/// The side to stand the part on (advice only; --orient applies it).
+void orientation_finding(const OrientationAdvice& a, std::vector<Finding>& out) {
+  if (!a.better) return;
+  const Vec3& r = a.best.rotation_xyz_deg;
+  Finding f = make_finding(
+      Severity::info, "orientation",
+      "stood on " + a.best.label + " (rotate " + format_fixed(r.x(), 1) + ", " + format_fixed(r.y(), 1) +
+          ", " + format_fixed(r.z(), 1) + " deg about X, Y, Z; --orient applies it) it needs " +
+          format_fixed(a.best.overhang_mm2, 1) + " mm2 of support instead of " +
+          format_fixed(a.current.overhang_mm2, 1) + " mm2 and rests " + format_fixed(a.best.contact_mm2, 1) +
+          " mm2 on the bed instead of " + format_fixed(a.current.contact_mm2, 1) + " mm2 (best of " +
+          std::to_string(a.candidates) + " orientations)");
+  f.value = a.current.overhang_mm2 - a.best.overhang_mm2;
+  out.push_back(f);
+}
+}  // namespace
+
+Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& printer,
+                                       const CheckSettings& settings) {
+  if (mesh.triangles.empty()) return bad_input("the mesh has no triangles");
+  CheckReport rep;
+  rep.min_thickness_limit_mm =
+      settings.min_thickness_mm > 0 ? settings.min_thickness_mm : printer.nozzle_diameter_mm;
+  rep.line_width_mm =
+      settings.line_width_mm > 0 ? settings.line_width_mm : 1.125 * printer.nozzle_diameter_mm;
+
+  rep.overhang_angle_deg = settings.overhang_angle_deg;
+  rep.health = analyze_mesh_health(mesh);
+  if (settings.self_intersections) {
+    const SelfIntersections si = find_self_intersections(mesh, settings.max_locations);
+    rep.health.self_intersections = si.pairs;
+    rep.health.self_intersection_locations_mm = si.locations_mm;
+    rep.health.self_intersections_checked = true;
+    if (si.pairs > 0)
+      rep.intersection_effect = rep.health.closed
+                                    ? measure_intersection_effect(mesh, si.faces, kEffectLayerMm)
+                                    : IntersectionEffect{};
+  }
+
+  Mesh placed;
+  rep.placement = place(mesh, printer, settings, placed);
+  const Vec3 offset = rep.placement.offset_mm;
+  std::vector<Finding>& out = rep.findings;
+  health_findings(rep.health, offset, out);
+  self_intersection_finding(rep.health, rep.intersection_effect, rep.line_width_mm, offset, out);
+
+  const std::optional<Box3> main_body = stray_shell_findings(rep, offset, out);
+
+  placement_findings(rep, printer, settings, main_body, out);
+
+  rep.overhangs = find_overhangs(placed, settings);
+  overhang_findings(rep, settings, out);
+
+  // Thin walls and narrow gaps.
+  auto thick = measure_thickness(placed, rep.min_thickness_limit_mm, rep.line_width_mm, settings.mesh_query,
+                                 rep.placement.offset_mm, settings.thickness_beyond_limit,
+                                 rep.health.shells > 1 || rep.health.self_intersections > 0);
+  if (!thick) return thick.error();
+  rep.thickness = *thick;
+  thickness_findings(rep, *thick, out);
+  small_feature_findings(rep, printer, offset, out);
 
   // Orientation: the side to stand it on (advice only; --orient applies it).
   rep.orientation = advise_orientation(mesh, settings);
-  if (rep.orientation->better) {
-    const OrientationAdvice& a = *rep.orientation;
-    const Vec3& r = a.best.rotation_xyz_deg;
-    Finding f = make_finding(
-        Severity::info, "orientation",
-        "stood on " + a.best.label + " (rotate " + format_fixed(r.x(), 1) + ", " + format_fixed(r.y(), 1) +
-            ", " + format_fixed(r.z(), 1) + " deg about X, Y, Z; --orient applies it) it needs " +
-            format_fixed(a.best.overhang_mm2, 1) + " mm2 of support instead of " +
-            format_fixed(a.current.overhang_mm2, 1) + " mm2 and rests " + format_fixed(a.best.contact_mm2, 1) +
-            " mm2 on the bed instead of " + format_fixed(a.current.contact_mm2, 1) + " mm2 (best of " +
-            std::to_string(a.candidates) + " orientations)");
-    f.value = a.current.overhang_mm2 - a.best.overhang_mm2;
-    out.push_back(f);
-  }
+  orientation_finding(*rep.orientation, out);
 
   std::stable_sort(out.begin(), out.end(), [](const Finding& a, const Finding& b) {
     return static_cast<int>(a.severity) > static_cast<int>(b.severity);

@@ -195,47 +195,52 @@ Vec3 intersection_point(const Mesh& mesh, const std::array<std::uint32_t, 3>& f,
 
 }  // namespace
 
-SelfIntersections find_self_intersections(const Mesh& mesh, std::size_t max_locations) {
-  SelfIntersections out;
-  const std::size_t nf = mesh.triangles.size();
-  if (nf < 2) return out;
+namespace {
+using Cell3 = std::array<std::int32_t, 3>;
 
-  // Face boxes; degenerate faces are left out (reported as degenerate_face).
-  std::vector<Box3> boxes(nf);
-  std::vector<std::uint32_t> faces;
-  faces.reserve(nf);
-  Box3 all;
-  double extent_sum = 0;
-  for (std::size_t f = 0; f < nf; ++f) {
-    if (detail::is_degenerate_face(mesh, f)) continue;
-    for (auto v : mesh.triangles[f]) boxes[f].extend(mesh.vertices_mm[v]);
-    all.extend(boxes[f]);
-    extent_sum += boxes[f].size().maxCoeff();
-    faces.push_back(static_cast<std::uint32_t>(f));
-  }
-  if (faces.size() < 2) return out;
+/// A uniform grid over the face boxes: the faces of every cell that holds two or more.
+struct FaceGrid {
+  Vec3 origin = Vec3::Zero();
+  double cell = 1;
+  std::uint64_t nx = 0, ny = 0, nz = 0;
+  std::vector<Cell3> lo_cell;  ///< cell of each face box's min corner
+  std::vector<std::uint32_t> cell_faces;  ///< faces listed cell by cell, ascending in a cell
+  std::vector<std::pair<std::size_t, std::size_t>> runs;  ///< [begin, end) of cells with 2+ faces
+  std::vector<std::uint64_t> run_cell;                    ///< the cell of each run
+};
 
+/// Lists the faces by cell. Cell edge: twice the mean face extent, so that a face covers a
+/// few cells.
+FaceGrid build_face_grid(const std::vector<Box3>& boxes, const std::vector<std::uint32_t>& faces,
+                         const Box3& all, double extent_sum) {
   // Cell edge: twice the mean face extent, so that a face covers a few cells.
   const Vec3 size = all.size();
-  double cell = 2.0 * extent_sum / static_cast<double>(faces.size());
+  FaceGrid g;
+  double& cell = g.cell;
+  cell = 2.0 * extent_sum / static_cast<double>(faces.size());
   cell = std::max({cell, size.maxCoeff() / 1e6, 1e-9});
-  const Vec3 origin = all.min;
-  using Cell3 = std::array<std::int32_t, 3>;
+  g.origin = all.min;
+  const Vec3& origin = g.origin;
   const auto cell_of = [&](const Vec3& q) {
     Cell3 c{};
     for (int a = 0; a < 3; ++a) c[a] = static_cast<std::int32_t>(std::floor((q[a] - origin[a]) / cell));
     return c;
   };
   const Cell3 top = cell_of(all.max);
-  const auto nx = static_cast<std::uint64_t>(top[0]) + 1, ny = static_cast<std::uint64_t>(top[1]) + 1,
-             nz = static_cast<std::uint64_t>(top[2]) + 1;
+  g.nx = static_cast<std::uint64_t>(top[0]) + 1;
+  g.ny = static_cast<std::uint64_t>(top[1]) + 1;
+  g.nz = static_cast<std::uint64_t>(top[2]) + 1;
+  const std::uint64_t nx = g.nx, ny = g.ny, nz = g.nz;
   const auto cell_id = [&](std::int32_t x, std::int32_t y, std::int32_t z) {
     return static_cast<std::uint64_t>(x) + nx * (static_cast<std::uint64_t>(y) + ny * static_cast<std::uint64_t>(z));
   };
   // The cells of each face's box. The cell of a box's min corner is monotone in the
   // corner, so the cell of the min corner of two boxes' overlap is the per-axis max of
   // their min cells: each box pair is tested only there, never twice.
-  std::vector<Cell3> lo_cell(nf), hi_cell(nf);
+  const std::size_t nf = boxes.size();
+  g.lo_cell.resize(nf);
+  std::vector<Cell3> hi_cell(nf);
+  std::vector<Cell3>& lo_cell = g.lo_cell;
   std::size_t n_entries = 0;
   for (auto f : faces) {
     lo_cell[f] = cell_of(boxes[f].min);
@@ -252,9 +257,10 @@ SelfIntersections find_self_intersections(const Mesh& mesh, std::size_t max_loca
   // Faces by cell, ascending within a cell (faces are visited in order): a counting sort
   // when the cells are not many more than the entries, else a comparison sort of the
   // (cell, face) entries; both give the same runs.
-  std::vector<std::uint32_t> cell_faces(n_entries);
-  std::vector<std::pair<std::size_t, std::size_t>> runs;  // [begin, end) of cells with 2+ faces
-  std::vector<std::uint64_t> run_cell;
+  g.cell_faces.resize(n_entries);
+  std::vector<std::uint32_t>& cell_faces = g.cell_faces;
+  std::vector<std::pair<std::size_t, std::size_t>>& runs = g.runs;
+  std::vector<std::uint64_t>& run_cell = g.run_cell;
   const double n_cells = static_cast<double>(nx) * static_cast<double>(ny) * static_cast<double>(nz);
   if (n_cells <= 4.0 * static_cast<double>(n_entries) + 1e6) {
     std::vector<std::uint32_t> start(static_cast<std::size_t>(n_cells) + 1, 0);
@@ -283,6 +289,19 @@ SelfIntersections find_self_intersections(const Mesh& mesh, std::size_t max_loca
     for (std::size_t i = 0; i < entries.size(); ++i) cell_faces[i] = entries[i].second;
   }
 
+  return g;
+}
+
+/// Tests every pair of faces that share a cell, in the cell holding the min corner of the two
+/// boxes' overlap only (the per-axis max of their min cells), so never twice.
+std::vector<std::array<std::uint32_t, 2>> intersecting_pairs(const Mesh& mesh,
+                                                             const std::vector<Box3>& boxes,
+                                                             const FaceGrid& grid) {
+  const std::uint64_t nx = grid.nx, ny = grid.ny;
+  const auto& runs = grid.runs;
+  const auto& run_cell = grid.run_cell;
+  const auto& cell_faces = grid.cell_faces;
+  const auto& lo_cell = grid.lo_cell;
   tbb::enumerable_thread_specific<std::vector<std::array<std::uint32_t, 2>>> found;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, runs.size(), 64),
                     [&](const tbb::blocked_range<std::size_t>& r) {
@@ -314,6 +333,32 @@ SelfIntersections find_self_intersections(const Mesh& mesh, std::size_t max_loca
   std::vector<std::array<std::uint32_t, 2>> pairs;
   for (auto& local : found) pairs.insert(pairs.end(), local.begin(), local.end());
   std::sort(pairs.begin(), pairs.end());
+  return pairs;
+}
+}  // namespace
+
+SelfIntersections find_self_intersections(const Mesh& mesh, std::size_t max_locations) {
+  SelfIntersections out;
+  const std::size_t nf = mesh.triangles.size();
+  if (nf < 2) return out;
+
+  // Face boxes; degenerate faces are left out (reported as degenerate_face).
+  std::vector<Box3> boxes(nf);
+  std::vector<std::uint32_t> faces;
+  faces.reserve(nf);
+  Box3 all;
+  double extent_sum = 0;
+  for (std::size_t f = 0; f < nf; ++f) {
+    if (detail::is_degenerate_face(mesh, f)) continue;
+    for (auto v : mesh.triangles[f]) boxes[f].extend(mesh.vertices_mm[v]);
+    all.extend(boxes[f]);
+    extent_sum += boxes[f].size().maxCoeff();
+    faces.push_back(static_cast<std::uint32_t>(f));
+  }
+  if (faces.size() < 2) return out;
+
+  const FaceGrid grid = build_face_grid(boxes, faces, all, extent_sum);
+  const std::vector<std::array<std::uint32_t, 2>> pairs = intersecting_pairs(mesh, boxes, grid);
   out.pairs = pairs.size();
   for (const auto& pr : pairs) {
     out.faces.push_back(pr[0]);

@@ -22,7 +22,10 @@ std::string settings_text(const VariantSpec& v) {
   if (v.kind == VariantKind::gcode) return v.gcode_path;
   std::string s;
   if (!v.config_path.empty()) s = v.config_path;
-  for (const auto& [k, val] : v.settings) s += (s.empty() ? "" : " ") + k + "=" + val;
+  for (const auto& [k, val] : v.settings) {
+    if (!s.empty()) s += ' ';
+    s.append(k).append("=").append(val);
+  }
   return s.empty() ? std::string("defaults") : s;
 }
 

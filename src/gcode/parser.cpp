@@ -180,19 +180,19 @@ bool GcodeLineReader::next(std::string_view& line) {
   }
 }
 
-Status parse_gcode_line(std::string_view text, long line, GcodeCommand& out) {
-  out.letter = 0;
-  out.code = -1;
-  out.subcode = -1;
-  out.present = 0;
-  out.word = {};
-  out.args = {};
-  out.comment = {};
-  out.line = line;
+namespace {
+/// Every byte of free text must be printable ASCII (binary garbage is rejected, not
+/// interpreted). The parameter scan rejects any other byte itself.
+Status check_free_text(std::string_view text, long line, const char* from, const char* end) {
+  for (const char* q = from; q < end; ++q) {
+    const auto c = static_cast<unsigned char>(*q);
+    if ((c < 32 && c != '\t') || c >= 127) return not_gcode(text, line, q);
+  }
+  return Ok{};
+}
 
-  const char* p = text.data();
-  const char* end = p + text.size();
-  // Comment and checksum.
+/// Cuts the `;` comment off [p, end) into `out.comment` and trims spaces at both ends.
+void strip_comment(std::string_view text, GcodeCommand& out, const char*& p, const char*& end) {
   if (const void* semi = std::memchr(p, ';', text.size()); semi != nullptr) {
     const char* c = static_cast<const char*>(semi);
     const char* cs = c + 1;
@@ -204,8 +204,10 @@ Status parse_gcode_line(std::string_view text, long line, GcodeCommand& out) {
   }
   while (p < end && is_space(*p)) ++p;
   while (end > p && is_space(end[-1])) --end;
-  if (p == end) return Ok{};
+}
 
+/// Checks and cuts a `*checksum` (XOR of the bytes before it) off the end of [p, end).
+Status strip_checksum(std::string_view text, long line, const char* p, const char*& end) {
   if (const void* star = std::memchr(p, '*', static_cast<std::size_t>(end - p)); star != nullptr) {
     const char* s = static_cast<const char*>(star);
     double expected = 0;
@@ -221,27 +223,13 @@ Status parse_gcode_line(std::string_view text, long line, GcodeCommand& out) {
     end = s;
     while (end > p && is_space(end[-1])) --end;
   }
+  return Ok{};
+}
 
-  // Every byte must be printable ASCII (binary garbage is rejected, not interpreted). The
-  // parameter scan below rejects any other byte itself; free text is checked here.
-  auto check_text = [&](const char* from) -> Status {
-    for (const char* q = from; q < end; ++q) {
-      const auto c = static_cast<unsigned char>(*q);
-      if ((c < 32 && c != '\t') || c >= 127) return not_gcode(text, line, q);
-    }
-    return Ok{};
-  };
-
-  // Optional line number N<int>.
-  if ((*p == 'N' || *p == 'n') && p + 1 < end && is_digit(p[1])) {
-    ++p;
-    while (p < end && is_digit(*p)) ++p;
-    while (p < end && is_space(*p)) ++p;
-    if (p == end) return Ok{};
-  }
-
-  // Parenthesised comments are removed in place by skipping them during the scan below.
-  // Command word.
+/// Reads the command word: letter + number (G1, M104, T0, G29.1) or an extended (Klipper
+/// style) command, whose arguments are kept as text; `done` then says nothing follows.
+Status read_command_word(std::string_view text, long line, GcodeCommand& out, const char*& p,
+                         const char* end, bool& done) {
   const char c0 = upper(*p);
   if (is_upper(c0) && (p + 1 == end || !(is_upper(upper(p[1])) || p[1] == '_'))) {
     // Letter + number: G1, M104, T0, G29.1
@@ -278,7 +266,8 @@ Status parse_gcode_line(std::string_view text, long line, GcodeCommand& out) {
     out.word = std::string_view(w, static_cast<std::size_t>(p - w));
     while (p < end && is_space(*p)) ++p;
     out.args = std::string_view(p, static_cast<std::size_t>(end - p));
-    return check_text(p);
+    done = true;
+    return check_free_text(text, line, p, end);
   } else {
     if (*p == '[' || *p == '{')
       return parse_error(text, line, "unexpanded slicer placeholder");
@@ -287,18 +276,13 @@ Status parse_gcode_line(std::string_view text, long line, GcodeCommand& out) {
     return parse_error(text, line,
                        std::string("expected a command (G, M, T) but found '") + *p + "'");
   }
+  return Ok{};
+}
 
-  // Commands whose argument is free text: messages and file names; M115 U<version>
-  // (Prusa's firmware-version check, "U6.1.3+7898"); Bambu's M1002 (status actions such
-  // as "gcode_claim_action : 2").
-  if (out.letter == 'M' && (out.code == 117 || out.code == 118 || out.code == 23 ||
-                            out.code == 28 || out.code == 30 || out.code == 32 ||
-                            out.code == 928 || out.code == 115 || out.code == 1002)) {
-    while (p < end && is_space(*p)) ++p;
-    out.args = std::string_view(p, static_cast<std::size_t>(end - p));
-    return check_text(p);
-  }
-
+/// Reads the parameters after the command word: letter + number, bare flags, a quoted
+/// string (kept in `args`), M486's object name; `(...)` comments are skipped.
+Status read_parameters(std::string_view text, long line, GcodeCommand& out, const char* p,
+                       const char* end) {
   // Parameters.
   while (p < end) {
     const char c = *p;
@@ -325,7 +309,7 @@ Status parse_gcode_line(std::string_view text, long line, GcodeCommand& out) {
       out.present |= 1U << ('A' - 'A');
       out.value[0] = 0;
       out.args = std::string_view(p + 1, static_cast<std::size_t>(end - p - 1));
-      return check_text(p + 1);
+      return check_free_text(text, line, p + 1, end);
     }
     ++p;
     while (p < end && is_space(*p)) ++p;
@@ -336,7 +320,7 @@ Status parse_gcode_line(std::string_view text, long line, GcodeCommand& out) {
       const void* close = p + 1 < end ? std::memchr(p + 1, '"', static_cast<std::size_t>(end - p - 1)) : nullptr;
       if (close == nullptr) return parse_error(text, line, "quoted string without a closing '\"'");
       const char* q = static_cast<const char*>(close);
-      if (auto st = check_text(p + 1); !st) return st;
+      if (auto st = check_free_text(text, line, p + 1, end); !st) return st;
       if (out.args.empty()) out.args = std::string_view(p + 1, static_cast<std::size_t>(q - p - 1));
       p = q + 1;
     } else if (p < end && (is_digit(*p) || *p == '.' || *p == '-' || *p == '+')) {
@@ -363,6 +347,47 @@ Status parse_gcode_line(std::string_view text, long line, GcodeCommand& out) {
     out.value[bit] = v;
   }
   return Ok{};
+}
+}  // namespace
+
+Status parse_gcode_line(std::string_view text, long line, GcodeCommand& out) {
+  out.letter = 0;
+  out.code = -1;
+  out.subcode = -1;
+  out.present = 0;
+  out.word = {};
+  out.args = {};
+  out.comment = {};
+  out.line = line;
+
+  const char* p = text.data();
+  const char* end = p + text.size();
+  strip_comment(text, out, p, end);
+  if (p == end) return Ok{};
+  if (auto st = strip_checksum(text, line, p, end); !st) return st;
+
+  // Optional line number N<int>.
+  if ((*p == 'N' || *p == 'n') && p + 1 < end && is_digit(p[1])) {
+    ++p;
+    while (p < end && is_digit(*p)) ++p;
+    while (p < end && is_space(*p)) ++p;
+    if (p == end) return Ok{};
+  }
+
+  bool done = false;
+  if (auto st = read_command_word(text, line, out, p, end, done); !st || done) return st;
+
+  // Commands whose argument is free text: messages and file names; M115 U<version>
+  // (Prusa's firmware-version check, "U6.1.3+7898"); Bambu's M1002 (status actions such
+  // as "gcode_claim_action : 2").
+  if (out.letter == 'M' && (out.code == 117 || out.code == 118 || out.code == 23 ||
+                            out.code == 28 || out.code == 30 || out.code == 32 ||
+                            out.code == 928 || out.code == 115 || out.code == 1002)) {
+    while (p < end && is_space(*p)) ++p;
+    out.args = std::string_view(p, static_cast<std::size_t>(end - p));
+    return check_free_text(text, line, p, end);
+  }
+  return read_parameters(text, line, out, p, end);
 }
 
 }  // namespace printtwin

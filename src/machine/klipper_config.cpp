@@ -165,39 +165,38 @@ Result<std::vector<KlipperSection>> read_klipper_config(const fs::path& path) {
   return r.take();
 }
 
-Result<PrinterProfile> load_klipper_printer_cfg(const fs::path& path) {
-  auto secs = read_klipper_config(path);
-  if (!secs) return secs.error();
-  PrinterProfile p = ender3_klipper();
-  p.name = "Klipper printer (" + path.filename().string() + ")";
-  p.origin = {};
-  for (const auto& key : printer_profile_keys()) p.origin.set(key, "default", "");
-  p.origin.how = "explicit";
+namespace {
+/// Reads one number option of a section, range-checked; `out` stays empty when absent.
+Status number_option(const KlipperSection* s, std::string_view key, double lo, double hi,
+                     std::optional<double>& out) {
+  if (s == nullptr) return Ok{};
+  const auto* o = s->find(key);
+  if (o == nullptr) return Ok{};
+  char* end = nullptr;
+  const double d = std::strtod(o->value.c_str(), &end);
+  if (o->value.empty() || o->value.find_first_not_of("0123456789.-+eE") != std::string::npos ||
+      end == o->value.c_str() || *end != 0 || !std::isfinite(d))
+    return bad_input("[" + s->name + "] " + std::string(key) + ": expected a number, got \"" + o->value + "\"", o->file, o->line);
+  if (!(d >= lo && d <= hi))
+    return bad_input("[" + s->name + "] " + std::string(key) + ": " + format_number(d) + " is outside [" +
+                         format_number(lo) + ", " + format_number(hi) + "]",
+                     o->file, o->line);
+  out = d;
+  return Ok{};
+}
 
-  // Reads one number option; `found` tells whether it was present.
-  auto num = [&](const KlipperSection* s, std::string_view key, double lo, double hi,
-                 std::optional<double>& out) -> Status {
-    if (s == nullptr) return Ok{};
-    const auto* o = s->find(key);
-    if (o == nullptr) return Ok{};
-    char* end = nullptr;
-    const double d = std::strtod(o->value.c_str(), &end);
-    if (o->value.empty() || o->value.find_first_not_of("0123456789.-+eE") != std::string::npos ||
-        end == o->value.c_str() || *end != 0 || !std::isfinite(d))
-      return bad_input("[" + s->name + "] " + std::string(key) + ": expected a number, got \"" + o->value + "\"", o->file, o->line);
-    if (!(d >= lo && d <= hi))
-      return bad_input("[" + s->name + "] " + std::string(key) + ": " + format_number(d) + " is outside [" +
-                           format_number(lo) + ", " + format_number(hi) + "]",
-                       o->file, o->line);
-    out = d;
-    return Ok{};
-  };
-  auto where = [&](const KlipperSection* s, std::string_view key) {
-    const auto* o = s->find(key);
-    return o->file + ":" + std::to_string(o->line);
-  };
+/// "file:line" of an option that is present.
+std::string where(const KlipperSection* s, std::string_view key) {
+  const auto* o = s->find(key);
+  return o->file + ":" + std::to_string(o->line);
+}
 
-  const KlipperSection* printer = section(*secs, "printer");
+/// [printer]: kinematics, velocity and acceleration limits, square corner velocity,
+/// minimum cruise ratio.
+Status apply_printer_section(const std::vector<KlipperSection>& secs, const fs::path& path,
+                             PrinterProfile& p) {
+  auto num = number_option;
+  const KlipperSection* printer = section(secs, "printer");
   if (printer == nullptr) return bad_input("no [printer] section (Klipper requires one)", path.string());
   if (const auto* k = printer->find("kinematics")) {
     static const std::set<std::string> kGantry = {"cartesian", "corexy", "corexz", "hybrid_corexy", "hybrid_corexz",
@@ -241,13 +240,19 @@ Result<PrinterProfile> load_klipper_printer_cfg(const fs::path& path) {
   }
   p.max_accel_to_decel_ratio = std::max(0.01, 1.0 - p.minimum_cruise_ratio);
 
-  // Steppers: travel ranges, the printable bed, homing speeds.
+  return Ok{};
+}
+
+/// [stepper_x/y/z]: travel ranges, the printable bed, homing speeds.
+Status apply_steppers(const std::vector<KlipperSection>& secs, const fs::path& path,
+                      PrinterProfile& p) {
+  auto num = number_option;
   static const char* kAxes[3] = {"x", "y", "z"};
   double* tmin[3] = {&p.travel_min_x_mm, &p.travel_min_y_mm, &p.travel_min_z_mm};
   double* tmax[3] = {&p.travel_max_x_mm, &p.travel_max_y_mm, &p.travel_max_z_mm};
   for (int i = 0; i < 3; ++i) {
     const std::string name = std::string("stepper_") + kAxes[i];
-    const KlipperSection* s = section(*secs, name);
+    const KlipperSection* s = section(secs, name);
     if (s == nullptr) return bad_input("no [" + name + "] section (Klipper requires one for " + p.name + ")", path.string());
     std::optional<double> lo, hi, hs;
     for (auto st : {num(s, "position_min", -1e4, 1e4, lo), num(s, "position_max", -1e4, 1e4, hi),
@@ -276,46 +281,58 @@ Result<PrinterProfile> load_klipper_printer_cfg(const fs::path& path) {
   p.max_z_mm = p.travel_max_z_mm;
   if (p.bed_max_x_mm <= p.bed_min_x_mm || p.bed_max_y_mm <= p.bed_min_y_mm)
     return bad_input("the steppers' ranges leave no bed at X, Y >= 0", path.string());
-  for (const char* k : {"bed_min_x_mm", "bed_max_x_mm"}) p.origin.set(k, "config", where(section(*secs, "stepper_x"), "position_max"));
-  for (const char* k : {"bed_min_y_mm", "bed_max_y_mm"}) p.origin.set(k, "config", where(section(*secs, "stepper_y"), "position_max"));
-  p.origin.set("max_z_mm", "config", where(section(*secs, "stepper_z"), "position_max"));
+  for (const char* k : {"bed_min_x_mm", "bed_max_x_mm"}) p.origin.set(k, "config", where(section(secs, "stepper_x"), "position_max"));
+  for (const char* k : {"bed_min_y_mm", "bed_max_y_mm"}) p.origin.set(k, "config", where(section(secs, "stepper_y"), "position_max"));
+  p.origin.set("max_z_mm", "config", where(section(secs, "stepper_z"), "position_max"));
 
-  if (const KlipperSection* e = section(*secs, "extruder")) {
-    std::optional<double> nd, fd, ev, ea, mt;
-    for (auto st : {num(e, "nozzle_diameter", 0.05, 5, nd), num(e, "filament_diameter", 0.5, 5, fd),
-                    num(e, "max_extrude_only_velocity", 1e-3, 1e5, ev), num(e, "max_extrude_only_accel", 1e-3, 1e7, ea),
-                    num(e, "min_extrude_temp", 0, 500, mt)})
-      if (!st) return st.error();
-    auto put = [&](const std::optional<double>& val, double& member, const char* key, const char* option) {
-      if (!val) return;
-      member = *val;
-      p.origin.set(key, "config", where(e, option));
-    };
-    put(nd, p.nozzle_diameter_mm, "nozzle_diameter_mm", "nozzle_diameter");
-    put(fd, p.filament_diameter_mm, "filament_diameter_mm", "filament_diameter");
-    put(ev, p.max_extrude_only_velocity_mm_s, "max_extrude_only_velocity_mm_s", "max_extrude_only_velocity");
-    put(ea, p.max_extrude_only_accel_mm_s2, "max_extrude_only_accel_mm_s2", "max_extrude_only_accel");
-    put(mt, p.min_extrude_temp_c, "min_extrude_temp_c", "min_extrude_temp");
-  }
-  if (const KlipperSection* r = section(*secs, "firmware_retraction")) {
-    std::optional<double> len, spd, extra, uspd;
-    for (auto st : {num(r, "retract_length", 0, 100, len), num(r, "retract_speed", 1e-3, 1e4, spd),
-                    num(r, "unretract_extra_length", 0, 100, extra), num(r, "unretract_speed", 1e-3, 1e4, uspd)})
-      if (!st) return st.error();
-    // Klipper's defaults: retract_length 0, retract_speed 20, unretract_speed 10.
-    p.firmware_retraction = true;
-    p.fw_retract_length_mm = len.value_or(0);
-    p.fw_retract_speed_mm_s = spd.value_or(20);
-    p.fw_recover_speed_mm_s = uspd.value_or(10);
-    p.fw_retract_zraise_mm = 0;
-    p.origin.set("firmware_retraction", "config", path.string());
-    for (const char* k : {"fw_retract_length_mm", "fw_retract_speed_mm_s", "fw_recover_speed_mm_s"})
-      p.origin.set(k, "config", path.string() + " [firmware_retraction]");
-  }
-  p.origin.summary = p.name;
-  // The options above are range-checked one by one; what they make together (a bed or a
-  // height from the steppers' ranges) must also be a profile printtwin simulates: the same
-  // limits as a .json profile, named by the option that set the value.
+  return Ok{};
+}
+
+/// [extruder]: nozzle and filament diameters, extrude-only limits, minimum temperature.
+Status apply_extruder(const KlipperSection* e, PrinterProfile& p) {
+  auto num = number_option;
+  std::optional<double> nd, fd, ev, ea, mt;
+  for (auto st : {num(e, "nozzle_diameter", 0.05, 5, nd), num(e, "filament_diameter", 0.5, 5, fd),
+                  num(e, "max_extrude_only_velocity", 1e-3, 1e5, ev), num(e, "max_extrude_only_accel", 1e-3, 1e7, ea),
+                  num(e, "min_extrude_temp", 0, 500, mt)})
+    if (!st) return st.error();
+  auto put = [&](const std::optional<double>& val, double& member, const char* key, const char* option) {
+    if (!val) return;
+    member = *val;
+    p.origin.set(key, "config", where(e, option));
+  };
+  put(nd, p.nozzle_diameter_mm, "nozzle_diameter_mm", "nozzle_diameter");
+  put(fd, p.filament_diameter_mm, "filament_diameter_mm", "filament_diameter");
+  put(ev, p.max_extrude_only_velocity_mm_s, "max_extrude_only_velocity_mm_s", "max_extrude_only_velocity");
+  put(ea, p.max_extrude_only_accel_mm_s2, "max_extrude_only_accel_mm_s2", "max_extrude_only_accel");
+  put(mt, p.min_extrude_temp_c, "min_extrude_temp_c", "min_extrude_temp");
+  return Ok{};
+}
+
+/// [firmware_retraction]: G10/G11 lengths and speeds, with Klipper's defaults.
+Status apply_firmware_retraction(const KlipperSection* r, const fs::path& path,
+                                 PrinterProfile& p) {
+  auto num = number_option;
+  std::optional<double> len, spd, extra, uspd;
+  for (auto st : {num(r, "retract_length", 0, 100, len), num(r, "retract_speed", 1e-3, 1e4, spd),
+                  num(r, "unretract_extra_length", 0, 100, extra), num(r, "unretract_speed", 1e-3, 1e4, uspd)})
+    if (!st) return st.error();
+  // Klipper's defaults: retract_length 0, retract_speed 20, unretract_speed 10.
+  p.firmware_retraction = true;
+  p.fw_retract_length_mm = len.value_or(0);
+  p.fw_retract_speed_mm_s = spd.value_or(20);
+  p.fw_recover_speed_mm_s = uspd.value_or(10);
+  p.fw_retract_zraise_mm = 0;
+  p.origin.set("firmware_retraction", "config", path.string());
+  for (const char* k : {"fw_retract_length_mm", "fw_retract_speed_mm_s", "fw_recover_speed_mm_s"})
+    p.origin.set(k, "config", path.string() + " [firmware_retraction]");
+  return Ok{};
+}
+
+/// The options are range-checked one by one; what they make together (a bed or a height
+/// from the steppers' ranges) must also be a profile printtwin simulates: the same limits as
+/// a .json profile, named by the option that set the value.
+Status check_simulated(const PrinterProfile& p, const fs::path& path) {
   if (auto back = parse_printer_profile(printer_profile_to_json(p), path.string()); !back) {
     const std::string message = "the printer this config describes is not simulated: " + back.error().message;
     const std::string& what = back.error().message;  // key "<profile key>": ...
@@ -328,6 +345,26 @@ Result<PrinterProfile> load_klipper_printer_cfg(const fs::path& path) {
       return bad_input(message, o->detail.substr(0, colon), std::stol(o->detail.substr(colon + 1)));
     return bad_input(message, path.string());
   }
+  return Ok{};
+}
+}  // namespace
+
+Result<PrinterProfile> load_klipper_printer_cfg(const fs::path& path) {
+  auto secs = read_klipper_config(path);
+  if (!secs) return secs.error();
+  PrinterProfile p = ender3_klipper();
+  p.name = "Klipper printer (" + path.filename().string() + ")";
+  p.origin = {};
+  for (const auto& key : printer_profile_keys()) p.origin.set(key, "default", "");
+  p.origin.how = "explicit";
+  if (auto st = apply_printer_section(*secs, path, p); !st) return st.error();
+  if (auto st = apply_steppers(*secs, path, p); !st) return st.error();
+  if (const KlipperSection* e = section(*secs, "extruder"))
+    if (auto st = apply_extruder(e, p); !st) return st.error();
+  if (const KlipperSection* r = section(*secs, "firmware_retraction"))
+    if (auto st = apply_firmware_retraction(r, path, p); !st) return st.error();
+  p.origin.summary = p.name;
+  if (auto st = check_simulated(p, path); !st) return st.error();
   return p;
 }
 

@@ -36,6 +36,188 @@ void copy_move_fields(MotionSegment& s, const Move& m, double e_start_mm, long i
 double max_allowable_speed(double accel, double v_end, double s) {
   return std::sqrt(v_end * v_end + 2.0 * accel * s);
 }
+/// Marlin's SLOWDOWN: while the buffer drains, a block shorter in time than
+/// `min_segment_time_s` is stretched towards it.
+double slowdown_speed(const MotionLimits& L, double length_mm, double v, std::size_t queued) {
+  const double t = length_mm / v;
+  if (t < L.min_segment_time_s) {
+    const double stretched = t + 2.0 * (L.min_segment_time_s - t) / static_cast<double>(queued);
+    v = length_mm / stretched;
+  }
+  return v;
+}
+
+/// Orca's estimator: a gentle XY bend (< 29 degrees) caps the speed at sqrt(a r), r the
+/// radius of the circle through this move's chord and the bend.
+double orca_bend_speed(const MotionLimits& L, const Eigen::Vector2d& dir,
+                       const Eigen::Vector2d& previous_dir, double xy_len, double v) {
+  const double diff = (dir - previous_dir).norm();
+  if (diff < 0.5 && diff > 1e-5) {
+    const double cos_a = std::clamp(dir.dot(previous_dir), -1.0, 1.0);
+    const double sin_half = std::sqrt(0.5 * (1.0 - cos_a));
+    if (sin_half > 0) v = std::min(v, std::sqrt(L.print_accel_mm_s2 * xy_len * 0.5 / sin_half));
+  }
+  return v;
+}
+
+/// The requested speed scaled down by the per-axis feedrate limits (M203), E included.
+double axis_limited_speed(const MotionLimits& L, const Eigen::Vector4d& unit, double v) {
+  double factor = 1.0;
+  for (int i = 0; i < 4; ++i) {
+    const double axis_speed = std::fabs(unit[i]) * v * factor;
+    if (axis_speed > L.max_feedrate_mm_s[i]) factor *= L.max_feedrate_mm_s[i] / axis_speed;
+  }
+  return v * factor;
+}
+
+/// Scales `accel` down until no axis of `unit` exceeds its M201 limit. Divides only for the
+/// axes that limit (most moves are limited by none or one).
+double axis_limited_accel(const MotionLimits& L, const Eigen::Vector4d& unit, double accel) {
+  for (int i = 0; i < 4; ++i)
+    if (accel * std::fabs(unit[i]) > L.max_accel_mm_s2[i])
+      accel = L.max_accel_mm_s2[i] / std::fabs(unit[i]);
+  return accel;
+}
+
+/// A block's acceleration: M204 R for E-only moves, T for moves without E, P otherwise, then
+/// per axis; the estimators clamp each by machine_max_acceleration_*.
+double block_accel(const MotionLimits& L, const Eigen::Vector4d& unit, double e_mm, bool e_only,
+                   double xy_len) {
+  double accel;
+  if (L.prusaslicer_compat) {
+    // PrusaSlicer's move types: retracting while moving (wipe) counts as travel; for Orca an
+    // extrusion with Z and no XY too.
+    const bool extrude = e_mm > 0 && !(L.orca_compat && xy_len == 0);
+    // The estimators clamp each acceleration by machine_max_acceleration_* whoever set it
+    // (M204, SET_VELOCITY_LIMIT).
+    const int type = e_only ? 1 : (extrude ? 0 : 2);
+    accel = std::min(type == 1 ? L.retract_accel_mm_s2
+                               : (type == 0 ? L.print_accel_mm_s2 : L.travel_accel_mm_s2),
+                     L.accel_cap_mm_s2[type]);
+    accel = axis_limited_accel(L, unit, accel);
+  } else if (e_only) {
+    accel = L.retract_accel_mm_s2;
+  } else {
+    accel = axis_limited_accel(L, unit, e_mm != 0 ? L.print_accel_mm_s2 : L.travel_accel_mm_s2);
+  }
+  return std::max(accel, 1e-6);
+}
+
+/// Marlin's junction deviation: the highest speed at the corner between the previous block
+/// (`previous_unit`) and this one, with JD_HANDLE_SMALL_SEGMENTS when enabled.
+double deviation_junction_speed(const MotionLimits& L, const Eigen::Vector4d& previous_unit,
+                                const Eigen::Vector4d& unit, double accel, double length_mm,
+                                double nominal, double previous_nominal) {
+  double vmax_junction;
+  double cos_theta = -previous_unit.dot(unit);
+  if (cos_theta > 0.999999) {
+    vmax_junction = kVmin;  // full reversal
+  } else {
+    cos_theta = std::max(cos_theta, -0.999999);
+    Eigen::Vector4d ju = unit - previous_unit;
+    const double jn = ju.norm();
+    double junction_accel = accel;
+    if (jn > 0) {
+      ju /= jn;
+      junction_accel = axis_limited_accel(L, ju, junction_accel);
+    }
+    const double sin_theta_d2 = std::sqrt(0.5 * (1.0 - cos_theta));
+    double vsq = junction_accel * L.junction_deviation_mm * sin_theta_d2 / (1.0 - sin_theta_d2);
+    if (L.jd_small_segments && length_mm < 1.0 && cos_theta < -0.7071067812) {
+      // JD_HANDLE_SMALL_SEGMENTS: short segments of a curve share the speed of the
+      // arc they approximate: v^2 = a * length / theta.
+      const double theta = std::acos(-cos_theta);
+      if (theta > 1e-6) vsq = std::min(vsq, length_mm * junction_accel / theta);
+    }
+    vmax_junction = std::sqrt(vsq);
+  }
+  return std::min({vmax_junction, nominal, previous_nominal});
+}
+
+/// Classic jerk: the speed from which a block may start (or end) at once.
+double jerk_safe_speed(const MotionLimits& L, const Eigen::Vector4d& axis_speed, double nominal) {
+  double safe = nominal;
+  if (L.prusaslicer_compat) {
+    Eigen::Vector4d jerk = L.jerk_mm_s;
+    if (L.orca_compat) jerk[0] = jerk[1] = L.square_corner_velocity_mm_s;
+    for (int i = 0; i < 4; ++i)
+      if (std::fabs(axis_speed[i]) > jerk[i]) safe = std::min(safe, jerk[i]);
+    return safe;
+  }
+  bool limited = false;
+  for (int i = 0; i < 4; ++i) {
+    const double jerk = std::fabs(axis_speed[i]), maxj = L.jerk_mm_s[i];
+    if (jerk > maxj) {
+      if (limited) {
+        const double mjerk = nominal * maxj;
+        if (mjerk < jerk * safe) safe = mjerk / jerk;
+      } else {
+        safe *= maxj / jerk;
+        limited = true;
+      }
+    }
+  }
+  return safe;
+}
+
+/// The two blocks of a classic-jerk junction (this one and the previous).
+struct JerkJunction {
+  Eigen::Vector4d axis_speed;
+  Eigen::Vector4d previous_axis_speed;
+  double nominal;
+  double previous_nominal;
+  double safe;
+  double previous_safe;
+};
+
+/// Classic jerk: the highest junction speed at which no axis changes its speed by more than
+/// its jerk (Marlin's rule; Orca's X, Y, Z vector rule for its estimator). `same_arc`: the
+/// blocks are segments of one G2/G3, which Orca joins without a jerk limit.
+double jerk_junction_speed(const MotionLimits& L, const JerkJunction& j, bool same_arc) {
+  const bool prev_larger = j.previous_nominal > j.nominal;
+  double vmax_junction = prev_larger ? j.nominal : j.previous_nominal;
+  const double smaller_factor = vmax_junction / j.previous_nominal;
+  double v_factor = 1.0;
+  bool limited = false;
+  int first_axis = 0;
+  if (L.orca_compat) {
+    // X, Y, Z together: the jerk is |entry velocity - exit velocity| per axis, and
+    // each limit found scales what is left (Bambu's rule, kept as it is).
+    const Eigen::Vector3d jerk_xyz(L.square_corner_velocity_mm_s, L.square_corner_velocity_mm_s,
+                                   L.jerk_mm_s[2]);
+    Eigen::Vector3d jv =
+        (j.axis_speed.head<3>() - j.previous_axis_speed.head<3>() * smaller_factor).cwiseAbs();
+    for (int i = 0; i < 3; ++i) {
+      if (jv[i] > jerk_xyz[i]) {
+        v_factor *= jerk_xyz[i] / jv[i];
+        jv *= v_factor;
+        limited = true;
+      }
+    }
+    first_axis = 3;
+  }
+  for (int i = first_axis; i < 4; ++i) {
+    double v_exit = j.previous_axis_speed[i] * smaller_factor;
+    double v_entry = j.axis_speed[i];
+    if (limited) {
+      v_exit *= v_factor;
+      v_entry *= v_factor;
+    }
+    const double jerk =
+        (v_exit > v_entry)
+            ? ((v_entry > 0 || v_exit < 0) ? (v_exit - v_entry) : std::max(v_exit, -v_entry))
+            : ((v_entry < 0 || v_exit > 0) ? (v_entry - v_exit) : std::max(-v_exit, v_entry));
+    if (jerk > L.jerk_mm_s[i]) {
+      v_factor *= L.jerk_mm_s[i] / jerk;
+      limited = true;
+    }
+  }
+  if (same_arc) limited = false;
+  if (limited) vmax_junction *= v_factor;
+  const double threshold = vmax_junction * 0.99;
+  if (j.previous_safe > threshold && j.safe > threshold) vmax_junction = j.safe;
+  return vmax_junction;
+}
 }  // namespace
 
 double klipper_junction_deviation_mm(double scv, double accel) {
@@ -134,158 +316,41 @@ void Planner::add(const Move& move, MoveSink& sink) {
   v = std::max(v, move.e_mm != 0 ? L.min_feedrate_mm_s : L.min_travel_feedrate_mm_s);
   // SLOWDOWN: while the buffer is draining (2..N/2-1 queued), stretch short blocks.
   const std::size_t queued = window_.size();
-  if (!L.prusaslicer_compat && L.min_segment_time_s > 0 && queued >= 2 && queued <= capacity_ / 2 - 1) {
-    const double t = b.length_mm / v;
-    if (t < L.min_segment_time_s) {
-      const double stretched = t + 2.0 * (L.min_segment_time_s - t) / static_cast<double>(queued);
-      v = b.length_mm / stretched;
-    }
-  }
-  // Orca's estimator: a gentle XY bend (< 29 degrees) caps the speed at sqrt(a r), r the
-  // radius of the circle through this move's chord and the bend.
+  if (!L.prusaslicer_compat && L.min_segment_time_s > 0 && queued >= 2 &&
+      queued <= capacity_ / 2 - 1)
+    v = slowdown_speed(L, b.length_mm, v, queued);
   const double xy_len = b.delta_mm.head<2>().norm();
-  if (L.orca_compat && xy_len > 0 && previous_xy_len_ > 0) {
-    const Eigen::Vector2d dir = b.delta_mm.head<2>() / xy_len;
-    const double diff = (dir - previous_xy_dir_).norm();
-    if (diff < 0.5 && diff > 1e-5) {
-      const double cos_a = std::clamp(dir.dot(previous_xy_dir_), -1.0, 1.0);
-      const double sin_half = std::sqrt(0.5 * (1.0 - cos_a));
-      if (sin_half > 0) v = std::min(v, std::sqrt(L.print_accel_mm_s2 * xy_len * 0.5 / sin_half));
-    }
-  }
   if (L.orca_compat) {
+    if (xy_len > 0 && previous_xy_len_ > 0) {
+      const Eigen::Vector2d dir = b.delta_mm.head<2>() / xy_len;
+      v = orca_bend_speed(L, dir, previous_xy_dir_, xy_len, v);
+    }
     previous_xy_len_ = xy_len;
     if (xy_len > 0) previous_xy_dir_ = b.delta_mm.head<2>() / xy_len;
   }
-  // Per-axis feedrate limits (M203), E included.
-  double factor = 1.0;
-  for (int i = 0; i < 4; ++i) {
-    const double axis_speed = std::fabs(b.unit[i]) * v * factor;
-    if (axis_speed > L.max_feedrate_mm_s[i]) factor *= L.max_feedrate_mm_s[i] / axis_speed;
-  }
-  b.nominal_speed_mm_s = v * factor;
-
-  // Acceleration: M204 R for E-only moves, T for moves without E, P otherwise, then per axis.
-  double accel;
-  if (L.prusaslicer_compat) {
-    // PrusaSlicer's move types: retracting while moving (wipe) counts as travel; for Orca an
-    // extrusion with Z and no XY too.
-    const bool extrude = move.e_mm > 0 && !(L.orca_compat && xy_len == 0);
-    // The estimators clamp each acceleration by machine_max_acceleration_* whoever set it
-    // (M204, SET_VELOCITY_LIMIT).
-    const int type = e_only ? 1 : (extrude ? 0 : 2);
-    accel = std::min(type == 1 ? L.retract_accel_mm_s2 : (type == 0 ? L.print_accel_mm_s2 : L.travel_accel_mm_s2),
-                     L.accel_cap_mm_s2[type]);
-    for (int i = 0; i < 4; ++i)
-      if (accel * std::fabs(b.unit[i]) > L.max_accel_mm_s2[i]) accel = L.max_accel_mm_s2[i] / std::fabs(b.unit[i]);
-  } else if (e_only) {
-    accel = L.retract_accel_mm_s2;
-  } else {
-    accel = move.e_mm != 0 ? L.print_accel_mm_s2 : L.travel_accel_mm_s2;
-    // Divide only for the axes that limit (most moves are limited by none or one).
-    for (int i = 0; i < 4; ++i)
-      if (accel * std::fabs(b.unit[i]) > L.max_accel_mm_s2[i]) accel = L.max_accel_mm_s2[i] / std::fabs(b.unit[i]);
-  }
-  b.accel_mm_s2 = std::max(accel, 1e-6);
+  b.nominal_speed_mm_s = axis_limited_speed(L, b.unit, v);
+  b.accel_mm_s2 = block_accel(L, b.unit, move.e_mm, e_only, xy_len);
 
   // Maximum junction speed with the previous block.
   const Eigen::Vector4d axis_speed = b.unit * b.nominal_speed_mm_s;
   double vmax_junction = 0;
   if (L.junction == JunctionModel::junction_deviation) {
-    if (have_previous_ && previous_nominal_speed_mm_s_ > 1e-9) {
-      double cos_theta = -previous_unit_.dot(b.unit);
-      if (cos_theta > 0.999999) {
-        vmax_junction = kVmin;  // full reversal
-      } else {
-        cos_theta = std::max(cos_theta, -0.999999);
-        Eigen::Vector4d ju = b.unit - previous_unit_;
-        const double jn = ju.norm();
-        double junction_accel = b.accel_mm_s2;
-        if (jn > 0) {
-          ju /= jn;
-          for (int i = 0; i < 4; ++i)
-            if (junction_accel * std::fabs(ju[i]) > L.max_accel_mm_s2[i])
-              junction_accel = L.max_accel_mm_s2[i] / std::fabs(ju[i]);
-        }
-        const double sin_theta_d2 = std::sqrt(0.5 * (1.0 - cos_theta));
-        double vsq = junction_accel * L.junction_deviation_mm * sin_theta_d2 / (1.0 - sin_theta_d2);
-        if (L.jd_small_segments && b.length_mm < 1.0 && cos_theta < -0.7071067812) {
-          // JD_HANDLE_SMALL_SEGMENTS: short segments of a curve share the speed of the
-          // arc they approximate: v^2 = a * length / theta.
-          const double theta = std::acos(-cos_theta);
-          if (theta > 1e-6) vsq = std::min(vsq, b.length_mm * junction_accel / theta);
-        }
-        vmax_junction = std::sqrt(vsq);
-      }
-      vmax_junction = std::min({vmax_junction, b.nominal_speed_mm_s, previous_nominal_speed_mm_s_});
-    }
+    if (have_previous_ && previous_nominal_speed_mm_s_ > 1e-9)
+      vmax_junction = deviation_junction_speed(L, previous_unit_, b.unit, b.accel_mm_s2,
+                                               b.length_mm, b.nominal_speed_mm_s,
+                                               previous_nominal_speed_mm_s_);
     b.safe_speed_mm_s = kVmin;
   } else {
-    // Classic jerk: the speed from which the block may start (or end) at once.
-    double safe = b.nominal_speed_mm_s;
-    if (L.prusaslicer_compat) {
-      Eigen::Vector4d jerk = L.jerk_mm_s;
-      if (L.orca_compat) jerk[0] = jerk[1] = L.square_corner_velocity_mm_s;
-      for (int i = 0; i < 4; ++i)
-        if (std::fabs(axis_speed[i]) > jerk[i]) safe = std::min(safe, jerk[i]);
-    } else {
-      bool limited = false;
-      for (int i = 0; i < 4; ++i) {
-        const double jerk = std::fabs(axis_speed[i]), maxj = L.jerk_mm_s[i];
-        if (jerk > maxj) {
-          if (limited) {
-            const double mjerk = b.nominal_speed_mm_s * maxj;
-            if (mjerk < jerk * safe) safe = mjerk / jerk;
-          } else {
-            safe *= maxj / jerk;
-            limited = true;
-          }
-        }
-      }
-    }
+    const double safe = jerk_safe_speed(L, axis_speed, b.nominal_speed_mm_s);
     b.safe_speed_mm_s = safe;
     vmax_junction = safe;
     if (have_previous_ && previous_nominal_speed_mm_s_ > 1e-4) {
-      const bool prev_larger = previous_nominal_speed_mm_s_ > b.nominal_speed_mm_s;
-      vmax_junction = prev_larger ? b.nominal_speed_mm_s : previous_nominal_speed_mm_s_;
-      const double smaller_factor = vmax_junction / previous_nominal_speed_mm_s_;
-      double v_factor = 1.0;
-      bool limited = false;
-      int first_axis = 0;
-      if (L.orca_compat) {
-        // X, Y, Z together: the jerk is |entry velocity - exit velocity| per axis, and
-        // each limit found scales what is left (Bambu's rule, kept as it is).
-        const Eigen::Vector3d jerk_xyz(L.square_corner_velocity_mm_s, L.square_corner_velocity_mm_s, L.jerk_mm_s[2]);
-        Eigen::Vector3d jv = (axis_speed.head<3>() - previous_axis_speed_mm_s_.head<3>() * smaller_factor).cwiseAbs();
-        for (int i = 0; i < 3; ++i) {
-          if (jv[i] > jerk_xyz[i]) {
-            v_factor *= jerk_xyz[i] / jv[i];
-            jv *= v_factor;
-            limited = true;
-          }
-        }
-        first_axis = 3;
-      }
-      for (int i = first_axis; i < 4; ++i) {
-        double v_exit = previous_axis_speed_mm_s_[i] * smaller_factor;
-        double v_entry = axis_speed[i];
-        if (limited) {
-          v_exit *= v_factor;
-          v_entry *= v_factor;
-        }
-        const double jerk = (v_exit > v_entry)
-                                ? ((v_entry > 0 || v_exit < 0) ? (v_exit - v_entry) : std::max(v_exit, -v_entry))
-                                : ((v_entry < 0 || v_exit > 0) ? (v_entry - v_exit) : std::max(-v_exit, v_entry));
-        if (jerk > L.jerk_mm_s[i]) {
-          v_factor *= L.jerk_mm_s[i] / jerk;
-          limited = true;
-        }
-      }
       // Orca plans an arc (G2/G3) as one block: its segments join without a jerk limit.
-      if (L.orca_compat && move.line == previous_line_ && move.line > 0 && xy_len > 0) limited = false;
-      if (limited) vmax_junction *= v_factor;
-      const double threshold = vmax_junction * 0.99;
-      if (previous_safe_speed_mm_s_ > threshold && safe > threshold) vmax_junction = safe;
+      const bool same_arc =
+          L.orca_compat && move.line == previous_line_ && move.line > 0 && xy_len > 0;
+      JerkJunction j{axis_speed,  previous_axis_speed_mm_s_, b.nominal_speed_mm_s,
+                     previous_nominal_speed_mm_s_, safe, previous_safe_speed_mm_s_};
+      vmax_junction = jerk_junction_speed(L, j, same_arc);
     }
   }
   b.max_entry_speed_mm_s = std::max(vmax_junction, kVmin);

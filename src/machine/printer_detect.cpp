@@ -104,14 +104,18 @@ std::string family(const std::string& fw) {
 
 }  // namespace
 
-StatedPrinter stated_printer(const SlicerSettings& s) {
-  StatedPrinter p;
-  auto get = [&](std::string_view key) -> const SlicerSettings::Entry* {
+namespace {
+/// Looks up the slicer's settings for stated_printer().
+struct StatedReader {
+  const SlicerSettings& s;
+  /// The entry of `key` when it is present and not empty.
+  [[nodiscard]] const SlicerSettings::Entry* get(std::string_view key) const {
     const auto* e = s.find(key);
     return e != nullptr && !e->value.empty() ? e : nullptr;
-  };
-  auto number = [&](std::initializer_list<std::string_view> keys, bool positive,
-                    std::optional<StatedPrinter::Value<double>>& out) {
+  }
+  /// The first of `keys` that holds a number (positive when asked) goes into `out`.
+  void number(std::initializer_list<std::string_view> keys, bool positive,
+              std::optional<StatedPrinter::Value<double>>& out) const {
     for (const auto key : keys) {
       const auto* e = get(key);
       if (e == nullptr) continue;
@@ -120,13 +124,16 @@ StatedPrinter stated_printer(const SlicerSettings& s) {
       out = StatedPrinter::Value<double>{*d, std::string(key)};
       return;
     }
-  };
+  }
+};
 
+/// The printer's names (most specific first), its model and the firmware flavour.
+void stated_names(const StatedReader& r, StatedPrinter& p) {
   // Names that may identify the printer, most specific first.
   for (const char* key : {"printer_model", "printer_settings_id", "TARGET_MACHINE.NAME", "cura.machine_name",
                           "printer_name", "Machine Name", "Printer Name", "profileName", "inherits",
                           "default_print_profile"}) {
-    if (const auto* e = get(key)) {
+    if (const auto* e = r.get(key)) {
       std::string v = e->value;
       if (v.size() >= 2 && v.front() == '"' && v.back() == '"') v = v.substr(1, v.size() - 2);
       if (v.empty()) continue;
@@ -139,16 +146,19 @@ StatedPrinter stated_printer(const SlicerSettings& s) {
 
   // Firmware flavour.
   for (const char* key : {"gcode_flavor", "FLAVOR", "cura.machine_gcode_flavor", "firmwareTypeOverride"}) {
-    if (const auto* e = get(key)) {
+    if (const auto* e = r.get(key)) {
       p.flavour_text = e->value;
-      if (auto fw = map_flavour(s.slicer, e->value)) p.firmware = StatedPrinter::Value<std::string>{*fw, key};
+      if (auto fw = map_flavour(r.s.slicer, e->value)) p.firmware = StatedPrinter::Value<std::string>{*fw, key};
       break;
     }
   }
 
-  // Bed shape and origin.
+}
+
+/// The bed's box in G-code coordinates, from the bed shape or each slicer's size and origin.
+void stated_bed(const StatedReader& r, StatedPrinter& p) {
   for (const char* key : {"printable_area", "bed_shape"}) {
-    if (const auto* e = get(key)) {
+    if (const auto* e = r.get(key)) {
       if (auto b = polygon_box(e->value)) {
         p.bed = StatedPrinter::Value<Eigen::Vector4d>{*b, key};
         break;
@@ -156,8 +166,8 @@ StatedPrinter stated_printer(const SlicerSettings& s) {
     }
   }
   auto sized_bed = [&](std::string_view wkey, std::string_view dkey, double cx, double cy) {
-    const auto* w = get(wkey);
-    const auto* d = get(dkey);
+    const auto* w = r.get(wkey);
+    const auto* d = r.get(dkey);
     if (w == nullptr || d == nullptr) return;
     const auto wv = first_number(w->value), dv = first_number(d->value);
     if (!wv || !dv || !(*wv > 0) || !(*dv > 0)) return;
@@ -165,34 +175,34 @@ StatedPrinter stated_printer(const SlicerSettings& s) {
         Eigen::Vector4d(cx - 0.5 * *wv, cy - 0.5 * *dv, cx + 0.5 * *wv, cy + 0.5 * *dv), std::string(wkey)};
   };
   if (!p.bed) {  // Cura: machine_width x machine_depth, origin at a corner or the centre
-    const auto* centre = get("cura.machine_center_is_zero");
+    const auto* centre = r.get("cura.machine_center_is_zero");
     const bool centred = centre != nullptr && lower(centre->value) == "true";
-    const auto* w = get("cura.machine_width");
-    const auto* d = get("cura.machine_depth");
+    const auto* w = r.get("cura.machine_width");
+    const auto* d = r.get("cura.machine_depth");
     if (w != nullptr && d != nullptr) {
       const double wv = first_number(w->value).value_or(0), dv = first_number(d->value).value_or(0);
       sized_bed("cura.machine_width", "cura.machine_depth", centred ? 0 : 0.5 * wv, centred ? 0 : 0.5 * dv);
     }
   }
   if (!p.bed) {  // KISSlicer: size and the position of the bed centre (G-code origin at the centre)
-    const double ox = get("bed_offset_x_mm") != nullptr ? first_number(get("bed_offset_x_mm")->value).value_or(0) : 0;
-    const double oy = get("bed_offset_y_mm") != nullptr ? first_number(get("bed_offset_y_mm")->value).value_or(0) : 0;
+    const double ox = r.get("bed_offset_x_mm") != nullptr ? first_number(r.get("bed_offset_x_mm")->value).value_or(0) : 0;
+    const double oy = r.get("bed_offset_y_mm") != nullptr ? first_number(r.get("bed_offset_y_mm")->value).value_or(0) : 0;
     sized_bed("bed_size_x_mm", "bed_size_y_mm", ox, oy);
   }
   if (!p.bed) {  // Simplify3D: stroke (size) and the origin offset
-    const double ox = get("originOffsetXoverride") != nullptr ? first_number(get("originOffsetXoverride")->value).value_or(0) : 0;
-    const double oy = get("originOffsetYoverride") != nullptr ? first_number(get("originOffsetYoverride")->value).value_or(0) : 0;
-    const auto* w = get("strokeXoverride");
-    const auto* d = get("strokeYoverride");
+    const double ox = r.get("originOffsetXoverride") != nullptr ? first_number(r.get("originOffsetXoverride")->value).value_or(0) : 0;
+    const double oy = r.get("originOffsetYoverride") != nullptr ? first_number(r.get("originOffsetYoverride")->value).value_or(0) : 0;
+    const auto* w = r.get("strokeXoverride");
+    const auto* d = r.get("strokeYoverride");
     if (w != nullptr && d != nullptr) {
       const double wv = first_number(w->value).value_or(0), dv = first_number(d->value).value_or(0);
       sized_bed("strokeXoverride", "strokeYoverride", 0.5 * wv - ox, 0.5 * dv - oy);
     }
   }
   if (!p.bed) {  // ideaMaker: ";Dimension: X Y Z nozzle..." and ";Origin Center: 0|1"
-    if (const auto* e = get("Dimension")) {
+    if (const auto* e = r.get("Dimension")) {
       const auto n = numbers(e->value);
-      const auto* oc = get("Origin Center");
+      const auto* oc = r.get("Origin Center");
       const bool centred = oc != nullptr && first_number(oc->value).value_or(0) != 0;
       if (n.size() >= 2 && n[0] > 0 && n[1] > 0)
         p.bed = StatedPrinter::Value<Eigen::Vector4d>{
@@ -203,38 +213,45 @@ StatedPrinter stated_printer(const SlicerSettings& s) {
     }
   }
 
-  number({"max_print_height", "printable_height", "cura.machine_height", "bed_size_z_mm", "strokeZoverride"}, true,
+}
+
+/// Build height, nozzle and filament, and the machine limits the slicer planned with.
+void stated_limits(const StatedReader& r, StatedPrinter& p) {
+  r.number({"max_print_height", "printable_height", "cura.machine_height", "bed_size_z_mm", "strokeZoverride"}, true,
          p.max_z_mm);
-  number({"nozzle_diameter", "cura.machine_nozzle_size", "EXTRUDER_TRAIN.0.NOZZLE.DIAMETER", "extruderDiameter"}, true,
+  r.number({"nozzle_diameter", "cura.machine_nozzle_size", "EXTRUDER_TRAIN.0.NOZZLE.DIAMETER", "extruderDiameter"}, true,
          p.nozzle_diameter_mm);
-  number({"filament_diameter", "cura.material_diameter", "fiber_dia_mm", "filamentDiameters", "Filament Diameter #1"},
+  r.number({"filament_diameter", "cura.material_diameter", "fiber_dia_mm", "filamentDiameters", "Filament Diameter #1"},
          true, p.filament_diameter_mm);
 
   static const char* kAxes[4] = {"x", "y", "z", "e"};
   for (int i = 0; i < 4; ++i) {
     const std::string a = kAxes[i];
-    number({"machine_max_feedrate_" + a, "machine_max_speed_" + a, "cura.machine_max_feedrate_" + a}, true,
+    r.number({"machine_max_feedrate_" + a, "machine_max_speed_" + a, "cura.machine_max_feedrate_" + a}, true,
            p.max_feedrate_mm_s[i]);
-    number({"machine_max_acceleration_" + a, "cura.machine_max_acceleration_" + a}, true, p.max_accel_mm_s2[i]);
-    number({"machine_max_jerk_" + a, "cura.machine_max_jerk_" + std::string(i < 2 ? "xy" : a)}, true, p.jerk_mm_s[i]);
+    r.number({"machine_max_acceleration_" + a, "cura.machine_max_acceleration_" + a}, true, p.max_accel_mm_s2[i]);
+    r.number({"machine_max_jerk_" + a, "cura.machine_max_jerk_" + std::string(i < 2 ? "xy" : a)}, true, p.jerk_mm_s[i]);
   }
   // Strings built above outlive the calls? number() copies the key: the temporaries are fine.
-  if (!p.max_accel_mm_s2[0] && get("xy_accel_mm_per_s_per_s") != nullptr) {  // KISSlicer
-    number({"xy_accel_mm_per_s_per_s"}, true, p.max_accel_mm_s2[0]);
+  if (!p.max_accel_mm_s2[0] && r.get("xy_accel_mm_per_s_per_s") != nullptr) {  // KISSlicer
+    r.number({"xy_accel_mm_per_s_per_s"}, true, p.max_accel_mm_s2[0]);
     p.max_accel_mm_s2[1] = p.max_accel_mm_s2[0];
   }
-  number({"machine_max_acceleration_extruding", "cura.machine_acceleration"}, true, p.print_accel_mm_s2);
-  number({"machine_max_acceleration_retracting"}, true, p.retract_accel_mm_s2);
-  number({"machine_max_acceleration_travel", "cura.machine_acceleration"}, true, p.travel_accel_mm_s2);
-  number({"machine_min_extruding_rate"}, false, p.min_feedrate_mm_s);
-  number({"machine_min_travel_rate"}, false, p.min_travel_feedrate_mm_s);
+  r.number({"machine_max_acceleration_extruding", "cura.machine_acceleration"}, true, p.print_accel_mm_s2);
+  r.number({"machine_max_acceleration_retracting"}, true, p.retract_accel_mm_s2);
+  r.number({"machine_max_acceleration_travel", "cura.machine_acceleration"}, true, p.travel_accel_mm_s2);
+  r.number({"machine_min_extruding_rate"}, false, p.min_feedrate_mm_s);
+  r.number({"machine_min_travel_rate"}, false, p.min_travel_feedrate_mm_s);
 
-  // First-layer temperatures (what a start macro without parameters heats to).
-  number({"first_layer_temperature", "nozzle_temperature_initial_layer", "cura.material_print_temperature_layer_0",
+}
+
+/// First-layer temperatures (what a start macro without parameters heats to).
+void stated_first_layer_temperatures(const StatedReader& r, StatedPrinter& p) {
+  r.number({"first_layer_temperature", "nozzle_temperature_initial_layer", "cura.material_print_temperature_layer_0",
           "EXTRUDER_TRAIN.0.INITIAL_TEMPERATURE", "first_layer_C"},
          true, p.first_layer_hotend_c);
   std::string plate_key;
-  if (const auto* plate = get("curr_bed_type")) {
+  if (const auto* plate = r.get("curr_bed_type")) {
     const std::string t = lower(plate->value);
     if (t.find("cool") != std::string::npos) plate_key = "cool_plate_temp_initial_layer";
     else if (t.find("engineering") != std::string::npos) plate_key = "eng_plate_temp_initial_layer";
@@ -242,11 +259,21 @@ StatedPrinter stated_printer(const SlicerSettings& s) {
     else if (t.find("supertack") != std::string::npos) plate_key = "supertack_plate_temp_initial_layer";
     else plate_key = "hot_plate_temp_initial_layer";
   }
-  if (!plate_key.empty()) number({plate_key}, true, p.first_layer_bed_c);
+  if (!plate_key.empty()) r.number({plate_key}, true, p.first_layer_bed_c);
   if (!p.first_layer_bed_c)
-    number({"first_layer_bed_temperature", "bed_temperature_initial_layer_single", "hot_plate_temp_initial_layer",
+    r.number({"first_layer_bed_temperature", "bed_temperature_initial_layer_single", "hot_plate_temp_initial_layer",
             "cura.material_bed_temperature_layer_0", "BUILD_PLATE.INITIAL_TEMPERATURE", "bed_C"},
            true, p.first_layer_bed_c);
+}
+}  // namespace
+
+StatedPrinter stated_printer(const SlicerSettings& s) {
+  StatedPrinter p;
+  const StatedReader r{s};
+  stated_names(r, p);
+  stated_bed(r, p);
+  stated_limits(r, p);
+  stated_first_layer_temperatures(r, p);
   return p;
 }
 

@@ -578,16 +578,25 @@ double ply_binary_value(const char* p, char kind, int bytes, bool big_endian) {
   }
 }
 
-Result<Mesh> read_ply(std::string_view bytes, double s, const std::string& name) {
+/// A PLY header: the format and the elements with their properties.
+struct PlyHeader {
+  int format = -1;  ///< 0 ascii, 1 little endian, 2 big endian
+  std::vector<PlyElement> elements;
+  std::size_t body = std::string_view::npos;  ///< byte offset of the body
+  long last_line = 0;                         ///< the header's last line
+};
+
+Result<PlyHeader> read_ply_header(std::string_view bytes, const std::string& name) {
   LineReader lines(bytes);
   std::string_view line;
   long at = 0;
   std::vector<std::string_view> tok;
   if (!lines.next(line, at) || line.substr(0, 3) != "ply")
     return bad_input("PLY: expected the magic word 'ply' on the first line", name, 1);
-  int format = -1;  // 0 ascii, 1 little endian, 2 big endian
-  std::vector<PlyElement> elements;
-  std::size_t body = std::string_view::npos;
+  PlyHeader h;
+  int& format = h.format;
+  std::vector<PlyElement>& elements = h.elements;
+  std::size_t& body = h.body;
   while (lines.next(line, at)) {
     split_tokens(line, tok);
     if (tok[0] == "end_header") {
@@ -627,14 +636,24 @@ Result<Mesh> read_ply(std::string_view bytes, double s, const std::string& name)
   if (body == std::string_view::npos) return bad_input("PLY: the header has no 'end_header'", name, lines.line());
   if (format < 0) return bad_input("PLY: the header has no 'format' line", name);
 
-  // The body as a stream of values: binary reads, or the ASCII tokens with their lines.
-  const char* pos = bytes.data() + body;
-  const char* const end = bytes.data() + bytes.size();
-  long ascii_line = at + 1;
-  const std::string* element_name = nullptr;  // where the stream is, for messages
+  h.last_line = at;
+  return h;
+}
+
+/// The body as a stream of values: binary reads, or the ASCII tokens with their lines.
+struct PlyValues {
+  const char* pos;
+  const char* end;
+  int format;
+  long ascii_line;
+  const std::string& name;
+  const std::string* element_name = nullptr;  ///< where the stream is, for messages
   std::uint64_t element_index = 0;
-  auto where = [&] { return "element '" + *element_name + "' " + std::to_string(element_index); };
-  auto next_value = [&](char kind, int size, double& out) -> Status {
+
+  [[nodiscard]] std::string where() const {
+    return "element '" + *element_name + "' " + std::to_string(element_index);
+  }
+  Status next(char kind, int size, double& out) {
     if (format != 0) {
       if (end - pos < size) return bad_input("PLY: the file ends inside " + where(), name);
       out = ply_binary_value(pos, kind, size, format == 2);
@@ -649,65 +668,81 @@ Result<Mesh> read_ply(std::string_view bytes, double s, const std::string& name)
     }
     if (!std::isfinite(out)) return bad_input("PLY: " + where() + " has a NaN or infinite value", name, format == 0 ? std::optional<long>(ascii_line) : std::nullopt);
     return Ok{};
-  };
+  }
+};
+
+/// Reads every item of one element: vertices (x, y, z scaled by s), faces (fans of their
+/// vertex indices), and skips any other element's values.
+Status read_ply_element(const PlyElement& e, double s, PlyValues& in, std::vector<Vec3>& points,
+                        Mesh& mesh, PointIndex& index, std::vector<std::uint32_t>& corners) {
+  const std::string& name = in.name;
+  // A count the rest of the file cannot hold (one byte or one token per value at least).
+  if (e.count > static_cast<std::uint64_t>(in.end - in.pos) / std::max<std::size_t>(e.properties.size(), 1) + 1)
+    return bad_input("PLY: the header (line " + std::to_string(e.line) + ") announces " + std::to_string(e.count) +
+                         " '" + e.name + "' elements, more than the rest of the file holds",
+                     name, e.line);
+  const bool is_vertex = e.name == "vertex", is_face = e.name == "face";
+  std::array<int, 3> xyz = {-1, -1, -1};
+  int indices = -1;
+  for (std::size_t k = 0; k < e.properties.size(); ++k) {
+    const auto& p = e.properties[k];
+    if (is_vertex && !p.list && (p.name == "x" || p.name == "y" || p.name == "z")) xyz[static_cast<std::size_t>(p.name[0] - 'x')] = static_cast<int>(k);
+    if (is_face && p.list && (p.name == "vertex_indices" || p.name == "vertex_index")) indices = static_cast<int>(k);
+  }
+  if (is_vertex && (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0))
+    return bad_input("PLY: the 'vertex' element (line " + std::to_string(e.line) + ") has no x, y and z properties", name, e.line);
+  if (is_face && indices < 0)
+    return bad_input("PLY: the 'face' element (line " + std::to_string(e.line) + ") has no 'vertex_indices' list", name, e.line);
+  if (is_vertex) points.reserve(e.count);
+  for (std::uint64_t i = 0; i < e.count; ++i) {
+    in.element_name = &e.name;
+    in.element_index = i;
+    std::array<double, 3> c{};
+    for (std::size_t k = 0; k < e.properties.size(); ++k) {
+      const auto& p = e.properties[k];
+      double v = 0;
+      if (auto st = in.next(p.list ? p.count_kind : p.kind, p.list ? p.count_bytes : p.bytes, v); !st) return st.error();
+      if (!p.list) {
+        for (int a = 0; a < 3; ++a)
+          if (xyz[static_cast<std::size_t>(a)] == static_cast<int>(k)) c[static_cast<std::size_t>(a)] = v;
+        continue;
+      }
+      if (v < 0 || v > static_cast<double>(in.end - in.pos) + 1)
+        return bad_input("PLY: " + in.where() + ": a list of " + format_number(v) + " values does not fit the file", name);
+      const auto n = static_cast<std::size_t>(v);
+      const bool take = static_cast<int>(k) == indices;
+      if (take) corners.clear();
+      for (std::size_t j = 0; j < n; ++j) {
+        double idx = 0;
+        if (auto st = in.next(p.kind, p.bytes, idx); !st) return st.error();
+        if (!take) continue;
+        if (!(idx >= 0 && idx < static_cast<double>(points.size())) || idx != std::floor(idx))
+          return bad_input("PLY: " + in.where() + ": vertex index " + format_number(idx) + " is not one of the " +
+                               std::to_string(points.size()) + " vertices read before the faces",
+                           name, in.format == 0 ? std::optional<long>(in.ascii_line) : std::nullopt);
+        corners.push_back(index.find_or_add(points[static_cast<std::size_t>(idx)], mesh.vertices_mm));
+      }
+      if (take)  // points and lines carry no volume; polygons become a fan
+        for (std::size_t j = 1; j + 1 < corners.size(); ++j) mesh.triangles.push_back({corners[0], corners[j], corners[j + 1]});
+    }
+    if (is_vertex) points.emplace_back(s * c[0], s * c[1], s * c[2]);
+  }
+  return Ok{};
+}
+
+Result<Mesh> read_ply(std::string_view bytes, double s, const std::string& name) {
+  auto header = read_ply_header(bytes, name);
+  if (!header) return header.error();
+  const PlyHeader& h = *header;
+  PlyValues in{bytes.data() + h.body, bytes.data() + bytes.size(), h.format, h.last_line + 1, name};
   std::vector<Vec3> points;
   Mesh mesh;
   PointIndex index(16);
   std::vector<std::uint32_t> corners;
   bool have_faces = false;
-  for (const PlyElement& e : elements) {
-    // A count the rest of the file cannot hold (one byte or one token per value at least).
-    if (e.count > static_cast<std::uint64_t>(end - pos) / std::max<std::size_t>(e.properties.size(), 1) + 1)
-      return bad_input("PLY: the header (line " + std::to_string(e.line) + ") announces " + std::to_string(e.count) +
-                           " '" + e.name + "' elements, more than the rest of the file holds",
-                       name, e.line);
-    const bool is_vertex = e.name == "vertex", is_face = e.name == "face";
-    std::array<int, 3> xyz = {-1, -1, -1};
-    int indices = -1;
-    for (std::size_t k = 0; k < e.properties.size(); ++k) {
-      const auto& p = e.properties[k];
-      if (is_vertex && !p.list && (p.name == "x" || p.name == "y" || p.name == "z")) xyz[static_cast<std::size_t>(p.name[0] - 'x')] = static_cast<int>(k);
-      if (is_face && p.list && (p.name == "vertex_indices" || p.name == "vertex_index")) indices = static_cast<int>(k);
-    }
-    if (is_vertex && (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0))
-      return bad_input("PLY: the 'vertex' element (line " + std::to_string(e.line) + ") has no x, y and z properties", name, e.line);
-    if (is_face && indices < 0)
-      return bad_input("PLY: the 'face' element (line " + std::to_string(e.line) + ") has no 'vertex_indices' list", name, e.line);
-    if (is_vertex) points.reserve(e.count);
-    if (is_face) have_faces = true;
-    for (std::uint64_t i = 0; i < e.count; ++i) {
-      element_name = &e.name;
-      element_index = i;
-      std::array<double, 3> c{};
-      for (std::size_t k = 0; k < e.properties.size(); ++k) {
-        const auto& p = e.properties[k];
-        double v = 0;
-        if (auto st = next_value(p.list ? p.count_kind : p.kind, p.list ? p.count_bytes : p.bytes, v); !st) return st.error();
-        if (!p.list) {
-          for (int a = 0; a < 3; ++a)
-            if (xyz[static_cast<std::size_t>(a)] == static_cast<int>(k)) c[static_cast<std::size_t>(a)] = v;
-          continue;
-        }
-        if (v < 0 || v > static_cast<double>(end - pos) + 1)
-          return bad_input("PLY: " + where() + ": a list of " + format_number(v) + " values does not fit the file", name);
-        const auto n = static_cast<std::size_t>(v);
-        const bool take = static_cast<int>(k) == indices;
-        if (take) corners.clear();
-        for (std::size_t j = 0; j < n; ++j) {
-          double idx = 0;
-          if (auto st = next_value(p.kind, p.bytes, idx); !st) return st.error();
-          if (!take) continue;
-          if (!(idx >= 0 && idx < static_cast<double>(points.size())) || idx != std::floor(idx))
-            return bad_input("PLY: " + where() + ": vertex index " + format_number(idx) + " is not one of the " +
-                                 std::to_string(points.size()) + " vertices read before the faces",
-                             name, format == 0 ? std::optional<long>(ascii_line) : std::nullopt);
-          corners.push_back(index.find_or_add(points[static_cast<std::size_t>(idx)], mesh.vertices_mm));
-        }
-        if (take)  // points and lines carry no volume; polygons become a fan
-          for (std::size_t j = 1; j + 1 < corners.size(); ++j) mesh.triangles.push_back({corners[0], corners[j], corners[j + 1]});
-      }
-      if (is_vertex) points.emplace_back(s * c[0], s * c[1], s * c[2]);
-    }
+  for (const PlyElement& e : h.elements) {
+    if (e.name == "face") have_faces = true;
+    if (auto st = read_ply_element(e, s, in, points, mesh, index, corners); !st) return st.error();
   }
   if (!have_faces) return bad_input("PLY: no 'face' element: a point cloud, expected a mesh", name);
   return mesh;

@@ -166,33 +166,11 @@ std::string views_html(const VerifyReport& report, const ReportAssets& assets) {
 
 }  // namespace
 
-std::string report_html(const VerifyReport& report, const ReportAssets& assets, const ReportOptions& options) {
-  const auto& dev = report.deviation;
-  const auto& sim = report.simulation;
-  const DeviationColorScale& scale = assets.scale;
+namespace {
+/// The verdict, its sentence and the gate table.
+void append_verdict_html(std::string& h, const VerifyReport& report) {
   const std::string part = report.part_name.empty() ? "part" : report.part_name;
-  const auto sev = detail::count_severities(report.findings);
   const std::string verdict = report.pass ? "PASS" : "FAIL";
-
-  std::string h;
-  h.reserve(1 << 20);
-  h += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
-       "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n"
-       "<meta name=\"generator\" content=\"printtwin " + html_escape(report.tool_version) + "\">\n";
-  h += "<title>" + verdict + " · " + html_escape(part) + " — printtwin verify</title>\n<style>";
-  h += detail::report_css();
-  h += "</style>\n</head>\n<body>\n";
-
-  // Header.
-  h += "<header class=\"top\"><div class=\"wrap\"><div class=\"brand\"><svg viewBox=\"0 0 24 24\" "
-       "class=\"logo\" aria-hidden=\"true\"><path d=\"M12 2 21 7v10l-9 5-9-5V7z\"/><path d=\"M3 7l9 5 9-5M12 "
-       "12v10\"/></svg>printtwin <span>verify</span></div><div class=\"top-meta\">";
-  h += "<span>" + html_escape(part) + "</span>";
-  if (!sim.slicer.empty()) h += "<span>G-code: " + html_escape(sim.slicer) + "</span>";
-  h += "<span>printer: " + html_escape(report.printer.name) + "</span>";
-  if (!options.generated_utc.empty()) h += "<span>" + html_escape(options.generated_utc) + "</span>";
-  h += "<span>v" + html_escape(report.tool_version) + "</span></div></div></header>\n<main class=\"wrap\">\n";
-
   // Verdict and gates.
   h += "<section class=\"verdict " + std::string(report.pass ? "is-pass" : "is-fail") + "\" id=\"verdict\">";
   h += "<div class=\"badge\">" + verdict + "</div><div class=\"verdict-text\"><h1>" + html_escape(part) +
@@ -207,7 +185,12 @@ std::string report_html(const VerifyReport& report, const ReportAssets& assets, 
          std::string(g.pass ? "chip-ok\">pass" : "chip-bad\">fail") + "</span></td></tr>";
   }
   h += "</tbody></table></section>\n";
+}
 
+/// The cards of key numbers: the gate figures, within tolerance, print time, filament, volume.
+void append_key_numbers_html(std::string& h, const VerifyReport& report) {
+  const auto& dev = report.deviation;
+  const auto& sim = report.simulation;
   // Key numbers.
   // The gate figures (voxel-noise clusters excluded); the raw extremes are in the statistics.
   const double raw_excess = std::max({dev.deposit_to_mesh.max_mm, dev.mesh_to_deposit.max_mm, 0.0});
@@ -240,16 +223,13 @@ std::string report_html(const VerifyReport& report, const ReportAssets& assets, 
                       " %)",
                   ""});
   h += "</section>\n";
+}
 
-  // Heatmaps.
-  h += "<section class=\"panel\" id=\"heatmaps\"><div class=\"panel-head\"><h2>Deviation on the part</h2><p>"
-       "Mesh surface coloured by the signed distance to the simulated deposit (machine frame, "
-       "orthographic views). Numbered pins mark the largest out-of-tolerance regions listed below, on "
-       "the views that show them.</p></div>";
-  h += legend_html(scale);
-  h += views_html(report, assets);
-  h += "</section>\n";
-
+/// Histograms of both directions, the per-layer chart and the statistics table.
+void append_distribution_html(std::string& h, const VerifyReport& report, const ReportAssets& assets, const ReportOptions& options) {
+  const auto& dev = report.deviation;
+  const DeviationColorScale& scale = assets.scale;
+  const double tol = report.deviation.tolerance_mm;
   // Distribution and per layer.
   h += "<section class=\"two\"><div class=\"panel\" id=\"histogram\"><div class=\"panel-head\"><h2>Distribution"
        "</h2><p>Samples per signed distance (logarithmic count); the green band is the tolerance.</p></div>";
@@ -271,22 +251,12 @@ std::string report_html(const VerifyReport& report, const ReportAssets& assets, 
   h += "<tr><th>mesh → deposit</th>" + stat_cells(dev.mesh_to_deposit) + "</tr>";
   h += "</tbody></table></div><p class=\"fine\">mm; positive = material outside the designed part (excess), negative = "
        "inside it / missing (deficit).</p></div></section>\n";
+}
 
-  // Layer viewer.
-  h += "<section class=\"panel\" id=\"layers\"><div class=\"panel-head\"><h2>Layer viewer</h2><p>The mesh's cross-"
-       "section (outline) against the deposit's outer surface in that layer (dots coloured by deviation). "
-       "Ringed dots are mesh points out of tolerance. Use the slider, ← →, or click the chart.</p></div>";
-  h += "<div class=\"viewer\"><div class=\"viewer-stage\"><canvas id=\"layer-canvas\" width=\"800\" height=\"600\">"
-       "</canvas><div id=\"layer-tip\" class=\"tip\" hidden></div></div><div class=\"viewer-side\">"
-       "<div class=\"viewer-title\" id=\"layer-title\">—</div><div class=\"viewer-controls\">"
-       "<button type=\"button\" id=\"layer-prev\" aria-label=\"previous layer\">‹</button>"
-       "<input type=\"range\" id=\"layer-slider\" min=\"0\" max=\"0\" value=\"0\" aria-label=\"layer\">"
-       "<button type=\"button\" id=\"layer-next\" aria-label=\"next layer\">›</button></div>"
-       "<dl class=\"layer-stats\" id=\"layer-stats\"></dl><button type=\"button\" class=\"link\" id=\"layer-worst\">"
-       "Go to the worst layer</button><div class=\"viewer-key\"><span class=\"k-outline\">mesh cross-section</span>"
-       "<span class=\"k-dots\">deposit surface</span><span class=\"k-ring\">mesh point out of tolerance</span>"
-       "<span class=\"k-box\">region</span></div></div></div></section>\n";
-
+/// The table of out-of-tolerance regions.
+void append_regions_html(std::string& h, const VerifyReport& report) {
+  const auto& dev = report.deviation;
+  const double tol = report.deviation.tolerance_mm;
   // Regions.
   h += "<section class=\"panel\" id=\"regions\"><div class=\"panel-head\"><h2>Regions out of tolerance <small>" +
        std::to_string(dev.regions.size()) + "</small></h2><p>Clusters of samples beyond ±" + fixed(tol, 2) +
@@ -313,7 +283,11 @@ std::string report_html(const VerifyReport& report, const ReportAssets& assets, 
     h += "</tbody></table></div>";
   }
   h += "</section>\n";
+}
 
+/// The printability findings, errors first (at most 400 rows).
+void append_findings_html(std::string& h, const VerifyReport& report) {
+  const auto sev = detail::count_severities(report.findings);
   // Findings.
   h += "<section class=\"panel\" id=\"findings\"><div class=\"panel-head\"><h2>Printability findings <small>" +
        std::to_string(sev.errors) + " errors · " + std::to_string(sev.warnings) + " warnings · " +
@@ -347,7 +321,12 @@ std::string report_html(const VerifyReport& report, const ReportAssets& assets, 
            " more findings in report.json.</p>";
   }
   h += "</section>\n";
+}
 
+/// Inputs with their hashes, settings, the part and print, the printer's values, the run.
+void append_provenance_html(std::string& h, const VerifyReport& report, const ReportOptions& options) {
+  const auto& dev = report.deviation;
+  const auto& sim = report.simulation;
   // Provenance.
   const auto& st = report.settings;
   h += "<section class=\"panel\" id=\"provenance\"><div class=\"panel-head\"><h2>Inputs, settings and run</h2><p>"
@@ -414,7 +393,65 @@ std::string report_html(const VerifyReport& report, const ReportAssets& assets, 
   h += kv_row("report schema", std::to_string(report.schema_version));
   if (!options.generated_utc.empty()) h += kv_row("generated", html_escape(options.generated_utc));
   h += "</table></div></div></section>\n</main>\n";
+}
 
+}  // namespace
+
+std::string report_html(const VerifyReport& report, const ReportAssets& assets, const ReportOptions& options) {
+  const auto& sim = report.simulation;
+  const DeviationColorScale& scale = assets.scale;
+  const std::string part = report.part_name.empty() ? "part" : report.part_name;
+  const std::string verdict = report.pass ? "PASS" : "FAIL";
+
+  std::string h;
+  h.reserve(1 << 20);
+  h += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
+       "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n"
+       "<meta name=\"generator\" content=\"printtwin " + html_escape(report.tool_version) + "\">\n";
+  h += "<title>" + verdict + " · " + html_escape(part) + " — printtwin verify</title>\n<style>";
+  h += detail::report_css();
+  h += "</style>\n</head>\n<body>\n";
+
+  // Header.
+  h += "<header class=\"top\"><div class=\"wrap\"><div class=\"brand\"><svg viewBox=\"0 0 24 24\" "
+       "class=\"logo\" aria-hidden=\"true\"><path d=\"M12 2 21 7v10l-9 5-9-5V7z\"/><path d=\"M3 7l9 5 9-5M12 "
+       "12v10\"/></svg>printtwin <span>verify</span></div><div class=\"top-meta\">";
+  h += "<span>" + html_escape(part) + "</span>";
+  if (!sim.slicer.empty()) h += "<span>G-code: " + html_escape(sim.slicer) + "</span>";
+  h += "<span>printer: " + html_escape(report.printer.name) + "</span>";
+  if (!options.generated_utc.empty()) h += "<span>" + html_escape(options.generated_utc) + "</span>";
+  h += "<span>v" + html_escape(report.tool_version) + "</span></div></div></header>\n<main class=\"wrap\">\n";
+
+  append_verdict_html(h, report);
+  append_key_numbers_html(h, report);
+  // Heatmaps.
+  h += "<section class=\"panel\" id=\"heatmaps\"><div class=\"panel-head\"><h2>Deviation on the part</h2><p>"
+       "Mesh surface coloured by the signed distance to the simulated deposit (machine frame, "
+       "orthographic views). Numbered pins mark the largest out-of-tolerance regions listed below, on "
+       "the views that show them.</p></div>";
+  h += legend_html(scale);
+  h += views_html(report, assets);
+  h += "</section>\n";
+
+  append_distribution_html(h, report, assets, options);
+  // Layer viewer.
+  h += "<section class=\"panel\" id=\"layers\"><div class=\"panel-head\"><h2>Layer viewer</h2><p>The mesh's cross-"
+       "section (outline) against the deposit's outer surface in that layer (dots coloured by deviation). "
+       "Ringed dots are mesh points out of tolerance. Use the slider, ← →, or click the chart.</p></div>";
+  h += "<div class=\"viewer\"><div class=\"viewer-stage\"><canvas id=\"layer-canvas\" width=\"800\" height=\"600\">"
+       "</canvas><div id=\"layer-tip\" class=\"tip\" hidden></div></div><div class=\"viewer-side\">"
+       "<div class=\"viewer-title\" id=\"layer-title\">—</div><div class=\"viewer-controls\">"
+       "<button type=\"button\" id=\"layer-prev\" aria-label=\"previous layer\">‹</button>"
+       "<input type=\"range\" id=\"layer-slider\" min=\"0\" max=\"0\" value=\"0\" aria-label=\"layer\">"
+       "<button type=\"button\" id=\"layer-next\" aria-label=\"next layer\">›</button></div>"
+       "<dl class=\"layer-stats\" id=\"layer-stats\"></dl><button type=\"button\" class=\"link\" id=\"layer-worst\">"
+       "Go to the worst layer</button><div class=\"viewer-key\"><span class=\"k-outline\">mesh cross-section</span>"
+       "<span class=\"k-dots\">deposit surface</span><span class=\"k-ring\">mesh point out of tolerance</span>"
+       "<span class=\"k-box\">region</span></div></div></div></section>\n";
+
+  append_regions_html(h, report);
+  append_findings_html(h, report);
+  append_provenance_html(h, report, options);
   h += "<footer class=\"wrap\">printtwin " + html_escape(report.tool_version) +
        " · the same folder holds report.json, junit.xml, summary.md and the PNG views</footer>\n";
 

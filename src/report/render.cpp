@@ -228,6 +228,197 @@ Vec3 TracedView::pixel_origin(int x, int y) const {
          cam.up * ((y + 0.5 - 0.5 * cam.height_px) * cam.mm_per_px) - cam.forward * near_offset_mm;
 }
 
+namespace {
+/// Deviation per pixel: the sum and count of the samples that landed on it.
+struct PixelDeviation {
+  std::vector<float> sum;
+  std::vector<std::uint16_t> count;
+};
+
+/// Everything the depth test and the accumulation touch per pixel, in one 24-byte record
+/// (samples arrive in mesh order, not image order: one cache line per sample instead of
+/// one per array). The per-pixel depth window is computed once, not per sample.
+struct SplatPixel {
+  double window = -1;  ///< largest accepted |sample depth - surface depth|; < 0: no surface
+  float depth = 0;
+  float sum = 0;
+  std::uint16_t count = 0;
+};
+
+/// Projects mesh-surface samples into a traced view.
+struct SampleProjector {
+  const Camera& cam;
+  std::span<const Vec3> positions;
+  std::span<const double> values;
+  int radius_px;
+  double inv_px;
+  /// Image position (fx, fy) of sample k and its offset d from the camera centre; false when
+  /// it falls outside the image (plus the splat radius) or has no finite value.
+  bool operator()(std::size_t k, double& fx, double& fy, Vec3& d) const {
+    const int w = cam.width_px, h = cam.height_px;
+    d = positions[k] - cam.center_mm;
+    fx = 0.5 * w + d.dot(cam.right) * inv_px;
+    fy = 0.5 * h - d.dot(cam.up) * inv_px;
+    return fx >= -radius_px && fy >= -radius_px && fx < w + radius_px && fy < h + radius_px &&
+           std::isfinite(values[k]);
+  }
+};
+
+/// One pixel per sample: the samples are bucketed by bands of 16 rows first (a stable
+/// counting sort, so each pixel still sums its samples in sample order), then splatted band
+/// by band with the band's pixels in cache.
+void splat_one_pixel_each(const SampleProjector& project, std::size_t stride, double near_offset,
+                          std::vector<SplatPixel>& splat) {
+  const Camera& cam = project.cam;
+  const int w = cam.width_px, h = cam.height_px;
+  const std::size_t n = project.positions.size();
+  constexpr int kBandRows = 16;
+  const std::size_t bands = static_cast<std::size_t>((h + kBandRows - 1) / kBandRows);
+  struct Drop {
+    double t;
+    std::uint32_t pixel;
+    float value;
+  };
+  std::vector<std::size_t> start(bands + 1, 0);
+  double fx = 0, fy = 0;
+  Vec3 d;
+  for (std::size_t k = 0; k < n; k += stride)
+    if (project(k, fx, fy, d)) ++start[static_cast<std::size_t>(fy) / kBandRows + 1];
+  for (std::size_t b = 1; b <= bands; ++b) start[b] += start[b - 1];
+  std::vector<Drop> drops(start[bands]);
+  for (std::size_t k = 0; k < n; k += stride) {
+    if (!project(k, fx, fy, d)) continue;
+    const int cx = static_cast<int>(fx), cy = static_cast<int>(fy);
+    drops[start[static_cast<std::size_t>(cy) / kBandRows]++] = {
+        d.dot(cam.forward) + near_offset, static_cast<std::uint32_t>(static_cast<std::size_t>(cy) * w + cx),
+        static_cast<float>(project.values[k])};
+  }
+  for (const Drop& drop : drops) {
+    SplatPixel& p = splat[drop.pixel];
+    if (!(std::abs(drop.t - p.depth) <= p.window)) continue;
+    p.sum += drop.value;
+    if (p.count < 65535) ++p.count;
+  }
+}
+
+/// Samples larger than a pixel: each covers a square of radius_px around its pixel.
+void splat_squares(const SampleProjector& project, std::size_t stride, double near_offset,
+                   std::vector<SplatPixel>& splat) {
+  const Camera& cam = project.cam;
+  const int w = cam.width_px, h = cam.height_px;
+  const int radius_px = project.radius_px;
+  for (std::size_t k = 0; k < project.positions.size(); k += stride) {
+    double fx = 0, fy = 0;
+    Vec3 d;
+    if (!project(k, fx, fy, d)) continue;
+    const int cx = static_cast<int>(fx), cy = static_cast<int>(fy);
+    const double sample_t = d.dot(cam.forward) + near_offset;
+    const auto value = static_cast<float>(project.values[k]);
+    for (int yy = std::max(cy - radius_px, 0); yy <= std::min(cy + radius_px, h - 1); ++yy) {
+      for (int xx = std::max(cx - radius_px, 0); xx <= std::min(cx + radius_px, w - 1); ++xx) {
+        SplatPixel& p = splat[static_cast<std::size_t>(yy) * w + xx];
+        if (!(std::abs(sample_t - p.depth) <= p.window)) continue;
+        p.sum += value;
+        if (p.count < 65535) ++p.count;
+      }
+    }
+  }
+}
+
+/// Hole fill: a surface pixel no sample reached takes the mean of the splatted neighbours
+/// within 2 px at a similar depth.
+void fill_holes(const TracedView& traced, double depth_tol, PixelDeviation& dev) {
+  const int w = traced.camera.width_px, h = traced.camera.height_px;
+  const std::vector<std::uint32_t>& tri = traced.triangle;
+  const std::vector<float>& tdepth = traced.depth_mm;
+  std::vector<float> fill_value(tri.size(), 0.f);
+  std::vector<char> filled(tri.size(), 0);
+  tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y != rows.end(); ++y)
+      for (int x = 0; x < w; ++x) {
+        const std::size_t i = static_cast<std::size_t>(y) * w + x;
+        if (tri[i] == TracedView::kNoHit || dev.count[i] > 0) continue;
+        double sum = 0;
+        std::size_t n = 0;
+        for (int yy = std::max(y - 2, 0); yy <= std::min(y + 2, h - 1); ++yy)
+          for (int xx = std::max(x - 2, 0); xx <= std::min(x + 2, w - 1); ++xx) {
+            const std::size_t j = static_cast<std::size_t>(yy) * w + xx;
+            if (dev.count[j] == 0 || std::abs(tdepth[j] - tdepth[i]) > 3 * depth_tol) continue;
+            sum += dev.sum[j];
+            n += dev.count[j];
+          }
+        if (n > 0) fill_value[i] = static_cast<float>(sum / static_cast<double>(n)), filled[i] = 1;
+      }
+  });
+  for (std::size_t i = 0; i < tri.size(); ++i)
+    if (filled[i]) dev.sum[i] = fill_value[i], dev.count[i] = 1;
+}
+
+/// Deviation per pixel from the mesh-surface samples, splatted and depth-tested. A sample
+/// stands for a patch of ~spacing; when that is about a pixel or less, each sample lands on
+/// one pixel and the few pixels no sample reached are filled from their neighbours.
+PixelDeviation splat_samples(const TracedView& traced, const Mesh& mesh,
+                             const SurfaceDeviationField& field) {
+  const Camera& cam = traced.camera;
+  const std::vector<std::uint32_t>& tri = traced.triangle;
+  PixelDeviation dev{std::vector<float>(tri.size(), 0.f),
+                     std::vector<std::uint16_t>(tri.size(), 0)};
+  double spacing = field.sample_spacing_mm;
+  if (!(spacing > 0) && !field.sample_positions_mm.empty())
+    spacing = std::sqrt(surface_area_mm2(mesh) / static_cast<double>(field.sample_positions_mm.size()));
+  if (field.sample_positions_mm.empty() || !(spacing > 0)) return dev;
+  const int radius_px =
+      spacing > 1.5 * cam.mm_per_px ? std::min(static_cast<int>(std::lround(0.5 * spacing / cam.mm_per_px)), 6) : 0;
+  const double depth_tol = 1.5 * std::max(spacing, cam.mm_per_px) + 0.02;
+  // Many samples per pixel (dense sampling, small image): a regular subset carries the same
+  // picture; keep about 3 per pixel.
+  const double per_px = (cam.mm_per_px / spacing) * (cam.mm_per_px / spacing);
+  const std::size_t stride = radius_px == 0 ? std::max<std::size_t>(1, static_cast<std::size_t>(per_px / 3.0)) : 1;
+  std::vector<SplatPixel> splat(tri.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tri.size(), 4096),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      if (tri[i] == TracedView::kNoHit) continue;
+      // Slanted faces change depth across a pixel: widen the test where they are steep.
+      const double slope = std::abs(traced.normal[i].dot(cam.forward));
+      splat[i].window = depth_tol / std::max(slope, 0.25);
+      splat[i].depth = traced.depth_mm[i];
+    }
+  });
+  const SampleProjector project{cam, field.sample_positions_mm, field.sample_distances_mm, radius_px,
+                                1.0 / cam.mm_per_px};
+  if (radius_px == 0)
+    splat_one_pixel_each(project, stride, traced.near_offset_mm, splat);
+  else
+    splat_squares(project, stride, traced.near_offset_mm, splat);
+  for (std::size_t i = 0; i < tri.size(); ++i) dev.sum[i] = splat[i].sum, dev.count[i] = splat[i].count;
+  fill_holes(traced, depth_tol, dev);
+  return dev;
+}
+
+/// Where no sample reached a pixel: the per-vertex deviation interpolated at the hit point
+/// with barycentric coordinates (double precision).
+double vertex_deviation_at(const TracedView& traced, const Mesh& mesh,
+                           const SurfaceDeviationField& field, int x, int y, std::size_t i) {
+  const Camera& cam = traced.camera;
+  const auto& t = mesh.triangles[traced.triangle[i]];
+  const Vec3& a = mesh.vertices_mm[t[0]];
+  const Vec3& b = mesh.vertices_mm[t[1]];
+  const Vec3& c = mesh.vertices_mm[t[2]];
+  const Vec3 v0 = b - a, v1 = c - a, v2 = traced.pixel_origin(x, y) + cam.forward * traced.depth_mm[i] - a;
+  const double d00 = v0.dot(v0), d01 = v0.dot(v1), d11 = v1.dot(v1);
+  const double d20 = v2.dot(v0), d21 = v2.dot(v1);
+  const double den = d00 * d11 - d01 * d01;
+  double bv = 0, bw = 0;
+  if (std::abs(den) > 0) {
+    bv = std::clamp((d11 * d20 - d01 * d21) / den, 0.0, 1.0);
+    bw = std::clamp((d00 * d21 - d01 * d20) / den, 0.0, 1.0 - bv);
+  }
+  return (1 - bv - bw) * field.vertex_deviation_mm[t[0]] + bv * field.vertex_deviation_mm[t[1]] +
+         bw * field.vertex_deviation_mm[t[2]];
+}
+}  // namespace
+
 HeatmapView shade_heatmap(const TracedView& traced, const Mesh& mesh, const SurfaceDeviationField& field,
                           const DeviationColorScale& scale) {
   HeatmapView out;
@@ -236,132 +427,10 @@ HeatmapView shade_heatmap(const TracedView& traced, const Mesh& mesh, const Surf
   out.hit_pixels = traced.hit_pixels;
   const Camera& cam = traced.camera;
   const int w = cam.width_px, h = cam.height_px;
-  const double near_offset = traced.near_offset_mm;
   constexpr std::uint32_t kNone = TracedView::kNoHit;
   const std::vector<std::uint32_t>& tri = traced.triangle;
-  const std::vector<float>& tdepth = traced.depth_mm;
   const std::vector<Vec3>& normal = traced.normal;
-
-  // Deviation per pixel from the mesh-surface samples, splatted and depth-tested.
-  // A sample stands for a patch of ~spacing; when that is about a pixel or less, each sample
-  // lands on one pixel and the few pixels no sample reached are filled from their neighbours.
-  std::vector<float> dev_sum(tri.size(), 0.f);
-  std::vector<std::uint16_t> dev_count(tri.size(), 0);
-  double spacing = field.sample_spacing_mm;
-  if (!(spacing > 0) && !field.sample_positions_mm.empty())
-    spacing = std::sqrt(surface_area_mm2(mesh) / static_cast<double>(field.sample_positions_mm.size()));
-  if (!field.sample_positions_mm.empty() && spacing > 0) {
-    const int radius_px =
-        spacing > 1.5 * cam.mm_per_px ? std::min(static_cast<int>(std::lround(0.5 * spacing / cam.mm_per_px)), 6) : 0;
-    const double depth_tol = 1.5 * std::max(spacing, cam.mm_per_px) + 0.02;
-    const double inv_px = 1.0 / cam.mm_per_px;
-    const Vec3 c0 = cam.center_mm;
-    // Many samples per pixel (dense sampling, small image): a regular subset carries the same
-    // picture; keep about 3 per pixel.
-    const double per_px = (cam.mm_per_px / spacing) * (cam.mm_per_px / spacing);
-    const std::size_t stride = radius_px == 0 ? std::max<std::size_t>(1, static_cast<std::size_t>(per_px / 3.0)) : 1;
-    // Samples arrive in mesh order, not image order: everything the depth test and the
-    // accumulation touch per pixel sits in one 24-byte record (one cache line per sample
-    // instead of one per array). The per-pixel depth window is computed once, not per sample.
-    struct SplatPixel {
-      double window = -1;  ///< largest accepted |sample depth - surface depth|; < 0: no surface
-      float depth = 0;
-      float sum = 0;
-      std::uint16_t count = 0;
-    };
-    std::vector<SplatPixel> splat(tri.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tri.size(), 4096),
-                      [&](const tbb::blocked_range<std::size_t>& r) {
-      for (std::size_t i = r.begin(); i != r.end(); ++i) {
-        if (tri[i] == kNone) continue;
-        // Slanted faces change depth across a pixel: widen the test where they are steep.
-        const double slope = std::abs(normal[i].dot(cam.forward));
-        splat[i].window = depth_tol / std::max(slope, 0.25);
-        splat[i].depth = tdepth[i];
-      }
-    });
-    const std::span<const Vec3> positions = field.sample_positions_mm;
-    const std::span<const double> values = field.sample_distances_mm;
-    auto project = [&](std::size_t k, double& fx, double& fy, Vec3& d) {
-      d = positions[k] - c0;
-      fx = 0.5 * w + d.dot(cam.right) * inv_px;
-      fy = 0.5 * h - d.dot(cam.up) * inv_px;
-      return fx >= -radius_px && fy >= -radius_px && fx < w + radius_px && fy < h + radius_px &&
-             std::isfinite(values[k]);
-    };
-    if (radius_px == 0) {
-      // One pixel per sample: bucket the samples by bands of 16 rows first (a stable
-      // counting sort, so each pixel still sums its samples in sample order), then splat
-      // band by band with the band's pixels in cache.
-      constexpr int kBandRows = 16;
-      const std::size_t bands = static_cast<std::size_t>((h + kBandRows - 1) / kBandRows);
-      struct Drop {
-        double t;
-        std::uint32_t pixel;
-        float value;
-      };
-      std::vector<std::size_t> start(bands + 1, 0);
-      double fx = 0, fy = 0;
-      Vec3 d;
-      for (std::size_t k = 0; k < positions.size(); k += stride)
-        if (project(k, fx, fy, d)) ++start[static_cast<std::size_t>(fy) / kBandRows + 1];
-      for (std::size_t b = 1; b <= bands; ++b) start[b] += start[b - 1];
-      std::vector<Drop> drops(start[bands]);
-      for (std::size_t k = 0; k < positions.size(); k += stride) {
-        if (!project(k, fx, fy, d)) continue;
-        const int cx = static_cast<int>(fx), cy = static_cast<int>(fy);
-        drops[start[static_cast<std::size_t>(cy) / kBandRows]++] = {
-            d.dot(cam.forward) + near_offset, static_cast<std::uint32_t>(static_cast<std::size_t>(cy) * w + cx),
-            static_cast<float>(values[k])};
-      }
-      for (const Drop& drop : drops) {
-        SplatPixel& p = splat[drop.pixel];
-        if (!(std::abs(drop.t - p.depth) <= p.window)) continue;
-        p.sum += drop.value;
-        if (p.count < 65535) ++p.count;
-      }
-    } else {
-      for (std::size_t k = 0; k < positions.size(); k += stride) {
-        double fx = 0, fy = 0;
-        Vec3 d;
-        if (!project(k, fx, fy, d)) continue;
-        const int cx = static_cast<int>(fx), cy = static_cast<int>(fy);
-        const double sample_t = d.dot(cam.forward) + near_offset;
-        const auto value = static_cast<float>(values[k]);
-        for (int yy = std::max(cy - radius_px, 0); yy <= std::min(cy + radius_px, h - 1); ++yy) {
-          for (int xx = std::max(cx - radius_px, 0); xx <= std::min(cx + radius_px, w - 1); ++xx) {
-            SplatPixel& p = splat[static_cast<std::size_t>(yy) * w + xx];
-            if (!(std::abs(sample_t - p.depth) <= p.window)) continue;
-            p.sum += value;
-            if (p.count < 65535) ++p.count;
-          }
-        }
-      }
-    }
-    for (std::size_t i = 0; i < tri.size(); ++i) dev_sum[i] = splat[i].sum, dev_count[i] = splat[i].count;
-    // Hole fill: mean of the splatted neighbours within 2 px at a similar depth.
-    std::vector<float> fill_value(tri.size(), 0.f);
-    std::vector<char> filled(tri.size(), 0);
-    tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
-      for (int y = rows.begin(); y != rows.end(); ++y)
-        for (int x = 0; x < w; ++x) {
-          const std::size_t i = static_cast<std::size_t>(y) * w + x;
-          if (tri[i] == kNone || dev_count[i] > 0) continue;
-          double sum = 0;
-          std::size_t n = 0;
-          for (int yy = std::max(y - 2, 0); yy <= std::min(y + 2, h - 1); ++yy)
-            for (int xx = std::max(x - 2, 0); xx <= std::min(x + 2, w - 1); ++xx) {
-              const std::size_t j = static_cast<std::size_t>(yy) * w + xx;
-              if (dev_count[j] == 0 || std::abs(tdepth[j] - tdepth[i]) > 3 * depth_tol) continue;
-              sum += dev_sum[j];
-              n += dev_count[j];
-            }
-          if (n > 0) fill_value[i] = static_cast<float>(sum / static_cast<double>(n)), filled[i] = 1;
-        }
-    });
-    for (std::size_t i = 0; i < tri.size(); ++i)
-      if (filled[i]) dev_sum[i] = fill_value[i], dev_count[i] = 1;
-  }
+  const PixelDeviation dev = splat_samples(traced, mesh, field);
   const bool have_vertex = !field.vertex_deviation_mm.empty() &&
                            field.vertex_deviation_mm.size() == mesh.vertices_mm.size();
 
@@ -378,30 +447,12 @@ HeatmapView shade_heatmap(const TracedView& traced, const Mesh& mesh, const Surf
         const bool back = normal[i].dot(cam.forward) > 0;
         Rgb base{176, 176, 176};
         if (!back) {
-          if (dev_count[i] > 0) {
-            base = scale.color(static_cast<double>(dev_sum[i]) / dev_count[i]);
-          } else if (have_vertex) {
-            const auto& t = mesh.triangles[tri[i]];
-            const Vec3& a = mesh.vertices_mm[t[0]];
-            const Vec3& b = mesh.vertices_mm[t[1]];
-            const Vec3& c = mesh.vertices_mm[t[2]];
-            // Barycentric coordinates of the hit point (double precision).
-            const Vec3 v0 = b - a, v1 = c - a, v2 = traced.pixel_origin(x, y) + cam.forward * tdepth[i] - a;
-            const double d00 = v0.dot(v0), d01 = v0.dot(v1), d11 = v1.dot(v1);
-            const double d20 = v2.dot(v0), d21 = v2.dot(v1);
-            const double den = d00 * d11 - d01 * d01;
-            double bv = 0, bw = 0;
-            if (std::abs(den) > 0) {
-              bv = std::clamp((d11 * d20 - d01 * d21) / den, 0.0, 1.0);
-              bw = std::clamp((d00 * d21 - d01 * d20) / den, 0.0, 1.0 - bv);
-            }
-            const double d = (1 - bv - bw) * field.vertex_deviation_mm[t[0]] +
-                             bv * field.vertex_deviation_mm[t[1]] +
-                             bw * field.vertex_deviation_mm[t[2]];
-            base = scale.color(d);
-          } else {
+          if (dev.count[i] > 0)
+            base = scale.color(static_cast<double>(dev.sum[i]) / dev.count[i]);
+          else if (have_vertex)
+            base = scale.color(vertex_deviation_at(traced, mesh, field, x, y, i));
+          else
             base = {205, 205, 205};  // no deviation data here
-          }
         }
         const double shade = traced.shade[i];
         for (int k = 0; k < 3; ++k)

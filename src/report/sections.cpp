@@ -41,7 +41,8 @@ void douglas_peucker(const std::vector<Vec2>& pts, std::size_t first, std::size_
     const auto [i0, i1] = stack.back();
     stack.pop_back();
     if (i1 <= i0 + 1) continue;
-    const Vec2 a = pts[i0], ab = pts[i1] - pts[i0];
+    const Vec2& a = pts[i0];
+    const Vec2 ab = pts[i1] - pts[i0];
     const double len2 = ab.squaredNorm();
     double worst = -1;
     std::size_t worst_i = i0;

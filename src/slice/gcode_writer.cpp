@@ -439,21 +439,141 @@ Result<std::string> expand(const std::string& text, const std::vector<std::pair<
   return out;
 }
 
-}  // namespace
+/// The speed of each role on one layer: the first layer's speed, or the role's, slowed for
+/// PrusaSlicer's minimum layer time but not below min_print_speed.
+struct LayerSpeeds {
+  const SliceSettings& s;
+  bool first_layer;
+  double slow;
+  [[nodiscard]] double operator()(Role r) const {
+    const double v = first_layer ? s.first_layer_speed_mm_s : role_speed(s, r);
+    return std::max(std::min(v, s.min_print_speed_mm_s), v * slow);
+  }
+};
 
-Result<WriterResult> write_gcode(const std::vector<LayerToolpaths>& layers, const PrinterProfile& printer,
-                                 const SliceSettings& s, const std::string& source_name) {
-  Writer w(printer, s);
-  std::string& out = w.out();
+/// PrusaSlicer's cooling rules from the layer's estimated time (extrusions only): the
+/// slowdown factor and the fan speed.
+LayerSpeeds layer_cooling(const LayerToolpaths& layer, const SliceSettings& s, int& fan) {
+  const bool first_layer = layer.index == 0;
+  double layer_time = 0;
+  auto add_time = [&](const ExtrusionPath& p) {
+    const double v = first_layer ? s.first_layer_speed_mm_s : role_speed(s, p.role);
+    layer_time += path_len_mm(p) / v;
+  };
+  for (const auto& p : layer.skirt) add_time(p);
+  for (const auto& isl : layer.islands) {
+    for (const auto& p : isl.perimeters) add_time(p);
+    for (const auto& p : isl.gap_fill) add_time(p);
+    for (const auto& p : isl.infill) add_time(p);
+  }
+  double slow = 1.0;
+  fan = 0;
+  if (s.cooling) {
+    if (layer_time < s.slowdown_below_layer_time_s && layer_time > 0)
+      slow = layer_time / s.slowdown_below_layer_time_s;
+    if (layer.index >= s.disable_fan_first_layers) {
+      double f = s.fan_always_on ? s.min_fan_speed : 0;
+      if (layer_time < s.slowdown_below_layer_time_s) {
+        f = s.max_fan_speed;
+      } else if (layer_time < s.fan_below_layer_time_s) {
+        const double t = (layer_time - s.slowdown_below_layer_time_s) /
+                         (s.fan_below_layer_time_s - s.slowdown_below_layer_time_s);
+        f = s.max_fan_speed - (s.max_fan_speed - s.min_fan_speed) * t;
+      }
+      fan = static_cast<int>(std::lround(f));
+    }
+  }
+  return LayerSpeeds{s, first_layer, slow};
+}
+
+/// Where the writer draws loops and open paths: seam choice and end clipping.
+struct PathStyle {
+  const LayerSpeeds& speed;
+  double clip_mm;
+  P2 aligned_ref;  ///< the aligned seam aims at this point
+};
+
+/// Open paths of one role (or all of them), ordered nearest-next; closed ones as loops with a
+/// nearest seam.
+void emit_open(Writer& w, const std::vector<ExtrusionPath>& paths, Role role, bool any_role,
+               const PathStyle& style) {
+  std::vector<std::size_t> idx;
+  for (std::size_t k = 0; k < paths.size(); ++k)
+    if (any_role || paths[k].role == role) idx.push_back(k);
+  for (const auto& [k, reversed] : order_open(paths, idx, w.pos())) {
+    const ExtrusionPath& p = paths[k];
+    if (p.closed) {
+      const std::size_t st = seam_vertex(p.points, SeamPosition::nearest, w.pos(), style.aligned_ref);
+      w.extrude(p, loop_points(p.points, st, style.clip_mm), style.speed(p.role));
+      continue;
+    }
+    std::vector<P2> pts;
+    pts.reserve(p.points.size());
+    for (const auto& q : p.points) pts.push_back(pt(q));
+    if (reversed) std::reverse(pts.begin(), pts.end());
+    w.extrude(p, pts, style.speed(p.role));
+  }
+}
+
+/// One island: perimeters (loops from the seam, open ones from their nearer end), gap fill,
+/// then bridges, sparse, solid and top infill.
+void write_island(Writer& w, const Island& isl, SeamPosition seam, const PathStyle& style) {
+  for (const auto& p : isl.perimeters) {
+    if (p.closed) {
+      const std::size_t st = seam_vertex(p.points, seam, w.pos(), style.aligned_ref);
+      w.extrude(p, loop_points(p.points, st, style.clip_mm), style.speed(p.role));
+    } else {
+      std::vector<P2> pts;
+      for (const auto& q : p.points) pts.push_back(pt(q));
+      if (dist(w.pos(), pts.back()) < dist(w.pos(), pts.front())) std::reverse(pts.begin(), pts.end());
+      w.extrude(p, pts, style.speed(p.role));
+    }
+  }
+  emit_open(w, isl.gap_fill, Role::gap_fill, true, style);
+  emit_open(w, isl.infill, Role::bridge_infill, false, style);
+  emit_open(w, isl.infill, Role::sparse_infill, false, style);
+  emit_open(w, isl.infill, Role::solid_infill, false, style);
+  emit_open(w, isl.infill, Role::top_solid_infill, false, style);
+}
+
+/// The island not yet printed whose outline comes nearest to `from`.
+std::size_t nearest_island(const LayerToolpaths& layer, const std::vector<char>& done, P2 from) {
+  std::size_t best = 0;
+  double bd = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < layer.islands.size(); ++k) {
+    if (done[k]) continue;
+    double d = std::numeric_limits<double>::infinity();
+    for (const auto& q : layer.islands[k].outline) d = std::min(d, dist(pt(q), from));
+    if (layer.islands[k].outline.empty()) d = 0;
+    if (d < bd) {
+      bd = d;
+      best = k;
+    }
+  }
+  return best;
+}
+
+/// The header comment: tool, source, printer, flavour, layer count and every setting.
+void write_header(std::string& out, std::size_t layers, const PrinterProfile& printer,
+                  const SliceSettings& s, const std::string& source_name) {
   out += "; generated by printtwin ";
   out += kVersion;
   out += " (printtwin slice)\n";
   out += "; source: " + source_name + "\n";
   out += "; printer: " + printer.name + "\n";
   out += "; flavor: marlin2, relative E (M83)\n";
-  out += "; layers: " + std::to_string(layers.size()) + "\n";
+  out += "; layers: " + std::to_string(layers) + "\n";
   for (const auto& [k, v] : slice_settings_entries(s)) out += "; " + k + " = " + v + "\n";
   out += "\n";
+}
+
+}  // namespace
+
+Result<WriterResult> write_gcode(const std::vector<LayerToolpaths>& layers, const PrinterProfile& printer,
+                                 const SliceSettings& s, const std::string& source_name) {
+  Writer w(printer, s);
+  std::string& out = w.out();
+  write_header(out, layers.size(), printer, s, source_name);
 
   const double max_z = layers.empty() ? 0.0 : layers.back().print_z_mm;
   auto fmt = [](double v, int d) {
@@ -488,97 +608,21 @@ Result<WriterResult> write_gcode(const std::vector<LayerToolpaths>& layers, cons
   const P2 aligned_ref{-1000.0, 1000.0};
 
   for (const LayerToolpaths& layer : layers) {
-    const bool first_layer = layer.index == 0;
-    // Estimated layer time (extrusions only) for PrusaSlicer's cooling rules.
-    double layer_time = 0;
-    auto add_time = [&](const ExtrusionPath& p) {
-      const double v = first_layer ? s.first_layer_speed_mm_s : role_speed(s, p.role);
-      layer_time += path_len_mm(p) / v;
-    };
-    for (const auto& p : layer.skirt) add_time(p);
-    for (const auto& isl : layer.islands) {
-      for (const auto& p : isl.perimeters) add_time(p);
-      for (const auto& p : isl.gap_fill) add_time(p);
-      for (const auto& p : isl.infill) add_time(p);
-    }
-    double slow = 1.0;
     int fan = 0;
-    if (s.cooling) {
-      if (layer_time < s.slowdown_below_layer_time_s && layer_time > 0)
-        slow = layer_time / s.slowdown_below_layer_time_s;
-      if (layer.index >= s.disable_fan_first_layers) {
-        double f = s.fan_always_on ? s.min_fan_speed : 0;
-        if (layer_time < s.slowdown_below_layer_time_s) {
-          f = s.max_fan_speed;
-        } else if (layer_time < s.fan_below_layer_time_s) {
-          const double t = (layer_time - s.slowdown_below_layer_time_s) /
-                           (s.fan_below_layer_time_s - s.slowdown_below_layer_time_s);
-          f = s.max_fan_speed - (s.max_fan_speed - s.min_fan_speed) * t;
-        }
-        fan = static_cast<int>(std::lround(f));
-      }
-    }
-    auto speed_of = [&](Role r) {
-      const double v = first_layer ? s.first_layer_speed_mm_s : role_speed(s, r);
-      return std::max(std::min(v, s.min_print_speed_mm_s), v * slow);
-    };
+    const LayerSpeeds speed = layer_cooling(layer, s, fan);
+    const PathStyle style{speed, clip_mm, aligned_ref};
     w.layer_change(layer, fan);
 
     for (const auto& p : layer.skirt) {
       const std::size_t st = seam_vertex(p.points, SeamPosition::nearest, w.pos(), aligned_ref);
-      w.extrude(p, loop_points(p.points, st, clip_mm), speed_of(p.role));
+      w.extrude(p, loop_points(p.points, st, clip_mm), speed(p.role));
     }
     // Islands nearest-next by their outline.
     std::vector<char> done(layer.islands.size(), 0);
     for (std::size_t count = 0; count < layer.islands.size(); ++count) {
-      std::size_t best = 0;
-      double bd = std::numeric_limits<double>::infinity();
-      for (std::size_t k = 0; k < layer.islands.size(); ++k) {
-        if (done[k]) continue;
-        double d = std::numeric_limits<double>::infinity();
-        for (const auto& q : layer.islands[k].outline) d = std::min(d, dist(pt(q), w.pos()));
-        if (layer.islands[k].outline.empty()) d = 0;
-        if (d < bd) {
-          bd = d;
-          best = k;
-        }
-      }
+      const std::size_t best = nearest_island(layer, done, w.pos());
       done[best] = 1;
-      const Island& isl = layer.islands[best];
-      for (const auto& p : isl.perimeters) {
-        if (p.closed) {
-          const std::size_t st = seam_vertex(p.points, s.seam, w.pos(), aligned_ref);
-          w.extrude(p, loop_points(p.points, st, clip_mm), speed_of(p.role));
-        } else {
-          std::vector<P2> pts;
-          for (const auto& q : p.points) pts.push_back(pt(q));
-          if (dist(w.pos(), pts.back()) < dist(w.pos(), pts.front())) std::reverse(pts.begin(), pts.end());
-          w.extrude(p, pts, speed_of(p.role));
-        }
-      }
-      auto emit_open = [&](const std::vector<ExtrusionPath>& paths, Role role, bool any_role) {
-        std::vector<std::size_t> idx;
-        for (std::size_t k = 0; k < paths.size(); ++k)
-          if (any_role || paths[k].role == role) idx.push_back(k);
-        for (const auto& [k, reversed] : order_open(paths, idx, w.pos())) {
-          const ExtrusionPath& p = paths[k];
-          if (p.closed) {
-            const std::size_t st = seam_vertex(p.points, SeamPosition::nearest, w.pos(), aligned_ref);
-            w.extrude(p, loop_points(p.points, st, clip_mm), speed_of(p.role));
-            continue;
-          }
-          std::vector<P2> pts;
-          pts.reserve(p.points.size());
-          for (const auto& q : p.points) pts.push_back(pt(q));
-          if (reversed) std::reverse(pts.begin(), pts.end());
-          w.extrude(p, pts, speed_of(p.role));
-        }
-      };
-      emit_open(isl.gap_fill, Role::gap_fill, true);
-      emit_open(isl.infill, Role::bridge_infill, false);
-      emit_open(isl.infill, Role::sparse_infill, false);
-      emit_open(isl.infill, Role::solid_infill, false);
-      emit_open(isl.infill, Role::top_solid_infill, false);
+      write_island(w, layer.islands[best], s.seam, style);
     }
   }
   w.retract();

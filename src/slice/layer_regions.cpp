@@ -137,6 +137,224 @@ CPath convex_hull(CPath pts) {
 
 }  // namespace
 
+namespace {
+/// Pass 1 for one island of a layer: perimeter loops (inner first unless
+/// external_perimeters_first), thin walls, gap fill, and the area left for the fill.
+IslandWork plan_island_perimeters(const ExPolygon& ex, const SliceSettings& s, int layer,
+                                  double h, double min_thin_mm, LayerToolpaths& lt) {
+  const LayerWidths w = widths_for(s, layer);
+  const double s_ext = bead_spacing_mm(w.ext, h) * kUmPerMm;
+  const double s_per = bead_spacing_mm(w.per, h) * kUmPerMm;
+  IslandWork iw;
+  iw.island.outline = ex.contour;
+  const CPaths cur = to_paths(ExPolygons{ex});
+  if (s.perimeters == 0) {
+    iw.fill = cur;
+    return iw;
+  }
+  std::vector<CPaths> loops;
+  CPaths r = offset(cur, -0.5 * w.ext * kUmPerMm);
+  if (s.thin_walls) {
+    const CPaths thin = clip(cur, offset(r, 0.5 * w.ext * kUmPerMm), ctDifference);
+    strips_to_lines(thin, Role::external_perimeter, min_thin_mm, w.ext, w.ext, h, layer, true,
+                    iw.island.perimeters, lt.dropped);
+  }
+  // Loop k's centre line region is r_k; r_P is the "would-be" loop after the last one:
+  // what it would cover is the fill area, and what lies between a loop's inner edge and
+  // the next loop's outer edge is too narrow for a loop: gap fill.
+  for (int k = 0; k <= s.perimeters && !r.empty(); ++k) {
+    if (k == s.perimeters) {
+      iw.fill = offset(r, 0.5 * s_per);
+      break;
+    }
+    loops.push_back(r);
+    const double sp_k = k == 0 ? s_ext : s_per;
+    const double step = k == 0 ? 0.5 * (s_ext + s_per) : s_per;
+    CPaths next = offset(r, -step);
+    if (s.gap_fill) {
+      const CPaths inner = offset(r, -0.5 * sp_k);
+      const CPaths gaps = next.empty() ? inner : clip(inner, offset(next, 0.5 * s_per), ctDifference);
+      strips_to_lines(gaps, Role::gap_fill, 0.25 * s_per / kUmPerMm, 2.0 * s_per / kUmPerMm,
+                      0.5 * w.per, h, layer, false, iw.island.gap_fill, lt.dropped);
+    }
+    r = std::move(next);
+  }
+  // Perimeter paths, inner loops first (PrusaSlicer's default order).
+  std::vector<ExtrusionPath> loop_paths;
+  for (std::size_t k = 0; k < loops.size(); ++k) {
+    const std::size_t kk = s.external_perimeters_first ? k : loops.size() - 1 - k;
+    const bool external = kk == 0;
+    for (const auto& p : loops[kk]) {
+      if (p.size() < 3) continue;
+      loop_paths.push_back(make_path(external ? Role::external_perimeter : Role::perimeter, p,
+                                     true, external ? w.ext : w.per, h));
+    }
+  }
+  // Thin walls go with the external perimeters.
+  std::vector<ExtrusionPath> thin = std::move(iw.island.perimeters);
+  iw.island.perimeters = std::move(loop_paths);
+  if (s.external_perimeters_first)
+    iw.island.perimeters.insert(iw.island.perimeters.begin(), thin.begin(), thin.end());
+  else
+    iw.island.perimeters.insert(iw.island.perimeters.end(), thin.begin(), thin.end());
+  return iw;
+}
+
+/// What pass 3 needs to classify one layer's fill areas.
+struct FillLayer {
+  int layer = 0;
+  double h = 0;
+  const CPaths* below_slice = nullptr;  ///< the layer below's outline (null on the first)
+  const CPaths* above_slice = nullptr;  ///< the layer above's outline (null on the last)
+  const CPaths* above = nullptr;        ///< covered by all of the next top_solid_layers
+  const CPaths* below = nullptr;        ///< covered by all of the previous bottom_solid_layers
+};
+
+/// Pass 3 for one island: splits its fill area into bridge, top, solid and sparse regions
+/// and lays their infill lines.
+void plan_island_fill(IslandWork& iw, const SliceSettings& s, const FillLayer& fl,
+                      LayerToolpaths& lt) {
+  const int layer = fl.layer;
+  const double h = fl.h;
+  const int T = s.top_solid_layers, B = s.bottom_solid_layers;
+  const LayerWidths w = widths_for(s, layer);
+  const double s_inf = bead_spacing_mm(w.inf, h) * kUmPerMm;
+  const double s_solid = bead_spacing_mm(w.solid, h) * kUmPerMm;
+  const double s_top = bead_spacing_mm(w.top, h) * kUmPerMm;
+  const double angle = s.fill_angle_deg;
+  const CPaths& F = iw.fill;
+  if (F.empty()) {
+    lt.islands.push_back(std::move(iw.island));
+    return;
+  }
+  CPaths solid_region, top, bridge;
+  const bool all_solid = layer == 0 || s.infill_density >= 0.9999;
+  if (all_solid) {
+    solid_region = F;
+  } else {
+    if (T > 0) solid_region = clip(F, *fl.above, ctDifference);
+    if (B > 0) solid_region = clip(solid_region, clip(F, *fl.below, ctDifference), ctUnion);
+  }
+  if (layer > 0 && B > 0) {
+    bridge = opening(clip(F, *fl.below_slice, ctDifference), 0.25 * w.solid * kUmPerMm);
+  }
+  if (T > 0) {
+    const CPaths up = fl.above_slice != nullptr ? *fl.above_slice : CPaths{};
+    top = opening(clip(F, up, ctDifference), 0.25 * w.top * kUmPerMm);
+    top = clip(top, bridge, ctDifference);
+  }
+  CPaths sparse = clip(F, solid_region, ctDifference);
+  // Narrow or small sparse areas print solid (PrusaSlicer's solid_infill_below_area).
+  CPaths sparse_keep;
+  if (!sparse.empty() && s.infill_density > 0) {
+    for (const ExPolygon& ex : to_expolygons(opening(sparse, 0.5 * s_inf))) {
+      double a = std::abs(Area(ex.contour));
+      for (const auto& hh : ex.holes) a -= std::abs(Area(hh));
+      if (a * 1e-6 >= s.solid_infill_below_area_mm2) {
+        CPaths part = to_paths(ExPolygons{ex});
+        sparse_keep.insert(sparse_keep.end(), part.begin(), part.end());
+      }
+    }
+  } else if (!sparse.empty() && s.infill_density <= 0) {
+    sparse_keep = sparse;  // 0 %: nothing printed there, and it is not solid either
+  }
+  CPaths solid = clip(clip(clip(F, sparse_keep, ctDifference), top, ctDifference), bridge,
+                      ctDifference);
+  Island& isl = iw.island;
+  auto add_lines = [&](const CPaths& lines, Role role, double width_mm, double area) {
+    for (const auto& ln : lines) {
+      if (ln.size() < 2) continue;
+      ExtrusionPath p = make_path(role, ln, false, width_mm, h);
+      if (area > 0) p.area_mm2 = area;
+      isl.infill.push_back(std::move(p));
+    }
+  };
+  // Solid infill lines alternate 45 / -45 degrees (monotonic order is made by the writer).
+  const double solid_angle = angle + ((layer % 2) != 0 ? 90.0 : 0.0);
+  if (!bridge.empty()) {
+    // Bridges: round beads of the nozzle's diameter (PrusaSlicer, bridge_flow_ratio 1),
+    // 0.05 mm apart, across the shortest span.
+    const double d = s.nozzle_diameter_mm;
+    const double area = std::numbers::pi * 0.25 * d * d;
+    const double spacing = (d + 0.05) * kUmPerMm;
+    CPaths lines = infill_lines(bridge, InfillPattern::rectilinear, spacing,
+                                bridge_angle_deg(bridge), 0);
+    add_lines(lines, Role::bridge_infill, d, area);
+    lt.has_bridge = true;
+  }
+  if (!solid.empty()) {
+    add_lines(infill_lines(solid, InfillPattern::rectilinear, s_solid, solid_angle, 0),
+              Role::solid_infill, w.solid, 0);
+  }
+  if (!top.empty()) {
+    add_lines(infill_lines(top, InfillPattern::rectilinear, s_top, solid_angle, 0),
+              Role::top_solid_infill, w.top, 0);
+  }
+  if (!sparse_keep.empty() && s.infill_density > 0) {
+    const CPaths grown = clip(offset(sparse_keep, s.infill_overlap * w.per * kUmPerMm),
+                              offset(F, s.infill_overlap * w.per * kUmPerMm), ctIntersection);
+    add_lines(infill_lines(grown, s.infill_pattern, s_inf / s.infill_density, angle, layer),
+              Role::sparse_infill, w.inf, 0);
+  }
+  lt.islands.push_back(std::move(isl));
+}
+
+/// Skirt loops around the convex hull of the first layer (up to skirt_height layers, at least
+/// min_skirt_length) and brim loops around its outer contours.
+void plan_skirt_and_brim(const std::vector<LayerOutline>& outlines, const CPaths& first,
+                         const SliceSettings& s, RegionResult& result) {
+  const std::size_t L = outlines.size();
+  for (std::size_t li = 0; li < L; ++li) {
+    const int layer = static_cast<int>(li);
+    const double h = outlines[li].height_mm;
+    const LayerWidths w = widths_for(s, layer);
+    const double sp = bead_spacing_mm(w.per, h) * kUmPerMm;
+    CPaths base = first;
+    if (layer == 0 && s.brim_width_mm > 0) {
+      const int n = std::max(1, static_cast<int>(std::floor(s.brim_width_mm * kUmPerMm / sp)));
+      CPaths outer_only;
+      for (const ExPolygon& ex : to_expolygons(first)) outer_only.push_back(ex.contour);
+      for (int k = n - 1; k >= 0; --k) {  // from the outside in, ending at the part
+        for (const auto& p : offset(outer_only, 0.5 * sp + k * sp, jtRound)) {
+          if (p.size() < 3) continue;
+          result.layers[li].skirt.push_back(make_path(Role::skirt, p, true, w.per, h));
+        }
+      }
+      base = offset(outer_only, n * sp, jtRound);
+    } else if (s.brim_width_mm > 0) {
+      base = offset(first, s.brim_width_mm * kUmPerMm, jtRound);
+    }
+    if (s.skirts > 0 && layer < s.skirt_height) {
+      CPath all;
+      for (const auto& p : base) all.insert(all.end(), p.begin(), p.end());
+      const CPath hull = convex_hull(all);
+      double total_len = 0;
+      std::vector<ExtrusionPath> loops;
+      for (int k = 0; k < 1000; ++k) {
+        if (k >= s.skirts && total_len >= s.min_skirt_length_mm * kUmPerMm) break;
+        const double d = s.skirt_distance_mm * kUmPerMm + 0.5 * sp + k * sp;
+        for (const auto& p : offset(CPaths{hull}, d, jtRound)) {
+          if (p.size() < 3) continue;
+          double len = 0;
+          for (std::size_t q = 0; q < p.size(); ++q) {
+            const auto& a = p[q];
+            const auto& b = p[(q + 1) % p.size()];
+            len += std::hypot(double(b.X - a.X), double(b.Y - a.Y));
+          }
+          total_len += len;
+          loops.push_back(make_path(Role::skirt, p, true, w.per, h));
+        }
+      }
+      // Outermost first, so the nozzle ends next to the part.
+      std::reverse(loops.begin(), loops.end());
+      auto& sk = result.layers[li].skirt;
+      sk.insert(sk.begin(), loops.begin(), loops.end());
+    }
+    if (layer >= s.skirt_height && layer > 0) break;
+  }
+}
+}  // namespace
+
 RegionResult plan_layers(const std::vector<LayerOutline>& outlines, const SliceSettings& s) {
   const std::size_t L = outlines.size();
   RegionResult result;
@@ -149,72 +367,14 @@ RegionResult plan_layers(const std::vector<LayerOutline>& outlines, const SliceS
   // Pass 1: perimeters, thin walls, gap fill, fill areas (each layer on its own).
   std::vector<std::vector<IslandWork>> work(L);
   tbb::parallel_for(std::size_t(0), L, [&](std::size_t li) {
-    const int layer = static_cast<int>(li);
-    const double h = outlines[li].height_mm;
-    const LayerWidths w = widths_for(s, layer);
-    const double s_ext = bead_spacing_mm(w.ext, h) * kUmPerMm;
-    const double s_per = bead_spacing_mm(w.per, h) * kUmPerMm;
     LayerToolpaths& lt = result.layers[li];
-    lt.index = layer;
+    lt.index = static_cast<int>(li);
     lt.print_z_mm = outlines[li].print_z_mm;
-    lt.height_mm = h;
+    lt.height_mm = outlines[li].height_mm;
     lt.boundary = slices[li];
-    for (const ExPolygon& ex : to_expolygons(slices[li])) {
-      IslandWork iw;
-      iw.island.outline = ex.contour;
-      const CPaths cur = to_paths(ExPolygons{ex});
-      if (s.perimeters == 0) {
-        iw.fill = cur;
-        work[li].push_back(std::move(iw));
-        continue;
-      }
-      std::vector<CPaths> loops;
-      CPaths r = offset(cur, -0.5 * w.ext * kUmPerMm);
-      if (s.thin_walls) {
-        const CPaths thin = clip(cur, offset(r, 0.5 * w.ext * kUmPerMm), ctDifference);
-        strips_to_lines(thin, Role::external_perimeter, min_thin_mm, w.ext, w.ext, h, layer, true,
-                        iw.island.perimeters, lt.dropped);
-      }
-      // Loop k's centre line region is r_k; r_P is the "would-be" loop after the last one:
-      // what it would cover is the fill area, and what lies between a loop's inner edge and
-      // the next loop's outer edge is too narrow for a loop: gap fill.
-      for (int k = 0; k <= s.perimeters && !r.empty(); ++k) {
-        if (k == s.perimeters) {
-          iw.fill = offset(r, 0.5 * s_per);
-          break;
-        }
-        loops.push_back(r);
-        const double sp_k = k == 0 ? s_ext : s_per;
-        const double step = k == 0 ? 0.5 * (s_ext + s_per) : s_per;
-        CPaths next = offset(r, -step);
-        if (s.gap_fill) {
-          const CPaths inner = offset(r, -0.5 * sp_k);
-          const CPaths gaps = next.empty() ? inner : clip(inner, offset(next, 0.5 * s_per), ctDifference);
-          strips_to_lines(gaps, Role::gap_fill, 0.25 * s_per / kUmPerMm, 2.0 * s_per / kUmPerMm,
-                          0.5 * w.per, h, layer, false, iw.island.gap_fill, lt.dropped);
-        }
-        r = std::move(next);
-      }
-      // Perimeter paths, inner loops first (PrusaSlicer's default order).
-      std::vector<ExtrusionPath> loop_paths;
-      for (std::size_t k = 0; k < loops.size(); ++k) {
-        const std::size_t kk = s.external_perimeters_first ? k : loops.size() - 1 - k;
-        const bool external = kk == 0;
-        for (const auto& p : loops[kk]) {
-          if (p.size() < 3) continue;
-          loop_paths.push_back(make_path(external ? Role::external_perimeter : Role::perimeter, p,
-                                         true, external ? w.ext : w.per, h));
-        }
-      }
-      // Thin walls go with the external perimeters.
-      std::vector<ExtrusionPath> thin = std::move(iw.island.perimeters);
-      iw.island.perimeters = std::move(loop_paths);
-      if (s.external_perimeters_first)
-        iw.island.perimeters.insert(iw.island.perimeters.begin(), thin.begin(), thin.end());
-      else
-        iw.island.perimeters.insert(iw.island.perimeters.end(), thin.begin(), thin.end());
-      work[li].push_back(std::move(iw));
-    }
+    for (const ExPolygon& ex : to_expolygons(slices[li]))
+      work[li].push_back(plan_island_perimeters(ex, s, static_cast<int>(li),
+                                                outlines[li].height_mm, min_thin_mm, lt));
   });
 
   // Pass 2: coverage of the layers above / below for the solid skins.
@@ -238,146 +398,19 @@ RegionResult plan_layers(const std::vector<LayerOutline>& outlines, const SliceS
 
   // Pass 3: classify each island's fill area and lay the infill lines.
   tbb::parallel_for(std::size_t(0), L, [&](std::size_t li) {
-    const int layer = static_cast<int>(li);
-    const long i = static_cast<long>(li);
-    const double h = outlines[li].height_mm;
-    const LayerWidths w = widths_for(s, layer);
-    const double s_inf = bead_spacing_mm(w.inf, h) * kUmPerMm;
-    const double s_solid = bead_spacing_mm(w.solid, h) * kUmPerMm;
-    const double s_top = bead_spacing_mm(w.top, h) * kUmPerMm;
-    const double angle = s.fill_angle_deg;
-    LayerToolpaths& lt = result.layers[li];
-    for (IslandWork& iw : work[li]) {
-      const CPaths& F = iw.fill;
-      if (F.empty()) {
-        lt.islands.push_back(std::move(iw.island));
-        continue;
-      }
-      CPaths solid_region, top, bridge;
-      const bool all_solid = layer == 0 || s.infill_density >= 0.9999;
-      if (all_solid) {
-        solid_region = F;
-      } else {
-        if (T > 0) solid_region = clip(F, above[li], ctDifference);
-        if (B > 0) solid_region = clip(solid_region, clip(F, below[li], ctDifference), ctUnion);
-      }
-      if (layer > 0 && B > 0) {
-        bridge = opening(clip(F, slices[li - 1], ctDifference), 0.25 * w.solid * kUmPerMm);
-      }
-      if (T > 0) {
-        const CPaths up = i + 1 < static_cast<long>(L) ? slices[li + 1] : CPaths{};
-        top = opening(clip(F, up, ctDifference), 0.25 * w.top * kUmPerMm);
-        top = clip(top, bridge, ctDifference);
-      }
-      CPaths sparse = clip(F, solid_region, ctDifference);
-      // Narrow or small sparse areas print solid (PrusaSlicer's solid_infill_below_area).
-      CPaths sparse_keep;
-      if (!sparse.empty() && s.infill_density > 0) {
-        for (const ExPolygon& ex : to_expolygons(opening(sparse, 0.5 * s_inf))) {
-          double a = std::abs(Area(ex.contour));
-          for (const auto& hh : ex.holes) a -= std::abs(Area(hh));
-          if (a * 1e-6 >= s.solid_infill_below_area_mm2) {
-            CPaths part = to_paths(ExPolygons{ex});
-            sparse_keep.insert(sparse_keep.end(), part.begin(), part.end());
-          }
-        }
-      } else if (!sparse.empty() && s.infill_density <= 0) {
-        sparse_keep = sparse;  // 0 %: nothing printed there, and it is not solid either
-      }
-      CPaths solid = clip(clip(clip(F, sparse_keep, ctDifference), top, ctDifference), bridge,
-                          ctDifference);
-      Island& isl = iw.island;
-      auto add_lines = [&](const CPaths& lines, Role role, double width_mm, double area) {
-        for (const auto& ln : lines) {
-          if (ln.size() < 2) continue;
-          ExtrusionPath p = make_path(role, ln, false, width_mm, h);
-          if (area > 0) p.area_mm2 = area;
-          isl.infill.push_back(std::move(p));
-        }
-      };
-      // Solid infill lines alternate 45 / -45 degrees (monotonic order is made by the writer).
-      const double solid_angle = angle + ((layer % 2) != 0 ? 90.0 : 0.0);
-      if (!bridge.empty()) {
-        // Bridges: round beads of the nozzle's diameter (PrusaSlicer, bridge_flow_ratio 1),
-        // 0.05 mm apart, across the shortest span.
-        const double d = s.nozzle_diameter_mm;
-        const double area = std::numbers::pi * 0.25 * d * d;
-        const double spacing = (d + 0.05) * kUmPerMm;
-        CPaths lines = infill_lines(bridge, InfillPattern::rectilinear, spacing,
-                                    bridge_angle_deg(bridge), 0);
-        add_lines(lines, Role::bridge_infill, d, area);
-        lt.has_bridge = true;
-      }
-      if (!solid.empty()) {
-        add_lines(infill_lines(solid, InfillPattern::rectilinear, s_solid, solid_angle, 0),
-                  Role::solid_infill, w.solid, 0);
-      }
-      if (!top.empty()) {
-        add_lines(infill_lines(top, InfillPattern::rectilinear, s_top, solid_angle, 0),
-                  Role::top_solid_infill, w.top, 0);
-      }
-      if (!sparse_keep.empty() && s.infill_density > 0) {
-        const CPaths grown = clip(offset(sparse_keep, s.infill_overlap * w.per * kUmPerMm),
-                                  offset(F, s.infill_overlap * w.per * kUmPerMm), ctIntersection);
-        add_lines(infill_lines(grown, s.infill_pattern, s_inf / s.infill_density, angle, layer),
-                  Role::sparse_infill, w.inf, 0);
-      }
-      lt.islands.push_back(std::move(isl));
-    }
+    FillLayer fl;
+    fl.layer = static_cast<int>(li);
+    fl.h = outlines[li].height_mm;
+    fl.below_slice = li > 0 ? &slices[li - 1] : nullptr;
+    fl.above_slice = li + 1 < L ? &slices[li + 1] : nullptr;
+    fl.above = &above[li];
+    fl.below = &below[li];
+    for (IslandWork& iw : work[li]) plan_island_fill(iw, s, fl, result.layers[li]);
   });
 
   // Skirt and brim around the first layer.
-  if (L > 0 && (s.skirts > 0 || s.brim_width_mm > 0)) {
-    const CPaths& first = slices[0];
-    for (std::size_t li = 0; li < L; ++li) {
-      const int layer = static_cast<int>(li);
-      const double h = outlines[li].height_mm;
-      const LayerWidths w = widths_for(s, layer);
-      const double sp = bead_spacing_mm(w.per, h) * kUmPerMm;
-      CPaths base = first;
-      if (layer == 0 && s.brim_width_mm > 0) {
-        const int n = std::max(1, static_cast<int>(std::floor(s.brim_width_mm * kUmPerMm / sp)));
-        CPaths outer_only;
-        for (const ExPolygon& ex : to_expolygons(first)) outer_only.push_back(ex.contour);
-        for (int k = n - 1; k >= 0; --k) {  // from the outside in, ending at the part
-          for (const auto& p : offset(outer_only, 0.5 * sp + k * sp, jtRound)) {
-            if (p.size() < 3) continue;
-            result.layers[li].skirt.push_back(make_path(Role::skirt, p, true, w.per, h));
-          }
-        }
-        base = offset(outer_only, n * sp, jtRound);
-      } else if (s.brim_width_mm > 0) {
-        base = offset(first, s.brim_width_mm * kUmPerMm, jtRound);
-      }
-      if (s.skirts > 0 && layer < s.skirt_height) {
-        CPath all;
-        for (const auto& p : base) all.insert(all.end(), p.begin(), p.end());
-        const CPath hull = convex_hull(all);
-        double total_len = 0;
-        std::vector<ExtrusionPath> loops;
-        for (int k = 0; k < 1000; ++k) {
-          if (k >= s.skirts && total_len >= s.min_skirt_length_mm * kUmPerMm) break;
-          const double d = s.skirt_distance_mm * kUmPerMm + 0.5 * sp + k * sp;
-          for (const auto& p : offset(CPaths{hull}, d, jtRound)) {
-            if (p.size() < 3) continue;
-            double len = 0;
-            for (std::size_t q = 0; q < p.size(); ++q) {
-              const auto& a = p[q];
-              const auto& b = p[(q + 1) % p.size()];
-              len += std::hypot(double(b.X - a.X), double(b.Y - a.Y));
-            }
-            total_len += len;
-            loops.push_back(make_path(Role::skirt, p, true, w.per, h));
-          }
-        }
-        // Outermost first, so the nozzle ends next to the part.
-        std::reverse(loops.begin(), loops.end());
-        auto& sk = result.layers[li].skirt;
-        sk.insert(sk.begin(), loops.begin(), loops.end());
-      }
-      if (layer >= s.skirt_height && layer > 0) break;
-    }
-  }
+  if (L > 0 && (s.skirts > 0 || s.brim_width_mm > 0))
+    plan_skirt_and_brim(outlines, slices[0], s, result);
   return result;
 }
 
