@@ -39,6 +39,7 @@
 
 #include "printtwin/default_init_allocator.hpp"
 #include "printtwin/deviation_types.hpp"
+#include "printtwin/machine.hpp"
 #include "printtwin/geometry.hpp"
 #include "printtwin/mesh.hpp"
 #include "printtwin/result.hpp"
@@ -75,6 +76,11 @@ struct SurfaceSample {
 /// within 100 %.
 [[nodiscard]] DeviationStats deviation_stats(std::span<const double> signed_mm,
                                              double tolerance_mm);
+/// The same weighted by the area each value stands for (`area_mm2`, one per value; empty: the
+/// unweighted figures): mean, RMS, std and within-tolerance are area-weighted, and the
+/// percentiles are the least |d| whose share of the area reaches the quantile.
+[[nodiscard]] DeviationStats deviation_stats(std::span<const double> signed_mm,
+                                             std::span<const double> area_mm2, double tolerance_mm);
 
 // ---------------------------------------------------------------- the deposit's surface
 
@@ -84,6 +90,16 @@ struct SurfaceFace {
   std::uint8_t axis = 0;        ///< 0 x, 1 y, 2 z: the face's normal axis
   std::int8_t side = 1;         ///< +1: face on the voxel's max side, -1: min side
 };
+
+/// A bead as the deposit's model lays it, for placing the surface on the bead's true surface:
+/// the stadium section (a (w - h) x h rectangle with half-discs of diameter h on its sides)
+/// swept along the move, its top on the nozzle tip.
+struct SurfaceBead {
+  Vec3 start_mm = Vec3::Zero(), end_mm = Vec3::Zero();  ///< nozzle tip
+  float width_mm = 0, height_mm = 0;
+  std::uint32_t line = 0;  ///< G-code line (the voxel tags' line)
+};
+constexpr std::uint32_t kNoBead = 0xFFFFFFFFu;
 
 /// Features whose voxels are not part of the analysed deposit.
 [[nodiscard]] bool is_auxiliary_feature(Feature f);
@@ -101,6 +117,12 @@ struct DepositSurface {
   std::vector<SurfaceFace> faces;
   std::vector<Vec3> face_centers_mm;      ///< centre of each face (the deposit->mesh points)
   std::vector<VoxelTag> face_tags;        ///< tag of each face's voxel
+  /// After place_on_beads: each face's point on the true bead surface (the deposit -> mesh
+  /// points; empty: the face centres), the area of true surface it stands for (empty: one
+  /// face, voxel^2 each) and its bead (kNoBead where the face centre stays).
+  std::vector<Vec3> points_mm;
+  std::vector<double> face_area_mm2;
+  std::vector<std::uint32_t> face_bead;
   /// The blocks holding faces, as indices into filled_block_code, ascending.
   std::vector<std::uint32_t> face_blocks;
   /// First face of cell c (0..7: y half * 4 + x half * 2 + z half) of face block k:
@@ -131,9 +153,25 @@ struct DepositSurface {
 /// `seal_gap_mm` > 0: gaps up to about that width (2r voxels, r = floor(seal / (2 voxel)))
 /// do not let the outside in: the flood fill runs on the occupancy dilated by r voxels and
 /// the outside found is dilated back by r (a morphological opening of the empty space), so
-/// pinholes between beads do not expose the infill. Faces belong to occupied voxels only.
+/// pinholes between beads do not expose the infill. `groove_depth_mm` > 0 (with a seal): what
+/// the seal closed opens again to that depth (6-connected voxel steps through empty voxels)
+/// from the sealed outside, so the grooves between layers and between outer beads stay
+/// surface while a pinhole lets the outside in no deeper than that. Faces belong to occupied
+/// voxels only.
 [[nodiscard]] DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_mm,
-                                                   double seal_gap_mm = 0);
+                                                   double seal_gap_mm = 0, double groove_depth_mm = 0);
+
+/// The extruding moves of the part (not skirt, support, wipe tower or purge) as beads, in
+/// line order, with the deposit's nominal height (`;HEIGHT:`, else the Z step between layers)
+/// and the stadium width of their extrusion.
+[[nodiscard]] std::vector<SurfaceBead> surface_beads(std::span<const Move> moves, const PrinterProfile& profile);
+
+/// Sub-voxel placement: each face's point moves from the face centre onto the surface of the
+/// nearest bead among those of its voxel's G-code line and their neighbours along the path,
+/// when that surface lies within `max_shift_mm` of the centre and faces the same way; its
+/// area becomes voxel^2 / (|n_x| + |n_y| + |n_z|) for the bead surface's normal n (the true
+/// area a staircase face stands for). Fills points_mm, face_area_mm2 and face_bead.
+void place_on_beads(DepositSurface& surface, std::span<const SurfaceBead> beads, double max_shift_mm);
 
 /// Exact distances from points to the union of the surface's face squares, signed
 /// positive when the point is in the filled volume. Nearest face index per point in
@@ -339,6 +377,9 @@ struct DeviationSettings {
   double region_margin_mm = 1.0;      ///< analysed region = mesh box (+ part box) + margin
   /// Gaps in the deposit narrower than this do not let the outside in (extract_outer_surface).
   double seal_gap_mm = 0.2;
+  /// What the seal closed opens again to this depth from the sealed outside: layer lines
+  /// and the grooves between outer beads are measured; a pinhole leaks no deeper.
+  double groove_depth_mm = 0.25;
   int max_regions = 50;               ///< keep the largest regions (by area)
   /// Out-of-tolerance clusters smaller than this are voxel noise, not defects: they are not
   /// regions and do not count in DeviationResult::max_excess_mm / max_deficit_mm.
@@ -352,11 +393,15 @@ struct DeviationSettings {
 /// figures: max_excess_mm = largest deposit -> mesh distance, max_deficit_mm = largest
 /// -(mesh -> deposit) distance, both ignoring clusters below min_region_area_mm2.
 /// `part_box_mm` (may be empty) widens the analysed region to the part's extrusions.
+/// `beads` (surface_beads of the G-code; may be empty): the surface points are placed on the
+/// true bead surface (place_on_beads), the deposit -> mesh figures are area-weighted, and
+/// mesh -> deposit distances near placed faces are to the bead surface.
 /// Errors: empty mesh, settings out of range.
 [[nodiscard]] Result<DeviationResult> compute_deviation(const Mesh& placed_mesh,
                                                         const VoxelGrid& deposit,
                                                         const DeviationSettings& settings,
-                                                        const Box3& part_box_mm = {});
+                                                        const Box3& part_box_mm = {},
+                                                        std::span<const SurfaceBead> beads = {});
 
 /// The same analysis against a prepared target: the mesh sits at `placement_offset_mm`
 /// (mesh frame + offset = G-code frame). Equals compute_deviation(translated(target mesh,
@@ -366,7 +411,8 @@ struct DeviationSettings {
                                                         const Vec3& placement_offset_mm,
                                                         const VoxelGrid& deposit,
                                                         const DeviationSettings& settings,
-                                                        const Box3& part_box_mm = {});
+                                                        const Box3& part_box_mm = {},
+                                                        std::span<const SurfaceBead> beads = {});
 
 /// Clusters out-of-tolerance samples into regions (union-find over a hash grid with
 /// `radius_mm` links). `area_per_sample_mm2` is what one sample stands for. For `missing`,
