@@ -137,8 +137,11 @@ struct SurfaceVoxel {
   std::uint8_t exposed_faces = 0;
 };
 /// The deposit's outer surface: occupied voxels with a face on air connected to the grid's
-/// border (space beyond the grid is air). Enclosed cavities, such as the cells of sparse
-/// infill under a top skin, are not outside. Fixed order (that of VoxelGrid::for_each).
+/// border (space beyond the grid is air), the surface `verify` measures
+/// (extract_outer_surface with DeviationSettings' seal and groove depth: pinholes between
+/// beads do not expose enclosed cavities such as the cells of sparse infill, the grooves
+/// between layers stay). Skirt, support, wipe tower and purge voxels are not part of it.
+/// Fixed order (by 8^3 block and 4^3 cell, as DepositSurface::faces).
 [[nodiscard]] std::vector<SurfaceVoxel> outer_surface(const VoxelGrid& grid);
 
 /// The `deposit` object of the simulate JSON report (compact JSON text):

@@ -38,6 +38,7 @@
 #include <vector>
 
 #include "printtwin/deviation_types.hpp"
+#include "printtwin/machine.hpp"
 #include "printtwin/geometry.hpp"
 #include "printtwin/mesh.hpp"
 #include "printtwin/result.hpp"
@@ -74,12 +75,32 @@ struct SurfaceSample {
 /// within 100 %.
 [[nodiscard]] DeviationStats deviation_stats(std::span<const double> signed_mm,
                                              double tolerance_mm);
+/// The same weighted by the area each value stands for (`area_mm2`, one per value; empty: the
+/// unweighted figures): mean, RMS, std and within-tolerance are area-weighted, and the
+/// percentiles are the least |d| whose share of the area reaches the quantile.
+[[nodiscard]] DeviationStats deviation_stats(std::span<const double> signed_mm,
+                                             std::span<const double> area_mm2, double tolerance_mm);
 
 // ---------------------------------------------------------------- the analysed deposit
 
 /// Features whose voxels are not part of the analysed deposit (skirt, brim, support, wipe
 /// tower, purge): compute_deviation treats them as empty.
 [[nodiscard]] bool is_auxiliary_feature(Feature f);
+
+/// A bead as the deposit's model lays it, for placing the surface on the bead's true surface:
+/// the stadium section (a (w - h) x h rectangle with half-discs of diameter h on its sides)
+/// swept along the move, its top on the nozzle tip.
+struct SurfaceBead {
+  Vec3 start_mm = Vec3::Zero(), end_mm = Vec3::Zero();  ///< nozzle tip
+  float width_mm = 0, height_mm = 0;
+  std::uint32_t line = 0;  ///< G-code line (the voxel tags' line)
+};
+constexpr std::uint32_t kNoBead = 0xFFFFFFFFu;
+
+/// The extruding moves of the part (not skirt, support, wipe tower or purge) as beads, in
+/// line order, with the deposit's nominal height (`;HEIGHT:`, else the Z step between layers)
+/// and the stadium width of their extrusion.
+[[nodiscard]] std::vector<SurfaceBead> surface_beads(std::span<const Move> moves, const PrinterProfile& profile);
 
 // ---------------------------------------------------------------- mesh distances
 
@@ -279,6 +300,9 @@ struct DeviationSettings {
   double region_margin_mm = 1.0;      ///< analysed region = mesh box (+ part box) + margin
   /// Gaps in the deposit narrower than this do not let the outside in (the outer surface).
   double seal_gap_mm = 0.2;
+  /// What the seal closed opens again to this depth from the sealed outside: layer lines
+  /// and the grooves between outer beads are measured; a pinhole leaks no deeper.
+  double groove_depth_mm = 0.25;
   int max_regions = 50;               ///< keep the largest regions (by area)
   /// Out-of-tolerance clusters smaller than this are voxel noise, not defects: they are not
   /// regions and do not count in DeviationResult::max_excess_mm / max_deficit_mm.
@@ -292,11 +316,15 @@ struct DeviationSettings {
 /// figures: max_excess_mm = largest deposit -> mesh distance, max_deficit_mm = largest
 /// -(mesh -> deposit) distance, both ignoring clusters below min_region_area_mm2.
 /// `part_box_mm` (may be empty) widens the analysed region to the part's extrusions.
+/// `beads` (surface_beads of the G-code; may be empty): the surface points are placed on the
+/// true bead surface (place_on_beads), the deposit -> mesh figures are area-weighted, and
+/// mesh -> deposit distances near placed faces are to the bead surface.
 /// Errors: empty mesh, settings out of range.
 [[nodiscard]] Result<DeviationResult> compute_deviation(const Mesh& placed_mesh,
                                                         const VoxelGrid& deposit,
                                                         const DeviationSettings& settings,
-                                                        const Box3& part_box_mm = {});
+                                                        const Box3& part_box_mm = {},
+                                                        std::span<const SurfaceBead> beads = {});
 
 /// The same analysis against a prepared target: the mesh sits at `placement_offset_mm`
 /// (mesh frame + offset = G-code frame). Equals compute_deviation(translated(target mesh,
@@ -306,7 +334,8 @@ struct DeviationSettings {
                                                         const Vec3& placement_offset_mm,
                                                         const VoxelGrid& deposit,
                                                         const DeviationSettings& settings,
-                                                        const Box3& part_box_mm = {});
+                                                        const Box3& part_box_mm = {},
+                                                        std::span<const SurfaceBead> beads = {});
 
 /// Clusters out-of-tolerance samples into regions (union-find over a hash grid with
 /// `radius_mm` links). `area_per_sample_mm2` is what one sample stands for. For `missing`,

@@ -85,6 +85,10 @@ struct LayerDeviation {
   double z_mm = 0;
   DeviationStats deposit_to_mesh;
   DeviationStats mesh_to_deposit;
+  /// Layer lines: over this layer's deposit surface on walls (points whose closest design
+  /// triangle is within 15 degrees of vertical), area-weighted: the RMS distance to the design
+  /// and the roughness Rq (RMS about the layer's own mean). 0 where the layer has no wall.
+  double wall_rms_mm = 0, wall_rq_mm = 0;
 };
 
 enum class RegionKind { missing, excess };
@@ -120,6 +124,10 @@ struct DeviationResult {
   double deposit_volume_mm3 = 0;                 ///< part voxels in the analysed region
   std::size_t surface_faces = 0;                 ///< exposed faces of the deposit's outer surface
   std::size_t surface_voxels = 0;                ///< voxels that carry them
+  /// Layer lines over the whole part's walls (LayerDeviation::wall_rms_mm, wall_rq_mm): RMS
+  /// to the design and Rq (the root of the area-weighted mean of each layer's variance).
+  double wall_rms_mm = 0, wall_rq_mm = 0;
+  double wall_area_mm2 = 0;                      ///< deposit surface on walls
   Vec3 registration_offset_mm = Vec3::Zero();    ///< added to the mesh to reach the G-code frame
   std::string registration_method;               ///< "auto" or "--place"
   /// Signed deviation per mesh vertex (for the deviation PLY and heatmaps).

@@ -243,6 +243,7 @@ struct PrintedGcode {
   SimulationSummary simulation;
   PartExtent extent;                        ///< the part's extrusions (registration)
   DepositResult deposit;                    ///< its findings moved into `findings`
+  std::vector<SurfaceBead> beads;           ///< the part's beads (surface_beads), for the surface
   /// The slicer's findings, then the simulation's, then the deposit's.
   std::vector<Finding> findings;
   std::vector<StageTiming> timings;         ///< slice (printtwin slice), simulate, deposit

@@ -9,21 +9,87 @@
 #include <tbb/parallel_invoke.h>
 
 #include "deviation/deposit_surface_internal.hpp"
+#include "deviation/surface_internal.hpp"
 #include "printtwin/deviation.hpp"
 
 namespace printtwin {
 
+namespace {
+/// Mesh -> deposit on the true bead surface: where a point's nearest face was placed on a bead,
+/// its distance becomes the exact distance to the nearest bead of that face's line and path
+/// neighbours, when that agrees with the distance to the faces within a voxel (the bead model
+/// describes that part of the surface).
+void to_bead_surface(const DepositSurface& s, std::span<const SurfaceBead> beads, std::span<const Vec3> points,
+                     const std::vector<std::uint32_t>& nearest, std::vector<double>& signed_mm) {
+  if (s.face_bead.empty()) return;
+  const double v = s.voxel_mm;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      const std::uint32_t f = nearest[i];
+      if (f >= s.face_bead.size() || s.face_bead[f] == kNoBead) continue;
+      const detail::BeadDistance b = detail::nearest_bead(beads, s.face_tags[f].line, points[i]);
+      if (b.bead != kNoBead && std::abs(-b.signed_mm - signed_mm[i]) <= v) signed_mm[i] = -b.signed_mm;
+    }
+  });
+}
+
+/// Layer lines on walls: per layer and over the part, the area-weighted RMS distance of the
+/// deposit points whose closest design triangle is within 15 degrees of vertical, and their
+/// RMS about the layer's own mean (Rq).
+void wall_roughness(const Mesh& mesh, std::span<const double> d, std::span<const std::uint32_t> triangle,
+                    const DepositSurface& s, double v, std::vector<LayerDeviation>& layers, DeviationResult& out) {
+  std::vector<std::uint8_t> wall(mesh.triangles.size(), 0);
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const auto& tri = mesh.triangles[t];
+    const Vec3 n = (mesh.vertices_mm[tri[1]] - mesh.vertices_mm[tri[0]]).cross(mesh.vertices_mm[tri[2]] - mesh.vertices_mm[tri[0]]);
+    const double len = n.norm();
+    wall[t] = len > 0 && std::abs(n.z()) <= std::sin(15.0 * 3.14159265358979323846 / 180.0) * len ? 1 : 0;
+  }
+  struct Sums {
+    long double w = 0, wd = 0, wd2 = 0;
+  };
+  std::vector<Sums> per(layers.size());
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    const std::uint32_t t = triangle[i];
+    const int l = s.face_tags[i].layer;
+    if (t >= wall.size() || wall[t] == 0 || l < 0 || static_cast<std::size_t>(l) >= per.size()) continue;
+    const long double w = s.face_area_mm2.empty() ? v * v : s.face_area_mm2[i];
+    Sums& p = per[static_cast<std::size_t>(l)];
+    p.w += w;
+    p.wd += w * d[i];
+    p.wd2 += w * d[i] * d[i];
+  }
+  long double w = 0, wd2 = 0, wvar = 0;
+  for (std::size_t l = 0; l < per.size(); ++l) {
+    const Sums& p = per[l];
+    if (!(p.w > 0)) continue;
+    const long double mean = p.wd / p.w, var = std::max<long double>(0, p.wd2 / p.w - mean * mean);
+    layers[l].wall_rms_mm = static_cast<double>(std::sqrt(p.wd2 / p.w));
+    layers[l].wall_rq_mm = static_cast<double>(std::sqrt(var));
+    w += p.w;
+    wd2 += p.wd2;
+    wvar += p.w * var;
+  }
+  if (w > 0) {
+    out.wall_rms_mm = static_cast<double>(std::sqrt(wd2 / w));
+    out.wall_rq_mm = static_cast<double>(std::sqrt(wvar / w));
+    out.wall_area_mm2 = static_cast<double>(w);
+  }
+}
+}  // namespace
+
 Result<DeviationResult> compute_deviation(const Mesh& mesh, const VoxelGrid& deposit,
-                                          const DeviationSettings& settings, const Box3& part_box_mm) {
+                                          const DeviationSettings& settings, const Box3& part_box_mm,
+                                          std::span<const SurfaceBead> beads) {
   if (mesh.triangles.empty()) return bad_input("deviation: the mesh has no triangles");
   auto target = DeviationTarget::build(mesh, settings, deposit.voxel_mm());
   if (!target) return target.error();
-  return compute_deviation(*target, Vec3::Zero(), deposit, settings, part_box_mm);
+  return compute_deviation(*target, Vec3::Zero(), deposit, settings, part_box_mm, beads);
 }
 
 Result<DeviationResult> compute_deviation(const DeviationTarget& target, const Vec3& offset,
                                           const VoxelGrid& deposit, const DeviationSettings& settings,
-                                          const Box3& part_box_mm) {
+                                          const Box3& part_box_mm, std::span<const SurfaceBead> beads) {
   const Mesh& mesh = target.mesh();
   if (mesh.triangles.empty()) return bad_input("deviation: the mesh has no triangles");
   if (!(settings.tolerance_mm > 0))
@@ -54,7 +120,10 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   const std::size_t ns = samples.size();
   std::vector<Vec3> query_points(ns + mesh.vertices_mm.size());
   detail::DepositQueryGroups query_groups;
-  tbb::parallel_invoke([&] { surface = extract_outer_surface(deposit, region, settings.seal_gap_mm); },
+  tbb::parallel_invoke([&] {
+                         surface = extract_outer_surface(deposit, region, settings.seal_gap_mm, settings.groove_depth_mm);
+                         if (!beads.empty()) place_on_beads(surface, beads, v);
+                       },
                        [&] {
                          // The samples and the mesh's vertices (for the per-vertex deviation)
                          // in one search.
@@ -69,7 +138,9 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
     if (i == 0 || !(surface.faces[i].voxel == surface.faces[i - 1].voxel)) ++out.surface_voxels;
 
   // Deposit -> mesh, from every exposed face centre.
-  const std::vector<Vec3>& face_points = surface.face_centers_mm;
+  const std::vector<Vec3>& face_points = surface.points_mm.empty() ? surface.face_centers_mm : surface.points_mm;
+  const std::span<const double> face_area = surface.face_area_mm2;
+  const bool weighted = !beads.empty();
   std::vector<double> d_dep;
   std::vector<std::uint32_t> dep_triangles;
   const auto dep_sample = [&](std::size_t i) {
@@ -85,28 +156,38 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   for (const auto& t : surface.face_tags) max_layer = std::max(max_layer, static_cast<int>(t.layer));
   const auto n_layers = static_cast<std::size_t>(max_layer + 1);
   const auto group = [&](std::size_t n, const auto& layer_of, std::span<const double> d,
-                         std::vector<std::size_t>& begin, std::vector<double>& values) {
+                         std::vector<std::size_t>& begin, std::vector<double>& values,
+                         std::span<const double> w = {}, std::vector<double>* weights = nullptr) {
     begin.assign(n_layers + 1, 0);
     for (std::size_t i = 0; i < n; ++i)
       if (const int l = layer_of(i); l >= 0) ++begin[static_cast<std::size_t>(l) + 1];
     for (std::size_t l = 0; l < n_layers; ++l) begin[l + 1] += begin[l];
     values.resize(begin[n_layers]);
+    if (weights != nullptr) weights->resize(w.empty() ? 0 : begin[n_layers]);
     std::vector<std::size_t> fill(begin.begin(), begin.end() - 1);
     for (std::size_t i = 0; i < n; ++i)
-      if (const int l = layer_of(i); l >= 0) values[fill[static_cast<std::size_t>(l)]++] = d[i];
+      if (const int l = layer_of(i); l >= 0) {
+        const std::size_t k = fill[static_cast<std::size_t>(l)]++;
+        values[k] = d[i];
+        if (weights != nullptr && !w.empty()) (*weights)[k] = w[i];
+      }
   };
   std::vector<LayerDeviation> layers(n_layers);
   // One direction's per-layer statistics, layers in parallel.
   const auto layer_stats = [&](const std::vector<std::size_t>& begin, const std::vector<double>& values,
-                               DeviationStats LayerDeviation::*field) {
+                               DeviationStats LayerDeviation::*field, const std::vector<double>& weights = {}) {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_layers), [&](const tbb::blocked_range<std::size_t>& r) {
-      for (std::size_t l = r.begin(); l != r.end(); ++l)
-        layers[l].*field = deviation_stats(std::span<const double>(values).subspan(begin[l], begin[l + 1] - begin[l]),
+      for (std::size_t l = r.begin(); l != r.end(); ++l) {
+        const std::size_t b = begin[l], n = begin[l + 1] - begin[l];
+        layers[l].*field = deviation_stats(std::span<const double>(values).subspan(b, n),
+                                           weights.empty() ? std::span<const double>{}
+                                                           : std::span<const double>(weights).subspan(b, n),
                                            settings.tolerance_mm);
+      }
     });
   };
   std::vector<std::size_t> dep_begin, mesh_begin;
-  std::vector<double> dep_values, mesh_values;
+  std::vector<double> dep_values, mesh_values, dep_weights;
   // The highest surface voxel of each layer (a voxel's centre height grows with its z key).
   std::vector<int> top_key(n_layers, std::numeric_limits<int>::min());
   // The two directions need nothing from each other: side by side, each with its statistics
@@ -121,15 +202,16 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
         target.signed_distances(offset, face_points, std::max(4.0 * v, settings.tolerance_mm), d_dep,
                                 &dep_triangles, detail::face_cell_groups(surface));
         // The longer direction: its figures for the whole and per layer side by side too.
-        tbb::parallel_invoke([&] { out.deposit_to_mesh = deviation_stats(d_dep, settings.tolerance_mm); },
+        tbb::parallel_invoke([&] { out.deposit_to_mesh = deviation_stats(d_dep, face_area, settings.tolerance_mm); },
                              [&] {
                                group(d_dep.size(), [&](std::size_t i) { return static_cast<int>(surface.face_tags[i].layer); },
-                                     d_dep, dep_begin, dep_values);
-                               layer_stats(dep_begin, dep_values, &LayerDeviation::deposit_to_mesh);
+                                     d_dep, dep_begin, dep_values, face_area, &dep_weights);
+                               layer_stats(dep_begin, dep_values, &LayerDeviation::deposit_to_mesh, dep_weights);
                              });
       },
       [&] {
         detail::distances_to_deposit_with(surface, query_points, d_query, &nearest, false, &query_groups);
+        if (weighted) to_bead_surface(surface, beads, query_points, nearest, d_query);
         const std::span<const double> d_mesh(d_query.data(), ns);
         out.mesh_to_deposit = deviation_stats(d_mesh, settings.tolerance_mm);
         group(ns, [&](std::size_t i) { return static_cast<int>(mesh_tag(i).layer); }, d_mesh, mesh_begin,
@@ -153,6 +235,7 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
     ld.layer = static_cast<int>(l);
     if (top_key[l] != std::numeric_limits<int>::min()) ld.z_mm = deposit.center_mm(VoxelKey{0, 0, top_key[l]}).z() + 0.5 * v;
   }
+  wall_roughness(mesh, d_dep, dep_triangles, surface, v, layers, out);
   for (std::size_t l = 0; l < n_layers; ++l)  // layers no sample of either direction is nearest to: none
     if (dep_begin[l] != dep_begin[l + 1] || mesh_begin[l] != mesh_begin[l + 1]) out.per_layer.push_back(std::move(layers[l]));
 
@@ -225,7 +308,7 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
     d_query.resize(ns);
     ms.distances_mm = std::move(d_query);
     DeviationSamples& ds = out.deposit_samples;
-    ds.positions_mm = std::move(surface.face_centers_mm);
+    ds.positions_mm = surface.points_mm.empty() ? std::move(surface.face_centers_mm) : std::move(surface.points_mm);
     ds.distances_mm = std::move(d_dep);
     ds.tags = std::move(surface.face_tags);
     ds.triangles = std::move(dep_triangles);

@@ -32,6 +32,12 @@ struct DepositSurface {
   std::vector<SurfaceFace> faces;
   std::vector<Vec3> face_centers_mm;      ///< centre of each face (the deposit->mesh points)
   std::vector<VoxelTag> face_tags;        ///< tag of each face's voxel
+  /// After place_on_beads: each face's point on the true bead surface (the deposit -> mesh
+  /// points; empty: the face centres), the area of true surface it stands for (empty: one
+  /// face, voxel^2 each) and its bead (kNoBead where the face centre stays).
+  std::vector<Vec3> points_mm;
+  std::vector<double> face_area_mm2;
+  std::vector<std::uint32_t> face_bead;
   /// The blocks holding faces, as indices into filled_block_code, ascending.
   std::vector<std::uint32_t> face_blocks;
   /// First face of cell c (0..7: y half * 4 + x half * 2 + z half) of face block k:
@@ -62,14 +68,26 @@ struct DepositSurface {
 /// `seal_gap_mm` > 0: gaps up to about that width (2r voxels, r = floor(seal / (2 voxel)))
 /// do not let the outside in: the flood fill runs on the occupancy dilated by r voxels and
 /// the outside found is dilated back by r (a morphological opening of the empty space), so
-/// pinholes between beads do not expose the infill. Faces belong to occupied voxels only.
+/// pinholes between beads do not expose the infill. `groove_depth_mm` > 0 (with a seal): what
+/// the seal closed opens again to that depth (6-connected voxel steps through empty voxels)
+/// from the sealed outside, so the grooves between layers and between outer beads stay
+/// surface while a pinhole lets the outside in no deeper than that. Faces belong to occupied
+/// voxels only.
 [[nodiscard]] DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_mm,
-                                                   double seal_gap_mm = 0);
+                                                   double seal_gap_mm = 0, double groove_depth_mm = 0);
+
+/// Sub-voxel placement: each face's point moves from the face centre onto the surface of the
+/// nearest bead among those of its voxel's G-code line and their neighbours along the path,
+/// when that surface lies within `max_shift_mm` of the centre and faces the same way; its
+/// area becomes voxel^2 / (|n_x| + |n_y| + |n_z|) for the bead surface's normal n (the true
+/// area a staircase face stands for). Fills points_mm, face_area_mm2 and face_bead.
+void place_on_beads(DepositSurface& surface, std::span<const SurfaceBead> beads, double max_shift_mm);
 
 /// Exact distances from points to the union of the surface's face squares, signed
 /// positive when the point is in the filled volume. Nearest face index per point in
 /// `nearest_face` (may be null). Parallel (TBB).
 void distances_to_deposit(const DepositSurface& surface, std::span<const Vec3> points,
                           std::vector<double>& signed_mm, std::vector<std::uint32_t>* nearest_face);
+
 
 }  // namespace printtwin

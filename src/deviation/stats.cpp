@@ -163,4 +163,93 @@ DeviationStats deviation_stats(std::span<const double> d, double tolerance_mm) {
   return s;
 }
 
+namespace {
+/// Weighted percentiles of |d| (the least |d| whose cumulative weight reaches q of the whole)
+/// for ascending q: a histogram of |d|'s bit patterns sums the weights per bin, the bins
+/// holding the q's are found from the sums, and only their values are sorted.
+std::vector<double> weighted_percentiles(std::span<const double> d, std::span<const double> w,
+                                         const std::vector<double>& qs, long double total,
+                                         std::uint64_t lo_key, std::uint64_t hi_key) {
+  const int bin_bits = std::clamp(static_cast<int>(std::bit_width(d.size())) - 2, 8, 16);
+  const int span_bits = static_cast<int>(std::bit_width(hi_key - lo_key));
+  const int shift = std::max(0, span_bits - bin_bits);
+  const auto bin = [&](double v) { return static_cast<std::size_t>((abs_bits(v) - lo_key) >> shift); };
+  std::vector<long double> sum(((hi_key - lo_key) >> shift) + 1, 0);
+  for (std::size_t i = 0; i < d.size(); ++i) sum[bin(d[i])] += w[i];
+  // The bin of each q and the weight before it, then one pass gathers those bins' values.
+  std::vector<std::size_t> bin_of;
+  std::vector<long double> before_of;
+  {
+    std::size_t b = 0;
+    long double before = 0;
+    for (const double q : qs) {
+      while (b + 1 < sum.size() && before + sum[b] < q * total) before += sum[b++];
+      bin_of.push_back(b);
+      before_of.push_back(before);
+    }
+  }
+  std::vector<std::pair<double, double>> in_bins;
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    const std::size_t k = bin(d[i]);
+    if (std::find(bin_of.begin(), bin_of.end(), k) != bin_of.end()) in_bins.emplace_back(std::abs(d[i]), w[i]);
+  }
+  std::sort(in_bins.begin(), in_bins.end());
+  std::vector<double> out;
+  for (std::size_t j = 0; j < qs.size(); ++j) {
+    const long double target = qs[j] * total;
+    long double acc = before_of[j];
+    double value = std::bit_cast<double>(hi_key);
+    for (const auto& [v, wt] : in_bins) {
+      if (bin(v) != bin_of[j]) continue;
+      acc += wt;
+      if (acc >= target) {
+        value = v;
+        break;
+      }
+    }
+    out.push_back(value);
+  }
+  return out;
+}
+}  // namespace
+
+DeviationStats deviation_stats(std::span<const double> d, std::span<const double> area_mm2, double tolerance_mm) {
+  if (area_mm2.empty()) return deviation_stats(d, tolerance_mm);
+  DeviationStats s;
+  s.samples = d.size();
+  if (d.empty()) return s;
+  s.min_mm = d[0];
+  s.max_mm = d[0];
+  long double wsum = 0, sum = 0, sum2 = 0, sum_abs = 0, within = 0;
+  std::uint64_t lo_key = ~std::uint64_t{0}, hi_key = 0;
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    const double v = d[i];
+    const long double wt = area_mm2[i];
+    s.min_mm = std::min(s.min_mm, v);
+    s.max_mm = std::max(s.max_mm, v);
+    wsum += wt;
+    sum += wt * v;
+    sum2 += wt * v * v;
+    const double a = std::abs(v);
+    sum_abs += wt * a;
+    if (a <= tolerance_mm) within += wt;
+    const std::uint64_t k = abs_bits(v);
+    lo_key = std::min(lo_key, k);
+    hi_key = std::max(hi_key, k);
+  }
+  if (!(wsum > 0)) return deviation_stats(d, tolerance_mm);
+  s.mean_mm = static_cast<double>(sum / wsum);
+  s.mean_abs_mm = static_cast<double>(sum_abs / wsum);
+  s.rms_mm = static_cast<double>(std::sqrt(sum2 / wsum));
+  const long double var = std::max<long double>(0, sum2 / wsum - (sum / wsum) * (sum / wsum));
+  s.std_mm = static_cast<double>(std::sqrt(var));
+  const std::vector<double> p = weighted_percentiles(d, area_mm2, {0.50, 0.95, 0.99}, wsum, lo_key, hi_key);
+  s.p50_abs_mm = p[0];
+  s.p95_abs_mm = p[1];
+  s.p99_abs_mm = p[2];
+  s.hausdorff_mm = std::bit_cast<double>(hi_key);
+  s.within_tolerance_pct = static_cast<double>(100.0L * within / wsum);
+  return s;
+}
+
 }  // namespace printtwin

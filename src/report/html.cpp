@@ -214,6 +214,11 @@ void append_key_numbers_html(std::string& h, const VerifyReport& report) {
                   "of the deposit surface · " + fixed(dev.mesh_to_deposit.within_tolerance_pct, 1) +
                       " % of the mesh surface",
                   ""});
+  if (dev.wall_area_mm2 > 0)
+    h += card_html({"Layer lines", fixed(dev.wall_rq_mm, 3), " mm Rq",
+                    "roughness of the walls (RMS about each layer's mean) · " + fixed(dev.wall_rms_mm, 3) +
+                        " mm RMS from the design",
+                    ""});
   h += card_html({"Print time", html_escape(detail::duration_text(sim.print_time_s)), "",
                   std::to_string(sim.layers) + " layers · " + std::to_string(sim.gcode_lines) + " G-code lines", ""});
   h += card_html({"Filament", fixed(sim.filament_mm / 1000.0, 2), " m",

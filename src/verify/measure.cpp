@@ -115,8 +115,8 @@ Result<VerifyReport> measure_with(const PreparedPart& part, const VerifySettings
   // only translated, else one for this call.
   const Vec3 offset = reg.transform.translation_mm;
   auto dev = part.target && reg.transform.translation_only()
-                 ? compute_deviation(*part.target, offset, deposit.grid, dev_settings, part_box)
-                 : compute_deviation(report.placed_mesh, deposit.grid, dev_settings, part_box);
+                 ? compute_deviation(*part.target, offset, deposit.grid, dev_settings, part_box, printed.beads)
+                 : compute_deviation(report.placed_mesh, deposit.grid, dev_settings, part_box, printed.beads);
   if (!dev) return dev.error();
   report.deviation = std::move(*dev);
   report.deviation.registration_offset_mm = offset;

@@ -90,6 +90,7 @@ Result<PrintedGcode> print_gcode_with(const PrinterProfile& printer, const Verif
   dep_settings.voxel_mm = settings.voxel_mm;
   auto deposit = deposit_moves(collector.moves, printer, dep_settings);
   if (!deposit) return deposit.error();
+  printed.beads = surface_beads(collector.moves, printer);
   collector.moves = {};
   printed.findings.insert(printed.findings.end(), deposit->findings.begin(), deposit->findings.end());
   deposit->findings.clear();

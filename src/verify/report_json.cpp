@@ -123,6 +123,8 @@ std::string verify_report_json(const VerifyReport& r) {
                              : ordered_json(nullptr);
   dev["surface_faces"] = d.surface_faces;
   dev["surface_voxels"] = d.surface_voxels;
+  dev["layer_lines"] = {{"wall_rms_mm", num(d.wall_rms_mm)}, {"wall_rq_mm", num(d.wall_rq_mm)},
+                        {"wall_area_mm2", num(d.wall_area_mm2)}};
   dev["registration"] = registration_json(r.registration, d);
   j["deviation"] = dev;
 
@@ -154,7 +156,9 @@ std::string verify_report_json(const VerifyReport& r) {
     layers.push_back({{"layer", l.layer},
                       {"z_mm", num(l.z_mm)},
                       {"deposit_to_mesh", brief(l.deposit_to_mesh)},
-                      {"mesh_to_deposit", brief(l.mesh_to_deposit)}});
+                      {"mesh_to_deposit", brief(l.mesh_to_deposit)},
+                      {"wall_rms_mm", num(l.wall_rms_mm)},
+                      {"wall_rq_mm", num(l.wall_rq_mm)}});
   }
   j["per_layer"] = layers;
 

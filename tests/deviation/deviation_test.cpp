@@ -11,6 +11,7 @@
 #include <limits>
 #include <numbers>
 #include <random>
+#include <tuple>
 
 #include "deviation/deposit_surface_internal.hpp"
 #include "deviation/point_groups.hpp"
@@ -258,11 +259,14 @@ TEST(DeviationSurface, BlockFloodMatchesAVoxelByVoxelFloodFill) {
   };
   const VoxelGrid padded = voxelise(0.05, all, part);
   const VoxelGrid shifted = voxelise(0.05, all, part, Feature::outer_perimeter, Vec3(0.0, -0.3, 0.0));
-  const std::vector<std::pair<const VoxelGrid*, double>> cases{
-      {&padded, 0.1}, {&padded, 0.0}, {&padded, 0.25}, {&padded, 0.95}, {&shifted, 0.1}, {&shifted, 1.75}};
-  for (const auto& [grid_of_case, seal_mm] : cases) {
+  // With a groove depth, what the seal closed opens again to that many 6-connected steps
+  // through empty voxels from the outside found (0.25 mm: 5 steps; 0.45 mm: 9, past a block).
+  const std::vector<std::tuple<const VoxelGrid*, double, double>> cases{
+      {&padded, 0.1, 0.0},  {&padded, 0.0, 0.0},   {&padded, 0.25, 0.0},  {&padded, 0.95, 0.0},
+      {&shifted, 0.1, 0.0}, {&shifted, 1.75, 0.0}, {&padded, 0.25, 0.25}, {&shifted, 0.95, 0.45}};
+  for (const auto& [grid_of_case, seal_mm, groove_mm] : cases) {
     const VoxelGrid& grid = *grid_of_case;
-    const DepositSurface s = extract_outer_surface(grid, all, seal_mm);
+    const DepositSurface s = extract_outer_surface(grid, all, seal_mm, groove_mm);
     const int nx = s.dims.x(), ny = s.dims.y(), nz = s.dims.z();
     ASSERT_GT(ny, 64);  // many blocks
     const int r = static_cast<int>(std::floor(seal_mm / 0.1 + 1e-9));
@@ -326,7 +330,23 @@ TEST(DeviationSurface, BlockFloodMatchesAVoxelByVoxelFloodFill) {
         stack.push_back({n[0], n[1], n[2]});
       }
     }
-    const std::vector<std::uint8_t> out_dilated = dilated(outside);
+    std::vector<std::uint8_t> out_dilated = dilated(outside);
+    const int reopen = r > 0 ? static_cast<int>(std::floor(groove_mm / 0.05 + 1e-9)) : 0;
+    for (int step = 0; step < reopen; ++step) {
+      std::vector<std::uint8_t> grown = out_dilated;
+      for (int y = 0; y < ny; ++y)
+        for (int x = 0; x < nx; ++x)
+          for (int z = 0; z < nz; ++z) {
+            const std::size_t i = at(x, y, z);
+            if (occ[i] || grown[i]) continue;
+            const int nb[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z}, {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};
+            for (const auto& n : nb)
+              if (n[0] >= 0 && n[1] >= 0 && n[2] >= 0 && n[0] < nx && n[1] < ny && n[2] < nz &&
+                  out_dilated[at(n[0], n[1], n[2])] && !occ[at(n[0], n[1], n[2])])
+                grown[i] = 1;
+          }
+      out_dilated.swap(grown);
+    }
     std::vector<std::uint8_t> filled(occ.size());
     std::size_t n_filled = 0, mismatches = 0;
     for (int y = 0; y < ny; ++y)

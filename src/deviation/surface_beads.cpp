@@ -1,0 +1,132 @@
+// Step 4 of the outer surface: sub-voxel placement. Each face centre moves onto the true
+// surface of the bead that laid its voxel (the stadium bead of the deposit's model), and each
+// face gets the area of true surface it stands for.
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "deviation/surface_internal.hpp"
+#include "printtwin/deposit.hpp"
+#include "printtwin/deviation.hpp"
+
+namespace printtwin {
+
+std::vector<SurfaceBead> surface_beads(std::span<const Move> moves, const PrinterProfile& profile) {
+  std::vector<SurfaceBead> beads;
+  const double filament_area = profile.filament_area_mm2();
+  // The nominal layer height as the deposit takes it: the slicer's `;HEIGHT:`, else the Z
+  // step from the previous layer's extrusions; sloped moves (spirals) keep the last one.
+  double layer_z = std::numeric_limits<double>::quiet_NaN(), prev_z = 0, nominal = 0.5 * profile.nozzle_diameter_mm;
+  for (const Move& m : moves) {
+    if (m.kind != MoveKind::extrude || !(m.e_mm > 0) || is_auxiliary_feature(m.feature)) continue;
+    const double len = m.xy_length_mm();
+    if (!(len > 1e-9)) continue;
+    const double z = m.end_mm.z();
+    const bool sloped = std::abs(m.end_mm.z() - m.start_mm.z()) > 1e-6;
+    if (!sloped && !(std::abs(z - layer_z) <= 1e-6)) {  // a new layer
+      prev_z = std::isnan(layer_z) ? 0.0 : z > layer_z ? layer_z : std::max(0.0, z - nominal);
+      layer_z = z;
+      if (z - prev_z > 1e-3) nominal = z - prev_z;
+    }
+    const double h = m.height_hint_mm > 0 ? static_cast<double>(m.height_hint_mm) : nominal;
+    const double area = m.e_mm * filament_area / len;
+    double w = stadium_width_mm(area, h), hh = h;
+    if (w < h) hh = w = std::sqrt(4.0 * area / 3.14159265358979323846);  // a round strand
+    beads.push_back({m.start_mm, m.end_mm, static_cast<float>(w), static_cast<float>(hh),
+                     static_cast<std::uint32_t>(std::max<long>(m.line, 0))});
+  }
+  // In line order (the moves' order; arcs give several beads of one line).
+  std::stable_sort(beads.begin(), beads.end(), [](const SurfaceBead& a, const SurfaceBead& b) { return a.line < b.line; });
+  return beads;
+}
+
+namespace detail {
+
+double bead_closest(const SurfaceBead& b, const Vec3& p, Vec3& core_point) {
+  // The bead is its core (a level ribbon of width w - h along the move, h / 2 below the nozzle
+  // tip) grown by a ball of radius h / 2: the stadium section swept along the move.
+  const double r = 0.5 * b.height_mm;
+  const Vec3 a = b.start_mm - Vec3(0, 0, r), e = b.end_mm - Vec3(0, 0, r);
+  const Vec3 d = e - a;
+  const double len2 = d.squaredNorm();
+  double t = len2 > 0 ? (p - a).dot(d) / len2 : 0.0;
+  t = std::clamp(t, 0.0, 1.0);
+  const Vec3 q0 = a + t * d;
+  Vec3 across(-d.y(), d.x(), 0.0);
+  const double n = across.norm();
+  const double half = 0.5 * std::max(0.0, static_cast<double>(b.width_mm) - b.height_mm);
+  double s = 0;
+  if (n > 0) {
+    across /= n;
+    s = std::clamp((p - q0).dot(across), -half, half);
+  }
+  core_point = q0 + s * across;
+  return (p - core_point).norm() - r;
+}
+
+std::pair<std::size_t, std::size_t> beads_of_line(std::span<const SurfaceBead> beads, std::uint32_t line) {
+  const auto lo = std::lower_bound(beads.begin(), beads.end(), line,
+                                   [](const SurfaceBead& b, std::uint32_t l) { return b.line < l; });
+  auto hi = lo;
+  while (hi != beads.end() && hi->line == line) ++hi;
+  return {static_cast<std::size_t>(lo - beads.begin()), static_cast<std::size_t>(hi - beads.begin())};
+}
+
+BeadDistance nearest_bead(std::span<const SurfaceBead> beads, std::uint32_t line, const Vec3& p) {
+  BeadDistance best;
+  if (beads.empty()) return best;
+  auto [lo, hi] = beads_of_line(beads, line);
+  if (lo == hi) return best;
+  // The bead of the line and its neighbours along the path (the moves before and after).
+  lo = lo > 0 ? lo - 1 : lo;
+  hi = std::min(hi + 1, beads.size());
+  for (std::size_t k = lo; k < hi; ++k) {
+    Vec3 c;
+    const double sd = bead_closest(beads[k], p, c);
+    if (sd < best.signed_mm) {
+      best.signed_mm = sd;
+      best.bead = static_cast<std::uint32_t>(k);
+      best.core_point = c;
+    }
+  }
+  return best;
+}
+
+}  // namespace detail
+
+void place_on_beads(DepositSurface& s, std::span<const SurfaceBead> beads, double max_shift_mm) {
+  s.points_mm = s.face_centers_mm;
+  const double v = s.voxel_mm;
+  s.face_area_mm2.assign(s.faces.size(), v * v);
+  s.face_bead.assign(s.faces.size(), kNoBead);
+  if (beads.empty() || s.faces.empty()) return;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, s.faces.size(), 4096), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      const Vec3 p = s.face_centers_mm[i];
+      const detail::BeadDistance near = detail::nearest_bead(beads, s.face_tags[i].line, p);
+      if (near.bead == kNoBead || !(std::abs(near.signed_mm) <= max_shift_mm)) continue;
+      const SurfaceBead& b = beads[near.bead];
+      Vec3 n = p - near.core_point;
+      const double len = n.norm();
+      if (len > 1e-12) {
+        n /= len;
+      } else {  // on the core: the face's own normal
+        n = Vec3::Zero();
+        n[s.faces[i].axis] = s.faces[i].side;
+      }
+      // The face must face the way the bead's surface does: a face on the far side of a
+      // bead's core (a thin wall's back) belongs to another surface.
+      if (n[s.faces[i].axis] * s.faces[i].side <= 0) continue;
+      s.points_mm[i] = near.core_point + (0.5 * b.height_mm) * n;
+      // A surface of normal n is voxelised into faces of total area |n_x| + |n_y| + |n_z|
+      // times its own: each face stands for its area over that sum.
+      s.face_area_mm2[i] = v * v / (std::abs(n.x()) + std::abs(n.y()) + std::abs(n.z()));
+      s.face_bead[i] = near.bead;
+    }
+  });
+}
+
+}  // namespace printtwin

@@ -1,0 +1,30 @@
+#pragma once
+// Internals of the outer surface's sub-voxel step (surface_beads.cpp), for the tests.
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <span>
+#include <utility>
+
+#include "printtwin/deviation.hpp"
+
+namespace printtwin::detail {
+
+/// Signed distance from p to a bead (negative inside), and the point of the bead's core (the
+/// level ribbon of width w - h, h / 2 below the nozzle tip) closest to p: the bead's surface
+/// point nearest p is that core point plus h / 2 towards p.
+double bead_closest(const SurfaceBead& bead, const Vec3& p, Vec3& core_point);
+
+/// The beads of G-code line `line` (beads sorted by line): [first, last).
+std::pair<std::size_t, std::size_t> beads_of_line(std::span<const SurfaceBead> beads, std::uint32_t line);
+
+struct BeadDistance {
+  double signed_mm = std::numeric_limits<double>::infinity();
+  std::uint32_t bead = kNoBead;  ///< index into the beads
+  Vec3 core_point = Vec3::Zero();
+};
+/// The nearest (least signed distance) of the beads of `line` and their neighbours along the
+/// path (the bead before and after); bead = kNoBead when the line laid no bead.
+BeadDistance nearest_bead(std::span<const SurfaceBead> beads, std::uint32_t line, const Vec3& p);
+
+}  // namespace printtwin::detail
