@@ -29,6 +29,7 @@
 #include <tuple>
 
 #include "deviation/deposit_surface_internal.hpp"
+#include "deviation/outer_surface.hpp"
 #include "printtwin/deposit.hpp"
 #include "printtwin/deviation.hpp"
 #include "printtwin/io.hpp"

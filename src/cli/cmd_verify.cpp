@@ -26,6 +26,7 @@ struct VerifyCliOptions {
   double max_excess_mm = -1, max_deficit_mm = -1, max_rms_mm = -1;
   std::string printer = "auto";
   double voxel_mm = 0.05;
+  bool conserve_volume = false;
   double spacing_mm = 0;
   std::string place;
   std::string units;
@@ -149,6 +150,8 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
                   "auto (default: the printer the G-code's settings name), a library printer (printtwin printers), "
                   "ender3, ender3-marlin1, ender3-klipper, a profile .json or a Klipper printer.cfg");
   cmd->add_option("--voxel", o->voxel_mm, "deposit voxel edge in mm (default 0.05)");
+  cmd->add_flag("--conserve-volume", o->conserve_volume,
+                "squeeze material a bead cannot place into free space beside and below it (docs/deposit.md)");
   cmd->add_option("--sample-spacing", o->spacing_mm, "mesh surface sample spacing in mm (default: twice the voxel)");
   cmd->add_option("--place", o->place,
                   "place the mesh yourself (default: automatic): x,y,z mm, x,y,z,rz with a Z rotation in "
@@ -188,6 +191,7 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
       if (o->max_rms_mm >= 0) s.gates.max_rms_mm = o->max_rms_mm;
       s.printer = o->printer;
       s.voxel_mm = o->voxel_mm;
+      s.conserve_volume = o->conserve_volume;
       s.mesh_sample_spacing_mm = o->spacing_mm;
       s.seed = o->seed;
       s.keep_deposit_grid = !o->deposit_mesh.path.empty();

@@ -18,6 +18,8 @@ void add_deposit_options(CLI::App& cmd, DepositCliOptions& o) {
                  "Write the deposit's outer surface voxels as a PLY point cloud (layer, feature, line)");
   cmd.add_flag("--deposit-summary", o.deposit,
                "Deposit the material (summary, findings and JSON) without writing voxel files");
+  cmd.add_flag("--conserve-volume", o.conserve_volume,
+               "Squeeze material a bead cannot place into free space beside and below it (docs/deposit.md)");
   cmd.add_option("--voxel", o.voxel_mm, "Deposit voxel edge (mm)")
       ->capture_default_str()
       ->check(CLI::Range(0.001, 10.0));
@@ -97,6 +99,7 @@ Status DepositStage::run(const PrinterProfile& profile, SimulationResult& sim) {
   if (!budget) return budget.error();
   DepositSettings settings;
   settings.voxel_mm = options_.voxel_mm;
+  settings.conserve_volume = options_.conserve_volume;
   settings.support_fraction = options_.support_fraction;
   settings.max_memory_bytes = *budget;
   auto deposit = deposit_moves(moves_, profile, settings);

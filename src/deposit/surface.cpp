@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "deposit/voxel_blocks.hpp"
+#include "deviation/outer_surface.hpp"
 #include "printtwin/deposit.hpp"
 #include "printtwin/deviation.hpp"
 

@@ -11,6 +11,7 @@
 #include <memory>
 
 #include "core/zeroed_array.hpp"
+#include "deviation/outer_surface.hpp"
 #include "deposit/voxel_blocks.hpp"
 #include "deviation/deposit_surface_internal.hpp"
 #include "deviation/kernels.hpp"

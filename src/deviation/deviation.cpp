@@ -9,6 +9,7 @@
 #include <tbb/parallel_invoke.h>
 
 #include "deviation/deposit_surface_internal.hpp"
+#include "deviation/outer_surface.hpp"
 #include "deviation/surface_internal.hpp"
 #include "printtwin/deviation.hpp"
 

@@ -16,6 +16,7 @@
 #include <optional>
 
 #include "core/bits.hpp"
+#include "deviation/outer_surface.hpp"
 #include "core/zeroed_array.hpp"
 #include "deviation/surface_blocks.hpp"
 #include "printtwin/deviation.hpp"

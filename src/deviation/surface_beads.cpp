@@ -9,6 +9,7 @@
 #include <limits>
 
 #include "deviation/surface_internal.hpp"
+#include "deviation/outer_surface.hpp"
 #include "printtwin/deposit.hpp"
 #include "printtwin/deviation.hpp"
 

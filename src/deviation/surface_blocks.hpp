@@ -12,13 +12,15 @@
 #include <memory>
 #include <vector>
 
+#include "deviation/outer_surface.hpp"
 #include "core/bits.hpp"
+#include "deposit/voxel_blocks.hpp"
 #include "core/zeroed_array.hpp"
 #include "printtwin/deviation.hpp"
 
 namespace printtwin::surface_blocks {
 
-constexpr int kE = VoxelGrid::kBlockEdge;
+constexpr int kE = detail::VoxelBlocks::kBlockEdge;
 static_assert(kE == 8, "a block's z-slice is one 64-bit word");
 
 /// An 8^3 block of voxel bits laid out as the grid's occupancy: word z is z-slice z, bit

@@ -10,6 +10,7 @@
 #include <functional>
 
 #include "deviation/surface_blocks.hpp"
+#include "deviation/outer_surface.hpp"
 
 namespace printtwin::surface_blocks {
 

@@ -88,6 +88,7 @@ Result<PrintedGcode> print_gcode_with(const PrinterProfile& printer, const Verif
   stage("deposit");
   DepositSettings dep_settings;
   dep_settings.voxel_mm = settings.voxel_mm;
+  dep_settings.conserve_volume = settings.conserve_volume;
   auto deposit = deposit_moves(collector.moves, printer, dep_settings);
   if (!deposit) return deposit.error();
   printed.beads = surface_beads(collector.moves, printer);

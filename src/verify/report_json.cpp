@@ -201,6 +201,7 @@ std::string verify_report_json(const VerifyReport& r) {
                    {"max_deficit_mm", optional_mm(st.gates.max_deficit_mm)},
                    {"max_rms_mm", optional_mm(st.gates.max_rms_mm)},
                    {"voxel_mm", num(st.voxel_mm)},
+                   {"conserve_volume", st.conserve_volume},
                    {"mesh_sample_spacing_mm", num(st.mesh_sample_spacing_mm > 0 ? st.mesh_sample_spacing_mm : 2 * st.voxel_mm)},
                    {"place_mm", st.place_mm ? vec(*st.place_mm) : ordered_json(nullptr)},
                    {"place_rotation_deg", st.place_rotation_deg ? vec(*st.place_rotation_deg) : ordered_json(nullptr)},

@@ -55,5 +55,17 @@ TEST(DepositCli, MemoryBudgetStopsWithASuggestedVoxelSize) {
   EXPECT_EQ(bad.exit_code, 2);
 }
 
+TEST(DepositCli, ConserveVolumePlacesTheVaseOverlap) {
+  // The spiral vase's overlap is lost by default and squeezed beside the bead with the flag.
+  const auto gcode = test::source_path("samples/gcode/prusa_vase10.gcode");
+  const auto off = test::run_cli("simulate '" + gcode.string() + "' --deposit-summary");
+  const auto on = test::run_cli("simulate '" + gcode.string() + "' --deposit-summary --conserve-volume");
+  ASSERT_EQ(off.exit_code, 0) << off.err;
+  ASSERT_EQ(on.exit_code, 0) << on.err;
+  EXPECT_EQ(off.out.find("100.0 % of"), std::string::npos) << off.out;
+  EXPECT_NE(on.out.find("100.0 % of"), std::string::npos) << on.out;
+  EXPECT_NE(on.out.find("squeezed into free space nearby"), std::string::npos) << on.out;
+}
+
 }  // namespace
 }  // namespace printtwin

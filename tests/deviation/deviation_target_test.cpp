@@ -7,6 +7,7 @@
 #include <numbers>
 
 #include "deviation/deposit_surface_internal.hpp"
+#include "deviation/outer_surface.hpp"
 #include "printtwin/deviation.hpp"
 #include "printtwin/mesh_query.hpp"
 

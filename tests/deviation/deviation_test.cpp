@@ -14,6 +14,7 @@
 #include <tuple>
 
 #include "deviation/deposit_surface_internal.hpp"
+#include "deviation/outer_surface.hpp"
 #include "deviation/point_groups.hpp"
 #include "printtwin/deviation.hpp"
 #include "printtwin/mesh_query.hpp"

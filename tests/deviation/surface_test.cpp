@@ -7,6 +7,7 @@
 #include <numbers>
 
 #include "deposit/deposit_test_support.hpp"
+#include "deviation/outer_surface.hpp"
 #include "deviation/surface_internal.hpp"
 #include "printtwin/deposit.hpp"
 #include "printtwin/deviation.hpp"
