@@ -27,8 +27,9 @@ namespace {
 
 std::string pair_path(const char* env, const char* file) {
   if (const char* p = std::getenv(env); p != nullptr && *p != '\0') return p;
-  for (const std::filesystem::path& dir : {std::filesystem::path(PRINTTWIN_SOURCE_DIR) / "../shared/realworld/gcode",
-                                          std::filesystem::path("/work/shared/realworld/gcode")})
+  for (const std::filesystem::path& dir :
+       {std::filesystem::path(PRINTTWIN_SOURCE_DIR) / "../shared/realworld/gcode",
+        std::filesystem::path("/work/shared/realworld/gcode")})
     if (std::error_code ec; std::filesystem::exists(dir / file, ec)) return (dir / file).string();
   return {};
 }
@@ -40,8 +41,10 @@ struct Pair {
 const Pair& files() {
   static const Pair pair = [] {
     Pair p;
-    const auto t = pair_path("PRINTTWIN_BENCH_GCODE", "prusaslicer-2.8.1_MK4S_mini_cube_arcs.gcode");
-    const auto b = pair_path("PRINTTWIN_BENCH_BGCODE", "prusaslicer-2.8.1_MK4S_mini_cube_arcs_BINARY.bgcode");
+    const auto t =
+        pair_path("PRINTTWIN_BENCH_GCODE", "prusaslicer-2.8.1_MK4S_mini_cube_arcs.gcode");
+    const auto b =
+        pair_path("PRINTTWIN_BENCH_BGCODE", "prusaslicer-2.8.1_MK4S_mini_cube_arcs_BINARY.bgcode");
     if (auto r = printtwin::read_file(t)) p.text = std::move(*r);
     if (auto r = printtwin::read_file(b)) p.binary = std::move(*r);
     return p;
@@ -69,7 +72,9 @@ const Pair& long_print() {
   return pair;
 }
 
-const Pair& pair_for(const benchmark::State& state) { return state.range(0) == 0 ? files() : long_print(); }
+const Pair& pair_for(const benchmark::State& state) {
+  return state.range(0) == 0 ? files() : long_print();
+}
 
 void BM_SimulateText(benchmark::State& state) {
   for (auto _ : state) {
@@ -78,7 +83,8 @@ void BM_SimulateText(benchmark::State& state) {
     if (!r) state.SkipWithError(r.error().describe().c_str());
     benchmark::DoNotOptimize(r);
   }
-  state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * pair_for(state).text.size()));
+  state.SetBytesProcessed(
+      static_cast<std::int64_t>(state.iterations() * pair_for(state).text.size()));
 }
 
 void BM_SimulateBinary(benchmark::State& state) {
@@ -92,7 +98,8 @@ void BM_SimulateBinary(benchmark::State& state) {
     if (!r || (*in)->error()) state.SkipWithError("simulate failed");
     benchmark::DoNotOptimize(r);
   }
-  state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * pair_for(state).binary.size()));
+  state.SetBytesProcessed(
+      static_cast<std::int64_t>(state.iterations() * pair_for(state).binary.size()));
 }
 
 void BM_DecodeBinary(benchmark::State& state) {
@@ -104,7 +111,8 @@ void BM_DecodeBinary(benchmark::State& state) {
     benchmark::DoNotOptimize(text);
   }
   state.counters["text_bytes"] = static_cast<double>(text_bytes);
-  state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * pair_for(state).binary.size()));
+  state.SetBytesProcessed(
+      static_cast<std::int64_t>(state.iterations() * pair_for(state).binary.size()));
 }
 
 }  // namespace
@@ -112,16 +120,20 @@ void BM_DecodeBinary(benchmark::State& state) {
 int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   if (files().text.empty() || files().binary.empty()) {
-    std::cerr << "bgcode_bench: no text/binary pair (set PRINTTWIN_BENCH_GCODE and PRINTTWIN_BENCH_BGCODE)\n";
+    std::cerr << "bgcode_bench: no text/binary pair (set PRINTTWIN_BENCH_GCODE and "
+                 "PRINTTWIN_BENCH_BGCODE)\n";
     return 0;
   }
   // Argument 0: the file as it is; 1: its G-code repeated kRepeats times.
   for (auto* b : {benchmark::RegisterBenchmark("BM_SimulateText", BM_SimulateText),
                   benchmark::RegisterBenchmark("BM_SimulateBinary", BM_SimulateBinary),
                   benchmark::RegisterBenchmark("BM_DecodeBinary", BM_DecodeBinary)})
-    b->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->ComputeStatistics("min", [](const std::vector<double>& v) {
-      return *std::min_element(v.begin(), v.end());
-    });
+    b->Arg(0)
+        ->Arg(1)
+        ->Unit(benchmark::kMillisecond)
+        ->ComputeStatistics("min", [](const std::vector<double>& v) {
+          return *std::min_element(v.begin(), v.end());
+        });
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   return 0;

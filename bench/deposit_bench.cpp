@@ -31,9 +31,11 @@ double grid_checksum(const VoxelGrid& g) {
     h *= 1099511628211ull;
   };
   g.for_each([&](const VoxelKey& k, const VoxelTag& t) {
-    mix(static_cast<std::uint32_t>(k.x) | static_cast<std::uint64_t>(static_cast<std::uint32_t>(k.y)) << 32);
+    mix(static_cast<std::uint32_t>(k.x) |
+        static_cast<std::uint64_t>(static_cast<std::uint32_t>(k.y)) << 32);
     mix(static_cast<std::uint32_t>(k.z) | static_cast<std::uint64_t>(t.line) << 32);
-    mix(static_cast<std::uint64_t>(static_cast<std::uint32_t>(t.layer)) << 8 | static_cast<std::uint64_t>(t.feature));
+    mix(static_cast<std::uint64_t>(static_cast<std::uint32_t>(t.layer)) << 8 |
+        static_cast<std::uint64_t>(t.feature));
   });
   return static_cast<double>(h & ((std::uint64_t{1} << 48) - 1));
 }
@@ -62,11 +64,13 @@ void BM_VoxelGridFillRows(benchmark::State& state) {
     const auto tag = detail::VoxelBlocks::add_tag(g, VoxelTag{1, 0, Feature::perimeter});
     for (int z = 0; z < nz; ++z)
       for (int y = 0; y < n; ++y)
-        for (int x = 0; x + 64 <= n; x += 64) written += detail::VoxelBlocks::fill_row(g, y, z, x, x + 64, tag);
+        for (int x = 0; x + 64 <= n; x += 64)
+          written += detail::VoxelBlocks::fill_row(g, y, z, x, x + 64, tag);
     benchmark::DoNotOptimize(g.count());
   }
   state.SetItemsProcessed(static_cast<std::int64_t>(written));
-  state.counters["voxels_per_s"] = benchmark::Counter(static_cast<double>(written), benchmark::Counter::kIsRate);
+  state.counters["voxels_per_s"] =
+      benchmark::Counter(static_cast<double>(written), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_VoxelGridFillRows)->Unit(benchmark::kMillisecond);
 
@@ -82,13 +86,15 @@ void BM_VoxelGridWriteTiles(benchmark::State& state) {
     for (int z = 0; z < nz; ++z)
       for (int by = 0; by < n / 8; ++by)
         for (int bx = 0; bx < n / 8; ++bx) {
-          const std::uint64_t mask = (bx + by + z) % 2 == 0 ? ~std::uint64_t{0} : 0xAA55AA55AA55AA55ull;
+          const std::uint64_t mask =
+              (bx + by + z) % 2 == 0 ? ~std::uint64_t{0} : 0xAA55AA55AA55AA55ull;
           written += detail::VoxelBlocks::write_tile(g, bx, by, z, mask, tag);
         }
     benchmark::DoNotOptimize(g.count());
   }
   state.SetItemsProcessed(static_cast<std::int64_t>(written));
-  state.counters["voxels_per_s"] = benchmark::Counter(static_cast<double>(written), benchmark::Counter::kIsRate);
+  state.counters["voxels_per_s"] =
+      benchmark::Counter(static_cast<double>(written), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_VoxelGridWriteTiles)->Unit(benchmark::kMillisecond);
 
@@ -101,11 +107,13 @@ void BM_VoxelGridSetIndex(benchmark::State& state) {
     const auto tag = detail::VoxelBlocks::add_tag(g, VoxelTag{1, 0, Feature::perimeter});
     for (int z = 0; z < nz; ++z)
       for (int y = 0; y < n; ++y)
-        for (int x = 0; x < n; ++x) written += detail::VoxelBlocks::set_index(g, VoxelKey{x, y, z}, tag) ? 1 : 0;
+        for (int x = 0; x < n; ++x)
+          written += detail::VoxelBlocks::set_index(g, VoxelKey{x, y, z}, tag) ? 1 : 0;
     benchmark::DoNotOptimize(g.count());
   }
   state.SetItemsProcessed(static_cast<std::int64_t>(written));
-  state.counters["voxels_per_s"] = benchmark::Counter(static_cast<double>(written), benchmark::Counter::kIsRate);
+  state.counters["voxels_per_s"] =
+      benchmark::Counter(static_cast<double>(written), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_VoxelGridSetIndex)->Unit(benchmark::kMillisecond);
 
@@ -229,7 +237,12 @@ void BM_SimulateAndDeposit(benchmark::State& state) {
   state.counters["peak_rss_MB"] = peak_rss_mb();
   state.counters["findings"] = static_cast<double>(last.findings.size());
 }
-BENCHMARK(BM_SimulateAndDeposit)->Arg(50)->Arg(100)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3);
+BENCHMARK(BM_SimulateAndDeposit)
+    ->Arg(50)
+    ->Arg(100)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1)
+    ->Repetitions(3);
 
 /// The deposit alone (Moves interpreted once, outside the timing). Argument: conserve
 /// volume (1, the default) or lose the overlap (0), to measure what the squeeze costs.
@@ -271,7 +284,12 @@ void BM_DepositOnly(benchmark::State& state) {
   // Every thread's CPU time (cpu_time is the benchmark thread's alone, without the writer's).
   state.counters["process_cpu_ms"] = cpu_ms / static_cast<double>(state.iterations());
 }
-BENCHMARK(BM_DepositOnly)->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3);
+BENCHMARK(BM_DepositOnly)
+    ->Arg(1)
+    ->Arg(0)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1)
+    ->Repetitions(3);
 
 /// Where the overlap of real G-code comes from: the deposit of each feature group alone
 /// (overlap within the group: neighbouring beads of one kind) and of everything (the rest is
@@ -293,13 +311,17 @@ void BM_OverlapByFeature(benchmark::State& state) {
     switch (f) {
       case Feature::outer_perimeter:
       case Feature::perimeter:
-      case Feature::overhang_perimeter: return kPerimeters;
-      case Feature::sparse_infill: return kSparse;
+      case Feature::overhang_perimeter:
+        return kPerimeters;
+      case Feature::sparse_infill:
+        return kSparse;
       case Feature::solid_infill:
       case Feature::top_solid_infill:
       case Feature::bridge_infill:
-      case Feature::gap_fill: return kSolid;
-      default: return kOther;
+      case Feature::gap_fill:
+        return kSolid;
+      default:
+        return kOther;
     }
   };
   const char* names[kGroups] = {"perimeters", "sparse", "solid", "other"};
@@ -310,7 +332,8 @@ void BM_OverlapByFeature(benchmark::State& state) {
     for (int g = 0; g < kGroups; ++g) {
       std::vector<Move> part = *moves;
       for (auto& m : part)
-        if (m.kind == MoveKind::extrude && group_of(m.feature) != g) m.kind = MoveKind::travel, m.e_mm = 0;
+        if (m.kind == MoveKind::extrude && group_of(m.feature) != g)
+          m.kind = MoveKind::travel, m.e_mm = 0;
       auto r = deposit_moves(part, profile, s);
       if (!r) {
         state.SkipWithError(r.error().describe().c_str());

@@ -62,7 +62,9 @@ struct Prepared {
 const Prepared& prepared() {
   static const Prepared p = [] {
     Prepared out;
-    const std::string gcode = env_or("PRINTTWIN_BENCH_GCODE", std::string(PRINTTWIN_SOURCE_DIR) + "/samples/gcode/prusa_cube10.gcode");
+    const std::string gcode =
+        env_or("PRINTTWIN_BENCH_GCODE",
+               std::string(PRINTTWIN_SOURCE_DIR) + "/samples/gcode/prusa_cube10.gcode");
     const std::string mesh_path = env_or("PRINTTWIN_BENCH_MESH", "");
     const double voxel = std::stod(env_or("PRINTTWIN_BENCH_VOXEL", "0.05"));
     auto profile = load_printer_profile("ender3");
@@ -154,11 +156,16 @@ struct Hash {
     for (std::size_t i = 0; i < n; ++i) h = (h ^ c[i]) * 1099511628211ULL;
   }
   template <class T>
-  void add(const T& v) { bytes(&v, sizeof v); }
-  void add(const Vec3& v) { for (int a = 0; a < 3; ++a) add(v[a]); }
+  void add(const T& v) {
+    bytes(&v, sizeof v);
+  }
+  void add(const Vec3& v) {
+    for (int a = 0; a < 3; ++a) add(v[a]);
+  }
   void add(const DeviationStats& s) {
-    for (const double x : {s.min_mm, s.max_mm, s.mean_mm, s.mean_abs_mm, s.rms_mm, s.std_mm, s.p50_abs_mm,
-                           s.p95_abs_mm, s.p99_abs_mm, s.within_tolerance_pct, s.hausdorff_mm})
+    for (const double x :
+         {s.min_mm, s.max_mm, s.mean_mm, s.mean_abs_mm, s.rms_mm, s.std_mm, s.p50_abs_mm,
+          s.p95_abs_mm, s.p99_abs_mm, s.within_tolerance_pct, s.hausdorff_mm})
       add(x);
     add(s.samples);
   }
@@ -204,7 +211,9 @@ int checksum() {
     h.add(g.samples);
     for (const long l : g.gcode_lines) h.add(l);
   }
-  for (const double x : {r->max_excess_mm, r->max_deficit_mm, r->noise_area_mm2, r->deposit_volume_mm3}) h.add(x);
+  for (const double x :
+       {r->max_excess_mm, r->max_deficit_mm, r->noise_area_mm2, r->deposit_volume_mm3})
+    h.add(x);
   for (const std::size_t x : {r->noise_regions, r->surface_faces, r->surface_voxels}) h.add(x);
   for (const double x : r->vertex_deviation_mm) h.add(x);
   // The phases alone (public entry points), for attribution: the least CPU of 3 runs each.
@@ -222,13 +231,15 @@ int checksum() {
     return best;
   };
   DepositSurface surface;
-  const double t_surface = least_of_3([&] { surface = extract_outer_surface(p.deposit.grid, region, settings.seal_gap_mm); });
+  const double t_surface = least_of_3(
+      [&] { surface = extract_outer_surface(p.deposit.grid, region, settings.seal_gap_mm); });
   const std::vector<Vec3>& pts = surface.face_centers_mm;
   std::vector<double> d;
   std::vector<std::uint32_t> tri;
   const double near_mm = std::max(4.0 * p.deposit.grid.voxel_mm(), settings.tolerance_mm);
   const std::vector<std::uint32_t> cells = detail::face_cell_groups(surface);
-  const double t_dep = least_of_3([&] { target->signed_distances(Vec3::Zero(), pts, near_mm, d, &tri, cells); });
+  const double t_dep =
+      least_of_3([&] { target->signed_distances(Vec3::Zero(), pts, near_mm, d, &tri, cells); });
   std::vector<Vec3> q;
   for (const auto& s : target->samples()) q.push_back(s.position_mm);
   q.insert(q.end(), p.placed.vertices_mm.begin(), p.placed.vertices_mm.end());
@@ -259,8 +270,8 @@ int checksum() {
     c.add(r->mesh_samples);
     for (const double x : r->vertex_deviation_mm) c.add(x);
     for (const DeviationStats* s : {&r->deposit_to_mesh, &r->mesh_to_deposit})
-      for (const double x : {s->min_mm, s->max_mm, s->p50_abs_mm, s->p95_abs_mm, s->p99_abs_mm, s->hausdorff_mm,
-                             s->within_tolerance_pct})
+      for (const double x : {s->min_mm, s->max_mm, s->p50_abs_mm, s->p95_abs_mm, s->p99_abs_mm,
+                             s->hausdorff_mm, s->within_tolerance_pct})
         c.add(x);
     for (const auto& g : r->regions) {
       c.add(g.kind);
@@ -268,11 +279,14 @@ int checksum() {
       c.add(g.worst_mm);
       for (const long l : g.gcode_lines) c.add(l);
     }
-    std::printf("order-free checksum %016llx (samples, vertex deviation, order statistics, regions)\n",
-                static_cast<unsigned long long>(c.h));
+    std::printf(
+        "order-free checksum %016llx (samples, vertex deviation, order statistics, regions)\n",
+        static_cast<unsigned long long>(c.h));
   }
-  std::printf("cpu s: target %.3f deviation %.3f | least of 3: surface %.3f deposit->mesh %.3f mesh->deposit %.3f\n",
-              t1 - t0, t2 - t1, t_surface, t_dep, t_mesh);
+  std::printf(
+      "cpu s: target %.3f deviation %.3f | least of 3: surface %.3f deposit->mesh %.3f "
+      "mesh->deposit %.3f\n",
+      t1 - t0, t2 - t1, t_surface, t_dep, t_mesh);
   return 0;
 }
 
@@ -298,8 +312,8 @@ int export_points(int argc, char** argv) {
   if (!write_file_atomic(dir / "points.ply", points_ply(pts, {})).ok()) return 3;
   if (!save_stl(r->placed_mesh, dir / "mesh.stl").ok()) return 3;
   const auto& s = r->deviation.deposit_to_mesh;
-  std::printf("exported %zu points; ours in-process: mean|d| %.9f rms %.9f max|d| %.9f\n", pts.size(),
-              s.mean_abs_mm, s.rms_mm, s.hausdorff_mm);
+  std::printf("exported %zu points; ours in-process: mean|d| %.9f rms %.9f max|d| %.9f\n",
+              pts.size(), s.mean_abs_mm, s.rms_mm, s.hausdorff_mm);
   return 0;
 }
 
@@ -320,7 +334,8 @@ bool read_points(const std::string& path, std::vector<Vec3>& pts) {
   if (text->size() < end + 11 + n * props * 8) return false;
   pts.resize(n);
   for (std::size_t i = 0; i < n; ++i)
-    for (int a = 0; a < 3; ++a) std::memcpy(&pts[i][a], data + (i * props + static_cast<std::size_t>(a)) * 8, 8);
+    for (int a = 0; a < 3; ++a)
+      std::memcpy(&pts[i][a], data + (i * props + static_cast<std::size_t>(a)) * 8, 8);
   return true;
 }
 
@@ -340,8 +355,8 @@ int c2m(int argc, char** argv) {
     mx = std::max(mx, std::abs(v));
   }
   const auto n = static_cast<long double>(d->size());
-  std::printf("n %zu mean_abs %.9f rms %.9f max_abs %.9f\n", d->size(), static_cast<double>(sum / n),
-              static_cast<double>(std::sqrt(sum2 / n)), mx);
+  std::printf("n %zu mean_abs %.9f rms %.9f max_abs %.9f\n", d->size(),
+              static_cast<double>(sum / n), static_cast<double>(std::sqrt(sum2 / n)), mx);
   return 0;
 }
 

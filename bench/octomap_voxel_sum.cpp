@@ -55,13 +55,15 @@ int main(int argc, char** argv) {
     const std::string name = argv[i];
     if (name.size() > 3 && name.compare(name.size() - 3, 3, ".bt") == 0) {
       octomap::OcTree tree(0.1);
-      if (!tree.readBinary(name)) return std::fprintf(stderr, "%s: not a readable .bt\n", argv[i]), 1;
+      if (!tree.readBinary(name))
+        return std::fprintf(stderr, "%s: not a readable .bt\n", argv[i]), 1;
       summarise(argv[i], tree, [](const octomap::OcTreeNode&) { return std::uint64_t{0}; });
       continue;
     }
     std::unique_ptr<octomap::AbstractOcTree> any(octomap::AbstractOcTree::read(name));
     const auto* colour = dynamic_cast<const octomap::ColorOcTree*>(any.get());
-    if (colour == nullptr) return std::fprintf(stderr, "%s: not a readable ColorOcTree .ot\n", argv[i]), 1;
+    if (colour == nullptr)
+      return std::fprintf(stderr, "%s: not a readable ColorOcTree .ot\n", argv[i]), 1;
     summarise(argv[i], *colour, [](const octomap::ColorOcTreeNode& n) {
       const auto c = n.getColor();
       return std::uint64_t{c.r} << 16 | std::uint64_t{c.g} << 8 | c.b;

@@ -21,8 +21,9 @@ namespace {
 const std::string& gcode_text() {
   static const std::string text = [] {
     const char* env = std::getenv("PRINTTWIN_BENCH_GCODE");
-    const std::string path =
-        env != nullptr ? std::string(env) : std::string(PRINTTWIN_SOURCE_DIR) + "/samples/gcode/prusa_thin_walls.gcode";
+    const std::string path = env != nullptr ? std::string(env)
+                                            : std::string(PRINTTWIN_SOURCE_DIR) +
+                                                  "/samples/gcode/prusa_thin_walls.gcode";
     auto t = printtwin::read_file(path);
     return t.ok() ? *t : std::string();
   }();
@@ -47,12 +48,15 @@ void BM_ParseLines(benchmark::State& state) {
     while (reader.next(line)) ok += parse_gcode_line(line, reader.line_number(), cmd).ok();
     benchmark::DoNotOptimize(ok);
   }
-  state.counters["lines_per_s"] = benchmark::Counter(static_cast<double>(lines), benchmark::Counter::kIsIterationInvariantRate);
-  state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations()) * static_cast<std::int64_t>(text.size()));
+  state.counters["lines_per_s"] =
+      benchmark::Counter(static_cast<double>(lines), benchmark::Counter::kIsIterationInvariantRate);
+  state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations()) *
+                          static_cast<std::int64_t>(text.size()));
 }
 BENCHMARK(BM_ParseLines)->Unit(benchmark::kMillisecond);
 
-void BM_Simulate(benchmark::State& state, printtwin::PrinterProfile profile, bool limits_from_gcode) {
+void BM_Simulate(benchmark::State& state, printtwin::PrinterProfile profile,
+                 bool limits_from_gcode) {
   const std::string& text = gcode_text();
   const long lines = count_lines(text);
   long moves = 0;
@@ -68,14 +72,18 @@ void BM_Simulate(benchmark::State& state, printtwin::PrinterProfile profile, boo
     moves = r->moves;
     benchmark::DoNotOptimize(r->print_time_s);
   }
-  state.counters["lines_per_s"] = benchmark::Counter(static_cast<double>(lines), benchmark::Counter::kIsIterationInvariantRate);
-  state.counters["moves_per_s"] = benchmark::Counter(static_cast<double>(moves), benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["lines_per_s"] =
+      benchmark::Counter(static_cast<double>(lines), benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["moves_per_s"] =
+      benchmark::Counter(static_cast<double>(moves), benchmark::Counter::kIsIterationInvariantRate);
   state.counters["lines"] = static_cast<double>(lines);
 }
 BENCHMARK_CAPTURE(BM_Simulate, marlin2_junction_deviation, printtwin::ender3_marlin2(), false)
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_Simulate, marlin1_classic_jerk, printtwin::ender3_marlin1(), false)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_Simulate, klipper, printtwin::ender3_klipper(), false)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Simulate, marlin1_classic_jerk, printtwin::ender3_marlin1(), false)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Simulate, klipper, printtwin::ender3_klipper(), false)
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

@@ -44,12 +44,15 @@ Mesh sphere(double r, int rings, int sectors) {
     const double phi = std::numbers::pi * i / rings - std::numbers::pi / 2;
     for (int j = 0; j < sectors; ++j) {
       const double th = 2 * std::numbers::pi * j / sectors;
-      m.vertices_mm.push_back(Vec3(r * std::cos(phi) * std::cos(th), r * std::cos(phi) * std::sin(th), r * std::sin(phi)));
+      m.vertices_mm.push_back(Vec3(r * std::cos(phi) * std::cos(th),
+                                   r * std::cos(phi) * std::sin(th), r * std::sin(phi)));
     }
   }
   m.vertices_mm.push_back(Vec3(0, 0, r));
   const auto S = static_cast<std::uint32_t>(sectors);
-  auto v = [&](int ring, int j) { return 1 + static_cast<std::uint32_t>(ring - 1) * S + static_cast<std::uint32_t>(j % sectors); };
+  auto v = [&](int ring, int j) {
+    return 1 + static_cast<std::uint32_t>(ring - 1) * S + static_cast<std::uint32_t>(j % sectors);
+  };
   const auto top = static_cast<std::uint32_t>(m.vertices_mm.size() - 1);
   for (int j = 0; j < sectors; ++j) m.triangles.push_back({0, v(1, j + 1), v(1, j)});
   for (int i = 1; i + 1 < rings; ++i)
@@ -57,7 +60,8 @@ Mesh sphere(double r, int rings, int sectors) {
       m.triangles.push_back({v(i, j), v(i, j + 1), v(i + 1, j + 1)});
       m.triangles.push_back({v(i, j), v(i + 1, j + 1), v(i + 1, j)});
     }
-  for (int j = 0; j < sectors; ++j) m.triangles.push_back({top, v(rings - 1, j), v(rings - 1, j + 1)});
+  for (int j = 0; j < sectors; ++j)
+    m.triangles.push_back({top, v(rings - 1, j), v(rings - 1, j + 1)});
   return m;
 }
 

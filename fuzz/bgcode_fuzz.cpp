@@ -35,7 +35,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     char buf[64];
     in.read(buf, sizeof buf);
     const auto got = static_cast<std::size_t>(in.gcount());
-    if (std::string_view(buf, got) != std::string_view(*text).substr(at, sizeof buf)) __builtin_trap();
+    if (std::string_view(buf, got) != std::string_view(*text).substr(at, sizeof buf))
+      __builtin_trap();
   }
   if (in.error()) __builtin_trap();
   return 0;

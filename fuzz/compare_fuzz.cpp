@@ -33,9 +33,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       std::size_t pos = 0;
       while (pos <= text.size() && spec.axes.size() < 4) {
         const std::size_t nl = text.find('\n', pos);
-        const std::string_view line = text.substr(pos, nl == std::string_view::npos ? text.size() - pos : nl - pos);
+        const std::string_view line =
+            text.substr(pos, nl == std::string_view::npos ? text.size() - pos : nl - pos);
         if (auto axis = printtwin::parse_sweep_axis(line)) spec.axes.push_back(std::move(*axis));
-        if (auto kv = printtwin::parse_setting_kv(line)) spec.common_settings.push_back(std::move(*kv));
+        if (auto kv = printtwin::parse_setting_kv(line))
+          spec.common_settings.push_back(std::move(*kv));
         if (nl == std::string_view::npos) break;
         pos = nl + 1;
       }

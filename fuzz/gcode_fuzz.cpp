@@ -14,7 +14,8 @@ namespace {
 struct Check final : printtwin::MoveSink {
   double last_end_s = 0;
   void on_move(const printtwin::Move& m) override {
-    if (!m.start_mm.allFinite() || !m.end_mm.allFinite() || !std::isfinite(m.e_mm)) __builtin_trap();
+    if (!m.start_mm.allFinite() || !m.end_mm.allFinite() || !std::isfinite(m.e_mm))
+      __builtin_trap();
   }
   void on_segment(const printtwin::MotionSegment& s) override {
     if (!std::isfinite(s.duration_s()) || s.duration_s() < 0) __builtin_trap();
@@ -28,7 +29,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (size == 0) return 0;
   const std::uint8_t mode = data[0];
   std::string text(reinterpret_cast<const char*>(data + 1), size - 1);
-  printtwin::PrinterProfile profile = (mode & 1) ? printtwin::ender3_marlin1() : printtwin::ender3_marlin2();
+  printtwin::PrinterProfile profile =
+      (mode & 1) ? printtwin::ender3_marlin1() : printtwin::ender3_marlin2();
   if (mode & 2) profile.firmware_retraction = true;
   printtwin::SimulateOptions options;
   options.interpreter.strict = (mode & 4) != 0;

@@ -48,8 +48,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   // A profile that loads must be one the profile reader accepts back.
   const std::string json = printtwin::printer_profile_to_json(*profile);
   if (auto again = printtwin::parse_printer_profile(json, "round-trip.json"); !again) {
-    std::fprintf(stderr, "profile from printer.cfg not accepted back: %s\n%s\n", again.error().message.c_str(),
-                 json.c_str());
+    std::fprintf(stderr, "profile from printer.cfg not accepted back: %s\n%s\n",
+                 again.error().message.c_str(), json.c_str());
     __builtin_trap();
   }
   return 0;

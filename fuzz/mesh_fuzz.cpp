@@ -11,7 +11,8 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;
-  static constexpr std::array<const char*, 6> kNames = {"f.stl", "f.obj", "f.ply", "f.off", "f.3mf", "f.amf"};
+  static constexpr std::array<const char*, 6> kNames = {"f.stl", "f.obj", "f.ply",
+                                                        "f.off", "f.3mf", "f.amf"};
   const char* name = kNames[data[0] % kNames.size()];
   const std::string_view bytes(reinterpret_cast<const char*>(data + 1), size - 1);
   auto mesh = printtwin::load_mesh_from_memory(bytes, name);

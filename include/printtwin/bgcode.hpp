@@ -97,7 +97,8 @@ enum class BgcodeImageFormat : std::uint16_t { png = 0, jpg = 1, qoi = 2 };
 using BgcodeKeyValues = std::vector<std::pair<std::string, std::string>>;
 
 /// Value of `key` in `pairs`, if present (first occurrence).
-[[nodiscard]] std::optional<std::string_view> bgcode_find(const BgcodeKeyValues& pairs, std::string_view key);
+[[nodiscard]] std::optional<std::string_view> bgcode_find(const BgcodeKeyValues& pairs,
+                                                          std::string_view key);
 
 struct BgcodeThumbnail {
   BgcodeImageFormat format = BgcodeImageFormat::png;
@@ -107,24 +108,24 @@ struct BgcodeThumbnail {
 
 /// Where a block is and how it is stored (for reports and tests).
 struct BgcodeBlockInfo {
-  int index = 0;                  ///< 1-based, in file order
+  int index = 0;  ///< 1-based, in file order
   BgcodeBlockType type = BgcodeBlockType::gcode;
   BgcodeCompression compression = BgcodeCompression::none;
-  std::uint64_t offset = 0;       ///< byte offset of the block header in the file
-  std::uint32_t stored_bytes = 0; ///< data bytes in the file
-  std::uint32_t data_bytes = 0;   ///< data bytes once decompressed
+  std::uint64_t offset = 0;        ///< byte offset of the block header in the file
+  std::uint32_t stored_bytes = 0;  ///< data bytes in the file
+  std::uint32_t data_bytes = 0;    ///< data bytes once decompressed
 };
 
 /// Everything of a .bgcode file except its G-code: what read_bgcode_metadata() returns.
 struct BgcodeMetadata {
   std::uint32_t version = 1;
-  bool crc32 = true;                  ///< blocks carry a CRC32 (checked)
-  BgcodeKeyValues file;               ///< e.g. Producer=PrusaSlicer 2.8.1
-  BgcodeKeyValues printer;            ///< e.g. printer_model=MK4S, nozzle_diameter=0.4
-  BgcodeKeyValues print;              ///< e.g. estimated printing time (normal mode)=3m 41s
-  BgcodeKeyValues slicer;             ///< the slicer's settings (the text file's config block)
+  bool crc32 = true;        ///< blocks carry a CRC32 (checked)
+  BgcodeKeyValues file;     ///< e.g. Producer=PrusaSlicer 2.8.1
+  BgcodeKeyValues printer;  ///< e.g. printer_model=MK4S, nozzle_diameter=0.4
+  BgcodeKeyValues print;    ///< e.g. estimated printing time (normal mode)=3m 41s
+  BgcodeKeyValues slicer;   ///< the slicer's settings (the text file's config block)
   std::vector<BgcodeThumbnail> thumbnails;
-  std::vector<BgcodeBlockInfo> blocks;  ///< the metadata and thumbnail blocks read
+  std::vector<BgcodeBlockInfo> blocks;         ///< the metadata and thumbnail blocks read
   std::uint64_t first_gcode_block_offset = 0;  ///< 0 when the file has none before its end
 };
 
@@ -141,7 +142,8 @@ struct BgcodeMetadata {
 /// data decompressed). Stops there: the G-code blocks are not read.
 [[nodiscard]] Result<BgcodeMetadata> read_bgcode_metadata(const std::filesystem::path& path);
 /// The same from bytes in memory; `name` names the input in errors.
-[[nodiscard]] Result<BgcodeMetadata> read_bgcode_metadata(std::string_view bytes, const std::string& name);
+[[nodiscard]] Result<BgcodeMetadata> read_bgcode_metadata(std::string_view bytes,
+                                                          const std::string& name);
 
 class BgcodeStreamBuf;
 
@@ -153,10 +155,11 @@ class BgcodeStreamBuf;
 class BgcodeGcodeStream : public std::istream {
  public:
   /// Opens `path`, reads its file header and metadata blocks (errors there are returned).
-  [[nodiscard]] static Result<std::unique_ptr<BgcodeGcodeStream>> open(const std::filesystem::path& path);
+  [[nodiscard]] static Result<std::unique_ptr<BgcodeGcodeStream>> open(
+      const std::filesystem::path& path);
   /// The same over bytes in memory, which must outlive the stream.
-  [[nodiscard]] static Result<std::unique_ptr<BgcodeGcodeStream>> from_memory(std::string_view bytes,
-                                                                              const std::string& name);
+  [[nodiscard]] static Result<std::unique_ptr<BgcodeGcodeStream>> from_memory(
+      std::string_view bytes, const std::string& name);
   ~BgcodeGcodeStream() override;
   BgcodeGcodeStream(const BgcodeGcodeStream&) = delete;
   BgcodeGcodeStream& operator=(const BgcodeGcodeStream&) = delete;

@@ -69,26 +69,26 @@ struct CheckSettings {
 /// Topological and geometric health of a mesh (frame of the input, before placement).
 struct MeshHealth {
   std::size_t triangles = 0;
-  std::size_t vertices = 0;            ///< vertices referenced by at least one triangle
-  std::size_t shells = 0;              ///< connected components over shared edges
-  std::size_t boundary_edges = 0;      ///< edges with one face (holes)
-  std::size_t non_manifold_edges = 0;  ///< edges with more than two faces
+  std::size_t vertices = 0;               ///< vertices referenced by at least one triangle
+  std::size_t shells = 0;                 ///< connected components over shared edges
+  std::size_t boundary_edges = 0;         ///< edges with one face (holes)
+  std::size_t non_manifold_edges = 0;     ///< edges with more than two faces
   std::size_t non_manifold_vertices = 0;  ///< vertices whose faces form several fans
-  std::size_t degenerate_faces = 0;    ///< zero area (repeated index or collinear)
-  std::size_t duplicate_faces = 0;     ///< same three vertices as an earlier face
-  std::size_t inconsistent_edges = 0;  ///< manifold edges whose two faces run the same way
-  std::size_t inverted_shells = 0;     ///< closed shells with negative volume, not a cavity
-  std::size_t self_intersections = 0;  ///< intersecting face pairs (not sharing an edge)
+  std::size_t degenerate_faces = 0;       ///< zero area (repeated index or collinear)
+  std::size_t duplicate_faces = 0;        ///< same three vertices as an earlier face
+  std::size_t inconsistent_edges = 0;     ///< manifold edges whose two faces run the same way
+  std::size_t inverted_shells = 0;        ///< closed shells with negative volume, not a cavity
+  std::size_t self_intersections = 0;     ///< intersecting face pairs (not sharing an edge)
   std::vector<Vec3> self_intersection_locations_mm;  ///< first few, a point of each pair
   bool self_intersections_checked = false;
-  bool closed = false;                 ///< no boundary and no non-manifold edge
-  double volume_mm3 = 0;               ///< signed (divergence theorem)
+  bool closed = false;    ///< no boundary and no non-manifold edge
+  double volume_mm3 = 0;  ///< signed (divergence theorem)
   double area_mm2 = 0;
   Box3 bbox_mm;
-  std::vector<Box3> shell_bbox_mm;     ///< bounding box of each shell
-  std::vector<std::size_t> shell_faces; ///< faces of each shell
-  std::optional<Vec3> first_boundary_edge_mm;     ///< midpoint of one open edge
-  std::optional<Vec3> first_non_manifold_edge_mm; ///< midpoint of one non-manifold edge
+  std::vector<Box3> shell_bbox_mm;                 ///< bounding box of each shell
+  std::vector<std::size_t> shell_faces;            ///< faces of each shell
+  std::optional<Vec3> first_boundary_edge_mm;      ///< midpoint of one open edge
+  std::optional<Vec3> first_non_manifold_edge_mm;  ///< midpoint of one non-manifold edge
   std::optional<Vec3> first_non_manifold_vertex_mm;
   std::optional<Vec3> first_degenerate_face_mm;
   std::optional<Vec3> first_inconsistent_edge_mm;
@@ -98,11 +98,11 @@ struct MeshHealth {
 [[nodiscard]] MeshHealth analyze_mesh_health(const Mesh& mesh);
 
 struct SelfIntersections {
-  std::size_t pairs = 0;                   ///< intersecting face pairs
-  std::vector<Vec3> locations_mm;          ///< a point of each of the first pairs (centroid
-                                           ///< of the first face's intersecting region)
+  std::size_t pairs = 0;           ///< intersecting face pairs
+  std::vector<Vec3> locations_mm;  ///< a point of each of the first pairs (centroid
+                                   ///< of the first face's intersecting region)
   std::vector<std::array<std::uint32_t, 2>> first_pairs;  ///< their face indices
-  std::vector<std::uint32_t> faces;        ///< every face in at least one pair, sorted
+  std::vector<std::uint32_t> faces;  ///< every face in at least one pair, sorted
 };
 
 /// What self-intersections do to the sliced part. Layers are cut at the heights of the
@@ -112,23 +112,22 @@ struct SelfIntersections {
 /// inside out (union slicers drop that area, even-odd ones fill it: the print depends on the
 /// slicer). w in {0, 1} everywhere: the intersections change no layer outline.
 struct IntersectionEffect {
-  bool measured = false;            ///< false: the mesh is open (sections are not closed)
+  bool measured = false;  ///< false: the mesh is open (sections are not closed)
   double layer_height_mm = 0.2;
-  std::size_t layers = 0;           ///< layers cut through the intersecting faces
-  std::size_t layers_changed = 0;   ///< layers with area enclosed twice or inside out
-  double twice_volume_mm3 = 0;      ///< enclosed more than once (w - 1 summed where w >= 2)
-  double max_twice_area_mm2 = 0;    ///< largest in one layer
-  double inverted_volume_mm3 = 0;   ///< w < 0
+  std::size_t layers = 0;          ///< layers cut through the intersecting faces
+  std::size_t layers_changed = 0;  ///< layers with area enclosed twice or inside out
+  double twice_volume_mm3 = 0;     ///< enclosed more than once (w - 1 summed where w >= 2)
+  double max_twice_area_mm2 = 0;   ///< largest in one layer
+  double inverted_volume_mm3 = 0;  ///< w < 0
   double max_inverted_area_mm2 = 0;
-  Box3 changed_bbox_mm;             ///< bounding box of the layers that change (input frame)
+  Box3 changed_bbox_mm;  ///< bounding box of the layers that change (input frame)
 };
 
 /// Measures the effect of the faces `faces` (find_self_intersections' SelfIntersections::faces)
 /// on the layer sections of a closed mesh (see IntersectionEffect). At most 400 layers are cut
 /// (evenly spread when the faces span more).
-[[nodiscard]] IntersectionEffect measure_intersection_effect(const Mesh& mesh,
-                                                             const std::vector<std::uint32_t>& faces,
-                                                             double layer_height_mm = 0.2);
+[[nodiscard]] IntersectionEffect measure_intersection_effect(
+    const Mesh& mesh, const std::vector<std::uint32_t>& faces, double layer_height_mm = 0.2);
 
 /// Pairs of faces that intersect other than along a shared edge or at a shared vertex.
 /// Broad phase over a uniform grid of face bounding boxes, exact predicates (CGAL Epick)
@@ -138,18 +137,18 @@ struct IntersectionEffect {
 
 /// Where the slicer would put the part.
 struct Placement {
-  Vec3 offset_mm = Vec3::Zero();   ///< translation applied to the input
-  Box3 bbox_mm;                    ///< placed bounding box (machine frame)
-  bool fits = false;               ///< inside the build volume
-  double footprint_area_mm2 = 0;   ///< area of the faces resting on the bed
-  Box3 footprint_mm;               ///< their bounding box (empty when none)
+  Vec3 offset_mm = Vec3::Zero();  ///< translation applied to the input
+  Box3 bbox_mm;                   ///< placed bounding box (machine frame)
+  bool fits = false;              ///< inside the build volume
+  double footprint_area_mm2 = 0;  ///< area of the faces resting on the bed
+  Box3 footprint_mm;              ///< their bounding box (empty when none)
 };
 
 /// An area of downward-facing faces steeper than the limit, connected over shared edges.
 struct OverhangRegion {
   double area_mm2 = 0;
-  double max_angle_deg = 0;        ///< from vertical
-  Vec3 centroid_mm = Vec3::Zero(); ///< area-weighted centroid
+  double max_angle_deg = 0;         ///< from vertical
+  Vec3 centroid_mm = Vec3::Zero();  ///< area-weighted centroid
   Box3 bbox_mm;
   std::size_t faces = 0;
   std::uint32_t first_face = 0;
@@ -161,14 +160,14 @@ struct OverhangRegion {
 
 /// Local thickness (inward rays) and gap width (outward rays) sampled at every face.
 struct ThicknessResult {
-  double min_thickness_mm = 0;        ///< thinnest wall seen; +inf if no ray hit
+  double min_thickness_mm = 0;  ///< thinnest wall seen; +inf if no ray hit
   Vec3 min_thickness_at_mm = Vec3::Zero();
-  std::size_t thin_faces = 0;         ///< faces thinner than the limit
+  std::size_t thin_faces = 0;  ///< faces thinner than the limit
   double thin_area_mm2 = 0;
   Box3 thin_bbox_mm;
-  double min_gap_mm = 0;              ///< narrowest gap between facing surfaces; +inf if none
+  double min_gap_mm = 0;  ///< narrowest gap between facing surfaces; +inf if none
   Vec3 min_gap_at_mm = Vec3::Zero();
-  std::size_t narrow_gap_faces = 0;   ///< faces facing another surface closer than the line width
+  std::size_t narrow_gap_faces = 0;  ///< faces facing another surface closer than the line width
   double narrow_gap_area_mm2 = 0;
   Box3 narrow_gap_bbox_mm;
 };
@@ -195,13 +194,13 @@ struct ThicknessResult {
 
 /// One way to stand the part on the bed, and how it scores.
 struct OrientationCandidate {
-  Vec3 down = Vec3(0, 0, -1);      ///< direction of the part (input frame) that points down
+  Vec3 down = Vec3(0, 0, -1);            ///< direction of the part (input frame) that points down
   Vec3 rotation_xyz_deg = Vec3::Zero();  ///< rotation about X, then Y, then Z (as `--place`)
-  std::string label;               ///< "as modelled", "axis +X down", "flat face of 120.0 mm2"
-  double overhang_mm2 = 0;         ///< faces steeper than the overhang limit, not on the bed
-  double contact_mm2 = 0;          ///< faces resting on the bed
+  std::string label;        ///< "as modelled", "axis +X down", "flat face of 120.0 mm2"
+  double overhang_mm2 = 0;  ///< faces steeper than the overhang limit, not on the bed
+  double contact_mm2 = 0;   ///< faces resting on the bed
   double height_mm = 0;
-  double score = 0;                ///< overhang - contact (lower is better)
+  double score = 0;  ///< overhang - contact (lower is better)
 };
 
 /// Orientation advice: the 6 axis directions (the 24 axis-aligned rotations differ only by a
@@ -217,24 +216,27 @@ struct OrientationAdvice {
   /// more overhang.
   bool better = false;
 };
-[[nodiscard]] OrientationAdvice advise_orientation(const Mesh& mesh, const CheckSettings& settings = {});
+[[nodiscard]] OrientationAdvice advise_orientation(const Mesh& mesh,
+                                                   const CheckSettings& settings = {});
 
 /// The mesh rotated by `rotation_xyz_deg` (about X, then Y, then Z, around the origin).
 [[nodiscard]] Mesh rotated_mesh(const Mesh& mesh, const Vec3& rotation_xyz_deg);
 
 /// Everything `printtwin check` reports.
 struct CheckReport {
-  MeshHealth health;                 ///< input frame
+  MeshHealth health;  ///< input frame
   Placement placement;
-  std::vector<OverhangRegion> overhangs;  ///< placed frame
+  std::vector<OverhangRegion> overhangs;     ///< placed frame
   std::optional<ThicknessResult> thickness;  ///< unset when the mesh could not be ray traced
-  std::optional<IntersectionEffect> intersection_effect;  ///< set when self-intersections were found
-  std::optional<OrientationAdvice> orientation;  ///< set by check_printability (finding orientation)
+  std::optional<IntersectionEffect>
+      intersection_effect;  ///< set when self-intersections were found
+  std::optional<OrientationAdvice>
+      orientation;                    ///< set by check_printability (finding orientation)
   double min_thickness_limit_mm = 0;  ///< thresholds actually used
   double line_width_mm = 0;
   double overhang_angle_deg = 0;
-  std::vector<Finding> findings;     ///< errors first, then warnings, then info
-  bool printable = false;            ///< no finding with severity error
+  std::vector<Finding> findings;  ///< errors first, then warnings, then info
+  bool printable = false;         ///< no finding with severity error
 };
 
 /// Runs every check. Positions in findings are in the placed (machine) frame.
@@ -244,9 +246,9 @@ struct CheckReport {
 
 /// One kind of change made by repair_mesh.
 struct RepairChange {
-  std::string code;     ///< merged_vertices, removed_degenerate_faces, removed_duplicate_faces,
-                        ///< stitched_edges, reoriented_faces, filled_holes, added_faces,
-                        ///< inverted_shells_flipped
+  std::string code;  ///< merged_vertices, removed_degenerate_faces, removed_duplicate_faces,
+                     ///< stitched_edges, reoriented_faces, filled_holes, added_faces,
+                     ///< inverted_shells_flipped
   std::size_t count = 0;
   std::string message;
 };
@@ -265,12 +267,12 @@ struct RepairCounters {
   /// two faces afterwards (vertices at one position joined, as the written file reads), none
   /// of them added (closed by stitching or by removing extra faces).
   std::size_t edges_fixed = 0;
-  std::size_t facets_removed = 0;     ///< input faces not in the result (degenerate, duplicate, loose)
-  std::size_t facets_added = 0;       ///< result faces not in the input (hole fills)
-  std::size_t facets_reversed = 0;    ///< faces kept with their winding turned (net, once each)
-  std::size_t backwards_edges = 0;    ///< facet edges of the result whose neighbour runs the same way
-  std::size_t holes_filled = 0;       ///< patches of added faces (connected over shared edges)
-  std::size_t parts = 0;              ///< shells of the result
+  std::size_t facets_removed = 0;  ///< input faces not in the result (degenerate, duplicate, loose)
+  std::size_t facets_added = 0;    ///< result faces not in the input (hole fills)
+  std::size_t facets_reversed = 0;  ///< faces kept with their winding turned (net, once each)
+  std::size_t backwards_edges = 0;  ///< facet edges of the result whose neighbour runs the same way
+  std::size_t holes_filled = 0;     ///< patches of added faces (connected over shared edges)
+  std::size_t parts = 0;            ///< shells of the result
 };
 
 /// Counts what changed from `before` to `after` (see RepairCounters). `after` must reuse the
@@ -283,22 +285,24 @@ struct RepairCounters {
 
 struct RepairResult {
   Mesh mesh;
-  std::vector<RepairChange> changes;   ///< only kinds with count > 0
-  RepairCounters counters;             ///< measured from the meshes (measure_repair)
+  std::vector<RepairChange> changes;  ///< only kinds with count > 0
+  RepairCounters counters;            ///< measured from the meshes (measure_repair)
   MeshHealth before;
-  MeshHealth after;  ///< of the repaired mesh with vertices at one position joined (as its STL reads)
+  MeshHealth
+      after;  ///< of the repaired mesh with vertices at one position joined (as its STL reads)
 };
 
 /// Repairs with CGAL Polygon_mesh_processing: merge duplicate points, remove degenerate and
 /// duplicate faces, orient, stitch borders, fill small holes, make closed shells bound a
 /// volume. Never called implicitly; the caller reports `changes`.
-[[nodiscard]] Result<RepairResult> repair_mesh(const Mesh& mesh, const RepairSettings& settings = {});
+[[nodiscard]] Result<RepairResult> repair_mesh(const Mesh& mesh,
+                                               const RepairSettings& settings = {});
 
 /// The unit a mesh was likely modelled in, judged by its size (`--units auto`).
 struct UnitGuess {
-  std::string unit;           ///< "m" or "in" (the names of `--units`)
-  double mm_per_unit = 1.0;   ///< scale to apply
-  double size_units = 0;      ///< largest dimension of the largest shell, in file units
+  std::string unit;          ///< "m" or "in" (the names of `--units`)
+  double mm_per_unit = 1.0;  ///< scale to apply
+  double size_units = 0;     ///< largest dimension of the largest shell, in file units
 };
 
 /// Judges the size of the largest piece (faces connected through shared vertices; stray
@@ -316,19 +320,19 @@ struct UnitGuess {
 /// (dimensions permuted), or failing that the largest uniform scale with the best of them.
 struct FitAdvice {
   bool fits_as_is = false;
-  std::string rotation;        ///< e.g. "rotated 90 deg about X"; empty: as it is
-  double scale = 1.0;          ///< < 1 when only a smaller part fits (rounded down to 0.1 %)
-  Vec3 size_mm = Vec3::Zero(); ///< its size after the rotation and the scale
+  std::string rotation;         ///< e.g. "rotated 90 deg about X"; empty: as it is
+  double scale = 1.0;           ///< < 1 when only a smaller part fits (rounded down to 0.1 %)
+  Vec3 size_mm = Vec3::Zero();  ///< its size after the rotation and the scale
 };
 [[nodiscard]] FitAdvice advise_fit(const Vec3& size_mm, const PrinterProfile& printer);
 
 /// Where the checked mesh came from, for the JSON report.
 struct CheckSource {
-  std::string file;           ///< as given on the command line
-  std::string sha256;         ///< of the file's bytes
-  std::string units = "mm";   ///< unit the file was read in
-  double scale = 1.0;         ///< extra scale applied
-  std::string printer;        ///< profile name
+  std::string file;          ///< as given on the command line
+  std::string sha256;        ///< of the file's bytes
+  std::string units = "mm";  ///< unit the file was read in
+  double scale = 1.0;        ///< extra scale applied
+  std::string printer;       ///< profile name
 };
 
 /// Version of the JSON written by check_report_to_json (docs/check.md). Bumped when a key

@@ -88,15 +88,15 @@ enum class VariantKind {
 
 /// One variant of the sweep.
 struct VariantSpec {
-  int index = 0;                   ///< 0-based position in the whole variant list
-  std::string label;               ///< short, unique: "layer_height=0.1 fill_density=15"
+  int index = 0;      ///< 0-based position in the whole variant list
+  std::string label;  ///< short, unique: "layer_height=0.1 fill_density=15"
   VariantKind kind = VariantKind::slicer;
   /// Slicer variants: which slicer makes the G-code: "printtwin" (built in), or an external
   /// program: "prusa-slicer", "cura" (CuraEngine), "slic3r" (slicer_backend.cpp).
   std::string slicer = "printtwin";
-  std::string config_path;         ///< slicer's config applied first (slicer; may be empty)
-  std::vector<SettingKV> settings; ///< applied in order after the config (slicer)
-  std::string gcode_path;          ///< the G-code file (gcode)
+  std::string config_path;          ///< slicer's config applied first (slicer; may be empty)
+  std::vector<SettingKV> settings;  ///< applied in order after the config (slicer)
+  std::string gcode_path;           ///< the G-code file (gcode)
   bool operator==(const VariantSpec&) const = default;
 };
 
@@ -130,15 +130,15 @@ struct SweepSpec {
 /// read back by `--manifest`, so that workers of a CI matrix or a batch array do not need the
 /// whole command line.
 struct ComparePlan {
-  std::string mesh_path;           ///< as given (relative paths resolve against the worker's cwd)
-  std::string mesh_sha256;         ///< of the mesh file; shares with another hash do not merge
-  std::string printer = "auto";    ///< "auto", a profile name or a path (printer.hpp)
+  std::string mesh_path;         ///< as given (relative paths resolve against the worker's cwd)
+  std::string mesh_sha256;       ///< of the mesh file; shares with another hash do not merge
+  std::string printer = "auto";  ///< "auto", a profile name or a path (printer.hpp)
   /// External slicers: the program per slicer name (`--slicer-path`; machine specific, so
   /// not part of the plan id), the time limit of one slicing run, Cura's definition (-j).
   std::vector<std::pair<std::string, std::string>> slicer_paths;
   double slicer_timeout_s = 600;
   std::string cura_definition;
-  VerifySettings verify;           ///< tolerance, voxel, gates shared by every variant
+  VerifySettings verify;  ///< tolerance, voxel, gates shared by every variant
   double filament_density_g_cm3 = kDefaultFilamentDensityGCm3;  ///< for G-code variants
   std::vector<VariantSpec> variants;
 };
@@ -158,9 +158,9 @@ struct ComparePlan {
 struct DirectionFigures {
   std::size_t samples = 0;
   double rms_mm = 0;
-  double p95_mm = 0;              ///< 95th percentile of |d|
-  double max_excess_mm = 0;       ///< largest positive d (0 when none)
-  double max_deficit_mm = 0;      ///< largest -d (>= 0; 0 when none)
+  double p95_mm = 0;          ///< 95th percentile of |d|
+  double max_excess_mm = 0;   ///< largest positive d (0 when none)
+  double max_deficit_mm = 0;  ///< largest -d (>= 0; 0 when none)
   double within_tolerance_pct = 100;
   /// RMS of the samples on sloped surfaces only (normal between `kSlopeMinDeg` and
   /// `kSlopeMaxDeg` from vertical, up or down facing): where layer steps show.
@@ -176,7 +176,7 @@ inline constexpr double kSlopeMaxDeg = 85.0;
 
 /// A deviation region kept for the per-variant summary (largest few).
 struct RegionBrief {
-  std::string kind;               ///< "missing" or "excess"
+  std::string kind;  ///< "missing" or "excess"
   double worst_mm = 0;
   double area_mm2 = 0;
   int layer_min = -1, layer_max = -1;
@@ -187,18 +187,18 @@ struct RegionBrief {
 /// One row of the comparison.
 struct VariantResult {
   VariantSpec variant;
-  bool ran = false;               ///< false: `error` says why (bad G-code, settings, ...)
+  bool ran = false;  ///< false: `error` says why (bad G-code, settings, ...)
   std::string error;
 
-  std::string slicer;             ///< "printtwin", "PrusaSlicer 2.5.0", ...
+  std::string slicer;  ///< "printtwin", "PrusaSlicer 2.5.0", ...
   /// External slicers: the exact command line that made the G-code (shell quoted), so the
   /// variant can be re-run by hand; "" for printtwin's slicer and G-code files.
   std::string command;
   int layers = 0;
-  double layer_height_mm = 0;     ///< slicer variants: the setting; G-code: most common step
-  double print_time_s = 0;        ///< simulated, heating and dwell included
-  double filament_m = 0;          ///< net filament length
-  double filament_g = 0;          ///< filament volume x density
+  double layer_height_mm = 0;  ///< slicer variants: the setting; G-code: most common step
+  double print_time_s = 0;     ///< simulated, heating and dwell included
+  double filament_m = 0;       ///< net filament length
+  double filament_g = 0;       ///< filament volume x density
   double filament_density_g_cm3 = kDefaultFilamentDensityGCm3;
 
   DirectionFigures deposit_to_mesh;
@@ -217,20 +217,20 @@ struct VariantResult {
   /// The variant's verify report folder, relative to the folder of the compare.json that
   /// lists it ("" when not written).
   std::string report_dir;
-  double run_time_s = 0;          ///< wall time of this variant (run dependent)
-  bool pareto = false;            ///< set by mark_pareto
+  double run_time_s = 0;  ///< wall time of this variant (run dependent)
+  bool pareto = false;    ///< set by mark_pareto
   bool operator==(const VariantResult&) const = default;
 };
 
 /// What the part is, for the header of every output.
 struct ComparePartInfo {
-  std::string name;               ///< file stem
+  std::string name;  ///< file stem
   std::string path;
   std::string sha256;
   std::size_t triangles = 0;
   double volume_mm3 = 0;
   double area_mm2 = 0;
-  double sloped_area_mm2 = 0;     ///< area of the triangles counted as sloped
+  double sloped_area_mm2 = 0;  ///< area of the triangles counted as sloped
   Box3 bbox_mm;
   bool operator==(const ComparePartInfo&) const = default;
 };
@@ -241,14 +241,14 @@ struct CompareResult {
   std::string tool_version;
   ComparePartInfo part;
   std::string printer;
-  VerifySettings verify;          ///< gates and voxel every variant ran with
+  VerifySettings verify;  ///< gates and voxel every variant ran with
   std::string plan_id;
-  int variant_count = 0;          ///< variants in the whole plan
+  int variant_count = 0;  ///< variants in the whole plan
   /// Set on a share's JSON ({k, n}); unset on a complete or merged comparison.
   std::optional<std::pair<int, int>> shard;
   std::vector<VariantResult> variants;  ///< sorted by variant index
-  double shared_time_s = 0;       ///< load + check + BVH, once per process (run dependent)
-  double total_time_s = 0;        ///< whole run (run dependent; sum of shares when merged)
+  double shared_time_s = 0;             ///< load + check + BVH, once per process (run dependent)
+  double total_time_s = 0;              ///< whole run (run dependent; sum of shares when merged)
   bool operator==(const CompareResult&) const = default;
 };
 
@@ -287,7 +287,7 @@ void mark_pareto(std::vector<VariantResult>& variants);
 [[nodiscard]] std::string compare_markdown(const CompareResult& result);
 
 struct CompareHtmlOptions {
-  std::string generated_utc;      ///< shown in the footer; empty: not stamped
+  std::string generated_utc;  ///< shown in the footer; empty: not stamped
 };
 /// Inline SVG chart: print time (x, minutes) against deviation RMS (y, mm), every variant a
 /// point (green pass, red fail), the Pareto front drawn as a line through ringed points.
@@ -313,20 +313,21 @@ struct CompareHtmlOptions {
 
 /// An external slicer found on this machine.
 struct SlicerProgram {
-  std::string name;               ///< "prusa-slicer", "cura", "slic3r"
-  std::string program;            ///< absolute path of the executable
-  std::string version;            ///< "PrusaSlicer 2.5.0", "CuraEngine 4.13.0" ("" if unknown)
+  std::string name;     ///< "prusa-slicer", "cura", "slic3r"
+  std::string program;  ///< absolute path of the executable
+  std::string version;  ///< "PrusaSlicer 2.5.0", "CuraEngine 4.13.0" ("" if unknown)
 };
 
 /// Finds the program of `name`: `path` when given (must be an executable file), else the
 /// PATH (prusa-slicer / PrusaSlicer, CuraEngine, slic3r), and asks it for its version.
 /// Errors (usage, exit 2): not installed, naming the Debian package that provides it.
-[[nodiscard]] Result<SlicerProgram> find_slicer_program(std::string_view name, std::string_view path);
+[[nodiscard]] Result<SlicerProgram> find_slicer_program(std::string_view name,
+                                                        std::string_view path);
 
 /// `--slicer-path` values: "name=path" pairs, or one bare path when exactly one external
 /// slicer is in `slicers`. Errors (usage): a bare path with several slicers, unknown name.
-[[nodiscard]] Result<std::vector<SettingKV>> parse_slicer_paths(const std::vector<std::string>& values,
-                                                                const std::vector<std::string>& slicers);
+[[nodiscard]] Result<std::vector<SettingKV>> parse_slicer_paths(
+    const std::vector<std::string>& values, const std::vector<std::string>& slicers);
 
 /// The library printer (id) a Cura definition names by its "name" ("Creality Ender-3"), or
 /// "" when the file is unreadable or names no library printer. A Cura G-code states only
@@ -336,9 +337,9 @@ struct SlicerProgram {
 /// What one external slicing run needs.
 struct SlicerJob {
   std::string mesh_path;
-  std::string config_path;        ///< PrusaSlicer/Slic3r .ini, Cura key=value file ("" none)
+  std::string config_path;          ///< PrusaSlicer/Slic3r .ini, Cura key=value file ("" none)
   std::vector<SettingKV> settings;  ///< applied after the config, later keys win
-  std::string cura_definition;    ///< Cura: the printer's .def.json (-j)
+  std::string cura_definition;      ///< Cura: the printer's .def.json (-j)
   std::string out_gcode;
 };
 
@@ -361,18 +362,20 @@ struct SlicerJob {
 [[nodiscard]] std::vector<SettingKV> effective_settings(const std::vector<SettingKV>& settings);
 /// Variables the slicer needs (Cura: CURA_ENGINE_SEARCH_PATH, the definition's folder and
 /// the extruders beside it, unless already set).
-[[nodiscard]] std::vector<SettingKV> slicer_environment(const SlicerProgram& program, const SlicerJob& job);
+[[nodiscard]] std::vector<SettingKV> slicer_environment(const SlicerProgram& program,
+                                                        const SlicerJob& job);
 /// The command as a user re-runs it in a shell: variables first, then the quoted argv.
-[[nodiscard]] Result<std::string> slicer_command_line(const SlicerProgram& program, const SlicerJob& job);
+[[nodiscard]] Result<std::string> slicer_command_line(const SlicerProgram& program,
+                                                      const SlicerJob& job);
 /// One line a shell reads back as `argv` (single quotes where needed).
 [[nodiscard]] std::string shell_quote(const std::vector<std::string>& argv);
 
 /// How a child process ended.
 struct ProcessRun {
-  int exit_code = -1;             ///< -1: killed by a signal or not started
+  int exit_code = -1;  ///< -1: killed by a signal or not started
   bool timed_out = false;
   bool started = false;
-  std::string output;             ///< stdout then stderr, at most 64 KiB of each (tail)
+  std::string output;  ///< stdout then stderr, at most 64 KiB of each (tail)
   double seconds = 0;
 };
 /// Runs `argv` (no shell) with `env` added to the environment, stops it (and its children)
@@ -390,8 +393,8 @@ struct ProcessRun {
 
 /// What every variant shares, built once: the part as `verify` prepares it (mesh in its own
 /// frame, its check, the design side of the deviation: BVH, pseudo-normals, surface samples)
-/// and the slope class of each triangle. Each variant's registration only translates the mesh, so queries subtract
-/// the variant's offset.
+/// and the slope class of each triangle. Each variant's registration only translates the mesh, so
+/// queries subtract the variant's offset.
 struct SharedPart {
   PreparedPart prepared;
   ComparePartInfo info;
@@ -411,10 +414,10 @@ struct SharedPart {
 
 /// Progress of a run, reported after each variant.
 struct CompareProgress {
-  int done = 0;                   ///< variants finished in this run
-  int total = 0;                  ///< variants of this run (the share)
+  int done = 0;                         ///< variants finished in this run
+  int total = 0;                        ///< variants of this run (the share)
   const VariantResult* last = nullptr;  ///< the variant that just finished
-  std::string stage;              ///< stage being entered for the next variant ("slice", ...)
+  std::string stage;                    ///< stage being entered for the next variant ("slice", ...)
 };
 
 struct CompareRunOptions {

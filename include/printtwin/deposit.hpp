@@ -29,7 +29,7 @@ struct DepositRun;
 }  // namespace detail
 
 struct DepositSettings {
-  double voxel_mm = 0.05;             ///< voxel edge
+  double voxel_mm = 0.05;  ///< voxel edge
   /// A bead is supported when at least this fraction of its width rests on the bed or on
   /// earlier deposit.
   double support_fraction = 0.5;
@@ -48,8 +48,8 @@ struct DepositSettings {
 /// A run of consecutive unsupported bead samples along one continuous extrusion path.
 struct UnsupportedStretch {
   int layer = -1;
-  long first_line = 0;       ///< G-code line of the first move of the stretch
-  long last_line = 0;        ///< G-code line of the last move of the stretch
+  long first_line = 0;  ///< G-code line of the first move of the stretch
+  long last_line = 0;   ///< G-code line of the last move of the stretch
   Vec3 start_mm = Vec3::Zero();
   Vec3 end_mm = Vec3::Zero();
   double length_mm = 0;
@@ -75,15 +75,15 @@ struct DepositEstimate {
 struct DepositResult {
   VoxelGrid grid{0.05, Vec3::Zero(), Eigen::Vector3i::Zero()};
   double voxel_mm = 0.05;
-  std::size_t voxels = 0;       ///< occupied voxels (grid.count())
-  double volume_mm3 = 0;        ///< voxels * voxel^3
-  double extruded_mm3 = 0;      ///< filament volume pushed by extruding moves
-  double overlap_mm3 = 0;       ///< bead volume that fell on already occupied voxels
-  double squeezed_mm3 = 0;      ///< of that, the volume squeezed into free voxels nearby
-  Box3 bbox_mm;                 ///< of the occupied voxels (empty when none)
-  std::size_t beads = 0;        ///< extruding moves laid
+  std::size_t voxels = 0;         ///< occupied voxels (grid.count())
+  double volume_mm3 = 0;          ///< voxels * voxel^3
+  double extruded_mm3 = 0;        ///< filament volume pushed by extruding moves
+  double overlap_mm3 = 0;         ///< bead volume that fell on already occupied voxels
+  double squeezed_mm3 = 0;        ///< of that, the volume squeezed into free voxels nearby
+  Box3 bbox_mm;                   ///< of the occupied voxels (empty when none)
+  std::size_t beads = 0;          ///< extruding moves laid
   std::size_t skipped_moves = 0;  ///< extruding moves with no XY length or no room (lay nothing)
-  double unsupported_mm = 0;    ///< total length of unsupported bead
+  double unsupported_mm = 0;      ///< total length of unsupported bead
   std::vector<UnsupportedStretch> unsupported;  ///< every stretch, in G-code order
   /// extrusion_into_air_bridge / extrusion_into_air_cantilever, one per layer and kind.
   std::vector<Finding> findings;

@@ -31,15 +31,15 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
-#include <optional>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
 #include "printtwin/deviation_types.hpp"
-#include "printtwin/machine.hpp"
 #include "printtwin/geometry.hpp"
+#include "printtwin/machine.hpp"
 #include "printtwin/mesh.hpp"
 #include "printtwin/result.hpp"
 #include "printtwin/toolpath.hpp"
@@ -100,7 +100,8 @@ constexpr std::uint32_t kNoBead = 0xFFFFFFFFu;
 /// The extruding moves of the part (not skirt, support, wipe tower or purge) as beads, in
 /// line order, with the deposit's nominal height (`;HEIGHT:`, else the Z step between layers)
 /// and the stadium width of their extrusion.
-[[nodiscard]] std::vector<SurfaceBead> surface_beads(std::span<const Move> moves, const PrinterProfile& profile);
+[[nodiscard]] std::vector<SurfaceBead> surface_beads(std::span<const Move> moves,
+                                                     const PrinterProfile& profile);
 
 // ---------------------------------------------------------------- mesh distances
 
@@ -111,8 +112,8 @@ constexpr std::uint32_t kNoBead = 0xFFFFFFFFu;
 /// points are expected within this distance; each is first searched within it (cheap) and
 /// only then without bound. The result does not depend on `near_mm`.
 [[nodiscard]] Result<std::vector<double>> signed_distances_to_mesh(const Mesh& mesh,
-                                                                  std::span<const Vec3> points,
-                                                                  double near_mm = 0);
+                                                                   std::span<const Vec3> points,
+                                                                   double near_mm = 0);
 
 class MeshQuery;
 struct DeviationSettings;
@@ -131,13 +132,14 @@ class DeviationTarget {
   /// `voxel_mm` (compute_deviation's rule); with both 0 no samples are drawn here and
   /// compute_deviation draws them per call. Errors: empty mesh, invalid triangle indices,
   /// negative spacing.
-  [[nodiscard]] static Result<DeviationTarget> build(const Mesh& mesh, const DeviationSettings& settings,
+  [[nodiscard]] static Result<DeviationTarget> build(const Mesh& mesh,
+                                                     const DeviationSettings& settings,
                                                      double voxel_mm = 0);
 
-  [[nodiscard]] const Mesh& mesh() const;            ///< the mesh, own frame
-  [[nodiscard]] const MeshQuery& query() const;      ///< Embree BVH over mesh()
-  [[nodiscard]] const Box3& bbox_mm() const;         ///< box of mesh(), own frame
-  [[nodiscard]] double volume_mm3() const;           ///< signed_volume_mm3(mesh())
+  [[nodiscard]] const Mesh& mesh() const;        ///< the mesh, own frame
+  [[nodiscard]] const MeshQuery& query() const;  ///< Embree BVH over mesh()
+  [[nodiscard]] const Box3& bbox_mm() const;     ///< box of mesh(), own frame
+  [[nodiscard]] double volume_mm3() const;       ///< signed_volume_mm3(mesh())
   /// Spacing and seed of samples() (spacing 0: none drawn).
   [[nodiscard]] double sample_spacing_mm() const;
   [[nodiscard]] std::uint64_t sample_seed() const;
@@ -173,11 +175,11 @@ class DeviationTarget {
 /// One object of the bed as printed: a labelled object (M486, EXCLUDE_OBJECT, PrusaSlicer's
 /// "printing object", Cura's ;MESH:) or, without labels, a group of connected extrusions.
 struct PrintedObject {
-  int id = -1;                      ///< Move::object_id; -1: unlabelled (a footprint group)
-  std::string name;                 ///< label name (or "#<id>", or "footprint <n>")
-  Box3 bbox_mm;                     ///< extrusion centre lines of the object
-  std::size_t moves = 0;            ///< its extrusion moves
-  double extruded_mm = 0;           ///< XY length of its extrusions
+  int id = -1;             ///< Move::object_id; -1: unlabelled (a footprint group)
+  std::string name;        ///< label name (or "#<id>", or "footprint <n>")
+  Box3 bbox_mm;            ///< extrusion centre lines of the object
+  std::size_t moves = 0;   ///< its extrusion moves
+  double extruded_mm = 0;  ///< XY length of its extrusions
   /// Points along the outer walls (Feature::outer_perimeter; every extrusion when the
   /// G-code has no wall tags), evenly spaced, at most kMaxWallSamples. Machine frame.
   std::vector<Vec3> wall_points_mm;
@@ -193,14 +195,14 @@ struct PrintedObject {
 
 /// Where the part is in the G-code.
 struct PartExtent {
-  Box3 bbox_mm;              ///< extrusion centre lines of the part (all candidate objects)
-  std::size_t moves = 0;     ///< extrusion moves counted as the part
-  std::string method;        ///< "tags" (features), "connectivity" (untagged) or "objects" (labels)
+  Box3 bbox_mm;           ///< extrusion centre lines of the part (all candidate objects)
+  std::size_t moves = 0;  ///< extrusion moves counted as the part
+  std::string method;     ///< "tags" (features), "connectivity" (untagged) or "objects" (labels)
   /// The candidates the mesh is matched against: the labelled objects by id, or the whole
   /// part ("part") followed by each of its larger islands ("footprint <n>") when it has several.
   std::vector<PrintedObject> objects;
-  bool walls_tagged = false;         ///< wall_points_mm are outer walls
-  double layer_height_mm = 0;        ///< median Z step between extrusion layers (0: unknown)
+  bool walls_tagged = false;   ///< wall_points_mm are outer walls
+  double layer_height_mm = 0;  ///< median Z step between extrusion layers (0: unknown)
 };
 
 /// Finds the part among the extrusion moves: drops skirt/brim, support, wipe tower and
@@ -240,10 +242,10 @@ struct RigidTransform {
 /// What the registration found.
 struct Registration {
   RigidTransform transform;
-  std::string method;        ///< "--place", "auto (...)"; see docs/registration.md
-  std::string object;        ///< name of the object matched ("" when the G-code has one part)
+  std::string method;  ///< "--place", "auto (...)"; see docs/registration.md
+  std::string object;  ///< name of the object matched ("" when the G-code has one part)
   int object_id = -1;
-  Box3 object_bbox_mm;       ///< extrusions of the matched object
+  Box3 object_bbox_mm;  ///< extrusions of the matched object
   /// Outer-wall points of the matched object: distance to the placed mesh (mm). A wall's
   /// centre line lies half a bead inside the surface, so a right match gives about 0.2 mm.
   double residual_rms_mm = 0;
@@ -252,9 +254,9 @@ struct Registration {
   /// neighbouring occupancy cell (PrintedObject::cell_mm, at least 1 mm): the share of the
   /// design the print covers (%).
   double coverage_pct = 0;
-  std::size_t wall_points = 0;     ///< points the residual is measured on
-  double seconds = 0;              ///< wall time of the search
-  int candidates = 0;              ///< poses refined (orientations x scales x Z angles x objects)
+  std::size_t wall_points = 0;  ///< points the residual is measured on
+  double seconds = 0;           ///< wall time of the search
+  int candidates = 0;           ///< poses refined (orientations x scales x Z angles x objects)
   /// False when even the best pose leaves the G-code far from the mesh: the G-code does not
   /// appear to be this part. `mismatch` says why, with the figures.
   bool matches = true;
@@ -265,9 +267,9 @@ struct Registration {
 
 /// Options of `register_mesh`.
 struct RegistrationOptions {
-  std::optional<double> scale;           ///< mesh units -> mm when known (--units); else searched
-  std::string object;                    ///< choose this object (name or id); "" = best fit
-  bool allow_rotation = true;            ///< false: translation only (tests, benchmarks)
+  std::optional<double> scale;  ///< mesh units -> mm when known (--units); else searched
+  std::string object;           ///< choose this object (name or id); "" = best fit
+  bool allow_rotation = true;   ///< false: translation only (tests, benchmarks)
 };
 
 class MeshQuery;
@@ -287,7 +289,8 @@ class MeshQuery;
 /// The figures of a given pose (--place): residual, coverage and the mismatch verdict on the
 /// object that fits it best (`options.object` to choose); method "--place".
 [[nodiscard]] Result<Registration> evaluate_registration(const Mesh& mesh, const MeshQuery& query,
-                                                         const PartExtent& part, const RigidTransform& transform,
+                                                         const PartExtent& part,
+                                                         const RigidTransform& transform,
                                                          const RegistrationOptions& options = {});
 
 // ---------------------------------------------------------------- the whole analysis
@@ -296,14 +299,14 @@ struct DeviationSettings {
   double tolerance_mm = 0.2;
   double mesh_sample_spacing_mm = 0;  ///< 0: twice the voxel (one sample per 4 voxel faces)
   std::uint64_t seed = 1;
-  double cluster_radius_mm = 0;       ///< 0: max(2 voxels, 3 x the mesh sample spacing)
-  double region_margin_mm = 1.0;      ///< analysed region = mesh box (+ part box) + margin
+  double cluster_radius_mm = 0;   ///< 0: max(2 voxels, 3 x the mesh sample spacing)
+  double region_margin_mm = 1.0;  ///< analysed region = mesh box (+ part box) + margin
   /// Gaps in the deposit narrower than this do not let the outside in (the outer surface).
   double seal_gap_mm = 0.2;
   /// What the seal closed opens again to this depth from the sealed outside: layer lines
   /// and the grooves between outer beads are measured; a pinhole leaks no deeper.
   double groove_depth_mm = 0.25;
-  int max_regions = 50;               ///< keep the largest regions (by area)
+  int max_regions = 50;  ///< keep the largest regions (by area)
   /// Out-of-tolerance clusters smaller than this are voxel noise, not defects: they are not
   /// regions and do not count in DeviationResult::max_excess_mm / max_deficit_mm.
   double min_region_area_mm2 = 0.1;

@@ -16,13 +16,13 @@ namespace printtwin {
 /// Statistics of one direction of signed distances.
 struct DeviationStats {
   std::size_t samples = 0;
-  double min_mm = 0, max_mm = 0;         ///< signed extremes
-  double mean_mm = 0;                    ///< signed mean
-  double mean_abs_mm = 0;                ///< mean of |d|
+  double min_mm = 0, max_mm = 0;  ///< signed extremes
+  double mean_mm = 0;             ///< signed mean
+  double mean_abs_mm = 0;         ///< mean of |d|
   double rms_mm = 0, std_mm = 0;
   double p50_abs_mm = 0, p95_abs_mm = 0, p99_abs_mm = 0;  ///< percentiles of |d|
-  double within_tolerance_pct = 100;     ///< share of |d| <= tolerance
-  double hausdorff_mm = 0;               ///< max |d|
+  double within_tolerance_pct = 100;                      ///< share of |d| <= tolerance
+  double hausdorff_mm = 0;                                ///< max |d|
 };
 
 /// One measured point.
@@ -69,7 +69,11 @@ struct DeviationSamples {
     const_iterator(const DeviationSamples* set, std::size_t i) : set_(set), i_(i) {}
     DeviationSample operator*() const { return (*set_)[i_]; }
     const_iterator& operator++() { return ++i_, *this; }
-    const_iterator operator++(int) { const_iterator old = *this; ++i_; return old; }
+    const_iterator operator++(int) {
+      const_iterator old = *this;
+      ++i_;
+      return old;
+    }
     bool operator==(const const_iterator& o) const { return i_ == o.i_; }
 
    private:
@@ -98,8 +102,8 @@ struct DeviationRegion {
   RegionKind kind = RegionKind::missing;
   Box3 bbox_mm;
   int layer_min = -1, layer_max = -1;
-  double area_mm2 = 0;            ///< surface area the samples stand for
-  double worst_mm = 0;            ///< signed worst distance
+  double area_mm2 = 0;  ///< surface area the samples stand for
+  double worst_mm = 0;  ///< signed worst distance
   Vec3 worst_position_mm = Vec3::Zero();
   std::size_t samples = 0;
   std::vector<long> gcode_lines;  ///< lines that laid the nearest deposit (sorted, unique, capped)
@@ -109,10 +113,11 @@ struct DeviationResult {
   double tolerance_mm = 0.2;
   DeviationStats deposit_to_mesh;
   DeviationStats mesh_to_deposit;
-  DeviationSamples deposit_samples;  ///< deposit outer surface -> mesh (DeviationSettings::keep_samples)
-  DeviationSamples mesh_samples;     ///< mesh surface -> deposit (DeviationSettings::keep_samples)
+  DeviationSamples
+      deposit_samples;  ///< deposit outer surface -> mesh (DeviationSettings::keep_samples)
+  DeviationSamples mesh_samples;  ///< mesh surface -> deposit (DeviationSettings::keep_samples)
   std::vector<LayerDeviation> per_layer;
-  std::vector<DeviationRegion> regions;      ///< largest first
+  std::vector<DeviationRegion> regions;  ///< largest first
   /// Gate figures (>= 0): the largest excess (deposit outside the design) and the largest
   /// deficit (design surface the deposit misses), ignoring out-of-tolerance clusters smaller
   /// than the minimum region area (voxel noise); those are counted in noise_*.
@@ -121,15 +126,15 @@ struct DeviationResult {
   std::size_t noise_regions = 0;
   double noise_area_mm2 = 0;
   double mesh_volume_mm3 = 0;
-  double deposit_volume_mm3 = 0;                 ///< part voxels in the analysed region
-  std::size_t surface_faces = 0;                 ///< exposed faces of the deposit's outer surface
-  std::size_t surface_voxels = 0;                ///< voxels that carry them
+  double deposit_volume_mm3 = 0;   ///< part voxels in the analysed region
+  std::size_t surface_faces = 0;   ///< exposed faces of the deposit's outer surface
+  std::size_t surface_voxels = 0;  ///< voxels that carry them
   /// Layer lines over the whole part's walls (LayerDeviation::wall_rms_mm, wall_rq_mm): RMS
   /// to the design and Rq (the root of the area-weighted mean of each layer's variance).
   double wall_rms_mm = 0, wall_rq_mm = 0;
-  double wall_area_mm2 = 0;                      ///< deposit surface on walls
-  Vec3 registration_offset_mm = Vec3::Zero();    ///< added to the mesh to reach the G-code frame
-  std::string registration_method;               ///< "auto" or "--place"
+  double wall_area_mm2 = 0;                    ///< deposit surface on walls
+  Vec3 registration_offset_mm = Vec3::Zero();  ///< added to the mesh to reach the G-code frame
+  std::string registration_method;             ///< "auto" or "--place"
   /// Signed deviation per mesh vertex (for the deviation PLY and heatmaps).
   std::vector<double> vertex_deviation_mm;
 };

@@ -7,8 +7,9 @@
 // M82/M83, G92, G20/G21, M200/M220/M221, temperatures, homing state), the commands of the
 // profile's firmware flavour (Prusa, Klipper, RepRapFirmware, Bambu), printer-side start
 // and end macros, and the slicers' layer and feature markers, and emits Moves plus the
-// events the planner needs (limit changes, dwells, heating waits) to an InterpreterOutput. simulate.hpp chains these with the planner; most callers want
-// simulate_gcode() or interpret_gcode_file() from there.
+// events the planner needs (limit changes, dwells, heating waits) to an InterpreterOutput.
+// simulate.hpp chains these with the planner; most callers want simulate_gcode() or
+// interpret_gcode_file() from there.
 //
 // Supported commands and slicer markers: docs/gcode-coverage.md.
 #include <array>
@@ -59,11 +60,12 @@ class GcodeLineReader {
 
 /// One G-code line split into command and parameters. Views point into the caller's line.
 struct GcodeCommand {
-  char letter = 0;       ///< 'G', 'M', 'T', or 0 (no command, or an extended command in `word`)
-  int code = -1;         ///< G1 -> 1
-  int subcode = -1;      ///< G29.1 -> 1; -1 when none
-  std::uint32_t present = 0;        ///< bit (c - 'A') set when parameter c is present
-  std::array<double, 26> value{};   ///< value of parameter c at [c - 'A'] (0 when given without a number)
+  char letter = 0;   ///< 'G', 'M', 'T', or 0 (no command, or an extended command in `word`)
+  int code = -1;     ///< G1 -> 1
+  int subcode = -1;  ///< G29.1 -> 1; -1 when none
+  std::uint32_t present = 0;  ///< bit (c - 'A') set when parameter c is present
+  std::array<double, 26>
+      value{};               ///< value of parameter c at [c - 'A'] (0 when given without a number)
   std::string_view word;     ///< extended command (Klipper style), e.g. "EXCLUDE_OBJECT_START"
   std::string_view args;     ///< text after the command (M117 message, NAME=... arguments)
   std::string_view comment;  ///< text after ';' (leading spaces removed), empty when none
@@ -139,10 +141,13 @@ class GcodeInterpreter {
   [[nodiscard]] const std::vector<Finding>& findings() const { return findings_; }
   /// Commands the interpreter does not know, with how often each occurred.
   [[nodiscard]] const std::map<std::string, long>& unknown_commands() const { return unknown_; }
-  /// Labelled objects seen so far (EXCLUDE_OBJECT / "printing object" / ;MESH: name -> Move::object_id).
+  /// Labelled objects seen so far (EXCLUDE_OBJECT / "printing object" / ;MESH: name ->
+  /// Move::object_id).
   [[nodiscard]] const std::map<std::string, int>& object_names() const { return object_names_; }
   /// Line of the first occurrence of each unknown command.
-  [[nodiscard]] const std::map<std::string, long>& unknown_first_lines() const { return unknown_first_line_; }
+  [[nodiscard]] const std::map<std::string, long>& unknown_first_lines() const {
+    return unknown_first_line_;
+  }
   /// Motion limits currently in force.
   [[nodiscard]] const MotionLimits& limits() const { return limits_; }
   /// Replaces the limits in force (e.g. with those of a slicer's config block).
@@ -217,7 +222,7 @@ class GcodeInterpreter {
   std::string slicer_;
   double slicer_estimate_s_;
   double slicer_filament_mm_;
-  int slicer_estimate_rank_ = 0;  ///< which stated time won (normal mode beats totals)
+  int slicer_estimate_rank_ = 0;         ///< which stated time won (normal mode beats totals)
   bool estimate_from_time_tag_ = false;  ///< Cura's ";TIME:" (a placeholder when unfilled)
 
   /// Firmware flavour (PrinterProfile::firmware).
@@ -230,24 +235,24 @@ class GcodeInterpreter {
   // Layer markers.
   bool markers_expected_ = false;  ///< the header names a slicer that writes layer markers
   bool marker_seen_ = false;
-  bool layer_pending_ = false;     ///< a marker was seen; its layer starts at the next extrusion
-  double pending_layer_z_ = 0;     ///< NaN: Z of the first extrusion
+  bool layer_pending_ = false;  ///< a marker was seen; its layer starts at the next extrusion
+  double pending_layer_z_ = 0;  ///< NaN: Z of the first extrusion
 
   // Modal state (Marlin's names in comments).
-  Vec3 logical_mm_ = Vec3::Zero();    ///< current_position (XYZ, logical)
-  Vec3 offset_mm_ = Vec3::Zero();     ///< machine = logical + offset (G92 shift, not homed)
-  double e_logical_mm_ = 0;           ///< current_position.e
+  Vec3 logical_mm_ = Vec3::Zero();  ///< current_position (XYZ, logical)
+  Vec3 offset_mm_ = Vec3::Zero();   ///< machine = logical + offset (G92 shift, not homed)
+  double e_logical_mm_ = 0;         ///< current_position.e
   bool relative_xyz_ = false, relative_e_ = false;
   bool inches_ = false;
   std::array<bool, 3> homed_{false, false, false};
-  double feedrate_mm_s_ = 0;          ///< modal F (mm/s)
-  double flow_ = 1.0;                 ///< M221
-  double volumetric_area_mm2_ = 0;    ///< M200: 0 = off
+  double feedrate_mm_s_ = 0;        ///< modal F (mm/s)
+  double flow_ = 1.0;               ///< M221
+  double volumetric_area_mm2_ = 0;  ///< M200: 0 = off
   double filament_mm_ = 0;
   double hotend_target_c_, bed_target_c_;
   double hotend_c_at_set_, bed_c_at_set_;  ///< temperature when the target was set
   double hotend_set_clock_s_ = 0, bed_set_clock_s_ = 0;
-  double nominal_clock_s_ = 0;        ///< time estimate of the interpreter (for the thermal model)
+  double nominal_clock_s_ = 0;  ///< time estimate of the interpreter (for the thermal model)
   bool fw_retracted_ = false;
   bool reported_before_homing_ = false;
   // Tags.

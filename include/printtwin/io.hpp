@@ -18,7 +18,8 @@ namespace printtwin {
 [[nodiscard]] Result<std::uint64_t> input_file_size(const std::filesystem::path& path);
 /// The first `max_bytes` bytes of a file (fewer when it is shorter): a format's header can
 /// be checked before the whole body is read. The same errors as read_file.
-[[nodiscard]] Result<std::string> read_file_head(const std::filesystem::path& path, std::size_t max_bytes);
+[[nodiscard]] Result<std::string> read_file_head(const std::filesystem::path& path,
+                                                 std::size_t max_bytes);
 
 /// Writes `content` to `path` atomically (creates parent folders).
 [[nodiscard]] Status write_file_atomic(const std::filesystem::path& path, std::string_view content);

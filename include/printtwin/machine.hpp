@@ -70,17 +70,18 @@ struct PrinterProfile {
   double travel_accel_mm_s2 = 500;   ///< M204 T
   JunctionModel junction = JunctionModel::junction_deviation;
   double junction_deviation_mm = 0.08;
-  Eigen::Vector4d jerk_mm_s{10, 10, 0.3, 5};   ///< classic jerk (M205 X Y Z E)
-  double min_feedrate_mm_s = 0;          ///< M205 S
-  double min_travel_feedrate_mm_s = 0;   ///< M205 T
-  double min_segment_time_s = 0.02;      ///< M205 B (Marlin MIN_SEGMENT_TIME_US 20000)
-  int block_buffer_size = 16;            ///< look-ahead window (Marlin BLOCK_BUFFER_SIZE)
+  Eigen::Vector4d jerk_mm_s{10, 10, 0.3, 5};  ///< classic jerk (M205 X Y Z E)
+  double min_feedrate_mm_s = 0;               ///< M205 S
+  double min_travel_feedrate_mm_s = 0;        ///< M205 T
+  double min_segment_time_s = 0.02;           ///< M205 B (Marlin MIN_SEGMENT_TIME_US 20000)
+  int block_buffer_size = 16;                 ///< look-ahead window (Marlin BLOCK_BUFFER_SIZE)
   double max_accel_to_decel_ratio = 1.0;  ///< Klipper's minimum_cruise_ratio-style limit (1 = off)
   // Klipper's planner ([printer] section of printer.cfg); used when firmware == "klipper".
   double square_corner_velocity_mm_s = 5.0;  ///< Klipper square_corner_velocity
   double minimum_cruise_ratio = 0.5;         ///< Klipper minimum_cruise_ratio (0 = off)
-  double max_extrude_only_velocity_mm_s = 0; ///< [extruder] max_extrude_only_velocity (0 = derived)
-  double max_extrude_only_accel_mm_s2 = 0;   ///< [extruder] max_extrude_only_accel (0 = derived)
+  double max_extrude_only_velocity_mm_s =
+      0;                                    ///< [extruder] max_extrude_only_velocity (0 = derived)
+  double max_extrude_only_accel_mm_s2 = 0;  ///< [extruder] max_extrude_only_accel (0 = derived)
 
   // Homing (G28): min endstops, fast approach, bump back, slow re-approach.
   Eigen::Vector3d homing_feedrate_mm_s{20, 20, 4};
@@ -97,10 +98,10 @@ struct PrinterProfile {
   double nozzle_diameter_mm = 0.4;
   double filament_diameter_mm = 1.75;
   double min_extrude_temp_c = 170;
-  double hotend_heat_rate_c_s = 2.0;   ///< average heat-up rate for M109 waits
-  double bed_heat_rate_c_s = 0.5;      ///< average heat-up rate for M190 waits
+  double hotend_heat_rate_c_s = 2.0;  ///< average heat-up rate for M109 waits
+  double bed_heat_rate_c_s = 0.5;     ///< average heat-up rate for M190 waits
   double ambient_temp_c = 25;
-  bool firmware_retraction = false;    ///< G10/G11 enabled
+  bool firmware_retraction = false;  ///< G10/G11 enabled
   double fw_retract_length_mm = 5.0;
   double fw_retract_speed_mm_s = 45.0;
   double fw_recover_speed_mm_s = 45.0;
@@ -108,11 +109,12 @@ struct PrinterProfile {
 
   // How the material behaves where it is laid over air or pressed on the bed (the deposit's
   // sag, droop and elephant's foot; docs/deposit.md gives the model and the sources).
-  double bridge_sag_mm = 0.8;        ///< mid-span sag of a bridge of bridge_sag_span_mm (sag ~ span^2)
-  double bridge_sag_span_mm = 50;    ///< reference span of bridge_sag_mm
-  double overhang_fall_mm = 1.5;     ///< a cantilevered bead this far beyond the layer below falls
-  double overhang_droop_mm = 2.0;    ///< droop at overhang_fall_mm (droop ~ distance^2); a fallen bead's hang
-  double elephant_foot_mm = 0.1;     ///< outward bulge of the first layer's outer edge
+  double bridge_sag_mm = 0.8;  ///< mid-span sag of a bridge of bridge_sag_span_mm (sag ~ span^2)
+  double bridge_sag_span_mm = 50;  ///< reference span of bridge_sag_mm
+  double overhang_fall_mm = 1.5;   ///< a cantilevered bead this far beyond the layer below falls
+  double overhang_droop_mm =
+      2.0;  ///< droop at overhang_fall_mm (droop ~ distance^2); a fallen bead's hang
+  double elephant_foot_mm = 0.1;  ///< outward bulge of the first layer's outer edge
 
   std::string start_gcode;  ///< used by the slicer
   std::string end_gcode;

@@ -28,7 +28,7 @@ struct Mesh {
 enum class LengthUnit { mm, cm, inch };
 
 struct MeshLoadOptions {
-  double scale = 1.0;             ///< extra uniform scale applied after the unit conversion
+  double scale = 1.0;                 ///< extra uniform scale applied after the unit conversion
   LengthUnit units = LengthUnit::mm;  ///< unit the file is written in
 };
 

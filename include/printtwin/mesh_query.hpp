@@ -19,15 +19,15 @@ struct MeshQueryAccess;
 }  // namespace detail
 
 struct ClosestPoint {
-  Vec3 point_mm = Vec3::Zero();   ///< closest point on the surface
-  double distance_mm = 0;         ///< unsigned distance to it
-  std::uint32_t triangle = 0;     ///< triangle that holds it
+  Vec3 point_mm = Vec3::Zero();  ///< closest point on the surface
+  double distance_mm = 0;        ///< unsigned distance to it
+  std::uint32_t triangle = 0;    ///< triangle that holds it
 };
 
 struct RayHit {
-  double t_mm = 0;                ///< distance along the (unit) ray direction
+  double t_mm = 0;  ///< distance along the (unit) ray direction
   std::uint32_t triangle = 0;
-  Vec3 normal = Vec3::Zero();     ///< unit geometric normal of the hit triangle (CCW rule)
+  Vec3 normal = Vec3::Zero();  ///< unit geometric normal of the hit triangle (CCW rule)
 };
 
 class MeshQuery {
@@ -52,8 +52,7 @@ class MeshQuery {
 
   /// First surface hit along `origin + t * dir` for t in (t_min, t_max]; `dir` need not be unit.
   [[nodiscard]] std::optional<RayHit> first_hit(const Vec3& origin, const Vec3& dir,
-                                                double t_min = 0.0,
-                                                double t_max = 1e30) const;
+                                                double t_min = 0.0, double t_max = 1e30) const;
   /// Number of surface crossings along the ray (each triangle counted once).
   [[nodiscard]] int crossings(const Vec3& origin, const Vec3& dir) const;
   /// Inside test robust to small defects: majority vote of ray parity along 3 fixed

@@ -36,14 +36,14 @@ namespace printtwin {
 /// The motion settings the firmware holds at one moment; M201/M203/M204/M205/M220 change
 /// them mid-file. Per-axis values are ordered X, Y, Z, E.
 struct MotionLimits {
-  Eigen::Vector4d max_feedrate_mm_s{500, 500, 5, 25};   ///< M203
-  Eigen::Vector4d max_accel_mm_s2{500, 500, 100, 5000}; ///< M201
-  double print_accel_mm_s2 = 500;    ///< M204 P (and S)
-  double retract_accel_mm_s2 = 500;  ///< M204 R: E-only moves
-  double travel_accel_mm_s2 = 500;   ///< M204 T (and S): moves without E
+  Eigen::Vector4d max_feedrate_mm_s{500, 500, 5, 25};    ///< M203
+  Eigen::Vector4d max_accel_mm_s2{500, 500, 100, 5000};  ///< M201
+  double print_accel_mm_s2 = 500;                        ///< M204 P (and S)
+  double retract_accel_mm_s2 = 500;                      ///< M204 R: E-only moves
+  double travel_accel_mm_s2 = 500;                       ///< M204 T (and S): moves without E
   JunctionModel junction = JunctionModel::junction_deviation;
-  double junction_deviation_mm = 0.08;  ///< M205 J
-  bool jd_small_segments = true;        ///< Marlin JD_HANDLE_SMALL_SEGMENTS
+  double junction_deviation_mm = 0.08;        ///< M205 J
+  bool jd_small_segments = true;              ///< Marlin JD_HANDLE_SMALL_SEGMENTS
   Eigen::Vector4d jerk_mm_s{10, 10, 0.3, 5};  ///< M205 X Y Z E (classic jerk)
   /// Plan like PrusaSlicer's time estimator (GCodeProcessor::TimeProcessor) instead of the
   /// firmware: classic jerk whose "safe speed" is min(nominal, jerk of each moving axis)
@@ -61,9 +61,10 @@ struct MotionLimits {
   bool orca_compat = false;
   /// M204 values are clamped to these (PrusaSlicer's machine_max_acceleration_extruding,
   /// _retracting, _travel); infinity = no clamp, as in Marlin.
-  Eigen::Vector3d accel_cap_mm_s2 = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-  double min_feedrate_mm_s = 0;          ///< M205 S: floor of the requested speed of printing moves
-  double min_travel_feedrate_mm_s = 0;   ///< M205 T: floor for moves without E
+  Eigen::Vector3d accel_cap_mm_s2 =
+      Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  double min_feedrate_mm_s = 0;         ///< M205 S: floor of the requested speed of printing moves
+  double min_travel_feedrate_mm_s = 0;  ///< M205 T: floor for moves without E
   /// M205 B: Marlin's SLOWDOWN -- while the buffer holds 2..N/2-1 blocks (it is draining,
   /// e.g. right after a synchronize), blocks shorter than this are slowed down.
   double min_segment_time_s = 0.02;
@@ -87,10 +88,12 @@ struct MotionLimits {
 
 /// Klipper's junction deviation (mm) for a square corner velocity and an acceleration:
 /// scv^2 (sqrt 2 - 1) / accel, so a 90-degree corner is taken at scv whatever the accel.
-[[nodiscard]] double klipper_junction_deviation_mm(double square_corner_velocity_mm_s, double accel_mm_s2);
+[[nodiscard]] double klipper_junction_deviation_mm(double square_corner_velocity_mm_s,
+                                                   double accel_mm_s2);
 /// Klipper's default max_extrude_only_velocity / _accel ratio: a 4 d_nozzle^2 cross
 /// section over the filament's area (times max_velocity or max_accel of the config).
-[[nodiscard]] double klipper_default_extrude_ratio(double nozzle_diameter_mm, double filament_diameter_mm);
+[[nodiscard]] double klipper_default_extrude_ratio(double nozzle_diameter_mm,
+                                                   double filament_diameter_mm);
 
 /// The limits of a printer profile at power-on.
 [[nodiscard]] MotionLimits motion_limits_from_profile(const PrinterProfile& profile);
@@ -102,26 +105,26 @@ inline constexpr double kMinimumPlannerSpeed_mm_s = 0.05;
 /// Like Klipper's `struct move` (trapq.h): start time, the three phases, start position and
 /// direction. Speeds are along the path; for E-only moves the path is the filament (|E|).
 struct MotionSegment {
-  double start_time_s = 0;     ///< printer clock at the start (includes earlier waits)
-  double accel_time_s = 0;     ///< accelerating from start_speed to cruise_speed
-  double cruise_time_s = 0;    ///< at cruise_speed
-  double decel_time_s = 0;     ///< decelerating from cruise_speed to end_speed
+  double start_time_s = 0;   ///< printer clock at the start (includes earlier waits)
+  double accel_time_s = 0;   ///< accelerating from start_speed to cruise_speed
+  double cruise_time_s = 0;  ///< at cruise_speed
+  double decel_time_s = 0;   ///< decelerating from cruise_speed to end_speed
   double start_speed_mm_s = 0;
   double cruise_speed_mm_s = 0;  ///< highest speed reached (<= nominal_speed_mm_s)
   double end_speed_mm_s = 0;
-  double nominal_speed_mm_s = 0; ///< requested speed after per-axis feedrate limits
-  double accel_mm_s2 = 0;        ///< acceleration along the path (after per-axis limits)
-  double length_mm = 0;          ///< path length: XYZ distance, or |E| for E-only moves
-  Vec3 start_mm = Vec3::Zero();  ///< nozzle at the start (machine frame)
-  Vec3 end_mm = Vec3::Zero();    ///< nozzle at the end
-  double e_start_mm = 0;         ///< cumulative filament (mm) pushed before this segment
-  double e_mm = 0;               ///< filament of this segment (negative: retraction)
-  long line = 0;                 ///< G-code line of the Move
+  double nominal_speed_mm_s = 0;  ///< requested speed after per-axis feedrate limits
+  double accel_mm_s2 = 0;         ///< acceleration along the path (after per-axis limits)
+  double length_mm = 0;           ///< path length: XYZ distance, or |E| for E-only moves
+  Vec3 start_mm = Vec3::Zero();   ///< nozzle at the start (machine frame)
+  Vec3 end_mm = Vec3::Zero();     ///< nozzle at the end
+  double e_start_mm = 0;          ///< cumulative filament (mm) pushed before this segment
+  double e_mm = 0;                ///< filament of this segment (negative: retraction)
+  long line = 0;                  ///< G-code line of the Move
   int layer = -1;
   Feature feature = Feature::unknown;
   MoveKind kind = MoveKind::travel;
   int object_id = -1;
-  long index = 0;                ///< 0-based index of the Move in the stream
+  long index = 0;  ///< 0-based index of the Move in the stream
 
   [[nodiscard]] double duration_s() const { return accel_time_s + cruise_time_s + decel_time_s; }
   [[nodiscard]] double end_time_s() const { return start_time_s + duration_s(); }
@@ -189,9 +192,9 @@ class Planner {
     double max_entry_speed_mm_s = 0;
     double entry_speed_mm_s = 0;
     double reverse_entry_mm_s = -1;  ///< entry from the last reverse pass (before the forward pass)
-    double safe_speed_mm_s = 0;  ///< classic jerk: speed the block may start/stop at
-    bool nominal_length = false; ///< nominal speed reachable from a stop within the block
-    bool entry_fixed = false;    ///< the block before it already left the window
+    double safe_speed_mm_s = 0;      ///< classic jerk: speed the block may start/stop at
+    bool nominal_length = false;     ///< nominal speed reachable from a stop within the block
+    bool entry_fixed = false;        ///< the block before it already left the window
     Move move;
     double e_start_mm = 0;
     long index = 0;
@@ -206,13 +209,13 @@ class Planner {
     double e_start_mm = 0;
     long index = 0;
     Eigen::Vector4d axes_r = Eigen::Vector4d::Zero();  ///< X Y Z E per mm of move_d
-    double move_d = 0;            ///< XYZ length, or |E| for extrude-only moves
-    bool kinematic = true;        ///< moves XYZ
+    double move_d = 0;      ///< XYZ length, or |E| for extrude-only moves
+    bool kinematic = true;  ///< moves XYZ
     double accel = 0;
     double junction_deviation = 0;
-    double min_move_t = 0;        ///< move_d at the cruise speed (for the flush timer)
+    double min_move_t = 0;  ///< move_d at the cruise speed (for the flush timer)
     double max_cruise_v2 = 0;
-    double delta_v2 = 0;          ///< 2 * move_d * accel
+    double delta_v2 = 0;  ///< 2 * move_d * accel
     double max_start_v2 = 0;
     double max_mcr_start_v2 = 0;  ///< minimum_cruise_ratio's start limit
     double mcr_delta_v2 = 0;      ///< 2 * move_d * accel * (1 - minimum_cruise_ratio)
@@ -240,7 +243,8 @@ class Planner {
   Eigen::Vector4d previous_axis_speed_mm_s_ = Eigen::Vector4d::Zero();
   double previous_nominal_speed_mm_s_ = 0;
   double previous_safe_speed_mm_s_ = 0;
-  Eigen::Vector2d previous_xy_dir_ = Eigen::Vector2d::Zero();  ///< unit XY direction (Orca's centripetal cap)
+  Eigen::Vector2d previous_xy_dir_ =
+      Eigen::Vector2d::Zero();  ///< unit XY direction (Orca's centripetal cap)
   double previous_xy_len_ = 0;
   long previous_line_ = -1;  ///< G-code line of the previous move (segments of one arc share it)
 };

@@ -102,7 +102,7 @@ struct LibraryPrinter {
   std::vector<std::string> aliases;  ///< names slicers use for it (printer_model, ...)
   std::vector<std::string> sources;  ///< citations of the numbers
   PrinterProfile profile;
-  PrinterOrigin origin;              ///< every key: "library" (id) or "default"
+  PrinterOrigin origin;  ///< every key: "library" (id) or "default"
 };
 
 /// Every library printer, sorted by id. The data is compiled in: no files are read.
@@ -133,7 +133,8 @@ struct KlipperSection {
 
 /// Parses a printer.cfg with its [include ...] files (relative paths, * ? [] globs).
 /// Errors name the file and line.
-[[nodiscard]] Result<std::vector<KlipperSection>> read_klipper_config(const std::filesystem::path& path);
+[[nodiscard]] Result<std::vector<KlipperSection>> read_klipper_config(
+    const std::filesystem::path& path);
 /// A PrinterProfile from a printer.cfg: [printer] kinematics, max_velocity, max_accel,
 /// minimum_cruise_ratio (or max_accel_to_decel), square_corner_velocity, max_z_velocity,
 /// max_z_accel; [stepper_x/y/z] ranges and homing speeds; [extruder] nozzle, filament,
@@ -146,8 +147,8 @@ struct KlipperSection {
 
 /// The printer a run uses, with everything the detection learned.
 struct ResolvedPrinter {
-  PrinterProfile profile;     ///< profile.origin says where each value came from
-  SlicerSettings settings;    ///< what the file states (empty without a G-code)
+  PrinterProfile profile;   ///< profile.origin says where each value came from
+  SlicerSettings settings;  ///< what the file states (empty without a G-code)
   StatedPrinter stated;
 };
 
@@ -162,7 +163,8 @@ struct ResolvedPrinter {
 [[nodiscard]] Result<ResolvedPrinter> resolve_printer(std::string_view spec,
                                                       const std::filesystem::path& gcode_path);
 /// Same with settings already read (e.g. from a .bgcode's metadata).
-[[nodiscard]] Result<ResolvedPrinter> resolve_printer(std::string_view spec, SlicerSettings settings);
+[[nodiscard]] Result<ResolvedPrinter> resolve_printer(std::string_view spec,
+                                                      SlicerSettings settings);
 
 /// Copies what the interpreter needs from a resolved printer: the temperatures a start
 /// macro without parameters heats to (the file's first-layer temperatures).

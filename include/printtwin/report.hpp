@@ -68,8 +68,8 @@ struct DeviationColorScale {
 /// An orthographic view: the camera looks along `direction` (towards the part) with `up`
 /// pointing to the top of the image.
 struct ViewSpec {
-  std::string name;  ///< "iso", "front", "right", "top" ... (file name heatmap_<name>.png)
-  std::string label; ///< caption, e.g. "Isometric"
+  std::string name;   ///< "iso", "front", "right", "top" ... (file name heatmap_<name>.png)
+  std::string label;  ///< caption, e.g. "Isometric"
   Vec3 direction = Vec3(0, 1, 0);
   Vec3 up = Vec3(0, 0, 1);
   int width_px = 320;
@@ -96,15 +96,15 @@ struct Camera {
 struct RegionMarker {
   Vec2 worst_px = Vec2::Zero();  ///< the region's worst point, pixels
   Vec2 bbox_min_px = Vec2::Zero(), bbox_max_px = Vec2::Zero();  ///< projected bounding box
-  bool visible = true;           ///< false when the part hides the worst point in this view
+  bool visible = true;  ///< false when the part hides the worst point in this view
 };
 
 /// A rendered heatmap view.
 struct HeatmapView {
   ViewSpec view;
   Camera camera;
-  Image image;                ///< transparent background
-  std::size_t hit_pixels = 0; ///< pixels that show the part
+  Image image;                        ///< transparent background
+  std::size_t hit_pixels = 0;         ///< pixels that show the part
   std::vector<RegionMarker> markers;  ///< one per DeviationResult::regions entry, same order
 };
 
@@ -112,8 +112,8 @@ struct HeatmapView {
 /// (mesh -> deposit direction) where they are dense enough, per-vertex deviation
 /// (barycentric interpolation) elsewhere.
 struct SurfaceDeviationField {
-  std::span<const Vec3> sample_positions_mm;     ///< mesh-surface samples (may be empty)
-  std::span<const double> sample_distances_mm;   ///< their signed deviation (same size)
+  std::span<const Vec3> sample_positions_mm;    ///< mesh-surface samples (may be empty)
+  std::span<const double> sample_distances_mm;  ///< their signed deviation (same size)
   std::span<const double> vertex_deviation_mm;  ///< per mesh vertex (may be empty)
   double sample_spacing_mm = 0;  ///< typical sample spacing (0: estimated from the area)
 };

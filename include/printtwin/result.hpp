@@ -14,9 +14,9 @@ enum class ErrorCode { usage = 2, bad_input = 3, internal = 4 };
 /// A failure that stops a stage. `file` and `line` locate it when it comes from input text.
 struct Error {
   ErrorCode code = ErrorCode::bad_input;
-  std::string message;         ///< What went wrong and what was expected, one sentence.
-  std::string file;            ///< Input file, empty if none.
-  std::optional<long> line;    ///< 1-based line in `file`, if the input is text.
+  std::string message;       ///< What went wrong and what was expected, one sentence.
+  std::string file;          ///< Input file, empty if none.
+  std::optional<long> line;  ///< 1-based line in `file`, if the input is text.
 
   /// "file:line: message" (parts omitted when unknown).
   [[nodiscard]] std::string describe() const {
@@ -34,7 +34,9 @@ struct Error {
 inline Error bad_input(std::string message, std::string file = {}, std::optional<long> line = {}) {
   return Error{ErrorCode::bad_input, std::move(message), std::move(file), line};
 }
-inline Error usage_error(std::string message) { return Error{ErrorCode::usage, std::move(message), {}, {}}; }
+inline Error usage_error(std::string message) {
+  return Error{ErrorCode::usage, std::move(message), {}, {}};
+}
 inline Error internal_error(std::string message) {
   return Error{ErrorCode::internal, std::move(message), {}, {}};
 }
@@ -43,8 +45,8 @@ inline Error internal_error(std::string message) {
 template <class T>
 class [[nodiscard]] Result {
  public:
-  Result(T value) : data_(std::move(value)) {}            // NOLINT: implicit by design
-  Result(Error error) : data_(std::move(error)) {}        // NOLINT: implicit by design
+  Result(T value) : data_(std::move(value)) {}      // NOLINT: implicit by design
+  Result(Error error) : data_(std::move(error)) {}  // NOLINT: implicit by design
 
   [[nodiscard]] bool ok() const { return data_.index() == 0; }
   explicit operator bool() const { return ok(); }

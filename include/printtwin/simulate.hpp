@@ -62,8 +62,8 @@ struct SimulationResult {
   /// not start/end code (purge lines, priming, anything before the first layer marker),
   /// up to the last extrusion of the last layer (the end code's retraction is not counted).
   double filament_part_mm = 0;
-  double filament_mm3 = 0;    ///< filament_mm times the filament cross-section
-  double retracted_mm = 0;    ///< sum of retractions (positive)
+  double filament_mm3 = 0;         ///< filament_mm times the filament cross-section
+  double retracted_mm = 0;         ///< sum of retractions (positive)
   double extrude_distance_mm = 0;  ///< nozzle path length of extrusion moves
   double travel_distance_mm = 0;   ///< nozzle path length of travel moves
   double max_speed_mm_s = 0;       ///< highest cruise speed of any segment
@@ -74,12 +74,12 @@ struct SimulationResult {
   std::vector<Finding> findings;
   /// Unknown commands ("M600", "G29") with how often each occurred (reported once each).
   std::map<std::string, long> unknown_commands;
-  long lines = 0;       ///< lines read
-  long moves = 0;       ///< Moves interpreted (arcs count their pieces)
-  long segments = 0;    ///< planned segments
-  Box3 extrusion_bounds_mm;   ///< box of all extrusion moves (machine frame)
-  Box3 motion_bounds_mm;      ///< box of all nozzle positions
-  std::string slicer;         ///< "PrusaSlicer 2.5.0", "Cura_SteamEngine 4.13.1", ...
+  long lines = 0;            ///< lines read
+  long moves = 0;            ///< Moves interpreted (arcs count their pieces)
+  long segments = 0;         ///< planned segments
+  Box3 extrusion_bounds_mm;  ///< box of all extrusion moves (machine frame)
+  Box3 motion_bounds_mm;     ///< box of all nozzle positions
+  std::string slicer;        ///< "PrusaSlicer 2.5.0", "Cura_SteamEngine 4.13.1", ...
   /// Names of the labelled objects by Move::object_id (EXCLUDE_OBJECT, PrusaSlicer's
   /// "printing object", Cura's ;MESH:); M486 objects numbered only are absent.
   std::map<int, std::string> object_names;
@@ -90,7 +90,7 @@ struct SimulationResult {
   std::optional<double> slicer_filament_mm;
   /// "markers" when layers follow the slicer's layer markers, "z" when made by Z.
   std::string layers_from = "z";
-  MotionLimits limits_used;   ///< limits in force at the start (after --limits-from-gcode)
+  MotionLimits limits_used;  ///< limits in force at the start (after --limits-from-gcode)
   bool limits_from_gcode = false;
   /// The printer the run used, with the source of each value (profile.origin; JSON "printer").
   PrinterProfile printer;
@@ -100,7 +100,8 @@ struct SimulationResult {
 /// MotionSegment as they are produced. Bad input -> Error with file and line; print defects
 /// -> SimulationResult::findings. With options.limits_from_gcode the stream must be
 /// seekable (a file), since PrusaSlicer writes its limits at the end.
-[[nodiscard]] Result<SimulationResult> simulate_gcode(std::istream& in, const PrinterProfile& profile,
+[[nodiscard]] Result<SimulationResult> simulate_gcode(std::istream& in,
+                                                      const PrinterProfile& profile,
                                                       const SimulateOptions& options,
                                                       MoveSink* sink = nullptr);
 /// Same, reading a file (errors name the file).
@@ -111,7 +112,8 @@ struct SimulationResult {
 
 /// Only interprets (no planning): every Move of the file in order. Convenience for small
 /// files and tests; for big files prefer simulate_gcode with a MoveSink.
-[[nodiscard]] Result<std::vector<Move>> interpret_gcode(std::istream& in, const PrinterProfile& profile,
+[[nodiscard]] Result<std::vector<Move>> interpret_gcode(std::istream& in,
+                                                        const PrinterProfile& profile,
                                                         const SimulateOptions& options);
 [[nodiscard]] Result<std::vector<Move>> interpret_gcode_file(const std::filesystem::path& path,
                                                              const PrinterProfile& profile,

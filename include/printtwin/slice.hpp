@@ -56,7 +56,7 @@ struct SliceSettings {
   double filament_density_g_cm3 = 1.24;
   double extrusion_multiplier = 1.0;
   // Widths (0 = automatic)
-  double extrusion_width_mm = 0;           ///< `--line-width`: default for every feature
+  double extrusion_width_mm = 0;  ///< `--line-width`: default for every feature
   double perimeter_width_mm = 0;
   double external_perimeter_width_mm = 0;
   double infill_width_mm = 0;
@@ -67,11 +67,11 @@ struct SliceSettings {
   int perimeters = 2;
   int top_solid_layers = 4;
   int bottom_solid_layers = 4;
-  double infill_density = 0.20;            ///< 0..1
+  double infill_density = 0.20;  ///< 0..1
   InfillPattern infill_pattern = InfillPattern::grid;
   double fill_angle_deg = 45;
-  double infill_overlap = 0.25;            ///< fraction of the perimeter width
-  double solid_infill_below_area_mm2 = 70; ///< smaller sparse regions are filled solid
+  double infill_overlap = 0.25;             ///< fraction of the perimeter width
+  double solid_infill_below_area_mm2 = 70;  ///< smaller sparse regions are filled solid
   bool thin_walls = true;
   bool gap_fill = true;
   /// Features narrower than this are not printed (a `thin_wall_dropped` finding).
@@ -91,15 +91,15 @@ struct SliceSettings {
   double bridge_speed_mm_s = 25;
   double first_layer_speed_mm_s = 20;
   double travel_speed_mm_s = 150;
-  double skirt_speed_mm_s = 0;             ///< 0 = the perimeter speed (first layer speed on layer 0)
+  double skirt_speed_mm_s = 0;  ///< 0 = the perimeter speed (first layer speed on layer 0)
   // Retraction
   double retract_length_mm = 5;
   double retract_speed_mm_s = 60;
-  double deretract_speed_mm_s = 40;        ///< 0 = retract speed
-  double retract_before_travel_mm = 2;     ///< shorter travels never retract
+  double deretract_speed_mm_s = 40;     ///< 0 = retract speed
+  double retract_before_travel_mm = 2;  ///< shorter travels never retract
   bool retract_layer_change = true;
   bool only_retract_when_crossing_perimeters = false;
-  double retract_lift_mm = 0;              ///< z-hop while retracted
+  double retract_lift_mm = 0;  ///< z-hop while retracted
   // Temperatures (deg C)
   double temperature_c = 200;
   double first_layer_temperature_c = 210;
@@ -118,12 +118,12 @@ struct SliceSettings {
   // Skirt and brim
   int skirts = 1;
   double skirt_distance_mm = 3;
-  int skirt_height = 1;                    ///< layers
+  int skirt_height = 1;  ///< layers
   double min_skirt_length_mm = 0;
   double brim_width_mm = 0;
   // Placement (machine frame). Default: bbox centred on the bed, lowest point on z = 0.
-  std::optional<Vec2> center_mm;           ///< centre the bbox here instead of the bed centre
-  std::optional<Vec3> place_offset_mm;     ///< translate by this, no centring (wins over center)
+  std::optional<Vec2> center_mm;        ///< centre the bbox here instead of the bed centre
+  std::optional<Vec3> place_offset_mm;  ///< translate by this, no centring (wins over center)
   /// Run the simulator's planner over the G-code for the footer's time estimate.
   bool estimate_time = true;
 
@@ -187,9 +187,9 @@ struct Point2um {
 /// (after a union of all loops at this height, so shells that overlap are merged).
 struct LayerOutline {
   int index = 0;
-  double print_z_mm = 0;    ///< top of the layer (the nozzle height)
-  double height_mm = 0;     ///< layer thickness
-  double slice_z_mm = 0;    ///< where the mesh was cut: print_z - height / 2
+  double print_z_mm = 0;  ///< top of the layer (the nozzle height)
+  double height_mm = 0;   ///< layer thickness
+  double slice_z_mm = 0;  ///< where the mesh was cut: print_z - height / 2
   std::vector<std::vector<Point2um>> polygons;
   /// Gaps (at most 2 mm) between open outline pieces that were bridged: the mesh is not
   /// closed at this height. 0 for a closed mesh.
@@ -212,26 +212,25 @@ struct LayerOutline {
 struct SliceStats {
   int layer_count = 0;
   double object_height_mm = 0;
-  double part_volume_mm3 = 0;          ///< of the mesh
-  double filament_mm = 0;              ///< sum of positive E outside retract/deretract
-  double filament_volume_mm3 = 0;      ///< filament_mm x filament cross-section
+  double part_volume_mm3 = 0;      ///< of the mesh
+  double filament_mm = 0;          ///< sum of positive E outside retract/deretract
+  double filament_volume_mm3 = 0;  ///< filament_mm x filament cross-section
   double filament_g = 0;
   /// Extruded volume per feature: external perimeter, perimeter, internal infill, solid,
   /// top solid, bridge, gap fill, skirt/brim.
-  double external_perimeter_mm3 = 0, perimeter_mm3 = 0, sparse_infill_mm3 = 0,
-         solid_infill_mm3 = 0, top_solid_infill_mm3 = 0, bridge_infill_mm3 = 0,
-         gap_fill_mm3 = 0, skirt_brim_mm3 = 0;
+  double external_perimeter_mm3 = 0, perimeter_mm3 = 0, sparse_infill_mm3 = 0, solid_infill_mm3 = 0,
+         top_solid_infill_mm3 = 0, bridge_infill_mm3 = 0, gap_fill_mm3 = 0, skirt_brim_mm3 = 0;
   long gcode_lines = 0;
   long retractions = 0;
-  double estimated_time_s = 0;         ///< from the simulator's planner (0 when not run)
+  double estimated_time_s = 0;  ///< from the simulator's planner (0 when not run)
   bool time_from_simulator = false;
   Vec3 placement_offset_mm = Vec3::Zero();  ///< translation applied to the input mesh
   bool mesh_repaired = false;
 };
 
 struct SliceOutput {
-  std::string gcode;                   ///< complete Marlin G-code text
-  std::vector<Finding> findings;       ///< thin_wall_dropped, mesh_repaired, ...
+  std::string gcode;              ///< complete Marlin G-code text
+  std::vector<Finding> findings;  ///< thin_wall_dropped, mesh_repaired, ...
   SliceStats stats;
 };
 

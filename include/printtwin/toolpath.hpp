@@ -12,19 +12,19 @@ namespace printtwin {
 /// Feature type of a move, from the slicers' `;TYPE:` / `; FEATURE:` comments.
 enum class Feature : std::uint8_t {
   unknown = 0,
-  outer_perimeter,   ///< PrusaSlicer "External perimeter", Cura WALL-OUTER
-  perimeter,         ///< PrusaSlicer "Perimeter", Cura WALL-INNER
+  outer_perimeter,  ///< PrusaSlicer "External perimeter", Cura WALL-OUTER
+  perimeter,        ///< PrusaSlicer "Perimeter", Cura WALL-INNER
   overhang_perimeter,
-  sparse_infill,     ///< "Internal infill", Cura FILL
-  solid_infill,      ///< "Solid infill", Cura SKIN
+  sparse_infill,  ///< "Internal infill", Cura FILL
+  solid_infill,   ///< "Solid infill", Cura SKIN
   top_solid_infill,
   bridge_infill,
   gap_fill,
-  skirt,             ///< skirt and brim
+  skirt,  ///< skirt and brim
   support,
   support_interface,
   wipe_tower,
-  custom,            ///< start/end code, purge lines
+  custom,  ///< start/end code, purge lines
   count_
 };
 
@@ -46,14 +46,14 @@ struct Move {
   /// Filament pushed into the hotend during the move, mm of filament, after M221 flow and
   /// M200 volumetric conversion (negative: retraction).
   double e_mm = 0;
-  double feedrate_mm_s = 0;      ///< requested speed of the move (after M220)
-  long line = 0;                 ///< 1-based G-code line that produced it
-  int layer = -1;                ///< layer index (by Z of extrusions), -1 before the first
+  double feedrate_mm_s = 0;  ///< requested speed of the move (after M220)
+  long line = 0;             ///< 1-based G-code line that produced it
+  int layer = -1;            ///< layer index (by Z of extrusions), -1 before the first
   Feature feature = Feature::unknown;
   MoveKind kind = MoveKind::travel;
-  int object_id = -1;            ///< M486 / EXCLUDE_OBJECT label index, -1 when none
-  float width_hint_mm = 0;       ///< `;WIDTH:` of the slicer, 0 when absent
-  float height_hint_mm = 0;      ///< `;HEIGHT:` of the slicer, 0 when absent
+  int object_id = -1;        ///< M486 / EXCLUDE_OBJECT label index, -1 when none
+  float width_hint_mm = 0;   ///< `;WIDTH:` of the slicer, 0 when absent
+  float height_hint_mm = 0;  ///< `;HEIGHT:` of the slicer, 0 when absent
 
   [[nodiscard]] double length_mm() const { return (end_mm - start_mm).norm(); }
   [[nodiscard]] double xy_length_mm() const { return (end_mm - start_mm).head<2>().norm(); }

@@ -37,36 +37,36 @@ inline constexpr int kVerifySchemaVersion = 2;
 
 /// One input file, for provenance.
 struct VerifyInput {
-  std::string role;            ///< "mesh", "gcode" or "printer"
-  std::string path;            ///< as given on the command line
-  std::string sha256;          ///< lowercase hex of the file's bytes ("" for built-ins)
+  std::string role;    ///< "mesh", "gcode" or "printer"
+  std::string path;    ///< as given on the command line
+  std::string sha256;  ///< lowercase hex of the file's bytes ("" for built-ins)
   std::uint64_t size_bytes = 0;
 };
 
 /// Acceptance limits. Every limit is on |d| in mm; unset optional limits default to
 /// `tolerance_mm` for excess and deficit and are not checked for RMS.
 struct VerifyGates {
-  double tolerance_mm = 0.2;                ///< |d| above this is out of tolerance
-  std::optional<double> max_excess_mm;      ///< limit on the largest positive deviation
-  std::optional<double> max_deficit_mm;     ///< limit on the largest negative deviation (>0)
-  std::optional<double> max_rms_mm;         ///< limit on the RMS of both directions
+  double tolerance_mm = 0.2;             ///< |d| above this is out of tolerance
+  std::optional<double> max_excess_mm;   ///< limit on the largest positive deviation
+  std::optional<double> max_deficit_mm;  ///< limit on the largest negative deviation (>0)
+  std::optional<double> max_rms_mm;      ///< limit on the RMS of both directions
 };
 
 /// Outcome of one gate.
 struct GateResult {
-  std::string name;            ///< "max_excess", "max_deficit", "max_rms", "no_error_findings"
-  double limit = 0;            ///< mm (count for no_error_findings)
-  double value = 0;            ///< measured, mm (count for no_error_findings)
+  std::string name;  ///< "max_excess", "max_deficit", "max_rms", "no_error_findings"
+  double limit = 0;  ///< mm (count for no_error_findings)
+  double value = 0;  ///< measured, mm (count for no_error_findings)
   bool pass = true;
 };
 
 /// Everything that changes the result, echoed into the report.
 struct VerifySettings {
   VerifyGates gates;
-  double voxel_mm = 0.05;                   ///< deposit voxel edge
-  bool conserve_volume = false;             ///< DepositSettings::conserve_volume
-  double mesh_sample_spacing_mm = 0;        ///< mesh->deposit sample spacing (0: 2 x voxel_mm)
-  std::optional<Vec3> place_mm;             ///< --place override of the registration offset
+  double voxel_mm = 0.05;             ///< deposit voxel edge
+  bool conserve_volume = false;       ///< DepositSettings::conserve_volume
+  double mesh_sample_spacing_mm = 0;  ///< mesh->deposit sample spacing (0: 2 x voxel_mm)
+  std::optional<Vec3> place_mm;       ///< --place override of the registration offset
   /// --place rotation (degrees about the machine's X, then Y, then Z axes, applied to the
   /// mesh before place_mm); only with place_mm.
   std::optional<Vec3> place_rotation_deg;
@@ -74,15 +74,15 @@ struct VerifySettings {
   std::optional<double> mesh_scale;
   /// --object: the labelled object to measure (name or id); "": the one that fits best.
   std::string object;
-  std::string printer = "auto";             ///< "auto", a profile name or a path (printer.hpp)
-  std::string gcode_source = "file";        ///< "file" or "printtwin slice"
+  std::string printer = "auto";       ///< "auto", a profile name or a path (printer.hpp)
+  std::string gcode_source = "file";  ///< "file" or "printtwin slice"
   /// Without G-code: a PrusaSlicer .ini for printtwin's slicer (empty: its defaults).
   std::string slice_config_ini;
   /// Without G-code: slicer settings as (key, value), applied after the .ini
   /// (`set_slice_setting` keys, slice.hpp).
   std::vector<std::pair<std::string, std::string>> slice_overrides;
-  std::uint64_t seed = 1;                   ///< seed of the mesh surface sampling
-  int max_regions = 50;                     ///< largest regions kept in the report
+  std::uint64_t seed = 1;  ///< seed of the mesh surface sampling
+  int max_regions = 50;    ///< largest regions kept in the report
   /// Keep the deposit's voxels in VerifyReport::deposit_grid (e.g. for --deposit-mesh).
   bool keep_deposit_grid = false;
 };
@@ -93,20 +93,20 @@ struct CheckSummary {
   std::size_t vertices = 0;
   double volume_mm3 = 0;
   double area_mm2 = 0;
-  Box3 bbox_mm;                             ///< in the mesh's own frame
+  Box3 bbox_mm;  ///< in the mesh's own frame
   bool watertight = false;
   int errors = 0, warnings = 0, infos = 0;  ///< findings of the check stage by severity
 };
 
 /// Summary of the G-code run on the twin (simulate.hpp).
 struct SimulationSummary {
-  std::string slicer;                       ///< detected flavour ("PrusaSlicer", "Cura", ...)
+  std::string slicer;  ///< detected flavour ("PrusaSlicer", "Cura", ...)
   std::size_t gcode_lines = 0;
   std::size_t moves = 0;
   std::size_t extrusion_moves = 0;
   int layers = 0;
-  double print_time_s = 0;                  ///< planned time, heating/dwell included
-  double filament_mm = 0;                   ///< filament length pushed (net of retractions)
+  double print_time_s = 0;  ///< planned time, heating/dwell included
+  double filament_mm = 0;   ///< filament length pushed (net of retractions)
   double extruded_volume_mm3 = 0;
   Box3 extrusion_bbox_mm;                   ///< machine frame, all extrusions
   int errors = 0, warnings = 0, infos = 0;  ///< findings of the simulate stage by severity
@@ -115,26 +115,26 @@ struct SimulationSummary {
 /// Summary of the voxel deposit (deposit.hpp).
 struct DepositSummary {
   double voxel_mm = 0;
-  std::size_t voxels = 0;                   ///< occupied voxels
-  std::size_t surface_voxels = 0;           ///< voxels of the outer surface
-  double volume_mm3 = 0;                    ///< voxels * voxel_mm^3
-  double extruded_volume_mm3 = 0;           ///< what the beads should hold
-  Box3 bbox_mm;                             ///< occupied voxels, machine frame
-  Box3 part_bbox_mm;                        ///< part only (skirt/brim/purge/support excluded)
+  std::size_t voxels = 0;          ///< occupied voxels
+  std::size_t surface_voxels = 0;  ///< voxels of the outer surface
+  double volume_mm3 = 0;           ///< voxels * voxel_mm^3
+  double extruded_volume_mm3 = 0;  ///< what the beads should hold
+  Box3 bbox_mm;                    ///< occupied voxels, machine frame
+  Box3 part_bbox_mm;               ///< part only (skirt/brim/purge/support excluded)
   std::size_t memory_bytes = 0;
 };
 
 /// Wall time of one stage.
 struct StageTiming {
-  std::string stage;                        ///< "load", "check", "simulate", "deposit", ...
+  std::string stage;  ///< "load", "check", "simulate", "deposit", ...
   double seconds = 0;
 };
 
 /// The whole verdict of one `verify` run.
 struct VerifyReport {
   int schema_version = kVerifySchemaVersion;
-  std::string tool_version;                 ///< printtwin::kVersion
-  std::string part_name;                    ///< mesh file stem
+  std::string tool_version;  ///< printtwin::kVersion
+  std::string part_name;     ///< mesh file stem
   std::vector<VerifyInput> inputs;
   VerifySettings settings;
 
@@ -155,7 +155,7 @@ struct VerifyReport {
   /// finding per region, in stage order.
   std::vector<Finding> findings;
   std::vector<GateResult> gates;
-  bool pass = false;                        ///< no error finding and every gate passes
+  bool pass = false;  ///< no error finding and every gate passes
   std::vector<StageTiming> timings;
   /// Wall time of the whole verify() call (0 when not measured, e.g. by verify_gcode). With
   /// --gcode the part's stages run beside the G-code's, so it is less than their sum.
@@ -192,14 +192,14 @@ struct VerifyOptions {
 /// against it: the mesh in its own frame, its provenance, its printability check and the
 /// design side of the deviation (Embree BVH, pseudo-normals, surface samples).
 struct PreparedPart {
-  std::string name;                         ///< mesh file stem
-  Mesh mesh;                                ///< own frame (placed per G-code by registration)
-  VerifyInput mesh_input;                   ///< path, SHA-256 and size of the mesh file
+  std::string name;        ///< mesh file stem
+  Mesh mesh;               ///< own frame (placed per G-code by registration)
+  VerifyInput mesh_input;  ///< path, SHA-256 and size of the mesh file
   CheckSummary check;
   std::vector<Finding> check_findings;
   /// Design side of the deviation in the mesh's own frame (null: built per G-code).
   std::shared_ptr<const DeviationTarget> target;
-  std::vector<StageTiming> timings;         ///< "load", "index", "check"
+  std::vector<StageTiming> timings;  ///< "load", "index", "check"
 };
 
 /// Reads, loads and checks the mesh and builds its deviation target with `settings`' sample
@@ -215,11 +215,11 @@ struct PreparedPart {
 /// One G-code to verify: its text and where it came from.
 struct GcodeInput {
   std::string text;
-  std::string name;                         ///< file path, or a label for a printtwin slice
-  std::string source = "file";              ///< "file" or "printtwin slice"
-  std::vector<VerifyInput> inputs;          ///< provenance (the G-code, a slicer .ini)
-  std::vector<Finding> findings;            ///< the slicer's findings (printtwin slice)
-  double slice_time_s = 0;                  ///< printtwin slice: wall time of slicing
+  std::string name;                 ///< file path, or a label for a printtwin slice
+  std::string source = "file";      ///< "file" or "printtwin slice"
+  std::vector<VerifyInput> inputs;  ///< provenance (the G-code, a slicer .ini)
+  std::vector<Finding> findings;    ///< the slicer's findings (printtwin slice)
+  double slice_time_s = 0;          ///< printtwin slice: wall time of slicing
 };
 
 /// Reads a G-code file (bad input when unreadable).
@@ -238,43 +238,42 @@ struct GcodeInput {
 /// A G-code run on the twin and deposited: everything of a verification that does not need
 /// the mesh (so it can run beside prepare_part).
 struct PrintedGcode {
-  std::string name;                         ///< GcodeInput::name
-  std::string source = "file";              ///< GcodeInput::source
-  std::vector<VerifyInput> inputs;          ///< provenance (GcodeInput::inputs)
+  std::string name;                 ///< GcodeInput::name
+  std::string source = "file";      ///< GcodeInput::source
+  std::vector<VerifyInput> inputs;  ///< provenance (GcodeInput::inputs)
   SimulationSummary simulation;
-  PartExtent extent;                        ///< the part's extrusions (registration)
-  DepositResult deposit;                    ///< its findings moved into `findings`
-  std::vector<SurfaceBead> beads;           ///< the part's beads (surface_beads), for the surface
+  PartExtent extent;               ///< the part's extrusions (registration)
+  DepositResult deposit;           ///< its findings moved into `findings`
+  std::vector<SurfaceBead> beads;  ///< the part's beads (surface_beads), for the surface
   /// The slicer's findings, then the simulation's, then the deposit's.
   std::vector<Finding> findings;
-  std::vector<StageTiming> timings;         ///< slice (printtwin slice), simulate, deposit
-  PrinterProfile printer;                   ///< the printer it ran on (with value sources)
+  std::vector<StageTiming> timings;  ///< slice (printtwin slice), simulate, deposit
+  PrinterProfile printer;            ///< the printer it ran on (with value sources)
 };
 
 /// simulate -> deposit of one G-code. Errors: invalid G-code, or no extrusion of the part to
 /// register against without `settings.place_mm` (bad input); settings out of range (usage).
 /// `on_stage` (optional) is called with "simulate" and "deposit" as each starts.
-[[nodiscard]] Result<PrintedGcode> print_gcode(const PrinterProfile& printer, const VerifySettings& settings,
-                                               GcodeInput gcode,
-                                               const std::function<void(std::string_view)>& on_stage = {});
+[[nodiscard]] Result<PrintedGcode> print_gcode(
+    const PrinterProfile& printer, const VerifySettings& settings, GcodeInput gcode,
+    const std::function<void(std::string_view)>& on_stage = {});
 
 /// registration -> deviation -> region findings -> gates of a printed G-code against a
 /// prepared part (the second half of verify_gcode). `on_stage` gets "deviation".
-[[nodiscard]] Result<VerifyReport> measure_printed(const PreparedPart& part, const VerifySettings& settings,
-                                                   PrintedGcode printed,
-                                                   bool include_part_timings = true,
-                                                   const std::function<void(std::string_view)>& on_stage = {});
+[[nodiscard]] Result<VerifyReport> measure_printed(
+    const PreparedPart& part, const VerifySettings& settings, PrintedGcode printed,
+    bool include_part_timings = true, const std::function<void(std::string_view)>& on_stage = {});
 
 /// print_gcode then measure_printed: simulate -> deposit -> registration -> deviation ->
-/// region findings -> gates, for one G-code of a prepared part. The report's findings are the part's check findings, then the
-/// slicer's, the simulation's, the deposit's and one per deviation region; its timings are
-/// the part's (when `include_part_timings`) then slice, simulate, deposit, deviation.
-/// `on_stage` (optional) is called with "simulate", "deposit", "deviation" as each starts.
-/// Errors: invalid G-code (bad input), settings out of range (usage).
-[[nodiscard]] Result<VerifyReport> verify_gcode(const PreparedPart& part, const PrinterProfile& printer,
-                                                const VerifySettings& settings, GcodeInput gcode,
-                                                bool include_part_timings = true,
-                                                const std::function<void(std::string_view)>& on_stage = {});
+/// region findings -> gates, for one G-code of a prepared part. The report's findings are the
+/// part's check findings, then the slicer's, the simulation's, the deposit's and one per deviation
+/// region; its timings are the part's (when `include_part_timings`) then slice, simulate, deposit,
+/// deviation. `on_stage` (optional) is called with "simulate", "deposit", "deviation" as each
+/// starts. Errors: invalid G-code (bad input), settings out of range (usage).
+[[nodiscard]] Result<VerifyReport> verify_gcode(
+    const PreparedPart& part, const PrinterProfile& printer, const VerifySettings& settings,
+    GcodeInput gcode, bool include_part_timings = true,
+    const std::function<void(std::string_view)>& on_stage = {});
 
 /// report.json text of a report (docs/report-schema.md). Deterministic: numbers via
 /// to_chars, keys in a fixed order; timings are the only run-dependent values.

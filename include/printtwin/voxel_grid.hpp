@@ -27,8 +27,8 @@ struct VoxelKey {
 
 /// What laid a voxel (the last move that wrote it).
 struct VoxelTag {
-  std::uint32_t line = 0;      ///< G-code line
-  std::int32_t layer = -1;     ///< layer index
+  std::uint32_t line = 0;   ///< G-code line
+  std::int32_t layer = -1;  ///< layer index
   Feature feature = Feature::unknown;
   bool operator==(const VoxelTag&) const = default;
 };

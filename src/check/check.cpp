@@ -98,16 +98,17 @@ void health_findings(const MeshHealth& h, const Vec3& offset, std::vector<Findin
             xyz(*at(h.first_inconsistent_edge_mm)) + "); inside and outside are ambiguous",
         at(h.first_inconsistent_edge_mm), static_cast<long>(h.inconsistent_edges)));
   if (h.inverted_shells > 0)
-    out.push_back(make_finding(Severity::error, "inverted_shell",
-                               plural(h.inverted_shells, "closed shell") +
-                                   " inside out (negative volume, not a cavity)",
-                               std::nullopt, static_cast<long>(h.inverted_shells)));
-  if (h.non_manifold_vertices > 0)
     out.push_back(make_finding(
-        Severity::warning, "non_manifold_vertex",
-        plural(h.non_manifold_vertices, "vertex") + " where separate fans of faces touch (first at " +
-            xyz(*at(h.first_non_manifold_vertex_mm)) + ")",
-        at(h.first_non_manifold_vertex_mm), static_cast<long>(h.non_manifold_vertices)));
+        Severity::error, "inverted_shell",
+        plural(h.inverted_shells, "closed shell") + " inside out (negative volume, not a cavity)",
+        std::nullopt, static_cast<long>(h.inverted_shells)));
+  if (h.non_manifold_vertices > 0)
+    out.push_back(make_finding(Severity::warning, "non_manifold_vertex",
+                               plural(h.non_manifold_vertices, "vertex") +
+                                   " where separate fans of faces touch (first at " +
+                                   xyz(*at(h.first_non_manifold_vertex_mm)) + ")",
+                               at(h.first_non_manifold_vertex_mm),
+                               static_cast<long>(h.non_manifold_vertices)));
   if (h.degenerate_faces > 0)
     out.push_back(make_finding(Severity::warning, "degenerate_face",
                                plural(h.degenerate_faces, "face") + " with zero area (first at " +
@@ -115,15 +116,15 @@ void health_findings(const MeshHealth& h, const Vec3& offset, std::vector<Findin
                                at(h.first_degenerate_face_mm),
                                static_cast<long>(h.degenerate_faces)));
   if (h.duplicate_faces > 0)
-    out.push_back(make_finding(Severity::warning, "duplicate_face",
-                               plural(h.duplicate_faces, "face") +
-                                   " repeating the vertices of another face",
-                               std::nullopt, static_cast<long>(h.duplicate_faces)));
+    out.push_back(
+        make_finding(Severity::warning, "duplicate_face",
+                     plural(h.duplicate_faces, "face") + " repeating the vertices of another face",
+                     std::nullopt, static_cast<long>(h.duplicate_faces)));
   if (h.shells > 1)
-    out.push_back(make_finding(Severity::info, "multiple_shells",
-                               "the mesh has " + std::to_string(h.shells) +
-                                   " separate shells (parts or cavities)",
-                               std::nullopt, static_cast<long>(h.shells)));
+    out.push_back(make_finding(
+        Severity::info, "multiple_shells",
+        "the mesh has " + std::to_string(h.shells) + " separate shells (parts or cavities)",
+        std::nullopt, static_cast<long>(h.shells)));
 }
 
 /// "; it fits rotated ..." or "; the largest scale that fits is ..." for does_not_fit.
@@ -140,13 +141,15 @@ std::string fit_advice_text(const Vec3& size, const PrinterProfile& printer) {
 
 /// The self-intersection finding, graded by what the intersections do to the layers.
 void self_intersection_finding(const MeshHealth& h, const std::optional<IntersectionEffect>& eff,
-                               double line_width_mm, const Vec3& offset, std::vector<Finding>& out) {
+                               double line_width_mm, const Vec3& offset,
+                               std::vector<Finding>& out) {
   if (h.self_intersections == 0) return;
   std::string where;
   for (std::size_t i = 0; i < h.self_intersection_locations_mm.size() && i < 3; ++i)
     where += (i ? ", " : "") + xyz(h.self_intersection_locations_mm[i] + offset);
   std::optional<Vec3> first;
-  if (!h.self_intersection_locations_mm.empty()) first = h.self_intersection_locations_mm.front() + offset;
+  if (!h.self_intersection_locations_mm.empty())
+    first = h.self_intersection_locations_mm.front() + offset;
   const std::string pairs = plural(h.self_intersections, "pair") + " of intersecting faces";
   const std::string at = " (first at " + where + ")";
   Severity sev = Severity::info;
@@ -156,35 +159,42 @@ void self_intersection_finding(const MeshHealth& h, const std::optional<Intersec
     msg = pairs + at + "; their effect on the layers is not measured because the mesh is open";
   } else {
     const IntersectionEffect& e = *eff;
-    const std::string layers = plural(e.layers_changed, "layer") + " of " + std::to_string(e.layers) +
-                               " at " + format_fixed(e.layer_height_mm, 2) + " mm";
-    const std::string zr = e.changed_bbox_mm.empty()
-                               ? std::string()
-                               : ", z " + format_fixed(e.changed_bbox_mm.min.z() + offset.z(), 2) + ".." +
-                                     format_fixed(e.changed_bbox_mm.max.z() + offset.z(), 2) + " mm";
-    const std::string twice =
-        e.twice_volume_mm3 > 0 ? format_fixed(e.twice_volume_mm3, 2) + " mm3 enclosed twice (up to " +
-                                     format_fixed(e.max_twice_area_mm2, 2) + " mm2 per layer)"
-                               : std::string();
+    const std::string layers = plural(e.layers_changed, "layer") + " of " +
+                               std::to_string(e.layers) + " at " +
+                               format_fixed(e.layer_height_mm, 2) + " mm";
+    const std::string zr =
+        e.changed_bbox_mm.empty()
+            ? std::string()
+            : ", z " + format_fixed(e.changed_bbox_mm.min.z() + offset.z(), 2) + ".." +
+                  format_fixed(e.changed_bbox_mm.max.z() + offset.z(), 2) + " mm";
+    const std::string twice = e.twice_volume_mm3 > 0
+                                  ? format_fixed(e.twice_volume_mm3, 2) +
+                                        " mm3 enclosed twice (up to " +
+                                        format_fixed(e.max_twice_area_mm2, 2) + " mm2 per layer)"
+                                  : std::string();
     if (e.inverted_volume_mm3 > 0) {
       // A fold at least one line square in some layer changes what is printed there.
-      sev = e.max_inverted_area_mm2 >= line_width_mm * line_width_mm ? Severity::error : Severity::warning;
+      sev = e.max_inverted_area_mm2 >= line_width_mm * line_width_mm ? Severity::error
+                                                                     : Severity::warning;
       msg = pairs + " fold the surface inside out in " + layers + zr + ": up to " +
             format_fixed(e.max_inverted_area_mm2, 2) + " mm2 per layer (" +
             format_fixed(e.inverted_volume_mm3, 2) +
             " mm3) is solid or empty depending on the slicer's fill rule" +
             (twice.empty() ? std::string() : "; " + twice) + at;
     } else if (e.twice_volume_mm3 > 0) {
-      msg = pairs + " where the surface overlaps itself: " + twice + " in " + layers + zr +
-            "; slicers merge the overlap and print it once (the layer outlines do not change), only "
-            "volumes taken from the mesh count it twice" + at;
+      msg =
+          pairs + " where the surface overlaps itself: " + twice + " in " + layers + zr +
+          "; slicers merge the overlap and print it once (the layer outlines do not change), only "
+          "volumes taken from the mesh count it twice" +
+          at;
     } else {
       msg = pairs + " touch or cross without changing any layer outline (" +
             std::to_string(e.layers) + " layers cut at " + format_fixed(e.layer_height_mm, 2) +
             " mm through them: no area enclosed twice or inside out)" + at;
     }
   }
-  Finding f = make_finding(sev, "self_intersection", msg, first, static_cast<long>(h.self_intersections));
+  Finding f =
+      make_finding(sev, "self_intersection", msg, first, static_cast<long>(h.self_intersections));
   if (eff && !eff->changed_bbox_mm.empty()) {
     f.extent_mm = eff->changed_bbox_mm;
     f.extent_mm->min += offset;
@@ -274,7 +284,8 @@ std::optional<Box3> stray_shell_findings(const CheckReport& rep, const Vec3& off
   Box3 kept;
   for (std::size_t i = 0; i < boxes.size(); ++i) {
     const double main_size = boxes[main].size().norm();
-    const Vec3 gap = (boxes[i].min - boxes[main].max).cwiseMax(boxes[main].min - boxes[i].max).cwiseMax(0.0);
+    const Vec3 gap =
+        (boxes[i].min - boxes[main].max).cwiseMax(boxes[main].min - boxes[i].max).cwiseMax(0.0);
     // Stray: at most 1 % of the main body's faces, and farther from it than its own size.
     if (i != main && faces[i] * 100 <= faces[main] && gap.norm() > main_size) {
       ++stray;
@@ -293,9 +304,9 @@ std::optional<Box3> stray_shell_findings(const CheckReport& rep, const Vec3& off
             xyz(*first) + "): the slicer places and sizes the object with them, " +
             format_fixed(rep.placement.bbox_mm.size().x(), 1) + " x " +
             format_fixed(rep.placement.bbox_mm.size().y(), 1) + " x " +
-            format_fixed(rep.placement.bbox_mm.size().z(), 1) + " mm instead of " + format_fixed(ks.x(), 1) +
-            " x " + format_fixed(ks.y(), 1) + " x " + format_fixed(ks.z(), 1) +
-            " mm; delete them (admesh --remove-unconnected)",
+            format_fixed(rep.placement.bbox_mm.size().z(), 1) + " mm instead of " +
+            format_fixed(ks.x(), 1) + " x " + format_fixed(ks.y(), 1) + " x " +
+            format_fixed(ks.z(), 1) + " mm; delete them (admesh --remove-unconnected)",
         first, static_cast<long>(stray)));
   }
   return main_body;
@@ -315,14 +326,17 @@ void placement_findings(const CheckReport& rep, const PrinterProfile& printer,
             format_fixed(pb.max.x(), 2) + ", y " + format_fixed(pb.min.y(), 2) + ".." +
             format_fixed(pb.max.y(), 2) + ") does not fit the build volume of " + printer.name +
             " (x " + format_fixed(printer.bed_min_x_mm, 0) + ".." +
-            format_fixed(printer.bed_max_x_mm, 0) + ", y " +
-            format_fixed(printer.bed_min_y_mm, 0) + ".." + format_fixed(printer.bed_max_y_mm, 0) +
-            ", z 0.." + format_fixed(printer.max_z_mm, 0) + " mm)" +
-            (main_body ? std::string(main_body->size().x() <= printer.bed_max_x_mm - printer.bed_min_x_mm &&
-                                             main_body->size().y() <= printer.bed_max_y_mm - printer.bed_min_y_mm &&
-                                             main_body->size().z() <= printer.max_z_mm
-                                         ? "; without the stray shells it fits"
-                                         : "; without the stray shells: " + fit_advice_text(main_body->size(), printer).substr(2))
+            format_fixed(printer.bed_max_x_mm, 0) + ", y " + format_fixed(printer.bed_min_y_mm, 0) +
+            ".." + format_fixed(printer.bed_max_y_mm, 0) + ", z 0.." +
+            format_fixed(printer.max_z_mm, 0) + " mm)" +
+            (main_body ? std::string(
+                             main_body->size().x() <= printer.bed_max_x_mm - printer.bed_min_x_mm &&
+                                     main_body->size().y() <=
+                                         printer.bed_max_y_mm - printer.bed_min_y_mm &&
+                                     main_body->size().z() <= printer.max_z_mm
+                                 ? "; without the stray shells it fits"
+                                 : "; without the stray shells: " +
+                                       fit_advice_text(main_body->size(), printer).substr(2))
                        : fit_advice_text(size, printer)),
         pb.center());
     f.extent_mm = pb;
@@ -334,7 +348,8 @@ void placement_findings(const CheckReport& rep, const PrinterProfile& printer,
         Severity::warning, "small_bed_contact",
         "only " + format_fixed(rep.placement.footprint_area_mm2, 2) +
             " mm2 of the part rests on the bed (" +
-            format_fixed(100.0 * rep.placement.footprint_area_mm2 / std::max(bbox_xy_area, 1e-12), 1) +
+            format_fixed(100.0 * rep.placement.footprint_area_mm2 / std::max(bbox_xy_area, 1e-12),
+                         1) +
             " % of its footprint box): it may come loose; add a brim or a flat base",
         Vec3(pb.center().x(), pb.center().y(), 0.0)));
   }
@@ -353,7 +368,6 @@ void placement_findings(const CheckReport& rep, const PrinterProfile& printer,
       out.push_back(f);
     }
   }
-
 }
 
 /// One finding per overhang region (the largest `max_locations`), then a count of the rest.
@@ -376,13 +390,12 @@ void overhang_findings(const CheckReport& rep, const CheckSettings& settings,
     out.push_back(f);
   }
   if (rep.overhangs.size() > settings.max_locations)
-    out.push_back(make_finding(
-        Severity::info, "overhang_more",
-        std::to_string(rep.overhangs.size() - settings.max_locations) +
-            " more overhang regions not listed; " + format_fixed(overhang_total, 1) +
-            " mm2 of overhang in all",
-        std::nullopt, static_cast<long>(rep.overhangs.size() - settings.max_locations)));
-
+    out.push_back(make_finding(Severity::info, "overhang_more",
+                               std::to_string(rep.overhangs.size() - settings.max_locations) +
+                                   " more overhang regions not listed; " +
+                                   format_fixed(overhang_total, 1) + " mm2 of overhang in all",
+                               std::nullopt,
+                               static_cast<long>(rep.overhangs.size() - settings.max_locations)));
 }
 
 /// Thin walls and narrow gaps from the thickness rays.
@@ -394,8 +407,8 @@ void thickness_findings(const CheckReport& rep, const ThicknessResult& t,
         "walls down to " + format_fixed(t.min_thickness_mm, 2) + " mm thick at " +
             xyz(t.min_thickness_at_mm) + ", thinner than " + mm(rep.min_thickness_limit_mm) +
             " over " + format_fixed(t.thin_area_mm2, 1) + " mm2 (z " +
-            format_fixed(t.thin_bbox_mm.min.z(), 2) + ".." + format_fixed(t.thin_bbox_mm.max.z(), 2) +
-            " mm): the slicer may drop or weaken them",
+            format_fixed(t.thin_bbox_mm.min.z(), 2) + ".." +
+            format_fixed(t.thin_bbox_mm.max.z(), 2) + " mm): the slicer may drop or weaken them",
         t.min_thickness_at_mm, static_cast<long>(t.thin_faces));
     f.extent_mm = t.thin_bbox_mm;
     f.value = t.min_thickness_mm;
@@ -439,16 +452,17 @@ void small_feature_findings(const CheckReport& rep, const PrinterProfile& printe
   if (vanishing > 0 && vanishing == shells) {
     out.push_back(make_finding(Severity::error, "small_feature",
                                std::string(shells == 1 ? "the part is" : "every part is") +
-                                   " narrower than the thinnest line a slicer prints (" + mm(vanish_mm) +
-                                   ", a third of the nozzle) (at " + xyz(*first_vanishing) +
-                                   "): nothing will print",
+                                   " narrower than the thinnest line a slicer prints (" +
+                                   mm(vanish_mm) + ", a third of the nozzle) (at " +
+                                   xyz(*first_vanishing) + "): nothing will print",
                                first_vanishing, static_cast<long>(vanishing)));
   } else if (vanishing > 0) {
-    out.push_back(make_finding(Severity::warning, "small_feature",
-                               plural(vanishing, "separate part") + " of " + std::to_string(shells) +
-                                   " narrower than the thinnest line a slicer prints (" + mm(vanish_mm) +
-                                   ") (first at " + xyz(*first_vanishing) + "): they will not print",
-                               first_vanishing, static_cast<long>(vanishing)));
+    out.push_back(
+        make_finding(Severity::warning, "small_feature",
+                     plural(vanishing, "separate part") + " of " + std::to_string(shells) +
+                         " narrower than the thinnest line a slicer prints (" + mm(vanish_mm) +
+                         ") (first at " + xyz(*first_vanishing) + "): they will not print",
+                     first_vanishing, static_cast<long>(vanishing)));
   } else if (narrow > 0) {
     out.push_back(make_finding(Severity::warning, "small_feature",
                                plural(narrow, "separate part") + " narrower than one line width (" +
@@ -462,14 +476,16 @@ void small_feature_findings(const CheckReport& rep, const PrinterProfile& printe
 void orientation_finding(const OrientationAdvice& a, std::vector<Finding>& out) {
   if (!a.better) return;
   const Vec3& r = a.best.rotation_xyz_deg;
-  Finding f = make_finding(
-      Severity::info, "orientation",
-      "stood on " + a.best.label + " (rotate " + format_fixed(r.x(), 1) + ", " + format_fixed(r.y(), 1) +
-          ", " + format_fixed(r.z(), 1) + " deg about X, Y, Z; --orient applies it) it needs " +
-          format_fixed(a.best.overhang_mm2, 1) + " mm2 of support instead of " +
-          format_fixed(a.current.overhang_mm2, 1) + " mm2 and rests " + format_fixed(a.best.contact_mm2, 1) +
-          " mm2 on the bed instead of " + format_fixed(a.current.contact_mm2, 1) + " mm2 (best of " +
-          std::to_string(a.candidates) + " orientations)");
+  Finding f =
+      make_finding(Severity::info, "orientation",
+                   "stood on " + a.best.label + " (rotate " + format_fixed(r.x(), 1) + ", " +
+                       format_fixed(r.y(), 1) + ", " + format_fixed(r.z(), 1) +
+                       " deg about X, Y, Z; --orient applies it) it needs " +
+                       format_fixed(a.best.overhang_mm2, 1) + " mm2 of support instead of " +
+                       format_fixed(a.current.overhang_mm2, 1) + " mm2 and rests " +
+                       format_fixed(a.best.contact_mm2, 1) + " mm2 on the bed instead of " +
+                       format_fixed(a.current.contact_mm2, 1) + " mm2 (best of " +
+                       std::to_string(a.candidates) + " orientations)");
   f.value = a.current.overhang_mm2 - a.best.overhang_mm2;
   out.push_back(f);
 }
@@ -512,9 +528,10 @@ Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& p
   overhang_findings(rep, settings, out);
 
   // Thin walls and narrow gaps.
-  auto thick = measure_thickness(placed, rep.min_thickness_limit_mm, rep.line_width_mm, settings.mesh_query,
-                                 rep.placement.offset_mm, settings.thickness_beyond_limit,
-                                 rep.health.shells > 1 || rep.health.self_intersections > 0);
+  auto thick =
+      measure_thickness(placed, rep.min_thickness_limit_mm, rep.line_width_mm, settings.mesh_query,
+                        rep.placement.offset_mm, settings.thickness_beyond_limit,
+                        rep.health.shells > 1 || rep.health.self_intersections > 0);
   if (!thick) return thick.error();
   rep.thickness = *thick;
   thickness_findings(rep, *thick, out);

@@ -75,7 +75,8 @@ std::string check_report_to_json(const CheckReport& r, const CheckSource& source
     const ThicknessResult& t = *r.thickness;
     doc["thickness"] = {
         {"min_thickness_mm", num(t.min_thickness_mm)},
-        {"min_thickness_at_mm", std::isfinite(t.min_thickness_mm) ? vec(t.min_thickness_at_mm) : json(nullptr)},
+        {"min_thickness_at_mm",
+         std::isfinite(t.min_thickness_mm) ? vec(t.min_thickness_at_mm) : json(nullptr)},
         {"thin_faces", t.thin_faces},
         {"thin_area_mm2", num(t.thin_area_mm2)},
         {"min_gap_mm", num(t.min_gap_mm)},
@@ -140,14 +141,15 @@ std::string check_report_to_json(const CheckReport& r, const CheckSource& source
       changes.push_back({{"code", c.code}, {"count", c.count}, {"message", c.message}});
     const RepairCounters& k = repair->counters;
     doc["repair"] = {{"output", repair_file},
-                     {"counters", {{"edges_fixed", k.edges_fixed},
-                                   {"facets_removed", k.facets_removed},
-                                   {"facets_added", k.facets_added},
-                                   {"facets_reversed", k.facets_reversed},
-                                   {"backwards_edges", k.backwards_edges},
-                                   {"holes_filled", k.holes_filled},
-                                   {"degenerate_facets", k.degenerate_facets},
-                                   {"parts", k.parts}}},
+                     {"counters",
+                      {{"edges_fixed", k.edges_fixed},
+                       {"facets_removed", k.facets_removed},
+                       {"facets_added", k.facets_added},
+                       {"facets_reversed", k.facets_reversed},
+                       {"backwards_edges", k.backwards_edges},
+                       {"holes_filled", k.holes_filled},
+                       {"degenerate_facets", k.degenerate_facets},
+                       {"parts", k.parts}}},
                      {"changes", changes},
                      {"after", health_json(repair->after, Vec3::Zero())}};
   }

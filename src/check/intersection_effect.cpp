@@ -71,8 +71,9 @@ LayerArea cut_layer(const Mesh& mesh, const std::vector<std::uint32_t>& by_zmin,
         const double k = (zp - lo.z()) / (hi.z() - lo.z());
         const Vec3 p = lo + k * (hi - lo);
         s.from = edge_key(u, v);
-        s.start = ClipperLib::IntPoint(static_cast<ClipperLib::cInt>(std::llround(p.x() * kUnitsPerMm)),
-                                       static_cast<ClipperLib::cInt>(std::llround(p.y() * kUnitsPerMm)));
+        s.start =
+            ClipperLib::IntPoint(static_cast<ClipperLib::cInt>(std::llround(p.x() * kUnitsPerMm)),
+                                 static_cast<ClipperLib::cInt>(std::llround(p.y() * kUnitsPerMm)));
       } else {
         s.to = edge_key(u, v);
       }
@@ -81,7 +82,8 @@ LayerArea cut_layer(const Mesh& mesh, const std::vector<std::uint32_t>& by_zmin,
   }
   // Chain: the segment leaving edge e follows the one arriving at e.
   std::vector<std::pair<std::uint64_t, std::uint32_t>> starts(segs.size());
-  for (std::size_t i = 0; i < segs.size(); ++i) starts[i] = {segs[i].from, static_cast<std::uint32_t>(i)};
+  for (std::size_t i = 0; i < segs.size(); ++i)
+    starts[i] = {segs[i].from, static_cast<std::uint32_t>(i)};
   std::sort(starts.begin(), starts.end());
   std::vector<char> used(segs.size(), 0);
   ClipperLib::Paths loops;
@@ -158,14 +160,17 @@ IntersectionEffect measure_intersection_effect(const Mesh& mesh,
   }
   std::vector<std::uint32_t> by_zmin(nf);
   for (std::size_t f = 0; f < nf; ++f) by_zmin[f] = static_cast<std::uint32_t>(f);
-  std::sort(by_zmin.begin(), by_zmin.end(),
-            [&](std::uint32_t a, std::uint32_t b) { return zmin[a] < zmin[b] || (zmin[a] == zmin[b] && a < b); });
+  std::sort(by_zmin.begin(), by_zmin.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return zmin[a] < zmin[b] || (zmin[a] == zmin[b] && a < b);
+  });
   std::vector<LayerArea> areas(cut.size());
   tbb::parallel_for(std::size_t{0}, cut.size(), [&](std::size_t i) {
-    areas[i] = cut_layer(mesh, by_zmin, zmin, zmax, z0 + (static_cast<double>(cut[i]) + 0.5) * layer_height_mm);
+    areas[i] = cut_layer(mesh, by_zmin, zmin, zmax,
+                         z0 + (static_cast<double>(cut[i]) + 0.5) * layer_height_mm);
   });
   // Each cut layer stands for ks.size() / cut.size() layers.
-  const double weight = cut.empty() ? 0.0 : static_cast<double>(ks.size()) / static_cast<double>(cut.size());
+  const double weight =
+      cut.empty() ? 0.0 : static_cast<double>(ks.size()) / static_cast<double>(cut.size());
   double changed = 0;
   double zlo = std::numeric_limits<double>::infinity(), zhi = -zlo;
   for (std::size_t i = 0; i < cut.size(); ++i) {

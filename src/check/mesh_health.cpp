@@ -15,7 +15,8 @@ bool is_degenerate_face(const Mesh& mesh, std::size_t f) {
   const Vec3& a = mesh.vertices_mm[t[0]];
   const Vec3& b = mesh.vertices_mm[t[1]];
   const Vec3& c = mesh.vertices_mm[t[2]];
-  const double longest2 = std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
+  const double longest2 =
+      std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
   // Zero area relative to the face's size: collinear to about 1e-8 of its longest edge.
   return (b - a).cross(c - a).squaredNorm() <= 1e-16 * longest2 * longest2;
 }
@@ -39,9 +40,7 @@ void UnionFind::unite(std::uint32_t a, std::uint32_t b) {
   if (a != b) parent[std::max(a, b)] = std::min(a, b);
 }
 
-UnionFind::UnionFind(std::size_t n) : parent(n) {
-  std::iota(parent.begin(), parent.end(), 0U);
-}
+UnionFind::UnionFind(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0U); }
 
 namespace {
 
@@ -147,8 +146,7 @@ std::vector<char> duplicate_or_index_degenerate_faces(const Mesh& mesh, std::siz
   return skip;
 }
 
-ShellTable compute_shells(const Mesh& mesh, const std::vector<char>& skip,
-                          const EdgeTable& edges) {
+ShellTable compute_shells(const Mesh& mesh, const std::vector<char>& skip, const EdgeTable& edges) {
   const std::size_t nf = mesh.triangles.size();
   UnionFind uf(nf);
   std::vector<char> open_face(nf, 0);
@@ -203,7 +201,8 @@ std::size_t flip_inverted_shells(Mesh& mesh) {
   if (flipped == 0) return 0;
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
     const std::uint32_t s = table.shell_of_face[f];
-    if (s != UINT32_MAX && table.shells[s].inverted) std::swap(mesh.triangles[f][1], mesh.triangles[f][2]);
+    if (s != UINT32_MAX && table.shells[s].inverted)
+      std::swap(mesh.triangles[f][1], mesh.triangles[f][2]);
   }
   return flipped;
 }

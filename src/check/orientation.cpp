@@ -53,8 +53,10 @@ void score(const Mesh& mesh, const std::vector<Vec3>& normals, const std::vector
     if (down <= 0) continue;
     bool on_bed = true;
     for (auto v : mesh.triangles[f]) on_bed = on_bed && z[v] - zmin <= s.bed_contact_mm;
-    if (on_bed) c.contact_mm2 += areas[f];
-    else if (down > limit) c.overhang_mm2 += areas[f];
+    if (on_bed)
+      c.contact_mm2 += areas[f];
+    else if (down > limit)
+      c.overhang_mm2 += areas[f];
   }
   c.height_mm = zmax - zmin;
   c.score = c.overhang_mm2 - c.contact_mm2;
@@ -103,16 +105,19 @@ OrientationAdvice advise_orientation(const Mesh& mesh, const CheckSettings& s) {
   for (std::size_t f = 0; f < nf; ++f) {
     if (!(areas[f] > 0)) continue;
     const Vec3& n = normals[f];
-    auto [it, fresh] = groups.try_emplace({std::lround(n.x() * 100), std::lround(n.y() * 100), std::lround(n.z() * 100)},
-                                          0.0, Vec3::Zero());
+    auto [it, fresh] = groups.try_emplace(
+        {std::lround(n.x() * 100), std::lround(n.y() * 100), std::lround(n.z() * 100)}, 0.0,
+        Vec3::Zero());
     auto& g = it->second;
     g.first += areas[f];
     g.second += areas[f] * n;
   }
   std::vector<std::pair<double, Vec3>> flat;
   for (const auto& [key, g] : groups)
-    if (g.first >= 0.01 * total && g.second.norm() > 0) flat.push_back({g.first, g.second.normalized()});
-  std::stable_sort(flat.begin(), flat.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    if (g.first >= 0.01 * total && g.second.norm() > 0)
+      flat.push_back({g.first, g.second.normalized()});
+  std::stable_sort(flat.begin(), flat.end(),
+                   [](const auto& a, const auto& b) { return a.first > b.first; });
   for (std::size_t i = 0; i < flat.size() && i < kMaxFlatFaces; ++i)
     add(flat[i].second, "its flat face of " + format_fixed(flat[i].first, 1) + " mm2");
   adv.candidates = cands.size();

@@ -9,8 +9,8 @@
 #include <array>
 #include <cstdint>
 #include <string>
-#include <utility>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 #include "check/check_internal.hpp"
@@ -36,7 +36,8 @@ void canonical_ids(const Mesh& a, const Mesh& b, std::vector<std::uint32_t>& ids
   std::sort(sorted.begin(), sorted.end(), less);
   sorted.erase(std::unique(sorted.begin(), sorted.end()), sorted.end());
   const auto id = [&](const Vec3& p) {
-    return static_cast<std::uint32_t>(std::lower_bound(sorted.begin(), sorted.end(), p, less) - sorted.begin());
+    return static_cast<std::uint32_t>(std::lower_bound(sorted.begin(), sorted.end(), p, less) -
+                                      sorted.begin());
   };
   ids_a.resize(a.vertices_mm.size());
   ids_b.resize(b.vertices_mm.size());
@@ -49,13 +50,16 @@ struct FaceKey {
   std::array<std::uint32_t, 3> ids{};
   bool odd = false;
   std::uint32_t face = 0;
-  bool operator<(const FaceKey& o) const { return std::tie(ids, odd, face) < std::tie(o.ids, o.odd, o.face); }
+  bool operator<(const FaceKey& o) const {
+    return std::tie(ids, odd, face) < std::tie(o.ids, o.odd, o.face);
+  }
 };
 
 std::vector<FaceKey> face_keys(const Mesh& m, const std::vector<std::uint32_t>& ids) {
   std::vector<FaceKey> keys(m.triangles.size());
   for (std::size_t f = 0; f < m.triangles.size(); ++f) {
-    std::array<std::uint32_t, 3> v = {ids[m.triangles[f][0]], ids[m.triangles[f][1]], ids[m.triangles[f][2]]};
+    std::array<std::uint32_t, 3> v = {ids[m.triangles[f][0]], ids[m.triangles[f][1]],
+                                      ids[m.triangles[f][2]]};
     bool odd = false;  // bubble sort of three, counting swaps
     for (int pass = 0; pass < 2; ++pass)
       for (int i = 0; i < 2 - pass; ++i)
@@ -88,13 +92,16 @@ FacetEdges facet_edges(const Mesh& m) {
       const std::uint32_t a = m.triangles[f][k], b = m.triangles[f][(k + 1) % 3];
       es.push_back({std::min(a, b), std::max(a, b), static_cast<std::uint32_t>(3 * f + k)});
     }
-  std::sort(es.begin(), es.end(), [](const E& x, const E& y) { return std::tie(x.lo, x.hi, x.slot) < std::tie(y.lo, y.hi, y.slot); });
+  std::sort(es.begin(), es.end(), [](const E& x, const E& y) {
+    return std::tie(x.lo, x.hi, x.slot) < std::tie(y.lo, y.hi, y.slot);
+  });
   FacetEdges out;
   out.group.assign(es.size(), kNone);
   for (std::size_t i = 0; i < es.size();) {
     std::size_t j = i;
     while (j < es.size() && es[j].lo == es[i].lo && es[j].hi == es[i].hi) ++j;
-    for (std::size_t k = i; k < j; ++k) out.group[es[k].slot] = static_cast<std::uint32_t>(out.group_size.size());
+    for (std::size_t k = i; k < j; ++k)
+      out.group[es[k].slot] = static_cast<std::uint32_t>(out.group_size.size());
     out.group_size.push_back(static_cast<std::uint32_t>(j - i));
     i = j;
   }
@@ -170,10 +177,12 @@ RepairCounters measure_repair(const Mesh& before, const Mesh& after) {
     if (g == kNone) continue;
     for (std::uint32_t k = 0; k < 3; ++k) {
       if (eb.group_size[eb.group[3 * f + k]] == 2) continue;
-      const std::uint32_t p = ids_b[before.triangles[f][k]], q = ids_b[before.triangles[f][(k + 1) % 3]];
+      const std::uint32_t p = ids_b[before.triangles[f][k]],
+                          q = ids_b[before.triangles[f][(k + 1) % 3]];
       if (p == q) continue;
       for (std::uint32_t m = 0; m < 3; ++m) {
-        const std::uint32_t r = ids_a[after.triangles[g][m]], s = ids_a[after.triangles[g][(m + 1) % 3]];
+        const std::uint32_t r = ids_a[after.triangles[g][m]],
+                            s = ids_a[after.triangles[g][(m + 1) % 3]];
         if (!((r == p && s == q) || (r == q && s == p))) continue;
         const std::uint32_t grp = ea.group[3 * g + m];
         if (ea.group_size[grp] == 2 && group_has_added[grp] == 0) ++c.edges_fixed;
@@ -189,10 +198,13 @@ RepairCounters measure_repair(const Mesh& before, const Mesh& after) {
     const auto f = static_cast<std::uint32_t>(s / 3);
     if (added[f] == 0) continue;
     std::uint32_t& first = first_added_in_group[ea.group[s]];
-    if (first == kNone) first = f;
-    else uf.unite(first, f);
+    if (first == kNone)
+      first = f;
+    else
+      uf.unite(first, f);
   }
-  for (std::uint32_t f = 0; f < after.triangles.size(); ++f) c.holes_filled += added[f] != 0 && uf.find(f) == f;
+  for (std::uint32_t f = 0; f < after.triangles.size(); ++f)
+    c.holes_filled += added[f] != 0 && uf.find(f) == f;
 
   const MeshHealth hb = analyze_mesh_health(before);
   const MeshHealth ha = analyze_mesh_health(welded);

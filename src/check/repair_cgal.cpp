@@ -41,7 +41,8 @@ bool same_cycle(const std::vector<P3>& pa, const Polygon& a, const std::vector<P
 
 void add(std::vector<RepairChange>& changes, std::string code, std::size_t count,
          std::string message) {
-  if (count > 0) changes.push_back({std::move(code), count, message + ": " + std::to_string(count)});
+  if (count > 0)
+    changes.push_back({std::move(code), count, message + ": " + std::to_string(count)});
 }
 
 }  // namespace
@@ -84,8 +85,9 @@ Result<RepairResult> repair_mesh(const Mesh& mesh, const RepairSettings& setting
     add(out.changes, "removed_duplicate_faces", duplicates, "duplicate faces removed");
     PMP::remove_isolated_points_in_polygon_soup(points, polygons);
     if (polygons.empty())
-      return bad_input("repair would leave no triangles: every face is degenerate (zero area); "
-                       "nothing to write");
+      return bad_input(
+          "repair would leave no triangles: every face is degenerate (zero area); "
+          "nothing to write");
 
     const std::vector<P3> points_before = points;
     const std::vector<Polygon> polygons_before = polygons;
@@ -108,8 +110,9 @@ Result<RepairResult> repair_mesh(const Mesh& mesh, const RepairSettings& setting
     const std::size_t pieces = PMP::keep_large_connected_components(sm, 4);
     sm.collect_garbage();
     if (sm.number_of_faces() == 0)
-      return bad_input("repair would leave no triangles: the mesh is only loose pieces of fewer than 4 "
-                       "faces, which cannot bound a volume; nothing to write");
+      return bad_input(
+          "repair would leave no triangles: the mesh is only loose pieces of fewer than 4 "
+          "faces, which cannot bound a volume; nothing to write");
     add(out.changes, "removed_small_pieces", pieces,
         "loose pieces of fewer than 4 faces removed (fins, stray triangles)");
 
@@ -151,7 +154,8 @@ Result<RepairResult> repair_mesh(const Mesh& mesh, const RepairSettings& setting
     for (auto f : sm.faces()) {
       std::vector<std::uint32_t> ids;
       for (auto v : CGAL::vertices_around_face(sm.halfedge(f), sm)) ids.push_back(index[v]);
-      for (std::size_t k = 1; k + 1 < ids.size(); ++k) m.triangles.push_back({ids[0], ids[k], ids[k + 1]});
+      for (std::size_t k = 1; k + 1 < ids.size(); ++k)
+        m.triangles.push_back({ids[0], ids[k], ids[k + 1]});
     }
   } catch (const std::exception& e) {
     return internal_error(std::string("mesh repair failed: ") + e.what());

@@ -54,7 +54,8 @@ inline int certain_orientation(const Vec3& a, const Vec3& b, const Vec3& c, cons
 
 /// True when every point of `pts` lies strictly on one side of the plane of (a, b, c),
 /// certainly (so nothing of theirs can meet the plane's triangle).
-inline bool certainly_one_side(const Vec3& a, const Vec3& b, const Vec3& c, std::initializer_list<const Vec3*> pts) {
+inline bool certainly_one_side(const Vec3& a, const Vec3& b, const Vec3& c,
+                               std::initializer_list<const Vec3*> pts) {
   int side = 0;
   for (const Vec3* q : pts) {
     const int s = certain_orientation(a, b, c, *q);
@@ -68,7 +69,8 @@ inline bool certainly_one_side(const Vec3& a, const Vec3& b, const Vec3& c, std:
 /// its plane, or on strictly opposite sides with the line through them certainly passing
 /// outside the triangle (two of the line's orientations against the triangle's edges of
 /// certainly opposite signs: the line meets the plane at one point, the segment's).
-inline bool segment_certainly_misses(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c) {
+inline bool segment_certainly_misses(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b,
+                                     const Vec3& c) {
   const int sp = certain_orientation(a, b, c, p);
   if (sp == 0) return false;
   const int sq = certain_orientation(a, b, c, q);
@@ -106,7 +108,8 @@ bool faces_intersect(const Mesh& mesh, const std::array<std::uint32_t, 3>& f,
     std::uint32_t s = 0;
     for (auto k : g)
       if (k != a && k != b) s = k;
-    if (filter && certain_orientation(v[a], v[b], v[f[r]], v[s]) != 0) return false;  // not coplanar
+    if (filter && certain_orientation(v[a], v[b], v[f[r]], v[s]) != 0)
+      return false;  // not coplanar
     const P3 pa = p(a), pb = p(b), pr = p(f[r]), ps = p(s);
     return CGAL::coplanar(pa, pb, pr, ps) &&
            CGAL::coplanar_orientation(pa, pb, pr, ps) == CGAL::POSITIVE;
@@ -131,8 +134,8 @@ bool faces_intersect(const Mesh& mesh, const std::array<std::uint32_t, 3>& f,
     return (!f_edge_clear && CGAL::do_intersect(S3(to_p3(fa), to_p3(fb)), tg)) ||
            (!g_edge_clear && CGAL::do_intersect(S3(to_p3(ga), to_p3(gb)), tf));
   }
-  if (filter &&
-      (certainly_one_side(f0, f1, f2, {&g0, &g1, &g2}) || certainly_one_side(g0, g1, g2, {&f0, &f1, &f2})))
+  if (filter && (certainly_one_side(f0, f1, f2, {&g0, &g1, &g2}) ||
+                 certainly_one_side(g0, g1, g2, {&f0, &f1, &f2})))
     return false;
   return CGAL::do_intersect(T3(p(f[0]), p(f[1]), p(f[2])), T3(p(g[0]), p(g[1]), p(g[2])));
 }
@@ -203,7 +206,7 @@ struct FaceGrid {
   Vec3 origin = Vec3::Zero();
   double cell = 1;
   std::uint64_t nx = 0, ny = 0, nz = 0;
-  std::vector<Cell3> lo_cell;  ///< cell of each face box's min corner
+  std::vector<Cell3> lo_cell;             ///< cell of each face box's min corner
   std::vector<std::uint32_t> cell_faces;  ///< faces listed cell by cell, ascending in a cell
   std::vector<std::pair<std::size_t, std::size_t>> runs;  ///< [begin, end) of cells with 2+ faces
   std::vector<std::uint64_t> run_cell;                    ///< the cell of each run
@@ -223,7 +226,8 @@ FaceGrid build_face_grid(const std::vector<Box3>& boxes, const std::vector<std::
   const Vec3& origin = g.origin;
   const auto cell_of = [&](const Vec3& q) {
     Cell3 c{};
-    for (int a = 0; a < 3; ++a) c[a] = static_cast<std::int32_t>(std::floor((q[a] - origin[a]) / cell));
+    for (int a = 0; a < 3; ++a)
+      c[a] = static_cast<std::int32_t>(std::floor((q[a] - origin[a]) / cell));
     return c;
   };
   const Cell3 top = cell_of(all.max);
@@ -232,7 +236,8 @@ FaceGrid build_face_grid(const std::vector<Box3>& boxes, const std::vector<std::
   g.nz = static_cast<std::uint64_t>(top[2]) + 1;
   const std::uint64_t nx = g.nx, ny = g.ny, nz = g.nz;
   const auto cell_id = [&](std::int32_t x, std::int32_t y, std::int32_t z) {
-    return static_cast<std::uint64_t>(x) + nx * (static_cast<std::uint64_t>(y) + ny * static_cast<std::uint64_t>(z));
+    return static_cast<std::uint64_t>(x) +
+           nx * (static_cast<std::uint64_t>(y) + ny * static_cast<std::uint64_t>(z));
   };
   // The cells of each face's box. The cell of a box's min corner is monotone in the
   // corner, so the cell of the min corner of two boxes' overlap is the per-axis max of
@@ -261,7 +266,8 @@ FaceGrid build_face_grid(const std::vector<Box3>& boxes, const std::vector<std::
   std::vector<std::uint32_t>& cell_faces = g.cell_faces;
   std::vector<std::pair<std::size_t, std::size_t>>& runs = g.runs;
   std::vector<std::uint64_t>& run_cell = g.run_cell;
-  const double n_cells = static_cast<double>(nx) * static_cast<double>(ny) * static_cast<double>(nz);
+  const double n_cells =
+      static_cast<double>(nx) * static_cast<double>(ny) * static_cast<double>(nz);
   if (n_cells <= 4.0 * static_cast<double>(n_entries) + 1e6) {
     std::vector<std::uint32_t> start(static_cast<std::size_t>(n_cells) + 1, 0);
     for (auto f : faces) for_each_cell(f, [&](std::uint64_t id) { ++start[id + 1]; });
@@ -305,31 +311,34 @@ std::vector<std::array<std::uint32_t, 2>> intersecting_pairs(const Mesh& mesh,
   tbb::enumerable_thread_specific<std::vector<std::array<std::uint32_t, 2>>> found;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, runs.size(), 64),
                     [&](const tbb::blocked_range<std::size_t>& r) {
-    auto& local = found.local();
-    for (std::size_t ri = r.begin(); ri != r.end(); ++ri) {
-      const auto [begin, end] = runs[ri];
-      const std::uint64_t id = run_cell[ri];
-      const Cell3 here{static_cast<std::int32_t>(id % nx), static_cast<std::int32_t>((id / nx) % ny),
-                       static_cast<std::int32_t>(id / (nx * ny))};
-      for (std::size_t i = begin; i < end; ++i) {
-        const std::uint32_t f = cell_faces[i];
-        const Box3& bf = boxes[f];
-        const Cell3& lf = lo_cell[f];
-        for (std::size_t j = i + 1; j < end; ++j) {
-          const std::uint32_t g = cell_faces[j];
-          const Cell3& lg = lo_cell[g];
-          if (std::max(lf[0], lg[0]) != here[0] || std::max(lf[1], lg[1]) != here[1] ||
-              std::max(lf[2], lg[2]) != here[2])
-            continue;
-          const Box3& bg = boxes[g];
-          if ((bf.min.array() > bg.max.array()).any() || (bg.min.array() > bf.max.array()).any())
-            continue;
-          if (faces_intersect(mesh, mesh.triangles[f], mesh.triangles[g]))
-            local.push_back({std::min(f, g), std::max(f, g)});
-        }
-      }
-    }
-  });
+                      auto& local = found.local();
+                      for (std::size_t ri = r.begin(); ri != r.end(); ++ri) {
+                        const auto [begin, end] = runs[ri];
+                        const std::uint64_t id = run_cell[ri];
+                        const Cell3 here{static_cast<std::int32_t>(id % nx),
+                                         static_cast<std::int32_t>((id / nx) % ny),
+                                         static_cast<std::int32_t>(id / (nx * ny))};
+                        for (std::size_t i = begin; i < end; ++i) {
+                          const std::uint32_t f = cell_faces[i];
+                          const Box3& bf = boxes[f];
+                          const Cell3& lf = lo_cell[f];
+                          for (std::size_t j = i + 1; j < end; ++j) {
+                            const std::uint32_t g = cell_faces[j];
+                            const Cell3& lg = lo_cell[g];
+                            if (std::max(lf[0], lg[0]) != here[0] ||
+                                std::max(lf[1], lg[1]) != here[1] ||
+                                std::max(lf[2], lg[2]) != here[2])
+                              continue;
+                            const Box3& bg = boxes[g];
+                            if ((bf.min.array() > bg.max.array()).any() ||
+                                (bg.min.array() > bf.max.array()).any())
+                              continue;
+                            if (faces_intersect(mesh, mesh.triangles[f], mesh.triangles[g]))
+                              local.push_back({std::min(f, g), std::max(f, g)});
+                          }
+                        }
+                      }
+                    });
   std::vector<std::array<std::uint32_t, 2>> pairs;
   for (auto& local : found) pairs.insert(pairs.end(), local.begin(), local.end());
   std::sort(pairs.begin(), pairs.end());
@@ -382,7 +391,8 @@ std::vector<std::array<std::uint32_t, 2>> self_intersecting_pairs_exhaustive(con
   for (std::uint32_t f = 0; f < nf; ++f) {
     if (is_degenerate_face(mesh, f)) continue;
     for (std::uint32_t g = f + 1; g < nf; ++g)
-      if (!is_degenerate_face(mesh, g) && faces_intersect(mesh, mesh.triangles[f], mesh.triangles[g], false))
+      if (!is_degenerate_face(mesh, g) &&
+          faces_intersect(mesh, mesh.triangles[f], mesh.triangles[g], false))
         pairs.push_back({f, g});
   }
   return pairs;

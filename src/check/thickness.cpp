@@ -59,23 +59,23 @@ Result<ThicknessResult> measure_thickness(const Mesh& mesh, double min_thickness
   if (skip_internal_faces) {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nf, 1024),
                       [&](const tbb::blocked_range<std::size_t>& r) {
-      for (std::size_t f = r.begin(); f != r.end(); ++f) {
-        Vec3 n = triangle_normal(mesh, f);
-        const double len = n.norm();
-        if (!(len > 0)) continue;
-        n /= len;
-        const Vec3 c = detail::face_centroid(mesh, f) - shift;
-        int winding = 0;
-        double t = t_min;
-        for (int i = 0; i < 256; ++i) {
-          auto hit = query.first_hit(c, n, t);
-          if (!hit) break;
-          if (hit->triangle != f) winding += hit->normal.dot(n) > 0 ? 1 : -1;
-          t = hit->t_mm + t_min;
-        }
-        internal[f] = winding > 0 ? 1 : 0;
-      }
-    });
+                        for (std::size_t f = r.begin(); f != r.end(); ++f) {
+                          Vec3 n = triangle_normal(mesh, f);
+                          const double len = n.norm();
+                          if (!(len > 0)) continue;
+                          n /= len;
+                          const Vec3 c = detail::face_centroid(mesh, f) - shift;
+                          int winding = 0;
+                          double t = t_min;
+                          for (int i = 0; i < 256; ++i) {
+                            auto hit = query.first_hit(c, n, t);
+                            if (!hit) break;
+                            if (hit->triangle != f) winding += hit->normal.dot(n) > 0 ? 1 : -1;
+                            t = hit->t_mm + t_min;
+                          }
+                          internal[f] = winding > 0 ? 1 : 0;
+                        }
+                      });
   }
   // First hit along the ray that is not an internal face.
   auto first_surface = [&](const Vec3& c, const Vec3& dir, double t0, double t1,
@@ -90,30 +90,31 @@ Result<ThicknessResult> measure_thickness(const Mesh& mesh, double min_thickness
   };
 
   std::vector<FaceSample> samples(nf);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nf, 1024),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t f = r.begin(); f != r.end(); ++f) {
-      Vec3 n = triangle_normal(mesh, f);
-      const double len = n.norm();
-      if (!(len > 0) || detail::is_degenerate_face(mesh, f) || internal[f]) continue;
-      n /= len;
-      const Vec3 c = detail::face_centroid(mesh, f) - shift;
-      // Inward: the first surface hit from behind is the far side of the wall.
-      // Within the limit, the first hit is the unbounded ray's whenever that one is thin.
-      const double t_max = beyond_limit ? std::numeric_limits<double>::infinity() : min_thickness_mm;
-      if (auto hit = first_surface(c, -n, t_min, t_max, f)) {
-        // The far side of a wall faces back within 60 degrees and is no neighbour of f: a
-        // ray leaving through a face beside f (a corner or a chamfer) measures no wall.
-        if (hit->normal.dot(-n) > kWallCos && !shares_vertex(mesh, f, hit->triangle))
-          samples[f].thickness_mm = hit->t_mm;
-      }
-      // Outward: the first surface hit head-on, facing back at us, bounds the gap.
-      if (auto hit = first_surface(c, n, t_min, line_width_mm * 4, f)) {
-        if (hit->normal.dot(n) < -kFacingCos && !shares_vertex(mesh, f, hit->triangle))
-          samples[f].gap_mm = hit->t_mm;
-      }
-    }
-  });
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, nf, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t f = r.begin(); f != r.end(); ++f) {
+          Vec3 n = triangle_normal(mesh, f);
+          const double len = n.norm();
+          if (!(len > 0) || detail::is_degenerate_face(mesh, f) || internal[f]) continue;
+          n /= len;
+          const Vec3 c = detail::face_centroid(mesh, f) - shift;
+          // Inward: the first surface hit from behind is the far side of the wall.
+          // Within the limit, the first hit is the unbounded ray's whenever that one is thin.
+          const double t_max =
+              beyond_limit ? std::numeric_limits<double>::infinity() : min_thickness_mm;
+          if (auto hit = first_surface(c, -n, t_min, t_max, f)) {
+            // The far side of a wall faces back within 60 degrees and is no neighbour of f: a
+            // ray leaving through a face beside f (a corner or a chamfer) measures no wall.
+            if (hit->normal.dot(-n) > kWallCos && !shares_vertex(mesh, f, hit->triangle))
+              samples[f].thickness_mm = hit->t_mm;
+          }
+          // Outward: the first surface hit head-on, facing back at us, bounds the gap.
+          if (auto hit = first_surface(c, n, t_min, line_width_mm * 4, f)) {
+            if (hit->normal.dot(n) < -kFacingCos && !shares_vertex(mesh, f, hit->triangle))
+              samples[f].gap_mm = hit->t_mm;
+          }
+        }
+      });
 
   ThicknessResult out;
   out.min_thickness_mm = kInf;

@@ -44,10 +44,10 @@ std::optional<UnitGuess> guess_mesh_units(const Mesh& mesh) {
 Finding units_guessed_finding(const UnitGuess& g, const Vec3& size_mm) {
   const std::string name = g.unit == "m" ? "metres" : "inches";
   const std::string why = "too small";
-  std::string msg = "the largest part is " + format_fixed(g.size_units, 4) + " units across, " + why +
-                    " for millimetres: read as " + name + " (x" + format_fixed(g.mm_per_unit, 3) +
-                    "), " + format_fixed(size_mm.x(), 2) + " x " + format_fixed(size_mm.y(), 2) + " x " +
-                    format_fixed(size_mm.z(), 2) + " mm; ";
+  std::string msg = "the largest part is " + format_fixed(g.size_units, 4) + " units across, " +
+                    why + " for millimetres: read as " + name + " (x" +
+                    format_fixed(g.mm_per_unit, 3) + "), " + format_fixed(size_mm.x(), 2) + " x " +
+                    format_fixed(size_mm.y(), 2) + " x " + format_fixed(size_mm.z(), 2) + " mm; ";
   if (g.unit == "in") msg += "if it is in centimetres give --units cm, ";
   msg += "--units mm keeps the file's numbers";
   Finding f;
@@ -59,19 +59,20 @@ Finding units_guessed_finding(const UnitGuess& g, const Vec3& size_mm) {
 }
 
 FitAdvice advise_fit(const Vec3& s, const PrinterProfile& printer) {
-  const Vec3 bed(printer.bed_max_x_mm - printer.bed_min_x_mm, printer.bed_max_y_mm - printer.bed_min_y_mm,
-                 printer.max_z_mm);
+  const Vec3 bed(printer.bed_max_x_mm - printer.bed_min_x_mm,
+                 printer.bed_max_y_mm - printer.bed_min_y_mm, printer.max_z_mm);
   // The six ways the axes can point (each with its quarter turns; z-turns swap x and y).
   struct Way {
     const char* rotation;
     Vec3 size;
   };
-  const std::array<Way, 6> ways = {{{"", s},
-                                    {"rotated 90 deg about Z", Vec3(s.y(), s.x(), s.z())},
-                                    {"rotated 90 deg about X", Vec3(s.x(), s.z(), s.y())},
-                                    {"rotated 90 deg about Y", Vec3(s.z(), s.y(), s.x())},
-                                    {"rotated 90 deg about X, then 90 deg about Z", Vec3(s.z(), s.x(), s.y())},
-                                    {"rotated 90 deg about Y, then 90 deg about Z", Vec3(s.y(), s.z(), s.x())}}};
+  const std::array<Way, 6> ways = {
+      {{"", s},
+       {"rotated 90 deg about Z", Vec3(s.y(), s.x(), s.z())},
+       {"rotated 90 deg about X", Vec3(s.x(), s.z(), s.y())},
+       {"rotated 90 deg about Y", Vec3(s.z(), s.y(), s.x())},
+       {"rotated 90 deg about X, then 90 deg about Z", Vec3(s.z(), s.x(), s.y())},
+       {"rotated 90 deg about Y, then 90 deg about Z", Vec3(s.y(), s.z(), s.x())}}};
   FitAdvice best;
   best.scale = -1;
   for (const Way& w : ways) {
@@ -80,7 +81,8 @@ FitAdvice advise_fit(const Vec3& s, const PrinterProfile& printer) {
       if (w.size[i] > 0) scale = std::min(scale, bed[i] / w.size[i]);
     scale = std::floor(scale * 1000.0) / 1000.0;  // rounded down: the scaled part fits
     // Prefer a lower part when the scale ties (steadier, shorter print).
-    if (scale > best.scale + 1e-12 || (std::abs(scale - best.scale) <= 1e-12 && w.size.z() < best.size_mm.z() / best.scale)) {
+    if (scale > best.scale + 1e-12 ||
+        (std::abs(scale - best.scale) <= 1e-12 && w.size.z() < best.size_mm.z() / best.scale)) {
       best.scale = scale;
       best.rotation = w.rotation;
       best.size_mm = scale * w.size;

@@ -18,9 +18,12 @@ enum Exit : int { kPass = 0, kFail = 1, kUsage = 2, kBadInput = 3, kInternal = 4
 inline int report_error(const Error& e) {
   std::fprintf(stderr, "printtwin: error: %s\n", e.describe().c_str());
   switch (e.code) {
-    case ErrorCode::usage: return kUsage;
-    case ErrorCode::bad_input: return kBadInput;
-    case ErrorCode::internal: return kInternal;
+    case ErrorCode::usage:
+      return kUsage;
+    case ErrorCode::bad_input:
+      return kBadInput;
+    case ErrorCode::internal:
+      return kInternal;
   }
   return kInternal;
 }
@@ -39,20 +42,23 @@ inline Status check_output_path(const std::string& path, const char* option, Out
   const fs::path p(path);
   const auto st = fs::status(p, ec);
   if (kind == OutputKind::folder && fs::exists(st) && !fs::is_directory(st))
-    return usage_error(std::string(option) + " " + path + ": exists and is a file, expected a folder for the report");
+    return usage_error(std::string(option) + " " + path +
+                       ": exists and is a file, expected a folder for the report");
   if (kind == OutputKind::file && fs::is_directory(st))
     return usage_error(std::string(option) + " " + path + ": is a folder, expected a file name");
   for (fs::path up = p.parent_path(); !up.empty(); up = up.parent_path()) {
     const auto ust = fs::status(up, ec);
     if (fs::exists(ust) && !fs::is_directory(ust))
-      return usage_error(std::string(option) + " " + path + ": " + up.string() + " is a file, not a folder");
+      return usage_error(std::string(option) + " " + path + ": " + up.string() +
+                         " is a file, not a folder");
     if (up == up.parent_path()) break;
   }
   return Ok{};
 }
 
 /// check_output_path for several options; the first problem.
-inline Status check_output_paths(std::initializer_list<std::tuple<const std::string&, const char*, OutputKind>> outs) {
+inline Status check_output_paths(
+    std::initializer_list<std::tuple<const std::string&, const char*, OutputKind>> outs) {
   for (const auto& [path, option, kind] : outs)
     if (auto st = check_output_path(path, option, kind); !st) return st;
   return Ok{};

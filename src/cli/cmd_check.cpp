@@ -10,11 +10,11 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <nlohmann/json.hpp>
+#include <string>
 #include <thread>
 #include <vector>
-#include <memory>
-#include <string>
 
 #include "cli/cli_common.hpp"
 #include "cli/commands.hpp"
@@ -69,7 +69,8 @@ std::size_t first_warning(const std::vector<Finding>& fs) {
 /// "x,y" -> two numbers, or a usage error.
 Result<Vec2> parse_center(const std::string& text) {
   const auto comma = text.find(',');
-  if (comma == std::string::npos) return usage_error("--center expects x,y in mm, got '" + text + "'");
+  if (comma == std::string::npos)
+    return usage_error("--center expects x,y in mm, got '" + text + "'");
   try {
     std::size_t used_x = 0, used_y = 0;
     const std::string xs = text.substr(0, comma), ys = text.substr(comma + 1);
@@ -93,12 +94,12 @@ void print_text(const CheckOptions& o, const PrinterProfile& printer, const Chec
   std::printf("           volume %s mm3, area %s mm2, size %s x %s x %s mm\n",
               f2(h.volume_mm3).c_str(), f2(h.area_mm2).c_str(), f2(size.x()).c_str(),
               f2(size.y()).c_str(), f2(size.z()).c_str());
-  std::printf("health     open edges %zu, non-manifold edges %zu / vertices %zu, degenerate %zu, "
-              "duplicate %zu, misoriented edges %zu, inverted shells %zu, self-intersections %s\n",
-              h.boundary_edges, h.non_manifold_edges, h.non_manifold_vertices, h.degenerate_faces,
-              h.duplicate_faces, h.inconsistent_edges, h.inverted_shells,
-              h.self_intersections_checked ? std::to_string(h.self_intersections).c_str()
-                                           : "not checked");
+  std::printf(
+      "health     open edges %zu, non-manifold edges %zu / vertices %zu, degenerate %zu, "
+      "duplicate %zu, misoriented edges %zu, inverted shells %zu, self-intersections %s\n",
+      h.boundary_edges, h.non_manifold_edges, h.non_manifold_vertices, h.degenerate_faces,
+      h.duplicate_faces, h.inconsistent_edges, h.inverted_shells,
+      h.self_intersections_checked ? std::to_string(h.self_intersections).c_str() : "not checked");
   const Placement& p = r.placement;
   std::printf("placement  x %s..%s, y %s..%s, z 0..%s mm: %s; %s mm2 on the bed\n",
               f2(p.bbox_mm.min.x()).c_str(), f2(p.bbox_mm.max.x()).c_str(),
@@ -115,8 +116,10 @@ void print_text(const CheckOptions& o, const PrinterProfile& printer, const Chec
   }
   std::size_t counts[3] = {0, 0, 0};
   for (const auto& f : r.findings) ++counts[static_cast<int>(f.severity)];
-  if (r.findings.empty()) std::printf("findings   none\n");
-  else std::printf("findings\n");
+  if (r.findings.empty())
+    std::printf("findings   none\n");
+  else
+    std::printf("findings\n");
   for (const auto& f : r.findings)
     std::printf("  %-7s %-24s %s\n", std::string(to_string(f.severity)).c_str(), f.code.c_str(),
                 f.message.c_str());
@@ -147,15 +150,17 @@ struct PartOutcome {
   double seconds = 0;
 };
 
-PartOutcome check_part(const CheckOptions& o, const std::string& file, const PrinterProfile& printer,
-                       const CheckSettings& settings, std::optional<double> mm_per_unit,
-                       const std::string& repair_out) {
+PartOutcome check_part(const CheckOptions& o, const std::string& file,
+                       const PrinterProfile& printer, const CheckSettings& settings,
+                       std::optional<double> mm_per_unit, const std::string& repair_out) {
   const auto t0 = std::chrono::steady_clock::now();
   PartOutcome out;
   out.file = file;
   auto fail = [&](Error e) {
     if (e.file.empty()) e.file = file;
-    out.exit_code = e.code == ErrorCode::bad_input ? kBadInput : (e.code == ErrorCode::usage ? kUsage : kInternal);
+    out.exit_code = e.code == ErrorCode::bad_input
+                        ? kBadInput
+                        : (e.code == ErrorCode::usage ? kUsage : kInternal);
     out.error = std::move(e);
     return out;
   };
@@ -182,8 +187,9 @@ PartOutcome check_part(const CheckOptions& o, const std::string& file, const Pri
       Finding f;
       f.severity = Severity::info;
       f.code = "oriented";
-      f.message = "checked stood on " + a.best.label + " (--orient: rotated " + f2(r.x()) + ", " + f2(r.y()) +
-                  ", " + f2(r.z()) + " deg about X, Y, Z): " + format_fixed(a.best.overhang_mm2, 1) +
+      f.message = "checked stood on " + a.best.label + " (--orient: rotated " + f2(r.x()) + ", " +
+                  f2(r.y()) + ", " + f2(r.z()) +
+                  " deg about X, Y, Z): " + format_fixed(a.best.overhang_mm2, 1) +
                   " mm2 of support instead of " + format_fixed(a.current.overhang_mm2, 1) + " mm2";
       oriented = std::move(f);
     }
@@ -191,8 +197,10 @@ PartOutcome check_part(const CheckOptions& o, const std::string& file, const Pri
   auto report = check_printability(*mesh, printer, settings);
   if (!report) return fail(report.error());
   if (oriented) report->findings.push_back(*oriented);
-  if (guess) report->findings.insert(report->findings.begin() + static_cast<std::ptrdiff_t>(first_warning(report->findings)),
-                                     units_guessed_finding(*guess, report->health.bbox_mm.size()));
+  if (guess)
+    report->findings.insert(
+        report->findings.begin() + static_cast<std::ptrdiff_t>(first_warning(report->findings)),
+        units_guessed_finding(*guess, report->health.bbox_mm.size()));
   if (!repair_out.empty()) {
     auto rr = repair_mesh(*mesh);
     if (!rr) return fail(rr.error());
@@ -215,8 +223,10 @@ constexpr const char* kMeshExtensions[] = {".stl", ".obj", ".ply", ".off", ".3mf
 
 bool has_mesh_extension(const std::filesystem::path& p) {
   std::string ext = p.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return std::find(std::begin(kMeshExtensions), std::end(kMeshExtensions), ext) != std::end(kMeshExtensions);
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return std::find(std::begin(kMeshExtensions), std::end(kMeshExtensions), ext) !=
+         std::end(kMeshExtensions);
 }
 
 /// Files, folders (every mesh file below them, sorted) and globs -> the parts, in order,
@@ -227,11 +237,15 @@ Result<std::vector<std::string>> expand_inputs(const std::vector<std::string>& i
   auto add_folder = [&](const fs::path& dir) -> Status {
     std::vector<std::string> found;
     std::error_code ec;
-    for (fs::recursive_directory_iterator it(dir, fs::directory_options::skip_permission_denied, ec), end;
+    for (fs::recursive_directory_iterator
+             it(dir, fs::directory_options::skip_permission_denied, ec),
+         end;
          !ec && it != end; it.increment(ec))
       if (has_mesh_extension(it->path())) found.push_back(it->path().string());
     if (ec) return bad_input(dir.string() + ": cannot list the folder: " + ec.message());
-    if (found.empty()) return usage_error(dir.string() + ": no mesh files (" + ".stl .obj .ply .off .3mf .amf) in the folder");
+    if (found.empty())
+      return usage_error(dir.string() + ": no mesh files (" +
+                         ".stl .obj .ply .off .3mf .amf) in the folder");
     std::sort(found.begin(), found.end());
     parts.insert(parts.end(), found.begin(), found.end());
     return Ok{};
@@ -285,10 +299,13 @@ std::array<std::size_t, 3> severity_counts(const PartOutcome& p) {
 std::string summary_markdown(const std::vector<PartOutcome>& parts, const std::string& printer) {
   std::size_t ok = 0;
   for (const auto& p : parts) ok += p.exit_code == kPass;
-  std::string md = "### printtwin check: " + std::to_string(ok) + " of " + std::to_string(parts.size()) +
-                   " parts printable on " + md_cell(printer) + "\n\n";
-  const bool repaired = std::any_of(parts.begin(), parts.end(), [](const PartOutcome& p) { return p.repaired.has_value(); });
-  md += std::string("| part | verdict | errors | warnings | triangles | size (mm) | first problem |") +
+  std::string md = "### printtwin check: " + std::to_string(ok) + " of " +
+                   std::to_string(parts.size()) + " parts printable on " + md_cell(printer) +
+                   "\n\n";
+  const bool repaired = std::any_of(parts.begin(), parts.end(),
+                                    [](const PartOutcome& p) { return p.repaired.has_value(); });
+  md += std::string(
+            "| part | verdict | errors | warnings | triangles | size (mm) | first problem |") +
         (repaired ? " repair |" : "") + "\n";
   md += std::string("|---|---|---:|---:|---:|---|---|") + (repaired ? "---|" : "") + "\n";
   for (const auto& p : parts) {
@@ -302,9 +319,13 @@ std::string summary_markdown(const std::vector<PartOutcome>& parts, const std::s
     std::string problem = main_problem(p);
     if (problem.size() > 200) problem = problem.substr(0, 197) + "...";
     md += "| " + md_cell(p.file) + " | " + (p.exit_code == kPass ? "" : "**") + verdict(p) +
-          (p.exit_code == kPass ? "" : "**") + " | " + std::to_string(c[2]) + " | " + std::to_string(c[1]) +
-          " | " + tri + " | " + size + " | " + md_cell(problem) + " |" +
-          (repaired ? " " + (p.repaired ? md_cell(repair_counters_text(p.repaired->counters)) : std::string("-")) + " |" : "") +
+          (p.exit_code == kPass ? "" : "**") + " | " + std::to_string(c[2]) + " | " +
+          std::to_string(c[1]) + " | " + tri + " | " + size + " | " + md_cell(problem) + " |" +
+          (repaired ? " " +
+                          (p.repaired ? md_cell(repair_counters_text(p.repaired->counters))
+                                      : std::string("-")) +
+                          " |"
+                    : "") +
           "\n";
   }
   return md;
@@ -313,8 +334,12 @@ std::string summary_markdown(const std::vector<PartOutcome>& parts, const std::s
 std::string check_junit(const std::vector<PartOutcome>& parts) {
   std::vector<CaseOutcome> cases;
   for (const auto& p : parts) {
-    CaseOutcome c{p.file, p.seconds, p.exit_code == kPass, p.error ? "unreadable" : "not_printable",
-                  verdict(p) + ": " + main_problem(p), ""};
+    CaseOutcome c{p.file,
+                  p.seconds,
+                  p.exit_code == kPass,
+                  p.error ? "unreadable" : "not_printable",
+                  verdict(p) + ": " + main_problem(p),
+                  ""};
     if (p.report)
       for (const auto& f : p.report->findings)
         c.details += std::string(to_string(f.severity)) + " " + f.code + ": " + f.message + "\n";
@@ -336,9 +361,10 @@ std::string batch_json(const std::vector<PartOutcome>& parts) {
     e["verdict"] = verdict(p);
     e["exit_code"] = p.exit_code;
     if (p.report)
-      e["report"] = nlohmann::ordered_json::parse(
-          check_report_to_json(*p.report, p.source, p.repaired ? &*p.repaired : nullptr, p.repair_file));
-    else e["error"] = p.error->describe();
+      e["report"] = nlohmann::ordered_json::parse(check_report_to_json(
+          *p.report, p.source, p.repaired ? &*p.repaired : nullptr, p.repair_file));
+    else
+      e["error"] = p.error->describe();
     j["parts"].push_back(std::move(e));
   }
   return j.dump(2) + "\n";
@@ -346,7 +372,8 @@ std::string batch_json(const std::vector<PartOutcome>& parts) {
 
 /// --repair FOLDER of a batch: FOLDER/<name of the part>.stl, "-2", "-3"... when names repeat;
 /// all empty without --repair.
-std::vector<std::string> repair_paths(const std::string& folder, const std::vector<std::string>& files) {
+std::vector<std::string> repair_paths(const std::string& folder,
+                                      const std::vector<std::string>& files) {
   std::vector<std::string> out(files.size());
   if (folder.empty()) return out;
   std::vector<std::string> used;
@@ -380,7 +407,8 @@ Result<PartSetup> resolve_setup(const CheckOptions& o) {
   settings.min_thickness_mm = o.min_thickness_mm;
   settings.line_width_mm = o.line_width_mm;
   settings.self_intersections = !o.no_self_intersections;
-  if (o.no_center && !o.center.empty()) return usage_error("--center and --no-center exclude each other");
+  if (o.no_center && !o.center.empty())
+    return usage_error("--center and --no-center exclude each other");
   settings.center = !o.no_center;
   if (!o.center.empty()) {
     auto c = parse_center(o.center);
@@ -422,7 +450,8 @@ std::vector<PartJob> batch_jobs(const CheckOptions& o, std::vector<std::string> 
                                 const std::vector<Manifest>& manifests) {
   for (const auto& m : manifests)
     for (const auto& part : m.parts)
-      if (std::none_of(files.begin(), files.end(), [&](const std::string& f) { return same_file(f, part.file); }))
+      if (std::none_of(files.begin(), files.end(),
+                       [&](const std::string& f) { return same_file(f, part.file); }))
         files.push_back(part.file);
   std::vector<PartJob> jobs;
   for (const auto& file : files) {
@@ -430,7 +459,8 @@ std::vector<PartJob> batch_jobs(const CheckOptions& o, std::vector<std::string> 
     std::error_code ec;
     if (listed != nullptr && !std::filesystem::exists(file, ec)) {
       const auto& in = *std::find_if(manifests.begin(), manifests.end(), [&](const Manifest& m) {
-        return std::any_of(m.parts.begin(), m.parts.end(), [&](const ManifestPart& p) { return &p == listed; });
+        return std::any_of(m.parts.begin(), m.parts.end(),
+                           [&](const ManifestPart& p) { return &p == listed; });
       });
       jobs.push_back({file, bad_input("listed in " + in.path + " but not found", file)});
       continue;
@@ -451,7 +481,8 @@ std::string printers_label(const std::vector<PartOutcome>& parts, const std::str
   return name.empty() ? fallback : name;
 }
 
-int run_batch(const CheckOptions& o, const std::vector<PartJob>& jobs, const std::string& printer_name) {
+int run_batch(const CheckOptions& o, const std::vector<PartJob>& jobs,
+              const std::string& printer_name) {
   std::vector<PartOutcome> parts(jobs.size());
   std::vector<std::string> files;
   for (const auto& j : jobs) files.push_back(j.file);
@@ -459,11 +490,13 @@ int run_batch(const CheckOptions& o, const std::vector<PartJob>& jobs, const std
   if (!o.repair_out.empty()) {
     std::error_code ec;
     std::filesystem::create_directories(o.repair_out, ec);
-    if (ec) return report_error(bad_input(o.repair_out + ": cannot create the --repair folder: " + ec.message()));
+    if (ec)
+      return report_error(
+          bad_input(o.repair_out + ": cannot create the --repair folder: " + ec.message()));
   }
   std::atomic<std::size_t> next{0};
-  const std::size_t workers =
-      std::max<std::size_t>(1, std::min<std::size_t>(jobs.size(), std::thread::hardware_concurrency()));
+  const std::size_t workers = std::max<std::size_t>(
+      1, std::min<std::size_t>(jobs.size(), std::thread::hardware_concurrency()));
   std::vector<std::thread> pool;
   for (std::size_t w = 0; w < workers; ++w)
     pool.emplace_back([&] {
@@ -472,11 +505,13 @@ int run_batch(const CheckOptions& o, const std::vector<PartJob>& jobs, const std
         if (!job.setup) {
           parts[i].file = job.file;
           parts[i].error = job.setup.error();
-          parts[i].exit_code = job.setup.error().code == ErrorCode::internal ? kInternal : kBadInput;
+          parts[i].exit_code =
+              job.setup.error().code == ErrorCode::internal ? kInternal : kBadInput;
           continue;
         }
         const PartSetup& s = *job.setup;
-        parts[i] = check_part(s.options, job.file, s.printer, s.settings, s.mm_per_unit, repair_files[i]);
+        parts[i] =
+            check_part(s.options, job.file, s.printer, s.settings, s.mm_per_unit, repair_files[i]);
       }
     });
   for (auto& t : pool) t.join();
@@ -485,9 +520,10 @@ int run_batch(const CheckOptions& o, const std::vector<PartJob>& jobs, const std
   std::fputs(md.c_str(), stdout);
   int worst = kPass;
   for (const auto& p : parts) worst = std::max(worst, p.exit_code);
-  for (const auto& [path, text] : {std::pair<const std::string&, std::string>{o.summary_out, md},
-                                   {o.junit_out, o.junit_out.empty() ? std::string() : check_junit(parts)},
-                                   {o.json_out, o.json_out.empty() ? std::string() : batch_json(parts)}})
+  for (const auto& [path, text] :
+       {std::pair<const std::string&, std::string>{o.summary_out, md},
+        {o.junit_out, o.junit_out.empty() ? std::string() : check_junit(parts)},
+        {o.json_out, o.json_out.empty() ? std::string() : batch_json(parts)}})
     if (!path.empty())
       if (auto st = write_file_atomic(path, text); !st) return report_error(st.error());
   return worst;
@@ -509,11 +545,14 @@ int run_check(const CheckOptions& o) {
   // Several parts, a folder, a glob or a manifest alone: the batch run (summary table, JUnit,
   // one JSON).
   std::error_code ec;
-  const bool batch = o.inputs.size() != 1 || !o.summary_out.empty() || !o.junit_out.empty() ||
-                     (std::filesystem::is_directory(o.inputs[0], ec) && !has_mesh_extension(o.inputs[0])) ||
-                     (o.inputs[0].find_first_of("*?[") != std::string::npos && !std::filesystem::exists(o.inputs[0], ec));
+  const bool batch =
+      o.inputs.size() != 1 || !o.summary_out.empty() || !o.junit_out.empty() ||
+      (std::filesystem::is_directory(o.inputs[0], ec) && !has_mesh_extension(o.inputs[0])) ||
+      (o.inputs[0].find_first_of("*?[") != std::string::npos &&
+       !std::filesystem::exists(o.inputs[0], ec));
   if (batch) {
-    if (auto st = check_output_path(o.repair_out, "--repair", OutputKind::folder); !st) return report_error(st.error());
+    if (auto st = check_output_path(o.repair_out, "--repair", OutputKind::folder); !st)
+      return report_error(st.error());
     std::vector<std::string> files;
     if (!o.inputs.empty()) {
       auto found = expand_inputs(o.inputs);
@@ -523,18 +562,20 @@ int run_check(const CheckOptions& o) {
     return run_batch(o, batch_jobs(o, std::move(files), *manifests), base->printer.name);
   }
 
-  if (auto st = check_output_path(o.repair_out, "--repair", OutputKind::file); !st) return report_error(st.error());
+  if (auto st = check_output_path(o.repair_out, "--repair", OutputKind::file); !st)
+    return report_error(st.error());
   const ManifestPart* listed = find_manifest_part(*manifests, o.inputs[0]);
   auto setup = listed ? resolve_setup(with_part_settings(o, listed->settings)) : std::move(base);
   if (!setup) return report_error(setup.error());
   CheckOptions& one = setup->options;
   one.input = o.inputs[0];
-  PartOutcome part = check_part(one, one.input, setup->printer, setup->settings, setup->mm_per_unit, o.repair_out);
+  PartOutcome part =
+      check_part(one, one.input, setup->printer, setup->settings, setup->mm_per_unit, o.repair_out);
   if (part.error) return report_error(*part.error);
   print_text(one, setup->printer, *part.report, part.repaired ? &*part.repaired : nullptr);
   if (!o.json_out.empty()) {
-    const std::string text = check_report_to_json(*part.report, part.source,
-                                                  part.repaired ? &*part.repaired : nullptr, o.repair_out);
+    const std::string text = check_report_to_json(
+        *part.report, part.source, part.repaired ? &*part.repaired : nullptr, o.repair_out);
     if (auto st = write_file_atomic(o.json_out, text); !st) return report_error(st.error());
   }
   return part.exit_code;
@@ -545,14 +586,16 @@ int run_check(const CheckOptions& o) {
 void add_check_command(CLI::App& app, CommandRunner& runner) {
   auto opts = std::make_shared<CheckOptions>();
   auto* cmd = app.add_subcommand(
-      "check", "Check whether a mesh is printable (no slicing). Exit 0 printable, 1 errors found,\n"
-               "2 usage, 3 bad input, 4 internal error. Findings: docs/check.md");
+      "check",
+      "Check whether a mesh is printable (no slicing). Exit 0 printable, 1 errors found,\n"
+      "2 usage, 3 bad input, 4 internal error. Findings: docs/check.md");
   cmd->add_option("mesh", opts->inputs,
                   "STL, OBJ, PLY, OFF, 3MF or AMF files, folders (every mesh below them) or globs; "
                   "several parts make a batch: a summary table, exit code of the worst part");
-  cmd->add_option("--manifest", opts->manifest,
-                  "per-part settings (JSON, docs/ci.md); default: printtwin.json in each folder given and "
-                  "beside each file; without parts: check the parts it lists");
+  cmd->add_option(
+      "--manifest", opts->manifest,
+      "per-part settings (JSON, docs/ci.md); default: printtwin.json in each folder given and "
+      "beside each file; without parts: check the parts it lists");
   cmd->add_option("--summary", opts->summary_out,
                   "write the batch's Markdown summary table (for $GITHUB_STEP_SUMMARY)");
   cmd->add_option("--junit", opts->junit_out, "write a JUnit XML file with a test case per part");
@@ -560,9 +603,10 @@ void add_check_command(CLI::App& app, CommandRunner& runner) {
                   "ender3, ender3-marlin1, ender3-klipper, a library printer (printtwin printers), "
                   "a profile FILE.json or a Klipper printer.cfg")
       ->capture_default_str();
-  cmd->add_option("--json", opts->json_out,
-                  "write the report as JSON (schema printtwin.check v1; a batch: printtwin.check.batch "
-                  "v1, one report per part)");
+  cmd->add_option(
+      "--json", opts->json_out,
+      "write the report as JSON (schema printtwin.check v1; a batch: printtwin.check.batch "
+      "v1, one report per part)");
   cmd->add_option("--repair", opts->repair_out,
                   "write a repaired mesh (binary STL) and count what changed (admesh's counters); "
                   "a batch: a folder, one <part>.stl each");

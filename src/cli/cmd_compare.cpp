@@ -44,24 +44,25 @@ struct CompareOptions {
   bool require_pass = false;
 };
 
-
 // A short fixed-width table on stdout; compare.md and compare.html hold the full one.
 void print_table(const CompareResult& r, const fs::path& out_dir, const std::string& written) {
   std::size_t w = 7;
-  for (const auto& v : r.variants) w = std::max(w, std::min<std::size_t>(v.variant.label.size(), 40));
+  for (const auto& v : r.variants)
+    w = std::max(w, std::min<std::size_t>(v.variant.label.size(), 40));
   std::printf("%-3s  %-*s  %14s  %9s  %9s  %10s  %-6s %s\n", "#", static_cast<int>(w), "variant",
               "print time", "filament", "RMS mm", "slopes mm", "result", "");
   for (const auto& v : r.variants) {
     std::string label = v.variant.label.substr(0, 40);
     if (!v.ran) {
-      std::printf("%-3d  %-*s  could not run: %s\n", v.variant.index, static_cast<int>(w), label.c_str(),
-                  v.error.c_str());
+      std::printf("%-3d  %-*s  could not run: %s\n", v.variant.index, static_cast<int>(w),
+                  label.c_str(), v.error.c_str());
       continue;
     }
-    std::printf("%-3d  %-*s  %14s  %7s g  %9s  %10s  %-6s %s\n", v.variant.index, static_cast<int>(w),
-                label.c_str(), format_duration(v.print_time_s).c_str(), format_fixed(v.filament_g, 1).c_str(),
-                format_fixed(v.rms_mm, 4).c_str(), format_fixed(v.slope_rms_mm, 4).c_str(),
-                v.pass ? "pass" : "FAIL", v.pareto ? "* Pareto" : "");
+    std::printf("%-3d  %-*s  %14s  %7s g  %9s  %10s  %-6s %s\n", v.variant.index,
+                static_cast<int>(w), label.c_str(), format_duration(v.print_time_s).c_str(),
+                format_fixed(v.filament_g, 1).c_str(), format_fixed(v.rms_mm, 4).c_str(),
+                format_fixed(v.slope_rms_mm, 4).c_str(), v.pass ? "pass" : "FAIL",
+                v.pareto ? "* Pareto" : "");
   }
   std::printf("wrote %s in %s\n", written.c_str(), out_dir.string().c_str());
 }
@@ -129,10 +130,11 @@ int run_merge(const CompareOptions& o) {
 Result<ComparePlan> build_plan(const CompareOptions& o) {
   ComparePlan plan;
   if (!o.manifest.empty()) {
-    if (!o.varies.empty() || !o.sets.empty() || !o.configs.empty() || !o.gcodes.empty() || !o.labels.empty() ||
-        !o.slicers.empty())
+    if (!o.varies.empty() || !o.sets.empty() || !o.configs.empty() || !o.gcodes.empty() ||
+        !o.labels.empty() || !o.slicers.empty())
       return usage_error(
-          "--manifest holds the variants; do not give --vary/--set/--config/--gcode/--label/--slicer too");
+          "--manifest holds the variants; do not give "
+          "--vary/--set/--config/--gcode/--label/--slicer too");
     auto text = read_file(o.manifest);
     if (!text) return text.error();
     auto parsed = parse_compare_plan(*text, o.manifest);
@@ -206,8 +208,7 @@ int run_compare_command(const CompareOptions& o) {
       return report_error(usage_error("--merge takes only compare JSON files and --out"));
     return run_merge(o);
   }
-  if (o.shard_n && !o.shard_k)
-    return report_error(usage_error("--of needs --variant K"));
+  if (o.shard_n && !o.shard_k) return report_error(usage_error("--of needs --variant K"));
   if (o.variant_reports != "full" && o.variant_reports != "json" && o.variant_reports != "none")
     return report_error(usage_error("--variant-reports must be full, json or none"));
 
@@ -217,8 +218,8 @@ int run_compare_command(const CompareOptions& o) {
   if (!o.write_manifest.empty()) {
     if (auto st = write_file_atomic(o.write_manifest, compare_plan_json(*plan)); !st)
       return report_error(st.error());
-    std::printf("wrote %s: %zu variants, plan %s\n", o.write_manifest.c_str(), plan->variants.size(),
-                compare_plan_id(*plan).substr(0, 12).c_str());
+    std::printf("wrote %s: %zu variants, plan %s\n", o.write_manifest.c_str(),
+                plan->variants.size(), compare_plan_id(*plan).substr(0, 12).c_str());
     return kPass;
   }
 
@@ -239,12 +240,13 @@ int run_compare_command(const CompareOptions& o) {
   auto part = prepare_shared_part(mesh_path, *printer, plan->verify);
   if (!part) return report_error(part.error());
   if (!plan->mesh_sha256.empty() && part->info.sha256 != plan->mesh_sha256)
-    return report_error(bad_input("the mesh differs from the one the manifest was written for (sha256 " +
-                                      part->info.sha256.substr(0, 12) + ", manifest " +
-                                      plan->mesh_sha256.substr(0, 12) + ")",
-                                  mesh_path.string()));
+    return report_error(bad_input(
+        "the mesh differs from the one the manifest was written for (sha256 " +
+            part->info.sha256.substr(0, 12) + ", manifest " + plan->mesh_sha256.substr(0, 12) + ")",
+        mesh_path.string()));
 
-  const fs::path out_dir = o.out.empty() ? fs::path("reports") / (part->info.name + "-compare") : fs::path(o.out);
+  const fs::path out_dir =
+      o.out.empty() ? fs::path("reports") / (part->info.name + "-compare") : fs::path(o.out);
   CompareRunOptions run;
   run.out_dir = out_dir;
   run.variant_reports = o.variant_reports != "none";
@@ -254,27 +256,33 @@ int run_compare_command(const CompareOptions& o) {
     // The variants place the same mesh, mostly at the same offset: one writer shares the
     // work that depends only on the placed mesh between them.
     auto writer = std::make_shared<ReportFolderWriter>();
-    run.write_variant_report = [stamp, writer](const VerifyReport& rep, const fs::path& dir) -> Status {
+    run.write_variant_report = [stamp, writer](const VerifyReport& rep,
+                                               const fs::path& dir) -> Status {
       ReportOptions ro;
       ro.generated_utc = stamp;
-      ro.extra_outputs = [&rep](const fs::path& staging) { return write_verify_outputs(rep, staging); };
+      ro.extra_outputs = [&rep](const fs::path& staging) {
+        return write_verify_outputs(rep, staging);
+      };
       return writer->write(rep, dir, ro);
     };
   }
   // An empty share (more shares than variants) still writes its JSON, so that a merge of
   // every job's output sees all shares.
-  auto result = (shard && indices.empty()) ? Result<CompareResult>(make_compare_result(*part, *plan))
-                                           : run_compare(*part, *plan, indices, run);
+  auto result = (shard && indices.empty())
+                    ? Result<CompareResult>(make_compare_result(*part, *plan))
+                    : run_compare(*part, *plan, indices, run);
   if (!result) return report_error(result.error());
   if (shard) {
     result->shard = shard;
     const std::string name = shard_file_name(shard->first, shard->second);
-    if (auto st = write_file_atomic(out_dir / name, compare_json(*result)); !st) return report_error(st.error());
+    if (auto st = write_file_atomic(out_dir / name, compare_json(*result)); !st)
+      return report_error(st.error());
     print_table(*result, out_dir, name);
   } else {
     CompareHtmlOptions html;
     html.generated_utc = stamp;
-    if (auto st = write_compare_outputs(*result, out_dir, html); !st) return report_error(st.error());
+    if (auto st = write_compare_outputs(*result, out_dir, html); !st)
+      return report_error(st.error());
     print_table(*result, out_dir, "compare.json, compare.md, compare.html");
   }
   return exit_code_of(*result, o.require_pass);
@@ -285,42 +293,58 @@ int run_compare_command(const CompareOptions& o) {
 void add_compare_command(CLI::App& app, CommandRunner& runner) {
   auto o = std::make_shared<CompareOptions>();
   auto* cmd = app.add_subcommand(
-      "compare", "Run variants of a part (slicer settings, configs, other slicers' G-code) side by side");
+      "compare",
+      "Run variants of a part (slicer settings, configs, other slicers' G-code) side by side");
   cmd->add_option("mesh", o->mesh, "STL, OBJ, PLY, OFF, 3MF or AMF file");
-  cmd->add_option("--vary", o->varies, "sweep a slicer setting: key=v1,v2,... (several: cross product)");
+  cmd->add_option("--vary", o->varies,
+                  "sweep a slicer setting: key=v1,v2,... (several: cross product)");
   cmd->add_option("--set", o->sets, "a slicer setting for every variant: key=value");
-  cmd->add_option("--config", o->configs,
-                  "the slicer's config: a PrusaSlicer/Slic3r .ini, for Cura a file of key=value lines; "
-                  "one variant (set) per file");
-  cmd->add_option("--gcode", o->gcodes, "an external G-code file of the same part: one variant each");
-  add_slicer_options(cmd, o->slicers, o->slicer_paths, o->slicer_timeout_s, o->cura_definition,
-                     "who slices the slicer variants: printtwin (default), prusa-slicer, cura (CuraEngine) or "
-                     "slic3r; several: one variant set each (a failed slicing run is that variant's row)",
-                     "the slicer's program (default: found on the PATH); with several --slicer: name=path");
-  cmd->add_option("--label", o->labels, "names of the variants, in variant order (one per variant)");
-  cmd->add_option("--printer", o->printer,
-                  "auto (default: each G-code's own printer; ender3 for printtwin's slices), a library printer "
-                  "(printtwin printers), ender3, ender3-marlin1, ender3-klipper, a profile .json or a printer.cfg");
+  cmd->add_option(
+      "--config", o->configs,
+      "the slicer's config: a PrusaSlicer/Slic3r .ini, for Cura a file of key=value lines; "
+      "one variant (set) per file");
+  cmd->add_option("--gcode", o->gcodes,
+                  "an external G-code file of the same part: one variant each");
+  add_slicer_options(
+      cmd, o->slicers, o->slicer_paths, o->slicer_timeout_s, o->cura_definition,
+      "who slices the slicer variants: printtwin (default), prusa-slicer, cura (CuraEngine) or "
+      "slic3r; several: one variant set each (a failed slicing run is that variant's row)",
+      "the slicer's program (default: found on the PATH); with several --slicer: name=path");
+  cmd->add_option("--label", o->labels,
+                  "names of the variants, in variant order (one per variant)");
+  cmd->add_option(
+      "--printer", o->printer,
+      "auto (default: each G-code's own printer; ender3 for printtwin's slices), a library printer "
+      "(printtwin printers), ender3, ender3-marlin1, ender3-klipper, a profile .json or a "
+      "printer.cfg");
   cmd->add_option("--tolerance", o->tolerance_mm, "deviation tolerance, mm (default 0.2)");
-  cmd->add_option("--max-excess", o->max_excess_mm, "gate on the largest excess, mm (default: tolerance)");
-  cmd->add_option("--max-deficit", o->max_deficit_mm, "gate on the largest deficit, mm (default: tolerance)");
+  cmd->add_option("--max-excess", o->max_excess_mm,
+                  "gate on the largest excess, mm (default: tolerance)");
+  cmd->add_option("--max-deficit", o->max_deficit_mm,
+                  "gate on the largest deficit, mm (default: tolerance)");
   cmd->add_option("--max-rms", o->max_rms_mm, "gate on the RMS deviation, mm (default: none)");
   cmd->add_option("--voxel", o->voxel_mm, "deposit voxel size, mm (default 0.05)");
-  cmd->add_option("--sample-spacing", o->sample_spacing_mm, "mesh sample spacing, mm (default: voxel)");
+  cmd->add_option("--sample-spacing", o->sample_spacing_mm,
+                  "mesh sample spacing, mm (default: voxel)");
   cmd->add_option("--place", o->place, "place the mesh at X,Y,Z instead of registering it")
       ->expected(3)
       ->delimiter(',');
-  cmd->add_option("--filament-density", o->filament_density,
-                  "g/cm3 for G-code variants (slicer variants use filament_density; default 1.24, PLA)");
+  cmd->add_option(
+      "--filament-density", o->filament_density,
+      "g/cm3 for G-code variants (slicer variants use filament_density; default 1.24, PLA)");
   cmd->add_option("-o,--out", o->out, "output folder (default reports/<part>-compare)");
-  cmd->add_option("--variant", o->shard_k, "run only share K (0-based) of --of N; writes compare-K-of-N.json");
+  cmd->add_option("--variant", o->shard_k,
+                  "run only share K (0-based) of --of N; writes compare-K-of-N.json");
   cmd->add_option("--of", o->shard_n, "number of shares (default: the number of variants)");
-  cmd->add_option("--write-manifest", o->write_manifest, "write the expanded plan to this JSON file and stop");
-  cmd->add_option("--manifest", o->manifest, "read the plan from a manifest instead of the variant flags");
+  cmd->add_option("--write-manifest", o->write_manifest,
+                  "write the expanded plan to this JSON file and stop");
+  cmd->add_option("--manifest", o->manifest,
+                  "read the plan from a manifest instead of the variant flags");
   cmd->add_option("--merge", o->merge, "merge shares' compare JSON files into one comparison");
   cmd->add_flag("--allow-missing", o->allow_missing, "merge even when some variants have no share");
   cmd->add_option("--variant-reports", o->variant_reports,
-                  "per-variant verify report folders: full (report.html, junit.xml, report.json, ...), json (report.json, deviation.ply) or none");
+                  "per-variant verify report folders: full (report.html, junit.xml, report.json, "
+                  "...), json (report.json, deviation.ply) or none");
   cmd->add_flag("--require-pass", o->require_pass, "exit 1 when any variant fails its gates");
   cmd->callback([o, &runner] { runner.run = [o]() -> int { return run_compare_command(*o); }; });
 }

@@ -58,9 +58,9 @@ class TraceWriter final : public MoveSink {
  private:
   void write(double t, const Vec3& p, double e, double v, long line) {
     csv_ += format_fixed(t, 4) + ',' + format_fixed(p.x(), 4) + ',' + format_fixed(p.y(), 4) + ',' +
-            format_fixed(p.z(), 4) + ',' + format_fixed(p.x(), 4) + ',' + format_fixed(-p.y(), 4) + ',' +
-            format_fixed(p.z(), 4) + ',' + format_fixed(e, 5) + ',' + format_fixed(v, 3) + ',' +
-            std::to_string(line) + '\n';
+            format_fixed(p.z(), 4) + ',' + format_fixed(p.x(), 4) + ',' + format_fixed(-p.y(), 4) +
+            ',' + format_fixed(p.z(), 4) + ',' + format_fixed(e, 5) + ',' + format_fixed(v, 3) +
+            ',' + std::to_string(line) + '\n';
   }
   double dt_;
   double next_t_ = 0;
@@ -73,16 +73,21 @@ class TraceWriter final : public MoveSink {
 
 void add_simulate_command(CLI::App& app, CommandRunner& runner) {
   auto o = std::make_shared<SimulateCliOptions>();
-  auto* cmd = app.add_subcommand("simulate", "Run G-code on the simulated printer (timing, filament, layers, findings)");
+  auto* cmd = app.add_subcommand(
+      "simulate", "Run G-code on the simulated printer (timing, filament, layers, findings)");
   cmd->add_option("gcode", o->input, "G-code file from any slicer")->required();
-  cmd->add_option("--printer", o->printer,
-                  "auto (the printer the file's settings name), a library printer (printtwin printers), "
-                  "ender3, ender3-marlin1, ender3-klipper, a profile .json or a Klipper printer.cfg")
+  cmd->add_option(
+         "--printer", o->printer,
+         "auto (the printer the file's settings name), a library printer (printtwin printers), "
+         "ender3, ender3-marlin1, ender3-klipper, a profile .json or a Klipper printer.cfg")
       ->capture_default_str();
   cmd->add_option("--json", o->json_path, "Write the result as JSON (schema printtwin.simulate/1)");
   cmd->add_option("--trace", o->trace_path, "Write the twin's state over time as CSV");
-  cmd->add_option("--trace-hz", o->trace_hz, "Trace sampling rate (Hz)")->capture_default_str()->check(CLI::Range(0.001, 10000.0));
-  cmd->add_flag("--strict", o->strict, "Warnings about the input are errors; warning findings fail the run");
+  cmd->add_option("--trace-hz", o->trace_hz, "Trace sampling rate (Hz)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.001, 10000.0));
+  cmd->add_flag("--strict", o->strict,
+                "Warnings about the input are errors; warning findings fail the run");
   cmd->add_flag("--limits-from-gcode", o->limits_from_gcode,
                 "Use the machine limits in PrusaSlicer's config block at the end of the file "
                 "(and its estimator's classic-jerk model)");
@@ -90,14 +95,16 @@ void add_simulate_command(CLI::App& app, CommandRunner& runner) {
   add_deposit_options(*cmd, o->deposit);
   cmd->callback([o, &runner] {
     runner.run = [o]() -> int {
-      if (auto st = check_output_paths({{o->json_path, "--json", OutputKind::file},
-                                        {o->trace_path, "--trace", OutputKind::file},
-                                        {o->deposit.octomap_path, "--deposit", OutputKind::file},
-                                        {o->deposit.ply_path, "--deposit-ply", OutputKind::file},
-                                        {o->deposit.mesh.path, "--deposit-mesh", OutputKind::file}});
+      if (auto st =
+              check_output_paths({{o->json_path, "--json", OutputKind::file},
+                                  {o->trace_path, "--trace", OutputKind::file},
+                                  {o->deposit.octomap_path, "--deposit", OutputKind::file},
+                                  {o->deposit.ply_path, "--deposit-ply", OutputKind::file},
+                                  {o->deposit.mesh.path, "--deposit-mesh", OutputKind::file}});
           !st)
         return report_error(st.error());
-      if (auto mesh = deposit_mesh_options(o->deposit.mesh); !mesh) return report_error(mesh.error());
+      if (auto mesh = deposit_mesh_options(o->deposit.mesh); !mesh)
+        return report_error(mesh.error());
       // Missing, a directory, a symbolic link loop: said in those words, before any work.
       if (auto size = input_file_size(o->input); !size) return report_error(size.error());
       auto resolved = resolve_printer(o->printer, o->input);
@@ -113,18 +120,24 @@ void add_simulate_command(CLI::App& app, CommandRunner& runner) {
       if (!sim) return report_error(sim.error());
       // Nothing moved: whatever the file is, it was not understood as a print.
       if (sim->moves == 0)
-        return report_error(bad_input("no moves: " + std::to_string(sim->lines) +
-                                          (sim->lines == 1 ? " line" : " lines") + " but not one G0/G1/G2/G3 move, expected a print's G-code",
-                                      o->input));
+        return report_error(bad_input(
+            "no moves: " + std::to_string(sim->lines) + (sim->lines == 1 ? " line" : " lines") +
+                " but not one G0/G1/G2/G3 move, expected a print's G-code",
+            o->input));
       if (auto st = deposit.run(*profile, *sim); !st) return report_error(st.error());
       if (!o->json_path.empty()) {
-        if (auto st = write_file_atomic(o->json_path, deposit.patch_json(simulation_to_json(*sim, o->input))); !st)
+        if (auto st = write_file_atomic(o->json_path,
+                                        deposit.patch_json(simulation_to_json(*sim, o->input)));
+            !st)
           return report_error(st.error());
       }
       if (trace) {
-        if (auto st = write_file_atomic(o->trace_path, trace->csv()); !st) return report_error(st.error());
+        if (auto st = write_file_atomic(o->trace_path, trace->csv()); !st)
+          return report_error(st.error());
       }
-      if (!o->quiet) std::fputs((o->input + "\n" + simulation_summary(*sim) + deposit.summary()).c_str(), stdout);
+      if (!o->quiet)
+        std::fputs((o->input + "\n" + simulation_summary(*sim) + deposit.summary()).c_str(),
+                   stdout);
       bool fail = has_errors(sim->findings);
       if (o->strict)
         for (const auto& f : sim->findings)

@@ -82,7 +82,8 @@ std::optional<Error> parse_pair(const std::string& text, std::string& key, std::
 }
 
 int run_slice(const SliceOptions& o) {
-  if (auto st = check_output_path(o.output, "--output", OutputKind::file); !st) return report_error(st.error());
+  if (auto st = check_output_path(o.output, "--output", OutputKind::file); !st)
+    return report_error(st.error());
   SliceSettings settings;
   std::vector<std::string> ignored;
   for (const auto& cfg : o.configs) {
@@ -115,12 +116,14 @@ int run_slice(const SliceOptions& o) {
   if (!mesh) return report_error(mesh.error());
   // A mesh without area has nothing to slice (check: NOT PRINTABLE).
   if (!(surface_area_mm2(*mesh) > 0))
-    return report_error(bad_input("the mesh has zero area (all " + std::to_string(mesh->triangles.size()) +
+    return report_error(bad_input("the mesh has zero area (all " +
+                                      std::to_string(mesh->triangles.size()) +
                                       " triangles are degenerate): nothing to slice, not printable",
                                   o.input));
 
   std::string out_path = o.output;
-  if (out_path.empty()) out_path = std::filesystem::path(o.input).replace_extension(".gcode").string();
+  if (out_path.empty())
+    out_path = std::filesystem::path(o.input).replace_extension(".gcode").string();
   const auto t0 = std::chrono::steady_clock::now();
   auto sliced = slice_mesh(*mesh, *printer, settings);
   if (!sliced) {
@@ -130,9 +133,10 @@ int run_slice(const SliceOptions& o) {
   }
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (!(sliced->stats.filament_mm > 0))
-    return report_error(bad_input("the slice extrudes nothing (" + std::to_string(sliced->stats.layer_count) +
-                                      " layers, 0 mm of filament): no part of the mesh would print, not printable",
-                                  o.input));
+    return report_error(
+        bad_input("the slice extrudes nothing (" + std::to_string(sliced->stats.layer_count) +
+                      " layers, 0 mm of filament): no part of the mesh would print, not printable",
+                  o.input));
   if (auto st = write_file_atomic(out_path, sliced->gcode); !st) return report_error(st.error());
 
   const SliceStats& s = sliced->stats;
@@ -168,7 +172,8 @@ int run_slice(const SliceOptions& o) {
       x["message"] = f.message;
       if (f.layer) x["layer"] = *f.layer;
       if (f.value) x["value"] = *f.value;
-      if (f.position_mm) x["position_mm"] = {f.position_mm->x(), f.position_mm->y(), f.position_mm->z()};
+      if (f.position_mm)
+        x["position_mm"] = {f.position_mm->x(), f.position_mm->y(), f.position_mm->z()};
       fj.push_back(x);
     }
     j["ignored_config_keys"] = ignored;
@@ -181,13 +186,16 @@ int run_slice(const SliceOptions& o) {
     std::fprintf(stderr, "printtwin: note: %zu config keys not used by printtwin's slicer: %s\n",
                  ignored.size(), list.c_str());
   }
-  std::printf("%s -> %s: %d layers, filament %s mm (%s cm3, %s g)", o.input.c_str(), out_path.c_str(),
-              s.layer_count, format_fixed(s.filament_mm, 1).c_str(),
-              format_fixed(s.filament_volume_mm3 * 1e-3, 2).c_str(), format_fixed(s.filament_g, 2).c_str());
-  if (s.time_from_simulator) std::printf(", estimated print time %s s", format_fixed(s.estimated_time_s, 0).c_str());
+  std::printf("%s -> %s: %d layers, filament %s mm (%s cm3, %s g)", o.input.c_str(),
+              out_path.c_str(), s.layer_count, format_fixed(s.filament_mm, 1).c_str(),
+              format_fixed(s.filament_volume_mm3 * 1e-3, 2).c_str(),
+              format_fixed(s.filament_g, 2).c_str());
+  if (s.time_from_simulator)
+    std::printf(", estimated print time %s s", format_fixed(s.estimated_time_s, 0).c_str());
   std::printf(", sliced in %s s\n", format_fixed(secs, 2).c_str());
   for (const auto& f : sliced->findings)
-    std::printf("%s: %s: %s\n", std::string(to_string(f.severity)).c_str(), f.code.c_str(), f.message.c_str());
+    std::printf("%s: %s: %s\n", std::string(to_string(f.severity)).c_str(), f.code.c_str(),
+                f.message.c_str());
   return kPass;
 }
 
@@ -195,22 +203,29 @@ int run_slice(const SliceOptions& o) {
 
 void add_slice_command(CLI::App& app, CommandRunner& runner) {
   auto opts = std::make_shared<SliceOptions>();
-  auto* cmd = app.add_subcommand("slice", "Slice a mesh into Marlin G-code (PrusaSlicer Ender-3 defaults)");
+  auto* cmd =
+      app.add_subcommand("slice", "Slice a mesh into Marlin G-code (PrusaSlicer Ender-3 defaults)");
   cmd->add_option("mesh", opts->input, "STL, OBJ, PLY, OFF, 3MF or AMF file")->required();
   cmd->add_option("-o,--output", opts->output, "G-code file to write (default: <mesh>.gcode)");
-  cmd->add_option("--printer", opts->printer, "printer profile: ender3, ender3-marlin1, ender3-klipper, a library printer "
+  cmd->add_option("--printer", opts->printer,
+                  "printer profile: ender3, ender3-marlin1, ender3-klipper, a library printer "
                   "(printtwin printers), a JSON file or a Klipper printer.cfg");
-  cmd->add_option("--config", opts->configs, "flat PrusaSlicer .ini config (supported keys used, others listed)");
-  cmd->add_option("--set", opts->sets, "any setting as key=value (PrusaSlicer key names, docs/slicer.md)");
+  cmd->add_option("--config", opts->configs,
+                  "flat PrusaSlicer .ini config (supported keys used, others listed)");
+  cmd->add_option("--set", opts->sets,
+                  "any setting as key=value (PrusaSlicer key names, docs/slicer.md)");
   for (const auto& [flag, key] : flag_keys()) {
     cmd->add_option("--" + flag, opts->flag_values[flag], "setting " + key);
   }
-  cmd->add_option("--center", opts->center, "centre the part's bounding box at X,Y (mm)")->expected(2)->delimiter(',');
+  cmd->add_option("--center", opts->center, "centre the part's bounding box at X,Y (mm)")
+      ->expected(2)
+      ->delimiter(',');
   cmd->add_option("--place", opts->place, "translate the mesh by X,Y,Z instead of centring it")
       ->expected(3)
       ->delimiter(',');
   cmd->add_flag("--json", opts->json, "print the slice summary as JSON (schema printtwin.slice/1)");
-  cmd->add_flag("--no-time-estimate", opts->no_time, "skip the simulator's time estimate in the footer");
+  cmd->add_flag("--no-time-estimate", opts->no_time,
+                "skip the simulator's time estimate in the footer");
   cmd->callback([opts, &runner] { runner.run = [opts]() -> int { return run_slice(*opts); }; });
 }
 

@@ -15,14 +15,17 @@ struct CommandRunner {
 /// --slicer, --slicer-path, --slicer-timeout and --cura-definition of verify and compare
 /// (external slicer back-ends, docs/compare.md); `slicer` and `path` are a string or a list.
 template <class Slicers, class Paths>
-void add_slicer_options(CLI::App* cmd, Slicers& slicer, Paths& path, double& timeout_s, std::string& cura_definition,
-                        const std::string& slicer_help, const std::string& path_help) {
+void add_slicer_options(CLI::App* cmd, Slicers& slicer, Paths& path, double& timeout_s,
+                        std::string& cura_definition, const std::string& slicer_help,
+                        const std::string& path_help) {
   cmd->add_option("--slicer", slicer, slicer_help);
   cmd->add_option("--slicer-path", path, path_help);
-  cmd->add_option("--slicer-timeout", timeout_s, "stop a slicing run after this many seconds (default 600)");
-  cmd->add_option("--cura-definition,-j", cura_definition,
-                  "--slicer cura: the printer's .def.json (e.g. /usr/share/cura/resources/definitions/"
-                  "creality_ender3.def.json); --config and --set give the -s settings");
+  cmd->add_option("--slicer-timeout", timeout_s,
+                  "stop a slicing run after this many seconds (default 600)");
+  cmd->add_option(
+      "--cura-definition,-j", cura_definition,
+      "--slicer cura: the printer's .def.json (e.g. /usr/share/cura/resources/definitions/"
+      "creality_ender3.def.json); --config and --set give the -s settings");
 }
 
 void add_check_command(CLI::App& app, CommandRunner& runner);

@@ -14,12 +14,14 @@ namespace printtwin::cli {
 void add_deposit_options(CLI::App& cmd, DepositCliOptions& o) {
   cmd.add_option("--deposit", o.octomap_path,
                  "Deposit the material as voxels and write them as OctoMap .bt or .ot (coloured)");
-  cmd.add_option("--deposit-ply", o.ply_path,
-                 "Write the deposit's outer surface voxels as a PLY point cloud (layer, feature, line)");
+  cmd.add_option(
+      "--deposit-ply", o.ply_path,
+      "Write the deposit's outer surface voxels as a PLY point cloud (layer, feature, line)");
   cmd.add_flag("--deposit-summary", o.deposit,
                "Deposit the material (summary, findings and JSON) without writing voxel files");
-  cmd.add_flag("--conserve-volume", o.conserve_volume,
-               "Squeeze material a bead cannot place into free space beside and below it (docs/deposit.md)");
+  cmd.add_flag(
+      "--conserve-volume", o.conserve_volume,
+      "Squeeze material a bead cannot place into free space beside and below it (docs/deposit.md)");
   cmd.add_option("--voxel", o.voxel_mm, "Deposit voxel edge (mm)")
       ->capture_default_str()
       ->check(CLI::Range(0.001, 10.0));
@@ -38,12 +40,15 @@ void add_deposit_options(CLI::App& cmd, DepositCliOptions& o) {
 
 void add_deposit_mesh_options(CLI::App& cmd, DepositMeshCliOptions& o) {
   cmd.add_option("--deposit-mesh", o.path,
-                 "Write the as-printed part (the deposit's outer surface) as a closed mesh: .stl, .3mf or .ply");
+                 "Write the as-printed part (the deposit's outer surface) as a closed mesh: .stl, "
+                 ".3mf or .ply");
   cmd.add_option("--deposit-mesh-include", o.include,
-                 "Keep these in the mesh too (comma list): skirt (and brim), support, purge (start code, purge "
+                 "Keep these in the mesh too (comma list): skirt (and brim), support, purge (start "
+                 "code, purge "
                  "lines, wipe tower), all");
   cmd.add_option("--deposit-mesh-max-triangles", o.max_triangles,
-                 "Decimate the mesh to at most this many triangles (coarser cells; the error bound is printed)");
+                 "Decimate the mesh to at most this many triangles (coarser cells; the error bound "
+                 "is printed)");
 }
 
 Result<DepositMeshOptions> deposit_mesh_options(const DepositMeshCliOptions& o) {
@@ -63,15 +68,20 @@ Result<std::size_t> parse_memory_size(const std::string& text) {
   double value = 0;
   const auto [ptr, ec] = std::from_chars(s.data(), s.data() + s.size(), value);
   if (ec != std::errc() || !(value > 0))
-    return usage_error("--max-memory expects a size such as 2G, 512M or 800000000, got '" + text + "'");
+    return usage_error("--max-memory expects a size such as 2G, 512M or 800000000, got '" + text +
+                       "'");
   std::string unit(ptr, static_cast<std::size_t>(s.data() + s.size() - ptr));
   if (unit.size() > 1 && unit.back() == 'B') unit.pop_back();
   if (unit.size() > 1 && unit.back() == 'I') unit.pop_back();
   double scale = 1;
-  if (unit == "K") scale = 1024.0;
-  else if (unit == "M") scale = 1024.0 * 1024;
-  else if (unit == "G") scale = 1024.0 * 1024 * 1024;
-  else if (unit == "T") scale = 1024.0 * 1024 * 1024 * 1024;
+  if (unit == "K")
+    scale = 1024.0;
+  else if (unit == "M")
+    scale = 1024.0 * 1024;
+  else if (unit == "G")
+    scale = 1024.0 * 1024 * 1024;
+  else if (unit == "T")
+    scale = 1024.0 * 1024 * 1024 * 1024;
   else if (!unit.empty() && unit != "B")
     return usage_error("--max-memory: unknown unit '" + unit + "' (use K, M, G or T)");
   return static_cast<std::size_t>(std::min(value * scale, 1.0e18));
@@ -106,8 +116,10 @@ Status DepositStage::run(const PrinterProfile& profile, SimulationResult& sim) {
   moves_ = {};
   if (!deposit) return deposit.error();
   if (!options_.octomap_path.empty()) {
-    const auto coloring = options_.color == "feature" ? VoxelColoring::feature : VoxelColoring::layer;
-    if (auto st = write_octomap(deposit->grid, options_.octomap_path, coloring); !st) return st.error();
+    const auto coloring =
+        options_.color == "feature" ? VoxelColoring::feature : VoxelColoring::layer;
+    if (auto st = write_octomap(deposit->grid, options_.octomap_path, coloring); !st)
+      return st.error();
   }
   if (!options_.ply_path.empty()) {
     if (auto st = write_deposit_ply(deposit->grid, options_.ply_path); !st) return st.error();
@@ -141,10 +153,11 @@ std::string DepositStage::summary() const {
   const double ratio = d.extruded_mm3 > 0 ? d.volume_mm3 / d.extruded_mm3 : 0.0;
   std::size_t bridges = 0, cantilevers = 0;
   for (const auto& s : d.unsupported) (s.bridge ? bridges : cantilevers) += 1;
-  std::string out = "deposit: " + std::to_string(d.voxels) + " voxels of " + format_number(d.voxel_mm) +
-                    " mm, " + format_fixed(d.volume_mm3, 1) + " mm3 (" + format_fixed(100 * ratio, 1) +
-                    " % of " + format_fixed(d.extruded_mm3, 1) + " mm3 extruded), overlap " +
-                    format_fixed(d.overlap_mm3, 1) + " mm3 (" + format_fixed(d.squeezed_mm3, 1) +
+  std::string out = "deposit: " + std::to_string(d.voxels) + " voxels of " +
+                    format_number(d.voxel_mm) + " mm, " + format_fixed(d.volume_mm3, 1) + " mm3 (" +
+                    format_fixed(100 * ratio, 1) + " % of " + format_fixed(d.extruded_mm3, 1) +
+                    " mm3 extruded), overlap " + format_fixed(d.overlap_mm3, 1) + " mm3 (" +
+                    format_fixed(d.squeezed_mm3, 1) +
                     " mm3 of it squeezed into free space nearby)\n";
   out += "extrusion into air: " + format_fixed(d.unsupported_mm, 1) + " mm unsupported; " +
          std::to_string(bridges) + " bridged and " + std::to_string(cantilevers) +

@@ -22,9 +22,9 @@ namespace printtwin::cli {
 
 /// --deposit-mesh, --deposit-mesh-include, --deposit-mesh-max-triangles (simulate and verify).
 struct DepositMeshCliOptions {
-  std::string path;              ///< out.stl|out.3mf|out.ply
-  std::string include;           ///< comma list: skirt, support, purge, all
-  std::size_t max_triangles = 0; ///< 0: full resolution
+  std::string path;               ///< out.stl|out.3mf|out.ply
+  std::string include;            ///< comma list: skirt, support, purge, all
+  std::size_t max_triangles = 0;  ///< 0: full resolution
 };
 
 /// Declares the --deposit-mesh options on a subcommand.
@@ -33,10 +33,10 @@ void add_deposit_mesh_options(CLI::App& cmd, DepositMeshCliOptions& options);
 [[nodiscard]] Result<DepositMeshOptions> deposit_mesh_options(const DepositMeshCliOptions& options);
 
 struct DepositCliOptions {
-  std::string octomap_path;   ///< --deposit out.bt|out.ot
-  std::string ply_path;       ///< --deposit-ply out.ply
-  double voxel_mm = 0.05;     ///< --voxel
-  bool conserve_volume = false;  ///< --conserve-volume
+  std::string octomap_path;       ///< --deposit out.bt|out.ot
+  std::string ply_path;           ///< --deposit-ply out.ply
+  double voxel_mm = 0.05;         ///< --voxel
+  bool conserve_volume = false;   ///< --conserve-volume
   std::string max_memory = "2G";  ///< --max-memory (bytes, or with K/M/G suffix)
   double support_fraction = 0.5;  ///< --support-fraction
   std::string color = "layer";    ///< --deposit-color layer|feature (.ot)

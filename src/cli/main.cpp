@@ -1,11 +1,11 @@
 // printtwin command line: argv -> settings -> library call -> report -> exit code.
 // Each subcommand lives in its own cmd_<name>.cpp and registers itself in commands.hpp.
+#include <unistd.h>
 #include <CLI/CLI.hpp>
 #include <clocale>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
-#include <unistd.h>
 
 #include "cli/cli_common.hpp"
 #include "cli/commands.hpp"
@@ -23,9 +23,10 @@ bool show_progress() {
 int main(int argc, char** argv) {
   std::setlocale(LC_ALL, "C");  // numbers are read and written the same in every locale
   using namespace printtwin::cli;
-  CLI::App app{"printtwin: a digital twin of an FDM printer. Checks a mesh, slices it, runs the\n"
-               "G-code on a simulated Ender-3, deposits the material as voxels and measures it\n"
-               "against the design."};
+  CLI::App app{
+      "printtwin: a digital twin of an FDM printer. Checks a mesh, slices it, runs the\n"
+      "G-code on a simulated Ender-3, deposits the material as voxels and measures it\n"
+      "against the design."};
   app.set_version_flag("--version", std::string("printtwin ") + printtwin::kVersion);
   app.require_subcommand(1);
   CommandRunner runner;

@@ -16,10 +16,21 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-constexpr const char* kPartKeys[] = {"file",          "printer",       "units",          "scale",
-                                     "orient",        "overhang_angle_deg", "min_thickness_mm",
-                                     "line_width_mm", "self_intersections", "gcode",  "tolerance_mm",
-                                     "max_excess_mm", "max_deficit_mm", "max_rms_mm",    "object"};
+constexpr const char* kPartKeys[] = {"file",
+                                     "printer",
+                                     "units",
+                                     "scale",
+                                     "orient",
+                                     "overhang_angle_deg",
+                                     "min_thickness_mm",
+                                     "line_width_mm",
+                                     "self_intersections",
+                                     "gcode",
+                                     "tolerance_mm",
+                                     "max_excess_mm",
+                                     "max_deficit_mm",
+                                     "max_rms_mm",
+                                     "object"};
 
 std::string key_list(bool with_file) {
   std::string s;
@@ -45,27 +56,35 @@ class Reader {
   Status settings(const json& obj, const std::string& where, bool is_part, PartSettings& s) const {
     if (!obj.is_object()) return fail(where, "expected an object");
     for (const auto& [key, value] : obj.items()) {
-      if (std::find_if(std::begin(kPartKeys), std::end(kPartKeys), [&](const char* k) { return key == k; }) ==
-              std::end(kPartKeys) ||
+      if (std::find_if(std::begin(kPartKeys), std::end(kPartKeys),
+                       [&](const char* k) { return key == k; }) == std::end(kPartKeys) ||
           (!is_part && key == "file"))
         return fail(where, "unknown key '" + key + "' (expected " + key_list(is_part) + ")");
       const std::string at = where + "." + key;
       if (key == "file") continue;
       if (key == "printer" || key == "units" || key == "gcode" || key == "object") {
-        if (!value.is_string() || value.get<std::string>().empty()) return fail(at, "expected a non-empty string");
+        if (!value.is_string() || value.get<std::string>().empty())
+          return fail(at, "expected a non-empty string");
         std::string v = value.get<std::string>();
         if (key == "units" && v != "auto") {
           VerifySettings probe;
-          if (!parse_units_option(v, probe)) return fail(at, "unknown unit '" + v + "' (expected auto, mm, cm, m, in, um or mm per unit)");
+          if (!parse_units_option(v, probe))
+            return fail(
+                at, "unknown unit '" + v + "' (expected auto, mm, cm, m, in, um or mm per unit)");
         }
         if (key == "gcode") v = resolve(v);
-        if (key == "printer" && (v.find('/') != std::string::npos || fs::path(v).has_extension())) v = resolve(v);
-        (key == "printer" ? s.printer : key == "units" ? s.units : key == "gcode" ? s.gcode : s.object) = v;
+        if (key == "printer" && (v.find('/') != std::string::npos || fs::path(v).has_extension()))
+          v = resolve(v);
+        (key == "printer" ? s.printer
+         : key == "units" ? s.units
+         : key == "gcode" ? s.gcode
+                          : s.object) = v;
       } else if (key == "orient" || key == "self_intersections") {
         if (!value.is_boolean()) return fail(at, "expected true or false");
         (key == "orient" ? s.orient : s.self_intersections) = value.get<bool>();
       } else {
-        if (!value.is_number() || !std::isfinite(value.get<double>())) return fail(at, "expected a number");
+        if (!value.is_number() || !std::isfinite(value.get<double>()))
+          return fail(at, "expected a number");
         const double v = value.get<double>();
         if (key == "overhang_angle_deg") {
           if (v < 0 || v > 90) return fail(at, "expected degrees from 0 to 90");
@@ -73,10 +92,11 @@ class Reader {
           continue;
         }
         if (!(v > 0)) return fail(at, "expected a number > 0");
-        std::optional<double>* slots[] = {&s.scale, &s.min_thickness_mm, &s.line_width_mm, &s.tolerance_mm,
-                                          &s.max_excess_mm, &s.max_deficit_mm, &s.max_rms_mm};
-        const char* names[] = {"scale", "min_thickness_mm", "line_width_mm", "tolerance_mm",
-                               "max_excess_mm", "max_deficit_mm", "max_rms_mm"};
+        std::optional<double>* slots[] = {&s.scale,        &s.min_thickness_mm, &s.line_width_mm,
+                                          &s.tolerance_mm, &s.max_excess_mm,    &s.max_deficit_mm,
+                                          &s.max_rms_mm};
+        const char* names[] = {"scale",         "min_thickness_mm", "line_width_mm", "tolerance_mm",
+                               "max_excess_mm", "max_deficit_mm",   "max_rms_mm"};
         for (std::size_t i = 0; i < std::size(names); ++i)
           if (key == names[i]) *slots[i] = v;
       }
@@ -150,12 +170,14 @@ Result<Manifest> load_manifest(const fs::path& path) {
     const std::string where = "parts[" + std::to_string(i) + "]";
     PartSettings own;
     if (auto st = reader.settings(parts[i], where, true, own); !st) return st.error();
-    if (!parts[i].contains("file") || !parts[i]["file"].is_string() || parts[i]["file"].get<std::string>().empty())
+    if (!parts[i].contains("file") || !parts[i]["file"].is_string() ||
+        parts[i]["file"].get<std::string>().empty())
       return reader.fail(where, "expected \"file\": the part's path, relative to the manifest");
     ManifestPart part;
     part.file = reader.resolve(parts[i]["file"].get<std::string>());
     for (const auto& earlier : m.parts)
-      if (same_file(earlier.file, part.file)) return reader.fail(where, "'" + part.file + "' is listed twice");
+      if (same_file(earlier.file, part.file))
+        return reader.fail(where, "'" + part.file + "' is listed twice");
     part.settings = merged(m.defaults, own);
     m.parts.push_back(std::move(part));
   }
@@ -178,7 +200,8 @@ Result<std::vector<Manifest>> find_manifests(const std::vector<std::string>& inp
     const fs::path dir = fs::is_directory(p, ec) ? p : p.parent_path();
     const fs::path cand = (dir.empty() ? fs::path(".") : dir) / kManifestName;
     if (fs::is_regular_file(cand, ec) &&
-        std::none_of(candidates.begin(), candidates.end(), [&](const fs::path& c) { return same_file(c.string(), cand.string()); }))
+        std::none_of(candidates.begin(), candidates.end(),
+                     [&](const fs::path& c) { return same_file(c.string(), cand.string()); }))
       candidates.push_back(cand);
   }
   for (const auto& c : candidates) {
@@ -194,14 +217,16 @@ Result<std::vector<Manifest>> find_manifests(const std::vector<std::string>& inp
   return out;
 }
 
-const ManifestPart* find_manifest_part(const std::vector<Manifest>& manifests, const std::string& file) {
+const ManifestPart* find_manifest_part(const std::vector<Manifest>& manifests,
+                                       const std::string& file) {
   for (const auto& m : manifests)
     for (const auto& p : m.parts)
       if (same_file(p.file, file)) return &p;
   return nullptr;
 }
 
-std::string junit_xml(const std::string& suite, const std::string& classname, const std::vector<CaseOutcome>& cases) {
+std::string junit_xml(const std::string& suite, const std::string& classname,
+                      const std::vector<CaseOutcome>& cases) {
   using detail::xml_escape;
   std::size_t failures = 0;
   double total = 0;
@@ -210,17 +235,18 @@ std::string junit_xml(const std::string& suite, const std::string& classname, co
     total += c.seconds;
   }
   std::string x = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<testsuites>\n";
-  x += "  <testsuite name=\"" + xml_escape(suite) + "\" tests=\"" + std::to_string(cases.size()) + "\" failures=\"" +
-       std::to_string(failures) + "\" errors=\"0\" time=\"" + format_fixed(total, 3) + "\">\n";
+  x += "  <testsuite name=\"" + xml_escape(suite) + "\" tests=\"" + std::to_string(cases.size()) +
+       "\" failures=\"" + std::to_string(failures) + "\" errors=\"0\" time=\"" +
+       format_fixed(total, 3) + "\">\n";
   for (const auto& c : cases) {
-    x += "    <testcase classname=\"" + xml_escape(classname) + "\" name=\"" + xml_escape(c.name) + "\" time=\"" +
-         format_fixed(c.seconds, 3) + "\"";
+    x += "    <testcase classname=\"" + xml_escape(classname) + "\" name=\"" + xml_escape(c.name) +
+         "\" time=\"" + format_fixed(c.seconds, 3) + "\"";
     if (c.pass) {
       x += "/>\n";
       continue;
     }
-    x += ">\n      <failure type=\"" + xml_escape(c.failure_type) + "\" message=\"" + xml_escape(c.message) + "\">" +
-         xml_escape(c.details) + "</failure>\n    </testcase>\n";
+    x += ">\n      <failure type=\"" + xml_escape(c.failure_type) + "\" message=\"" +
+         xml_escape(c.message) + "\">" + xml_escape(c.details) + "</failure>\n    </testcase>\n";
   }
   x += "  </testsuite>\n</testsuites>\n";
   return x;

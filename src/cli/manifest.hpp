@@ -5,7 +5,8 @@
 //   {"version": 1,
 //    "defaults": {"printer": "ender3", "units": "mm"},
 //    "parts": [{"file": "bracket.stl", "orient": true},
-//              {"file": "lid.stl", "units": "in", "gcode": "gcode/lid.gcode", "tolerance_mm": 0.15}]}
+//              {"file": "lid.stl", "units": "in", "gcode": "gcode/lid.gcode", "tolerance_mm":
+//              0.15}]}
 //
 // A part's own keys win over "defaults", which win over the command line's options. Paths
 // (file, gcode, a printer profile file) are relative to the manifest's folder. Unknown keys,
@@ -34,7 +35,7 @@ struct PartSettings {
   std::optional<double> line_width_mm;
   std::optional<bool> self_intersections;
   // verify only
-  std::optional<std::string> gcode;    ///< resolved path
+  std::optional<std::string> gcode;  ///< resolved path
   std::optional<double> tolerance_mm;
   std::optional<double> max_excess_mm;
   std::optional<double> max_deficit_mm;
@@ -43,8 +44,8 @@ struct PartSettings {
 };
 
 struct ManifestPart {
-  std::string file;        ///< resolved path (manifest folder / the entry's "file")
-  PartSettings settings;   ///< "defaults" merged under the entry's own keys
+  std::string file;       ///< resolved path (manifest folder / the entry's "file")
+  PartSettings settings;  ///< "defaults" merged under the entry's own keys
 };
 
 struct Manifest {
@@ -70,7 +71,7 @@ struct Manifest {
 
 /// One part of a batch run as a JUnit test case.
 struct CaseOutcome {
-  std::string name;          ///< the part's path
+  std::string name;  ///< the part's path
   double seconds = 0;
   bool pass = true;
   std::string failure_type;  ///< e.g. "unreadable", "not_printable", "fail"
@@ -89,11 +90,12 @@ struct CaseOutcome {
 /// worst part's (0 pass, 1 fail, 3 a part or its G-code unreadable).
 struct VerifyBatchOptions {
   std::string manifest;
-  std::string out_dir;      ///< default "reports"
+  std::string out_dir;  ///< default "reports"
   std::string summary_out;
   std::string junit_out;
   bool quiet = false;
 };
-[[nodiscard]] int run_verify_manifest(const VerifyBatchOptions& options, const VerifySettings& base);
+[[nodiscard]] int run_verify_manifest(const VerifyBatchOptions& options,
+                                      const VerifySettings& base);
 
 }  // namespace printtwin::cli

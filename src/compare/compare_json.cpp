@@ -3,8 +3,8 @@
 // rows give the same bytes, and a merged comparison reads back exactly what a share wrote.
 #include <cmath>
 #include <limits>
-#include <optional>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "printtwin/compare.hpp"
 #include "printtwin/io.hpp"
@@ -94,13 +94,12 @@ Json variant_result_json(const VariantResult& r) {
                         {"deposit_to_mesh", direction_json(r.deposit_to_mesh)},
                         {"mesh_to_deposit", direction_json(r.mesh_to_deposit)}};
   j["regions"] = Json{{"missing", r.missing_regions}, {"excess", r.excess_regions}};
-  j["findings"] = Json{{"error", r.error_findings},
-                       {"warning", r.warning_findings},
-                       {"info", r.info_findings}};
+  j["findings"] =
+      Json{{"error", r.error_findings}, {"warning", r.warning_findings}, {"info", r.info_findings}};
   Json gates = Json::array();
   for (const auto& g : r.gates)
-    gates.push_back(Json{{"name", g.name}, {"limit", num(g.limit)}, {"value", num(g.value)},
-                         {"pass", g.pass}});
+    gates.push_back(
+        Json{{"name", g.name}, {"limit", num(g.limit)}, {"value", num(g.value)}, {"pass", g.pass}});
   j["gates"] = gates;
   j["pass"] = r.pass;
   j["pareto"] = r.pareto;
@@ -221,13 +220,17 @@ VariantSpec read_variant_spec(Reader& rd, const Json& j, const std::string& wher
   v.index = static_cast<int>(rd.integer(j, "index", where));
   v.label = rd.text(j, "label", where);
   const std::string kind = rd.text(j, "kind", where);
-  if (kind == "gcode") v.kind = VariantKind::gcode;
-  else if (kind == "slicer") v.kind = VariantKind::slicer;
-  else rd.fail(where + ".kind", "expected \"slicer\" or \"gcode\", got \"" + kind + "\"");
+  if (kind == "gcode")
+    v.kind = VariantKind::gcode;
+  else if (kind == "slicer")
+    v.kind = VariantKind::slicer;
+  else
+    rd.fail(where + ".kind", "expected \"slicer\" or \"gcode\", got \"" + kind + "\"");
   // Written since the external slicer back-ends; older files are printtwin's slicer.
   if (j.contains("slicer_backend")) v.slicer = rd.text(j, "slicer_backend", where);
   if (v.kind == VariantKind::slicer && !is_known_slicer(v.slicer))
-    rd.fail(where + ".slicer_backend", "expected printtwin, prusa-slicer, cura or slic3r, got \"" + v.slicer + "\"");
+    rd.fail(where + ".slicer_backend",
+            "expected printtwin, prusa-slicer, cura or slic3r, got \"" + v.slicer + "\"");
   v.config_path = rd.text(j, "config", where);
   v.settings = read_settings(rd, j, where);
   v.gcode_path = rd.text(j, "gcode", where);
@@ -334,16 +337,17 @@ VariantResult read_variant_result(Reader& rd, const Json& j, const std::string& 
 Result<Json> parse_text(std::string_view text, std::string_view source) {
   try {
     return Json::parse(text);
-  } catch (const nlohmann::json::exception& e) {  // parse_error, also out_of_range for a number overflow
+  } catch (
+      const nlohmann::json::exception& e) {  // parse_error, also out_of_range for a number overflow
     return bad_input(std::string("not valid JSON: ") + e.what(), std::string(source));
   }
 }
 
 std::optional<Error> check_schema(const Json& doc, const char* schema, std::string_view source) {
   if (!doc.is_object() || !doc.contains("schema") || doc["schema"] != schema)
-    return bad_input(std::string("not a ") + schema + " file (its \"schema\" key is not \"" +
-                         schema + "\")",
-                     std::string(source));
+    return bad_input(
+        std::string("not a ") + schema + " file (its \"schema\" key is not \"" + schema + "\")",
+        std::string(source));
   if (!doc.contains("schema_version") || !doc["schema_version"].is_number_integer() ||
       doc["schema_version"].get<int>() > kCompareSchemaVersion)
     return bad_input("unsupported schema_version (this printtwin reads up to " +
@@ -395,11 +399,14 @@ Result<ComparePlan> parse_compare_plan(std::string_view json_text, std::string_v
   plan.mesh_path = rd.text(*doc, "mesh", "");
   plan.mesh_sha256 = rd.text(*doc, "mesh_sha256", "");
   plan.printer = rd.text(*doc, "printer", "");
-  if (const Json* v = rd.at(*doc, "verify", "")) plan.verify = read_verify_settings(rd, *v, "verify");
+  if (const Json* v = rd.at(*doc, "verify", ""))
+    plan.verify = read_verify_settings(rd, *v, "verify");
   plan.filament_density_g_cm3 = rd.number(*doc, "filament_density_g_cm3", "");
-  if (doc->contains("slicer_timeout_s")) plan.slicer_timeout_s = rd.number(*doc, "slicer_timeout_s", "");
+  if (doc->contains("slicer_timeout_s"))
+    plan.slicer_timeout_s = rd.number(*doc, "slicer_timeout_s", "");
   if (doc->contains("cura_definition")) plan.cura_definition = rd.text(*doc, "cura_definition", "");
-  if (doc->contains("slicer_paths")) plan.slicer_paths = read_settings(rd, *doc, "", "slicer_paths");
+  if (doc->contains("slicer_paths"))
+    plan.slicer_paths = read_settings(rd, *doc, "", "slicer_paths");
   const Json& vs = rd.array(*doc, "variants", "");
   for (std::size_t i = 0; i < vs.size(); ++i) {
     plan.variants.push_back(read_variant_spec(rd, vs[i], "variants[" + std::to_string(i) + "]"));
@@ -409,9 +416,10 @@ Result<ComparePlan> parse_compare_plan(std::string_view json_text, std::string_v
   if (rd.error()) return *rd.error();
   if (doc->contains("plan_id") && (*doc)["plan_id"].is_string() &&
       (*doc)["plan_id"].get<std::string>() != compare_plan_id(plan))
-    return bad_input("the manifest was edited after it was written (its plan_id does not match "
-                     "its content); write it again with --write-manifest",
-                     std::string(source));
+    return bad_input(
+        "the manifest was edited after it was written (its plan_id does not match "
+        "its content); write it again with --write-manifest",
+        std::string(source));
   return plan;
 }
 

@@ -17,7 +17,6 @@ using detail::html_escape;
 
 std::string fx(double v, int decimals) { return format_fixed(v, decimals); }
 
-
 std::string settings_text(const VariantSpec& v) {
   if (v.kind == VariantKind::gcode) return v.gcode_path;
   std::string s;
@@ -148,8 +147,8 @@ std::string compare_markdown(const CompareResult& r) {
   const int ran = count_ran(r), pass = count_pass(r);
   md << "**" << r.variants.size() << " variant" << (r.variants.size() == 1 ? "" : "s") << "**";
   if (r.shard)
-    md << " (share " << r.shard->first << " of " << r.shard->second << ", "
-       << r.variant_count << " in the sweep)";
+    md << " (share " << r.shard->first << " of " << r.shard->second << ", " << r.variant_count
+       << " in the sweep)";
   md << ": " << ran << " ran, " << pass << " pass";
   if (ran < static_cast<int>(r.variants.size()))
     md << ", " << (static_cast<int>(r.variants.size()) - ran) << " could not run";
@@ -161,12 +160,14 @@ std::string compare_markdown(const CompareResult& r) {
     if (v.pareto) front.push_back(v.variant.label);
   if (!front.empty()) {
     md << "Pareto-optimal (print time vs deviation RMS): ";
-    for (std::size_t i = 0; i < front.size(); ++i) md << (i ? ", " : "") << "**" << md_cell(front[i]) << "**";
+    for (std::size_t i = 0; i < front.size(); ++i)
+      md << (i ? ", " : "") << "**" << md_cell(front[i]) << "**";
     md << ".\n\n";
   }
 
   md << "| # | Variant | Print time | Filament | RMS | RMS slopes | Dep→mesh RMS / P95 | Max excess"
-        " | Mesh→dep RMS / P95 | Max deficit | Regions miss/exc | Findings E/W/I | Result | Pareto |\n";
+        " | Mesh→dep RMS / P95 | Max deficit | Regions miss/exc | Findings E/W/I | Result | Pareto "
+        "|\n";
   md << "|--:|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|:-:|:-:|\n";
   for (const auto& v : r.variants) {
     md << "| " << v.variant.index << " | " << md_cell(v.variant.label) << " | ";
@@ -174,12 +175,14 @@ std::string compare_markdown(const CompareResult& r) {
       md << "— | — | — | — | — | — | — | — | — | — | **error** | |\n";
       continue;
     }
-    const double max_excess = std::max(v.deposit_to_mesh.max_excess_mm, v.mesh_to_deposit.max_excess_mm);
-    const double max_deficit = std::max(v.deposit_to_mesh.max_deficit_mm, v.mesh_to_deposit.max_deficit_mm);
-    md << format_duration(v.print_time_s) << " | " << fx(v.filament_m, 2) << " m / " << fx(v.filament_g, 1)
-       << " g | " << fx(v.rms_mm, 3) << " | " << fx(v.slope_rms_mm, 3) << " | "
-       << fx(v.deposit_to_mesh.rms_mm, 3) << " / " << fx(v.deposit_to_mesh.p95_mm, 3) << " | +"
-       << fx(max_excess, 3) << " | " << fx(v.mesh_to_deposit.rms_mm, 3) << " / "
+    const double max_excess =
+        std::max(v.deposit_to_mesh.max_excess_mm, v.mesh_to_deposit.max_excess_mm);
+    const double max_deficit =
+        std::max(v.deposit_to_mesh.max_deficit_mm, v.mesh_to_deposit.max_deficit_mm);
+    md << format_duration(v.print_time_s) << " | " << fx(v.filament_m, 2) << " m / "
+       << fx(v.filament_g, 1) << " g | " << fx(v.rms_mm, 3) << " | " << fx(v.slope_rms_mm, 3)
+       << " | " << fx(v.deposit_to_mesh.rms_mm, 3) << " / " << fx(v.deposit_to_mesh.p95_mm, 3)
+       << " | +" << fx(max_excess, 3) << " | " << fx(v.mesh_to_deposit.rms_mm, 3) << " / "
        << fx(v.mesh_to_deposit.p95_mm, 3) << " | −" << fx(max_deficit, 3) << " | "
        << v.missing_regions << " / " << v.excess_regions << " | " << v.error_findings << " / "
        << v.warning_findings << " / " << v.info_findings << " | " << (v.pass ? "pass" : "**fail**")
@@ -193,7 +196,8 @@ std::string compare_markdown(const CompareResult& r) {
     if (v.ran) continue;
     if (!any_error) md << "\n**Variants that could not run**\n\n";
     any_error = true;
-    md << "- " << v.variant.index << " " << md_cell(v.variant.label) << ": " << md_cell(v.error) << "\n";
+    md << "- " << v.variant.index << " " << md_cell(v.variant.label) << ": " << md_cell(v.error)
+       << "\n";
   }
   // External slicers: how to make each variant's G-code again by hand.
   bool any_command = false;
@@ -201,8 +205,8 @@ std::string compare_markdown(const CompareResult& r) {
     if (v.command.empty()) continue;
     if (!any_command) md << "\n**Slicer commands** (re-run a variant's G-code by hand)\n\n";
     any_command = true;
-    md << "- " << v.variant.index << " " << md_cell(v.variant.label) << " (" << md_cell(v.slicer) << "): `"
-       << v.command << "`\n";
+    md << "- " << v.variant.index << " " << md_cell(v.variant.label) << " (" << md_cell(v.slicer)
+       << "): `" << v.command << "`\n";
   }
   return md.str();
 }
@@ -230,14 +234,16 @@ std::string compare_chart_svg(const CompareResult& r) {
     y1 = std::max(y1, v->rms_mm);
   }
   const Axis ax = make_axis(x0, x1), ay = make_axis(y0, y1);
-  auto X = [&](double minutes) { return kL + (minutes - ax.lo) / (ax.hi - ax.lo) * (kW - kL - kR); };
+  auto X = [&](double minutes) {
+    return kL + (minutes - ax.lo) / (ax.hi - ax.lo) * (kW - kL - kR);
+  };
   auto Y = [&](double mm) { return kT + (ay.hi - mm) / (ay.hi - ay.lo) * (kH - kT - kB); };
   const int xd = decimals_for(ax.step), yd = decimals_for(ay.step);
   // Grid and tick labels.
   for (double t = ay.lo; t <= ay.hi + ay.step * 1e-6; t += ay.step) {
     s << "<line class=\"grid\" x1=\"" << fx(kL, 1) << "\" x2=\"" << fx(kW - kR, 1) << "\" y1=\""
-      << fx(Y(t), 1) << "\" y2=\"" << fx(Y(t), 1) << "\"/><text class=\"ylab\" x=\"" << fx(kL - 6, 1)
-      << "\" y=\"" << fx(Y(t) + 4, 1) << "\">" << fx(t, yd) << "</text>";
+      << fx(Y(t), 1) << "\" y2=\"" << fx(Y(t), 1) << "\"/><text class=\"ylab\" x=\""
+      << fx(kL - 6, 1) << "\" y=\"" << fx(Y(t) + 4, 1) << "\">" << fx(t, yd) << "</text>";
   }
   for (double t = ax.lo; t <= ax.hi + ax.step * 1e-6; t += ax.step) {
     s << "<line class=\"grid\" y1=\"" << fx(kT, 1) << "\" y2=\"" << fx(kH - kB, 1) << "\" x1=\""
@@ -250,7 +256,8 @@ std::string compare_chart_svg(const CompareResult& r) {
   s << "<text class=\"xlab\" x=\"" << fx(kL + (kW - kL - kR) / 2, 1) << "\" y=\"" << kH - 8
     << "\">print time (min) →</text>";
   s << "<text class=\"ylab\" transform=\"translate(16," << fx(kT + (kH - kT - kB) / 2, 1)
-    << ") rotate(-90)\" text-anchor=\"middle\" style=\"text-anchor:middle\">deviation RMS (mm) →</text>";
+    << ") rotate(-90)\" text-anchor=\"middle\" style=\"text-anchor:middle\">deviation RMS (mm) "
+       "→</text>";
   // The front: Pareto points by increasing time, drawn as a staircase (the region it bounds
   // is what no variant reaches).
   std::vector<const VariantResult*> front;
@@ -271,9 +278,10 @@ std::string compare_chart_svg(const CompareResult& r) {
   // Points, rings on the front, labels.
   for (const auto* v : pts) {
     const double x = X(v->print_time_s / 60), y = Y(v->rms_mm);
-    s << "<g><title>" << html_escape(v->variant.label) << "\n" << format_duration(v->print_time_s)
-      << ", RMS " << fx(v->rms_mm, 3) << " mm" << (v->pass ? "" : ", fails its gates")
-      << (v->pareto ? ", Pareto-optimal" : "") << "</title>";
+    s << "<g><title>" << html_escape(v->variant.label) << "\n"
+      << format_duration(v->print_time_s) << ", RMS " << fx(v->rms_mm, 3) << " mm"
+      << (v->pass ? "" : ", fails its gates") << (v->pareto ? ", Pareto-optimal" : "")
+      << "</title>";
     if (v->pareto)
       s << "<circle class=\"ring\" cx=\"" << fx(x, 1) << "\" cy=\"" << fx(y, 1) << "\" r=\"9\"/>";
     s << "<circle class=\"pt " << (v->pass ? "pt-pass" : "pt-fail") << "\" cx=\"" << fx(x, 1)
@@ -309,15 +317,16 @@ std::string compare_html(const CompareResult& r, const CompareHtmlOptions& optio
        "printtwin <span>compare</span></div><div class=\"top-meta\"><span>"
     << html_escape(r.part.name) << "</span><span>" << r.variants.size() << " variants</span><span>"
     << html_escape(r.printer) << "</span>";
-  if (!options.generated_utc.empty()) h << "<span>" << html_escape(options.generated_utc) << "</span>";
+  if (!options.generated_utc.empty())
+    h << "<span>" << html_escape(options.generated_utc) << "</span>";
   h << "</div></div></header><main class=\"wrap\">";
 
   // Verdict strip.
   std::vector<const VariantResult*> front;
   for (const auto& v : r.variants)
     if (v.pareto) front.push_back(&v);
-  h << "<section class=\"verdict" << (all_pass ? "" : " is-fail") << "\"><div class=\"badge\">" << pass
-    << " / " << r.variants.size() << "</div><div class=\"verdict-text\"><h1>"
+  h << "<section class=\"verdict" << (all_pass ? "" : " is-fail") << "\"><div class=\"badge\">"
+    << pass << " / " << r.variants.size() << "</div><div class=\"verdict-text\"><h1>"
     << html_escape(r.part.name) << ": " << r.variants.size() << " variant"
     << (r.variants.size() == 1 ? "" : "s") << " side by side</h1><p>" << ran << " ran, " << pass
     << " pass their gates (tolerance ±" << fx(r.verify.gates.tolerance_mm, 3) << " mm, voxel "
@@ -357,16 +366,18 @@ std::string compare_html(const CompareResult& r, const CompareHtmlOptions& optio
     << fx(kSlopeMinDeg, 0) << "° and " << fx(kSlopeMaxDeg, 0)
     << "° from horizontal, where layer steps show.</p></div><div class=\"scroll\">"
        "<table class=\"compare-table\" id=\"variants\"><thead><tr>";
-  const char* heads[] = {"#", "Variant", "Time", "Filament m", "Filament g", "RMS", "RMS slopes",
-                         "D→M RMS", "D→M P95", "Max excess", "M→D RMS", "M→D P95", "Max deficit",
-                         "Regions", "Findings", "Result"};
+  const char* heads[] = {"#",           "Variant",    "Time",       "Filament m",
+                         "Filament g",  "RMS",        "RMS slopes", "D→M RMS",
+                         "D→M P95",     "Max excess", "M→D RMS",    "M→D P95",
+                         "Max deficit", "Regions",    "Findings",   "Result"};
   for (int c = 0; c < static_cast<int>(std::size(heads)); ++c)
     h << "<th data-sort data-col=\"" << c << "\"" << (c >= 2 && c <= 14 ? " class=\"num\"" : "")
       << ">" << heads[c] << "</th>";
   h << "</tr></thead><tbody>";
   for (const auto& v : r.variants) {
     h << "<tr" << (v.pareto ? " class=\"pareto\"" : "") << "><td data-v=\"" << v.variant.index
-      << "\">" << v.variant.index << (v.pareto ? " <span class=\"star\" title=\"Pareto-optimal\">★</span>" : "")
+      << "\">" << v.variant.index
+      << (v.pareto ? " <span class=\"star\" title=\"Pareto-optimal\">★</span>" : "")
       << "</td><td class=\"label\" data-v=\"" << html_escape(v.variant.label) << "\"><a href=\"#v"
       << v.variant.index << "\">" << html_escape(v.variant.label) << "</a></td>";
     if (!v.ran) {
@@ -374,8 +385,10 @@ std::string compare_html(const CompareResult& r, const CompareHtmlOptions& optio
       h << "<td data-v=\"error\"><span class=\"chip chip-error\">error</span></td></tr>";
       continue;
     }
-    const double max_excess = std::max(v.deposit_to_mesh.max_excess_mm, v.mesh_to_deposit.max_excess_mm);
-    const double max_deficit = std::max(v.deposit_to_mesh.max_deficit_mm, v.mesh_to_deposit.max_deficit_mm);
+    const double max_excess =
+        std::max(v.deposit_to_mesh.max_excess_mm, v.mesh_to_deposit.max_excess_mm);
+    const double max_deficit =
+        std::max(v.deposit_to_mesh.max_deficit_mm, v.mesh_to_deposit.max_deficit_mm);
     auto num = [&](double value, const std::string& text) {
       h << "<td class=\"num\" data-v=\"" << format_number(value) << "\">" << text << "</td>";
     };
@@ -396,7 +409,8 @@ std::string compare_html(const CompareResult& r, const CompareHtmlOptions& optio
         std::to_string(v.error_findings) + " / " + std::to_string(v.warning_findings) + " / " +
             std::to_string(v.info_findings));
     h << "<td data-v=\"" << (v.pass ? "pass" : "fail") << "\"><span class=\"chip "
-      << (v.pass ? "chip-ok" : "chip-bad") << "\">" << (v.pass ? "pass" : "fail") << "</span></td></tr>";
+      << (v.pass ? "chip-ok" : "chip-bad") << "\">" << (v.pass ? "pass" : "fail")
+      << "</span></td></tr>";
   }
   h << "</tbody></table></div><p class=\"fine\">Regions: clusters of out-of-tolerance samples "
        "(missing / excess). Findings: error / warning / info of every stage.</p></section>";
@@ -409,27 +423,27 @@ std::string compare_html(const CompareResult& r, const CompareHtmlOptions& optio
     h << "<details class=\"variant\" id=\"v" << v.variant.index << "\"><summary><span class=\"rnum "
       << (v.ran && v.pass ? "\" style=\"background:var(--ok)" : "\" style=\"background:var(--bad)")
       << "\">" << v.variant.index << "</span>" << html_escape(v.variant.label)
-      << " <span class=\"chip " << (v.ran ? (v.pass ? "chip-ok" : "chip-bad") : "chip-error") << "\">"
-      << verdict_of(v) << "</span>" << (v.pareto ? "<span class=\"star\">★ Pareto</span>" : "")
-      << "</summary>";
+      << " <span class=\"chip " << (v.ran ? (v.pass ? "chip-ok" : "chip-bad") : "chip-error")
+      << "\">" << verdict_of(v) << "</span>"
+      << (v.pareto ? "<span class=\"star\">★ Pareto</span>" : "") << "</summary>";
     h << "<div class=\"kv-grid\"><table class=\"kv\"><tbody><tr><th>Source</th><td>"
       << (v.variant.kind == VariantKind::gcode ? std::string("G-code file")
           : v.variant.slicer == "printtwin"    ? std::string("printtwin slice")
                                                : v.variant.slicer + " slice")
-      << "</td></tr><tr><th>Settings</th><td class=\"mono\">" << html_escape(settings_text(v.variant))
-      << "</td></tr>";
+      << "</td></tr><tr><th>Settings</th><td class=\"mono\">"
+      << html_escape(settings_text(v.variant)) << "</td></tr>";
     if (!v.command.empty())
       h << "<tr><th>Command</th><td class=\"mono\">" << html_escape(v.command) << "</td></tr>";
     if (v.ran) {
       h << "<tr><th>Slicer</th><td>" << html_escape(v.slicer) << "</td></tr><tr><th>Layers</th><td>"
-        << v.layers << " (" << fx(v.layer_height_mm, 3) << " mm)</td></tr><tr><th>Print time</th><td>"
-        << format_duration(v.print_time_s) << "</td></tr><tr><th>Filament</th><td>" << fx(v.filament_m, 2)
-        << " m, " << fx(v.filament_g, 1) << " g at " << fx(v.filament_density_g_cm3, 2)
-        << " g/cm³</td></tr>";
+        << v.layers << " (" << fx(v.layer_height_mm, 3)
+        << " mm)</td></tr><tr><th>Print time</th><td>" << format_duration(v.print_time_s)
+        << "</td></tr><tr><th>Filament</th><td>" << fx(v.filament_m, 2) << " m, "
+        << fx(v.filament_g, 1) << " g at " << fx(v.filament_density_g_cm3, 2) << " g/cm³</td></tr>";
     }
     if (!v.report_dir.empty())
-      h << "<tr><th>Report</th><td><a href=\"" << html_escape(v.report_dir)
-        << "/report.html\">" << html_escape(v.report_dir) << "/report.html</a></td></tr>";
+      h << "<tr><th>Report</th><td><a href=\"" << html_escape(v.report_dir) << "/report.html\">"
+        << html_escape(v.report_dir) << "/report.html</a></td></tr>";
     h << "</tbody></table>";
     if (!v.ran) {
       h << "<p class=\"err\">Could not run: " << html_escape(v.error) << "</p></div></details>";
@@ -439,11 +453,12 @@ std::string compare_html(const CompareResult& r, const CompareHtmlOptions& optio
          "class=\"num\">Value</th><th></th></tr></thead><tbody>";
     for (const auto& g : v.gates) {
       const bool count = detail::gate_is_count(g.name);
-      h << "<tr" << (g.pass ? "" : " class=\"bad\"") << "><td>" << html_escape(detail::gate_label(g.name))
-        << "</td><td class=\"num\">" << (count ? fx(g.limit, 0) : fx(g.limit, 3) + " mm")
-        << "</td><td class=\"num\">" << (count ? fx(g.value, 0) : fx(g.value, 3) + " mm")
-        << "</td><td><span class=\"chip " << (g.pass ? "chip-ok" : "chip-bad") << "\">"
-        << (g.pass ? "pass" : "fail") << "</span></td></tr>";
+      h << "<tr" << (g.pass ? "" : " class=\"bad\"") << "><td>"
+        << html_escape(detail::gate_label(g.name)) << "</td><td class=\"num\">"
+        << (count ? fx(g.limit, 0) : fx(g.limit, 3) + " mm") << "</td><td class=\"num\">"
+        << (count ? fx(g.value, 0) : fx(g.value, 3) + " mm") << "</td><td><span class=\"chip "
+        << (g.pass ? "chip-ok" : "chip-bad") << "\">" << (g.pass ? "pass" : "fail")
+        << "</span></td></tr>";
     }
     h << "</tbody></table></div>";
     h << "<table class=\"stats\"><thead><tr><th>Direction</th><th>RMS</th><th>P95</th><th>Max "
@@ -464,19 +479,21 @@ std::string compare_html(const CompareResult& r, const CompareHtmlOptions& optio
            "class=\"num\">Worst</th><th class=\"num\">Area</th><th>Layers</th><th>At (mm)</th>"
            "</tr></thead><tbody>";
       for (const auto& b : v.top_regions) {
-        h << "<tr><td><span class=\"chip chip-" << html_escape(b.kind) << "\">" << html_escape(b.kind)
-          << "</span></td><td class=\"num\">" << detail::signed_fixed(b.worst_mm, 3)
-          << " mm</td><td class=\"num\">" << fx(b.area_mm2, 2) << " mm²</td><td>"
-          << detail::layer_range(b.layer_min, b.layer_max) << "</td><td class=\"mono\">"
-          << fx(b.worst_position_mm.x(), 1) << ", " << fx(b.worst_position_mm.y(), 1) << ", "
-          << fx(b.worst_position_mm.z(), 1) << "</td></tr>";
+        h << "<tr><td><span class=\"chip chip-" << html_escape(b.kind) << "\">"
+          << html_escape(b.kind) << "</span></td><td class=\"num\">"
+          << detail::signed_fixed(b.worst_mm, 3) << " mm</td><td class=\"num\">"
+          << fx(b.area_mm2, 2) << " mm²</td><td>" << detail::layer_range(b.layer_min, b.layer_max)
+          << "</td><td class=\"mono\">" << fx(b.worst_position_mm.x(), 1) << ", "
+          << fx(b.worst_position_mm.y(), 1) << ", " << fx(b.worst_position_mm.z(), 1)
+          << "</td></tr>";
       }
       h << "</tbody></table>";
     }
     h << "</details>";
   }
   h << "</section></main><footer class=\"wrap\">printtwin " << html_escape(r.tool_version)
-    << " · compare.json schema " << r.schema_version << " · plan " << html_escape(r.plan_id.substr(0, 12));
+    << " · compare.json schema " << r.schema_version << " · plan "
+    << html_escape(r.plan_id.substr(0, 12));
   if (!options.generated_utc.empty()) h << " · generated " << html_escape(options.generated_utc);
   h << "</footer><script>" << kCompareJs << "</script></body></html>\n";
   return h.str();

@@ -106,7 +106,8 @@ VariantResult summarize_variant(const VariantSpec& spec, const VerifyReport& rep
   const auto& dev = report.deviation;
   r.deposit_to_mesh = direction_figures(dev.deposit_to_mesh);
   r.mesh_to_deposit = direction_figures(dev.mesh_to_deposit);
-  slope_figures(r.deposit_to_mesh, dev.deposit_samples.distances_mm, deposit_triangle, slope_of_triangle);
+  slope_figures(r.deposit_to_mesh, dev.deposit_samples.distances_mm, deposit_triangle,
+                slope_of_triangle);
   slope_figures(r.mesh_to_deposit, dev.mesh_samples.distances_mm, mesh_triangle, slope_of_triangle);
   r.rms_mm = combined_rms_mm(r.deposit_to_mesh.rms_mm, r.mesh_to_deposit.rms_mm);
   r.slope_rms_mm = combined_rms_mm(r.deposit_to_mesh.slope_rms_mm, r.mesh_to_deposit.slope_rms_mm);
@@ -126,9 +127,15 @@ VariantResult summarize_variant(const VariantSpec& spec, const VerifyReport& rep
   }
   for (const auto& f : report.findings) {
     switch (f.severity) {
-      case Severity::error: ++r.error_findings; break;
-      case Severity::warning: ++r.warning_findings; break;
-      case Severity::info: ++r.info_findings; break;
+      case Severity::error:
+        ++r.error_findings;
+        break;
+      case Severity::warning:
+        ++r.warning_findings;
+        break;
+      case Severity::info:
+        ++r.info_findings;
+        break;
     }
   }
   r.gates = report.gates;

@@ -1,6 +1,7 @@
 // Running a comparison: the part is loaded, checked and indexed once (SharedPart), then
 // every variant runs the verify pipeline on it: slice (or read G-code) -> simulate ->
 // deposit -> deviation -> gates -> its report folder.
+#include <unistd.h>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -9,13 +10,12 @@
 #include <map>
 #include <mutex>
 #include <thread>
-#include <unistd.h>
 
-#include "printtwin/printer.hpp"
 #include "printtwin/compare.hpp"
 #include "printtwin/deviation.hpp"
-#include "printtwin/mesh_query.hpp"
 #include "printtwin/io.hpp"
+#include "printtwin/mesh_query.hpp"
+#include "printtwin/printer.hpp"
 #include "printtwin/slice.hpp"
 #include "printtwin/version.hpp"
 
@@ -54,10 +54,12 @@ std::vector<std::uint32_t> sample_triangles(const MeshQuery& query, const Deviat
   for (std::size_t i = 0; i < out.size(); ++i) {
     if (out[i] != DeviationSample{}.triangle) continue;
     // Back into the mesh's own frame (the registration may rotate and scale).
-    const Vec3 p = placement.rotation.transpose() * (samples.positions_mm[i] - placement.translation_mm) /
-                   placement.scale;
-    if (auto cp = query.closest_point_within(p, near_mm)) out[i] = cp->triangle;
-    else out[i] = query.closest_point(p).triangle;
+    const Vec3 p = placement.rotation.transpose() *
+                   (samples.positions_mm[i] - placement.translation_mm) / placement.scale;
+    if (auto cp = query.closest_point_within(p, near_mm))
+      out[i] = cp->triangle;
+    else
+      out[i] = query.closest_point(p).triangle;
   }
   return out;
 }
@@ -67,8 +69,10 @@ std::string slug(const std::string& label) {
   for (char c : label) {
     const bool keep = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
                       c == '.' || c == '-';
-    if (keep) out += c;
-    else if (!out.empty() && out.back() != '_') out += '_';
+    if (keep)
+      out += c;
+    else if (!out.empty() && out.back() != '_')
+      out += '_';
     if (out.size() >= 48) break;
   }
   while (!out.empty() && out.back() == '_') out.pop_back();
@@ -92,10 +96,12 @@ Status validate_plan(const ComparePlan& plan) {
       if (!v.config_path.empty() && !std::filesystem::is_regular_file(v.config_path, ec))
         return named(bad_input("the slicer config does not exist or is not a file", v.config_path));
       if (v.slicer == "cura" && plan.cura_definition.empty())
-        return named(usage_error("--slicer cura needs the printer's definition: --cura-definition "
-                                 "/usr/share/cura/resources/definitions/creality_ender3.def.json (package cura)"));
+        return named(usage_error(
+            "--slicer cura needs the printer's definition: --cura-definition "
+            "/usr/share/cura/resources/definitions/creality_ender3.def.json (package cura)"));
       if (v.slicer == "cura" && !std::filesystem::is_regular_file(plan.cura_definition, ec))
-        return named(bad_input("the Cura definition does not exist or is not a file", plan.cura_definition));
+        return named(
+            bad_input("the Cura definition does not exist or is not a file", plan.cura_definition));
     } else if (v.kind == VariantKind::slicer) {
       auto s = slice_settings_of(v);
       if (!s) return named(s.error());
@@ -157,7 +163,8 @@ Result<SharedPart> prepare_shared_part(Mesh mesh, std::string name, const Printe
   return share(std::move(*prepared), {}, t0);
 }
 
-Result<SharedPart> prepare_shared_part(const std::filesystem::path& mesh_path, const PrinterProfile& printer,
+Result<SharedPart> prepare_shared_part(const std::filesystem::path& mesh_path,
+                                       const PrinterProfile& printer,
                                        const VerifySettings& settings) {
   const auto t0 = Clock::now();
   auto prepared = prepare_part(mesh_path, printer, settings);
@@ -175,7 +182,8 @@ Result<VerifyReport> run_variant_verify(const SharedPart& part, const PrinterPro
     if (spec.kind != VariantKind::slicer) return read_gcode_input(spec.gcode_path);
     auto settings = slice_settings_of(spec);
     if (!settings) return settings.error();
-    return slice_for_verify(part.prepared, printer, *settings, "printtwin slice (" + spec.label + ")");
+    return slice_for_verify(part.prepared, printer, *settings,
+                            "printtwin slice (" + spec.label + ")");
   }();
   if (!gcode) return gcode.error();
   VerifySettings settings = plan.verify;
@@ -185,7 +193,8 @@ Result<VerifyReport> run_variant_verify(const SharedPart& part, const PrinterPro
     // --printer auto: each G-code variant runs on the printer its own settings name.
     auto resolved = resolve_printer(plan.printer, spec.gcode_path);
     if (!resolved) return resolved.error();
-    return verify_gcode(part.prepared, resolved->profile, settings, std::move(*gcode), false, on_stage);
+    return verify_gcode(part.prepared, resolved->profile, settings, std::move(*gcode), false,
+                        on_stage);
   }
   // The part's load and check ran once for every variant: not in the variant's timings.
   return verify_gcode(part.prepared, printer, settings, std::move(*gcode), false, on_stage);
@@ -209,8 +218,8 @@ class ExternalSlicing {
     bool done = false;
   };
 
-  Status plan(const ComparePlan& plan, const std::vector<int>& run, const std::filesystem::path& out_dir,
-              const std::string& mesh_path) {
+  Status plan(const ComparePlan& plan, const std::vector<int>& run,
+              const std::filesystem::path& out_dir, const std::string& mesh_path) {
     std::map<std::string, SlicerProgram> programs;
     std::map<std::string, std::size_t> by_key;
     std::filesystem::path dir = out_dir.empty()
@@ -263,7 +272,8 @@ class ExternalSlicing {
     worker_ = std::jthread([this, timeout_s](std::stop_token stop) {
       for (auto& job : jobs_) {
         if (stop.stop_requested()) break;
-        Status st = job->done ? job->status : run_external_slicer(job->program, job->input, timeout_s);
+        Status st =
+            job->done ? job->status : run_external_slicer(job->program, job->input, timeout_s);
         std::lock_guard lock(mutex_);
         job->status = std::move(st);
         job->done = true;
@@ -332,7 +342,8 @@ Result<CompareResult> run_compare(const SharedPart& part, const ComparePlan& pla
   // External slicers: every distinct job sliced once, in variant order, on a thread of its
   // own, so that the slicer works on the next variant while this one is measured.
   ExternalSlicing slicing;
-  if (auto st = slicing.plan(plan, run, options.out_dir, part.info.path.empty() ? plan.mesh_path : part.info.path);
+  if (auto st = slicing.plan(plan, run, options.out_dir,
+                             part.info.path.empty() ? plan.mesh_path : part.info.path);
       !st)
     return st.error();
   slicing.start(plan.slicer_timeout_s);
@@ -380,8 +391,10 @@ Result<CompareResult> run_compare(const SharedPart& part, const ComparePlan& pla
       // Slope figures: nearest mesh triangle of every sample, through the shared BVH.
       on_stage("slopes");
       const RigidTransform& placement = report->registration.transform;
-      const auto dep_tri = sample_triangles(target.query(), report->deviation.deposit_samples, placement, near_mm);
-      const auto mesh_tri = sample_triangles(target.query(), report->deviation.mesh_samples, placement, near_mm);
+      const auto dep_tri =
+          sample_triangles(target.query(), report->deviation.deposit_samples, placement, near_mm);
+      const auto mesh_tri =
+          sample_triangles(target.query(), report->deviation.mesh_samples, placement, near_mm);
       double density = plan.filament_density_g_cm3;
       const bool own_slicer = spec.kind == VariantKind::slicer && job == nullptr;
       if (own_slicer)

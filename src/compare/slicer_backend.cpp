@@ -61,7 +61,8 @@ std::string on_path(std::string_view program) {
   while (!rest.empty()) {
     const auto colon = rest.find(':');
     const std::string dir(rest.substr(0, colon));
-    if (!dir.empty() && is_executable(fs::path(dir) / program)) return (fs::path(dir) / program).string();
+    if (!dir.empty() && is_executable(fs::path(dir) / program))
+      return (fs::path(dir) / program).string();
     if (colon == std::string_view::npos) break;
     rest.remove_prefix(colon + 1);
   }
@@ -75,7 +76,8 @@ std::string version_from_output(std::string_view name, std::string_view out) {
     const auto at = out.find(marker);
     if (at == std::string_view::npos) return {};
     std::size_t b = at + marker.size(), e = b;
-    while (e < out.size() && (std::isdigit(static_cast<unsigned char>(out[e])) || out[e] == '.')) ++e;
+    while (e < out.size() && (std::isdigit(static_cast<unsigned char>(out[e])) || out[e] == '.'))
+      ++e;
     return std::string(out.substr(b, e - b));
   };
   if (name == "prusa-slicer") {
@@ -93,7 +95,9 @@ std::string version_from_output(std::string_view name, std::string_view out) {
     std::string_view line = out.substr(b, e - b);
     if (!line.empty() && std::isdigit(static_cast<unsigned char>(line[0]))) {
       std::size_t k = 0;
-      while (k < line.size() && (std::isdigit(static_cast<unsigned char>(line[k])) || line[k] == '.')) ++k;
+      while (k < line.size() &&
+             (std::isdigit(static_cast<unsigned char>(line[k])) || line[k] == '.'))
+        ++k;
       return "Slic3r " + std::string(line.substr(0, k));
     }
     b = e + 1;
@@ -133,7 +137,8 @@ std::string last_lines(std::string_view text, int count) {
   std::vector<std::string_view> errors;
   for (auto line : lines) {
     std::string lower(line);
-    std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
+    std::transform(lower.begin(), lower.end(), lower.begin(),
+                   [](unsigned char c) { return std::tolower(c); });
     for (std::string_view word : {"error", "unknown", "invalid", "failed", "cannot", "could not"})
       if (lower.find(word) != std::string::npos) {
         errors.push_back(line);
@@ -143,7 +148,8 @@ std::string last_lines(std::string_view text, int count) {
   // The first such line: what follows it is often a consequence or the help text.
   if (!errors.empty()) lines.assign(1, errors.front());
   std::string out;
-  const std::size_t from = lines.size() > static_cast<std::size_t>(count) ? lines.size() - count : 0;
+  const std::size_t from =
+      lines.size() > static_cast<std::size_t>(count) ? lines.size() - count : 0;
   for (std::size_t i = from; i < lines.size(); ++i) {
     if (!out.empty()) out += " | ";
     out += std::string(lines[i].substr(0, 300));
@@ -163,11 +169,14 @@ Result<std::vector<SettingKV>> read_cura_settings(const std::string& path) {
     std::string_view line = rest.substr(0, nl);
     rest = nl == std::string_view::npos ? std::string_view() : rest.substr(nl + 1);
     ++line_no;
-    while (!line.empty() && (line.back() == '\r' || line.back() == ' ' || line.back() == '\t')) line.remove_suffix(1);
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ' || line.back() == '\t'))
+      line.remove_suffix(1);
     while (!line.empty() && (line.front() == ' ' || line.front() == '\t')) line.remove_prefix(1);
     if (line.empty() || line.front() == '#' || line.front() == ';' || line.front() == '[') continue;
     auto kv = parse_setting_kv(line);
-    if (!kv) return bad_input("a Cura settings file holds key=value lines: " + kv.error().message, path, line_no);
+    if (!kv)
+      return bad_input("a Cura settings file holds key=value lines: " + kv.error().message, path,
+                       line_no);
     out.push_back(std::move(*kv));
   }
   return out;
@@ -177,7 +186,8 @@ Result<std::vector<SettingKV>> read_cura_settings(const std::string& path) {
 // reach the children the engine uses. The children of the settings people vary are filled
 // in here with Cura's own rules; a child the config file or the command line sets is kept,
 // as Cura keeps a value the user set.
-void add_cura_children(std::map<std::string, std::string>& s, const std::set<std::string>& from_file,
+void add_cura_children(std::map<std::string, std::string>& s,
+                       const std::set<std::string>& from_file,
                        const std::set<std::string>& from_command) {
   auto number = [&](const std::string& key, double fallback) {
     auto it = s.find(key);
@@ -187,7 +197,8 @@ void add_cura_children(std::map<std::string, std::string>& s, const std::set<std
     return end != it->second.c_str() ? v : fallback;
   };
   auto derive = [&](const std::string& key, std::string value) {
-    if (from_command.count(key) || from_file.count(key)) return;  // set by the user: kept, as Cura does
+    if (from_command.count(key) || from_file.count(key))
+      return;  // set by the user: kept, as Cura does
     s[key] = std::move(value);
   };
   auto text = [](double v) {
@@ -201,13 +212,17 @@ void add_cura_children(std::map<std::string, std::string>& s, const std::set<std
     const std::string pattern = s.count("infill_pattern") ? s.at("infill_pattern") : "grid";
     double per = 1;  // lines, zigzag, concentric, gyroid, lightning
     if (pattern == "grid" || pattern == "tetrahedral" || pattern == "quarter_cubic") per = 2;
-    if (pattern == "triangles" || pattern == "trihexagon" || pattern == "cubic" || pattern == "cubicsubdiv") per = 3;
+    if (pattern == "triangles" || pattern == "trihexagon" || pattern == "cubic" ||
+        pattern == "cubicsubdiv")
+      per = 3;
     const double infill_width = number("infill_line_width", line_width);
-    derive("infill_line_distance", density <= 0 ? std::string("0") : text(infill_width * 100 / density * per));
+    derive("infill_line_distance",
+           density <= 0 ? std::string("0") : text(infill_width * 100 / density * per));
   }
   if (s.count("wall_thickness")) {
     const double wall = number("wall_thickness", 0.8);
-    derive("wall_line_count", text(std::max(1.0, std::round(wall / number("wall_line_width", line_width)))));
+    derive("wall_line_count",
+           text(std::max(1.0, std::round(wall / number("wall_line_width", line_width)))));
   }
   if (s.count("top_bottom_thickness")) {
     const double tb = number("top_bottom_thickness", 0.8), lh = number("layer_height", 0.1);
@@ -272,7 +287,8 @@ SettingKV in_vocabulary(std::string_view slicer, const SettingKV& kv) {
 
 }  // namespace
 
-std::vector<SettingKV> slicer_settings(std::string_view slicer, const std::vector<SettingKV>& settings) {
+std::vector<SettingKV> slicer_settings(std::string_view slicer,
+                                       const std::vector<SettingKV>& settings) {
   std::vector<SettingKV> out;
   out.reserve(settings.size());
   for (const auto& kv : settings) out.push_back(in_vocabulary(slicer, kv));
@@ -288,11 +304,14 @@ std::string cura_definition_printer(const std::string& definition) {
   return p ? p->id : std::string();
 }
 
-bool is_known_slicer(std::string_view name) { return name == "printtwin" || info_of(name) != nullptr; }
+bool is_known_slicer(std::string_view name) {
+  return name == "printtwin" || info_of(name) != nullptr;
+}
 
 Status check_slicer_name(std::string_view name) {
   if (is_known_slicer(name)) return Ok{};
-  return usage_error("--slicer must be printtwin, prusa-slicer, cura or slic3r, got '" + std::string(name) + "'");
+  return usage_error("--slicer must be printtwin, prusa-slicer, cura or slic3r, got '" +
+                     std::string(name) + "'");
 }
 
 Result<SlicerProgram> find_slicer_program(std::string_view name, std::string_view path) {
@@ -305,15 +324,18 @@ Result<SlicerProgram> find_slicer_program(std::string_view name, std::string_vie
   p.name = std::string(name);
   if (!path.empty()) {
     fs::path given(path);
-    if (given.parent_path().empty() && !fs::exists(given)) p.program = on_path(path);
-    else if (is_executable(given)) p.program = fs::absolute(given).string();
+    if (given.parent_path().empty() && !fs::exists(given))
+      p.program = on_path(path);
+    else if (is_executable(given))
+      p.program = fs::absolute(given).string();
     if (p.program.empty())
       return usage_error("--slicer-path " + std::string(path) + " is not an executable file");
   } else {
     for (auto prog : info->programs)
       if (!prog.empty() && (p.program = on_path(prog), !p.program.empty())) break;
     if (p.program.empty())
-      return usage_error(std::string(name) + " is not installed (no " + std::string(info->programs[0]) +
+      return usage_error(std::string(name) + " is not installed (no " +
+                         std::string(info->programs[0]) +
                          " on the PATH): install the Debian package " + std::string(info->package) +
                          ", or give the program with --slicer-path");
   }
@@ -335,8 +357,9 @@ Result<std::vector<SettingKV>> parse_slicer_paths(const std::vector<std::string>
       continue;
     }
     if (external.size() != 1)
-      return usage_error("--slicer-path " + v + ": say which slicer it is for (name=path, e.g. prusa-slicer=" + v +
-                         ")" + (external.empty() ? ", and give that --slicer" : ""));
+      return usage_error("--slicer-path " + v +
+                         ": say which slicer it is for (name=path, e.g. prusa-slicer=" + v + ")" +
+                         (external.empty() ? ", and give that --slicer" : ""));
     out.emplace_back(external.front(), v);
   }
   return out;
@@ -348,14 +371,16 @@ std::vector<SettingKV> effective_settings(const std::vector<SettingKV>& settings
   return {last.begin(), last.end()};
 }
 
-Result<std::vector<std::string>> slicer_command(const SlicerProgram& program, const SlicerJob& job) {
+Result<std::vector<std::string>> slicer_command(const SlicerProgram& program,
+                                                const SlicerJob& job) {
   std::vector<std::string> argv{program.program};
   const auto translated = slicer_settings(program.name, job.settings);
   const auto settings = effective_settings(translated);
   if (program.name == "cura") {
     if (job.cura_definition.empty())
-      return usage_error("--slicer cura needs the printer's definition: --cura-definition "
-                         "/usr/share/cura/resources/definitions/creality_ender3.def.json (package cura)");
+      return usage_error(
+          "--slicer cura needs the printer's definition: --cura-definition "
+          "/usr/share/cura/resources/definitions/creality_ender3.def.json (package cura)");
     argv.insert(argv.end(), {"slice", "-v", "-j", job.cura_definition});
     // CuraEngine takes the last -s of a key; the config file first, then the variant's.
     std::map<std::string, std::string> effective;
@@ -459,7 +484,8 @@ ProcessRun run_process(const std::vector<std::string>& argv, const std::vector<S
     const pid_t w = ::waitpid(pid, &status, WNOHANG);
     if (w == pid) break;
     if (w < 0 && errno != EINTR) break;
-    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double elapsed =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (elapsed > timeout_s) {
       r.timed_out = true;
       ::kill(-pid, SIGKILL);
@@ -493,7 +519,8 @@ Result<std::string> slicer_command_line(const SlicerProgram& program, const Slic
   auto argv = slicer_command(program, job);
   if (!argv) return argv.error();
   std::string prefix;
-  for (const auto& [k, v] : slicer_environment(program, job)) prefix += shell_quote({k + "=" + v}) + " ";
+  for (const auto& [k, v] : slicer_environment(program, job))
+    prefix += shell_quote({k + "=" + v}) + " ";
   return prefix + shell_quote(*argv);
 }
 
@@ -510,10 +537,11 @@ Status run_external_slicer(const SlicerProgram& program, const SlicerJob& job, d
   const std::string who = program.version.empty() ? program.name : program.version;
   if (!run.started) return bad_input(who + " could not be started", program.program);
   if (run.timed_out)
-    return bad_input(who + " did not finish within --slicer-timeout " + std::to_string(static_cast<int>(timeout_s)) +
-                         " s and was stopped",
+    return bad_input(who + " did not finish within --slicer-timeout " +
+                         std::to_string(static_cast<int>(timeout_s)) + " s and was stopped",
                      job.mesh_path);
-  const bool written = fs::is_regular_file(job.out_gcode, ec) && fs::file_size(job.out_gcode, ec) > 0;
+  const bool written =
+      fs::is_regular_file(job.out_gcode, ec) && fs::file_size(job.out_gcode, ec) > 0;
   if (run.exit_code != 0 || !written) {
     std::string what = last_lines(run.output, 3);
     if (what.empty()) what = "no message";

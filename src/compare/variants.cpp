@@ -25,9 +25,7 @@ std::string normalized_key(std::string_view key) {
   return k;
 }
 
-std::string stem_of(const std::string& path) {
-  return std::filesystem::path(path).stem().string();
-}
+std::string stem_of(const std::string& path) { return std::filesystem::path(path).stem().string(); }
 
 // Gives repeated names a " (2)", " (3)" suffix in list order.
 void make_unique(std::vector<std::string>& names) {
@@ -55,7 +53,8 @@ Result<SettingKV> parse_setting_kv(std::string_view text) {
   if (eq == std::string_view::npos)
     return usage_error("expected key=value, got '" + std::string(text) + "'");
   const std::string_view key = trim(text.substr(0, eq));
-  if (key.empty()) return usage_error("expected key=value with a key, got '" + std::string(text) + "'");
+  if (key.empty())
+    return usage_error("expected key=value with a key, got '" + std::string(text) + "'");
   return SettingKV{normalized_key(key), std::string(trim(text.substr(eq + 1)))};
 }
 
@@ -87,7 +86,8 @@ Result<std::vector<VariantSpec>> expand_variants(const SweepSpec& spec) {
   for (const auto& axis : spec.axes) {
     if (axis.values.empty()) return usage_error("--vary " + axis.key + ": no values");
     if (!keys.insert(normalized_key(axis.key)).second)
-      return usage_error("--vary " + axis.key + " is given twice; list all its values in one --vary");
+      return usage_error("--vary " + axis.key +
+                         " is given twice; list all its values in one --vary");
     combos *= axis.values.size();
     if (combos > kMaxVariants) break;
   }
@@ -100,7 +100,8 @@ Result<std::vector<VariantSpec>> expand_variants(const SweepSpec& spec) {
     const std::string prefix = eq == std::string::npos ? std::string() : c.substr(0, eq);
     const bool named = !prefix.empty() && is_known_slicer(prefix);
     if (named && std::find(slicers.begin(), slicers.end(), prefix) == slicers.end())
-      return usage_error("--config " + c + " is for " + prefix + ", which is not a --slicer of this comparison");
+      return usage_error("--config " + c + " is for " + prefix +
+                         ", which is not a --slicer of this comparison");
     config_slicer.push_back(named ? prefix : std::string());
     config_path.push_back(named ? c.substr(eq + 1) : c);
   }
@@ -119,15 +120,15 @@ Result<std::vector<VariantSpec>> expand_variants(const SweepSpec& spec) {
       if (!seen.insert(s).second) return usage_error("--slicer " + s + " is given twice");
     }
   }
-  const bool slicer_variants = !spec.axes.empty() || !spec.configs.empty() || !spec.slicers.empty() ||
-                               spec.gcodes.empty();
+  const bool slicer_variants =
+      !spec.axes.empty() || !spec.configs.empty() || !spec.slicers.empty() || spec.gcodes.empty();
   const std::size_t total = (slicer_variants ? config_sets * combos : 0) + spec.gcodes.size();
   if (combos > kMaxVariants || total > kMaxVariants)
     return usage_error("the sweep has more than " + std::to_string(kMaxVariants) +
                        " variants; split it into several comparisons");
   if (!spec.labels.empty() && spec.labels.size() != total)
-    return usage_error("--label was given " + std::to_string(spec.labels.size()) +
-                       " times for " + std::to_string(total) +
+    return usage_error("--label was given " + std::to_string(spec.labels.size()) + " times for " +
+                       std::to_string(total) +
                        " variants; give one label per variant, in variant order, or none");
 
   std::vector<VariantSpec> out;
@@ -137,41 +138,42 @@ Result<std::vector<VariantSpec>> expand_variants(const SweepSpec& spec) {
   make_unique(config_names);
 
   if (slicer_variants) {
-   for (const auto& slicer : slicers) {
-    std::vector<std::size_t> configs = configs_of(slicer);
-    const bool with_config = !configs.empty();
-    if (configs.empty()) configs.push_back(0);
-    for (std::size_t c : configs) {
-      // Odometer over the axes, last axis fastest.
-      std::vector<std::size_t> at(spec.axes.size(), 0);
-      for (std::size_t n = 0; n < combos; ++n) {
-        VariantSpec v;
-        v.kind = VariantKind::slicer;
-        v.slicer = slicer;
-        // Several slicers: each label starts with its slicer's name.
-        std::string label = slicers.size() > 1 ? slicer : std::string();
-        if (with_config) {
-          if (!label.empty()) label += ' ';
-          v.config_path = config_path[c];
-          label += config_names[c];
-        }
-        v.settings = spec.common_settings;
-        for (std::size_t a = 0; a < spec.axes.size(); ++a) {
-          const auto& axis = spec.axes[a];
-          v.settings.emplace_back(normalized_key(axis.key), axis.values[at[a]]);
-          if (!label.empty()) label += ' ';
-          label += normalized_key(axis.key) + "=" + axis.values[at[a]];
-        }
-        if (label.empty()) label = slicer == "printtwin" ? std::string("printtwin defaults") : slicer;
-        v.label = label;
-        out.push_back(std::move(v));
-        for (std::size_t a = spec.axes.size(); a-- > 0;) {
-          if (++at[a] < spec.axes[a].values.size()) break;
-          at[a] = 0;
+    for (const auto& slicer : slicers) {
+      std::vector<std::size_t> configs = configs_of(slicer);
+      const bool with_config = !configs.empty();
+      if (configs.empty()) configs.push_back(0);
+      for (std::size_t c : configs) {
+        // Odometer over the axes, last axis fastest.
+        std::vector<std::size_t> at(spec.axes.size(), 0);
+        for (std::size_t n = 0; n < combos; ++n) {
+          VariantSpec v;
+          v.kind = VariantKind::slicer;
+          v.slicer = slicer;
+          // Several slicers: each label starts with its slicer's name.
+          std::string label = slicers.size() > 1 ? slicer : std::string();
+          if (with_config) {
+            if (!label.empty()) label += ' ';
+            v.config_path = config_path[c];
+            label += config_names[c];
+          }
+          v.settings = spec.common_settings;
+          for (std::size_t a = 0; a < spec.axes.size(); ++a) {
+            const auto& axis = spec.axes[a];
+            v.settings.emplace_back(normalized_key(axis.key), axis.values[at[a]]);
+            if (!label.empty()) label += ' ';
+            label += normalized_key(axis.key) + "=" + axis.values[at[a]];
+          }
+          if (label.empty())
+            label = slicer == "printtwin" ? std::string("printtwin defaults") : slicer;
+          v.label = label;
+          out.push_back(std::move(v));
+          for (std::size_t a = spec.axes.size(); a-- > 0;) {
+            if (++at[a] < spec.axes[a].values.size()) break;
+            at[a] = 0;
+          }
         }
       }
     }
-   }
   }
   std::vector<std::string> gcode_names;
   for (const auto& g : spec.gcodes) gcode_names.push_back(stem_of(g));
@@ -188,7 +190,8 @@ Result<std::vector<VariantSpec>> expand_variants(const SweepSpec& spec) {
     std::set<std::string> seen;
     for (std::size_t i = 0; i < out.size(); ++i) {
       const std::string label(trim(spec.labels[i]));
-      if (label.empty()) return usage_error("--label number " + std::to_string(i + 1) + " is empty");
+      if (label.empty())
+        return usage_error("--label number " + std::to_string(i + 1) + " is empty");
       if (!seen.insert(label).second)
         return usage_error("--label '" + label + "' is given to two variants; labels must differ");
       out[i].label = label;
@@ -209,7 +212,8 @@ Result<std::vector<int>> shard_indices(int variant_count, int k, int n) {
   if (n < 1) return usage_error("--of must be at least 1, got " + std::to_string(n));
   if (k < 0 || k >= n)
     return usage_error("--variant must be in 0.." + std::to_string(n - 1) + " for --of " +
-                       std::to_string(n) + " (shares are numbered from 0), got " + std::to_string(k));
+                       std::to_string(n) + " (shares are numbered from 0), got " +
+                       std::to_string(k));
   std::vector<int> out;
   for (int i = k; i < variant_count; i += n) out.push_back(i);
   return out;

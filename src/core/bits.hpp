@@ -17,10 +17,10 @@ inline int popcount64(std::uint64_t x) {
 
 #if defined(__x86_64__) && defined(__GNUC__)
 /// The CPU feature `name` (a literal for __builtin_cpu_supports), asked once per call site.
-#define PRINTTWIN_CPU_SUPPORTS(name)                                    \
-  [] {                                                                  \
-    static const bool has = __builtin_cpu_supports(name) != 0;          \
-    return has;                                                         \
+#define PRINTTWIN_CPU_SUPPORTS(name)                           \
+  [] {                                                         \
+    static const bool has = __builtin_cpu_supports(name) != 0; \
+    return has;                                                \
   }()
 #else
 #define PRINTTWIN_CPU_SUPPORTS(name) false

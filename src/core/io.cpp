@@ -14,7 +14,6 @@
 #include <sstream>
 #include <system_error>
 
-
 namespace printtwin {
 
 namespace fs = std::filesystem;
@@ -31,9 +30,11 @@ std::optional<Error> input_problem(const fs::path& path) {
       return bad_input("symbolic link loop (too many levels of symbolic links), expected a file",
                        path.string());
     if (ec == std::errc::permission_denied)
-      return bad_input("permission denied (a folder on the path cannot be searched)", path.string());
+      return bad_input("permission denied (a folder on the path cannot be searched)",
+                       path.string());
     if (ec == std::errc::not_a_directory)
-      return bad_input("file not found (a part of the path is a file, not a folder)", path.string());
+      return bad_input("file not found (a part of the path is a file, not a folder)",
+                       path.string());
     return bad_input("cannot access: " + ec.message(), path.string());
   }
   if (!fs::exists(status)) {
@@ -52,14 +53,16 @@ Result<std::uint64_t> input_file_size(const fs::path& path) {
   if (auto problem = input_problem(path)) return *problem;
   std::error_code ec;
   const auto size = fs::file_size(path, ec);
-  if (ec) return bad_input("cannot read its size (not a regular file?): " + ec.message(), path.string());
+  if (ec)
+    return bad_input("cannot read its size (not a regular file?): " + ec.message(), path.string());
   return static_cast<std::uint64_t>(size);
 }
 
 Result<std::string> read_file_head(const fs::path& path, std::size_t max_bytes) {
   if (auto problem = input_problem(path)) return *problem;
   std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (f == nullptr) return bad_input(std::string("cannot open: ") + std::strerror(errno), path.string());
+  if (f == nullptr)
+    return bad_input(std::string("cannot open: ") + std::strerror(errno), path.string());
   std::string data(max_bytes, '\0');
   const std::size_t got = data.empty() ? 0 : std::fread(data.data(), 1, data.size(), f);
   const bool failed = std::ferror(f) != 0;
@@ -73,7 +76,8 @@ Result<std::string> read_file(const fs::path& path) {
   if (auto problem = input_problem(path)) return *problem;
   // C stdio with one fread into the final buffer: no stream buffer copy in between.
   std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (f == nullptr) return bad_input(std::string("cannot open: ") + std::strerror(errno), path.string());
+  if (f == nullptr)
+    return bad_input(std::string("cannot open: ") + std::strerror(errno), path.string());
   std::string data;
   bool ok = std::fseek(f, 0, SEEK_END) == 0;
   const long size = ok ? std::ftell(f) : -1;
@@ -96,7 +100,8 @@ Result<std::string> read_file(const fs::path& path) {
 
 Status write_file_atomic(const fs::path& path, std::string_view content) {
   std::error_code ec;
-  if (fs::is_directory(path, ec)) return bad_input("is a folder, expected a file to write", path.string());
+  if (fs::is_directory(path, ec))
+    return bad_input("is a folder, expected a file to write", path.string());
   if (path.has_parent_path()) fs::create_directories(path.parent_path(), ec);
   // A unique temporary name beside the target, so that rename() is atomic.
   std::random_device rd;
@@ -104,8 +109,10 @@ Status write_file_atomic(const fs::path& path, std::string_view content) {
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out) {
-      return Error{ErrorCode::bad_input, std::string("cannot write: ") + std::strerror(errno),
-                   path.string(), {}};
+      return Error{ErrorCode::bad_input,
+                   std::string("cannot write: ") + std::strerror(errno),
+                   path.string(),
+                   {}};
     }
     out.write(content.data(), static_cast<std::streamsize>(content.size()));
     out.flush();
@@ -118,11 +125,14 @@ Status write_file_atomic(const fs::path& path, std::string_view content) {
   fs::rename(tmp, path, ec);
   if (ec) {
     // The rename's reason, read before the clean-up reuses an error code.
-    const std::string why = ec == std::errc::is_a_directory ? "it is a folder, expected a file" : ec.message();
+    const std::string why =
+        ec == std::errc::is_a_directory ? "it is a folder, expected a file" : ec.message();
     std::error_code ignored;
     fs::remove(tmp, ignored);
-    return Error{ErrorCode::bad_input, "cannot rename the temporary file into place: " + why,
-                 path.string(), {}};
+    return Error{ErrorCode::bad_input,
+                 "cannot rename the temporary file into place: " + why,
+                 path.string(),
+                 {}};
   }
   return Ok{};
 }
@@ -138,8 +148,8 @@ std::string format_number(double v) {
 std::string format_fixed(double v, int decimals) {
   if (!std::isfinite(v)) return format_number(v);
   std::array<char, 128> buf{};
-  auto [ptr, err] = std::to_chars(buf.data(), buf.data() + buf.size(), v,
-                                  std::chars_format::fixed, decimals);
+  auto [ptr, err] =
+      std::to_chars(buf.data(), buf.data() + buf.size(), v, std::chars_format::fixed, decimals);
   if (err != std::errc{}) return "0";
   std::string s(buf.data(), ptr);
   // "-0.000" -> "0.000"

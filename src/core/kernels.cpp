@@ -24,16 +24,14 @@ namespace printtwin {
 // elsewhere a portable scalar version (~300 MB/s). Both give the same digest.
 namespace {
 constexpr std::array<std::uint32_t, 64> kK = {
-    0x428a2f98, 0x71374491, 0xb5c0fbcf, 0xe9b5dba5, 0x3956c25b, 0x59f111f1, 0x923f82a4,
-    0xab1c5ed5, 0xd807aa98, 0x12835b01, 0x243185be, 0x550c7dc3, 0x72be5d74, 0x80deb1fe,
-    0x9bdc06a7, 0xc19bf174, 0xe49b69c1, 0xefbe4786, 0x0fc19dc6, 0x240ca1cc, 0x2de92c6f,
-    0x4a7484aa, 0x5cb0a9dc, 0x76f988da, 0x983e5152, 0xa831c66d, 0xb00327c8, 0xbf597fc7,
-    0xc6e00bf3, 0xd5a79147, 0x06ca6351, 0x14292967, 0x27b70a85, 0x2e1b2138, 0x4d2c6dfc,
-    0x53380d13, 0x650a7354, 0x766a0abb, 0x81c2c92e, 0x92722c85, 0xa2bfe8a1, 0xa81a664b,
-    0xc24b8b70, 0xc76c51a3, 0xd192e819, 0xd6990624, 0xf40e3585, 0x106aa070, 0x19a4c116,
-    0x1e376c08, 0x2748774c, 0x34b0bcb5, 0x391c0cb3, 0x4ed8aa4a, 0x5b9cca4f, 0x682e6ff3,
-    0x748f82ee, 0x78a5636f, 0x84c87814, 0x8cc70208, 0x90befffa, 0xa4506ceb, 0xbef9a3f7,
-    0xc67178f2};
+    0x428a2f98, 0x71374491, 0xb5c0fbcf, 0xe9b5dba5, 0x3956c25b, 0x59f111f1, 0x923f82a4, 0xab1c5ed5,
+    0xd807aa98, 0x12835b01, 0x243185be, 0x550c7dc3, 0x72be5d74, 0x80deb1fe, 0x9bdc06a7, 0xc19bf174,
+    0xe49b69c1, 0xefbe4786, 0x0fc19dc6, 0x240ca1cc, 0x2de92c6f, 0x4a7484aa, 0x5cb0a9dc, 0x76f988da,
+    0x983e5152, 0xa831c66d, 0xb00327c8, 0xbf597fc7, 0xc6e00bf3, 0xd5a79147, 0x06ca6351, 0x14292967,
+    0x27b70a85, 0x2e1b2138, 0x4d2c6dfc, 0x53380d13, 0x650a7354, 0x766a0abb, 0x81c2c92e, 0x92722c85,
+    0xa2bfe8a1, 0xa81a664b, 0xc24b8b70, 0xc76c51a3, 0xd192e819, 0xd6990624, 0xf40e3585, 0x106aa070,
+    0x19a4c116, 0x1e376c08, 0x2748774c, 0x34b0bcb5, 0x391c0cb3, 0x4ed8aa4a, 0x5b9cca4f, 0x682e6ff3,
+    0x748f82ee, 0x78a5636f, 0x84c87814, 0x8cc70208, 0x90befffa, 0xa4506ceb, 0xbef9a3f7, 0xc67178f2};
 
 constexpr std::uint32_t rotr(std::uint32_t x, int n) { return (x >> n) | (x << (32 - n)); }
 
@@ -55,7 +53,8 @@ void sha256_blocks_scalar(std::array<std::uint32_t, 8>& h, const unsigned char* 
     }
     std::uint32_t a = h[0], b = h[1], c = h[2], d = h[3], e = h[4], f = h[5], g = h[6], hh = h[7];
     for (int i = 0; i < 64; ++i) {
-      const auto t1 = hh + (rotr(e, 6) ^ rotr(e, 11) ^ rotr(e, 25)) + ((e & f) ^ (~e & g)) + kK[i] + w[i];
+      const auto t1 =
+          hh + (rotr(e, 6) ^ rotr(e, 11) ^ rotr(e, 25)) + ((e & f) ^ (~e & g)) + kK[i] + w[i];
       const auto t2 = (rotr(a, 2) ^ rotr(a, 13) ^ rotr(a, 22)) + ((a & b) ^ (a & c) ^ (b & c));
       hh = g;
       g = f;
@@ -84,9 +83,8 @@ bool cpu_has_sha_extensions() {
 /// The same compression with the SHA extensions: the state is kept as ABEF/CDGH lane pairs
 /// (the layout sha256rnds2 works on); each group of four rounds extends the message schedule
 /// with sha256msg1/msg2 in a ring of four registers.
-__attribute__((target("sha,sse4.1,ssse3"))) void sha256_blocks_shani(std::array<std::uint32_t, 8>& h,
-                                                                      const unsigned char* data,
-                                                                      std::size_t blocks) {
+__attribute__((target("sha,sse4.1,ssse3"))) void sha256_blocks_shani(
+    std::array<std::uint32_t, 8>& h, const unsigned char* data, std::size_t blocks) {
   const __m128i byte_swap = _mm_set_epi64x(0x0c0d0e0f08090a0bLL, 0x0405060700010203LL);
   __m128i dcba = _mm_loadu_si128(reinterpret_cast<const __m128i*>(h.data()));
   __m128i hgfe = _mm_loadu_si128(reinterpret_cast<const __m128i*>(h.data() + 4));
@@ -101,14 +99,15 @@ __attribute__((target("sha,sse4.1,ssse3"))) void sha256_blocks_shani(std::array<
     for (int g = 0; g < 16; ++g) {
       __m128i& cur = w[g & 3];
       if (g < 4) {
-        cur = _mm_shuffle_epi8(_mm_loadu_si128(reinterpret_cast<const __m128i*>(data + 16 * g)), byte_swap);
+        cur = _mm_shuffle_epi8(_mm_loadu_si128(reinterpret_cast<const __m128i*>(data + 16 * g)),
+                               byte_swap);
       } else {
-        const __m128i& prev1 = w[(g + 3) & 3];  // W[t-4 .. t-1]
-        const __m128i& prev2 = w[(g + 2) & 3];  // W[t-8 .. t-5]
-        const __m128i& prev3 = w[(g + 1) & 3];  // W[t-12 .. t-9]
-        __m128i x = _mm_sha256msg1_epu32(cur, prev3);  // W[t-16..] + sigma0(W[t-15..])
+        const __m128i& prev1 = w[(g + 3) & 3];                   // W[t-4 .. t-1]
+        const __m128i& prev2 = w[(g + 2) & 3];                   // W[t-8 .. t-5]
+        const __m128i& prev3 = w[(g + 1) & 3];                   // W[t-12 .. t-9]
+        __m128i x = _mm_sha256msg1_epu32(cur, prev3);            // W[t-16..] + sigma0(W[t-15..])
         x = _mm_add_epi32(x, _mm_alignr_epi8(prev1, prev2, 4));  // + W[t-7 .. t-4]
-        cur = _mm_sha256msg2_epu32(x, prev1);                   // + sigma1(W[t-2 ..])
+        cur = _mm_sha256msg2_epu32(x, prev1);                    // + sigma1(W[t-2 ..])
       }
       __m128i k = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kK.data() + 4 * g));
       __m128i m = _mm_add_epi32(cur, k);
@@ -150,7 +149,8 @@ std::string sha256_hex_impl(std::string_view bytes, bool use_extensions) {
   tail[rest] = 0x80;
   const std::size_t tail_len = rest < 56 ? 64 : 128;
   const std::uint64_t bit_len = static_cast<std::uint64_t>(bytes.size()) * 8;
-  for (int i = 0; i < 8; ++i) tail[tail_len - 1 - i] = static_cast<unsigned char>(bit_len >> (8 * i));
+  for (int i = 0; i < 8; ++i)
+    tail[tail_len - 1 - i] = static_cast<unsigned char>(bit_len >> (8 * i));
   sha256_blocks(h, tail.data(), tail_len / 64, use_extensions);
   static constexpr char kHex[] = "0123456789abcdef";
   std::string out;

@@ -37,8 +37,8 @@ double LayerTracker::clamp(double h, double nozzle_mm, double voxel_mm) {
   return std::clamp(h, std::min(voxel_mm, 0.5 * nozzle_mm), 2.0 * nozzle_mm);
 }
 
-BeadSection bead_section(const PendingBead& pb, double area_mm2, int samples, const HeightMap& map, double voxel_mm,
-                         std::vector<double>& gaps) {
+BeadSection bead_section(const PendingBead& pb, double area_mm2, int samples, const HeightMap& map,
+                         double voxel_mm, std::vector<double>& gaps) {
   const Move& mv = pb.move;
   const Vec3 a = mv.start_mm;
   const Vec3 b = mv.end_mm;

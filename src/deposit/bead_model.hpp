@@ -56,14 +56,15 @@ struct BeadSection {
 };
 
 /// The section of the bead `pb` with cross-section area `area_mm2` over the deposit in `map`,
-/// sampled `samples` times along its centre line (`gaps`: scratch). Height: the gap between the tip and the surface beneath the centre
-/// line. A column whose top is within half a layer of the tip holds this layer's neighbours
-/// (or a partly covered corner) and says nothing about what is beneath, unless its top voxel
-/// was laid by an earlier layer (the first turn of a vase-mode spiral); gaps over 1.5 layers
-/// are air. The median of the remaining gaps is the bead height (the nominal layer height
-/// when none remain, or when they agree with it to within the voxel quantisation). Width:
-/// the stadium of that height and area; a round strand when the area is too small.
-BeadSection bead_section(const PendingBead& pb, double area_mm2, int samples, const HeightMap& map, double voxel_mm,
-                         std::vector<double>& gaps);
+/// sampled `samples` times along its centre line (`gaps`: scratch). Height: the gap between the tip
+/// and the surface beneath the centre line. A column whose top is within half a layer of the tip
+/// holds this layer's neighbours (or a partly covered corner) and says nothing about what is
+/// beneath, unless its top voxel was laid by an earlier layer (the first turn of a vase-mode
+/// spiral); gaps over 1.5 layers are air. The median of the remaining gaps is the bead height (the
+/// nominal layer height when none remain, or when they agree with it to within the voxel
+/// quantisation). Width: the stadium of that height and area; a round strand when the area is too
+/// small.
+BeadSection bead_section(const PendingBead& pb, double area_mm2, int samples, const HeightMap& map,
+                         double voxel_mm, std::vector<double>& gaps);
 
 }  // namespace printtwin::detail

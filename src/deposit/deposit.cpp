@@ -52,17 +52,19 @@ struct DepositBuilder::State {
   double extruded_mm3 = 0;
   std::size_t beads = 0;
   std::size_t skipped = 0;
-  std::uint32_t tag = 0;             // the pending bead's tag index
-  std::size_t overlap_voxels = 0;    // bead voxels that fell on occupied ones
-  std::size_t squeezed_voxels = 0;   // free voxels that took their material
+  std::uint32_t tag = 0;            // the pending bead's tag index
+  std::size_t overlap_voxels = 0;   // bead voxels that fell on occupied ones
+  std::size_t squeezed_voxels = 0;  // free voxels that took their material
 
-  State(const detail::DepositRunSettings& s, const PrinterProfile& p, const Vec3& origin, const Eigen::Vector3i& dims)
+  State(const detail::DepositRunSettings& s, const PrinterProfile& p, const Vec3& origin,
+        const Eigen::Vector3i& dims)
       : settings(s),
         voxel(s.voxel_mm),
         filament_area_mm2(p.filament_area_mm2()),
         nozzle_mm(p.nozzle_diameter_mm),
         grid(s.voxel_mm, origin, dims),
-        map(s.voxel_mm, origin, dims.x(), dims.y(), static_cast<std::size_t>(detail::VoxelBlocks::block_dims(grid).x()),
+        map(s.voxel_mm, origin, dims.x(), dims.y(),
+            static_cast<std::size_t>(detail::VoxelBlocks::block_dims(grid).x()),
             static_cast<std::size_t>(detail::VoxelBlocks::block_dims(grid).y())),
         support(s.support_fraction, s.min_unsupported_mm, s.voxel_mm),
         sweeper(grid, s.exhaustive_tiles),
@@ -102,7 +104,8 @@ struct DepositBuilder::State {
     pb.nominal_h_mm = layers.nominal_mm(m, nozzle_mm, voxel);
     pb.continues_path = continues;
     pb.m0 = m0;
-    tag = detail::VoxelBlocks::add_tag(grid, VoxelTag{static_cast<std::uint32_t>(std::max(m.line, 0L)), m.layer, m.feature});
+    tag = detail::VoxelBlocks::add_tag(
+        grid, VoxelTag{static_cast<std::uint32_t>(std::max(m.line, 0L)), m.layer, m.feature});
     pending = pb;
   }
 
@@ -125,10 +128,13 @@ struct DepositBuilder::State {
     const Vec2 n(-d.y(), d.x());
     const int samples = std::max(1, static_cast<int>(std::ceil(len_mm * (1.0 / voxel))));
     const BeadSection s = detail::bead_section(pb, area_mm2, samples, map, voxel, gaps_);
-    detail::SweptBead bead{a, b, d, n, pb.m0, m1, s.h_mm, s.w_mm, mv.layer, settings.conserve_volume ? 0.5 * nozzle_mm : 0.0};
+    detail::SweptBead bead{
+        a,  b,      d,      n,        pb.m0,
+        m1, s.h_mm, s.w_mm, mv.layer, settings.conserve_volume ? 0.5 * nozzle_mm : 0.0};
     droop.elephant_foot(bead, mv.feature, area_mm2, map);
     droop.begin_bead(mv, bead.a_mm, bead.b_mm, samples, bead.h_mm, bead.w_mm, map);
-    support.check_bead(mv, bead.a_mm, bead.b_mm, n, samples, bead.h_mm, bead.w_mm, pb.continues_path, map, &droop);
+    support.check_bead(mv, bead.a_mm, bead.b_mm, n, samples, bead.h_mm, bead.w_mm,
+                       pb.continues_path, map, &droop);
     const auto laid = droop.lay(bead, sweeper, grid, tag, map);
     overlap_voxels += laid.overlap;
     squeezed_voxels += laid.squeezed;
@@ -163,26 +169,27 @@ struct DepositBuilder::State {
     Eigen::Vector3i hi = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
     // Min and max do not depend on the order: the allocated blocks as they come, not the
     // whole directory (most of which, over the bed around the part, was never touched).
-    detail::VoxelBlocks::visit_blocks_as_allocated(grid, [&](const detail::VoxelBlocks::BlockView& blk) {
-      std::uint64_t any = 0;
-      for (int z = 0; z < 8; ++z) {
-        if (blk.occupancy[z] == 0) continue;
-        any |= blk.occupancy[z];
-        lo.z() = std::min(lo.z(), blk.base.z + z);
-        hi.z() = std::max(hi.z(), blk.base.z + z);
-      }
-      if (any == 0) return;
-      std::uint32_t xs = 0, ys = 0;
-      for (int y = 0; y < 8; ++y) {
-        const auto row = static_cast<std::uint32_t>((any >> (8 * y)) & 0xFF);
-        xs |= row;
-        if (row) ys |= 1u << y;
-      }
-      lo.x() = std::min(lo.x(), blk.base.x + std::countr_zero(xs));
-      hi.x() = std::max(hi.x(), blk.base.x + 31 - std::countl_zero(xs));
-      lo.y() = std::min(lo.y(), blk.base.y + std::countr_zero(ys));
-      hi.y() = std::max(hi.y(), blk.base.y + 31 - std::countl_zero(ys));
-    });
+    detail::VoxelBlocks::visit_blocks_as_allocated(
+        grid, [&](const detail::VoxelBlocks::BlockView& blk) {
+          std::uint64_t any = 0;
+          for (int z = 0; z < 8; ++z) {
+            if (blk.occupancy[z] == 0) continue;
+            any |= blk.occupancy[z];
+            lo.z() = std::min(lo.z(), blk.base.z + z);
+            hi.z() = std::max(hi.z(), blk.base.z + z);
+          }
+          if (any == 0) return;
+          std::uint32_t xs = 0, ys = 0;
+          for (int y = 0; y < 8; ++y) {
+            const auto row = static_cast<std::uint32_t>((any >> (8 * y)) & 0xFF);
+            xs |= row;
+            if (row) ys |= 1u << y;
+          }
+          lo.x() = std::min(lo.x(), blk.base.x + std::countr_zero(xs));
+          hi.x() = std::max(hi.x(), blk.base.x + 31 - std::countl_zero(xs));
+          lo.y() = std::min(lo.y(), blk.base.y + std::countr_zero(ys));
+          hi.y() = std::max(hi.y(), blk.base.y + 31 - std::countl_zero(ys));
+        });
     Box3 box;
     if (lo.x() > hi.x()) return box;
     box.min = grid.origin_mm() + voxel * lo.cast<double>();
@@ -196,7 +203,8 @@ namespace {
 
 Status check_settings(const DepositSettings& s) {
   if (!(s.voxel_mm >= 0.001 && s.voxel_mm <= 10.0))
-    return usage_error("voxel size must be between 0.001 and 10 mm, got " + format_number(s.voxel_mm));
+    return usage_error("voxel size must be between 0.001 and 10 mm, got " +
+                       format_number(s.voxel_mm));
   if (!(s.support_fraction >= 0.0 && s.support_fraction <= 1.0))
     return usage_error("support fraction must be between 0 and 1, got " +
                        format_number(s.support_fraction));
@@ -228,13 +236,15 @@ Frame frame_for(const Box3& tips, double margin_mm, double voxel) {
 double grid_bytes(const Eigen::Vector3i& dims, std::size_t blocks, std::size_t tags) {
   const Eigen::Vector3d bd = ((dims.array() + 7) / 8).cast<double>();
   return bd.prod() * 4.0 + static_cast<double>(blocks) * detail::VoxelBlocks::kBlockBytes +
-         static_cast<double>(dims.x()) * dims.y() * (sizeof(std::uint16_t) + sizeof(std::int32_t)) +  // height, top layer
+         static_cast<double>(dims.x()) * dims.y() *
+             (sizeof(std::uint16_t) + sizeof(std::int32_t)) +  // height, top layer
          static_cast<double>(tags) * sizeof(VoxelTag) +
          1024.0 * detail::VoxelBlocks::kBlockBytes;
 }
 
 /// The estimate at one voxel size: bead footprints marked block by block.
-DepositEstimate estimate_at(std::span<const Move> moves, const PrinterProfile& profile, double voxel) {
+DepositEstimate estimate_at(std::span<const Move> moves, const PrinterProfile& profile,
+                            double voxel) {
   DepositEstimate e;
   const double fa = profile.filament_area_mm2();
   const double nozzle = profile.nozzle_diameter_mm;
@@ -279,12 +289,17 @@ DepositEstimate estimate_at(std::span<const Move> moves, const PrinterProfile& p
       const Vec3 q = m.start_mm + (static_cast<double>(s) / steps) * (m.end_mm - m.start_mm);
       const Vec3 lo = (Vec3(q.x() - hw, q.y() - hw, q.z() - h) - f.origin) / block_mm;
       const Vec3 hi = (Vec3(q.x() + hw, q.y() + hw, q.z()) - f.origin) / block_mm;
-      for (int bz = std::max(0, static_cast<int>(lo.z())); bz <= std::min(bd.z() - 1, static_cast<int>(hi.z())); ++bz)
-        for (int by = std::max(0, static_cast<int>(lo.y())); by <= std::min(bd.y() - 1, static_cast<int>(hi.y())); ++by)
-          for (int bx = std::max(0, static_cast<int>(lo.x())); bx <= std::min(bd.x() - 1, static_cast<int>(hi.x())); ++bx) {
-            const std::size_t idx = (static_cast<std::size_t>(bz) * static_cast<std::size_t>(bd.y()) +
-                                     static_cast<std::size_t>(by)) * static_cast<std::size_t>(bd.x()) +
-                                    static_cast<std::size_t>(bx);
+      for (int bz = std::max(0, static_cast<int>(lo.z()));
+           bz <= std::min(bd.z() - 1, static_cast<int>(hi.z())); ++bz)
+        for (int by = std::max(0, static_cast<int>(lo.y()));
+             by <= std::min(bd.y() - 1, static_cast<int>(hi.y())); ++by)
+          for (int bx = std::max(0, static_cast<int>(lo.x()));
+               bx <= std::min(bd.x() - 1, static_cast<int>(hi.x())); ++bx) {
+            const std::size_t idx =
+                (static_cast<std::size_t>(bz) * static_cast<std::size_t>(bd.y()) +
+                 static_cast<std::size_t>(by)) *
+                    static_cast<std::size_t>(bd.x()) +
+                static_cast<std::size_t>(bx);
             marked[idx / 64] |= std::uint64_t{1} << (idx % 64);
           }
     }
@@ -295,7 +310,8 @@ DepositEstimate estimate_at(std::span<const Move> moves, const PrinterProfile& p
 }
 
 std::string format_bytes(double bytes) {
-  if (bytes >= 1024.0 * 1024 * 1024) return format_fixed(bytes / (1024.0 * 1024 * 1024), 2) + " GiB";
+  if (bytes >= 1024.0 * 1024 * 1024)
+    return format_fixed(bytes / (1024.0 * 1024 * 1024), 2) + " GiB";
   return format_fixed(bytes / (1024.0 * 1024), 1) + " MiB";
 }
 
@@ -319,7 +335,8 @@ Result<DepositResult> deposit_moves(std::span<const Move> moves, const PrinterPr
   return detail::DepositRun::moves(moves, profile, detail::DepositRunSettings(settings));
 }
 
-Result<DepositResult> detail::DepositRun::moves(std::span<const Move> moves, const PrinterProfile& profile,
+Result<DepositResult> detail::DepositRun::moves(std::span<const Move> moves,
+                                                const PrinterProfile& profile,
                                                 const DepositRunSettings& settings) {
   if (auto st = check_settings(settings); !st) return st.error();
   const DepositEstimate e = estimate_at(moves, profile, settings.voxel_mm);
@@ -330,7 +347,9 @@ Result<DepositResult> detail::DepositRun::moves(std::span<const Move> moves, con
     for (int attempt = 0; attempt < 8; ++attempt) {
       v = std::ceil(v * 100.0) / 100.0;
       const DepositEstimate again = estimate_at(moves, profile, v);
-      if (static_cast<double>(again.bytes) <= budget && again.dims.z() <= static_cast<int>(kHeightMapMax)) break;
+      if (static_cast<double>(again.bytes) <= budget &&
+          again.dims.z() <= static_cast<int>(kHeightMapMax))
+        break;
       v *= 1.15;
     }
     return over_budget(static_cast<double>(e.bytes), budget, settings.voxel_mm, v);
@@ -353,14 +372,16 @@ Result<DepositBuilder> DepositBuilder::create(const Box3& extent_mm, const Print
   if (auto st = check_settings(settings); !st) return st.error();
   const double v = settings.voxel_mm;
   const Frame f = frame_for(extent_mm, 5.0 * profile.nozzle_diameter_mm + 2 * v, v);
-  const std::size_t blocks = static_cast<std::size_t>(2.0 * extruded_mm3_hint / (v * v * v * 512.0));
+  const std::size_t blocks =
+      static_cast<std::size_t>(2.0 * extruded_mm3_hint / (v * v * v * 512.0));
   const double bytes = grid_bytes(f.dims, blocks, 0);
   const auto budget = static_cast<double>(settings.max_memory_bytes);
   if (bytes > budget || f.dims.z() > static_cast<int>(kHeightMapMax)) {
     const double suggested = std::ceil(v * std::cbrt(bytes / (0.9 * budget)) * 100.0) / 100.0;
     return over_budget(bytes, budget, v, std::max(suggested, v + 0.01));
   }
-  auto state = std::make_unique<State>(detail::DepositRunSettings(settings), profile, f.origin, f.dims);
+  auto state =
+      std::make_unique<State>(detail::DepositRunSettings(settings), profile, f.origin, f.dims);
   detail::VoxelBlocks::reserve_blocks(state->grid, blocks);
   return DepositBuilder(std::move(state));
 }

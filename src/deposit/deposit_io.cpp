@@ -50,9 +50,10 @@ Status write_deposit_ply(const VoxelGrid& grid, const std::filesystem::path& pat
   out += "ply\nformat binary_little_endian 1.0\n";
   out += "comment printtwin deposit: outer surface voxels (centres, mm), voxel_mm " +
          format_number(grid.voxel_mm()) + "\n";
-  out += "comment feature: 0 unknown 1 outer_perimeter 2 perimeter 3 overhang_perimeter "
-         "4 sparse_infill 5 solid_infill 6 top_solid_infill 7 bridge_infill 8 gap_fill 9 skirt "
-         "10 support 11 support_interface 12 wipe_tower 13 custom\n";
+  out +=
+      "comment feature: 0 unknown 1 outer_perimeter 2 perimeter 3 overhang_perimeter "
+      "4 sparse_infill 5 solid_infill 6 top_solid_infill 7 bridge_infill 8 gap_fill 9 skirt "
+      "10 support 11 support_interface 12 wipe_tower 13 custom\n";
   out += "element vertex " + std::to_string(surface.size()) + "\n";
   out += "property float x\nproperty float y\nproperty float z\n";
   out += "property float nx\nproperty float ny\nproperty float nz\n";

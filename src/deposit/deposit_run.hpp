@@ -18,7 +18,8 @@ struct DepositRunSettings : DepositSettings {
 
 /// deposit_moves with the run switches.
 struct DepositRun {
-  [[nodiscard]] static Result<DepositResult> moves(std::span<const Move> moves, const PrinterProfile& profile,
+  [[nodiscard]] static Result<DepositResult> moves(std::span<const Move> moves,
+                                                   const PrinterProfile& profile,
                                                    const DepositRunSettings& settings);
 };
 

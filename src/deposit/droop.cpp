@@ -23,7 +23,8 @@ DroopModel DroopModel::from(const PrinterProfile& p) {
 double DroopModel::bridge_sag(double span_mm, double x_mm) const {
   if (!(span_mm > 0) || !(bridge_sag_span_mm > 0)) return 0;
   const double x = std::clamp(x_mm, 0.0, span_mm);
-  const double mid = bridge_sag_mm * (span_mm / bridge_sag_span_mm) * (span_mm / bridge_sag_span_mm);
+  const double mid =
+      bridge_sag_mm * (span_mm / bridge_sag_span_mm) * (span_mm / bridge_sag_span_mm);
   return mid * 4.0 * x * (span_mm - x) / (span_mm * span_mm);
 }
 
@@ -33,8 +34,8 @@ double DroopModel::cantilever_droop(double e_mm) const {
   return overhang_droop_mm * r * r;
 }
 
-Drop predict_drop(const DroopModel& m, double back_mm, double fwd_mm, double edge_mm, double room_mm,
-                  double back_low_mm, double fwd_low_mm) {
+Drop predict_drop(const DroopModel& m, double back_mm, double fwd_mm, double edge_mm,
+                  double room_mm, double back_low_mm, double fwd_low_mm) {
   Drop d;
   const double room = std::max(room_mm, 0.0);
   // Held along the path at both ends: a bridge; held by the edge below: a cantilever. A bead
@@ -42,7 +43,8 @@ Drop predict_drop(const DroopModel& m, double back_mm, double fwd_mm, double edg
   double drop = kNoAnchor;
   if (back_mm < kNoAnchor && fwd_mm < kNoAnchor) {
     const double span = back_mm + fwd_mm;
-    drop = back_low_mm + (fwd_low_mm - back_low_mm) * (back_mm / span) + m.bridge_sag(span, back_mm);
+    drop =
+        back_low_mm + (fwd_low_mm - back_low_mm) * (back_mm / span) + m.bridge_sag(span, back_mm);
     d.kind = DropKind::bridge;
   }
   const bool falls = !(edge_mm <= m.overhang_fall_mm);
@@ -56,7 +58,8 @@ Drop predict_drop(const DroopModel& m, double back_mm, double fwd_mm, double edg
   return d;
 }
 
-void drop_knots(std::span<const double> drops, int stride, double tol_mm, std::vector<DropKnot>& out) {
+void drop_knots(std::span<const double> drops, int stride, double tol_mm,
+                std::vector<DropKnot>& out) {
   out.clear();
   const auto n = static_cast<int>(drops.size());
   if (n == 0 || std::none_of(drops.begin(), drops.end(), [](double v) { return v > 0; })) return;

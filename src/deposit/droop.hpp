@@ -3,8 +3,8 @@
 //
 // A bead laid over air does not stay where the nozzle left it:
 // - a bridge (held at both ends along its path) sags in a parabola (a strand under its own
-//   weight, held in tension at its anchors): mid-span sag S(L) = bridge_sag_mm (L / bridge_sag_span_mm)^2,
-//   at distance x from one anchor S(L) 4 x (L - x) / L^2;
+//   weight, held in tension at its anchors): mid-span sag S(L) = bridge_sag_mm (L /
+//   bridge_sag_span_mm)^2, at distance x from one anchor S(L) 4 x (L - x) / L^2;
 // - a cantilever (held on one side only) droops toward the edge of the layer below that holds
 //   it: D(e) = overhang_droop_mm (e / overhang_fall_mm)^2 at distance e beyond that edge; beyond
 //   overhang_fall_mm it falls: onto whatever is below it when that is within
@@ -70,7 +70,8 @@ struct DropKnot {
 /// The knots of the lowering through per-sample drops (sample i at t = (i + 0.5) / n): the
 /// bead's ends, then every `stride` samples, keeping only the knots that the straight line
 /// between their kept neighbours misses by more than `tol_mm`. Empty when nothing drops.
-void drop_knots(std::span<const double> drops, int stride, double tol_mm, std::vector<DropKnot>& out);
+void drop_knots(std::span<const double> drops, int stride, double tol_mm,
+                std::vector<DropKnot>& out);
 
 /// A bead section after the elephant's foot: width, height and the move of its centre line
 /// along the left normal (positive to the left).
@@ -86,8 +87,8 @@ struct FootSection {
 /// Distance (mm) from p along the unit direction dir to the first point, stepping `step_mm`,
 /// where anchor(x, y) holds; kNoAnchor when none within max_mm.
 template <class Anchor>
-[[nodiscard]] double distance_to_anchor(const Vec2& p, const Vec2& dir, double step_mm, double max_mm,
-                                        Anchor&& anchor) {
+[[nodiscard]] double distance_to_anchor(const Vec2& p, const Vec2& dir, double step_mm,
+                                        double max_mm, Anchor&& anchor) {
   for (double s = step_mm; s <= max_mm + 1e-9; s += step_mm)
     if (anchor(p.x() + s * dir.x(), p.y() + s * dir.y())) return s;
   return kNoAnchor;
@@ -96,7 +97,8 @@ template <class Anchor>
 /// Distance to the nearest anchor in the 8 directions around p (rotated with the bead's
 /// direction d), up to max_mm.
 template <class Anchor>
-[[nodiscard]] double nearest_anchor(const Vec2& p, const Vec2& d, double step_mm, double max_mm, Anchor&& anchor) {
+[[nodiscard]] double nearest_anchor(const Vec2& p, const Vec2& d, double step_mm, double max_mm,
+                                    Anchor&& anchor) {
   constexpr double kR = 0.70710678118654752;
   const Vec2 n(-d.y(), d.x());
   const Vec2 dirs[8] = {d, -d, n, -n, kR * (d + n), kR * (d - n), kR * (n - d), -kR * (d + n)};

@@ -6,8 +6,8 @@
 
 namespace printtwin::detail {
 
-void DroopProbe::begin_bead(const Move& mv, const Vec3& a, const Vec3& b, int samples, double h, double w,
-                            const HeightMap& map) {
+void DroopProbe::begin_bead(const Move& mv, const Vec3& a, const Vec3& b, int samples, double h,
+                            double w, const HeightMap& map) {
   map_ = &map;
   mv_ = mv;
   a_ = a;
@@ -21,9 +21,9 @@ void DroopProbe::begin_bead(const Move& mv, const Vec3& a, const Vec3& b, int sa
   step_mm_ = len / samples;
   // Sparse infill spans the cells below; support is removed after printing; solid infill is
   // laid as a sheet over support or infill, each line beside the last (not modelled: a limit).
-  skip_ = !model_.deforms() || mv.feature == Feature::sparse_infill || mv.feature == Feature::support ||
-          mv.feature == Feature::support_interface || mv.feature == Feature::solid_infill ||
-          mv.feature == Feature::top_solid_infill;
+  skip_ = !model_.deforms() || mv.feature == Feature::sparse_infill ||
+          mv.feature == Feature::support || mv.feature == Feature::support_interface ||
+          mv.feature == Feature::solid_infill || mv.feature == Feature::top_solid_infill;
   if (model_.deforms() && below_rows_.size() == 0) {
     const HeightMapView v = map.view();
     const std::size_t n = v.tiles_x * static_cast<std::size_t>((v.ny + 7) / 8) * 64;
@@ -58,7 +58,9 @@ bool DroopProbe::holds(double x, double y, double bottom) const {
   if (!layer) return false;
   if (*layer < mv_.layer) return map_->top_mm(x, y) >= bottom - 2.0 * h_;
   std::size_t at = 0;
-  if (*layer != mv_.layer || !column(x, y, at) || below_stamp_[at] != mv_.layer + 1 || below_rows_[at] == 0) return false;
+  if (*layer != mv_.layer || !column(x, y, at) || below_stamp_[at] != mv_.layer + 1 ||
+      below_rows_[at] == 0)
+    return false;
   return oz_ + below_rows_[at] * voxel_ >= bottom - 2.0 * h_;
 }
 
@@ -71,7 +73,8 @@ void DroopProbe::remember_below(const SweptBead& bead, const HeightMap& map) {
   for (int i = 0; i <= along; ++i) {
     const Vec2 q = a + (static_cast<double>(i) / along) * (b - a);
     for (int j = 0; j <= across; ++j) {
-      const Vec2 p = q + (-0.5 * bead.w_mm - voxel_ + (bead.w_mm + 2 * voxel_) * j / across) * bead.n;
+      const Vec2 p =
+          q + (-0.5 * bead.w_mm - voxel_ + (bead.w_mm + 2 * voxel_) * j / across) * bead.n;
       std::size_t at = 0;
       if (!column(p.x(), p.y(), at) || below_stamp_[at] == bead.layer + 1) continue;
       const auto layer = map.top_layer_at(p.x(), p.y());
@@ -110,7 +113,8 @@ Drop DroopProbe::sample(int i) {
   const double room = bottom - below;
   // The edge that holds it: nearest earlier-layer material within the fall limit.
   auto hold = [&](double x, double y) { return holds(x, y, bottom); };
-  const double edge = hold(p.x(), p.y()) ? 0.0 : nearest_anchor(p, d_, voxel_, model_.overhang_fall_mm, hold);
+  const double edge =
+      hold(p.x(), p.y()) ? 0.0 : nearest_anchor(p, d_, voxel_, model_.overhang_fall_mm, hold);
   // Anchors ahead and behind along the path (a bridge), found once per bead and carried on.
   double low = 0;
   auto anchor = [&](double x, double y) { return anchors(x, y, bottom, q.z(), low); };
@@ -137,17 +141,20 @@ Drop DroopProbe::sample(int i) {
   return drop;
 }
 
-BeadSweep::Laid DroopProbe::lay(const SweptBead& bead, BeadSweep& sweep, VoxelGrid& grid, std::uint32_t tag,
-                                HeightMap& map) {
+BeadSweep::Laid DroopProbe::lay(const SweptBead& bead, BeadSweep& sweep, VoxelGrid& grid,
+                                std::uint32_t tag, HeightMap& map) {
   // Knots every half millimetre at most, kept where the lowering bends by a fifth of a voxel.
   const int stride = std::max(1, static_cast<int>(std::lround(0.5 / std::max(step_mm_, 1e-9))));
   // Perimeters are what a later bead of the same layer hangs beside (slicers lay the inner
   // perimeters before the outer one); infill is not remembered, to keep the cost down.
-  if (model_.deforms() && (mv_.feature == Feature::perimeter || mv_.feature == Feature::outer_perimeter ||
-                           mv_.feature == Feature::overhang_perimeter || mv_.feature == Feature::unknown))
+  if (model_.deforms() &&
+      (mv_.feature == Feature::perimeter || mv_.feature == Feature::outer_perimeter ||
+       mv_.feature == Feature::overhang_perimeter || mv_.feature == Feature::unknown))
     remember_below(bead, map);
-  if (skip_ || drops_.empty()) knots_.clear();
-  else drop_knots(drops_, stride, 0.2 * voxel_, knots_);
+  if (skip_ || drops_.empty())
+    knots_.clear();
+  else
+    drop_knots(drops_, stride, 0.2 * voxel_, knots_);
   if (knots_.empty()) return sweep.lay(bead, grid, tag, map);
   // Pieces between knots, joined by square cuts (the pieces are collinear in XY); the first
   // and last keep the bead's own cuts. Each piece keeps the section, so the volume stays.
@@ -167,7 +174,8 @@ BeadSweep::Laid DroopProbe::lay(const SweptBead& bead, BeadSweep& sweep, VoxelGr
   return total;
 }
 
-void DroopProbe::elephant_foot(SweptBead& bead, Feature feature, double area_mm2, const HeightMap& map) const {
+void DroopProbe::elephant_foot(SweptBead& bead, Feature feature, double area_mm2,
+                               const HeightMap& map) const {
   if (!(model_.elephant_foot_mm > 0)) return;
   if (feature != Feature::outer_perimeter && feature != Feature::overhang_perimeter) return;
   const double bottom_a = bead.a_mm.z() - bead.h_mm, bottom_b = bead.b_mm.z() - bead.h_mm;
@@ -182,8 +190,8 @@ void DroopProbe::elephant_foot(SweptBead& bead, Feature feature, double area_mm2
     }
     return empty >= 2;
   };
-  const FootSection f = detail::elephant_foot(area_mm2, bead.w_mm, bead.h_mm, model_.elephant_foot_mm, open(1.0),
-                                              open(-1.0));
+  const FootSection f = detail::elephant_foot(area_mm2, bead.w_mm, bead.h_mm,
+                                              model_.elephant_foot_mm, open(1.0), open(-1.0));
   if (f.w == bead.w_mm) return;
   const Vec3 shift(f.shift * bead.n.x(), f.shift * bead.n.y(), -(bead.h_mm - f.h));
   bead.a_mm += shift;

@@ -27,7 +27,8 @@ class DroopProbe {
   Drop sample(int i);
   /// Lays the current bead lowered by its samples' drops (as one bead when nothing drops).
   /// Lays the bead (lowered piece by piece where it droops) and returns what the sweep laid.
-  BeadSweep::Laid lay(const SweptBead& bead, BeadSweep& sweep, VoxelGrid& grid, std::uint32_t tag, HeightMap& map);
+  BeadSweep::Laid lay(const SweptBead& bead, BeadSweep& sweep, VoxelGrid& grid, std::uint32_t tag,
+                      HeightMap& map);
 
   /// The elephant's foot: a first-layer outer bead on the bed widens on its sides that face
   /// air and gets lower, keeping its section's area. Changes `bead` in place.

@@ -39,8 +39,8 @@ int HeightMap::rows_reaching(double z_mm) const {
   return std::max(r, 0);
 }
 
-void HeightMap::raise_tops(std::uint16_t* tile, std::int32_t* layers, std::uint64_t mask, std::uint16_t rows,
-                           std::int32_t layer) {
+void HeightMap::raise_tops(std::uint16_t* tile, std::int32_t* layers, std::uint64_t mask,
+                           std::uint16_t rows, std::int32_t layer) {
 #if defined(__SSE2__)
   const __m128i bit = _mm_setr_epi16(1, 2, 4, 8, 16, 32, 64, 128);
   const __m128i value = _mm_set1_epi16(static_cast<short>(rows));
@@ -56,9 +56,10 @@ void HeightMap::raise_tops(std::uint16_t* tile, std::int32_t* layers, std::uint6
     _mm_storeu_si128(p, _mm_max_epi16(old, _mm_and_si128(lanes, value)));
     auto* lp = reinterpret_cast<__m128i*>(layers);
     const __m128i r_lo = _mm_unpacklo_epi16(reach, reach), r_hi = _mm_unpackhi_epi16(reach, reach);
-    _mm_storeu_si128(lp, _mm_or_si128(_mm_and_si128(r_lo, layer4), _mm_andnot_si128(r_lo, _mm_loadu_si128(lp))));
-    _mm_storeu_si128(lp + 1,
-                     _mm_or_si128(_mm_and_si128(r_hi, layer4), _mm_andnot_si128(r_hi, _mm_loadu_si128(lp + 1))));
+    _mm_storeu_si128(
+        lp, _mm_or_si128(_mm_and_si128(r_lo, layer4), _mm_andnot_si128(r_lo, _mm_loadu_si128(lp))));
+    _mm_storeu_si128(lp + 1, _mm_or_si128(_mm_and_si128(r_hi, layer4),
+                                          _mm_andnot_si128(r_hi, _mm_loadu_si128(lp + 1))));
   }
 #else
   for (int y = 0; y < 8; ++y, tile += 8, layers += 8) {

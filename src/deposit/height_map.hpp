@@ -29,7 +29,8 @@ class HeightMap {
 
   /// A map over nx x ny columns (tiles_x tiles per row, tiles_y rows of tiles) of edge
   /// `voxel_mm` with its corner at `origin_mm`.
-  HeightMap(double voxel_mm, const Vec3& origin_mm, int nx, int ny, std::size_t tiles_x, std::size_t tiles_y);
+  HeightMap(double voxel_mm, const Vec3& origin_mm, int nx, int ny, std::size_t tiles_x,
+            std::size_t tiles_y);
 
   [[nodiscard]] HeightMapView view() const { return {top_.data(), tiles_x_, nx_, ny_}; }
   /// Index of column (i, j) (in the map) in the tile layout.
@@ -43,7 +44,9 @@ class HeightMap {
   }
   /// Height (mm, machine frame) of the deposit top in the column under (x, y), or the grid
   /// bottom (the bed) outside the map.
-  [[nodiscard]] double top_mm(double x_mm, double y_mm) const { return oz_ + rows(x_mm, y_mm) * voxel_; }
+  [[nodiscard]] double top_mm(double x_mm, double y_mm) const {
+    return oz_ + rows(x_mm, y_mm) * voxel_;
+  }
   /// Layer of the move that last wrote the top voxel of the column under (x, y) (mm);
   /// nullopt when the column is empty or outside the map.
   [[nodiscard]] std::optional<std::int32_t> top_layer_at(double x_mm, double y_mm) const;
@@ -67,8 +70,8 @@ class HeightMap {
   }
 
  private:
-  static void raise_tops(std::uint16_t* tile, std::int32_t* layers, std::uint64_t mask, std::uint16_t rows,
-                         std::int32_t layer);
+  static void raise_tops(std::uint16_t* tile, std::int32_t* layers, std::uint64_t mask,
+                         std::uint16_t rows, std::int32_t layer);
 
   double voxel_, inv_voxel_;
   double ox_, oy_, oz_;

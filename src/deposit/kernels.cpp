@@ -28,9 +28,14 @@ struct SamplePoint {
   float l, dz;   // beyond the flat part laterally, above the section centre
 };
 inline SamplePoint sample_point(const BeadFrame& f, float X, float Y, float Z, std::uint32_t h) {
-  const float jx = static_cast<float>(static_cast<std::int32_t>(h & 0x3FFu)) * kJitterScale + kJitterHalf;
-  const float jy = static_cast<float>(static_cast<std::int32_t>((h >> 10) & 0x3FFu)) * kJitterScale + kJitterHalf;
-  const float jz = static_cast<float>(static_cast<std::int32_t>((h >> 20) & 0x3FFu)) * kJitterScale + kJitterHalf;
+  const float jx =
+      static_cast<float>(static_cast<std::int32_t>(h & 0x3FFu)) * kJitterScale + kJitterHalf;
+  const float jy =
+      static_cast<float>(static_cast<std::int32_t>((h >> 10) & 0x3FFu)) * kJitterScale +
+      kJitterHalf;
+  const float jz =
+      static_cast<float>(static_cast<std::int32_t>((h >> 20) & 0x3FFu)) * kJitterScale +
+      kJitterHalf;
   const float rx = (X + jx) - f.fa_x;
   const float ry = (Y + jy) - f.fa_y;
   const float z = Z + jz;
@@ -51,8 +56,9 @@ inline bool inside(const BeadFrame& f, float X, float Y, float Z, std::uint32_t 
 }
 
 #if PRINTTWIN_HAVE_AVX2_KERNEL
-[[gnu::target("avx2")]] std::uint64_t test_tile_avx2(const BeadFrame& f, std::int32_t i0, std::int32_t j0,
-                                                     std::int32_t k, int row_lo, int row_hi, unsigned lanes) {
+[[gnu::target("avx2")]] std::uint64_t test_tile_avx2(const BeadFrame& f, std::int32_t i0,
+                                                     std::int32_t j0, std::int32_t k, int row_lo,
+                                                     int row_hi, unsigned lanes) {
   const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   const __m256i vi = _mm256_add_epi32(_mm256_set1_epi32(i0), lane);
   const __m256i ihash = _mm256_mullo_epi32(vi, _mm256_set1_epi32(static_cast<int>(0x8da6b343u)));
@@ -64,7 +70,8 @@ inline bool inside(const BeadFrame& f, float X, float Y, float Z, std::uint32_t 
   const __m256 scale = _mm256_set1_ps(kJitterScale), half = _mm256_set1_ps(kJitterHalf);
   const __m256 fa_x = _mm256_set1_ps(f.fa_x), fa_y = _mm256_set1_ps(f.fa_y);
   const __m256 m0x = _mm256_set1_ps(f.m0_x), m0y = _mm256_set1_ps(f.m0_y);
-  const __m256 m1x = _mm256_set1_ps(f.m1_x), m1y = _mm256_set1_ps(f.m1_y), e1 = _mm256_set1_ps(f.e1);
+  const __m256 m1x = _mm256_set1_ps(f.m1_x), m1y = _mm256_set1_ps(f.m1_y),
+               e1 = _mm256_set1_ps(f.e1);
   const __m256 dx = _mm256_set1_ps(f.d_x), dy = _mm256_set1_ps(f.d_y);
   const __m256 nx = _mm256_set1_ps(f.n_x), ny = _mm256_set1_ps(f.n_y);
   const __m256 c0 = _mm256_set1_ps(f.c0), slope = _mm256_set1_ps(f.slope);
@@ -82,25 +89,30 @@ inline bool inside(const BeadFrame& f, float X, float Y, float Z, std::uint32_t 
     h = _mm256_xor_si256(h, _mm256_srli_epi32(h, 15));
     h = _mm256_mullo_epi32(h, c2);
     h = _mm256_xor_si256(h, _mm256_srli_epi32(h, 16));
-    const __m256 jx = _mm256_add_ps(_mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_and_si256(h, ten)), scale), half);
+    const __m256 jx =
+        _mm256_add_ps(_mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_and_si256(h, ten)), scale), half);
     const __m256 jy = _mm256_add_ps(
-        _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(h, 10), ten)), scale), half);
+        _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(h, 10), ten)), scale),
+        half);
     const __m256 jz = _mm256_add_ps(
-        _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(h, 20), ten)), scale), half);
+        _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(h, 20), ten)), scale),
+        half);
     const __m256 Y = _mm256_set1_ps(static_cast<float>(j - f.ja));
     const __m256 rx = _mm256_sub_ps(_mm256_add_ps(X, jx), fa_x);
     const __m256 ry = _mm256_sub_ps(_mm256_add_ps(Y, jy), fa_y);
     const __m256 z = _mm256_add_ps(Z, jz);
     const __m256 s0 = _mm256_add_ps(_mm256_mul_ps(m0x, rx), _mm256_mul_ps(m0y, ry));
-    const __m256 s1 = _mm256_sub_ps(_mm256_add_ps(_mm256_mul_ps(m1x, rx), _mm256_mul_ps(m1y, ry)), e1);
+    const __m256 s1 =
+        _mm256_sub_ps(_mm256_add_ps(_mm256_mul_ps(m1x, rx), _mm256_mul_ps(m1y, ry)), e1);
     const __m256 u = _mm256_add_ps(_mm256_mul_ps(dx, rx), _mm256_mul_ps(dy, ry));
     const __m256 dz = _mm256_sub_ps(z, _mm256_add_ps(c0, _mm256_mul_ps(slope, u)));
     const __m256 l = _mm256_sub_ps(
         _mm256_and_ps(_mm256_add_ps(_mm256_mul_ps(nx, rx), _mm256_mul_ps(ny, ry)), abs_mask), flat);
-    const __m256 round_ok =
-        _mm256_or_ps(_mm256_cmp_ps(l, zero, _CMP_LE_OQ),
-                     _mm256_cmp_ps(_mm256_add_ps(_mm256_mul_ps(l, l), _mm256_mul_ps(dz, dz)), r2, _CMP_LE_OQ));
-    __m256 ok = _mm256_and_ps(_mm256_cmp_ps(s0, zero, _CMP_GE_OQ), _mm256_cmp_ps(s1, zero, _CMP_LT_OQ));
+    const __m256 round_ok = _mm256_or_ps(
+        _mm256_cmp_ps(l, zero, _CMP_LE_OQ),
+        _mm256_cmp_ps(_mm256_add_ps(_mm256_mul_ps(l, l), _mm256_mul_ps(dz, dz)), r2, _CMP_LE_OQ));
+    __m256 ok =
+        _mm256_and_ps(_mm256_cmp_ps(s0, zero, _CMP_GE_OQ), _mm256_cmp_ps(s1, zero, _CMP_LT_OQ));
     ok = _mm256_and_ps(ok, _mm256_cmp_ps(dz, neg_r, _CMP_GE_OQ));
     ok = _mm256_and_ps(ok, _mm256_cmp_ps(dz, r, _CMP_LT_OQ));
     ok = _mm256_and_ps(ok, round_ok);
@@ -110,7 +122,6 @@ inline bool inside(const BeadFrame& f, float X, float Y, float Z, std::uint32_t 
   return out;
 }
 
-
 // GCC 12 flags the "undefined" source operands inside its own AVX-512 intrinsics.
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wuninitialized"
@@ -119,8 +130,8 @@ inline bool inside(const BeadFrame& f, float X, float Y, float Z, std::uint32_t 
 /// each an IEEE single-precision operation as there (no contraction into fused multiply-adds,
 /// which AVX-512 would allow), so the same bits.
 [[gnu::target("avx512f"), gnu::optimize("fp-contract=off")]] void test_tile_layers_avx512(
-    const BeadFrame& f, std::int32_t i0, std::int32_t j0, const std::int32_t* ks, int nk, int row_lo, int row_hi,
-    unsigned lanes, std::uint64_t* masks) {
+    const BeadFrame& f, std::int32_t i0, std::int32_t j0, const std::int32_t* ks, int nk,
+    int row_lo, int row_hi, unsigned lanes, std::uint64_t* masks) {
   // Everything but the layer's height and hash is the same for all the tile's layers.
   const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 0, 1, 2, 3, 4, 5, 6, 7);
   const __m512i vi = _mm512_add_epi32(_mm512_set1_epi32(i0), lane);
@@ -132,7 +143,8 @@ inline bool inside(const BeadFrame& f, float X, float Y, float Z, std::uint32_t 
   const __m512 scale = _mm512_set1_ps(kJitterScale), half = _mm512_set1_ps(kJitterHalf);
   const __m512 fa_x = _mm512_set1_ps(f.fa_x), fa_y = _mm512_set1_ps(f.fa_y);
   const __m512 m0x = _mm512_set1_ps(f.m0_x), m0y = _mm512_set1_ps(f.m0_y);
-  const __m512 m1x = _mm512_set1_ps(f.m1_x), m1y = _mm512_set1_ps(f.m1_y), e1 = _mm512_set1_ps(f.e1);
+  const __m512 m1x = _mm512_set1_ps(f.m1_x), m1y = _mm512_set1_ps(f.m1_y),
+               e1 = _mm512_set1_ps(f.e1);
   const __m512 dx = _mm512_set1_ps(f.d_x), dy = _mm512_set1_ps(f.d_y);
   const __m512 nx = _mm512_set1_ps(f.n_x), ny = _mm512_set1_ps(f.n_y);
   const __m512 c0 = _mm512_set1_ps(f.c0), slope = _mm512_set1_ps(f.slope);
@@ -147,34 +159,44 @@ inline bool inside(const BeadFrame& f, float X, float Y, float Z, std::uint32_t 
     std::uint64_t out = 0;
     for (int y = row_lo; y < row_hi; y += 2) {
       const std::int32_t j = j0 + y;
-      const auto row_hash = [&](std::int32_t jj) { return static_cast<int>(static_cast<std::uint32_t>(jj) * 0xd8163841u ^ khash); };
+      const auto row_hash = [&](std::int32_t jj) {
+        return static_cast<int>(static_cast<std::uint32_t>(jj) * 0xd8163841u ^ khash);
+      };
       // Lanes 8-15 hold row y + 1 (past row_hi they are computed and dropped).
-      __m512i h = _mm512_xor_si512(ihash, _mm512_mask_blend_epi32(low, _mm512_set1_epi32(row_hash(j + 1)),
-                                                                   _mm512_set1_epi32(row_hash(j))));
+      __m512i h =
+          _mm512_xor_si512(ihash, _mm512_mask_blend_epi32(low, _mm512_set1_epi32(row_hash(j + 1)),
+                                                          _mm512_set1_epi32(row_hash(j))));
       h = _mm512_xor_si512(h, _mm512_srli_epi32(h, 16));
       h = _mm512_mullo_epi32(h, c1);
       h = _mm512_xor_si512(h, _mm512_srli_epi32(h, 15));
       h = _mm512_mullo_epi32(h, c2);
       h = _mm512_xor_si512(h, _mm512_srli_epi32(h, 16));
-      const __m512 jx = _mm512_add_ps(_mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_and_si512(h, ten)), scale), half);
+      const __m512 jx =
+          _mm512_add_ps(_mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_and_si512(h, ten)), scale), half);
       const __m512 jy = _mm512_add_ps(
-          _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_and_si512(_mm512_srli_epi32(h, 10), ten)), scale), half);
+          _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_and_si512(_mm512_srli_epi32(h, 10), ten)), scale),
+          half);
       const __m512 jz = _mm512_add_ps(
-          _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_and_si512(_mm512_srli_epi32(h, 20), ten)), scale), half);
+          _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_and_si512(_mm512_srli_epi32(h, 20), ten)), scale),
+          half);
       const __m512 Y = _mm512_mask_blend_ps(low, _mm512_set1_ps(static_cast<float>(j + 1 - f.ja)),
                                             _mm512_set1_ps(static_cast<float>(j - f.ja)));
       const __m512 rx = _mm512_sub_ps(_mm512_add_ps(X, jx), fa_x);
       const __m512 ry = _mm512_sub_ps(_mm512_add_ps(Y, jy), fa_y);
       const __m512 z = _mm512_add_ps(Z, jz);
       const __m512 s0 = _mm512_add_ps(_mm512_mul_ps(m0x, rx), _mm512_mul_ps(m0y, ry));
-      const __m512 s1 = _mm512_sub_ps(_mm512_add_ps(_mm512_mul_ps(m1x, rx), _mm512_mul_ps(m1y, ry)), e1);
+      const __m512 s1 =
+          _mm512_sub_ps(_mm512_add_ps(_mm512_mul_ps(m1x, rx), _mm512_mul_ps(m1y, ry)), e1);
       const __m512 u = _mm512_add_ps(_mm512_mul_ps(dx, rx), _mm512_mul_ps(dy, ry));
       const __m512 dz = _mm512_sub_ps(z, _mm512_add_ps(c0, _mm512_mul_ps(slope, u)));
-      const __m512 l = _mm512_sub_ps(_mm512_abs_ps(_mm512_add_ps(_mm512_mul_ps(nx, rx), _mm512_mul_ps(ny, ry))), flat);
+      const __m512 l = _mm512_sub_ps(
+          _mm512_abs_ps(_mm512_add_ps(_mm512_mul_ps(nx, rx), _mm512_mul_ps(ny, ry))), flat);
       const __mmask16 round_ok =
           _mm512_cmp_ps_mask(l, zero, _CMP_LE_OQ) |
-          _mm512_cmp_ps_mask(_mm512_add_ps(_mm512_mul_ps(l, l), _mm512_mul_ps(dz, dz)), r2, _CMP_LE_OQ);
-      __mmask16 ok = _mm512_cmp_ps_mask(s0, zero, _CMP_GE_OQ) & _mm512_cmp_ps_mask(s1, zero, _CMP_LT_OQ);
+          _mm512_cmp_ps_mask(_mm512_add_ps(_mm512_mul_ps(l, l), _mm512_mul_ps(dz, dz)), r2,
+                             _CMP_LE_OQ);
+      __mmask16 ok =
+          _mm512_cmp_ps_mask(s0, zero, _CMP_GE_OQ) & _mm512_cmp_ps_mask(s1, zero, _CMP_LT_OQ);
       ok &= _mm512_cmp_ps_mask(dz, neg_r, _CMP_GE_OQ) & _mm512_cmp_ps_mask(dz, r, _CMP_LT_OQ);
       ok &= round_ok & lanes16;
       unsigned bits = ok;
@@ -187,16 +209,16 @@ inline bool inside(const BeadFrame& f, float X, float Y, float Z, std::uint32_t 
 #pragma GCC diagnostic pop
 #endif
 
-int count_held_portable(const HeightMapView& m, double u, double v, double du, double dv, const double* s, int n,
-                        int need) {
+int count_held_portable(const HeightMapView& m, double u, double v, double du, double dv,
+                        const double* s, int n, int need) {
   int held = 0;
   for (int t = 0; t < n; ++t) held += m.rows_at(u + s[t] * du, v + s[t] * dv) >= need ? 1 : 0;
   return held;
 }
 
 #if PRINTTWIN_HAVE_AVX2_KERNEL
-[[gnu::target("avx2")]] int count_held_avx2(const HeightMapView& m, double u, double v, double du, double dv,
-                                            const double* s, int n, int need) {
+[[gnu::target("avx2")]] int count_held_avx2(const HeightMapView& m, double u, double v, double du,
+                                            double dv, const double* s, int n, int need) {
   const __m256d uu = _mm256_set1_pd(u), vv = _mm256_set1_pd(v);
   const __m256d duu = _mm256_set1_pd(du), dvv = _mm256_set1_pd(dv);
   const __m128i zero = _mm_setzero_si128(), seven = _mm_set1_epi32(7);
@@ -208,18 +230,23 @@ int count_held_portable(const HeightMapView& m, double u, double v, double du, d
   int t = 0;
   for (; t + 4 <= n; t += 4) {
     const __m256d st = _mm256_loadu_pd(s + t);
-    const __m128i i = _mm256_cvttpd_epi32(_mm256_floor_pd(_mm256_add_pd(uu, _mm256_mul_pd(st, duu))));
-    const __m128i j = _mm256_cvttpd_epi32(_mm256_floor_pd(_mm256_add_pd(vv, _mm256_mul_pd(st, dvv))));
+    const __m128i i =
+        _mm256_cvttpd_epi32(_mm256_floor_pd(_mm256_add_pd(uu, _mm256_mul_pd(st, duu))));
+    const __m128i j =
+        _mm256_cvttpd_epi32(_mm256_floor_pd(_mm256_add_pd(vv, _mm256_mul_pd(st, dvv))));
     // Inside: 0 <= i < nx and 0 <= j < ny.
-    const __m128i in = _mm_andnot_si128(
-        _mm_or_si128(_mm_cmplt_epi32(i, zero), _mm_cmplt_epi32(j, zero)),
-        _mm_and_si128(_mm_cmplt_epi32(i, nx), _mm_cmplt_epi32(j, ny)));
-    const __m128i tile = _mm_add_epi32(_mm_mullo_epi32(_mm_srai_epi32(j, 3), tiles_x), _mm_srai_epi32(i, 3));
-    const __m128i idx = _mm_or_si128(_mm_slli_epi32(tile, 6),
-                                     _mm_or_si128(_mm_slli_epi32(_mm_and_si128(j, seven), 3), _mm_and_si128(i, seven)));
+    const __m128i in =
+        _mm_andnot_si128(_mm_or_si128(_mm_cmplt_epi32(i, zero), _mm_cmplt_epi32(j, zero)),
+                         _mm_and_si128(_mm_cmplt_epi32(i, nx), _mm_cmplt_epi32(j, ny)));
+    const __m128i tile =
+        _mm_add_epi32(_mm_mullo_epi32(_mm_srai_epi32(j, 3), tiles_x), _mm_srai_epi32(i, 3));
+    const __m128i idx = _mm_or_si128(
+        _mm_slli_epi32(tile, 6),
+        _mm_or_si128(_mm_slli_epi32(_mm_and_si128(j, seven), 3), _mm_and_si128(i, seven)));
     // Lanes outside the map are not read and hold 0 rows (as in rows_at).
     const __m128i safe_idx = _mm_and_si128(idx, in);
-    const __m128i rows = _mm_and_si128(_mm_mask_i32gather_epi32(zero, base, safe_idx, in, 2), low16);
+    const __m128i rows =
+        _mm_and_si128(_mm_mask_i32gather_epi32(zero, base, safe_idx, in, 2), low16);
     const __m128i ok = _mm_cmpgt_epi32(rows, need_minus_1);
     const auto bits = static_cast<unsigned>(_mm_movemask_ps(_mm_castsi128_ps(ok)));
     held += static_cast<int>((0x4332322132212110ull >> (4 * bits)) & 0xFu);  // bits set in 4 bits
@@ -248,20 +275,21 @@ const KernelChoice& kernels() {
 
 }  // namespace
 
-int count_held(const HeightMapView& map, double u, double v, double du, double dv, const double* s, int n,
-               int need) {
+int count_held(const HeightMapView& map, double u, double v, double du, double dv, const double* s,
+               int n, int need) {
 #if PRINTTWIN_HAVE_AVX2_KERNEL
   if (kernels().avx2) return count_held_avx2(map, u, v, du, dv, s, n, need);
 #endif
   return count_held_portable(map, u, v, du, dv, s, n, need);
 }
 
-int count_held_scalar(const HeightMapView& map, double u, double v, double du, double dv, const double* s, int n,
-                      int need) {
+int count_held_scalar(const HeightMapView& map, double u, double v, double du, double dv,
+                      const double* s, int n, int need) {
   return count_held_portable(map, u, v, du, dv, s, n, need);
 }
 
-void section_offset(const BeadFrame& f, std::int32_t i, std::int32_t j, std::int32_t k, float& l, float& dz) {
+void section_offset(const BeadFrame& f, std::int32_t i, std::int32_t j, std::int32_t k, float& l,
+                    float& dz) {
   const SamplePoint p = sample_point(f, static_cast<float>(i - f.ia), static_cast<float>(j - f.ja),
                                      static_cast<float>(k - f.ka), voxel_jitter_bits(i, j, k));
   l = p.l;
@@ -286,16 +314,16 @@ std::uint64_t test_tile_scalar(const BeadFrame& f, std::int32_t i0, std::int32_t
   return out;
 }
 
-std::uint64_t test_tile_avx2_kernel(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k,
-                                    int row_lo, int row_hi, unsigned lanes) {
+std::uint64_t test_tile_avx2_kernel(const BeadFrame& f, std::int32_t i0, std::int32_t j0,
+                                    std::int32_t k, int row_lo, int row_hi, unsigned lanes) {
 #if PRINTTWIN_HAVE_AVX2_KERNEL
   if (cpu_has_avx2()) return test_tile_avx2(f, i0, j0, k, row_lo, row_hi, lanes);
 #endif
   return test_tile_scalar(f, i0, j0, k, row_lo, row_hi, lanes);
 }
 
-void test_tile_layers(const BeadFrame& f, std::int32_t i0, std::int32_t j0, const std::int32_t* ks, int nk,
-                      int row_lo, int row_hi, unsigned lanes, std::uint64_t* masks) {
+void test_tile_layers(const BeadFrame& f, std::int32_t i0, std::int32_t j0, const std::int32_t* ks,
+                      int nk, int row_lo, int row_hi, unsigned lanes, std::uint64_t* masks) {
 #if PRINTTWIN_HAVE_AVX2_KERNEL
   if (kernels().avx512) {
     test_tile_layers_avx512(f, i0, j0, ks, nk, row_lo, row_hi, lanes, masks);
@@ -309,8 +337,8 @@ void test_tile_layers(const BeadFrame& f, std::int32_t i0, std::int32_t j0, cons
   for (int n = 0; n < nk; ++n) masks[n] = test_tile_scalar(f, i0, j0, ks[n], row_lo, row_hi, lanes);
 }
 
-std::uint64_t test_tile(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k, int row_lo,
-                        int row_hi, unsigned lanes) {
+std::uint64_t test_tile(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k,
+                        int row_lo, int row_hi, unsigned lanes) {
   std::uint64_t mask = 0;
   test_tile_layers(f, i0, j0, &k, 1, row_lo, row_hi, lanes, &mask);
   return mask;

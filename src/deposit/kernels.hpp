@@ -34,7 +34,8 @@ struct BeadFrame {
 /// Fixed jitter of voxel (i, j, k): bits 0-9 give x, 10-19 y, 20-29 z, each as
 /// (bits + 0.5) / 1024 of a voxel.
 inline std::uint32_t voxel_jitter_bits(std::int32_t i, std::int32_t j, std::int32_t k) {
-  std::uint32_t h = static_cast<std::uint32_t>(i) * 0x8da6b343u ^ static_cast<std::uint32_t>(j) * 0xd8163841u ^
+  std::uint32_t h = static_cast<std::uint32_t>(i) * 0x8da6b343u ^
+                    static_cast<std::uint32_t>(j) * 0xd8163841u ^
                     static_cast<std::uint32_t>(k) * 0xcb1ab31fu;
   h ^= h >> 16;
   h *= 0x7feb352du;
@@ -49,25 +50,26 @@ inline std::uint32_t voxel_jitter_bits(std::int32_t i, std::int32_t j, std::int3
 /// the bead; `lanes` (bits 0..7) masks the x that may be set. Dispatches to the AVX-512
 /// kernel (two rows per instruction) or the AVX2 one (a row) when the CPU has them; every
 /// kernel gives the same bits.
-std::uint64_t test_tile(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k, int row_lo,
-                        int row_hi, unsigned lanes);
+std::uint64_t test_tile(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k,
+                        int row_lo, int row_hi, unsigned lanes);
 
 /// test_tile for the layers ks[0..nk) of one tile: masks[n] for layer ks[n]. The AVX-512
 /// kernel sets its constants up once for all the layers; the same bits as test_tile.
-void test_tile_layers(const BeadFrame& f, std::int32_t i0, std::int32_t j0, const std::int32_t* ks, int nk,
-                      int row_lo, int row_hi, unsigned lanes, std::uint64_t* masks);
+void test_tile_layers(const BeadFrame& f, std::int32_t i0, std::int32_t j0, const std::int32_t* ks,
+                      int nk, int row_lo, int row_hi, unsigned lanes, std::uint64_t* masks);
 
 /// Where the sample point of voxel (i, j, k) lies in the bead's section, as the kernels
 /// compute it: `l`, its lateral distance beyond the flat part of the section (|n . r| - flat,
 /// negative over the flat part), and `dz`, its height above the section's centre line.
-void section_offset(const BeadFrame& f, std::int32_t i, std::int32_t j, std::int32_t k, float& l, float& dz);
+void section_offset(const BeadFrame& f, std::int32_t i, std::int32_t j, std::int32_t k, float& l,
+                    float& dz);
 
 /// The portable kernel (what test_tile runs without AVX2), for the tests.
 std::uint64_t test_tile_scalar(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k,
                                int row_lo, int row_hi, unsigned lanes);
 /// The AVX2 kernel (the portable one without AVX2), for the tests.
-std::uint64_t test_tile_avx2_kernel(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k,
-                                    int row_lo, int row_hi, unsigned lanes);
+std::uint64_t test_tile_avx2_kernel(const BeadFrame& f, std::int32_t i0, std::int32_t j0,
+                                    std::int32_t k, int row_lo, int row_hi, unsigned lanes);
 
 /// The deposit's height map, stored in 8 x 8 tiles (column (i, j) at
 /// ((j / 8) * tiles_x + i / 8) * 64 + (j % 8) * 8 + i % 8), with one padding entry at the end
@@ -95,11 +97,11 @@ struct HeightMapView {
 /// How many of the points (u + s[t] * du, v + s[t] * dv), t < n (voxel units from the grid
 /// origin), stand on a column (floor of each coordinate, inside the map) holding at least
 /// `need` rows. Points outside the map hold nothing. Same result with or without AVX2.
-int count_held(const HeightMapView& map, double u, double v, double du, double dv, const double* s, int n,
-               int need);
+int count_held(const HeightMapView& map, double u, double v, double du, double dv, const double* s,
+               int n, int need);
 /// The portable kernel of count_held, for the tests.
-int count_held_scalar(const HeightMapView& map, double u, double v, double du, double dv, const double* s, int n,
-                      int need);
+int count_held_scalar(const HeightMapView& map, double u, double v, double du, double dv,
+                      const double* s, int n, int need);
 
 /// True when test_tile uses the AVX2 kernel on this CPU.
 bool bead_raster_uses_avx2();

@@ -48,7 +48,8 @@ struct Solid {
     return bx >= 0 && by >= 0 && bz >= 0 && bx < nb.x() && by < nb.y() && bz < nb.z();
   }
   [[nodiscard]] std::size_t index(int bx, int by, int bz) const {
-    return (static_cast<std::size_t>(bz) * static_cast<std::size_t>(nb.y()) + static_cast<std::size_t>(by)) *
+    return (static_cast<std::size_t>(bz) * static_cast<std::size_t>(nb.y()) +
+            static_cast<std::size_t>(by)) *
                static_cast<std::size_t>(nb.x()) +
            static_cast<std::size_t>(bx);
   }
@@ -80,13 +81,16 @@ struct Solid {
     if (x < 0 || y < 0 || z < 0 || !block_in(x >> 3, y >> 3, z >> 3)) return;
     Mask& m = mask_for_write(x >> 3, y >> 3, z >> 3);
     const std::uint64_t bit = 1ull << ((y & 7) * 8 + (x & 7));
-    if (on) m[static_cast<std::size_t>(z & 7)] |= bit;
-    else m[static_cast<std::size_t>(z & 7)] &= ~bit;
+    if (on)
+      m[static_cast<std::size_t>(z & 7)] |= bit;
+    else
+      m[static_cast<std::size_t>(z & 7)] &= ~bit;
   }
   [[nodiscard]] std::size_t count() const {
     std::size_t n = 0;
     for (const std::uint32_t c : code) {
-      if (c == kFull) n += 512;
+      if (c == kFull)
+        n += 512;
       else if (c >= 2)
         for (const std::uint64_t w : masks[c - 2]) n += static_cast<std::size_t>(std::popcount(w));
     }
@@ -117,9 +121,10 @@ VoxelGrid with_included_features(const VoxelGrid& grid, const DepositMeshOptions
   std::vector<std::int64_t> relabel(table.size(), -1);
   for (std::size_t i = 0; i < table.size(); ++i) {
     const Feature f = table[i].feature;
-    const bool inc = (o.include_skirt && f == Feature::skirt) ||
-                     (o.include_support && (f == Feature::support || f == Feature::support_interface)) ||
-                     (o.include_custom && (f == Feature::custom || f == Feature::wipe_tower));
+    const bool inc =
+        (o.include_skirt && f == Feature::skirt) ||
+        (o.include_support && (f == Feature::support || f == Feature::support_interface)) ||
+        (o.include_custom && (f == Feature::custom || f == Feature::wipe_tower));
     if (!inc) continue;
     VoxelTag t = table[i];
     t.feature = Feature::unknown;
@@ -161,7 +166,8 @@ Result<Solid> filled_volume_of(const VoxelGrid& grid, const DepositMeshOptions& 
   const Eigen::Vector3i cells = (surf.filled_blocks_dims + Eigen::Vector3i(2, 2, 2)) * 8;
   if (cells.maxCoeff() > kMaxCoord)
     return usage_error("--deposit-mesh: the deposit spans " + std::to_string(cells.maxCoeff()) +
-                       " voxels on one axis; at most " + std::to_string(kMaxCoord) + " are supported (use a larger --voxel)");
+                       " voxels on one axis; at most " + std::to_string(kMaxCoord) +
+                       " are supported (use a larger --voxel)");
   Solid s = empty_solid({lo.x() * 8, lo.y() * 8, lo.z() * 8}, 1, cells);
   // Region voxels only (the codes speak for the region's voxels of each block).
   const VoxelKey rlo = surf.origin_key;
@@ -170,8 +176,9 @@ Result<Solid> filled_volume_of(const VoxelGrid& grid, const DepositMeshOptions& 
   for (int by = 0; by < fd.y(); ++by)
     for (int bx = 0; bx < fd.x(); ++bx)
       for (int bz = 0; bz < fd.z(); ++bz) {
-        const std::size_t i = (static_cast<std::size_t>(by) * fd.x() + static_cast<std::size_t>(bx)) * fd.z() +
-                              static_cast<std::size_t>(bz);
+        const std::size_t i =
+            (static_cast<std::size_t>(by) * fd.x() + static_cast<std::size_t>(bx)) * fd.z() +
+            static_cast<std::size_t>(bz);
         const std::uint32_t c = surf.filled_block_code[i];
         if (c == DepositSurface::kNoneFilled) continue;
         const int gx = bx + surf.filled_blocks_lo.x(), gy = by + surf.filled_blocks_lo.y(),
@@ -179,12 +186,15 @@ Result<Solid> filled_volume_of(const VoxelGrid& grid, const DepositMeshOptions& 
         Mask m{};
         for (int z = 0; z < 8; ++z)
           m[static_cast<std::size_t>(z)] =
-              c == DepositSurface::kAllFilled ? ~0ull : surf.filled_masks[c - DepositSurface::kFirstMask][static_cast<std::size_t>(z)];
-        const bool inside = gx * 8 >= rlo.x && gy * 8 >= rlo.y && gz * 8 >= rlo.z && gx * 8 + 8 <= rhi.x &&
-                            gy * 8 + 8 <= rhi.y && gz * 8 + 8 <= rhi.z;
+              c == DepositSurface::kAllFilled
+                  ? ~0ull
+                  : surf.filled_masks[c - DepositSurface::kFirstMask][static_cast<std::size_t>(z)];
+        const bool inside = gx * 8 >= rlo.x && gy * 8 >= rlo.y && gz * 8 >= rlo.z &&
+                            gx * 8 + 8 <= rhi.x && gy * 8 + 8 <= rhi.y && gz * 8 + 8 <= rhi.z;
         if (!inside)  // a block on the region's border: its voxels outside the region are air
           for (int slot = 0; slot < 512; ++slot) {
-            const int kx = gx * 8 + (slot & 7), ky = gy * 8 + ((slot >> 3) & 7), kz = gz * 8 + (slot >> 6);
+            const int kx = gx * 8 + (slot & 7), ky = gy * 8 + ((slot >> 3) & 7),
+                      kz = gz * 8 + (slot >> 6);
             if (kx < rlo.x || ky < rlo.y || kz < rlo.z || kx >= rhi.x || ky >= rhi.y || kz >= rhi.z)
               m[static_cast<std::size_t>(slot >> 6)] &= ~(1ull << (slot & 63));
           }
@@ -203,9 +213,13 @@ Result<Solid> filled_volume_of(const VoxelGrid& grid, const DepositMeshOptions& 
 // ---------------------------------------------------------------- slices of neighbours
 
 /// Voxel (x + 1, y) in lane y * 8 + x, from a slice and the slice of the +x block.
-std::uint64_t next_x(std::uint64_t w, std::uint64_t wx) { return ((w >> 1) & ~kColX7) | ((wx & kColX0) << 7); }
+std::uint64_t next_x(std::uint64_t w, std::uint64_t wx) {
+  return ((w >> 1) & ~kColX7) | ((wx & kColX0) << 7);
+}
 /// Voxel (x - 1, y), from a slice and the slice of the -x block.
-std::uint64_t prev_x(std::uint64_t w, std::uint64_t wx) { return ((w << 1) & ~kColX0) | ((wx & kColX7) >> 7); }
+std::uint64_t prev_x(std::uint64_t w, std::uint64_t wx) {
+  return ((w << 1) & ~kColX0) | ((wx & kColX7) >> 7);
+}
 std::uint64_t next_y(std::uint64_t w, std::uint64_t wy) { return (w >> 8) | (wy << 56); }
 std::uint64_t prev_y(std::uint64_t w, std::uint64_t wy) { return (w << 8) | (wy >> 56); }
 
@@ -222,8 +236,8 @@ std::array<std::uint64_t, 4> quad(const Solid& s, int bx, int by, int bz, int z)
 // ---------------------------------------------------------------- manifold repair
 
 // Cell i of a 2x2x2 cube: (i & 1, i >> 1 & 1, i >> 2).
-constexpr std::array<std::array<int, 4>, 6> kSquares = {{{0, 1, 2, 3}, {4, 5, 6, 7}, {0, 1, 4, 5},
-                                                         {2, 3, 6, 7}, {0, 2, 4, 6}, {1, 3, 5, 7}}};
+constexpr std::array<std::array<int, 4>, 6> kSquares = {
+    {{0, 1, 2, 3}, {4, 5, 6, 7}, {0, 1, 4, 5}, {2, 3, 6, 7}, {0, 2, 4, 6}, {1, 3, 5, 7}}};
 
 /// The cell to fill for a cube configuration (bit i: cell i filled), or -1 when the
 /// configuration is well-composed.
@@ -234,15 +248,19 @@ std::array<std::int8_t, 256> make_fill_table() {
     int fill = -1;
     for (const auto& q : kSquares) {  // p q / r s with p-s and q-r diagonal
       const int p = q[0], a = q[1], b = q[2], d = q[3];
-      if (in(p) && in(d) && !in(a) && !in(b)) fill = std::min(a, b);
-      else if (in(a) && in(b) && !in(p) && !in(d)) fill = std::min(p, d);
+      if (in(p) && in(d) && !in(a) && !in(b))
+        fill = std::min(a, b);
+      else if (in(a) && in(b) && !in(p) && !in(d))
+        fill = std::min(p, d);
       if (fill >= 0) break;
     }
     if (fill < 0)
       for (int i = 0; i < 4; ++i) {
         const int pair = (1 << i) | (1 << (7 - i));
-        if (cfg == pair) fill = i ^ 1;          // two opposite corners alone: join them
-        else if (cfg == (255 & ~pair)) fill = i;  // two opposite corners empty: fill one
+        if (cfg == pair)
+          fill = i ^ 1;  // two opposite corners alone: join them
+        else if (cfg == (255 & ~pair))
+          fill = i;  // two opposite corners empty: fill one
         if (fill >= 0) break;
       }
     t[static_cast<std::size_t>(cfg)] = static_cast<std::int8_t>(fill);
@@ -265,7 +283,8 @@ std::size_t make_well_composed(Solid& s) {
         if (uniform) continue;
         for (int z = 0; z < 8; ++z) {
           const auto lo = quad(s, bx, by, bz, z), hi = quad(s, bx, by, bz, z + 1);
-          const std::array<std::uint64_t, 8> v = {lo[0], lo[1], lo[2], lo[3], hi[0], hi[1], hi[2], hi[3]};
+          const std::array<std::uint64_t, 8> v = {lo[0], lo[1], lo[2], lo[3],
+                                                  hi[0], hi[1], hi[2], hi[3]};
           std::uint64_t bad = 0;
           for (const auto& q : kSquares) {
             const std::uint64_t p = v[q[0]], a = v[q[1]], b = v[q[2]], d = v[q[3]];
@@ -315,7 +334,8 @@ std::size_t make_well_composed(Solid& s) {
 /// (u, v) the two other axes in cyclic order (a + 1, a + 2), so e_u x e_v = e_a.
 std::uint64_t face_key(int axis, int side, int c, int u, int v) {
   return (static_cast<std::uint64_t>(axis) << 49) | (static_cast<std::uint64_t>(side) << 48) |
-         (static_cast<std::uint64_t>(c) << 32) | (static_cast<std::uint64_t>(v) << 16) | static_cast<std::uint64_t>(u);
+         (static_cast<std::uint64_t>(c) << 32) | (static_cast<std::uint64_t>(v) << 16) |
+         static_cast<std::uint64_t>(u);
 }
 
 /// Sorts `keys` ascending, LSD radix on 11-bit digits (2048 buckets stay in cache; digits
@@ -356,7 +376,8 @@ std::vector<std::uint64_t> exposed_faces(const Solid& s) {
       const int bit = std::countr_zero(bits);
       const int x = bx * 8 + (bit & 7), y = by * 8 + (bit >> 3), zz = bz * 8 + z;
       const std::array<int, 3> p = {x, y, zz};
-      const int u = p[static_cast<std::size_t>((axis + 1) % 3)], v = p[static_cast<std::size_t>((axis + 2) % 3)];
+      const int u = p[static_cast<std::size_t>((axis + 1) % 3)],
+                v = p[static_cast<std::size_t>((axis + 2) % 3)];
       keys.push_back(face_key(axis, side, p[static_cast<std::size_t>(axis)] + side, u, v));
     }
   };
@@ -366,9 +387,10 @@ std::vector<std::uint64_t> exposed_faces(const Solid& s) {
         const std::uint32_t c = s.code[s.index(bx, by, bz)];
         if (c == Solid::kEmpty) continue;
         if (c == Solid::kFull && s.code_at(bx - 1, by, bz) == Solid::kFull &&
-            s.code_at(bx + 1, by, bz) == Solid::kFull && s.code_at(bx, by - 1, bz) == Solid::kFull &&
-            s.code_at(bx, by + 1, bz) == Solid::kFull && s.code_at(bx, by, bz - 1) == Solid::kFull &&
-            s.code_at(bx, by, bz + 1) == Solid::kFull)
+            s.code_at(bx + 1, by, bz) == Solid::kFull &&
+            s.code_at(bx, by - 1, bz) == Solid::kFull &&
+            s.code_at(bx, by + 1, bz) == Solid::kFull &&
+            s.code_at(bx, by, bz - 1) == Solid::kFull && s.code_at(bx, by, bz + 1) == Solid::kFull)
           continue;
         for (int z = 0; z < 8; ++z) {
           const std::uint64_t w = s.word(bx, by, bz, z);
@@ -409,8 +431,10 @@ std::vector<Rect> merge_faces(const std::vector<std::uint64_t>& keys) {
       ++j;
     const int u1 = u0 + static_cast<int>(j - i);
     if (pl != plane || v != row) {  // a new row: the rectangles of the row before may grow
-      if (pl == plane && v == row + 1) open.swap(next_open);
-      else open.clear();
+      if (pl == plane && v == row + 1)
+        open.swap(next_open);
+      else
+        open.clear();
       next_open.clear();
       oi = 0;
       plane = pl;
@@ -453,9 +477,11 @@ std::uint64_t point_key(const std::array<int, 3>& p) {
 }
 /// Key of point p on the lattice line along axis t through it: t | other coords | position.
 std::uint64_t line_key(int t, const std::array<int, 3>& p) {
-  const int o1 = p[static_cast<std::size_t>((t + 1) % 3)], o2 = p[static_cast<std::size_t>((t + 2) % 3)];
+  const int o1 = p[static_cast<std::size_t>((t + 1) % 3)],
+            o2 = p[static_cast<std::size_t>((t + 2) % 3)];
   return (static_cast<std::uint64_t>(t) << 48) | (static_cast<std::uint64_t>(o1) << 32) |
-         (static_cast<std::uint64_t>(o2) << 16) | static_cast<std::uint64_t>(p[static_cast<std::size_t>(t)]);
+         (static_cast<std::uint64_t>(o2) << 16) |
+         static_cast<std::uint64_t>(p[static_cast<std::size_t>(t)]);
 }
 
 struct Triangulated {
@@ -467,7 +493,8 @@ struct Triangulated {
 /// rectangle's side inserted into that side (no T-junctions). Lookups are done by sorting
 /// and sweeping (corners -> vertices, side ranges -> points on their lattice line), which
 /// keeps the memory access sequential.
-Triangulated triangulate(const Solid& s, const std::vector<Rect>& rects, double voxel_mm, const Vec3& grid_origin_mm) {
+Triangulated triangulate(const Solid& s, const std::vector<Rect>& rects, double voxel_mm,
+                         const Vec3& grid_origin_mm) {
   const std::size_t nr = rects.size();
   auto corner_uv = [](const Rect& r, int k) {
     return std::array<int, 2>{(k == 1 || k == 2) ? r.u1 : r.u0, k >= 2 ? r.v1 : r.v0};
@@ -482,7 +509,8 @@ Triangulated triangulate(const Solid& s, const std::vector<Rect>& rects, double 
   for (std::size_t ri = 0; ri < nr; ++ri)
     for (int k = 0; k < 4; ++k) {
       keys[4 * ri + static_cast<std::size_t>(k)] = point_key(corner_point(rects[ri], k));
-      ids[4 * ri + static_cast<std::size_t>(k)] = static_cast<std::uint32_t>(4 * ri + static_cast<std::size_t>(k));
+      ids[4 * ri + static_cast<std::size_t>(k)] =
+          static_cast<std::uint32_t>(4 * ri + static_cast<std::size_t>(k));
     }
   radix_sort(keys, &ids);
   std::vector<std::uint32_t> corner_vertex(4 * nr);
@@ -530,7 +558,8 @@ Triangulated triangulate(const Solid& s, const std::vector<Rect>& rects, double 
     for (std::size_t q = 0; q < keys.size(); ++q) {
       const Rect& r = rects[ids[q] / 4];
       const int k = static_cast<int>(ids[q] % 4);
-      const std::uint64_t hi = (keys[q] & ~0xFFFFull) | static_cast<std::uint64_t>(k % 2 == 0 ? r.u1 : r.v1);
+      const std::uint64_t hi =
+          (keys[q] & ~0xFFFFull) | static_cast<std::uint64_t>(k % 2 == 0 ? r.u1 : r.v1);
       while (j < lines.size() && lines[j] < keys[q]) ++j;
       std::size_t e = j;
       while (e < lines.size() && lines[e] < hi) ++e;
@@ -555,7 +584,8 @@ Triangulated triangulate(const Solid& s, const std::vector<Rect>& rects, double 
   const Vec3 base = grid_origin_mm + voxel_mm * Vec3(s.origin.x, s.origin.y, s.origin.z);
   m.vertices_mm.reserve(verts.size());
   for (const std::uint64_t k : verts)
-    m.vertices_mm.push_back(base + step * Vec3(static_cast<double>(k >> 32), static_cast<double>((k >> 16) & 0xFFFF),
+    m.vertices_mm.push_back(base + step * Vec3(static_cast<double>(k >> 32),
+                                               static_cast<double>((k >> 16) & 0xFFFF),
                                                static_cast<double>(k & 0xFFFF)));
   m.triangles.reserve(2 * nr + inserted.size());
   out.rect_of_triangle.reserve(2 * nr + inserted.size());
@@ -576,7 +606,8 @@ Triangulated triangulate(const Solid& s, const std::vector<Rect>& rects, double 
     }
     const bool flip = r.side == 0;  // the loop runs counter-clockwise seen from +axis
     auto add = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
-      m.triangles.push_back(flip ? std::array<std::uint32_t, 3>{a, c, b} : std::array<std::uint32_t, 3>{a, b, c});
+      m.triangles.push_back(flip ? std::array<std::uint32_t, 3>{a, c, b}
+                                 : std::array<std::uint32_t, 3>{a, b, c});
       out.rect_of_triangle.push_back(static_cast<std::uint32_t>(ri));
     };
     const int n = static_cast<int>(loop.size());
@@ -584,7 +615,8 @@ Triangulated triangulate(const Solid& s, const std::vector<Rect>& rects, double 
     // triangle. Otherwise a fan from the rectangle's centre.
     int apex = -1;
     for (int k = 0; k < 4 && apex < 0; ++k)
-      if (count[static_cast<std::size_t>(k)] == 0 && count[static_cast<std::size_t>((k + 3) % 4)] == 0)
+      if (count[static_cast<std::size_t>(k)] == 0 &&
+          count[static_cast<std::size_t>((k + 3) % 4)] == 0)
         apex = start[static_cast<std::size_t>(k)];
     if (apex >= 0) {
       for (int i = 1; i + 1 < n; ++i)
@@ -624,8 +656,10 @@ bool is_part_feature(Feature f) {
     case Feature::solid_infill:
     case Feature::top_solid_infill:
     case Feature::bridge_infill:
-    case Feature::gap_fill: return true;
-    default: return false;
+    case Feature::gap_fill:
+      return true;
+    default:
+      return false;
   }
 }
 
@@ -646,8 +680,8 @@ struct Pieces {
 };
 
 /// Connected pieces of the surface and which of them are part (see mesh_export.hpp).
-Pieces classify(const Solid& s, const std::vector<Rect>& rects, const Triangulated& t, const VoxelGrid& grid,
-                const DepositMeshOptions& o) {
+Pieces classify(const Solid& s, const std::vector<Rect>& rects, const Triangulated& t,
+                const VoxelGrid& grid, const DepositMeshOptions& o) {
   std::vector<std::uint32_t> parent(t.mesh.vertices_mm.size());
   std::iota(parent.begin(), parent.end(), 0U);
   for (const auto& tri : t.mesh.triangles) {
@@ -665,7 +699,8 @@ Pieces classify(const Solid& s, const std::vector<Rect>& rects, const Triangulat
     p.component_of_rect[t.rect_of_triangle[ti]] = id[root];
   }
   bool tagged = false;
-  for (const auto& tag : detail::VoxelBlocks::tag_table(grid)) tagged |= kept_feature(tag.feature, o);
+  for (const auto& tag : detail::VoxelBlocks::tag_table(grid))
+    tagged |= kept_feature(tag.feature, o);
   std::vector<char> has_part(n, 0);
   std::vector<int> layer_min(n, 1 << 30), layer_max(n, -1);
   for (std::size_t ri = 0; ri < rects.size(); ++ri) {
@@ -674,7 +709,8 @@ Pieces classify(const Solid& s, const std::vector<Rect>& rects, const Triangulat
     const auto cell = inner_cell(rects[ri]);
     const VoxelKey k0 = s.key_of_cell(cell[0], cell[1], cell[2]);
     for (int i = 0; i < s.cell * s.cell * s.cell; ++i) {
-      const VoxelKey k{k0.x + i % s.cell, k0.y + (i / s.cell) % s.cell, k0.z + i / (s.cell * s.cell)};
+      const VoxelKey k{k0.x + i % s.cell, k0.y + (i / s.cell) % s.cell,
+                       k0.z + i / (s.cell * s.cell)};
       const auto tag = grid.tag(k);
       if (!tag) continue;
       if (kept_feature(tag->feature, o)) has_part[c] = 1;
@@ -715,7 +751,8 @@ std::size_t clear_piece(Solid& s, const std::array<int, 3>& seed) {
 /// The solid on cells of `factor` of its own cells (a cell is filled when any is).
 Solid coarsen(const Solid& fine, int factor) {
   // One empty block of padding below: coarse cell X covers fine cells (X - 8) * f ...
-  const VoxelKey origin{fine.origin.x - 8 * factor * fine.cell, fine.origin.y - 8 * factor * fine.cell,
+  const VoxelKey origin{fine.origin.x - 8 * factor * fine.cell,
+                        fine.origin.y - 8 * factor * fine.cell,
                         fine.origin.z - 8 * factor * fine.cell};
   const Eigen::Vector3i cells = (fine.dims().array() + factor - 1) / factor + 16;
   Solid c = empty_solid(origin, fine.cell * factor, cells);
@@ -731,7 +768,8 @@ Solid coarsen(const Solid& fine, int factor) {
           for (std::uint64_t bits = w; bits != 0; bits &= bits - 1) {
             const int bit = std::countr_zero(bits);
             if ((done >> bit) & 1U) continue;
-            const int cx = (bx * 8 + (bit & 7)) / factor + 8, cy = (by * 8 + (bit >> 3)) / factor + 8;
+            const int cx = (bx * 8 + (bit & 7)) / factor + 8,
+                      cy = (by * 8 + (bit >> 3)) / factor + 8;
             c.set(cx, cy, cz, true);
             // Lanes of the same coarse cell in this slice need no second set.
             for (int y = 0; y < 8; ++y)
@@ -769,7 +807,8 @@ Mesh kept_part(const Triangulated& t, const Pieces& p) {
       std::uint32_t& r = remap[t.mesh.triangles[ti][static_cast<std::size_t>(k)]];
       if (r == ~0U) {
         r = static_cast<std::uint32_t>(out.vertices_mm.size());
-        out.vertices_mm.push_back(t.mesh.vertices_mm[t.mesh.triangles[ti][static_cast<std::size_t>(k)]]);
+        out.vertices_mm.push_back(
+            t.mesh.vertices_mm[t.mesh.triangles[ti][static_cast<std::size_t>(k)]]);
       }
       tri[static_cast<std::size_t>(k)] = r;
     }
@@ -803,11 +842,14 @@ Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid, const DepositMeshO
   for (const bool k : pieces.keep) (k ? out.components : out.dropped_components) += 1;
   out.repaired_cells = full.repaired;
   out.filled_volume_mm3 = static_cast<double>(fine.count()) * std::pow(grid.voxel_mm(), 3);
-  if (out.dropped_components == 0) out.mesh = std::move(full.tris.mesh);
-  else out.mesh = kept_part(full.tris, pieces);
+  if (out.dropped_components == 0)
+    out.mesh = std::move(full.tris.mesh);
+  else
+    out.mesh = kept_part(full.tris, pieces);
   out.full_res_triangles = out.mesh.triangles.size();
   std::size_t kept_rects = 0;
-  for (std::size_t ri = 0; ri < full.rects.size(); ++ri) kept_rects += pieces.keep[pieces.component_of_rect[ri]] ? 1 : 0;
+  for (std::size_t ri = 0; ri < full.rects.size(); ++ri)
+    kept_rects += pieces.keep[pieces.component_of_rect[ri]] ? 1 : 0;
   out.rectangles = kept_rects;
   out.error_bound_mm = full.repaired > 0 ? std::sqrt(6.0) * grid.voxel_mm() : 0.0;
   full = {};
@@ -815,7 +857,8 @@ Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid, const DepositMeshO
   const std::size_t n_max = options.max_triangles;
   if (n_max > 0 && out.mesh.triangles.size() > n_max) {
     const int max_factor = std::max(2, fine.dims().maxCoeff());
-    int factor = std::max(2, static_cast<int>(std::floor(std::sqrt(static_cast<double>(out.mesh.triangles.size()) / n_max))));
+    int factor = std::max(2, static_cast<int>(std::floor(std::sqrt(
+                                 static_cast<double>(out.mesh.triangles.size()) / n_max))));
     for (;;) {
       Solid coarse = coarsen(fine, factor);
       Built b = mesh_solid(coarse, grid.voxel_mm(), grid.origin_mm());
@@ -825,13 +868,16 @@ Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid, const DepositMeshO
         out.cell_voxels = factor;
         out.rectangles = b.rects.size();
         out.repaired_cells = b.repaired;
-        out.error_bound_mm = (b.repaired > 0 ? std::sqrt(6.0) : std::sqrt(3.0)) * factor * grid.voxel_mm();
+        out.error_bound_mm =
+            (b.repaired > 0 ? std::sqrt(6.0) : std::sqrt(3.0)) * factor * grid.voxel_mm();
         break;
       }
       if (factor >= max_factor)
-        return usage_error("--deposit-mesh-max-triangles " + std::to_string(n_max) + " is below the smallest mesh of the part (" +
-                           std::to_string(n) + " triangles on cells of " + std::to_string(factor) + " voxels)");
-      const int grown = static_cast<int>(std::ceil(factor * std::sqrt(static_cast<double>(n) / n_max)));
+        return usage_error("--deposit-mesh-max-triangles " + std::to_string(n_max) +
+                           " is below the smallest mesh of the part (" + std::to_string(n) +
+                           " triangles on cells of " + std::to_string(factor) + " voxels)");
+      const int grown =
+          static_cast<int>(std::ceil(factor * std::sqrt(static_cast<double>(n) / n_max)));
       factor = std::min(max_factor, std::max(factor + 1, grown));
     }
   }

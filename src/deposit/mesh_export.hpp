@@ -33,31 +33,33 @@
 namespace printtwin {
 
 struct DepositMeshOptions {
-  bool include_skirt = false;    ///< skirt and brim
-  bool include_support = false;  ///< support and support interface
-  bool include_custom = false;   ///< wipe tower, start/end code and purge lines
-  std::size_t max_triangles = 0; ///< 0: full resolution
+  bool include_skirt = false;     ///< skirt and brim
+  bool include_support = false;   ///< support and support interface
+  bool include_custom = false;    ///< wipe tower, start/end code and purge lines
+  std::size_t max_triangles = 0;  ///< 0: full resolution
 };
 
 struct DepositMesh {
   Mesh mesh;
-  double voxel_mm = 0;          ///< the deposit's voxel edge
-  int cell_voxels = 1;          ///< s: the mesh is built on cells of s^3 voxels (1: no decimation)
+  double voxel_mm = 0;  ///< the deposit's voxel edge
+  int cell_voxels = 1;  ///< s: the mesh is built on cells of s^3 voxels (1: no decimation)
   /// Every point of the mesh lies within this distance of the full-resolution voxel surface
   /// of the kept components (0 at full resolution without repairs).
   double error_bound_mm = 0;
-  double volume_mm3 = 0;        ///< enclosed by the mesh
-  double filled_volume_mm3 = 0; ///< kept components' filled voxels (full resolution, before repairs)
-  std::size_t repaired_cells = 0;     ///< cells filled to make the surface a 2-manifold
-  std::size_t rectangles = 0;         ///< merged faces
-  std::size_t full_res_triangles = 0; ///< triangles of the full-resolution mesh
-  std::size_t components = 0;         ///< kept connected pieces
-  std::size_t dropped_components = 0; ///< pieces without part voxels (skirt, purge line)
-  double seconds = 0;                 ///< time to build
+  double volume_mm3 = 0;  ///< enclosed by the mesh
+  double filled_volume_mm3 =
+      0;  ///< kept components' filled voxels (full resolution, before repairs)
+  std::size_t repaired_cells = 0;      ///< cells filled to make the surface a 2-manifold
+  std::size_t rectangles = 0;          ///< merged faces
+  std::size_t full_res_triangles = 0;  ///< triangles of the full-resolution mesh
+  std::size_t components = 0;          ///< kept connected pieces
+  std::size_t dropped_components = 0;  ///< pieces without part voxels (skirt, purge line)
+  double seconds = 0;                  ///< time to build
 };
 
 /// Builds the mesh. Errors: max_triangles too small for any mesh of the part (usage).
-[[nodiscard]] Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid, const DepositMeshOptions& options);
+[[nodiscard]] Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid,
+                                                     const DepositMeshOptions& options);
 
 /// Checks that `path` ends in .stl, .3mf or .ply (usage error otherwise).
 [[nodiscard]] Status check_deposit_mesh_path(const std::filesystem::path& path);
@@ -70,15 +72,18 @@ struct DepositMesh {
                                         std::span<const float> deviation_mm = {});
 
 /// One line for the log: triangles, size, error bound, volume, dropped pieces.
-[[nodiscard]] std::string deposit_mesh_summary(const DepositMesh& mesh, const std::filesystem::path& path);
+[[nodiscard]] std::string deposit_mesh_summary(const DepositMesh& mesh,
+                                               const std::filesystem::path& path);
 
 /// The mesh's figures as compact JSON (path, triangles, vertices, bytes, cell_voxels,
 /// error_bound_mm, volume_mm3, filled_volume_mm3, repaired_voxels, components,
 /// dropped_components); no timings, so the same input gives the same text.
-[[nodiscard]] std::string deposit_mesh_json(const DepositMesh& mesh, const std::filesystem::path& path);
+[[nodiscard]] std::string deposit_mesh_json(const DepositMesh& mesh,
+                                            const std::filesystem::path& path);
 
 /// Parses --deposit-mesh-include: comma list of skirt, brim, support, custom, purge,
 /// wipe_tower, all (usage error for anything else).
-[[nodiscard]] Status parse_deposit_mesh_include(const std::string& list, DepositMeshOptions& options);
+[[nodiscard]] Status parse_deposit_mesh_include(const std::string& list,
+                                                DepositMeshOptions& options);
 
 }  // namespace printtwin

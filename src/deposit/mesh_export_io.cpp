@@ -23,7 +23,8 @@ namespace {
 
 std::string lower_extension(const std::filesystem::path& path) {
   std::string ext = path.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   return ext;
 }
 
@@ -37,16 +38,21 @@ void put(std::string& out, T value) {
 std::string ply_bytes(const DepositMesh& dm, std::span<const float> deviation) {
   const Mesh& m = dm.mesh;
   const bool quality = !deviation.empty();
-  std::string out = "ply\nformat binary_little_endian 1.0\ncomment printtwin as-printed deposit mesh\n";
-  out += "comment voxel " + format_number(dm.voxel_mm) + " mm, cells of " + std::to_string(dm.cell_voxels) +
-         " voxels, within " + format_number(dm.error_bound_mm) + " mm of the voxel surface\n";
+  std::string out =
+      "ply\nformat binary_little_endian 1.0\ncomment printtwin as-printed deposit mesh\n";
+  out += "comment voxel " + format_number(dm.voxel_mm) + " mm, cells of " +
+         std::to_string(dm.cell_voxels) + " voxels, within " + format_number(dm.error_bound_mm) +
+         " mm of the voxel surface\n";
   if (quality)
-    out += "comment quality and scalar_deviation: signed deviation from the design in mm (positive: excess)\n";
+    out +=
+        "comment quality and scalar_deviation: signed deviation from the design in mm (positive: "
+        "excess)\n";
   out += "element vertex " + std::to_string(m.vertices_mm.size()) +
          "\nproperty float x\nproperty float y\nproperty float z\n";
   // The same value twice: MeshLab colours by `quality`, CloudCompare reads `scalar_*`.
   if (quality) out += "property float quality\nproperty float scalar_deviation\n";
-  out += "element face " + std::to_string(m.triangles.size()) + "\nproperty list uchar int vertex_indices\nend_header\n";
+  out += "element face " + std::to_string(m.triangles.size()) +
+         "\nproperty list uchar int vertex_indices\nend_header\n";
   out.reserve(out.size() + m.vertices_mm.size() * (quality ? 20 : 12) + m.triangles.size() * 13);
   for (std::size_t i = 0; i < m.vertices_mm.size(); ++i) {
     for (int k = 0; k < 3; ++k) put(out, static_cast<float>(m.vertices_mm[i][k]));
@@ -76,7 +82,8 @@ std::string model_xml(const Mesh& m) {
       " <metadata name=\"Application\">printtwin</metadata>\n"
       " <metadata name=\"Title\">as-printed deposit</metadata>\n";
   if (m.triangles.empty()) return x + " <resources/>\n <build/>\n</model>\n";
-  x += " <resources>\n  <object id=\"1\" type=\"model\" name=\"deposit\">\n   <mesh>\n    <vertices>\n";
+  x += " <resources>\n  <object id=\"1\" type=\"model\" name=\"deposit\">\n   <mesh>\n    "
+       "<vertices>\n";
   x.reserve(x.size() + m.vertices_mm.size() * 56 + m.triangles.size() * 52);
   for (const Vec3& p : m.vertices_mm) {
     x += "     <vertex x=\"";
@@ -89,17 +96,19 @@ std::string model_xml(const Mesh& m) {
   }
   x += "    </vertices>\n    <triangles>\n";
   for (const auto& t : m.triangles) {
-    x += "     <triangle v1=\"" + std::to_string(t[0]) + "\" v2=\"" + std::to_string(t[1]) + "\" v3=\"" +
-         std::to_string(t[2]) + "\"/>\n";
+    x += "     <triangle v1=\"" + std::to_string(t[0]) + "\" v2=\"" + std::to_string(t[1]) +
+         "\" v3=\"" + std::to_string(t[2]) + "\"/>\n";
   }
-  x += "    </triangles>\n   </mesh>\n  </object>\n </resources>\n <build>\n  <item objectid=\"1\"/>\n </build>\n</model>\n";
+  x += "    </triangles>\n   </mesh>\n  </object>\n </resources>\n <build>\n  <item "
+       "objectid=\"1\"/>\n </build>\n</model>\n";
   return x;
 }
 
 /// Raw deflate of `data` (zip method 8).
 Result<std::string> deflate_raw(std::string_view data) {
   z_stream z{};
-  if (deflateInit2(&z, 6, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY) != Z_OK) return internal_error("zlib: deflateInit2 failed");
+  if (deflateInit2(&z, 6, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY) != Z_OK)
+    return internal_error("zlib: deflateInit2 failed");
   std::string out(deflateBound(&z, static_cast<uLong>(data.size())), '\0');
   z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data.data()));
   z.avail_in = static_cast<uInt>(data.size());
@@ -124,19 +133,21 @@ Result<std::string> zip_archive(const std::vector<ZipEntry>& entries) {
   std::string out, central;
   constexpr std::uint16_t kDate = (0 << 9) | (1 << 5) | 1;  // 1980-01-01
   for (const ZipEntry& e : entries) {
-    if (e.data.size() >= 0xFFFFFFFFull) return usage_error("3MF: " + e.name + " exceeds 4 GiB (no Zip64); use --deposit-mesh-max-triangles");
+    if (e.data.size() >= 0xFFFFFFFFull)
+      return usage_error("3MF: " + e.name +
+                         " exceeds 4 GiB (no Zip64); use --deposit-mesh-max-triangles");
     auto packed = deflate_raw(e.data);
     if (!packed) return packed.error();
-    const auto crc = static_cast<std::uint32_t>(::crc32(0L, reinterpret_cast<const Bytef*>(e.data.data()),
-                                                        static_cast<uInt>(e.data.size())));
+    const auto crc = static_cast<std::uint32_t>(::crc32(
+        0L, reinterpret_cast<const Bytef*>(e.data.data()), static_cast<uInt>(e.data.size())));
     const auto offset = static_cast<std::uint32_t>(out.size());
     auto header = [&](std::string& s, bool central_entry) {
       put(s, central_entry ? std::uint32_t{0x02014b50} : std::uint32_t{0x04034b50});
       if (central_entry) put(s, std::uint16_t{20});  // made by
-      put(s, std::uint16_t{20});                      // needed to extract
-      put(s, std::uint16_t{0});                       // flags
-      put(s, std::uint16_t{8});                       // deflate
-      put(s, std::uint16_t{0});                       // time
+      put(s, std::uint16_t{20});                     // needed to extract
+      put(s, std::uint16_t{0});                      // flags
+      put(s, std::uint16_t{8});                      // deflate
+      put(s, std::uint16_t{0});                      // time
       put(s, kDate);
       put(s, crc);
       put(s, static_cast<std::uint32_t>(packed->size()));
@@ -155,7 +166,9 @@ Result<std::string> zip_archive(const std::vector<ZipEntry>& entries) {
     header(out, false);
     out += *packed;
     header(central, true);
-    if (out.size() >= 0xFFFFFFFFull) return usage_error("3MF: the archive exceeds 4 GiB (no Zip64); use --deposit-mesh-max-triangles");
+    if (out.size() >= 0xFFFFFFFFull)
+      return usage_error(
+          "3MF: the archive exceeds 4 GiB (no Zip64); use --deposit-mesh-max-triangles");
   }
   const auto central_offset = static_cast<std::uint32_t>(out.size());
   out += central;
@@ -172,17 +185,22 @@ Result<std::string> zip_archive(const std::vector<ZipEntry>& entries) {
 
 Result<std::string> threemf_bytes(const Mesh& m) {
   std::vector<ZipEntry> entries;
-  entries.push_back({"[Content_Types].xml",
-                     "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
-                     "<Types xmlns=\"http://schemas.openxmlformats.org/package/2006/content-types\">"
-                     "<Default Extension=\"rels\" ContentType=\"application/vnd.openxmlformats-package.relationships+xml\"/>"
-                     "<Default Extension=\"model\" ContentType=\"application/vnd.ms-package.3dmanufacturing-3dmodel+xml\"/>"
-                     "</Types>\n"});
-  entries.push_back({"_rels/.rels",
-                     "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
-                     "<Relationships xmlns=\"http://schemas.openxmlformats.org/package/2006/relationships\">"
-                     "<Relationship Target=\"/3D/3dmodel.model\" Id=\"rel0\" "
-                     "Type=\"http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel\"/></Relationships>\n"});
+  entries.push_back(
+      {"[Content_Types].xml",
+       "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+       "<Types xmlns=\"http://schemas.openxmlformats.org/package/2006/content-types\">"
+       "<Default Extension=\"rels\" "
+       "ContentType=\"application/vnd.openxmlformats-package.relationships+xml\"/>"
+       "<Default Extension=\"model\" "
+       "ContentType=\"application/vnd.ms-package.3dmanufacturing-3dmodel+xml\"/>"
+       "</Types>\n"});
+  entries.push_back(
+      {"_rels/.rels",
+       "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+       "<Relationships xmlns=\"http://schemas.openxmlformats.org/package/2006/relationships\">"
+       "<Relationship Target=\"/3D/3dmodel.model\" Id=\"rel0\" "
+       "Type=\"http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel\"/></"
+       "Relationships>\n"});
   entries.push_back({"3D/3dmodel.model", model_xml(m)});
   return zip_archive(entries);
 }
@@ -196,12 +214,14 @@ Status check_deposit_mesh_path(const std::filesystem::path& path) {
                      "', expected a file name ending in .stl, .3mf or .ply");
 }
 
-Status write_deposit_mesh(const DepositMesh& dm, const std::filesystem::path& path, std::span<const float> deviation_mm) {
+Status write_deposit_mesh(const DepositMesh& dm, const std::filesystem::path& path,
+                          std::span<const float> deviation_mm) {
   if (auto st = check_deposit_mesh_path(path); !st) return st;
   const std::string ext = lower_extension(path);
   if (!deviation_mm.empty() && deviation_mm.size() != dm.mesh.vertices_mm.size())
-    return internal_error("deposit mesh: " + std::to_string(deviation_mm.size()) + " deviation values for " +
-                          std::to_string(dm.mesh.vertices_mm.size()) + " vertices");
+    return internal_error("deposit mesh: " + std::to_string(deviation_mm.size()) +
+                          " deviation values for " + std::to_string(dm.mesh.vertices_mm.size()) +
+                          " vertices");
   if (ext == ".stl") return save_stl(dm.mesh, path);
   if (ext == ".ply") return write_file_atomic(path, ply_bytes(dm, deviation_mm));
   auto bytes = threemf_bytes(dm.mesh);
@@ -211,19 +231,21 @@ Status write_deposit_mesh(const DepositMesh& dm, const std::filesystem::path& pa
 
 std::string deposit_mesh_summary(const DepositMesh& dm, const std::filesystem::path& path) {
   if (dm.mesh.triangles.empty())
-    return "deposit mesh: the deposit has no part voxels; wrote an empty mesh to " + path.string() + "\n";
+    return "deposit mesh: the deposit has no part voxels; wrote an empty mesh to " + path.string() +
+           "\n";
   std::error_code ec;
   const auto bytes = std::filesystem::file_size(path, ec);
-  std::string s = "deposit mesh: " + path.string() + ", " + std::to_string(dm.mesh.triangles.size()) + " triangles, " +
-                  std::to_string(dm.mesh.vertices_mm.size()) + " vertices" +
-                  (ec ? std::string() : ", " + format_fixed(static_cast<double>(bytes) / 1e6, 1) + " MB") + ", " +
-                  format_fixed(dm.seconds, 2) + " s\n";
-  s += "  closed and oriented outward; volume " + format_fixed(dm.volume_mm3, 1) + " mm3 (filled voxels " +
-       format_fixed(dm.filled_volume_mm3, 1) + " mm3); ";
+  std::string s =
+      "deposit mesh: " + path.string() + ", " + std::to_string(dm.mesh.triangles.size()) +
+      " triangles, " + std::to_string(dm.mesh.vertices_mm.size()) + " vertices" +
+      (ec ? std::string() : ", " + format_fixed(static_cast<double>(bytes) / 1e6, 1) + " MB") +
+      ", " + format_fixed(dm.seconds, 2) + " s\n";
+  s += "  closed and oriented outward; volume " + format_fixed(dm.volume_mm3, 1) +
+       " mm3 (filled voxels " + format_fixed(dm.filled_volume_mm3, 1) + " mm3); ";
   if (dm.cell_voxels > 1)
     s += "decimated to cells of " + std::to_string(dm.cell_voxels) + " voxels from " +
-         std::to_string(dm.full_res_triangles) + " triangles: within " + format_fixed(dm.error_bound_mm, 3) +
-         " mm of the voxel surface, enclosing it\n";
+         std::to_string(dm.full_res_triangles) + " triangles: within " +
+         format_fixed(dm.error_bound_mm, 3) + " mm of the voxel surface, enclosing it\n";
   else if (dm.error_bound_mm > 0)
     s += "on the voxel faces, within " + format_fixed(dm.error_bound_mm, 3) + " mm where " +
          std::to_string(dm.repaired_cells) + " voxels were filled to make it a manifold\n";
@@ -231,7 +253,8 @@ std::string deposit_mesh_summary(const DepositMesh& dm, const std::filesystem::p
     s += "exactly on the voxel faces\n";
   if (dm.dropped_components > 0)
     s += "  left out " + std::to_string(dm.dropped_components) +
-         " piece(s) without part voxels (skirt, purge line); --deposit-mesh-include adds auxiliary features\n";
+         " piece(s) without part voxels (skirt, purge line); --deposit-mesh-include adds auxiliary "
+         "features\n";
   return s;
 }
 
@@ -259,14 +282,20 @@ Status parse_deposit_mesh_include(const std::string& list, DepositMeshOptions& o
     const std::size_t comma = std::min(list.find(',', start), list.size());
     std::string item = list.substr(start, comma - start);
     item.erase(std::remove(item.begin(), item.end(), ' '), item.end());
-    std::transform(item.begin(), item.end(), item.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    if (item == "skirt" || item == "brim") o.include_skirt = true;
-    else if (item == "support" || item == "supports") o.include_support = true;
-    else if (item == "custom" || item == "purge" || item == "wipe_tower" || item == "wipe-tower") o.include_custom = true;
-    else if (item == "all") o.include_skirt = o.include_support = o.include_custom = true;
+    std::transform(item.begin(), item.end(), item.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (item == "skirt" || item == "brim")
+      o.include_skirt = true;
+    else if (item == "support" || item == "supports")
+      o.include_support = true;
+    else if (item == "custom" || item == "purge" || item == "wipe_tower" || item == "wipe-tower")
+      o.include_custom = true;
+    else if (item == "all")
+      o.include_skirt = o.include_support = o.include_custom = true;
     else if (!item.empty() || list.empty())
       return usage_error("--deposit-mesh-include: unknown feature '" + item +
-                         "', expected a comma list of skirt, support, purge (start code, purge lines, wipe tower) or all");
+                         "', expected a comma list of skirt, support, purge (start code, purge "
+                         "lines, wipe tower) or all");
     start = comma + 1;
   }
   return Ok{};

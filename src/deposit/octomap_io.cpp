@@ -11,16 +11,16 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <memory>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <string_view>
 #include <vector>
-#include <cctype>
-#include <memory>
-#include <sstream>
 
 #include "deposit/palette.hpp"
 #include "deposit/voxel_blocks.hpp"
@@ -65,10 +65,12 @@ constexpr int kTreeDepth = 16;
 constexpr int kCubeLevels = kTreeDepth - 3;  // depth of the 8^3 cubes
 
 struct Cube {
-  std::uint64_t morton = 0;  // interleaved cube key bits (z y x per level, most significant level first)
+  std::uint64_t morton =
+      0;  // interleaved cube key bits (z y x per level, most significant level first)
   std::array<std::uint64_t, 8> bits{};  // per z-slice, bit y * 8 + x
   [[nodiscard]] bool full() const {
-    return std::all_of(bits.begin(), bits.end(), [](std::uint64_t w) { return w == ~std::uint64_t{0}; });
+    return std::all_of(bits.begin(), bits.end(),
+                       [](std::uint64_t w) { return w == ~std::uint64_t{0}; });
   }
 };
 
@@ -83,7 +85,8 @@ class BtEncoder {
  public:
   explicit BtEncoder(std::vector<Cube> cubes) : cubes_(std::move(cubes)) {
     full_prefix_.resize(cubes_.size() + 1, 0);
-    for (std::size_t i = 0; i < cubes_.size(); ++i) full_prefix_[i + 1] = full_prefix_[i] + (cubes_[i].full() ? 1 : 0);
+    for (std::size_t i = 0; i < cubes_.size(); ++i)
+      full_prefix_[i + 1] = full_prefix_[i] + (cubes_[i].full() ? 1 : 0);
   }
   /// Encodes the tree; returns the node count (OctoMap's size()).
   std::size_t encode(std::string& out) {
@@ -121,7 +124,8 @@ class BtEncoder {
     for (unsigned c = 0; c < 8; ++c) {
       if (split[c] == split[c + 1]) continue;
       ++nodes_;
-      code |= static_cast<std::uint16_t>((range_full(split[c], split[c + 1], depth + 1) ? 2u : 3u) << (2 * c));
+      code |= static_cast<std::uint16_t>((range_full(split[c], split[c + 1], depth + 1) ? 2u : 3u)
+                                         << (2 * c));
     }
     put(code);
     for (unsigned c = 0; c < 8; ++c)
@@ -133,14 +137,16 @@ class BtEncoder {
     std::uint64_t rows = 0;
     for (int y = y0; y < y0 + n; ++y) rows |= row << (8 * y);
     int total = 0;
-    for (int z = z0; z < z0 + n; ++z) total += std::popcount(bits[static_cast<std::size_t>(z)] & rows);
+    for (int z = z0; z < z0 + n; ++z)
+      total += std::popcount(bits[static_cast<std::size_t>(z)] & rows);
     return total;
   }
   void encode_cube(const std::array<std::uint64_t, 8>& bits, int x0, int y0, int z0, int n) {
     const int h = n / 2;
     std::uint16_t code = 0;
     for (unsigned c = 0; c < 8; ++c) {
-      const int cx = x0 + ((c & 1u) ? h : 0), cy = y0 + ((c & 2u) ? h : 0), cz = z0 + ((c & 4u) ? h : 0);
+      const int cx = x0 + ((c & 1u) ? h : 0), cy = y0 + ((c & 2u) ? h : 0),
+                cz = z0 + ((c & 4u) ? h : 0);
       const int occupied = count(bits, cx, cy, cz, h);
       if (occupied == 0) continue;
       ++nodes_;
@@ -149,7 +155,8 @@ class BtEncoder {
     put(code);
     for (unsigned c = 0; c < 8; ++c)
       if (((code >> (2 * c)) & 3u) == 3u)
-        encode_cube(bits, x0 + ((c & 1u) ? h : 0), y0 + ((c & 2u) ? h : 0), z0 + ((c & 4u) ? h : 0), h);
+        encode_cube(bits, x0 + ((c & 1u) ? h : 0), y0 + ((c & 2u) ? h : 0), z0 + ((c & 4u) ? h : 0),
+                    h);
   }
   void put(std::uint16_t code) {
     // Two bits per child, child i at bits 2i (low) and 2i+1 (high) of its byte: OctoMap's
@@ -184,19 +191,22 @@ std::vector<Cube> cubes_of(const VoxelGrid& grid) {
     offset[a] = static_cast<int>(std::llround(grid.origin_mm()[a] / grid.voxel_mm())) + 32768;
   const auto sx = static_cast<unsigned>(offset.x() & 7), sy = static_cast<unsigned>(offset.y() & 7),
              sz = static_cast<unsigned>(offset.z() & 7);
-  const auto qx = static_cast<std::uint32_t>(offset.x() >> 3), qy = static_cast<std::uint32_t>(offset.y() >> 3),
+  const auto qx = static_cast<std::uint32_t>(offset.x() >> 3),
+             qy = static_cast<std::uint32_t>(offset.y() >> 3),
              qz = static_cast<std::uint32_t>(offset.z() >> 3);
   const Eigen::Vector3i nb = VoxelBlocks::block_dims(grid);
   const int ncx = nb.x() + 1, ncy = nb.y() + 1;
   using Bits = std::array<std::uint64_t, 8>;
   std::array<std::vector<Bits>, 2> layers;
-  for (auto& l : layers) l.assign(static_cast<std::size_t>(ncx) * static_cast<std::size_t>(ncy), Bits{});
+  for (auto& l : layers)
+    l.assign(static_cast<std::size_t>(ncx) * static_cast<std::size_t>(ncy), Bits{});
   std::vector<Cube> cubes;
   auto flush = [&](int cz) {  // cube layer cz is complete
     auto& layer = layers[static_cast<std::size_t>(cz & 1)];
     for (int cy = 0; cy < ncy; ++cy)
       for (int cx = 0; cx < ncx; ++cx) {
-        Bits& bits = layer[static_cast<std::size_t>(cy) * static_cast<std::size_t>(ncx) + static_cast<std::size_t>(cx)];
+        Bits& bits = layer[static_cast<std::size_t>(cy) * static_cast<std::size_t>(ncx) +
+                           static_cast<std::size_t>(cx)];
         if (std::all_of(bits.begin(), bits.end(), [](std::uint64_t v) { return v == 0; })) continue;
         Cube c;
         c.morton = morton3(qx + static_cast<std::uint32_t>(cx), qy + static_cast<std::uint32_t>(cy),
@@ -219,25 +229,30 @@ std::vector<Cube> cubes_of(const VoxelGrid& grid) {
           if (w == 0) continue;
           const unsigned zz = z + sz;
           auto& layer = layers[static_cast<std::size_t>((bz + static_cast<int>(zz >> 3)) & 1)];
-          const std::uint64_t x_parts[2] = {(w & low_columns) << sx, sx == 0 ? 0 : (w & ~low_columns) >> (8 - sx)};
+          const std::uint64_t x_parts[2] = {(w & low_columns) << sx,
+                                            sx == 0 ? 0 : (w & ~low_columns) >> (8 - sx)};
           for (int dx = 0; dx < 2; ++dx) {
             const std::uint64_t p = x_parts[dx];
             if (p == 0) continue;
-            const auto cell = static_cast<std::size_t>(by) * static_cast<std::size_t>(ncx) + static_cast<std::size_t>(bx + dx);
+            const auto cell = static_cast<std::size_t>(by) * static_cast<std::size_t>(ncx) +
+                              static_cast<std::size_t>(bx + dx);
             layer[cell][zz & 7u] |= p << (8 * sy);  // rows y < 8 - sy
-            if (sy != 0) layer[cell + static_cast<std::size_t>(ncx)][zz & 7u] |= p >> (8 * (8 - sy));
+            if (sy != 0)
+              layer[cell + static_cast<std::size_t>(ncx)][zz & 7u] |= p >> (8 * (8 - sy));
           }
         }
       }
     flush(bz);
   }
   flush(nb.z());
-  std::sort(cubes.begin(), cubes.end(), [](const Cube& a, const Cube& b) { return a.morton < b.morton; });
+  std::sort(cubes.begin(), cubes.end(),
+            [](const Cube& a, const Cube& b) { return a.morton < b.morton; });
   return cubes;
 }
 
 /// The text header OctoMap writes before the nodes (`binary`: .bt, else .ot).
-std::string octomap_header(bool binary, const char* tree_type, std::size_t nodes, double resolution) {
+std::string octomap_header(bool binary, const char* tree_type, std::size_t nodes,
+                           double resolution) {
   std::ostringstream head;
   head << (binary ? "# Octomap OcTree binary file\n" : "# Octomap OcTree file\n")
        << "# (feel free to add / change comments, but leave the first line as it is!)\n#\n"
@@ -251,7 +266,6 @@ std::string encode_bt(const VoxelGrid& grid) {
   const std::size_t nodes = encoder.encode(data);
   return octomap_header(true, "OcTree", nodes, grid.voxel_mm()) + data;
 }
-
 
 // --- .ot written straight from the grid ------------------------------------------------
 // The ColorOcTree file (AbstractOcTree::write): a text header, then the nodes depth-first
@@ -278,8 +292,8 @@ OtNode pack(const deposit_detail::Rgb& c) {
 /// one colour, else an inner node with OctoMap's average child colour.
 OtNode parent_of(const OtNode* c) {
   const OtNode first = c[0];
-  if ((first & ~kWhite) == kLeaf && c[1] == first && c[2] == first && c[3] == first && c[4] == first &&
-      c[5] == first && c[6] == first && c[7] == first)
+  if ((first & ~kWhite) == kLeaf && c[1] == first && c[2] == first && c[3] == first &&
+      c[4] == first && c[5] == first && c[6] == first && c[7] == first)
     return first;
   std::uint32_t r = 0, g = 0, b = 0, n = 0;
   for (int i = 0; i < 8; ++i) {
@@ -292,13 +306,15 @@ OtNode parent_of(const OtNode* c) {
 
 class OtEncoder {
  public:
-  OtEncoder(const VoxelGrid& grid, std::vector<Cube> cubes, VoxelColoring coloring, float occupied_log_odds)
+  OtEncoder(const VoxelGrid& grid, std::vector<Cube> cubes, VoxelColoring coloring,
+            float occupied_log_odds)
       : grid_(grid), cubes_(std::move(cubes)) {
     const auto& table = VoxelBlocks::tag_table(grid);
     colours_.reserve(table.size());
     for (const auto& tag : table)
-      colours_.push_back(pack(coloring == VoxelColoring::layer ? deposit_detail::layer_color(tag.layer)
-                                                               : deposit_detail::feature_color(tag.feature)));
+      colours_.push_back(pack(coloring == VoxelColoring::layer
+                                  ? deposit_detail::layer_color(tag.layer)
+                                  : deposit_detail::feature_color(tag.feature)));
     for (int a = 0; a < 3; ++a)
       offset_[a] = static_cast<int>(std::llround(grid.origin_mm()[a] / grid.voxel_mm())) + 32768;
     std::memcpy(record_, &occupied_log_odds, 4);
@@ -415,8 +431,9 @@ class OtEncoder {
         const auto bi = static_cast<std::size_t>(((gx >> 3) - b0[0]) | (((gy >> 3) - b0[1]) << 1) |
                                                  (((gz >> 3) - b0[2]) << 2));
         voxel_[static_cast<std::size_t>(z * 64 + bit)] =
-            block_colour[bi] != 0 ? block_colour[bi]
-                                  : colours_[blocks[bi]->tag_index((gz & 7) * 64 + (gy & 7) * 8 + (gx & 7))];
+            block_colour[bi] != 0
+                ? block_colour[bi]
+                : colours_[blocks[bi]->tag_index((gz & 7) * 64 + (gy & 7) * 8 + (gx & 7))];
       }
     }
     return shared;
@@ -442,9 +459,10 @@ class OtEncoder {
       for (int y = 0; y < h; ++y)
         for (int x = 0; x < h; ++x) {
           const OtNode* c = level + (2 * z * n + 2 * y) * n + 2 * x;
-          const OtNode children[8] = {c[0], c[1], c[n], c[n + 1], c[n * n], c[n * n + 1], c[n * n + n], c[n * n + n + 1]};
-          const bool any = (children[0] | children[1] | children[2] | children[3] | children[4] | children[5] |
-                            children[6] | children[7]) != 0;
+          const OtNode children[8] = {c[0],     c[1],         c[n],         c[n + 1],
+                                      c[n * n], c[n * n + 1], c[n * n + n], c[n * n + n + 1]};
+          const bool any = (children[0] | children[1] | children[2] | children[3] | children[4] |
+                            children[5] | children[6] | children[7]) != 0;
           parents[(z * h + y) * h + x] = any ? parent_of(children) : 0;
         }
   }
@@ -512,7 +530,8 @@ OtBytes encode_ot(const VoxelGrid& grid, VoxelColoring coloring) {
 
 }  // namespace
 
-Status write_octomap(const VoxelGrid& grid, const std::filesystem::path& path, VoxelColoring coloring) {
+Status write_octomap(const VoxelGrid& grid, const std::filesystem::path& path,
+                     VoxelColoring coloring) {
   const std::string ext = lower_extension(path);
   if (ext != ".bt" && ext != ".ot")
     return usage_error("OctoMap output must end in .bt or .ot: " + path.string());
@@ -528,7 +547,8 @@ Result<std::size_t> count_octomap_voxels(const std::filesystem::path& path) {
   std::unique_ptr<octomap::OcTree> bt;
   if (ext == ".bt") {
     bt = std::make_unique<octomap::OcTree>(0.1);
-    if (!bt->readBinary(path.string())) return bad_input("not a readable OctoMap .bt file", path.string());
+    if (!bt->readBinary(path.string()))
+      return bad_input("not a readable OctoMap .bt file", path.string());
   } else if (ext == ".ot") {
     owned.reset(octomap::AbstractOcTree::read(path.string()));
     if (!owned) return bad_input("not a readable OctoMap .ot file", path.string());

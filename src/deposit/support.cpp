@@ -14,8 +14,9 @@ constexpr double kRegionGapMm = 1.0;         // unsupported stretches this close
 constexpr std::size_t kMaxClustered = 4000;  // beyond this, one finding per layer and kind
 }  // namespace
 
-void SupportTracker::check_bead(const Move& mv, const Vec3& a, const Vec3& b, const Vec2& n, int samples,
-                                double h, double w, bool continues_path, const HeightMap& map, DroopProbe* droop) {
+void SupportTracker::check_bead(const Move& mv, const Vec3& a, const Vec3& b, const Vec2& n,
+                                int samples, double h, double w, bool continues_path,
+                                const HeightMap& map, DroopProbe* droop) {
   if (!continues_path) {
     close_stretch(false);
     path_has_support_ = false;
@@ -25,7 +26,8 @@ void SupportTracker::check_bead(const Move& mv, const Vec3& a, const Vec3& b, co
   const double tol = 0.5 * h;
   const double step_mm = mv.xy_length_mm() / samples;
   offsets_.resize(static_cast<std::size_t>(across));
-  for (int j = 0; j < across; ++j) offsets_[static_cast<std::size_t>(j)] = -0.5 * w + (j + 0.5) * w / across;
+  for (int j = 0; j < across; ++j)
+    offsets_[static_cast<std::size_t>(j)] = -0.5 * w + (j + 0.5) * w / across;
   // The samples across, in voxel units relative to the grid origin.
   for (double& s : offsets_) s *= inv_voxel;
   const HeightMapView view = map.view();
@@ -38,14 +40,16 @@ void SupportTracker::check_bead(const Move& mv, const Vec3& a, const Vec3& b, co
     const Vec3 q = a + ((i + 0.5) / samples) * (b - a);
     const double bottom = q.z() - h;
     const int need_rows = level ? level_rows : map.rows_reaching(bottom - tol);
-    const int held = count_held(view, map.u(q.x()), map.v(q.y()), nxv, nyv, offsets_.data(), across, need_rows);
+    const int held =
+        count_held(view, map.u(q.x()), map.v(q.y()), nxv, nyv, offsets_.data(), across, need_rows);
     const bool supported = held >= support_fraction_ * across - 1e-9;
-    sample(mv, a, b, i, samples, step_mm, supported, supported || droop == nullptr ? Drop{} : droop->sample(i));
+    sample(mv, a, b, i, samples, step_mm, supported,
+           supported || droop == nullptr ? Drop{} : droop->sample(i));
   }
 }
 
-void SupportTracker::sample(const Move& mv, const Vec3& a, const Vec3& b, int i, int samples, double step_mm,
-                            bool supported, const Drop& drop) {
+void SupportTracker::sample(const Move& mv, const Vec3& a, const Vec3& b, int i, int samples,
+                            double step_mm, bool supported, const Drop& drop) {
   if (supported) {
     close_stretch(true);
     path_has_support_ = true;
@@ -100,7 +104,8 @@ Box3 box_of(const UnsupportedStretch& s) {
 }
 
 bool near(const Box3& a, const Box3& b) {
-  return (a.min.array() - kRegionGapMm <= b.max.array()).all() && (b.min.array() - kRegionGapMm <= a.max.array()).all();
+  return (a.min.array() - kRegionGapMm <= b.max.array()).all() &&
+         (b.min.array() - kRegionGapMm <= a.max.array()).all();
 }
 
 /// Stretches of the same layer and kind whose boxes come near each other, in one group.
@@ -133,7 +138,8 @@ std::vector<Group> group_stretches(const std::vector<UnsupportedStretch>& stretc
       for (std::size_t j = i + 1; j < groups.size() && groups[j].layer == groups[i].layer; ++j)
         if (groups[j].kind == groups[i].kind && near(groups[i].box, groups[j].box)) {
           groups[i].box.extend(groups[j].box);
-          groups[i].items.insert(groups[i].items.end(), groups[j].items.begin(), groups[j].items.end());
+          groups[i].items.insert(groups[i].items.end(), groups[j].items.begin(),
+                                 groups[j].items.end());
           groups.erase(groups.begin() + static_cast<std::ptrdiff_t>(j));
           merged = true;
           break;
@@ -162,25 +168,31 @@ Finding finding_of(const Group& g) {
     extent.extend(s->end_mm);
   }
   Finding f;
-  static constexpr const char* kCodes[] = {"extrusion_into_air_cantilever", "extrusion_into_air_bridge",
+  static constexpr const char* kCodes[] = {"extrusion_into_air_cantilever",
+                                           "extrusion_into_air_bridge",
                                            "extrusion_into_air_sparse_infill"};
-  static constexpr const char* kWhat[] = {"cantilevered (held on one side)", "bridged (supported at both ends)",
+  static constexpr const char* kWhat[] = {"cantilevered (held on one side)",
+                                          "bridged (supported at both ends)",
                                           "sparse infill crossing the gaps of the infill below"};
   f.severity = g.kind == kCantilever ? Severity::warning : Severity::info;
   f.code = kCodes[g.kind];
-  f.message = "layer " + std::to_string(g.layer) + ": " + std::to_string(g.items.size()) + " unsupported " +
-              kWhat[g.kind] + " stretch" + (g.items.size() == 1 ? "" : "es") + ", " + format_fixed(total, 1) +
-              " mm in total; longest " + format_fixed(longest->length_mm, 1) + " mm at G-code lines " +
-              std::to_string(longest->first_line) + "-" + std::to_string(longest->last_line) + " (" +
-              std::string(to_string(longest->feature)) + ")";
+  f.message = "layer " + std::to_string(g.layer) + ": " + std::to_string(g.items.size()) +
+              " unsupported " + kWhat[g.kind] + " stretch" + (g.items.size() == 1 ? "" : "es") +
+              ", " + format_fixed(total, 1) + " mm in total; longest " +
+              format_fixed(longest->length_mm, 1) + " mm at G-code lines " +
+              std::to_string(longest->first_line) + "-" + std::to_string(longest->last_line) +
+              " (" + std::string(to_string(longest->feature)) + ")";
   if (g.kind == kSparse) {
     f.message += "; normal for sparse infill, which spans the cells below (not deformed)";
   } else {
-    f.message += std::string("; predicted to ") + (g.kind == kBridge ? "sag" : "droop") + " up to " +
-                 format_fixed(drop, 2) + " mm below its layer" +
-                 (drop >= 0.005 ? " (that much lower and rougher underside)" : " (no visible effect)");
+    f.message +=
+        std::string("; predicted to ") + (g.kind == kBridge ? "sag" : "droop") + " up to " +
+        format_fixed(drop, 2) + " mm below its layer" +
+        (drop >= 0.005 ? " (that much lower and rougher underside)" : " (no visible effect)");
     if (falls)
-      f.message += "; part of it is beyond the fall limit and falls onto what is below or dangles as a string";
+      f.message +=
+          "; part of it is beyond the fall limit and falls onto what is below or dangles as a "
+          "string";
   }
   f.position_mm = longest->start_mm;
   f.extent_mm = extent;

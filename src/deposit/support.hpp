@@ -19,15 +19,18 @@ namespace printtwin::detail {
 class SupportTracker {
  public:
   SupportTracker(double support_fraction, double min_unsupported_mm, double voxel_mm)
-      : support_fraction_(support_fraction), min_unsupported_mm_(min_unsupported_mm), voxel_(voxel_mm) {}
+      : support_fraction_(support_fraction),
+        min_unsupported_mm_(min_unsupported_mm),
+        voxel_(voxel_mm) {}
 
   /// Tests the bead `mv` (tip a -> b, `samples` samples along it, section h x w, lateral
   /// normal n) against the deposit in `map` before the bead is laid. `continues_path`: the
   /// bead joins the previous one (a stretch may run on across the joint).
   /// `droop` (optional, begun on this bead) predicts how far each unsupported sample drops;
   /// the stretches keep the largest drop.
-  void check_bead(const Move& mv, const Vec3& a, const Vec3& b, const Vec2& n, int samples, double h, double w,
-                  bool continues_path, const HeightMap& map, DroopProbe* droop = nullptr);
+  void check_bead(const Move& mv, const Vec3& a, const Vec3& b, const Vec2& n, int samples,
+                  double h, double w, bool continues_path, const HeightMap& map,
+                  DroopProbe* droop = nullptr);
   /// Ends the open stretch, if any; `end_supported`: supported material follows it.
   void close_stretch(bool end_supported);
 
@@ -36,8 +39,8 @@ class SupportTracker {
   std::vector<UnsupportedStretch> take_stretches() { return std::move(stretches_); }
 
  private:
-  void sample(const Move& mv, const Vec3& a, const Vec3& b, int i, int samples, double step_mm, bool supported,
-              const Drop& drop);
+  void sample(const Move& mv, const Vec3& a, const Vec3& b, int i, int samples, double step_mm,
+              bool supported, const Drop& drop);
 
   double support_fraction_, min_unsupported_mm_, voxel_;
   bool path_has_support_ = false;  // along the current continuous path

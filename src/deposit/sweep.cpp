@@ -4,8 +4,8 @@
 
 #include <algorithm>
 #include <array>
-#include <cmath>
 #include <bit>
+#include <cmath>
 #include <limits>
 #include <tuple>
 
@@ -26,9 +26,13 @@ struct Linear {
     inv_q = flat_y ? 0.0 : 1.0 / q;
   }
   /// Narrows [yl, yh] to the y where the constraint holds on the line x; false if empty.
-  bool clip_y(double x, double& yl, double& yh) const { return narrow(p * x + c, inv_q, flat_y, yl, yh); }
+  bool clip_y(double x, double& yl, double& yh) const {
+    return narrow(p * x + c, inv_q, flat_y, yl, yh);
+  }
   /// Narrows [xl, xh] to the x where the constraint holds on the line y; false if empty.
-  bool clip(double y, double& xl, double& xh) const { return narrow(q * y + c, inv_p, flat, xl, xh); }
+  bool clip(double y, double& xl, double& xh) const {
+    return narrow(q * y + c, inv_p, flat, xl, xh);
+  }
 
  private:
   /// lo <= k * t + rest <= hi narrows [tl, th] (inv_k = 1 / k; `flat`: k == 0).
@@ -52,7 +56,8 @@ struct Footprint {
   // two sharp mitres is a triangle). Corners outside the footprint only widen the ranges.
   std::array<Vec2, 5> vertices;
 
-  void init(const Vec2& a, const Vec2& b, const Vec2& d, const Vec2& n, const Vec2& m0, const Vec2& m1, double hw) {
+  void init(const Vec2& a, const Vec2& b, const Vec2& d, const Vec2& n, const Vec2& m0,
+            const Vec2& m1, double hw) {
     constexpr double kInf = std::numeric_limits<double>::infinity();
     side.init(n.x(), n.y(), -n.dot(a), -hw, hw);
     start.init(m0.x(), m0.y(), -m0.dot(a), 0.0, kInf);
@@ -60,8 +65,8 @@ struct Footprint {
     // Intersections of the side lines s = +-hw with the two cut lines.
     const double k0 = m0.dot(n) / m0.dot(d);
     const double k1 = m1.dot(n) / m1.dot(d);
-    vertices = {a + (-hw * k0) * d + hw * n, a + (hw * k0) * d - hw * n, b + (-hw * k1) * d + hw * n,
-                b + (hw * k1) * d - hw * n, a};
+    vertices = {a + (-hw * k0) * d + hw * n, a + (hw * k0) * d - hw * n,
+                b + (-hw * k1) * d + hw * n, b + (hw * k1) * d - hw * n, a};
     const double det = m0.x() * m1.y() - m0.y() * m1.x();
     if (std::abs(det) > 1e-12) {
       const double c0 = m0.dot(a), c1 = m1.dot(b);
@@ -88,10 +93,12 @@ struct Footprint {
     hi = -lo;
     for (const double t : {t0, t1}) {
       double a, b;
-      if (axis == 0 ? interval(t, a, b) : interval_y(t, a, b)) lo = std::min(lo, a), hi = std::max(hi, b);
+      if (axis == 0 ? interval(t, a, b) : interval_y(t, a, b))
+        lo = std::min(lo, a), hi = std::max(hi, b);
     }
     for (const auto& v : vertices)
-      if (v[1 - axis] >= t0 && v[1 - axis] <= t1) lo = std::min(lo, v[axis]), hi = std::max(hi, v[axis]);
+      if (v[1 - axis] >= t0 && v[1 - axis] <= t1)
+        lo = std::min(lo, v[axis]), hi = std::max(hi, v[axis]);
     return lo <= hi;
   }
   void minor_range(double& lo, double& hi) const {
@@ -182,13 +189,16 @@ bool BeadSweep::set_up(const SweptBead& bead, BeadFrame& f, Vec2& a2, Vec2& b2, 
 // the few extra tile tests they save.) The tiles of one bead are disjoint and carry one tag,
 // so the order they are written in changes nothing.
 template <class Fn>
-void BeadSweep::for_each_tile(const SweptBead& bead, const Vec2& a2, const Vec2& b2, double hw, Fn&& fn) const {
+void BeadSweep::for_each_tile(const SweptBead& bead, const Vec2& a2, const Vec2& b2, double hw,
+                              Fn&& fn) const {
   Footprint outer;
   outer.init(a2, b2, bead.d, bead.n, bead.m0, bead.m1, hw);
   double ylo, yhi;
   outer.minor_range(ylo, yhi);
-  const double box_lo_x = std::min(a2.x(), b2.x()) - 2 * hw - 2, box_hi_x = std::max(a2.x(), b2.x()) + 2 * hw + 2;
-  if (exhaustive_) ylo = std::min(a2.y(), b2.y()) - 2 * hw - 2, yhi = std::max(a2.y(), b2.y()) + 2 * hw + 2;
+  const double box_lo_x = std::min(a2.x(), b2.x()) - 2 * hw - 2,
+               box_hi_x = std::max(a2.x(), b2.x()) + 2 * hw + 2;
+  if (exhaustive_)
+    ylo = std::min(a2.y(), b2.y()) - 2 * hw - 2, yhi = std::max(a2.y(), b2.y()) + 2 * hw + 2;
   const int j_lo = std::max(0, floor_int(std::clamp(ylo - kBoundSlack, -2.0, ny_ + 1.0)));
   const int j_hi = std::min(ny_ - 1, floor_int(std::clamp(yhi + kBoundSlack, -2.0, ny_ + 1.0)));
   for (int by = j_lo >> 3; by <= j_hi >> 3; ++by) {
@@ -219,7 +229,8 @@ void BeadSweep::for_each_tile(const SweptBead& bead, const Vec2& a2, const Vec2&
   }
 }
 
-BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint32_t tag, HeightMap& map) {
+BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint32_t tag,
+                               HeightMap& map) {
   BeadFrame f;
   Vec2 a2, b2;
   double hw;
@@ -228,8 +239,8 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
   masks_.resize(reached_.size());
   for_each_tile(bead, a2, b2, hw, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
     const std::size_t at = map.index(8 * bx, 8 * by);
-    test_tile_layers(f, 8 * bx, 8 * by, reached_.data(), static_cast<int>(reached_.size()), t_lo, t_hi, lanes,
-                     masks_.data());
+    test_tile_layers(f, 8 * bx, 8 * by, reached_.data(), static_cast<int>(reached_.size()), t_lo,
+                     t_hi, lanes, masks_.data());
     for (std::size_t layer_at = 0; layer_at < reached_.size(); ++layer_at) {
       const std::uint64_t mask = masks_[layer_at];
       if (mask == 0) continue;
@@ -239,7 +250,8 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
       map.raise_tile(at, mask, static_cast<std::uint16_t>(k + 1), bead.layer);
     }
   });
-  if (laid.overlap > 0 && bead.squeeze_mm > 0) laid.squeezed = squeeze(bead, f, a2, b2, laid.overlap, grid, tag, map);
+  if (laid.overlap > 0 && bead.squeeze_mm > 0)
+    laid.squeezed = squeeze(bead, f, a2, b2, laid.overlap, grid, tag, map);
   return laid;
 }
 
@@ -247,8 +259,9 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
 // bead's section (distance from the section's stadium), up to squeeze_mm away, within the
 // bead's own cuts: beside it and below it first; above the tip (the layer rising, as in an
 // over-full solid layer) only when nothing beside or below is free.
-std::size_t BeadSweep::squeeze(const SweptBead& bead, const BeadFrame& f, const Vec2& a2, const Vec2& b2,
-                               std::size_t lost, VoxelGrid& grid, std::uint32_t tag, HeightMap& map) {
+std::size_t BeadSweep::squeeze(const SweptBead& bead, const BeadFrame& f, const Vec2& a2,
+                               const Vec2& b2, std::size_t lost, VoxelGrid& grid, std::uint32_t tag,
+                               HeightMap& map) {
   const double delta = bead.squeeze_mm * inv_voxel_;
   // The section grown by delta (a stadium is a segment's disc sweep: grow the disc).
   BeadFrame g = f;
@@ -265,8 +278,8 @@ std::size_t BeadSweep::squeeze(const SweptBead& bead, const BeadFrame& f, const 
   const auto fdelta = static_cast<float>(delta);
   candidates_.clear();
   for_each_tile(bead, a2, b2, hw, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
-    test_tile_layers(g, 8 * bx, 8 * by, layers_.data(), static_cast<int>(layers_.size()), t_lo, t_hi, lanes,
-                     masks_.data());
+    test_tile_layers(g, 8 * bx, 8 * by, layers_.data(), static_cast<int>(layers_.size()), t_lo,
+                     t_hi, lanes, masks_.data());
     for (std::size_t n = 0; n < layers_.size(); ++n) {
       const int k = layers_[n];
       const std::uint64_t* occ = detail::VoxelBlocks::block_occupancy(grid, bx, by, k >> 3);

@@ -10,8 +10,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "deposit/kernels.hpp"
 #include "deposit/height_map.hpp"
+#include "deposit/kernels.hpp"
 #include "printtwin/geometry.hpp"
 #include "printtwin/voxel_grid.hpp"
 
@@ -19,9 +19,9 @@ namespace printtwin::detail {
 
 /// One bead as the sweep lays it (mm, machine frame).
 struct SweptBead {
-  Vec3 a_mm, b_mm;       ///< tip path
-  Vec2 d, n;             ///< unit direction (xy) and lateral normal
-  Vec2 m0, m1;           ///< start and end cut normals (unit, xy)
+  Vec3 a_mm, b_mm;  ///< tip path
+  Vec2 d, n;        ///< unit direction (xy) and lateral normal
+  Vec2 m0, m1;      ///< start and end cut normals (unit, xy)
   double h_mm = 0, w_mm = 0;
   std::int32_t layer = 0;
   /// How far (mm) the material that falls on occupied voxels may squeeze out of the section
@@ -49,11 +49,12 @@ class BeadSweep {
   /// Calls fn(bx, by, row_lo, row_hi, lanes) for each tile the footprint of half-width hw
   /// (voxel units) reaches.
   template <class Fn>
-  void for_each_tile(const SweptBead& bead, const Vec2& a2, const Vec2& b2, double hw, Fn&& fn) const;
+  void for_each_tile(const SweptBead& bead, const Vec2& a2, const Vec2& b2, double hw,
+                     Fn&& fn) const;
   /// Places up to `lost` voxels of material in the free voxels nearest the bead; returns how
   /// many it placed.
-  std::size_t squeeze(const SweptBead& bead, const BeadFrame& f, const Vec2& a2, const Vec2& b2, std::size_t lost,
-                      VoxelGrid& grid, std::uint32_t tag, HeightMap& map);
+  std::size_t squeeze(const SweptBead& bead, const BeadFrame& f, const Vec2& a2, const Vec2& b2,
+                      std::size_t lost, VoxelGrid& grid, std::uint32_t tag, HeightMap& map);
 
   struct Candidate {
     float d;             // distance beyond the section (voxel units)

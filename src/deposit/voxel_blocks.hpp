@@ -24,8 +24,9 @@ struct VoxelBlocks {
   static constexpr int kPaletteSize = 16;
   /// Bytes of one allocated block: 512 occupancy bits, a 4-bit palette index per voxel, the
   /// palette (16 tag indices), its length and the block's coordinates.
-  static constexpr std::size_t kBlockBytes =
-      8 * sizeof(std::uint64_t) + 512 / 2 + kPaletteSize * sizeof(std::uint32_t) + 1 + 3 * sizeof(std::int32_t);
+  static constexpr std::size_t kBlockBytes = 8 * sizeof(std::uint64_t) + 512 / 2 +
+                                             kPaletteSize * sizeof(std::uint32_t) + 1 +
+                                             3 * sizeof(std::int32_t);
 
   /// One allocated block: voxel (base.x + x, base.y + y, base.z + z) for x, y, z in 0..7 is
   /// occupied when bit (y * 8 + x) of occupancy[z] is set; its tag index is
@@ -55,14 +56,15 @@ struct VoxelBlocks {
   /// Every distinct tag recorded so far; voxels store an index into this table.
   [[nodiscard]] static const std::vector<VoxelTag>& tag_table(const VoxelGrid& grid);
   /// Index into tag_table() of an occupied voxel.
-  [[nodiscard]] static std::optional<std::uint32_t> tag_index(const VoxelGrid& grid, const VoxelKey& k);
+  [[nodiscard]] static std::optional<std::uint32_t> tag_index(const VoxelGrid& grid,
+                                                              const VoxelKey& k);
   /// Like VoxelGrid::set(), with a tag already in the table. Returns true if the voxel was
   /// empty before.
   static bool set_index(VoxelGrid& grid, const VoxelKey& k, std::uint32_t tag_index);
   /// Marks voxels x0..x1-1 of the row (y, z) occupied with `tag_index` (clipped to the grid).
   /// Returns how many of them were empty before.
-  static std::size_t fill_row(VoxelGrid& grid, std::int32_t y, std::int32_t z, std::int32_t x0, std::int32_t x1,
-                              std::uint32_t tag_index);
+  static std::size_t fill_row(VoxelGrid& grid, std::int32_t y, std::int32_t z, std::int32_t x0,
+                              std::int32_t x1, std::uint32_t tag_index);
   /// ORs `mask` into z-slice z of block (bx, by, z / 8), allocating the block: bit y * 8 + x
   /// stands for voxel (8 bx + x, 8 by + y, z). The voxels of the mask get `tag_index`. The
   /// block must be inside block_dims() and z inside dims(). Returns how many of the voxels
@@ -82,19 +84,23 @@ struct VoxelBlocks {
   [[nodiscard]] static Eigen::Vector3i block_dims(const VoxelGrid& grid);
   /// Occupancy words (8, one per z-slice) of block (bx, by, bz); nullptr when the block is
   /// unallocated or out of range.
-  [[nodiscard]] static const std::uint64_t* block_occupancy(const VoxelGrid& grid, int bx, int by, int bz);
+  [[nodiscard]] static const std::uint64_t* block_occupancy(const VoxelGrid& grid, int bx, int by,
+                                                            int bz);
   /// Block (bx, by, bz) when it is allocated (and inside block_dims()).
-  [[nodiscard]] static std::optional<BlockView> block_view(const VoxelGrid& grid, int bx, int by, int bz);
+  [[nodiscard]] static std::optional<BlockView> block_view(const VoxelGrid& grid, int bx, int by,
+                                                           int bz);
   /// Calls fn for every allocated block, in the fixed order of VoxelGrid::for_each (z, then
   /// y, then x).
   static void visit_blocks(const VoxelGrid& grid, const std::function<void(const BlockView&)>& fn);
   /// Calls fn for every allocated block in the order they were allocated (deterministic for
   /// the same writes); touches the allocated blocks only, not the whole directory.
-  static void visit_blocks_as_allocated(const VoxelGrid& grid, const std::function<void(const BlockView&)>& fn);
+  static void visit_blocks_as_allocated(const VoxelGrid& grid,
+                                        const std::function<void(const BlockView&)>& fn);
 
  private:
   /// The view of allocated block `b` at block coordinates (bx, by, bz).
-  [[nodiscard]] static BlockView view_of_block(const VoxelGrid& grid, std::size_t b, int bx, int by, int bz);
+  [[nodiscard]] static BlockView view_of_block(const VoxelGrid& grid, std::size_t b, int bx, int by,
+                                               int bz);
 };
 
 }  // namespace printtwin::detail

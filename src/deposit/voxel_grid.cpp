@@ -13,9 +13,9 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstdlib>
-#include <bit>
 #include <cstring>
 #include <new>
 
@@ -58,8 +58,8 @@ using detail::VoxelBlocks;
 constexpr int kEdge = VoxelBlocks::kBlockEdge;
 constexpr int kPalette = VoxelBlocks::kPaletteSize;
 constexpr std::size_t kBlockBytes = VoxelBlocks::kBlockBytes;
-constexpr std::size_t kChunkBlocks = 4096;  // blocks per allocation chunk (1.5 MiB)
-constexpr std::uint32_t kNoBlock = 0;       // directory value of an unallocated block
+constexpr std::size_t kChunkBlocks = 4096;     // blocks per allocation chunk (1.5 MiB)
+constexpr std::uint32_t kNoBlock = 0;          // directory value of an unallocated block
 constexpr std::size_t kNibbleBytes = 512 / 2;  // per block
 constexpr std::size_t kOccBytes = kChunkBlocks * kEdge * sizeof(std::uint64_t);
 constexpr std::size_t kNibblesBytes = kChunkBlocks * kNibbleBytes;
@@ -71,7 +71,9 @@ constexpr std::uint8_t kWide = 0xFF;  // palette length of a wide block
 class ChunkMemory {
  public:
   ChunkMemory() : memory_(kChunkBytes) {}
-  [[nodiscard]] std::uint64_t* occupancy() { return reinterpret_cast<std::uint64_t*>(memory_.data()); }
+  [[nodiscard]] std::uint64_t* occupancy() {
+    return reinterpret_cast<std::uint64_t*>(memory_.data());
+  }
   [[nodiscard]] std::uint8_t* nibbles() { return memory_.data() + kOccBytes; }
   [[nodiscard]] std::uint32_t* palettes() {
     return reinterpret_cast<std::uint32_t*>(memory_.data() + kOccBytes + kNibblesBytes);
@@ -135,7 +137,8 @@ struct VoxelGrid::Impl {
     std::uint8_t* nib = nibbles(b);
     unsigned used = 0;
     for (int z = 0; z < kEdge; ++z)
-      for (std::uint64_t m = o[z]; m != 0; m &= m - 1) used |= 1U << nibble_at(nib, z * 64 + std::countr_zero(m));
+      for (std::uint64_t m = o[z]; m != 0; m &= m - 1)
+        used |= 1U << nibble_at(nib, z * 64 + std::countr_zero(m));
     std::uint32_t* pal = palette(b);
     std::array<std::uint8_t, kPalette> moved{};
     int n = 0;
@@ -226,10 +229,13 @@ struct VoxelGrid::Impl {
     chunks.clear();
     for (std::size_t c = 0; c < o.chunks.size(); ++c) {
       add_chunk();
-      const std::size_t used = std::min(kChunkBlocks, o.blocks - std::min(o.blocks, c * kChunkBlocks));
-      std::memcpy(chunks.back()->occupancy(), o.chunks[c]->occupancy(), used * kEdge * sizeof(std::uint64_t));
+      const std::size_t used =
+          std::min(kChunkBlocks, o.blocks - std::min(o.blocks, c * kChunkBlocks));
+      std::memcpy(chunks.back()->occupancy(), o.chunks[c]->occupancy(),
+                  used * kEdge * sizeof(std::uint64_t));
       std::memcpy(chunks.back()->nibbles(), o.chunks[c]->nibbles(), used * kNibbleBytes);
-      std::memcpy(chunks.back()->palettes(), o.chunks[c]->palettes(), used * kPalette * sizeof(std::uint32_t));
+      std::memcpy(chunks.back()->palettes(), o.chunks[c]->palettes(),
+                  used * kPalette * sizeof(std::uint32_t));
     }
   }
 };
@@ -270,13 +276,13 @@ bool VoxelGrid::in_range(const VoxelKey& k) const { return impl_->in_range(k); }
 
 VoxelKey VoxelGrid::key_of(const Vec3& p_mm) const {
   const Vec3 q = (p_mm - impl_->origin_mm) * impl_->inv_voxel;
-  return {static_cast<std::int32_t>(std::floor(q.x())), static_cast<std::int32_t>(std::floor(q.y())),
+  return {static_cast<std::int32_t>(std::floor(q.x())),
+          static_cast<std::int32_t>(std::floor(q.y())),
           static_cast<std::int32_t>(std::floor(q.z()))};
 }
 
 Vec3 VoxelGrid::center_mm(const VoxelKey& k) const {
-  return impl_->origin_mm +
-         impl_->voxel_mm * Vec3(k.x + 0.5, k.y + 0.5, k.z + 0.5);
+  return impl_->origin_mm + impl_->voxel_mm * Vec3(k.x + 0.5, k.y + 0.5, k.z + 0.5);
 }
 
 bool VoxelGrid::occupied(const VoxelKey& k) const {
@@ -305,7 +311,9 @@ std::uint32_t VoxelBlocks::add_tag(VoxelGrid& grid, const VoxelTag& tag) {
   return static_cast<std::uint32_t>(t.size() - 1);
 }
 
-const std::vector<VoxelTag>& VoxelBlocks::tag_table(const VoxelGrid& grid) { return grid.impl_->tags; }
+const std::vector<VoxelTag>& VoxelBlocks::tag_table(const VoxelGrid& grid) {
+  return grid.impl_->tags;
+}
 
 bool VoxelGrid::set(const VoxelKey& k, const VoxelTag& tag) {
   if (!impl_->in_range(k)) return false;
@@ -351,8 +359,8 @@ std::size_t VoxelBlocks::fill_row(VoxelGrid& grid, std::int32_t y, std::int32_t 
   return fresh;
 }
 
-std::size_t VoxelBlocks::write_tile(VoxelGrid& grid, int bx, int by, std::int32_t z, std::uint64_t mask,
-                                    std::uint32_t tag_index) {
+std::size_t VoxelBlocks::write_tile(VoxelGrid& grid, int bx, int by, std::int32_t z,
+                                    std::uint64_t mask, std::uint32_t tag_index) {
   VoxelGrid::Impl& g = *grid.impl_;
   const std::size_t b = g.block_for_write(bx, by, z >> 3);
   std::uint64_t& word = g.occ(b)[z & 7];
@@ -394,7 +402,8 @@ std::size_t VoxelGrid::memory_bytes() const {
 
 std::size_t VoxelGrid::estimate_bytes(const Eigen::Vector3i& dims, std::size_t occupied_voxels) {
   const Eigen::Vector3i bd = (dims.cwiseMax(0).array() + (kEdge - 1)) / kEdge;
-  const std::size_t directory = static_cast<std::size_t>(bd.x()) * static_cast<std::size_t>(bd.y()) *
+  const std::size_t directory = static_cast<std::size_t>(bd.x()) *
+                                static_cast<std::size_t>(bd.y()) *
                                 static_cast<std::size_t>(bd.z()) * sizeof(std::uint32_t);
   // Deposits fill their blocks about half on average (thin walls, surfaces).
   const std::size_t blocks = (2 * occupied_voxels + 511) / 512;
@@ -412,7 +421,8 @@ const std::uint64_t* VoxelBlocks::block_occupancy(const VoxelGrid& grid, int bx,
   return d == kNoBlock ? nullptr : g.occ(d - 1);
 }
 
-VoxelBlocks::BlockView VoxelBlocks::view_of_block(const VoxelGrid& grid, std::size_t b, int bx, int by, int bz) {
+VoxelBlocks::BlockView VoxelBlocks::view_of_block(const VoxelGrid& grid, std::size_t b, int bx,
+                                                  int by, int bz) {
   const VoxelGrid::Impl& g = *grid.impl_;
   const bool wide = g.palette_size[b] == kWide;
   return BlockView{VoxelKey{bx * kEdge, by * kEdge, bz * kEdge},
@@ -424,7 +434,8 @@ VoxelBlocks::BlockView VoxelBlocks::view_of_block(const VoxelGrid& grid, std::si
                    static_cast<std::uint32_t>(b)};
 }
 
-std::optional<VoxelBlocks::BlockView> VoxelBlocks::block_view(const VoxelGrid& grid, int bx, int by, int bz) {
+std::optional<VoxelBlocks::BlockView> VoxelBlocks::block_view(const VoxelGrid& grid, int bx, int by,
+                                                              int bz) {
   const VoxelGrid::Impl& g = *grid.impl_;
   if (bx < 0 || by < 0 || bz < 0 || bx >= g.block_dims.x() || by >= g.block_dims.y() ||
       bz >= g.block_dims.z())
@@ -434,7 +445,8 @@ std::optional<VoxelBlocks::BlockView> VoxelBlocks::block_view(const VoxelGrid& g
   return view_of_block(grid, d - 1, bx, by, bz);
 }
 
-void VoxelBlocks::visit_blocks(const VoxelGrid& grid, const std::function<void(const BlockView&)>& fn) {
+void VoxelBlocks::visit_blocks(const VoxelGrid& grid,
+                               const std::function<void(const BlockView&)>& fn) {
   const VoxelGrid::Impl& g = *grid.impl_;
   for (int bz = 0; bz < g.block_dims.z(); ++bz)
     for (int by = 0; by < g.block_dims.y(); ++by)
@@ -444,7 +456,8 @@ void VoxelBlocks::visit_blocks(const VoxelGrid& grid, const std::function<void(c
       }
 }
 
-void VoxelBlocks::visit_blocks_as_allocated(const VoxelGrid& grid, const std::function<void(const BlockView&)>& fn) {
+void VoxelBlocks::visit_blocks_as_allocated(const VoxelGrid& grid,
+                                            const std::function<void(const BlockView&)>& fn) {
   const VoxelGrid::Impl& g = *grid.impl_;
   for (std::size_t b = 0; b < g.blocks; ++b) {
     const auto& c = g.block_coord[b];

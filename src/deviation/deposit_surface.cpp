@@ -11,10 +11,10 @@
 #include <memory>
 
 #include "core/zeroed_array.hpp"
-#include "deviation/outer_surface.hpp"
 #include "deposit/voxel_blocks.hpp"
 #include "deviation/deposit_surface_internal.hpp"
 #include "deviation/kernels.hpp"
+#include "deviation/outer_surface.hpp"
 #include "deviation/point_groups.hpp"
 #include "printtwin/deviation.hpp"
 
@@ -41,7 +41,8 @@ struct FaceBuckets {
   std::vector<Eigen::Vector3i> held;      ///< the pair blocks holding faces, in slot order
   const Vec3* center = nullptr;           ///< the surface's face centres
   std::size_t n = 0;                      ///< faces
-  std::vector<std::uint8_t> axis;         ///< normal axis per face, packed for 4-wide loads (+ 4 past the end)
+  std::vector<std::uint8_t>
+      axis;  ///< normal axis per face, packed for 4-wide loads (+ 4 past the end)
   double cell_mm = 0;
   Vec3 origin_mm = Vec3::Zero();  ///< corner of cell (0, 0, 0): the surface's first block
 
@@ -51,29 +52,35 @@ struct FaceBuckets {
     pairs = s.filled_blocks_dims;
     cells = 2 * pairs;
     const Eigen::Vector3i first_key = VoxelBlocks::kBlockEdge * s.filled_blocks_lo;
-    origin_mm = s.origin_mm + s.voxel_mm * Vec3(first_key.x() - s.origin_key.x, first_key.y() - s.origin_key.y,
-                                                 first_key.z() - s.origin_key.z);
+    origin_mm = s.origin_mm + s.voxel_mm * Vec3(first_key.x() - s.origin_key.x,
+                                                first_key.y() - s.origin_key.y,
+                                                first_key.z() - s.origin_key.z);
     slot = ZeroedArray<std::uint32_t>(static_cast<std::size_t>(pairs.x()) * pairs.y() * pairs.z());
     held.resize(s.face_blocks.size());
     const auto nz = static_cast<std::size_t>(pairs.z()), nx = static_cast<std::size_t>(pairs.x());
     for (std::size_t k = 0; k < s.face_blocks.size(); ++k) {
       const std::size_t i = s.face_blocks[k];
       slot[i] = static_cast<std::uint32_t>(k + 1);
-      held[k] = Eigen::Vector3i(static_cast<int>((i / nz) % nx), static_cast<int>(i / (nz * nx)), static_cast<int>(i % nz));
+      held[k] = Eigen::Vector3i(static_cast<int>((i / nz) % nx), static_cast<int>(i / (nz * nx)),
+                                static_cast<int>(i % nz));
     }
     ranges = s.face_cell_begin.data();
     center = s.face_centers_mm.data();
     n = s.faces.size();
     axis.resize(n + 4, 0);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1 << 16), [&](const tbb::blocked_range<std::size_t>& r) {
-      for (std::size_t k = r.begin(); k != r.end(); ++k) axis[k] = s.faces[k].axis;
-    });
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1 << 16),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t k = r.begin(); k != r.end(); ++k)
+                          axis[k] = s.faces[k].axis;
+                      });
   }
   [[nodiscard]] std::size_t pair_index(int x, int y, int z) const {
     return (static_cast<std::size_t>(y) * pairs.x() + static_cast<std::size_t>(x)) * pairs.z() +
            static_cast<std::size_t>(z);
   }
-  static int local_of(const Eigen::Vector3i& c) { return ((c.y() & 1) << 2) | ((c.x() & 1) << 1) | (c.z() & 1); }
+  static int local_of(const Eigen::Vector3i& c) {
+    return ((c.y() & 1) << 2) | ((c.x() & 1) << 1) | (c.z() & 1);
+  }
   /// The faces of cell c (inside the grid of cells): [lo, hi), empty when lo == hi.
   void cell_range(const Eigen::Vector3i& c, std::uint32_t& lo, std::uint32_t& hi) const {
     const std::uint32_t k = slot[pair_index(c.x() >> 1, c.y() >> 1, c.z() >> 1)];
@@ -88,7 +95,8 @@ struct FaceBuckets {
   [[nodiscard]] Eigen::Vector3i cell_coord(const Vec3& p) const {
     Eigen::Vector3i c;
     for (int a = 0; a < 3; ++a)
-      c[a] = std::clamp(static_cast<int>(std::floor((p[a] - origin_mm[a]) / cell_mm)), 0, cells[a] - 1);
+      c[a] = std::clamp(static_cast<int>(std::floor((p[a] - origin_mm[a]) / cell_mm)), 0,
+                        cells[a] - 1);
     return c;
   }
 };
@@ -112,8 +120,9 @@ std::vector<std::uint32_t> face_cell_groups(const DepositSurface& surface) {
 }
 
 void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> points,
-                               std::vector<double>& signed_mm, std::vector<std::uint32_t>* nearest_face,
-                               bool portable, const DepositQueryGroups* pregrouped) {
+                               std::vector<double>& signed_mm,
+                               std::vector<std::uint32_t>* nearest_face, bool portable,
+                               const DepositQueryGroups* pregrouped) {
   signed_mm.assign(points.size(), 0.0);
   if (nearest_face != nullptr) nearest_face->assign(points.size(), 0);
   if (s.faces.empty()) {
@@ -130,7 +139,8 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
   // the deposit (a missing wall) skip empty space quickly; the search stays exact.
   constexpr int kGroup = 8;
   const Eigen::Vector3i groups = (buckets.cells.array() + kGroup - 1) / kGroup;
-  std::vector<std::uint8_t> group_has(static_cast<std::size_t>(groups.x()) * groups.y() * groups.z(), 0);
+  std::vector<std::uint8_t> group_has(
+      static_cast<std::size_t>(groups.x()) * groups.y() * groups.z(), 0);
   const auto group_index = [&](const Eigen::Vector3i& g) {
     return (static_cast<std::size_t>(g.z()) * groups.y() + g.y()) * groups.x() + g.x();
   };
@@ -148,104 +158,112 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
     pregrouped = &own;
   }
   const std::vector<std::uint32_t>& order = pregrouped->order;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 2048),
-                    [&](const tbb::blocked_range<std::size_t>& range) {
-    // The previous point of this chunk and its distance: by the triangle inequality the
-    // nearest face of p is at most prev_d + |p - prev_p| away, which bounds the search.
-    Vec3 prev_p = Vec3::Zero();
-    double prev_d = std::numeric_limits<double>::infinity();
-    for (std::size_t j = range.begin(); j != range.end(); ++j) {
-      const std::size_t i = order[j];
-      const Vec3& p = points[i];
-      NearestFace best;
-      const double& best2 = best.d2;
-      // Squared distance from p to a box of `size` at `lo`, widened by half a voxel (a face
-      // centred in a cell reaches half a voxel beyond it).
-      const auto box_dist2 = [&](const Vec3& lo, double size) {
-        double b2 = 0;
-        for (int a = 0; a < 3; ++a) {
-          const double l = lo[a] - half, h = lo[a] + size + half;
-          const double e = p[a] < l ? l - p[a] : (p[a] > h ? p[a] - h : 0.0);
-          b2 += e * e;
-        }
-        return b2;
-      };
-      // Every face as close as the best so far is visited (strict pruning), and ties go to
-      // the lowest face index: the result does not depend on the order cells are scanned.
-      const auto scan_cell = [&](const Eigen::Vector3i& c) {
-        if ((c.array() < 0).any() || (c.array() >= buckets.cells.array()).any()) return;
-        std::uint32_t lo = 0, hi = 0;
-        buckets.cell_range(c, lo, hi);
-        if (lo == hi) return;
-        if (box_dist2(buckets.origin_mm + buckets.cell_mm * c.cast<double>(), buckets.cell_mm) > best2) return;
-        scan_faces(faces, lo, hi, p, half, best);
-      };
-      // p's own cell first; then the bound (the previous point's, or the best face of p's
-      // cell) limits the search to the cells its ball touches (at most 2 per axis): all
-      // faces within the bound are in them, so the minimum over them is the global one.
-      const Eigen::Vector3i c0 = buckets.cell_coord(p);
-      scan_cell(c0);
-      bool done = false;
-      const double bound = std::min((prev_d + (p - prev_p).norm()) * (1 + 1e-9) + 1e-9,
-                                    std::sqrt(best2) * (1 + 1e-9) + 1e-9);
-      if (bound < buckets.cell_mm) {
-        const double reach_mm = bound + half;
-        Eigen::Vector3i lo, hi;
-        for (int a = 0; a < 3; ++a) {
-          lo[a] = std::max(0, static_cast<int>(std::floor((p[a] - reach_mm - buckets.origin_mm[a]) / buckets.cell_mm)));
-          hi[a] = std::min(buckets.cells[a] - 1,
-                           static_cast<int>(std::floor((p[a] + reach_mm - buckets.origin_mm[a]) / buckets.cell_mm)));
-        }
-        for (int z = lo.z(); z <= hi.z(); ++z)
-          for (int y = lo.y(); y <= hi.y(); ++y)
-            for (int x = lo.x(); x <= hi.x(); ++x) {
-              const Eigen::Vector3i c(x, y, z);
-              if (c != c0) scan_cell(c);
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, points.size(), 2048),
+      [&](const tbb::blocked_range<std::size_t>& range) {
+        // The previous point of this chunk and its distance: by the triangle inequality the
+        // nearest face of p is at most prev_d + |p - prev_p| away, which bounds the search.
+        Vec3 prev_p = Vec3::Zero();
+        double prev_d = std::numeric_limits<double>::infinity();
+        for (std::size_t j = range.begin(); j != range.end(); ++j) {
+          const std::size_t i = order[j];
+          const Vec3& p = points[i];
+          NearestFace best;
+          const double& best2 = best.d2;
+          // Squared distance from p to a box of `size` at `lo`, widened by half a voxel (a face
+          // centred in a cell reaches half a voxel beyond it).
+          const auto box_dist2 = [&](const Vec3& lo, double size) {
+            double b2 = 0;
+            for (int a = 0; a < 3; ++a) {
+              const double l = lo[a] - half, h = lo[a] + size + half;
+              const double e = p[a] < l ? l - p[a] : (p[a] > h ? p[a] - h : 0.0);
+              b2 += e * e;
             }
-        done = best2 <= bound * bound;
-      }
-      // Fine rings around p's cell; every cell of ring + 1 is at least ring * cell - half away.
-      for (int ring = 0; ring <= kFineRings && !done; ++ring) {
-        for (int dz = -ring; dz <= ring; ++dz)
-          for (int dy = -ring; dy <= ring; ++dy)
-            for (int dx = -ring; dx <= ring; ++dx)
-              if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) == ring)
-                scan_cell(c0 + Eigen::Vector3i(dx, dy, dz));
-        const double reach = ring * buckets.cell_mm - half;
-        done = reach > 0 && best2 < reach * reach;
-      }
-      // Far points: rings of groups, descending only into groups that hold faces and may
-      // beat the best so far (cells already scanned are simply scanned again).
-      const Eigen::Vector3i g0 = c0 / kGroup;
-      for (int ring = 0; ring <= max_group_ring && !done; ++ring) {
-        for (int dz = -ring; dz <= ring; ++dz)
-          for (int dy = -ring; dy <= ring; ++dy)
-            for (int dx = -ring; dx <= ring; ++dx) {
-              if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) != ring) continue;
-              const Eigen::Vector3i g = g0 + Eigen::Vector3i(dx, dy, dz);
-              if ((g.array() < 0).any() || (g.array() >= groups.array()).any()) continue;
-              if (group_has[group_index(g)] == 0) continue;
-              if (box_dist2(buckets.origin_mm + group_mm * g.cast<double>(), group_mm) > best2) continue;
-              for (int z = 0; z < kGroup; ++z)
-                for (int y = 0; y < kGroup; ++y)
-                  for (int x = 0; x < kGroup; ++x) scan_cell(g * kGroup + Eigen::Vector3i(x, y, z));
+            return b2;
+          };
+          // Every face as close as the best so far is visited (strict pruning), and ties go to
+          // the lowest face index: the result does not depend on the order cells are scanned.
+          const auto scan_cell = [&](const Eigen::Vector3i& c) {
+            if ((c.array() < 0).any() || (c.array() >= buckets.cells.array()).any()) return;
+            std::uint32_t lo = 0, hi = 0;
+            buckets.cell_range(c, lo, hi);
+            if (lo == hi) return;
+            if (box_dist2(buckets.origin_mm + buckets.cell_mm * c.cast<double>(), buckets.cell_mm) >
+                best2)
+              return;
+            scan_faces(faces, lo, hi, p, half, best);
+          };
+          // p's own cell first; then the bound (the previous point's, or the best face of p's
+          // cell) limits the search to the cells its ball touches (at most 2 per axis): all
+          // faces within the bound are in them, so the minimum over them is the global one.
+          const Eigen::Vector3i c0 = buckets.cell_coord(p);
+          scan_cell(c0);
+          bool done = false;
+          const double bound = std::min((prev_d + (p - prev_p).norm()) * (1 + 1e-9) + 1e-9,
+                                        std::sqrt(best2) * (1 + 1e-9) + 1e-9);
+          if (bound < buckets.cell_mm) {
+            const double reach_mm = bound + half;
+            Eigen::Vector3i lo, hi;
+            for (int a = 0; a < 3; ++a) {
+              lo[a] = std::max(0, static_cast<int>(std::floor(
+                                      (p[a] - reach_mm - buckets.origin_mm[a]) / buckets.cell_mm)));
+              hi[a] = std::min(buckets.cells[a] - 1,
+                               static_cast<int>(std::floor(
+                                   (p[a] + reach_mm - buckets.origin_mm[a]) / buckets.cell_mm)));
             }
-        const double reach = ring * group_mm - half;
-        done = reach > 0 && best2 < reach * reach;
-      }
-      const double d = std::sqrt(best2);
-      prev_p = p;
-      prev_d = d;
-      signed_mm[i] = s.filled(p) ? d : -d;
-      if (nearest_face != nullptr) (*nearest_face)[i] = best.face;
-    }
-  });
+            for (int z = lo.z(); z <= hi.z(); ++z)
+              for (int y = lo.y(); y <= hi.y(); ++y)
+                for (int x = lo.x(); x <= hi.x(); ++x) {
+                  const Eigen::Vector3i c(x, y, z);
+                  if (c != c0) scan_cell(c);
+                }
+            done = best2 <= bound * bound;
+          }
+          // Fine rings around p's cell; every cell of ring + 1 is at least ring * cell - half away.
+          for (int ring = 0; ring <= kFineRings && !done; ++ring) {
+            for (int dz = -ring; dz <= ring; ++dz)
+              for (int dy = -ring; dy <= ring; ++dy)
+                for (int dx = -ring; dx <= ring; ++dx)
+                  if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) == ring)
+                    scan_cell(c0 + Eigen::Vector3i(dx, dy, dz));
+            const double reach = ring * buckets.cell_mm - half;
+            done = reach > 0 && best2 < reach * reach;
+          }
+          // Far points: rings of groups, descending only into groups that hold faces and may
+          // beat the best so far (cells already scanned are simply scanned again).
+          const Eigen::Vector3i g0 = c0 / kGroup;
+          for (int ring = 0; ring <= max_group_ring && !done; ++ring) {
+            for (int dz = -ring; dz <= ring; ++dz)
+              for (int dy = -ring; dy <= ring; ++dy)
+                for (int dx = -ring; dx <= ring; ++dx) {
+                  if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) != ring) continue;
+                  const Eigen::Vector3i g = g0 + Eigen::Vector3i(dx, dy, dz);
+                  if ((g.array() < 0).any() || (g.array() >= groups.array()).any()) continue;
+                  if (group_has[group_index(g)] == 0) continue;
+                  if (box_dist2(buckets.origin_mm + group_mm * g.cast<double>(), group_mm) > best2)
+                    continue;
+                  for (int z = 0; z < kGroup; ++z)
+                    for (int y = 0; y < kGroup; ++y)
+                      for (int x = 0; x < kGroup; ++x)
+                        scan_cell(g * kGroup + Eigen::Vector3i(x, y, z));
+                }
+            const double reach = ring * group_mm - half;
+            done = reach > 0 && best2 < reach * reach;
+          }
+          const double d = std::sqrt(best2);
+          prev_p = p;
+          prev_d = d;
+          signed_mm[i] = s.filled(p) ? d : -d;
+          if (nearest_face != nullptr) (*nearest_face)[i] = best.face;
+        }
+      });
 }
 
 }  // namespace detail
 
 void distances_to_deposit(const DepositSurface& surface, std::span<const Vec3> points,
-                          std::vector<double>& signed_mm, std::vector<std::uint32_t>* nearest_face) {
+                          std::vector<double>& signed_mm,
+                          std::vector<std::uint32_t>* nearest_face) {
   detail::distances_to_deposit_with(surface, points, signed_mm, nearest_face, false);
 }
 

@@ -18,8 +18,9 @@ DepositQueryGroups group_deposit_queries(std::span<const Vec3> points, double vo
 /// distances_to_deposit with the face tests of the plain kernel (`portable`) or of the one
 /// deviation/kernels.hpp dispatches to (AVX2 when present). Both give the same bits.
 void distances_to_deposit_with(const DepositSurface& surface, std::span<const Vec3> points,
-                               std::vector<double>& signed_mm, std::vector<std::uint32_t>* nearest_face,
-                               bool portable, const DepositQueryGroups* pregrouped = nullptr);
+                               std::vector<double>& signed_mm,
+                               std::vector<std::uint32_t>* nearest_face, bool portable,
+                               const DepositQueryGroups* pregrouped = nullptr);
 
 /// The surface's faces in groups of neighbours for DeviationTarget::signed_distances: its
 /// non-empty cells (of 4 voxels), as run boundaries into the face arrays.

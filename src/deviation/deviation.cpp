@@ -20,31 +20,38 @@ namespace {
 /// its distance becomes the exact distance to the nearest bead of that face's line and path
 /// neighbours, when that agrees with the distance to the faces within a voxel (the bead model
 /// describes that part of the surface).
-void to_bead_surface(const DepositSurface& s, std::span<const SurfaceBead> beads, std::span<const Vec3> points,
-                     const std::vector<std::uint32_t>& nearest, std::vector<double>& signed_mm) {
+void to_bead_surface(const DepositSurface& s, std::span<const SurfaceBead> beads,
+                     std::span<const Vec3> points, const std::vector<std::uint32_t>& nearest,
+                     std::vector<double>& signed_mm) {
   if (s.face_bead.empty()) return;
   const double v = s.voxel_mm;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      const std::uint32_t f = nearest[i];
-      if (f >= s.face_bead.size() || s.face_bead[f] == kNoBead) continue;
-      const detail::BeadDistance b = detail::nearest_bead(beads, s.face_tags[f].line, points[i]);
-      if (b.bead != kNoBead && std::abs(-b.signed_mm - signed_mm[i]) <= v) signed_mm[i] = -b.signed_mm;
-    }
-  });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        const std::uint32_t f = nearest[i];
+                        if (f >= s.face_bead.size() || s.face_bead[f] == kNoBead) continue;
+                        const detail::BeadDistance b =
+                            detail::nearest_bead(beads, s.face_tags[f].line, points[i]);
+                        if (b.bead != kNoBead && std::abs(-b.signed_mm - signed_mm[i]) <= v)
+                          signed_mm[i] = -b.signed_mm;
+                      }
+                    });
 }
 
 /// Layer lines on walls: per layer and over the part, the area-weighted RMS distance of the
 /// deposit points whose closest design triangle is within 15 degrees of vertical, and their
 /// RMS about the layer's own mean (Rq).
-void wall_roughness(const Mesh& mesh, std::span<const double> d, std::span<const std::uint32_t> triangle,
-                    const DepositSurface& s, double v, std::vector<LayerDeviation>& layers, DeviationResult& out) {
+void wall_roughness(const Mesh& mesh, std::span<const double> d,
+                    std::span<const std::uint32_t> triangle, const DepositSurface& s, double v,
+                    std::vector<LayerDeviation>& layers, DeviationResult& out) {
   std::vector<std::uint8_t> wall(mesh.triangles.size(), 0);
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     const auto& tri = mesh.triangles[t];
-    const Vec3 n = (mesh.vertices_mm[tri[1]] - mesh.vertices_mm[tri[0]]).cross(mesh.vertices_mm[tri[2]] - mesh.vertices_mm[tri[0]]);
+    const Vec3 n = (mesh.vertices_mm[tri[1]] - mesh.vertices_mm[tri[0]])
+                       .cross(mesh.vertices_mm[tri[2]] - mesh.vertices_mm[tri[0]]);
     const double len = n.norm();
-    wall[t] = len > 0 && std::abs(n.z()) <= std::sin(15.0 * 3.14159265358979323846 / 180.0) * len ? 1 : 0;
+    wall[t] =
+        len > 0 && std::abs(n.z()) <= std::sin(15.0 * 3.14159265358979323846 / 180.0) * len ? 1 : 0;
   }
   struct Sums {
     long double w = 0, wd = 0, wd2 = 0;
@@ -53,7 +60,8 @@ void wall_roughness(const Mesh& mesh, std::span<const double> d, std::span<const
   for (std::size_t i = 0; i < d.size(); ++i) {
     const std::uint32_t t = triangle[i];
     const int l = s.face_tags[i].layer;
-    if (t >= wall.size() || wall[t] == 0 || l < 0 || static_cast<std::size_t>(l) >= per.size()) continue;
+    if (t >= wall.size() || wall[t] == 0 || l < 0 || static_cast<std::size_t>(l) >= per.size())
+      continue;
     const long double w = s.face_area_mm2.empty() ? v * v : s.face_area_mm2[i];
     Sums& p = per[static_cast<std::size_t>(l)];
     p.w += w;
@@ -80,7 +88,8 @@ void wall_roughness(const Mesh& mesh, std::span<const double> d, std::span<const
 }  // namespace
 
 Result<DeviationResult> compute_deviation(const Mesh& mesh, const VoxelGrid& deposit,
-                                          const DeviationSettings& settings, const Box3& part_box_mm,
+                                          const DeviationSettings& settings,
+                                          const Box3& part_box_mm,
                                           std::span<const SurfaceBead> beads) {
   if (mesh.triangles.empty()) return bad_input("deviation: the mesh has no triangles");
   auto target = DeviationTarget::build(mesh, settings, deposit.voxel_mm());
@@ -89,16 +98,20 @@ Result<DeviationResult> compute_deviation(const Mesh& mesh, const VoxelGrid& dep
 }
 
 Result<DeviationResult> compute_deviation(const DeviationTarget& target, const Vec3& offset,
-                                          const VoxelGrid& deposit, const DeviationSettings& settings,
-                                          const Box3& part_box_mm, std::span<const SurfaceBead> beads) {
+                                          const VoxelGrid& deposit,
+                                          const DeviationSettings& settings,
+                                          const Box3& part_box_mm,
+                                          std::span<const SurfaceBead> beads) {
   const Mesh& mesh = target.mesh();
   if (mesh.triangles.empty()) return bad_input("deviation: the mesh has no triangles");
   if (!(settings.tolerance_mm > 0))
-    return usage_error("deviation: tolerance must be > 0 mm, got " + std::to_string(settings.tolerance_mm));
+    return usage_error("deviation: tolerance must be > 0 mm, got " +
+                       std::to_string(settings.tolerance_mm));
   if (settings.mesh_sample_spacing_mm < 0)
     return usage_error("deviation: mesh sample spacing must be >= 0 mm");
   const double v = deposit.voxel_mm();
-  const double spacing = settings.mesh_sample_spacing_mm > 0 ? settings.mesh_sample_spacing_mm : 2.0 * v;
+  const double spacing =
+      settings.mesh_sample_spacing_mm > 0 ? settings.mesh_sample_spacing_mm : 2.0 * v;
 
   DeviationResult out;
   out.tolerance_mm = settings.tolerance_mm;
@@ -121,32 +134,35 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   const std::size_t ns = samples.size();
   std::vector<Vec3> query_points(ns + mesh.vertices_mm.size());
   detail::DepositQueryGroups query_groups;
-  tbb::parallel_invoke([&] {
-                         surface = extract_outer_surface(deposit, region, settings.seal_gap_mm, settings.groove_depth_mm);
-                         if (!beads.empty()) place_on_beads(surface, beads, v);
-                       },
-                       [&] {
-                         // The samples and the mesh's vertices (for the per-vertex deviation)
-                         // in one search.
-                         for (std::size_t i = 0; i < ns; ++i) query_points[i] = samples[i].position_mm + offset;
-                         for (std::size_t i = 0; i < mesh.vertices_mm.size(); ++i)
-                           query_points[ns + i] = mesh.vertices_mm[i] + offset;
-                         query_groups = detail::group_deposit_queries(query_points, v);
-                       });
+  tbb::parallel_invoke(
+      [&] {
+        surface =
+            extract_outer_surface(deposit, region, settings.seal_gap_mm, settings.groove_depth_mm);
+        if (!beads.empty()) place_on_beads(surface, beads, v);
+      },
+      [&] {
+        // The samples and the mesh's vertices (for the per-vertex deviation)
+        // in one search.
+        for (std::size_t i = 0; i < ns; ++i) query_points[i] = samples[i].position_mm + offset;
+        for (std::size_t i = 0; i < mesh.vertices_mm.size(); ++i)
+          query_points[ns + i] = mesh.vertices_mm[i] + offset;
+        query_groups = detail::group_deposit_queries(query_points, v);
+      });
   out.deposit_volume_mm3 = static_cast<double>(surface.occupied_voxels) * v * v * v;
   out.surface_faces = surface.faces.size();
   for (std::size_t i = 0; i < surface.faces.size(); ++i)  // a voxel's faces are consecutive
     if (i == 0 || !(surface.faces[i].voxel == surface.faces[i - 1].voxel)) ++out.surface_voxels;
 
   // Deposit -> mesh, from every exposed face centre.
-  const std::vector<Vec3>& face_points = surface.points_mm.empty() ? surface.face_centers_mm : surface.points_mm;
+  const std::vector<Vec3>& face_points =
+      surface.points_mm.empty() ? surface.face_centers_mm : surface.points_mm;
   const std::span<const double> face_area = surface.face_area_mm2;
   const bool weighted = !beads.empty();
   std::vector<double> d_dep;
   std::vector<std::uint32_t> dep_triangles;
   const auto dep_sample = [&](std::size_t i) {
-    return DeviationSample{face_points[i], d_dep[i], surface.face_tags[i].layer, surface.face_tags[i].line,
-                           dep_triangles[i]};
+    return DeviationSample{face_points[i], d_dep[i], surface.face_tags[i].layer,
+                           surface.face_tags[i].line, dep_triangles[i]};
   };
 
   std::vector<double> d_query;
@@ -154,7 +170,8 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   // Per layer (layer of the nearest deposit voxel); z = top of that layer's surface voxels.
   // Distances grouped by layer with a counting sort (sample order kept within a layer).
   int max_layer = -1;
-  for (const auto& t : surface.face_tags) max_layer = std::max(max_layer, static_cast<int>(t.layer));
+  for (const auto& t : surface.face_tags)
+    max_layer = std::max(max_layer, static_cast<int>(t.layer));
   const auto n_layers = static_cast<std::size_t>(max_layer + 1);
   const auto group = [&](std::size_t n, const auto& layer_of, std::span<const double> d,
                          std::vector<std::size_t>& begin, std::vector<double>& values,
@@ -175,18 +192,21 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   };
   std::vector<LayerDeviation> layers(n_layers);
   // One direction's per-layer statistics, layers in parallel.
-  const auto layer_stats = [&](const std::vector<std::size_t>& begin, const std::vector<double>& values,
-                               DeviationStats LayerDeviation::*field, const std::vector<double>& weights = {}) {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_layers), [&](const tbb::blocked_range<std::size_t>& r) {
-      for (std::size_t l = r.begin(); l != r.end(); ++l) {
-        const std::size_t b = begin[l], n = begin[l + 1] - begin[l];
-        layers[l].*field = deviation_stats(std::span<const double>(values).subspan(b, n),
-                                           weights.empty() ? std::span<const double>{}
-                                                           : std::span<const double>(weights).subspan(b, n),
-                                           settings.tolerance_mm);
-      }
-    });
-  };
+  const auto layer_stats =
+      [&](const std::vector<std::size_t>& begin, const std::vector<double>& values,
+          DeviationStats LayerDeviation::*field, const std::vector<double>& weights = {}) {
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_layers),
+                          [&](const tbb::blocked_range<std::size_t>& r) {
+                            for (std::size_t l = r.begin(); l != r.end(); ++l) {
+                              const std::size_t b = begin[l], n = begin[l + 1] - begin[l];
+                              layers[l].*field = deviation_stats(
+                                  std::span<const double>(values).subspan(b, n),
+                                  weights.empty() ? std::span<const double>{}
+                                                  : std::span<const double>(weights).subspan(b, n),
+                                  settings.tolerance_mm);
+                            }
+                          });
+      };
   std::vector<std::size_t> dep_begin, mesh_begin;
   std::vector<double> dep_values, mesh_values, dep_weights;
   // The highest surface voxel of each layer (a voxel's centre height grows with its z key).
@@ -200,23 +220,28 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
       [&] {
         // The faces come cell by cell (cells of 4 voxels, near_mm at the defaults and no
         // wider): the non-empty cells are the groups.
-        target.signed_distances(offset, face_points, std::max(4.0 * v, settings.tolerance_mm), d_dep,
-                                &dep_triangles, detail::face_cell_groups(surface));
+        target.signed_distances(offset, face_points, std::max(4.0 * v, settings.tolerance_mm),
+                                d_dep, &dep_triangles, detail::face_cell_groups(surface));
         // The longer direction: its figures for the whole and per layer side by side too.
-        tbb::parallel_invoke([&] { out.deposit_to_mesh = deviation_stats(d_dep, face_area, settings.tolerance_mm); },
-                             [&] {
-                               group(d_dep.size(), [&](std::size_t i) { return static_cast<int>(surface.face_tags[i].layer); },
-                                     d_dep, dep_begin, dep_values, face_area, &dep_weights);
-                               layer_stats(dep_begin, dep_values, &LayerDeviation::deposit_to_mesh, dep_weights);
-                             });
+        tbb::parallel_invoke(
+            [&] { out.deposit_to_mesh = deviation_stats(d_dep, face_area, settings.tolerance_mm); },
+            [&] {
+              group(
+                  d_dep.size(),
+                  [&](std::size_t i) { return static_cast<int>(surface.face_tags[i].layer); },
+                  d_dep, dep_begin, dep_values, face_area, &dep_weights);
+              layer_stats(dep_begin, dep_values, &LayerDeviation::deposit_to_mesh, dep_weights);
+            });
       },
       [&] {
-        detail::distances_to_deposit_with(surface, query_points, d_query, &nearest, false, &query_groups);
+        detail::distances_to_deposit_with(surface, query_points, d_query, &nearest, false,
+                                          &query_groups);
         if (weighted) to_bead_surface(surface, beads, query_points, nearest, d_query);
         const std::span<const double> d_mesh(d_query.data(), ns);
         out.mesh_to_deposit = deviation_stats(d_mesh, settings.tolerance_mm);
-        group(ns, [&](std::size_t i) { return static_cast<int>(mesh_tag(i).layer); }, d_mesh, mesh_begin,
-              mesh_values);
+        group(
+            ns, [&](std::size_t i) { return static_cast<int>(mesh_tag(i).layer); }, d_mesh,
+            mesh_begin, mesh_values);
         layer_stats(mesh_begin, mesh_values, &LayerDeviation::mesh_to_deposit);
         for (std::size_t i = 0; i < surface.faces.size(); ++i) {
           const int layer = surface.face_tags[i].layer;
@@ -234,11 +259,14 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   for (std::size_t l = 0; l < n_layers; ++l) {
     LayerDeviation& ld = layers[l];
     ld.layer = static_cast<int>(l);
-    if (top_key[l] != std::numeric_limits<int>::min()) ld.z_mm = deposit.center_mm(VoxelKey{0, 0, top_key[l]}).z() + 0.5 * v;
+    if (top_key[l] != std::numeric_limits<int>::min())
+      ld.z_mm = deposit.center_mm(VoxelKey{0, 0, top_key[l]}).z() + 0.5 * v;
   }
   wall_roughness(mesh, d_dep, dep_triangles, surface, v, layers, out);
-  for (std::size_t l = 0; l < n_layers; ++l)  // layers no sample of either direction is nearest to: none
-    if (dep_begin[l] != dep_begin[l + 1] || mesh_begin[l] != mesh_begin[l + 1]) out.per_layer.push_back(std::move(layers[l]));
+  for (std::size_t l = 0; l < n_layers;
+       ++l)  // layers no sample of either direction is nearest to: none
+    if (dep_begin[l] != dep_begin[l + 1] || mesh_begin[l] != mesh_begin[l + 1])
+      out.per_layer.push_back(std::move(layers[l]));
 
   // Regions: missing = design surface the deposit does not reach; excess = deposit surface
   // beyond the design.
@@ -254,7 +282,8 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
     return list;
   };
   const std::vector<DeviationSample> mesh_out = out_of_tolerance(ns, d_mesh, -1.0, mesh_sample);
-  const std::vector<DeviationSample> dep_out = out_of_tolerance(d_dep.size(), d_dep, 1.0, dep_sample);
+  const std::vector<DeviationSample> dep_out =
+      out_of_tolerance(d_dep.size(), d_dep, 1.0, dep_sample);
   std::vector<std::int32_t> missing_of, excess_of;
   auto missing = cluster_regions(mesh_out, settings.tolerance_mm, radius, spacing * spacing,
                                  RegionKind::missing, settings.max_region_lines, &missing_of);
@@ -273,7 +302,8 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   };
   out.max_excess_mm = max_within(d_dep, 1.0);
   for (std::size_t k = 0; k < dep_out.size(); ++k)
-    if (!is_noise(excess, excess_of[k])) out.max_excess_mm = std::max(out.max_excess_mm, dep_out[k].distance_mm);
+    if (!is_noise(excess, excess_of[k]))
+      out.max_excess_mm = std::max(out.max_excess_mm, dep_out[k].distance_mm);
   out.max_deficit_mm = max_within(d_mesh, -1.0);
   for (std::size_t k = 0; k < mesh_out.size(); ++k)
     if (!is_noise(missing, missing_of[k]))
@@ -292,24 +322,27 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
                      if (a.area_mm2 != b.area_mm2) return a.area_mm2 > b.area_mm2;
                      return std::abs(a.worst_mm) > std::abs(b.worst_mm);
                    });
-  if (settings.max_regions >= 0 && out.regions.size() > static_cast<std::size_t>(settings.max_regions))
+  if (settings.max_regions >= 0 &&
+      out.regions.size() > static_cast<std::size_t>(settings.max_regions))
     out.regions.resize(static_cast<std::size_t>(settings.max_regions));
 
   if (settings.keep_samples) {  // the arrays computed above become the columns, no copy
     DeviationSamples& ms = out.mesh_samples;
     tbb::parallel_invoke([&] { ms.tags.resize(ns); }, [&] { ms.triangles.resize(ns); });
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ns, 1 << 14), [&](const tbb::blocked_range<std::size_t>& r) {
-      for (std::size_t i = r.begin(); i != r.end(); ++i) {
-        ms.tags[i] = mesh_tag(i);
-        ms.triangles[i] = samples[i].triangle;
-      }
-    });
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ns, 1 << 14),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                          ms.tags[i] = mesh_tag(i);
+                          ms.triangles[i] = samples[i].triangle;
+                        }
+                      });
     query_points.resize(ns);
     ms.positions_mm = std::move(query_points);
     d_query.resize(ns);
     ms.distances_mm = std::move(d_query);
     DeviationSamples& ds = out.deposit_samples;
-    ds.positions_mm = surface.points_mm.empty() ? std::move(surface.face_centers_mm) : std::move(surface.points_mm);
+    ds.positions_mm = surface.points_mm.empty() ? std::move(surface.face_centers_mm)
+                                                : std::move(surface.points_mm);
     ds.distances_mm = std::move(d_dep);
     ds.tags = std::move(surface.face_tags);
     ds.triangles = std::move(dep_triangles);

@@ -33,8 +33,8 @@ struct FaceArrays {
 /// Offers faces [lo, hi) to `best`: the squared distance from p to each face square (edge
 /// 2 * half, axis-aligned), per axis max(0, |p - c| - h), h = half in the face's plane and 0
 /// along its normal.
-using FaceScan = void (*)(const FaceArrays& faces, std::uint32_t lo, std::uint32_t hi, const Vec3& p,
-                          double half, NearestFace& best);
+using FaceScan = void (*)(const FaceArrays& faces, std::uint32_t lo, std::uint32_t hi,
+                          const Vec3& p, double half, NearestFace& best);
 
 /// The face scan to use: AVX2 (4 faces at a time) when the CPU has it, unless `portable` or
 /// PRINTTWIN_PLAIN names face_avx2; else the plain loop. Both give the same bits.

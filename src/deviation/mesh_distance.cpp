@@ -50,10 +50,12 @@ struct PseudoNormals {
     lines.resize(nt);
     for (std::size_t t = 0; t < nt; ++t) {
       const auto& tri = m.triangles[t];
-      const std::array<Vec3, 3> v{m.vertices_mm[tri[0]], m.vertices_mm[tri[1]], m.vertices_mm[tri[2]]};
+      const std::array<Vec3, 3> v{m.vertices_mm[tri[0]], m.vertices_mm[tri[1]],
+                                  m.vertices_mm[tri[2]]};
       // The same eps as the full test in signed_from_closest.
-      lines[t].eps = 1e-9 * std::sqrt(std::max({(v[1] - v[0]).squaredNorm(), (v[2] - v[1]).squaredNorm(),
-                                                 (v[0] - v[2]).squaredNorm()}));
+      lines[t].eps =
+          1e-9 * std::sqrt(std::max({(v[1] - v[0]).squaredNorm(), (v[2] - v[1]).squaredNorm(),
+                                     (v[0] - v[2]).squaredNorm()}));
       const Vec3 n = (v[1] - v[0]).cross(v[2] - v[0]);
       // A sliver's computed normal is mostly rounding (as in MeshQuery's plane bound): its
       // lines would be wrong, so they never certify and the full test decides.
@@ -88,7 +90,8 @@ struct PseudoNormals {
       const double len = n.norm();
       face[t] = len > 0 ? Vec3(n / len) : Vec3::Zero();
       for (int k = 0; k < 3; ++k) {
-        const std::uint32_t a = tri[static_cast<std::size_t>(k)], b = tri[static_cast<std::size_t>((k + 1) % 3)],
+        const std::uint32_t a = tri[static_cast<std::size_t>(k)],
+                            b = tri[static_cast<std::size_t>((k + 1) % 3)],
                             c = tri[static_cast<std::size_t>((k + 2) % 3)];
         // Angle at vertex a.
         const Vec3 e1 = m.vertices_mm[b] - m.vertices_mm[a];
@@ -113,7 +116,8 @@ struct PseudoNormals {
       for (std::size_t k = 0; k + 1 < start.size(); ++k) {
         const std::size_t hi = start[k];  // the cursor ended at the next vertex's start
         for (std::size_t i = lo + 1; i < hi; ++i)
-          for (std::size_t j = i; j > lo && sorted[j - 1].key > sorted[j].key; --j) std::swap(sorted[j - 1], sorted[j]);
+          for (std::size_t j = i; j > lo && sorted[j - 1].key > sorted[j].key; --j)
+            std::swap(sorted[j - 1], sorted[j]);
         lo = hi;
       }
       uses = std::move(sorted);
@@ -159,8 +163,9 @@ Result<DeviationTarget> DeviationTarget::build(const Mesh& mesh, const Deviation
   if (mesh.triangles.empty()) return bad_input("deviation: the mesh has no triangles");
   if (settings.mesh_sample_spacing_mm < 0)
     return usage_error("deviation: mesh sample spacing must be >= 0 mm");
-  const double spacing = settings.mesh_sample_spacing_mm > 0 ? settings.mesh_sample_spacing_mm
-                                                               : (voxel_mm > 0 ? 2.0 * voxel_mm : 0.0);
+  const double spacing = settings.mesh_sample_spacing_mm > 0
+                             ? settings.mesh_sample_spacing_mm
+                             : (voxel_mm > 0 ? 2.0 * voxel_mm : 0.0);
   if (auto st = check_sample_budget(mesh, spacing); !st) return st.error();
   auto query = MeshQuery::build(mesh);
   if (!query) return query.error();
@@ -186,8 +191,8 @@ namespace {
 /// Signed distance of p (mesh frame) from its exact closest point: the pseudo-normal of the
 /// feature (vertex, edge or face) that holds the closest point, or the ray-parity vote
 /// where that feature touches an open or non-manifold edge.
-double signed_from_closest(const Mesh& mesh, const MeshQuery& query, const PseudoNormals& pn, const Vec3& p,
-                           const ClosestPoint& cp) {
+double signed_from_closest(const Mesh& mesh, const MeshQuery& query, const PseudoNormals& pn,
+                           const Vec3& p, const ClosestPoint& cp) {
   const Vec3 dir = p - cp.point_mm;
   if (cp.distance_mm == 0) return 0.0;
   {
@@ -211,8 +216,8 @@ double signed_from_closest(const Mesh& mesh, const MeshQuery& query, const Pseud
                               mesh.vertices_mm[tri[2]]};
   // sqrt is monotonic and correctly rounded: the root of the largest squared edge is the
   // largest edge, exactly.
-  const double scale = std::sqrt(std::max({(v[1] - v[0]).squaredNorm(), (v[2] - v[1]).squaredNorm(),
-                                          (v[0] - v[2]).squaredNorm()}));
+  const double scale = std::sqrt(std::max(
+      {(v[1] - v[0]).squaredNorm(), (v[2] - v[1]).squaredNorm(), (v[0] - v[2]).squaredNorm()}));
   const double eps = 1e-9 * scale;
   // |x| <= eps, with the root taken only when |x|^2 is not clearly above eps^2 (the same
   // answer: beyond the widened square, the rounded root is above eps too).
@@ -283,64 +288,69 @@ void DeviationTarget::signed_distances(const Vec3& offset_mm, std::span<const Ve
   } else {  // no expected distance: input order, in runs of 1024 for the threads
     order.resize(points_mm.size());
     for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<std::uint32_t>(i);
-    for (std::size_t i = 0; i < points_mm.size(); i += 1024) own_group.push_back(static_cast<std::uint32_t>(i));
+    for (std::size_t i = 0; i < points_mm.size(); i += 1024)
+      own_group.push_back(static_cast<std::uint32_t>(i));
     own_group.push_back(static_cast<std::uint32_t>(points_mm.size()));
     group = own_group;
   }
   if (group.size() < 2) return;
   // The point at place j of the visiting order.
   const auto point_at = [&](std::uint32_t j) -> std::size_t { return in_order ? j : order[j]; };
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, group.size() - 1, cell_mm > 0 ? 64 : 1),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-    std::vector<Vec3> local;
-    std::vector<std::optional<ClosestPoint>> batch;
-    detail::BallScratch scratch;
-    // The previous point and its distance: the closest point of p is at most
-    // prev_d + |p - prev_p| away (triangle inequality), and the previous point's closest
-    // triangle is a second bound, often much tighter. The bounds only change the speed: the
-    // closest point (ties: lowest triangle) is exact.
-    Vec3 prev_p = Vec3::Zero();
-    double prev_d = std::numeric_limits<double>::infinity();
-    std::optional<std::uint32_t> prev_tri;
-    for (std::size_t g = r.begin(); g != r.end(); ++g) {
-      const std::uint32_t g0 = group[g], g1 = group[g + 1];
-      local.clear();
-      Box3 box;
-      for (std::uint32_t j = g0; j < g1; ++j) {
-        local.push_back(points_mm[point_at(j)] - offset_mm);  // into the mesh's frame
-        box.extend(local.back());
-      }
-      batch.assign(local.size(), std::nullopt);
-      if (cell_mm > 0 && local.size() > 1) {
-        const Vec3 center = box.center();
-        detail::closest_points_in_ball(query, center, 0.5 * box.size().norm() + 0.5 * near_mm, local, batch, scratch);
-      }
-      for (std::size_t k = 0; k < local.size(); ++k) {
-        const Vec3& p = local[k];
-        const std::size_t i = point_at(g0 + static_cast<std::uint32_t>(k));
-        if (!batch[k]) {
-          // Most points lie near the surface: a bounded query first, the full one if it fails.
-          double bound = (prev_d + (p - prev_p).norm()) * (1 + 1e-9) + 1e-9;
-          if (prev_tri) {
-            const auto& t = mesh.triangles[*prev_tri];
-            const double d0 =
-                (closest_point_on_triangle(p, mesh.vertices_mm[t[0]], mesh.vertices_mm[t[1]], mesh.vertices_mm[t[2]]) - p)
-                    .norm();
-            bound = std::min(bound, d0 * (1 + 1e-9) + 1e-9);
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, group.size() - 1, cell_mm > 0 ? 64 : 1),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        std::vector<Vec3> local;
+        std::vector<std::optional<ClosestPoint>> batch;
+        detail::BallScratch scratch;
+        // The previous point and its distance: the closest point of p is at most
+        // prev_d + |p - prev_p| away (triangle inequality), and the previous point's closest
+        // triangle is a second bound, often much tighter. The bounds only change the speed: the
+        // closest point (ties: lowest triangle) is exact.
+        Vec3 prev_p = Vec3::Zero();
+        double prev_d = std::numeric_limits<double>::infinity();
+        std::optional<std::uint32_t> prev_tri;
+        for (std::size_t g = r.begin(); g != r.end(); ++g) {
+          const std::uint32_t g0 = group[g], g1 = group[g + 1];
+          local.clear();
+          Box3 box;
+          for (std::uint32_t j = g0; j < g1; ++j) {
+            local.push_back(points_mm[point_at(j)] - offset_mm);  // into the mesh's frame
+            box.extend(local.back());
           }
-          if (bound < near_mm) batch[k] = query.closest_point_within(p, bound);
-          if (!batch[k] && near_mm > 0) batch[k] = query.closest_point_within(p, near_mm);
-          if (!batch[k]) batch[k] = query.closest_point(p);
+          batch.assign(local.size(), std::nullopt);
+          if (cell_mm > 0 && local.size() > 1) {
+            const Vec3 center = box.center();
+            detail::closest_points_in_ball(query, center, 0.5 * box.size().norm() + 0.5 * near_mm,
+                                           local, batch, scratch);
+          }
+          for (std::size_t k = 0; k < local.size(); ++k) {
+            const Vec3& p = local[k];
+            const std::size_t i = point_at(g0 + static_cast<std::uint32_t>(k));
+            if (!batch[k]) {
+              // Most points lie near the surface: a bounded query first, the full one if it fails.
+              double bound = (prev_d + (p - prev_p).norm()) * (1 + 1e-9) + 1e-9;
+              if (prev_tri) {
+                const auto& t = mesh.triangles[*prev_tri];
+                const double d0 =
+                    (closest_point_on_triangle(p, mesh.vertices_mm[t[0]], mesh.vertices_mm[t[1]],
+                                               mesh.vertices_mm[t[2]]) -
+                     p)
+                        .norm();
+                bound = std::min(bound, d0 * (1 + 1e-9) + 1e-9);
+              }
+              if (bound < near_mm) batch[k] = query.closest_point_within(p, bound);
+              if (!batch[k] && near_mm > 0) batch[k] = query.closest_point_within(p, near_mm);
+              if (!batch[k]) batch[k] = query.closest_point(p);
+            }
+            const ClosestPoint& cp = *batch[k];
+            prev_p = p;
+            prev_d = cp.distance_mm;
+            prev_tri = cp.triangle;
+            if (triangles != nullptr) (*triangles)[i] = cp.triangle;
+            out[i] = signed_from_closest(mesh, query, pn, p, cp);
+          }
         }
-        const ClosestPoint& cp = *batch[k];
-        prev_p = p;
-        prev_d = cp.distance_mm;
-        prev_tri = cp.triangle;
-        if (triangles != nullptr) (*triangles)[i] = cp.triangle;
-        out[i] = signed_from_closest(mesh, query, pn, p, cp);
-      }
-    }
-  });
+      });
 }
 
 Result<std::vector<double>> signed_distances_to_mesh(const Mesh& mesh, std::span<const Vec3> points,

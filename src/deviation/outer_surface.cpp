@@ -16,8 +16,8 @@
 #include <optional>
 
 #include "core/bits.hpp"
-#include "deviation/outer_surface.hpp"
 #include "core/zeroed_array.hpp"
+#include "deviation/outer_surface.hpp"
 #include "deviation/surface_blocks.hpp"
 #include "printtwin/deviation.hpp"
 
@@ -31,8 +31,10 @@ bool is_auxiliary_feature(Feature f) {
     case Feature::support:
     case Feature::support_interface:
     case Feature::wipe_tower:
-    case Feature::custom: return true;
-    default: return false;
+    case Feature::custom:
+      return true;
+    default:
+      return false;
   }
 }
 
@@ -42,7 +44,8 @@ using namespace surface_blocks;  // NOLINT(google-build-using-namespace): this s
 
 /// Bit i set when voxel i of z-slice z of block b has an auxiliary tag (`auxiliary[t]` is 1
 /// for an auxiliary tag index t; indices clamped to `last`; tags of empty voxels mean nothing).
-std::uint64_t aux_mask(const VoxelBlocks::BlockView& b, int z, const std::uint8_t* auxiliary, std::uint32_t last) {
+std::uint64_t aux_mask(const VoxelBlocks::BlockView& b, int z, const std::uint8_t* auxiliary,
+                       std::uint32_t last) {
   std::uint64_t m = 0;
   if (b.wide != nullptr) {
     for (int i = 0; i < 64; ++i)
@@ -50,7 +53,8 @@ std::uint64_t aux_mask(const VoxelBlocks::BlockView& b, int z, const std::uint8_
     return m;
   }
   unsigned on = 0;  // bit e: palette entry e is auxiliary
-  for (int e = 0; e < b.palette_size; ++e) on |= (auxiliary[std::min(b.palette[e], last)] & 1U) << e;
+  for (int e = 0; e < b.palette_size; ++e)
+    on |= (auxiliary[std::min(b.palette[e], last)] & 1U) << e;
   const std::uint8_t* nib = b.nibbles + z * 32;
   for (int i = 0; i < 64; i += 2) {
     const unsigned v = nib[i >> 1];
@@ -74,10 +78,10 @@ inline std::uint64_t transpose8(std::uint64_t x) {
 /// Row y of a cube's slices as z-columns: byte x of the result holds the 8 z bits of (x, y).
 inline std::uint64_t columns_of_row(const Cube& c, int y) {
   std::uint64_t m = 0;
-  for (int z = 0; z < kE; ++z) m |= ((c[static_cast<std::size_t>(z)] >> (8 * y)) & 0xFFU) << (8 * z);
+  for (int z = 0; z < kE; ++z)
+    m |= ((c[static_cast<std::size_t>(z)] >> (8 * y)) & 0xFFU) << (8 * z);
   return transpose8(m);
 }
-
 
 }  // namespace
 
@@ -89,7 +93,8 @@ bool region_key(const DepositSurface& s, const Vec3& p_mm, VoxelKey& key) {
   const auto x = static_cast<long>(std::floor(q.x()));
   const auto y = static_cast<long>(std::floor(q.y()));
   const auto z = static_cast<long>(std::floor(q.z()));
-  if (x < 0 || y < 0 || z < 0 || x >= s.dims.x() || y >= s.dims.y() || z >= s.dims.z()) return false;
+  if (x < 0 || y < 0 || z < 0 || x >= s.dims.x() || y >= s.dims.y() || z >= s.dims.z())
+    return false;
   key = VoxelKey{s.origin_key.x + static_cast<int>(x), s.origin_key.y + static_cast<int>(y),
                  s.origin_key.z + static_cast<int>(z)};
   return true;
@@ -101,10 +106,11 @@ const std::uint32_t* DepositSurface::filled_code_of(const Vec3& p_mm, int& slot)
   if (!region_key(*this, p_mm, k)) return nullptr;
   const int bx = k.x >> 3, by = k.y >> 3, bz = k.z >> 3;
   slot = (k.z & 7) * 64 + (k.y & 7) * 8 + (k.x & 7);
-  const std::size_t i = (static_cast<std::size_t>(by - filled_blocks_lo.y()) * filled_blocks_dims.x() +
-                         static_cast<std::size_t>(bx - filled_blocks_lo.x())) *
-                            filled_blocks_dims.z() +
-                        static_cast<std::size_t>(bz - filled_blocks_lo.z());
+  const std::size_t i =
+      (static_cast<std::size_t>(by - filled_blocks_lo.y()) * filled_blocks_dims.x() +
+       static_cast<std::size_t>(bx - filled_blocks_lo.x())) *
+          filled_blocks_dims.z() +
+      static_cast<std::size_t>(bz - filled_blocks_lo.z());
   return filled_block_code.data() + i;
 }
 
@@ -114,11 +120,12 @@ bool DepositSurface::filled(const Vec3& p_mm) const {
   if (code == nullptr) return false;
   if (*code == kAllFilled) return true;
   if (*code == kNoneFilled) return false;
-  return ((filled_masks[*code - kFirstMask][static_cast<std::size_t>(slot >> 6)] >> (slot & 63)) & 1U) != 0;
+  return ((filled_masks[*code - kFirstMask][static_cast<std::size_t>(slot >> 6)] >> (slot & 63)) &
+          1U) != 0;
 }
 
-DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_mm, double seal_gap_mm,
-                                     double groove_depth_mm) {
+DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_mm,
+                                     double seal_gap_mm, double groove_depth_mm) {
   DepositSurface s;
   s.voxel_mm = grid.voxel_mm();
   if (region_mm.empty()) return s;
@@ -136,14 +143,15 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   // Keys may be negative: >> 3 is the floor.
   BlockBox box;
   box.lo = Eigen::Vector3i(rlo.x >> 3, rlo.y >> 3, rlo.z >> 3);
-  box.n = Eigen::Vector3i((rhi.x >> 3) - box.lo.x() + 1, (rhi.y >> 3) - box.lo.y() + 1, (rhi.z >> 3) - box.lo.z() + 1);
+  box.n = Eigen::Vector3i((rhi.x >> 3) - box.lo.x() + 1, (rhi.y >> 3) - box.lo.y() + 1,
+                          (rhi.z >> 3) - box.lo.z() + 1);
   s.filled_blocks_lo = box.lo;
   s.filled_blocks_dims = box.n;
   const auto base_of = [](int bx, int by, int bz) { return VoxelKey{bx * kE, by * kE, bz * kE}; };
   const auto inside_box = [&](int bx, int by, int bz, const VoxelKey& lo, const VoxelKey& hi) {
     const VoxelKey b = base_of(bx, by, bz);
-    return b.x >= lo.x && b.y >= lo.y && b.z >= lo.z && b.x + kE - 1 <= hi.x && b.y + kE - 1 <= hi.y &&
-           b.z + kE - 1 <= hi.z;
+    return b.x >= lo.x && b.y >= lo.y && b.z >= lo.z && b.x + kE - 1 <= hi.x &&
+           b.y + kE - 1 <= hi.y && b.z + kE - 1 <= hi.z;
   };
   Cube full;
   full.fill(~std::uint64_t{0});
@@ -163,7 +171,8 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   // allocated blocks are read in the order they were allocated (their memory order).
   const auto& table = VoxelBlocks::tag_table(grid);
   std::vector<std::uint8_t> auxiliary(table.size());
-  for (std::size_t i = 0; i < table.size(); ++i) auxiliary[i] = is_auxiliary_feature(table[i].feature) ? 1 : 0;
+  for (std::size_t i = 0; i < table.size(); ++i)
+    auxiliary[i] = is_auxiliary_feature(table[i].feature) ? 1 : 0;
   const auto last_tag = static_cast<std::uint32_t>(auxiliary.empty() ? 0 : auxiliary.size() - 1);
   const std::size_t n_blocks = box.size();
   ZeroedArray<const Cube*> part_of(n_blocks);
@@ -176,10 +185,12 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     bool cut = false;
     // A block none of whose palette entries is auxiliary needs no per-voxel test.
     bool aux = b.wide != nullptr;
-    for (int e = 0; e < b.palette_size && !aux; ++e) aux = auxiliary[std::min(b.palette[e], last_tag)] != 0;
+    for (int e = 0; e < b.palette_size && !aux; ++e)
+      aux = auxiliary[std::min(b.palette[e], last_tag)] != 0;
     if (aux) {
       for (int z = 0; z < kE; ++z)
-        if (c[static_cast<std::size_t>(z)] != 0) c[static_cast<std::size_t>(z)] &= ~aux_mask(b, z, auxiliary.data(), last_tag);
+        if (c[static_cast<std::size_t>(z)] != 0)
+          c[static_cast<std::size_t>(z)] &= ~aux_mask(b, z, auxiliary.data(), last_tag);
       cut = true;
     }
     if (!inside_box(bx, by, bz, ilo, ihi)) {
@@ -204,12 +215,14 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   // Gaps narrower than seal_gap_mm must not let the outside in (pinholes between beads are
   // voxelisation artefacts): the flood runs on the part dilated by r voxels, and the outside
   // it reaches is dilated back by r (a morphological opening of the empty space).
-  const int seal_r = seal_gap_mm > 0 ? static_cast<int>(std::floor(seal_gap_mm / (2 * s.voxel_mm) + 1e-9)) : 0;
+  const int seal_r =
+      seal_gap_mm > 0 ? static_cast<int>(std::floor(seal_gap_mm / (2 * s.voxel_mm) + 1e-9)) : 0;
   const int reach = (seal_r + kE - 1) / kE;  // in blocks
   // What the seal closed is opened again to `reopen` voxels (6-connected steps through empty
   // voxels) from the sealed outside: grooves between layers and beads are surface again, a
   // pinhole lets the outside in no further than that.
-  const int reopen = groove_depth_mm > 0 ? static_cast<int>(std::floor(groove_depth_mm / s.voxel_mm + 1e-9)) : 0;
+  const int reopen =
+      groove_depth_mm > 0 ? static_cast<int>(std::floor(groove_depth_mm / s.voxel_mm + 1e-9)) : 0;
   // A block no part voxel comes within r of is open all through (within R).
   std::vector<std::uint8_t> near_occ(n_blocks);
   for (std::size_t i = 0; i < n_blocks; ++i) near_occ[i] = part_of[i] != nullptr ? 1 : 0;
@@ -272,18 +285,23 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   for (int by = box.lo.y(); by < box.lo.y() + box.n.y(); ++by)
     for (int bx = box.lo.x(); bx < box.lo.x() + box.n.x(); ++bx)
       for (int bz = box.lo.z(); bz < box.lo.z() + box.n.z(); ++bz) {
-        const bool face = bx == box.lo.x() || by == box.lo.y() || bz == box.lo.z() || bx == box.lo.x() + box.n.x() - 1 ||
-                          by == box.lo.y() + box.n.y() - 1 || bz == box.lo.z() + box.n.z() - 1;
+        const bool face = bx == box.lo.x() || by == box.lo.y() || bz == box.lo.z() ||
+                          bx == box.lo.x() + box.n.x() - 1 || by == box.lo.y() + box.n.y() - 1 ||
+                          bz == box.lo.z() + box.n.z() - 1;
         if (!face) continue;
         const Cube r = region_cube(bx, by, bz), in = interior_cube(bx, by, bz);
         Cube pad;
         for (std::size_t z = 0; z < kE; ++z) pad[z] = r[z] & ~in[z];
-        if (any(pad)) add_seed({static_cast<std::uint32_t>(box.index(bx, by, bz)), bx, by, bz}, pad);
+        if (any(pad))
+          add_seed({static_cast<std::uint32_t>(box.index(bx, by, bz)), bx, by, bz}, pad);
       }
   // Index steps to the six neighbours (blocks are indexed y, then x, then z).
-  const std::array<std::ptrdiff_t, 6> step{-static_cast<std::ptrdiff_t>(box.n.z()), box.n.z(),
+  const std::array<std::ptrdiff_t, 6> step{-static_cast<std::ptrdiff_t>(box.n.z()),
+                                           box.n.z(),
                                            -static_cast<std::ptrdiff_t>(box.n.z()) * box.n.x(),
-                                           static_cast<std::ptrdiff_t>(box.n.z()) * box.n.x(), -1, 1};
+                                           static_cast<std::ptrdiff_t>(box.n.z()) * box.n.x(),
+                                           -1,
+                                           1};
   tbb::enumerable_thread_specific<std::vector<Seed>> found;
   tbb::enumerable_thread_specific<std::vector<Queued>> turned_whole;
   std::vector<std::uint32_t> need_open;
@@ -310,51 +328,54 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     }
     for (auto& f : found) f.clear();
     for (auto& w : turned_whole) w.clear();
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, wave.size(), 256), [&](const tbb::blocked_range<std::size_t>& range) {
-      auto& mine = found.local();
-      auto& whole_now = turned_whole.local();
-      for (std::size_t w = range.begin(); w != range.end(); ++w) {
-        const Queued q = wave[w];
-        const bool whole = kind[q.i] == kWhole;
-        Cube grown;
-        if (whole) {
-          grown = region_cube(q.x, q.y, q.z);
-        } else {
-          queued[q.i] = 0;
-          const std::uint32_t k = slot[q.i];
-          Cube o = outside[k];
-          bool news = false;
-          for (std::size_t z = 0; z < kE; ++z) {
-            const std::uint64_t add = pending[k][z] & open[k][z] & ~o[z];
-            o[z] |= add;
-            news = news || add != 0;
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, wave.size(), 256),
+        [&](const tbb::blocked_range<std::size_t>& range) {
+          auto& mine = found.local();
+          auto& whole_now = turned_whole.local();
+          for (std::size_t w = range.begin(); w != range.end(); ++w) {
+            const Queued q = wave[w];
+            const bool whole = kind[q.i] == kWhole;
+            Cube grown;
+            if (whole) {
+              grown = region_cube(q.x, q.y, q.z);
+            } else {
+              queued[q.i] = 0;
+              const std::uint32_t k = slot[q.i];
+              Cube o = outside[k];
+              bool news = false;
+              for (std::size_t z = 0; z < kE; ++z) {
+                const std::uint64_t add = pending[k][z] & open[k][z] & ~o[z];
+                o[z] |= add;
+                news = news || add != 0;
+              }
+              pending[k] = Cube{};
+              if (!news) continue;
+              o = flood_cube(open[k], o);
+              for (std::size_t z = 0; z < kE; ++z) grown[z] = o[z] & ~outside[k][z];
+              outside[k] = o;
+            }
+            for (int d = 0; d < 6; ++d) {
+              const int nbx = q.x + kDirs[d][0], nby = q.y + kDirs[d][1], nbz = q.z + kDirs[d][2];
+              if (!box.contains(nbx, nby, nbz)) continue;
+              const auto n = static_cast<std::uint32_t>(static_cast<std::ptrdiff_t>(q.i) +
+                                                        step[static_cast<std::size_t>(d)]);
+              // An open block turns whole here (the one thread that claims it queues it); other
+              // blocks change kind only between waves.
+              std::atomic_ref<std::uint8_t> nk(kind[n]);
+              if (nk.load(std::memory_order_relaxed) == kWhole) continue;
+              const Cube t = transfer(grown, d);
+              if (!any(t)) continue;
+              if (near_occ[n] == 0) {
+                std::uint8_t expected = kUntouched;
+                if (nk.compare_exchange_strong(expected, kWhole, std::memory_order_relaxed))
+                  whole_now.push_back({n, nbx, nby, nbz});
+              } else {
+                mine.push_back({{n, nbx, nby, nbz}, t});
+              }
+            }
           }
-          pending[k] = Cube{};
-          if (!news) continue;
-          o = flood_cube(open[k], o);
-          for (std::size_t z = 0; z < kE; ++z) grown[z] = o[z] & ~outside[k][z];
-          outside[k] = o;
-        }
-        for (int d = 0; d < 6; ++d) {
-          const int nbx = q.x + kDirs[d][0], nby = q.y + kDirs[d][1], nbz = q.z + kDirs[d][2];
-          if (!box.contains(nbx, nby, nbz)) continue;
-          const auto n = static_cast<std::uint32_t>(static_cast<std::ptrdiff_t>(q.i) + step[static_cast<std::size_t>(d)]);
-          // An open block turns whole here (the one thread that claims it queues it); other
-          // blocks change kind only between waves.
-          std::atomic_ref<std::uint8_t> nk(kind[n]);
-          if (nk.load(std::memory_order_relaxed) == kWhole) continue;
-          const Cube t = transfer(grown, d);
-          if (!any(t)) continue;
-          if (near_occ[n] == 0) {
-            std::uint8_t expected = kUntouched;
-            if (nk.compare_exchange_strong(expected, kWhole, std::memory_order_relaxed))
-              whole_now.push_back({n, nbx, nby, nbz});
-          } else {
-            mine.push_back({{n, nbx, nby, nbz}, t});
-          }
-        }
-      }
-    });
+        });
     // The seeds, between waves (OR is commutative: the order they come in changes nothing).
     for (const auto& w : turned_whole) next_wave.insert(next_wave.end(), w.begin(), w.end());
     for (auto& f : found)
@@ -371,8 +392,10 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   s.filled_block_code.assign(n_blocks, DepositSurface::kAllFilled);
   std::vector<std::uint32_t> mixed;
   for (std::size_t i = 0; i < n_blocks; ++i) {
-    if (kind[i] == kWhole) s.filled_block_code[i] = DepositSurface::kNoneFilled;
-    else if (near_outside[i] != 0) mixed.push_back(static_cast<std::uint32_t>(i));
+    if (kind[i] == kWhole)
+      s.filled_block_code[i] = DepositSurface::kNoneFilled;
+    else if (near_outside[i] != 0)
+      mixed.push_back(static_cast<std::uint32_t>(i));
   }
   const auto outside_cube = [&](int bx, int by, int bz) -> const Cube* {
     const std::size_t i = box.index(bx, by, bz);
@@ -395,8 +418,9 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   for (std::size_t m = 0; m < mixed.size(); ++m)
     s.filled_block_code[mixed[m]] = DepositSurface::kFirstMask + static_cast<std::uint32_t>(m);
   if (seal_r > 0 && reopen > 0)
-    reopen_grooves(s, box, mixed, reopen, [&](std::size_t i) { return region_cube_of(i); },
-                   [&](std::size_t i) { return or_empty(part_of[i]); });
+    reopen_grooves(
+        s, box, mixed, reopen, [&](std::size_t i) { return region_cube_of(i); },
+        [&](std::size_t i) { return or_empty(part_of[i]); });
   std::size_t not_filled = 0;
   for (std::size_t m = 0; m < mixed.size(); ++m) {
     const Cube region = region_cube_of(mixed[m]);
@@ -406,10 +430,13 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   for (std::size_t i = 0; i < n_blocks; ++i)
     if (kind[i] == kWhole) {
       const Eigen::Vector3i b = box.coords(i);
-      not_filled += inside_box(b.x(), b.y(), b.z(), rlo, rhi) ? std::size_t{512}
-                                                              : static_cast<std::size_t>(count(region_cube(b.x(), b.y(), b.z())));
+      not_filled += inside_box(b.x(), b.y(), b.z(), rlo, rhi)
+                        ? std::size_t{512}
+                        : static_cast<std::size_t>(count(region_cube(b.x(), b.y(), b.z())));
     }
-  s.filled_voxels = static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny) * static_cast<std::size_t>(nz) - not_filled;
+  s.filled_voxels =
+      static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny) * static_cast<std::size_t>(nz) -
+      not_filled;
   // 4. Faces between a filled part voxel and a voxel that is not filled (a part voxel is in
   // I, so its neighbours are in R). Only blocks with part voxels that are, or touch, a block
   // not wholly filled can have one. Per row of blocks (in parallel): each such block's six
@@ -428,7 +455,7 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   struct Exposed {
     int bx = 0, bz = 0;
     std::array<std::array<std::uint64_t, kE>, 6> cols{};  // [direction][y]: byte x = z bits
-    std::array<std::uint32_t, 8> cell_faces{};              // faces per cell (local y, x, z halves)
+    std::array<std::uint32_t, 8> cell_faces{};            // faces per cell (local y, x, z halves)
   };
   // Bits of a cell's voxels in a z-column row word (byte x = z bits): bytes x in the cell's
   // x half, bits z in its z half.
@@ -447,7 +474,8 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
         bool candidate = s.filled_block_code[i] != DepositSurface::kAllFilled;
         for (int d = 0; d < 6 && !candidate; ++d) {
           const int x = bx + kDirs[d][0], y = by + kDirs[d][1], z = bz + kDirs[d][2];
-          candidate = box.contains(x, y, z) && s.filled_block_code[box.index(x, y, z)] != DepositSurface::kAllFilled;
+          candidate = box.contains(x, y, z) &&
+                      s.filled_block_code[box.index(x, y, z)] != DepositSurface::kAllFilled;
         }
         if (!candidate) continue;
         const Cube &f = filled_cube(bx, by, bz), &part = *part_of[i];
@@ -474,7 +502,8 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
           for (std::size_t z = 0; z < kE; ++z) x[z] = f[z] & part[z] & ~nf[d][z];
           if (!any(x)) continue;
           some = true;
-          for (int y = 0; y < kE; ++y) e.cols[d][static_cast<std::size_t>(y)] = columns_of_row(x, y);
+          for (int y = 0; y < kE; ++y)
+            e.cols[d][static_cast<std::size_t>(y)] = columns_of_row(x, y);
         }
         if (!some) continue;
         for (int cell = 0; cell < 8; ++cell) {
@@ -483,7 +512,8 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
           std::uint32_t n = 0;
           for (int y = y0; y < y0 + 4; ++y)
             for (std::size_t d = 0; d < 6; ++d)
-              n += static_cast<std::uint32_t>(popcount64(e.cols[d][static_cast<std::size_t>(y)] & in_cell));
+              n += static_cast<std::uint32_t>(
+                  popcount64(e.cols[d][static_cast<std::size_t>(y)] & in_cell));
           e.cell_faces[static_cast<std::size_t>(cell)] = n;
         }
         list.push_back(e);
@@ -492,7 +522,8 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
   // The face blocks in box order (y, then x, then z) and the start of each of their cells.
   std::vector<std::size_t> row_blocks(static_cast<std::size_t>(box.n.y()) + 1, 0);
   for (int r = 0; r < box.n.y(); ++r)
-    row_blocks[static_cast<std::size_t>(r) + 1] = row_blocks[static_cast<std::size_t>(r)] + exposed[static_cast<std::size_t>(r)].size();
+    row_blocks[static_cast<std::size_t>(r) + 1] =
+        row_blocks[static_cast<std::size_t>(r)] + exposed[static_cast<std::size_t>(r)].size();
   const std::size_t n_face_blocks = row_blocks.back();
   s.face_blocks.resize(n_face_blocks);
   s.face_cell_begin.resize(8 * n_face_blocks + 1);
@@ -501,7 +532,8 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     const auto& list = exposed[static_cast<std::size_t>(r)];
     for (std::size_t c = 0; c < list.size(); ++c) {
       const std::size_t k = row_blocks[static_cast<std::size_t>(r)] + c;
-      s.face_blocks[k] = static_cast<std::uint32_t>(box.index(list[c].bx, box.lo.y() + r, list[c].bz));
+      s.face_blocks[k] =
+          static_cast<std::uint32_t>(box.index(list[c].bx, box.lo.y() + r, list[c].bz));
       for (std::size_t cell = 0; cell < 8; ++cell) {
         s.face_cell_begin[8 * k + cell] = static_cast<std::uint32_t>(n_faces);
         n_faces += list[c].cell_faces[cell];
@@ -542,7 +574,8 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
             std::array<unsigned, 6> m{};
             unsigned all = 0;
             for (std::size_t d = 0; d < 6; ++d) {
-              m[d] = static_cast<unsigned>((e.cols[d][static_cast<std::size_t>(y)] >> (8 * x)) & (0xFU << z0));
+              m[d] = static_cast<unsigned>((e.cols[d][static_cast<std::size_t>(y)] >> (8 * x)) &
+                                           (0xFU << z0));
               all |= m[d];
             }
             while (all != 0) {

@@ -14,24 +14,24 @@ namespace printtwin {
 
 /// One exposed face of the deposit's outer surface.
 struct SurfaceFace {
-  VoxelKey voxel;               ///< the filled voxel the face belongs to
-  std::uint8_t axis = 0;        ///< 0 x, 1 y, 2 z: the face's normal axis
-  std::int8_t side = 1;         ///< +1: face on the voxel's max side, -1: min side
+  VoxelKey voxel;         ///< the filled voxel the face belongs to
+  std::uint8_t axis = 0;  ///< 0 x, 1 y, 2 z: the face's normal axis
+  std::int8_t side = 1;   ///< +1: face on the voxel's max side, -1: min side
 };
 
 /// The outer surface of the deposit inside `region_mm`, plus the filled volume.
 struct DepositSurface {
   double voxel_mm = 0;
-  Vec3 origin_mm = Vec3::Zero();          ///< min corner of the analysed region (voxel aligned)
-  VoxelKey origin_key{};                  ///< grid key of the region's min-corner voxel
+  Vec3 origin_mm = Vec3::Zero();  ///< min corner of the analysed region (voxel aligned)
+  VoxelKey origin_key{};          ///< grid key of the region's min-corner voxel
   Eigen::Vector3i dims = Eigen::Vector3i::Zero();  ///< analysed voxels per axis
   /// Fixed order, by 4^3-voxel cell: the grid's 8^3 blocks in the order of
   /// filled_block_code (y, then x, then z), each block's 8 cells by their y, x and z halves,
   /// in a cell its voxel rows by y then x, voxels by z, a voxel's faces consecutive (-x +x -y
   /// +y -z +z). Both distance searches visit the faces cell by cell in this order.
   std::vector<SurfaceFace> faces;
-  std::vector<Vec3> face_centers_mm;      ///< centre of each face (the deposit->mesh points)
-  std::vector<VoxelTag> face_tags;        ///< tag of each face's voxel
+  std::vector<Vec3> face_centers_mm;  ///< centre of each face (the deposit->mesh points)
+  std::vector<VoxelTag> face_tags;    ///< tag of each face's voxel
   /// After place_on_beads: each face's point on the true bead surface (the deposit -> mesh
   /// points; empty: the face centres), the area of true surface it stands for (empty: one
   /// face, voxel^2 each) and its bead (kNoBead where the face centre stays).
@@ -48,13 +48,14 @@ struct DepositSurface {
   using BlockBits = std::array<std::uint64_t, 8>;
   /// Per block code: every region voxel of the block filled, none, or filled_masks[code - 2].
   static constexpr std::uint32_t kAllFilled = 0, kNoneFilled = 1, kFirstMask = 2;
-  Eigen::Vector3i filled_blocks_lo = Eigen::Vector3i::Zero();    ///< first block (grid block coords)
-  Eigen::Vector3i filled_blocks_dims = Eigen::Vector3i::Zero();  ///< blocks per axis, covering the region
+  Eigen::Vector3i filled_blocks_lo = Eigen::Vector3i::Zero();  ///< first block (grid block coords)
+  Eigen::Vector3i filled_blocks_dims =
+      Eigen::Vector3i::Zero();  ///< blocks per axis, covering the region
   /// Codes of the blocks, y then x then z (z fastest).
   std::vector<std::uint32_t> filled_block_code;
   std::vector<BlockBits> filled_masks;
-  std::size_t occupied_voxels = 0;        ///< occupied part voxels in the region
-  std::size_t filled_voxels = 0;          ///< occupied + enclosed voids
+  std::size_t occupied_voxels = 0;  ///< occupied part voxels in the region
+  std::size_t filled_voxels = 0;    ///< occupied + enclosed voids
 
   /// True when p lies in a filled voxel of the region (false outside the region).
   [[nodiscard]] bool filled(const Vec3& p_mm) const;
@@ -74,20 +75,21 @@ struct DepositSurface {
 /// surface while a pinhole lets the outside in no deeper than that. Faces belong to occupied
 /// voxels only.
 [[nodiscard]] DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_mm,
-                                                   double seal_gap_mm = 0, double groove_depth_mm = 0);
+                                                   double seal_gap_mm = 0,
+                                                   double groove_depth_mm = 0);
 
 /// Sub-voxel placement: each face's point moves from the face centre onto the surface of the
 /// nearest bead among those of its voxel's G-code line and their neighbours along the path,
 /// when that surface lies within `max_shift_mm` of the centre and faces the same way; its
 /// area becomes voxel^2 / (|n_x| + |n_y| + |n_z|) for the bead surface's normal n (the true
 /// area a staircase face stands for). Fills points_mm, face_area_mm2 and face_bead.
-void place_on_beads(DepositSurface& surface, std::span<const SurfaceBead> beads, double max_shift_mm);
+void place_on_beads(DepositSurface& surface, std::span<const SurfaceBead> beads,
+                    double max_shift_mm);
 
 /// Exact distances from points to the union of the surface's face squares, signed
 /// positive when the point is in the filled volume. Nearest face index per point in
 /// `nearest_face` (may be null). Parallel (TBB).
 void distances_to_deposit(const DepositSurface& surface, std::span<const Vec3> points,
                           std::vector<double>& signed_mm, std::vector<std::uint32_t>* nearest_face);
-
 
 }  // namespace printtwin

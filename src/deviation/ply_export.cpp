@@ -34,7 +34,8 @@ std::array<std::uint8_t, 3> colour(double d, double tol) {
 
 }  // namespace
 
-std::string deviation_ply(const Mesh& mesh, std::span<const double> vertex_mm, double tolerance_mm) {
+std::string deviation_ply(const Mesh& mesh, std::span<const double> vertex_mm,
+                          double tolerance_mm) {
   std::string out;
   out += "ply\nformat binary_little_endian 1.0\n";
   out += "comment printtwin deviation: signed mm, + excess, - deficit, tolerance " +

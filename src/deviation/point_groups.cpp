@@ -3,9 +3,9 @@
 
 #include <algorithm>
 #include <array>
-#include <tuple>
 #include <cmath>
 #include <limits>
+#include <tuple>
 
 namespace printtwin::detail {
 
@@ -25,7 +25,8 @@ void group_by_cell(std::span<const Vec3> points, double cell_mm, std::vector<std
   for (std::size_t i = 0; i < n; ++i) {
     std::uint32_t c[3];
     for (int a = 0; a < 3; ++a)
-      c[a] = static_cast<std::uint32_t>(std::clamp(std::floor((points[i][a] - lo[a]) / cell), 0.0, 1023.0));
+      c[a] = static_cast<std::uint32_t>(
+          std::clamp(std::floor((points[i][a] - lo[a]) / cell), 0.0, 1023.0));
     code[i] = (c[1] << 20) | (c[0] << 10) | c[2];
   }
   // A stable sort by code: by y cell first (a counting sort, skipped when the points come
@@ -44,13 +45,15 @@ void group_by_cell(std::span<const Vec3> points, double cell_mm, std::vector<std
   } else {
     for (std::size_t i = 0; i < n; ++i) ++count[digit(static_cast<std::uint32_t>(i), 20) + 1];
     for (std::size_t k = 0; k <= kMask; ++k) count[k + 1] += count[k];
-    for (std::size_t i = 0; i < n; ++i) order[count[digit(static_cast<std::uint32_t>(i), 20)]++] = static_cast<std::uint32_t>(i);
+    for (std::size_t i = 0; i < n; ++i)
+      order[count[digit(static_cast<std::uint32_t>(i), 20)]++] = static_cast<std::uint32_t>(i);
   }
   for (std::size_t lo_j = 0; lo_j < n;) {
     std::size_t hi_j = lo_j + 1;
     while (hi_j < n && (code[order[hi_j]] >> 20) == (code[order[lo_j]] >> 20)) ++hi_j;
     // order[lo_j, hi_j) -> tmp by z, then back by x (stable: ties keep their order).
-    for (const auto& [from, to, shift] : {std::tuple{order.data(), tmp.data(), 0}, std::tuple{tmp.data(), order.data(), kBits}}) {
+    for (const auto& [from, to, shift] :
+         {std::tuple{order.data(), tmp.data(), 0}, std::tuple{tmp.data(), order.data(), kBits}}) {
       count.fill(0);
       for (std::size_t j = lo_j; j < hi_j; ++j) ++count[digit(from[j], shift) + 1];
       for (std::size_t k = 0; k <= kMask; ++k) count[k + 1] += count[k];
@@ -60,7 +63,8 @@ void group_by_cell(std::span<const Vec3> points, double cell_mm, std::vector<std
   }
   group.clear();
   for (std::size_t j = 0; j < n; ++j)
-    if (j == 0 || code[order[j]] != code[order[j - 1]]) group.push_back(static_cast<std::uint32_t>(j));
+    if (j == 0 || code[order[j]] != code[order[j - 1]])
+      group.push_back(static_cast<std::uint32_t>(j));
   group.push_back(static_cast<std::uint32_t>(n));
 }
 

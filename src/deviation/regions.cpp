@@ -17,8 +17,8 @@ using detail::DisjointSets;
 std::uint64_t cell_key(std::int64_t x, std::int64_t y, std::int64_t z) {
   // 21 bits per axis (offset so negative cells map too): unique for |cell| < 2^20.
   constexpr std::int64_t kOff = std::int64_t{1} << 20;
-  return (static_cast<std::uint64_t>(x + kOff) << 42) | (static_cast<std::uint64_t>(y + kOff) << 21) |
-         static_cast<std::uint64_t>(z + kOff);
+  return (static_cast<std::uint64_t>(x + kOff) << 42) |
+         (static_cast<std::uint64_t>(y + kOff) << 21) | static_cast<std::uint64_t>(z + kOff);
 }
 
 }  // namespace
@@ -40,9 +40,10 @@ std::vector<DeviationRegion> cluster_regions(std::span<const DeviationSample> sa
   if (picked.empty() || !(radius_mm > 0)) return regions;
 
   const auto cell = [&](const Vec3& p) {
-    return Eigen::Matrix<std::int64_t, 3, 1>(static_cast<std::int64_t>(std::floor(p.x() / radius_mm)),
-                                             static_cast<std::int64_t>(std::floor(p.y() / radius_mm)),
-                                             static_cast<std::int64_t>(std::floor(p.z() / radius_mm)));
+    return Eigen::Matrix<std::int64_t, 3, 1>(
+        static_cast<std::int64_t>(std::floor(p.x() / radius_mm)),
+        static_cast<std::int64_t>(std::floor(p.y() / radius_mm)),
+        static_cast<std::int64_t>(std::floor(p.z() / radius_mm)));
   };
   std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> grid;
   grid.reserve(picked.size());
@@ -98,7 +99,8 @@ std::vector<DeviationRegion> cluster_regions(std::span<const DeviationSample> sa
     for (const std::uint32_t i : by_worst) {
       if (r.gcode_lines.size() >= max_lines) break;
       const long line = samples[i].line;
-      if (line > 0 && std::find(r.gcode_lines.begin(), r.gcode_lines.end(), line) == r.gcode_lines.end())
+      if (line > 0 &&
+          std::find(r.gcode_lines.begin(), r.gcode_lines.end(), line) == r.gcode_lines.end())
         r.gcode_lines.push_back(line);
     }
     std::sort(r.gcode_lines.begin(), r.gcode_lines.end());
@@ -108,7 +110,8 @@ std::vector<DeviationRegion> cluster_regions(std::span<const DeviationSample> sa
   std::vector<std::uint32_t> order(regions.size());
   std::iota(order.begin(), order.end(), 0U);
   std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-    if (regions[a].area_mm2 != regions[b].area_mm2) return regions[a].area_mm2 > regions[b].area_mm2;
+    if (regions[a].area_mm2 != regions[b].area_mm2)
+      return regions[a].area_mm2 > regions[b].area_mm2;
     return std::abs(regions[a].worst_mm) > std::abs(regions[b].worst_mm);
   });
   std::vector<DeviationRegion> sorted;
@@ -116,7 +119,8 @@ std::vector<DeviationRegion> cluster_regions(std::span<const DeviationSample> sa
   for (std::size_t rank = 0; rank < order.size(); ++rank) {
     sorted.push_back(std::move(regions[order[rank]]));
     if (sample_region != nullptr)
-      for (const std::uint32_t i : members[order[rank]]) (*sample_region)[i] = static_cast<std::int32_t>(rank);
+      for (const std::uint32_t i : members[order[rank]])
+        (*sample_region)[i] = static_cast<std::int32_t>(rank);
   }
   regions = std::move(sorted);
   return regions;

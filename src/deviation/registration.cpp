@@ -41,7 +41,9 @@ std::vector<Vec3> sample_evenly(const std::vector<const Move*>& moves, std::size
   return out;
 }
 
-bool is_outer_wall(Feature f) { return f == Feature::outer_perimeter || f == Feature::overhang_perimeter; }
+bool is_outer_wall(Feature f) {
+  return f == Feature::outer_perimeter || f == Feature::overhang_perimeter;
+}
 
 PrintedObject make_object(int id, std::string name, const std::vector<const Move*>& moves) {
   PrintedObject o;
@@ -75,8 +77,11 @@ PrintedObject make_object(int id, std::string name, const std::vector<const Move
   for (const Move* m : moves) {
     const int n = std::max(1, static_cast<int>(std::ceil(m->length_mm() / step)));
     for (int i = 0; i <= n; ++i) {
-      const Vec3 c = (m->start_mm + (m->end_mm - m->start_mm) * (static_cast<double>(i) / n) - o.cell_origin_mm) / o.cell_mm;
-      o.cells.push_back(detail::cell_key(static_cast<int>(c.x()), static_cast<int>(c.y()), static_cast<int>(c.z())));
+      const Vec3 c = (m->start_mm + (m->end_mm - m->start_mm) * (static_cast<double>(i) / n) -
+                      o.cell_origin_mm) /
+                     o.cell_mm;
+      o.cells.push_back(detail::cell_key(static_cast<int>(c.x()), static_cast<int>(c.y()),
+                                         static_cast<int>(c.z())));
     }
   }
   std::sort(o.cells.begin(), o.cells.end());
@@ -95,7 +100,8 @@ double median_layer_step(const std::vector<const Move*>& moves) {
   std::vector<double> steps;
   for (std::size_t i = 1; i < z.size(); ++i) steps.push_back(z[i] - z[i - 1]);
   if (steps.empty()) return 0;
-  std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2), steps.end());
+  std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2),
+                   steps.end());
   return steps[steps.size() / 2];
 }
 
@@ -112,8 +118,10 @@ std::vector<std::vector<const Move*>> footprint_groups(const std::vector<const M
   const int nx = static_cast<int>(std::floor(all.size().x() / kCell)) + 1;
   const int ny = static_cast<int>(std::floor(all.size().y() / kCell)) + 1;
   const auto cell_of = [&](const Vec3& p) {
-    const int x = std::clamp(static_cast<int>(std::floor((p.x() - all.min.x()) / kCell)), 0, nx - 1);
-    const int y = std::clamp(static_cast<int>(std::floor((p.y() - all.min.y()) / kCell)), 0, ny - 1);
+    const int x =
+        std::clamp(static_cast<int>(std::floor((p.x() - all.min.x()) / kCell)), 0, nx - 1);
+    const int y =
+        std::clamp(static_cast<int>(std::floor((p.y() - all.min.y()) / kCell)), 0, ny - 1);
     return static_cast<std::size_t>(y) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(x);
   };
   std::vector<double> weight(static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny), 0.0);
@@ -139,7 +147,8 @@ std::vector<std::vector<const Move*>> footprint_groups(const std::vector<const M
           const int xx = x + dx, yy = y + dy;
           if (xx < 0 || xx >= nx || yy >= ny) continue;
           const std::size_t n = static_cast<std::size_t>(yy) * nx + xx;
-          if (weight[n] > 0) sets.unite(static_cast<std::uint32_t>(c), static_cast<std::uint32_t>(n));
+          if (weight[n] > 0)
+            sets.unite(static_cast<std::uint32_t>(c), static_cast<std::uint32_t>(n));
         }
     }
   std::map<std::uint32_t, std::size_t> group_of_root;  // in order of first move
@@ -163,7 +172,9 @@ std::vector<std::vector<const Move*>> footprint_groups(const std::vector<const M
 namespace detail {
 
 std::vector<Vec2> convex_hull(std::vector<Vec2> p) {
-  std::sort(p.begin(), p.end(), [](const Vec2& a, const Vec2& b) { return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y()); });
+  std::sort(p.begin(), p.end(), [](const Vec2& a, const Vec2& b) {
+    return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
+  });
   p.erase(std::unique(p.begin(), p.end()), p.end());
   if (p.size() < 3) return p;
   const auto cross = [](const Vec2& o, const Vec2& a, const Vec2& b) {
@@ -210,7 +221,8 @@ PartExtent find_part_extent(std::span<const Move> moves, const std::map<int, std
       if (m->object_id >= 0) by_id[m->object_id].push_back(m);
     for (const auto& [id, list] : by_id) {
       const auto name = names.find(id);
-      part.objects.push_back(make_object(id, name != names.end() ? name->second : "#" + std::to_string(id), list));
+      part.objects.push_back(
+          make_object(id, name != names.end() ? name->second : "#" + std::to_string(id), list));
     }
   } else {
     part.method = tagged ? "tags" : "connectivity";
@@ -267,7 +279,8 @@ Vec3 registration_offset(const Mesh& mesh, const PartExtent& part) {
 
 Eigen::Matrix3d rotation_from_xyz_deg(const Vec3& xyz_deg) {
   const double k = M_PI / 180.0;
-  return (Eigen::AngleAxisd(xyz_deg.z() * k, Vec3::UnitZ()) * Eigen::AngleAxisd(xyz_deg.y() * k, Vec3::UnitY()) *
+  return (Eigen::AngleAxisd(xyz_deg.z() * k, Vec3::UnitZ()) *
+          Eigen::AngleAxisd(xyz_deg.y() * k, Vec3::UnitY()) *
           Eigen::AngleAxisd(xyz_deg.x() * k, Vec3::UnitX()))
       .toRotationMatrix();
 }

@@ -113,11 +113,14 @@ double median_of(std::vector<double> v) {
 class Search {
  public:
   Search(const Mesh& mesh, const MeshQuery& query, const PartExtent& part)
-      : mesh_(mesh), query_(query), layer_(part.layer_height_mm > 0 ? part.layer_height_mm : 0.2),
+      : mesh_(mesh),
+        query_(query),
+        layer_(part.layer_height_mm > 0 ? part.layer_height_mm : 0.2),
         walls_tagged_(part.walls_tagged) {
     const double area = surface_area_mm2(mesh);
     const double spacing = area > 0 ? std::sqrt(area / 1500.0) : 1.0;
-    for (const auto& s : sample_surface(mesh, spacing, 7)) coverage_samples_.push_back(s.position_mm);
+    for (const auto& s : sample_surface(mesh, spacing, 7))
+      coverage_samples_.push_back(s.position_mm);
     if (coverage_samples_.empty()) coverage_samples_ = mesh.vertices_mm;
   }
 
@@ -137,8 +140,8 @@ class Search {
   }
 
   /// Distances of `points` to the mesh under the pose (machine frame, mm).
-  void distances(const Mat3& r, double s, const Vec3& t, std::span<const Vec3> points, std::vector<double>& d,
-                 std::vector<Vec3>* closest_machine = nullptr) {
+  void distances(const Mat3& r, double s, const Vec3& t, std::span<const Vec3> points,
+                 std::vector<double>& d, std::vector<Vec3>* closest_machine = nullptr) {
     q_.resize(points.size());
     const Mat3 rt = r.transpose();
     for (std::size_t i = 0; i < points.size(); ++i) q_[i] = rt * (points[i] - t) / s;
@@ -189,7 +192,8 @@ class Search {
   }
 
   /// Share of the mesh surface with printed extrusions in a neighbouring cell.
-  [[nodiscard]] double coverage(const Mat3& r, double s, const Vec3& t, const PrintedObject& o) const {
+  [[nodiscard]] double coverage(const Mat3& r, double s, const Vec3& t,
+                                const PrintedObject& o) const {
     if (coverage_samples_.empty() || o.cells.empty()) return 0;
     std::size_t covered = 0;
     for (const Vec3& p : coverage_samples_) {
@@ -201,7 +205,8 @@ class Search {
         for (int dy = -1; dy <= 1 && !hit; ++dy)
           for (int dx = -1; dx <= 1 && !hit; ++dx) {
             if (x + dx < 0 || y + dy < 0 || z + dz < 0) continue;
-            hit = std::binary_search(o.cells.begin(), o.cells.end(), detail::cell_key(x + dx, y + dy, z + dz));
+            hit = std::binary_search(o.cells.begin(), o.cells.end(),
+                                     detail::cell_key(x + dx, y + dy, z + dz));
           }
       covered += hit ? 1 : 0;
     }
@@ -222,7 +227,9 @@ class Search {
     pose.score = residual(pose) + 5.0 * (1.0 - pose.coverage);
   }
 
-  [[nodiscard]] double residual(const Pose& pose) const { return walls_tagged_ ? pose.rms : pose.p50; }
+  [[nodiscard]] double residual(const Pose& pose) const {
+    return walls_tagged_ ? pose.rms : pose.p50;
+  }
   [[nodiscard]] double layer() const { return layer_; }
   [[nodiscard]] bool walls_tagged() const { return walls_tagged_; }
 
@@ -242,16 +249,19 @@ std::vector<Vec3> subset(const std::vector<Vec3>& points, std::size_t n) {
   std::vector<Vec3> out;
   out.reserve(n);
   const double step = static_cast<double>(points.size()) / static_cast<double>(n);
-  for (std::size_t i = 0; i < n; ++i) out.push_back(points[static_cast<std::size_t>(static_cast<double>(i) * step)]);
+  for (std::size_t i = 0; i < n; ++i)
+    out.push_back(points[static_cast<std::size_t>(static_cast<double>(i) * step)]);
   return out;
 }
 
 bool names_object(const PrintedObject& o, const std::string& wanted) {
-  return o.name == wanted || (o.id >= 0 && (wanted == std::to_string(o.id) || wanted == "#" + std::to_string(o.id)));
+  return o.name == wanted ||
+         (o.id >= 0 && (wanted == std::to_string(o.id) || wanted == "#" + std::to_string(o.id)));
 }
 
 /// The candidates `options.object` allows (those with wall points). Error: it names none.
-Result<std::vector<const PrintedObject*>> objects_to_match(const PartExtent& part, const RegistrationOptions& options) {
+Result<std::vector<const PrintedObject*>> objects_to_match(const PartExtent& part,
+                                                           const RegistrationOptions& options) {
   std::vector<const PrintedObject*> objects;
   for (const auto& o : part.objects)
     if (options.object.empty() || names_object(o, options.object)) objects.push_back(&o);
@@ -259,15 +269,17 @@ Result<std::vector<const PrintedObject*>> objects_to_match(const PartExtent& par
     std::string list;
     for (const auto& o : part.objects)
       if (o.id >= 0) list += (list.empty() ? "" : ", ") + ("'" + o.name + "'");
-    return usage_error("--object '" + options.object + "': the G-code has no such object" +
-                       (list.empty() ? std::string(" (it labels none)") : " (it has " + list + ")"));
+    return usage_error(
+        "--object '" + options.object + "': the G-code has no such object" +
+        (list.empty() ? std::string(" (it labels none)") : " (it has " + list + ")"));
   }
   std::erase_if(objects, [](const PrintedObject* o) { return o->wall_points_mm.empty(); });
   return objects;
 }
 
 std::string size_text(const Vec3& v) {
-  return format_fixed(v.x(), 1) + " x " + format_fixed(v.y(), 1) + " x " + format_fixed(v.z(), 1) + " mm";
+  return format_fixed(v.x(), 1) + " x " + format_fixed(v.y(), 1) + " x " + format_fixed(v.z(), 1) +
+         " mm";
 }
 
 /// Fills the report fields of `reg` from the chosen pose, the mismatch verdict included.
@@ -288,8 +300,9 @@ void describe(Registration& reg, const Pose& pose, const Search& search, const M
   if (pose.size_error > 1)
     why = "its size matches no orientation of the mesh";
   else if (res > limit)
-    why = "its walls lie " + format_fixed(res, 2) + " mm from the mesh (" + (search.walls_tagged() ? "RMS" : "median") +
-          "; a match gives about half a bead, limit " + format_fixed(limit, 2) + " mm)";
+    why = "its walls lie " + format_fixed(res, 2) + " mm from the mesh (" +
+          (search.walls_tagged() ? "RMS" : "median") + "; a match gives about half a bead, limit " +
+          format_fixed(limit, 2) + " mm)";
   else if (pose.coverage < 0.7)
     why = "it covers only " + format_fixed(100.0 * pose.coverage, 0) + " % of the mesh surface";
   if (!why.empty()) {
@@ -308,14 +321,17 @@ Result<Registration> register_mesh(const Mesh& mesh, const MeshQuery& query, con
   auto chosen = objects_to_match(part, options);
   if (!chosen) return chosen.error();
   const std::vector<const PrintedObject*>& objects = *chosen;
-  if (objects.empty()) return bad_input("the G-code has no extrusion of the part to register the mesh against");
+  if (objects.empty())
+    return bad_input("the G-code has no extrusion of the part to register the mesh against");
   if (mesh.vertices_mm.empty()) return bad_input("registration: the mesh has no vertices");
 
   Search search(mesh, query, part);
   const double layer = search.layer();
   std::vector<double> scales;
-  if (options.scale) scales.push_back(*options.scale);
-  else scales.assign(kUnitScales.begin(), kUnitScales.end());
+  if (options.scale)
+    scales.push_back(*options.scale);
+  else
+    scales.assign(kUnitScales.begin(), kUnitScales.end());
   const int ups = options.allow_rotation ? 6 : 1;
 
   // Candidate poses, each with its size error (height and footprint against the object's).
@@ -347,8 +363,9 @@ Result<Registration> register_mesh(const Mesh& mesh, const MeshQuery& query, con
           // Without feature tags the print may hold supports and brims beside the part: only
           // a print smaller than the mesh rules the pose out.
           const double f_err =
-              part.walls_tagged ? std::max(std::abs(ma - printed.a), std::abs(mb - printed.b)) / f_tol
-                                : std::max({ma - printed.a, mb - printed.b, 0.0}) / f_tol;
+              part.walls_tagged
+                  ? std::max(std::abs(ma - printed.a), std::abs(mb - printed.b)) / f_tol
+                  : std::max({ma - printed.a, mb - printed.b, 0.0}) / f_tol;
           Pose p;
           p.object = o;
           p.up = u;
@@ -375,8 +392,10 @@ Result<Registration> register_mesh(const Mesh& mesh, const MeshQuery& query, con
   const auto coarse = [&](Pose& p) {
     const std::vector<Vec3> pts = subset(p.object->wall_points_mm, 300);
     p.t = search.centred(p.rotation(), p.scale, *p.object);
-    if (options.allow_rotation) search.refine(p, pts, 12);
-    else search.refine(p, pts, 0);
+    if (options.allow_rotation)
+      search.refine(p, pts, 12);
+    else
+      search.refine(p, pts, 0);
     search.evaluate(p, pts);
     ++tried;
   };
@@ -403,7 +422,8 @@ Result<Registration> register_mesh(const Mesh& mesh, const MeshQuery& query, con
     if (options.allow_rotation) search.refine(p, subset(p.object->wall_points_mm, 1500), 20);
     search.evaluate(p, p.object->wall_points_mm);
   }
-  std::stable_sort(candidates.begin(), candidates.begin() + static_cast<std::ptrdiff_t>(finalists), by_score);
+  std::stable_sort(candidates.begin(), candidates.begin() + static_cast<std::ptrdiff_t>(finalists),
+                   by_score);
   Pose best = candidates.front();
 
   // Slicers rotate by whole degrees and most parts not at all: a quarter-turn angle within
@@ -417,7 +437,8 @@ Result<Registration> register_mesh(const Mesh& mesh, const MeshQuery& query, con
     snapped.theta = quarters * kQuarter;
     snapped.t = search.centred(r, best.scale, *best.object);
     search.evaluate(snapped, best.object->wall_points_mm);
-    if (search.residual(snapped) <= search.residual(best) + std::max(0.01, 0.02 * search.residual(best))) {
+    if (search.residual(snapped) <=
+        search.residual(best) + std::max(0.01, 0.02 * search.residual(best))) {
       best = snapped;
       reg.transform.rotation = r;
       exact = true;
@@ -433,8 +454,9 @@ Result<Registration> register_mesh(const Mesh& mesh, const MeshQuery& query, con
   return reg;
 }
 
-Result<Registration> evaluate_registration(const Mesh& mesh, const MeshQuery& query, const PartExtent& part,
-                                           const RigidTransform& transform, const RegistrationOptions& options) {
+Result<Registration> evaluate_registration(const Mesh& mesh, const MeshQuery& query,
+                                           const PartExtent& part, const RigidTransform& transform,
+                                           const RegistrationOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   auto chosen = objects_to_match(part, options);
   if (!chosen) return chosen.error();

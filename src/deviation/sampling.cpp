@@ -1,7 +1,7 @@
 // Area-uniform, seeded, deterministic sampling of a mesh surface.
+#include <unistd.h>
 #include <algorithm>
 #include <cmath>
-#include <unistd.h>
 
 #include "printtwin/io.hpp"
 
@@ -37,13 +37,17 @@ Status check_sample_budget(const Mesh& mesh, double spacing_mm) {
   const double samples = area / (spacing_mm * spacing_mm);
   const double bytes = samples * kBytesPerSample;
   const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
-  const double limit = pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : 64.0e9;
+  const double limit =
+      pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : 64.0e9;
   if (std::isfinite(bytes) && bytes <= limit) return Ok{};
-  const double fitting_spacing = spacing_mm * std::sqrt(std::isfinite(bytes) ? bytes / (0.5 * limit) : 1e30);
-  return bad_input("the mesh's surface (" + format_fixed(area, 0) + " mm2) at a sample spacing of " +
-                   format_number(spacing_mm) + " mm needs " + format_fixed(samples, 0) + " samples, about " +
-                   format_fixed(bytes / 1e9, 1) + " GB, more than this computer's " + format_fixed(limit / 1e9, 1) +
-                   " GB of memory; use a sample spacing of at least " + format_fixed(fitting_spacing, 2) + " mm");
+  const double fitting_spacing =
+      spacing_mm * std::sqrt(std::isfinite(bytes) ? bytes / (0.5 * limit) : 1e30);
+  return bad_input("the mesh's surface (" + format_fixed(area, 0) +
+                   " mm2) at a sample spacing of " + format_number(spacing_mm) + " mm needs " +
+                   format_fixed(samples, 0) + " samples, about " + format_fixed(bytes / 1e9, 1) +
+                   " GB, more than this computer's " + format_fixed(limit / 1e9, 1) +
+                   " GB of memory; use a sample spacing of at least " +
+                   format_fixed(fitting_spacing, 2) + " mm");
 }
 
 std::vector<SurfaceSample> sample_surface(const Mesh& mesh, double spacing_mm, std::uint64_t seed) {
@@ -52,7 +56,8 @@ std::vector<SurfaceSample> sample_surface(const Mesh& mesh, double spacing_mm, s
   const double per_mm2 = 1.0 / (spacing_mm * spacing_mm);
   // Clamped: a count beyond any memory (check_sample_budget refuses those first) must not
   // overflow the conversion.
-  out.reserve(static_cast<std::size_t>(std::min(surface_area_mm2(mesh) * per_mm2 * 1.05, 1.0e9)) + 16);
+  out.reserve(static_cast<std::size_t>(std::min(surface_area_mm2(mesh) * per_mm2 * 1.05, 1.0e9)) +
+              16);
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     const auto& tri = mesh.triangles[t];
     const Vec3& a = mesh.vertices_mm[tri[0]];

@@ -13,7 +13,8 @@ namespace printtwin {
 namespace {
 /// Percentile q in [0, 1] of values, linear interpolation between order statistics
 /// (Hyndman & Fan type 7, the default of R and NumPy), from a table of order statistics.
-double percentile(const std::vector<std::pair<std::size_t, double>>& order, std::size_t n, double q) {
+double percentile(const std::vector<std::pair<std::size_t, double>>& order, std::size_t n,
+                  double q) {
   const double h = q * static_cast<double>(n - 1);
   const auto lo = static_cast<std::size_t>(std::floor(h));
   const std::size_t hi = std::min(lo + 1, n - 1);
@@ -31,8 +32,8 @@ inline std::uint64_t abs_bits(double x) { return std::bit_cast<std::uint64_t>(st
 /// The order statistics of |d| at `ranks` (ascending), by selection: from the lowest rank
 /// up, each selection only partitions the part above the previous one; the rank right after
 /// a selected one is the least of the part above it.
-std::vector<std::pair<std::size_t, double>> order_statistics_by_selection(std::span<const double> d,
-                                                                          const std::vector<std::size_t>& ranks) {
+std::vector<std::pair<std::size_t, double>> order_statistics_by_selection(
+    std::span<const double> d, const std::vector<std::size_t>& ranks) {
   std::vector<double> abs_d(d.size());
   for (std::size_t i = 0; i < d.size(); ++i) abs_d[i] = std::abs(d[i]);
   std::vector<std::pair<std::size_t, double>> order;
@@ -63,13 +64,15 @@ constexpr std::size_t kHistogramMin = 512;
 /// repeated partitions of a copy. `lo_key` and `hi_key`: the least and greatest |d| bit
 /// patterns (the caller's pass finds them); the top rank, n - 1, is the greatest, without a
 /// bin.
-std::vector<std::pair<std::size_t, double>> order_statistics_by_histogram(std::span<const double> d,
-                                                                          const std::vector<std::size_t>& ranks,
-                                                                          std::uint64_t lo_key, std::uint64_t hi_key) {
+std::vector<std::pair<std::size_t, double>> order_statistics_by_histogram(
+    std::span<const double> d, const std::vector<std::size_t>& ranks, std::uint64_t lo_key,
+    std::uint64_t hi_key) {
   const int bin_bits = std::clamp(static_cast<int>(std::bit_width(d.size())) - 2, 8, 16);
   const int span_bits = static_cast<int>(std::bit_width(hi_key - lo_key));
   const int shift = std::max(0, span_bits - bin_bits);
-  const auto bin = [&](double v) { return static_cast<std::size_t>((abs_bits(v) - lo_key) >> shift); };
+  const auto bin = [&](double v) {
+    return static_cast<std::size_t>((abs_bits(v) - lo_key) >> shift);
+  };
   std::vector<std::uint32_t> count(((hi_key - lo_key) >> shift) + 1, 0);
   for (const double v : d) ++count[bin(v)];
   // The ranks below the top: the bin of each, and the rank's place within its bin.
@@ -98,7 +101,8 @@ std::vector<std::pair<std::size_t, double>> order_statistics_by_histogram(std::s
   }
   if (!bins.empty())
     for (const double v : d)
-      if (const int k = list_of[bin(v)]; k >= 0) values[static_cast<std::size_t>(k)].push_back(std::abs(v));
+      if (const int k = list_of[bin(v)]; k >= 0)
+        values[static_cast<std::size_t>(k)].push_back(std::abs(v));
   std::vector<std::pair<std::size_t, double>> order;
   for (std::size_t r = 0; r < binned.size(); ++r) {
     auto& vals = values[static_cast<std::size_t>(list_of[bin_of[r]])];
@@ -154,7 +158,7 @@ DeviationStats deviation_stats(std::span<const double> d, double tolerance_mm) {
   ranks.erase(std::unique(ranks.begin(), ranks.end()), ranks.end());
   const std::vector<std::pair<std::size_t, double>> order =
       n_all >= kHistogramMin ? order_statistics_by_histogram(d, ranks, lo_key, hi_key)
-                              : order_statistics_by_selection(d, ranks);
+                             : order_statistics_by_selection(d, ranks);
   s.p50_abs_mm = percentile(order, n_all, 0.50);
   s.p95_abs_mm = percentile(order, n_all, 0.95);
   s.p99_abs_mm = percentile(order, n_all, 0.99);
@@ -173,7 +177,9 @@ std::vector<double> weighted_percentiles(std::span<const double> d, std::span<co
   const int bin_bits = std::clamp(static_cast<int>(std::bit_width(d.size())) - 2, 8, 16);
   const int span_bits = static_cast<int>(std::bit_width(hi_key - lo_key));
   const int shift = std::max(0, span_bits - bin_bits);
-  const auto bin = [&](double v) { return static_cast<std::size_t>((abs_bits(v) - lo_key) >> shift); };
+  const auto bin = [&](double v) {
+    return static_cast<std::size_t>((abs_bits(v) - lo_key) >> shift);
+  };
   std::vector<long double> sum(((hi_key - lo_key) >> shift) + 1, 0);
   for (std::size_t i = 0; i < d.size(); ++i) sum[bin(d[i])] += w[i];
   // The bin of each q and the weight before it, then one pass gathers those bins' values.
@@ -191,7 +197,8 @@ std::vector<double> weighted_percentiles(std::span<const double> d, std::span<co
   std::vector<std::pair<double, double>> in_bins;
   for (std::size_t i = 0; i < d.size(); ++i) {
     const std::size_t k = bin(d[i]);
-    if (std::find(bin_of.begin(), bin_of.end(), k) != bin_of.end()) in_bins.emplace_back(std::abs(d[i]), w[i]);
+    if (std::find(bin_of.begin(), bin_of.end(), k) != bin_of.end())
+      in_bins.emplace_back(std::abs(d[i]), w[i]);
   }
   std::sort(in_bins.begin(), in_bins.end());
   std::vector<double> out;
@@ -213,7 +220,8 @@ std::vector<double> weighted_percentiles(std::span<const double> d, std::span<co
 }
 }  // namespace
 
-DeviationStats deviation_stats(std::span<const double> d, std::span<const double> area_mm2, double tolerance_mm) {
+DeviationStats deviation_stats(std::span<const double> d, std::span<const double> area_mm2,
+                               double tolerance_mm) {
   if (area_mm2.empty()) return deviation_stats(d, tolerance_mm);
   DeviationStats s;
   s.samples = d.size();
@@ -243,7 +251,8 @@ DeviationStats deviation_stats(std::span<const double> d, std::span<const double
   s.rms_mm = static_cast<double>(std::sqrt(sum2 / wsum));
   const long double var = std::max<long double>(0, sum2 / wsum - (sum / wsum) * (sum / wsum));
   s.std_mm = static_cast<double>(std::sqrt(var));
-  const std::vector<double> p = weighted_percentiles(d, area_mm2, {0.50, 0.95, 0.99}, wsum, lo_key, hi_key);
+  const std::vector<double> p =
+      weighted_percentiles(d, area_mm2, {0.50, 0.95, 0.99}, wsum, lo_key, hi_key);
   s.p50_abs_mm = p[0];
   s.p95_abs_mm = p[1];
   s.p99_abs_mm = p[2];

@@ -8,8 +8,8 @@
 #include <cmath>
 #include <limits>
 
-#include "deviation/surface_internal.hpp"
 #include "deviation/outer_surface.hpp"
+#include "deviation/surface_internal.hpp"
 #include "printtwin/deposit.hpp"
 #include "printtwin/deviation.hpp"
 
@@ -20,7 +20,8 @@ std::vector<SurfaceBead> surface_beads(std::span<const Move> moves, const Printe
   const double filament_area = profile.filament_area_mm2();
   // The nominal layer height as the deposit takes it: the slicer's `;HEIGHT:`, else the Z
   // step from the previous layer's extrusions; sloped moves (spirals) keep the last one.
-  double layer_z = std::numeric_limits<double>::quiet_NaN(), prev_z = 0, nominal = 0.5 * profile.nozzle_diameter_mm;
+  double layer_z = std::numeric_limits<double>::quiet_NaN(), prev_z = 0,
+         nominal = 0.5 * profile.nozzle_diameter_mm;
   for (const Move& m : moves) {
     if (m.kind != MoveKind::extrude || !(m.e_mm > 0) || is_auxiliary_feature(m.feature)) continue;
     const double len = m.xy_length_mm();
@@ -40,7 +41,8 @@ std::vector<SurfaceBead> surface_beads(std::span<const Move> moves, const Printe
                      static_cast<std::uint32_t>(std::max<long>(m.line, 0))});
   }
   // In line order (the moves' order; arcs give several beads of one line).
-  std::stable_sort(beads.begin(), beads.end(), [](const SurfaceBead& a, const SurfaceBead& b) { return a.line < b.line; });
+  std::stable_sort(beads.begin(), beads.end(),
+                   [](const SurfaceBead& a, const SurfaceBead& b) { return a.line < b.line; });
   return beads;
 }
 
@@ -68,12 +70,15 @@ double bead_closest(const SurfaceBead& b, const Vec3& p, Vec3& core_point) {
   return (p - core_point).norm() - r;
 }
 
-std::pair<std::size_t, std::size_t> beads_of_line(std::span<const SurfaceBead> beads, std::uint32_t line) {
-  const auto lo = std::lower_bound(beads.begin(), beads.end(), line,
-                                   [](const SurfaceBead& b, std::uint32_t l) { return b.line < l; });
+std::pair<std::size_t, std::size_t> beads_of_line(std::span<const SurfaceBead> beads,
+                                                  std::uint32_t line) {
+  const auto lo =
+      std::lower_bound(beads.begin(), beads.end(), line,
+                       [](const SurfaceBead& b, std::uint32_t l) { return b.line < l; });
   auto hi = lo;
   while (hi != beads.end() && hi->line == line) ++hi;
-  return {static_cast<std::size_t>(lo - beads.begin()), static_cast<std::size_t>(hi - beads.begin())};
+  return {static_cast<std::size_t>(lo - beads.begin()),
+          static_cast<std::size_t>(hi - beads.begin())};
 }
 
 BeadDistance nearest_bead(std::span<const SurfaceBead> beads, std::uint32_t line, const Vec3& p) {
@@ -104,30 +109,32 @@ void place_on_beads(DepositSurface& s, std::span<const SurfaceBead> beads, doubl
   s.face_area_mm2.assign(s.faces.size(), v * v);
   s.face_bead.assign(s.faces.size(), kNoBead);
   if (beads.empty() || s.faces.empty()) return;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, s.faces.size(), 4096), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      const Vec3 p = s.face_centers_mm[i];
-      const detail::BeadDistance near = detail::nearest_bead(beads, s.face_tags[i].line, p);
-      if (near.bead == kNoBead || !(std::abs(near.signed_mm) <= max_shift_mm)) continue;
-      const SurfaceBead& b = beads[near.bead];
-      Vec3 n = p - near.core_point;
-      const double len = n.norm();
-      if (len > 1e-12) {
-        n /= len;
-      } else {  // on the core: the face's own normal
-        n = Vec3::Zero();
-        n[s.faces[i].axis] = s.faces[i].side;
-      }
-      // The face must face the way the bead's surface does: a face on the far side of a
-      // bead's core (a thin wall's back) belongs to another surface.
-      if (n[s.faces[i].axis] * s.faces[i].side <= 0) continue;
-      s.points_mm[i] = near.core_point + (0.5 * b.height_mm) * n;
-      // A surface of normal n is voxelised into faces of total area |n_x| + |n_y| + |n_z|
-      // times its own: each face stands for its area over that sum.
-      s.face_area_mm2[i] = v * v / (std::abs(n.x()) + std::abs(n.y()) + std::abs(n.z()));
-      s.face_bead[i] = near.bead;
-    }
-  });
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, s.faces.size(), 4096),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const Vec3 p = s.face_centers_mm[i];
+          const detail::BeadDistance near = detail::nearest_bead(beads, s.face_tags[i].line, p);
+          if (near.bead == kNoBead || !(std::abs(near.signed_mm) <= max_shift_mm)) continue;
+          const SurfaceBead& b = beads[near.bead];
+          Vec3 n = p - near.core_point;
+          const double len = n.norm();
+          if (len > 1e-12) {
+            n /= len;
+          } else {  // on the core: the face's own normal
+            n = Vec3::Zero();
+            n[s.faces[i].axis] = s.faces[i].side;
+          }
+          // The face must face the way the bead's surface does: a face on the far side of a
+          // bead's core (a thin wall's back) belongs to another surface.
+          if (n[s.faces[i].axis] * s.faces[i].side <= 0) continue;
+          s.points_mm[i] = near.core_point + (0.5 * b.height_mm) * n;
+          // A surface of normal n is voxelised into faces of total area |n_x| + |n_y| + |n_z|
+          // times its own: each face stands for its area over that sum.
+          s.face_area_mm2[i] = v * v / (std::abs(n.x()) + std::abs(n.y()) + std::abs(n.z()));
+          s.face_bead[i] = near.bead;
+        }
+      });
 }
 
 }  // namespace printtwin

@@ -12,10 +12,10 @@
 #include <memory>
 #include <vector>
 
-#include "deviation/outer_surface.hpp"
 #include "core/bits.hpp"
-#include "deposit/voxel_blocks.hpp"
 #include "core/zeroed_array.hpp"
+#include "deposit/voxel_blocks.hpp"
+#include "deviation/outer_surface.hpp"
 #include "printtwin/deviation.hpp"
 
 namespace printtwin::surface_blocks {
@@ -90,8 +90,8 @@ inline Cube dilate_z(const Cube* lo_p, const Cube* m_p, const Cube* hi_p, int r)
 /// wrap in: towards +x, bit x -> x + k and bits 8 - k.. of the -x neighbour's row enter;
 /// towards -x likewise from the +x neighbour. Bits crossing into another row are masked.
 inline std::uint64_t step_x(std::uint64_t lo, std::uint64_t m, std::uint64_t hi, int k) {
-  return ((m << k) & x_bits(k, 8)) | ((lo >> (8 - k)) & x_bits(0, k)) | ((m >> k) & x_bits(0, 8 - k)) |
-         ((hi << (8 - k)) & x_bits(8 - k, 8));
+  return ((m << k) & x_bits(k, 8)) | ((lo >> (8 - k)) & x_bits(0, k)) |
+         ((m >> k) & x_bits(0, 8 - k)) | ((hi << (8 - k)) & x_bits(8 - k, 8));
 }
 /// The same along y: rows move by k, the neighbours' rows enter (a whole block at k = 8).
 inline std::uint64_t step_y(std::uint64_t lo, std::uint64_t m, std::uint64_t hi, int k) {
@@ -143,27 +143,41 @@ inline Cube flood_cube(const Cube& open, Cube o) {
 inline Cube transfer(const Cube& c, int dir) {
   Cube t{};
   switch (dir) {
-    case 0: for (int z = 0; z < kE; ++z) t[z] = (c[z] & kX0) << 7; break;
-    case 1: for (int z = 0; z < kE; ++z) t[z] = (c[z] & kX7) >> 7; break;
-    case 2: for (int z = 0; z < kE; ++z) t[z] = (c[z] & kY0) << 56; break;
-    case 3: for (int z = 0; z < kE; ++z) t[z] = (c[z] & kY7) >> 56; break;
-    case 4: t[kE - 1] = c[0]; break;
-    default: t[0] = c[kE - 1]; break;
+    case 0:
+      for (int z = 0; z < kE; ++z) t[z] = (c[z] & kX0) << 7;
+      break;
+    case 1:
+      for (int z = 0; z < kE; ++z) t[z] = (c[z] & kX7) >> 7;
+      break;
+    case 2:
+      for (int z = 0; z < kE; ++z) t[z] = (c[z] & kY0) << 56;
+      break;
+    case 3:
+      for (int z = 0; z < kE; ++z) t[z] = (c[z] & kY7) >> 56;
+      break;
+    case 4:
+      t[kE - 1] = c[0];
+      break;
+    default:
+      t[0] = c[kE - 1];
+      break;
   }
   return t;
 }
-inline constexpr std::array<std::array<int, 3>, 6> kDirs{{{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}}};
+inline constexpr std::array<std::array<int, 3>, 6> kDirs{
+    {{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}}};
 
 /// The grid blocks covering the region: lo .. lo + n - 1, indexed y, then x, then z.
 struct BlockBox {
   Eigen::Vector3i lo = Eigen::Vector3i::Zero(), n = Eigen::Vector3i::Zero();
   [[nodiscard]] std::size_t size() const { return static_cast<std::size_t>(n.x()) * n.y() * n.z(); }
   [[nodiscard]] bool contains(int bx, int by, int bz) const {
-    return bx >= lo.x() && by >= lo.y() && bz >= lo.z() && bx < lo.x() + n.x() && by < lo.y() + n.y() &&
-           bz < lo.z() + n.z();
+    return bx >= lo.x() && by >= lo.y() && bz >= lo.z() && bx < lo.x() + n.x() &&
+           by < lo.y() + n.y() && bz < lo.z() + n.z();
   }
   [[nodiscard]] std::size_t index(int bx, int by, int bz) const {
-    return (static_cast<std::size_t>(by - lo.y()) * n.x() + static_cast<std::size_t>(bx - lo.x())) * n.z() +
+    return (static_cast<std::size_t>(by - lo.y()) * n.x() + static_cast<std::size_t>(bx - lo.x())) *
+               n.z() +
            static_cast<std::size_t>(bz - lo.z());
   }
   [[nodiscard]] Eigen::Vector3i coords(std::size_t i) const {
@@ -181,7 +195,8 @@ inline void dilate_flags(std::vector<std::uint8_t>& f, const BlockBox& box, int 
              nz = static_cast<std::size_t>(box.n.z());
   std::vector<std::uint8_t> g(f.size());
   // Along an axis of `len` entries `stride` apart, in runs of `run` contiguous entries.
-  const auto pass = [&](std::size_t len, std::size_t stride, std::size_t run, std::size_t outer, std::size_t outer_stride) {
+  const auto pass = [&](std::size_t len, std::size_t stride, std::size_t run, std::size_t outer,
+                        std::size_t outer_stride) {
     g = f;
     tbb::parallel_for(std::size_t{0}, outer, [&](std::size_t o) {
       const std::size_t base = o * outer_stride;
@@ -199,9 +214,9 @@ inline void dilate_flags(std::vector<std::uint8_t>& f, const BlockBox& box, int 
     });
     f.swap(g);
   };
-  pass(nz, 1, 1, nx * ny, nz);          // z: within each column
-  pass(nx, nz, nz, ny, nx * nz);        // x: columns of a row
-  pass(ny, nx * nz, nx * nz, 1, 0);     // y: rows
+  pass(nz, 1, 1, nx * ny, nz);       // z: within each column
+  pass(nx, nz, nz, ny, nx * nz);     // x: columns of a row
+  pass(ny, nx * nz, nx * nz, 1, 0);  // y: rows
 }
 
 /// Cubes appended in chunks (no copies as it grows), addressed by index.
@@ -219,7 +234,8 @@ class CubePool {
   std::size_t grow(std::size_t n) {
     const std::size_t first = size_;
     size_ += n;
-    while (chunks_.size() * kChunk < size_) chunks_.push_back(std::make_unique_for_overwrite<Cube[]>(kChunk));
+    while (chunks_.size() * kChunk < size_)
+      chunks_.push_back(std::make_unique_for_overwrite<Cube[]>(kChunk));
     return first;
   }
 
@@ -244,7 +260,8 @@ class DilatedField {
     for (int left = r; left > 0; left -= kE) steps_.push_back(std::min(left, kE));
     top_ = 3 * static_cast<int>(steps_.size());
     memo_.resize(static_cast<std::size_t>(std::max(top_, 1)));
-    for (int st = 1; st < top_; ++st) memo_[static_cast<std::size_t>(st)] = ZeroedArray<std::uint32_t>(box_.size());
+    for (int st = 1; st < top_; ++st)
+      memo_[static_cast<std::size_t>(st)] = ZeroedArray<std::uint32_t>(box_.size());
   }
   /// Computes every stage below the top that the blocks `targets` (box indices) read, a
   /// stage at a time, its blocks in parallel; then top_of may run on several threads.
@@ -259,7 +276,8 @@ class DilatedField {
       for (const std::uint32_t i : *cur) {
         const Eigen::Vector3i b = box_.coords(i);
         for (int d = -1; d <= 1; ++d) {
-          const int x = b.x() + (axis == 1 ? d : 0), y = b.y() + (axis == 2 ? d : 0), z = b.z() + (axis == 0 ? d : 0);
+          const int x = b.x() + (axis == 1 ? d : 0), y = b.y() + (axis == 2 ? d : 0),
+                    z = b.z() + (axis == 0 ? d : 0);
           if (!box_.contains(x, y, z)) continue;
           const std::size_t j = box_.index(x, y, z);
           mark_.claim(j);
@@ -281,7 +299,9 @@ class DilatedField {
         const Eigen::Vector3i b = box_.coords(list[k]);
         Cube out;
         std::uint32_t& memo = memo_[static_cast<std::size_t>(st)][list[k]];
-        if (!compute(st, b.x(), b.y(), b.z(), [&](int x, int y, int z) { return read(st - 1, x, y, z); }, out)) {
+        if (!compute(
+                st, b.x(), b.y(), b.z(), [&](int x, int y, int z) { return read(st - 1, x, y, z); },
+                out)) {
           memo = 1;
           return;
         }
@@ -297,7 +317,8 @@ class DilatedField {
       out = or_empty(c);
       return c != nullptr;
     }
-    return compute(top_, bx, by, bz, [&](int x, int y, int z) { return read(top_ - 1, x, y, z); }, out);
+    return compute(
+        top_, bx, by, bz, [&](int x, int y, int z) { return read(top_ - 1, x, y, z); }, out);
   }
 
  private:
@@ -338,13 +359,13 @@ class DilatedField {
   ZeroedArray<std::uint8_t> mark_;  ///< prepare's scratch: blocks already listed
 };
 
-
 /// Step 3b, the groove reopening (surface_reopen.cpp): what the seal closed opens again to
 /// `steps` 6-connected steps through empty region voxels from the outside found (a geodesic
 /// dilation of the not-filled voxels of the mixed blocks within their free voxels, `region_of`
 /// minus `part_of` of a block's box index). The mixed set must cover every block within
 /// `steps` voxels of an outside voxel; blocks not in it stay as they are.
-void reopen_grooves(DepositSurface& s, const BlockBox& box, const std::vector<std::uint32_t>& mixed, int steps,
-                    const std::function<Cube(std::size_t)>& region_of, const std::function<Cube(std::size_t)>& part_of);
+void reopen_grooves(DepositSurface& s, const BlockBox& box, const std::vector<std::uint32_t>& mixed,
+                    int steps, const std::function<Cube(std::size_t)>& region_of,
+                    const std::function<Cube(std::size_t)>& part_of);
 
 }  // namespace printtwin::surface_blocks

@@ -16,7 +16,8 @@ namespace printtwin::detail {
 double bead_closest(const SurfaceBead& bead, const Vec3& p, Vec3& core_point);
 
 /// The beads of G-code line `line` (beads sorted by line): [first, last).
-std::pair<std::size_t, std::size_t> beads_of_line(std::span<const SurfaceBead> beads, std::uint32_t line);
+std::pair<std::size_t, std::size_t> beads_of_line(std::span<const SurfaceBead> beads,
+                                                  std::uint32_t line);
 
 struct BeadDistance {
   double signed_mm = std::numeric_limits<double>::infinity();

@@ -9,13 +9,14 @@
 #include <algorithm>
 #include <functional>
 
-#include "deviation/surface_blocks.hpp"
 #include "deviation/outer_surface.hpp"
+#include "deviation/surface_blocks.hpp"
 
 namespace printtwin::surface_blocks {
 
-void reopen_grooves(DepositSurface& s, const BlockBox& box, const std::vector<std::uint32_t>& mixed, int steps,
-                    const std::function<Cube(std::size_t)>& region_of, const std::function<Cube(std::size_t)>& part_of) {
+void reopen_grooves(DepositSurface& s, const BlockBox& box, const std::vector<std::uint32_t>& mixed,
+                    int steps, const std::function<Cube(std::size_t)>& region_of,
+                    const std::function<Cube(std::size_t)>& part_of) {
   std::vector<Cube> free(mixed.size());  // region voxels that are not part
   tbb::parallel_for(std::size_t{0}, mixed.size(), [&](std::size_t m) {
     const Cube r = region_of(mixed[m]);
@@ -36,7 +37,8 @@ void reopen_grooves(DepositSurface& s, const BlockBox& box, const std::vector<st
       if (!box.contains(bx, by, bz)) return kNoCube;
       const std::uint32_t code = s.filled_block_code[box.index(bx, by, bz)];
       if (code == DepositSurface::kAllFilled) return kNoCube;
-      if (code == DepositSurface::kNoneFilled) return all;  // no part voxel: what of it is in R is outside
+      if (code == DepositSurface::kNoneFilled)
+        return all;  // no part voxel: what of it is in R is outside
       return open[code - DepositSurface::kFirstMask];
     };
     tbb::parallel_for(std::size_t{0}, mixed.size(), [&](std::size_t m) {
@@ -46,11 +48,13 @@ void reopen_grooves(DepositSurface& s, const BlockBox& box, const std::vector<st
       const Eigen::Vector3i b = box.coords(mixed[m]);
       const int bx = b.x(), by = b.y(), bz = b.z();
       const Cube& o = open[m];
-      const Cube &l = open_of(bx - 1, by, bz), &r = open_of(bx + 1, by, bz), &d = open_of(bx, by - 1, bz),
-                 &u = open_of(bx, by + 1, bz), &lo = open_of(bx, by, bz - 1), &hi = open_of(bx, by, bz + 1);
+      const Cube &l = open_of(bx - 1, by, bz), &r = open_of(bx + 1, by, bz),
+                 &d = open_of(bx, by - 1, bz), &u = open_of(bx, by + 1, bz),
+                 &lo = open_of(bx, by, bz - 1), &hi = open_of(bx, by, bz + 1);
       for (std::size_t z = 0; z < kE; ++z) {
         std::uint64_t g = o[z] | ((o[z] << 1) & ~kX0) | ((l[z] & kX7) >> 7) | ((o[z] >> 1) & ~kX7) |
-                          ((r[z] & kX0) << 7) | (o[z] << 8) | ((d[z] & kY7) >> 56) | (o[z] >> 8) | ((u[z] & kY0) << 56);
+                          ((r[z] & kX0) << 7) | (o[z] << 8) | ((d[z] & kY7) >> 56) | (o[z] >> 8) |
+                          ((u[z] & kY0) << 56);
         g |= z > 0 ? o[z - 1] : lo[kE - 1];
         g |= z + 1 < kE ? o[z + 1] : hi[0];
         g = o[z] | (g & free[m][z]);

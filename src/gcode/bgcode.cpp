@@ -22,7 +22,9 @@ constexpr std::size_t kFileHeaderBytes = 10;
 constexpr std::uint16_t kLastBlockType = 5;
 constexpr std::uint16_t kLastCompression = 3;
 
-std::uint16_t le16(const unsigned char* p) { return static_cast<std::uint16_t>(p[0] | (p[1] << 8)); }
+std::uint16_t le16(const unsigned char* p) {
+  return static_cast<std::uint16_t>(p[0] | (p[1] << 8));
+}
 std::uint32_t le32(const unsigned char* p) {
   return static_cast<std::uint32_t>(p[0]) | (static_cast<std::uint32_t>(p[1]) << 8) |
          (static_cast<std::uint32_t>(p[2]) << 16) | (static_cast<std::uint32_t>(p[3]) << 24);
@@ -53,8 +55,10 @@ std::string printable(std::string_view bytes) {
 }
 
 std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r'))
+    s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r'))
+    s.remove_suffix(1);
   return s;
 }
 
@@ -83,21 +87,26 @@ class BlockReader {
   Status read_file_header(BgcodeMetadata& meta) {
     std::array<unsigned char, kFileHeaderBytes> h{};
     const auto got = read_at(0, h.data(), h.size());
-    const std::string_view head(reinterpret_cast<const char*>(h.data()), std::min<std::size_t>(got, 4));
+    const std::string_view head(reinterpret_cast<const char*>(h.data()),
+                                std::min<std::size_t>(got, 4));
     if (got < 4 || head != kMagic)
-      return bad_input("not a binary G-code file: it starts with \"" + printable(head) + "\" where \"GCDE\" was expected",
+      return bad_input("not a binary G-code file: it starts with \"" + printable(head) +
+                           "\" where \"GCDE\" was expected",
                        name_);
     if (got < h.size())
       return bad_input("binary G-code file header cut short: " + std::to_string(kFileHeaderBytes) +
-                           " bytes expected, the file has " + std::to_string(got), name_);
+                           " bytes expected, the file has " + std::to_string(got),
+                       name_);
     meta.version = le32(h.data() + 4);
     if (meta.version != 1)
       return bad_input("binary G-code version " + std::to_string(meta.version) +
-                           " is not supported (printtwin reads version 1)", name_);
+                           " is not supported (printtwin reads version 1)",
+                       name_);
     const std::uint16_t checksum = le16(h.data() + 8);
     if (checksum > 1)
       return bad_input("unknown checksum type " + std::to_string(checksum) +
-                           " in the binary G-code file header (expected 0 = none or 1 = CRC32)", name_);
+                           " in the binary G-code file header (expected 0 = none or 1 = CRC32)",
+                       name_);
     meta.crc32 = checksum == 1;
     crc_ = meta.crc32;
     offset_ = kFileHeaderBytes;
@@ -122,24 +131,30 @@ class BlockReader {
     std::array<unsigned char, 12> h{};
     const std::uint64_t left = size_ - offset_;
     if (left < 8)
-      return error("truncated inside the block header (" + std::to_string(left) + " of 8 bytes)", false);
+      return error("truncated inside the block header (" + std::to_string(left) + " of 8 bytes)",
+                   false);
     if (read_at(offset_, h.data(), 8) != 8) return io_error();
     const std::uint16_t type = le16(h.data());
     const std::uint16_t compression = le16(h.data() + 2);
     const std::uint32_t uncompressed = le32(h.data() + 4);
     if (type > kLastBlockType)
       return error("unknown block type " + std::to_string(type) +
-                       " (expected 0-5: file metadata, G-code, slicer metadata, printer metadata, print metadata, "
-                       "thumbnail)", false);
+                       " (expected 0-5: file metadata, G-code, slicer metadata, printer metadata, "
+                       "print metadata, "
+                       "thumbnail)",
+                   false);
     info_.type = static_cast<BgcodeBlockType>(type);
     if (compression > kLastCompression)
-      return error("unknown compression " + std::to_string(compression) +
-                       " (expected 0 = none, 1 = deflate, 2 = heatshrink 11/4, 3 = heatshrink 12/4)", true);
+      return error(
+          "unknown compression " + std::to_string(compression) +
+              " (expected 0 = none, 1 = deflate, 2 = heatshrink 11/4, 3 = heatshrink 12/4)",
+          true);
     info_.compression = static_cast<BgcodeCompression>(compression);
     const std::size_t header_bytes = compression == 0 ? 8 : 12;
     if (left < header_bytes)
       return error("truncated inside the block header (" + std::to_string(left) + " of " +
-                       std::to_string(header_bytes) + " bytes)", true);
+                       std::to_string(header_bytes) + " bytes)",
+                   true);
     if (header_bytes == 12 && read_at(offset_ + 8, h.data() + 8, 4) != 4) return io_error();
     info_.data_bytes = uncompressed;
     info_.stored_bytes = compression == 0 ? uncompressed : le32(h.data() + 8);
@@ -148,14 +163,20 @@ class BlockReader {
     const std::uint64_t need = header_bytes + params_bytes_ + info_.stored_bytes + crc_bytes;
     if (need > left)
       return error("truncated: the block needs " + std::to_string(need) + " bytes (header " +
-                       std::to_string(header_bytes) + ", parameters " + std::to_string(params_bytes_) + ", data " +
-                       std::to_string(info_.stored_bytes) + ", checksum " + std::to_string(crc_bytes) +
-                       "), the file ends " + std::to_string(left) + " bytes after the block's start", true);
+                       std::to_string(header_bytes) + ", parameters " +
+                       std::to_string(params_bytes_) + ", data " +
+                       std::to_string(info_.stored_bytes) + ", checksum " +
+                       std::to_string(crc_bytes) + "), the file ends " + std::to_string(left) +
+                       " bytes after the block's start",
+                   true);
     if (info_.data_bytes > kMaxBgcodeBlockBytes || info_.stored_bytes > kMaxBgcodeBlockBytes)
-      return error("the block states " + std::to_string(std::max(info_.data_bytes, info_.stored_bytes)) +
+      return error("the block states " +
+                       std::to_string(std::max(info_.data_bytes, info_.stored_bytes)) +
                        " bytes of data, more than the " + std::to_string(kMaxBgcodeBlockBytes) +
-                       " printtwin accepts in one block", true);
-    if (read_at(offset_ + header_bytes, params_.data(), params_bytes_) != params_bytes_) return io_error();
+                       " printtwin accepts in one block",
+                   true);
+    if (read_at(offset_ + header_bytes, params_.data(), params_bytes_) != params_bytes_)
+      return io_error();
     const std::uint64_t data_at = offset_ + header_bytes + params_bytes_;
     if (in_ == nullptr) {
       stored_view_ = memory_.substr(static_cast<std::size_t>(data_at), info_.stored_bytes);
@@ -166,13 +187,15 @@ class BlockReader {
     }
     if (crc_) {
       std::array<unsigned char, 4> c{};
-      if (read_at(offset_ + header_bytes + params_bytes_ + info_.stored_bytes, c.data(), 4) != 4) return io_error();
+      if (read_at(offset_ + header_bytes + params_bytes_ + info_.stored_bytes, c.data(), 4) != 4)
+        return io_error();
       std::uint32_t crc = crc32_of(0, h.data(), header_bytes);
       crc = crc32_of(crc, params_.data(), params_bytes_);
       crc = crc32_of(crc, stored_view_.data(), stored_view_.size());
       if (crc != le32(c.data()))
-        return error("CRC32 mismatch (stored " + hex32(le32(c.data())) + ", computed " + hex32(crc) +
-                         "): the block is corrupt", true);
+        return error("CRC32 mismatch (stored " + hex32(le32(c.data())) + ", computed " +
+                         hex32(crc) + "): the block is corrupt",
+                     true);
     }
     offset_ += need;
     return true;
@@ -191,23 +214,41 @@ class BlockReader {
         return stored_view_;
       case BgcodeCompression::deflate: {
         // Deflate expands at most about 1032:1: reject impossible sizes before allocating.
-        if (expected / 1032 > stored_view_.size() + 1) return error("deflate data cannot expand to the " + std::to_string(expected) + " bytes the block header states", true).error();
+        if (expected / 1032 > stored_view_.size() + 1)
+          return error("deflate data cannot expand to the " + std::to_string(expected) +
+                           " bytes the block header states",
+                       true)
+              .error();
         scratch.resize(expected);
         uLongf out_len = static_cast<uLongf>(expected);
         uLong in_len = static_cast<uLong>(stored_view_.size());
         Bytef dummy = 0;
-        const int rc = ::uncompress2(expected > 0 ? reinterpret_cast<Bytef*>(scratch.data()) : &dummy, &out_len,
-                                     reinterpret_cast<const Bytef*>(stored_view_.data()), &in_len);
+        const int rc =
+            ::uncompress2(expected > 0 ? reinterpret_cast<Bytef*>(scratch.data()) : &dummy,
+                          &out_len, reinterpret_cast<const Bytef*>(stored_view_.data()), &in_len);
         if (rc == Z_BUF_ERROR)
           return error("deflate data decodes to more than the " + std::to_string(expected) +
-                           " bytes the block header states", true).error();
+                           " bytes the block header states",
+                       true)
+              .error();
         if (rc != Z_OK)
-          return error(std::string("deflate data is corrupt (zlib: ") + (rc == Z_DATA_ERROR ? "invalid or incomplete data" : rc == Z_MEM_ERROR ? "out of memory" : "stream ends early") + ")", true).error();
+          return error(std::string("deflate data is corrupt (zlib: ") +
+                           (rc == Z_DATA_ERROR  ? "invalid or incomplete data"
+                            : rc == Z_MEM_ERROR ? "out of memory"
+                                                : "stream ends early") +
+                           ")",
+                       true)
+              .error();
         if (out_len != expected)
-          return error("deflate data decodes to " + std::to_string(out_len) + " bytes, the block header states " +
-                           std::to_string(expected), true).error();
+          return error("deflate data decodes to " + std::to_string(out_len) +
+                           " bytes, the block header states " + std::to_string(expected),
+                       true)
+              .error();
         if (in_len != stored_view_.size())
-          return error(std::to_string(stored_view_.size() - in_len) + " bytes follow the end of the deflate stream", true).error();
+          return error(std::to_string(stored_view_.size() - in_len) +
+                           " bytes follow the end of the deflate stream",
+                       true)
+              .error();
         return std::string_view(scratch.data(), scratch.size());
       }
       case BgcodeCompression::heatshrink_11_4:
@@ -215,8 +256,11 @@ class BlockReader {
         const int window = info_.compression == BgcodeCompression::heatshrink_11_4 ? 11 : 12;
         if (expected / detail::heatshrink_max_expansion(window, 4) > stored_view_.size() + 1)
           return error("heatshrink data cannot expand to the " + std::to_string(expected) +
-                           " bytes the block header states", true).error();
-        if (!detail::heatshrink_decode(stored_view_, window, 4, expected, scratch, why)) return error(why, true).error();
+                           " bytes the block header states",
+                       true)
+              .error();
+        if (!detail::heatshrink_decode(stored_view_, window, 4, expected, scratch, why))
+          return error(why, true).error();
         return std::string_view(scratch.data(), scratch.size());
       }
     }
@@ -248,7 +292,9 @@ class BlockReader {
     in_->read(static_cast<char*>(dst), static_cast<std::streamsize>(n));
     return static_cast<std::size_t>(in_->gcount());
   }
-  Result<bool> io_error() const { return error("read error (the file changed or cannot be read)", false); }
+  Result<bool> io_error() const {
+    return error("read error (the file changed or cannot be read)", false);
+  }
 
   std::istream* in_ = nullptr;  ///< the file, or null when reading `memory_`
   std::string_view memory_;
@@ -260,7 +306,7 @@ class BlockReader {
   BgcodeBlockInfo info_;
   std::array<unsigned char, 6> params_{};
   std::size_t params_bytes_ = 2;
-  detail::Bytes stored_;        ///< the stored data read from the file
+  detail::Bytes stored_;          ///< the stored data read from the file
   std::string_view stored_view_;  ///< the stored data of the current block
 };
 
@@ -274,8 +320,12 @@ Status parse_ini(std::string_view text, BgcodeKeyValues& out, const BlockReader&
     if (line.empty()) continue;
     const auto eq = line.find('=');
     if (eq == std::string_view::npos)
-      return reader.error("line " + std::to_string(line_no) + " has no '=' (metadata is key=value lines): \"" +
-                              printable(line.substr(0, 60)) + "\"", true).error();
+      return reader
+          .error("line " + std::to_string(line_no) +
+                     " has no '=' (metadata is key=value lines): \"" +
+                     printable(line.substr(0, 60)) + "\"",
+                 true)
+          .error();
     out.emplace_back(std::string(trim(line.substr(0, eq))), std::string(trim(line.substr(eq + 1))));
   }
   return Ok{};
@@ -287,8 +337,11 @@ Status store_metadata_block(BlockReader& reader, BgcodeMetadata& meta, detail::B
   if (info.type == BgcodeBlockType::thumbnail) {
     const std::uint16_t format = reader.param(0);
     if (format > 2)
-      return reader.error("unknown thumbnail image format " + std::to_string(format) +
-                              " (expected 0 = PNG, 1 = JPG, 2 = QOI)", true).error();
+      return reader
+          .error("unknown thumbnail image format " + std::to_string(format) +
+                     " (expected 0 = PNG, 1 = JPG, 2 = QOI)",
+                 true)
+          .error();
     auto data = reader.data(scratch);
     if (!data) return data.error();
     BgcodeThumbnail t;
@@ -299,7 +352,10 @@ Status store_metadata_block(BlockReader& reader, BgcodeMetadata& meta, detail::B
     meta.thumbnails.push_back(std::move(t));
   } else {
     if (const std::uint16_t encoding = reader.param(0); encoding != 0)
-      return reader.error("unknown metadata encoding " + std::to_string(encoding) + " (expected 0 = INI)", true).error();
+      return reader
+          .error("unknown metadata encoding " + std::to_string(encoding) + " (expected 0 = INI)",
+                 true)
+          .error();
     auto data = reader.data(scratch);
     if (!data) return data.error();
     BgcodeKeyValues* target = info.type == BgcodeBlockType::file_metadata      ? &meta.file
@@ -323,7 +379,8 @@ Result<BgcodeMetadata> read_metadata(BlockReader& reader) {
     if (!more) return more.error();
     if (!*more)
       return bad_input("the binary G-code has no G-code block: the file ends after block " +
-                           std::to_string(meta.blocks.size()) + " (byte " + std::to_string(reader.offset()) + ")",
+                           std::to_string(meta.blocks.size()) + " (byte " +
+                           std::to_string(reader.offset()) + ")",
                        reader.name());
     if (reader.info().type == BgcodeBlockType::gcode) {
       meta.first_gcode_block_offset = reader.info().offset;
@@ -355,31 +412,44 @@ void append_pairs(std::string& out, const BgcodeKeyValues& pairs) {
 
 std::string_view bgcode_block_type_name(BgcodeBlockType type) {
   switch (type) {
-    case BgcodeBlockType::file_metadata: return "file metadata";
-    case BgcodeBlockType::gcode: return "G-code";
-    case BgcodeBlockType::slicer_metadata: return "slicer metadata";
-    case BgcodeBlockType::printer_metadata: return "printer metadata";
-    case BgcodeBlockType::print_metadata: return "print metadata";
-    case BgcodeBlockType::thumbnail: return "thumbnail";
+    case BgcodeBlockType::file_metadata:
+      return "file metadata";
+    case BgcodeBlockType::gcode:
+      return "G-code";
+    case BgcodeBlockType::slicer_metadata:
+      return "slicer metadata";
+    case BgcodeBlockType::printer_metadata:
+      return "printer metadata";
+    case BgcodeBlockType::print_metadata:
+      return "print metadata";
+    case BgcodeBlockType::thumbnail:
+      return "thumbnail";
   }
   return "unknown";
 }
 
 std::string_view bgcode_compression_name(BgcodeCompression compression) {
   switch (compression) {
-    case BgcodeCompression::none: return "none";
-    case BgcodeCompression::deflate: return "deflate";
-    case BgcodeCompression::heatshrink_11_4: return "heatshrink 11/4";
-    case BgcodeCompression::heatshrink_12_4: return "heatshrink 12/4";
+    case BgcodeCompression::none:
+      return "none";
+    case BgcodeCompression::deflate:
+      return "deflate";
+    case BgcodeCompression::heatshrink_11_4:
+      return "heatshrink 11/4";
+    case BgcodeCompression::heatshrink_12_4:
+      return "heatshrink 12/4";
   }
   return "unknown";
 }
 
 std::string_view bgcode_image_format_name(BgcodeImageFormat format) {
   switch (format) {
-    case BgcodeImageFormat::png: return "PNG";
-    case BgcodeImageFormat::jpg: return "JPG";
-    case BgcodeImageFormat::qoi: return "QOI";
+    case BgcodeImageFormat::png:
+      return "PNG";
+    case BgcodeImageFormat::jpg:
+      return "JPG";
+    case BgcodeImageFormat::qoi:
+      return "QOI";
   }
   return "unknown";
 }
@@ -405,7 +475,8 @@ bool is_bgcode_file(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   std::array<char, 4> head{};
   in.read(head.data(), head.size());
-  return is_bgcode_input(std::string_view(head.data(), static_cast<std::size_t>(in.gcount())), path);
+  return is_bgcode_input(std::string_view(head.data(), static_cast<std::size_t>(in.gcount())),
+                         path);
 }
 
 Result<BgcodeMetadata> read_bgcode_metadata(std::string_view bytes, const std::string& name) {
@@ -415,7 +486,8 @@ Result<BgcodeMetadata> read_bgcode_metadata(std::string_view bytes, const std::s
 
 Result<BgcodeMetadata> read_bgcode_metadata(const std::filesystem::path& path) {
   std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) return bad_input("is a directory, expected a binary G-code file", path.string());
+  if (std::filesystem::is_directory(path, ec))
+    return bad_input("is a directory, expected a binary G-code file", path.string());
   std::ifstream in(path, std::ios::binary);
   if (!in) return bad_input("cannot open binary G-code file", path.string());
   BlockReader reader(in, stream_size(in), path.string());
@@ -467,14 +539,14 @@ class BgcodeStreamBuf final : public std::streambuf {
     return traits_type::to_int_type(*gptr());
   }
 
-  pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode which) override {
+  pos_type seekoff(off_type off, std::ios_base::seekdir dir,
+                   std::ios_base::openmode which) override {
     if (error_ || (which & std::ios_base::in) == 0) return fail();
     off_type base = 0;
     if (dir == std::ios_base::cur) {
       base = static_cast<off_type>(chunk_start_) + (gptr() - eback());
     } else if (dir == std::ios_base::end) {
-      while (next_chunk()) {
-      }
+      while (next_chunk()) {}
       if (error_) return fail();
       base = static_cast<off_type>(chunk_start_);
     }
@@ -542,13 +614,21 @@ class BgcodeStreamBuf final : public std::streambuf {
           return true;
         }
         if (reader_.info().type != BgcodeBlockType::gcode)
-          return stop(reader_.error("a " + std::string(bgcode_block_type_name(reader_.info().type)) +
-                                        " block after the G-code blocks (the format puts every metadata block "
-                                        "before the G-code)", true).error());
+          return stop(
+              reader_
+                  .error("a " + std::string(bgcode_block_type_name(reader_.info().type)) +
+                             " block after the G-code blocks (the format puts every metadata block "
+                             "before the G-code)",
+                         true)
+                  .error());
         const std::uint16_t encoding = reader_.param(0);
         if (encoding > 2)
-          return stop(reader_.error("unknown G-code encoding " + std::to_string(encoding) +
-                                        " (expected 0 = none, 1 = MeatPack, 2 = MeatPack with comments)", true).error());
+          return stop(
+              reader_
+                  .error("unknown G-code encoding " + std::to_string(encoding) +
+                             " (expected 0 = none, 1 = MeatPack, 2 = MeatPack with comments)",
+                         true)
+                  .error());
         auto data = reader_.data(decompressed_);
         if (!data) return stop(data.error());
         ++gcode_blocks_read_;
@@ -559,7 +639,8 @@ class BgcodeStreamBuf final : public std::streambuf {
         } else {
           std::size_t size = 0;
           std::string why;
-          if (!detail::meatpack_decode(*data, unpacked_, size, why)) return stop(reader_.error(why, true).error());
+          if (!detail::meatpack_decode(*data, unpacked_, size, why))
+            return stop(reader_.error(why, true).error());
           show(unpacked_.data(), size);
         }
         return true;
@@ -602,9 +683,11 @@ const BgcodeMetadata& BgcodeGcodeStream::metadata() const { return buf_->metadat
 const std::optional<Error>& BgcodeGcodeStream::error() const { return buf_->error(); }
 std::size_t BgcodeGcodeStream::gcode_blocks_read() const { return buf_->gcode_blocks_read(); }
 
-Result<std::unique_ptr<BgcodeGcodeStream>> BgcodeGcodeStream::open(const std::filesystem::path& path) {
+Result<std::unique_ptr<BgcodeGcodeStream>> BgcodeGcodeStream::open(
+    const std::filesystem::path& path) {
   std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) return bad_input("is a directory, expected a G-code file", path.string());
+  if (std::filesystem::is_directory(path, ec))
+    return bad_input("is a directory, expected a G-code file", path.string());
   auto file = std::make_unique<std::ifstream>(path, std::ios::binary);
   if (!*file) return bad_input("cannot open G-code file", path.string());
   const std::uint64_t size = stream_size(*file);

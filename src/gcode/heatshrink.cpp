@@ -5,8 +5,8 @@
 
 namespace printtwin::detail {
 
-bool heatshrink_decode(std::string_view in, int window_bits, int lookahead_bits, std::size_t expected_size,
-                       Bytes& out, std::string& why) {
+bool heatshrink_decode(std::string_view in, int window_bits, int lookahead_bits,
+                       std::size_t expected_size, Bytes& out, std::string& why) {
   // 16 bytes of slack past the end let a back-reference copy a whole 16-byte word.
   constexpr std::size_t kSlack = 16;
   out.resize(expected_size + kSlack);
@@ -20,7 +20,8 @@ bool heatshrink_decode(std::string_view in, int window_bits, int lookahead_bits,
   std::uint64_t acc = 0;
   int bits = 0;
   const int backref_bits = 1 + window_bits + lookahead_bits;
-  const std::uint32_t window_mask = (1u << window_bits) - 1u, count_mask = (1u << lookahead_bits) - 1u;
+  const std::uint32_t window_mask = (1u << window_bits) - 1u,
+                      count_mask = (1u << lookahead_bits) - 1u;
   auto too_long = [&] {
     why = "heatshrink data decodes to more than the " + std::to_string(expected_size) +
           " bytes the block header states";

@@ -27,7 +27,9 @@ using Bytes = std::vector<char>;
 /// Most bytes one input byte can expand to (a back-reference of 2^lookahead bytes in
 /// 1 + window + lookahead bits): bounds the output before anything is allocated.
 [[nodiscard]] constexpr std::size_t heatshrink_max_expansion(int window_bits, int lookahead_bits) {
-  return (std::size_t{8} << lookahead_bits) / static_cast<std::size_t>(1 + window_bits + lookahead_bits) + 1;
+  return (std::size_t{8} << lookahead_bits) /
+             static_cast<std::size_t>(1 + window_bits + lookahead_bits) +
+         1;
 }
 
 }  // namespace printtwin::detail

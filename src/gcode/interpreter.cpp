@@ -31,7 +31,8 @@ bool starts_with(std::string_view s, std::string_view p) { return s.substr(0, p.
 
 std::string_view trim(std::string_view s) {
   while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r'))
+    s.remove_suffix(1);
   return s;
 }
 
@@ -84,10 +85,10 @@ GcodeInterpreter::GcodeInterpreter(const PrinterProfile& profile, const Interpre
       slicer_filament_mm_(std::numeric_limits<double>::quiet_NaN()) {
   min_extrude_temp_c_ = profile.min_extrude_temp_c;
   const std::string& fw = profile.firmware;
-  flavour_ = fw == "klipper" ? Flavour::klipper
-             : fw == "prusa" ? Flavour::prusa
-             : fw == "rrf"   ? Flavour::rrf
-             : fw == "bambu" ? Flavour::bambu
+  flavour_ = fw == "klipper"   ? Flavour::klipper
+             : fw == "prusa"   ? Flavour::prusa
+             : fw == "rrf"     ? Flavour::rrf
+             : fw == "bambu"   ? Flavour::bambu
              : fw == "marlin1" ? Flavour::marlin1
                                : Flavour::marlin2;
   if (profile.firmware_retraction) {
@@ -107,8 +108,10 @@ GcodeInterpreter::GcodeInterpreter(const PrinterProfile& profile, const Interpre
   offset_mm_ = power_on;
   logical_mm_ = Vec3::Zero();
   feedrate_mm_s_ = kDefaultFeedrate_mm_s;
-  const double hot = std::isnan(options.power_on_hotend_c) ? profile.ambient_temp_c : options.power_on_hotend_c;
-  const double bed = std::isnan(options.power_on_bed_c) ? profile.ambient_temp_c : options.power_on_bed_c;
+  const double hot =
+      std::isnan(options.power_on_hotend_c) ? profile.ambient_temp_c : options.power_on_hotend_c;
+  const double bed =
+      std::isnan(options.power_on_bed_c) ? profile.ambient_temp_c : options.power_on_bed_c;
   hotend_target_c_ = hotend_c_at_set_ = hot;
   bed_target_c_ = bed_c_at_set_ = bed;
 }
@@ -130,7 +133,8 @@ void GcodeInterpreter::add_finding(Finding f) {
     }
 }
 
-Status GcodeInterpreter::warn(long line, std::string_view text, std::string message, std::string code) {
+Status GcodeInterpreter::warn(long line, std::string_view text, std::string message,
+                              std::string code) {
   if (options_.strict)
     return bad_input(message + " in \"" + excerpt(text) + "\" (--strict)", {}, line);
   Finding f;
@@ -168,7 +172,8 @@ Status GcodeInterpreter::finish(bool ended_mid_line, long last_line) {
     Finding f;
     f.severity = Severity::warning;
     f.code = "no_layer_markers";
-    f.message = slicer_ + " marks its layers but the file has no layer marker: the twin counts no "
+    f.message = slicer_ +
+                " marks its layers but the file has no layer marker: the twin counts no "
                 "layers (per-layer figures are empty; time and filament are complete)";
     f.line = last_line;
     add_finding(std::move(f));
@@ -209,11 +214,14 @@ void GcodeInterpreter::heat_wait(bool hotend, double target_c, bool wait_cooling
   double& set_clock = hotend ? hotend_set_clock_s_ : bed_set_clock_s_;
   // Temperature now (linear ramp since the last set).
   const double dt = nominal_clock_s_ - set_clock;
-  double now = target >= at_set ? std::min(target, at_set + rate * dt) : std::max(target, at_set - rate * dt);
+  double now = target >= at_set ? std::min(target, at_set + rate * dt)
+                                : std::max(target, at_set - rate * dt);
   target = target_c;
   double wait_s = 0;
-  if (target_c > now) wait_s = (target_c - now) / rate;
-  else if (wait_cooling && target_c < now) wait_s = (now - target_c) / rate;
+  if (target_c > now)
+    wait_s = (target_c - now) / rate;
+  else if (wait_cooling && target_c < now)
+    wait_s = (now - target_c) / rate;
   out.synchronize();
   if (wait_s > 0) out.wait(wait_s, true, line);
   nominal_clock_s_ += wait_s;
@@ -263,38 +271,39 @@ void GcodeInterpreter::stated_figures(std::string_view c) {
   };
   double v = 0;
   if (starts_with(c, "estimated printing time (normal mode) = ")) {
-    set_time(parse_duration(c.substr(40)), 3);                      // PrusaSlicer, Orca family
+    set_time(parse_duration(c.substr(40)), 3);  // PrusaSlicer, Orca family
   } else if (c.find("total estimated time:") != std::string_view::npos) {
-    set_time(parse_duration(after("total estimated time:")), 2);     // Orca, Creality Print
+    set_time(parse_duration(after("total estimated time:")), 2);  // Orca, Creality Print
   } else if (starts_with(c, "TIME:") && parse_double(c.substr(5), v)) {
-    set_time(v, 2);                                                  // Cura (s)
+    set_time(v, 2);  // Cura (s)
     estimate_from_time_tag_ = true;
-  } else if (starts_with(c, "Print Time:")) {                       // ideaMaker (s, or "1h 2m 3s")
+  } else if (starts_with(c, "Print Time:")) {  // ideaMaker (s, or "1h 2m 3s")
     set_time(parse_double(c.substr(11), v) ? v : parse_duration(c.substr(11)), 2);
   } else if (starts_with(c, "Estimated Build Time:")) {
-    std::string_view m = trim(c.substr(21));                         // KISSlicer (minutes)
+    std::string_view m = trim(c.substr(21));  // KISSlicer (minutes)
     if (parse_double(m.substr(0, m.find(' ')), v)) set_time(v * 60.0, 2);
   } else if (starts_with(c, "Build time:")) {
     // Simplify3D: "1 hours 23 minutes" (the words' first letters as units).
     double total = 0, number = 0;
     bool have = false;
     for (char ch : c.substr(11)) {
-      if (ch >= '0' && ch <= '9') number = number * 10 + (ch - '0'), have = true;
+      if (ch >= '0' && ch <= '9')
+        number = number * 10 + (ch - '0'), have = true;
       else if (have && (ch == 'h' || ch == 'm' || ch == 's' || ch == 'd')) {
         total += number * (ch == 'd' ? 86400 : ch == 'h' ? 3600 : ch == 'm' ? 60 : 1);
         number = 0, have = false;
       }
     }
     set_time(total, 2);
-  } else if (starts_with(c, "filament used [mm]")) {                 // PrusaSlicer, Orca family
+  } else if (starts_with(c, "filament used [mm]")) {  // PrusaSlicer, Orca family
     const std::string_view rest = trim(c.substr(18));
     if (!rest.empty() && (rest.front() == '=' || rest.front() == ':'))
       if (const double f = sum_list(rest.substr(1)); f > 0) slicer_filament_mm_ = f;
-  } else if (starts_with(c, "total filament length [mm]")) {          // Bambu Studio
+  } else if (starts_with(c, "total filament length [mm]")) {  // Bambu Studio
     const std::string_view rest = trim(c.substr(26));
     if (!rest.empty() && (rest.front() == '=' || rest.front() == ':'))
       if (const double f = sum_list(rest.substr(1)); f > 0) slicer_filament_mm_ = f;
-  } else if (starts_with(c, "Filament used:")) {                      // Cura (metres)
+  } else if (starts_with(c, "Filament used:")) {  // Cura (metres)
     const double f = sum_list(c.substr(14));
     if (f > 0) {
       slicer_filament_mm_ = f * 1000.0;
@@ -307,13 +316,14 @@ void GcodeInterpreter::stated_figures(std::string_view c) {
       }
       note("slicer_header_placeholders",
            "the slicer's header holds placeholders (\"Filament used: 0m\"): its time and filament "
-           "figures are not used", last_line_);
+           "figures are not used",
+           last_line_);
     }
-  } else if (starts_with(c, "Material#1 Used:")) {                    // ideaMaker (mm)
+  } else if (starts_with(c, "Material#1 Used:")) {  // ideaMaker (mm)
     if (const double f = sum_list(c.substr(16)); f > 0) slicer_filament_mm_ = f;
-  } else if (starts_with(c, "Filament length:")) {                    // Simplify3D (mm)
+  } else if (starts_with(c, "Filament length:")) {  // Simplify3D (mm)
     if (const double f = sum_list(c.substr(16)); f > 0) slicer_filament_mm_ = f;
-  } else if (starts_with(c, "Estimated Build Volume:")) {             // KISSlicer (cm^3)
+  } else if (starts_with(c, "Estimated Build Volume:")) {  // KISSlicer (cm^3)
     if (const double f = sum_list(c.substr(23)); f > 0 && profile_.filament_area_mm2() > 0)
       slicer_filament_mm_ = f * 1000.0 / profile_.filament_area_mm2();
   }
@@ -324,9 +334,9 @@ void GcodeInterpreter::layer_tag(std::string_view c) {
   double v = 0;
   if (starts_with(c, "LINE_WIDTH:")) {
     if (parse_double(c.substr(11), v) && v > 0 && v < 100) width_hint_mm_ = static_cast<float>(v);
-  } else if (c == "LAYER_CHANGE") {                   // PrusaSlicer, SuperSlicer, Orca, Creality
+  } else if (c == "LAYER_CHANGE") {  // PrusaSlicer, SuperSlicer, Orca, Creality
     layer_marker(std::numeric_limits<double>::quiet_NaN());
-  } else if (starts_with(c, "LAYER:")) {              // Cura, ideaMaker: ";LAYER:n"
+  } else if (starts_with(c, "LAYER:")) {  // Cura, ideaMaker: ";LAYER:n"
     // Cura: its start G-code (purge lines) ends at the first ;LAYER: tag.
     if (feature_ == Feature::custom && starts_with(slicer_, "Cura")) feature_ = Feature::unknown;
     std::string_view n = trim(c.substr(6));
@@ -341,11 +351,13 @@ void GcodeInterpreter::layer_tag(std::string_view c) {
 void GcodeInterpreter::z_tag(std::string_view c) {
   double v = 0;
   if (layer_pending_) {
-    std::string_view z = starts_with(c, "Z:") ? c.substr(2) : starts_with(c, "Z_HEIGHT:") ? c.substr(9)
-                                                                                          : std::string_view{};
+    std::string_view z = starts_with(c, "Z:")          ? c.substr(2)
+                         : starts_with(c, "Z_HEIGHT:") ? c.substr(9)
+                                                       : std::string_view{};
     if (!z.empty() && parse_double(z, v) && v > -1000 && v < 10000) {
       pending_layer_z_ = v;
-      if (layer_ >= 0 && std::fabs(layer_z_[static_cast<std::size_t>(layer_)] - v) <= kLayerZTolerance_mm)
+      if (layer_ >= 0 &&
+          std::fabs(layer_z_[static_cast<std::size_t>(layer_)] - v) <= kLayerZTolerance_mm)
         layer_pending_ = false;  // a second marker at the same height
     }
   }
@@ -359,7 +371,8 @@ void GcodeInterpreter::slicer_tag(std::string_view c) {
   if (starts_with(c, "KISSlicer")) {
     slicer_ = "KISSlicer";
   } else {
-    for (std::string_view key : {"generated by ", "Generated with ", "generated with ", "Sliced by "}) {
+    for (std::string_view key :
+         {"generated by ", "Generated with ", "generated with ", "Sliced by "}) {
       const auto at = c.find(key);
       if (at == std::string_view::npos || at > 8) continue;
       std::string_view rest = c.substr(at + key.size());
@@ -370,9 +383,9 @@ void GcodeInterpreter::slicer_tag(std::string_view c) {
       if (starts_with(slicer_, "Cura")) feature_ = Feature::custom;
       break;
     }
-}
-// Every current slicer marks its layers; Slic3r 1.x does not.
-if (!slicer_.empty()) markers_expected_ = !starts_with(slicer_, "Slic3r ");
+  }
+  // Every current slicer marks its layers; Slic3r 1.x does not.
+  if (!slicer_.empty()) markers_expected_ = !starts_with(slicer_, "Slic3r ");
 }
 
 void GcodeInterpreter::comment(std::string_view c) {
@@ -381,16 +394,22 @@ void GcodeInterpreter::comment(std::string_view c) {
   double v = 0;
   switch (c.front()) {
     case 'T':
-      if (starts_with(c, "TYPE:")) feature_ = feature_from_label(c.substr(5));
-      else if (starts_with(c, "TIME:")) stated_figures(c);
+      if (starts_with(c, "TYPE:"))
+        feature_ = feature_from_label(c.substr(5));
+      else if (starts_with(c, "TIME:"))
+        stated_figures(c);
       return;
     case 'F':
-      if (starts_with(c, "FEATURE:")) feature_ = feature_from_label(trim(c.substr(8)));
-      else if (starts_with(c, "Filament ")) stated_figures(c);
+      if (starts_with(c, "FEATURE:"))
+        feature_ = feature_from_label(trim(c.substr(8)));
+      else if (starts_with(c, "Filament "))
+        stated_figures(c);
       return;
     case 'f':
-      if (starts_with(c, "feature ")) feature_ = feature_from_label(trim(c.substr(8)));  // Simplify3D
-      else if (starts_with(c, "filament used")) stated_figures(c);
+      if (starts_with(c, "feature "))
+        feature_ = feature_from_label(trim(c.substr(8)));  // Simplify3D
+      else if (starts_with(c, "filament used"))
+        stated_figures(c);
       return;
     case '\'': {
       // KISSlicer: "'Perimeter Path', 0.3 [feed mm/s], 9.5 [head mm/s]"
@@ -400,20 +419,22 @@ void GcodeInterpreter::comment(std::string_view c) {
     }
     case 'W':
       if (starts_with(c, "WIDTH:")) {
-        if (parse_double(c.substr(6), v) && v > 0 && v < 100) width_hint_mm_ = static_cast<float>(v);
+        if (parse_double(c.substr(6), v) && v > 0 && v < 100)
+          width_hint_mm_ = static_cast<float>(v);
       }
       return;
     case 'L':
       layer_tag(c);
       return;
     case 'C':
-      if (c == "CHANGE_LAYER") layer_marker(std::numeric_limits<double>::quiet_NaN());  // Orca, Bambu
+      if (c == "CHANGE_LAYER")
+        layer_marker(std::numeric_limits<double>::quiet_NaN());  // Orca, Bambu
       return;
     case 'Z':
       z_tag(c);
       return;
     case 'B':
-      if (starts_with(c, "BEGIN_LAYER_OBJECT z=")) {      // KISSlicer
+      if (starts_with(c, "BEGIN_LAYER_OBJECT z=")) {  // KISSlicer
         layer_marker(parse_double(c.substr(21), v) ? v : std::numeric_limits<double>::quiet_NaN());
       } else if (starts_with(c, "Build time:")) {
         stated_figures(c);
@@ -423,14 +444,15 @@ void GcodeInterpreter::comment(std::string_view c) {
       }
       return;
     case 'l':
-      if (starts_with(c, "layer ")) {                     // Simplify3D: "layer 12, Z = 2.450"
+      if (starts_with(c, "layer ")) {  // Simplify3D: "layer 12, Z = 2.450"
         const auto zpos = c.find("Z = ");
         if (zpos != std::string_view::npos && parse_double(c.substr(zpos + 4), v)) layer_marker(v);
       }
       return;
     case 'H':
       if (starts_with(c, "HEIGHT:")) {
-        if (parse_double(c.substr(7), v) && v > 0 && v < 100) height_hint_mm_ = static_cast<float>(v);
+        if (parse_double(c.substr(7), v) && v > 0 && v < 100)
+          height_hint_mm_ = static_cast<float>(v);
       }
       return;
     case 'M':
@@ -439,7 +461,8 @@ void GcodeInterpreter::comment(std::string_view c) {
         if (name == "NONMESH") {
           object_id_ = -1;
         } else {
-          auto [it, inserted] = object_names_.try_emplace(name, static_cast<int>(object_names_.size()));
+          auto [it, inserted] =
+              object_names_.try_emplace(name, static_cast<int>(object_names_.size()));
           object_id_ = it->second;
         }
       } else if (starts_with(c, "Material#")) {
@@ -452,10 +475,13 @@ void GcodeInterpreter::comment(std::string_view c) {
       if (starts_with(c, "tool H")) {
         // Simplify3D: "; tool H0.200 W0.480" (layer height and extrusion width).
         const auto wpos = c.find(" W");
-        if (parse_double(c.substr(6, wpos == std::string_view::npos ? std::string_view::npos : wpos - 6), v) &&
+        if (parse_double(
+                c.substr(6, wpos == std::string_view::npos ? std::string_view::npos : wpos - 6),
+                v) &&
             v > 0 && v < 100)
           height_hint_mm_ = static_cast<float>(v);
-        if (wpos != std::string_view::npos && parse_double(c.substr(wpos + 2), v) && v > 0 && v < 100)
+        if (wpos != std::string_view::npos && parse_double(c.substr(wpos + 2), v) && v > 0 &&
+            v < 100)
           width_hint_mm_ = static_cast<float>(v);
         return;
       }
@@ -468,7 +494,8 @@ void GcodeInterpreter::comment(std::string_view c) {
       if (starts_with(c, "printing object ")) {
         // PrusaSlicer: "; printing object cube.stl id:0 copy 0"
         const std::string name(trim(c.substr(16)));
-        auto [it, inserted] = object_names_.try_emplace(name, static_cast<int>(object_names_.size()));
+        auto [it, inserted] =
+            object_names_.try_emplace(name, static_cast<int>(object_names_.size()));
         object_id_ = it->second;
       }
       return;
@@ -499,14 +526,17 @@ void GcodeInterpreter::emit(const Vec3& target_logical_in, double e_delta_mm, do
     // Moves of axes that were never homed: Marlin executes them from where it believes it is.
     bool unhomed_motion = false;
     for (int i = 0; i < 3; ++i)
-      if (!homed_[static_cast<std::size_t>(i)] && std::fabs(target[i] - start[i]) > 1e-9) unhomed_motion = true;
+      if (!homed_[static_cast<std::size_t>(i)] && std::fabs(target[i] - start[i]) > 1e-9)
+        unhomed_motion = true;
     if (unhomed_motion && !reported_before_homing_) {
       reported_before_homing_ = true;
       Finding f;
       f.severity = Severity::warning;
       f.code = "move_before_homing";
-      f.message = "move before the axes were homed (G28): the printer does not know where it is; "
-                  "first such move \"" + excerpt(text) + "\"";
+      f.message =
+          "move before the axes were homed (G28): the printer does not know where it is; "
+          "first such move \"" +
+          excerpt(text) + "\"";
       f.line = line;
       f.position_mm = start;
       add_finding(std::move(f));
@@ -519,8 +549,10 @@ void GcodeInterpreter::emit(const Vec3& target_logical_in, double e_delta_mm, do
       const auto ui = static_cast<std::size_t>(i);
       if (target[i] < lo[i] - 1e-9 || target[i] > hi[i] + 1e-9) {
         const double c = std::clamp(target[i], lo[i], hi[i]);
-        if (homed_[ui] && profile_.software_endstops) clamped = true;
-        else crashed = true;
+        if (homed_[ui] && profile_.software_endstops)
+          clamped = true;
+        else
+          crashed = true;
         target[i] = c;
       }
     }
@@ -528,12 +560,14 @@ void GcodeInterpreter::emit(const Vec3& target_logical_in, double e_delta_mm, do
       Finding f;
       f.severity = crashed ? Severity::error : Severity::warning;
       f.code = crashed ? "hits_frame" : "out_of_bounds";
-      f.message = std::string(crashed ? "move drives an unhomed axis into the frame"
-                                      : "move leaves the build volume; software endstops clamp it") +
-                  ": requested (" + format_fixed(requested.x(), 3) + ", " + format_fixed(requested.y(), 3) +
-                  ", " + format_fixed(requested.z(), 3) + ") mm, travel is (" + format_fixed(lo.x(), 1) + ".." +
-                  format_fixed(hi.x(), 1) + ", " + format_fixed(lo.y(), 1) + ".." + format_fixed(hi.y(), 1) +
-                  ", " + format_fixed(lo.z(), 1) + ".." + format_fixed(hi.z(), 1) + ") mm";
+      f.message =
+          std::string(crashed ? "move drives an unhomed axis into the frame"
+                              : "move leaves the build volume; software endstops clamp it") +
+          ": requested (" + format_fixed(requested.x(), 3) + ", " + format_fixed(requested.y(), 3) +
+          ", " + format_fixed(requested.z(), 3) + ") mm, travel is (" + format_fixed(lo.x(), 1) +
+          ".." + format_fixed(hi.x(), 1) + ", " + format_fixed(lo.y(), 1) + ".." +
+          format_fixed(hi.y(), 1) + ", " + format_fixed(lo.z(), 1) + ".." +
+          format_fixed(hi.z(), 1) + ") mm";
       f.line = line;
       f.position_mm = requested;
       if (layer_ >= 0) f.layer = layer_;
@@ -550,9 +584,10 @@ void GcodeInterpreter::emit(const Vec3& target_logical_in, double e_delta_mm, do
       Finding f;
       f.severity = Severity::error;
       f.code = "lengthy_extrusion";
-      f.message = "E changes by " + format_fixed(e_mm, 2) + " mm in one move (more than Marlin's "
-                  "EXTRUDE_MAXLENGTH " + format_fixed(kExtrudeMaxLength_mm, 0) +
-                  " mm); the firmware drops the E part";
+      f.message = "E changes by " + format_fixed(e_mm, 2) +
+                  " mm in one move (more than Marlin's "
+                  "EXTRUDE_MAXLENGTH " +
+                  format_fixed(kExtrudeMaxLength_mm, 0) + " mm); the firmware drops the E part";
       f.line = line;
       f.position_mm = start;
       f.value = e_mm;
@@ -586,10 +621,14 @@ void GcodeInterpreter::emit(const Vec3& target_logical_in, double e_delta_mm, do
   m.e_mm = e_mm;
   m.feedrate_mm_s = feedrate_mm_s * limits_.feedrate_scale;
   m.line = line;
-  if (is_forced) m.kind = forced;
-  else if (e_mm > 0) m.kind = xyz > 1e-9 ? MoveKind::extrude : MoveKind::unretract;
-  else if (e_mm < 0) m.kind = MoveKind::retract;
-  else m.kind = MoveKind::travel;
+  if (is_forced)
+    m.kind = forced;
+  else if (e_mm > 0)
+    m.kind = xyz > 1e-9 ? MoveKind::extrude : MoveKind::unretract;
+  else if (e_mm < 0)
+    m.kind = MoveKind::retract;
+  else
+    m.kind = MoveKind::travel;
 
   // Layers follow the slicer's layer markers when the file has them; otherwise they are
   // made by the Z of extrusions. Start/end code (purge lines, tagged custom) joins the
@@ -599,13 +638,15 @@ void GcodeInterpreter::emit(const Vec3& target_logical_in, double e_delta_mm, do
     layer_pending_ = false;
     // The marker's Z (the layer's top: right for a spiral vase whose first extrusion starts
     // lower) unless it contradicts the extrusion by more than a layer could be thick.
-    const bool trust = !std::isnan(pending_layer_z_) && std::fabs(pending_layer_z_ - target.z()) <= kMarkerZTolerance_mm;
+    const bool trust = !std::isnan(pending_layer_z_) &&
+                       std::fabs(pending_layer_z_ - target.z()) <= kMarkerZTolerance_mm;
     layer_z_.push_back(trust ? pending_layer_z_ : target.z());
     layer_ = static_cast<int>(layer_z_.size()) - 1;
   } else if (m.kind == MoveKind::extrude && feature_ != Feature::custom && !marker_seen_ &&
              !markers_expected_) {
     const double z = target.z();
-    if (layer_ < 0 || std::fabs(layer_z_[static_cast<std::size_t>(layer_)] - z) > kLayerZTolerance_mm) {
+    if (layer_ < 0 ||
+        std::fabs(layer_z_[static_cast<std::size_t>(layer_)] - z) > kLayerZTolerance_mm) {
       int found = -1;
       for (std::size_t i = layer_z_.size(); i-- > 0;)
         if (std::fabs(layer_z_[i] - z) <= kLayerZTolerance_mm) {
@@ -641,7 +682,8 @@ Status GcodeInterpreter::motion_words(const GcodeCommand& c, std::string_view te
       feedrate_mm_s_ = f;
     } else {
       // Marlin ignores F <= 0 and keeps the previous feedrate.
-      auto st = warn(c.line, text, "feedrate F must be positive; previous feedrate kept", "bad_feedrate");
+      auto st =
+          warn(c.line, text, "feedrate F must be positive; previous feedrate kept", "bad_feedrate");
       if (!st) return st;
     }
   }
@@ -661,7 +703,8 @@ Status GcodeInterpreter::motion_words(const GcodeCommand& c, std::string_view te
   return Ok{};
 }
 
-Status GcodeInterpreter::linear_move(const GcodeCommand& c, std::string_view text, InterpreterOutput& out) {
+Status GcodeInterpreter::linear_move(const GcodeCommand& c, std::string_view text,
+                                     InterpreterOutput& out) {
   Vec3 target;
   double de = 0;
   if (auto st = motion_words(c, text, target, de); !st) return st;
@@ -669,7 +712,8 @@ Status GcodeInterpreter::linear_move(const GcodeCommand& c, std::string_view tex
   return Ok{};
 }
 
-Status GcodeInterpreter::arc_move(const GcodeCommand& c, std::string_view text, InterpreterOutput& out) {
+Status GcodeInterpreter::arc_move(const GcodeCommand& c, std::string_view text,
+                                  InterpreterOutput& out) {
   const double unit = inches_ ? kInch_mm : 1.0;
   const bool clockwise = c.code == 2;
   Vec3 target;
@@ -699,8 +743,10 @@ Status GcodeInterpreter::arc_move(const GcodeCommand& c, std::string_view text, 
     return reject("arc without I, J or R; ignored");
   } else if (offset.norm() < 1e-9) {
     // I0 J0: a zero radius. Marlin answers "G2/G3 bad parameters" and skips the move.
-    return reject("arc with a zero radius (I and J both 0): the firmware rejects it and skips the move" +
-                  (de != 0 ? ", and its " + format_fixed(std::fabs(de), 3) + " mm of filament is not laid" : std::string()));
+    return reject(
+        "arc with a zero radius (I and J both 0): the firmware rejects it and skips the move" +
+        (de != 0 ? ", and its " + format_fixed(std::fabs(de), 3) + " mm of filament is not laid"
+                 : std::string()));
   }
   const double rp = -offset.x(), rq = -offset.y();  // centre -> start
   const double radius = std::hypot(rp, rq);
@@ -727,8 +773,9 @@ Status GcodeInterpreter::arc_move(const GcodeCommand& c, std::string_view text, 
                                 profile_.arc_min_segment_mm, profile_.arc_max_segment_mm);
   // Klipper's [gcode_arcs] takes floor(length / resolution) segments; Marlin rounds.
   const double n_seg = travel / seg;
-  const long segments = std::max(1L, profile_.firmware == "klipper" ? static_cast<long>(std::floor(n_seg))
-                                                                     : std::lround(n_seg));
+  const long segments =
+      std::max(1L, profile_.firmware == "klipper" ? static_cast<long>(std::floor(n_seg))
+                                                  : std::lround(n_seg));
   if (segments > 20000) return reject("arc needs more than 20000 segments; ignored");
   const Vec3 start = logical_mm_;
   const double theta_step = angular / static_cast<double>(segments);
@@ -743,7 +790,8 @@ Status GcodeInterpreter::arc_move(const GcodeCommand& c, std::string_view text, 
       p.y() = center.y() + rp * sa + rq * ca;
       p.z() = start.z() + dz * static_cast<double>(i) / static_cast<double>(segments);
     }
-    emit(p, de / static_cast<double>(segments), feedrate_mm_s_, MoveKind::travel, false, c.line, text, out);
+    emit(p, de / static_cast<double>(segments), feedrate_mm_s_, MoveKind::travel, false, c.line,
+         text, out);
   }
   return Ok{};
 }
@@ -790,21 +838,21 @@ Status GcodeInterpreter::home(const GcodeCommand& c, InterpreterOutput& out) {
     const auto ui = static_cast<std::size_t>(i);
     Vec3 p = position_mm();
     p[i] = lo[i];
-    go(p, fr[i]);                                   // fast approach
+    go(p, fr[i]);  // fast approach
     p[i] = lo[i] + profile_.homing_bump_mm[i];
-    go(p, fr[i]);                                   // bump back
+    go(p, fr[i]);  // bump back
     p[i] = lo[i];
-    go(p, fr[i] / profile_.homing_bump_divisor[i]); // slow re-approach
+    go(p, fr[i] / profile_.homing_bump_divisor[i]);  // slow re-approach
     homed_[ui] = true;
-    offset_mm_[i] = 0;                              // G28 clears the G92 shift
+    offset_mm_[i] = 0;  // G28 clears the G92 shift
     logical_mm_[i] = lo[i];
   }
   return Ok{};
 }
 
 namespace {
-/// Value of KEY=VALUE in the arguments of an extended command ("ACCEL=500 SQUARE_CORNER_VELOCITY=9");
-/// keys match case-insensitively. False when absent or not a number.
+/// Value of KEY=VALUE in the arguments of an extended command ("ACCEL=500
+/// SQUARE_CORNER_VELOCITY=9"); keys match case-insensitively. False when absent or not a number.
 bool macro_arg(std::string_view args, std::string_view key, double& v) {
   std::size_t pos = 0;
   while (pos < args.size()) {
@@ -827,7 +875,8 @@ bool name_has_part(std::string_view name, std::string_view part) {
   std::size_t pos = 0;
   while (pos <= name.size()) {
     const auto us = name.find('_', pos);
-    const std::string_view p = name.substr(pos, us == std::string_view::npos ? std::string_view::npos : us - pos);
+    const std::string_view p =
+        name.substr(pos, us == std::string_view::npos ? std::string_view::npos : us - pos);
     if (p.size() == part.size()) {
       bool same = true;
       for (std::size_t i = 0; i < p.size() && same; ++i)
@@ -844,7 +893,8 @@ enum class MacroKind { none, start, end };
 
 /// The info note of bed levelling and gantry levelling commands (G29, BED_MESH_CALIBRATE...).
 std::string levelling_message(std::string_view command) {
-  return "bed levelling (" + std::string(command) + " and the like) is not simulated: its probing "
+  return "bed levelling (" + std::string(command) +
+         " and the like) is not simulated: its probing "
          "moves take time on the printer (often 1-3 min) that the print time does not include";
 }
 
@@ -853,7 +903,8 @@ std::string levelling_message(std::string_view command) {
 MacroKind macro_kind(std::string_view name) {
   if (name_has_part(name, "PRINT") || name_has_part(name, "PRINTING")) {
     if (name_has_part(name, "START") || name_has_part(name, "BEGIN")) return MacroKind::start;
-    if (name_has_part(name, "END") || name_has_part(name, "FINISH") || name_has_part(name, "CANCEL"))
+    if (name_has_part(name, "END") || name_has_part(name, "FINISH") ||
+        name_has_part(name, "CANCEL"))
       return MacroKind::end;
   }
   return MacroKind::none;
@@ -885,20 +936,22 @@ void GcodeInterpreter::set_bed_target(double t) {
   t = std::max(t, profile_.ambient_temp_c);
   const double dt = nominal_clock_s_ - bed_set_clock_s_;
   const double rate = profile_.bed_heat_rate_c_s;
-  bed_c_at_set_ = bed_target_c_ >= bed_c_at_set_ ? std::min(bed_target_c_, bed_c_at_set_ + rate * dt)
-                                                 : std::max(bed_target_c_, bed_c_at_set_ - rate * dt);
+  bed_c_at_set_ = bed_target_c_ >= bed_c_at_set_
+                      ? std::min(bed_target_c_, bed_c_at_set_ + rate * dt)
+                      : std::max(bed_target_c_, bed_c_at_set_ - rate * dt);
   bed_target_c_ = t;
   bed_set_clock_s_ = nominal_clock_s_;
 }
 
-Status GcodeInterpreter::start_macro(const GcodeCommand& c, std::string_view text, InterpreterOutput& out) {
+Status GcodeInterpreter::start_macro(const GcodeCommand& c, std::string_view text,
+                                     InterpreterOutput& out) {
   // A printer-side start sequence (Klipper START_PRINT / PRINT_START and the like): the
   // printer homes all axes and heats to the temperatures passed, else to those of the
   // slicer's settings, else to an assumed printing temperature. What else the macro does
   // (bed mesh, purge line) is not known to the twin.
   double hotend = std::numeric_limits<double>::quiet_NaN(), bed = hotend;
-  for (std::string_view key : {"EXTRUDER_TEMP", "EXTRUDER", "HOTEND_TEMP", "HOTEND", "NOZZLE_TEMP", "NOZZLE",
-                               "TOOL_TEMP", "EXTRUDER_TEMPERATURE", "TEMP"}) {
+  for (std::string_view key : {"EXTRUDER_TEMP", "EXTRUDER", "HOTEND_TEMP", "HOTEND", "NOZZLE_TEMP",
+                               "NOZZLE", "TOOL_TEMP", "EXTRUDER_TEMPERATURE", "TEMP"}) {
     double v = 0;
     if (std::isnan(hotend) && macro_arg(c.args, key, v)) hotend = v;
   }
@@ -918,13 +971,16 @@ Status GcodeInterpreter::start_macro(const GcodeCommand& c, std::string_view tex
     assumed = true;
   }
   if (hotend < 0 || hotend > 500 || bed < 0 || bed > 200)
-    return warn(c.line, text, "start macro temperature outside 0..500 C (hotend) or 0..200 C (bed); ignored",
+    return warn(c.line, text,
+                "start macro temperature outside 0..500 C (hotend) or 0..200 C (bed); ignored",
                 "bad_temperature");
   if (assumed)
     note("macro_temperature_assumed",
-         std::string(c.word) + " is given no temperature and the slicer's settings state none: the twin "
-             "assumes it heats the hotend to " + format_fixed(hotend, 0) + " C and the bed to " +
-             format_fixed(bed, 0) + " C (heating time is approximate)",
+         std::string(c.word) +
+             " is given no temperature and the slicer's settings state none: the twin "
+             "assumes it heats the hotend to " +
+             format_fixed(hotend, 0) + " C and the bed to " + format_fixed(bed, 0) +
+             " C (heating time is approximate)",
          c.line);
   GcodeCommand home_all;
   home_all.letter = 'G';
@@ -937,8 +993,8 @@ Status GcodeInterpreter::start_macro(const GcodeCommand& c, std::string_view tex
   return Ok{};
 }
 
-Status GcodeInterpreter::firmware_retract(const GcodeCommand& c, bool retract, std::string_view text,
-                                          InterpreterOutput& out) {
+Status GcodeInterpreter::firmware_retract(const GcodeCommand& c, bool retract,
+                                          std::string_view text, InterpreterOutput& out) {
   // G10/G11: Marlin FWRETRACT (with its Z raise), Klipper [firmware_retraction] (no Z
   // raise; G11 adds unretract_extra_length), RepRapFirmware M207.
   if (retract == fw_retracted_) return Ok{};
@@ -961,31 +1017,40 @@ Status GcodeInterpreter::firmware_retract(const GcodeCommand& c, bool retract, s
   return Ok{};
 }
 
-Status GcodeInterpreter::klipper_m204(const GcodeCommand& c, std::string_view text, InterpreterOutput& out) {
+Status GcodeInterpreter::klipper_m204(const GcodeCommand& c, std::string_view text,
+                                      InterpreterOutput& out) {
   // Klipper's M204: S sets max_accel; otherwise both P and T set it to min(P, T); a lone P
   // or T is ignored (Klipper answers "Invalid M204 command").
   double accel = 0;
-  if (c.has('S')) accel = c.get('S');
-  else if (c.has('P') && c.has('T')) accel = std::min(c.get('P'), c.get('T'));
+  if (c.has('S'))
+    accel = c.get('S');
+  else if (c.has('P') && c.has('T'))
+    accel = std::min(c.get('P'), c.get('T'));
   else {
-    note("klipper_m204_ignored", "M204 without S, or with only one of P and T, is ignored by Klipper "
-         "(\"" + excerpt(text) + "\"): the acceleration stays as it was", c.line);
+    note("klipper_m204_ignored",
+         "M204 without S, or with only one of P and T, is ignored by Klipper "
+         "(\"" +
+             excerpt(text) + "\"): the acceleration stays as it was",
+         c.line);
     return Ok{};
   }
-  if (accel <= 0) return warn(c.line, text, "acceleration must be positive; ignored", "bad_parameter");
+  if (accel <= 0)
+    return warn(c.line, text, "acceleration must be positive; ignored", "bad_parameter");
   limits_.print_accel_mm_s2 = limits_.travel_accel_mm_s2 = limits_.retract_accel_mm_s2 = accel;
   out.limits(limits_);
   return Ok{};
 }
 
-Status GcodeInterpreter::extended(const GcodeCommand& c, std::string_view text, InterpreterOutput& out) {
+Status GcodeInterpreter::extended(const GcodeCommand& c, std::string_view text,
+                                  InterpreterOutput& out) {
   const std::string_view w = c.word;
   double v = 0;
   if (w == "EXCLUDE_OBJECT_START") {
     const auto pos = c.args.find("NAME=");
     std::string_view name = pos == std::string_view::npos ? c.args : trim(c.args.substr(pos + 5));
     name = name.substr(0, name.find(' '));
-    auto [it, inserted] = object_names_.try_emplace(std::string(name), static_cast<int>(object_names_.size()));
+    auto [it, inserted] =
+        object_names_.try_emplace(std::string(name), static_cast<int>(object_names_.size()));
     object_id_ = it->second;
     return Ok{};
   }
@@ -1018,8 +1083,10 @@ Status GcodeInterpreter::extended(const GcodeCommand& c, std::string_view text, 
       any = true;
     }
     if (!any && !trim(c.args).empty())
-      return warn(c.line, text, "SET_VELOCITY_LIMIT with no valid VELOCITY, ACCEL, SQUARE_CORNER_VELOCITY, "
-                  "MINIMUM_CRUISE_RATIO or ACCEL_TO_DECEL; ignored", "bad_parameter");
+      return warn(c.line, text,
+                  "SET_VELOCITY_LIMIT with no valid VELOCITY, ACCEL, SQUARE_CORNER_VELOCITY, "
+                  "MINIMUM_CRUISE_RATIO or ACCEL_TO_DECEL; ignored",
+                  "bad_parameter");
     if (any) out.limits(limits_);
     return Ok{};
   }
@@ -1035,9 +1102,11 @@ Status GcodeInterpreter::extended(const GcodeCommand& c, std::string_view text, 
   if (w == "TEMPERATURE_WAIT") {
     // Klipper: SENSOR=extruder|heater_bed MINIMUM=<C> [MAXIMUM=<C>]: waits until reached.
     const auto h = c.args.find("SENSOR=");
-    const std::string_view sensor = h == std::string_view::npos ? std::string_view{} : c.args.substr(h + 7);
+    const std::string_view sensor =
+        h == std::string_view::npos ? std::string_view{} : c.args.substr(h + 7);
     if (!macro_arg(c.args, "MINIMUM", v)) return Ok{};
-    if (v < 0 || v > 500) return warn(c.line, text, "temperature outside 0..500 C; ignored", "bad_temperature");
+    if (v < 0 || v > 500)
+      return warn(c.line, text, "temperature outside 0..500 C; ignored", "bad_temperature");
     // Wait until MINIMUM is reached; the heater keeps heating to its own target.
     const bool hotend = starts_with(sensor, "extruder");
     if (!hotend && !starts_with(sensor, "heater_bed")) return Ok{};
@@ -1054,23 +1123,40 @@ Status GcodeInterpreter::extended(const GcodeCommand& c, std::string_view text, 
   if (w == "SET_HEATER_TEMPERATURE") {
     // Klipper: HEATER=extruder|heater_bed TARGET=<C> (no wait, like M104/M140).
     const auto h = c.args.find("HEATER=");
-    const std::string_view heater = h == std::string_view::npos ? std::string_view{} : c.args.substr(h + 7);
+    const std::string_view heater =
+        h == std::string_view::npos ? std::string_view{} : c.args.substr(h + 7);
     const double target = macro_arg(c.args, "TARGET", v) ? v : 0.0;
-    if (target < 0 || target > 500) return warn(c.line, text, "heater target outside 0..500 C; ignored", "bad_temperature");
-    if (starts_with(heater, "extruder")) set_hotend_target(target);
-    else if (starts_with(heater, "heater_bed")) set_bed_target(target);
+    if (target < 0 || target > 500)
+      return warn(c.line, text, "heater target outside 0..500 C; ignored", "bad_temperature");
+    if (starts_with(heater, "extruder"))
+      set_hotend_target(target);
+    else if (starts_with(heater, "heater_bed"))
+      set_bed_target(target);
     return Ok{};
   }
   // Klipper commands without effect on motion or material in the twin.
-  static constexpr std::string_view kQuiet[] = {
-      "EXCLUDE_OBJECT_DEFINE", "EXCLUDE_OBJECT", "SET_PRINT_STATS_INFO", "SET_PRESSURE_ADVANCE",
-      "TIMELAPSE_TAKE_FRAME", "SET_FAN_SPEED", "SET_IDLE_TIMEOUT", "SET_INPUT_SHAPER",
-      "BED_MESH_PROFILE", "RESPOND", "SAVE_GCODE_STATE",
-      "RESTORE_GCODE_STATE", "SET_LED", "SET_PIN", "UPDATE_DELAYED_GCODE", "SET_SKEW", "SET_TMC_CURRENT"};
+  static constexpr std::string_view kQuiet[] = {"EXCLUDE_OBJECT_DEFINE",
+                                                "EXCLUDE_OBJECT",
+                                                "SET_PRINT_STATS_INFO",
+                                                "SET_PRESSURE_ADVANCE",
+                                                "TIMELAPSE_TAKE_FRAME",
+                                                "SET_FAN_SPEED",
+                                                "SET_IDLE_TIMEOUT",
+                                                "SET_INPUT_SHAPER",
+                                                "BED_MESH_PROFILE",
+                                                "RESPOND",
+                                                "SAVE_GCODE_STATE",
+                                                "RESTORE_GCODE_STATE",
+                                                "SET_LED",
+                                                "SET_PIN",
+                                                "UPDATE_DELAYED_GCODE",
+                                                "SET_SKEW",
+                                                "SET_TMC_CURRENT"};
   for (std::string_view q : kQuiet)
     if (w == q) return Ok{};
   switch (macro_kind(w)) {
-    case MacroKind::start: return start_macro(c, text, out);
+    case MacroKind::start:
+      return start_macro(c, text, out);
     case MacroKind::end:
       // END_PRINT-like: the printer retracts, parks, cools down and stops. No motion the
       // twin can know; the heaters go off.
@@ -1078,13 +1164,15 @@ Status GcodeInterpreter::extended(const GcodeCommand& c, std::string_view text, 
       set_hotend_target(profile_.ambient_temp_c);
       set_bed_target(profile_.ambient_temp_c);
       return Ok{};
-    case MacroKind::none: break;
+    case MacroKind::none:
+      break;
   }
   if (++unknown_[std::string(w)] == 1) unknown_first_line_[std::string(w)] = c.line;
   return Ok{};
 }
 
-Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text, InterpreterOutput& out) {
+Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text,
+                                 InterpreterOutput& out) {
   last_line_ = c.line;
   if (c.letter == 0) {
     if (c.word.empty()) {
@@ -1097,7 +1185,9 @@ Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text, I
   if (c.letter == 'M') return execute_m(c, text, out);
   if (c.letter == 'T') {
     if (c.code == 0) return Ok{};
-    return warn(c.line, text, "tool T" + std::to_string(c.code) + " selected on a single-extruder printer", "bad_tool");
+    return warn(c.line, text,
+                "tool T" + std::to_string(c.code) + " selected on a single-extruder printer",
+                "bad_tool");
   }
   return unknown_command(c);
 }
@@ -1108,12 +1198,15 @@ Status GcodeInterpreter::unknown_command(const GcodeCommand& c) {
   return Ok{};
 }
 
-Status GcodeInterpreter::execute_g(const GcodeCommand& c, std::string_view text, InterpreterOutput& out) {
+Status GcodeInterpreter::execute_g(const GcodeCommand& c, std::string_view text,
+                                   InterpreterOutput& out) {
   switch (c.code) {
     case 0:
-    case 1: return linear_move(c, text, out);
+    case 1:
+      return linear_move(c, text, out);
     case 2:
-    case 3: return arc_move(c, text, out);
+    case 3:
+      return arc_move(c, text, out);
     case 4: {
       double s = c.has('S') ? c.get('S') : c.get('P') / 1000.0;
       if (s < 0) return warn(c.line, text, "negative dwell; ignored", "bad_dwell");
@@ -1123,7 +1216,8 @@ Status GcodeInterpreter::execute_g(const GcodeCommand& c, std::string_view text,
       return Ok{};
     }
     case 10:
-    case 11: return g10_g11(c, text, out);
+    case 11:
+      return g10_g11(c, text, out);
     case 29:
       if (c.subcode >= 1) return Ok{};  // Bambu G29.1 (Z offset), G29.2 (mesh on/off)
       [[fallthrough]];
@@ -1137,27 +1231,45 @@ Status GcodeInterpreter::execute_g(const GcodeCommand& c, std::string_view text,
     case 150:  // Bambu: nozzle wipe / load
     case 39:   // Bambu: nozzle-to-bed calibration
       return Ok{};
-    case 17: return Ok{};
+    case 17:
+      return Ok{};
     case 18:
-    case 19: return warn(c.line, text, "only the XY plane (G17) is supported for arcs", "unsupported_plane");
-    case 20: inches_ = true; return Ok{};
-    case 21: inches_ = false; return Ok{};
-    case 28: return home(c, out);
-    case 90: relative_xyz_ = relative_e_ = false; return Ok{};
-    case 91: relative_xyz_ = relative_e_ = true; return Ok{};
-    case 92: set_position(c); return Ok{};
-    default: return unknown_command(c);
+    case 19:
+      return warn(c.line, text, "only the XY plane (G17) is supported for arcs",
+                  "unsupported_plane");
+    case 20:
+      inches_ = true;
+      return Ok{};
+    case 21:
+      inches_ = false;
+      return Ok{};
+    case 28:
+      return home(c, out);
+    case 90:
+      relative_xyz_ = relative_e_ = false;
+      return Ok{};
+    case 91:
+      relative_xyz_ = relative_e_ = true;
+      return Ok{};
+    case 92:
+      set_position(c);
+      return Ok{};
+    default:
+      return unknown_command(c);
   }
 }
 
 /// G10/G11: firmware retraction, or RepRapFirmware's G10 tool temperatures and offsets.
-Status GcodeInterpreter::g10_g11(const GcodeCommand& c, std::string_view text, InterpreterOutput& out) {
-  if (c.code == 10 && flavour_ == Flavour::rrf && c.has('L')) return Ok{};  // RRF: tool/work offsets
+Status GcodeInterpreter::g10_g11(const GcodeCommand& c, std::string_view text,
+                                 InterpreterOutput& out) {
+  if (c.code == 10 && flavour_ == Flavour::rrf && c.has('L'))
+    return Ok{};  // RRF: tool/work offsets
   if (c.code == 10 && flavour_ == Flavour::rrf && (c.has('P') || c.has('S') || c.has('R'))) {
     // RepRapFirmware: G10 P<tool> S<active C> R<standby C> sets tool temperatures.
     if (c.has('S')) {
       const double t = c.get('S');
-      if (t < 0 || t > 500) return warn(c.line, text, "tool temperature outside 0..500 C; ignored", "bad_temperature");
+      if (t < 0 || t > 500)
+        return warn(c.line, text, "tool temperature outside 0..500 C; ignored", "bad_temperature");
       if (c.get('P', 0) == 0) set_hotend_target(t);
     }
     return Ok{};
@@ -1202,66 +1314,138 @@ namespace {
 /// Known M codes without effect on motion or material in the twin.
 bool ignored_m_code(int code) {
   switch (code) {
-    case 17: case 18: case 84:      // steppers on/off
-    case 105: case 106: case 107:   // temperature report, fan
-    case 73: case 75: case 76: case 77:  // progress, print job timer
-    case 108: case 110: case 111: case 114: case 115: case 117: case 118: case 119:
-    case 155: case 300: case 420: case 500: case 501: case 503: case 900: case 907:
-    case 23: case 24: case 25: case 28: case 29: case 30: case 32: case 81: case 928:
+    case 17:
+    case 18:
+    case 84:  // steppers on/off
+    case 105:
+    case 106:
+    case 107:  // temperature report, fan
+    case 73:
+    case 75:
+    case 76:
+    case 77:  // progress, print job timer
+    case 108:
+    case 110:
+    case 111:
+    case 114:
+    case 115:
+    case 117:
+    case 118:
+    case 119:
+    case 155:
+    case 300:
+    case 420:
+    case 500:
+    case 501:
+    case 503:
+    case 900:
+    case 907:
+    case 23:
+    case 24:
+    case 25:
+    case 28:
+    case 29:
+    case 30:
+    case 32:
+    case 81:
+    case 928:
     // Prusa firmware: printer/nozzle checks (M862.x), print area (M555), stepper mode
     // (M569), input shaper (M593), pressure advance (M572, also RRF), heatbreak fan (M142),
     // mass estimate (M74), fan and LED settings.
-    case 555: case 569: case 593: case 572: case 142: case 74: case 150:
-    case 141: case 191: case 92:
+    case 555:
+    case 569:
+    case 593:
+    case 572:
+    case 142:
+    case 74:
+    case 150:
+    case 141:
+    case 191:
+    case 92:
     // Bambu Studio: status (M1002), AMS (M620/M621), conditions (M622/M623), calibrations
     // (M960..M991), filament runout (M412), sounds (M1006), M1003..M1007.
-    case 1002: case 1003: case 1004: case 1005: case 1006: case 1007:
-    case 620: case 621: case 622: case 623: case 624: case 625:
-    case 960: case 970: case 971: case 972: case 973: case 974: case 975: case 976:
-    case 980: case 981: case 982: case 983: case 991: case 412:
+    case 1002:
+    case 1003:
+    case 1004:
+    case 1005:
+    case 1006:
+    case 1007:
+    case 620:
+    case 621:
+    case 622:
+    case 623:
+    case 624:
+    case 625:
+    case 960:
+    case 970:
+    case 971:
+    case 972:
+    case 973:
+    case 974:
+    case 975:
+    case 976:
+    case 980:
+    case 981:
+    case 982:
+    case 983:
+    case 991:
+    case 412:
       return true;
-    default: return false;
+    default:
+      return false;
   }
 }
 }  // namespace
 
-Status GcodeInterpreter::execute_m(const GcodeCommand& c, std::string_view text, InterpreterOutput& out) {
+Status GcodeInterpreter::execute_m(const GcodeCommand& c, std::string_view text,
+                                   InterpreterOutput& out) {
   const double unit = inches_ ? kInch_mm : 1.0;
   switch (c.code) {
-    case 82: relative_e_ = false; return Ok{};
-    case 83: relative_e_ = true; return Ok{};
+    case 82:
+      relative_e_ = false;
+      return Ok{};
+    case 83:
+      relative_e_ = true;
+      return Ok{};
     case 104:
     case 109:
     case 140:
-    case 190: return set_temperature(c, text, out);
+    case 190:
+      return set_temperature(c, text, out);
     case 200: {
       // M200 D<diameter> enables volumetric E (D0 or S0 disables).
       if (c.has('S') && c.get('S') == 0) volumetric_area_mm2_ = 0;
       if (c.has('D')) {
         const double dia = c.get('D') * unit;
-        if (dia < 0 || dia > 10) return warn(c.line, text, "filament diameter outside 0..10 mm; ignored", "bad_parameter");
+        if (dia < 0 || dia > 10)
+          return warn(c.line, text, "filament diameter outside 0..10 mm; ignored", "bad_parameter");
         volumetric_area_mm2_ = dia > 0 ? 0.25 * kPi * dia * dia : 0;
       }
       return Ok{};
     }
     case 201:
     case 203:
-    case 205: return set_axis_limits(c, text, out);
+    case 205:
+      return set_axis_limits(c, text, out);
     case 116:
       // RepRapFirmware M116: wait for every heater to reach its target.
       heat_wait(false, bed_target_c_, false, c.line, out);
       heat_wait(true, hotend_target_c_, false, c.line, out);
       return Ok{};
-    case 566: return set_rrf_jerk(c, text, out);
+    case 566:
+      return set_rrf_jerk(c, text, out);
     case 207:
-    case 208: set_retraction(c); return Ok{};
+    case 208:
+      set_retraction(c);
+      return Ok{};
     case 302: {
       // M302 S<C>: minimum extrusion temperature; M302 P1: cold extrusion allowed.
       if (c.has('S') && c.get('S') >= 0 && c.get('S') <= 500) min_extrude_temp_c_ = c.get('S');
       if (c.has('P')) min_extrude_temp_c_ = c.get('P') > 0 ? -1000.0 : profile_.min_extrude_temp_c;
       return Ok{};
     }
-    case 862: return prusa_printer_check(c, text);
+    case 862:
+      return prusa_printer_check(c, text);
     case 0:
     case 1:
     case 601:
@@ -1274,15 +1458,21 @@ Status GcodeInterpreter::execute_m(const GcodeCommand& c, std::string_view text,
         return Ok{};
       }
       // Marlin M0/M1, Prusa M601, M600 filament change: the printer waits for the user.
-      note("user_pause", command_name(c) + " pauses the print until the user resumes it: the "
-           "wait is not counted in the print time", c.line);
+      note("user_pause",
+           command_name(c) +
+               " pauses the print until the user resumes it: the "
+               "wait is not counted in the print time",
+           c.line);
       out.synchronize();
       return Ok{};
-    case 204: return set_acceleration(c, text, out);
+    case 204:
+      return set_acceleration(c, text, out);
     case 220: {
       if (c.has('S')) {
         const double s = c.get('S');
-        if (s <= 0 || s > 1000) return warn(c.line, text, "feedrate percentage outside 1..1000; ignored", "bad_parameter");
+        if (s <= 0 || s > 1000)
+          return warn(c.line, text, "feedrate percentage outside 1..1000; ignored",
+                      "bad_parameter");
         limits_.feedrate_scale = s / 100.0;
         out.limits(limits_);
       }
@@ -1291,12 +1481,15 @@ Status GcodeInterpreter::execute_m(const GcodeCommand& c, std::string_view text,
     case 221: {
       if (c.has('S')) {
         const double s = c.get('S');
-        if (s < 0 || s > 1000) return warn(c.line, text, "flow percentage outside 0..1000; ignored", "bad_parameter");
+        if (s < 0 || s > 1000)
+          return warn(c.line, text, "flow percentage outside 0..1000; ignored", "bad_parameter");
         flow_ = s / 100.0;
       }
       return Ok{};
     }
-    case 400: out.synchronize(); return Ok{};
+    case 400:
+      out.synchronize();
+      return Ok{};
     case 486: {
       if (c.has('S')) {
         const double s = c.get('S');
@@ -1304,12 +1497,14 @@ Status GcodeInterpreter::execute_m(const GcodeCommand& c, std::string_view text,
       }
       return Ok{};
     }
-    default: return ignored_m_code(c.code) ? Status(Ok{}) : unknown_command(c);
+    default:
+      return ignored_m_code(c.code) ? Status(Ok{}) : unknown_command(c);
   }
 }
 
 /// M104/M109 (hotend) and M140/M190 (bed): set the target, and for M109/M190 wait for it.
-Status GcodeInterpreter::set_temperature(const GcodeCommand& c, std::string_view text, InterpreterOutput& out) {
+Status GcodeInterpreter::set_temperature(const GcodeCommand& c, std::string_view text,
+                                         InterpreterOutput& out) {
   if (!c.has('S') && !c.has('R')) return Ok{};
   const double t = c.has('S') ? c.get('S') : c.get('R');
   const bool hotend = c.code == 104 || c.code == 109;
@@ -1330,13 +1525,17 @@ Status GcodeInterpreter::set_temperature(const GcodeCommand& c, std::string_view
 }
 
 /// M201 (acceleration), M203 (feedrate), M205 (jerk, junction deviation, minimum speeds).
-Status GcodeInterpreter::set_axis_limits(const GcodeCommand& c, std::string_view text, InterpreterOutput& out) {
+Status GcodeInterpreter::set_axis_limits(const GcodeCommand& c, std::string_view text,
+                                         InterpreterOutput& out) {
   const double unit = inches_ ? kInch_mm : 1.0;
   // Klipper has no M201/M203/M205: it answers "Unknown command" and keeps its
   // [printer] limits (SET_VELOCITY_LIMIT changes them).
   if (flavour_ == Flavour::klipper) {
-    note("klipper_ignores", command_name(c) + " is not a Klipper command: Klipper keeps its "
-         "configured limits (SET_VELOCITY_LIMIT changes them)", c.line);
+    note("klipper_ignores",
+         command_name(c) +
+             " is not a Klipper command: Klipper keeps its "
+             "configured limits (SET_VELOCITY_LIMIT changes them)",
+         c.line);
     return Ok{};
   }
   static constexpr char kAxes[4] = {'X', 'Y', 'Z', 'E'};
@@ -1345,12 +1544,16 @@ Status GcodeInterpreter::set_axis_limits(const GcodeCommand& c, std::string_view
     const double v = c.get(kAxes[i]) * unit;
     if (c.code == 205 ? v < 0 : v <= 0)
       return warn(c.line, text, "limit must be positive; ignored", "bad_parameter");
-    if (c.code == 201) limits_.max_accel_mm_s2[i] = v;
-    else if (c.code == 203) limits_.max_feedrate_mm_s[i] = flavour_ == Flavour::rrf ? v / 60.0 : v;  // RRF: mm/min
-    else limits_.jerk_mm_s[i] = v;
+    if (c.code == 201)
+      limits_.max_accel_mm_s2[i] = v;
+    else if (c.code == 203)
+      limits_.max_feedrate_mm_s[i] = flavour_ == Flavour::rrf ? v / 60.0 : v;  // RRF: mm/min
+    else
+      limits_.jerk_mm_s[i] = v;
   }
   if (c.code == 205) {
-    if (c.has('J') && c.get('J') > 0 && c.get('J') <= 10) limits_.junction_deviation_mm = c.get('J');
+    if (c.has('J') && c.get('J') > 0 && c.get('J') <= 10)
+      limits_.junction_deviation_mm = c.get('J');
     if (c.has('S') && c.get('S') >= 0) limits_.min_feedrate_mm_s = c.get('S') * unit;
     if (c.has('T') && c.get('T') >= 0) limits_.min_travel_feedrate_mm_s = c.get('T') * unit;
     if (c.has('B') && c.get('B') >= 0) limits_.min_segment_time_s = c.get('B') * 1e-6;
@@ -1360,7 +1563,8 @@ Status GcodeInterpreter::set_axis_limits(const GcodeCommand& c, std::string_view
 }
 
 /// RepRapFirmware M566: maximum instantaneous speed change ("jerk") per axis, in mm/min.
-Status GcodeInterpreter::set_rrf_jerk(const GcodeCommand& c, std::string_view text, InterpreterOutput& out) {
+Status GcodeInterpreter::set_rrf_jerk(const GcodeCommand& c, std::string_view text,
+                                      InterpreterOutput& out) {
   const double unit = inches_ ? kInch_mm : 1.0;
   static constexpr char kAxes[4] = {'X', 'Y', 'Z', 'E'};
   for (int i = 0; i < 4; ++i) {
@@ -1394,33 +1598,40 @@ void GcodeInterpreter::set_retraction(const GcodeCommand& c) {
 Status GcodeInterpreter::prusa_printer_check(const GcodeCommand& c, std::string_view text) {
   if (flavour_ == Flavour::prusa && c.subcode == 1 && c.has('P') &&
       std::fabs(c.get('P') - profile_.nozzle_diameter_mm) > 0.005)
-    return warn(c.line, text, "the G-code was sliced for a " + format_fixed(c.get('P'), 2) +
-                " mm nozzle, the printer has " + format_fixed(profile_.nozzle_diameter_mm, 2) +
-                " mm: extrusion widths and flow will be off", "nozzle_mismatch");
+    return warn(c.line, text,
+                "the G-code was sliced for a " + format_fixed(c.get('P'), 2) +
+                    " mm nozzle, the printer has " + format_fixed(profile_.nozzle_diameter_mm, 2) +
+                    " mm: extrusion widths and flow will be off",
+                "nozzle_mismatch");
   if (flavour_ == Flavour::prusa && c.subcode == 3 && !c.args.empty() && !profile_.model.empty()) {
     auto lower = [](std::string_view v) {
       std::string folded;
       for (char ch : v)
-        if (ch != ' ') folded.push_back(static_cast<char>(std::tolower(static_cast<unsigned char>(ch))));
+        if (ch != ' ')
+          folded.push_back(static_cast<char>(std::tolower(static_cast<unsigned char>(ch))));
       return folded;
     };
     // Lenient: "MK4S" matches a profile model "Original Prusa MK4S".
     const std::string want = lower(c.args), have = lower(profile_.model);
     if (have.find(want) == std::string::npos && want.find(have) == std::string::npos)
-      return warn(c.line, text, "the G-code was sliced for a " + std::string(c.args) + ", the printer is a " +
-                  profile_.model + ": Prusa firmware warns before printing", "printer_model_mismatch");
+      return warn(c.line, text,
+                  "the G-code was sliced for a " + std::string(c.args) + ", the printer is a " +
+                      profile_.model + ": Prusa firmware warns before printing",
+                  "printer_model_mismatch");
   }
   return Ok{};
 }
 
 /// M204: S (print and travel), P (print), R (retract), T (travel) accelerations, each capped
 /// by the estimator's machine limits; Klipper's own rule for Klipper.
-Status GcodeInterpreter::set_acceleration(const GcodeCommand& c, std::string_view text, InterpreterOutput& out) {
+Status GcodeInterpreter::set_acceleration(const GcodeCommand& c, std::string_view text,
+                                          InterpreterOutput& out) {
   const double unit = inches_ ? kInch_mm : 1.0;
   if (flavour_ == Flavour::klipper) return klipper_m204(c, text, out);
   auto take = [&](char p, double& dst, double cap) -> Status {
     const double v = c.get(p) * unit;
-    if (v <= 0) return warn(c.line, text, "acceleration must be positive; ignored", "bad_parameter");
+    if (v <= 0)
+      return warn(c.line, text, "acceleration must be positive; ignored", "bad_parameter");
     dst = std::min(v, cap);
     return Ok{};
   };
@@ -1429,14 +1640,18 @@ Status GcodeInterpreter::set_acceleration(const GcodeCommand& c, std::string_vie
     if (auto st = take('S', limits_.print_accel_mm_s2, cap[0]); !st) return st;
     limits_.travel_accel_mm_s2 = std::min(limits_.print_accel_mm_s2, cap[2]);
   }
-  if (c.has('P')) if (auto st = take('P', limits_.print_accel_mm_s2, cap[0]); !st) return st;
-  if (c.has('R')) if (auto st = take('R', limits_.retract_accel_mm_s2, cap[1]); !st) return st;
-  if (c.has('T')) if (auto st = take('T', limits_.travel_accel_mm_s2, cap[2]); !st) return st;
+  if (c.has('P'))
+    if (auto st = take('P', limits_.print_accel_mm_s2, cap[0]); !st) return st;
+  if (c.has('R'))
+    if (auto st = take('R', limits_.retract_accel_mm_s2, cap[1]); !st) return st;
+  if (c.has('T'))
+    if (auto st = take('T', limits_.travel_accel_mm_s2, cap[2]); !st) return st;
   out.limits(limits_);
   return Ok{};
 }
 
-Result<MotionLimits> limits_from_prusaslicer_config(std::string_view text, const MotionLimits& base) {
+Result<MotionLimits> limits_from_prusaslicer_config(std::string_view text,
+                                                    const MotionLimits& base) {
   MotionLimits l = base;
   int found = 0;
   bool orca_keys = false;  // machine_max_speed_*: OrcaSlicer, Bambu Studio, Creality Print
@@ -1484,17 +1699,19 @@ Result<MotionLimits> limits_from_prusaslicer_config(std::string_view text, const
     }
   }
   if (found < 12)
-    return bad_input("no slicer machine limits (\"; machine_max_acceleration_x = ...\") in the G-code; "
-                     "--limits-from-gcode needs the config block of PrusaSlicer, SuperSlicer, OrcaSlicer, "
-                     "Bambu Studio or Creality Print");
+    return bad_input(
+        "no slicer machine limits (\"; machine_max_acceleration_x = ...\") in the G-code; "
+        "--limits-from-gcode needs the config block of PrusaSlicer, SuperSlicer, OrcaSlicer, "
+        "Bambu Studio or Creality Print");
   // PrusaSlicer's defaults when a value is 0 (GCodeProcessor: DEFAULT_ACCELERATION 1500,
   // DEFAULT_RETRACT_ACCELERATION 1500, DEFAULT_TRAVEL_ACCELERATION 1250).
   l.print_accel_mm_s2 = extruding > 0 ? extruding : 1500;
   l.retract_accel_mm_s2 = retracting > 0 ? retracting : 1500;
   l.travel_accel_mm_s2 = travel > 0 ? travel : 1250;
-  l.accel_cap_mm_s2 = Eigen::Vector3d(extruding > 0 ? extruding : std::numeric_limits<double>::infinity(),
-                                      retracting > 0 ? retracting : std::numeric_limits<double>::infinity(),
-                                      travel > 0 ? travel : std::numeric_limits<double>::infinity());
+  l.accel_cap_mm_s2 =
+      Eigen::Vector3d(extruding > 0 ? extruding : std::numeric_limits<double>::infinity(),
+                      retracting > 0 ? retracting : std::numeric_limits<double>::infinity(),
+                      travel > 0 ? travel : std::numeric_limits<double>::infinity());
   l.min_feedrate_mm_s = min_extruding;
   l.min_travel_feedrate_mm_s = min_travel;
   l.junction = JunctionModel::classic_jerk;

@@ -17,7 +17,8 @@ constexpr std::uint8_t kEnableNoSpaces = 0xF7;
 constexpr std::uint8_t kDisableNoSpaces = 0xF6;
 constexpr std::uint8_t kNotPacked = 0x0F;
 
-constexpr std::array<char, 15> kCodes = {'0', '1', '2', '3', '4', '5', '6', '7', '8', '9', '.', ' ', '\n', 'G', 'X'};
+constexpr std::array<char, 15> kCodes = {'0', '1', '2', '3', '4',  '5', '6', '7',
+                                         '8', '9', '.', ' ', '\n', 'G', 'X'};
 
 /// The letters before which a G line gets its space back.
 constexpr std::array<bool, 256> kGParameter = [] {
@@ -86,15 +87,19 @@ bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size, std::st
     const std::uint8_t lo = b & 0x0F, hi = b >> 4;
     if (lo == kNotPacked) {
       ++full_pending;
-      if (hi == kNotPacked) ++full_pending;
-      else held = unpacked(hi);
+      if (hi == kNotPacked)
+        ++full_pending;
+      else
+        held = unpacked(hi);
       return;
     }
     const char first = unpacked(lo);
     put(first);
     if (first == '\n') return;
-    if (hi == kNotPacked) ++full_pending;
-    else put(unpacked(hi));
+    if (hi == kNotPacked)
+      ++full_pending;
+    else
+      put(unpacked(hi));
   };
 
   const auto* bytes = reinterpret_cast<const std::uint8_t*>(in.data());
@@ -111,7 +116,8 @@ bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size, std::st
           ++i;
         }
       } else if (!g_line) {
-        while (i < n && bytes[i] != kSignal && bytes[i] != '\n' && bytes[i] != 'G') *o++ = prev = static_cast<char>(bytes[i++]);
+        while (i < n && bytes[i] != kSignal && bytes[i] != '\n' && bytes[i] != 'G')
+          *o++ = prev = static_cast<char>(bytes[i++]);
       }
       if (i == n) break;
     }
@@ -128,12 +134,23 @@ bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size, std::st
     if (command_next) {
       command_next = false;
       switch (b) {
-        case kEnablePacking: packing = true; break;
-        case kDisablePacking: packing = false; break;
-        case kResetAll: packing = false; break;
-        case kQueryConfig: break;
-        case kEnableNoSpaces: code11 = 'E'; break;
-        case kDisableNoSpaces: code11 = ' '; break;
+        case kEnablePacking:
+          packing = true;
+          break;
+        case kDisablePacking:
+          packing = false;
+          break;
+        case kResetAll:
+          packing = false;
+          break;
+        case kQueryConfig:
+          break;
+        case kEnableNoSpaces:
+          code11 = 'E';
+          break;
+        case kDisableNoSpaces:
+          code11 = ' ';
+          break;
         default:
           why = "unknown MeatPack command 0x" + std::string(1, "0123456789ABCDEF"[b >> 4]) +
                 std::string(1, "0123456789ABCDEF"[b & 15]) + " at byte " + std::to_string(i) +
@@ -154,7 +171,8 @@ bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size, std::st
     return false;
   }
   if (full_pending > 0) {
-    why = "MeatPack data ends before the " + std::to_string(full_pending) + " unpacked character(s) it announces";
+    why = "MeatPack data ends before the " + std::to_string(full_pending) +
+          " unpacked character(s) it announces";
     return false;
   }
   return true;

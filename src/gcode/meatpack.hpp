@@ -26,6 +26,7 @@ namespace printtwin::detail {
 /// False, with `why` set (naming the byte offset in the block's data), on an unknown
 /// command byte or a block that ends inside a command or before a pending full-width
 /// character.
-[[nodiscard]] bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size, std::string& why);
+[[nodiscard]] bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size,
+                                   std::string& why);
 
 }  // namespace printtwin::detail

@@ -62,8 +62,8 @@ const char* read_number(const char* p, const char* end, double& out) {
   // Fast path (Clinger): a plain decimal of <= 15 digits without exponent is an exact
   // integer divided by an exact power of ten: one correctly rounded division.
   {
-    static constexpr double kPow10[] = {1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8,
-                                        1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15};
+    static constexpr double kPow10[] = {1e0, 1e1, 1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
+                                        1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15};
     const char* q = p;
     std::uint64_t mantissa = 0;  // may wrap for > 19 digits: then the slow path is taken
     while (q < end) {
@@ -269,8 +269,7 @@ Status read_command_word(std::string_view text, long line, GcodeCommand& out, co
     done = true;
     return check_free_text(text, line, p, end);
   } else {
-    if (*p == '[' || *p == '{')
-      return parse_error(text, line, "unexpanded slicer placeholder");
+    if (*p == '[' || *p == '{') return parse_error(text, line, "unexpanded slicer placeholder");
     const auto uc = static_cast<unsigned char>(*p);
     if ((uc < 32 && uc != '\t') || uc >= 127) return not_gcode(text, line, p);
     return parse_error(text, line,
@@ -296,8 +295,7 @@ Status read_parameters(std::string_view text, long line, GcodeCommand& out, cons
       p = static_cast<const char*>(close) + 1;
       continue;
     }
-    if (c == '[' || c == '{')
-      return parse_error(text, line, "unexpanded slicer placeholder");
+    if (c == '[' || c == '{') return parse_error(text, line, "unexpanded slicer placeholder");
     const char letter = upper(c);
     if (!is_upper(letter)) {
       const auto uc = static_cast<unsigned char>(c);
@@ -317,7 +315,8 @@ Status read_parameters(std::string_view text, long line, GcodeCommand& out, cons
     if (p < end && *p == '"') {
       // A quoted string argument (Prusa `M862.3 P "MK4S"`, RepRapFirmware `M98 P"x.g"`):
       // the parameter is present with value 0; the first string is kept in `args`.
-      const void* close = p + 1 < end ? std::memchr(p + 1, '"', static_cast<std::size_t>(end - p - 1)) : nullptr;
+      const void* close =
+          p + 1 < end ? std::memchr(p + 1, '"', static_cast<std::size_t>(end - p - 1)) : nullptr;
       if (close == nullptr) return parse_error(text, line, "quoted string without a closing '\"'");
       const char* q = static_cast<const char*>(close);
       if (auto st = check_free_text(text, line, p + 1, end); !st) return st;
@@ -340,7 +339,8 @@ Status read_parameters(std::string_view text, long line, GcodeCommand& out, cons
       // "G1 Yabc": a move's axis needs a number, not more letters (a bare flag such as
       // "G28 X Y" stands apart).
       if (out.letter == 'G' && out.code <= 3)
-        return parse_error(text, line, std::string("expected a number after ") + letter + ", found '" + *p + "'");
+        return parse_error(
+            text, line, std::string("expected a number after ") + letter + ", found '" + *p + "'");
     }
     const unsigned bit = static_cast<unsigned>(letter - 'A');
     out.present |= 1U << bit;
@@ -380,9 +380,9 @@ Status parse_gcode_line(std::string_view text, long line, GcodeCommand& out) {
   // Commands whose argument is free text: messages and file names; M115 U<version>
   // (Prusa's firmware-version check, "U6.1.3+7898"); Bambu's M1002 (status actions such
   // as "gcode_claim_action : 2").
-  if (out.letter == 'M' && (out.code == 117 || out.code == 118 || out.code == 23 ||
-                            out.code == 28 || out.code == 30 || out.code == 32 ||
-                            out.code == 928 || out.code == 115 || out.code == 1002)) {
+  if (out.letter == 'M' &&
+      (out.code == 117 || out.code == 118 || out.code == 23 || out.code == 28 || out.code == 30 ||
+       out.code == 32 || out.code == 928 || out.code == 115 || out.code == 1002)) {
     while (p < end && is_space(*p)) ++p;
     out.args = std::string_view(p, static_cast<std::size_t>(end - p));
     return check_free_text(text, line, p, end);

@@ -1,10 +1,10 @@
 // Klipper's printer.cfg: sections, options, [include] with globs, the SAVE_CONFIG block,
 // and the PrinterProfile it describes.
+#include <fnmatch.h>
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
-#include <fnmatch.h>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -34,7 +34,8 @@ std::string_view trim(std::string_view s) {
 /// Removes an inline comment: '#' or ';' preceded by whitespace (as Klipper's parser does).
 std::string_view strip_comment(std::string_view s) {
   for (std::size_t i = 0; i < s.size(); ++i)
-    if ((s[i] == '#' || s[i] == ';') && (i == 0 || std::isspace(static_cast<unsigned char>(s[i - 1])) != 0))
+    if ((s[i] == '#' || s[i] == ';') &&
+        (i == 0 || std::isspace(static_cast<unsigned char>(s[i - 1])) != 0))
       return s.substr(0, i);
   return s;
 }
@@ -67,26 +68,30 @@ class Reader {
         if (!l.empty() && l.front() == ' ') l.remove_prefix(1);
         if (trim(l).find("SAVE_CONFIG") != std::string_view::npos || trim(l).empty()) continue;
       } else if (in_autosave && !trim(l).empty()) {
-        return bad_input("text after the SAVE_CONFIG block (\"#*#\" lines must come last)", file, line);
+        return bad_input("text after the SAVE_CONFIG block (\"#*#\" lines must come last)", file,
+                         line);
       }
       const bool indented = !l.empty() && std::isspace(static_cast<unsigned char>(l.front())) != 0;
       const std::string_view body = trim(strip_comment(l));
       if (body.empty()) continue;
       // The block's own banner ("DO NOT EDIT THIS BLOCK OR BELOW...") is neither.
-      if (in_autosave && body.front() != '[' && body.find_first_of(":=") == std::string_view::npos) continue;
+      if (in_autosave && body.front() != '[' && body.find_first_of(":=") == std::string_view::npos)
+        continue;
       if (indented && last != nullptr) {  // continuation of a multi-line value (gcode: ...)
         last->value += "\n" + std::string(body);
         continue;
       }
       if (body.front() == '[') {
-        if (body.back() != ']') return bad_input("expected \"[section]\", got \"" + std::string(body) + "\"", file, line);
+        if (body.back() != ']')
+          return bad_input("expected \"[section]\", got \"" + std::string(body) + "\"", file, line);
         const std::string name(trim(body.substr(1, body.size() - 2)));
         if (name.empty()) return bad_input("empty section name", file, line);
         last = nullptr;
         if (name.rfind("include ", 0) == 0 || name == "include") {
           const std::string pattern(trim(std::string_view(name).substr(7)));
           if (pattern.empty()) return bad_input("[include] names no file", file, line);
-          if (auto st = include(path.parent_path(), pattern, file, line, depth); !st) return st.error();
+          if (auto st = include(path.parent_path(), pattern, file, line, depth); !st)
+            return st.error();
           current_ = -1;
           continue;
         }
@@ -95,8 +100,13 @@ class Reader {
       }
       const auto sep = body.find_first_of(":=");
       if (sep == std::string_view::npos || sep == 0)
-        return bad_input("expected \"key: value\" or \"[section]\", got \"" + std::string(body) + "\"", file, line);
-      if (current_ < 0) return bad_input("option \"" + std::string(trim(body.substr(0, sep))) + "\" outside any [section]", file, line);
+        return bad_input(
+            "expected \"key: value\" or \"[section]\", got \"" + std::string(body) + "\"", file,
+            line);
+      if (current_ < 0)
+        return bad_input(
+            "option \"" + std::string(trim(body.substr(0, sep))) + "\" outside any [section]", file,
+            line);
       auto& sec = sections_[static_cast<std::size_t>(current_)];
       std::string key(trim(body.substr(0, sep)));
       for (auto& c : key) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -117,23 +127,27 @@ class Reader {
     return static_cast<int>(sections_.size() - 1);
   }
 
-  Status include(const fs::path& dir, const std::string& pattern, const std::string& file, long line, int depth) {
+  Status include(const fs::path& dir, const std::string& pattern, const std::string& file,
+                 long line, int depth) {
     const fs::path full = fs::path(pattern).is_absolute() ? fs::path(pattern) : dir / pattern;
     std::vector<fs::path> files;
     if (!has_glob(pattern)) {
       std::error_code ec;
-      if (!fs::is_regular_file(full, ec)) return bad_input("[include " + pattern + "]: no such file " + full.string(), file, line);
+      if (!fs::is_regular_file(full, ec))
+        return bad_input("[include " + pattern + "]: no such file " + full.string(), file, line);
       files.push_back(full);
     } else {
       // Glob in the last path component (Klipper's own configs use "macros/*.cfg").
       const fs::path parent = full.parent_path();
       const std::string leaf = full.filename().string();
       if (has_glob(parent.string()))
-        return bad_input("[include " + pattern + "]: wildcards are supported in the file name only", file, line);
+        return bad_input("[include " + pattern + "]: wildcards are supported in the file name only",
+                         file, line);
       std::error_code ec;
       if (fs::is_directory(parent, ec))
         for (const auto& entry : fs::directory_iterator(parent, ec))
-          if (entry.is_regular_file() && fnmatch(leaf.c_str(), entry.path().filename().string().c_str(), 0) == 0)
+          if (entry.is_regular_file() &&
+              fnmatch(leaf.c_str(), entry.path().filename().string().c_str(), 0) == 0)
             files.push_back(entry.path());
       std::sort(files.begin(), files.end());  // Klipper includes matches in sorted order
     }
@@ -176,10 +190,12 @@ Status number_option(const KlipperSection* s, std::string_view key, double lo, d
   const double d = std::strtod(o->value.c_str(), &end);
   if (o->value.empty() || o->value.find_first_not_of("0123456789.-+eE") != std::string::npos ||
       end == o->value.c_str() || *end != 0 || !std::isfinite(d))
-    return bad_input("[" + s->name + "] " + std::string(key) + ": expected a number, got \"" + o->value + "\"", o->file, o->line);
+    return bad_input(
+        "[" + s->name + "] " + std::string(key) + ": expected a number, got \"" + o->value + "\"",
+        o->file, o->line);
   if (!(d >= lo && d <= hi))
-    return bad_input("[" + s->name + "] " + std::string(key) + ": " + format_number(d) + " is outside [" +
-                         format_number(lo) + ", " + format_number(hi) + "]",
+    return bad_input("[" + s->name + "] " + std::string(key) + ": " + format_number(d) +
+                         " is outside [" + format_number(lo) + ", " + format_number(hi) + "]",
                      o->file, o->line);
   out = d;
   return Ok{};
@@ -197,23 +213,28 @@ Status apply_printer_section(const std::vector<KlipperSection>& secs, const fs::
                              PrinterProfile& p) {
   auto num = number_option;
   const KlipperSection* printer = section(secs, "printer");
-  if (printer == nullptr) return bad_input("no [printer] section (Klipper requires one)", path.string());
+  if (printer == nullptr)
+    return bad_input("no [printer] section (Klipper requires one)", path.string());
   if (const auto* k = printer->find("kinematics")) {
-    static const std::set<std::string> kGantry = {"cartesian", "corexy", "corexz", "hybrid_corexy", "hybrid_corexz",
-                                                   "limited_cartesian", "limited_corexy", "limited_corexz"};
+    static const std::set<std::string> kGantry = {
+        "cartesian",         "corexy",         "corexz",        "hybrid_corexy", "hybrid_corexz",
+        "limited_cartesian", "limited_corexy", "limited_corexz"};
     if (kGantry.count(k->value) == 0)
-      return bad_input("[printer] kinematics: " + k->value +
-                           " is not simulated (printtwin models cartesian and corexy/corexz gantries)",
-                       k->file, k->line);
+      return bad_input(
+          "[printer] kinematics: " + k->value +
+              " is not simulated (printtwin models cartesian and corexy/corexz gantries)",
+          k->file, k->line);
     p.name = "Klipper " + k->value + " printer (" + path.filename().string() + ")";
   } else {
     return bad_input("[printer] has no kinematics", path.string());
   }
   std::optional<double> v, a, scv, mcr, atd, zv, za;
-  for (auto st : {num(printer, "max_velocity", 1e-3, 1e5, v), num(printer, "max_accel", 1e-3, 1e7, a),
-                  num(printer, "square_corner_velocity", 0, 1e4, scv), num(printer, "minimum_cruise_ratio", 0, 0.99, mcr),
-                  num(printer, "max_accel_to_decel", 1e-3, 1e7, atd), num(printer, "max_z_velocity", 1e-3, 1e5, zv),
-                  num(printer, "max_z_accel", 1e-3, 1e7, za)})
+  for (auto st :
+       {num(printer, "max_velocity", 1e-3, 1e5, v), num(printer, "max_accel", 1e-3, 1e7, a),
+        num(printer, "square_corner_velocity", 0, 1e4, scv),
+        num(printer, "minimum_cruise_ratio", 0, 0.99, mcr),
+        num(printer, "max_accel_to_decel", 1e-3, 1e7, atd),
+        num(printer, "max_z_velocity", 1e-3, 1e5, zv), num(printer, "max_z_accel", 1e-3, 1e7, za)})
     if (!st) return st.error();
   if (!v) return bad_input("[printer] has no max_velocity (Klipper requires it)", path.string());
   if (!a) return bad_input("[printer] has no max_accel (Klipper requires it)", path.string());
@@ -221,7 +242,8 @@ Status apply_printer_section(const std::vector<KlipperSection>& secs, const fs::
   p.origin.set("max_feedrate_mm_s", "config", where(printer, "max_velocity"));
   p.max_accel_mm_s2[0] = p.max_accel_mm_s2[1] = *a;
   p.print_accel_mm_s2 = p.retract_accel_mm_s2 = p.travel_accel_mm_s2 = *a;
-  for (const char* k : {"max_accel_mm_s2", "print_accel_mm_s2", "retract_accel_mm_s2", "travel_accel_mm_s2"})
+  for (const char* k :
+       {"max_accel_mm_s2", "print_accel_mm_s2", "retract_accel_mm_s2", "travel_accel_mm_s2"})
     p.origin.set(k, "config", where(printer, "max_accel"));
   // Klipper's defaults: max_z_velocity = max_velocity, max_z_accel = max_accel.
   p.max_feedrate_mm_s[2] = zv.value_or(*v);
@@ -253,21 +275,28 @@ Status apply_steppers(const std::vector<KlipperSection>& secs, const fs::path& p
   for (int i = 0; i < 3; ++i) {
     const std::string name = std::string("stepper_") + kAxes[i];
     const KlipperSection* s = section(secs, name);
-    if (s == nullptr) return bad_input("no [" + name + "] section (Klipper requires one for " + p.name + ")", path.string());
+    if (s == nullptr)
+      return bad_input("no [" + name + "] section (Klipper requires one for " + p.name + ")",
+                       path.string());
     std::optional<double> lo, hi, hs;
     for (auto st : {num(s, "position_min", -1e4, 1e4, lo), num(s, "position_max", -1e4, 1e4, hi),
                     num(s, "homing_speed", 1e-3, 1e4, hs)})
       if (!st) return st.error();
-    if (!hi) return bad_input("[" + name + "] has no position_max (Klipper requires it)", path.string());
+    if (!hi)
+      return bad_input("[" + name + "] has no position_max (Klipper requires it)", path.string());
     const double lo_v = lo.value_or(0);
-    if (!(*hi > lo_v)) return bad_input("[" + name + "] position_max must exceed position_min", s->find("position_max")->file, s->find("position_max")->line);
+    if (!(*hi > lo_v))
+      return bad_input("[" + name + "] position_max must exceed position_min",
+                       s->find("position_max")->file, s->find("position_max")->line);
     *tmin[i] = lo_v;
     *tmax[i] = *hi;
     const std::string tkey_min = std::string("travel_min_") + kAxes[i] + "_mm";
     const std::string tkey_max = std::string("travel_max_") + kAxes[i] + "_mm";
     p.origin.set(tkey_max, "config", where(s, "position_max"));
-    if (lo) p.origin.set(tkey_min, "config", where(s, "position_min"));
-    else p.origin.set(tkey_min, "default", "");
+    if (lo)
+      p.origin.set(tkey_min, "config", where(s, "position_min"));
+    else
+      p.origin.set(tkey_min, "default", "");
     if (hs) {
       p.homing_feedrate_mm_s[i] = *hs;
       p.origin.set("homing_feedrate_mm_s", "config", where(s, "homing_speed"));
@@ -281,8 +310,10 @@ Status apply_steppers(const std::vector<KlipperSection>& secs, const fs::path& p
   p.max_z_mm = p.travel_max_z_mm;
   if (p.bed_max_x_mm <= p.bed_min_x_mm || p.bed_max_y_mm <= p.bed_min_y_mm)
     return bad_input("the steppers' ranges leave no bed at X, Y >= 0", path.string());
-  for (const char* k : {"bed_min_x_mm", "bed_max_x_mm"}) p.origin.set(k, "config", where(section(secs, "stepper_x"), "position_max"));
-  for (const char* k : {"bed_min_y_mm", "bed_max_y_mm"}) p.origin.set(k, "config", where(section(secs, "stepper_y"), "position_max"));
+  for (const char* k : {"bed_min_x_mm", "bed_max_x_mm"})
+    p.origin.set(k, "config", where(section(secs, "stepper_x"), "position_max"));
+  for (const char* k : {"bed_min_y_mm", "bed_max_y_mm"})
+    p.origin.set(k, "config", where(section(secs, "stepper_y"), "position_max"));
   p.origin.set("max_z_mm", "config", where(section(secs, "stepper_z"), "position_max"));
 
   return Ok{};
@@ -292,30 +323,33 @@ Status apply_steppers(const std::vector<KlipperSection>& secs, const fs::path& p
 Status apply_extruder(const KlipperSection* e, PrinterProfile& p) {
   auto num = number_option;
   std::optional<double> nd, fd, ev, ea, mt;
-  for (auto st : {num(e, "nozzle_diameter", 0.05, 5, nd), num(e, "filament_diameter", 0.5, 5, fd),
-                  num(e, "max_extrude_only_velocity", 1e-3, 1e5, ev), num(e, "max_extrude_only_accel", 1e-3, 1e7, ea),
-                  num(e, "min_extrude_temp", 0, 500, mt)})
+  for (auto st :
+       {num(e, "nozzle_diameter", 0.05, 5, nd), num(e, "filament_diameter", 0.5, 5, fd),
+        num(e, "max_extrude_only_velocity", 1e-3, 1e5, ev),
+        num(e, "max_extrude_only_accel", 1e-3, 1e7, ea), num(e, "min_extrude_temp", 0, 500, mt)})
     if (!st) return st.error();
-  auto put = [&](const std::optional<double>& val, double& member, const char* key, const char* option) {
+  auto put = [&](const std::optional<double>& val, double& member, const char* key,
+                 const char* option) {
     if (!val) return;
     member = *val;
     p.origin.set(key, "config", where(e, option));
   };
   put(nd, p.nozzle_diameter_mm, "nozzle_diameter_mm", "nozzle_diameter");
   put(fd, p.filament_diameter_mm, "filament_diameter_mm", "filament_diameter");
-  put(ev, p.max_extrude_only_velocity_mm_s, "max_extrude_only_velocity_mm_s", "max_extrude_only_velocity");
+  put(ev, p.max_extrude_only_velocity_mm_s, "max_extrude_only_velocity_mm_s",
+      "max_extrude_only_velocity");
   put(ea, p.max_extrude_only_accel_mm_s2, "max_extrude_only_accel_mm_s2", "max_extrude_only_accel");
   put(mt, p.min_extrude_temp_c, "min_extrude_temp_c", "min_extrude_temp");
   return Ok{};
 }
 
 /// [firmware_retraction]: G10/G11 lengths and speeds, with Klipper's defaults.
-Status apply_firmware_retraction(const KlipperSection* r, const fs::path& path,
-                                 PrinterProfile& p) {
+Status apply_firmware_retraction(const KlipperSection* r, const fs::path& path, PrinterProfile& p) {
   auto num = number_option;
   std::optional<double> len, spd, extra, uspd;
   for (auto st : {num(r, "retract_length", 0, 100, len), num(r, "retract_speed", 1e-3, 1e4, spd),
-                  num(r, "unretract_extra_length", 0, 100, extra), num(r, "unretract_speed", 1e-3, 1e4, uspd)})
+                  num(r, "unretract_extra_length", 0, 100, extra),
+                  num(r, "unretract_speed", 1e-3, 1e4, uspd)})
     if (!st) return st.error();
   // Klipper's defaults: retract_length 0, retract_speed 20, unretract_speed 10.
   p.firmware_retraction = true;
@@ -334,11 +368,14 @@ Status apply_firmware_retraction(const KlipperSection* r, const fs::path& path,
 /// a .json profile, named by the option that set the value.
 Status check_simulated(const PrinterProfile& p, const fs::path& path) {
   if (auto back = parse_printer_profile(printer_profile_to_json(p), path.string()); !back) {
-    const std::string message = "the printer this config describes is not simulated: " + back.error().message;
+    const std::string message =
+        "the printer this config describes is not simulated: " + back.error().message;
     const std::string& what = back.error().message;  // key "<profile key>": ...
     const auto open = what.find("key \"");
     const auto close = open == std::string::npos ? open : what.find('"', open + 5);
-    const ValueOrigin* o = close == std::string::npos ? nullptr : p.origin.find(what.substr(open + 5, close - open - 5));
+    const ValueOrigin* o = close == std::string::npos
+                               ? nullptr
+                               : p.origin.find(what.substr(open + 5, close - open - 5));
     const auto colon = o ? o->detail.rfind(':') : std::string::npos;
     if (colon != std::string::npos && colon + 1 < o->detail.size() &&
         o->detail.find_first_not_of("0123456789", colon + 1) == std::string::npos)

@@ -250,9 +250,12 @@ MotionLimits motion_limits_from_profile(const PrinterProfile& p) {
     l.klipper = true;
     // [extruder] defaults: derived from the config's max_velocity and max_accel once, at
     // start-up (SET_VELOCITY_LIMIT later does not change them).
-    const double ratio = klipper_default_extrude_ratio(p.nozzle_diameter_mm, p.filament_diameter_mm);
-    if (!(l.max_extrude_only_velocity_mm_s > 0)) l.max_extrude_only_velocity_mm_s = p.max_feedrate_mm_s[0] * ratio;
-    if (!(l.max_extrude_only_accel_mm_s2 > 0)) l.max_extrude_only_accel_mm_s2 = p.print_accel_mm_s2 * ratio;
+    const double ratio =
+        klipper_default_extrude_ratio(p.nozzle_diameter_mm, p.filament_diameter_mm);
+    if (!(l.max_extrude_only_velocity_mm_s > 0))
+      l.max_extrude_only_velocity_mm_s = p.max_feedrate_mm_s[0] * ratio;
+    if (!(l.max_extrude_only_accel_mm_s2 > 0))
+      l.max_extrude_only_accel_mm_s2 = p.print_accel_mm_s2 * ratio;
   }
   return l;
 }
@@ -336,9 +339,9 @@ void Planner::add(const Move& move, MoveSink& sink) {
   double vmax_junction = 0;
   if (L.junction == JunctionModel::junction_deviation) {
     if (have_previous_ && previous_nominal_speed_mm_s_ > 1e-9)
-      vmax_junction = deviation_junction_speed(L, previous_unit_, b.unit, b.accel_mm_s2,
-                                               b.length_mm, b.nominal_speed_mm_s,
-                                               previous_nominal_speed_mm_s_);
+      vmax_junction =
+          deviation_junction_speed(L, previous_unit_, b.unit, b.accel_mm_s2, b.length_mm,
+                                   b.nominal_speed_mm_s, previous_nominal_speed_mm_s_);
     b.safe_speed_mm_s = kVmin;
   } else {
     const double safe = jerk_safe_speed(L, axis_speed, b.nominal_speed_mm_s);
@@ -348,8 +351,9 @@ void Planner::add(const Move& move, MoveSink& sink) {
       // Orca plans an arc (G2/G3) as one block: its segments join without a jerk limit.
       const bool same_arc =
           L.orca_compat && move.line == previous_line_ && move.line > 0 && xy_len > 0;
-      JerkJunction j{axis_speed,  previous_axis_speed_mm_s_, b.nominal_speed_mm_s,
-                     previous_nominal_speed_mm_s_, safe, previous_safe_speed_mm_s_};
+      JerkJunction j{
+          axis_speed, previous_axis_speed_mm_s_, b.nominal_speed_mm_s, previous_nominal_speed_mm_s_,
+          safe,       previous_safe_speed_mm_s_};
       vmax_junction = jerk_junction_speed(L, j, same_arc);
     }
   }
@@ -380,14 +384,16 @@ void Planner::recalculate() {
   // Reverse pass: every block must be able to slow down to the next block's entry, and the
   // last block to a stop (JD) or to its safe speed (classic jerk).
   const Block& last = window_.back();
-  double next_entry = limits_.junction == JunctionModel::classic_jerk ? last.safe_speed_mm_s : kVmin;
+  double next_entry =
+      limits_.junction == JunctionModel::classic_jerk ? last.safe_speed_mm_s : kVmin;
   std::size_t first_changed = n;
   for (std::size_t k = n; k-- > 0;) {
     Block& b = window_[k];
     if (b.entry_fixed) break;
     const double e = b.nominal_length
                          ? b.max_entry_speed_mm_s
-                         : std::min(b.max_entry_speed_mm_s, max_allowable_speed(b.accel_mm_s2, next_entry, b.length_mm));
+                         : std::min(b.max_entry_speed_mm_s,
+                                    max_allowable_speed(b.accel_mm_s2, next_entry, b.length_mm));
     // Marlin's "planned" pointer: once a block's reverse-planned entry is unchanged (and it
     // is not one of the last two, whose exit just changed), nothing before it changes.
     if (k + 2 < n && e == b.reverse_entry_mm_s) break;
@@ -461,9 +467,10 @@ void Planner::flush(MoveSink& sink) {
     junction_flush_s_ = kBufferTimeHigh_s;
   }
   while (!window_.empty()) {
-    const double exit = window_.size() > 1
-                            ? window_[1].entry_speed_mm_s
-                            : (limits_.junction == JunctionModel::classic_jerk ? window_.front().safe_speed_mm_s : kVmin);
+    const double exit = window_.size() > 1 ? window_[1].entry_speed_mm_s
+                                           : (limits_.junction == JunctionModel::classic_jerk
+                                                  ? window_.front().safe_speed_mm_s
+                                                  : kVmin);
     emit_front(sink, exit);
   }
   have_previous_ = false;
@@ -540,7 +547,8 @@ void Planner::klipper_add(const Move& move, MoveSink& sink) {
   if (m.kinematic && prev.kinematic) {
     // Junction: never above either cruise speed or what the previous move can reach
     // (smoothed by its own start limit), nor the extruder's instantaneous corner velocity.
-    double max_start_v2 = std::min({m.max_cruise_v2, prev.max_cruise_v2, prev.max_start_v2 + prev.delta_v2});
+    double max_start_v2 =
+        std::min({m.max_cruise_v2, prev.max_cruise_v2, prev.max_start_v2 + prev.delta_v2});
     const double diff_r = m.axes_r[3] - prev.axes_r[3];
     if (diff_r != 0) {
       const double v = L.extruder_corner_velocity_mm_s / std::fabs(diff_r);
@@ -556,8 +564,8 @@ void Planner::klipper_add(const Move& move, MoveSink& sink) {
       // The approximated circle must touch both moves no further than their middles.
       const double quarter_tan_d2 = 0.25 * sin_d2 / cos_d2;
       max_start_v2 = std::min({max_start_v2, r_jd * m.junction_deviation * m.accel,
-                               r_jd * prev.junction_deviation * prev.accel, m.delta_v2 * quarter_tan_d2,
-                               prev.delta_v2 * quarter_tan_d2});
+                               r_jd * prev.junction_deviation * prev.accel,
+                               m.delta_v2 * quarter_tan_d2, prev.delta_v2 * quarter_tan_d2});
     }
     m.max_start_v2 = max_start_v2;
     m.max_mcr_start_v2 = std::min(max_start_v2, prev.max_mcr_start_v2 + prev.mcr_delta_v2);
@@ -595,7 +603,8 @@ void Planner::klipper_flush(MoveSink& sink, bool lazy) {
         }
         peak_cruise_v2 = 0.5 * (mcr_start_v2 + reach_mcr_start_v2);
       }
-      cruise_v2 = std::min({0.5 * (start_v2 + reachable_start_v2), m.max_cruise_v2, peak_cruise_v2});
+      cruise_v2 =
+          std::min({0.5 * (start_v2 + reachable_start_v2), m.max_cruise_v2, peak_cruise_v2});
       pending = 0;
     }
     m.start_v2 = start_v2;

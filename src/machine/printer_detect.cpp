@@ -25,14 +25,16 @@ std::string lower(std::string_view s) {
 std::string decimal_only(std::string_view v) {
   std::string s(v);
   for (auto& c : s)
-    if (std::isdigit(static_cast<unsigned char>(c)) == 0 && c != '.' && c != '-' && c != '+' && c != 'e' && c != 'E')
+    if (std::isdigit(static_cast<unsigned char>(c)) == 0 && c != '.' && c != '-' && c != '+' &&
+        c != 'e' && c != 'E')
       c = ' ';
   return s;
 }
 
 /// The first number of a value ("4000,2500" -> 4000, "0.4,0.4" -> 0.4, "220" -> 220).
 std::optional<double> first_number(std::string_view v) {
-  while (!v.empty() && (v.front() == '"' || v.front() == '[' || std::isspace(static_cast<unsigned char>(v.front())) != 0))
+  while (!v.empty() && (v.front() == '"' || v.front() == '[' ||
+                        std::isspace(static_cast<unsigned char>(v.front())) != 0))
     v.remove_prefix(1);
   if (v.empty()) return std::nullopt;
   std::string s = decimal_only(v.substr(0, std::min<std::size_t>(v.size(), 40)));
@@ -80,18 +82,19 @@ std::optional<std::string> map_flavour(const std::string& slicer, std::string_vi
   const std::string f = lower(text);
   if (f.find("klipper") != std::string::npos) return "klipper";
   if (f == "marlin2" || f == "marlin 2") return "marlin2";
-  if (f.find("reprapfirmware") != std::string::npos || f == "reprap" || f == "rrf" || f == "reprap (reprap)" ||
-      f.find("duet") != std::string::npos)
+  if (f.find("reprapfirmware") != std::string::npos || f == "reprap" || f == "rrf" ||
+      f == "reprap (reprap)" || f.find("duet") != std::string::npos)
     return "rrf";
   if (f == "marlin" || f == "marlinlegacy" || f == "marlin (legacy)") {
     // PrusaSlicer and its descendants call Marlin 1 "marlin" (legacy); Cura, Simplify3D and
     // the others do not tell Marlin versions apart: current Marlin (2.x) is assumed.
-    const bool slic3r_family = slicer == "PrusaSlicer" || slicer == "SuperSlicer" || slicer == "Slic3r" ||
-                               slicer == "OrcaSlicer" || slicer == "BambuStudio" || slicer == "Creality Print";
+    const bool slic3r_family = slicer == "PrusaSlicer" || slicer == "SuperSlicer" ||
+                               slicer == "Slic3r" || slicer == "OrcaSlicer" ||
+                               slicer == "BambuStudio" || slicer == "Creality Print";
     return slic3r_family ? "marlin1" : "marlin2";
   }
   if (f.find("marlin") != std::string::npos) return "marlin2";  // "RepRap (Marlin/Sprinter)", ...
-  if (f == "griffin" || f == "ultigcode") return "marlin2";     // Ultimaker's Marlin-derived firmware
+  if (f == "griffin" || f == "ultigcode") return "marlin2";  // Ultimaker's Marlin-derived firmware
   return std::nullopt;
 }
 
@@ -130,29 +133,31 @@ struct StatedReader {
 /// The printer's names (most specific first), its model and the firmware flavour.
 void stated_names(const StatedReader& r, StatedPrinter& p) {
   // Names that may identify the printer, most specific first.
-  for (const char* key : {"printer_model", "printer_settings_id", "TARGET_MACHINE.NAME", "cura.machine_name",
-                          "printer_name", "Machine Name", "Printer Name", "profileName", "inherits",
-                          "default_print_profile"}) {
+  for (const char* key : {"printer_model", "printer_settings_id", "TARGET_MACHINE.NAME",
+                          "cura.machine_name", "printer_name", "Machine Name", "Printer Name",
+                          "profileName", "inherits", "default_print_profile"}) {
     if (const auto* e = r.get(key)) {
       std::string v = e->value;
       if (v.size() >= 2 && v.front() == '"' && v.back() == '"') v = v.substr(1, v.size() - 2);
       if (v.empty()) continue;
       p.names.push_back(v);
-      if (!p.model && std::string_view(key) != "inherits" && std::string_view(key) != "default_print_profile" &&
+      if (!p.model && std::string_view(key) != "inherits" &&
+          std::string_view(key) != "default_print_profile" &&
           std::string_view(key) != "printer_settings_id")
         p.model = StatedPrinter::Value<std::string>{v, key};
     }
   }
 
   // Firmware flavour.
-  for (const char* key : {"gcode_flavor", "FLAVOR", "cura.machine_gcode_flavor", "firmwareTypeOverride"}) {
+  for (const char* key :
+       {"gcode_flavor", "FLAVOR", "cura.machine_gcode_flavor", "firmwareTypeOverride"}) {
     if (const auto* e = r.get(key)) {
       p.flavour_text = e->value;
-      if (auto fw = map_flavour(r.s.slicer, e->value)) p.firmware = StatedPrinter::Value<std::string>{*fw, key};
+      if (auto fw = map_flavour(r.s.slicer, e->value))
+        p.firmware = StatedPrinter::Value<std::string>{*fw, key};
       break;
     }
   }
-
 }
 
 /// The bed's box in G-code coordinates, from the bed shape or each slicer's size and origin.
@@ -172,7 +177,8 @@ void stated_bed(const StatedReader& r, StatedPrinter& p) {
     const auto wv = first_number(w->value), dv = first_number(d->value);
     if (!wv || !dv || !(*wv > 0) || !(*dv > 0)) return;
     p.bed = StatedPrinter::Value<Eigen::Vector4d>{
-        Eigen::Vector4d(cx - 0.5 * *wv, cy - 0.5 * *dv, cx + 0.5 * *wv, cy + 0.5 * *dv), std::string(wkey)};
+        Eigen::Vector4d(cx - 0.5 * *wv, cy - 0.5 * *dv, cx + 0.5 * *wv, cy + 0.5 * *dv),
+        std::string(wkey)};
   };
   if (!p.bed) {  // Cura: machine_width x machine_depth, origin at a corner or the centre
     const auto* centre = r.get("cura.machine_center_is_zero");
@@ -181,17 +187,26 @@ void stated_bed(const StatedReader& r, StatedPrinter& p) {
     const auto* d = r.get("cura.machine_depth");
     if (w != nullptr && d != nullptr) {
       const double wv = first_number(w->value).value_or(0), dv = first_number(d->value).value_or(0);
-      sized_bed("cura.machine_width", "cura.machine_depth", centred ? 0 : 0.5 * wv, centred ? 0 : 0.5 * dv);
+      sized_bed("cura.machine_width", "cura.machine_depth", centred ? 0 : 0.5 * wv,
+                centred ? 0 : 0.5 * dv);
     }
   }
   if (!p.bed) {  // KISSlicer: size and the position of the bed centre (G-code origin at the centre)
-    const double ox = r.get("bed_offset_x_mm") != nullptr ? first_number(r.get("bed_offset_x_mm")->value).value_or(0) : 0;
-    const double oy = r.get("bed_offset_y_mm") != nullptr ? first_number(r.get("bed_offset_y_mm")->value).value_or(0) : 0;
+    const double ox = r.get("bed_offset_x_mm") != nullptr
+                          ? first_number(r.get("bed_offset_x_mm")->value).value_or(0)
+                          : 0;
+    const double oy = r.get("bed_offset_y_mm") != nullptr
+                          ? first_number(r.get("bed_offset_y_mm")->value).value_or(0)
+                          : 0;
     sized_bed("bed_size_x_mm", "bed_size_y_mm", ox, oy);
   }
   if (!p.bed) {  // Simplify3D: stroke (size) and the origin offset
-    const double ox = r.get("originOffsetXoverride") != nullptr ? first_number(r.get("originOffsetXoverride")->value).value_or(0) : 0;
-    const double oy = r.get("originOffsetYoverride") != nullptr ? first_number(r.get("originOffsetYoverride")->value).value_or(0) : 0;
+    const double ox = r.get("originOffsetXoverride") != nullptr
+                          ? first_number(r.get("originOffsetXoverride")->value).value_or(0)
+                          : 0;
+    const double oy = r.get("originOffsetYoverride") != nullptr
+                          ? first_number(r.get("originOffsetYoverride")->value).value_or(0)
+                          : 0;
     const auto* w = r.get("strokeXoverride");
     const auto* d = r.get("strokeYoverride");
     if (w != nullptr && d != nullptr) {
@@ -206,64 +221,79 @@ void stated_bed(const StatedReader& r, StatedPrinter& p) {
       const bool centred = oc != nullptr && first_number(oc->value).value_or(0) != 0;
       if (n.size() >= 2 && n[0] > 0 && n[1] > 0)
         p.bed = StatedPrinter::Value<Eigen::Vector4d>{
-            centred ? Eigen::Vector4d(-0.5 * n[0], -0.5 * n[1], 0.5 * n[0], 0.5 * n[1]) : Eigen::Vector4d(0, 0, n[0], n[1]),
+            centred ? Eigen::Vector4d(-0.5 * n[0], -0.5 * n[1], 0.5 * n[0], 0.5 * n[1])
+                    : Eigen::Vector4d(0, 0, n[0], n[1]),
             "Dimension"};
       if (n.size() >= 3 && n[2] > 0) p.max_z_mm = StatedPrinter::Value<double>{n[2], "Dimension"};
-      if (n.size() >= 4 && n[3] > 0) p.nozzle_diameter_mm = StatedPrinter::Value<double>{n[3], "Dimension"};
+      if (n.size() >= 4 && n[3] > 0)
+        p.nozzle_diameter_mm = StatedPrinter::Value<double>{n[3], "Dimension"};
     }
   }
-
 }
 
 /// Build height, nozzle and filament, and the machine limits the slicer planned with.
 void stated_limits(const StatedReader& r, StatedPrinter& p) {
-  r.number({"max_print_height", "printable_height", "cura.machine_height", "bed_size_z_mm", "strokeZoverride"}, true,
-         p.max_z_mm);
-  r.number({"nozzle_diameter", "cura.machine_nozzle_size", "EXTRUDER_TRAIN.0.NOZZLE.DIAMETER", "extruderDiameter"}, true,
-         p.nozzle_diameter_mm);
-  r.number({"filament_diameter", "cura.material_diameter", "fiber_dia_mm", "filamentDiameters", "Filament Diameter #1"},
-         true, p.filament_diameter_mm);
+  r.number({"max_print_height", "printable_height", "cura.machine_height", "bed_size_z_mm",
+            "strokeZoverride"},
+           true, p.max_z_mm);
+  r.number({"nozzle_diameter", "cura.machine_nozzle_size", "EXTRUDER_TRAIN.0.NOZZLE.DIAMETER",
+            "extruderDiameter"},
+           true, p.nozzle_diameter_mm);
+  r.number({"filament_diameter", "cura.material_diameter", "fiber_dia_mm", "filamentDiameters",
+            "Filament Diameter #1"},
+           true, p.filament_diameter_mm);
 
   static const char* kAxes[4] = {"x", "y", "z", "e"};
   for (int i = 0; i < 4; ++i) {
     const std::string a = kAxes[i];
-    r.number({"machine_max_feedrate_" + a, "machine_max_speed_" + a, "cura.machine_max_feedrate_" + a}, true,
-           p.max_feedrate_mm_s[i]);
-    r.number({"machine_max_acceleration_" + a, "cura.machine_max_acceleration_" + a}, true, p.max_accel_mm_s2[i]);
-    r.number({"machine_max_jerk_" + a, "cura.machine_max_jerk_" + std::string(i < 2 ? "xy" : a)}, true, p.jerk_mm_s[i]);
+    r.number(
+        {"machine_max_feedrate_" + a, "machine_max_speed_" + a, "cura.machine_max_feedrate_" + a},
+        true, p.max_feedrate_mm_s[i]);
+    r.number({"machine_max_acceleration_" + a, "cura.machine_max_acceleration_" + a}, true,
+             p.max_accel_mm_s2[i]);
+    r.number({"machine_max_jerk_" + a, "cura.machine_max_jerk_" + std::string(i < 2 ? "xy" : a)},
+             true, p.jerk_mm_s[i]);
   }
   // Strings built above outlive the calls? number() copies the key: the temporaries are fine.
   if (!p.max_accel_mm_s2[0] && r.get("xy_accel_mm_per_s_per_s") != nullptr) {  // KISSlicer
     r.number({"xy_accel_mm_per_s_per_s"}, true, p.max_accel_mm_s2[0]);
     p.max_accel_mm_s2[1] = p.max_accel_mm_s2[0];
   }
-  r.number({"machine_max_acceleration_extruding", "cura.machine_acceleration"}, true, p.print_accel_mm_s2);
+  r.number({"machine_max_acceleration_extruding", "cura.machine_acceleration"}, true,
+           p.print_accel_mm_s2);
   r.number({"machine_max_acceleration_retracting"}, true, p.retract_accel_mm_s2);
-  r.number({"machine_max_acceleration_travel", "cura.machine_acceleration"}, true, p.travel_accel_mm_s2);
+  r.number({"machine_max_acceleration_travel", "cura.machine_acceleration"}, true,
+           p.travel_accel_mm_s2);
   r.number({"machine_min_extruding_rate"}, false, p.min_feedrate_mm_s);
   r.number({"machine_min_travel_rate"}, false, p.min_travel_feedrate_mm_s);
-
 }
 
 /// First-layer temperatures (what a start macro without parameters heats to).
 void stated_first_layer_temperatures(const StatedReader& r, StatedPrinter& p) {
-  r.number({"first_layer_temperature", "nozzle_temperature_initial_layer", "cura.material_print_temperature_layer_0",
-          "EXTRUDER_TRAIN.0.INITIAL_TEMPERATURE", "first_layer_C"},
-         true, p.first_layer_hotend_c);
+  r.number({"first_layer_temperature", "nozzle_temperature_initial_layer",
+            "cura.material_print_temperature_layer_0", "EXTRUDER_TRAIN.0.INITIAL_TEMPERATURE",
+            "first_layer_C"},
+           true, p.first_layer_hotend_c);
   std::string plate_key;
   if (const auto* plate = r.get("curr_bed_type")) {
     const std::string t = lower(plate->value);
-    if (t.find("cool") != std::string::npos) plate_key = "cool_plate_temp_initial_layer";
-    else if (t.find("engineering") != std::string::npos) plate_key = "eng_plate_temp_initial_layer";
-    else if (t.find("textured") != std::string::npos) plate_key = "textured_plate_temp_initial_layer";
-    else if (t.find("supertack") != std::string::npos) plate_key = "supertack_plate_temp_initial_layer";
-    else plate_key = "hot_plate_temp_initial_layer";
+    if (t.find("cool") != std::string::npos)
+      plate_key = "cool_plate_temp_initial_layer";
+    else if (t.find("engineering") != std::string::npos)
+      plate_key = "eng_plate_temp_initial_layer";
+    else if (t.find("textured") != std::string::npos)
+      plate_key = "textured_plate_temp_initial_layer";
+    else if (t.find("supertack") != std::string::npos)
+      plate_key = "supertack_plate_temp_initial_layer";
+    else
+      plate_key = "hot_plate_temp_initial_layer";
   }
   if (!plate_key.empty()) r.number({plate_key}, true, p.first_layer_bed_c);
   if (!p.first_layer_bed_c)
-    r.number({"first_layer_bed_temperature", "bed_temperature_initial_layer_single", "hot_plate_temp_initial_layer",
-            "cura.material_bed_temperature_layer_0", "BUILD_PLATE.INITIAL_TEMPERATURE", "bed_C"},
-           true, p.first_layer_bed_c);
+    r.number({"first_layer_bed_temperature", "bed_temperature_initial_layer_single",
+              "hot_plate_temp_initial_layer", "cura.material_bed_temperature_layer_0",
+              "BUILD_PLATE.INITIAL_TEMPERATURE", "bed_C"},
+             true, p.first_layer_bed_c);
 }
 }  // namespace
 
@@ -303,21 +333,26 @@ std::string size_text(double w, double d, double h) {
 }
 
 void apply_stated(const StatedPrinter& st, bool from_library, PrinterProfile& p) {
-  auto set = [&](const std::string& key, const std::string& setting) { p.origin.set(key, "file", setting); };
+  auto set = [&](const std::string& key, const std::string& setting) {
+    p.origin.set(key, "file", setting);
+  };
   if (st.bed) {
     const auto& b = st.bed->value;
     p.bed_min_x_mm = b[0];
     p.bed_min_y_mm = b[1];
     p.bed_max_x_mm = b[2];
     p.bed_max_y_mm = b[3];
-    for (const char* k : {"bed_min_x_mm", "bed_min_y_mm", "bed_max_x_mm", "bed_max_y_mm"}) set(k, st.bed->key);
+    for (const char* k : {"bed_min_x_mm", "bed_min_y_mm", "bed_max_x_mm", "bed_max_y_mm"})
+      set(k, st.bed->key);
     // The carriage reaches at least the bed; a library printer keeps its wider travel.
     if (!from_library) {
       p.travel_min_x_mm = b[0];
       p.travel_min_y_mm = b[1];
       p.travel_max_x_mm = b[2];
       p.travel_max_y_mm = b[3];
-      for (const char* k : {"travel_min_x_mm", "travel_min_y_mm", "travel_max_x_mm", "travel_max_y_mm"}) set(k, st.bed->key);
+      for (const char* k :
+           {"travel_min_x_mm", "travel_min_y_mm", "travel_max_x_mm", "travel_max_y_mm"})
+        set(k, st.bed->key);
     } else {
       auto widen = [&](double& v, double to, bool lower_end, const char* key) {
         if (lower_end ? to < v : to > v) {
@@ -348,7 +383,8 @@ void apply_stated(const StatedPrinter& st, bool from_library, PrinterProfile& p)
     set("filament_diameter_mm", st.filament_diameter_mm->key);
   }
   // Per-axis values: the source lists the setting of each axis the file states.
-  auto vec = [&](const std::optional<StatedPrinter::Value<double>>(&v)[4], Eigen::Vector4d& member, const char* key) {
+  auto vec = [&](const std::optional<StatedPrinter::Value<double>>(&v)[4], Eigen::Vector4d& member,
+                 const char* key) {
     std::string keys;
     for (int i = 0; i < 4; ++i) {
       if (!v[i]) continue;
@@ -360,7 +396,8 @@ void apply_stated(const StatedPrinter& st, bool from_library, PrinterProfile& p)
   vec(st.max_feedrate_mm_s, p.max_feedrate_mm_s, "max_feedrate_mm_s");
   vec(st.max_accel_mm_s2, p.max_accel_mm_s2, "max_accel_mm_s2");
   vec(st.jerk_mm_s, p.jerk_mm_s, "jerk_mm_s");
-  auto scalar = [&](const std::optional<StatedPrinter::Value<double>>& v, double& member, const char* key) {
+  auto scalar = [&](const std::optional<StatedPrinter::Value<double>>& v, double& member,
+                    const char* key) {
     if (!v) return;
     member = v->value;
     set(key, v->key);
@@ -404,11 +441,13 @@ Result<ResolvedPrinter> resolve_printer(std::string_view spec, SlicerSettings se
         Finding f;
         f.severity = Severity::warning;
         f.code = "printer_mismatch";
-        f.message = "the file was sliced for a " + size_text(w, d, st.max_z_mm ? h : 0).substr(0) + " build volume (" +
-                    st.bed->key + (st.max_z_mm ? ", " + st.max_z_mm->key : "") + "), larger than " + r.profile.name +
-                    " (" + size_text(pw, pd, r.profile.max_z_mm) +
-                    "): moves beyond this printer's travel are reported out of bounds and clamped, so the simulated "
-                    "part differs from the print; use --printer auto to simulate the file's own printer";
+        f.message =
+            "the file was sliced for a " + size_text(w, d, st.max_z_mm ? h : 0).substr(0) +
+            " build volume (" + st.bed->key + (st.max_z_mm ? ", " + st.max_z_mm->key : "") +
+            "), larger than " + r.profile.name + " (" + size_text(pw, pd, r.profile.max_z_mm) +
+            "): moves beyond this printer's travel are reported out of bounds and clamped, so the "
+            "simulated "
+            "part differs from the print; use --printer auto to simulate the file's own printer";
         o.findings.push_back(std::move(f));
       }
     }
@@ -416,8 +455,8 @@ Result<ResolvedPrinter> resolve_printer(std::string_view spec, SlicerSettings se
       Finding f;
       f.severity = Severity::warning;
       f.code = "printer_mismatch";
-      f.message = "the file was written for " + st.flavour_text + " firmware (" + st.firmware->key + ") but " +
-                  r.profile.name + " runs " + r.profile.firmware +
+      f.message = "the file was written for " + st.flavour_text + " firmware (" + st.firmware->key +
+                  ") but " + r.profile.name + " runs " + r.profile.firmware +
                   ": flavour-specific commands and the timing follow the given printer";
       o.findings.push_back(std::move(f));
     }
@@ -466,22 +505,28 @@ Result<ResolvedPrinter> resolve_printer(std::string_view spec, SlicerSettings se
       f.code = "printer_not_in_library";
       f.message = (st.model ? "\"" + st.model->value + "\" is not in the printer library"
                             : std::string("the file names no printer")) +
-                  ": the bed (" + size_text(r.profile.bed_max_x_mm - r.profile.bed_min_x_mm,
-                                            r.profile.bed_max_y_mm - r.profile.bed_min_y_mm, r.profile.max_z_mm) +
-                  ") and the limits the file states are used; homing, steps, heating rates and unstated limits are "
-                  "generic " + r.profile.firmware + " defaults, so times are estimates (pass --printer to be exact)";
+                  ": the bed (" +
+                  size_text(r.profile.bed_max_x_mm - r.profile.bed_min_x_mm,
+                            r.profile.bed_max_y_mm - r.profile.bed_min_y_mm, r.profile.max_z_mm) +
+                  ") and the limits the file states are used; homing, steps, heating rates and "
+                  "unstated limits are "
+                  "generic " +
+                  r.profile.firmware +
+                  " defaults, so times are estimates (pass --printer to be exact)";
       o.findings.push_back(std::move(f));
     } else {
       o.summary = r.profile.name + " (nothing in the file identifies the printer: generic default)";
       Finding f;
       f.severity = Severity::warning;
       f.code = "printer_unknown";
-      f.message = "nothing in the file (" + slicer + ") states the printer or its bed: it is judged against the " +
-                  r.profile.name + " (" +
-                  size_text(r.profile.bed_max_x_mm - r.profile.bed_min_x_mm, r.profile.bed_max_y_mm - r.profile.bed_min_y_mm,
-                            r.profile.max_z_mm) +
+      f.message = "nothing in the file (" + slicer +
+                  ") states the printer or its bed: it is judged against the " + r.profile.name +
+                  " (" +
+                  size_text(r.profile.bed_max_x_mm - r.profile.bed_min_x_mm,
+                            r.profile.bed_max_y_mm - r.profile.bed_min_y_mm, r.profile.max_z_mm) +
                   ", " + r.profile.firmware +
-                  "): out-of-bounds findings and the print time hold for that machine only; pass --printer NAME "
+                  "): out-of-bounds findings and the print time hold for that machine only; pass "
+                  "--printer NAME "
                   "(printtwin printers) or a profile";
       o.findings.push_back(std::move(f));
     }
@@ -493,7 +538,8 @@ Result<ResolvedPrinter> resolve_printer(std::string_view spec, SlicerSettings se
   return r;
 }
 
-Result<ResolvedPrinter> resolve_printer(std::string_view spec, const std::filesystem::path& gcode_path) {
+Result<ResolvedPrinter> resolve_printer(std::string_view spec,
+                                        const std::filesystem::path& gcode_path) {
   SlicerSettings settings;
   if (!gcode_path.empty()) {
     // An unreadable file is left to the G-code reader to report (with its own context,
@@ -511,7 +557,8 @@ Result<ResolvedPrinter> resolve_printer(std::string_view spec, const std::filesy
 }
 
 void apply_printer_to_options(const ResolvedPrinter& printer, InterpreterOptions& options) {
-  if (std::isnan(options.macro_hotend_c)) options.macro_hotend_c = printer.profile.origin.macro_hotend_c;
+  if (std::isnan(options.macro_hotend_c))
+    options.macro_hotend_c = printer.profile.origin.macro_hotend_c;
   if (std::isnan(options.macro_bed_c)) options.macro_bed_c = printer.profile.origin.macro_bed_c;
 }
 

@@ -25,7 +25,8 @@ using ProfileBaseLookup = std::function<Result<PrinterProfile>(const std::string
                                                                 const std::string& origin_source);
 
 /// The embedded printers/*.json: (file name, text) pairs (generated at build time).
-[[nodiscard]] const std::vector<std::pair<std::string_view, std::string_view>>& embedded_printer_files();
+[[nodiscard]] const std::vector<std::pair<std::string_view, std::string_view>>&
+embedded_printer_files();
 
 /// Lowercase words of a name ("Original Prusa MK4S 0.4 nozzle" -> original prusa mk4s 0 4 nozzle).
 [[nodiscard]] std::vector<std::string> name_words(std::string_view name);

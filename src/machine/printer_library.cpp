@@ -47,32 +47,41 @@ std::vector<LibraryPrinter> load_library() {
   }
   std::map<std::string, LibraryPrinter> done;
   std::set<std::string> in_progress;
-  std::function<Result<PrinterProfile>(const std::string&)> load = [&](const std::string& id_in) -> Result<PrinterProfile> {
+  std::function<Result<PrinterProfile>(const std::string&)> load =
+      [&](const std::string& id_in) -> Result<PrinterProfile> {
     const std::string id = lower(id_in);
     if (auto it = done.find(id); it != done.end()) return it->second.profile;
     auto t = texts.find(id);
     if (t == texts.end()) return builtin_printer(id_in);  // ender3, ender3-klipper, ...
-    if (!in_progress.insert(id).second) return bad_input("\"base\" chain loops through " + id, t->second.first);
+    if (!in_progress.insert(id).second)
+      return bad_input("\"base\" chain loops through " + id, t->second.first);
     const std::string source = "printers/" + t->second.first;
     auto profile = parse_printer_profile_with(t->second.second, source, load, "library");
     if (!profile) return profile.error();
     const json doc = json::parse(t->second.second);
     LibraryPrinter lp;
     lp.id = doc.value("id", id);
-    if (lower(lp.id) != id) return bad_input("\"id\" must equal the file name (" + id + ")", source);
+    if (lower(lp.id) != id)
+      return bad_input("\"id\" must equal the file name (" + id + ")", source);
     lp.name = profile->name;
-    for (const auto& a : doc.value("aliases", json::array())) lp.aliases.push_back(a.get<std::string>());
-    for (const auto& s : doc.value("sources", json::array())) lp.sources.push_back(s.get<std::string>());
+    for (const auto& a : doc.value("aliases", json::array()))
+      lp.aliases.push_back(a.get<std::string>());
+    for (const auto& s : doc.value("sources", json::array()))
+      lp.sources.push_back(s.get<std::string>());
     if (lp.sources.empty()) return bad_input("a library printer must cite its \"sources\"", source);
     // Keys this file or a library base set name their profile; the rest are the generic default.
     PrinterOrigin origin;
     std::string base_id;
     if (auto b = doc.find("base"); b != doc.end()) base_id = lower(b->get<std::string>());
-    const PrinterOrigin* base_origin = done.count(base_id) != 0 ? &done.at(base_id).origin : nullptr;
+    const PrinterOrigin* base_origin =
+        done.count(base_id) != 0 ? &done.at(base_id).origin : nullptr;
     for (const auto& key : printer_profile_keys()) {
-      if (doc.contains(key)) origin.set(key, "library", lp.id);
-      else if (base_origin != nullptr && base_origin->find(key) != nullptr) origin.values.push_back(*base_origin->find(key));
-      else origin.set(key, "default", "");
+      if (doc.contains(key))
+        origin.set(key, "library", lp.id);
+      else if (base_origin != nullptr && base_origin->find(key) != nullptr)
+        origin.values.push_back(*base_origin->find(key));
+      else
+        origin.set(key, "default", "");
     }
     origin.library_id = lp.id;
     profile->origin = origin;
@@ -111,10 +120,12 @@ namespace {
 /// Words that may follow a printer's name in a settings id without naming another printer
 /// ("Original Prusa MK4S 0.4 nozzle", "... Input Shaper", "... HF0.4").
 bool is_variant_word(const std::string& w, const std::string& last_alias_word) {
-  if (std::all_of(w.begin(), w.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)) != 0; }))
+  if (std::all_of(w.begin(), w.end(),
+                  [](char c) { return std::isdigit(static_cast<unsigned char>(c)) != 0; }))
     return true;
-  static const std::set<std::string> kVariant = {"nozzle", "mm", "hf", "is", "input", "shaper", "mmu",
-                                                 "mmu2s", "mmu3", "high", "flow", "copy", "plate"};
+  static const std::set<std::string> kVariant = {"nozzle", "mm",   "hf",    "is",   "input",
+                                                 "shaper", "mmu",  "mmu2s", "mmu3", "high",
+                                                 "flow",   "copy", "plate"};
   return kVariant.count(w) != 0 || w.rfind(last_alias_word, 0) == 0 || w.rfind("hf0", 0) == 0;
 }
 
@@ -132,7 +143,8 @@ const LibraryPrinter* match_library_printer(std::string_view name) {
       std::size_t chars = 0;
       for (const auto& w : aw) chars += w.size();
       for (std::size_t at = 0; at + aw.size() <= words.size(); ++at) {
-        if (!std::equal(aw.begin(), aw.end(), words.begin() + static_cast<std::ptrdiff_t>(at))) continue;
+        if (!std::equal(aw.begin(), aw.end(), words.begin() + static_cast<std::ptrdiff_t>(at)))
+          continue;
         const std::size_t next = at + aw.size();
         if (next < words.size() && !is_variant_word(words[next], aw.back())) continue;
         if (aw.size() > best_words || (aw.size() == best_words && chars > best_chars)) {
@@ -147,11 +159,13 @@ const LibraryPrinter* match_library_printer(std::string_view name) {
 }
 
 std::string printer_library_table() {
-  std::string s = "id                      printer                          bed (mm)             firmware\n";
+  std::string s =
+      "id                      printer                          bed (mm)             firmware\n";
   for (const auto& p : printer_library()) {
     const auto& q = p.profile;
     std::string bed = format_number(q.bed_max_x_mm - q.bed_min_x_mm) + " x " +
-                      format_number(q.bed_max_y_mm - q.bed_min_y_mm) + " x " + format_number(q.max_z_mm);
+                      format_number(q.bed_max_y_mm - q.bed_min_y_mm) + " x " +
+                      format_number(q.max_z_mm);
     auto pad = [](std::string t, std::size_t n) {
       if (t.size() < n) t.append(n - t.size(), ' ');
       return t;

@@ -1,15 +1,15 @@
 // Printer profiles: the built-in Ender-3 variants and JSON profile files.
-#include <filesystem>
 #include <algorithm>
+#include <filesystem>
 #include <functional>
 #include <map>
-#include <set>
 #include <nlohmann/json.hpp>
+#include <set>
 
+#include "machine/printer_internal.hpp"
 #include "printtwin/io.hpp"
 #include "printtwin/machine.hpp"
 #include "printtwin/printer.hpp"
-#include "machine/printer_internal.hpp"
 
 namespace printtwin {
 
@@ -91,29 +91,33 @@ Error key_error(const std::string& source, const std::string& key, const std::st
 }
 
 Key number(double PrinterProfile::*member, double lo, double hi) {
-  return Key{[member, lo, hi](PrinterProfile& p, const json& v, const std::string& where) -> Status {
-               if (!v.is_number()) return key_error(where, "", "expected a number");
-               const double d = v.get<double>();
-               if (!(d >= lo && d <= hi))
-                 return key_error(where, "", "value " + format_number(d) + " outside [" +
-                                                  format_number(lo) + ", " + format_number(hi) + "]");
-               p.*member = d;
-               return Ok{};
-             },
-             [member](const PrinterProfile& p) { return json(p.*member); }};
+  return Key{
+      [member, lo, hi](PrinterProfile& p, const json& v, const std::string& where) -> Status {
+        if (!v.is_number()) return key_error(where, "", "expected a number");
+        const double d = v.get<double>();
+        if (!(d >= lo && d <= hi))
+          return key_error(where, "",
+                           "value " + format_number(d) + " outside [" + format_number(lo) + ", " +
+                               format_number(hi) + "]");
+        p.*member = d;
+        return Ok{};
+      },
+      [member](const PrinterProfile& p) { return json(p.*member); }};
 }
 
 Key integer(int PrinterProfile::*member, int lo, int hi) {
-  return Key{[member, lo, hi](PrinterProfile& p, const json& v, const std::string& where) -> Status {
-               if (!v.is_number_integer()) return key_error(where, "", "expected an integer");
-               const auto d = v.get<long long>();
-               if (d < lo || d > hi)
-                 return key_error(where, "", "value " + std::to_string(d) + " outside [" +
-                                                  std::to_string(lo) + ", " + std::to_string(hi) + "]");
-               p.*member = static_cast<int>(d);
-               return Ok{};
-             },
-             [member](const PrinterProfile& p) { return json(p.*member); }};
+  return Key{
+      [member, lo, hi](PrinterProfile& p, const json& v, const std::string& where) -> Status {
+        if (!v.is_number_integer()) return key_error(where, "", "expected an integer");
+        const auto d = v.get<long long>();
+        if (d < lo || d > hi)
+          return key_error(where, "",
+                           "value " + std::to_string(d) + " outside [" + std::to_string(lo) + ", " +
+                               std::to_string(hi) + "]");
+        p.*member = static_cast<int>(d);
+        return Ok{};
+      },
+      [member](const PrinterProfile& p) { return json(p.*member); }};
 }
 
 Key boolean(bool PrinterProfile::*member) {
@@ -145,26 +149,29 @@ Key text(std::string PrinterProfile::*member) {
 
 template <class VecT>
 Key vector(VecT PrinterProfile::*member, double lo, double hi) {
-  return Key{[member, lo, hi](PrinterProfile& p, const json& v, const std::string& where) -> Status {
-               const int n = static_cast<int>(VecT::RowsAtCompileTime);
-               if (!v.is_array() || static_cast<int>(v.size()) != n)
-                 return key_error(where, "", "expected an array of " + std::to_string(n) +
-                                                 " numbers (" + (n == 4 ? "X, Y, Z, E" : "X, Y, Z") + ")");
-               for (int i = 0; i < n; ++i) {
-                 if (!v[i].is_number()) return key_error(where, "", "expected numbers");
-                 const double d = v[i].get<double>();
-                 if (!(d >= lo && d <= hi))
-                   return key_error(where, "", "value " + format_number(d) + " outside [" +
-                                                   format_number(lo) + ", " + format_number(hi) + "]");
-                 (p.*member)[i] = d;
-               }
-               return Ok{};
-             },
-             [member](const PrinterProfile& p) {
-               json a = json::array();
-               for (int i = 0; i < (p.*member).size(); ++i) a.push_back((p.*member)[i]);
-               return a;
-             }};
+  return Key{
+      [member, lo, hi](PrinterProfile& p, const json& v, const std::string& where) -> Status {
+        const int n = static_cast<int>(VecT::RowsAtCompileTime);
+        if (!v.is_array() || static_cast<int>(v.size()) != n)
+          return key_error(where, "",
+                           "expected an array of " + std::to_string(n) + " numbers (" +
+                               (n == 4 ? "X, Y, Z, E" : "X, Y, Z") + ")");
+        for (int i = 0; i < n; ++i) {
+          if (!v[i].is_number()) return key_error(where, "", "expected numbers");
+          const double d = v[i].get<double>();
+          if (!(d >= lo && d <= hi))
+            return key_error(where, "",
+                             "value " + format_number(d) + " outside [" + format_number(lo) + ", " +
+                                 format_number(hi) + "]");
+          (p.*member)[i] = d;
+        }
+        return Ok{};
+      },
+      [member](const PrinterProfile& p) {
+        json a = json::array();
+        for (int i = 0; i < (p.*member).size(); ++i) a.push_back((p.*member)[i]);
+        return a;
+      }};
 }
 
 const std::map<std::string, Key>& keys() {
@@ -233,8 +240,8 @@ const std::map<std::string, Key>& keys() {
 
 /// Keys of a profile file that describe it rather than set a value.
 bool is_metadata_key(const std::string& key) {
-  return key == "base" || key == "$schema" || key == "comment" || key == "junction" || key == "id" ||
-         key == "aliases" || key == "sources";
+  return key == "base" || key == "$schema" || key == "comment" || key == "junction" ||
+         key == "id" || key == "aliases" || key == "sources";
 }
 
 const std::set<std::string> kFirmwares = {"marlin2", "marlin1", "prusa", "klipper", "rrf", "bambu"};
@@ -243,10 +250,14 @@ const std::set<std::string> kFirmwares = {"marlin2", "marlin1", "prusa", "klippe
 
 Result<PrinterProfile> builtin_printer(std::string_view name) {
   PrinterProfile p;
-  if (name == "ender3" || name == "ender3-marlin2") p = ender3_marlin2();
-  else if (name == "ender3-marlin1") p = ender3_marlin1();
-  else if (name == "ender3-klipper") p = ender3_klipper();
-  else if (const auto* lib = find_library_printer(name)) return lib->profile;
+  if (name == "ender3" || name == "ender3-marlin2")
+    p = ender3_marlin2();
+  else if (name == "ender3-marlin1")
+    p = ender3_marlin1();
+  else if (name == "ender3-klipper")
+    p = ender3_klipper();
+  else if (const auto* lib = find_library_printer(name))
+    return lib->profile;
   else
     return usage_error("unknown printer \"" + std::string(name) +
                        "\": expected auto, a library printer (printtwin printers lists them), "
@@ -255,7 +266,8 @@ Result<PrinterProfile> builtin_printer(std::string_view name) {
   return p;
 }
 
-Result<PrinterProfile> parse_printer_profile_with(std::string_view json_text, std::string_view source,
+Result<PrinterProfile> parse_printer_profile_with(std::string_view json_text,
+                                                  std::string_view source,
                                                   const ProfileBaseLookup& lookup,
                                                   const std::string& origin_source) {
   const std::string src(source);
@@ -278,21 +290,26 @@ Result<PrinterProfile> parse_printer_profile_with(std::string_view json_text, st
   for (const auto& [key, value] : doc.items()) {
     if (is_metadata_key(key)) {
       if ((key == "aliases" || key == "sources") &&
-          !(value.is_array() && std::all_of(value.begin(), value.end(), [](const json& v) { return v.is_string(); })))
+          !(value.is_array() &&
+            std::all_of(value.begin(), value.end(), [](const json& v) { return v.is_string(); })))
         return key_error(src, key, "expected an array of strings");
       continue;
     }
     const auto it = keys().find(key);
     if (it == keys().end()) return key_error(src, key, "unknown key (see docs/printer-profile.md)");
     auto st = it->second.set(profile, value, src);
-    if (!st) return key_error(src, key, st.error().message.substr(st.error().message.find(": ") + 2));
+    if (!st)
+      return key_error(src, key, st.error().message.substr(st.error().message.find(": ") + 2));
     profile.origin.set(key, origin_source, src);
   }
   if (auto it = doc.find("junction"); it != doc.end()) {
     const std::string j = it->is_string() ? it->get<std::string>() : "";
-    if (j == "junction_deviation") profile.junction = JunctionModel::junction_deviation;
-    else if (j == "classic_jerk") profile.junction = JunctionModel::classic_jerk;
-    else return key_error(src, "junction", "expected \"junction_deviation\" or \"classic_jerk\"");
+    if (j == "junction_deviation")
+      profile.junction = JunctionModel::junction_deviation;
+    else if (j == "classic_jerk")
+      profile.junction = JunctionModel::classic_jerk;
+    else
+      return key_error(src, "junction", "expected \"junction_deviation\" or \"classic_jerk\"");
     profile.origin.set("junction", origin_source, src);
   }
   if (kFirmwares.count(profile.firmware) == 0)
@@ -303,7 +320,6 @@ Result<PrinterProfile> parse_printer_profile_with(std::string_view json_text, st
     return key_error(src, "arc_max_segment_mm", "must be at least arc_min_segment_mm");
   return profile;
 }
-
 
 Result<PrinterProfile> parse_printer_profile(std::string_view json_text, std::string_view source) {
   return parse_printer_profile_with(json_text, source, builtin_printer, "config");
@@ -331,7 +347,8 @@ Result<PrinterProfile> load_printer_profile(std::string_view name_or_path) {
 std::string printer_profile_to_json(const PrinterProfile& profile) {
   json doc = json::object();
   for (const auto& [key, k] : keys()) doc[key] = k.get(profile);
-  doc["junction"] = profile.junction == JunctionModel::classic_jerk ? "classic_jerk" : "junction_deviation";
+  doc["junction"] =
+      profile.junction == JunctionModel::classic_jerk ? "classic_jerk" : "junction_deviation";
   return doc.dump(2);
 }
 
@@ -339,7 +356,8 @@ std::string printer_profile_to_json(const PrinterProfile& profile) {
 
 namespace printtwin {
 
-void PrinterOrigin::set(const std::string& key, const std::string& source, const std::string& detail) {
+void PrinterOrigin::set(const std::string& key, const std::string& source,
+                        const std::string& detail) {
   for (auto& v : values)
     if (v.key == key) {
       v.source = source;
@@ -379,9 +397,12 @@ std::string printer_provenance_json(const PrinterProfile& p) {
     json v{{"value", value}};
     if (const auto* o = p.origin.find(key)) {
       v["source"] = o->source;
-      if (o->source == "file") v["key"] = o->detail;
-      else if (o->source == "library") v["profile"] = o->detail;
-      else if (o->source == "config") v["file"] = o->detail;
+      if (o->source == "file")
+        v["key"] = o->detail;
+      else if (o->source == "library")
+        v["profile"] = o->detail;
+      else if (o->source == "config")
+        v["file"] = o->detail;
     } else if (!p.origin.library_id.empty()) {
       v["source"] = "library";
       v["profile"] = p.origin.library_id;

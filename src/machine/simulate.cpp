@@ -63,12 +63,24 @@ class Pipeline final : public InterpreterOutput, public MoveSink {
     r.max_speed_mm_s = std::max(r.max_speed_mm_s, s.cruise_speed_mm_s);
     std::size_t key;
     switch (s.kind) {
-      case MoveKind::home: r.homing_time_s += t; key = kHoming; break;
-      case MoveKind::travel: r.motion_time_s += t; key = kTravel; break;
+      case MoveKind::home:
+        r.homing_time_s += t;
+        key = kHoming;
+        break;
+      case MoveKind::travel:
+        r.motion_time_s += t;
+        key = kTravel;
+        break;
       case MoveKind::retract:
-      case MoveKind::unretract: r.motion_time_s += t; key = kRetract; break;
+      case MoveKind::unretract:
+        r.motion_time_s += t;
+        key = kRetract;
+        break;
       case MoveKind::extrude:
-      default: r.motion_time_s += t; key = static_cast<std::size_t>(s.feature); break;
+      default:
+        r.motion_time_s += t;
+        key = static_cast<std::size_t>(s.feature);
+        break;
     }
     feature_time_[key] += t;
     if (s.layer >= 0) {
@@ -92,8 +104,10 @@ class Pipeline final : public InterpreterOutput, public MoveSink {
     r.filament_mm3 = 0;  // set by the caller (needs the profile)
     for (std::size_t i = 0; i < kKeys; ++i) {
       if (feature_time_[i] <= 0) continue;
-      std::string name = i == kTravel ? "travel" : i == kRetract ? "retract" : i == kHoming ? "homing"
-                                                 : std::string(to_string(static_cast<Feature>(i)));
+      std::string name = i == kTravel    ? "travel"
+                         : i == kRetract ? "retract"
+                         : i == kHoming  ? "homing"
+                                         : std::string(to_string(static_cast<Feature>(i)));
       r.time_by_feature_s[name] += feature_time_[i];
     }
     const auto& zs = interp.layer_z_mm();
@@ -146,8 +160,8 @@ Error with_file(Error e, const std::string& file) {
   return e;
 }
 
-Result<SimulationResult> run(std::istream& in, const PrinterProfile& profile, const SimulateOptions& options,
-                             MoveSink* sink, bool plan) {
+Result<SimulationResult> run(std::istream& in, const PrinterProfile& profile,
+                             const SimulateOptions& options, MoveSink* sink, bool plan) {
   const std::string& file = options.source_name;
   MotionLimits limits = motion_limits_from_profile(profile);
   int window = profile.block_buffer_size;
@@ -158,7 +172,9 @@ Result<SimulationResult> run(std::istream& in, const PrinterProfile& profile, co
     in.seekg(0, std::ios::end);
     const std::streamoff size = in.tellg();
     if (size < 0 || !in)
-      return bad_input("--limits-from-gcode needs a seekable file (slicers write their limits at the end)", file);
+      return bad_input(
+          "--limits-from-gcode needs a seekable file (slicers write their limits at the end)",
+          file);
     const std::streamoff part = std::min<std::streamoff>(size, 256 * 1024);
     std::string text(static_cast<std::size_t>(2 * part + 1), '\n');
     in.seekg(0);
@@ -178,8 +194,10 @@ Result<SimulationResult> run(std::istream& in, const PrinterProfile& profile, co
   // A start macro without parameters heats to the file's first-layer temperatures
   // (resolve_printer read them from the slicer's settings into the profile's origin).
   InterpreterOptions interp_options = options.interpreter;
-  if (std::isnan(interp_options.macro_hotend_c)) interp_options.macro_hotend_c = profile.origin.macro_hotend_c;
-  if (std::isnan(interp_options.macro_bed_c)) interp_options.macro_bed_c = profile.origin.macro_bed_c;
+  if (std::isnan(interp_options.macro_hotend_c))
+    interp_options.macro_hotend_c = profile.origin.macro_hotend_c;
+  if (std::isnan(interp_options.macro_bed_c))
+    interp_options.macro_bed_c = profile.origin.macro_bed_c;
   GcodeInterpreter interp(profile, interp_options);
   Pipeline pipe(limits, window, sink, plan);
   if (options.limits_from_gcode) interp.set_limits(limits, pipe);
@@ -191,7 +209,8 @@ Result<SimulationResult> run(std::istream& in, const PrinterProfile& profile, co
   while (reader.next(text)) {
     lines = reader.line_number();
     if (reader.truncated()) {
-      auto st = interp.warn_input(bad_input("line longer than " + std::to_string(kMaxGcodeLineLength) + " bytes", file, lines));
+      auto st = interp.warn_input(bad_input(
+          "line longer than " + std::to_string(kMaxGcodeLineLength) + " bytes", file, lines));
       if (!st) return with_file(st.error(), file);
       continue;
     }
@@ -205,7 +224,8 @@ Result<SimulationResult> run(std::istream& in, const PrinterProfile& profile, co
     if (!st) return with_file(st.error(), file);
   }
   if (in.bad()) return bad_input("read error after line " + std::to_string(lines), file);
-  if (auto st = interp.finish(reader.ended_mid_line(), lines); !st) return with_file(st.error(), file);
+  if (auto st = interp.finish(reader.ended_mid_line(), lines); !st)
+    return with_file(st.error(), file);
 
   pipe.finish(interp);
   SimulationResult r = std::move(pipe.r);
@@ -218,7 +238,8 @@ Result<SimulationResult> run(std::istream& in, const PrinterProfile& profile, co
     Finding f;
     f.severity = Severity::info;
     f.code = "unknown_command";
-    f.message = name + " is not simulated (ignored " + std::to_string(count) + (count == 1 ? " time)" : " times)");
+    f.message = name + " is not simulated (ignored " + std::to_string(count) +
+                (count == 1 ? " time)" : " times)");
     f.line = interp.unknown_first_lines().at(name);
     f.count = count;
     r.findings.push_back(std::move(f));
@@ -239,14 +260,14 @@ double round_to(double v, double q) { return std::round(v / q) * q; }
 /// Runs `run` on the G-code text of a binary G-code file (bgcode.hpp); a decode error in
 /// the middle of the file wins over the result of the text read up to it.
 template <class Run>
-auto run_on_bgcode(const std::filesystem::path& path, Run run) -> decltype(run(std::declval<std::istream&>())) {
+auto run_on_bgcode(const std::filesystem::path& path, Run run)
+    -> decltype(run(std::declval<std::istream&>())) {
   auto stream = BgcodeGcodeStream::open(path);
   if (!stream) return stream.error();
   auto r = run(**stream);
   if ((*stream)->error()) return *(*stream)->error();
   return r;
 }
-
 
 }  // namespace
 
@@ -255,13 +276,17 @@ Result<SimulationResult> simulate_gcode(std::istream& in, const PrinterProfile& 
   return run(in, profile, options, sink, true);
 }
 
-Result<SimulationResult> simulate_gcode_file(const std::filesystem::path& path, const PrinterProfile& profile,
+Result<SimulationResult> simulate_gcode_file(const std::filesystem::path& path,
+                                             const PrinterProfile& profile,
                                              const SimulateOptions& options, MoveSink* sink) {
   std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) return bad_input("is a directory, expected a G-code file", path.string());
+  if (std::filesystem::is_directory(path, ec))
+    return bad_input("is a directory, expected a G-code file", path.string());
   SimulateOptions o = options;
   if (o.source_name.empty()) o.source_name = path.string();
-  if (is_bgcode_file(path)) return run_on_bgcode(path, [&](std::istream& in) { return simulate_gcode(in, profile, o, sink); });
+  if (is_bgcode_file(path))
+    return run_on_bgcode(path,
+                         [&](std::istream& in) { return simulate_gcode(in, profile, o, sink); });
   std::ifstream in(path, std::ios::binary);
   if (!in) return bad_input("cannot open G-code file", path.string());
   return simulate_gcode(in, profile, o, sink);
@@ -278,11 +303,13 @@ Result<std::vector<Move>> interpret_gcode(std::istream& in, const PrinterProfile
   return std::move(collect.moves);
 }
 
-Result<std::vector<Move>> interpret_gcode_file(const std::filesystem::path& path, const PrinterProfile& profile,
+Result<std::vector<Move>> interpret_gcode_file(const std::filesystem::path& path,
+                                               const PrinterProfile& profile,
                                                const SimulateOptions& options) {
   SimulateOptions o = options;
   if (o.source_name.empty()) o.source_name = path.string();
-  if (is_bgcode_file(path)) return run_on_bgcode(path, [&](std::istream& in) { return interpret_gcode(in, profile, o); });
+  if (is_bgcode_file(path))
+    return run_on_bgcode(path, [&](std::istream& in) { return interpret_gcode(in, profile, o); });
   std::ifstream in(path, std::ios::binary);
   if (!in) return bad_input("cannot open G-code file", path.string());
   return interpret_gcode(in, profile, o);
@@ -314,8 +341,12 @@ std::string simulation_to_json(const SimulationResult& r, const std::string& inp
   doc["segments"] = r.segments;
   json layers = json::array();
   for (const auto& l : r.layers)
-    layers.push_back({{"index", l.index}, {"z_mm", q(l.z_mm)}, {"height_mm", q(l.height_mm)},
-                      {"time_s", q(l.time_s)}, {"filament_mm", q(l.filament_mm)}, {"first_line", l.first_line}});
+    layers.push_back({{"index", l.index},
+                      {"z_mm", q(l.z_mm)},
+                      {"height_mm", q(l.height_mm)},
+                      {"time_s", q(l.time_s)},
+                      {"filament_mm", q(l.filament_mm)},
+                      {"first_line", l.first_line}});
   doc["layers"] = {{"count", r.layers.size()}, {"from", r.layers_from}, {"items", layers}};
   json tf = json::object();
   for (const auto& [k, v] : r.time_by_feature_s) tf[k] = q(v);
@@ -332,11 +363,13 @@ std::string simulation_to_json(const SimulationResult& r, const std::string& inp
   doc["motion_bounds"] = box(r.motion_bounds_mm);
   json findings = json::array();
   for (const auto& f : r.findings) {
-    json j{{"severity", std::string(to_string(f.severity))}, {"code", f.code}, {"message", f.message}};
+    json j{
+        {"severity", std::string(to_string(f.severity))}, {"code", f.code}, {"message", f.message}};
     j["line"] = f.line ? json(*f.line) : json(nullptr);
     j["layer"] = f.layer ? json(*f.layer) : json(nullptr);
-    j["position_mm"] = f.position_mm ? json{q(f.position_mm->x()), q(f.position_mm->y()), q(f.position_mm->z())}
-                                     : json(nullptr);
+    j["position_mm"] =
+        f.position_mm ? json{q(f.position_mm->x()), q(f.position_mm->y()), q(f.position_mm->z())}
+                      : json(nullptr);
     j["count"] = f.count;
     findings.push_back(j);
   }
@@ -344,19 +377,24 @@ std::string simulation_to_json(const SimulationResult& r, const std::string& inp
   const auto& L = r.limits_used;
   doc["limits"] = {
       {"source", r.limits_from_gcode ? "gcode" : "profile"},
-      {"junction", L.junction == JunctionModel::classic_jerk ? "classic_jerk" : "junction_deviation"},
+      {"junction",
+       L.junction == JunctionModel::classic_jerk ? "classic_jerk" : "junction_deviation"},
       {"junction_deviation_mm", L.junction_deviation_mm},
       {"jerk_mm_s", {L.jerk_mm_s[0], L.jerk_mm_s[1], L.jerk_mm_s[2], L.jerk_mm_s[3]}},
-      {"max_feedrate_mm_s", {L.max_feedrate_mm_s[0], L.max_feedrate_mm_s[1], L.max_feedrate_mm_s[2], L.max_feedrate_mm_s[3]}},
-      {"max_accel_mm_s2", {L.max_accel_mm_s2[0], L.max_accel_mm_s2[1], L.max_accel_mm_s2[2], L.max_accel_mm_s2[3]}},
+      {"max_feedrate_mm_s",
+       {L.max_feedrate_mm_s[0], L.max_feedrate_mm_s[1], L.max_feedrate_mm_s[2],
+        L.max_feedrate_mm_s[3]}},
+      {"max_accel_mm_s2",
+       {L.max_accel_mm_s2[0], L.max_accel_mm_s2[1], L.max_accel_mm_s2[2], L.max_accel_mm_s2[3]}},
       {"print_accel_mm_s2", L.print_accel_mm_s2},
       {"retract_accel_mm_s2", L.retract_accel_mm_s2},
       {"travel_accel_mm_s2", L.travel_accel_mm_s2},
       {"min_segment_time_s", L.min_segment_time_s},
       {"prusaslicer_compat", L.prusaslicer_compat},
-      {"planner", L.klipper ? "klipper"
-                  : L.orca_compat ? "orcaslicer_estimator"
-                  : L.prusaslicer_compat ? "prusaslicer_estimator" : "marlin"}};
+      {"planner", L.klipper              ? "klipper"
+                  : L.orca_compat        ? "orcaslicer_estimator"
+                  : L.prusaslicer_compat ? "prusaslicer_estimator"
+                                         : "marlin"}};
   doc["printer"] = json::parse(printer_provenance_json(r.printer));
   return doc.dump(2) + "\n";
 }
@@ -367,7 +405,8 @@ std::string simulation_summary(const SimulationResult& r) {
   s += "printer       " + printer_provenance_summary(r.printer) + "\n";
   s += "lines         " + std::to_string(r.lines) + " (" + std::to_string(r.moves) + " moves, " +
        std::to_string(r.segments) + " planned segments)\n";
-  s += "print time    " + format_duration_compact(r.print_time_s) + " (" + format_fixed(r.print_time_s, 1) + " s)\n";
+  s += "print time    " + format_duration_compact(r.print_time_s) + " (" +
+       format_fixed(r.print_time_s, 1) + " s)\n";
   s += "  motion      " + format_fixed(r.motion_time_s, 1) + " s\n";
   s += "  homing      " + format_fixed(r.homing_time_s, 1) + " s\n";
   s += "  dwell       " + format_fixed(r.dwell_time_s, 1) + " s\n";
@@ -376,24 +415,28 @@ std::string simulation_summary(const SimulationResult& r) {
     // PrusaSlicer 2.5's estimate counts planned motion (its G28 is instantaneous and the
     // start G-code's G4 S is not added): compare motion time.
     const double ours = r.motion_time_s;
-    s += "slicer says   " + format_duration_compact(*r.slicer_estimate_s) + "; motion time differs by " +
-         format_fixed(100.0 * (ours - *r.slicer_estimate_s) / std::max(1.0, *r.slicer_estimate_s), 2) + " %" +
-         (r.limits_from_gcode ? "" : " (try --limits-from-gcode)") + "\n";
+    s += "slicer says   " + format_duration_compact(*r.slicer_estimate_s) +
+         "; motion time differs by " +
+         format_fixed(100.0 * (ours - *r.slicer_estimate_s) / std::max(1.0, *r.slicer_estimate_s),
+                      2) +
+         " %" + (r.limits_from_gcode ? "" : " (try --limits-from-gcode)") + "\n";
   }
-  s += "filament      " + format_fixed(r.filament_mm, 2) + " mm (" + format_fixed(r.filament_mm3, 1) + " mm3); part " +
-       format_fixed(r.filament_part_mm, 2) + " mm without start/end code\n";
+  s += "filament      " + format_fixed(r.filament_mm, 2) + " mm (" +
+       format_fixed(r.filament_mm3, 1) + " mm3); part " + format_fixed(r.filament_part_mm, 2) +
+       " mm without start/end code\n";
   if (r.slicer_filament_mm) {
     const double ref = std::max(1e-9, *r.slicer_filament_mm);
-    s += "slicer says   " + format_fixed(*r.slicer_filament_mm, 2) + " mm of filament; part differs by " +
+    s += "slicer says   " + format_fixed(*r.slicer_filament_mm, 2) +
+         " mm of filament; part differs by " +
          format_fixed(100.0 * (r.filament_part_mm - ref) / ref, 2) + " %, total by " +
          format_fixed(100.0 * (r.filament_mm - ref) / ref, 2) + " %\n";
   }
   if (!r.layers.empty()) {
     double zmin = r.layers.front().z_mm, zmax = zmin;
     for (const auto& l : r.layers) zmin = std::min(zmin, l.z_mm), zmax = std::max(zmax, l.z_mm);
-    s += "layers        " + std::to_string(r.layers.size()) + " (z " + format_fixed(zmin, 2) + " .. " +
-         format_fixed(zmax, 2) + " mm, " + (r.layers_from == "markers" ? "the slicer's layer markers" : "by Z of extrusions") +
-         ")\n";
+    s += "layers        " + std::to_string(r.layers.size()) + " (z " + format_fixed(zmin, 2) +
+         " .. " + format_fixed(zmax, 2) + " mm, " +
+         (r.layers_from == "markers" ? "the slicer's layer markers" : "by Z of extrusions") + ")\n";
   } else {
     s += "layers        0\n";
   }
@@ -402,7 +445,8 @@ std::string simulation_summary(const SimulationResult& r) {
     if (f.severity == Severity::error) ++errors;
     if (f.severity == Severity::warning) ++warnings;
   }
-  s += "findings      " + std::to_string(errors) + " errors, " + std::to_string(warnings) + " warnings\n";
+  s += "findings      " + std::to_string(errors) + " errors, " + std::to_string(warnings) +
+       " warnings\n";
   for (const auto& f : r.findings) {
     s += "  " + std::string(to_string(f.severity)) + " " + f.code;
     if (f.line) s += " (line " + std::to_string(*f.line) + ")";

@@ -26,7 +26,8 @@ bool has_reliable_normal(const Mesh& mesh, std::size_t t) {
   const Vec3& a = mesh.vertices_mm[tri[0]];
   const Vec3& b = mesh.vertices_mm[tri[1]];
   const Vec3& c = mesh.vertices_mm[tri[2]];
-  const double longest2 = std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
+  const double longest2 =
+      std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
   const double len = triangle_normal(mesh, t).norm();
   return std::isfinite(len) && len > 0 && len >= 1e-6 * longest2;
 }

@@ -14,9 +14,9 @@
 // checked by their grammar (from_chars only for the unusual ones), assimp reads STL without
 // post-processing (STL holds only triangles under one identity node), and the weld is one
 // pass with an open-addressing table straight from assimp's vertices.
-#include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
+#include <assimp/Importer.hpp>
 
 #include <algorithm>
 #include <array>
@@ -45,8 +45,8 @@ namespace {
 thread_local std::string last_assertion;
 }  // namespace
 [[noreturn]] void aiAssertViolation(const char* expression, const char* file, int line) {
-  last_assertion = std::string(expression != nullptr ? expression : "?") + " (" + (file != nullptr ? file : "?") +
-                   ":" + std::to_string(line) + ")";
+  last_assertion = std::string(expression != nullptr ? expression : "?") + " (" +
+                   (file != nullptr ? file : "?") + ":" + std::to_string(line) + ")";
   throw std::runtime_error("assimp's internal check failed: " + last_assertion);
 }
 }  // namespace Assimp
@@ -57,8 +57,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr std::size_t kStlHeaderBytes = 84;     // 80-byte header + uint32 triangle count
-constexpr std::size_t kStlTriangleBytes = 50;   // normal, 3 vertices (12 floats) + uint16
+constexpr std::size_t kStlHeaderBytes = 84;    // 80-byte header + uint32 triangle count
+constexpr std::size_t kStlTriangleBytes = 50;  // normal, 3 vertices (12 floats) + uint16
 constexpr double kStlMaxCoordinate = 3.4028234663852886e38;  // FLT_MAX
 
 std::string lower(std::string s) {
@@ -87,7 +87,8 @@ Status check_binary_stl_size(std::uint64_t count, std::uint64_t size, const std:
     const std::uint64_t present = (size - kStlHeaderBytes) / kStlTriangleBytes;
     return bad_input("binary STL header announces " + std::to_string(count) + " triangles (" +
                          std::to_string(need) + " bytes) but the file has " + std::to_string(size) +
-                         " bytes (" + std::to_string(present) + " whole triangles): truncated or corrupt",
+                         " bytes (" + std::to_string(present) +
+                         " whole triangles): truncated or corrupt",
                      name);
   }
   return Ok{};
@@ -104,8 +105,7 @@ Status validate_binary_stl(std::string_view bytes, const std::string& name) {
   if (auto st = check_binary_stl_size(count, bytes.size(), name); !st) return st;
   for (std::uint64_t t = 0; t < count; ++t) {
     std::array<float, 9> v{};
-    std::memcpy(v.data(), bytes.data() + kStlHeaderBytes + t * kStlTriangleBytes + 12,
-                sizeof(v));
+    std::memcpy(v.data(), bytes.data() + kStlHeaderBytes + t * kStlTriangleBytes + 12, sizeof(v));
     for (float x : v)
       if (!std::isfinite(x))
         return bad_input("triangle " + std::to_string(t) + " (byte offset " +
@@ -147,9 +147,11 @@ bool is_plain_finite_decimal(std::string_view tok) {
   if (i < tok.size() && (tok[i] == '+' || tok[i] == '-')) ++i;
   std::size_t exp_digits = 0;
   std::size_t exp_value = 0;
-  while (i < tok.size() && is_digit(tok[i])) exp_value = 10 * exp_value + static_cast<std::size_t>(tok[i] - '0'), ++i, ++exp_digits;
+  while (i < tok.size() && is_digit(tok[i]))
+    exp_value = 10 * exp_value + static_cast<std::size_t>(tok[i] - '0'), ++i, ++exp_digits;
   // Below 1e31, well inside float's range (3.4e38); tiny values just round to 0.
-  return i == tok.size() && exp_digits >= 1 && exp_digits <= 2 && (negative_exp || int_digits + exp_value <= 30);
+  return i == tok.size() && exp_digits >= 1 && exp_digits <= 2 &&
+         (negative_exp || int_digits + exp_value <= 30);
 }
 
 /// A token as it may be shown in a message: at most 40 bytes, control bytes (a NUL in a
@@ -183,8 +185,8 @@ Status validate_ascii_stl(std::string_view text, const std::string& name) {
     while (pos < end && *pos != '\n') ++pos;
   };
   auto fail_expect = [&](std::string_view word, std::string_view got) -> Status {
-    return bad_input("ASCII STL: expected '" + std::string(word) + "', found '" + shown(got) + "'", name,
-                     token_line);
+    return bad_input("ASCII STL: expected '" + std::string(word) + "', found '" + shown(got) + "'",
+                     name, token_line);
   };
   // Normals are ignored (recomputed from the vertices), so writers' "nan" normals of
   // zero-area facets pass; vertex coordinates must be finite.
@@ -195,9 +197,11 @@ Status validate_ascii_stl(std::string_view text, const std::string& name) {
     double out = 0;
     const auto [ptr, ec] = std::from_chars(first, last, out);
     if (tok.empty() || ec != std::errc() || ptr != last)
-      return bad_input("ASCII STL: expected a number, found '" + shown(tok) + "'", name, token_line);
+      return bad_input("ASCII STL: expected a number, found '" + shown(tok) + "'", name,
+                       token_line);
     if (must_be_finite && !std::isfinite(out))
-      return bad_input("ASCII STL: NaN or infinite coordinate '" + shown(tok) + "'", name, token_line);
+      return bad_input("ASCII STL: NaN or infinite coordinate '" + shown(tok) + "'", name,
+                       token_line);
     // STL stores single-precision floats: a larger coordinate becomes infinite when read.
     if (must_be_finite && std::abs(out) > kStlMaxCoordinate)
       return bad_input("ASCII STL: coordinate '" + shown(tok) +
@@ -212,11 +216,11 @@ Status validate_ascii_stl(std::string_view text, const std::string& name) {
     const std::string_view got_ = next();                 \
     if (got_ != (word)) return fail_expect((word), got_); \
   } while (false)
-#define PRINTTWIN_EXPECT_NUMBER(finite)                                     \
-  do {                                                                      \
-    const std::string_view tok_ = next();                                   \
-    if (!is_plain_finite_decimal(tok_))                                     \
-      if (auto st_ = slow_number(tok_, (finite)); !st_) return st_;         \
+#define PRINTTWIN_EXPECT_NUMBER(finite)                             \
+  do {                                                              \
+    const std::string_view tok_ = next();                           \
+    if (!is_plain_finite_decimal(tok_))                             \
+      if (auto st_ = slow_number(tok_, (finite)); !st_) return st_; \
   } while (false)
 
   PRINTTWIN_EXPECT_WORD("solid");
@@ -253,17 +257,20 @@ Status check_mesh_request(const fs::path& path, const MeshLoadOptions& options) 
   static constexpr std::array<std::string_view, 6> kKnown = {".stl", ".obj", ".ply",
                                                              ".off", ".3mf", ".amf"};
   if (std::find(kKnown.begin(), kKnown.end(), ext) == kKnown.end())
-    return bad_input("unknown mesh extension '" + ext +
-                         "', expected .stl, .obj, .ply, .off, .3mf or .amf",
-                     path.string());
+    return bad_input(
+        "unknown mesh extension '" + ext + "', expected .stl, .obj, .ply, .off, .3mf or .amf",
+        path.string());
   return Ok{};
 }
 
 double unit_factor(LengthUnit u) {
   switch (u) {
-    case LengthUnit::mm: return 1.0;
-    case LengthUnit::cm: return 10.0;
-    case LengthUnit::inch: return 25.4;
+    case LengthUnit::mm:
+      return 1.0;
+    case LengthUnit::cm:
+      return 10.0;
+    case LengthUnit::inch:
+      return 25.4;
   }
   return 1.0;
 }
@@ -360,12 +367,13 @@ Result<Mesh> welded_mesh(const aiScene& scene, double s, const std::string& name
   return mesh;
 }
 
-
 /// The checks every format's mesh ends with.
 Result<Mesh> finish_mesh(Mesh mesh, double s, const std::string& name) {
-  if (mesh.triangles.empty()) return bad_input("the file holds no triangles, expected a mesh", name);
+  if (mesh.triangles.empty())
+    return bad_input("the file holds no triangles, expected a mesh", name);
   for (const auto& v : mesh.vertices_mm)
-    if (!v.allFinite()) return bad_input("a coordinate overflows after scaling by " + format_number(s), name);
+    if (!v.allFinite())
+      return bad_input("a coordinate overflows after scaling by " + format_number(s), name);
   return mesh;
 }
 
@@ -439,26 +447,28 @@ Result<Mesh> read_off(std::string_view text, double s, const std::string& name) 
   split_tokens(line, tok);
   const std::string_view key = tok[0];
   if (key.size() < 3 || key.substr(key.size() - 3) != "OFF")
-    return bad_input("OFF: expected the keyword 'OFF' (or COFF, NOFF, STOFF...), found '" +
-                         shown(key) + "'",
-                     name, at);
+    return bad_input(
+        "OFF: expected the keyword 'OFF' (or COFF, NOFF, STOFF...), found '" + shown(key) + "'",
+        name, at);
   const std::string_view prefix = key.substr(0, key.size() - 3);
   if (prefix.find_first_not_of("STCN") != std::string_view::npos)
-    return bad_input("OFF: '" + shown(key) +
-                         "' (4D, n-dimensional or homogeneous OFF) is not supported, expected 3D OFF",
-                     name, at);
+    return bad_input(
+        "OFF: '" + shown(key) +
+            "' (4D, n-dimensional or homogeneous OFF) is not supported, expected 3D OFF",
+        name, at);
   if (tok.size() > 1 && tok[1] == "BINARY")
     return bad_input("OFF: binary OFF is not supported, expected ASCII OFF", name, at);
   std::size_t first_count = 1;
   if (tok.size() == 1) {
-    if (!lines.next(line, at)) return bad_input("OFF: missing the vertex and face counts", name, lines.line());
+    if (!lines.next(line, at))
+      return bad_input("OFF: missing the vertex and face counts", name, lines.line());
     split_tokens(line, tok);
     first_count = 0;
   }
   std::uint64_t nv = 0, nf = 0;
-  if (tok.size() < first_count + 2 || !parse_token(tok[first_count], nv) || !parse_token(tok[first_count + 1], nf))
-    return bad_input("OFF: expected the counts 'vertices faces edges', found '" +
-                         shown(line) + "'",
+  if (tok.size() < first_count + 2 || !parse_token(tok[first_count], nv) ||
+      !parse_token(tok[first_count + 1], nf))
+    return bad_input("OFF: expected the counts 'vertices faces edges', found '" + shown(line) + "'",
                      name, at);
   const long header_line = at;
   // Every vertex needs at least "0 0 0\n" and every face "3 0 0 0\n": counts the file cannot
@@ -468,10 +478,12 @@ Result<Mesh> read_off(std::string_view text, double s, const std::string& name) 
                          std::to_string(nf) + " faces, more than a file of " +
                          std::to_string(text.size()) + " bytes can hold",
                      name, header_line);
-  if (nf == 0) return bad_input("OFF: the header announces 0 faces, expected a mesh", name, header_line);
+  if (nf == 0)
+    return bad_input("OFF: the header announces 0 faces, expected a mesh", name, header_line);
   auto ended_early = [&](std::uint64_t announced, const char* what, std::uint64_t read) -> Error {
     return bad_input("OFF: the header (line " + std::to_string(header_line) + ") announces " +
-                         std::to_string(announced) + " " + what + ", the file ends after " + std::to_string(read),
+                         std::to_string(announced) + " " + what + ", the file ends after " +
+                         std::to_string(read),
                      name, lines.line());
   };
   std::vector<Vec3> points;
@@ -482,11 +494,12 @@ Result<Mesh> read_off(std::string_view text, double s, const std::string& name) 
     std::array<double, 3> c{};
     for (std::size_t k = 0; k < 3; ++k) {
       if (k >= tok.size() || !parse_token(tok[k], c[k]))
-        return bad_input("OFF: vertex " + std::to_string(v) + ": expected three numbers x y z, found '" +
-                             shown(line) + "'",
+        return bad_input("OFF: vertex " + std::to_string(v) +
+                             ": expected three numbers x y z, found '" + shown(line) + "'",
                          name, at);
       if (!std::isfinite(c[k]))
-        return bad_input("OFF: vertex " + std::to_string(v) + " has a NaN or infinite coordinate", name, at);
+        return bad_input("OFF: vertex " + std::to_string(v) + " has a NaN or infinite coordinate",
+                         name, at);
     }
     points.emplace_back(s * c[0], s * c[1], s * c[2]);
   }
@@ -507,9 +520,9 @@ Result<Mesh> read_off(std::string_view text, double s, const std::string& name) 
     for (std::uint64_t k = 1; k <= n; ++k) {
       std::uint64_t i = 0;
       if (!parse_token(tok[k], i) || i >= nv)
-        return bad_input("OFF: face " + std::to_string(f) + ": vertex index '" +
-                             shown(tok[k]) + "' is not one of the " +
-                             std::to_string(nv) + " vertices (0.." + std::to_string(nv == 0 ? 0 : nv - 1) + ")",
+        return bad_input("OFF: face " + std::to_string(f) + ": vertex index '" + shown(tok[k]) +
+                             "' is not one of the " + std::to_string(nv) + " vertices (0.." +
+                             std::to_string(nv == 0 ? 0 : nv - 1) + ")",
                          name, at);
       corners.push_back(index.find_or_add(points[i], mesh.vertices_mm));
     }
@@ -533,7 +546,7 @@ Result<Mesh> read_off(std::string_view text, double s, const std::string& name) 
 
 struct PlyProperty {
   std::string name;
-  char kind = 'f';        ///< 'i' signed, 'u' unsigned, 'f' floating
+  char kind = 'f';  ///< 'i' signed, 'u' unsigned, 'f' floating
   int bytes = 4;
   bool list = false;
   char count_kind = 'u';  ///< the list length's type
@@ -547,11 +560,23 @@ struct PlyElement {
 };
 
 bool ply_type(std::string_view t, char& kind, int& bytes) {
-  static constexpr std::array<std::tuple<std::string_view, char, int>, 16> kTypes = {{
-      {"char", 'i', 1}, {"int8", 'i', 1}, {"uchar", 'u', 1}, {"uint8", 'u', 1},
-      {"short", 'i', 2}, {"int16", 'i', 2}, {"ushort", 'u', 2}, {"uint16", 'u', 2},
-      {"int", 'i', 4}, {"int32", 'i', 4}, {"uint", 'u', 4}, {"uint32", 'u', 4},
-      {"float", 'f', 4}, {"float32", 'f', 4}, {"double", 'f', 8}, {"float64", 'f', 8}}};
+  static constexpr std::array<std::tuple<std::string_view, char, int>, 16> kTypes = {
+      {{"char", 'i', 1},
+       {"int8", 'i', 1},
+       {"uchar", 'u', 1},
+       {"uint8", 'u', 1},
+       {"short", 'i', 2},
+       {"int16", 'i', 2},
+       {"ushort", 'u', 2},
+       {"uint16", 'u', 2},
+       {"int", 'i', 4},
+       {"int32", 'i', 4},
+       {"uint", 'u', 4},
+       {"uint32", 'u', 4},
+       {"float", 'f', 4},
+       {"float32", 'f', 4},
+       {"double", 'f', 8},
+       {"float64", 'f', 8}}};
   for (const auto& [n, k, b] : kTypes)
     if (n == t) {
       kind = k;
@@ -565,16 +590,46 @@ bool ply_type(std::string_view t, char& kind, int& bytes) {
 double ply_binary_value(const char* p, char kind, int bytes, bool big_endian) {
   std::array<unsigned char, 8> b{};
   const auto n = static_cast<std::size_t>(std::clamp(bytes, 1, 8));
-  for (std::size_t i = 0; i < n; ++i) b[i] = static_cast<unsigned char>(p[big_endian ? n - 1 - i : i]);
+  for (std::size_t i = 0; i < n; ++i)
+    b[i] = static_cast<unsigned char>(p[big_endian ? n - 1 - i : i]);
   switch (kind == 'f' ? bytes : (kind == 'i' ? -bytes : 10 + bytes)) {
-    case 4: { float v; std::memcpy(&v, b.data(), 4); return v; }
-    case 8: { double v; std::memcpy(&v, b.data(), 8); return v; }
-    case -1: { std::int8_t v; std::memcpy(&v, b.data(), 1); return v; }
-    case -2: { std::int16_t v; std::memcpy(&v, b.data(), 2); return v; }
-    case -4: { std::int32_t v; std::memcpy(&v, b.data(), 4); return v; }
-    case 11: return b[0];
-    case 12: { std::uint16_t v; std::memcpy(&v, b.data(), 2); return v; }
-    default: { std::uint32_t v; std::memcpy(&v, b.data(), 4); return v; }
+    case 4: {
+      float v;
+      std::memcpy(&v, b.data(), 4);
+      return v;
+    }
+    case 8: {
+      double v;
+      std::memcpy(&v, b.data(), 8);
+      return v;
+    }
+    case -1: {
+      std::int8_t v;
+      std::memcpy(&v, b.data(), 1);
+      return v;
+    }
+    case -2: {
+      std::int16_t v;
+      std::memcpy(&v, b.data(), 2);
+      return v;
+    }
+    case -4: {
+      std::int32_t v;
+      std::memcpy(&v, b.data(), 4);
+      return v;
+    }
+    case 11:
+      return b[0];
+    case 12: {
+      std::uint16_t v;
+      std::memcpy(&v, b.data(), 2);
+      return v;
+    }
+    default: {
+      std::uint32_t v;
+      std::memcpy(&v, b.data(), 4);
+      return v;
+    }
   }
 }
 
@@ -600,19 +655,23 @@ Result<PlyHeader> read_ply_header(std::string_view bytes, const std::string& nam
   while (lines.next(line, at)) {
     split_tokens(line, tok);
     if (tok[0] == "end_header") {
-      const std::size_t nl = bytes.find('\n', static_cast<std::size_t>(tok[0].data() - bytes.data()));
+      const std::size_t nl =
+          bytes.find('\n', static_cast<std::size_t>(tok[0].data() - bytes.data()));
       body = nl == std::string_view::npos ? bytes.size() : nl + 1;
       break;
     }
     if (tok[0] == "comment" || tok[0] == "obj_info") continue;
     if (tok[0] == "format") {
-      if (tok.size() < 2 || (tok[1] != "ascii" && tok[1] != "binary_little_endian" && tok[1] != "binary_big_endian"))
-        return bad_input("PLY: expected 'format ascii|binary_little_endian|binary_big_endian 1.0'", name, at);
+      if (tok.size() < 2 ||
+          (tok[1] != "ascii" && tok[1] != "binary_little_endian" && tok[1] != "binary_big_endian"))
+        return bad_input("PLY: expected 'format ascii|binary_little_endian|binary_big_endian 1.0'",
+                         name, at);
       format = tok[1] == "ascii" ? 0 : (tok[1] == "binary_little_endian" ? 1 : 2);
     } else if (tok[0] == "element") {
       PlyElement e;
       if (tok.size() != 3 || !parse_token(tok[2], e.count))
-        return bad_input("PLY: expected 'element <name> <count>', found '" + shown(line) + "'", name, at);
+        return bad_input("PLY: expected 'element <name> <count>', found '" + shown(line) + "'",
+                         name, at);
       e.name = std::string(tok[1].substr(0, 40));
       e.line = at;
       elements.push_back(std::move(e));
@@ -620,20 +679,24 @@ Result<PlyHeader> read_ply_header(std::string_view bytes, const std::string& nam
       if (elements.empty()) return bad_input("PLY: a property before any element", name, at);
       PlyProperty p;
       p.list = tok.size() == 5 && tok[1] == "list";
-      const bool ok = p.list ? ply_type(tok[2], p.count_kind, p.count_bytes) && p.count_kind != 'f' &&
-                                   ply_type(tok[3], p.kind, p.bytes)
+      const bool ok = p.list ? ply_type(tok[2], p.count_kind, p.count_bytes) &&
+                                   p.count_kind != 'f' && ply_type(tok[3], p.kind, p.bytes)
                              : tok.size() == 3 && ply_type(tok[1], p.kind, p.bytes);
       if (!ok)
-        return bad_input("PLY: expected 'property <type> <name>' or 'property list <integer type> <type> <name>', "
-                         "found '" + shown(line) + "'",
-                         name, at);
+        return bad_input(
+            "PLY: expected 'property <type> <name>' or 'property list <integer type> <type> "
+            "<name>', "
+            "found '" +
+                shown(line) + "'",
+            name, at);
       p.name = std::string(tok.back().substr(0, 40));
       elements.back().properties.push_back(std::move(p));
     } else {
       return bad_input("PLY: unknown header line '" + shown(line) + "'", name, at);
     }
   }
-  if (body == std::string_view::npos) return bad_input("PLY: the header has no 'end_header'", name, lines.line());
+  if (body == std::string_view::npos)
+    return bad_input("PLY: the header has no 'end_header'", name, lines.line());
   if (format < 0) return bad_input("PLY: the header has no 'format' line", name);
 
   h.last_line = at;
@@ -664,9 +727,13 @@ struct PlyValues {
       while (pos < end && !is_space(*pos)) ++pos;
       const std::string_view t(b, static_cast<std::size_t>(pos - b));
       if (t.empty()) return bad_input("PLY: the file ends inside " + where(), name, ascii_line);
-      if (!parse_token(t, out)) return bad_input("PLY: " + where() + ": expected a number, found '" + shown(t) + "'", name, ascii_line);
+      if (!parse_token(t, out))
+        return bad_input("PLY: " + where() + ": expected a number, found '" + shown(t) + "'", name,
+                         ascii_line);
     }
-    if (!std::isfinite(out)) return bad_input("PLY: " + where() + " has a NaN or infinite value", name, format == 0 ? std::optional<long>(ascii_line) : std::nullopt);
+    if (!std::isfinite(out))
+      return bad_input("PLY: " + where() + " has a NaN or infinite value", name,
+                       format == 0 ? std::optional<long>(ascii_line) : std::nullopt);
     return Ok{};
   }
 };
@@ -677,22 +744,31 @@ Status read_ply_element(const PlyElement& e, double s, PlyValues& in, std::vecto
                         Mesh& mesh, PointIndex& index, std::vector<std::uint32_t>& corners) {
   const std::string& name = in.name;
   // A count the rest of the file cannot hold (one byte or one token per value at least).
-  if (e.count > static_cast<std::uint64_t>(in.end - in.pos) / std::max<std::size_t>(e.properties.size(), 1) + 1)
-    return bad_input("PLY: the header (line " + std::to_string(e.line) + ") announces " + std::to_string(e.count) +
-                         " '" + e.name + "' elements, more than the rest of the file holds",
+  if (e.count >
+      static_cast<std::uint64_t>(in.end - in.pos) / std::max<std::size_t>(e.properties.size(), 1) +
+          1)
+    return bad_input("PLY: the header (line " + std::to_string(e.line) + ") announces " +
+                         std::to_string(e.count) + " '" + e.name +
+                         "' elements, more than the rest of the file holds",
                      name, e.line);
   const bool is_vertex = e.name == "vertex", is_face = e.name == "face";
   std::array<int, 3> xyz = {-1, -1, -1};
   int indices = -1;
   for (std::size_t k = 0; k < e.properties.size(); ++k) {
     const auto& p = e.properties[k];
-    if (is_vertex && !p.list && (p.name == "x" || p.name == "y" || p.name == "z")) xyz[static_cast<std::size_t>(p.name[0] - 'x')] = static_cast<int>(k);
-    if (is_face && p.list && (p.name == "vertex_indices" || p.name == "vertex_index")) indices = static_cast<int>(k);
+    if (is_vertex && !p.list && (p.name == "x" || p.name == "y" || p.name == "z"))
+      xyz[static_cast<std::size_t>(p.name[0] - 'x')] = static_cast<int>(k);
+    if (is_face && p.list && (p.name == "vertex_indices" || p.name == "vertex_index"))
+      indices = static_cast<int>(k);
   }
   if (is_vertex && (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0))
-    return bad_input("PLY: the 'vertex' element (line " + std::to_string(e.line) + ") has no x, y and z properties", name, e.line);
+    return bad_input("PLY: the 'vertex' element (line " + std::to_string(e.line) +
+                         ") has no x, y and z properties",
+                     name, e.line);
   if (is_face && indices < 0)
-    return bad_input("PLY: the 'face' element (line " + std::to_string(e.line) + ") has no 'vertex_indices' list", name, e.line);
+    return bad_input("PLY: the 'face' element (line " + std::to_string(e.line) +
+                         ") has no 'vertex_indices' list",
+                     name, e.line);
   if (is_vertex) points.reserve(e.count);
   for (std::uint64_t i = 0; i < e.count; ++i) {
     in.element_name = &e.name;
@@ -701,14 +777,19 @@ Status read_ply_element(const PlyElement& e, double s, PlyValues& in, std::vecto
     for (std::size_t k = 0; k < e.properties.size(); ++k) {
       const auto& p = e.properties[k];
       double v = 0;
-      if (auto st = in.next(p.list ? p.count_kind : p.kind, p.list ? p.count_bytes : p.bytes, v); !st) return st.error();
+      if (auto st = in.next(p.list ? p.count_kind : p.kind, p.list ? p.count_bytes : p.bytes, v);
+          !st)
+        return st.error();
       if (!p.list) {
         for (int a = 0; a < 3; ++a)
-          if (xyz[static_cast<std::size_t>(a)] == static_cast<int>(k)) c[static_cast<std::size_t>(a)] = v;
+          if (xyz[static_cast<std::size_t>(a)] == static_cast<int>(k))
+            c[static_cast<std::size_t>(a)] = v;
         continue;
       }
       if (v < 0 || v > static_cast<double>(in.end - in.pos) + 1)
-        return bad_input("PLY: " + in.where() + ": a list of " + format_number(v) + " values does not fit the file", name);
+        return bad_input("PLY: " + in.where() + ": a list of " + format_number(v) +
+                             " values does not fit the file",
+                         name);
       const auto n = static_cast<std::size_t>(v);
       const bool take = static_cast<int>(k) == indices;
       if (take) corners.clear();
@@ -717,13 +798,17 @@ Status read_ply_element(const PlyElement& e, double s, PlyValues& in, std::vecto
         if (auto st = in.next(p.kind, p.bytes, idx); !st) return st.error();
         if (!take) continue;
         if (!(idx >= 0 && idx < static_cast<double>(points.size())) || idx != std::floor(idx))
-          return bad_input("PLY: " + in.where() + ": vertex index " + format_number(idx) + " is not one of the " +
-                               std::to_string(points.size()) + " vertices read before the faces",
-                           name, in.format == 0 ? std::optional<long>(in.ascii_line) : std::nullopt);
-        corners.push_back(index.find_or_add(points[static_cast<std::size_t>(idx)], mesh.vertices_mm));
+          return bad_input("PLY: " + in.where() + ": vertex index " + format_number(idx) +
+                               " is not one of the " + std::to_string(points.size()) +
+                               " vertices read before the faces",
+                           name,
+                           in.format == 0 ? std::optional<long>(in.ascii_line) : std::nullopt);
+        corners.push_back(
+            index.find_or_add(points[static_cast<std::size_t>(idx)], mesh.vertices_mm));
       }
       if (take)  // points and lines carry no volume; polygons become a fan
-        for (std::size_t j = 1; j + 1 < corners.size(); ++j) mesh.triangles.push_back({corners[0], corners[j], corners[j + 1]});
+        for (std::size_t j = 1; j + 1 < corners.size(); ++j)
+          mesh.triangles.push_back({corners[0], corners[j], corners[j + 1]});
     }
     if (is_vertex) points.emplace_back(s * c[0], s * c[1], s * c[2]);
   }
@@ -753,15 +838,18 @@ Result<Mesh> read_ply(std::string_view bytes, double s, const std::string& name)
 Status check_container(std::string_view bytes, const std::string& ext, const std::string& name) {
   const bool zip = bytes.size() >= 4 && bytes.substr(0, 4) == std::string_view("PK\x03\x04", 4);
   if (ext == ".3mf" && !zip)
-    return bad_input("not a 3MF file: a 3MF is a zip archive (it starts with 'PK'), this file does not", name);
+    return bad_input(
+        "not a 3MF file: a 3MF is a zip archive (it starts with 'PK'), this file does not", name);
   // A zip ends with its central directory's end record (22 bytes and a comment of up to
   // 64 KiB): without it the archive is truncated, and assimp's zip reader leaks on it.
   if (zip) {
     const std::size_t tail = std::min<std::size_t>(bytes.size(), 22 + 65535);
-    if (bytes.substr(bytes.size() - tail).rfind(std::string_view("PK\x05\x06", 4)) == std::string_view::npos)
-      return bad_input("not a complete zip archive (no end-of-central-directory record): truncated or damaged " +
-                           std::string(ext == ".3mf" ? "3MF" : "AMF") + " file",
-                       name);
+    if (bytes.substr(bytes.size() - tail).rfind(std::string_view("PK\x05\x06", 4)) ==
+        std::string_view::npos)
+      return bad_input(
+          "not a complete zip archive (no end-of-central-directory record): truncated or damaged " +
+              std::string(ext == ".3mf" ? "3MF" : "AMF") + " file",
+          name);
   }
   if (ext == ".amf" && !zip) {
     std::size_t i = bytes.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0;  // UTF-8 byte order mark
@@ -781,7 +869,8 @@ Status check_mesh_file_header(const fs::path& path) {
   // is reported before the body is read (a 1 GB file of zeros is 0 triangles).
   auto head = read_file_head(path, kStlHeaderBytes);
   if (!head) return head.error();
-  if (starts_with_solid(*head) || head->size() < kStlHeaderBytes) return Ok{};  // ASCII, or checked when read
+  if (starts_with_solid(*head) || head->size() < kStlHeaderBytes)
+    return Ok{};  // ASCII, or checked when read
   const std::uint64_t count = stl_header_count(*head);
   if (kStlHeaderBytes + kStlTriangleBytes * count == *size) return Ok{};
   return check_binary_stl_size(count, *size, path.string());
@@ -808,9 +897,11 @@ Result<Mesh> load_mesh_from_memory(std::string_view bytes, const fs::path& path,
     // some exporters write); ASCII when it starts with "solid"; binary otherwise.
     const bool size_matches_binary =
         bytes.size() >= kStlHeaderBytes &&
-        kStlHeaderBytes + kStlTriangleBytes * std::uint64_t{stl_header_count(bytes)} == bytes.size();
-    Status valid = (size_matches_binary || !starts_with_solid(bytes)) ? validate_binary_stl(bytes, name)
-                                                                      : validate_ascii_stl(bytes, name);
+        kStlHeaderBytes + kStlTriangleBytes * std::uint64_t{stl_header_count(bytes)} ==
+            bytes.size();
+    Status valid = (size_matches_binary || !starts_with_solid(bytes))
+                       ? validate_binary_stl(bytes, name)
+                       : validate_ascii_stl(bytes, name);
     if (!valid) return valid.error();
   }
 
@@ -822,7 +913,6 @@ Result<Mesh> load_mesh_from_memory(std::string_view bytes, const fs::path& path,
   }
   if (auto st = check_container(bytes, ext, name); !st) return st.error();
 
-
   Assimp::last_assertion.clear();
   Assimp::Importer importer;
   // Identical vertices are joined after import (welded_mesh): without it an STL is a soup of
@@ -833,16 +923,19 @@ Result<Mesh> load_mesh_from_memory(std::string_view bytes, const fs::path& path,
   // For them assimp's validation step runs first: a face indexing past its mesh's vertices,
   // or any other inconsistent structure an importer let through, is then an error instead of
   // an assertion inside the triangulation.
-  const unsigned flags =
-      is_stl ? 0U
-             : unsigned{aiProcess_ValidateDataStructure | aiProcess_Triangulate | aiProcess_PreTransformVertices};
-  const aiScene* scene = importer.ReadFileFromMemory(bytes.data(), bytes.size(), flags, ext.c_str() + 1);
+  const unsigned flags = is_stl ? 0U
+                                : unsigned{aiProcess_ValidateDataStructure | aiProcess_Triangulate |
+                                           aiProcess_PreTransformVertices};
+  const aiScene* scene =
+      importer.ReadFileFromMemory(bytes.data(), bytes.size(), flags, ext.c_str() + 1);
   if (scene == nullptr) {
     std::string why = importer.GetErrorString();
-    if (why.empty() && !Assimp::last_assertion.empty()) why = "assimp's internal check failed: " + Assimp::last_assertion;
+    if (why.empty() && !Assimp::last_assertion.empty())
+      why = "assimp's internal check failed: " + Assimp::last_assertion;
     if (why.empty()) why = "unknown reason";
     if (lower(why).find("no output meshes") != std::string::npos ||
-        lower(why).find("no meshes") != std::string::npos || lower(why).find("contains no faces") != std::string::npos)
+        lower(why).find("no meshes") != std::string::npos ||
+        lower(why).find("contains no faces") != std::string::npos)
       return bad_input("the file holds no triangles, expected a mesh (assimp: " + why + ")", name);
     return bad_input("cannot read mesh: " + why, name);
   }

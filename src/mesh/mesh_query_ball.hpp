@@ -26,8 +26,8 @@ struct BallScratch {
 /// ball: then it is written to out[i]; otherwise out[i] is left empty (ask
 /// closest_point_within or closest_point). `out` is resized to points.size().
 void closest_points_in_ball(const MeshQuery& query, const Vec3& center, double radius,
-                            std::span<const Vec3> points, std::vector<std::optional<ClosestPoint>>& out,
-                            BallScratch& scratch);
+                            std::span<const Vec3> points,
+                            std::vector<std::optional<ClosestPoint>>& out, BallScratch& scratch);
 
 /// Reaches MeshQuery's state for the functions above.
 struct MeshQueryAccess {

@@ -9,8 +9,8 @@
 
 #include <algorithm>
 #include <array>
-#include <bit>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <limits>
 
@@ -47,7 +47,6 @@ Vec3 closest_point_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, cons
   return a + ab * (vb * denom) + ac * (vc * denom);
 }
 
-
 struct MeshQuery::Impl {
   Mesh mesh;
   /// Per triangle, two cheap lower bounds of the point-triangle distance: its plane and its
@@ -72,7 +71,8 @@ bool offer_unboxed(PointQueryState& st, std::uint32_t t) {
   const TriangleBounds& tb = (*st.bounds)[t];
   const Vec3& p = st.p;
   const double plane_d = tb.n[0] * p.x() + tb.n[1] * p.y() + tb.n[2] * p.z() - tb.offset;
-  const double lower = std::abs(plane_d) - 1e-9 * (1.0 + std::abs(tb.offset) + p.cwiseAbs().maxCoeff());
+  const double lower =
+      std::abs(plane_d) - 1e-9 * (1.0 + std::abs(tb.offset) + p.cwiseAbs().maxCoeff());
   if (lower > 0 && lower * lower > st.best_d2) return false;
   const auto& tri = st.mesh->triangles[t];
   const auto& v = st.mesh->vertices_mm;
@@ -94,7 +94,8 @@ namespace {
 inline double box_distance2(const Vec3& p, const float* lo, const float* hi) {
   double box2 = 0;
   for (int a = 0; a < 3; ++a) {
-    const double e = std::max({0.0, static_cast<double>(lo[a]) - p[a], p[a] - static_cast<double>(hi[a])});
+    const double e =
+        std::max({0.0, static_cast<double>(lo[a]) - p[a], p[a] - static_cast<double>(hi[a])});
     box2 += e * e;
   }
   return box2;
@@ -119,15 +120,18 @@ void load_boxes(detail::BallScratch& c, const Mesh& mesh, const std::vector<Tria
   }
   for (std::size_t k = 0; k < m; ++k)
     for (int a = 0; a < 3; ++a) {
-      c.lo[a][k] = k < n ? static_cast<double>(bounds[c.ids[k]].lo[a]) : std::numeric_limits<double>::infinity();
-      c.hi[a][k] = k < n ? static_cast<double>(bounds[c.ids[k]].hi[a]) : std::numeric_limits<double>::infinity();
+      c.lo[a][k] = k < n ? static_cast<double>(bounds[c.ids[k]].lo[a])
+                         : std::numeric_limits<double>::infinity();
+      c.hi[a][k] = k < n ? static_cast<double>(bounds[c.ids[k]].hi[a])
+                         : std::numeric_limits<double>::infinity();
     }
   if (!corners) return;
   for (auto& col : c.corner) col.resize(m);
   for (std::size_t k = 0; k < m; ++k) {
     const auto& tri = mesh.triangles[c.ids[k < n ? k : 0]];
     for (std::size_t v = 0; v < 3; ++v)
-      for (int a = 0; a < 3; ++a) c.corner[3 * v + static_cast<std::size_t>(a)][k] = mesh.vertices_mm[tri[v]][a];
+      for (int a = 0; a < 3; ++a)
+        c.corner[3 * v + static_cast<std::size_t>(a)][k] = mesh.vertices_mm[tri[v]][a];
   }
 }
 
@@ -141,7 +145,6 @@ void swap_candidates(detail::BallScratch& c, std::size_t i, std::size_t j, bool 
   if (corners)
     for (auto& col : c.corner) std::swap(col[i], col[j]);
 }
-
 
 bool point_query_callback(RTCPointQueryFunctionArguments* args) {
   auto* st = static_cast<PointQueryState*>(args->userPtr);
@@ -186,10 +189,12 @@ Result<MeshQuery> MeshQuery::build(const Mesh& mesh) {
   rtcSetSceneBuildQuality(impl->scene, RTC_BUILD_QUALITY_HIGH);
 
   RTCGeometry geom = rtcNewGeometry(impl->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  auto* verts = static_cast<float*>(rtcSetNewGeometryBuffer(
-      geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.vertices_mm.size()));
-  auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-      geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), mesh.triangles.size()));
+  auto* verts = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
+                                                            RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                                            mesh.vertices_mm.size()));
+  auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0,
+                                                             RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
+                                                             mesh.triangles.size()));
   if (verts == nullptr || idx == nullptr) {
     rtcReleaseGeometry(geom);
     return internal_error("Embree could not allocate the mesh buffers");
@@ -208,11 +213,13 @@ Result<MeshQuery> MeshQuery::build(const Mesh& mesh) {
   impl->bounds.resize(mesh.triangles.size());
   const auto down = [](double x) {
     const auto f = static_cast<float>(x);
-    return static_cast<double>(f) > x ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
+    return static_cast<double>(f) > x ? std::nextafter(f, -std::numeric_limits<float>::infinity())
+                                      : f;
   };
   const auto up = [](double x) {
     const auto f = static_cast<float>(x);
-    return static_cast<double>(f) < x ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+    return static_cast<double>(f) < x ? std::nextafter(f, std::numeric_limits<float>::infinity())
+                                      : f;
   };
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     const Vec3 n = triangle_normal(mesh, t);
@@ -229,7 +236,8 @@ Result<MeshQuery> MeshQuery::build(const Mesh& mesh) {
     b.n[2] = u.z();
     b.offset = u.dot(mesh.vertices_mm[tri[0]]);
     for (int a = 0; a < 3; ++a) {
-      const double v0 = mesh.vertices_mm[tri[0]][a], v1 = mesh.vertices_mm[tri[1]][a], v2 = mesh.vertices_mm[tri[2]][a];
+      const double v0 = mesh.vertices_mm[tri[0]][a], v1 = mesh.vertices_mm[tri[1]][a],
+                   v2 = mesh.vertices_mm[tri[2]][a];
       b.lo[a] = down(std::min({v0, v1, v2}));
       b.hi[a] = up(std::max({v0, v1, v2}));
     }
@@ -248,7 +256,8 @@ const Mesh& MeshQuery::mesh() const { return impl_->mesh; }
 namespace {
 /// One Embree point query around p (original frame) with `radius` (infinite, or padded like
 /// the callback's shrinking radius so float rounding never culls a candidate).
-void run_point_query(RTCScene scene, const Vec3& local, double radius, RTCPointQueryFunction fn, void* user) {
+void run_point_query(RTCScene scene, const Vec3& local, double radius, RTCPointQueryFunction fn,
+                     void* user) {
   RTCPointQuery query;
   query.x = static_cast<float>(local.x());
   query.y = static_cast<float>(local.y());
@@ -264,11 +273,13 @@ void run_point_query(RTCScene scene, const Vec3& local, double radius, RTCPointQ
 
 ClosestPoint MeshQuery::closest_point(const Vec3& p) const {
   PointQueryState st{&impl_->mesh, &impl_->bounds, p};
-  run_point_query(impl_->scene, p - impl_->center, std::numeric_limits<double>::infinity(), point_query_callback, &st);
+  run_point_query(impl_->scene, p - impl_->center, std::numeric_limits<double>::infinity(),
+                  point_query_callback, &st);
   return ClosestPoint{st.best_point, std::sqrt(st.best_d2), st.best_triangle};
 }
 
-std::optional<ClosestPoint> MeshQuery::closest_point_within(const Vec3& p, double max_distance_mm) const {
+std::optional<ClosestPoint> MeshQuery::closest_point_within(const Vec3& p,
+                                                            double max_distance_mm) const {
   PointQueryState st{&impl_->mesh, &impl_->bounds, p};
   st.best_d2 = max_distance_mm * max_distance_mm;
   run_point_query(impl_->scene, p - impl_->center, max_distance_mm, point_query_callback, &st);
@@ -277,7 +288,8 @@ std::optional<ClosestPoint> MeshQuery::closest_point_within(const Vec3& p, doubl
 }
 
 void detail::closest_points_in_ball(const MeshQuery& query, const Vec3& center, double radius,
-                                    std::span<const Vec3> points, std::vector<std::optional<ClosestPoint>>& out,
+                                    std::span<const Vec3> points,
+                                    std::vector<std::optional<ClosestPoint>>& out,
                                     BallScratch& boxes) {
   const auto* impl = &MeshQueryAccess::impl(query);
   out.assign(points.size(), std::nullopt);
@@ -305,7 +317,8 @@ void MeshQuery::closest_points(std::span<const Vec3> points, std::vector<Closest
   out.resize(points.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 1024),
                     [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i) out[i] = closest_point(points[i]);
+                      for (std::size_t i = r.begin(); i != r.end(); ++i)
+                        out[i] = closest_point(points[i]);
                     });
 }
 

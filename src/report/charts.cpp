@@ -54,7 +54,8 @@ std::string histogram_svg(std::span<const double> distances_mm, const DeviationC
     ++total;
     if (d < -range) ++below;
     if (d > range) ++above;
-    const int b = std::clamp(static_cast<int>(std::floor((d + range) / (2 * range) * bins)), 0, bins - 1);
+    const int b =
+        std::clamp(static_cast<int>(std::floor((d + range) / (2 * range) * bins)), 0, bins - 1);
     ++counts[static_cast<std::size_t>(b)];
   }
   const double W = 560, H = 210, ml = 44, mr = 10, mt = 14, mb = 34;
@@ -62,7 +63,8 @@ std::string histogram_svg(std::span<const double> distances_mm, const DeviationC
   // Logarithmic count axis: the tails (the defects) stay visible next to the in-tolerance peak.
   std::size_t peak = 1;
   for (auto c : counts) peak = std::max(peak, c);
-  const int decades = std::max(1, static_cast<int>(std::ceil(std::log10(static_cast<double>(peak)) - 1e-9)));
+  const int decades =
+      std::max(1, static_cast<int>(std::ceil(std::log10(static_cast<double>(peak)) - 1e-9)));
   const double ymax = static_cast<double>(decades);
   auto xpos = [&](double d) { return ml + (d + range) / (2 * range) * pw; };
   auto ypos = [&](double count) { return mt + ph - std::log10(std::max(count, 1.0)) / ymax * ph; };
@@ -76,10 +78,11 @@ std::string histogram_svg(std::span<const double> distances_mm, const DeviationC
   const int label_every = decades > 5 ? 2 : 1;
   for (int e = 0; e <= decades; ++e) {
     const double c = std::pow(10.0, e);
-    svg += "<line class=\"grid\" x1=\"" + num(ml) + "\" x2=\"" + num(ml + pw) + "\" y1=\"" + num(ypos(c)) +
-           "\" y2=\"" + num(ypos(c)) + "\"/>";
+    svg += "<line class=\"grid\" x1=\"" + num(ml) + "\" x2=\"" + num(ml + pw) + "\" y1=\"" +
+           num(ypos(c)) + "\" y2=\"" + num(ypos(c)) + "\"/>";
     if (e % label_every == 0) {
-      static constexpr const char* kLabels[] = {"1", "10", "100", "1k", "10k", "100k", "1M", "10M", "100M", "1G"};
+      static constexpr const char* kLabels[] = {"1",    "10", "100", "1k",   "10k",
+                                                "100k", "1M", "10M", "100M", "1G"};
       svg += "<text class=\"ylab\" x=\"" + num(ml - 6) + "\" y=\"" + num(ypos(c) + 4) + "\">" +
              kLabels[std::min(e, 9)] + "</text>";
     }
@@ -93,26 +96,28 @@ std::string histogram_svg(std::span<const double> distances_mm, const DeviationC
     const double pct = 100.0 * static_cast<double>(c) / static_cast<double>(total);
     // A single sample still gets a visible bar (log10(1) = 0).
     const double y = std::min(ypos(static_cast<double>(c)), mt + ph - 2.0);
-    svg += "<rect fill=\"" + rgb_hex(scale.color(0.5 * (lo + hi))) + "\" x=\"" + num(ml + b * bw + 0.5) +
-           "\" y=\"" + num(y) + "\" width=\"" + num(std::max(bw - 1.0, 0.8)) + "\" height=\"" +
-           num(std::max(mt + ph - y, 0.8)) + "\"><title>" + (b == 0 ? "≤ " : "") +
-           fixed(lo, 3) + " … " + fixed(hi, 3) + (b == bins - 1 ? " ≤" : "") + " mm: " +
-           std::to_string(c) + " samples (" + fixed(pct, 2) + " %)</title></rect>";
+    svg += "<rect fill=\"" + rgb_hex(scale.color(0.5 * (lo + hi))) + "\" x=\"" +
+           num(ml + b * bw + 0.5) + "\" y=\"" + num(y) + "\" width=\"" +
+           num(std::max(bw - 1.0, 0.8)) + "\" height=\"" + num(std::max(mt + ph - y, 0.8)) +
+           "\"><title>" + (b == 0 ? "≤ " : "") + fixed(lo, 3) + " … " + fixed(hi, 3) +
+           (b == bins - 1 ? " ≤" : "") + " mm: " + std::to_string(c) + " samples (" +
+           fixed(pct, 2) + " %)</title></rect>";
   }
   // X axis with ticks at the scale's marks.
-  svg += "<line class=\"axis\" x1=\"" + num(ml) + "\" x2=\"" + num(ml + pw) + "\" y1=\"" + num(mt + ph) +
-         "\" y2=\"" + num(mt + ph) + "\"/>";
+  svg += "<line class=\"axis\" x1=\"" + num(ml) + "\" x2=\"" + num(ml + pw) + "\" y1=\"" +
+         num(mt + ph) + "\" y2=\"" + num(mt + ph) + "\"/>";
   for (double v : {-range, -tol, 0.0, tol, range}) {
     const double x = xpos(v);
     svg += "<line class=\"axis\" x1=\"" + num(x) + "\" x2=\"" + num(x) + "\" y1=\"" + num(mt + ph) +
            "\" y2=\"" + num(mt + ph + 4) + "\"/>";
-    svg += "<text class=\"xlab\" x=\"" + num(x) + "\" y=\"" + num(mt + ph + 16) + "\">" + tick_label(v) +
-           "</text>";
+    svg += "<text class=\"xlab\" x=\"" + num(x) + "\" y=\"" + num(mt + ph + 16) + "\">" +
+           tick_label(v) + "</text>";
   }
   svg += "<text class=\"xunit\" x=\"" + num(ml + pw) + "\" y=\"" + num(H - 3) + "\">mm</text>";
   if (below > 0 || above > 0)
     svg += "<text class=\"note\" x=\"" + num(ml) + "\" y=\"" + num(H - 3) + "\">" +
-           std::to_string(below) + " below / " + std::to_string(above) + " beyond the axis (in the end bins)</text>";
+           std::to_string(below) + " below / " + std::to_string(above) +
+           " beyond the axis (in the end bins)</text>";
   svg += "</svg>";
   return svg;
 }
@@ -150,16 +155,17 @@ std::string layer_chart_svg(const DeviationResult& deviation, const DeviationCol
   auto xpos = [&](std::size_t i) { return ml + (static_cast<double>(i) + 0.5) * colw; };
   auto ypos = [&](double v) { return mt + (ymax - std::clamp(v, -ymax, ymax)) / (2 * ymax) * ph; };
 
-  std::string svg = "<svg class=\"chart\" id=\"layer-chart\" viewBox=\"0 0 " + num(W) + " " + num(H) +
-                    "\" role=\"img\" aria-label=\"Deviation per layer\">";
+  std::string svg = "<svg class=\"chart\" id=\"layer-chart\" viewBox=\"0 0 " + num(W) + " " +
+                    num(H) + "\" role=\"img\" aria-label=\"Deviation per layer\">";
   svg += "<rect class=\"tolband\" x=\"" + num(ml) + "\" y=\"" + num(ypos(scale.tolerance_mm)) +
-         "\" width=\"" + num(pw) + "\" height=\"" + num(ypos(-scale.tolerance_mm) - ypos(scale.tolerance_mm)) +
-         "\"/>";
+         "\" width=\"" + num(pw) + "\" height=\"" +
+         num(ypos(-scale.tolerance_mm) - ypos(scale.tolerance_mm)) + "\"/>";
   for (double v = -ymax; v <= ymax + 1e-9; v += ystep) {
-    svg += "<line class=\"" + std::string(std::abs(v) < 1e-12 ? "axis" : "grid") + "\" x1=\"" + num(ml) +
-           "\" x2=\"" + num(ml + pw) + "\" y1=\"" + num(ypos(v)) + "\" y2=\"" + num(ypos(v)) + "\"/>";
-    svg += "<text class=\"ylab\" x=\"" + num(ml - 6) + "\" y=\"" + num(ypos(v) + 4) + "\">" + tick_label(v) +
-           "</text>";
+    svg += "<line class=\"" + std::string(std::abs(v) < 1e-12 ? "axis" : "grid") + "\" x1=\"" +
+           num(ml) + "\" x2=\"" + num(ml + pw) + "\" y1=\"" + num(ypos(v)) + "\" y2=\"" +
+           num(ypos(v)) + "\"/>";
+    svg += "<text class=\"ylab\" x=\"" + num(ml - 6) + "\" y=\"" + num(ypos(v) + 4) + "\">" +
+           tick_label(v) + "</text>";
   }
   // Envelope between the worst deficit and the worst excess, then the three lines.
   std::string env = "M";
@@ -183,14 +189,15 @@ std::string layer_chart_svg(const DeviationResult& deviation, const DeviationCol
   svg += "<text class=\"xunit\" x=\"" + num(ml + pw) + "\" y=\"" + num(H - 3) + "\">layer</text>";
   svg += "<text class=\"yunit\" x=\"" + num(ml - 6) + "\" y=\"" + num(mt - 10) + "\">mm</text>";
   // Cursor (moved by the layer viewer) and one hit column per layer.
-  svg += "<line id=\"layer-cursor\" x1=\"" + num(xpos(0)) + "\" x2=\"" + num(xpos(0)) + "\" y1=\"" + num(mt) +
-         "\" y2=\"" + num(mt + ph) + "\"/>";
+  svg += "<line id=\"layer-cursor\" x1=\"" + num(xpos(0)) + "\" x2=\"" + num(xpos(0)) + "\" y1=\"" +
+         num(mt) + "\" y2=\"" + num(mt + ph) + "\"/>";
   svg += "<g class=\"cols\">";
   for (std::size_t i = 0; i < n; ++i) {
     svg += "<rect data-layer=\"" + std::to_string(rows[i].layer) + "\" x=\"" + num(ml + colw * i) +
-           "\" y=\"" + num(mt) + "\" width=\"" + num(colw) + "\" height=\"" + num(ph) + "\"><title>layer " +
-           std::to_string(rows[i].layer) + ": excess " + signed_fixed(rows[i].excess, 3) + ", deficit " +
-           signed_fixed(rows[i].deficit, 3) + ", RMS " + fixed(rows[i].rms, 3) + " mm</title></rect>";
+           "\" y=\"" + num(mt) + "\" width=\"" + num(colw) + "\" height=\"" + num(ph) +
+           "\"><title>layer " + std::to_string(rows[i].layer) + ": excess " +
+           signed_fixed(rows[i].excess, 3) + ", deficit " + signed_fixed(rows[i].deficit, 3) +
+           ", RMS " + fixed(rows[i].rms, 3) + " mm</title></rect>";
   }
   svg += "</g></svg>";
   return svg;

@@ -36,18 +36,22 @@ bool HeatmapCache::fits(const Mesh& placed_mesh, std::span<const ViewSpec> specs
 }
 
 Result<HeatmapCache> build_heatmap_cache(const Mesh& placed_mesh, std::span<const ViewSpec> views) {
-  if (placed_mesh.triangles.empty()) return bad_input("cannot render the heatmaps: the mesh has no triangles");
+  if (placed_mesh.triangles.empty())
+    return bad_input("cannot render the heatmaps: the mesh has no triangles");
   HeatmapCache cache{placed_mesh, std::vector<TracedView>(views.size())};
-  tbb::parallel_for(std::size_t{0}, views.size(),
-                    [&](std::size_t i) { cache.views[i] = trace_heatmap_view(cache.mesh, views[i]); });
+  tbb::parallel_for(std::size_t{0}, views.size(), [&](std::size_t i) {
+    cache.views[i] = trace_heatmap_view(cache.mesh, views[i]);
+  });
   return cache;
 }
 
-Result<ReportAssets> render_report_assets(const VerifyReport& report, const ReportOptions& options) {
+Result<ReportAssets> render_report_assets(const VerifyReport& report,
+                                          const ReportOptions& options) {
   return detail::render_report_assets(report, options, nullptr);
 }
 
-Result<ReportAssets> detail::render_report_assets(const VerifyReport& report, const ReportOptions& options,
+Result<ReportAssets> detail::render_report_assets(const VerifyReport& report,
+                                                  const ReportOptions& options,
                                                   const HeatmapCache* cache) {
   // The caller's traced views when they belong to this mesh, else this report's own.
   std::optional<HeatmapCache> own;
@@ -63,8 +67,9 @@ Result<ReportAssets> detail::render_report_assets(const VerifyReport& report, co
   field.sample_positions_mm = report.deviation.mesh_samples.positions_mm;
   field.sample_distances_mm = report.deviation.mesh_samples.distances_mm;
   field.vertex_deviation_mm = report.deviation.vertex_deviation_mm;
-  field.sample_spacing_mm = report.settings.mesh_sample_spacing_mm > 0 ? report.settings.mesh_sample_spacing_mm
-                                                                        : report.settings.voxel_mm;
+  field.sample_spacing_mm = report.settings.mesh_sample_spacing_mm > 0
+                                ? report.settings.mesh_sample_spacing_mm
+                                : report.settings.voxel_mm;
   // The views side by side (each also parallel inside; PNG encoding is one thread per
   // image), and beside them the layer viewer's data.
   const std::size_t n = cache->views.size();
@@ -88,11 +93,13 @@ Result<ReportAssets> detail::render_report_assets(const VerifyReport& report, co
   return assets;
 }
 
-Result<std::vector<ReportFile>> build_report_files(const VerifyReport& report, const ReportOptions& options) {
+Result<std::vector<ReportFile>> build_report_files(const VerifyReport& report,
+                                                   const ReportOptions& options) {
   return detail::build_report_files(report, options, nullptr);
 }
 
-Result<std::vector<ReportFile>> detail::build_report_files(const VerifyReport& report, const ReportOptions& options,
+Result<std::vector<ReportFile>> detail::build_report_files(const VerifyReport& report,
+                                                           const ReportOptions& options,
                                                            const HeatmapCache* cache) {
   auto assets = render_report_assets(report, options, cache);
   if (!assets) return assets.error();
@@ -114,7 +121,8 @@ constexpr std::string_view kStaging = ".staging-";
 long staging_owner(std::string_view tag) {
   const auto dash = tag.find('-');
   long pid = 0;
-  const auto [ptr, ec] = std::from_chars(tag.data(), tag.data() + (dash == std::string_view::npos ? 0 : dash), pid);
+  const auto [ptr, ec] =
+      std::from_chars(tag.data(), tag.data() + (dash == std::string_view::npos ? 0 : dash), pid);
   return ec == std::errc() && ptr == tag.data() + dash ? pid : 0;
 }
 
@@ -152,7 +160,8 @@ Status swap_into_place(const fs::path& staging, const fs::path& target) {
   std::error_code ec;
 #if defined(__linux__) && defined(RENAME_EXCHANGE)
   for (int attempt = 0; attempt < 100; ++attempt) {
-    if (::renameat2(AT_FDCWD, staging.c_str(), AT_FDCWD, target.c_str(), RENAME_NOREPLACE) == 0) return Ok{};
+    if (::renameat2(AT_FDCWD, staging.c_str(), AT_FDCWD, target.c_str(), RENAME_NOREPLACE) == 0)
+      return Ok{};
     if (errno != EEXIST) break;
     if (::renameat2(AT_FDCWD, staging.c_str(), AT_FDCWD, target.c_str(), RENAME_EXCHANGE) == 0) {
       fs::remove_all(staging, ec);  // the report that was replaced
@@ -161,14 +170,16 @@ Status swap_into_place(const fs::path& staging, const fs::path& target) {
     if (errno != ENOENT) break;  // the target went away in between: try again
   }
   if (errno != EINVAL && errno != ENOSYS)  // else: a file system without renameat2's flags
-    return bad_input(std::string("cannot move the finished report into place: ") + std::strerror(errno),
-                     target.string());
+    return bad_input(
+        std::string("cannot move the finished report into place: ") + std::strerror(errno),
+        target.string());
 #endif
   const fs::path old = staging.string() + ".old";
   const bool had_old = fs::exists(target, ec);
   if (had_old) {
     fs::rename(target, old, ec);
-    if (ec) return bad_input("cannot replace the existing report: " + ec.message(), target.string());
+    if (ec)
+      return bad_input("cannot replace the existing report: " + ec.message(), target.string());
   }
   fs::rename(staging, target, ec);
   if (ec) {
@@ -183,18 +194,20 @@ Status swap_into_place(const fs::path& staging, const fs::path& target) {
 
 }  // namespace
 
-Status write_report_folder(const VerifyReport& report, const fs::path& out_dir, const ReportOptions& options) {
+Status write_report_folder(const VerifyReport& report, const fs::path& out_dir,
+                           const ReportOptions& options) {
   return detail::write_report_folder(report, out_dir, options, nullptr);
 }
 
-Status detail::write_report_folder(const VerifyReport& report, const fs::path& out_dir, const ReportOptions& options,
-                                   const HeatmapCache* cache) {
+Status detail::write_report_folder(const VerifyReport& report, const fs::path& out_dir,
+                                   const ReportOptions& options, const HeatmapCache* cache) {
   const fs::path target = out_dir.has_filename() ? out_dir : out_dir.parent_path();
   const fs::path parent = target.has_parent_path() ? target.parent_path() : fs::path(".");
   const std::string name = target.filename().string();
   std::error_code ec;
   fs::create_directories(parent, ec);
-  if (ec) return bad_input("cannot create the report's parent folder: " + ec.message(), parent.string());
+  if (ec)
+    return bad_input("cannot create the report's parent folder: " + ec.message(), parent.string());
   if (fs::exists(target, ec) && !fs::is_directory(target, ec))
     return bad_input("exists and is not a folder; expected a report folder", target.string());
   remove_stale_staging(parent, name);
@@ -208,7 +221,8 @@ Status detail::write_report_folder(const VerifyReport& report, const fs::path& o
     return e;
   };
   fs::create_directories(staging, ec);
-  if (ec) return fail(bad_input("cannot create a staging folder: " + ec.message(), staging.string()));
+  if (ec)
+    return fail(bad_input("cannot create a staging folder: " + ec.message(), staging.string()));
   // The report's own files and the caller's extra outputs (report.json, deviation.ply) are
   // made side by side; a failure of the former is reported first.
   std::optional<Result<std::vector<ReportFile>>> files;
@@ -236,7 +250,8 @@ ReportFolderWriter::ReportFolderWriter(ReportFolderWriter&&) noexcept = default;
 ReportFolderWriter& ReportFolderWriter::operator=(ReportFolderWriter&&) noexcept = default;
 ReportFolderWriter::~ReportFolderWriter() = default;
 
-Status ReportFolderWriter::write(const VerifyReport& report, const fs::path& out_dir, const ReportOptions& options) {
+Status ReportFolderWriter::write(const VerifyReport& report, const fs::path& out_dir,
+                                 const ReportOptions& options) {
   auto& heatmaps = state_->heatmaps;
   if (!heatmaps || !heatmaps->fits(report.placed_mesh, options.views)) {
     heatmaps.reset();

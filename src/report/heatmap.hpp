@@ -66,12 +66,14 @@ namespace printtwin::detail {
 /// render_report_assets, build_report_files and write_report_folder with traced views to
 /// reuse (not owned; null: none). Used when they fit the report's placed mesh and views;
 /// otherwise the report traces its own. The bytes are the same either way.
-[[nodiscard]] Result<ReportAssets> render_report_assets(const VerifyReport& report, const ReportOptions& options,
+[[nodiscard]] Result<ReportAssets> render_report_assets(const VerifyReport& report,
+                                                        const ReportOptions& options,
                                                         const HeatmapCache* cache);
 [[nodiscard]] Result<std::vector<ReportFile>> build_report_files(const VerifyReport& report,
                                                                  const ReportOptions& options,
                                                                  const HeatmapCache* cache);
-[[nodiscard]] Status write_report_folder(const VerifyReport& report, const std::filesystem::path& out_dir,
+[[nodiscard]] Status write_report_folder(const VerifyReport& report,
+                                         const std::filesystem::path& out_dir,
                                          const ReportOptions& options, const HeatmapCache* cache);
 
 }  // namespace printtwin::detail

@@ -63,14 +63,14 @@ void write_suite(std::string& out, const std::string& name, const std::vector<Ca
     out += "    </properties>\n";
   }
   for (const auto& c : cases) {
-    out += "    <testcase name=\"" + xml_escape(c.name) + "\" classname=\"" + xml_escape(c.classname) +
-           "\" time=\"0\"";
+    out += "    <testcase name=\"" + xml_escape(c.name) + "\" classname=\"" +
+           xml_escape(c.classname) + "\" time=\"0\"";
     if (!c.failed) {
       out += "/>\n";
       continue;
     }
-    out += ">\n      <failure message=\"" + xml_escape(c.message) + "\" type=\"" + xml_escape(c.type) +
-           "\">" + xml_escape(c.detail) + "</failure>\n    </testcase>\n";
+    out += ">\n      <failure message=\"" + xml_escape(c.message) + "\" type=\"" +
+           xml_escape(c.type) + "\">" + xml_escape(c.detail) + "</failure>\n    </testcase>\n";
   }
   out += "  </testsuite>\n";
 }
@@ -89,8 +89,8 @@ std::string report_junit_xml(const VerifyReport& report, const ReportOptions& op
     c.failed = !g.pass;
     if (c.failed) {
       c.type = "gate";
-      c.message = detail::gate_label(g.name) + " " + gate_value(g, g.value) + " exceeds the limit " +
-                  gate_value(g, g.limit);
+      c.message = detail::gate_label(g.name) + " " + gate_value(g, g.value) +
+                  " exceeds the limit " + gate_value(g, g.limit);
       c.detail = c.message + ". Tolerance " + fixed(report.settings.gates.tolerance_mm, 3) +
                  " mm; " + detail::verdict_sentence(report);
     }
@@ -121,8 +121,9 @@ std::string report_junit_xml(const VerifyReport& report, const ReportOptions& op
 
   std::string out = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n";
   out += "<testsuites name=\"printtwin verify " + xml_escape(part) + "\" tests=\"" +
-         std::to_string(gates.size() + findings.size()) + "\" failures=\"" + std::to_string(failures) +
-         "\" errors=\"0\" skipped=\"0\" time=\"" + fixed(total_s, 3) + "\">\n";
+         std::to_string(gates.size() + findings.size()) + "\" failures=\"" +
+         std::to_string(failures) + "\" errors=\"0\" skipped=\"0\" time=\"" + fixed(total_s, 3) +
+         "\">\n";
   const std::vector<std::pair<std::string, std::string>> props = {
       {"printtwin_version", report.tool_version},
       {"tolerance_mm", format_number(report.settings.gates.tolerance_mm)},

@@ -18,8 +18,8 @@ std::string gate_text(const GateResult& g, double v) {
 }
 
 std::string stats_row(const std::string& name, const DeviationStats& s) {
-  return "| " + name + " | " + signed_fixed(s.min_mm, 3) + " | " + signed_fixed(s.max_mm, 3) + " | " +
-         fixed(s.rms_mm, 3) + " | " + fixed(s.p95_abs_mm, 3) + " | " +
+  return "| " + name + " | " + signed_fixed(s.min_mm, 3) + " | " + signed_fixed(s.max_mm, 3) +
+         " | " + fixed(s.rms_mm, 3) + " | " + fixed(s.p95_abs_mm, 3) + " | " +
          fixed(s.within_tolerance_pct, 1) + " % |\n";
 }
 
@@ -28,9 +28,9 @@ std::string stats_row(const std::string& name, const DeviationStats& s) {
 std::string report_summary_markdown(const VerifyReport& report, const ReportOptions& options) {
   const auto& dev = report.deviation;
   std::string md;
-  md += std::string("### ") + (report.pass ? "✅" : "❌") + " printtwin verify: " +
-        md_cell(report.part_name.empty() ? "part" : report.part_name) + " — " +
-        (report.pass ? "PASS" : "FAIL") + "\n\n";
+  md += std::string("### ") + (report.pass ? "✅" : "❌") +
+        " printtwin verify: " + md_cell(report.part_name.empty() ? "part" : report.part_name) +
+        " — " + (report.pass ? "PASS" : "FAIL") + "\n\n";
   md += detail::verdict_sentence(report) + "\n\n";
 
   md += "| Gate | Limit | Value | Result |\n|---|---:|---:|:---:|\n";
@@ -60,15 +60,17 @@ std::string report_summary_markdown(const VerifyReport& report, const ReportOpti
       return std::abs(dev.regions[a].worst_mm) > std::abs(dev.regions[b].worst_mm);
     });
     const std::size_t shown = std::min<std::size_t>(order.size(), 5);
-    md += "\n| Region | Kind | Worst | Layers | Where (mm) | G-code lines |\n"
-          "|---:|---|---:|---|---|---|\n";
+    md +=
+        "\n| Region | Kind | Worst | Layers | Where (mm) | G-code lines |\n"
+        "|---:|---|---:|---|---|---|\n";
     for (std::size_t k = 0; k < shown; ++k) {
       const auto& r = dev.regions[order[k]];
-      md += "| " + std::to_string(order[k] + 1) + " | " + std::string(detail::region_kind_name(r.kind)) +
-            " | " + signed_fixed(r.worst_mm, 3) + " mm | " + detail::layer_range(r.layer_min, r.layer_max) +
-            " | " + fixed(r.worst_position_mm.x(), 1) + ", " + fixed(r.worst_position_mm.y(), 1) + ", " +
-            fixed(r.worst_position_mm.z(), 2) + " | " + md_cell(detail::line_list(r.gcode_lines, 4)) +
-            " |\n";
+      md += "| " + std::to_string(order[k] + 1) + " | " +
+            std::string(detail::region_kind_name(r.kind)) + " | " + signed_fixed(r.worst_mm, 3) +
+            " mm | " + detail::layer_range(r.layer_min, r.layer_max) + " | " +
+            fixed(r.worst_position_mm.x(), 1) + ", " + fixed(r.worst_position_mm.y(), 1) + ", " +
+            fixed(r.worst_position_mm.z(), 2) + " | " +
+            md_cell(detail::line_list(r.gcode_lines, 4)) + " |\n";
     }
     if (order.size() > shown)
       md += "\n" + std::to_string(order.size() - shown) + " more regions in report.html.\n";

@@ -46,10 +46,10 @@ Rgb lerp_stops(const ColorStop* stops, int n, double t) {
 }
 
 // Sequential ramps after ColorBrewer's Blues/Reds (light near the tolerance, dark at range).
-constexpr ColorStop kExcess[] = {{0.0, 253, 174, 107}, {0.35, 241, 105, 19}, {0.7, 203, 24, 29},
-                                 {1.0, 127, 0, 13}};
-constexpr ColorStop kDeficit[] = {{0.0, 140, 198, 230}, {0.35, 66, 146, 198}, {0.7, 33, 97, 172},
-                                  {1.0, 8, 48, 107}};
+constexpr ColorStop kExcess[] = {
+    {0.0, 253, 174, 107}, {0.35, 241, 105, 19}, {0.7, 203, 24, 29}, {1.0, 127, 0, 13}};
+constexpr ColorStop kDeficit[] = {
+    {0.0, 140, 198, 230}, {0.35, 66, 146, 198}, {0.7, 33, 97, 172}, {1.0, 8, 48, 107}};
 // Within tolerance: green, leaning teal on the deficit side and yellow-green on the excess
 // side, so the sign reads even inside the band without competing with the shading.
 constexpr ColorStop kWithin[] = {{0.0, 84, 178, 160}, {0.5, 65, 171, 93}, {1.0, 166, 206, 96}};
@@ -154,7 +154,8 @@ TracedView trace_heatmap_view(const Mesh& mesh, const ViewSpec& view) {
     std::vector<double> pz(mesh.vertices_mm.size());
     for (std::size_t v = 0; v < px.size(); ++v) {
       const Vec3 d = mesh.vertices_mm[v] - cam.center_mm;
-      px[v] = Vec2(d.dot(cam.right) / cam.mm_per_px + 0.5 * w - 0.5, 0.5 * h - 0.5 - d.dot(cam.up) / cam.mm_per_px);
+      px[v] = Vec2(d.dot(cam.right) / cam.mm_per_px + 0.5 * w - 0.5,
+                   0.5 * h - 0.5 - d.dot(cam.up) / cam.mm_per_px);
       pz[v] = d.dot(cam.forward) + out.near_offset_mm;
     }
     std::vector<double> nearest(tri.size(), std::numeric_limits<double>::infinity());
@@ -167,8 +168,10 @@ TracedView trace_heatmap_view(const Mesh& mesh, const ViewSpec& view) {
       const double area = edge(a, b, c);
       if (!(std::abs(area) > 0) || !std::isfinite(area)) continue;  // edge-on: no pixel sees it
       const Vec2 lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
-      const int x0 = std::max(0, static_cast<int>(std::ceil(lo.x()))), x1 = std::min(w - 1, static_cast<int>(std::floor(hi.x())));
-      const int y0 = std::max(0, static_cast<int>(std::ceil(lo.y()))), y1 = std::min(h - 1, static_cast<int>(std::floor(hi.y())));
+      const int x0 = std::max(0, static_cast<int>(std::ceil(lo.x()))),
+                x1 = std::min(w - 1, static_cast<int>(std::floor(hi.x())));
+      const int y0 = std::max(0, static_cast<int>(std::ceil(lo.y()))),
+                y1 = std::min(h - 1, static_cast<int>(std::floor(hi.y())));
       if (x0 > x1 || y0 > y1) continue;
       const double inv = 1.0 / area;
       Vec3 n = triangle_normal(mesh, t);
@@ -290,7 +293,8 @@ void splat_one_pixel_each(const SampleProjector& project, std::size_t stride, do
     if (!project(k, fx, fy, d)) continue;
     const int cx = static_cast<int>(fx), cy = static_cast<int>(fy);
     drops[start[static_cast<std::size_t>(cy) / kBandRows]++] = {
-        d.dot(cam.forward) + near_offset, static_cast<std::uint32_t>(static_cast<std::size_t>(cy) * w + cx),
+        d.dot(cam.forward) + near_offset,
+        static_cast<std::uint32_t>(static_cast<std::size_t>(cy) * w + cx),
         static_cast<float>(project.values[k])};
   }
   for (const Drop& drop : drops) {
@@ -365,33 +369,39 @@ PixelDeviation splat_samples(const TracedView& traced, const Mesh& mesh,
                      std::vector<std::uint16_t>(tri.size(), 0)};
   double spacing = field.sample_spacing_mm;
   if (!(spacing > 0) && !field.sample_positions_mm.empty())
-    spacing = std::sqrt(surface_area_mm2(mesh) / static_cast<double>(field.sample_positions_mm.size()));
+    spacing =
+        std::sqrt(surface_area_mm2(mesh) / static_cast<double>(field.sample_positions_mm.size()));
   if (field.sample_positions_mm.empty() || !(spacing > 0)) return dev;
   const int radius_px =
-      spacing > 1.5 * cam.mm_per_px ? std::min(static_cast<int>(std::lround(0.5 * spacing / cam.mm_per_px)), 6) : 0;
+      spacing > 1.5 * cam.mm_per_px
+          ? std::min(static_cast<int>(std::lround(0.5 * spacing / cam.mm_per_px)), 6)
+          : 0;
   const double depth_tol = 1.5 * std::max(spacing, cam.mm_per_px) + 0.02;
   // Many samples per pixel (dense sampling, small image): a regular subset carries the same
   // picture; keep about 3 per pixel.
   const double per_px = (cam.mm_per_px / spacing) * (cam.mm_per_px / spacing);
-  const std::size_t stride = radius_px == 0 ? std::max<std::size_t>(1, static_cast<std::size_t>(per_px / 3.0)) : 1;
+  const std::size_t stride =
+      radius_px == 0 ? std::max<std::size_t>(1, static_cast<std::size_t>(per_px / 3.0)) : 1;
   std::vector<SplatPixel> splat(tri.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tri.size(), 4096),
                     [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      if (tri[i] == TracedView::kNoHit) continue;
-      // Slanted faces change depth across a pixel: widen the test where they are steep.
-      const double slope = std::abs(traced.normal[i].dot(cam.forward));
-      splat[i].window = depth_tol / std::max(slope, 0.25);
-      splat[i].depth = traced.depth_mm[i];
-    }
-  });
-  const SampleProjector project{cam, field.sample_positions_mm, field.sample_distances_mm, radius_px,
-                                1.0 / cam.mm_per_px};
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        if (tri[i] == TracedView::kNoHit) continue;
+                        // Slanted faces change depth across a pixel: widen the test where they are
+                        // steep.
+                        const double slope = std::abs(traced.normal[i].dot(cam.forward));
+                        splat[i].window = depth_tol / std::max(slope, 0.25);
+                        splat[i].depth = traced.depth_mm[i];
+                      }
+                    });
+  const SampleProjector project{cam, field.sample_positions_mm, field.sample_distances_mm,
+                                radius_px, 1.0 / cam.mm_per_px};
   if (radius_px == 0)
     splat_one_pixel_each(project, stride, traced.near_offset_mm, splat);
   else
     splat_squares(project, stride, traced.near_offset_mm, splat);
-  for (std::size_t i = 0; i < tri.size(); ++i) dev.sum[i] = splat[i].sum, dev.count[i] = splat[i].count;
+  for (std::size_t i = 0; i < tri.size(); ++i)
+    dev.sum[i] = splat[i].sum, dev.count[i] = splat[i].count;
   fill_holes(traced, depth_tol, dev);
   return dev;
 }
@@ -405,7 +415,8 @@ double vertex_deviation_at(const TracedView& traced, const Mesh& mesh,
   const Vec3& a = mesh.vertices_mm[t[0]];
   const Vec3& b = mesh.vertices_mm[t[1]];
   const Vec3& c = mesh.vertices_mm[t[2]];
-  const Vec3 v0 = b - a, v1 = c - a, v2 = traced.pixel_origin(x, y) + cam.forward * traced.depth_mm[i] - a;
+  const Vec3 v0 = b - a, v1 = c - a,
+             v2 = traced.pixel_origin(x, y) + cam.forward * traced.depth_mm[i] - a;
   const double d00 = v0.dot(v0), d01 = v0.dot(v1), d11 = v1.dot(v1);
   const double d20 = v2.dot(v0), d21 = v2.dot(v1);
   const double den = d00 * d11 - d01 * d01;
@@ -419,8 +430,8 @@ double vertex_deviation_at(const TracedView& traced, const Mesh& mesh,
 }
 }  // namespace
 
-HeatmapView shade_heatmap(const TracedView& traced, const Mesh& mesh, const SurfaceDeviationField& field,
-                          const DeviationColorScale& scale) {
+HeatmapView shade_heatmap(const TracedView& traced, const Mesh& mesh,
+                          const SurfaceDeviationField& field, const DeviationColorScale& scale) {
   HeatmapView out;
   out.view = traced.view;
   out.camera = traced.camera;
@@ -468,7 +479,8 @@ HeatmapView render_heatmap(const Mesh& mesh, const SurfaceDeviationField& field,
   return shade_heatmap(trace_heatmap_view(mesh, view), mesh, field, scale);
 }
 
-std::vector<RegionMarker> mark_regions(const TracedView& traced, std::span<const DeviationRegion> regions) {
+std::vector<RegionMarker> mark_regions(const TracedView& traced,
+                                       std::span<const DeviationRegion> regions) {
   const Camera& camera = traced.camera;
   std::vector<RegionMarker> out;
   out.reserve(regions.size());
@@ -496,7 +508,8 @@ std::vector<RegionMarker> mark_regions(const TracedView& traced, std::span<const
       const int x = static_cast<int>(fx), y = static_cast<int>(fy);
       const std::size_t i = static_cast<std::size_t>(y) * camera.width_px + x;
       if (traced.triangle[i] != TracedView::kNoHit) {
-        const double point_depth = (r.worst_position_mm - traced.pixel_origin(x, y)).dot(camera.forward);
+        const double point_depth =
+            (r.worst_position_mm - traced.pixel_origin(x, y)).dot(camera.forward);
         m.visible = traced.depth_mm[i] >= point_depth - (3.0 * camera.mm_per_px + 0.1);
       }
     }

@@ -41,7 +41,6 @@ struct SeverityCounts {
 [[nodiscard]] std::string viewer_json(const VerifyReport& report, const DeviationColorScale& scale,
                                       const ReportOptions& options);
 
-
 /// The page's script (html_assets.cpp).
 [[nodiscard]] std::string_view report_js();
 

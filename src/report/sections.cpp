@@ -107,8 +107,10 @@ std::vector<std::vector<Vec2>> chain(const std::vector<CutSegment>& segs, double
   auto add = [&](std::uint64_t key, std::uint32_t s) {
     auto [it, inserted] = at_edge.try_emplace(key, std::array<std::uint32_t, 2>{kFree, kFree});
     auto& slots = it->second;
-    if (slots[0] == kFree) slots[0] = s;
-    else if (slots[1] == kFree) slots[1] = s;  // non-manifold extras start their own chain
+    if (slots[0] == kFree)
+      slots[0] = s;
+    else if (slots[1] == kFree)
+      slots[1] = s;  // non-manifold extras start their own chain
   };
   for (std::uint32_t s = 0; s < segs.size(); ++s) {
     add(segs[s].key_a, s);
@@ -156,7 +158,8 @@ std::vector<std::vector<std::vector<Vec2>>> cut_mesh(const Mesh& mesh, std::span
                                                      double simplify_mm) {
   std::vector<std::size_t> order(z_mm.size());
   std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return z_mm[a] < z_mm[b]; });
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t a, std::size_t b) { return z_mm[a] < z_mm[b]; });
   std::vector<double> sorted_z(order.size());
   for (std::size_t i = 0; i < order.size(); ++i) sorted_z[i] = z_mm[order[i]];
 

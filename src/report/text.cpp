@@ -16,12 +16,23 @@ std::string html_escape(std::string_view s) {
   out.reserve(s.size() + 8);
   for (char c : s) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&#39;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&#39;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -34,15 +45,32 @@ std::string xml_escape(std::string_view s) {
     const auto u = static_cast<unsigned char>(c);
     if (u < 0x20 && c != '\t' && c != '\n' && c != '\r') continue;  // not allowed in XML 1.0
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&apos;"; break;
-      case '\n': out += "&#10;"; break;
-      case '\r': out += "&#13;"; break;
-      case '\t': out += "&#9;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&apos;";
+        break;
+      case '\n':
+        out += "&#10;";
+        break;
+      case '\r':
+        out += "&#13;";
+        break;
+      case '\t':
+        out += "&#9;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -51,10 +79,14 @@ std::string xml_escape(std::string_view s) {
 std::string md_cell(std::string_view s) {
   std::string out;
   for (char c : s) {
-    if (c == '|') out += "\\|";
-    else if (c == '\\') out += "\\\\";
-    else if (c == '\n' || c == '\r') out += ' ';
-    else out += c;
+    if (c == '|')
+      out += "\\|";
+    else if (c == '\\')
+      out += "\\\\";
+    else if (c == '\n' || c == '\r')
+      out += ' ';
+    else
+      out += c;
   }
   return out;
 }
@@ -66,7 +98,8 @@ std::string base64(std::string_view bytes) {
   out.reserve((bytes.size() + 2) / 3 * 4);
   std::size_t i = 0;
   for (; i + 2 < bytes.size(); i += 3) {
-    const auto a = static_cast<unsigned char>(bytes[i]), b = static_cast<unsigned char>(bytes[i + 1]),
+    const auto a = static_cast<unsigned char>(bytes[i]),
+               b = static_cast<unsigned char>(bytes[i + 1]),
                c = static_cast<unsigned char>(bytes[i + 2]);
     out += kAlphabet[a >> 2];
     out += kAlphabet[((a & 3) << 4) | (b >> 4)];
@@ -94,7 +127,8 @@ std::string signed_fixed(double v, int decimals) {
 }
 
 std::string duration_text(double seconds) {
-  if (std::isfinite(seconds) && seconds >= 0 && seconds < 60) return format_fixed(seconds, 1) + " s";
+  if (std::isfinite(seconds) && seconds >= 0 && seconds < 60)
+    return format_fixed(seconds, 1) + " s";
   return format_duration(seconds);
 }
 
@@ -115,7 +149,9 @@ bool gate_is_count(std::string_view name) {
          name.find("count") != std::string_view::npos;
 }
 
-std::string_view region_kind_name(RegionKind k) { return k == RegionKind::missing ? "missing" : "excess"; }
+std::string_view region_kind_name(RegionKind k) {
+  return k == RegionKind::missing ? "missing" : "excess";
+}
 
 std::string line_list(const std::vector<long>& lines, std::size_t max_items) {
   if (lines.empty()) return "—";
@@ -143,9 +179,12 @@ std::string layer_range(int lo, int hi) {
 SeverityCounts count_severities(const std::vector<Finding>& findings) {
   SeverityCounts c;
   for (const auto& f : findings) {
-    if (f.severity == Severity::error) ++c.errors;
-    else if (f.severity == Severity::warning) ++c.warnings;
-    else ++c.infos;
+    if (f.severity == Severity::error)
+      ++c.errors;
+    else if (f.severity == Severity::warning)
+      ++c.warnings;
+    else
+      ++c.infos;
   }
   return c;
 }
@@ -173,8 +212,8 @@ std::string verdict_sentence(const VerifyReport& report) {
       if (std::abs(regions[i].worst_mm) > std::abs(regions[worst].worst_mm)) worst = i;
     const auto& r = regions[worst];
     s += " " + std::to_string(regions.size()) + (regions.size() == 1 ? " region" : " regions") +
-         " out of tolerance; the worst is " + std::string(region_kind_name(r.kind)) + " material, " +
-         signed_fixed(r.worst_mm, 2) + " mm";
+         " out of tolerance; the worst is " + std::string(region_kind_name(r.kind)) +
+         " material, " + signed_fixed(r.worst_mm, 2) + " mm";
     if (r.layer_min >= 0) s += " at layer " + layer_range(r.layer_min, r.layer_max);
     s += ".";
   } else {

@@ -71,7 +71,8 @@ LayerSamples samples_by_layer(const DeviationResult& dev, const std::vector<std:
     first_layer = std::min(first_layer, per_layer[k].layer);
     last_layer = std::max(last_layer, per_layer[k].layer);
   }
-  std::vector<std::size_t> chosen_at(static_cast<std::size_t>(last_layer - first_layer) + 1, kNotChosen);
+  std::vector<std::size_t> chosen_at(static_cast<std::size_t>(last_layer - first_layer) + 1,
+                                     kNotChosen);
   for (std::size_t k = 0; k < chosen.size(); ++k)
     chosen_at[static_cast<std::size_t>(per_layer[chosen[k]].layer - first_layer)] = k;
   auto chosen_of = [&](int layer) {
@@ -182,7 +183,8 @@ std::string viewer_json(const VerifyReport& report, const DeviationColorScale& s
     return j.dump();
   }
 
-  const std::vector<std::size_t> chosen = choose_layers(per_layer.size(), options.max_viewer_layers);
+  const std::vector<std::size_t> chosen =
+      choose_layers(per_layer.size(), options.max_viewer_layers);
   // Layer tops (z_mm) and heights; the cut is taken at mid-layer.
   std::vector<double> top(per_layer.size()), cut_z(chosen.size());
   for (std::size_t i = 0; i < per_layer.size(); ++i) top[i] = per_layer[i].z_mm;
@@ -202,8 +204,8 @@ std::string viewer_json(const VerifyReport& report, const DeviationColorScale& s
   frame.q = std::max(extent / 65000.0, 0.0005);
 
   const LayerSamples samples = samples_by_layer(dev, chosen, top);
-  const std::size_t per_layer_cap =
-      std::max<std::size_t>(200, options.max_viewer_points / std::max<std::size_t>(chosen.size(), 1));
+  const std::size_t per_layer_cap = std::max<std::size_t>(
+      200, options.max_viewer_points / std::max<std::size_t>(chosen.size(), 1));
   const std::size_t mesh_cap = std::max<std::size_t>(100, per_layer_cap / 2);
   nlohmann::json layers = nlohmann::json::array();
   for (std::size_t k = 0; k < chosen.size(); ++k) {

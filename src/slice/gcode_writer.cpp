@@ -146,7 +146,8 @@ class Writer {
   void unretract() {
     if (std::abs(z_ - layer_z_) > 1e-9) move_z(layer_z_);
     if (!retracted_) return;
-    const double speed = s_.deretract_speed_mm_s > 0 ? s_.deretract_speed_mm_s : s_.retract_speed_mm_s;
+    const double speed =
+        s_.deretract_speed_mm_s > 0 ? s_.deretract_speed_mm_s : s_.retract_speed_mm_s;
     out_ += "G1 E";
     put(out_, s_.retract_length_mm, 5);
     out_ += " F";
@@ -205,7 +206,8 @@ class Writer {
       width_ = path.width_mm;
     }
     const bool bridge = path.role == Role::bridge_infill;
-    if (bridge && s_.cooling && s_.bridge_fan_speed > 0) set_fan(static_cast<int>(s_.bridge_fan_speed));
+    if (bridge && s_.cooling && s_.bridge_fan_speed > 0)
+      set_fan(static_cast<int>(s_.bridge_fan_speed));
     const double f = speed_mm_s * 60;
     const double e_per_mm = path.area_mm2 / filament_area_ * s_.extrusion_multiplier;
     bool first = true;
@@ -275,16 +277,23 @@ std::vector<P2> loop_points(const CPath& loop, std::size_t start, double clip_mm
   return pts;
 }
 
-std::size_t seam_vertex(const CPath& loop, SeamPosition seam, const P2& pos, const P2& aligned_ref) {
+std::size_t seam_vertex(const CPath& loop, SeamPosition seam, const P2& pos,
+                        const P2& aligned_ref) {
   std::size_t best = 0;
   double best_v = std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < loop.size(); ++i) {
     const P2 p = pt(loop[i]);
     double v = 0;
     switch (seam) {
-      case SeamPosition::nearest: v = dist(p, pos); break;
-      case SeamPosition::aligned: v = dist(p, aligned_ref); break;
-      case SeamPosition::rear: v = -p.y * 1000.0 + p.x; break;
+      case SeamPosition::nearest:
+        v = dist(p, pos);
+        break;
+      case SeamPosition::aligned:
+        v = dist(p, aligned_ref);
+        break;
+      case SeamPosition::rear:
+        v = -p.y * 1000.0 + p.x;
+        break;
     }
     if (v < best_v - 1e-12) {
       best_v = v;
@@ -327,14 +336,16 @@ std::vector<std::pair<std::size_t, bool>> order_open(const std::vector<Extrusion
     ends.push_back({b.x * ax + b.y * ay, k, true, b});
   }
   std::sort(ends.begin(), ends.end(), [](const End& a, const End& b) {
-    return a.key < b.key || (a.key == b.key && (a.path < b.path || (a.path == b.path && a.last < b.last)));
+    return a.key < b.key ||
+           (a.key == b.key && (a.path < b.path || (a.path == b.path && a.last < b.last)));
   });
   std::vector<char> used(n, 0);
   P2 cur = from;
   for (std::size_t done = 0; done < n; ++done) {
     const double ck = cur.x * ax + cur.y * ay;
     const std::size_t mid = static_cast<std::size_t>(
-        std::lower_bound(ends.begin(), ends.end(), ck, [](const End& e, double v) { return e.key < v; }) -
+        std::lower_bound(ends.begin(), ends.end(), ck,
+                         [](const End& e, double v) { return e.key < v; }) -
         ends.begin());
     double best = std::numeric_limits<double>::infinity();
     long best_e = -1;
@@ -393,20 +404,29 @@ std::vector<std::pair<std::size_t, bool>> order_open(const std::vector<Extrusion
 
 double role_speed(const SliceSettings& s, Role r) {
   switch (r) {
-    case Role::external_perimeter: return s.external_perimeter_speed_mm_s;
-    case Role::perimeter: return s.perimeter_speed_mm_s;
-    case Role::sparse_infill: return s.infill_speed_mm_s;
-    case Role::solid_infill: return s.solid_infill_speed_mm_s;
-    case Role::top_solid_infill: return s.top_solid_infill_speed_mm_s;
-    case Role::bridge_infill: return s.bridge_speed_mm_s;
-    case Role::gap_fill: return s.gap_fill_speed_mm_s;
-    case Role::skirt: return s.skirt_speed_mm_s > 0 ? s.skirt_speed_mm_s : s.perimeter_speed_mm_s;
+    case Role::external_perimeter:
+      return s.external_perimeter_speed_mm_s;
+    case Role::perimeter:
+      return s.perimeter_speed_mm_s;
+    case Role::sparse_infill:
+      return s.infill_speed_mm_s;
+    case Role::solid_infill:
+      return s.solid_infill_speed_mm_s;
+    case Role::top_solid_infill:
+      return s.top_solid_infill_speed_mm_s;
+    case Role::bridge_infill:
+      return s.bridge_speed_mm_s;
+    case Role::gap_fill:
+      return s.gap_fill_speed_mm_s;
+    case Role::skirt:
+      return s.skirt_speed_mm_s > 0 ? s.skirt_speed_mm_s : s.perimeter_speed_mm_s;
   }
   return s.perimeter_speed_mm_s;
 }
 
 // Expands {name} placeholders of the printer's start / end code.
-Result<std::string> expand(const std::string& text, const std::vector<std::pair<std::string, std::string>>& vars,
+Result<std::string> expand(const std::string& text,
+                           const std::vector<std::pair<std::string, std::string>>& vars,
                            const std::string& which) {
   std::string out;
   std::size_t i = 0;
@@ -503,7 +523,8 @@ void emit_open(Writer& w, const std::vector<ExtrusionPath>& paths, Role role, bo
   for (const auto& [k, reversed] : order_open(paths, idx, w.pos())) {
     const ExtrusionPath& p = paths[k];
     if (p.closed) {
-      const std::size_t st = seam_vertex(p.points, SeamPosition::nearest, w.pos(), style.aligned_ref);
+      const std::size_t st =
+          seam_vertex(p.points, SeamPosition::nearest, w.pos(), style.aligned_ref);
       w.extrude(p, loop_points(p.points, st, style.clip_mm), style.speed(p.role));
       continue;
     }
@@ -525,7 +546,8 @@ void write_island(Writer& w, const Island& isl, SeamPosition seam, const PathSty
     } else {
       std::vector<P2> pts;
       for (const auto& q : p.points) pts.push_back(pt(q));
-      if (dist(w.pos(), pts.back()) < dist(w.pos(), pts.front())) std::reverse(pts.begin(), pts.end());
+      if (dist(w.pos(), pts.back()) < dist(w.pos(), pts.front()))
+        std::reverse(pts.begin(), pts.end());
       w.extrude(p, pts, style.speed(p.role));
     }
   }
@@ -569,8 +591,9 @@ void write_header(std::string& out, std::size_t layers, const PrinterProfile& pr
 
 }  // namespace
 
-Result<WriterResult> write_gcode(const std::vector<LayerToolpaths>& layers, const PrinterProfile& printer,
-                                 const SliceSettings& s, const std::string& source_name) {
+Result<WriterResult> write_gcode(const std::vector<LayerToolpaths>& layers,
+                                 const PrinterProfile& printer, const SliceSettings& s,
+                                 const std::string& source_name) {
   Writer w(printer, s);
   std::string& out = w.out();
   write_header(out, layers.size(), printer, s, source_name);

@@ -12,14 +12,22 @@ using namespace ClipperLib;
 
 const char* role_label(Role r) {
   switch (r) {
-    case Role::external_perimeter: return "External perimeter";
-    case Role::perimeter: return "Perimeter";
-    case Role::sparse_infill: return "Internal infill";
-    case Role::solid_infill: return "Solid infill";
-    case Role::top_solid_infill: return "Top solid infill";
-    case Role::bridge_infill: return "Bridge infill";
-    case Role::gap_fill: return "Gap fill";
-    case Role::skirt: return "Skirt/Brim";
+    case Role::external_perimeter:
+      return "External perimeter";
+    case Role::perimeter:
+      return "Perimeter";
+    case Role::sparse_infill:
+      return "Internal infill";
+    case Role::solid_infill:
+      return "Solid infill";
+    case Role::top_solid_infill:
+      return "Top solid infill";
+    case Role::bridge_infill:
+      return "Bridge infill";
+    case Role::gap_fill:
+      return "Gap fill";
+    case Role::skirt:
+      return "Skirt/Brim";
   }
   return "Perimeter";
 }
@@ -265,8 +273,10 @@ Centerline centerline(const ExPolygon& strip) {
       std::reverse(side_b.begin(), side_b.end());
     }
     const double la = edge_len(side_a, 0), lb = edge_len(side_b, 0);
-    if (la <= 1.5 * d_um && lb > la) side_a.erase(side_a.begin());
-    else if (lb <= 1.5 * d_um && la > lb) side_b.erase(side_b.begin());
+    if (la <= 1.5 * d_um && lb > la)
+      side_a.erase(side_a.begin());
+    else if (lb <= 1.5 * d_um && la > lb)
+      side_b.erase(side_b.begin());
     if (end == 1) {
       std::reverse(side_a.begin(), side_a.end());
       std::reverse(side_b.begin(), side_b.end());
@@ -280,7 +290,8 @@ Centerline centerline(const ExPolygon& strip) {
     const double t = double(k) / double(samples - 1);
     auto pa = point_at(side_a, ca, t * ca.back());
     auto pb = point_at(side_b, cb, t * cb.back());
-    IntPoint q(std::llround(0.5 * (pa.first + pb.first)), std::llround(0.5 * (pa.second + pb.second)));
+    IntPoint q(std::llround(0.5 * (pa.first + pb.first)),
+               std::llround(0.5 * (pa.second + pb.second)));
     if (mid.empty() || mid.back() != q) mid.push_back(q);
   }
   mid = simplify_open(mid, 5.0);
@@ -326,8 +337,8 @@ CPaths line_field(const CPaths& region, double spacing_um, double angle_deg) {
 
 }  // namespace
 
-CPaths infill_lines(const CPaths& region, InfillPattern pattern, double spacing_um, double angle_deg,
-                    int layer_index) {
+CPaths infill_lines(const CPaths& region, InfillPattern pattern, double spacing_um,
+                    double angle_deg, int layer_index) {
   if (region.empty() || !(spacing_um > 0)) return {};
   switch (pattern) {
     case InfillPattern::rectilinear: {

@@ -140,8 +140,8 @@ CPath convex_hull(CPath pts) {
 namespace {
 /// Pass 1 for one island of a layer: perimeter loops (inner first unless
 /// external_perimeters_first), thin walls, gap fill, and the area left for the fill.
-IslandWork plan_island_perimeters(const ExPolygon& ex, const SliceSettings& s, int layer,
-                                  double h, double min_thin_mm, LayerToolpaths& lt) {
+IslandWork plan_island_perimeters(const ExPolygon& ex, const SliceSettings& s, int layer, double h,
+                                  double min_thin_mm, LayerToolpaths& lt) {
   const LayerWidths w = widths_for(s, layer);
   const double s_ext = bead_spacing_mm(w.ext, h) * kUmPerMm;
   const double s_per = bead_spacing_mm(w.per, h) * kUmPerMm;
@@ -173,7 +173,8 @@ IslandWork plan_island_perimeters(const ExPolygon& ex, const SliceSettings& s, i
     CPaths next = offset(r, -step);
     if (s.gap_fill) {
       const CPaths inner = offset(r, -0.5 * sp_k);
-      const CPaths gaps = next.empty() ? inner : clip(inner, offset(next, 0.5 * s_per), ctDifference);
+      const CPaths gaps =
+          next.empty() ? inner : clip(inner, offset(next, 0.5 * s_per), ctDifference);
       strips_to_lines(gaps, Role::gap_fill, 0.25 * s_per / kUmPerMm, 2.0 * s_per / kUmPerMm,
                       0.5 * w.per, h, layer, false, iw.island.gap_fill, lt.dropped);
     }
@@ -186,8 +187,8 @@ IslandWork plan_island_perimeters(const ExPolygon& ex, const SliceSettings& s, i
     const bool external = kk == 0;
     for (const auto& p : loops[kk]) {
       if (p.size() < 3) continue;
-      loop_paths.push_back(make_path(external ? Role::external_perimeter : Role::perimeter, p,
-                                     true, external ? w.ext : w.per, h));
+      loop_paths.push_back(make_path(external ? Role::external_perimeter : Role::perimeter, p, true,
+                                     external ? w.ext : w.per, h));
     }
   }
   // Thin walls go with the external perimeters.
@@ -258,8 +259,8 @@ void plan_island_fill(IslandWork& iw, const SliceSettings& s, const FillLayer& f
   } else if (!sparse.empty() && s.infill_density <= 0) {
     sparse_keep = sparse;  // 0 %: nothing printed there, and it is not solid either
   }
-  CPaths solid = clip(clip(clip(F, sparse_keep, ctDifference), top, ctDifference), bridge,
-                      ctDifference);
+  CPaths solid =
+      clip(clip(clip(F, sparse_keep, ctDifference), top, ctDifference), bridge, ctDifference);
   Island& isl = iw.island;
   auto add_lines = [&](const CPaths& lines, Role role, double width_mm, double area) {
     for (const auto& ln : lines) {
@@ -277,8 +278,8 @@ void plan_island_fill(IslandWork& iw, const SliceSettings& s, const FillLayer& f
     const double d = s.nozzle_diameter_mm;
     const double area = std::numbers::pi * 0.25 * d * d;
     const double spacing = (d + 0.05) * kUmPerMm;
-    CPaths lines = infill_lines(bridge, InfillPattern::rectilinear, spacing,
-                                bridge_angle_deg(bridge), 0);
+    CPaths lines =
+        infill_lines(bridge, InfillPattern::rectilinear, spacing, bridge_angle_deg(bridge), 0);
     add_lines(lines, Role::bridge_infill, d, area);
     lt.has_bridge = true;
   }
@@ -373,8 +374,8 @@ RegionResult plan_layers(const std::vector<LayerOutline>& outlines, const SliceS
     lt.height_mm = outlines[li].height_mm;
     lt.boundary = slices[li];
     for (const ExPolygon& ex : to_expolygons(slices[li]))
-      work[li].push_back(plan_island_perimeters(ex, s, static_cast<int>(li),
-                                                outlines[li].height_mm, min_thin_mm, lt));
+      work[li].push_back(plan_island_perimeters(ex, s, static_cast<int>(li), outlines[li].height_mm,
+                                                min_thin_mm, lt));
   });
 
   // Pass 2: coverage of the layers above / below for the solid skins.

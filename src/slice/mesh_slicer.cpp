@@ -4,9 +4,9 @@
 // A vertex exactly on a plane counts as above it, so every crossing triangle yields exactly
 // two crossed edges and no special cases remain.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
-#include <array>
 #include <numeric>
 
 #include <tbb/parallel_for.h>
@@ -55,8 +55,8 @@ std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
 // Chains one layer's segments into loops. Returns loops in microns; `open_end` gets the
 // position of an unmatched end when the mesh is not closed at this height.
 struct ChainStats {
-  int closed_gaps = 0;              // open chains joined across a gap
-  std::optional<Vec2> dropped_at;   // an open chain that could not be closed
+  int closed_gaps = 0;             // open chains joined across a gap
+  std::optional<Vec2> dropped_at;  // an open chain that could not be closed
 };
 
 // Largest gap between open chain ends that is bridged (PrusaSlicer closes such gaps too).
@@ -109,7 +109,8 @@ std::vector<std::vector<Point2um>> chain(std::vector<Segment>& segs, ChainStats&
     }
     if (!closed) {
       const Segment& s = segs[order[cur]];
-      open.push_back(Open{std::move(loop), Point2um{std::llround(s.bx * 1000.0), std::llround(s.by * 1000.0)}});
+      open.push_back(Open{std::move(loop),
+                          Point2um{std::llround(s.bx * 1000.0), std::llround(s.by * 1000.0)}});
       continue;
     }
     // Drop repeated points (edges cut at the same micron).
@@ -181,8 +182,8 @@ Result<std::vector<LayerOutline>> slice_layers(const Mesh& mesh, const SliceSett
   const Box3 box = bounding_box(mesh);
   const std::vector<double> print_z = layer_print_z(box.max.z(), s);
   if (print_z.empty())
-    return bad_input("the mesh has no height above the bed (top at z = " +
-                     format_number(box.max.z()) + " mm)");
+    return bad_input(
+        "the mesh has no height above the bed (top at z = " + format_number(box.max.z()) + " mm)");
   const std::size_t L = print_z.size();
   std::vector<LayerOutline> layers(L);
   std::vector<double> slice_z(L);
@@ -214,8 +215,10 @@ Result<std::vector<LayerOutline>> slice_layers(const Mesh& mesh, const SliceSett
     };
     std::sort(ord.begin(), ord.end(), less);
     for (std::size_t k = 0; k < ord.size(); ++k) {
-      if (k > 0 && V[ord[k]] == V[ord[k - 1]]) canon[ord[k]] = canon[ord[k - 1]];
-      else canon[ord[k]] = ord[k];
+      if (k > 0 && V[ord[k]] == V[ord[k - 1]])
+        canon[ord[k]] = canon[ord[k - 1]];
+      else
+        canon[ord[k]] = ord[k];
     }
   }
   std::vector<std::vector<Segment>> per_layer(L);

@@ -15,8 +15,10 @@ namespace printtwin {
 namespace {
 
 std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r'))
+    s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r'))
+    s.remove_suffix(1);
   return s;
 }
 
@@ -51,8 +53,8 @@ enum class Kind { number, count, flag, ratio, width, pattern, seam, solid_patter
 
 // One settable key. `target` points into a SliceSettings given at use time.
 struct Entry {
-  const char* key;           // PrusaSlicer key
-  const char* alias;         // printtwin alias (CLI flag name with '_'), or nullptr
+  const char* key;    // PrusaSlicer key
+  const char* alias;  // printtwin alias (CLI flag name with '_'), or nullptr
   Kind kind;
   std::variant<double SliceSettings::*, int SliceSettings::*, bool SliceSettings::*,
                InfillPattern SliceSettings::*, SeamPosition SliceSettings::*, std::monostate>
@@ -160,9 +162,12 @@ std::string apply(SliceSettings& s, const Entry& e, std::string_view raw) {
       return {};
     }
     case Kind::flag: {
-      if (value == "1" || value == "true") s.*std::get<bool S::*>(e.member) = true;
-      else if (value == "0" || value == "false") s.*std::get<bool S::*>(e.member) = false;
-      else return what + ": expected 0/1 or true/false";
+      if (value == "1" || value == "true")
+        s.*std::get<bool S::*>(e.member) = true;
+      else if (value == "0" || value == "false")
+        s.*std::get<bool S::*>(e.member) = false;
+      else
+        return what + ": expected 0/1 or true/false";
       return {};
     }
     case Kind::ratio: {
@@ -185,10 +190,14 @@ std::string apply(SliceSettings& s, const Entry& e, std::string_view raw) {
       if (value == "rectilinear" || value == "line" || value == "alignedrectilinear" ||
           value == "monotonic")
         p = InfillPattern::rectilinear;
-      else if (value == "grid") p = InfillPattern::grid;
-      else if (value == "triangles" || value == "stars") p = InfillPattern::triangles;
-      else if (value == "concentric") p = InfillPattern::concentric;
-      else return what + ": expected rectilinear, grid, triangles or concentric";
+      else if (value == "grid")
+        p = InfillPattern::grid;
+      else if (value == "triangles" || value == "stars")
+        p = InfillPattern::triangles;
+      else if (value == "concentric")
+        p = InfillPattern::concentric;
+      else
+        return what + ": expected rectilinear, grid, triangles or concentric";
       s.*std::get<InfillPattern S::*>(e.member) = p;
       return {};
     }
@@ -198,10 +207,14 @@ std::string apply(SliceSettings& s, const Entry& e, std::string_view raw) {
       return what + ": solid layers support rectilinear or monotonic lines only";
     }
     case Kind::seam: {
-      if (value == "nearest") s.seam = SeamPosition::nearest;
-      else if (value == "aligned") s.seam = SeamPosition::aligned;
-      else if (value == "rear") s.seam = SeamPosition::rear;
-      else return what + ": expected nearest, aligned or rear";
+      if (value == "nearest")
+        s.seam = SeamPosition::nearest;
+      else if (value == "aligned")
+        s.seam = SeamPosition::aligned;
+      else if (value == "rear")
+        s.seam = SeamPosition::rear;
+      else
+        return what + ": expected nearest, aligned or rear";
       return {};
     }
   }
@@ -210,19 +223,26 @@ std::string apply(SliceSettings& s, const Entry& e, std::string_view raw) {
 
 std::string pattern_name(InfillPattern p) {
   switch (p) {
-    case InfillPattern::rectilinear: return "rectilinear";
-    case InfillPattern::grid: return "grid";
-    case InfillPattern::triangles: return "triangles";
-    case InfillPattern::concentric: return "concentric";
+    case InfillPattern::rectilinear:
+      return "rectilinear";
+    case InfillPattern::grid:
+      return "grid";
+    case InfillPattern::triangles:
+      return "triangles";
+    case InfillPattern::concentric:
+      return "concentric";
   }
   return "grid";
 }
 
 std::string seam_name(SeamPosition p) {
   switch (p) {
-    case SeamPosition::nearest: return "nearest";
-    case SeamPosition::aligned: return "aligned";
-    case SeamPosition::rear: return "rear";
+    case SeamPosition::nearest:
+      return "nearest";
+    case SeamPosition::aligned:
+      return "aligned";
+    case SeamPosition::rear:
+      return "rear";
   }
   return "nearest";
 }
@@ -265,8 +285,7 @@ Result<IniLoadReport> apply_prusa_ini(SliceSettings& settings, std::string_view 
       return bad_input("expected 'key = value', got " + quoted(line), std::string(source), line_no);
     const std::string_view key = trim(line.substr(0, eq));
     const std::string_view value = trim(line.substr(eq + 1));
-    if (key.empty())
-      return bad_input("empty key in " + quoted(line), std::string(source), line_no);
+    if (key.empty()) return bad_input("empty key in " + quoted(line), std::string(source), line_no);
     const Entry* e = nullptr;
     for (const auto& candidate : entries())
       if (key == candidate.key) e = &candidate;
@@ -329,8 +348,8 @@ double min_thin_wall_width_mm(const SliceSettings& s) {
 
 Status validate_slice_settings(const SliceSettings& s) {
   auto fail = [](const std::string& key, double v, const std::string& expected) -> Status {
-    return usage_error("setting '" + key + "' = " + format_number(v) + " is impossible: " +
-                       expected);
+    return usage_error("setting '" + key + "' = " + format_number(v) +
+                       " is impossible: " + expected);
   };
   if (!(s.nozzle_diameter_mm >= 0.05 && s.nozzle_diameter_mm <= 3.0))
     return fail("nozzle_diameter", s.nozzle_diameter_mm, "expected 0.05 to 3 mm");
@@ -338,11 +357,13 @@ Status validate_slice_settings(const SliceSettings& s) {
     return fail("filament_diameter", s.filament_diameter_mm, "expected 0.5 to 5 mm");
   const double max_h = 0.8 * s.nozzle_diameter_mm;
   if (!(s.layer_height_mm >= 0.01 && s.layer_height_mm <= max_h))
-    return fail("layer_height", s.layer_height_mm,
-                "expected 0.01 mm to 80 % of the nozzle diameter (" + format_number(max_h) + " mm)");
+    return fail(
+        "layer_height", s.layer_height_mm,
+        "expected 0.01 mm to 80 % of the nozzle diameter (" + format_number(max_h) + " mm)");
   if (!(s.first_layer_height_mm >= 0.01 && s.first_layer_height_mm <= max_h))
-    return fail("first_layer_height", s.first_layer_height_mm,
-                "expected 0.01 mm to 80 % of the nozzle diameter (" + format_number(max_h) + " mm)");
+    return fail(
+        "first_layer_height", s.first_layer_height_mm,
+        "expected 0.01 mm to 80 % of the nozzle diameter (" + format_number(max_h) + " mm)");
   const ResolvedWidths w = resolve_widths(s);
   const std::pair<const char*, double> widths[] = {
       {"external_perimeter_extrusion_width", w.external_perimeter_mm},
@@ -359,7 +380,8 @@ Status validate_slice_settings(const SliceSettings& s) {
   }
   if (s.perimeters < 0 || s.perimeters > 100)
     return fail("perimeters", s.perimeters, "expected 0 to 100");
-  if (s.top_solid_layers > 1000) return fail("top_solid_layers", s.top_solid_layers, "expected <= 1000");
+  if (s.top_solid_layers > 1000)
+    return fail("top_solid_layers", s.top_solid_layers, "expected <= 1000");
   if (s.bottom_solid_layers > 1000)
     return fail("bottom_solid_layers", s.bottom_solid_layers, "expected <= 1000");
   if (!(s.infill_density >= 0 && s.infill_density <= 1.0))
@@ -381,7 +403,8 @@ Status validate_slice_settings(const SliceSettings& s) {
       {"retract_speed", s.retract_speed_mm_s},
       {"min_print_speed", s.min_print_speed_mm_s}};
   for (const auto& [key, v] : speeds)
-    if (!(v > 0 && v <= 1000)) return fail(key, v, "expected a speed above 0 and at most 1000 mm/s");
+    if (!(v > 0 && v <= 1000))
+      return fail(key, v, "expected a speed above 0 and at most 1000 mm/s");
   if (!(s.skirt_speed_mm_s >= 0 && s.skirt_speed_mm_s <= 1000))
     return fail("skirt_speed", s.skirt_speed_mm_s, "expected 0 (auto) to 1000 mm/s");
   if (!(s.deretract_speed_mm_s >= 0 && s.deretract_speed_mm_s <= 1000))
@@ -410,7 +433,8 @@ Status validate_slice_settings(const SliceSettings& s) {
   if (!(s.brim_width_mm >= 0 && s.brim_width_mm <= 100))
     return fail("brim_width", s.brim_width_mm, "expected 0 to 100 mm");
   if (!(s.filament_density_g_cm3 > 0 && s.filament_density_g_cm3 < 30))
-    return fail("filament_density", s.filament_density_g_cm3, "expected above 0 and below 30 g/cm3");
+    return fail("filament_density", s.filament_density_g_cm3,
+                "expected above 0 and below 30 g/cm3");
   if (!(s.solid_infill_below_area_mm2 >= 0))
     return fail("solid_infill_below_area", s.solid_infill_below_area_mm2, "expected >= 0 mm2");
   if (s.thin_wall_min_width_mm > 0 && s.thin_wall_min_width_mm > 3 * s.nozzle_diameter_mm)
@@ -423,18 +447,32 @@ std::vector<std::pair<std::string, std::string>> slice_settings_entries(const Sl
   for (const auto& e : entries()) {
     std::string v;
     switch (e.kind) {
-      case Kind::number: v = format_number(s.*std::get<double S::*>(e.member)); break;
-      case Kind::count: v = std::to_string(s.*std::get<int S::*>(e.member)); break;
-      case Kind::flag: v = (s.*std::get<bool S::*>(e.member)) ? "1" : "0"; break;
-      case Kind::ratio: v = format_number(100.0 * (s.*std::get<double S::*>(e.member))) + "%"; break;
+      case Kind::number:
+        v = format_number(s.*std::get<double S::*>(e.member));
+        break;
+      case Kind::count:
+        v = std::to_string(s.*std::get<int S::*>(e.member));
+        break;
+      case Kind::flag:
+        v = (s.*std::get<bool S::*>(e.member)) ? "1" : "0";
+        break;
+      case Kind::ratio:
+        v = format_number(100.0 * (s.*std::get<double S::*>(e.member))) + "%";
+        break;
       case Kind::width: {
         const double w = s.*std::get<double S::*>(e.member);
         v = w < 0 ? format_number(-100.0 * w) + "%" : format_number(w);
         break;
       }
-      case Kind::pattern: v = pattern_name(s.infill_pattern); break;
-      case Kind::solid_pattern: v = "monotonic"; break;
-      case Kind::seam: v = seam_name(s.seam); break;
+      case Kind::pattern:
+        v = pattern_name(s.infill_pattern);
+        break;
+      case Kind::solid_pattern:
+        v = "monotonic";
+        break;
+      case Kind::seam:
+        v = seam_name(s.seam);
+        break;
     }
     out.emplace_back(e.key, v);
   }

@@ -17,7 +17,9 @@ using CPath = ClipperLib::Path;
 using CPaths = ClipperLib::Paths;
 
 constexpr double kUmPerMm = 1000.0;
-inline ClipperLib::cInt to_um(double mm) { return static_cast<ClipperLib::cInt>(std::llround(mm * kUmPerMm)); }
+inline ClipperLib::cInt to_um(double mm) {
+  return static_cast<ClipperLib::cInt>(std::llround(mm * kUmPerMm));
+}
 inline double to_mm(ClipperLib::cInt um) { return static_cast<double>(um) / kUmPerMm; }
 
 /// A polygon with holes (outer CCW, holes CW).
@@ -55,8 +57,8 @@ struct ExtrusionPath {
 struct Island {
   std::vector<ExtrusionPath> perimeters;
   std::vector<ExtrusionPath> gap_fill;
-  std::vector<ExtrusionPath> infill;   ///< open lines, ordered later by the writer
-  CPath outline;                       ///< outer contour (for ordering islands)
+  std::vector<ExtrusionPath> infill;  ///< open lines, ordered later by the writer
+  CPath outline;                      ///< outer contour (for ordering islands)
 };
 
 /// A thin feature that was too narrow to print.
@@ -73,9 +75,9 @@ struct LayerToolpaths {
   int index = 0;
   double print_z_mm = 0;
   double height_mm = 0;
-  std::vector<ExtrusionPath> skirt;    ///< skirt and brim loops (layer 0.. skirt_height-1)
+  std::vector<ExtrusionPath> skirt;  ///< skirt and brim loops (layer 0.. skirt_height-1)
   std::vector<Island> islands;
-  CPaths boundary;                     ///< the layer's slice outlines (travel crossing test)
+  CPaths boundary;  ///< the layer's slice outlines (travel crossing test)
   std::vector<DroppedFeature> dropped;
   bool has_bridge = false;
 };
@@ -87,8 +89,10 @@ ExPolygons to_expolygons(const CPaths& paths);
 CPaths to_paths(const ExPolygons& polys);
 
 // Clipper helpers (microns).
-CPaths offset(const CPaths& paths, double delta_um, ClipperLib::JoinType join = ClipperLib::jtMiter);
-CPaths offset(const ExPolygons& polys, double delta_um, ClipperLib::JoinType join = ClipperLib::jtMiter);
+CPaths offset(const CPaths& paths, double delta_um,
+              ClipperLib::JoinType join = ClipperLib::jtMiter);
+CPaths offset(const ExPolygons& polys, double delta_um,
+              ClipperLib::JoinType join = ClipperLib::jtMiter);
 CPaths clip(const CPaths& subject, const CPaths& clip, ClipperLib::ClipType type);
 CPaths unite(const CPaths& a);
 /// Parts of `a` that remain after an erosion by r then a dilation by r (morphological opening).
@@ -104,8 +108,8 @@ struct RegionResult {
 RegionResult plan_layers(const std::vector<LayerOutline>& outlines, const SliceSettings& settings);
 
 /// Infill lines for `region` (paths in microns) with a pattern, spacing and angle.
-CPaths infill_lines(const CPaths& region, InfillPattern pattern, double spacing_um, double angle_deg,
-                    int layer_index);
+CPaths infill_lines(const CPaths& region, InfillPattern pattern, double spacing_um,
+                    double angle_deg, int layer_index);
 
 /// Centre line of a narrow polygon (a strip): returns an open polyline and the strip's
 /// mean width in mm (2 x area / perimeter). Holes make it a closed loop (`closed` true).

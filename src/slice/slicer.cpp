@@ -18,7 +18,8 @@ namespace {
 
 // Merges the per-layer dropped thin features into findings: the same feature on
 // consecutive layers (overlapping footprints) is one finding with a layer range.
-std::vector<Finding> dropped_findings(const std::vector<LayerToolpaths>& layers, double min_width_mm) {
+std::vector<Finding> dropped_findings(const std::vector<LayerToolpaths>& layers,
+                                      double min_width_mm) {
   struct Group {
     DroppedFeature box;  // union of footprints
     int first = 0, last = 0;
@@ -31,8 +32,9 @@ std::vector<Finding> dropped_findings(const std::vector<LayerToolpaths>& layers,
       Group* g = nullptr;
       for (auto& cand : groups) {
         if (cand.last + 1 < d.layer) continue;
-        const bool overlap = d.min_x_mm <= cand.box.max_x_mm + 0.5 && d.max_x_mm >= cand.box.min_x_mm - 0.5 &&
-                             d.min_y_mm <= cand.box.max_y_mm + 0.5 && d.max_y_mm >= cand.box.min_y_mm - 0.5;
+        const bool overlap =
+            d.min_x_mm <= cand.box.max_x_mm + 0.5 && d.max_x_mm >= cand.box.min_x_mm - 0.5 &&
+            d.min_y_mm <= cand.box.max_y_mm + 0.5 && d.max_y_mm >= cand.box.min_y_mm - 0.5;
         if (overlap) {
           g = &cand;
           break;
@@ -63,9 +65,11 @@ std::vector<Finding> dropped_findings(const std::vector<LayerToolpaths>& layers,
     const double z1 = layers[static_cast<std::size_t>(g.last)].print_z_mm;
     f.message = "a feature " + format_fixed(g.min_w, 2) + " mm wide (narrower than the " +
                 format_fixed(min_width_mm, 2) + " mm minimum line) is not printed on layers " +
-                std::to_string(g.first) + " to " + std::to_string(g.last) + " (z " + format_fixed(z0, 2) +
-                " to " + format_fixed(z1, 2) + " mm), " + format_fixed(g.area, 2) + " mm3 missing";
-    f.position_mm = Vec3(0.5 * (g.box.min_x_mm + g.box.max_x_mm), 0.5 * (g.box.min_y_mm + g.box.max_y_mm), z0);
+                std::to_string(g.first) + " to " + std::to_string(g.last) + " (z " +
+                format_fixed(z0, 2) + " to " + format_fixed(z1, 2) + " mm), " +
+                format_fixed(g.area, 2) + " mm3 missing";
+    f.position_mm =
+        Vec3(0.5 * (g.box.min_x_mm + g.box.max_x_mm), 0.5 * (g.box.min_y_mm + g.box.max_y_mm), z0);
     Box3 b;
     b.extend(Vec3(g.box.min_x_mm, g.box.min_y_mm, z0));
     b.extend(Vec3(g.box.max_x_mm, g.box.max_y_mm, z1));
@@ -78,10 +82,10 @@ std::vector<Finding> dropped_findings(const std::vector<LayerToolpaths>& layers,
   return out;
 }
 
-
 }  // namespace
 
-Result<SliceOutput> slice_mesh(const Mesh& mesh, const PrinterProfile& printer, const SliceSettings& settings) {
+Result<SliceOutput> slice_mesh(const Mesh& mesh, const PrinterProfile& printer,
+                               const SliceSettings& settings) {
   if (auto ok = validate_slice_settings(settings); !ok) return ok.error();
   if (mesh.triangles.empty()) return bad_input("the mesh has no triangles");
   SliceOutput output;
@@ -94,7 +98,8 @@ Result<SliceOutput> slice_mesh(const Mesh& mesh, const PrinterProfile& printer, 
   if (settings.place_offset_mm) {
     placed = translated(mesh, *settings.place_offset_mm);
   } else {
-    const Vec2 c = settings.center_mm.value_or(Vec2(printer.bed_center_x_mm(), printer.bed_center_y_mm()));
+    const Vec2 c =
+        settings.center_mm.value_or(Vec2(printer.bed_center_x_mm(), printer.bed_center_y_mm()));
     placed = place_on_bed(mesh, c.x(), c.y());
   }
   const Box3 box = bounding_box(placed);
@@ -106,11 +111,12 @@ Result<SliceOutput> slice_mesh(const Mesh& mesh, const PrinterProfile& printer, 
   if (box.min.x() < printer.bed_min_x_mm - eps || box.min.y() < printer.bed_min_y_mm - eps ||
       box.max.x() > printer.bed_max_x_mm + eps || box.max.y() > printer.bed_max_y_mm + eps ||
       box.max.z() > printer.max_z_mm + eps) {
-    return bad_input("the part (" + format_fixed(box.size().x(), 2) + " x " + format_fixed(box.size().y(), 2) +
-                     " x " + format_fixed(box.size().z(), 2) + " mm, placed at x " +
-                     format_fixed(box.min.x(), 2) + ".." + format_fixed(box.max.x(), 2) + ", y " +
-                     format_fixed(box.min.y(), 2) + ".." + format_fixed(box.max.y(), 2) +
-                     ") does not fit the build volume of " + printer.name);
+    return bad_input("the part (" + format_fixed(box.size().x(), 2) + " x " +
+                     format_fixed(box.size().y(), 2) + " x " + format_fixed(box.size().z(), 2) +
+                     " mm, placed at x " + format_fixed(box.min.x(), 2) + ".." +
+                     format_fixed(box.max.x(), 2) + ", y " + format_fixed(box.min.y(), 2) + ".." +
+                     format_fixed(box.max.y(), 2) + ") does not fit the build volume of " +
+                     printer.name);
   }
 
   auto gaps_of = [](const std::vector<LayerOutline>& layers) {
@@ -142,13 +148,15 @@ Result<SliceOutput> slice_mesh(const Mesh& mesh, const PrinterProfile& printer, 
       f.message = "the mesh was not closed (" + std::to_string(repaired->before.boundary_edges) +
                   " open edges, " + std::to_string(repaired->before.non_manifold_edges) +
                   " non-manifold edges) and was repaired before slicing: " + what;
-      f.count = static_cast<long>(repaired->before.boundary_edges + repaired->before.non_manifold_edges);
+      f.count =
+          static_cast<long>(repaired->before.boundary_edges + repaired->before.non_manifold_edges);
       output.findings.push_back(std::move(f));
     } else if (!outlines) {
       Error e = outlines.error();
       if (repaired) {
-        e.message += "; CGAL repair left " + std::to_string(repaired->after.boundary_edges) + " open and " +
-                     std::to_string(repaired->after.non_manifold_edges) + " non-manifold edges";
+        e.message += "; CGAL repair left " + std::to_string(repaired->after.boundary_edges) +
+                     " open and " + std::to_string(repaired->after.non_manifold_edges) +
+                     " non-manifold edges";
       } else {
         e.message += "; CGAL repair failed: " + repaired.error().message;
       }
@@ -161,8 +169,10 @@ Result<SliceOutput> slice_mesh(const Mesh& mesh, const PrinterProfile& printer, 
       int first = -1;
       for (const auto& l : *outlines)
         if (l.closed_gaps > 0 && first < 0) first = l.index;
-      f.message = std::to_string(left) + " gaps of at most 2 mm in the layer outlines (an open mesh) were bridged "
-                  "with straight lines, first on layer " + std::to_string(first);
+      f.message = std::to_string(left) +
+                  " gaps of at most 2 mm in the layer outlines (an open mesh) were bridged "
+                  "with straight lines, first on layer " +
+                  std::to_string(first);
       f.layer = first;
       f.count = left;
       output.findings.push_back(std::move(f));
@@ -177,7 +187,8 @@ Result<SliceOutput> slice_mesh(const Mesh& mesh, const PrinterProfile& printer, 
   st.object_height_mm = box.max.z();
   st.part_volume_mm3 = std::abs(signed_volume_mm3(mesh));
   st.filament_mm = written->filament_mm;
-  const double fa = std::numbers::pi * 0.25 * settings.filament_diameter_mm * settings.filament_diameter_mm;
+  const double fa =
+      std::numbers::pi * 0.25 * settings.filament_diameter_mm * settings.filament_diameter_mm;
   st.filament_volume_mm3 = st.filament_mm * fa;
   st.filament_g = st.filament_volume_mm3 * 1e-3 * settings.filament_density_g_cm3;
   const double* v = written->extruded_mm3;
@@ -192,7 +203,8 @@ Result<SliceOutput> slice_mesh(const Mesh& mesh, const PrinterProfile& printer, 
   st.retractions = written->retractions;
 
   const double min_thin = min_thin_wall_width_mm(settings);
-  for (auto& f : dropped_findings(regions.layers, min_thin)) output.findings.push_back(std::move(f));
+  for (auto& f : dropped_findings(regions.layers, min_thin))
+    output.findings.push_back(std::move(f));
 
   std::string gcode = std::move(written->gcode);
   if (settings.estimate_time) {
@@ -206,7 +218,8 @@ Result<SliceOutput> slice_mesh(const Mesh& mesh, const PrinterProfile& printer, 
     opts.source_name = "printtwin slice output";
     auto sim = simulate_gcode(in, sim_printer, opts);
     if (!sim) {
-      return internal_error("the simulator rejected the slicer's own G-code: " + sim.error().describe());
+      return internal_error("the simulator rejected the slicer's own G-code: " +
+                            sim.error().describe());
     }
     st.estimated_time_s = sim->print_time_s;
     st.time_from_simulator = true;
@@ -217,8 +230,10 @@ Result<SliceOutput> slice_mesh(const Mesh& mesh, const PrinterProfile& printer, 
   gcode += "; filament used [cm3] = " + format_fixed(st.filament_volume_mm3 * 1e-3, 2) + "\n";
   gcode += "; filament used [g] = " + format_fixed(st.filament_g, 2) + "\n";
   if (st.time_from_simulator) {
-    gcode += "; estimated printing time (normal mode) = " + format_duration_compact(st.estimated_time_s) + "\n";
-    gcode += "; printtwin estimated printing time [s] = " + format_fixed(st.estimated_time_s, 1) + "\n";
+    gcode += "; estimated printing time (normal mode) = " +
+             format_duration_compact(st.estimated_time_s) + "\n";
+    gcode +=
+        "; printtwin estimated printing time [s] = " + format_fixed(st.estimated_time_s, 1) + "\n";
   }
   gcode += "; layer count = " + std::to_string(st.layer_count) + "\n";
   st.gcode_lines = static_cast<long>(std::count(gcode.begin(), gcode.end(), '\n'));

@@ -18,7 +18,8 @@ Result<GcodeInput> read_gcode_input(const std::filesystem::path& gcode_path) {
   return g;
 }
 
-Result<SliceSettings> verify_slice_settings(const VerifySettings& settings, std::vector<VerifyInput>* inputs) {
+Result<SliceSettings> verify_slice_settings(const VerifySettings& settings,
+                                            std::vector<VerifyInput>* inputs) {
   SliceSettings slice_settings;
   if (!settings.slice_config_ini.empty()) {
     std::string ini_text;

@@ -41,13 +41,13 @@ Finding region_finding(const DeviationRegion& r, double tolerance_mm) {
   return f;
 }
 
-
 }  // namespace
 
 namespace verify_detail {
 
-Result<VerifyReport> measure_with(const PreparedPart& part, const VerifySettings& settings, PrintedGcode printed,
-                                  bool include_part_timings, const std::function<void(std::string_view)>& on_stage,
+Result<VerifyReport> measure_with(const PreparedPart& part, const VerifySettings& settings,
+                                  PrintedGcode printed, bool include_part_timings,
+                                  const std::function<void(std::string_view)>& on_stage,
                                   const Registration* known) {
   if (auto st = validate_verify_settings(settings); !st) return st.error();
   VerifyReport report;
@@ -83,7 +83,8 @@ Result<VerifyReport> measure_with(const PreparedPart& part, const VerifySettings
 
   // Registration: where the slicer put the part.
   if (!settings.place_mm && extent.moves == 0)
-    return bad_input("the G-code has no extrusion of the part to register the mesh against", printed.name);
+    return bad_input("the G-code has no extrusion of the part to register the mesh against",
+                     printed.name);
   if (known == nullptr) {
     auto found = place_part(part, extent, settings);
     if (!found) return found.error();
@@ -115,8 +116,10 @@ Result<VerifyReport> measure_with(const PreparedPart& part, const VerifySettings
   // only translated, else one for this call.
   const Vec3 offset = reg.transform.translation_mm;
   auto dev = part.target && reg.transform.translation_only()
-                 ? compute_deviation(*part.target, offset, deposit.grid, dev_settings, part_box, printed.beads)
-                 : compute_deviation(report.placed_mesh, deposit.grid, dev_settings, part_box, printed.beads);
+                 ? compute_deviation(*part.target, offset, deposit.grid, dev_settings, part_box,
+                                     printed.beads)
+                 : compute_deviation(report.placed_mesh, deposit.grid, dev_settings, part_box,
+                                     printed.beads);
   if (!dev) return dev.error();
   report.deviation = std::move(*dev);
   report.deviation.registration_offset_mm = offset;
@@ -132,11 +135,10 @@ Result<VerifyReport> measure_with(const PreparedPart& part, const VerifySettings
   return report;
 }
 
-
 }  // namespace verify_detail
 
-Result<VerifyReport> measure_printed(const PreparedPart& part, const VerifySettings& settings, PrintedGcode printed,
-                                     bool include_part_timings,
+Result<VerifyReport> measure_printed(const PreparedPart& part, const VerifySettings& settings,
+                                     PrintedGcode printed, bool include_part_timings,
                                      const std::function<void(std::string_view)>& on_stage) {
   return measure_with(part, settings, std::move(printed), include_part_timings, on_stage, nullptr);
 }

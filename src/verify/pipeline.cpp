@@ -8,11 +8,15 @@
 
 namespace printtwin::verify_detail {
 
-void count_severities(const std::vector<Finding>& findings, int& errors, int& warnings, int& infos) {
+void count_severities(const std::vector<Finding>& findings, int& errors, int& warnings,
+                      int& infos) {
   for (const auto& f : findings) {
-    if (f.severity == Severity::error) ++errors;
-    else if (f.severity == Severity::warning) ++warnings;
-    else ++infos;
+    if (f.severity == Severity::error)
+      ++errors;
+    else if (f.severity == Severity::warning)
+      ++warnings;
+    else
+      ++infos;
   }
 }
 
@@ -38,7 +42,8 @@ RigidTransform place_transform(const VerifySettings& settings) {
 
 }  // namespace
 
-Result<Registration> place_part(const PreparedPart& part, const PartExtent& extent, const VerifySettings& settings) {
+Result<Registration> place_part(const PreparedPart& part, const PartExtent& extent,
+                                const VerifySettings& settings) {
   RegistrationOptions options;
   options.scale = settings.mesh_scale;
   options.object = settings.object;
@@ -67,10 +72,13 @@ Mesh placed(const Mesh& mesh, const RigidTransform& t) {
 
 Status validate_verify_settings(const VerifySettings& settings) {
   if (!(settings.gates.tolerance_mm > 0)) return usage_error("--tolerance must be > 0 mm");
-  for (const auto& limit : {settings.gates.max_excess_mm, settings.gates.max_deficit_mm, settings.gates.max_rms_mm})
-    if (limit && !(*limit >= 0)) return usage_error("gate limits (--max-excess, --max-deficit, --max-rms) must be >= 0 mm");
+  for (const auto& limit :
+       {settings.gates.max_excess_mm, settings.gates.max_deficit_mm, settings.gates.max_rms_mm})
+    if (limit && !(*limit >= 0))
+      return usage_error("gate limits (--max-excess, --max-deficit, --max-rms) must be >= 0 mm");
   if (!(settings.voxel_mm >= 0.01 && settings.voxel_mm <= 1.0))
-    return usage_error("--voxel must be between 0.01 and 1 mm, got " + format_number(settings.voxel_mm));
+    return usage_error("--voxel must be between 0.01 and 1 mm, got " +
+                       format_number(settings.voxel_mm));
   return Ok{};
 }
 

@@ -32,7 +32,8 @@ class StageClock {
 void count_severities(const std::vector<Finding>& findings, int& errors, int& warnings, int& infos);
 
 /// Reads a file for its provenance (path, SHA-256, size); its bytes into `content` when given.
-[[nodiscard]] Result<VerifyInput> describe_input(const std::string& role, const std::filesystem::path& path,
+[[nodiscard]] Result<VerifyInput> describe_input(const std::string& role,
+                                                 const std::filesystem::path& path,
                                                  std::string* content = nullptr);
 
 /// Settings every step checks first: tolerance and gate limits, voxel size (usage errors).
@@ -50,23 +51,23 @@ void count_severities(const std::vector<Finding>& findings, int& errors, int& wa
 
 /// print_gcode, calling `on_extent` with the part's extent as soon as the simulation has
 /// found it, before the deposit (verify() starts the registration then).
-[[nodiscard]] Result<PrintedGcode> print_gcode_with(const PrinterProfile& printer, const VerifySettings& settings,
-                                                    GcodeInput gcode,
-                                                    const std::function<void(std::string_view)>& on_stage,
-                                                    const std::function<void(const PartExtent&)>& on_extent);
+[[nodiscard]] Result<PrintedGcode> print_gcode_with(
+    const PrinterProfile& printer, const VerifySettings& settings, GcodeInput gcode,
+    const std::function<void(std::string_view)>& on_stage,
+    const std::function<void(const PartExtent&)>& on_extent);
 
 /// measure_printed with the registration when already known (verify() finds it while the
 /// deposit runs); null: found here.
-[[nodiscard]] Result<VerifyReport> measure_with(const PreparedPart& part, const VerifySettings& settings,
-                                                PrintedGcode printed, bool include_part_timings,
-                                                const std::function<void(std::string_view)>& on_stage,
-                                                const Registration* known);
+[[nodiscard]] Result<VerifyReport> measure_with(
+    const PreparedPart& part, const VerifySettings& settings, PrintedGcode printed,
+    bool include_part_timings, const std::function<void(std::string_view)>& on_stage,
+    const Registration* known);
 
 /// verify(), calling `on_placed` once, on a worker thread, as soon as the mesh's place in the
 /// G-code frame is known, with the mesh as the report will hold it (placed_mesh), while the
 /// deposit may still be running (verify_to_folder traces the heatmaps' views meanwhile).
 /// Returns after it has returned; not called when verify fails before the placement is known.
-[[nodiscard]] Result<VerifyReport> verify_with(const VerifyOptions& options,
-                                               const std::function<void(const Mesh& placed_mesh)>& on_placed);
+[[nodiscard]] Result<VerifyReport> verify_with(
+    const VerifyOptions& options, const std::function<void(const Mesh& placed_mesh)>& on_placed);
 
 }  // namespace printtwin::verify_detail

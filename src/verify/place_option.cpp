@@ -40,7 +40,8 @@ Status parse_place_option(std::string_view text, VerifySettings& settings) {
   if (!parse_numbers(text.substr(0, semi), t)) return bad("needs numbers separated by commas");
   if (semi != std::string_view::npos) {
     if (t.size() != 3) return bad("needs 3 numbers before ';'");
-    if (!parse_numbers(text.substr(semi + 1), r) || r.size() != 3) return bad("needs 3 angles after ';'");
+    if (!parse_numbers(text.substr(semi + 1), r) || r.size() != 3)
+      return bad("needs 3 angles after ';'");
   } else if (t.size() == 4) {
     r = {0, 0, t[3]};
     t.pop_back();
@@ -48,8 +49,10 @@ Status parse_place_option(std::string_view text, VerifySettings& settings) {
     return bad("needs 3 or 4 numbers");
   }
   settings.place_mm = Vec3(t[0], t[1], t[2]);
-  if (!r.empty()) settings.place_rotation_deg = Vec3(r[0], r[1], r[2]);
-  else settings.place_rotation_deg.reset();
+  if (!r.empty())
+    settings.place_rotation_deg = Vec3(r[0], r[1], r[2]);
+  else
+    settings.place_rotation_deg.reset();
   return Ok{};
 }
 

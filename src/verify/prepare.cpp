@@ -16,17 +16,20 @@ using verify_detail::validate_verify_settings;
 namespace {
 
 /// The part's size against the printer's build volume (wherever the G-code places it).
-Status check_fits_printer(const Mesh& mesh, const PrinterProfile& printer, const std::string& file) {
+Status check_fits_printer(const Mesh& mesh, const PrinterProfile& printer,
+                          const std::string& file) {
   const Vec3 size = bounding_box(mesh).size();
-  const Vec3 room(printer.bed_max_x_mm - printer.bed_min_x_mm, printer.bed_max_y_mm - printer.bed_min_y_mm,
-                  printer.max_z_mm);
+  const Vec3 room(printer.bed_max_x_mm - printer.bed_min_x_mm,
+                  printer.bed_max_y_mm - printer.bed_min_y_mm, printer.max_z_mm);
   constexpr double eps = 1e-6;
   if (size.allFinite() && (size.array() <= room.array() + eps).all()) return Ok{};
   auto box = [](const Vec3& v) {
-    return format_fixed(v.x(), 2) + " x " + format_fixed(v.y(), 2) + " x " + format_fixed(v.z(), 2) + " mm";
+    return format_fixed(v.x(), 2) + " x " + format_fixed(v.y(), 2) + " x " +
+           format_fixed(v.z(), 2) + " mm";
   };
-  return bad_input("the part (" + box(size) + ") is larger than the build volume of " + printer.name + " (" +
-                       box(room) + "): it cannot print, so there is nothing to verify",
+  return bad_input("the part (" + box(size) + ") is larger than the build volume of " +
+                       printer.name + " (" + box(room) +
+                       "): it cannot print, so there is nothing to verify",
                    file);
 }
 
@@ -50,7 +53,8 @@ Result<PreparedPart> prepare_part(Mesh mesh, std::string name, VerifyInput mesh_
   clock.lap("index");
   CheckSettings check_settings;
   check_settings.mesh_query = &part.target->query();
-  check_settings.thickness_beyond_limit = false;  // verify reports the thin-wall finding, not the thinnest wall
+  check_settings.thickness_beyond_limit =
+      false;  // verify reports the thin-wall finding, not the thinnest wall
   auto check = check_printability(mesh, printer, check_settings);
   if (!check) return check.error();
   CheckSummary& c = part.check;
@@ -67,8 +71,8 @@ Result<PreparedPart> prepare_part(Mesh mesh, std::string name, VerifyInput mesh_
   return part;
 }
 
-Result<PreparedPart> prepare_part(const std::filesystem::path& mesh_path, const PrinterProfile& printer,
-                                  const VerifySettings& settings) {
+Result<PreparedPart> prepare_part(const std::filesystem::path& mesh_path,
+                                  const PrinterProfile& printer, const VerifySettings& settings) {
   std::vector<StageTiming> load_timing;
   StageClock clock(load_timing);
   std::string bytes;  // read once: hashed for the provenance, then parsed
@@ -78,7 +82,8 @@ Result<PreparedPart> prepare_part(const std::filesystem::path& mesh_path, const 
   if (!mesh) return mesh.error();
   bytes = {};
   clock.lap("load");
-  auto part = prepare_part(std::move(*mesh), mesh_path.stem().string(), std::move(*mesh_in), printer, settings);
+  auto part = prepare_part(std::move(*mesh), mesh_path.stem().string(), std::move(*mesh_in),
+                           printer, settings);
   if (!part) return part.error();
   part->timings.insert(part->timings.begin(), load_timing.begin(), load_timing.end());
   return part;

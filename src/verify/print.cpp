@@ -27,7 +27,8 @@ class CollectMoves final : public MoveSink {
 namespace verify_detail {
 
 Result<PrintedGcode> print_gcode_with(const PrinterProfile& printer, const VerifySettings& settings,
-                                      GcodeInput gcode, const std::function<void(std::string_view)>& on_stage,
+                                      GcodeInput gcode,
+                                      const std::function<void(std::string_view)>& on_stage,
                                       const std::function<void(const PartExtent&)>& on_extent) {
   auto stage = [&](std::string_view name) {
     if (on_stage) on_stage(name);
@@ -47,11 +48,13 @@ Result<PrintedGcode> print_gcode_with(const PrinterProfile& printer, const Verif
   CollectMoves collector;
   // About a move per line: reserved up front, the list is never copied as it grows (the
   // capacity no move reaches is never touched).
-  collector.moves.reserve(static_cast<std::size_t>(std::count(gcode.text.begin(), gcode.text.end(), '\n')) + 1);
+  collector.moves.reserve(
+      static_cast<std::size_t>(std::count(gcode.text.begin(), gcode.text.end(), '\n')) + 1);
   SimulateOptions sim_options;
   sim_options.source_name = gcode.name;
   auto sim = [&]() -> Result<SimulationResult> {
-    if (is_bgcode_input(gcode.text, gcode.name)) {  // binary G-code (bgcode.hpp): decoded block by block
+    if (is_bgcode_input(gcode.text,
+                        gcode.name)) {  // binary G-code (bgcode.hpp): decoded block by block
       auto stream = BgcodeGcodeStream::from_memory(gcode.text, gcode.name);
       if (!stream) return stream.error();
       auto r = simulate_gcode(**stream, printer, sim_options, &collector);
@@ -81,7 +84,8 @@ Result<PrintedGcode> print_gcode_with(const PrinterProfile& printer, const Verif
   // Where the slicer put the part (the registration itself needs the mesh: measure_printed).
   printed.extent = find_part_extent(collector.moves, sim->object_names);
   if (!settings.place_mm && printed.extent.moves == 0)
-    return bad_input("the G-code has no extrusion of the part to register the mesh against", gcode.name);
+    return bad_input("the G-code has no extrusion of the part to register the mesh against",
+                     gcode.name);
   if (on_extent) on_extent(printed.extent);
 
   // Deposit.
@@ -93,7 +97,8 @@ Result<PrintedGcode> print_gcode_with(const PrinterProfile& printer, const Verif
   if (!deposit) return deposit.error();
   printed.beads = surface_beads(collector.moves, printer);
   collector.moves = {};
-  printed.findings.insert(printed.findings.end(), deposit->findings.begin(), deposit->findings.end());
+  printed.findings.insert(printed.findings.end(), deposit->findings.begin(),
+                          deposit->findings.end());
   deposit->findings.clear();
   printed.deposit = std::move(*deposit);
   clock.lap("deposit");
@@ -102,7 +107,8 @@ Result<PrintedGcode> print_gcode_with(const PrinterProfile& printer, const Verif
 
 }  // namespace verify_detail
 
-Result<PrintedGcode> print_gcode(const PrinterProfile& printer, const VerifySettings& settings, GcodeInput gcode,
+Result<PrintedGcode> print_gcode(const PrinterProfile& printer, const VerifySettings& settings,
+                                 GcodeInput gcode,
                                  const std::function<void(std::string_view)>& on_stage) {
   return verify_detail::print_gcode_with(printer, settings, std::move(gcode), on_stage, {});
 }

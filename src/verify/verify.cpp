@@ -22,16 +22,19 @@ using verify_detail::validate_verify_settings;
 namespace {
 
 /// verify() without its clock.
-Result<VerifyReport> verify_pipeline(const VerifyOptions& options,
-                                     const std::function<void(const Mesh& placed_mesh)>& on_placed) {
+Result<VerifyReport> verify_pipeline(
+    const VerifyOptions& options, const std::function<void(const Mesh& placed_mesh)>& on_placed) {
   const VerifySettings& settings = options.settings;
   if (auto st = validate_verify_settings(settings); !st) return st.error();
-  if (!options.gcode_path.empty() && (!settings.slice_config_ini.empty() || !settings.slice_overrides.empty()))
-    return usage_error("slicer settings (--set, --config) apply only when printtwin slices the part; "
-                       "drop --gcode or the settings");
+  if (!options.gcode_path.empty() &&
+      (!settings.slice_config_ini.empty() || !settings.slice_overrides.empty()))
+    return usage_error(
+        "slicer settings (--set, --config) apply only when printtwin slices the part; "
+        "drop --gcode or the settings");
   if (options.gcode_path.empty() && settings.mesh_scale && *settings.mesh_scale != 1.0)
-    return usage_error("--units applies to a G-code from another slicer (--gcode); printtwin's slicer "
-                       "slices the mesh in millimetres as it is");
+    return usage_error(
+        "--units applies to a G-code from another slicer (--gcode); printtwin's slicer "
+        "slices the mesh in millimetres as it is");
   // --printer auto (the default) reads the printer from the G-code's embedded settings.
   auto resolved = resolve_printer(settings.printer, options.gcode_path);
   if (!resolved) return resolved.error();
@@ -52,7 +55,8 @@ Result<VerifyReport> verify_pipeline(const VerifyOptions& options,
       if (!part || !*part || !extent) return;
       both.run([&] {
         registration.emplace(place_part(**part, *extent, settings));
-        if (on_placed && *registration) on_placed(placed((*part)->mesh, (*registration)->transform));
+        if (on_placed && *registration)
+          on_placed(placed((*part)->mesh, (*registration)->transform));
       });
     };
     both.run([&] {
@@ -67,11 +71,12 @@ Result<VerifyReport> verify_pipeline(const VerifyOptions& options,
         printed.emplace(gcode.error());
         return;
       }
-      printed.emplace(print_gcode_with(*printer, settings, std::move(*gcode), {}, [&](const PartExtent& e) {
-        const std::lock_guard lock(placing);
-        extent = e;
-        place_when_ready();
-      }));
+      printed.emplace(
+          print_gcode_with(*printer, settings, std::move(*gcode), {}, [&](const PartExtent& e) {
+            const std::lock_guard lock(placing);
+            extent = e;
+            place_when_ready();
+          }));
     });
     both.wait();
     if (!*part) return part->error();
@@ -92,14 +97,18 @@ Result<VerifyReport> verify_pipeline(const VerifyOptions& options,
 
 }  // namespace
 
-Result<VerifyReport> verify_detail::verify_with(const VerifyOptions& options,
-                                                const std::function<void(const Mesh& placed_mesh)>& on_placed) {
+Result<VerifyReport> verify_detail::verify_with(
+    const VerifyOptions& options, const std::function<void(const Mesh& placed_mesh)>& on_placed) {
   const auto start = std::chrono::steady_clock::now();
   auto report = verify_pipeline(options, on_placed);
-  if (report) report->elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (report)
+    report->elapsed_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return report;
 }
 
-Result<VerifyReport> verify(const VerifyOptions& options) { return verify_detail::verify_with(options, {}); }
+Result<VerifyReport> verify(const VerifyOptions& options) {
+  return verify_detail::verify_with(options, {});
+}
 
 }  // namespace printtwin

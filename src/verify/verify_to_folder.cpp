@@ -9,7 +9,8 @@
 
 namespace printtwin {
 
-Result<VerifyReport> verify_to_folder(const VerifyOptions& options, const std::filesystem::path& out_dir,
+Result<VerifyReport> verify_to_folder(const VerifyOptions& options,
+                                      const std::filesystem::path& out_dir,
                                       const ReportOptions& report_options,
                                       const DerivedOutputs& derived_outputs) {
   std::optional<Result<HeatmapCache>> heatmaps;
@@ -26,7 +27,8 @@ Result<VerifyReport> verify_to_folder(const VerifyOptions& options, const std::f
     if (auto st = write_verify_outputs(finished, staging); !st) return st;
     return report_options.extra_outputs ? report_options.extra_outputs(staging) : Status(Ok{});
   };
-  if (auto st = detail::write_report_folder(finished, out_dir, with_outputs, traced); !st) return st.error();
+  if (auto st = detail::write_report_folder(finished, out_dir, with_outputs, traced); !st)
+    return st.error();
   return report;
 }
 

@@ -141,19 +141,23 @@ TEST(CheckCli, UnitsScaleAndPlacementOptions) {
   EXPECT_EQ(ji["findings"][0]["code"], "does_not_fit");
   EXPECT_EQ(ji["input"]["units"], "inch");
   EXPECT_EQ(test::run_cli("check " + q(cube) + " --units cm --scale 0.5 --center 30,40 --json " +
-                          q(out / "c.json")).exit_code, 1);
+                          q(out / "c.json"))
+                .exit_code,
+            1);
   const json jc = read_json(out / "c.json");
   EXPECT_NEAR(jc["mesh"]["bbox_mm"]["size"][2].get<double>(), 100.0, 1e-3);
   EXPECT_NEAR(jc["placement"]["bbox_mm"]["min"][0].get<double>(), -20.0, 1e-3);
   EXPECT_EQ(jc["placement"]["fits"], false) << "centred at x 30, a 100 mm cube leaves the bed";
-  ASSERT_EQ(test::run_cli("check " + q(cube) + " --no-center --json " + q(out / "n.json")).exit_code, 0);
+  ASSERT_EQ(
+      test::run_cli("check " + q(cube) + " --no-center --json " + q(out / "n.json")).exit_code, 0);
   const json jn = read_json(out / "n.json");
   EXPECT_NEAR(jn["placement"]["bbox_mm"]["min"][0].get<double>(), 0.0, 1e-9);
 }
 
 TEST(CheckCli, UnitsAutoReadsAMetreFileAtItsTrueSize) {
   const fs::path out = test::temp_dir("check_cli_units_auto");
-  ASSERT_TRUE(save_stl(make_box_mesh(Vec3(0, 0, 0), Vec3(0.02, 0.03, 0.01)), out / "metres.stl").ok());
+  ASSERT_TRUE(
+      save_stl(make_box_mesh(Vec3(0, 0, 0), Vec3(0.02, 0.03, 0.01)), out / "metres.stl").ok());
   const auto r = test::run_cli("check " + q(out / "metres.stl") + " --json " + q(out / "a.json"));
   EXPECT_EQ(r.exit_code, 0) << r.out;
   EXPECT_NE(r.out.find("units_guessed"), std::string::npos) << r.out;
@@ -161,7 +165,8 @@ TEST(CheckCli, UnitsAutoReadsAMetreFileAtItsTrueSize) {
   EXPECT_NEAR(j["mesh"]["bbox_mm"]["size"][1].get<double>(), 30.0, 1e-3);
   EXPECT_EQ(j["input"]["units"], "m");
   // An explicit --units wins (the same names as verify --units).
-  const auto mm = test::run_cli("check " + q(out / "metres.stl") + " --units mm --json " + q(out / "b.json"));
+  const auto mm =
+      test::run_cli("check " + q(out / "metres.stl") + " --units mm --json " + q(out / "b.json"));
   EXPECT_EQ(mm.exit_code, 1);
   EXPECT_EQ(mm.out.find("units_guessed"), std::string::npos);
   EXPECT_NEAR(read_json(out / "b.json")["mesh"]["bbox_mm"]["size"][1].get<double>(), 0.03, 1e-6);
@@ -205,8 +210,8 @@ TEST(CheckCli, BatchOfPartsGivesOneSummaryJunitAndJson) {
     std::ofstream(dir / "parts" / "truncated.stl", std::ios::binary) << bytes->substr(0, 200);
   }
   { std::ofstream(dir / "parts" / "notes.txt") << "not a mesh"; }
-  const auto r = test::run_cli("check " + q(dir / "parts") + " --summary " + q(dir / "s.md") + " --junit " +
-                               q(dir / "j.xml") + " --json " + q(dir / "all.json"));
+  const auto r = test::run_cli("check " + q(dir / "parts") + " --summary " + q(dir / "s.md") +
+                               " --junit " + q(dir / "j.xml") + " --json " + q(dir / "all.json"));
   EXPECT_EQ(r.exit_code, 3) << "the worst part is unreadable\n" << r.out << r.err;
   auto md = read_file(dir / "s.md");
   ASSERT_TRUE(md.ok());
@@ -221,13 +226,16 @@ TEST(CheckCli, BatchOfPartsGivesOneSummaryJunitAndJson) {
   ASSERT_TRUE(xml.ok());
   EXPECT_NE(xml->find("tests=\"5\" failures=\"4\""), std::string::npos) << *xml;
   std::size_t cases = 0;
-  for (auto at = xml->find("<testcase "); at != std::string::npos; at = xml->find("<testcase ", at + 1)) ++cases;
+  for (auto at = xml->find("<testcase "); at != std::string::npos;
+       at = xml->find("<testcase ", at + 1))
+    ++cases;
   EXPECT_EQ(cases, 5U);
   const json j = read_json(dir / "all.json");
   EXPECT_EQ(j["schema"], "printtwin.check.batch");
   ASSERT_EQ(j["parts"].size(), 5U);
   std::map<std::string, std::string> verdicts;
-  for (const auto& p : j["parts"]) verdicts[fs::path(p["file"].get<std::string>()).filename().string()] = p["verdict"];
+  for (const auto& p : j["parts"])
+    verdicts[fs::path(p["file"].get<std::string>()).filename().string()] = p["verdict"];
   EXPECT_EQ(verdicts["good.stl"], "PRINTABLE");
   EXPECT_EQ(verdicts["open.stl"], "NOT PRINTABLE");
   EXPECT_EQ(verdicts["empty.stl"], "UNREADABLE");
@@ -238,15 +246,19 @@ TEST(CheckCli, BatchOfPartsGivesOneSummaryJunitAndJson) {
       EXPECT_EQ(p["report"]["schema"], "printtwin.check");
     }
   // A glob of printable and not printable parts: exit 1; a glob that matches nothing: usage.
-  EXPECT_EQ(test::run_cli("check " + q(dir / "parts" / "good.stl") + " " + q(dir / "parts" / "o*.stl")).exit_code, 1);
+  EXPECT_EQ(
+      test::run_cli("check " + q(dir / "parts" / "good.stl") + " " + q(dir / "parts" / "o*.stl"))
+          .exit_code,
+      1);
   EXPECT_EQ(test::run_cli("check " + q(dir / "parts" / "g*.stl")).exit_code, 0);
   EXPECT_EQ(test::run_cli("check " + q(dir / "parts" / "zz*.stl")).exit_code, 2);
   // --repair of a batch names a folder: one repaired mesh per part, counters in the summary.
   std::ofstream(dir / "r.stl") << "a file, not a folder";
-  EXPECT_EQ(test::run_cli("check " + q(dir / "parts") + " --repair " + q(dir / "r.stl")).exit_code, 2);
-  const auto rep = test::run_cli("check " + q(dir / "parts" / "good.stl") + " " + q(dir / "parts" / "open.stl") +
-                                 " --repair " + q(dir / "fixed") + " --summary " + q(dir / "r.md") + " --json " +
-                                 q(dir / "r.json"));
+  EXPECT_EQ(test::run_cli("check " + q(dir / "parts") + " --repair " + q(dir / "r.stl")).exit_code,
+            2);
+  const auto rep = test::run_cli("check " + q(dir / "parts" / "good.stl") + " " +
+                                 q(dir / "parts" / "open.stl") + " --repair " + q(dir / "fixed") +
+                                 " --summary " + q(dir / "r.md") + " --json " + q(dir / "r.json"));
   EXPECT_EQ(rep.exit_code, 1) << rep.out << rep.err;
   EXPECT_TRUE(fs::exists(dir / "fixed" / "good.stl"));
   EXPECT_TRUE(fs::exists(dir / "fixed" / "open.stl"));
@@ -267,7 +279,8 @@ TEST(CheckCli, OrientAppliesTheAdviceToTheRepairedMesh) {
   ASSERT_TRUE(save_stl(make_box_mesh(Vec3(0, 0, 0), Vec3(40, 2, 30)), dir / "plate.stl").ok());
   const auto plain = test::run_cli("check " + q(dir / "plate.stl"));
   EXPECT_NE(plain.out.find("orientation"), std::string::npos) << plain.out;
-  const auto r = test::run_cli("check " + q(dir / "plate.stl") + " --orient --repair " + q(dir / "flat.stl"));
+  const auto r =
+      test::run_cli("check " + q(dir / "plate.stl") + " --orient --repair " + q(dir / "flat.stl"));
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("oriented"), std::string::npos) << r.out;
   auto flat = load_mesh(dir / "flat.stl");
@@ -287,7 +300,8 @@ TEST(CheckCli, PrinterProfiles) {
               0)
         << f;
   // A tiny bed: the 20 mm cube no longer fits.
-  std::ofstream(dir / "tiny.json") << R"({"base": "ender3", "bed_max_x_mm": 15, "bed_max_y_mm": 15})";
+  std::ofstream(dir / "tiny.json")
+      << R"({"base": "ender3", "bed_max_x_mm": 15, "bed_max_y_mm": 15})";
   const auto tiny = test::run_cli("check " + q(cube) + " --printer " + q(dir / "tiny.json"));
   EXPECT_EQ(tiny.exit_code, 1) << tiny.out << tiny.err;
   EXPECT_NE(tiny.out.find("does_not_fit"), std::string::npos);
@@ -303,8 +317,8 @@ TEST(CheckCli, RepairWritesAFixedMeshAndListsChanges) {
   Mesh open = test::make_cube_mm(20);
   open.triangles.pop_back();
   ASSERT_TRUE(save_stl(open, dir / "open.stl").ok());
-  const auto run = test::run_cli("check " + q(dir / "open.stl") + " --repair " + q(dir / "fixed.stl") +
-                                 " --json " + q(dir / "r.json"));
+  const auto run = test::run_cli("check " + q(dir / "open.stl") + " --repair " +
+                                 q(dir / "fixed.stl") + " --json " + q(dir / "r.json"));
   EXPECT_EQ(run.exit_code, 1) << "the input is still reported as it is";
   EXPECT_NE(run.out.find("holes filled: 1"), std::string::npos) << run.out;
   const json j = read_json(dir / "r.json");
@@ -322,8 +336,9 @@ TEST(CheckCli, RepairWritesAFixedMeshAndListsChanges) {
 
 TEST(CheckCli, RepairOfTheBrokenSample) {
   const fs::path dir = test::temp_dir("check_cli_repair_broken");
-  const auto run = test::run_cli("check " + q(test::source_path("samples/models/broken.stl")) +
-                                 " --repair " + q(dir / "fixed.stl") + " --json " + q(dir / "r.json"));
+  const auto run =
+      test::run_cli("check " + q(test::source_path("samples/models/broken.stl")) + " --repair " +
+                    q(dir / "fixed.stl") + " --json " + q(dir / "r.json"));
   EXPECT_EQ(run.exit_code, 1);
   const json j = read_json(dir / "r.json");
   std::map<std::string, int> changes;
@@ -332,7 +347,8 @@ TEST(CheckCli, RepairOfTheBrokenSample) {
   EXPECT_EQ(changes["removed_small_pieces"], 1) << "the fin";
   EXPECT_EQ(changes["filled_holes"], 1) << "the missing top";
   EXPECT_EQ(j["repair"]["after"]["closed"], true);
-  const auto again = test::run_cli("check " + q(dir / "fixed.stl") + " --json " + q(dir / "a.json"));
+  const auto again =
+      test::run_cli("check " + q(dir / "fixed.stl") + " --json " + q(dir / "a.json"));
   EXPECT_EQ(again.exit_code, 0) << again.out;
   EXPECT_NEAR(read_json(dir / "a.json")["mesh"]["volume_mm3"].get<double>(), 8000.0, 1e-3);
 }

@@ -4,8 +4,8 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
-#include <random>
 #include <nlohmann/json.hpp>
+#include <random>
 
 #include "check/check_internal.hpp"
 #include "printtwin/check.hpp"
@@ -140,9 +140,9 @@ TEST(CheckHealth, NonManifoldVertexWhereTwoCubesTouch) {
 
 TEST(CheckHealth, DegenerateFace) {
   Mesh m = test::make_cube_mm(10);
-  m.vertices_mm.emplace_back(5, 0, 0);        // on the edge 0-1
-  m.triangles.push_back({0, 8, 1});            // collinear: zero area
-  m.triangles.push_back({2, 2, 3});            // repeated index
+  m.vertices_mm.emplace_back(5, 0, 0);  // on the edge 0-1
+  m.triangles.push_back({0, 8, 1});     // collinear: zero area
+  m.triangles.push_back({2, 2, 3});     // repeated index
   const MeshHealth h = analyze_mesh_health(m);
   EXPECT_EQ(h.degenerate_faces, 2U);
   const CheckReport r = run(m);
@@ -181,7 +181,8 @@ TEST(CheckHealth, InvertedShellButNotCavity) {
   EXPECT_NE(find(run(flipped(test::make_cube_mm(10))), "inverted_shell"), nullptr);
 
   // A box with an inside-out box inside it is a hollow part, not an error.
-  const Mesh hollow = merged(test::make_cube_mm(20), flipped(test::make_cube_mm(10, Vec3(5, 5, 5))));
+  const Mesh hollow =
+      merged(test::make_cube_mm(20), flipped(test::make_cube_mm(10, Vec3(5, 5, 5))));
   const MeshHealth h = analyze_mesh_health(hollow);
   EXPECT_EQ(h.inverted_shells, 0U);
   EXPECT_EQ(h.shells, 2U);
@@ -254,7 +255,8 @@ TEST(CheckSelfIntersections, TouchingShellsChangeNoOutline) {
   const Finding* f = find(r, "self_intersection");
   if (f != nullptr) {
     EXPECT_EQ(f->severity, Severity::info) << f->message;
-    EXPECT_NE(f->message.find("without changing any layer outline"), std::string::npos) << f->message;
+    EXPECT_NE(f->message.find("without changing any layer outline"), std::string::npos)
+        << f->message;
   }
   EXPECT_EQ(find(r, "narrow_gap"), nullptr);
   ASSERT_TRUE(r.thickness.has_value());
@@ -265,7 +267,8 @@ TEST(CheckSelfIntersections, TouchingShellsChangeNoOutline) {
 TEST(CheckSelfIntersections, InsideOutFoldIsAnErrorWithItsArea) {
   // A shell turned inside out that crosses a good one: 5 x 10 x 10 mm of it lies outside the
   // good shell, with winding number -1 there: union slicers drop it, even-odd ones fill it.
-  const Mesh m = merged(test::make_cube_mm(10), flipped(make_box_mesh(Vec3(5, 0, 0), Vec3(15, 10, 10))));
+  const Mesh m =
+      merged(test::make_cube_mm(10), flipped(make_box_mesh(Vec3(5, 0, 0), Vec3(15, 10, 10))));
   const CheckReport r = run(m);
   ASSERT_TRUE(r.intersection_effect.has_value());
   EXPECT_NEAR(r.intersection_effect->inverted_volume_mm3, 500.0, 1.0);
@@ -301,7 +304,8 @@ TEST(CheckRealWorld, KnownGoodPartsArePrintable) {
 TEST(CheckSelfIntersections, NoneOnClosedMeshesAndTouchingNeighbours) {
   EXPECT_EQ(find_self_intersections(test::make_cube_mm(10)).pairs, 0U);
   // Two separate cubes 1 mm apart.
-  EXPECT_EQ(find_self_intersections(merged(test::make_cube_mm(10), test::make_cube_mm(10, Vec3(11, 0, 0))))
+  EXPECT_EQ(find_self_intersections(
+                merged(test::make_cube_mm(10), test::make_cube_mm(10, Vec3(11, 0, 0))))
                 .pairs,
             0U);
 }
@@ -418,9 +422,11 @@ TEST(CheckRisks, RaysStoppedAtTheLimitFindTheSameThinWalls) {
   EXPECT_EQ(cut.thickness->thin_bbox_mm.max, full.thickness->thin_bbox_mm.max);
   EXPECT_EQ(cut.thickness->min_gap_mm, full.thickness->min_gap_mm);
   ASSERT_EQ(cut.findings.size(), full.findings.size());
-  for (std::size_t i = 0; i < cut.findings.size(); ++i) EXPECT_EQ(cut.findings[i].message, full.findings[i].message);
+  for (std::size_t i = 0; i < cut.findings.size(); ++i)
+    EXPECT_EQ(cut.findings[i].message, full.findings[i].message);
   // A 20 mm cube: nothing thin; its walls (20 mm) are measured only without the stop.
-  const CheckReport cube_full = run(test::make_cube_mm(20)), cube_cut = run(test::make_cube_mm(20), stopped);
+  const CheckReport cube_full = run(test::make_cube_mm(20)),
+                    cube_cut = run(test::make_cube_mm(20), stopped);
   EXPECT_NEAR(cube_full.thickness->min_thickness_mm, 20.0, 1e-4);
   EXPECT_TRUE(std::isinf(cube_cut.thickness->min_thickness_mm));
   EXPECT_EQ(cube_cut.thickness->thin_faces, 0U);
@@ -483,9 +489,10 @@ TEST(CheckRisks, SmallBedContact) {
   // A flat octahedron (|x|/5 + |y|/5 + |z|/2 <= 1) standing on a vertex touches the bed at
   // one point, and its lower faces lean asin(0.5 / sqrt(0.33)) = 60.5 deg from vertical.
   Mesh m;
-  m.vertices_mm = {Vec3(0, 0, -2), Vec3(5, 0, 0), Vec3(0, 5, 0), Vec3(-5, 0, 0), Vec3(0, -5, 0),
-                   Vec3(0, 0, 2)};
-  m.triangles = {{0, 2, 1}, {0, 3, 2}, {0, 4, 3}, {0, 1, 4}, {5, 1, 2}, {5, 2, 3}, {5, 3, 4}, {5, 4, 1}};
+  m.vertices_mm = {Vec3(0, 0, -2), Vec3(5, 0, 0),  Vec3(0, 5, 0),
+                   Vec3(-5, 0, 0), Vec3(0, -5, 0), Vec3(0, 0, 2)};
+  m.triangles = {{0, 2, 1}, {0, 3, 2}, {0, 4, 3}, {0, 1, 4},
+                 {5, 1, 2}, {5, 2, 3}, {5, 3, 4}, {5, 4, 1}};
   const CheckReport r = run(m);
   EXPECT_NEAR(r.health.volume_mm3, 4.0 / 3.0 * 5 * 5 * 2, 1e-9);
   EXPECT_NEAR(r.placement.footprint_area_mm2, 0.0, 1e-12);
@@ -501,7 +508,8 @@ TEST(CheckRisks, FindingsAreSortedErrorsFirst) {
   const CheckReport r = run(m);
   ASSERT_GE(r.findings.size(), 2U);
   for (std::size_t i = 1; i < r.findings.size(); ++i)
-    EXPECT_GE(static_cast<int>(r.findings[i - 1].severity), static_cast<int>(r.findings[i].severity));
+    EXPECT_GE(static_cast<int>(r.findings[i - 1].severity),
+              static_cast<int>(r.findings[i].severity));
 }
 
 TEST(CheckRepair, FillsHoleAndReportsIt) {
@@ -523,10 +531,10 @@ TEST(CheckRepair, FillsHoleAndReportsIt) {
 
 TEST(CheckRepair, RemovesDuplicatesAndDegeneratesAndOrients) {
   Mesh m = test::make_cube_mm(10);
-  m.triangles.push_back(m.triangles[0]);               // duplicate
+  m.triangles.push_back(m.triangles[0]);  // duplicate
   m.vertices_mm.emplace_back(5, 0, 0);
-  m.triangles.push_back({0, 8, 1});                    // degenerate
-  std::swap(m.triangles[5][1], m.triangles[5][2]);     // one face flipped
+  m.triangles.push_back({0, 8, 1});                 // degenerate
+  std::swap(m.triangles[5][1], m.triangles[5][2]);  // one face flipped
   auto r = repair_mesh(m);
   ASSERT_TRUE(r.ok());
   std::map<std::string, std::size_t> changes;
@@ -593,10 +601,13 @@ Mesh bumpy_sphere(double r, int stacks, int slices, const Vec3& c) {
     for (int j = 0; j < slices; ++j) {
       const double t = kPi * i / stacks, p = 2 * kPi * j / slices;
       const double rr = r * (1 + 0.08 * std::sin(5 * p) * std::sin(3 * t));
-      m.vertices_mm.push_back(c + rr * Vec3(std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t)));
+      m.vertices_mm.push_back(
+          c + rr * Vec3(std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t)));
     }
   m.vertices_mm.push_back(c + Vec3(0, 0, -r));
-  const auto ring = [&](int i, int j) { return static_cast<std::uint32_t>(1 + (i - 1) * slices + (j % slices)); };
+  const auto ring = [&](int i, int j) {
+    return static_cast<std::uint32_t>(1 + (i - 1) * slices + (j % slices));
+  };
   const auto south = static_cast<std::uint32_t>(m.vertices_mm.size() - 1);
   for (int j = 0; j < slices; ++j) {
     m.triangles.push_back({0, ring(1, j), ring(1, j + 1)});
@@ -630,7 +641,8 @@ TEST(CheckSelfIntersections, GridAndFilterFindExactlyTheExhaustivePairs) {
   for (int k = 0; k < 64; ++k)
     soup.vertices_mm.emplace_back(coord(rng), coord(rng), k % 3 == 0 ? 0.0 : 0.5 * coord(rng));
   for (int t = 0; t < 400; ++t)
-    soup.triangles.push_back({static_cast<std::uint32_t>(pick(rng)), static_cast<std::uint32_t>(pick(rng)),
+    soup.triangles.push_back({static_cast<std::uint32_t>(pick(rng)),
+                              static_cast<std::uint32_t>(pick(rng)),
                               static_cast<std::uint32_t>(pick(rng))});
   const auto soup_expected = detail::self_intersecting_pairs_exhaustive(soup);
   EXPECT_GT(soup_expected.size(), 100U);
@@ -672,10 +684,12 @@ TEST(CheckUnits, GuessedFromTheSizeOfTheLargestShell) {
   // A stray facet kilometres away does not make a 20 mm part look like microns.
   Mesh stray = test::make_cube_mm(20);
   const auto b = static_cast<std::uint32_t>(stray.vertices_mm.size());
-  stray.vertices_mm.insert(stray.vertices_mm.end(), {Vec3(1e6, 0, 0), Vec3(1e6 + 1, 0, 0), Vec3(1e6, 1, 0)});
+  stray.vertices_mm.insert(stray.vertices_mm.end(),
+                           {Vec3(1e6, 0, 0), Vec3(1e6 + 1, 0, 0), Vec3(1e6, 1, 0)});
   stray.triangles.push_back({b, b + 1, b + 2});
   EXPECT_FALSE(guess_mesh_units(stray).has_value());
-  const Finding f = units_guessed_finding(*guess_mesh_units(test::make_cube_mm(0.02)), Vec3(20, 20, 20));
+  const Finding f =
+      units_guessed_finding(*guess_mesh_units(test::make_cube_mm(0.02)), Vec3(20, 20, 20));
   EXPECT_EQ(f.code, "units_guessed");
   EXPECT_NE(f.message.find("read as metres"), std::string::npos) << f.message;
   EXPECT_NE(f.message.find("20.00 x 20.00 x 20.00 mm"), std::string::npos) << f.message;
@@ -697,7 +711,8 @@ TEST(CheckPlacement, FitAdviceRotatesOrScales) {
   const Finding* f = find(r, "does_not_fit");
   ASSERT_NE(f, nullptr);
   EXPECT_NE(f->message.find("it fits rotated 90 deg about Y (50.00 x 100.00 x 240.00 mm)"),
-            std::string::npos) << f->message;
+            std::string::npos)
+      << f->message;
 }
 
 TEST(CheckOrientation, APlateStandingOnEdgeIsLaidFlat) {
@@ -726,7 +741,8 @@ TEST(CheckOrientation, AnOverhangingArmGoesOnTheBedFace) {
   // A "7": a 5 mm post with a 25 mm arm on top; its underside (20 x 10 mm2) needs support
   // as modelled. Laid on its back (the post's 30 x 10 mm outer face) it needs none and rests
   // on more than on its 7-shaped side (250 mm2).
-  const Mesh seven = prism({Vec2(0, 0), Vec2(5, 0), Vec2(5, 25), Vec2(25, 25), Vec2(25, 30), Vec2(0, 30)}, 10);
+  const Mesh seven =
+      prism({Vec2(0, 0), Vec2(5, 0), Vec2(5, 25), Vec2(25, 25), Vec2(25, 30), Vec2(0, 30)}, 10);
   const OrientationAdvice a = advise_orientation(seven);
   EXPECT_NEAR(a.current.overhang_mm2, 200.0, 1e-6);
   EXPECT_NEAR(a.best.overhang_mm2, 0.0, 1e-9);
@@ -742,12 +758,14 @@ TEST(CheckHealth, StrayFacetFarAwayIsAnError) {
   // A 20 mm cube and one facet 5 m away.
   Mesh m = test::make_cube_mm(20);
   const auto b = static_cast<std::uint32_t>(m.vertices_mm.size());
-  m.vertices_mm.insert(m.vertices_mm.end(), {Vec3(5000, 0, 0), Vec3(5010, 0, 0), Vec3(5000, 10, 5)});
+  m.vertices_mm.insert(m.vertices_mm.end(),
+                       {Vec3(5000, 0, 0), Vec3(5010, 0, 0), Vec3(5000, 10, 5)});
   m.triangles.push_back({b, b + 1, b + 2});
   // 1 face against 12 is more than 1 %: a second body, not a stray facet.
   EXPECT_EQ(find(run(m), "stray_shell"), nullptr);
   std::vector<Vec2> circle;
-  for (int i = 0; i < 60; ++i) circle.emplace_back(10 + 10 * std::cos(i * kPi / 30), 10 + 10 * std::sin(i * kPi / 30));
+  for (int i = 0; i < 60; ++i)
+    circle.emplace_back(10 + 10 * std::cos(i * kPi / 30), 10 + 10 * std::sin(i * kPi / 30));
   Mesh big = prism(circle, 20);  // 236 faces
   big = merged(big, Mesh{{Vec3(5000, 0, 0), Vec3(5010, 0, 0), Vec3(5000, 10, 5)}, {{0, 1, 2}}});
   const CheckReport r = run(big);
@@ -757,9 +775,12 @@ TEST(CheckHealth, StrayFacetFarAwayIsAnError) {
   EXPECT_NE(f->message.find("instead of 20.0 x 20.0 x 20.0 mm"), std::string::npos) << f->message;
   const Finding* fit = find(r, "does_not_fit");
   ASSERT_NE(fit, nullptr);
-  EXPECT_NE(fit->message.find("without the stray shells it fits"), std::string::npos) << fit->message;
+  EXPECT_NE(fit->message.find("without the stray shells it fits"), std::string::npos)
+      << fit->message;
   // Two bodies side by side are no stray shells.
-  EXPECT_EQ(find(run(merged(test::make_cube_mm(20), test::make_cube_mm(1, Vec3(25, 0, 0)))), "stray_shell"), nullptr);
+  EXPECT_EQ(find(run(merged(test::make_cube_mm(20), test::make_cube_mm(1, Vec3(25, 0, 0)))),
+                 "stray_shell"),
+            nullptr);
 }
 
 }  // namespace

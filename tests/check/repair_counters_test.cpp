@@ -19,8 +19,8 @@ RepairCounters repaired(const Mesh& m) {
   return r->counters;
 }
 
-void expect_counters(const RepairCounters& c, std::size_t edges_fixed, std::size_t removed, std::size_t added,
-                     std::size_t reversed, std::size_t holes) {
+void expect_counters(const RepairCounters& c, std::size_t edges_fixed, std::size_t removed,
+                     std::size_t added, std::size_t reversed, std::size_t holes) {
   EXPECT_EQ(c.edges_fixed, edges_fixed);
   EXPECT_EQ(c.facets_removed, removed);
   EXPECT_EQ(c.facets_added, added);
@@ -117,7 +117,9 @@ TEST(RepairCounters, MeasuredFromTheMeshesNotFromTheSteps) {
   EXPECT_EQ(c.facets_added, 1U);
   EXPECT_EQ(c.holes_filled, 1U);
   EXPECT_GT(c.backwards_edges, 0U) << "the turned face runs the same way as its neighbours";
-  EXPECT_EQ(repair_counters_text(c).rfind("edges fixed 0, facets removed 1, facets added 1, facets reversed 1", 0), 0U)
+  EXPECT_EQ(repair_counters_text(c).rfind(
+                "edges fixed 0, facets removed 1, facets added 1, facets reversed 1", 0),
+            0U)
       << repair_counters_text(c);
 }
 

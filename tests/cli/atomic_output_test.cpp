@@ -39,7 +39,8 @@ bool looks_complete(const fs::path& dir) {
 std::vector<fs::path> staging_folders(const fs::path& parent) {
   std::vector<fs::path> out;
   for (const auto& e : fs::directory_iterator(parent))
-    if (e.path().filename().string().find(".staging-") != std::string::npos) out.push_back(e.path());
+    if (e.path().filename().string().find(".staging-") != std::string::npos)
+      out.push_back(e.path());
   return out;
 }
 
@@ -50,8 +51,8 @@ pid_t start_verify(const fs::path& dir, const fs::path& out) {
     EXPECT_TRUE(save_stl(test::make_cube_mm(10.0, Vec3(-5, -5, 0)), stl).ok());
   }
   const std::string gcode = test::source_path("samples/gcode/prusa_cube10.gcode").string();
-  std::vector<std::string> args = {PRINTTWIN_CLI, "verify", stl.string(), "--gcode", gcode, "--voxel", "0.1",
-                                   "--quiet", "--out", out.string()};
+  std::vector<std::string> args = {PRINTTWIN_CLI, "verify", stl.string(), "--gcode", gcode,
+                                   "--voxel",     "0.1",    "--quiet",    "--out",   out.string()};
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -93,7 +94,8 @@ TEST(AtomicOutput, KilledVerifyLeavesNoCompleteLookingReportAndALaterRunCleansUp
     if (killed_while_staging) {
       EXPECT_EQ(code, -SIGKILL);
       // Whatever was written, nothing under the report's name looks complete.
-      EXPECT_FALSE(fs::exists(out) && !looks_complete(out)) << "a half report under the report's name";
+      EXPECT_FALSE(fs::exists(out) && !looks_complete(out))
+          << "a half report under the report's name";
       EXPECT_FALSE(fs::exists(out)) << "the killed run was still writing";
     }
   }
@@ -135,11 +137,13 @@ TEST(EmptyDeposit, EveryExportWritesAValidEmptyFile) {
   const fs::path dir = test::temp_dir("empty_deposit");
   // Travel only: the deposit has no voxel.
   std::ofstream(dir / "travel.gcode") << "G28\nG1 Z0.2 F600\nG1 X50 Y50 F3000\nG1 X60\n";
-  const auto run = test::run_cli("simulate '" + (dir / "travel.gcode").string() + "' --deposit '" +
-                                 (dir / "d.ot").string() + "' --json '" + (dir / "d.json").string() + "'");
+  const auto run =
+      test::run_cli("simulate '" + (dir / "travel.gcode").string() + "' --deposit '" +
+                    (dir / "d.ot").string() + "' --json '" + (dir / "d.json").string() + "'");
   ASSERT_EQ(run.exit_code, 0) << run.err;
-  const auto bt = test::run_cli("simulate '" + (dir / "travel.gcode").string() + "' --deposit '" +
-                                (dir / "d.bt").string() + "' --deposit-ply '" + (dir / "d.ply").string() + "'");
+  const auto bt =
+      test::run_cli("simulate '" + (dir / "travel.gcode").string() + "' --deposit '" +
+                    (dir / "d.bt").string() + "' --deposit-ply '" + (dir / "d.ply").string() + "'");
   ASSERT_EQ(bt.exit_code, 0) << bt.err;
   for (const char* f : {"d.ot", "d.bt"}) {
     auto n = count_octomap_voxels(dir / f);

@@ -43,10 +43,12 @@ std::string workflow_line(const std::string& prefix) {
 }
 
 /// Runs `command` with sh in `dir`, printtwin on the PATH and GITHUB_STEP_SUMMARY set.
-int run_step(const fs::path& dir, const std::string& command, const fs::path& step_summary, std::string* out) {
+int run_step(const fs::path& dir, const std::string& command, const fs::path& step_summary,
+             std::string* out) {
   const std::string bin = fs::path(PRINTTWIN_CLI).parent_path().string();
-  const std::string cmd = "cd " + q(dir) + " && CI=true PATH=" + q(bin) + ":\"$PATH\" GITHUB_STEP_SUMMARY=" +
-                          q(step_summary) + " sh -c " + q(fs::path(command)) + " 2>&1";
+  const std::string cmd = "cd " + q(dir) + " && CI=true PATH=" + q(bin) +
+                          ":\"$PATH\" GITHUB_STEP_SUMMARY=" + q(step_summary) + " sh -c " +
+                          q(fs::path(command)) + " 2>&1";
   FILE* pipe = ::popen(cmd.c_str(), "r");
   if (pipe == nullptr) return -1;
   std::array<char, 4096> buf{};
@@ -61,11 +63,12 @@ int run_step(const fs::path& dir, const std::string& command, const fs::path& st
 fs::path make_parts_repo(const std::string& name) {
   const fs::path repo = test::temp_dir(name);
   fs::create_directories(repo / "parts");
-  for (const char* part : {"broken.stl", "calibration_cube_20mm.stl", "curved_part.stl", "overhangs.stl",
-                           "small_holes.stl", "thin_walls.stl"})
+  for (const char* part : {"broken.stl", "calibration_cube_20mm.stl", "curved_part.stl",
+                           "overhangs.stl", "small_holes.stl", "thin_walls.stl"})
     fs::copy_file(test::source_path("samples/models") / part, repo / "parts" / part);
   fs::create_directories(repo / "parts" / "gcode");
-  fs::copy_file(test::source_path("samples/gcode/prusa_thin_walls.gcode"), repo / "parts" / "gcode" / "thin_walls.gcode");
+  fs::copy_file(test::source_path("samples/gcode/prusa_thin_walls.gcode"),
+                repo / "parts" / "gcode" / "thin_walls.gcode");
   std::ofstream(repo / "parts" / "printtwin.json") << R"({
   "version": 1,
   "defaults": {"printer": "ender3"},
@@ -84,15 +87,19 @@ TEST(CiWorkflow, CheckStepOfTheGitHubWorkflow) {
   const fs::path step_summary = repo / "step_summary.md";
   std::string out;
   const int rc = run_step(repo, line, step_summary, &out);
-  EXPECT_EQ(rc, 3) << "broken.stl is not printable and the listed renamed_away.stl is missing\n" << out;
+  EXPECT_EQ(rc, 3) << "broken.stl is not printable and the listed renamed_away.stl is missing\n"
+                   << out;
 
   auto summary = read_file(step_summary);
   ASSERT_TRUE(summary.ok()) << out;
-  for (const char* part : {"broken.stl", "calibration_cube_20mm.stl", "curved_part.stl", "overhangs.stl",
-                           "small_holes.stl", "thin_walls.stl", "renamed_away.stl"})
-    EXPECT_NE(summary->find(std::string("parts/") + part), std::string::npos) << part << "\n" << *summary;
+  for (const char* part :
+       {"broken.stl", "calibration_cube_20mm.stl", "curved_part.stl", "overhangs.stl",
+        "small_holes.stl", "thin_walls.stl", "renamed_away.stl"})
+    EXPECT_NE(summary->find(std::string("parts/") + part), std::string::npos) << part << "\n"
+                                                                              << *summary;
   EXPECT_NE(summary->find("5 of 7 parts printable"), std::string::npos) << *summary;
-  EXPECT_NE(summary->find("listed in parts/printtwin.json but not found"), std::string::npos) << *summary;
+  EXPECT_NE(summary->find("listed in parts/printtwin.json but not found"), std::string::npos)
+      << *summary;
 
   // JUnit and JSON named by the workflow, beside the checkout.
   auto junit = read_file(repo / "printtwin-junit.xml");
@@ -121,12 +128,16 @@ TEST(CiWorkflow, VerifyStepOfTheGitHubWorkflow) {
   auto junit = read_file(repo / "printtwin-verify-junit.xml");
   ASSERT_TRUE(junit.ok()) << out;
   EXPECT_NE(junit->find("tests=\"2\" failures=\"1\""), std::string::npos) << *junit;
-  EXPECT_NE(junit->find("renamed_away.stl: listed in parts/printtwin.json but not found"), std::string::npos) << *junit;
+  EXPECT_NE(junit->find("renamed_away.stl: listed in parts/printtwin.json but not found"),
+            std::string::npos)
+      << *junit;
   EXPECT_TRUE(fs::exists(repo / "reports" / "thin_walls" / "report.json")) << out;
   auto md = read_file(repo / "verify.md");
   ASSERT_TRUE(md.ok());
   EXPECT_NE(md->find("1 of 2 parts pass"), std::string::npos) << *md;
-  EXPECT_NE(md->find("| parts/thin_walls.stl | PASS | parts/gcode/thin_walls.gcode |"), std::string::npos) << *md;
+  EXPECT_NE(md->find("| parts/thin_walls.stl | PASS | parts/gcode/thin_walls.gcode |"),
+            std::string::npos)
+      << *md;
 }
 
 TEST(Manifest, ErrorsNameTheFileAndTheKey) {
@@ -136,16 +147,20 @@ TEST(Manifest, ErrorsNameTheFileAndTheKey) {
     const char* text;
     const char* expect;
   };
-  for (const Case& c : {Case{R"({"parts": [{"file": "cube.stl", "toleranc": 0.1}]})", "parts[0]: unknown key 'toleranc'"},
-                        Case{R"({"parts": [], "printer": "ender3"})", "unknown key 'printer'"},
-                        Case{R"({"defaults": {"file": "x.stl"}, "parts": []})", "defaults: unknown key 'file'"},
-                        Case{R"({"parts": [{"file": "cube.stl", "orient": "yes"}]})", "parts[0].orient: expected true or false"},
-                        Case{R"({"parts": [{"file": "cube.stl", "units": "furlong"}]})", "unknown unit 'furlong'"},
-                        Case{R"({"parts": [{"file": "cube.stl", "scale": -1}]})", "parts[0].scale: expected a number > 0"},
-                        Case{R"({"parts": [{"file": "cube.stl"}, {"file": "./cube.stl"}]})", "listed twice"},
-                        Case{R"({"parts": [{"printer": "ender3"}]})", "parts[0]: expected \"file\""},
-                        Case{R"({"version": 2, "parts": []})", "version: expected 1"},
-                        Case{R"({"parts": [)", "not valid JSON"}}) {
+  for (const Case& c :
+       {Case{R"({"parts": [{"file": "cube.stl", "toleranc": 0.1}]})",
+             "parts[0]: unknown key 'toleranc'"},
+        Case{R"({"parts": [], "printer": "ender3"})", "unknown key 'printer'"},
+        Case{R"({"defaults": {"file": "x.stl"}, "parts": []})", "defaults: unknown key 'file'"},
+        Case{R"({"parts": [{"file": "cube.stl", "orient": "yes"}]})",
+             "parts[0].orient: expected true or false"},
+        Case{R"({"parts": [{"file": "cube.stl", "units": "furlong"}]})", "unknown unit 'furlong'"},
+        Case{R"({"parts": [{"file": "cube.stl", "scale": -1}]})",
+             "parts[0].scale: expected a number > 0"},
+        Case{R"({"parts": [{"file": "cube.stl"}, {"file": "./cube.stl"}]})", "listed twice"},
+        Case{R"({"parts": [{"printer": "ender3"}]})", "parts[0]: expected \"file\""},
+        Case{R"({"version": 2, "parts": []})", "version: expected 1"},
+        Case{R"({"parts": [)", "not valid JSON"}}) {
     std::ofstream(dir / "m.json") << c.text;
     const auto r = test::run_cli("check --manifest " + q(dir / "m.json"));
     EXPECT_EQ(r.exit_code, 3) << c.text << "\n" << r.out << r.err;
@@ -156,13 +171,17 @@ TEST(Manifest, ErrorsNameTheFileAndTheKey) {
   std::ofstream(dir / "printtwin.json") << R"({"parts": [{"file": "cube.stl", "toleranc": 0.1}]})";
   const auto picked = test::run_cli("check " + q(dir / "cube.stl"));
   EXPECT_EQ(picked.exit_code, 3);
-  EXPECT_NE(picked.err.find("printtwin.json: parts[0]: unknown key 'toleranc'"), std::string::npos) << picked.err;
+  EXPECT_NE(picked.err.find("printtwin.json: parts[0]: unknown key 'toleranc'"), std::string::npos)
+      << picked.err;
   const auto verify = test::run_cli("verify --manifest " + q(dir / "printtwin.json"));
   EXPECT_EQ(verify.exit_code, 3);
   EXPECT_NE(verify.err.find("unknown key 'toleranc'"), std::string::npos) << verify.err;
   // Neither parts nor a manifest; both a part and a manifest for verify.
   EXPECT_EQ(test::run_cli("check").exit_code, 2);
-  EXPECT_EQ(test::run_cli("verify " + q(dir / "cube.stl") + " --manifest " + q(dir / "printtwin.json")).exit_code, 2);
+  EXPECT_EQ(
+      test::run_cli("verify " + q(dir / "cube.stl") + " --manifest " + q(dir / "printtwin.json"))
+          .exit_code,
+      2);
 }
 
 TEST(Manifest, PartSettingsWinOverDefaultsAndTheCommandLine) {
@@ -174,11 +193,14 @@ TEST(Manifest, PartSettingsWinOverDefaultsAndTheCommandLine) {
   std::ofstream(dir / "printtwin.json") << R"({"defaults": {"min_thickness_mm": 0.2},
     "parts": [{"file": "cm_cube.stl", "units": "cm"}, {"file": "wall.stl"}]})";
   // A single file keeps the single-part output, with its manifest settings.
-  const auto one = test::run_cli("check " + q(dir / "cm_cube.stl") + " --units mm --json " + q(dir / "one.json"));
+  const auto one = test::run_cli("check " + q(dir / "cm_cube.stl") + " --units mm --json " +
+                                 q(dir / "one.json"));
   EXPECT_EQ(one.exit_code, 0) << one.out << one.err;
   const json j = test::read_json(dir / "one.json");
   EXPECT_EQ(j["input"]["units"], "cm") << j["input"].dump();
-  EXPECT_NEAR(j["mesh"]["bbox_mm"]["max"][0].get<double>() - j["mesh"]["bbox_mm"]["min"][0].get<double>(), 20.0, 1e-6);
+  EXPECT_NEAR(
+      j["mesh"]["bbox_mm"]["max"][0].get<double>() - j["mesh"]["bbox_mm"]["min"][0].get<double>(),
+      20.0, 1e-6);
   // The defaults' 0.2 mm limit beats the command line's 0.5 mm: the 0.3 mm wall is not thin.
   const auto wall = test::run_cli("check " + q(dir / "wall.stl") + " --min-thickness 0.5");
   EXPECT_EQ(wall.out.find("thin_wall"), std::string::npos) << wall.out;

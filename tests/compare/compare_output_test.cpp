@@ -97,8 +97,7 @@ TEST(CompareOutputs, MergedSharesGiveTheSameMarkdownAndHtml) {
     s.shard = std::make_pair(k, 4);
     s.variants.clear();
     const std::vector<int> share = shard_indices(whole.variant_count, k, 4).value();
-    for (int i : share)
-      s.variants.push_back(whole.variants[static_cast<std::size_t>(i)]);
+    for (int i : share) s.variants.push_back(whole.variants[static_cast<std::size_t>(i)]);
     mark_pareto(s.variants);
     shares.push_back(*parse_compare_json(compare_json(s), "share"));
   }

@@ -49,8 +49,10 @@ ComparePlan wedge_plan(const std::vector<std::string>& layer_heights) {
 }
 
 std::string without_timing(std::string json) {
-  json = std::regex_replace(json, std::regex(R"re("run_time_s": [0-9.e+-]+)re"), "\"run_time_s\": 0");
-  json = std::regex_replace(json, std::regex(R"re("(shared_s|total_s)": [0-9.e+-]+)re"), "\"$1\": 0");
+  json =
+      std::regex_replace(json, std::regex(R"re("run_time_s": [0-9.e+-]+)re"), "\"run_time_s\": 0");
+  json =
+      std::regex_replace(json, std::regex(R"re("(shared_s|total_s)": [0-9.e+-]+)re"), "\"$1\": 0");
   return json;
 }
 
@@ -200,20 +202,21 @@ TEST(CompareCli, ManifestSharesAndMerge) {
   const auto stl = dir / "wedge.stl";
   ASSERT_TRUE(save_stl(make_wedge(), stl).ok());
   const std::string common = " --voxel 0.2 --tolerance 0.4 --variant-reports none";
-  auto plan = test::run_cli("compare " + stl.string() + " --vary layer_height=0.2,0.3 --set skirts=0" +
-                            common + " --write-manifest " + (dir / "plan.json").string());
+  auto plan =
+      test::run_cli("compare " + stl.string() + " --vary layer_height=0.2,0.3 --set skirts=0" +
+                    common + " --write-manifest " + (dir / "plan.json").string());
   ASSERT_EQ(plan.exit_code, 0) << plan.err;
   EXPECT_NE(plan.out.find("2 variants"), std::string::npos) << plan.out;
   for (int k = 0; k < 2; ++k) {
-    auto share = test::run_cli("compare --manifest " + (dir / "plan.json").string() + " --variant " +
-                               std::to_string(k) + " --of 2 --variant-reports none -o " +
-                               (dir / "shares").string());
+    auto share = test::run_cli("compare --manifest " + (dir / "plan.json").string() +
+                               " --variant " + std::to_string(k) +
+                               " --of 2 --variant-reports none -o " + (dir / "shares").string());
     ASSERT_EQ(share.exit_code, 0) << share.err << share.out;
     EXPECT_TRUE(std::filesystem::exists(dir / "shares" / shard_file_name(k, 2)));
   }
-  auto merged = test::run_cli("compare --merge " + (dir / "shares" / "compare-0-of-2.json").string() + " " +
-                              (dir / "shares" / "compare-1-of-2.json").string() + " -o " +
-                              (dir / "merged").string());
+  auto merged = test::run_cli(
+      "compare --merge " + (dir / "shares" / "compare-0-of-2.json").string() + " " +
+      (dir / "shares" / "compare-1-of-2.json").string() + " -o " + (dir / "merged").string());
   ASSERT_EQ(merged.exit_code, 0) << merged.err;
   auto text = read_file(dir / "merged" / "compare.json");
   ASSERT_TRUE(text.ok());
@@ -227,14 +230,17 @@ TEST(CompareCli, ManifestSharesAndMerge) {
   EXPECT_TRUE(std::filesystem::exists(dir / "merged" / "compare.md"));
 
   // Merging only one share is refused, naming what is missing.
-  auto partial = test::run_cli("compare --merge " + (dir / "shares" / "compare-0-of-2.json").string() +
-                               " -o " + (dir / "partial").string());
+  auto partial =
+      test::run_cli("compare --merge " + (dir / "shares" / "compare-0-of-2.json").string() +
+                    " -o " + (dir / "partial").string());
   EXPECT_EQ(partial.exit_code, 3);
   EXPECT_NE(partial.err.find("missing (indices 1)"), std::string::npos) << partial.err;
 
   // Usage errors.
   EXPECT_EQ(test::run_cli("compare " + stl.string() + " --vary layer_height=").exit_code, 2);
-  EXPECT_EQ(test::run_cli("compare " + stl.string() + " --vary layer_height=0.2 --variant 2 --of 2").exit_code, 2);
+  EXPECT_EQ(test::run_cli("compare " + stl.string() + " --vary layer_height=0.2 --variant 2 --of 2")
+                .exit_code,
+            2);
 }
 
 }  // namespace

@@ -8,9 +8,9 @@
 #include <regex>
 #include <sstream>
 
+#include "compare/hand_made_result.hpp"
 #include "printtwin/compare.hpp"
 #include "printtwin/io.hpp"
-#include "compare/hand_made_result.hpp"
 #include "support/test_support.hpp"
 
 namespace printtwin {
@@ -30,8 +30,8 @@ TEST(CompareVariants, ParsesSweepAxes) {
   EXPECT_EQ(a->key, "layer_height");  // '-' and '_' are the same key, as in the slicer
   EXPECT_EQ(a->values, (std::vector<std::string>{"0.1", "0.15", "0.2"}));
 
-  for (const char* bad : {"layer_height", "=0.1", "layer_height=", "layer_height=0.1,,0.2",
-                          "layer_height=0.1,0.1"}) {
+  for (const char* bad :
+       {"layer_height", "=0.1", "layer_height=", "layer_height=0.1,,0.2", "layer_height=0.1,0.1"}) {
     auto r = parse_sweep_axis(bad);
     ASSERT_FALSE(r.ok()) << bad;
     EXPECT_EQ(r.error().code, ErrorCode::usage) << bad;
@@ -76,11 +76,11 @@ TEST(CompareVariants, ConfigsTimesAxesThenGcodes) {
   auto v = expand_variants(spec);
   ASSERT_TRUE(v.ok()) << v.error().describe();
   ASSERT_EQ(v->size(), 8u);
-  EXPECT_EQ(labels_of(*v), (std::vector<std::string>{
-                               "fast layer_height=0.1", "fast layer_height=0.2",
-                               "fine layer_height=0.1", "fine layer_height=0.2",
-                               "fast (2) layer_height=0.1", "fast (2) layer_height=0.2", "prusa",
-                               "cura"}));
+  EXPECT_EQ(labels_of(*v),
+            (std::vector<std::string>{"fast layer_height=0.1", "fast layer_height=0.2",
+                                      "fine layer_height=0.1", "fine layer_height=0.2",
+                                      "fast (2) layer_height=0.1", "fast (2) layer_height=0.2",
+                                      "prusa", "cura"}));
   EXPECT_EQ((*v)[2].config_path, "other/fine.ini");
   EXPECT_EQ((*v)[6].kind, VariantKind::gcode);
   EXPECT_EQ((*v)[6].gcode_path, "out/prusa.gcode");
@@ -171,7 +171,8 @@ TEST(ComparePareto, HandMadeFront) {
       {2400, 0.12},  // 9 slower and worse than 4: dominated
   };
   const auto front = pareto_front(pts);
-  const std::vector<bool> expected = {true, true, true, false, true, false, true, false, false, false};
+  const std::vector<bool> expected = {true,  true, true,  false, true,
+                                      false, true, false, false, false};
   EXPECT_EQ(front, expected);
 
   // Brute-force definition agrees on the finite points.
@@ -254,7 +255,8 @@ TEST(CompareJson, BadInputNamesTheKey) {
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.error().code, ErrorCode::bad_input);
   EXPECT_EQ(r.error().file, "share.json");
-  EXPECT_NE(r.error().message.find("variants[0].print_time_s"), std::string::npos) << r.error().message;
+  EXPECT_NE(r.error().message.find("variants[0].print_time_s"), std::string::npos)
+      << r.error().message;
 
   EXPECT_FALSE(parse_compare_json("{", "x.json").ok());
   auto wrong = parse_compare_json(R"({"schema":"printtwin.check","schema_version":1})", "x.json");
@@ -283,8 +285,10 @@ std::vector<CompareResult> split(const CompareResult& whole, int n) {
 }
 
 std::string without_timing(std::string json) {
-  json = std::regex_replace(json, std::regex(R"re("run_time_s": [0-9.e+-]+)re"), "\"run_time_s\": 0");
-  json = std::regex_replace(json, std::regex(R"re("(shared_s|total_s)": [0-9.e+-]+)re"), "\"$1\": 0");
+  json =
+      std::regex_replace(json, std::regex(R"re("run_time_s": [0-9.e+-]+)re"), "\"run_time_s\": 0");
+  json =
+      std::regex_replace(json, std::regex(R"re("(shared_s|total_s)": [0-9.e+-]+)re"), "\"$1\": 0");
   return json;
 }
 
@@ -297,7 +301,8 @@ TEST(CompareMerge, SharesMergeIntoTheSameTable) {
     auto merged = merge_compare_results(shares);
     ASSERT_TRUE(merged.ok()) << merged.error().describe();
     EXPECT_FALSE(merged->shard.has_value());
-    EXPECT_EQ(without_timing(compare_json(*merged)), without_timing(compare_json(whole))) << "n=" << n;
+    EXPECT_EQ(without_timing(compare_json(*merged)), without_timing(compare_json(whole)))
+        << "n=" << n;
   }
   // Share 1 of 2 alone: variants 1, 3, 5; its own front (1 and 3) differs from the whole's.
   auto shares = split(whole, 2);
@@ -312,7 +317,8 @@ TEST(CompareMerge, RejectsMismatchedOrIncompleteShares) {
 
   auto missing = merge_compare_results({shares[0], shares[2]});
   ASSERT_FALSE(missing.ok());
-  EXPECT_NE(missing.error().message.find("2 of 6 variants are missing (indices 1, 4)"), std::string::npos)
+  EXPECT_NE(missing.error().message.find("2 of 6 variants are missing (indices 1, 4)"),
+            std::string::npos)
       << missing.error().message;
   auto partial = merge_compare_results({shares[0], shares[2]}, /*require_complete=*/false);
   ASSERT_TRUE(partial.ok());
@@ -351,7 +357,8 @@ TEST(ComparePlanManifest, RoundTripAndIdentity) {
   plan.verify.voxel_mm = 0.1;
   plan.verify.place_mm = Vec3(110, 110, 0);
   SweepSpec spec;
-  spec.axes = {*parse_sweep_axis("layer_height=0.1,0.2"), *parse_sweep_axis("fill_density=15%,40%")};
+  spec.axes = {*parse_sweep_axis("layer_height=0.1,0.2"),
+               *parse_sweep_axis("fill_density=15%,40%")};
   spec.gcodes = {"prusa.gcode"};
   plan.variants = *expand_variants(spec);
 

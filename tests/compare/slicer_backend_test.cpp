@@ -16,7 +16,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-SlicerProgram program(const std::string& name) { return SlicerProgram{name, "/usr/bin/" + name, ""}; }
+SlicerProgram program(const std::string& name) {
+  return SlicerProgram{name, "/usr/bin/" + name, ""};
+}
 
 // A shell script standing in for a slicer.
 fs::path script(const fs::path& dir, const std::string& name, const std::string& body) {
@@ -28,13 +30,17 @@ fs::path script(const fs::path& dir, const std::string& name, const std::string&
 }
 
 TEST(SlicerBackend, PrusaSlicerCommandLoadsTheConfigThenTheSettings) {
-  SlicerJob job{"part.stl", "ender3.ini", {{"layer_height", "0.3"}, {"fill_density", "15%"}, {"layer_height", "0.1"}},
-                "", "out/a.gcode"};
+  SlicerJob job{"part.stl",
+                "ender3.ini",
+                {{"layer_height", "0.3"}, {"fill_density", "15%"}, {"layer_height", "0.1"}},
+                "",
+                "out/a.gcode"};
   auto argv = slicer_command(program("prusa-slicer"), job);
   ASSERT_TRUE(argv) << argv.error().describe();
   // The last value of a key wins; keys become the slicer's --flags, sorted.
   EXPECT_EQ(shell_quote(*argv),
-            "/usr/bin/prusa-slicer --load ender3.ini --fill-density 15% --layer-height 0.1 --export-gcode "
+            "/usr/bin/prusa-slicer --load ender3.ini --fill-density 15% --layer-height 0.1 "
+            "--export-gcode "
             "-o out/a.gcode part.stl");
 }
 
@@ -47,13 +53,18 @@ TEST(SlicerBackend, Slic3rCommandHasNoExportFlag) {
 
 TEST(SlicerBackend, CuraCommandPassesConfigLinesThenSettingsWithS) {
   const auto dir = test::temp_dir("slicer_cura_cfg");
-  std::ofstream(dir / "ender.cfg") << "# Ender-3 settings\nlayer_height = 0.2\n\nwall_line_count=2\n";
-  SlicerJob job{"part.stl", (dir / "ender.cfg").string(), {{"layer_height", "0.1"}}, "/defs/creality_ender3.def.json",
+  std::ofstream(dir / "ender.cfg")
+      << "# Ender-3 settings\nlayer_height = 0.2\n\nwall_line_count=2\n";
+  SlicerJob job{"part.stl",
+                (dir / "ender.cfg").string(),
+                {{"layer_height", "0.1"}},
+                "/defs/creality_ender3.def.json",
                 "a.gcode"};
   auto argv = slicer_command(program("cura"), job);
   ASSERT_TRUE(argv) << argv.error().describe();
-  EXPECT_EQ(shell_quote(*argv), "/usr/bin/cura slice -v -j /defs/creality_ender3.def.json -s layer_height=0.1 -s "
-                                "wall_line_count=2 -l part.stl -o a.gcode");
+  EXPECT_EQ(shell_quote(*argv),
+            "/usr/bin/cura slice -v -j /defs/creality_ender3.def.json -s layer_height=0.1 -s "
+            "wall_line_count=2 -l part.stl -o a.gcode");
   job.cura_definition.clear();
   auto missing = slicer_command(program("cura"), job);
   ASSERT_FALSE(missing);
@@ -70,10 +81,13 @@ TEST(SlicerBackend, CuraCommandPassesConfigLinesThenSettingsWithS) {
 // CuraEngine evaluates no formula: the children of a varied parent are written out.
 TEST(SlicerBackend, CuraParentsReachTheirChildren) {
   const auto dir = test::temp_dir("slicer_cura_children");
-  std::ofstream(dir / "c.cfg") << "infill_line_distance = 9\ntop_bottom_thickness = 0.8\nspeed_wall_0 = 20\n";
-  SlicerJob job{"p.stl", (dir / "c.cfg").string(),
+  std::ofstream(dir / "c.cfg")
+      << "infill_line_distance = 9\ntop_bottom_thickness = 0.8\nspeed_wall_0 = 20\n";
+  SlicerJob job{"p.stl",
+                (dir / "c.cfg").string(),
                 {{"infill_sparse_density", "10"}, {"layer_height", "0.2"}, {"speed_print", "60"}},
-                "/d/x.def.json", "o.gcode"};
+                "/d/x.def.json",
+                "o.gcode"};
   auto argv = slicer_command(program("cura"), job);
   ASSERT_TRUE(argv) << argv.error().describe();
   const std::string line = shell_quote(*argv);
@@ -87,7 +101,8 @@ TEST(SlicerBackend, CuraParentsReachTheirChildren) {
   auto fresh = slicer_command(program("cura"), job);
   ASSERT_TRUE(fresh);
   // grid: 0.4 mm lines * 100 / 10 % * 2 lines per cell.
-  EXPECT_NE(shell_quote(*fresh).find("-s infill_line_distance=8 "), std::string::npos) << shell_quote(*fresh);
+  EXPECT_NE(shell_quote(*fresh).find("-s infill_line_distance=8 "), std::string::npos)
+      << shell_quote(*fresh);
   // The re-run line names the search path the definition needs.
   auto text = slicer_command_line(program("cura"), job);
   ASSERT_TRUE(text);
@@ -191,27 +206,31 @@ TEST(SlicerBackend, MissingSlicerNamesTheDebianPackage) {
 
 TEST(SlicerBackend, FailingSlicerReportsItsOwnMessage) {
   const auto dir = test::temp_dir("slicer_failing");
-  const auto fake = script(dir, "prusa-slicer", "echo 'Objects could not fit on the bed' >&2; exit 1");
+  const auto fake =
+      script(dir, "prusa-slicer", "echo 'Objects could not fit on the bed' >&2; exit 1");
   SlicerProgram p{"prusa-slicer", fake.string(), "PrusaSlicer 9.9"};
   SlicerJob job{"part.stl", "", {}, "", (dir / "out.gcode").string()};
   std::string command;
   const Status st = run_external_slicer(p, job, 10, &command);
   ASSERT_FALSE(st);
-  EXPECT_NE(st.error().message.find("Objects could not fit on the bed"), std::string::npos) << st.error().message;
+  EXPECT_NE(st.error().message.find("Objects could not fit on the bed"), std::string::npos)
+      << st.error().message;
   EXPECT_NE(st.error().message.find("exit 1"), std::string::npos);
   EXPECT_NE(command.find("--export-gcode"), std::string::npos);
 }
 
 TEST(SlicerBackend, TheSlicersErrorLineBeatsItsHelpText) {
   const auto dir = test::temp_dir("slicer_help");
-  const auto fake = script(dir, "prusa-slicer",
-                           "echo 'Unknown option --layer-heigth'; echo; echo 'Usage: prusa-slicer [ ACTIONS ]';"
-                           "echo '  --help  shows this'; echo '  --info  prints info'; exit 1");
+  const auto fake =
+      script(dir, "prusa-slicer",
+             "echo 'Unknown option --layer-heigth'; echo; echo 'Usage: prusa-slicer [ ACTIONS ]';"
+             "echo '  --help  shows this'; echo '  --info  prints info'; exit 1");
   SlicerProgram p{"prusa-slicer", fake.string(), ""};
   SlicerJob job{"part.stl", "", {}, "", (dir / "out.gcode").string()};
   const Status st = run_external_slicer(p, job, 10);
   ASSERT_FALSE(st);
-  EXPECT_NE(st.error().message.find("Unknown option --layer-heigth"), std::string::npos) << st.error().message;
+  EXPECT_NE(st.error().message.find("Unknown option --layer-heigth"), std::string::npos)
+      << st.error().message;
   EXPECT_EQ(st.error().message.find("--info"), std::string::npos) << st.error().message;
 }
 
@@ -235,7 +254,8 @@ TEST(SlicerBackend, SharedVariantsAreSlicedOnceAndFailuresAreRows) {
   const auto log = dir / "calls.log";
   const auto fake = script(dir, "prusa-slicer",
                            "case \"$1\" in --help) echo 'PrusaSlicer-7.7.7+test'; exit 0;; esac\n"
-                           "echo called >> '" + log.string() + "'\necho 'Nothing to print' >&2; exit 3");
+                           "echo called >> '" +
+                               log.string() + "'\necho 'Nothing to print' >&2; exit 3");
   auto printer = load_printer_profile("ender3");
   ASSERT_TRUE(printer);
   auto part = prepare_shared_part(test::make_cube_mm(10), "cube", *printer);
@@ -357,13 +377,16 @@ namespace {
 TEST(SlicerBackendCli, MissingOrUnknownSlicerExitsTwo) {
   const std::string cube = test::source_path("samples/models/calibration_cube_20mm.stl").string();
   const auto out = test::temp_dir("slicer_cli");
-  auto unknown = test::run_cli("compare " + cube + " --slicer simplify3d -o " + (out / "a").string());
+  auto unknown =
+      test::run_cli("compare " + cube + " --slicer simplify3d -o " + (out / "a").string());
   EXPECT_EQ(unknown.exit_code, 2) << unknown.err;
-  auto missing = test::run_cli("verify " + cube + " --slicer slic3r --slicer-path /nonexistent/slic3r --out " +
-                               (out / "b").string());
+  auto missing =
+      test::run_cli("verify " + cube + " --slicer slic3r --slicer-path /nonexistent/slic3r --out " +
+                    (out / "b").string());
   EXPECT_EQ(missing.exit_code, 2) << missing.err;
   EXPECT_NE(missing.err.find("--slicer-path"), std::string::npos) << missing.err;
-  auto no_definition = test::run_cli("compare " + cube + " --slicer cura -o " + (out / "c").string());
+  auto no_definition =
+      test::run_cli("compare " + cube + " --slicer cura -o " + (out / "c").string());
   EXPECT_EQ(no_definition.exit_code, 2) << no_definition.err;
   EXPECT_NE(no_definition.err.find("--cura-definition"), std::string::npos) << no_definition.err;
 }

@@ -16,7 +16,8 @@ namespace {
 
 TEST(TagNibbles, WritesTheMaskedVoxelsOnly) {
   std::array<std::uint8_t, 32> row{};
-  store_nibbles(row.data(), (std::uint64_t{1} << 0) | (std::uint64_t{1} << 9) | (std::uint64_t{1} << 63), 0xA);
+  store_nibbles(row.data(),
+                (std::uint64_t{1} << 0) | (std::uint64_t{1} << 9) | (std::uint64_t{1} << 63), 0xA);
   EXPECT_EQ(row[0], 0x0A);   // voxel (0, 0): low nibble of byte 0
   EXPECT_EQ(row[4], 0xA0);   // voxel (1, 1): row 1 starts at byte 4, x = 1 is the high nibble
   EXPECT_EQ(row[31], 0xA0);  // voxel (7, 7)
@@ -33,7 +34,8 @@ TEST(TagNibbles, WritesTheMaskedVoxelsOnly) {
     for (int v = 0; v < 64; ++v)
       if ((mask >> v) & 1U) {
         std::uint8_t& byte = expected[static_cast<std::size_t>(v / 2)];
-        byte = v % 2 ? static_cast<std::uint8_t>((byte & 0x0F) | (e << 4)) : static_cast<std::uint8_t>((byte & 0xF0) | e);
+        byte = v % 2 ? static_cast<std::uint8_t>((byte & 0x0F) | (e << 4))
+                     : static_cast<std::uint8_t>((byte & 0xF0) | e);
       }
     store_nibbles(a.data(), mask, e);
     ASSERT_EQ(a, expected) << "mask " << std::hex << mask << " entry " << e;
@@ -67,13 +69,15 @@ TEST(BeadRaster, DispatchedKernelMatchesThePortableOne) {
   int set_bits = 0;
   for (int trial = 0; trial < 400; ++trial) {
     const double ax = 100 + 50 * u(rng), ay = 100 + 50 * u(rng), z_top = 4 + 20 * u(rng);
-    BeadFrame f = bead(ax, ay, z_top, 2 * M_PI * u(rng), 1 + 40 * u(rng), 1 + 3 * u(rng), 4 * u(rng));
+    BeadFrame f =
+        bead(ax, ay, z_top, 2 * M_PI * u(rng), 1 + 40 * u(rng), 1 + 3 * u(rng), 4 * u(rng));
     f.slope = trial % 4 == 0 ? static_cast<float>(0.05 * u(rng)) : 0.0f;  // some spiral beads
     for (int tile = 0; tile < 12; ++tile) {
       const auto i0 = static_cast<std::int32_t>(8 * std::floor((ax - 12 + 24 * u(rng)) / 8));
       const auto j0 = static_cast<std::int32_t>(8 * std::floor((ay - 12 + 24 * u(rng)) / 8));
       const auto k = static_cast<std::int32_t>(std::floor(z_top - 6 + 7 * u(rng)));
-      const int row_lo = static_cast<int>(8 * u(rng) * 0.5), row_hi = 4 + static_cast<int>(4 * u(rng) + 0.99);
+      const int row_lo = static_cast<int>(8 * u(rng) * 0.5),
+                row_hi = 4 + static_cast<int>(4 * u(rng) + 0.99);
       const unsigned lanes = trial % 3 == 0 ? 0x3Fu : 0xFFu;
       const std::uint64_t a = test_tile(f, i0, j0, k, row_lo, row_hi, lanes);
       const std::uint64_t b = test_tile_scalar(f, i0, j0, k, row_lo, row_hi, lanes);
@@ -83,9 +87,11 @@ TEST(BeadRaster, DispatchedKernelMatchesThePortableOne) {
       // All of a bead's layers of the tile at once: each layer's bits as alone.
       const std::array<std::int32_t, 5> ks{k - 2, k - 1, k, k + 1, k + 3};
       std::array<std::uint64_t, 5> masks{};
-      test_tile_layers(f, i0, j0, ks.data(), static_cast<int>(ks.size()), row_lo, row_hi, lanes, masks.data());
+      test_tile_layers(f, i0, j0, ks.data(), static_cast<int>(ks.size()), row_lo, row_hi, lanes,
+                       masks.data());
       for (std::size_t n = 0; n < ks.size(); ++n)
-        ASSERT_EQ(masks[n], test_tile_scalar(f, i0, j0, ks[n], row_lo, row_hi, lanes)) << "trial " << trial << " layer " << n;
+        ASSERT_EQ(masks[n], test_tile_scalar(f, i0, j0, ks[n], row_lo, row_hi, lanes))
+            << "trial " << trial << " layer " << n;
       set_bits += __builtin_popcountll(a);
     }
   }
@@ -112,9 +118,9 @@ TEST(BeadRaster, BitsAreTheVoxelsWhoseSamplePointIsInTheStadium) {
             const bool expect = sx >= 3.2 && sx < 43.2 && dz >= -r && dz < r &&
                                 (lateral <= 0 || lateral * lateral + dz * dz <= r * r);
             // Sample points within 1e-4 voxel of the surface may go either way in single precision.
-            const double margin = std::min({std::abs(sx - 3.2), std::abs(sx - 43.2), std::abs(dz + r),
-                                            std::abs(dz - r),
-                                            std::abs(std::hypot(std::max(lateral, 0.0), dz) - r)});
+            const double margin =
+                std::min({std::abs(sx - 3.2), std::abs(sx - 43.2), std::abs(dz + r),
+                          std::abs(dz - r), std::abs(std::hypot(std::max(lateral, 0.0), dz) - r)});
             if (margin < 1e-4) continue;
             const bool got = ((bits >> (y * 8 + x)) & 1u) != 0;
             ASSERT_EQ(got, expect) << "voxel " << i0 + x << "," << j0 + y << "," << k;
@@ -136,8 +142,9 @@ TEST(BeadRaster, CountHeldMatchesAColumnByColumnCount) {
   const auto column = [&](double u, double v) {
     const auto i = static_cast<int>(std::floor(u)), j = static_cast<int>(std::floor(v));
     if (i < 0 || j < 0 || i >= nx || j >= ny) return 0;
-    return static_cast<int>(top[((static_cast<std::size_t>(j) / 8) * tiles_x + static_cast<std::size_t>(i) / 8) * 64 +
-                                static_cast<std::size_t>(j % 8) * 8 + static_cast<std::size_t>(i % 8)]);
+    return static_cast<int>(
+        top[((static_cast<std::size_t>(j) / 8) * tiles_x + static_cast<std::size_t>(i) / 8) * 64 +
+            static_cast<std::size_t>(j % 8) * 8 + static_cast<std::size_t>(i % 8)]);
   };
   std::uniform_real_distribution<double> u(-6.0, 44.0), unit(-1.0, 1.0);
   int total = 0;

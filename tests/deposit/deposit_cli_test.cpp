@@ -13,9 +13,10 @@ namespace {
 TEST(DepositCli, SimulateWritesOctomapPlyAndJson) {
   const auto dir = test::temp_dir("deposit_cli");
   const auto gcode = test::source_path("samples/gcode/prusa_cube10.gcode");
-  const auto run = test::run_cli("simulate '" + gcode.string() + "' --voxel 0.1 --deposit '" +
-                                 (dir / "cube.bt").string() + "' --deposit-ply '" +
-                                 (dir / "cube.ply").string() + "' --json '" + (dir / "cube.json").string() + "'");
+  const auto run =
+      test::run_cli("simulate '" + gcode.string() + "' --voxel 0.1 --deposit '" +
+                    (dir / "cube.bt").string() + "' --deposit-ply '" + (dir / "cube.ply").string() +
+                    "' --json '" + (dir / "cube.json").string() + "'");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("deposit: "), std::string::npos) << run.out;
   auto text = read_file(dir / "cube.json");
@@ -51,7 +52,8 @@ TEST(DepositCli, MemoryBudgetStopsWithASuggestedVoxelSize) {
   EXPECT_NE(run.err.find("--voxel"), std::string::npos) << run.err;
   EXPECT_NE(run.err.find("MiB"), std::string::npos) << run.err;
   EXPECT_FALSE(std::filesystem::exists(dir / "cube.ot"));
-  const auto bad = test::run_cli("simulate '" + gcode.string() + "' --deposit-summary --max-memory lots");
+  const auto bad =
+      test::run_cli("simulate '" + gcode.string() + "' --deposit-summary --max-memory lots");
   EXPECT_EQ(bad.exit_code, 2);
 }
 
@@ -59,7 +61,8 @@ TEST(DepositCli, ConserveVolumePlacesTheVaseOverlap) {
   // The spiral vase's overlap is lost by default and squeezed beside the bead with the flag.
   const auto gcode = test::source_path("samples/gcode/prusa_vase10.gcode");
   const auto off = test::run_cli("simulate '" + gcode.string() + "' --deposit-summary");
-  const auto on = test::run_cli("simulate '" + gcode.string() + "' --deposit-summary --conserve-volume");
+  const auto on =
+      test::run_cli("simulate '" + gcode.string() + "' --deposit-summary --conserve-volume");
   ASSERT_EQ(off.exit_code, 0) << off.err;
   ASSERT_EQ(on.exit_code, 0) << on.err;
   EXPECT_EQ(off.out.find("100.0 % of"), std::string::npos) << off.out;

@@ -84,7 +84,8 @@ TEST(DepositDroop, BridgeSagGrowsWithSpanAndKeepsTheVolume) {
     // Sagging moves the bead, it does not make or lose plastic.
     EXPECT_NEAR(r->volume_mm3, flat->volume_mm3, 0.005 * flat->volume_mm3);
     ASSERT_EQ(r->findings.size(), 1u);
-    EXPECT_NE(r->findings[0].message.find("predicted to sag up to"), std::string::npos) << r->findings[0].message;
+    EXPECT_NE(r->findings[0].message.find("predicted to sag up to"), std::string::npos)
+        << r->findings[0].message;
   }
 }
 
@@ -118,7 +119,8 @@ TEST(DepositDroop, OverhangDroopGrowsWithTheAngle) {
     ASSERT_TRUE(flat.ok());
     const double x_top = 30.0 + (layers - 1) * kH * std::tan(angles[i] * std::numbers::pi / 180.0);
     const double z_min = kH * (layers - 1) - 1.0;
-    EXPECT_NEAR(lowest_bottom(*flat, x_top, 50, z_min) - lowest_bottom(*r, x_top, 50, z_min), drop[i], 0.06)
+    EXPECT_NEAR(lowest_bottom(*flat, x_top, 50, z_min) - lowest_bottom(*r, x_top, 50, z_min),
+                drop[i], 0.06)
         << angles[i];
     EXPECT_NEAR(r->volume_mm3, flat->volume_mm3, 0.005 * flat->volume_mm3);
   }
@@ -188,7 +190,8 @@ TEST(DepositDroop, SparseInfillOverTheCellsBelowIsInfoAndStaysInPlace) {
 std::vector<Move> first_layer_square(const PrinterProfile& p) {
   BeadWriter w(p);
   const double spacing = kW - kH * (1 - std::numbers::pi / 4);
-  for (const auto& [inset, feature] : {std::pair{spacing, Feature::perimeter}, std::pair{0.0, Feature::outer_perimeter}}) {
+  for (const auto& [inset, feature] :
+       {std::pair{spacing, Feature::perimeter}, std::pair{0.0, Feature::outer_perimeter}}) {
     w.feature = feature;
     const double lo = 50 + inset, hi = 60 - inset;
     w.travel({lo, lo, kH});

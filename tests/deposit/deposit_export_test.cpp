@@ -17,7 +17,8 @@ using detail::VoxelBlocks;
 namespace {
 
 /// Fills the box [lo, hi) of voxels.
-void fill_box(VoxelGrid& g, const Eigen::Vector3i& lo, const Eigen::Vector3i& hi, std::uint32_t tag) {
+void fill_box(VoxelGrid& g, const Eigen::Vector3i& lo, const Eigen::Vector3i& hi,
+              std::uint32_t tag) {
   for (int z = lo.z(); z < hi.z(); ++z)
     for (int y = lo.y(); y < hi.y(); ++y) VoxelBlocks::fill_row(g, y, z, lo.x(), hi.x(), tag);
 }
@@ -94,8 +95,8 @@ TEST(DepositExport, BinaryOctomapOfFullAndPartialCubesReadsBack) {
   for (const double origin : {0.0, 0.3, -1.15}) {  // key offsets 0, 3, -23 voxels (mod 8: 0, 3, 1)
     VoxelGrid g(0.05, Vec3(origin, origin + 0.1, 0), Eigen::Vector3i(70, 50, 40));
     const auto t = VoxelBlocks::add_tag(g, {1, 0, Feature::perimeter});
-    fill_box(g, {3, 5, 0}, {60, 45, 33}, t);  // spans many whole cubes
-    for (int z = 10; z < 20; ++z) g.clear({30, 20, z});  // holes inside
+    fill_box(g, {3, 5, 0}, {60, 45, 33}, t);                      // spans many whole cubes
+    for (int z = 10; z < 20; ++z) g.clear({30, 20, z});           // holes inside
     g.set({69, 49, 39}, VoxelTag{2, 1, Feature::sparse_infill});  // a lone voxel in a corner
     const auto file = dir / "grid.bt";
     ASSERT_TRUE(write_octomap(g, file).ok());
@@ -125,7 +126,8 @@ TEST(DepositExport, PlyHoldsTheOuterSurfaceWithLayerAndFeature) {
   EXPECT_NE(header.find("property int layer"), std::string::npos);
   EXPECT_NE(header.find("property uchar feature"), std::string::npos);
   const auto surface = outer_surface(d.grid);
-  EXPECT_NE(header.find("element vertex " + std::to_string(surface.size()) + "\n"), std::string::npos);
+  EXPECT_NE(header.find("element vertex " + std::to_string(surface.size()) + "\n"),
+            std::string::npos);
   EXPECT_LT(surface.size(), d.voxels);
   constexpr std::size_t kRecord = 6 * 4 + 3 + 4 + 1 + 4;
   const std::size_t body = end + std::strlen("end_header\n");

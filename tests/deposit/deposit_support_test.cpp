@@ -14,8 +14,8 @@ namespace {
 using test::BeadWriter;
 
 /// Four single-bead walls along Y; layer i of the wall at x0 sits at x0 + i h tan(theta).
-std::vector<Move> overhang_walls(const PrinterProfile& profile, const std::vector<double>& angles_deg,
-                                 int layers) {
+std::vector<Move> overhang_walls(const PrinterProfile& profile,
+                                 const std::vector<double>& angles_deg, int layers) {
   BeadWriter w(profile);
   const double h = 0.2, width = 0.45;
   for (int layer = 0; layer < layers; ++layer) {

@@ -7,8 +7,8 @@
 #include <random>
 #include <vector>
 
-#include "deposit/deposit_test_support.hpp"
 #include "deposit/deposit_run.hpp"
+#include "deposit/deposit_test_support.hpp"
 #include "deposit/voxel_blocks.hpp"
 #include "printtwin/deposit.hpp"
 
@@ -68,7 +68,10 @@ TEST(VoxelGrid, SetTagCountAndOrder) {
   EXPECT_NEAR(g.center_mm({3, 4, 5}).x(), 1.35, 1e-12);
 
   // fill_row across block borders, overlap counted by the return value.
-  EXPECT_EQ(detail::VoxelBlocks::fill_row(g, 4, 5, 0, 20, detail::VoxelBlocks::add_tag(g, VoxelTag{20, 3, Feature::solid_infill})), 19u);
+  EXPECT_EQ(
+      detail::VoxelBlocks::fill_row(
+          g, 4, 5, 0, 20, detail::VoxelBlocks::add_tag(g, VoxelTag{20, 3, Feature::solid_infill})),
+      19u);
   EXPECT_EQ(g.count(), 21u);
   EXPECT_EQ(g.tag({3, 4, 5})->line, 20u);  // the last writer owns the voxel
   EXPECT_EQ(detail::VoxelBlocks::fill_row(g, 4, 5, -5, 40, 0), 0u);
@@ -91,7 +94,8 @@ TEST(VoxelGrid, SetTagCountAndOrder) {
   EXPECT_EQ(g.count(), 20u);
   EXPECT_EQ(copy.count(), 21u);
   EXPECT_TRUE(copy.occupied({3, 4, 5}));
-  EXPECT_LE(VoxelGrid::estimate_bytes(g.dims(), 1000), 3 * 4 * 4 + 8 * detail::VoxelBlocks::kBlockBytes);
+  EXPECT_LE(VoxelGrid::estimate_bytes(g.dims(), 1000),
+            3 * 4 * 4 + 8 * detail::VoxelBlocks::kBlockBytes);
 }
 
 // A block keeps up to 16 distinct tags as 4-bit palette indices. Tags far apart in the
@@ -102,7 +106,8 @@ TEST(VoxelGrid, ManyTagsInOneBlockReadBackExactly) {
   VoxelGrid g(0.1, Vec3::Zero(), Eigen::Vector3i(16, 16, 16));
   std::vector<std::uint32_t> index;
   for (std::uint32_t i = 0; i < 70010; ++i)
-    index.push_back(detail::VoxelBlocks::add_tag(g, VoxelTag{i + 1, static_cast<std::int32_t>(i), Feature::perimeter}));
+    index.push_back(detail::VoxelBlocks::add_tag(
+        g, VoxelTag{i + 1, static_cast<std::int32_t>(i), Feature::perimeter}));
   const auto check_all = [&](const VoxelGrid& grid) {
     std::size_t visited = 0;
     grid.for_each([&](const VoxelKey& k, const VoxelTag& t) {
@@ -135,15 +140,18 @@ TEST(VoxelGrid, ManyTagsInOneBlockReadBackExactly) {
 
   // Overwrite row (3, 3) with 20 tags in turn: only the last one is referred to, so the
   // palette is compacted and the block stays narrow.
-  for (std::uint32_t i = 0; i < 20; ++i) detail::VoxelBlocks::fill_row(g, 3, 3, 0, 8, index[100 + i]);
+  for (std::uint32_t i = 0; i < 20; ++i)
+    detail::VoxelBlocks::fill_row(g, 3, 3, 0, 8, index[100 + i]);
   EXPECT_EQ(g.tag({0, 3, 3})->line, 120u);
   EXPECT_EQ(detail::VoxelBlocks::wide_block_count(g), 0u);
   check_all(g);
 
   // 30 different tags on 30 voxels of z-slice 6: the block becomes wide, nothing is lost.
-  for (int i = 0; i < 30; ++i) detail::VoxelBlocks::set_index(g, {i % 8, i / 8, 6}, index[1000 + static_cast<std::size_t>(i)]);
+  for (int i = 0; i < 30; ++i)
+    detail::VoxelBlocks::set_index(g, {i % 8, i / 8, 6}, index[1000 + static_cast<std::size_t>(i)]);
   EXPECT_EQ(detail::VoxelBlocks::wide_block_count(g), 1u);
-  for (int i = 0; i < 30; ++i) EXPECT_EQ(g.tag({i % 8, i / 8, 6})->line, 1001u + static_cast<unsigned>(i));
+  for (int i = 0; i < 30; ++i)
+    EXPECT_EQ(g.tag({i % 8, i / 8, 6})->line, 1001u + static_cast<unsigned>(i));
   EXPECT_EQ(g.tag({2, 1, 1})->line, 70001u);
   detail::VoxelBlocks::write_tile(g, 0, 0, 6, 0xFFull, index[7]);  // writes to a wide block
   EXPECT_EQ(g.tag({3, 0, 6})->line, 8u);
@@ -273,7 +281,8 @@ TEST(DepositBead, NeighbouringLinesAtSlicerSpacingOverlapByTheLens) {
   auto r = deposit_moves(w.moves, profile, DepositSettings{});
   ASSERT_TRUE(r.ok());
   const double rr = h / 2, dd = std::numbers::pi * h / 4;  // disc radius, centre distance
-  const double lens_mm2 = 2 * rr * rr * std::acos(dd / (2 * rr)) - 0.5 * dd * std::sqrt(4 * rr * rr - dd * dd);
+  const double lens_mm2 =
+      2 * rr * rr * std::acos(dd / (2 * rr)) - 0.5 * dd * std::sqrt(4 * rr * rr - dd * dd);
   EXPECT_NEAR(r->overlap_mm3 / (lens_mm2 * len), 1.0, 0.15);
   // ~4.5 % of one line: what an inner perimeter or a solid infill line shows per neighbour.
   EXPECT_NEAR(r->overlap_mm3 / (0.5 * r->extruded_mm3), 0.0446, 0.007);
@@ -409,7 +418,9 @@ TEST(DepositBead, EstimateIsCloseToTheMemoryUsed) {
   auto est = estimate_deposit(w.moves, profile, DepositSettings{});
   auto r = deposit_moves(w.moves, profile, DepositSettings{});
   ASSERT_TRUE(est.ok() && r.ok());
-  EXPECT_NEAR(static_cast<double>(detail::VoxelBlocks::block_count(r->grid)) / static_cast<double>(est->blocks), 1.0, 0.25);
+  EXPECT_NEAR(static_cast<double>(detail::VoxelBlocks::block_count(r->grid)) /
+                  static_cast<double>(est->blocks),
+              1.0, 0.25);
   EXPECT_GE(static_cast<double>(est->bytes), 0.8 * static_cast<double>(r->memory_bytes));
 }
 

@@ -98,7 +98,8 @@ TEST(DroopModel, KnotsFollowTheDropsWithinTolerance) {
   EXPECT_EQ(knots.front().mm, 0.25);
   // A parabola (a bridge): every sample lies within the tolerance of the lowering.
   const auto m = stock();
-  for (std::size_t i = 0; i < drops.size(); ++i) drops[i] = m.bridge_sag(40, 40 * (i + 0.5) / 100.0);
+  for (std::size_t i = 0; i < drops.size(); ++i)
+    drops[i] = m.bridge_sag(40, 40 * (i + 0.5) / 100.0);
   drop_knots(drops, 5, 0.005, knots);
   EXPECT_GT(knots.size(), 3u);
   EXPECT_LE(knots.size(), 21u);
@@ -114,7 +115,9 @@ TEST(DroopModel, KnotsFollowTheDropsWithinTolerance) {
 TEST(DroopModel, ElephantFootWidensTheOpenSideAndKeepsTheArea) {
   const double w = 0.45, h = 0.2;
   const double area = (w - h) * h + std::numbers::pi * h * h / 4;
-  auto area_of = [](const FootSection& s) { return (s.w - s.h) * s.h + std::numbers::pi * s.h * s.h / 4; };
+  auto area_of = [](const FootSection& s) {
+    return (s.w - s.h) * s.h + std::numbers::pi * s.h * s.h / 4;
+  };
   const FootSection out = elephant_foot(area, w, h, 0.1, false, true);  // open on the right
   EXPECT_NEAR(out.w, 0.55, 1e-12);
   EXPECT_NEAR(out.shift, -0.05, 1e-12);  // the left edge stays where it was

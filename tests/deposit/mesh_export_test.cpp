@@ -17,10 +17,12 @@ namespace {
 
 constexpr double kVoxel = 0.1;
 
-VoxelGrid make_grid(int n = 48) { return VoxelGrid(kVoxel, Vec3(10, 20, 0), Eigen::Vector3i(n, n, n)); }
+VoxelGrid make_grid(int n = 48) {
+  return VoxelGrid(kVoxel, Vec3(10, 20, 0), Eigen::Vector3i(n, n, n));
+}
 
-void fill_box(VoxelGrid& g, const Eigen::Vector3i& lo, const Eigen::Vector3i& hi, Feature f = Feature::perimeter,
-              int layer = -1) {
+void fill_box(VoxelGrid& g, const Eigen::Vector3i& lo, const Eigen::Vector3i& hi,
+              Feature f = Feature::perimeter, int layer = -1) {
   for (int z = lo.z(); z < hi.z(); ++z)
     for (int y = lo.y(); y < hi.y(); ++y)
       for (int x = lo.x(); x < hi.x(); ++x) g.set({x, y, z}, {1, layer < 0 ? z : layer, f});
@@ -36,7 +38,8 @@ void expect_closed_oriented(const Mesh& m) {
       ++directed[{t[k], t[(k + 1) % 3]}];
       used[t[k]] = 1;
     }
-    const Vec3 n = (m.vertices_mm[t[1]] - m.vertices_mm[t[0]]).cross(m.vertices_mm[t[2]] - m.vertices_mm[t[0]]);
+    const Vec3 n = (m.vertices_mm[t[1]] - m.vertices_mm[t[0]])
+                       .cross(m.vertices_mm[t[2]] - m.vertices_mm[t[0]]);
     EXPECT_GT(n.norm(), 1e-12) << "degenerate triangle";
   }
   std::size_t bad = 0;
@@ -94,7 +97,8 @@ TEST(DepositMesh, DiagonalContactsAreRepairedIntoAManifold) {
   EXPECT_EQ(dm.components, 1u);
   EXPECT_NEAR(dm.volume_mm3, dm.filled_volume_mm3, 1e-9);
   const double voxels = 64 + 36 + 27;
-  EXPECT_NEAR(dm.filled_volume_mm3, (voxels + static_cast<double>(dm.repaired_cells)) * std::pow(kVoxel, 3), 1e-9);
+  EXPECT_NEAR(dm.filled_volume_mm3,
+              (voxels + static_cast<double>(dm.repaired_cells)) * std::pow(kVoxel, 3), 1e-9);
   EXPECT_GT(dm.error_bound_mm, 0.0);
 }
 
@@ -104,7 +108,8 @@ TEST(DepositMesh, RandomBlobsAreClosedWithTheFilledVolume) {
     VoxelGrid g = make_grid(32);
     std::uniform_int_distribution<int> pos(1, 30);
     const int n = 300 + 300 * round;
-    for (int i = 0; i < n; ++i) g.set({pos(rng), pos(rng), pos(rng) / 2}, {1, 0, Feature::sparse_infill});
+    for (int i = 0; i < n; ++i)
+      g.set({pos(rng), pos(rng), pos(rng) / 2}, {1, 0, Feature::sparse_infill});
     const DepositMesh dm = build(g);
     SCOPED_TRACE(round);
     expect_closed_oriented(dm.mesh);
@@ -174,18 +179,24 @@ double distance_to_mesh(const Mesh& m, const Vec3& p) {
     const Vec3 ab = b - a, ac = c - a, ap = p - a;
     const double d1 = ab.dot(ap), d2 = ac.dot(ap);
     Vec3 q;
-    if (d1 <= 0 && d2 <= 0) q = a;
+    if (d1 <= 0 && d2 <= 0)
+      q = a;
     else {
       const Vec3 bp = p - b;
       const double d3 = ab.dot(bp), d4 = ac.dot(bp);
       const Vec3 cp = p - c;
       const double d5 = ab.dot(cp), d6 = ac.dot(cp);
       const double vc = d1 * d4 - d3 * d2, vb = d5 * d2 - d1 * d6, va = d3 * d6 - d5 * d4;
-      if (d3 >= 0 && d4 <= d3) q = b;
-      else if (d6 >= 0 && d5 <= d6) q = c;
-      else if (vc <= 0 && d1 >= 0 && d3 <= 0) q = a + ab * (d1 / (d1 - d3));
-      else if (vb <= 0 && d2 >= 0 && d6 <= 0) q = a + ac * (d2 / (d2 - d6));
-      else if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) q = b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+      if (d3 >= 0 && d4 <= d3)
+        q = b;
+      else if (d6 >= 0 && d5 <= d6)
+        q = c;
+      else if (vc <= 0 && d1 >= 0 && d3 <= 0)
+        q = a + ab * (d1 / (d1 - d3));
+      else if (vb <= 0 && d2 >= 0 && d6 <= 0)
+        q = a + ac * (d2 / (d2 - d6));
+      else if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
+        q = b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
       else {
         const double den = 1.0 / (va + vb + vc);
         q = a + ab * (vb * den) + ac * (vc * den);
@@ -219,8 +230,10 @@ TEST(DepositMesh, DecimationFitsTheTargetWithinItsBound) {
   // vertices, edge midpoints and triangle centroids.
   double worst = 0;
   for (const auto& t : small.mesh.triangles) {
-    const Vec3 a = small.mesh.vertices_mm[t[0]], b = small.mesh.vertices_mm[t[1]], c = small.mesh.vertices_mm[t[2]];
-    for (const Vec3& p : std::array<Vec3, 5>{a, Vec3((a + b) / 2), Vec3((a + c) / 2), Vec3((b + c) / 2), Vec3((a + b + c) / 3)})
+    const Vec3 a = small.mesh.vertices_mm[t[0]], b = small.mesh.vertices_mm[t[1]],
+               c = small.mesh.vertices_mm[t[2]];
+    for (const Vec3& p : std::array<Vec3, 5>{a, Vec3((a + b) / 2), Vec3((a + c) / 2),
+                                             Vec3((b + c) / 2), Vec3((a + b + c) / 3)})
       worst = std::max(worst, distance_to_mesh(full.mesh, p));
   }
   EXPECT_LE(worst, small.error_bound_mm + 1e-9);
@@ -239,11 +252,15 @@ TEST(DepositMesh, EveryFormatLoadsBackWithTheSameSolid) {
   const DepositMesh dm = build(g);
   const auto dir = test::temp_dir("deposit_mesh_formats");
   std::vector<float> dev(dm.mesh.vertices_mm.size());
-  for (std::size_t i = 0; i < dev.size(); ++i) dev[i] = static_cast<float>(dm.mesh.vertices_mm[i].z() - 0.5);
+  for (std::size_t i = 0; i < dev.size(); ++i)
+    dev[i] = static_cast<float>(dm.mesh.vertices_mm[i].z() - 0.5);
   for (const char* name : {"part.stl", "part.3mf", "part.ply", "part_dev.ply", "PART.STL"}) {
     SCOPED_TRACE(name);
     const bool with_dev = std::string(name) == "part_dev.ply";
-    ASSERT_TRUE(write_deposit_mesh(dm, dir / name, with_dev ? std::span<const float>(dev) : std::span<const float>()).ok());
+    ASSERT_TRUE(
+        write_deposit_mesh(dm, dir / name,
+                           with_dev ? std::span<const float>(dev) : std::span<const float>())
+            .ok());
     auto back = load_mesh(dir / name);
     ASSERT_TRUE(back.ok()) << back.error().describe();
     EXPECT_EQ(back->triangles.size(), dm.mesh.triangles.size());
@@ -298,7 +315,8 @@ TEST(DepositMeshCli, SimulateWritesEachFormatAndReportsIt) {
   const auto dir = test::temp_dir("deposit_mesh_cli");
   const auto gcode = test::source_path("samples/gcode/prusa_cube10.gcode");
   const auto run = test::run_cli("simulate '" + gcode.string() + "' --voxel 0.2 --deposit-mesh '" +
-                                 (dir / "cube.3mf").string() + "' --json '" + (dir / "cube.json").string() + "'");
+                                 (dir / "cube.3mf").string() + "' --json '" +
+                                 (dir / "cube.json").string() + "'");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("deposit mesh: "), std::string::npos) << run.out;
   EXPECT_NE(run.out.find("closed and oriented outward"), std::string::npos) << run.out;
@@ -310,20 +328,23 @@ TEST(DepositMeshCli, SimulateWritesEachFormatAndReportsIt) {
   // The 10 mm cube's filled volume: about 1000 mm3 at this coarse voxel.
   EXPECT_NEAR(signed_volume_mm3(*back), 1000.0, 150.0);
 
-  const auto bad = test::run_cli("simulate '" + gcode.string() + "' --deposit-mesh '" + (dir / "cube.obj").string() + "'");
+  const auto bad = test::run_cli("simulate '" + gcode.string() + "' --deposit-mesh '" +
+                                 (dir / "cube.obj").string() + "'");
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.err.find(".stl, .3mf or .ply"), std::string::npos) << bad.err;
-  const auto folder = test::run_cli("simulate '" + gcode.string() + "' --deposit-mesh '" + dir.string() + "'");
+  const auto folder =
+      test::run_cli("simulate '" + gcode.string() + "' --deposit-mesh '" + dir.string() + "'");
   EXPECT_EQ(folder.exit_code, 2);
 }
 
 TEST(DepositMeshCli, EmptyDepositGivesAClearMessageAndValidFiles) {
   const auto dir = test::temp_dir("deposit_mesh_cli_empty");
-  ASSERT_TRUE(write_file_atomic(dir / "travel.gcode", "G28\nG90\nG1 X10 Y10 Z5 F3000\nG1 X20 Y20\n").ok());
+  ASSERT_TRUE(
+      write_file_atomic(dir / "travel.gcode", "G28\nG90\nG1 X10 Y10 Z5 F3000\nG1 X20 Y20\n").ok());
   for (const char* name : {"e.stl", "e.3mf", "e.ply"}) {
     SCOPED_TRACE(name);
-    const auto run = test::run_cli("simulate '" + (dir / "travel.gcode").string() + "' --deposit-mesh '" +
-                                   (dir / name).string() + "'");
+    const auto run = test::run_cli("simulate '" + (dir / "travel.gcode").string() +
+                                   "' --deposit-mesh '" + (dir / name).string() + "'");
     EXPECT_EQ(run.exit_code, 0) << run.err;
     EXPECT_NE(run.out.find("no part voxels"), std::string::npos) << run.out;
     EXPECT_TRUE(std::filesystem::exists(dir / name));
@@ -332,10 +353,11 @@ TEST(DepositMeshCli, EmptyDepositGivesAClearMessageAndValidFiles) {
 
 TEST(DepositMeshCli, VerifyWritesTheDeviationAndLinksIt) {
   const auto dir = test::temp_dir("deposit_mesh_verify");
-  const auto run = test::run_cli("verify '" + test::source_path("samples/models/curved_part.stl").string() +
-                                 "' --gcode '" + test::source_path("samples/gcode/prusa_curved_part.gcode").string() +
-                                 "' --voxel 0.2 --out '" + (dir / "rep").string() + "' --deposit-mesh '" +
-                                 (dir / "part.ply").string() + "'");
+  const auto run = test::run_cli(
+      "verify '" + test::source_path("samples/models/curved_part.stl").string() + "' --gcode '" +
+      test::source_path("samples/gcode/prusa_curved_part.gcode").string() +
+      "' --voxel 0.2 --out '" + (dir / "rep").string() + "' --deposit-mesh '" +
+      (dir / "part.ply").string() + "'");
   ASSERT_LE(run.exit_code, 1) << run.err;
   auto ply = read_file(dir / "part.ply");
   ASSERT_TRUE(ply.ok());

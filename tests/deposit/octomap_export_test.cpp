@@ -24,13 +24,14 @@ using Colour = std::tuple<int, int, int>;
 using VoxelColours = std::map<std::tuple<int, int, int>, Colour>;
 
 /// The .ot as OctoMap's insert path builds it (the export before it was written directly).
-std::unique_ptr<octomap::ColorOcTree> tree_by_insertion(const VoxelGrid& grid, VoxelColoring coloring) {
+std::unique_ptr<octomap::ColorOcTree> tree_by_insertion(const VoxelGrid& grid,
+                                                        VoxelColoring coloring) {
   auto tree = std::make_unique<octomap::ColorOcTree>(grid.voxel_mm());
   const float occupied = tree->getClampingThresMaxLog();
   grid.for_each([&](const VoxelKey& k, const VoxelTag& tag) {
     const Vec3 c = grid.center_mm(k);
-    const auto key = tree->coordToKey(octomap::point3d(static_cast<float>(c.x()), static_cast<float>(c.y()),
-                                                       static_cast<float>(c.z())));
+    const auto key = tree->coordToKey(octomap::point3d(
+        static_cast<float>(c.x()), static_cast<float>(c.y()), static_cast<float>(c.z())));
     auto* node = tree->setNodeValue(key, occupied, /*lazy_eval=*/true);
     const auto rgb = coloring == VoxelColoring::layer ? deposit_detail::layer_color(tag.layer)
                                                       : deposit_detail::feature_color(tag.feature);
@@ -65,7 +66,8 @@ VoxelColours voxels_of(const octomap::ColorOcTree& tree) {
   return out;
 }
 
-void expect_same_as_insertion(const VoxelGrid& grid, VoxelColoring coloring, const std::string& what) {
+void expect_same_as_insertion(const VoxelGrid& grid, VoxelColoring coloring,
+                              const std::string& what) {
   const auto dir = test::temp_dir("octomap_ot");
   const auto file = dir / "grid.ot";
   ASSERT_TRUE(write_octomap(grid, file, coloring).ok()) << what;
@@ -82,15 +84,19 @@ void expect_same_as_insertion(const VoxelGrid& grid, VoxelColoring coloring, con
   std::size_t nodes = 0, mismatched = 0;
   for (auto it = written->begin_tree(), end = written->end_tree(); it != end; ++it, ++nodes) {
     // search() reads depth 0 as "the bottom": the root is compared as itself.
-    const auto* ref = it.getDepth() == 0 ? reference->getRoot() : reference->search(it.getKey(), it.getDepth());
-    if (ref == nullptr || ref->getLogOdds() != it->getLogOdds() || !(ref->getColor() == it->getColor())) ++mismatched;
+    const auto* ref =
+        it.getDepth() == 0 ? reference->getRoot() : reference->search(it.getKey(), it.getDepth());
+    if (ref == nullptr || ref->getLogOdds() != it->getLogOdds() ||
+        !(ref->getColor() == it->getColor()))
+      ++mismatched;
   }
   EXPECT_EQ(nodes, written->size()) << what;
   EXPECT_EQ(mismatched, 0u) << what;
   EXPECT_LE(written->size(), reference->size()) << what;
 }
 
-void fill_box(VoxelGrid& g, const Eigen::Vector3i& lo, const Eigen::Vector3i& hi, std::uint32_t tag) {
+void fill_box(VoxelGrid& g, const Eigen::Vector3i& lo, const Eigen::Vector3i& hi,
+              std::uint32_t tag) {
   for (int z = lo.z(); z < hi.z(); ++z)
     for (int y = lo.y(); y < hi.y(); ++y) VoxelBlocks::fill_row(g, y, z, lo.x(), hi.x(), tag);
 }
@@ -101,8 +107,9 @@ TEST(OctomapOt, SameVoxelsAndColoursAsOctomapsInsertPath) {
   for (const double origin : {0.0, 0.3, -1.15}) {
     VoxelGrid g(0.05, Vec3(origin, origin + 0.1, 0), Eigen::Vector3i(70, 50, 40));
     for (int layer = 0; layer < 8; ++layer) {
-      const auto t = VoxelBlocks::add_tag(g, {static_cast<std::uint32_t>(layer + 1), layer,
-                                layer % 3 == 0 ? Feature::gap_fill : Feature::sparse_infill});
+      const auto t =
+          VoxelBlocks::add_tag(g, {static_cast<std::uint32_t>(layer + 1), layer,
+                                   layer % 3 == 0 ? Feature::gap_fill : Feature::sparse_infill});
       fill_box(g, {3, 5, 4 * layer}, {60, 45, 4 * layer + 4}, t);
     }
     const auto outer = VoxelBlocks::add_tag(g, {100, 2, Feature::outer_perimeter});

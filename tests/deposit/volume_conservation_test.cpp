@@ -95,13 +95,15 @@ TEST(VolumeConservation, SqueezeStaysWithinHalfANozzleOfTheBead) {
 }
 
 TEST(VolumeConservation, PrusaSlicerCubeWithInfillDepositsItsExtrudedVolume) {
-  if (std::system("command -v prusa-slicer >/dev/null 2>&1") != 0) GTEST_SKIP() << "prusa-slicer not installed";
+  if (std::system("command -v prusa-slicer >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "prusa-slicer not installed";
   const auto dir = test::temp_dir("volume_cube20");
   const auto gcode = dir / "cube20.gcode";
   const std::string cmd = "timeout 300 prusa-slicer --load " +
                           test::source_path("samples/configs/ender3_prusaslicer.ini").string() +
                           " --export-gcode --center 110,110 -o " + gcode.string() + " " +
-                          test::source_path("samples/models/calibration_cube_20mm.stl").string() + " >/dev/null 2>&1";
+                          test::source_path("samples/models/calibration_cube_20mm.stl").string() +
+                          " >/dev/null 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   const DepositResult r = deposit_file(gcode);
   EXPECT_NEAR(shortfall(r), 0.0, 0.005) << r.volume_mm3 << " of " << r.extruded_mm3 << ", overlap "

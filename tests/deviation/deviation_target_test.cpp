@@ -22,11 +22,14 @@ Mesh sphere_mesh(double r, int stacks, int slices, const Vec3& c) {
     const double phi = std::numbers::pi * i / stacks - std::numbers::pi / 2;
     for (int j = 0; j < slices; ++j) {
       const double th = 2 * std::numbers::pi * j / slices;
-      m.vertices_mm.push_back(c + r * Vec3(std::cos(phi) * std::cos(th), std::cos(phi) * std::sin(th), std::sin(phi)));
+      m.vertices_mm.push_back(
+          c + r * Vec3(std::cos(phi) * std::cos(th), std::cos(phi) * std::sin(th), std::sin(phi)));
     }
   }
   m.vertices_mm.push_back(c + Vec3(0, 0, r));
-  const auto ring = [&](int i, int j) { return static_cast<std::uint32_t>(1 + (i - 1) * slices + (j % slices)); };
+  const auto ring = [&](int i, int j) {
+    return static_cast<std::uint32_t>(1 + (i - 1) * slices + (j % slices));
+  };
   const auto top = static_cast<std::uint32_t>(m.vertices_mm.size() - 1);
   for (int j = 0; j < slices; ++j) m.triangles.push_back({0, ring(1, j + 1), ring(1, j)});
   for (int i = 1; i < stacks - 1; ++i)
@@ -34,13 +37,15 @@ Mesh sphere_mesh(double r, int stacks, int slices, const Vec3& c) {
       m.triangles.push_back({ring(i, j), ring(i, j + 1), ring(i + 1, j + 1)});
       m.triangles.push_back({ring(i, j), ring(i + 1, j + 1), ring(i + 1, j)});
     }
-  for (int j = 0; j < slices; ++j) m.triangles.push_back({ring(stacks - 1, j), ring(stacks - 1, j + 1), top});
+  for (int j = 0; j < slices; ++j)
+    m.triangles.push_back({ring(stacks - 1, j), ring(stacks - 1, j + 1), top});
   return m;
 }
 
 /// Grid of `voxel_mm` around `box` (+1 mm, unaligned origin), filled where inside(centre);
 /// layer = z / 0.2, line = 1000 + layer.
-VoxelGrid voxelise(double voxel_mm, const Box3& box, const std::function<bool(const Vec3&)>& inside) {
+VoxelGrid voxelise(double voxel_mm, const Box3& box,
+                   const std::function<bool(const Vec3&)>& inside) {
   const Vec3 origin = box.min - Vec3(1.0123, 1.0061, 1.0037);
   const Eigen::Vector3i dims = ((box.max - origin + Vec3::Constant(1.0)) / voxel_mm).cast<int>();
   VoxelGrid grid(voxel_mm, origin, dims);
@@ -51,7 +56,8 @@ VoxelGrid voxelise(double voxel_mm, const Box3& box, const std::function<bool(co
         const Vec3 c = grid.center_mm(k);
         if (!inside(c)) continue;
         const int layer = static_cast<int>(std::floor(c.z() / 0.2));
-        grid.set(k, VoxelTag{static_cast<std::uint32_t>(1000 + layer), layer, Feature::outer_perimeter});
+        grid.set(
+            k, VoxelTag{static_cast<std::uint32_t>(1000 + layer), layer, Feature::outer_perimeter});
       }
   return grid;
 }
@@ -172,7 +178,8 @@ TEST_F(DeviationTargetReuse, SamplesNameTheirMeshTriangle) {
     ASSERT_LT(s.triangle, placed.triangles.size());
     // The named triangle holds a closest point: its distance is the sample's |d|.
     const ClosestPoint cp = query->closest_point(s.position_mm);
-    const Vec3 on = closest_point_on_triangle(s.position_mm, placed.vertices_mm[placed.triangles[s.triangle][0]],
+    const Vec3 on = closest_point_on_triangle(s.position_mm,
+                                              placed.vertices_mm[placed.triangles[s.triangle][0]],
                                               placed.vertices_mm[placed.triangles[s.triangle][1]],
                                               placed.vertices_mm[placed.triangles[s.triangle][2]]);
     EXPECT_NEAR((on - s.position_mm).norm(), cp.distance_mm, 1e-9);
@@ -183,8 +190,8 @@ TEST_F(DeviationTargetReuse, SamplesNameTheirMeshTriangle) {
     ASSERT_LT(s.triangle, placed.triangles.size());
     EXPECT_LT(query->closest_point(s.position_mm).distance_mm, 1e-9);
     const auto& t = placed.triangles[s.triangle];
-    const Vec3 on = closest_point_on_triangle(s.position_mm, placed.vertices_mm[t[0]], placed.vertices_mm[t[1]],
-                                              placed.vertices_mm[t[2]]);
+    const Vec3 on = closest_point_on_triangle(s.position_mm, placed.vertices_mm[t[0]],
+                                              placed.vertices_mm[t[1]], placed.vertices_mm[t[2]]);
     EXPECT_LT((on - s.position_mm).norm(), 1e-9);
   }
 }
@@ -219,7 +226,8 @@ TEST_F(DeviationTargetReuse, SignedDistancesWithOffsetMatchThePlacedMesh) {
   std::vector<Vec3> points;
   for (int i = 0; i < 200; ++i) {
     const double t = 0.1 * i;
-    points.push_back(at + (1.0 + 0.02 * i) * Vec3(std::cos(t), std::sin(t), 0.3 * std::cos(3 * t)).normalized());
+    points.push_back(at + (1.0 + 0.02 * i) *
+                              Vec3(std::cos(t), std::sin(t), 0.3 * std::cos(3 * t)).normalized());
   }
   std::vector<double> d;
   target->signed_distances(at, points, 0.2, d);
@@ -257,7 +265,9 @@ TEST_F(DeviationTargetReuse, SurfaceCellGroupsGiveTheSameDistancesAsAnyGrouping)
     const VoxelKey& first = surface.faces[cells[g]].voxel;
     for (std::uint32_t f = cells[g]; f < cells[g + 1]; ++f) {
       const VoxelKey& k = surface.faces[f].voxel;
-      ASSERT_TRUE((k.x >> 2) == (first.x >> 2) && (k.y >> 2) == (first.y >> 2) && (k.z >> 2) == (first.z >> 2)) << f;
+      ASSERT_TRUE((k.x >> 2) == (first.x >> 2) && (k.y >> 2) == (first.y >> 2) &&
+                  (k.z >> 2) == (first.z >> 2))
+          << f;
     }
   }
   std::vector<double> by_cells, self_grouped, in_order;

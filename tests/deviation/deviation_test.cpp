@@ -103,8 +103,8 @@ TEST(DeviationStats, PercentilesAreTheSortedOrderStatisticsAtEverySize) {
     EXPECT_EQ(s.p99_abs_mm, type7(a, 0.99)) << part.size();
     EXPECT_EQ(s.hausdorff_mm, a.back()) << part.size();
   };
-  for (const std::size_t n : {std::size_t{300000}, std::size_t{20000}, std::size_t{1001}, std::size_t{512},
-                              std::size_t{300}, std::size_t{7}})
+  for (const std::size_t n : {std::size_t{300000}, std::size_t{20000}, std::size_t{1001},
+                              std::size_t{512}, std::size_t{300}, std::size_t{7}})
     check(std::vector<double>(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(n)));
   check(std::vector<double>(2000, -0.042));
   EXPECT_EQ(deviation_stats(d, 0.1).hausdorff_mm, 2.5);
@@ -124,9 +124,10 @@ TEST(DeviationSampling, AreaUniformDeterministicAndOnSurface) {
   std::size_t top = 0, top_left = 0;
   for (const auto& s : a) {
     EXPECT_LT(box_distance(s.position_mm, bounding_box(box)), 1e-12);
-    const bool on_surface = std::abs(s.position_mm.x()) < 1e-9 || std::abs(s.position_mm.x() - 10) < 1e-9 ||
-                            std::abs(s.position_mm.y()) < 1e-9 || std::abs(s.position_mm.y() - 4) < 1e-9 ||
-                            std::abs(s.position_mm.z()) < 1e-9 || std::abs(s.position_mm.z() - 2) < 1e-9;
+    const bool on_surface =
+        std::abs(s.position_mm.x()) < 1e-9 || std::abs(s.position_mm.x() - 10) < 1e-9 ||
+        std::abs(s.position_mm.y()) < 1e-9 || std::abs(s.position_mm.y() - 4) < 1e-9 ||
+        std::abs(s.position_mm.z()) < 1e-9 || std::abs(s.position_mm.z() - 2) < 1e-9;
     EXPECT_TRUE(on_surface);
     if (std::abs(s.position_mm.z() - 2) < 1e-9) {
       ++top;
@@ -143,9 +144,10 @@ TEST(DeviationSurface, EnclosedVoidsAreNotSurfaceOpenHolesAre) {
   const Box3 block{Vec3(0, 0, 0), Vec3(2, 2, 1)};
   const Box3 cavity{Vec3(0.5, 0.5, 0.3), Vec3(0.9, 0.9, 0.7)};
   const Box3 hole{Vec3(1.3, 1.3, 0.5), Vec3(1.5, 1.5, 1.5)};
-  const VoxelGrid grid = voxelise(0.1, block, [&](const Vec3& c) {
-    return block.contains(c) && !cavity.contains(c) && !hole.contains(c);
-  }, Feature::outer_perimeter, Vec3(1, 1, 1));
+  const VoxelGrid grid = voxelise(
+      0.1, block,
+      [&](const Vec3& c) { return block.contains(c) && !cavity.contains(c) && !hole.contains(c); },
+      Feature::outer_perimeter, Vec3(1, 1, 1));
   const DepositSurface s = extract_outer_surface(grid, block);
   // Outer box faces (20*20*2 + 20*10*4) + blind hole walls (2*5 voxels * 4 sides) + its floor
   // (2*2) - the top faces the hole removes (2*2).
@@ -167,7 +169,8 @@ TEST(DeviationSurface, NoDepositIsAllOutside) {
   // filled, and every point of the design is missing.
   const Box3 region{Vec3(0, 0, 0), Vec3(2, 2, 1)};
   VoxelGrid grid(0.1, Vec3(-1, -1, -1), Eigen::Vector3i(60, 60, 40));
-  grid.set(grid.key_of(Vec3(3.5, 3.5, 0.5)), VoxelTag{1, 0, Feature::perimeter});  // far from the region
+  grid.set(grid.key_of(Vec3(3.5, 3.5, 0.5)),
+           VoxelTag{1, 0, Feature::perimeter});  // far from the region
   const DepositSurface s = extract_outer_surface(grid, region, 0.2);
   EXPECT_TRUE(s.faces.empty());
   EXPECT_EQ(s.occupied_voxels, 0U);
@@ -183,8 +186,8 @@ TEST(DeviationSurface, NoDepositIsAllOutside) {
 
 TEST(DeviationSurface, AuxiliaryFeaturesAreIgnored) {
   const Box3 block{Vec3(0, 0, 0), Vec3(1, 1, 1)};
-  VoxelGrid grid = voxelise(0.1, block, [&](const Vec3& c) { return block.contains(c); },
-                            Feature::support);
+  VoxelGrid grid = voxelise(
+      0.1, block, [&](const Vec3& c) { return block.contains(c); }, Feature::support);
   EXPECT_EQ(extract_outer_surface(grid, block).faces.size(), 0U);
   grid.set(grid.key_of(Vec3(0.55, 0.55, 0.55)), VoxelTag{5, 2, Feature::perimeter});
   const DepositSurface s = extract_outer_surface(grid, block);
@@ -192,8 +195,9 @@ TEST(DeviationSurface, AuxiliaryFeaturesAreIgnored) {
   EXPECT_EQ(s.face_tags[0].line, 5U);
   // A block holding only later, non-auxiliary tags skips the per-voxel test (its tag range
   // has no auxiliary tag) and still shows; one that mixes both is still filtered voxel by voxel.
-  VoxelGrid wide = voxelise(0.1, Box3{Vec3(0, 0, 0), Vec3(2, 1, 1)},
-                            [&](const Vec3& c) { return block.contains(c); }, Feature::skirt);
+  VoxelGrid wide = voxelise(
+      0.1, Box3{Vec3(0, 0, 0), Vec3(2, 1, 1)}, [&](const Vec3& c) { return block.contains(c); },
+      Feature::skirt);
   wide.set(wide.key_of(Vec3(1.55, 0.55, 0.55)), VoxelTag{9, 3, Feature::perimeter});
   wide.set(wide.key_of(Vec3(0.55, 0.55, 0.55)), VoxelTag{7, 3, Feature::outer_perimeter});
   const DepositSurface w = extract_outer_surface(wide, Box3{Vec3(0, 0, 0), Vec3(2, 1, 1)});
@@ -237,10 +241,11 @@ TEST(DeviationSurface, BlockFloodMatchesAVoxelByVoxelFloodFill) {
   // holes, an open-topped cup and pinholes, at 0.05 mm, unsealed and sealed at 0.1, 0.25
   // and 0.95 mm (r = 1, 2 and 9: more than a block, two dilation steps); and in a grid whose
   // origin lies inside the region (negative keys and blocks, part of the region outside the
-  // grid), sealed at 0.1 and 1.75 mm (r = 17, three steps). The filled set, its count and the faces must be those of a plain
-  // voxel-by-voxel version of the same rules: the occupancy dilated by r (a cube), empty
-  // voxels 6-connected to the padding are outside, the outside dilated back by r, filled =
-  // not (outside and empty); a face wherever a filled, occupied voxel meets a not-filled one.
+  // grid), sealed at 0.1 and 1.75 mm (r = 17, three steps). The filled set, its count and the faces
+  // must be those of a plain voxel-by-voxel version of the same rules: the occupancy dilated by r
+  // (a cube), empty voxels 6-connected to the padding are outside, the outside dilated back by r,
+  // filled = not (outside and empty); a face wherever a filled, occupied voxel meets a not-filled
+  // one.
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   std::vector<Box3> solids, holes;
@@ -250,7 +255,8 @@ TEST(DeviationSurface, BlockFloodMatchesAVoxelByVoxelFloodFill) {
     const Vec3 hl(u(rng) * 5.0, u(rng) * 5.0, u(rng) * 1.5);
     holes.push_back({hl, hl + Vec3(0.05 + u(rng) * 0.6, 0.05 + u(rng) * 0.6, 0.05 + u(rng) * 0.6)});
   }
-  const Box3 cup{Vec3(3.0, 0.5, 0.0), Vec3(4.6, 2.1, 1.4)}, cup_inside{Vec3(3.2, 0.7, 0.2), Vec3(4.4, 1.9, 2.0)};
+  const Box3 cup{Vec3(3.0, 0.5, 0.0), Vec3(4.6, 2.1, 1.4)},
+      cup_inside{Vec3(3.2, 0.7, 0.2), Vec3(4.4, 1.9, 2.0)};
   const Box3 all{Vec3(0, 0, 0), Vec3(7.5, 7.5, 3.0)};
   const auto part = [&](const Vec3& c) {
     bool in = cup.contains(c) && !cup_inside.contains(c);
@@ -259,7 +265,8 @@ TEST(DeviationSurface, BlockFloodMatchesAVoxelByVoxelFloodFill) {
     return in;
   };
   const VoxelGrid padded = voxelise(0.05, all, part);
-  const VoxelGrid shifted = voxelise(0.05, all, part, Feature::outer_perimeter, Vec3(0.0, -0.3, 0.0));
+  const VoxelGrid shifted =
+      voxelise(0.05, all, part, Feature::outer_perimeter, Vec3(0.0, -0.3, 0.0));
   // With a groove depth, what the seal closed opens again to that many 6-connected steps
   // through empty voxels from the outside found (0.25 mm: 5 steps; 0.45 mm: 9, past a block).
   const std::vector<std::tuple<const VoxelGrid*, double, double>> cases{
@@ -287,8 +294,10 @@ TEST(DeviationSurface, BlockFloodMatchesAVoxelByVoxelFloodFill) {
             for (int z = 0; z < nz; ++z) {
               if (!a[at(x, y, z)]) continue;
               for (int d = -r; d <= r; ++d) {
-                const int xx = x + (axis == 1 ? d : 0), yy = y + (axis == 2 ? d : 0), zz = z + (axis == 0 ? d : 0);
-                if (xx >= 0 && yy >= 0 && zz >= 0 && xx < nx && yy < ny && zz < nz) b[at(xx, yy, zz)] = 1;
+                const int xx = x + (axis == 1 ? d : 0), yy = y + (axis == 2 ? d : 0),
+                          zz = z + (axis == 0 ? d : 0);
+                if (xx >= 0 && yy >= 0 && zz >= 0 && xx < nx && yy < ny && zz < nz)
+                  b[at(xx, yy, zz)] = 1;
               }
             }
         a.swap(b);
@@ -322,7 +331,8 @@ TEST(DeviationSurface, BlockFloodMatchesAVoxelByVoxelFloodFill) {
     while (!stack.empty()) {
       const auto [x, y, z] = stack.back();
       stack.pop_back();
-      const int nb[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z}, {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};
+      const int nb[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z},
+                            {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};
       for (const auto& n : nb) {
         if (n[0] < 0 || n[1] < 0 || n[2] < 0 || n[0] >= nx || n[1] >= ny || n[2] >= nz) continue;
         const std::size_t i = at(n[0], n[1], n[2]);
@@ -340,7 +350,8 @@ TEST(DeviationSurface, BlockFloodMatchesAVoxelByVoxelFloodFill) {
           for (int z = 0; z < nz; ++z) {
             const std::size_t i = at(x, y, z);
             if (occ[i] || grown[i]) continue;
-            const int nb[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z}, {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};
+            const int nb[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z},
+                                  {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};
             for (const auto& n : nb)
               if (n[0] >= 0 && n[1] >= 0 && n[2] >= 0 && n[0] < nx && n[1] < ny && n[2] < nz &&
                   out_dilated[at(n[0], n[1], n[2])] && !occ[at(n[0], n[1], n[2])])
@@ -368,14 +379,18 @@ TEST(DeviationSurface, BlockFloodMatchesAVoxelByVoxelFloodFill) {
       for (int x = 1; x < nx - 1; ++x)
         for (int z = 0; z < nz; ++z) {
           if (!(filled[at(x, y, z)] && occ[at(x, y, z)])) continue;
-          const bool open[6] = {!filled[at(x - 1, y, z)], !filled[at(x + 1, y, z)], !filled[at(x, y - 1, z)],
-                                !filled[at(x, y + 1, z)], z == 0 || !filled[at(x, y, z - 1)],
-                                z == nz - 1 || !filled[at(x, y, z + 1)]};
+          const bool open[6] = {
+              !filled[at(x - 1, y, z)],           !filled[at(x + 1, y, z)],
+              !filled[at(x, y - 1, z)],           !filled[at(x, y + 1, z)],
+              z == 0 || !filled[at(x, y, z - 1)], z == nz - 1 || !filled[at(x, y, z + 1)]};
           for (int k = 0; k < 6; ++k)
-            if (open[k]) faces.push_back({VoxelKey{s.origin_key.x + x, s.origin_key.y + y, s.origin_key.z + z}, k});
+            if (open[k])
+              faces.push_back(
+                  {VoxelKey{s.origin_key.x + x, s.origin_key.y + y, s.origin_key.z + z}, k});
         }
     const auto cell_rank = [](const VoxelKey& k) {  // keys may be negative: >> is the floor
-      return std::array<int, 6>{k.y >> 3, k.x >> 3, k.z >> 3, (k.y >> 2) & 1, (k.x >> 2) & 1, (k.z >> 2) & 1};
+      return std::array<int, 6>{k.y >> 3,       k.x >> 3,       k.z >> 3,
+                                (k.y >> 2) & 1, (k.x >> 2) & 1, (k.z >> 2) & 1};
     };
     std::stable_sort(faces.begin(), faces.end(), [&](const auto& a, const auto& b) {
       return cell_rank(a.first) < cell_rank(b.first);
@@ -386,14 +401,20 @@ TEST(DeviationSurface, BlockFloodMatchesAVoxelByVoxelFloodFill) {
     EXPECT_EQ(s.face_cell_begin.back(), s.faces.size());
     for (std::size_t k = 0; k < s.face_blocks.size(); ++k)
       for (std::size_t c = 0; c < 8; ++c)
-        for (std::uint32_t f = s.face_cell_begin[8 * k + c]; f < s.face_cell_begin[8 * k + c + 1]; ++f) {
+        for (std::uint32_t f = s.face_cell_begin[8 * k + c]; f < s.face_cell_begin[8 * k + c + 1];
+             ++f) {
           const VoxelKey& key = s.faces[f].voxel;
-          const std::size_t block = (static_cast<std::size_t>((key.y >> 3) - s.filled_blocks_lo.y()) * s.filled_blocks_dims.x() +
-                                     static_cast<std::size_t>((key.x >> 3) - s.filled_blocks_lo.x())) *
-                                        s.filled_blocks_dims.z() +
-                                    static_cast<std::size_t>((key.z >> 3) - s.filled_blocks_lo.z());
+          const std::size_t block =
+              (static_cast<std::size_t>((key.y >> 3) - s.filled_blocks_lo.y()) *
+                   s.filled_blocks_dims.x() +
+               static_cast<std::size_t>((key.x >> 3) - s.filled_blocks_lo.x())) *
+                  s.filled_blocks_dims.z() +
+              static_cast<std::size_t>((key.z >> 3) - s.filled_blocks_lo.z());
           ASSERT_EQ(block, s.face_blocks[k]) << f;
-          ASSERT_EQ(static_cast<std::size_t>((((key.y >> 2) & 1) << 2) | (((key.x >> 2) & 1) << 1) | ((key.z >> 2) & 1)), c) << f;
+          ASSERT_EQ(static_cast<std::size_t>((((key.y >> 2) & 1) << 2) | (((key.x >> 2) & 1) << 1) |
+                                             ((key.z >> 2) & 1)),
+                    c)
+              << f;
         }
     for (std::size_t i = 0; i < faces.size(); ++i) {
       ASSERT_EQ(s.faces[i].voxel, faces[i].first) << i;
@@ -413,9 +434,12 @@ TEST(DeviationSurface, SealingClosesPinholesButNotOpenings) {
   for (const double slit_mm : {0.05, 0.5}) {
     const double half_height = slit_mm < 0.2 ? 0.05 : 0.2;
     const Box3 slit{Vec3(0.9, -1, 0.5 - half_height), Vec3(0.9 + slit_mm, 0.3, 0.5 + half_height)};
-    const VoxelGrid grid = voxelise(0.05, outer, [&](const Vec3& c) {
-      return outer.contains(c) && !cavity.contains(c) && !slit.contains(c);
-    }, Feature::outer_perimeter, Vec3(1, 1, 1));
+    const VoxelGrid grid = voxelise(
+        0.05, outer,
+        [&](const Vec3& c) {
+          return outer.contains(c) && !cavity.contains(c) && !slit.contains(c);
+        },
+        Feature::outer_perimeter, Vec3(1, 1, 1));
     const DepositSurface sealed = extract_outer_surface(grid, outer, 0.2);
     const DepositSurface open = extract_outer_surface(grid, outer, 0.0);
     // Unsealed, the slit always lets the outside into the cavity.
@@ -424,7 +448,8 @@ TEST(DeviationSurface, SealingClosesPinholesButNotOpenings) {
       EXPECT_GT(open.faces.size(), sealed.faces.size());
       EXPECT_TRUE(sealed.filled(Vec3(1, 1, 0.5))) << slit_mm;
       // Only the outer box and the slit's mouth: no face inside the cavity's box.
-      for (const Vec3& c : sealed.face_centers_mm) EXPECT_FALSE(cavity.contains(c, 1e-6)) << c.transpose();
+      for (const Vec3& c : sealed.face_centers_mm)
+        EXPECT_FALSE(cavity.contains(c, 1e-6)) << c.transpose();
     } else {
       // An opening wider than the seal: the same surface as without sealing.
       EXPECT_FALSE(sealed.filled(Vec3(1, 1, 0.5))) << slit_mm;
@@ -451,9 +476,9 @@ TEST(DeviationSurface, DistancesToTheDepositAreTheNearestFaceByBruteForce) {
   std::uniform_real_distribution<double> ux(-0.6, 2.2), uy(-0.6, 1.8), uz(-0.6, 1.7);
   std::vector<Vec3> points;
   for (int i = 0; i < 600; ++i) points.emplace_back(ux(rng), uy(rng), uz(rng));
-  points.emplace_back(4, 5, 6);                     // far outside the region
-  points.push_back(s.face_centers_mm[17]);          // on a face (distance 0)
-  points.emplace_back(0.4, 0.2, 0.4);              // deep inside
+  points.emplace_back(4, 5, 6);             // far outside the region
+  points.push_back(s.face_centers_mm[17]);  // on a face (distance 0)
+  points.emplace_back(0.4, 0.2, 0.4);       // deep inside
   const double half = 0.025;
   for (const bool portable : {false, true}) {
     std::vector<double> d;
@@ -468,7 +493,8 @@ TEST(DeviationSurface, DistancesToTheDepositAreTheNearestFaceByBruteForce) {
         const Vec3& c = s.face_centers_mm[f];
         double d2 = 0;
         for (int a = 0; a < 3; ++a) {
-          const double e = std::max(0.0, std::abs(p[a] - c[a]) - (a == s.faces[f].axis ? 0.0 : half));
+          const double e =
+              std::max(0.0, std::abs(p[a] - c[a]) - (a == s.faces[f].axis ? 0.0 : half));
           d2 += e * e;
         }
         if (d2 < best) {
@@ -506,7 +532,8 @@ TEST_F(DeviationKnownOffset, LargerDepositReadsPlusOffsetAwayFromEdges) {
   ASSERT_GT(r->mesh_samples.size(), 30000U);
   const double half = kVoxel / 2 + 1e-9;
   // Mesh -> deposit: the nearest deposit face is always the parallel one, 0.1 mm out.
-  for (const auto& s : r->mesh_samples) ASSERT_NEAR(s.distance_mm, 0.1, half) << s.position_mm.transpose();
+  for (const auto& s : r->mesh_samples)
+    ASSERT_NEAR(s.distance_mm, 0.1, half) << s.position_mm.transpose();
   // Deposit -> mesh: 0.1 mm except along the deposit's sharp edges, where the closest point
   // of the mesh is its edge, up to sqrt(3) * 0.1 mm away.
   std::size_t checked = 0;
@@ -537,7 +564,8 @@ TEST_F(DeviationKnownOffset, LargerDepositReadsPlusOffsetAwayFromEdges) {
 TEST_F(DeviationKnownOffset, RoundedOffsetStaysWithinTheStaircaseBound) {
   // Every point within 0.1 mm of the box: the true offset surface, rounded at edges. On
   // curved parts the voxel staircase deviates by up to half a voxel's diagonal.
-  const VoxelGrid grid = voxelise(kVoxel, box, [&](const Vec3& c) { return box_distance(c, box) <= 0.1; });
+  const VoxelGrid grid =
+      voxelise(kVoxel, box, [&](const Vec3& c) { return box_distance(c, box) <= 0.1; });
   DeviationSettings settings;
   settings.mesh_sample_spacing_mm = 0.1;
   const auto r = compute_deviation(mesh, grid, settings);
@@ -546,7 +574,8 @@ TEST_F(DeviationKnownOffset, RoundedOffsetStaysWithinTheStaircaseBound) {
   for (const auto& s : r->deposit_samples) ASSERT_NEAR(s.distance_mm, 0.1, bound);
   for (const auto& s : r->mesh_samples) ASSERT_NEAR(s.distance_mm, 0.1, bound);
   EXPECT_NEAR(r->mesh_to_deposit.mean_mm, 0.1, 0.005);
-  const double grown = 480 + 0.1 * 2 * (80 + 60 + 48) + std::numbers::pi * 0.01 / 4 * 4 * (10 + 8 + 6) +
+  const double grown = 480 + 0.1 * 2 * (80 + 60 + 48) +
+                       std::numbers::pi * 0.01 / 4 * 4 * (10 + 8 + 6) +
                        4.0 / 3 * std::numbers::pi * 0.001;
   EXPECT_NEAR(r->deposit_volume_mm3, grown, 0.01 * grown);
 }
@@ -561,7 +590,8 @@ TEST_F(DeviationKnownOffset, SmallerDepositReadsMinusOffsetAwayFromEdges) {
   ASSERT_TRUE(r.ok()) << r.error().describe();
   const double half = kVoxel / 2 + 1e-9;
   std::size_t checked = 0;
-  for (const auto& s : r->deposit_samples) ASSERT_NEAR(s.distance_mm, -0.1, half) << s.position_mm.transpose();
+  for (const auto& s : r->deposit_samples)
+    ASSERT_NEAR(s.distance_mm, -0.1, half) << s.position_mm.transpose();
   for (const auto& s : r->mesh_samples) {
     // At the mesh's edges the nearest deposit is the shrunken box's edge, sqrt(2) * 0.1 away.
     if (near_edge(s.position_mm, box, 0.15)) {
@@ -585,11 +615,14 @@ Mesh uv_sphere(double r, int stacks, int slices, const Vec3& c) {
     const double phi = std::numbers::pi * i / stacks - std::numbers::pi / 2;
     for (int j = 0; j < slices; ++j) {
       const double th = 2 * std::numbers::pi * j / slices;
-      m.vertices_mm.push_back(c + r * Vec3(std::cos(phi) * std::cos(th), std::cos(phi) * std::sin(th), std::sin(phi)));
+      m.vertices_mm.push_back(
+          c + r * Vec3(std::cos(phi) * std::cos(th), std::cos(phi) * std::sin(th), std::sin(phi)));
     }
   }
   m.vertices_mm.push_back(c + Vec3(0, 0, r));
-  const auto ring = [&](int i, int j) { return static_cast<std::uint32_t>(1 + (i - 1) * slices + (j % slices)); };
+  const auto ring = [&](int i, int j) {
+    return static_cast<std::uint32_t>(1 + (i - 1) * slices + (j % slices));
+  };
   const auto top = static_cast<std::uint32_t>(m.vertices_mm.size() - 1);
   for (int j = 0; j < slices; ++j) m.triangles.push_back({0, ring(1, j + 1), ring(1, j)});
   for (int i = 1; i < stacks - 1; ++i)
@@ -597,7 +630,8 @@ Mesh uv_sphere(double r, int stacks, int slices, const Vec3& c) {
       m.triangles.push_back({ring(i, j), ring(i, j + 1), ring(i + 1, j + 1)});
       m.triangles.push_back({ring(i, j), ring(i + 1, j + 1), ring(i + 1, j)});
     }
-  for (int j = 0; j < slices; ++j) m.triangles.push_back({ring(stacks - 1, j), ring(stacks - 1, j + 1), top});
+  for (int j = 0; j < slices; ++j)
+    m.triangles.push_back({ring(stacks - 1, j), ring(stacks - 1, j + 1), top});
   return m;
 }
 
@@ -610,14 +644,16 @@ TEST(DeviationMeshDistance, EmbreeMatchesCgalReferenceAndSignsAreRight) {
   for (int i = 0; i < 4000; ++i) points.emplace_back(Vec3(1, 2, 3) + Vec3(u(rng), u(rng), u(rng)));
   // Points on vertices and edges too, where the pseudo-normal choice matters.
   for (std::size_t v = 0; v < sphere.vertices_mm.size(); v += 7)
-    points.push_back(sphere.vertices_mm[v] + 0.2 * (sphere.vertices_mm[v] - Vec3(1, 2, 3)).normalized());
+    points.push_back(sphere.vertices_mm[v] +
+                     0.2 * (sphere.vertices_mm[v] - Vec3(1, 2, 3)).normalized());
   const auto ours = signed_distances_to_mesh(sphere, points);
   ASSERT_TRUE(ours.ok());
   const auto ref = reference_distances_cgal(sphere, points);
   ASSERT_EQ(ref.size(), points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {
     EXPECT_NEAR(std::abs((*ours)[i]), ref[i], 1e-9 * std::max(1.0, ref[i])) << i;
-    const bool inside = (points[i] - Vec3(1, 2, 3)).norm() < 5.0 * std::cos(std::numbers::pi / 24) - 1e-6;
+    const bool inside =
+        (points[i] - Vec3(1, 2, 3)).norm() < 5.0 * std::cos(std::numbers::pi / 24) - 1e-6;
     const bool outside = (points[i] - Vec3(1, 2, 3)).norm() > 5.0 + 1e-6;
     if (inside) {
       EXPECT_LT((*ours)[i], 0) << i;
@@ -656,9 +692,10 @@ TEST(DeviationMeshDistance, OpenMeshFallsBackToRayParity) {
 }
 
 /// A square loop of extrusion moves (one per side) at height z.
-void add_loop(std::vector<Move>& moves, const Vec3& lo, const Vec3& hi, double z, Feature f, long& line) {
-  const std::array<Vec3, 4> c{Vec3(lo.x(), lo.y(), z), Vec3(hi.x(), lo.y(), z), Vec3(hi.x(), hi.y(), z),
-                              Vec3(lo.x(), hi.y(), z)};
+void add_loop(std::vector<Move>& moves, const Vec3& lo, const Vec3& hi, double z, Feature f,
+              long& line) {
+  const std::array<Vec3, 4> c{Vec3(lo.x(), lo.y(), z), Vec3(hi.x(), lo.y(), z),
+                              Vec3(hi.x(), hi.y(), z), Vec3(lo.x(), hi.y(), z)};
   for (int i = 0; i < 4; ++i) {
     Move m;
     m.start_mm = c[static_cast<std::size_t>(i)];
@@ -717,12 +754,12 @@ TEST(DeviationRegions, MissingWallAndExcessBlobAreFoundWhereTheyAre) {
   const Box3 blob{Vec3(4, 10, 4), Vec3(5, 11, 5)};
   Mesh mesh = make_box_mesh(block.min, block.max);
   const Mesh w = make_box_mesh(wall.min, wall.max);
-  for (const auto& t : w.triangles)
-    mesh.triangles.push_back({t[0] + 8, t[1] + 8, t[2] + 8});
+  for (const auto& t : w.triangles) mesh.triangles.push_back({t[0] + 8, t[1] + 8, t[2] + 8});
   mesh.vertices_mm.insert(mesh.vertices_mm.end(), w.vertices_mm.begin(), w.vertices_mm.end());
   Box3 all = block;
   all.extend(wall);
-  const VoxelGrid grid = voxelise(0.1, all, [&](const Vec3& c) { return block.contains(c) || blob.contains(c); });
+  const VoxelGrid grid =
+      voxelise(0.1, all, [&](const Vec3& c) { return block.contains(c) || blob.contains(c); });
   DeviationSettings settings;
   settings.tolerance_mm = 0.3;
   settings.mesh_sample_spacing_mm = 0.1;

@@ -37,9 +37,7 @@ Mesh make_prism(const std::vector<Vec2>& poly, double z0, double z1) {
 }
 
 /// An L-shaped bracket 30 x 20 x 6 mm with no symmetry, origin off its centre.
-Mesh bracket() {
-  return make_prism({{0, 0}, {30, 0}, {30, 8}, {8, 8}, {8, 20}, {0, 20}}, 0, 6);
-}
+Mesh bracket() { return make_prism({{0, 0}, {30, 0}, {30, 8}, {8, 8}, {8, 20}, {0, 20}}, 0, 6); }
 
 Mesh append(Mesh a, const Mesh& b) {
   const auto base = static_cast<std::uint32_t>(a.vertices_mm.size());
@@ -92,7 +90,8 @@ struct Registered {
 
 /// Registers `design` against the print of `as_sliced` (the design moved by the user) and
 /// measures the vertex error against where the slicer put it.
-Registered register_against(const Mesh& design, const Mesh& as_sliced, RegistrationOptions options = {}) {
+Registered register_against(const Mesh& design, const Mesh& as_sliced,
+                            RegistrationOptions options = {}) {
   const Printed printed = slice_and_print(as_sliced);
   const PartExtent part = find_part_extent(printed.moves, printed.names);
   auto query = MeshQuery::build(design);
@@ -102,7 +101,8 @@ Registered register_against(const Mesh& design, const Mesh& as_sliced, Registrat
   Registered r;
   if (!reg.ok()) return r;
   r.reg = *reg;
-  r.worst_mm = worst_vertex_error(design, reg->transform, translated(as_sliced, printed.slicer_offset));
+  r.worst_mm =
+      worst_vertex_error(design, reg->transform, translated(as_sliced, printed.slicer_offset));
   return r;
 }
 
@@ -115,7 +115,8 @@ Mesh rotate(const Mesh& m, const Vec3& xyz_deg) {
 TEST(Registration, EulerAnglesRoundTrip) {
   for (const Vec3& a : {Vec3(0, 0, 30), Vec3(90, 0, 0), Vec3(10, -20, 150), Vec3(-90, 45, -135)}) {
     const Vec3 back = xyz_deg_of(rotation_from_xyz_deg(a));
-    EXPECT_TRUE(rotation_from_xyz_deg(back).isApprox(rotation_from_xyz_deg(a), 1e-12)) << a.transpose();
+    EXPECT_TRUE(rotation_from_xyz_deg(back).isApprox(rotation_from_xyz_deg(a), 1e-12))
+        << a.transpose();
   }
   EXPECT_NEAR(xyz_deg_of(rotation_from_xyz_deg(Vec3(0, 0, 30))).z(), 30, 1e-9);
 }
@@ -166,7 +167,8 @@ TEST(Registration, FindsInchUnits) {
   ASSERT_TRUE(reg.ok());
   EXPECT_DOUBLE_EQ(reg->transform.scale, 25.4);
   EXPECT_TRUE(reg->matches) << reg->mismatch;
-  EXPECT_LT(worst_vertex_error(inches, reg->transform, translated(mm, printed.slicer_offset)), 0.15);
+  EXPECT_LT(worst_vertex_error(inches, reg->transform, translated(mm, printed.slicer_offset)),
+            0.15);
   // Given the units, the search tries no other scale and finds the same.
   RegistrationOptions given;
   given.scale = 25.4;
@@ -182,7 +184,8 @@ TEST(Registration, PartInFourIslandsIsPlacedByAllOfThem) {
   const double lengths[4] = {40, 25, 15, 10};
   for (int i = 0; i < 4; ++i) {
     const double y = 8.0 * i;
-    design = append(design, make_prism({{0, y}, {lengths[i], y}, {lengths[i], y + 5}, {0, y + 5}}, 0, 4));
+    design = append(design,
+                    make_prism({{0, y}, {lengths[i], y}, {lengths[i], y + 5}, {0, y + 5}}, 0, 4));
   }
   const Registered r = register_against(design, design);
   EXPECT_TRUE(r.reg.matches) << r.reg.mismatch;
@@ -230,7 +233,8 @@ TEST(Registration, MatchesTheObjectThatFitsOnABedOfTwo) {
   EXPECT_EQ(reg->object, "bracket.stl");
   EXPECT_EQ(reg->object_id, 0);
   EXPECT_TRUE(reg->matches) << reg->mismatch;
-  EXPECT_LT(worst_vertex_error(design, reg->transform, translated(design, bed.bracket_offset)), 0.15);
+  EXPECT_LT(worst_vertex_error(design, reg->transform, translated(design, bed.bracket_offset)),
+            0.15);
 
   // Told to use the cube, the bracket does not fit it: a mismatch with the figures.
   RegistrationOptions cube;
@@ -239,7 +243,8 @@ TEST(Registration, MatchesTheObjectThatFitsOnABedOfTwo) {
   ASSERT_TRUE(forced.ok());
   EXPECT_EQ(forced->object, "cube.stl");
   EXPECT_FALSE(forced->matches);
-  EXPECT_NE(forced->mismatch.find("does not appear to be this part"), std::string::npos) << forced->mismatch;
+  EXPECT_NE(forced->mismatch.find("does not appear to be this part"), std::string::npos)
+      << forced->mismatch;
   EXPECT_NE(forced->mismatch.find("mm"), std::string::npos);
   // By id too.
   cube.object = "1";
@@ -251,7 +256,8 @@ TEST(Registration, MatchesTheObjectThatFitsOnABedOfTwo) {
   missing.object = "lid.stl";
   auto none = register_mesh(design, *query, part, missing);
   ASSERT_FALSE(none.ok());
-  EXPECT_NE(none.error().message.find("'bracket.stl', 'cube.stl'"), std::string::npos) << none.error().message;
+  EXPECT_NE(none.error().message.find("'bracket.stl', 'cube.stl'"), std::string::npos)
+      << none.error().message;
 }
 
 /// The registration of `design` against a printed G-code (search, default options).

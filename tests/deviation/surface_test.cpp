@@ -34,7 +34,8 @@ Wall lay_wall(double h, double w, int layers, double side = 10.0) {
     const double a = lo + in, b = lo + side - in;
     bw.travel({a, a, z});
     for (const Vec3& to : {Vec3(b, a, z), Vec3(b, b, z), Vec3(a, b, z), Vec3(a, a, z)}) {
-      Move& m = bw.push(to, test::bead_e_mm(w, h, (to - bw.pos).head<2>().norm(), profile), MoveKind::extrude);
+      Move& m = bw.push(to, test::bead_e_mm(w, h, (to - bw.pos).head<2>().norm(), profile),
+                        MoveKind::extrude);
       m.height_hint_mm = static_cast<float>(h);
     }
   }
@@ -64,7 +65,7 @@ TEST(SurfaceBeads, DistanceToAStadiumBead) {
   // z = 0.9; the surface is 0.1 from it.
   const SurfaceBead b{Vec3(0, 0, 1), Vec3(10, 0, 1), 0.5F, 0.2F, 7};
   Vec3 c;
-  EXPECT_NEAR(detail::bead_closest(b, Vec3(5, 0, 1.3), c), 0.3, 1e-6);   // above the flat top
+  EXPECT_NEAR(detail::bead_closest(b, Vec3(5, 0, 1.3), c), 0.3, 1e-6);     // above the flat top
   EXPECT_NEAR(detail::bead_closest(b, Vec3(5, 0.45, 0.9), c), 0.2, 1e-6);  // beside the round side
   EXPECT_NEAR(c.y(), 0.15, 1e-6);
   EXPECT_NEAR(detail::bead_closest(b, Vec3(5, 0, 0.9), c), -0.1, 1e-6);  // on the core: inside
@@ -100,9 +101,12 @@ TEST(SurfaceLayerLines, DISABLED_WallOfStackedBeadsGivesTheAnalyticFigures) {
     auto r = compute_deviation(wall.mesh, wall.deposit.grid, settings, {}, beads);
     ASSERT_TRUE(r.ok());
     const double R = 0.5 * h;
-    const double rms = middle_mean(*r, [](const LayerDeviation& l) { return l.deposit_to_mesh.rms_mm; });
-    const double mean = middle_mean(*r, [](const LayerDeviation& l) { return l.deposit_to_mesh.mean_mm; });
-    const double back = middle_mean(*r, [](const LayerDeviation& l) { return l.mesh_to_deposit.rms_mm; });
+    const double rms =
+        middle_mean(*r, [](const LayerDeviation& l) { return l.deposit_to_mesh.rms_mm; });
+    const double mean =
+        middle_mean(*r, [](const LayerDeviation& l) { return l.deposit_to_mesh.mean_mm; });
+    const double back =
+        middle_mean(*r, [](const LayerDeviation& l) { return l.mesh_to_deposit.rms_mm; });
     EXPECT_NEAR(rms / (0.476 * R), 1.0, 0.10) << "h " << h << " rms " << rms;
     EXPECT_NEAR(mean / (-0.363 * R), 1.0, 0.10) << "h " << h << " mean " << mean;
     EXPECT_NEAR(back / (0.194 * R), 1.0, 0.10) << "h " << h << " mesh->deposit rms " << back;
@@ -132,7 +136,8 @@ TEST(SurfaceLayerLines, SealKeepsGroovesButNotPinholesIntoTheInfill) {
     for (int y = 0; y < 80; ++y)
       for (int x = 0; x < 80; ++x) {
         const Vec3 c = grid.center_mm({x, y, z});
-        if (outer.contains(c) && !cavity.contains(c) && !slit.contains(c)) grid.set({x, y, z}, VoxelTag{1, 0, Feature::outer_perimeter});
+        if (outer.contains(c) && !cavity.contains(c) && !slit.contains(c))
+          grid.set({x, y, z}, VoxelTag{1, 0, Feature::outer_perimeter});
       }
   const DepositSurface s = extract_outer_surface(grid, outer, 0.2, 0.25);
   EXPECT_TRUE(s.filled(Vec3(1, 1, 0.5)));

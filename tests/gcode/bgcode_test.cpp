@@ -55,7 +55,9 @@ std::string heatshrink_encode(std::string_view in, int window_bits, bool backref
   BitWriter w;
   const std::size_t window = std::size_t{1} << window_bits;
   std::vector<std::size_t> last(65536, SIZE_MAX);
-  auto pair = [&](std::size_t i) { return static_cast<std::uint8_t>(in[i]) | (static_cast<std::uint8_t>(in[i + 1]) << 8); };
+  auto pair = [&](std::size_t i) {
+    return static_cast<std::uint8_t>(in[i]) | (static_cast<std::uint8_t>(in[i + 1]) << 8);
+  };
   for (std::size_t i = 0; i < in.size();) {
     std::size_t len = 0, off = 0;
     if (backrefs && i + 1 < in.size()) {
@@ -84,16 +86,22 @@ std::string heatshrink_encode(std::string_view in, int window_bits, bool backref
 /// lines their comments; comment lines are kept (packing off) when `keep_comments`.
 std::string meatpack_encode(std::string_view text, bool keep_comments, bool no_spaces) {
   auto packable = [&](char c) {
-    return (c >= '0' && c <= '9') || c == '.' || c == '\n' || c == 'G' || c == 'X' || (no_spaces ? c == 'E' : c == ' ');
+    return (c >= '0' && c <= '9') || c == '.' || c == '\n' || c == 'G' || c == 'X' ||
+           (no_spaces ? c == 'E' : c == ' ');
   };
   auto code = [&](char c) -> std::uint8_t {
     if (c >= '0' && c <= '9') return static_cast<std::uint8_t>(c - '0');
     switch (c) {
-      case '.': return 10;
-      case '\n': return 12;
-      case 'G': return 13;
-      case 'X': return 14;
-      default: return 11;  // ' ' or, without spaces, 'E'
+      case '.':
+        return 10;
+      case '\n':
+        return 12;
+      case 'G':
+        return 13;
+      case 'X':
+        return 14;
+      default:
+        return 11;  // ' ' or, without spaces, 'E'
     }
   };
   std::string out = "\xFF\xFF\xFB";
@@ -154,14 +162,19 @@ std::string compress(const TestBlock& b) {
     case 1: {
       uLongf n = compressBound(static_cast<uLong>(b.data.size()));
       std::string out(n, '\0');
-      EXPECT_EQ(compress2(reinterpret_cast<Bytef*>(out.data()), &n, reinterpret_cast<const Bytef*>(b.data.data()),
-                          static_cast<uLong>(b.data.size()), 9), Z_OK);
+      EXPECT_EQ(compress2(reinterpret_cast<Bytef*>(out.data()), &n,
+                          reinterpret_cast<const Bytef*>(b.data.data()),
+                          static_cast<uLong>(b.data.size()), 9),
+                Z_OK);
       out.resize(n);
       return out;
     }
-    case 2: return heatshrink_encode(b.data, 11, b.backrefs);
-    case 3: return heatshrink_encode(b.data, 12, b.backrefs);
-    default: return b.data;
+    case 2:
+      return heatshrink_encode(b.data, 11, b.backrefs);
+    case 3:
+      return heatshrink_encode(b.data, 12, b.backrefs);
+    default:
+      return b.data;
   }
 }
 
@@ -173,23 +186,28 @@ std::string encode_block(const TestBlock& b, bool crc) {
   const std::string stored = compress(b);
   if (b.compression != 0) put32(s, static_cast<std::uint32_t>(stored.size()));
   s += b.params + stored;
-  if (crc) put32(s, static_cast<std::uint32_t>(::crc32(0, reinterpret_cast<const Bytef*>(s.data()), static_cast<uInt>(s.size()))));
+  if (crc)
+    put32(s, static_cast<std::uint32_t>(::crc32(0, reinterpret_cast<const Bytef*>(s.data()),
+                                                static_cast<uInt>(s.size()))));
   return s;
 }
 
 /// A G-code block with the sizes given (not those of the data), CRC32 correct.
-std::string raw_block(std::uint16_t type, std::uint16_t compression, std::uint32_t uncompressed, const std::string& stored) {
+std::string raw_block(std::uint16_t type, std::uint16_t compression, std::uint32_t uncompressed,
+                      const std::string& stored) {
   std::string s;
   put16(s, type);
   put16(s, compression);
   put32(s, uncompressed);
   if (compression != 0) put32(s, static_cast<std::uint32_t>(stored.size()));
   s += encoding_param(0) + stored;
-  put32(s, static_cast<std::uint32_t>(::crc32(0, reinterpret_cast<const Bytef*>(s.data()), static_cast<uInt>(s.size()))));
+  put32(s, static_cast<std::uint32_t>(
+               ::crc32(0, reinterpret_cast<const Bytef*>(s.data()), static_cast<uInt>(s.size()))));
   return s;
 }
 
-std::string encode_file(const std::vector<TestBlock>& blocks, bool crc = true, std::uint32_t version = 1) {
+std::string encode_file(const std::vector<TestBlock>& blocks, bool crc = true,
+                        std::uint32_t version = 1) {
   std::string s = "GCDE";
   put32(s, version);
   put16(s, crc ? 1 : 0);
@@ -200,7 +218,8 @@ std::string encode_file(const std::vector<TestBlock>& blocks, bool crc = true, s
 TestBlock metadata_block(std::uint16_t type, std::string ini, std::uint16_t compression = 0) {
   return {type, compression, encoding_param(0), std::move(ini)};
 }
-TestBlock thumbnail_block(std::uint16_t format, std::uint16_t w, std::uint16_t h, std::string bytes) {
+TestBlock thumbnail_block(std::uint16_t format, std::uint16_t w, std::uint16_t h,
+                          std::string bytes) {
   std::string p;
   put16(p, format);
   put16(p, w);
@@ -233,7 +252,8 @@ const std::string kTrailer =
     "; prusaslicer_config = end\n";
 
 const std::string kGcode =
-    ";LAYER_CHANGE\n;Z:0.2\nM104 S215 ; hotend\nG1 X10.5 Y20 Z.2 E.3 F1200\nG1 X110.25 Y-2.5 E12.75\n"
+    ";LAYER_CHANGE\n;Z:0.2\nM104 S215 ; hotend\nG1 X10.5 Y20 Z.2 E.3 F1200\nG1 X110.25 Y-2.5 "
+    "E12.75\n"
     ";TYPE:External perimeter\nG2 X20 Y20 I5 J5 E1.2\nG28 W\nM204 P4000 R1200 T4000\nG92 E0\n";
 /// kGcode as MeatPack gives it back: no inline comments, spaces put back in G lines.
 const std::string kGcodeMeatpacked =
@@ -253,7 +273,8 @@ TEST(Bgcode, EveryCompressionDecodesToTheText) {
     for (bool backrefs : {false, true}) {
       TestBlock g = gcode_block(kGcode, compression, 0);
       g.backrefs = backrefs;
-      EXPECT_EQ(decoded(encode_file(file_with({g}))), kHeader + kGcode + kTrailer) << "compression " << compression;
+      EXPECT_EQ(decoded(encode_file(file_with({g}))), kHeader + kGcode + kTrailer)
+          << "compression " << compression;
     }
   }
 }
@@ -262,9 +283,11 @@ TEST(Bgcode, HeatshrinkBackReferencesOverlapAndCrossTheWindow) {
   // Long runs (overlapping copies) and text repeated more than 2 KiB apart (the 11-bit
   // window cannot reach it, the 12-bit one can).
   std::string text = "G1 X1 Y1\n" + std::string(300, ';') + "\n";
-  for (int i = 0; i < 200; ++i) text += "G1 X" + std::to_string(i % 17) + ".25 Y" + std::to_string(i * 7 % 31) + " E.5\n";
+  for (int i = 0; i < 200; ++i)
+    text += "G1 X" + std::to_string(i % 17) + ".25 Y" + std::to_string(i * 7 % 31) + " E.5\n";
   for (std::uint16_t compression : {2, 3}) {
-    const std::string bytes = encode_file({metadata_block(3, "a=b\n"), gcode_block(text, compression, 0)});
+    const std::string bytes =
+        encode_file({metadata_block(3, "a=b\n"), gcode_block(text, compression, 0)});
     EXPECT_EQ(decoded(bytes), "; a = b\n" + text);
     EXPECT_LT(bytes.size(), text.size() / 2);  // the back-references were used
   }
@@ -273,37 +296,52 @@ TEST(Bgcode, HeatshrinkBackReferencesOverlapAndCrossTheWindow) {
 TEST(Bgcode, MeatPackDecodesWithAndWithoutComments) {
   for (bool no_spaces : {false, true}) {
     const std::string with = meatpack_encode(kGcode, true, no_spaces);
-    EXPECT_EQ(decoded(encode_file(file_with({gcode_block(with, 3, 2)}))), kHeader + kGcodeMeatpacked + kTrailer);
+    EXPECT_EQ(decoded(encode_file(file_with({gcode_block(with, 3, 2)}))),
+              kHeader + kGcodeMeatpacked + kTrailer);
     std::string without_comments;
     std::istringstream lines(kGcodeMeatpacked);
     for (std::string line; std::getline(lines, line);)
       if (line[0] != ';') without_comments += line + "\n";
     const std::string stripped = meatpack_encode(kGcode, false, no_spaces);
-    EXPECT_EQ(decoded(encode_file(file_with({gcode_block(stripped, 1, 1)}))), kHeader + without_comments + kTrailer);
+    EXPECT_EQ(decoded(encode_file(file_with({gcode_block(stripped, 1, 1)}))),
+              kHeader + without_comments + kTrailer);
   }
 }
 
 TEST(Bgcode, DecoderCornerCases) {
-  auto gcode_only = [](const std::string& data, std::uint16_t encoding, std::uint16_t compression = 0) {
+  auto gcode_only = [](const std::string& data, std::uint16_t encoding,
+                       std::uint16_t compression = 0) {
     return decoded(encode_file({gcode_block(data, compression, encoding)}));
   };
   // MeatPack: both characters whole bytes (first one first); a whole first byte with a
   // packed second; a '\n' in the low nibble ends the pair; a lone 0xFF in plain mode is a
   // byte; "no spaces" turns code 11 into 'E'; the G line gets its spaces back.
-  EXPECT_EQ(gcode_only("\xFF\xFF\xFB" "\xFFMY" "\x1F" "A" "\x5C", 1), "MYA1\n");
-  EXPECT_EQ(gcode_only("\xFF\xFF\xF7\xFF\xFF\xFB" "\x1D" "\x1B" "\xCE", 1), "G1 E1 X\n");
+  EXPECT_EQ(gcode_only("\xFF\xFF\xFB"
+                       "\xFFMY"
+                       "\x1F"
+                       "A"
+                       "\x5C",
+                       1),
+            "MYA1\n");
+  EXPECT_EQ(gcode_only("\xFF\xFF\xF7\xFF\xFF\xFB"
+                       "\x1D"
+                       "\x1B"
+                       "\xCE",
+                       1),
+            "G1 E1 X\n");
   EXPECT_EQ(gcode_only(";a\xFF;\n\n\n;b\n", 2), ";a\xFF;\n;b\n");
   // Heatshrink: a back-reference reaching before the start reads the zeroed window, and
   // overlapping copies repeat the last bytes.
   BitWriter w;
-  w.put(0, 1), w.put(2, 12), w.put(1, 4);         // offset 3, count 2: two zero bytes
-  w.put(1, 1), w.put('A', 8);                     // literal 'A'
-  w.put(0, 1), w.put(0, 12), w.put(4, 4);         // offset 1, count 5: "AAAAA"
+  w.put(0, 1), w.put(2, 12), w.put(1, 4);  // offset 3, count 2: two zero bytes
+  w.put(1, 1), w.put('A', 8);              // literal 'A'
+  w.put(0, 1), w.put(0, 12), w.put(4, 4);  // offset 1, count 5: "AAAAA"
   const std::string stored = w.finish();
   std::string file = "GCDE";
   put32(file, 1);
   put16(file, 0);
-  put16(file, 1), put16(file, 3), put32(file, 8), put32(file, static_cast<std::uint32_t>(stored.size()));
+  put16(file, 1), put16(file, 3), put32(file, 8),
+      put32(file, static_cast<std::uint32_t>(stored.size()));
   file += encoding_param(0) + stored;
   EXPECT_EQ(decoded(file), std::string("\0\0AAAAAA", 8));
 }
@@ -327,11 +365,14 @@ TEST(Bgcode, MetadataAndThumbnailsAreExposed) {
   ASSERT_EQ(meta->blocks.size(), 5u);
   EXPECT_EQ(meta->blocks[4].type, BgcodeBlockType::slicer_metadata);
   EXPECT_EQ(meta->blocks[4].compression, BgcodeCompression::heatshrink_12_4);
-  EXPECT_EQ(meta->first_gcode_block_offset, bytes.size() - encode_block(gcode_block(kGcode, 0, 0), true).size());
+  EXPECT_EQ(meta->first_gcode_block_offset,
+            bytes.size() - encode_block(gcode_block(kGcode, 0, 0), true).size());
 
   // The same from a file; without checksums too.
   const auto dir = test::temp_dir("bgcode_meta");
-  ASSERT_TRUE(write_file_atomic(dir / "x.bgcode", encode_file(file_with({gcode_block(kGcode, 1, 0)}), false)).ok());
+  ASSERT_TRUE(write_file_atomic(dir / "x.bgcode",
+                                encode_file(file_with({gcode_block(kGcode, 1, 0)}), false))
+                  .ok());
   auto from_file = read_bgcode_metadata(dir / "x.bgcode");
   ASSERT_TRUE(from_file.ok()) << from_file.error().describe();
   EXPECT_FALSE(from_file->crc32);
@@ -344,7 +385,8 @@ TEST(Bgcode, TheStreamSpansBlocksAndSeeks) {
   const std::vector<std::size_t> cuts = {0, 17, 100, 101, 250, text.size()};
   std::vector<TestBlock> gcode;
   for (std::size_t i = 0; i + 1 < cuts.size(); ++i)
-    gcode.push_back(gcode_block(text.substr(cuts[i], cuts[i + 1] - cuts[i]), static_cast<std::uint16_t>(i % 4), 0));
+    gcode.push_back(gcode_block(text.substr(cuts[i], cuts[i + 1] - cuts[i]),
+                                static_cast<std::uint16_t>(i % 4), 0));
   const std::string bytes = encode_file(file_with(gcode));
   const std::string whole = kHeader + text + kTrailer;
   EXPECT_EQ(decoded(bytes), whole);
@@ -354,7 +396,8 @@ TEST(Bgcode, TheStreamSpansBlocksAndSeeks) {
   auto& in = **stream;
   in.seekg(0, std::ios::end);
   EXPECT_EQ(static_cast<std::size_t>(in.tellg()), whole.size());
-  for (std::size_t at : {std::size_t{5}, whole.size() - 40, std::size_t{200}, kHeader.size() + 99}) {
+  for (std::size_t at :
+       {std::size_t{5}, whole.size() - 40, std::size_t{200}, kHeader.size() + 99}) {
     in.clear();
     in.seekg(static_cast<std::streamoff>(at));
     std::string got(30, '\0');
@@ -386,15 +429,17 @@ bool same_moves(const std::vector<Move>& a, const std::vector<Move>& b) {
   if (a.size() != b.size()) return false;
   for (std::size_t i = 0; i < a.size(); ++i) {
     const Move &x = a[i], &y = b[i];
-    if (x.start_mm != y.start_mm || x.end_mm != y.end_mm || x.e_mm != y.e_mm || x.feedrate_mm_s != y.feedrate_mm_s ||
-        x.layer != y.layer || x.feature != y.feature || x.kind != y.kind || x.object_id != y.object_id ||
-        x.width_hint_mm != y.width_hint_mm || x.height_hint_mm != y.height_hint_mm)
+    if (x.start_mm != y.start_mm || x.end_mm != y.end_mm || x.e_mm != y.e_mm ||
+        x.feedrate_mm_s != y.feedrate_mm_s || x.layer != y.layer || x.feature != y.feature ||
+        x.kind != y.kind || x.object_id != y.object_id || x.width_hint_mm != y.width_hint_mm ||
+        x.height_hint_mm != y.height_hint_mm)
       return false;
   }
   return true;
 }
 
-void expect_same_print(const std::filesystem::path& text, const std::filesystem::path& binary, bool limits_from_gcode) {
+void expect_same_print(const std::filesystem::path& text, const std::filesystem::path& binary,
+                       bool limits_from_gcode) {
   SimulateOptions o;
   o.limits_from_gcode = limits_from_gcode;
   auto text_moves = interpret_gcode_file(text, ender3_marlin2(), o);
@@ -431,9 +476,11 @@ std::string encode_like_prusaslicer(const std::string& text) {
   std::string ini;
   std::istringstream cfg(text.substr(config));
   for (std::string line; std::getline(cfg, line);)
-    if (line.rfind("; ", 0) == 0 && line.find(" = ") != std::string::npos && line.find("prusaslicer_config") == std::string::npos)
+    if (line.rfind("; ", 0) == 0 && line.find(" = ") != std::string::npos &&
+        line.find("prusaslicer_config") == std::string::npos)
       ini += line.substr(2) + "\n";
-  std::vector<TestBlock> blocks = {metadata_block(3, "printer_model=\n"), metadata_block(2, ini, 1)};
+  std::vector<TestBlock> blocks = {metadata_block(3, "printer_model=\n"),
+                                   metadata_block(2, ini, 1)};
   const std::string body = text.substr(0, config);
   for (std::size_t at = 0; at < body.size();) {
     std::size_t end = std::min(body.size(), at + 65535);
@@ -449,7 +496,8 @@ TEST(Bgcode, SelfEncodedPrusaSlicerFileGivesTheMovesOfItsText) {
   auto text = read_file(path);
   ASSERT_TRUE(text.ok());
   const auto dir = test::temp_dir("bgcode_twin");
-  ASSERT_TRUE(write_file_atomic(dir / "cube.bin", encode_like_prusaslicer(*text)).ok());  // detected by its magic
+  ASSERT_TRUE(write_file_atomic(dir / "cube.bin", encode_like_prusaslicer(*text))
+                  .ok());  // detected by its magic
   expect_same_print(path, dir / "cube.bin", true);
 }
 
@@ -495,14 +543,16 @@ TEST(Bgcode, RealPrusaSlicerBinaryGivesTheMovesOfItsTextTwin) {
   if (!dir) GTEST_SKIP() << "no shared real-world folder";
   const auto text = *dir / "gcode/prusaslicer-2.8.1_MK4S_mini_cube_arcs.gcode";
   const auto binary = *dir / "gcode/prusaslicer-2.8.1_MK4S_mini_cube_arcs_BINARY.bgcode";
-  if (!std::filesystem::exists(text) || !std::filesystem::exists(binary)) GTEST_SKIP() << "pair not in " << *dir;
+  if (!std::filesystem::exists(text) || !std::filesystem::exists(binary))
+    GTEST_SKIP() << "pair not in " << *dir;
   expect_same_print(text, binary, false);
   expect_same_print(text, binary, true);  // the machine limits come from the slicer metadata
 
   auto meta = read_bgcode_metadata(binary);
   ASSERT_TRUE(meta.ok()) << meta.error().describe();
   EXPECT_EQ(bgcode_find(meta->printer, "printer_model").value_or(""), "MK4S");
-  EXPECT_EQ(bgcode_find(meta->print, "estimated printing time (normal mode)").value_or(""), "3m 41s");
+  EXPECT_EQ(bgcode_find(meta->print, "estimated printing time (normal mode)").value_or(""),
+            "3m 41s");
   EXPECT_EQ(bgcode_find(meta->print, "filament used [mm]").value_or(""), "252.22");
   EXPECT_TRUE(bgcode_find(meta->slicer, "machine_max_acceleration_x").has_value());
   ASSERT_EQ(meta->thumbnails.size(), 2u);
@@ -527,13 +577,15 @@ void expect_rejected(const BadCase& c) {
   auto text = decode_bgcode(c.bytes, "bad.bgcode");
   ASSERT_FALSE(text.ok()) << "decoded " << text->size() << " bytes";
   const std::string msg = text.error().describe();
-  for (const auto& w : c.words) EXPECT_NE(msg.find(w), std::string::npos) << msg << "\n  lacks: " << w;
+  for (const auto& w : c.words)
+    EXPECT_NE(msg.find(w), std::string::npos) << msg << "\n  lacks: " << w;
   EXPECT_EQ(text.error().code, ErrorCode::bad_input);
 }
 
 std::vector<BadCase> bad_cases() {
   std::vector<BadCase> cases;
-  const std::vector<TestBlock> blocks = file_with({gcode_block(kGcode, 3, 0), gcode_block(kGcode, 1, 0)});
+  const std::vector<TestBlock> blocks =
+      file_with({gcode_block(kGcode, 3, 0), gcode_block(kGcode, 1, 0)});
   const std::string good = encode_file(blocks);
   // Truncated inside each block: header, parameters, data and checksum of each type.
   std::size_t at = 10;
@@ -542,53 +594,83 @@ std::vector<BadCase> bad_cases() {
     const std::string type(bgcode_block_type_name(static_cast<BgcodeBlockType>(blocks[i].type)));
     const std::string where = "block " + std::to_string(i + 1);
     for (std::size_t cut : {std::size_t{5}, size / 2, size - 1}) {
-      std::vector<std::string> words = {"bad.bgcode", where, "at byte " + std::to_string(at), "truncated"};
+      std::vector<std::string> words = {"bad.bgcode", where, "at byte " + std::to_string(at),
+                                        "truncated"};
       if (cut > 8) words.push_back(type);
-      cases.push_back({"truncated " + type + " at +" + std::to_string(cut), good.substr(0, at + cut), words});
+      cases.push_back(
+          {"truncated " + type + " at +" + std::to_string(cut), good.substr(0, at + cut), words});
     }
     // A flipped byte in the data: the CRC catches it.
     std::string flipped = good;
     flipped[at + size - 6] = static_cast<char>(flipped[at + size - 6] ^ 0x10);
-    cases.push_back({"flipped byte in " + type, flipped, {where, type, "at byte " + std::to_string(at), "CRC32 mismatch"}});
+    cases.push_back({"flipped byte in " + type,
+                     flipped,
+                     {where, type, "at byte " + std::to_string(at), "CRC32 mismatch"}});
     at += size;
   }
   std::string flipped_crc = good;
   flipped_crc[good.size() - 1] = static_cast<char>(flipped_crc[good.size() - 1] ^ 1);
-  cases.push_back({"flipped CRC byte", flipped_crc, {"block 7 (G-code, deflate)", "CRC32 mismatch"}});
+  cases.push_back(
+      {"flipped CRC byte", flipped_crc, {"block 7 (G-code, deflate)", "CRC32 mismatch"}});
 
   auto with = [&](std::size_t index, auto change) {
     std::vector<TestBlock> b = blocks;
     change(b[index]);
     return encode_file(b);
   };
-  cases.push_back({"unknown compression", with(5, [](TestBlock& b) { b.compression = 7; }),
+  cases.push_back({"unknown compression",
+                   with(5, [](TestBlock& b) { b.compression = 7; }),
                    {"block 6 (G-code)", "unknown compression 7"}});
-  cases.push_back({"unknown block type", with(1, [](TestBlock& b) { b.type = 9; }),
+  cases.push_back({"unknown block type",
+                   with(1, [](TestBlock& b) { b.type = 9; }),
                    {"block 2 at byte 90", "unknown block type 9"}});
-  cases.push_back({"unknown G-code encoding", with(6, [](TestBlock& b) { b.params = encoding_param(4); }),
+  cases.push_back({"unknown G-code encoding",
+                   with(6, [](TestBlock& b) { b.params = encoding_param(4); }),
                    {"block 7", "unknown G-code encoding 4"}});
-  cases.push_back({"unknown metadata encoding", with(1, [](TestBlock& b) { b.params = encoding_param(1); }),
+  cases.push_back({"unknown metadata encoding",
+                   with(1, [](TestBlock& b) { b.params = encoding_param(1); }),
                    {"block 2 (printer metadata)", "unknown metadata encoding 1"}});
-  cases.push_back({"unknown image format", with(2, [](TestBlock& b) { b.params[0] = 5; }),
+  cases.push_back({"unknown image format",
+                   with(2, [](TestBlock& b) { b.params[0] = 5; }),
                    {"block 3 (thumbnail)", "unknown thumbnail image format 5"}});
-  cases.push_back({"metadata line without =", with(1, [](TestBlock& b) { b.data += "no equals sign\n"; }),
+  cases.push_back({"metadata line without =",
+                   with(1, [](TestBlock& b) { b.data += "no equals sign\n"; }),
                    {"block 2 (printer metadata)", "line 3 has no '='"}});
-  cases.push_back({"wrong uncompressed size",
-                   encode_file(file_with({})) + raw_block(1, 3, 11, heatshrink_encode("G1 X1\n", 12, false)),
-                   {"block 6 (G-code, heatshrink 12/4)", "decodes to 6 bytes, the block header states 11"}});
-  cases.push_back({"deflate longer than stated",
-                   encode_file(file_with({})) + raw_block(1, 1, 3, compress(gcode_block("G1 X1\n", 1, 0))),
-                   {"block 6 (G-code, deflate)", "more than the 3 bytes"}});
-  cases.push_back({"deflate garbage", encode_file(file_with({})) + raw_block(1, 1, 6, "garbage"),
+  cases.push_back(
+      {"wrong uncompressed size",
+       encode_file(file_with({})) + raw_block(1, 3, 11, heatshrink_encode("G1 X1\n", 12, false)),
+       {"block 6 (G-code, heatshrink 12/4)", "decodes to 6 bytes, the block header states 11"}});
+  cases.push_back(
+      {"deflate longer than stated",
+       encode_file(file_with({})) + raw_block(1, 1, 3, compress(gcode_block("G1 X1\n", 1, 0))),
+       {"block 6 (G-code, deflate)", "more than the 3 bytes"}});
+  cases.push_back({"deflate garbage",
+                   encode_file(file_with({})) + raw_block(1, 1, 6, "garbage"),
                    {"block 6 (G-code, deflate)", "corrupt"}});
-  cases.push_back({"bad MeatPack command", encode_file(file_with({gcode_block("\xFF\xFF\xFB\xFF\xFF\x01", 0, 1)})),
+  cases.push_back({"bad MeatPack command",
+                   encode_file(file_with({gcode_block("\xFF\xFF\xFB\xFF\xFF\x01", 0, 1)})),
                    {"block 6", "unknown MeatPack command 0x01"}});
-  cases.push_back({"bad magic", "GCDX" + good.substr(4), {"not a binary G-code file", "GCDX", "GCDE"}});
-  cases.push_back({"version 2", [&] { std::string s = good; s[4] = 2; return s; }(), {"version 2", "version 1"}});
-  cases.push_back({"checksum type 3", [&] { std::string s = good; s[8] = 3; return s; }(), {"unknown checksum type 3"}});
-  cases.push_back({"no G-code block", encode_file(file_with({})), {"no G-code block", "after block 5"}});
+  cases.push_back(
+      {"bad magic", "GCDX" + good.substr(4), {"not a binary G-code file", "GCDX", "GCDE"}});
+  cases.push_back({"version 2",
+                   [&] {
+                     std::string s = good;
+                     s[4] = 2;
+                     return s;
+                   }(),
+                   {"version 2", "version 1"}});
+  cases.push_back({"checksum type 3",
+                   [&] {
+                     std::string s = good;
+                     s[8] = 3;
+                     return s;
+                   }(),
+                   {"unknown checksum type 3"}});
+  cases.push_back(
+      {"no G-code block", encode_file(file_with({})), {"no G-code block", "after block 5"}});
   cases.push_back({"empty file", std::string(), {"not a binary G-code file"}});
-  cases.push_back({"huge stated size", encode_file(file_with({})) + raw_block(1, 1, 0xFFFFFFF0u, "abcd"),
+  cases.push_back({"huge stated size",
+                   encode_file(file_with({})) + raw_block(1, 1, 0xFFFFFFF0u, "abcd"),
                    {"block 6", "more than the"}});
   return cases;
 }
@@ -603,7 +685,8 @@ TEST(Bgcode, SimulateExitsThreeOnBadInput) {
   // Through the CLI: exit 3, the block named, no crash; a decode error in the middle of the
   // G-code is not a short print. One case of each kind (the CLI is slow to start).
   const auto dir = test::temp_dir("bgcode_cli");
-  const std::vector<TestBlock> blocks = file_with({gcode_block(kGcode, 3, 0), gcode_block(kGcode, 1, 0)});
+  const std::vector<TestBlock> blocks =
+      file_with({gcode_block(kGcode, 3, 0), gcode_block(kGcode, 1, 0)});
   const std::string good = encode_file(blocks);
   struct CliCase {
     std::string name, bytes, words;

@@ -24,7 +24,8 @@ PrinterProfile with_firmware(const std::string& firmware) {
   return p;
 }
 
-Result<SimulationResult> run(const std::string& text, const PrinterProfile& profile = ender3_marlin2(),
+Result<SimulationResult> run(const std::string& text,
+                             const PrinterProfile& profile = ender3_marlin2(),
                              const SimulateOptions& o = {}) {
   std::istringstream in(text);
   return simulate_gcode(in, profile, o);
@@ -85,7 +86,8 @@ void execute_line(GcodeInterpreter& interp, const std::string& line, Recorder& o
 std::string square(double z, double x0 = 100, double y0 = 100) {
   std::ostringstream s;
   s << "G1 Z" << z << " F600\nG1 X" << x0 << " Y" << y0 << " F6000\n";
-  s << "G1 X" << x0 + 10 << " Y" << y0 << " E0.5 F1800\nG1 X" << x0 + 10 << " Y" << y0 + 10 << " E0.5\n";
+  s << "G1 X" << x0 + 10 << " Y" << y0 << " E0.5 F1800\nG1 X" << x0 + 10 << " Y" << y0 + 10
+    << " E0.5\n";
   s << "G1 X" << x0 << " Y" << y0 + 10 << " E0.5\nG1 X" << x0 << " Y" << y0 << " E0.5\n";
   return s.str();
 }
@@ -121,7 +123,8 @@ TEST(FlavourPrusa, StartCodeOfAnMk4sRunsWithoutErrorsOrUnknownCommands) {
       "M115 U6.1.3+7898\nM555 X118.75 Y94.75 W32 H16.5\nM140 S60\nM104 T0 S170\nM109 T0 R170\n"
       "M84 E\nG28\nM302 S160\nG29 P9 X10 Y-4 W32 H4\nM190 S60\nG29 P1\nG29 P1 X0 Y0 W50 H20 C\n"
       "G29 P3.2\nG29 P3.13\nG29 A\nM104 S230\nM109 S230\nM569 S0 E\nM593 X T2 F0\nM572 S0.036\n"
-      "M142 S36\nM74 W0.03\nM73 P0 R3\nM83\n" + square(0.2);
+      "M142 S36\nM74 W0.03\nM73 P0 R3\nM83\n" +
+      square(0.2);
   const auto r = sim(text, with_firmware("prusa"));
   expect_clean(r);
   const Finding* levelling = find(r, "bed_levelling_not_timed");
@@ -150,8 +153,10 @@ TEST(FlavourPrusa, M862ChecksTheNozzleAndTheModelLikeTheFirmware) {
 }
 
 TEST(GcodeStatedFigures, CuraEnginesUnfilledHeaderIsNotTheSlicersFigure) {
-  const auto r = sim(";FLAVOR:Marlin\n;TIME:6666\n;Filament used: 0m\n;Layer height: 0.2\n"
-                     ";Generated with Cura_SteamEngine 4.13.0\nG28\nM109 S200\nM83\n;LAYER:0\n" + square(0.2));
+  const auto r =
+      sim(";FLAVOR:Marlin\n;TIME:6666\n;Filament used: 0m\n;Layer height: 0.2\n"
+          ";Generated with Cura_SteamEngine 4.13.0\nG28\nM109 S200\nM83\n;LAYER:0\n" +
+          square(0.2));
   EXPECT_FALSE(r.slicer_estimate_s.has_value());
   EXPECT_FALSE(r.slicer_filament_mm.has_value());
   ASSERT_NE(find(r, "slicer_header_placeholders"), nullptr);
@@ -169,7 +174,8 @@ TEST(FlavourPrusa, M302SetsTheColdExtrusionLimit) {
 
 TEST(FlavourKlipper, StartMacroWithParametersHomesAndHeats) {
   const std::string text =
-      "M140 S0\nM104 S0\nSTART_PRINT EXTRUDER_TEMP=220 BED_TEMP=60\nG90\nM83\n" + square(0.2) + "END_PRINT\n";
+      "M140 S0\nM104 S0\nSTART_PRINT EXTRUDER_TEMP=220 BED_TEMP=60\nG90\nM83\n" + square(0.2) +
+      "END_PRINT\n";
   const auto r = sim(text, with_firmware("klipper"));
   EXPECT_EQ(count_severity(r, Severity::error), 0);
   EXPECT_EQ(find(r, "move_before_homing"), nullptr);
@@ -202,22 +208,28 @@ TEST(FlavourKlipper, StartMacroWithoutParametersUsesTheSlicersTemperaturesOrSays
 }
 
 TEST(FlavourKlipper, MacrosAreRecognisedByShapeNotByOneName) {
-  for (const char* name : {"START_PRINT", "PRINT_START", "START_PRINT_K1", "_PRINT_START", "PRINT_BEGIN"}) {
-    const auto r = sim(std::string(name) + " BED=55 HOTEND=215\nM83\n" + square(0.2), with_firmware("klipper"));
+  for (const char* name :
+       {"START_PRINT", "PRINT_START", "START_PRINT_K1", "_PRINT_START", "PRINT_BEGIN"}) {
+    const auto r = sim(std::string(name) + " BED=55 HOTEND=215\nM83\n" + square(0.2),
+                       with_firmware("klipper"));
     EXPECT_EQ(count_severity(r, Severity::error), 0) << name;
     EXPECT_TRUE(r.unknown_commands.empty()) << name;
   }
   // Not macros of the print's start: listed once as unknown, with their count.
-  const auto r = sim("START_TIMER\nSTART_TIMER\nEXCLUDE_OBJECT_START NAME=a\n", with_firmware("klipper"));
+  const auto r =
+      sim("START_TIMER\nSTART_TIMER\nEXCLUDE_OBJECT_START NAME=a\n", with_firmware("klipper"));
   ASSERT_EQ(r.unknown_commands.size(), 1u);
   EXPECT_EQ(r.unknown_commands.at("START_TIMER"), 2);
 }
 
 TEST(FlavourKlipper, TemperatureWaitAndLevellingMacros) {
   const std::string text =
-      "G28\nSET_HEATER_TEMPERATURE HEATER=heater_bed TARGET=60\nTEMPERATURE_WAIT SENSOR=heater_bed MINIMUM=60\n"
-      "SET_HEATER_TEMPERATURE HEATER=extruder TARGET=215\nTEMPERATURE_WAIT SENSOR=extruder MINIMUM=210\n"
-      "QUAD_GANTRY_LEVEL\nBED_MESH_CALIBRATE\nM83\n" + square(0.2);
+      "G28\nSET_HEATER_TEMPERATURE HEATER=heater_bed TARGET=60\nTEMPERATURE_WAIT SENSOR=heater_bed "
+      "MINIMUM=60\n"
+      "SET_HEATER_TEMPERATURE HEATER=extruder TARGET=215\nTEMPERATURE_WAIT SENSOR=extruder "
+      "MINIMUM=210\n"
+      "QUAD_GANTRY_LEVEL\nBED_MESH_CALIBRATE\nM83\n" +
+      square(0.2);
   const auto r = sim(text, with_firmware("klipper"));
   EXPECT_EQ(count_severity(r, Severity::error), 0);
   EXPECT_TRUE(r.unknown_commands.empty());
@@ -231,7 +243,9 @@ TEST(FlavourKlipper, SetVelocityLimitAndM204AsKlipperReadsThem) {
   GcodeInterpreter interp(with_firmware("klipper"), {});
   Recorder out;
   auto exec = [&](const std::string& line) { execute_line(interp, line, out); };
-  exec("SET_VELOCITY_LIMIT VELOCITY=300 ACCEL=5000 SQUARE_CORNER_VELOCITY=9 MINIMUM_CRUISE_RATIO=0.3");
+  exec(
+      "SET_VELOCITY_LIMIT VELOCITY=300 ACCEL=5000 SQUARE_CORNER_VELOCITY=9 "
+      "MINIMUM_CRUISE_RATIO=0.3");
   EXPECT_DOUBLE_EQ(out.last.max_feedrate_mm_s[0], 300);
   EXPECT_DOUBLE_EQ(out.last.print_accel_mm_s2, 5000);
   EXPECT_DOUBLE_EQ(out.last.travel_accel_mm_s2, 5000);
@@ -282,10 +296,14 @@ TEST(FlavourKlipper, MarlinLimitCommandsLeaveKlippersLimitsAlone) {
 TEST(FlavourKlipper, QuietCommandsAndFirmwareRetraction) {
   PrinterProfile p = with_firmware("klipper");
   const std::string text =
-      "G28\nM109 S210\nM83\nEXCLUDE_OBJECT_DEFINE NAME=a CENTER=105,105\nSET_PRESSURE_ADVANCE ADVANCE=0.04\n"
-      "TIMELAPSE_TAKE_FRAME\nSET_FAN_SPEED FAN=aux SPEED=0.5\nSET_PRINT_STATS_INFO CURRENT_LAYER=1\n"
-      "SET_RETRACTION RETRACT_LENGTH=0.8 RETRACT_SPEED=35 UNRETRACT_EXTRA_LENGTH=0.1 UNRETRACT_SPEED=20\n"
-      "EXCLUDE_OBJECT_START NAME=a\n" + square(0.2) + "G10\nG10\nG11\nEXCLUDE_OBJECT_END NAME=a\n";
+      "G28\nM109 S210\nM83\nEXCLUDE_OBJECT_DEFINE NAME=a CENTER=105,105\nSET_PRESSURE_ADVANCE "
+      "ADVANCE=0.04\n"
+      "TIMELAPSE_TAKE_FRAME\nSET_FAN_SPEED FAN=aux SPEED=0.5\nSET_PRINT_STATS_INFO "
+      "CURRENT_LAYER=1\n"
+      "SET_RETRACTION RETRACT_LENGTH=0.8 RETRACT_SPEED=35 UNRETRACT_EXTRA_LENGTH=0.1 "
+      "UNRETRACT_SPEED=20\n"
+      "EXCLUDE_OBJECT_START NAME=a\n" +
+      square(0.2) + "G10\nG10\nG11\nEXCLUDE_OBJECT_END NAME=a\n";
   const auto ms = moves(text, p);
   double retracted = 0, recovered = 0;
   for (const auto& m : ms) {
@@ -301,8 +319,8 @@ TEST(FlavourKlipper, QuietCommandsAndFirmwareRetraction) {
       EXPECT_EQ(m.object_id, 0);
     }
   }
-  EXPECT_NEAR(retracted, 0.8, 1e-9);   // the second G10 does nothing
-  EXPECT_NEAR(recovered, 0.9, 1e-9);   // length + extra
+  EXPECT_NEAR(retracted, 0.8, 1e-9);  // the second G10 does nothing
+  EXPECT_NEAR(recovered, 0.9, 1e-9);  // length + extra
   const auto r = sim(text, p);
   EXPECT_TRUE(r.unknown_commands.empty());
 }
@@ -352,7 +370,8 @@ TEST(FlavourBambu, VendorCommandsAreAcceptedQuietly) {
       "M1002 gcode_claim_action : 2\nM1002 set_filament_type:PLA\nM620 M\nM620 S0A\nM621 S0A\n"
       "M1002 judge_flag g29_before_print_flag\nM622 J1\nG29.1 Z0\nG29.2 S0\nM623\nM960 S5 P1\n"
       "M971 S11 C10 O0\nM975 S1\nM981 S1 P20000\nM991 S0 P0\nG380 S2 Z-0.1 F300\nM412 S1\n"
-      "M1006 A0 B10 L100 C37 D10 M60 E37 F10 N60\nM1007 S1\nG28\nM109 S220\nM83\n" + square(0.2);
+      "M1006 A0 B10 L100 C37 D10 M60 E37 F10 N60\nM1007 S1\nG28\nM109 S220\nM83\n" +
+      square(0.2);
   const auto r = sim(text, with_firmware("bambu"));
   expect_clean(r);
 }
@@ -387,7 +406,8 @@ TEST(GcodeArcs, HelicalLiftWithoutXyMotionMakesOneTurnPerP) {
 }
 
 TEST(GcodeArcs, ZeroRadiusArcIsAFindingAndAnErrorUnderStrict) {
-  const std::string text = "G28\nM109 S200\nM82\nG1 X100 Y100 Z0.2 F6000\nG2 X100 Y100 I0 J0 E1.5\nG1 X110 E2\n";
+  const std::string text =
+      "G28\nM109 S200\nM82\nG1 X100 Y100 Z0.2 F6000\nG2 X100 Y100 I0 J0 E1.5\nG1 X110 E2\n";
   const auto r = sim(text);
   const Finding* f = find(r, "bad_arc");
   ASSERT_NE(f, nullptr);
@@ -408,20 +428,30 @@ TEST(GcodeArcs, ZeroRadiusArcIsAFindingAndAnErrorUnderStrict) {
 
 struct Dialect {
   const char* name;
-  std::string header;                                 // the slicer's first lines
-  std::string (*marker)(int index, double z);         // its layer change
-  const char* outer;                                  // its outer-wall label line
-  const char* infill;                                 // its infill label line
-  const char* stated;                                 // its stated time and filament
+  std::string header;                          // the slicer's first lines
+  std::string (*marker)(int index, double z);  // its layer change
+  const char* outer;                           // its outer-wall label line
+  const char* infill;                          // its infill label line
+  const char* stated;                          // its stated time and filament
   double time_s, filament_mm;
 };
 
-std::string prusa_marker(int, double z) { return ";LAYER_CHANGE\n;Z:" + format_fixed(z, 2) + "\n;HEIGHT:0.2\n"; }
-std::string orca_marker(int, double z) { return "; CHANGE_LAYER\n; Z_HEIGHT: " + format_fixed(z, 2) + "\n; LAYER_HEIGHT: 0.2\n"; }
+std::string prusa_marker(int, double z) {
+  return ";LAYER_CHANGE\n;Z:" + format_fixed(z, 2) + "\n;HEIGHT:0.2\n";
+}
+std::string orca_marker(int, double z) {
+  return "; CHANGE_LAYER\n; Z_HEIGHT: " + format_fixed(z, 2) + "\n; LAYER_HEIGHT: 0.2\n";
+}
 std::string cura_marker(int i, double) { return ";LAYER:" + std::to_string(i) + "\n"; }
-std::string idea_marker(int i, double z) { return ";LAYER:" + std::to_string(i) + "\n;Z:" + format_fixed(z, 3) + "\n"; }
-std::string kiss_marker(int, double z) { return "; BEGIN_LAYER_OBJECT z=" + format_fixed(z, 2) + "\n"; }
-std::string s3d_marker(int i, double z) { return "; layer " + std::to_string(i + 1) + ", Z = " + format_fixed(z, 3) + "\n"; }
+std::string idea_marker(int i, double z) {
+  return ";LAYER:" + std::to_string(i) + "\n;Z:" + format_fixed(z, 3) + "\n";
+}
+std::string kiss_marker(int, double z) {
+  return "; BEGIN_LAYER_OBJECT z=" + format_fixed(z, 2) + "\n";
+}
+std::string s3d_marker(int i, double z) {
+  return "; layer " + std::to_string(i + 1) + ", Z = " + format_fixed(z, 3) + "\n";
+}
 
 class SlicerMarkers : public ::testing::TestWithParam<Dialect> {};
 
@@ -434,7 +464,8 @@ TEST_P(SlicerMarkers, LayersFeaturesAndStatedFigures) {
     text += d.marker(i, z);
     text += std::string(d.outer) + "\n" + square(z);
     text += std::string(d.infill) + "\nG1 X105 Y105 E0.25\n";
-    if (i == 1) text += d.marker(i, z);  // a second marker at the same height (KISSlicer: one per object)
+    if (i == 1)
+      text += d.marker(i, z);  // a second marker at the same height (KISSlicer: one per object)
   }
   text += "G1 E-0.8 F2100\nG1 Z20 F600\n";  // end code: retract and lift
   const auto r = sim(text);
@@ -457,45 +488,61 @@ TEST_P(SlicerMarkers, LayersFeaturesAndStatedFigures) {
 INSTANTIATE_TEST_SUITE_P(
     Dialects, SlicerMarkers,
     ::testing::Values(
-        Dialect{"prusaslicer", "; generated by PrusaSlicer 2.8.1 on 2024-10-21 at 06:38:01 UTC\n", prusa_marker,
-                ";TYPE:External perimeter", ";TYPE:Internal infill",
-                "; filament used [mm] = 252.22\n; estimated printing time (normal mode) = 3m 41s\n", 221, 252.22},
-        Dialect{"superslicer", "; generated by SuperSlicer 2.5.59 on 2024-01-01 at 10:00:00 UTC\n", prusa_marker,
-                ";TYPE:External perimeter", ";TYPE:Internal infill",
-                "; filament used [mm] = 10.5, 0.0\n; estimated printing time (normal mode) = 1h 2m 3s\n", 3723, 10.5},
-        Dialect{"orcaslicer", "; HEADER_BLOCK_START\n; generated by OrcaSlicer 2.1.1 on 2024-06-01 at 10:00:00\n",
+        Dialect{"prusaslicer", "; generated by PrusaSlicer 2.8.1 on 2024-10-21 at 06:38:01 UTC\n",
+                prusa_marker, ";TYPE:External perimeter", ";TYPE:Internal infill",
+                "; filament used [mm] = 252.22\n; estimated printing time (normal mode) = 3m 41s\n",
+                221, 252.22},
+        Dialect{"superslicer", "; generated by SuperSlicer 2.5.59 on 2024-01-01 at 10:00:00 UTC\n",
+                prusa_marker, ";TYPE:External perimeter", ";TYPE:Internal infill",
+                "; filament used [mm] = 10.5, 0.0\n; estimated printing time (normal mode) = 1h 2m "
+                "3s\n",
+                3723, 10.5},
+        Dialect{"orcaslicer",
+                "; HEADER_BLOCK_START\n; generated by OrcaSlicer 2.1.1 on 2024-06-01 at 10:00:00\n",
                 orca_marker, "; FEATURE: Outer wall", "; FEATURE: Sparse infill",
-                "; filament used [mm] = 99.5\n; model printing time: 10m 2s; total estimated time: 11m 3s\n", 663, 99.5},
+                "; filament used [mm] = 99.5\n; model printing time: 10m 2s; total estimated time: "
+                "11m 3s\n",
+                663, 99.5},
         Dialect{"bambustudio", "; HEADER_BLOCK_START\n; BambuStudio 01.10.02.76\n", orca_marker,
                 "; FEATURE: Outer wall", "; FEATURE: Sparse infill",
-                "; estimated printing time (normal mode) = 13m 5s\n; total filament length [mm] : 1503.61\n", 785,
-                1503.61},
-        Dialect{"crealityprint", "; HEADER_BLOCK_START\n; generated by Creality_Print V5.1.4.10249 on 2025-03-09\n",
-                prusa_marker, ";TYPE:Outer wall", ";TYPE:Sparse infill",
-                "; total estimated time: 39m 16s\n; estimated printing time (normal mode) = 39m 45s\n"
-                "; filament used [mm] = 10882.04\n",
-                2385, 10882.04},
-        Dialect{"crealityprint4", "; generated by Creality Print 4.3.8 on 2024-01-01\n", prusa_marker,
-                ";TYPE:WALL-OUTER", ";TYPE:FILL", ";TIME:600\n;Filament used: 1.5m\n", 600, 1500},
-        Dialect{"cura", ";FLAVOR:Marlin\n;TIME:1509\n;Filament used: 1.23865m\n;Layer height: 0.2\n"
-                        ";Generated with Cura_SteamEngine 5.7.1\n",
+                "; estimated printing time (normal mode) = 13m 5s\n; total filament length [mm] : "
+                "1503.61\n",
+                785, 1503.61},
+        Dialect{
+            "crealityprint",
+            "; HEADER_BLOCK_START\n; generated by Creality_Print V5.1.4.10249 on 2025-03-09\n",
+            prusa_marker, ";TYPE:Outer wall", ";TYPE:Sparse infill",
+            "; total estimated time: 39m 16s\n; estimated printing time (normal mode) = 39m 45s\n"
+            "; filament used [mm] = 10882.04\n",
+            2385, 10882.04},
+        Dialect{"crealityprint4", "; generated by Creality Print 4.3.8 on 2024-01-01\n",
+                prusa_marker, ";TYPE:WALL-OUTER", ";TYPE:FILL", ";TIME:600\n;Filament used: 1.5m\n",
+                600, 1500},
+        Dialect{"cura",
+                ";FLAVOR:Marlin\n;TIME:1509\n;Filament used: 1.23865m\n;Layer height: 0.2\n"
+                ";Generated with Cura_SteamEngine 5.7.1\n",
                 cura_marker, ";TYPE:WALL-OUTER", ";TYPE:FILL", "", 1509, 1238.65},
-        Dialect{"ideamaker", ";Sliced by ideaMaker 4.2.1.4764, 2022-01-01\n;Print Time: 3657\n;Material#1 Used: 3476.51\n",
+        Dialect{"ideamaker",
+                ";Sliced by ideaMaker 4.2.1.4764, 2022-01-01\n;Print Time: 3657\n;Material#1 Used: "
+                "3476.51\n",
                 idea_marker, ";TYPE:WALL-OUTER", ";TYPE:FILL", "", 3657, 3476.51},
         Dialect{"kisslicer", "; KISSlicer - FREE\n; version 1.4.5.10\n", kiss_marker,
                 "; 'Perimeter Path', 0.3 [feed mm/s], 9.5 [head mm/s]",
                 "; 'Sparse Infill Path', 0.3 [feed mm/s], 9.5 [head mm/s]",
-                "; Estimated Build Time:   113.73 minutes\n; Estimated Build Volume: 2.405 cm^3\n", 6823.8,
-                2405.0 / (0.25 * 3.14159265358979 * 1.75 * 1.75)},
+                "; Estimated Build Time:   113.73 minutes\n; Estimated Build Volume: 2.405 cm^3\n",
+                6823.8, 2405.0 / (0.25 * 3.14159265358979 * 1.75 * 1.75)},
         Dialect{"simplify3d", "; G-Code generated by Simplify3D(R) Version 4.1.2\n", s3d_marker,
                 "; feature outer perimeter", "; feature infill",
-                ";   Build time: 1 hours 23 minutes\n;   Filament length: 4217.9 mm (4.22 m)\n", 4980, 4217.9}),
+                ";   Build time: 1 hours 23 minutes\n;   Filament length: 4217.9 mm (4.22 m)\n",
+                4980, 4217.9}),
     [](const ::testing::TestParamInfo<Dialect>& i) { return std::string(i.param.name); });
 
 TEST(SlicerMarkers, JsonAndSummaryCarryThePartFilamentAndTheSlicersFigures) {
-  const std::string text = "; generated by PrusaSlicer 2.8.1 on 2024-10-21\n; filament used [mm] = 2.5\n"
-                           "; estimated printing time (normal mode) = 1m 5s\nG28\nM109 S210\nM83\n"
-                           "G1 X5 Y5 Z0.3 F6000\nG1 X60 Y5 E3 F1500\n;LAYER_CHANGE\n;Z:0.2\n" + square(0.2);
+  const std::string text =
+      "; generated by PrusaSlicer 2.8.1 on 2024-10-21\n; filament used [mm] = 2.5\n"
+      "; estimated printing time (normal mode) = 1m 5s\nG28\nM109 S210\nM83\n"
+      "G1 X5 Y5 Z0.3 F6000\nG1 X60 Y5 E3 F1500\n;LAYER_CHANGE\n;Z:0.2\n" +
+      square(0.2);
   const auto r = sim(text);
   const auto doc = nlohmann::json::parse(simulation_to_json(r, "x.gcode"));
   EXPECT_DOUBLE_EQ(doc["filament_part_mm"].get<double>(), 2.0);
@@ -514,7 +561,8 @@ TEST(SlicerMarkers, JsonAndSummaryCarryThePartFilamentAndTheSlicersFigures) {
 
 TEST(SlicerMarkers, SpiralVaseCountsTheSlicersLayersNotEveryZStep) {
   // A PrusaSlicer-style spiral vase: Z rises along every extrusion; one marker per turn.
-  std::string text = "; generated by PrusaSlicer 2.8.1 on 2024-10-21 at 06:38:01 UTC\nG28\nM109 S210\nM83\n";
+  std::string text =
+      "; generated by PrusaSlicer 2.8.1 on 2024-10-21 at 06:38:01 UTC\nG28\nM109 S210\nM83\n";
   text += ";LAYER_CHANGE\n;Z:0.2\n" + square(0.2);
   double z = 0.2;
   for (int layer = 1; layer < 30; ++layer) {
@@ -522,8 +570,8 @@ TEST(SlicerMarkers, SpiralVaseCountsTheSlicersLayersNotEveryZStep) {
     for (int k = 0; k < 20; ++k) {
       z += 0.01;
       const double a = 2 * 3.14159265358979 * (k + 1) / 20.0;
-      text += "G1 X" + format_fixed(105 + 5 * std::cos(a), 3) + " Y" + format_fixed(105 + 5 * std::sin(a), 3) +
-              " Z" + format_fixed(z, 3) + " E0.05\n";
+      text += "G1 X" + format_fixed(105 + 5 * std::cos(a), 3) + " Y" +
+              format_fixed(105 + 5 * std::sin(a), 3) + " Z" + format_fixed(z, 3) + " E0.05\n";
     }
   }
   const auto r = sim(text);
@@ -542,7 +590,8 @@ TEST(SlicerMarkers, SpiralVaseCountsTheSlicersLayersNotEveryZStep) {
 }
 
 TEST(SlicerMarkers, AMarkingSlicersFileWithoutMarkersSaysSo) {
-  const auto r = sim("; generated by PrusaSlicer 2.8.1 on 2024-10-21\nG28\nM109 S210\nM83\n" + square(0.2));
+  const auto r =
+      sim("; generated by PrusaSlicer 2.8.1 on 2024-10-21\nG28\nM109 S210\nM83\n" + square(0.2));
   EXPECT_TRUE(r.layers.empty());
   ASSERT_NE(find(r, "no_layer_markers"), nullptr);
   EXPECT_EQ(find(r, "no_layer_markers")->severity, Severity::warning);
@@ -550,8 +599,9 @@ TEST(SlicerMarkers, AMarkingSlicersFileWithoutMarkersSaysSo) {
 }
 
 TEST(SlicerMarkers, Simplify3DToolLineGivesHeightAndWidthHints) {
-  const auto ms = moves("G28\nM109 S210\nM83\n; feature outer perimeter\n; tool H0.250 W0.480\nG1 Z0.25\n"
-                        "G1 X20 Y20 E1 F1200\n");
+  const auto ms = moves(
+      "G28\nM109 S210\nM83\n; feature outer perimeter\n; tool H0.250 W0.480\nG1 Z0.25\n"
+      "G1 X20 Y20 E1 F1200\n");
   ASSERT_FALSE(ms.empty());
   EXPECT_EQ(ms.back().feature, Feature::outer_perimeter);
   EXPECT_FLOAT_EQ(ms.back().height_hint_mm, 0.25f);
@@ -597,8 +647,11 @@ long slicers_layer_count(const std::filesystem::path& path) {
   while (std::getline(in, line)) {
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.rfind("; total layer number: ", 0) == 0) stated = std::stol(line.substr(22));
-    if (line == ";LAYER_CHANGE" || line == "; CHANGE_LAYER" || line.rfind("; layer ", 0) == 0) ++markers;
-    if (line.rfind(";LAYER:", 0) == 0 && line.size() > 7 && (std::isdigit(line[7]) || line[7] == '-')) ++markers;
+    if (line == ";LAYER_CHANGE" || line == "; CHANGE_LAYER" || line.rfind("; layer ", 0) == 0)
+      ++markers;
+    if (line.rfind(";LAYER:", 0) == 0 && line.size() > 7 &&
+        (std::isdigit(line[7]) || line[7] == '-'))
+      ++markers;
     if (line.rfind("; BEGIN_LAYER_OBJECT z=", 0) == 0) object_layers.insert(line.substr(23));
   }
   markers += static_cast<long>(object_layers.size());
@@ -625,9 +678,10 @@ TEST(RealWorldGcode, LayersFilamentAndNoMacroErrorsOnEveryRealFile) {
     EXPECT_EQ(r->layers_from, "markers") << name;
     ASSERT_TRUE(r->slicer_filament_mm.has_value()) << name;
     const double s = *r->slicer_filament_mm;
-    const double off = std::min(std::fabs(r->filament_part_mm - s), std::fabs(r->filament_mm - s)) / s;
-    EXPECT_LT(off, 0.005) << name << ": part " << r->filament_part_mm << ", total " << r->filament_mm
-                          << ", slicer " << s;
+    const double off =
+        std::min(std::fabs(r->filament_part_mm - s), std::fabs(r->filament_mm - s)) / s;
+    EXPECT_LT(off, 0.005) << name << ": part " << r->filament_part_mm << ", total "
+                          << r->filament_mm << ", slicer " << s;
     EXPECT_TRUE(r->slicer_estimate_s.has_value()) << name;
     EXPECT_FALSE(r->slicer.empty()) << name;
   }

@@ -120,12 +120,12 @@ TEST(GcodeInterpreter, HomingStateMachineAtProfileFeedrates) {
   EXPECT_NEAR(m[0].end_mm.y(), 0.0, 1e-9);
   EXPECT_NEAR(m[0].feedrate_mm_s, std::hypot(20.0, 20.0), 1e-9);
   EXPECT_NEAR(m[1].end_mm.x(), 0.0, 1e-9);
-  EXPECT_NEAR(m[2].end_mm.x(), 5.0, 1e-9);   // bump back 5 mm
+  EXPECT_NEAR(m[2].end_mm.x(), 5.0, 1e-9);      // bump back 5 mm
   EXPECT_NEAR(m[3].feedrate_mm_s, 10.0, 1e-9);  // slow: 20 / 2
   EXPECT_NEAR(m[6].start_mm.z(), 10.0, 1e-9);   // Z last, from 10 mm
   EXPECT_NEAR(m[6].feedrate_mm_s, 4.0, 1e-9);
-  EXPECT_NEAR(m[7].end_mm.z(), 2.0, 1e-9);      // bump 2 mm
-  EXPECT_NEAR(m[8].feedrate_mm_s, 1.0, 1e-9);   // 4 / 4
+  EXPECT_NEAR(m[7].end_mm.z(), 2.0, 1e-9);     // bump 2 mm
+  EXPECT_NEAR(m[8].feedrate_mm_s, 1.0, 1e-9);  // 4 / 4
   EXPECT_NEAR(m.back().end_mm.norm(), 0.0, 1e-9);
 
   // Timing: the homing time is the sum of its trapezoids; Z alone needs at least 10/4 s.
@@ -152,8 +152,8 @@ TEST(GcodeInterpreter, SlicerTagsObjectsAndUnknownCommands) {
   EXPECT_FLOAT_EQ(at(11).width_hint_mm, 0.45f);
   EXPECT_FLOAT_EQ(at(11).height_hint_mm, 0.2f);
   EXPECT_EQ(at(11).object_id, 0);
-  EXPECT_EQ(at(15).feature, Feature::perimeter);  // Cura WALL-INNER
-  EXPECT_EQ(at(15).object_id, 1);                 // ;MESH:part_b.stl
+  EXPECT_EQ(at(15).feature, Feature::perimeter);      // Cura WALL-INNER
+  EXPECT_EQ(at(15).object_id, 1);                     // ;MESH:part_b.stl
   EXPECT_EQ(at(19).feature, Feature::sparse_infill);  // Orca "; FEATURE: Sparse infill"
   EXPECT_FLOAT_EQ(at(19).width_hint_mm, 0.42f);
   EXPECT_EQ(at(19).object_id, 2);  // EXCLUDE_OBJECT_START NAME=third
@@ -163,8 +163,7 @@ TEST(GcodeInterpreter, SlicerTagsObjectsAndUnknownCommands) {
   EXPECT_EQ(at(27).layer, 1);  // Z 0.4: the second layer
   EXPECT_EQ(at(11).layer, 0);
 
-  const auto r = sim_text(
-      "M104 S200\nM109 S200\nG28\nM7\nM7\nG26\nM7\n");
+  const auto r = sim_text("M104 S200\nM109 S200\nG28\nM7\nM7\nG26\nM7\n");
   ASSERT_EQ(r.unknown_commands.size(), 2u);
   EXPECT_EQ(r.unknown_commands.at("M7"), 3);
   EXPECT_EQ(r.unknown_commands.at("G26"), 1);
@@ -181,7 +180,8 @@ TEST(GcodeInterpreter, SlicerTagsObjectsAndUnknownCommands) {
 }
 
 TEST(GcodeInterpreter, OutOfBoundsIsClampedAndReported) {
-  auto r = simulate_gcode_file(test::source_path("tests/data/gcode/out_of_bounds.gcode"), ender3_marlin2(), {});
+  auto r = simulate_gcode_file(test::source_path("tests/data/gcode/out_of_bounds.gcode"),
+                               ender3_marlin2(), {});
   ASSERT_TRUE(r.ok());
   const Finding* f = find(*r, "out_of_bounds");
   ASSERT_NE(f, nullptr);
@@ -193,7 +193,8 @@ TEST(GcodeInterpreter, OutOfBoundsIsClampedAndReported) {
 }
 
 TEST(GcodeInterpreter, MovesBeforeHomingAndColdExtrusion) {
-  auto r = simulate_gcode_file(test::source_path("tests/data/gcode/before_homing_cold.gcode"), ender3_marlin2(), {});
+  auto r = simulate_gcode_file(test::source_path("tests/data/gcode/before_homing_cold.gcode"),
+                               ender3_marlin2(), {});
   ASSERT_TRUE(r.ok());
   const Finding* h = find(*r, "move_before_homing");
   ASSERT_NE(h, nullptr);
@@ -208,21 +209,22 @@ TEST(GcodeInterpreter, MovesBeforeHomingAndColdExtrusion) {
 
   SimulateOptions lenient;
   lenient.interpreter.prevent_cold_extrusion = false;
-  auto r2 = simulate_gcode_file(test::source_path("tests/data/gcode/before_homing_cold.gcode"), ender3_marlin2(), lenient);
+  auto r2 = simulate_gcode_file(test::source_path("tests/data/gcode/before_homing_cold.gcode"),
+                                ender3_marlin2(), lenient);
   ASSERT_TRUE(r2.ok());
   EXPECT_NEAR(r2->filament_mm, 4.0, 1e-9);
 }
 
 TEST(GcodeInterpreter, BadInputIsAWarningWithLineOrAnErrorInStrictMode) {
   std::string text = "M104 S200\nM109 S200\nG28\nM83\n";
-  text += "G1 Z[next_layer_z] F600\n";             // 5: placeholder
-  text += std::string("G1 X\x01\x02\xfe\n", 8);   // 6: binary garbage
-  text += "G1 X10 Y10 Z0.2 F0\n";                 // 7: zero feedrate
-  text += "G1 X20 F-100\n";                       // 8: negative feedrate
-  text += "G1 X1e308\n";                          // 9: out of range
-  text += "G1 X30 E-5000\n";                      // 10: E backwards by metres
+  text += "G1 Z[next_layer_z] F600\n";              // 5: placeholder
+  text += std::string("G1 X\x01\x02\xfe\n", 8);     // 6: binary garbage
+  text += "G1 X10 Y10 Z0.2 F0\n";                   // 7: zero feedrate
+  text += "G1 X20 F-100\n";                         // 8: negative feedrate
+  text += "G1 X1e308\n";                            // 9: out of range
+  text += "G1 X30 E-5000\n";                        // 10: E backwards by metres
   text += "; " + std::string(1 << 20, 'x') + "\n";  // 11: 1 MB line
-  text += "G1 X40 E1";                            // 12: file ends mid-line
+  text += "G1 X40 E1";                              // 12: file ends mid-line
   const auto r = sim_text(text);
   std::map<long, std::string> by_line;
   for (const auto& f : r.findings)

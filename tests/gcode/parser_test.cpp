@@ -90,7 +90,8 @@ TEST(GcodeParser, RejectsPlaceholdersNonFiniteAndGarbage) {
   EXPECT_NE(parse_fail("G1 X0 Y{machine_depth}").find("placeholder"), std::string::npos);
   EXPECT_NE(parse_fail("G1 Xnan").find("not a number"), std::string::npos);
   EXPECT_NE(parse_fail("G1 Xinf").find("not a number"), std::string::npos);
-  EXPECT_NE(parse_fail("G1 X20 Yabc E1").find("expected a number after Y, found 'a'"), std::string::npos);
+  EXPECT_NE(parse_fail("G1 X20 Yabc E1").find("expected a number after Y, found 'a'"),
+            std::string::npos);
   EXPECT_NE(parse_fail("G0 XY").find("expected a number after X"), std::string::npos);
   EXPECT_NE(parse_fail("G1 X1e308").find("out of range"), std::string::npos);
   EXPECT_NE(parse_fail("G1 X1e400").find("out of range"), std::string::npos);
@@ -99,7 +100,8 @@ TEST(GcodeParser, RejectsPlaceholdersNonFiniteAndGarbage) {
   EXPECT_NE(parse_fail("Q5").find("expected a command"), std::string::npos);
   EXPECT_NE(parse_fail("G X1").find("without a number"), std::string::npos);
   // The message quotes the line so that a user can find it.
-  EXPECT_NE(parse_fail("G1 Z[next_layer_z] F600").find("G1 Z[next_layer_z] F600"), std::string::npos);
+  EXPECT_NE(parse_fail("G1 Z[next_layer_z] F600").find("G1 Z[next_layer_z] F600"),
+            std::string::npos);
 }
 
 TEST(GcodeParser, RandomBytesNeverCrashAndAlwaysAnswer) {
@@ -128,7 +130,7 @@ TEST(GcodeParser, RandomBytesNeverCrashAndAlwaysAnswer) {
 TEST(GcodeLineReader, CrLfLastLineAndOverlongLine) {
   std::string text = "G1 X1\r\nG1 X2\n";
   text += "; " + std::string(1 << 20, 'A') + "\n";  // a 1 MB line
-  text += "G1 X3";                                    // no final newline
+  text += "G1 X3";                                  // no final newline
   std::istringstream in(text);
   GcodeLineReader reader(in);
   std::string_view line;

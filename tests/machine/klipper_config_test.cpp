@@ -59,9 +59,10 @@ const char* kPrinter =
 TEST(KlipperConfig, ReadsPrinterSteppersExtruderIncludesAndSaveConfig) {
   const auto dir = test::temp_dir("klipper_cfg");
   write(dir / "printer.cfg", kPrinter);
-  write(dir / "hardware.cfg",
-        "[extruder]\nnozzle_diameter: 0.4\nfilament_diameter: 1.75\nmax_extrude_only_velocity: 120\n"
-        "min_extrude_temp: 180\n");
+  write(
+      dir / "hardware.cfg",
+      "[extruder]\nnozzle_diameter: 0.4\nfilament_diameter: 1.75\nmax_extrude_only_velocity: 120\n"
+      "min_extrude_temp: 180\n");
   write(dir / "macros" / "a.cfg", "[gcode_macro A]\ngcode:\n  M117 a\n");
   write(dir / "macros" / "b.cfg", "[gcode_macro B]\ngcode:\n  M117 b\n");
   auto secs = read_klipper_config(dir / "printer.cfg");
@@ -110,31 +111,43 @@ TEST(KlipperConfig, BadInputNamesTheFileAndLine) {
     return p ? std::string("no error") : p.error().describe();
   };
   const std::string steppers =
-      "[stepper_x]\nposition_max: 200\n[stepper_y]\nposition_max: 200\n[stepper_z]\nposition_max: 200\n";
-  EXPECT_NE(error_of("[printer]\nkinematics: corexy\nmax_velocity: fast\nmax_accel: 1000\n" + steppers)
-                .find("printer.cfg:3: [printer] max_velocity: expected a number, got \"fast\""),
+      "[stepper_x]\nposition_max: 200\n[stepper_y]\nposition_max: 200\n[stepper_z]\nposition_max: "
+      "200\n";
+  EXPECT_NE(
+      error_of("[printer]\nkinematics: corexy\nmax_velocity: fast\nmax_accel: 1000\n" + steppers)
+          .find("printer.cfg:3: [printer] max_velocity: expected a number, got \"fast\""),
+      std::string::npos);
+  EXPECT_NE(
+      error_of("[printer]\nkinematics: corexy\nmax_velocity: 0x10\nmax_accel: 1000\n" + steppers)
+          .find("printer.cfg:3"),
+      std::string::npos);
+  EXPECT_NE(error_of("max_velocity: 300\n")
+                .find("printer.cfg:1: option \"max_velocity\" outside any [section]"),
             std::string::npos);
-  EXPECT_NE(error_of("[printer]\nkinematics: corexy\nmax_velocity: 0x10\nmax_accel: 1000\n" + steppers)
-                .find("printer.cfg:3"),
+  EXPECT_NE(error_of("[include missing.cfg]\n")
+                .find("printer.cfg:1: [include missing.cfg]: no such file"),
             std::string::npos);
-  EXPECT_NE(error_of("max_velocity: 300\n").find("printer.cfg:1: option \"max_velocity\" outside any [section]"),
+  EXPECT_NE(error_of("[printer]\nkinematics: delta\nmax_velocity: 300\nmax_accel: 1000\n")
+                .find("delta is not simulated"),
             std::string::npos);
-  EXPECT_NE(error_of("[include missing.cfg]\n").find("printer.cfg:1: [include missing.cfg]: no such file"),
+  EXPECT_NE(error_of("[printer]\nkinematics: corexy\nmax_accel: 1000\n" + steppers)
+                .find("no max_velocity"),
             std::string::npos);
-  EXPECT_NE(error_of("[printer]\nkinematics: delta\nmax_velocity: 300\nmax_accel: 1000\n").find("delta is not simulated"),
+  EXPECT_NE(
+      error_of("[printer]\nkinematics: corexy\nmax_velocity: 300\nmax_accel: 1000\n[stepper_x]\n")
+          .find("[stepper_x] has no position_max"),
+      std::string::npos);
+  EXPECT_NE(error_of("[printer\n").find("printer.cfg:1: expected \"[section]\""),
             std::string::npos);
-  EXPECT_NE(error_of("[printer]\nkinematics: corexy\nmax_accel: 1000\n" + steppers).find("no max_velocity"),
+  EXPECT_NE(error_of("[printer]\njust words\n").find("printer.cfg:2: expected \"key: value\""),
             std::string::npos);
-  EXPECT_NE(error_of("[printer]\nkinematics: corexy\nmax_velocity: 300\nmax_accel: 1000\n[stepper_x]\n").find(
-                "[stepper_x] has no position_max"),
-            std::string::npos);
-  EXPECT_NE(error_of("[printer\n").find("printer.cfg:1: expected \"[section]\""), std::string::npos);
-  EXPECT_NE(error_of("[printer]\njust words\n").find("printer.cfg:2: expected \"key: value\""), std::string::npos);
   // Each option in range, but the Z range makes a 0.27 mm tall printer (found by
   // klipper_cfg_fuzz): refused with the option's line, as a .json profile would be.
-  EXPECT_NE(error_of("[printer]\nkinematics: corexy\nmax_velocity: 300\nmax_accel: 1000\n[stepper_x]\nposition_max: "
+  EXPECT_NE(error_of("[printer]\nkinematics: corexy\nmax_velocity: 300\nmax_accel: "
+                     "1000\n[stepper_x]\nposition_max: "
                      "200\n[stepper_y]\nposition_max: 200\n[stepper_z]\nposition_max: .27\n")
-                .find("printer.cfg:10: the printer this config describes is not simulated: key \"max_z_mm\": value 0.27 "
+                .find("printer.cfg:10: the printer this config describes is not simulated: key "
+                      "\"max_z_mm\": value 0.27 "
                       "outside [1, 2000]"),
             std::string::npos);
   write(dir / "loop.cfg", "[include printer.cfg]\n");
@@ -151,7 +164,8 @@ TEST(KlipperConfig, TheRepositorysEnder3ConfigNumbers) {
         "[stepper_y]\nposition_endstop: 0\nposition_max: 235\nhoming_speed: 50\n"
         "[stepper_z]\nposition_endstop: 0.0\nposition_max: 250\n"
         "[extruder]\nnozzle_diameter: 0.400\nfilament_diameter: 1.750\n"
-        "[printer]\nkinematics: cartesian\nmax_velocity: 300\nmax_accel: 3000\nmax_z_velocity: 5\nmax_z_accel: 100\n");
+        "[printer]\nkinematics: cartesian\nmax_velocity: 300\nmax_accel: 3000\nmax_z_velocity: "
+        "5\nmax_z_accel: 100\n");
   auto p = load_printer_profile((dir / "printer.cfg").string());
   ASSERT_TRUE(p) << p.error().describe();
   EXPECT_EQ(p->bed_max_x_mm, 235);
@@ -164,15 +178,21 @@ TEST(KlipperConfig, SimulateWithAPrinterCfg) {
   const auto dir = test::temp_dir("klipper_cfg_cli");
   write(dir / "printer.cfg",
         "[printer]\nkinematics: corexy\nmax_velocity: 250\nmax_accel: 4000\n"
-        "[stepper_x]\nposition_max: 120\n[stepper_y]\nposition_max: 120\n[stepper_z]\nposition_max: 120\n");
+        "[stepper_x]\nposition_max: 120\n[stepper_y]\nposition_max: "
+        "120\n[stepper_z]\nposition_max: 120\n");
   write(dir / "part.gcode", "G28\nG1 X100 Y100 Z1 F6000\nG1 X130 Y10\n");
-  const auto run = test::run_cli("simulate --printer " + (dir / "printer.cfg").string() + " " + (dir / "part.gcode").string());
-  EXPECT_NE(run.out.find("printer       Klipper corexy printer (printer.cfg)"), std::string::npos) << run.out;
-  EXPECT_NE(run.out.find("out_of_bounds"), std::string::npos) << run.out;  // X 130 on a 120 mm printer
+  const auto run = test::run_cli("simulate --printer " + (dir / "printer.cfg").string() + " " +
+                                 (dir / "part.gcode").string());
+  EXPECT_NE(run.out.find("printer       Klipper corexy printer (printer.cfg)"), std::string::npos)
+      << run.out;
+  EXPECT_NE(run.out.find("out_of_bounds"), std::string::npos)
+      << run.out;  // X 130 on a 120 mm printer
   write(dir / "bad.cfg", "[printer]\nkinematics: corexy\nmax_velocity: -\n");
-  const auto bad = test::run_cli("simulate --printer " + (dir / "bad.cfg").string() + " " + (dir / "part.gcode").string());
+  const auto bad = test::run_cli("simulate --printer " + (dir / "bad.cfg").string() + " " +
+                                 (dir / "part.gcode").string());
   EXPECT_EQ(bad.exit_code, 3);
-  EXPECT_NE(bad.err.find("bad.cfg:3: [printer] max_velocity: expected a number"), std::string::npos) << bad.err;
+  EXPECT_NE(bad.err.find("bad.cfg:3: [printer] max_velocity: expected a number"), std::string::npos)
+      << bad.err;
 }
 
 }  // namespace

@@ -19,18 +19,21 @@ struct Recorder final : MoveSink {
   std::vector<MotionSegment> segments;
   std::vector<std::pair<double, double>> waits;  // start, duration
   void on_segment(const MotionSegment& s) override { segments.push_back(s); }
-  void on_wait(double start, double duration, bool, long) override { waits.emplace_back(start, duration); }
+  void on_wait(double start, double duration, bool, long) override {
+    waits.emplace_back(start, duration);
+  }
 };
 
 double profile_distance(const MotionSegment& s) {
   const double ta = s.accel_time_s, tc = s.cruise_time_s, td = s.decel_time_s, a = s.accel_mm_s2;
-  return s.start_speed_mm_s * ta + 0.5 * a * ta * ta + s.cruise_speed_mm_s * tc + s.cruise_speed_mm_s * td -
-         0.5 * a * td * td;
+  return s.start_speed_mm_s * ta + 0.5 * a * ta * ta + s.cruise_speed_mm_s * tc +
+         s.cruise_speed_mm_s * td - 0.5 * a * td * td;
 }
 
 /// Checks every invariant on a recorded simulation. `limits` are the limits in force
 /// (the fixtures do not change them mid-file except M204 P, which is <= the limits used).
-void check_invariants(const Recorder& rec, const MotionLimits& limits, double clock_s, bool continuous) {
+void check_invariants(const Recorder& rec, const MotionLimits& limits, double clock_s,
+                      bool continuous) {
   ASSERT_FALSE(rec.segments.empty());
   double total = 0;
   std::size_t wait_i = 0;
@@ -48,7 +51,8 @@ void check_invariants(const Recorder& rec, const MotionLimits& limits, double cl
     t = s.end_time_s();
     total += s.duration_s();
     // Trapezoid: covers exactly its length, speeds ordered.
-    EXPECT_NEAR(profile_distance(s), s.length_mm, 1e-6 * std::max(1.0, s.length_mm)) << "line " << s.line;
+    EXPECT_NEAR(profile_distance(s), s.length_mm, 1e-6 * std::max(1.0, s.length_mm))
+        << "line " << s.line;
     EXPECT_LE(s.cruise_speed_mm_s, s.nominal_speed_mm_s + 1e-9);
     EXPECT_LE(s.start_speed_mm_s, s.cruise_speed_mm_s + 1e-9);
     EXPECT_LE(s.end_speed_mm_s, s.cruise_speed_mm_s + 1e-9);
@@ -57,11 +61,14 @@ void check_invariants(const Recorder& rec, const MotionLimits& limits, double cl
     if (s.kind != MoveKind::home) {
       for (int i = 0; i < 3; ++i) {
         const double u = std::fabs(s.end_mm[i] - s.start_mm[i]) / s.length_mm;
-        EXPECT_LE(u * s.cruise_speed_mm_s, limits.max_feedrate_mm_s[i] * (1 + 1e-9)) << "axis " << i << " line " << s.line;
-        EXPECT_LE(u * s.accel_mm_s2, limits.max_accel_mm_s2[i] * (1 + 1e-9)) << "axis " << i << " line " << s.line;
+        EXPECT_LE(u * s.cruise_speed_mm_s, limits.max_feedrate_mm_s[i] * (1 + 1e-9))
+            << "axis " << i << " line " << s.line;
+        EXPECT_LE(u * s.accel_mm_s2, limits.max_accel_mm_s2[i] * (1 + 1e-9))
+            << "axis " << i << " line " << s.line;
       }
       const double ue = std::fabs(s.e_mm) / s.length_mm;
-      EXPECT_LE(ue * s.cruise_speed_mm_s, limits.max_feedrate_mm_s[3] * (1 + 1e-9)) << "E, line " << s.line;
+      EXPECT_LE(ue * s.cruise_speed_mm_s, limits.max_feedrate_mm_s[3] * (1 + 1e-9))
+          << "E, line " << s.line;
       if (xyz > 0) {
         EXPECT_LE(ue * s.accel_mm_s2, limits.max_accel_mm_s2[3] * (1 + 1e-9));
       }
@@ -69,7 +76,8 @@ void check_invariants(const Recorder& rec, const MotionLimits& limits, double cl
     // Continuity: the next segment starts at the speed this one ends with.
     if (continuous && k + 1 < rec.segments.size() &&
         std::fabs(rec.segments[k + 1].start_time_s - s.end_time_s()) < 1e-9) {
-      EXPECT_NEAR(rec.segments[k + 1].start_speed_mm_s, s.end_speed_mm_s, 1e-9) << "line " << s.line;
+      EXPECT_NEAR(rec.segments[k + 1].start_speed_mm_s, s.end_speed_mm_s, 1e-9)
+          << "line " << s.line;
     }
   }
   for (; wait_i < rec.waits.size(); ++wait_i) total += rec.waits[wait_i].second;
@@ -100,8 +108,9 @@ TEST_P(PlannerOnFixture, InvariantsHoldWithClassicJerk) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Fixtures, PlannerOnFixture,
-                         ::testing::Values("prusa_cube10.gcode", "prusa_curved_part.gcode", "cura_cube10.gcode",
-                                           "slic3r_cube10.gcode", "seed_square_box.gcode"));
+                         ::testing::Values("prusa_cube10.gcode", "prusa_curved_part.gcode",
+                                           "cura_cube10.gcode", "slic3r_cube10.gcode",
+                                           "seed_square_box.gcode"));
 
 Move line_move(const Vec3& a, const Vec3& b, double f, double e = 0) {
   Move m;
@@ -184,7 +193,8 @@ TEST(Planner, ShortSegmentsOfACurveShareTheArcSpeed) {
   const double seg = 2 * 10 * std::sin(M_PI / 72);
   const double theta = 2 * M_PI / 72;
   double vmax = 0;
-  for (std::size_t k = 10; k + 10 < rec.segments.size(); ++k) vmax = std::max(vmax, rec.segments[k].end_speed_mm_s);
+  for (std::size_t k = 10; k + 10 < rec.segments.size(); ++k)
+    vmax = std::max(vmax, rec.segments[k].end_speed_mm_s);
   // (Junction deviation alone would allow ~205 mm/s at these 5 degree corners.)
   const double expected = std::sqrt(500 * seg / theta);
   EXPECT_NEAR(vmax, expected, 0.005 * expected);
@@ -205,7 +215,8 @@ TEST(Planner, WindowBoundsMemoryAndClassicJerkStartsAtSafeSpeed) {
   // Reversals at 50 mm/s with 10 mm/s X jerk: the safe speed is 10 mm/s and no junction
   // is faster (a reversal's jerk is the larger of both speeds).
   EXPECT_NEAR(rec.segments.front().start_speed_mm_s, 10.0, 1e-9);
-  for (std::size_t k = 1; k + 1 < rec.segments.size(); ++k) EXPECT_LE(rec.segments[k].end_speed_mm_s, 10.0 + 1e-9);
+  for (std::size_t k = 1; k + 1 < rec.segments.size(); ++k)
+    EXPECT_LE(rec.segments[k].end_speed_mm_s, 10.0 + 1e-9);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -231,8 +242,9 @@ std::vector<MotionSegment> plan(const MotionLimits& limits, std::initializer_lis
 
 TEST(KlipperPlanner, SquareCornerVelocityStaysConstantWhenTheAccelerationChanges) {
   for (double accel : {1000.0, 3000.0, 20000.0}) {
-    const auto seg = plan(klipper_limits(accel), {line_move(Vec3(0, 0, 0), Vec3(100, 0, 0), 200),
-                                                  line_move(Vec3(100, 0, 0), Vec3(100, 100, 0), 200)});
+    const auto seg =
+        plan(klipper_limits(accel), {line_move(Vec3(0, 0, 0), Vec3(100, 0, 0), 200),
+                                     line_move(Vec3(100, 0, 0), Vec3(100, 100, 0), 200)});
     ASSERT_EQ(seg.size(), 2u);
     // 90 degrees: the junction deviation scv^2 (sqrt2 - 1) / a makes v = scv = 5 mm/s.
     EXPECT_NEAR(seg[0].end_speed_mm_s, 5.0, 1e-9) << accel;
@@ -266,7 +278,8 @@ TEST(KlipperPlanner, JunctionSpeedIsCappedByTheLengthsOfBothMoves) {
   const Vec3 a(0, 0, 0), b(50, 0, 0);
   const Vec3 c = b + 0.1 * Vec3(std::cos(dev), std::sin(dev), 0);
   const Vec3 d = c + 50 * Vec3(std::cos(2 * dev), std::sin(2 * dev), 0);
-  const auto seg = plan(klipper_limits(), {line_move(a, b, 200), line_move(b, c, 200), line_move(c, d, 200)});
+  const auto seg =
+      plan(klipper_limits(), {line_move(a, b, 200), line_move(b, c, 200), line_move(c, d, 200)});
   ASSERT_EQ(seg.size(), 3u);
   const double expected = std::sqrt(0.5 * 0.1 * 3000 * std::tan(0.5 * (M_PI - dev)));
   EXPECT_NEAR(seg[0].end_speed_mm_s, expected, 1e-9);
@@ -322,7 +335,8 @@ TEST(KlipperPlanner, ExtrudeOnlyMovesUseTheExtruderLimits) {
 }
 
 TEST(KlipperPlanner, ZMovesAreLimitedByMaxZVelocityAndAccel) {
-  const auto seg = plan(klipper_limits(), {line_move(Vec3(0, 0, 0), Vec3(3, 0, 4), 100)});  // 4 of 5 mm in Z
+  const auto seg =
+      plan(klipper_limits(), {line_move(Vec3(0, 0, 0), Vec3(3, 0, 4), 100)});  // 4 of 5 mm in Z
   ASSERT_EQ(seg.size(), 1u);
   EXPECT_NEAR(seg[0].nominal_speed_mm_s, 5.0 * 5 / 4, 1e-12);
   EXPECT_NEAR(seg[0].accel_mm_s2, 100.0 * 5 / 4, 1e-12);
@@ -364,7 +378,8 @@ TEST(KlipperPlanner, LimitsThatAreNotPositiveLimitNothing) {
   l.max_feedrate_mm_s.setZero();
   l.max_accel_mm_s2.setZero();
   l.max_extrude_only_velocity_mm_s = l.max_extrude_only_accel_mm_s2 = 0;
-  const auto seg = plan(l, {line_move(Vec3(0, 0, 0), Vec3(30, 0, 4), 100, 1), line_move(Vec3(30, 0, 4), Vec3(30, 0, 4), 30, -1)});
+  const auto seg = plan(l, {line_move(Vec3(0, 0, 0), Vec3(30, 0, 4), 100, 1),
+                            line_move(Vec3(30, 0, 4), Vec3(30, 0, 4), 30, -1)});
   ASSERT_EQ(seg.size(), 2u);
   for (const auto& s : seg) {
     EXPECT_TRUE(std::isfinite(s.duration_s()));
@@ -378,11 +393,12 @@ TEST(KlipperPlanner, MatchesKlippersOwnPlannerOnTheSamples) {
   // Reference: Klipper (klippy/toolhead.py, 2026) in batch mode with the numbers of the
   // ender3-klipper profile, summing accel_t + cruise_t + decel_t of every move its
   // look-ahead queue released (docs/simulate.md, "Klipper's planner against Klipper").
-  const std::pair<const char*, double> reference[] = {
-      {"cura_cube10.gcode", 332.659372284}, {"slic3r_cube10.gcode", 381.115914979},
-      {"seed_square_box.gcode", 37.663976913}};
+  const std::pair<const char*, double> reference[] = {{"cura_cube10.gcode", 332.659372284},
+                                                      {"slic3r_cube10.gcode", 381.115914979},
+                                                      {"seed_square_box.gcode", 37.663976913}};
   for (const auto& [file, klipper_s] : reference) {
-    auto r = simulate_gcode_file(test::source_path(std::string("samples/gcode/") + file), ender3_klipper(), {});
+    auto r = simulate_gcode_file(test::source_path(std::string("samples/gcode/") + file),
+                                 ender3_klipper(), {});
     ASSERT_TRUE(r.ok()) << r.error().describe();
     EXPECT_NEAR(r->motion_time_s, klipper_s, 1e-6 * klipper_s) << file;
   }
@@ -399,11 +415,14 @@ TEST_P(PlannerOnFixture, KlipperSegmentsAreContinuousAndAddUpToTheClock) {
   for (std::size_t k = 0; k < rec.segments.size(); ++k) {
     const MotionSegment& s = rec.segments[k];
     total += s.duration_s();
-    EXPECT_NEAR(profile_distance(s), s.length_mm, 1e-6 * std::max(1.0, s.length_mm)) << "line " << s.line;
+    EXPECT_NEAR(profile_distance(s), s.length_mm, 1e-6 * std::max(1.0, s.length_mm))
+        << "line " << s.line;
     EXPECT_LE(s.cruise_speed_mm_s, s.nominal_speed_mm_s + 1e-9);
     EXPECT_LE(s.cruise_speed_mm_s, 300 + 1e-9);
-    if (k + 1 < rec.segments.size() && std::fabs(rec.segments[k + 1].start_time_s - s.end_time_s()) < 1e-9) {
-      EXPECT_NEAR(rec.segments[k + 1].start_speed_mm_s, s.end_speed_mm_s, 1e-6) << "line " << s.line;
+    if (k + 1 < rec.segments.size() &&
+        std::fabs(rec.segments[k + 1].start_time_s - s.end_time_s()) < 1e-9) {
+      EXPECT_NEAR(rec.segments[k + 1].start_speed_mm_s, s.end_speed_mm_s, 1e-6)
+          << "line " << s.line;
     }
   }
   EXPECT_NEAR(total, r->print_time_s, 1e-6 * r->print_time_s);
@@ -416,12 +435,15 @@ MotionLimits orca_limits() {
   // A config block as these slicers write it (speeds as machine_max_speed_*, "normal,silent").
   const std::string block =
       "; HEADER_BLOCK_START\n; CONFIG_BLOCK_START\n"
-      "; machine_max_acceleration_e = 5000,5000\n; machine_max_acceleration_extruding = 20000,20000\n"
-      "; machine_max_acceleration_retracting = 5000,5000\n; machine_max_acceleration_travel = 9000,9000\n"
+      "; machine_max_acceleration_e = 5000,5000\n; machine_max_acceleration_extruding = "
+      "20000,20000\n"
+      "; machine_max_acceleration_retracting = 5000,5000\n; machine_max_acceleration_travel = "
+      "9000,9000\n"
       "; machine_max_acceleration_x = 20000,20000\n; machine_max_acceleration_y = 20000,20000\n"
       "; machine_max_acceleration_z = 500,500\n; machine_max_jerk_e = 2.5,2.5\n"
       "; machine_max_jerk_x = 12,12\n; machine_max_jerk_y = 12,12\n; machine_max_jerk_z = 2,2\n"
-      "; machine_max_speed_e = 100,100\n; machine_max_speed_x = 800,800\n; machine_max_speed_y = 800,800\n"
+      "; machine_max_speed_e = 100,100\n; machine_max_speed_x = 800,800\n; machine_max_speed_y = "
+      "800,800\n"
       "; machine_max_speed_z = 20,20\n; CONFIG_BLOCK_END\n";
   auto l = limits_from_prusaslicer_config(block, motion_limits_from_profile(ender3_klipper()));
   EXPECT_TRUE(l.ok());
@@ -444,7 +466,8 @@ TEST(OrcaEstimator, ReadsTheOrcaConfigBlockAndItsKeys) {
       "; machine_max_acceleration_e = 5000\n; machine_max_acceleration_extruding = 1250\n"
       "; machine_max_acceleration_retracting = 1250\n; machine_max_acceleration_travel = 1250\n"
       "; machine_max_acceleration_x = 1000\n; machine_max_acceleration_y = 1000\n"
-      "; machine_max_acceleration_z = 200\n; machine_max_feedrate_e = 120\n; machine_max_feedrate_x = 200\n"
+      "; machine_max_acceleration_z = 200\n; machine_max_feedrate_e = 120\n; "
+      "machine_max_feedrate_x = 200\n"
       "; machine_max_feedrate_y = 200\n; machine_max_feedrate_z = 12\n; machine_max_jerk_x = 8\n",
       MotionLimits{});
   ASSERT_TRUE(prusa.ok());
@@ -470,7 +493,8 @@ TEST(OrcaEstimator, GentleBendsAreCappedByTheCircleThroughTheMove) {
   // of the circle through the 0.5 mm chord and the bend.
   const double dev = 10 * M_PI / 180;
   const Vec3 b(50, 0, 0), c = b + 0.5 * Vec3(std::cos(dev), std::sin(dev), 0);
-  const auto seg = plan(orca_limits(), {line_move(Vec3(0, 0, 0), b, 400, 2), line_move(b, c, 400, 0.1)});
+  const auto seg =
+      plan(orca_limits(), {line_move(Vec3(0, 0, 0), b, 400, 2), line_move(b, c, 400, 0.1)});
   ASSERT_EQ(seg.size(), 2u);
   const double r = 0.5 * 0.5 / std::sin(dev / 2);
   EXPECT_NEAR(seg[1].nominal_speed_mm_s, std::sqrt(20000 * r), 1e-6);
@@ -510,7 +534,8 @@ TEST(SlicerEstimate, RealPrusaSlicerFileWithinTwoPercentOfItsEstimate) {
   std::filesystem::path file;
   for (const auto& entry : std::filesystem::directory_iterator(*dir / "gcode")) {
     const std::string name = entry.path().filename().string();
-    if (name.rfind("prusaslicer-", 0) == 0 && entry.path().extension() == ".gcode") file = entry.path();
+    if (name.rfind("prusaslicer-", 0) == 0 && entry.path().extension() == ".gcode")
+      file = entry.path();
   }
   if (file.empty()) GTEST_SKIP() << "no PrusaSlicer text G-code in " << dir->string();
   SimulateOptions o;

@@ -137,7 +137,8 @@ TEST(PrinterAuto, BambuStudioConfigBlockAtTheHead) {
   const auto r = resolve(kBambuK1Max);
   EXPECT_EQ(r.settings.slicer, "BambuStudio");
   EXPECT_EQ(r.settings.slicer_version, "01.10.02.76");
-  EXPECT_EQ(r.settings.find("filament_diameter")->value, "1.75");  // the HEADER_BLOCK's "key: value"
+  EXPECT_EQ(r.settings.find("filament_diameter")->value,
+            "1.75");  // the HEADER_BLOCK's "key: value"
   const auto& p = r.profile;
   EXPECT_EQ(p.origin.library_id, "creality-k1-max");
   EXPECT_EQ(p.firmware, "klipper");
@@ -180,9 +181,12 @@ TEST(PrinterAuto, CuraHeaderAndSetting3) {
       ";Generated with Cura_SteamEngine 5.4.0\n"
       "M140 S60\n"
       "G1 X1 Y1\n"
-      ";SETTING_3 {\"global_quality\": \"[general]\\\\nversion = 4\\\\nname = Draft\\\\n\\\\n[values]\\\\nmach\n"
-      ";SETTING_3 ine_width = 300\\\\nmachine_depth = 310\\\\nmachine_height = 400\\\\nmachine_center_is_zero\n"
-      ";SETTING_3  = True\\\\nmaterial_diameter = 2.85\\\\nmaterial_print_temperature_layer_0 = 215\\\\n\\\\n\"}\n";
+      ";SETTING_3 {\"global_quality\": \"[general]\\\\nversion = 4\\\\nname = "
+      "Draft\\\\n\\\\n[values]\\\\nmach\n"
+      ";SETTING_3 ine_width = 300\\\\nmachine_depth = 310\\\\nmachine_height = "
+      "400\\\\nmachine_center_is_zero\n"
+      ";SETTING_3  = True\\\\nmaterial_diameter = 2.85\\\\nmaterial_print_temperature_layer_0 = "
+      "215\\\\n\\\\n\"}\n";
   const auto r = resolve(text);
   EXPECT_EQ(r.settings.slicer, "Cura");
   EXPECT_EQ(r.settings.slicer_version, "5.4.0");
@@ -357,9 +361,11 @@ TEST(PrinterAuto, GarbageAndTruncatedFilesIdentifyNothingAndDoNotCrash) {
     x = x * 1664525u + 1013904223u;
     bytes += static_cast<char>(x >> 24);
   }
-  const std::string bg = std::string("GCDE\x01\x00\x00\x00\x01\x00", 10) + "\x03\x00\x00\x00\xff\xff\xff\x7f";
-  for (const std::string& text : {bytes, std::string("GCDE"), bg, bg + bytes, std::string(";SETTING_3 {\\n[values]\\n"),
-                                  std::string("; CONFIG_BLOCK_START\n; = \n;=\n; a =\n")}) {
+  const std::string bg =
+      std::string("GCDE\x01\x00\x00\x00\x01\x00", 10) + "\x03\x00\x00\x00\xff\xff\xff\x7f";
+  for (const std::string& text :
+       {bytes, std::string("GCDE"), bg, bg + bytes, std::string(";SETTING_3 {\\n[values]\\n"),
+        std::string("; CONFIG_BLOCK_START\n; = \n;=\n; a =\n")}) {
     const auto path = dir / "f.gcode";
     std::ofstream(path, std::ios::binary) << text;
     auto r = resolve_printer("auto", path);
@@ -389,9 +395,10 @@ TEST(PrinterLibrary, EveryProfileLoadsAndCitesItsSources) {
       EXPECT_EQ(m->id, p.id) << a;
     }
   }
-  for (const char* id : {"prusa-mk3s", "prusa-mk4", "prusa-mk4s", "prusa-mini", "prusa-core-one", "bambu-x1c",
-                         "bambu-p1s", "bambu-a1", "bambu-a1-mini", "creality-ender3-v2", "creality-ender3-v3-se",
-                         "creality-k1", "creality-k1-max", "voron-2.4-350", "voron-trident-300", "voron-0.2"})
+  for (const char* id :
+       {"prusa-mk3s", "prusa-mk4", "prusa-mk4s", "prusa-mini", "prusa-core-one", "bambu-x1c",
+        "bambu-p1s", "bambu-a1", "bambu-a1-mini", "creality-ender3-v2", "creality-ender3-v3-se",
+        "creality-k1", "creality-k1-max", "voron-2.4-350", "voron-trident-300", "voron-0.2"})
     EXPECT_NE(find_library_printer(id), nullptr) << id;
 }
 
@@ -468,7 +475,9 @@ TEST(PrinterCli, PrintersCommandAndAutoDefault) {
     out << kBambuK1Max << "G28\nG1 X290 Y290 Z5 F6000\n";
   }
   const auto sim = test::run_cli("simulate " + path.string());
-  EXPECT_NE(sim.out.find("printer       Creality K1 Max (library creality-k1-max"), std::string::npos) << sim.out;
+  EXPECT_NE(sim.out.find("printer       Creality K1 Max (library creality-k1-max"),
+            std::string::npos)
+      << sim.out;
   EXPECT_EQ(sim.out.find("out_of_bounds"), std::string::npos) << sim.out;
   const auto small = test::run_cli("simulate --printer ender3 " + path.string());
   EXPECT_NE(small.out.find("printer_mismatch"), std::string::npos) << small.out;
@@ -488,14 +497,16 @@ TEST(PrinterRealWorld, EveryFileGetsItsOwnPrinter) {
     const char* firmware;
   };
   const Expect expect[] = {
-      {"bambustudio-1.10.02.76_K1Max_klipper_arcs.gcode", "BambuStudio", "creality-k1-max", "klipper"},
+      {"bambustudio-1.10.02.76_K1Max_klipper_arcs.gcode", "BambuStudio", "creality-k1-max",
+       "klipper"},
       {"crealityprint-5.1.4_K1Max_klipper.gcode", "Creality Print", "creality-k1-max", "klipper"},
       {"prusaslicer-2.8.1_MK4S_mini_cube_arcs.gcode", "PrusaSlicer", "prusa-mk4s", "prusa"},
       {"cura-3.6.0_Ender3_bedlevel_base_bracket_FR.gcode", "Cura", "", "marlin2"},
       {"kisslicer-1.4.5.10_musicutility_lid.gcode", "KISSlicer", "", "marlin2"},
   };
   // The binary twin of the MK4S file names its printer in its printer metadata block.
-  if (const auto bg = dir / "gcode" / "prusaslicer-2.8.1_MK4S_mini_cube_arcs_BINARY.bgcode"; std::filesystem::exists(bg)) {
+  if (const auto bg = dir / "gcode" / "prusaslicer-2.8.1_MK4S_mini_cube_arcs_BINARY.bgcode";
+      std::filesystem::exists(bg)) {
     auto r = resolve_printer("auto", bg);
     ASSERT_TRUE(r) << r.error().describe();
     EXPECT_EQ(r->profile.origin.library_id, "prusa-mk4s");
@@ -506,8 +517,9 @@ TEST(PrinterRealWorld, EveryFileGetsItsOwnPrinter) {
     auto r = resolve_printer("auto", path);
     ASSERT_TRUE(r) << r.error().describe();
     const auto& p = r->profile;
-    std::printf("%s: slicer %s %s, printer %s, firmware %s (flavour \"%s\")\n", e.file, r->settings.slicer.c_str(),
-                r->settings.slicer_version.c_str(), printer_provenance_summary(p).c_str(), p.firmware.c_str(),
+    std::printf("%s: slicer %s %s, printer %s, firmware %s (flavour \"%s\")\n", e.file,
+                r->settings.slicer.c_str(), r->settings.slicer_version.c_str(),
+                printer_provenance_summary(p).c_str(), p.firmware.c_str(),
                 r->stated.flavour_text.c_str());
     EXPECT_EQ(r->settings.slicer, e.slicer) << e.file;
     EXPECT_EQ(p.origin.library_id, e.library) << e.file;

@@ -43,7 +43,8 @@ TEST_P(PrusaSlicerFixture, MotionTimeWithinTwoPercentOfPrusaSlicersEstimate) {
   const double estimate = figures["files"][GetParam()]["estimated_time_normal_s"].get<double>();
   SimulateOptions o;
   o.limits_from_gcode = true;
-  auto r = simulate_gcode_file(test::source_path("samples/gcode/" + GetParam()), ender3_marlin2(), o);
+  auto r =
+      simulate_gcode_file(test::source_path("samples/gcode/" + GetParam()), ender3_marlin2(), o);
   ASSERT_TRUE(r.ok()) << r.error().describe();
   ASSERT_TRUE(r->slicer_estimate_s.has_value());
   EXPECT_NEAR(*r->slicer_estimate_s, estimate, 0.5);  // the file's own comment
@@ -78,11 +79,13 @@ TEST_P(PrusaSlicerFixture, FilamentIsTheSumOfEAndLayersComeFromZ) {
   for (const auto& [k, v] : r->time_by_feature_s) by_feature += v;
   EXPECT_NEAR(by_feature, r->motion_time_s + r->homing_time_s, 1e-6);
   EXPECT_GT(r->time_by_feature_s.at("outer_perimeter"), 0.0);
-  EXPECT_NEAR(r->print_time_s, r->motion_time_s + r->homing_time_s + r->dwell_time_s + r->heating_time_s, 1e-9);
+  EXPECT_NEAR(r->print_time_s,
+              r->motion_time_s + r->homing_time_s + r->dwell_time_s + r->heating_time_s, 1e-9);
 }
 
 INSTANTIATE_TEST_SUITE_P(Fixtures, PrusaSlicerFixture,
-                         ::testing::Values("prusa_cube10.gcode", "prusa_thin_walls.gcode", "prusa_curved_part.gcode"));
+                         ::testing::Values("prusa_cube10.gcode", "prusa_thin_walls.gcode",
+                                           "prusa_curved_part.gcode"));
 
 TEST(SimulateCura, FilamentEqualsCuraEnginesReport) {
   // Absolute E, G0 travel, G91 in the end code. CuraEngine -v reports the filament of its
@@ -95,7 +98,8 @@ TEST(SimulateCura, FilamentEqualsCuraEnginesReport) {
       if (m.kind == MoveKind::extrude && m.feature != Feature::custom) printed += m.e_mm;
     }
   } sum;
-  auto r = simulate_gcode_file(test::source_path("samples/gcode/cura_cube10.gcode"), ender3_marlin2(), {}, &sum);
+  auto r = simulate_gcode_file(test::source_path("samples/gcode/cura_cube10.gcode"),
+                               ender3_marlin2(), {}, &sum);
   ASSERT_TRUE(r.ok()) << r.error().describe();
   EXPECT_NEAR(sum.printed, cura_mm, 0.01);
   // Net filament: + 30 mm of purge lines, - 5 mm final retraction, - 4 mm in the G91 end code.
@@ -105,7 +109,8 @@ TEST(SimulateCura, FilamentEqualsCuraEnginesReport) {
   // Cura's end code leaves "{machine_depth}" unexpanded: a warning with its line.
   bool placeholder = false;
   for (const auto& f : r->findings)
-    if (f.code == "bad_line" && f.message.find("{machine_depth}") != std::string::npos) placeholder = true;
+    if (f.code == "bad_line" && f.message.find("{machine_depth}") != std::string::npos)
+      placeholder = true;
   EXPECT_TRUE(placeholder);
 }
 
@@ -113,9 +118,9 @@ TEST(SimulateCli, JsonSummaryTraceAndExitCodes) {
   const auto dir = test::temp_dir("simulate_cli");
   const auto json_path = dir / "out.json";
   const auto trace_path = dir / "trace.csv";
-  const auto run = test::run_cli("simulate " + test::source_path("samples/gcode/seed_square_box.gcode").string() +
-                                 " --json " + json_path.string() + " --trace " + trace_path.string() +
-                                 " --trace-hz 20");
+  const auto run = test::run_cli(
+      "simulate " + test::source_path("samples/gcode/seed_square_box.gcode").string() + " --json " +
+      json_path.string() + " --trace " + trace_path.string() + " --trace-hz 20");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("print time"), std::string::npos);
   auto text = read_file(json_path);
@@ -131,16 +136,20 @@ TEST(SimulateCli, JsonSummaryTraceAndExitCodes) {
   // 10 layers x 80 mm of wall, 0.4 x 0.2 mm bead: 10 x 80 x 0.0714 mm^2 = 57.1 mm^3 (minus
   // nothing: retractions and unretractions cancel but the last retraction stays).
   const double bead = (0.4 - 0.2) * 0.2 + M_PI * 0.01;
-  EXPECT_NEAR(j["filament_mm3"].get<double>(), 800 * bead - 1.0 * ender3_marlin2().filament_area_mm2(), 0.01);
+  EXPECT_NEAR(j["filament_mm3"].get<double>(),
+              800 * bead - 1.0 * ender3_marlin2().filament_area_mm2(), 0.01);
   // The trace: header + one row per 1/20 s of the print.
   auto trace = read_file(trace_path);
   ASSERT_TRUE(trace.ok());
   const auto rows = std::count(trace->begin(), trace->end(), '\n') - 1;
   EXPECT_NEAR(static_cast<double>(rows), j["print_time_s"].get<double>() * 20, 2.0);
-  EXPECT_EQ(trace->rfind("t_s,x_mm,y_mm,z_mm,joint_x_mm,joint_y_mm,joint_z_mm,e_mm,speed_mm_s,line", 0), 0u);
+  EXPECT_EQ(
+      trace->rfind("t_s,x_mm,y_mm,z_mm,joint_x_mm,joint_y_mm,joint_z_mm,e_mm,speed_mm_s,line", 0),
+      0u);
 
   // Print defects fail the run (exit 1); bad input exits 3 with file:line.
-  const auto cold = test::run_cli("simulate " + test::source_path("tests/data/gcode/before_homing_cold.gcode").string());
+  const auto cold = test::run_cli(
+      "simulate " + test::source_path("tests/data/gcode/before_homing_cold.gcode").string());
   EXPECT_EQ(cold.exit_code, 1);
   EXPECT_NE(cold.out.find("cold_extrusion (line 7)"), std::string::npos);
   const auto bad = dir / "bad.gcode";
@@ -217,9 +226,11 @@ TEST(SimulateLayers, SpiralVaseHasPrusaSlicersLayersAndEveryFixtureItsMarkerCoun
     // lines. In spiral vase mode PrusaSlicer 2.5 states 0.5 % more than its G-code's E
     // words hold (95.39 mm; the E words of the part sum to 94.90 mm).
     const double tolerance = name == "prusa_vase10.gcode" ? 0.006 : 0.001;
-    EXPECT_NEAR(r->filament_part_mm, fig["filament_mm"].get<double>(), tolerance * fig["filament_mm"].get<double>())
+    EXPECT_NEAR(r->filament_part_mm, fig["filament_mm"].get<double>(),
+                tolerance * fig["filament_mm"].get<double>())
         << name;
-    for (const auto& l : r->layers) EXPECT_NEAR(l.height_mm, l.index == 0 ? 0.2 : r->layers[1].height_mm, 1e-6) << name;
+    for (const auto& l : r->layers)
+      EXPECT_NEAR(l.height_mm, l.index == 0 ? 0.2 : r->layers[1].height_mm, 1e-6) << name;
   }
 }
 

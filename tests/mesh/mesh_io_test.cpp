@@ -52,7 +52,8 @@ std::string binary_stl(const Mesh& m, std::uint32_t count_in_header) {
 std::string obj(const Mesh& m) {
   std::string s;
   for (const auto& v : m.vertices_mm)
-    s += "v " + format_number(v.x()) + " " + format_number(v.y()) + " " + format_number(v.z()) + "\n";
+    s += "v " + format_number(v.x()) + " " + format_number(v.y()) + " " + format_number(v.z()) +
+         "\n";
   for (const auto& t : m.triangles)
     s += "f " + std::to_string(t[0] + 1) + " " + std::to_string(t[1] + 1) + " " +
          std::to_string(t[2] + 1) + "\n";
@@ -65,7 +66,8 @@ std::string off(const Mesh& m) {
   for (const auto& v : m.vertices_mm)
     s += format_number(v.x()) + " " + format_number(v.y()) + " " + format_number(v.z()) + "\n";
   for (const auto& t : m.triangles)
-    s += "3 " + std::to_string(t[0]) + " " + std::to_string(t[1]) + " " + std::to_string(t[2]) + "\n";
+    s += "3 " + std::to_string(t[0]) + " " + std::to_string(t[1]) + " " + std::to_string(t[2]) +
+         "\n";
   return s;
 }
 
@@ -77,13 +79,15 @@ std::string ply(const Mesh& m) {
   for (const auto& v : m.vertices_mm)
     s += format_number(v.x()) + " " + format_number(v.y()) + " " + format_number(v.z()) + "\n";
   for (const auto& t : m.triangles)
-    s += "3 " + std::to_string(t[0]) + " " + std::to_string(t[1]) + " " + std::to_string(t[2]) + "\n";
+    s += "3 " + std::to_string(t[0]) + " " + std::to_string(t[1]) + " " + std::to_string(t[2]) +
+         "\n";
   return s;
 }
 
 std::string amf(const Mesh& m) {
-  std::string s = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<amf unit=\"millimeter\">\n"
-                  "<object id=\"0\"><mesh><vertices>\n";
+  std::string s =
+      "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<amf unit=\"millimeter\">\n"
+      "<object id=\"0\"><mesh><vertices>\n";
   for (const auto& v : m.vertices_mm)
     s += "<vertex><coordinates><x>" + format_number(v.x()) + "</x><y>" + format_number(v.y()) +
          "</y><z>" + format_number(v.z()) + "</z></coordinates></vertex>\n";
@@ -185,8 +189,9 @@ TEST_F(MeshIoTest, NanAndInfiniteCoordinates) {
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.error().message.find("NaN or infinite"), std::string::npos) << r.error().describe();
   EXPECT_EQ(r.error().line, 5);
-  const std::string inf_text = "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"
-                               "vertex inf 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n";
+  const std::string inf_text =
+      "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"
+      "vertex inf 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n";
   auto ri = load_mesh(put("inf_ascii.stl", inf_text));
   ASSERT_FALSE(ri.ok());
   EXPECT_EQ(ri.error().line, 5);
@@ -257,22 +262,26 @@ namespace {
 /// format, and names the given path in its errors without touching the file system.
 TEST_F(MeshIoTest, FromMemoryMatchesFromFile) {
   const std::vector<std::pair<std::string, std::string>> files = {
-      {"m.stl", ascii_stl(cube)}, {"mb.stl", binary_stl(cube, 12)}, {"m.obj", obj(cube)},
-      {"m.off", off(cube)},       {"m.ply", ply(cube)},             {"m.amf", amf(cube)}};
+      {"m.stl", ascii_stl(cube)}, {"mb.stl", binary_stl(cube, 12)},
+      {"m.obj", obj(cube)},       {"m.off", off(cube)},
+      {"m.ply", ply(cube)},       {"m.amf", amf(cube)}};
   for (const auto& [name, bytes] : files) {
     auto from_file = load_mesh(put(name, bytes), {2.0, LengthUnit::cm});
-    auto from_memory = load_mesh_from_memory(bytes, dir / "not_on_disk" / name, {2.0, LengthUnit::cm});
+    auto from_memory =
+        load_mesh_from_memory(bytes, dir / "not_on_disk" / name, {2.0, LengthUnit::cm});
     ASSERT_TRUE(from_file.ok()) << name;
     ASSERT_TRUE(from_memory.ok()) << name << ": " << from_memory.error().describe();
     EXPECT_EQ(*from_file, *from_memory) << name;
     EXPECT_NEAR(signed_volume_mm3(*from_memory), 200.0 * 200.0 * 200.0, 1e-3) << name;
   }
-  auto bad = load_mesh_from_memory("solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n", "mem/part.stl");
+  auto bad = load_mesh_from_memory("solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n",
+                                   "mem/part.stl");
   ASSERT_FALSE(bad.ok());
   EXPECT_EQ(bad.error().file, "mem/part.stl");
   EXPECT_NE(bad.error().message.find("expected 'vertex', found 'end of file'"), std::string::npos);
   EXPECT_FALSE(load_mesh_from_memory(ascii_stl(cube), "part.xyz").ok());
-  EXPECT_NE(load_mesh_from_memory("", "part.stl").error().message.find("empty file"), std::string::npos);
+  EXPECT_NE(load_mesh_from_memory("", "part.stl").error().message.find("empty file"),
+            std::string::npos);
 }
 
 /// Vertices are numbered in order of first use; -0 and +0 are one coordinate; sub-meshes
@@ -301,14 +310,16 @@ TEST_F(MeshIoTest, AsciiStlNumberForms) {
     return "solid t\nfacet normal " + a + " 0 1\nouter loop\nvertex " + b +
            " 0 0\nvertex 10 0 0\nvertex 0 10 0\nendloop\nendfacet\nendsolid t\n";
   };
-  for (const std::string num : {"1.", ".5", "-0", "+2", "1e1", "1E+01", "-1.5e-2", "0.000000000000000000000000000001",
-                                "12345678901234567890123456789012345678", "3.4e38"}) {
+  for (const std::string num :
+       {"1.", ".5", "-0", "+2", "1e1", "1E+01", "-1.5e-2", "0.000000000000000000000000000001",
+        "12345678901234567890123456789012345678", "3.4e38"}) {
     auto m = load_mesh_from_memory(stl("nan", num), "n.stl");
     ASSERT_TRUE(m.ok()) << num << ": " << m.error().describe();
     EXPECT_NEAR(bounding_box(*m).min.x(), std::min(0.0, std::stod(num)), 1e-6) << num;
   }
   // Beyond single precision (STL's type; assimp would read a wrong finite number or infinity).
-  for (const std::string num : {"1e39", "-1e308", "12345678901234567890123456789012345678901234567890"}) {
+  for (const std::string num :
+       {"1e39", "-1e308", "12345678901234567890123456789012345678901234567890"}) {
     auto m = load_mesh_from_memory(stl("0", num), "n.stl");
     ASSERT_FALSE(m.ok()) << num;
     EXPECT_EQ(m.error().line, 4) << num;
@@ -332,11 +343,11 @@ namespace {
 
 TEST(MeshMeasures, SliversAndDegenerateTrianglesHaveNoReliableNormal) {
   Mesh m;
-  m.vertices_mm = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0),   // a fair triangle
-                   Vec3(2, 0, 0), Vec3(3, 0, 1e-9), Vec3(4, 0, 0),  // a sliver (height 1e-9)
-                   Vec3(5, 0, 0), Vec3(6, 1, 1), Vec3(7, 2, 2),     // collinear
-                   Vec3(8, 0, 0), Vec3(8, 0, 0), Vec3(9, 1, 0),     // a repeated vertex
-                   Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0.5, 1e-5, 0)};  // thin but sound
+  m.vertices_mm = {Vec3(0, 0, 0), Vec3(1, 0, 0),    Vec3(0, 1, 0),        // a fair triangle
+                   Vec3(2, 0, 0), Vec3(3, 0, 1e-9), Vec3(4, 0, 0),        // a sliver (height 1e-9)
+                   Vec3(5, 0, 0), Vec3(6, 1, 1),    Vec3(7, 2, 2),        // collinear
+                   Vec3(8, 0, 0), Vec3(8, 0, 0),    Vec3(9, 1, 0),        // a repeated vertex
+                   Vec3(0, 0, 0), Vec3(1, 0, 0),    Vec3(0.5, 1e-5, 0)};  // thin but sound
   for (std::uint32_t t = 0; t < 5; ++t) m.triangles.push_back({3 * t, 3 * t + 1, 3 * t + 2});
   EXPECT_TRUE(has_reliable_normal(m, 0));
   EXPECT_FALSE(has_reliable_normal(m, 1));

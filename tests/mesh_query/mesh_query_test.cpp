@@ -34,7 +34,8 @@ TEST(MeshQuery, ClosestPointMatchesBruteForce) {
     const Vec3 p(u(rng), u(rng), u(rng) - 100);
     const auto got = q->closest_point(p);
     const auto want = brute_force(cube, p);
-    EXPECT_NEAR(got.distance_mm, want.distance_mm, 1e-9 * (1 + want.distance_mm)) << "seed 7, i " << i;
+    EXPECT_NEAR(got.distance_mm, want.distance_mm, 1e-9 * (1 + want.distance_mm))
+        << "seed 7, i " << i;
   }
 }
 
@@ -108,10 +109,17 @@ TEST(MeshQuery, BallQueryOnATriangleSoupMatchesClosestPointInEveryRegion) {
     const Vec3 a(pos(rng), pos(rng), pos(rng));
     const Vec3 b = a + Vec3(edge(rng), edge(rng), edge(rng));
     switch (t % 10) {
-      case 0: add(a, a, b); break;                              // repeated vertex
-      case 1: add(a, b, a + 2.0 * (b - a)); break;              // collinear
-      case 2: add(a, b, b + Vec3(1e-12, 0, 0)); break;          // sliver
-      default: add(a, b, a + Vec3(edge(rng), edge(rng), edge(rng)));
+      case 0:
+        add(a, a, b);
+        break;  // repeated vertex
+      case 1:
+        add(a, b, a + 2.0 * (b - a));
+        break;  // collinear
+      case 2:
+        add(a, b, b + Vec3(1e-12, 0, 0));
+        break;  // sliver
+      default:
+        add(a, b, a + Vec3(edge(rng), edge(rng), edge(rng)));
     }
   }
   auto q = MeshQuery::build(m);

@@ -21,7 +21,8 @@ namespace {
 namespace fs = std::filesystem;
 
 std::string find_chromium() {
-  if (const char* env = std::getenv("PRINTTWIN_CHROMIUM"); env != nullptr && *env != '\0') return env;
+  if (const char* env = std::getenv("PRINTTWIN_CHROMIUM"); env != nullptr && *env != '\0')
+    return env;
   for (const char* p : {"/usr/bin/chromium", "/usr/bin/chromium-browser", "/usr/bin/google-chrome",
                         "/snap/bin/chromium"})
     if (fs::exists(p)) return p;
@@ -37,12 +38,14 @@ struct BrowserRun {
 BrowserRun run_chromium(const std::string& browser, const fs::path& work, const std::string& args) {
   const fs::path profile = work / "profile";
   fs::remove_all(profile);
-  const std::string cmd = "timeout 180 " + browser +
-                          " --headless --no-sandbox --disable-gpu --disable-quic --no-first-run"
-                          " --disable-background-networking --disable-component-update --disable-sync"
-                          " --disable-extensions --hide-scrollbars --enable-logging=stderr --v=0"
-                          " --user-data-dir=" + profile.string() + " " + args + " >" +
-                          (work / "out.txt").string() + " 2>" + (work / "err.txt").string();
+  const std::string cmd =
+      "timeout 180 " + browser +
+      " --headless --no-sandbox --disable-gpu --disable-quic --no-first-run"
+      " --disable-background-networking --disable-component-update --disable-sync"
+      " --disable-extensions --hide-scrollbars --enable-logging=stderr --v=0"
+      " --user-data-dir=" +
+      profile.string() + " " + args + " >" + (work / "out.txt").string() + " 2>" +
+      (work / "err.txt").string();
   BrowserRun run;
   const int status = std::system(cmd.c_str());
   run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -91,7 +94,8 @@ class ReportBrowser : public ::testing::Test {
 TEST_F(ReportBrowser, LoadsWithoutConsoleErrorsAndTheLayerSliderChangesThePicture) {
   const auto run = run_chromium(browser_, dir_, "--dump-dom '" + url("#selftest") + "'");
   ASSERT_EQ(run.exit_code, 0) << run.err;
-  EXPECT_TRUE(console_lines(run.err).empty()) << "console output:\n" << console_lines(run.err).front();
+  EXPECT_TRUE(console_lines(run.err).empty()) << "console output:\n"
+                                              << console_lines(run.err).front();
   // The script ran to the end and caught no error.
   const std::string html_tag = run.out.substr(0, run.out.find('>', run.out.find("<html")));
   EXPECT_NE(html_tag.find("data-ready=\"1\""), std::string::npos) << html_tag;
@@ -111,8 +115,8 @@ TEST_F(ReportBrowser, LoadsWithoutConsoleErrorsAndTheLayerSliderChangesThePictur
 TEST_F(ReportBrowser, ScreenshotIsNotBlankAndShowsTheHeatmapColours) {
   const fs::path shot = dir_ / "shot.png";
   fs::remove(shot);
-  const auto run = run_chromium(browser_, dir_,
-                                "--window-size=1280,1600 --screenshot=" + shot.string() + " '" + url() + "'");
+  const auto run = run_chromium(
+      browser_, dir_, "--window-size=1280,1600 --screenshot=" + shot.string() + " '" + url() + "'");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_TRUE(console_lines(run.err).empty()) << console_lines(run.err).front();
   auto bytes = read_file(shot);
@@ -136,7 +140,7 @@ TEST_F(ReportBrowser, ScreenshotIsNotBlankAndShowsTheHeatmapColours) {
   const double mean = sum / static_cast<double>(n);
   const double stddev = std::sqrt(std::max(0.0, sum2 / static_cast<double>(n) - mean * mean));
   EXPECT_GT(stddev, 20.0);
-  EXPECT_GT(mean, 120.0);  // a light page, not a dark error screen
+  EXPECT_GT(mean, 120.0);    // a light page, not a dark error screen
   EXPECT_GT(green, 20000u);  // most of the part is within tolerance
   EXPECT_GT(red, 300u);      // the bulge
   EXPECT_GT(blue, 300u);     // the dent

@@ -78,7 +78,7 @@ TEST(ReportColorScale, RangeIsANiceNumberBetweenTwoAndTenTolerances) {
   d.vertex_deviation_mm = {0.05};
   EXPECT_DOUBLE_EQ(make_color_scale(d).range_mm, 0.4);  // at least 2 tolerances
   d.vertex_deviation_mm = {7.3};
-  EXPECT_DOUBLE_EQ(make_color_scale(d).range_mm, 2.0);  // at most 10 tolerances
+  EXPECT_DOUBLE_EQ(make_color_scale(d).range_mm, 2.0);                      // at most 10 tolerances
   EXPECT_DOUBLE_EQ(make_color_scale(synthetic().deviation).range_mm, 1.0);  // worst -0.85
 }
 
@@ -99,7 +99,8 @@ TEST(ReportPng, RoundTripIsExactAndDeterministic) {
 TEST(ReportRender, TopViewOfSphereCoversItsDiscAndShowsTheBulgeInRed) {
   const auto& r = synthetic();
   const DeviationColorScale scale = make_color_scale(r.deviation);
-  SurfaceDeviationField field{r.deviation.mesh_samples.positions_mm, r.deviation.mesh_samples.distances_mm,
+  SurfaceDeviationField field{r.deviation.mesh_samples.positions_mm,
+                              r.deviation.mesh_samples.distances_mm,
                               r.deviation.vertex_deviation_mm, 0.25};
   const HeatmapView top = render_heatmap(r.placed_mesh, field, scale, find_view("top"));
   // Disc of radius 12 mm (polygon of 96 segments: area factor sin(2pi/96)*96/(2pi)).
@@ -132,7 +133,8 @@ TEST(ReportRender, VertexDeviationColoursWhenThereAreNoSamples) {
   std::vector<double> dev;
   for (const auto& v : box.vertices_mm) dev.push_back(v.x() > 10 ? 0.6 : -0.6);
   SurfaceDeviationField field{{}, {}, dev, 0};
-  const HeatmapView top = render_heatmap(box, field, DeviationColorScale{0.2, 1.0}, find_view("top"));
+  const HeatmapView top =
+      render_heatmap(box, field, DeviationColorScale{0.2, 1.0}, find_view("top"));
   const auto left = pixel(top.image, top.camera.project(Vec3(1, 10, 10)));
   const auto mid = pixel(top.image, top.camera.project(Vec3(10, 10, 10)));
   const auto right = pixel(top.image, top.camera.project(Vec3(19, 10, 10)));
@@ -170,9 +172,11 @@ TEST(ReportRender, RasterMatchesARayCastPerPixel) {
         if (tv.triangle[i] != hit->triangle) {
           // Another triangle at the same depth: both share the point the ray hits.
           const auto& tri = r.placed_mesh.triangles[tv.triangle[i]];
-          const Vec3 p = tv.pixel_origin(x, y) + tv.camera.forward * static_cast<double>(tv.depth_mm[i]);
+          const Vec3 p =
+              tv.pixel_origin(x, y) + tv.camera.forward * static_cast<double>(tv.depth_mm[i]);
           const Vec3 c = closest_point_on_triangle(p, r.placed_mesh.vertices_mm[tri[0]],
-                                                   r.placed_mesh.vertices_mm[tri[1]], r.placed_mesh.vertices_mm[tri[2]]);
+                                                   r.placed_mesh.vertices_mm[tri[1]],
+                                                   r.placed_mesh.vertices_mm[tri[2]]);
           EXPECT_LT((c - p).norm(), 1e-3) << view.name << " pixel " << x << "," << y;
         }
       }
@@ -192,7 +196,8 @@ TEST(ReportRender, RegionMarkersKnowWhichSideTheyAreOn) {
   EXPECT_NEAR((m[0].worst_px - expect).norm(), 0.0, 1e-9);
   EXPECT_LE(m[0].bbox_min_px.x(), m[0].worst_px.x());
   EXPECT_GE(m[0].bbox_max_px.y(), m[0].worst_px.y());
-  const auto mi = mark_regions(trace_heatmap_view(r.placed_mesh, find_view("iso")), r.deviation.regions);
+  const auto mi =
+      mark_regions(trace_heatmap_view(r.placed_mesh, find_view("iso")), r.deviation.regions);
   EXPECT_FALSE(mi[0].visible);  // bulge faces away from the front-left-top camera
   EXPECT_TRUE(mi[1].visible);
 }
@@ -345,7 +350,8 @@ TEST(ReportHtml, SelfContainedSmallAndDeterministic) {
        p = html.find("data:image/png;base64,", p + 1))
     ++pngs;
   EXPECT_EQ(pngs, default_views().size());
-  for (const auto& v : default_views()) EXPECT_TRUE(by_name.count("heatmap_" + v.name + ".png")) << v.name;
+  for (const auto& v : default_views())
+    EXPECT_TRUE(by_name.count("heatmap_" + v.name + ".png")) << v.name;
   // The verdict, both region rows, the inputs' hashes and the version are on the page.
   EXPECT_NE(html.find("<div class=\"badge\">FAIL</div>"), std::string::npos);
   EXPECT_NE(html.find("data-region=\"2\" data-layer="), std::string::npos);
@@ -356,7 +362,8 @@ TEST(ReportHtml, SelfContainedSmallAndDeterministic) {
   // Same inputs, same bytes (the timestamp is an input).
   auto again = build_report_files(synthetic(), opt);
   ASSERT_TRUE(again.ok());
-  for (std::size_t i = 0; i < files->size(); ++i) EXPECT_EQ((*again)[i].content, (*files)[i].content) << (*files)[i].name;
+  for (std::size_t i = 0; i < files->size(); ++i)
+    EXPECT_EQ((*again)[i].content, (*files)[i].content) << (*files)[i].name;
 }
 
 // The traced views of a placed mesh serve every report on it: the same bytes with the cache
@@ -396,10 +403,12 @@ TEST(ReportHeatmapCache, SameBytesWithAndWithoutTheCache) {
     auto fb = detail::build_report_files(*r, plain, cached);
     ASSERT_TRUE(fa.ok() && fb.ok());
     ASSERT_EQ(fa->size(), fb->size());
-    for (std::size_t i = 0; i < fa->size(); ++i) EXPECT_EQ((*fa)[i].content, (*fb)[i].content) << (*fa)[i].name;
+    for (std::size_t i = 0; i < fa->size(); ++i)
+      EXPECT_EQ((*fa)[i].content, (*fb)[i].content) << (*fa)[i].name;
   }
   // The colours differ between the two results: the cache holds no colour.
-  EXPECT_NE(detail::render_report_assets(other, plain, cached)->views[0].image, detail::render_report_assets(synthetic(), plain, cached)->views[0].image);
+  EXPECT_NE(detail::render_report_assets(other, plain, cached)->views[0].image,
+            detail::render_report_assets(synthetic(), plain, cached)->views[0].image);
 
   // The cache is what the renders read: a tampered one shows.
   HeatmapCache dark = std::move(*cache);
@@ -412,11 +421,13 @@ TEST(ReportHeatmapCache, SameBytesWithAndWithoutTheCache) {
   VerifyReport moved = synthetic();
   for (Vec3& v : moved.placed_mesh.vertices_mm) v += Vec3(0.25, 0, 0);
   EXPECT_FALSE(dark.fits(moved.placed_mesh, plain.views));
-  EXPECT_FALSE(dark.fits(synthetic().placed_mesh, std::vector<ViewSpec>(plain.views.begin(), plain.views.end() - 1)));
+  EXPECT_FALSE(dark.fits(synthetic().placed_mesh,
+                         std::vector<ViewSpec>(plain.views.begin(), plain.views.end() - 1)));
   auto m_plain = render_report_assets(moved, plain);
   auto m_cached = detail::render_report_assets(moved, plain, cached);
   ASSERT_TRUE(m_plain.ok() && m_cached.ok());
-  for (std::size_t i = 0; i < m_plain->views.size(); ++i) EXPECT_EQ(m_plain->view_png[i], m_cached->view_png[i]);
+  for (std::size_t i = 0; i < m_plain->views.size(); ++i)
+    EXPECT_EQ(m_plain->view_png[i], m_cached->view_png[i]);
 }
 
 // A writer of several reports (compare's variants) writes the same bytes as
@@ -441,8 +452,9 @@ TEST(ReportFolderWriter, SameFilesAsWriteReportFolder) {
       EXPECT_EQ(*read_file(entry.path()), *read_file(b / name)) << name;
       ++files;
     }
-    EXPECT_EQ(files, static_cast<std::size_t>(std::distance(std::filesystem::directory_iterator(b),
-                                                            std::filesystem::directory_iterator())));
+    EXPECT_EQ(files,
+              static_cast<std::size_t>(std::distance(std::filesystem::directory_iterator(b),
+                                                     std::filesystem::directory_iterator())));
     EXPECT_GT(files, 3u);
   }
 }
@@ -465,7 +477,8 @@ TEST(ReportFolder, WritesEveryFileAndReplacesAnOldReportAtomically) {
   EXPECT_FALSE(std::filesystem::exists(out / "stale.txt"));
   // Nothing else is left beside it (no staging or old folders, no temporary files).
   std::vector<std::string> names;
-  for (const auto& e : std::filesystem::directory_iterator(dir / "reports")) names.push_back(e.path().filename());
+  for (const auto& e : std::filesystem::directory_iterator(dir / "reports"))
+    names.push_back(e.path().filename());
   EXPECT_EQ(names, std::vector<std::string>{"sphere"});
   for (const auto& e : std::filesystem::directory_iterator(out))
     EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
@@ -481,13 +494,16 @@ TEST(ReportFolder, AFailedRunLeavesTheOldReportAndNoHalfWrittenOne) {
   const auto out = dir / "part";
   ASSERT_TRUE(write_file_atomic(out / "report.html", "previous").ok());
   ReportOptions opt;
-  opt.extra_outputs = [](const std::filesystem::path&) -> Status { return bad_input("deposit export failed"); };
+  opt.extra_outputs = [](const std::filesystem::path&) -> Status {
+    return bad_input("deposit export failed");
+  };
   const auto st = write_report_folder(synthetic(), out, opt);
   ASSERT_FALSE(st.ok());
   EXPECT_EQ(st.error().message, "deposit export failed");
   EXPECT_EQ(*read_file(out / "report.html"), "previous");
   std::size_t entries = 0;
-  for (const auto& e : std::filesystem::directory_iterator(dir)) entries += e.path().filename() == "part" ? 0 : 1;
+  for (const auto& e : std::filesystem::directory_iterator(dir))
+    entries += e.path().filename() == "part" ? 0 : 1;
   EXPECT_EQ(entries, 0u);
   // A fresh target that fails is not created at all.
   EXPECT_FALSE(write_report_folder(synthetic(), dir / "fresh", opt).ok());

@@ -14,10 +14,10 @@
 namespace printtwin::test {
 
 struct SyntheticSpec {
-  int segments = 96;           ///< around the sphere (UV sphere: 2 * segments * (rings - 1) triangles)
+  int segments = 96;  ///< around the sphere (UV sphere: 2 * segments * (rings - 1) triangles)
   int rings = 48;
   double radius_mm = 12.0;
-  double spacing_mm = 0.25;    ///< sample spacing of both sample sets
+  double spacing_mm = 0.25;  ///< sample spacing of both sample sets
   double layer_mm = 0.2;
   double tolerance_mm = 0.2;
   /// Deposit samples per mesh sample (a voxel deposit exposes several faces per surface
@@ -44,7 +44,8 @@ inline Mesh make_uv_sphere(const Vec3& c, double r, int segments, int rings) {
     const double th = 3.14159265358979 * i / rings - 0.5 * 3.14159265358979;
     for (int j = 0; j < segments; ++j) {
       const double ph = 2 * 3.14159265358979 * j / segments;
-      m.vertices_mm.push_back(c + r * Vec3(std::cos(th) * std::cos(ph), std::cos(th) * std::sin(ph), std::sin(th)));
+      m.vertices_mm.push_back(
+          c + r * Vec3(std::cos(th) * std::cos(ph), std::cos(th) * std::sin(ph), std::sin(th)));
     }
   }
   m.vertices_mm.push_back(c + Vec3(0, 0, r));  // north pole
@@ -58,7 +59,8 @@ inline Mesh make_uv_sphere(const Vec3& c, double r, int segments, int rings) {
       m.triangles.push_back({ring(i, j), ring(i, j + 1), ring(i + 1, j + 1)});
       m.triangles.push_back({ring(i, j), ring(i + 1, j + 1), ring(i + 1, j)});
     }
-  for (int j = 0; j < segments; ++j) m.triangles.push_back({ring(rings - 1, j), ring(rings - 1, j + 1), north});
+  for (int j = 0; j < segments; ++j)
+    m.triangles.push_back({ring(rings - 1, j), ring(rings - 1, j + 1), north});
   return m;
 }
 
@@ -81,7 +83,9 @@ inline DeviationStats synthetic_stats(std::vector<double> d, double tol) {
   s.std_mm = std::sqrt(std::max(0.0, sum2 / n - s.mean_mm * s.mean_mm));
   for (double& v : d) v = std::abs(v);
   std::sort(d.begin(), d.end());
-  auto pct = [&](double p) { return d[std::min(d.size() - 1, static_cast<std::size_t>(p * (n - 1)))]; };
+  auto pct = [&](double p) {
+    return d[std::min(d.size() - 1, static_cast<std::size_t>(p * (n - 1)))];
+  };
   s.p50_abs_mm = pct(0.5), s.p95_abs_mm = pct(0.95), s.p99_abs_mm = pct(0.99);
   s.hausdorff_mm = d.back();
   s.within_tolerance_pct = 100.0 * static_cast<double>(within) / n;
@@ -120,10 +124,12 @@ inline VerifyReport make_synthetic_report(const SyntheticSpec& spec = {}) {
   for (std::size_t i = 0; i < n; ++i) {
     const double z = 1.0 - 2.0 * (static_cast<double>(i) + 0.5) / static_cast<double>(n);
     const double rr = std::sqrt(std::max(0.0, 1 - z * z));
-    const Vec3 dir(rr * std::cos(golden * static_cast<double>(i)), rr * std::sin(golden * static_cast<double>(i)), z);
+    const Vec3 dir(rr * std::cos(golden * static_cast<double>(i)),
+                   rr * std::sin(golden * static_cast<double>(i)), z);
     const Vec3 on = kSyntheticCenter + spec.radius_mm * dir;
     const double d = synthetic_deviation(on, spec.layer_mm);
-    const int layer = std::clamp(static_cast<int>(std::floor(on.z() / spec.layer_mm)), 0, layers - 1);
+    const int layer =
+        std::clamp(static_cast<int>(std::floor(on.z() / spec.layer_mm)), 0, layers - 1);
     // Deposit surface sits at the deviation along the normal; the mesh sample on the surface.
     DeviationSample ds{on + d * dir, d, layer, static_cast<std::uint32_t>(1000 + 40 * layer)};
     DeviationSample ms{on, d, layer, static_cast<std::uint32_t>(1000 + 40 * layer)};
@@ -148,11 +154,13 @@ inline VerifyReport make_synthetic_report(const SyntheticSpec& spec = {}) {
     ld.layer = l;
     ld.z_mm = (l + 1) * spec.layer_mm;
     ld.deposit_to_mesh = synthetic_stats(layer_dep[static_cast<std::size_t>(l)], spec.tolerance_mm);
-    ld.mesh_to_deposit = synthetic_stats(layer_mesh[static_cast<std::size_t>(l)], spec.tolerance_mm);
+    ld.mesh_to_deposit =
+        synthetic_stats(layer_mesh[static_cast<std::size_t>(l)], spec.tolerance_mm);
     dev.per_layer.push_back(ld);
   }
   // Two regions: the out-of-tolerance samples near the bulge and near the dent.
-  for (const auto& [at, kind] : {std::pair{kBulgeAt, RegionKind::excess}, std::pair{kDentAt, RegionKind::missing}}) {
+  for (const auto& [at, kind] :
+       {std::pair{kBulgeAt, RegionKind::excess}, std::pair{kDentAt, RegionKind::missing}}) {
     DeviationRegion reg;
     reg.kind = kind;
     reg.layer_min = 1 << 30;
@@ -176,8 +184,15 @@ inline VerifyReport make_synthetic_report(const SyntheticSpec& spec = {}) {
   dev.mesh_volume_mm3 = vol;
   dev.deposit_volume_mm3 = vol * 1.004;
 
-  r.check = {r.placed_mesh.triangles.size(), r.placed_mesh.vertices_mm.size(), vol, area,
-             Box3{Vec3::Constant(-spec.radius_mm), Vec3::Constant(spec.radius_mm)}, true, 0, 1, 0};
+  r.check = {r.placed_mesh.triangles.size(),
+             r.placed_mesh.vertices_mm.size(),
+             vol,
+             area,
+             Box3{Vec3::Constant(-spec.radius_mm), Vec3::Constant(spec.radius_mm)},
+             true,
+             0,
+             1,
+             0};
   r.simulation.slicer = "PrusaSlicer";
   r.simulation.gcode_lines = 1000 + 40 * static_cast<std::size_t>(layers);
   r.simulation.moves = 30000;
@@ -204,8 +219,9 @@ inline VerifyReport make_synthetic_report(const SyntheticSpec& spec = {}) {
     Finding f;
     f.severity = Severity::error;
     f.code = "deviation_out_of_tolerance";
-    f.message = std::string(reg.kind == RegionKind::missing ? "Missing" : "Excess") + " material up to " +
-                std::to_string(reg.worst_mm).substr(0, 5) + " mm <beyond> the \"tolerance\" & limit";
+    f.message = std::string(reg.kind == RegionKind::missing ? "Missing" : "Excess") +
+                " material up to " + std::to_string(reg.worst_mm).substr(0, 5) +
+                " mm <beyond> the \"tolerance\" & limit";
     f.position_mm = reg.worst_position_mm;
     f.layer = reg.layer_min;
     f.line = reg.gcode_lines.empty() ? 0 : reg.gcode_lines.front();

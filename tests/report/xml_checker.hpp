@@ -40,8 +40,8 @@ struct Reader {
   }
   bool starts(std::string_view p) const { return s.substr(i, p.size()) == p; }
   static bool name_char(char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-' ||
-           c == '.' || c == ':';
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+           c == '-' || c == '.' || c == ':';
   }
   bool read_name(std::string& out) {
     const std::size_t b = i;
@@ -61,14 +61,20 @@ struct Reader {
       const std::size_t semi = s.find(';', i);
       if (semi == std::string_view::npos || semi - i > 10) return fail("unterminated entity");
       const std::string_view ent = s.substr(i + 1, semi - i - 1);
-      if (ent == "amp") out += '&';
-      else if (ent == "lt") out += '<';
-      else if (ent == "gt") out += '>';
-      else if (ent == "quot") out += '"';
-      else if (ent == "apos") out += '\'';
+      if (ent == "amp")
+        out += '&';
+      else if (ent == "lt")
+        out += '<';
+      else if (ent == "gt")
+        out += '>';
+      else if (ent == "quot")
+        out += '"';
+      else if (ent == "apos")
+        out += '\'';
       else if (!ent.empty() && ent[0] == '#') {
         const bool hex = ent.size() > 1 && ent[1] == 'x';
-        const unsigned long cp = std::stoul(std::string(ent.substr(hex ? 2 : 1)), nullptr, hex ? 16 : 10);
+        const unsigned long cp =
+            std::stoul(std::string(ent.substr(hex ? 2 : 1)), nullptr, hex ? 16 : 10);
         if (cp > 127) return fail("non-ASCII character reference (not needed here)");
         out += static_cast<char>(cp);
       } else {

@@ -199,8 +199,9 @@ TEST(SliceGcode, FullInfillFilamentMatchesPartVolume) {
   EXPECT_NEAR(out->stats.part_volume_mm3, 8000.0, 1e-6);
   // The per-feature volumes add up to the total.
   const auto& st = out->stats;
-  const double sum = st.external_perimeter_mm3 + st.perimeter_mm3 + st.sparse_infill_mm3 + st.solid_infill_mm3 +
-                     st.top_solid_infill_mm3 + st.bridge_infill_mm3 + st.gap_fill_mm3 + st.skirt_brim_mm3;
+  const double sum = st.external_perimeter_mm3 + st.perimeter_mm3 + st.sparse_infill_mm3 +
+                     st.solid_infill_mm3 + st.top_solid_infill_mm3 + st.bridge_infill_mm3 +
+                     st.gap_fill_mm3 + st.skirt_brim_mm3;
   EXPECT_NEAR(sum, st.filament_volume_mm3, 1e-6 * sum);
   EXPECT_EQ(st.sparse_infill_mm3, 0.0);
 }
@@ -273,10 +274,10 @@ TEST(SliceGcode, DeterministicAndMarlinFraming) {
   ASSERT_TRUE(a.ok() && b.ok());
   EXPECT_EQ(a->gcode, b->gcode);
   const std::string& g = a->gcode;
-  EXPECT_NE(g.find("M190 S60"), std::string::npos);   // {bed_temp} substituted
-  EXPECT_NE(g.find("M109 S210"), std::string::npos);  // {nozzle_temp}: first layer 210
-  EXPECT_NE(g.find("M104 S200"), std::string::npos);  // 200 from layer 1 on
-  EXPECT_NE(g.find("G1 X0 Y235"), std::string::npos); // {bed_max_y}
+  EXPECT_NE(g.find("M190 S60"), std::string::npos);    // {bed_temp} substituted
+  EXPECT_NE(g.find("M109 S210"), std::string::npos);   // {nozzle_temp}: first layer 210
+  EXPECT_NE(g.find("M104 S200"), std::string::npos);   // 200 from layer 1 on
+  EXPECT_NE(g.find("G1 X0 Y235"), std::string::npos);  // {bed_max_y}
   EXPECT_EQ(g.find('{'), std::string::npos);
   EXPECT_NE(g.find(";Z:0.2\n;HEIGHT:0.2\n"), std::string::npos);
   EXPECT_NE(g.find("; filament used [mm] = "), std::string::npos);
@@ -301,7 +302,8 @@ TEST(SliceGcode, OpenMeshIsRepairedAndReported) {
   EXPECT_EQ(out->stats.layer_count, 50);
   ASSERT_FALSE(out->findings.empty());
   EXPECT_EQ(out->findings[0].code, "mesh_repaired");
-  EXPECT_NE(out->findings[0].message.find("3 open edges"), std::string::npos) << out->findings[0].message;
+  EXPECT_NE(out->findings[0].message.find("3 open edges"), std::string::npos)
+      << out->findings[0].message;
 }
 
 TEST(SliceGcode, FooterTimeComesFromTheSimulator) {
@@ -401,8 +403,9 @@ TEST(SliceCli, EndToEnd) {
   ASSERT_TRUE(save_stl(test::make_cube_mm(15.0), dir / "cube.stl").ok());
   const std::string stl = (dir / "cube.stl").string();
   const std::string gcode = (dir / "cube.gcode").string();
-  auto run = test::run_cli("slice " + stl + " -o " + gcode +
-                           " --layer-height 0.25 --perimeters 3 --infill-density 30% --no-time-estimate");
+  auto run =
+      test::run_cli("slice " + stl + " -o " + gcode +
+                    " --layer-height 0.25 --perimeters 3 --infill-density 30% --no-time-estimate");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("60 layers"), std::string::npos) << run.out;
   auto text = read_file(gcode);
@@ -411,7 +414,8 @@ TEST(SliceCli, EndToEnd) {
   EXPECT_NE(text->find("; fill_density = 30%\n"), std::string::npos);
   EXPECT_NE(text->find(";HEIGHT:0.25\n"), std::string::npos);
 
-  auto json = test::run_cli("slice " + stl + " -o " + gcode + " --json --no-time-estimate --set perimeters=1");
+  auto json = test::run_cli("slice " + stl + " -o " + gcode +
+                            " --json --no-time-estimate --set perimeters=1");
   ASSERT_EQ(json.exit_code, 0) << json.err;
   EXPECT_NE(json.out.find("\"schema\": \"printtwin.slice/1\""), std::string::npos);
 
@@ -422,7 +426,8 @@ TEST(SliceCli, EndToEnd) {
   // Bad files: missing mesh, malformed config.
   EXPECT_EQ(test::run_cli("slice " + (dir / "missing.stl").string() + " -o " + gcode).exit_code, 3);
   ASSERT_TRUE(write_file_atomic(dir / "bad.ini", "layer_height = thick\n").ok());
-  auto bad = test::run_cli("slice " + stl + " -o " + gcode + " --config " + (dir / "bad.ini").string());
+  auto bad =
+      test::run_cli("slice " + stl + " -o " + gcode + " --config " + (dir / "bad.ini").string());
   EXPECT_EQ(bad.exit_code, 3);
   EXPECT_NE(bad.err.find("bad.ini:1"), std::string::npos) << bad.err;
   // A config with keys printtwin does not use lists them.

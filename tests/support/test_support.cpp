@@ -2,14 +2,14 @@
 
 #include <gtest/gtest.h>
 
-#include <array>
-#include <cstdlib>
-#include <vector>
-#include <cstdio>
-#include <fstream>
-#include <sstream>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <array>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <vector>
 
 namespace printtwin::test {
 
@@ -22,7 +22,8 @@ std::optional<std::filesystem::path> realworld_dir() {
   if (const char* env = std::getenv("PRINTTWIN_REALWORLD_DIR"); env != nullptr && *env != '\0') {
     candidates.emplace_back(env);  // when set, the only place looked at (so a run can go without)
   } else {
-    candidates.push_back(std::filesystem::path(PRINTTWIN_SOURCE_DIR) / ".." / "shared" / "realworld");
+    candidates.push_back(std::filesystem::path(PRINTTWIN_SOURCE_DIR) / ".." / "shared" /
+                         "realworld");
     candidates.emplace_back("/work/shared/realworld");
   }
   for (const auto& dir : candidates)
@@ -49,10 +50,10 @@ std::filesystem::path temp_dir(const std::string& name) {
 CliRun run_cli(const std::string& args) {
   static int counter = 0;
   const auto dir = std::filesystem::temp_directory_path();
-  const auto err_path = dir / ("printtwin_cli_err_" + std::to_string(::getpid()) + "_" +
-                               std::to_string(counter++));
-  const std::string cmd = std::string("CI=true ") + PRINTTWIN_CLI + " " + args + " 2>" +
-                          err_path.string();
+  const auto err_path =
+      dir / ("printtwin_cli_err_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
+  const std::string cmd =
+      std::string("CI=true ") + PRINTTWIN_CLI + " " + args + " 2>" + err_path.string();
   CliRun run;
   FILE* pipe = ::popen(cmd.c_str(), "r");
   if (pipe == nullptr) return run;

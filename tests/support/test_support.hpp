@@ -22,8 +22,8 @@ std::filesystem::path temp_dir(const std::string& name);
 
 struct CliRun {
   int exit_code = -1;
-  std::string out;   ///< stdout
-  std::string err;   ///< stderr
+  std::string out;  ///< stdout
+  std::string err;  ///< stderr
 };
 /// Runs the printtwin CLI with `args` (shell-quoted by the caller), CI=true.
 CliRun run_cli(const std::string& args);

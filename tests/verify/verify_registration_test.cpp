@@ -27,7 +27,8 @@ TEST(VerifyPlaceOption, ParsesTranslationRotationAndErrors) {
   ASSERT_TRUE(parse_place_option("1,2,3;90,0,-45", s).ok());
   EXPECT_EQ(*s.place_mm, Vec3(1, 2, 3));
   EXPECT_EQ(*s.place_rotation_deg, Vec3(90, 0, -45));
-  for (const char* bad : {"", "1,2", "1,2,3,4,5", "1,2,x", "1,2,3;4,5", "1,2;3,4,5", "1,2,3;", "nan,1,2", "1,,2"}) {
+  for (const char* bad :
+       {"", "1,2", "1,2,3,4,5", "1,2,x", "1,2,3;4,5", "1,2;3,4,5", "1,2,3;", "nan,1,2", "1,,2"}) {
     VerifySettings t;
     const auto st = parse_place_option(bad, t);
     ASSERT_FALSE(st.ok()) << bad;
@@ -44,7 +45,8 @@ TEST(VerifyUnitsOption, NamesAndNumbers) {
   EXPECT_EQ(*s.mesh_scale, 25.4);
   ASSERT_TRUE(parse_units_option("2.5", s).ok());
   EXPECT_EQ(*s.mesh_scale, 2.5);
-  for (const char* bad : {"", "feet", "0", "-1", "inf"}) EXPECT_FALSE(parse_units_option(bad, s).ok()) << bad;
+  for (const char* bad : {"", "feet", "0", "-1", "inf"})
+    EXPECT_FALSE(parse_units_option(bad, s).ok()) << bad;
 }
 
 TEST(VerifyRegistrationCli, AnotherPartsGcodeIsSaidPlainly) {
@@ -71,20 +73,23 @@ TEST(VerifyRegistrationCli, PlaceWithRotationAndUnknownObject) {
   ASSERT_TRUE(save_stl(test::make_cube_mm(10.0, Vec3(-5, -5, 0)), stl).ok());
   const std::string gcode = test::source_path("samples/gcode/prusa_cube10.gcode").string();
   // A cube turned 90 degrees about Z is the same cube: the given pose fits.
-  auto run = test::run_cli("verify " + stl.string() + " --gcode " + gcode + " --voxel 0.1 --tolerance 0.3 --place '110,110,0,90' --out " +
+  auto run = test::run_cli("verify " + stl.string() + " --gcode " + gcode +
+                           " --voxel 0.1 --tolerance 0.3 --place '110,110,0,90' --out " +
                            (dir / "r").string());
   EXPECT_EQ(run.exit_code, 0) << run.out << run.err;
   const auto j = read_json(dir / "r" / "report.json");
   EXPECT_EQ(j["deviation"]["registration"]["method"], "--place");
   EXPECT_NEAR(j["deviation"]["registration"]["euler_xyz_deg"][2].get<double>(), 90, 1e-9);
   EXPECT_NEAR(j["settings"]["place_rotation_deg"][2].get<double>(), 90, 1e-9);
-  run = test::run_cli("verify " + stl.string() + " --gcode " + gcode + " --place '1,2' --out " + (dir / "x").string());
+  run = test::run_cli("verify " + stl.string() + " --gcode " + gcode + " --place '1,2' --out " +
+                      (dir / "x").string());
   EXPECT_EQ(run.exit_code, 2) << run.err;
   EXPECT_NE(run.err.find("--place"), std::string::npos);
   run = test::run_cli("verify " + stl.string() + " --units in --out " + (dir / "z").string());
   EXPECT_EQ(run.exit_code, 2) << run.err;
   EXPECT_NE(run.err.find("--units applies"), std::string::npos) << run.err;
-  run = test::run_cli("verify " + stl.string() + " --gcode " + gcode + " --object nothing --out " + (dir / "y").string());
+  run = test::run_cli("verify " + stl.string() + " --gcode " + gcode + " --object nothing --out " +
+                      (dir / "y").string());
   EXPECT_EQ(run.exit_code, 2) << run.err;
   EXPECT_NE(run.err.find("no such object"), std::string::npos) << run.err;
 }
@@ -100,7 +105,8 @@ std::string two_box_gcode(const std::vector<std::pair<std::string, Box3>>& boxes
     g += buf;
   };
   const auto loop = [&](const Box3& b, double inset) {
-    const double x0 = b.min.x() + inset, y0 = b.min.y() + inset, x1 = b.max.x() - inset, y1 = b.max.y() - inset;
+    const double x0 = b.min.x() + inset, y0 = b.min.y() + inset, x1 = b.max.x() - inset,
+                 y1 = b.max.y() - inset;
     std::snprintf(buf, sizeof buf, "G0 X%.3f Y%.3f F6000\n", x0, y0);
     g += buf;
     move(x1, y0, (x1 - x0) * e_per_mm);
@@ -134,12 +140,14 @@ std::string two_box_gcode(const std::vector<std::pair<std::string, Box3>>& boxes
 TEST(VerifyRegistrationCli, BedOfTwoLabelledObjectsMatchesTheOneThatFits) {
   const auto dir = test::temp_dir("verify_two_objects");
   const auto gcode = dir / "bed.gcode";
-  ASSERT_TRUE(write_file_atomic(gcode, two_box_gcode({{"tower", Box3{Vec3(60, 100, 0), Vec3(72, 110, 16)}},
-                                                     {"plate", Box3{Vec3(140, 90, 0), Vec3(170, 120, 4)}}}))
+  ASSERT_TRUE(write_file_atomic(
+                  gcode, two_box_gcode({{"tower", Box3{Vec3(60, 100, 0), Vec3(72, 110, 16)}},
+                                        {"plate", Box3{Vec3(140, 90, 0), Vec3(170, 120, 4)}}}))
                   .ok());
   const auto stl = dir / "plate.stl";  // the plate, designed around its own origin
   ASSERT_TRUE(save_stl(make_box_mesh(Vec3(-15, -15, 0), Vec3(15, 15, 4)), stl).ok());
-  const std::string base = "verify " + stl.string() + " --gcode " + gcode.string() + " --voxel 0.1 --tolerance 0.3 ";
+  const std::string base =
+      "verify " + stl.string() + " --gcode " + gcode.string() + " --voxel 0.1 --tolerance 0.3 ";
   auto run = test::run_cli(base + "--out " + (dir / "a").string());
   EXPECT_NE(run.out.find("object plate"), std::string::npos) << run.out << run.err;
   auto j = read_json(dir / "a" / "report.json");
@@ -162,7 +170,8 @@ TEST(VerifyRegistrationCli, BedOfTwoLabelledObjectsMatchesTheOneThatFits) {
 TEST(VerifyRegistrationPrusaSlicer, FourBridgesSideBySideArePlacedByAllFour) {
   // Four bridges of different spans side by side, 9 mm apart: four islands on the bed. The
   // largest alone is centred 13.5 mm from the part's centre in Y and 0 in X.
-  if (std::system("command -v prusa-slicer >/dev/null 2>&1") != 0) GTEST_SKIP() << "prusa-slicer not installed";
+  if (std::system("command -v prusa-slicer >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "prusa-slicer not installed";
   const auto dir = test::temp_dir("verify_bridges");
   Mesh mesh;
   const double spans[4] = {40, 30, 20, 12};
@@ -173,14 +182,15 @@ TEST(VerifyRegistrationPrusaSlicer, FourBridgesSideBySideArePlacedByAllFour) {
                           make_box_mesh(Vec3(0, y, 10), Vec3(spans[i], y + 5, 12))}) {
       const auto base = static_cast<std::uint32_t>(mesh.vertices_mm.size());
       mesh.vertices_mm.insert(mesh.vertices_mm.end(), b.vertices_mm.begin(), b.vertices_mm.end());
-      for (const auto& t : b.triangles) mesh.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
+      for (const auto& t : b.triangles)
+        mesh.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
     }
   }
   const auto stl = dir / "bridges.stl";
   const auto gcode = dir / "bridges.gcode";
   ASSERT_TRUE(save_stl(mesh, stl).ok());
-  const std::string cmd = "timeout 300 prusa-slicer --export-gcode --center 110,110 -o " + gcode.string() + " " +
-                          stl.string() + " >/dev/null 2>&1";
+  const std::string cmd = "timeout 300 prusa-slicer --export-gcode --center 110,110 -o " +
+                          gcode.string() + " " + stl.string() + " >/dev/null 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   VerifyOptions options;
   options.mesh_path = stl;
@@ -199,18 +209,22 @@ TEST(VerifyRegistrationPrusaSlicer, FourBridgesSideBySideArePlacedByAllFour) {
 }
 
 /// A G-code and its model from shared/realworld; empty paths when either is missing.
-std::pair<std::filesystem::path, std::filesystem::path> realworld_pair(const char* gcode, const char* model) {
+std::pair<std::filesystem::path, std::filesystem::path> realworld_pair(const char* gcode,
+                                                                       const char* model) {
   const auto found = test::realworld_dir();
   if (!found) return {};
   const std::filesystem::path rw = *found;
-  if (!std::filesystem::exists(rw / "gcode" / gcode) || !std::filesystem::exists(rw / "models" / model))
+  if (!std::filesystem::exists(rw / "gcode" / gcode) ||
+      !std::filesystem::exists(rw / "models" / model))
     return {};
   return {rw / "gcode" / gcode, rw / "models" / model};
 }
 
 TEST(VerifyRealworld, CuraBracketIsFoundLaidFlatWithP95DeviationBelowPointThree) {
-  const auto [gcode, stl] = realworld_pair("cura-3.6.0_Ender3_bedlevel_base_bracket_FR.gcode", "ender3_bedlevel_base_bracket_FR.stl");
-  if (gcode.empty()) GTEST_SKIP() << "no shared/realworld with cura-3.6.0_Ender3_bedlevel_base_bracket_FR.gcode";
+  const auto [gcode, stl] = realworld_pair("cura-3.6.0_Ender3_bedlevel_base_bracket_FR.gcode",
+                                           "ender3_bedlevel_base_bracket_FR.stl");
+  if (gcode.empty())
+    GTEST_SKIP() << "no shared/realworld with cura-3.6.0_Ender3_bedlevel_base_bracket_FR.gcode";
   VerifyOptions options;
   options.mesh_path = stl;
   options.gcode_path = gcode;
@@ -228,15 +242,18 @@ TEST(VerifyRealworld, CuraBracketIsFoundLaidFlatWithP95DeviationBelowPointThree)
 }
 
 TEST(VerifyRealworld, KisslicerLidInMetresRegisters) {
-  const auto [gcode, stl] = realworld_pair("kisslicer-1.4.5.10_musicutility_lid.gcode", "kisslicer_pair_musicutility_lid.stl");
-  if (gcode.empty()) GTEST_SKIP() << "no shared/realworld with kisslicer-1.4.5.10_musicutility_lid.gcode";
+  const auto [gcode, stl] = realworld_pair("kisslicer-1.4.5.10_musicutility_lid.gcode",
+                                           "kisslicer_pair_musicutility_lid.stl");
+  if (gcode.empty())
+    GTEST_SKIP() << "no shared/realworld with kisslicer-1.4.5.10_musicutility_lid.gcode";
   // KISSlicer's origin is the bed's centre: a 220 mm bed from -110 to 110 (the file states
   // only its printer's name), given as a profile so that no move is clamped.
   const auto dir = test::temp_dir("verify_lid");
   const auto printer = dir / "centred220.json";
   ASSERT_TRUE(write_file_atomic(printer, R"({"base": "ender3", "name": "centred 220",
     "bed_min_x_mm": -110, "bed_min_y_mm": -110, "bed_max_x_mm": 110, "bed_max_y_mm": 110,
-    "travel_min_x_mm": -110, "travel_min_y_mm": -110, "travel_max_x_mm": 110, "travel_max_y_mm": 110})").ok());
+    "travel_min_x_mm": -110, "travel_min_y_mm": -110, "travel_max_x_mm": 110, "travel_max_y_mm": 110})")
+                  .ok());
   VerifyOptions options;
   options.mesh_path = stl;
   options.gcode_path = gcode;

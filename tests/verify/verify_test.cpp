@@ -5,8 +5,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "printtwin/printer.hpp"
 #include "printtwin/io.hpp"
+#include "printtwin/printer.hpp"
 #include "printtwin/report.hpp"
 #include "printtwin/verify.hpp"
 #include "support/test_support.hpp"
@@ -54,7 +54,8 @@ TEST(VerifyCli, PrusaSlicerCubePassesAtPointThreeWithAFullReport) {
   EXPECT_NEAR(offset[2].get<double>(), 0.0, 1e-9);
   for (const char* dir_name : {"deposit_to_mesh", "mesh_to_deposit"}) {
     const auto& s = j["deviation"][dir_name];
-    for (const char* key : {"min_mm", "max_mm", "mean_mm", "rms_mm", "std_mm", "p95_mm", "within_tolerance_pct"})
+    for (const char* key :
+         {"min_mm", "max_mm", "mean_mm", "rms_mm", "std_mm", "p95_mm", "within_tolerance_pct"})
       ASSERT_TRUE(s.contains(key)) << dir_name << "." << key;
     EXPECT_GT(s["samples"].get<double>(), 50000);
     EXPECT_LT(std::abs(s["mean_mm"].get<double>()), 0.05) << dir_name;
@@ -78,15 +79,17 @@ TEST(VerifyCli, TightGateFailsWithExitOne) {
   const auto dir = test::temp_dir("verify_cube_tight");
   const auto stl = cube10_stl(dir);
   const auto out = dir / "report";
-  const auto run = test::run_cli("verify " + stl.string() + " --gcode " +
-                                 test::source_path("samples/gcode/prusa_cube10.gcode").string() +
-                                 " --tolerance 0.3 --max-deficit 0.01 --quiet --out " + out.string());
+  const auto run =
+      test::run_cli("verify " + stl.string() + " --gcode " +
+                    test::source_path("samples/gcode/prusa_cube10.gcode").string() +
+                    " --tolerance 0.3 --max-deficit 0.01 --quiet --out " + out.string());
   ASSERT_EQ(run.exit_code, 1) << run.out << run.err;
   const auto j = read_json(out / "report.json");
   EXPECT_EQ(j["pass"], false);
   bool deficit_gate_failed = false;
   for (const auto& g : j["gates"])
-    if (g["name"] == "max_deficit") deficit_gate_failed = !g["pass"].get<bool>() && g["limit"].get<double>() == 0.01;
+    if (g["name"] == "max_deficit")
+      deficit_gate_failed = !g["pass"].get<bool>() && g["limit"].get<double>() == 0.01;
   EXPECT_TRUE(deficit_gate_failed);
 }
 
@@ -103,7 +106,8 @@ TEST(VerifyCli, MisplacedMeshFailsWithMissingAndExcessRegions) {
   EXPECT_EQ(j["deviation"]["registration"]["method"], "--place");
   bool missing = false, excess = false;
   for (const auto& r : j["regions"]) {
-    const double x_min = r["bbox_mm"]["min"][0].get<double>(), x_max = r["bbox_mm"]["max"][0].get<double>();
+    const double x_min = r["bbox_mm"]["min"][0].get<double>(),
+                 x_max = r["bbox_mm"]["max"][0].get<double>();
     // Mesh now spans x 107..117, the print 105..115: the design sticks out at +x (missing),
     // the print at -x (excess).
     if (r["kind"] == "missing" && x_min > 114.5) missing = true;
@@ -121,9 +125,9 @@ TEST(VerifyCli, ThinWallsDroppedByTheSlicerAreMissingRegionsAtTheirPlace) {
   // where the walls stand.
   const auto dir = test::temp_dir("verify_thin_walls");
   const auto out = dir / "report";
-  const auto run = test::run_cli("verify " + test::source_path("samples/models/thin_walls.stl").string() +
-                                 " --set thin_wall_min_width=0.45 --tolerance 0.3 --voxel 0.1 --quiet --out " +
-                                 out.string());
+  const auto run = test::run_cli(
+      "verify " + test::source_path("samples/models/thin_walls.stl").string() +
+      " --set thin_wall_min_width=0.45 --tolerance 0.3 --voxel 0.1 --quiet --out " + out.string());
   ASSERT_EQ(run.exit_code, 1) << run.out << run.err;
   const auto j = read_json(out / "report.json");
   EXPECT_EQ(j["settings"]["gcode_source"], "printtwin slice");
@@ -164,9 +168,10 @@ TEST(VerifyCli, ThinWallsDroppedByTheSlicerAreMissingRegionsAtTheirPlace) {
 
 TEST(VerifyCli, SlicerSettingsNeedNoGcode) {
   const auto dir = test::temp_dir("verify_set_with_gcode");
-  const auto run = test::run_cli("verify " + test::source_path("samples/models/thin_walls.stl").string() +
-                                 " --gcode " + test::source_path("samples/gcode/prusa_thin_walls.gcode").string() +
-                                 " --set layer_height=0.1 --quiet --out " + (dir / "r").string());
+  const auto run = test::run_cli(
+      "verify " + test::source_path("samples/models/thin_walls.stl").string() + " --gcode " +
+      test::source_path("samples/gcode/prusa_thin_walls.gcode").string() +
+      " --set layer_height=0.1 --quiet --out " + (dir / "r").string());
   EXPECT_EQ(run.exit_code, 2) << run.out << run.err;
   EXPECT_NE(run.err.find("--set"), std::string::npos) << run.err;
 }
@@ -175,14 +180,20 @@ TEST(VerifyCli, UsageAndBadInputExitCodes) {
   const auto dir = test::temp_dir("verify_errors");
   const auto stl = cube10_stl(dir);
   const auto gcode = test::source_path("samples/gcode/prusa_cube10.gcode").string();
-  EXPECT_EQ(test::run_cli("verify " + stl.string() + " --gcode " + gcode + " --place 1,2").exit_code, 2);
-  EXPECT_EQ(test::run_cli("verify " + stl.string() + " --gcode " + gcode + " --tolerance 0").exit_code, 2);
-  EXPECT_EQ(test::run_cli("verify " + stl.string() + " --gcode " + gcode + " --voxel 5").exit_code, 2);
+  EXPECT_EQ(
+      test::run_cli("verify " + stl.string() + " --gcode " + gcode + " --place 1,2").exit_code, 2);
+  EXPECT_EQ(
+      test::run_cli("verify " + stl.string() + " --gcode " + gcode + " --tolerance 0").exit_code,
+      2);
+  EXPECT_EQ(test::run_cli("verify " + stl.string() + " --gcode " + gcode + " --voxel 5").exit_code,
+            2);
   EXPECT_EQ(test::run_cli("verify " + stl.string() + " --bogus-flag").exit_code, 2);
   const auto missing = test::run_cli("verify " + (dir / "nope.stl").string() + " --gcode " + gcode);
   EXPECT_EQ(missing.exit_code, 3);
   EXPECT_NE(missing.err.find("nope.stl"), std::string::npos);
-  EXPECT_EQ(test::run_cli("verify " + stl.string() + " --gcode " + (dir / "nope.gcode").string()).exit_code, 3);
+  EXPECT_EQ(test::run_cli("verify " + stl.string() + " --gcode " + (dir / "nope.gcode").string())
+                .exit_code,
+            3);
 }
 
 TEST(VerifyLibrary, ReportJsonIsDeterministicApartFromTimings) {
@@ -233,7 +244,8 @@ TEST(VerifyLibrary, SideBySideHalvesGiveTheReportOfTheSequentialPipeline) {
   for (const auto& t : together->timings) stages_together.push_back(t.stage);
   for (const auto& t : apart->timings) stages_apart.push_back(t.stage);
   EXPECT_EQ(stages_together, stages_apart);
-  EXPECT_EQ(stages_together, (std::vector<std::string>{"load", "index", "check", "simulate", "deposit", "registration", "deviation"}));
+  EXPECT_EQ(stages_together, (std::vector<std::string>{"load", "index", "check", "simulate",
+                                                       "deposit", "registration", "deviation"}));
   // verify() measures its own wall time; the halves called one by one do not.
   EXPECT_GT(together->elapsed_s, 0.0);
   EXPECT_EQ(apart->elapsed_s, 0.0);
