@@ -33,18 +33,12 @@ raw="${RAW:-${out%.md}.raw}"
 PATHS='
 face_avx2         | bench:deviation_bench:BM_DeviationStage/ | cpu  | AVX2 4-wide face-square distance test (deviation/kernels.cpp)
 mesh_query_avx2   | bench:deviation_bench:BM_DeviationStage/ | cpu  | AVX2 candidate box filter + 4-wide exact closest point (mesh/kernels.cpp)
-distance_prefetch | bench:deviation_bench:BM_DeviationStage/ | cpu  | software prefetch of scattered query points (deviation/deposit_surface.cpp, mesh_distance.cpp)
-nibbles_pdep      | bench:deposit_bench:BM_DepositOnly/      | cpu  | BMI2 PDEP tag-nibble writes (deposit/voxel_grid.cpp)
-chunk_prefault    | bench:deposit_bench:BM_DepositOnly/      | cpu  | madvise(MADV_POPULATE_WRITE) per fresh grid chunk (deposit/voxel_grid.cpp)
-bead_avx512       | bench:deposit_bench:BM_DepositOnly/      | cpu  | AVX-512 bead tile kernel (deposit/bead_raster.cpp)
-bead_avx2         | bench:deposit_bench:BM_DepositOnly/      | cpu  | AVX2 bead tile kernel (deposit/bead_raster.cpp)
-writer_thread     | bench:deposit_bench:BM_DepositOnly/      | wall | grid writer helper thread (deposit/grid_writer.cpp)
-claim_pages       | bench:deposit_bench:BM_DepositOnly/      | cpu  | ZeroedArray::claim page reuse (deposit/deposit.cpp)
-default_init      | bench:bgcode_bench:BM_DecodeBinary/1    | cpu  | default-initialised byte buffers, no zero fill (gcode/heatshrink.hpp)
+claim_pages       | bench:deviation_bench:BM_DeviationStage/ | cpu  | ZeroedArray::claim page reuse (core/zeroed_array.hpp, the outer-surface arrays)
+bead_avx512       | bench:deposit_bench:BM_DepositOnly/0     | cpu  | AVX-512 bead tile kernel (deposit/kernels.cpp)
+bead_avx2         | bench:deposit_bench:BM_DepositOnly/0     | cpu  | AVX2 bead tile and support-count kernels (deposit/kernels.cpp)
 sha_ni            | cli:verify:load                          | wall | SHA extensions for the input hashes (core/kernels.cpp); stage: verify "load"
-tune_allocator    | cli:verify                               | cpu  | mallopt tuning of glibc malloc (core/io.cpp tune_allocator_for_jobs)
 march_x86_64_v2   | build:bench:deviation_bench:BM_DeviationStage/ | cpu | -march=x86-64-v2 for all code (CMakeLists.txt PRINTTWIN_X86_64_V2)
-march_x86_64_v2   | build:bench:deposit_bench:BM_DepositOnly/      | cpu | -march=x86-64-v2 for all code (CMakeLists.txt PRINTTWIN_X86_64_V2)
+march_x86_64_v2   | build:bench:deposit_bench:BM_DepositOnly/0     | cpu | -march=x86-64-v2 for all code (CMakeLists.txt PRINTTWIN_X86_64_V2)
 march_x86_64_v2   | build:cli:verify                               | cpu | -march=x86-64-v2 for all code (CMakeLists.txt PRINTTWIN_X86_64_V2)
 '
 
