@@ -153,12 +153,15 @@ std::string DepositStage::summary() const {
   const double ratio = d.extruded_mm3 > 0 ? d.volume_mm3 / d.extruded_mm3 : 0.0;
   std::size_t bridges = 0, cantilevers = 0;
   for (const auto& s : d.unsupported) (s.bridge ? bridges : cantilevers) += 1;
-  std::string out = "deposit: " + std::to_string(d.voxels) + " voxels of " +
-                    format_number(d.voxel_mm) + " mm, " + format_fixed(d.volume_mm3, 1) + " mm3 (" +
-                    format_fixed(100 * ratio, 1) + " % of " + format_fixed(d.extruded_mm3, 1) +
-                    " mm3 extruded), overlap " + format_fixed(d.overlap_mm3, 1) + " mm3 (" +
-                    format_fixed(d.squeezed_mm3, 1) +
-                    " mm3 of it squeezed into free space nearby)\n";
+  std::string out =
+      "deposit: " + std::to_string(d.voxels) + " voxels of " + format_number(d.voxel_mm) + " mm, " +
+      format_fixed(d.volume_mm3, 1) + " mm3 (" + format_fixed(100 * ratio, 1) + " % of " +
+      format_fixed(d.extruded_mm3, 1) + " mm3 extruded), overlap " +
+      format_fixed(d.overlap_mm3, 1) + " mm3" +
+      (options_.conserve_volume
+           ? " (" + format_fixed(d.squeezed_mm3, 1) + " mm3 of it squeezed into free space nearby)"
+           : std::string(" (lost; --conserve-volume places it)")) +
+      "\n";
   out += "extrusion into air: " + format_fixed(d.unsupported_mm, 1) + " mm unsupported; " +
          std::to_string(bridges) + " bridged and " + std::to_string(cantilevers) +
          " cantilevered stretches of at least 1 mm\n";
