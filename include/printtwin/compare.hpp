@@ -383,6 +383,14 @@ struct ProcessRun {
 [[nodiscard]] ProcessRun run_process(const std::vector<std::string>& argv,
                                      const std::vector<SettingKV>& env, double timeout_s);
 
+/// The config file to hand the slicer `slicer` for the user's `config_path`: the file itself,
+/// or, for a PrusaSlicer 3MF project given to prusa-slicer or slic3r (whose --load reads
+/// only .ini), the project's settings written to `extracted_ini`. Empty stays empty. Cura
+/// reads no 3MF project: a zip given to it is an error that says so.
+[[nodiscard]] Result<std::string> slicer_config_file(std::string_view slicer,
+                                                     const std::string& config_path,
+                                                     const std::filesystem::path& extracted_ini);
+
 /// Slices `job` with `program`: runs the command, checks that a G-code was written.
 /// Errors (bad input) quote the slicer's own last lines of output, or say it timed out.
 /// `command_out` receives the quoted command line in every case.

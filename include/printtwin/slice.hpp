@@ -148,7 +148,14 @@ struct IniLoadReport {
 /// file and line (bad input).
 [[nodiscard]] Result<IniLoadReport> apply_prusa_ini(SliceSettings& settings, std::string_view text,
                                                     std::string_view source);
-/// Reads the file and calls apply_prusa_ini.
+/// Where a PrusaSlicer (or SuperSlicer) 3MF project keeps its settings, in .ini syntax.
+inline constexpr std::string_view kProjectConfigEntry = "Metadata/Slic3r_PE.config";
+/// The text of a PrusaSlicer config: an .ini (or G-code config block) as it is, or the
+/// settings a 3MF project stores (kProjectConfigEntry). A zip without them is an error.
+[[nodiscard]] Result<std::string> read_prusa_config(const std::filesystem::path& path);
+/// read_prusa_config on bytes already read (`source` names the file in errors).
+[[nodiscard]] Result<std::string> prusa_config_text(std::string bytes, const std::string& source);
+/// Reads the config (read_prusa_config) and calls apply_prusa_ini.
 [[nodiscard]] Result<IniLoadReport> load_prusa_ini(SliceSettings& settings,
                                                    const std::filesystem::path& path);
 

@@ -259,14 +259,17 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
         if (!program) return report_error(program.error());
         SlicerJob job;
         job.mesh_path = o->mesh;
-        job.config_path = o->slice_config;
         job.settings = s.slice_overrides;
         job.cura_definition = o->cura_definition;
         const std::filesystem::path dir = o->out.empty() ? std::filesystem::path("reports") /
                                                                std::filesystem::path(o->mesh).stem()
                                                          : std::filesystem::path(o->out);
-        job.out_gcode =
-            (dir.parent_path() / (dir.filename().string() + "-" + o->slicer + ".gcode")).string();
+        const std::string stem = dir.filename().string() + "-" + o->slicer;
+        job.out_gcode = (dir.parent_path() / (stem + ".gcode")).string();
+        auto config =
+            slicer_config_file(o->slicer, o->slice_config, dir.parent_path() / (stem + ".ini"));
+        if (!config) return report_error(config.error());
+        job.config_path = *config;
         std::string command;
         const Status sliced = run_external_slicer(*program, job, o->slicer_timeout_s, &command);
         if (!o->quiet)

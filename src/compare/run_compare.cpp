@@ -245,15 +245,19 @@ class ExternalSlicing {
         job->program = programs.at(v.slicer);
         job->version = job->program.version;
         job->input.mesh_path = mesh_path;
-        job->input.config_path = v.config_path;
-        job->input.settings = v.settings;
-        job->input.cura_definition = plan.cura_definition;
         char prefix[16];
         std::snprintf(prefix, sizeof prefix, "%02d-", v.index);
+        auto config =
+            slicer_config_file(v.slicer, v.config_path,
+                               dir / "gcode" / (std::string(prefix) + slug(v.label) + ".ini"));
+        job->input.config_path = config ? *config : v.config_path;
+        job->input.settings = v.settings;
+        job->input.cura_definition = plan.cura_definition;
         job->gcode = (dir / "gcode" / (std::string(prefix) + slug(v.label) + ".gcode")).string();
         job->input.out_gcode = job->gcode;
         if (v.slicer == "cura") job->printer = cura_definition_printer(plan.cura_definition);
-        auto command = slicer_command_line(job->program, job->input);
+        auto command = config ? slicer_command_line(job->program, job->input)
+                              : Result<std::string>(config.error());
         if (!command) {
           job->status = command.error();
           job->done = true;

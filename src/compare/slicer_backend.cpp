@@ -24,6 +24,7 @@
 #include "printtwin/compare.hpp"
 #include "printtwin/io.hpp"
 #include "printtwin/printer.hpp"
+#include "printtwin/slice.hpp"
 
 namespace printtwin {
 
@@ -522,6 +523,23 @@ Result<std::string> slicer_command_line(const SlicerProgram& program, const Slic
   for (const auto& [k, v] : slicer_environment(program, job))
     prefix += shell_quote({k + "=" + v}) + " ";
   return prefix + shell_quote(*argv);
+}
+
+Result<std::string> slicer_config_file(std::string_view slicer, const std::string& config_path,
+                                       const fs::path& extracted_ini) {
+  if (config_path.empty()) return config_path;
+  auto head = read_file_head(config_path, 4);
+  if (!head) return head.error();
+  if (*head != std::string_view("PK\x03\x04", 4)) return config_path;  // not a zip archive
+  if (slicer == "cura")
+    return bad_input(
+        "a zip (3MF) archive: CuraEngine takes its settings as key=value lines, not a Cura "
+        "project; give --cura-definition and the settings file",
+        config_path);
+  auto text = read_prusa_config(config_path);
+  if (!text) return text.error();
+  if (auto st = write_file_atomic(extracted_ini, *text); !st) return st.error();
+  return extracted_ini.string();
 }
 
 Status run_external_slicer(const SlicerProgram& program, const SlicerJob& job, double timeout_s,

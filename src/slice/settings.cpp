@@ -7,6 +7,7 @@
 #include <string>
 #include <variant>
 
+#include "core/zip_reader.hpp"
 #include "printtwin/io.hpp"
 #include "printtwin/slice.hpp"
 
@@ -301,8 +302,27 @@ Result<IniLoadReport> apply_prusa_ini(SliceSettings& settings, std::string_view 
   return report;
 }
 
+Result<std::string> prusa_config_text(std::string bytes, const std::string& source) {
+  if (!detail::looks_like_zip(bytes)) return bytes;
+  auto entry = detail::zip_entry(bytes, kProjectConfigEntry, source);
+  if (!entry) return entry.error();
+  if (!*entry)
+    return bad_input(std::string("a zip (3MF) archive without PrusaSlicer settings (no ") +
+                         std::string(kProjectConfigEntry) +
+                         "): save the project from PrusaSlicer, or give its settings as an .ini "
+                         "(File > Export > Export Config)",
+                     source);
+  return std::move(**entry);
+}
+
+Result<std::string> read_prusa_config(const std::filesystem::path& path) {
+  auto bytes = read_file(path);
+  if (!bytes) return bytes.error();
+  return prusa_config_text(std::move(*bytes), path.string());
+}
+
 Result<IniLoadReport> load_prusa_ini(SliceSettings& settings, const std::filesystem::path& path) {
-  auto text = read_file(path);
+  auto text = read_prusa_config(path);
   if (!text) return text.error();
   return apply_prusa_ini(settings, *text, path.string());
 }

@@ -26,7 +26,9 @@ Result<SliceSettings> verify_slice_settings(const VerifySettings& settings,
     auto ini_in = describe_input("slice_config", settings.slice_config_ini, &ini_text);
     if (!ini_in) return ini_in.error();
     if (inputs != nullptr) inputs->push_back(*ini_in);
-    auto applied = apply_prusa_ini(slice_settings, ini_text, settings.slice_config_ini);
+    auto config = prusa_config_text(std::move(ini_text), settings.slice_config_ini);
+    if (!config) return config.error();
+    auto applied = apply_prusa_ini(slice_settings, *config, settings.slice_config_ini);
     if (!applied) return applied.error();
   }
   for (const auto& [key, value] : settings.slice_overrides)

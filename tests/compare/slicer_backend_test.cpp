@@ -295,6 +295,31 @@ TEST(SlicerBackend, SharedVariantsAreSlicedOnceAndFailuresAreRows) {
   EXPECT_EQ(back->variants[0].variant.slicer, "prusa-slicer");
 }
 
+// compare of the 20 mm cube through the real PrusaSlicer: `config`, one swept axis.
+Result<CompareResult> compare_cube_with_prusa_slicer(const std::string& config,
+                                                     const SweepAxis& axis, const fs::path& out) {
+  const std::string mesh = test::source_path("samples/models/calibration_cube_20mm.stl").string();
+  auto printer = load_printer_profile("auto");
+  if (!printer) return printer.error();
+  auto part = prepare_shared_part(fs::path(mesh), *printer);
+  if (!part) return part.error();
+  ComparePlan plan;
+  plan.mesh_path = mesh;
+  plan.verify.voxel_mm = 0.1;
+  SweepSpec spec;
+  spec.slicers = {"prusa-slicer"};
+  spec.configs = {config};
+  spec.axes = {axis};
+  auto variants = expand_variants(spec);
+  if (!variants) return variants.error();
+  plan.variants = std::move(*variants);
+  if (auto st = validate_plan(plan); !st) return st.error();
+  CompareRunOptions options;
+  options.out_dir = out;
+  options.variant_reports = false;
+  return run_compare(*part, plan, {}, options);
+}
+
 // The real PrusaSlicer, when installed: a layer-height pair of the 20 mm cube.
 TEST(SlicerBackend, RealPrusaSlicerSweep) {
   auto found = find_slicer_program("prusa-slicer", "");
@@ -302,24 +327,7 @@ TEST(SlicerBackend, RealPrusaSlicerSweep) {
   EXPECT_NE(found->version.find("PrusaSlicer"), std::string::npos) << found->version;
   const auto dir = test::temp_dir("slicer_real_prusa");
   const std::string ini = test::source_path("samples/configs/ender3_prusaslicer.ini").string();
-  const std::string mesh = test::source_path("samples/models/calibration_cube_20mm.stl").string();
-  auto printer = load_printer_profile("auto");
-  ASSERT_TRUE(printer);
-  auto part = prepare_shared_part(fs::path(mesh), *printer);
-  ASSERT_TRUE(part) << part.error().describe();
-  ComparePlan plan;
-  plan.mesh_path = mesh;
-  plan.verify.voxel_mm = 0.1;
-  SweepSpec spec;
-  spec.slicers = {"prusa-slicer"};
-  spec.configs = {ini};
-  spec.axes = {SweepAxis{"layer_height", {"0.1", "0.3"}}};
-  plan.variants = expand_variants(spec).value();
-  ASSERT_TRUE(validate_plan(plan));
-  CompareRunOptions options;
-  options.out_dir = dir;
-  options.variant_reports = false;
-  auto result = run_compare(*part, plan, {}, options);
+  auto result = compare_cube_with_prusa_slicer(ini, SweepAxis{"layer_height", {"0.1", "0.3"}}, dir);
   ASSERT_TRUE(result) << result.error().describe();
   ASSERT_EQ(result->variants.size(), 2u);
   for (const auto& row : result->variants) {
@@ -330,6 +338,56 @@ TEST(SlicerBackend, RealPrusaSlicerSweep) {
   EXPECT_GT(result->variants[0].print_time_s, result->variants[1].print_time_s);
   EXPECT_NEAR(result->variants[0].layer_height_mm, 0.1, 0.005);
   EXPECT_NEAR(result->variants[1].layer_height_mm, 0.3, 0.005);
+}
+
+// A PrusaSlicer 3MF project as the config: its stored settings reach the real PrusaSlicer
+// (through an .ini beside the G-code, since its --load reads no 3MF) and the twin.
+TEST(SlicerBackend, RealPrusaSlicerTakesA3mfProjectAsTheConfig) {
+  auto found = find_slicer_program("prusa-slicer", "");
+  if (!found) GTEST_SKIP() << "prusa-slicer is not installed (" << found.error().message << ")";
+  const auto dir = test::temp_dir("slicer_real_prusa_3mf");
+  auto ini = read_file(test::source_path("samples/configs/ender3_prusaslicer.ini"));
+  ASSERT_TRUE(ini);
+  std::string config;  // the sample's settings with 0.3 mm layers, as a project stores them
+  for (std::size_t at = 0; at < ini->size();) {
+    std::size_t end = ini->find('\n', at);
+    if (end == std::string::npos) end = ini->size();
+    const std::string line = ini->substr(at, end - at);
+    config += line.rfind("layer_height =", 0) == 0 ? "layer_height = 0.3" : line;
+    config += '\n';
+    at = end + 1;
+  }
+  const fs::path project = dir / "ender3.3mf";
+  std::ofstream(project, std::ios::binary) << test::make_zip(
+      {{"3D/3dmodel.model", "<model/>"}, {"Metadata/Slic3r_PE.config", config}}, true);
+  auto result =
+      compare_cube_with_prusa_slicer(project.string(), SweepAxis{"perimeters", {"2"}}, dir / "out");
+  ASSERT_TRUE(result) << result.error().describe();
+  ASSERT_EQ(result->variants.size(), 1u);
+  const auto& row = result->variants[0];
+  ASSERT_TRUE(row.ran) << row.error;
+  EXPECT_NE(row.command.find(".ini"), std::string::npos) << row.command;
+  EXPECT_NEAR(row.layer_height_mm, 0.3, 0.01);
+}
+
+TEST(SlicerBackend, A3mfProjectForCuraIsRefusedWithTheReason) {
+  const auto dir = test::temp_dir("slicer_cura_3mf");
+  const fs::path project = dir / "cura.3mf";
+  std::ofstream(project, std::ios::binary) << test::make_zip({{"3D/3dmodel.model", "<m/>"}}, false);
+  auto r = slicer_config_file("cura", project.string(), dir / "x.ini");
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().message.find("key=value"), std::string::npos) << r.error().message;
+  // Without PrusaSlicer's settings in it, PrusaSlicer's back-end names the missing entry.
+  auto p = slicer_config_file("prusa-slicer", project.string(), dir / "x.ini");
+  ASSERT_FALSE(p);
+  EXPECT_NE(p.error().message.find("Slic3r_PE.config"), std::string::npos);
+  // An .ini passes through untouched.
+  auto plain = slicer_config_file(
+      "prusa-slicer", test::source_path("samples/configs/ender3_prusaslicer.ini").string(),
+      dir / "x.ini");
+  ASSERT_TRUE(plain);
+  EXPECT_EQ(fs::path(*plain).filename(), "ender3_prusaslicer.ini");
+  EXPECT_FALSE(fs::exists(dir / "x.ini"));
 }
 
 // The real CuraEngine with the cura package's Ender-3 definition, when both are installed.

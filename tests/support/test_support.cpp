@@ -4,7 +4,9 @@
 
 #include <sys/wait.h>
 #include <unistd.h>
+#include <zlib.h>
 #include <array>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -72,6 +74,64 @@ CliRun run_cli(const std::string& args) {
 
 Mesh make_cube_mm(double size_mm, const Vec3& min_mm) {
   return make_box_mesh(min_mm, min_mm + Vec3::Constant(size_mm));
+}
+
+namespace {
+void put_le(std::string& out, std::uint64_t v, int bytes) {
+  for (int i = 0; i < bytes; ++i) out += static_cast<char>((v >> (8 * i)) & 0xff);
+}
+std::string raw_deflate(const std::string& in) {
+  z_stream zs{};
+  deflateInit2(&zs, Z_BEST_COMPRESSION, Z_DEFLATED, -MAX_WBITS, 8, Z_DEFAULT_STRATEGY);
+  std::string out(deflateBound(&zs, static_cast<uLong>(in.size())), '\0');
+  zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data()));
+  zs.avail_in = static_cast<uInt>(in.size());
+  zs.next_out = reinterpret_cast<Bytef*>(out.data());
+  zs.avail_out = static_cast<uInt>(out.size());
+  deflate(&zs, Z_FINISH);
+  out.resize(zs.total_out);
+  deflateEnd(&zs);
+  return out;
+}
+}  // namespace
+
+std::string make_zip(const std::vector<std::pair<std::string, std::string>>& entries,
+                     bool deflate) {
+  std::string zip, central;
+  for (const auto& [name, bytes] : entries) {
+    const std::string data = deflate ? raw_deflate(bytes) : bytes;
+    const auto crc =
+        crc32(0L, reinterpret_cast<const Bytef*>(bytes.data()), static_cast<uInt>(bytes.size()));
+    const std::size_t offset = zip.size();
+    std::string common;  // version needed .. extra length, shared by both headers
+    put_le(common, 20, 2);
+    put_le(common, 0, 2);
+    put_le(common, deflate ? 8 : 0, 2);
+    put_le(common, 0, 4);  // time, date
+    put_le(common, crc, 4);
+    put_le(common, data.size(), 4);
+    put_le(common, bytes.size(), 4);
+    put_le(common, name.size(), 2);
+    put_le(common, 0, 2);
+    put_le(zip, 0x04034b50, 4);
+    zip += common + name + data;
+    put_le(central, 0x02014b50, 4);
+    put_le(central, 20, 2);  // version made by
+    central += common;
+    central.append(10, '\0');  // comment length, disk, internal and external attributes
+    put_le(central, offset, 4);
+    central += name;
+  }
+  const std::size_t cd_offset = zip.size();
+  zip += central;
+  put_le(zip, 0x06054b50, 4);
+  put_le(zip, 0, 4);
+  put_le(zip, entries.size(), 2);
+  put_le(zip, entries.size(), 2);
+  put_le(zip, central.size(), 4);
+  put_le(zip, cd_offset, 4);
+  put_le(zip, 0, 2);
+  return zip;
 }
 
 }  // namespace printtwin::test

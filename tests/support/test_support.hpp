@@ -3,6 +3,8 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -27,6 +29,10 @@ struct CliRun {
 };
 /// Runs the printtwin CLI with `args` (shell-quoted by the caller), CI=true.
 CliRun run_cli(const std::string& args);
+
+/// A zip archive of (name, bytes) entries, deflated when `deflate` (stored otherwise), as
+/// 3MF writers make them: local headers, central directory, end record.
+std::string make_zip(const std::vector<std::pair<std::string, std::string>>& entries, bool deflate);
 
 /// Closed outward-oriented cube of edge `size_mm` with its min corner at `min_mm`.
 Mesh make_cube_mm(double size_mm, const Vec3& min_mm = Vec3::Zero());
