@@ -280,8 +280,6 @@ class DilatedField {
                     z = b.z() + (axis == 0 ? d : 0);
           if (!box_.contains(x, y, z)) continue;
           const std::size_t j = box_.index(x, y, z);
-          mark_.claim(j);
-          memo_[static_cast<std::size_t>(st)].claim(j);
           // Computed by an earlier call: neither it nor what it reads is needed again.
           if (mark_[j] == 0 && memo_[static_cast<std::size_t>(st)][j] == 0) {
             mark_[j] = 1;
