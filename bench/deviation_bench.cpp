@@ -237,9 +237,8 @@ int checksum() {
     surface = extract_outer_surface(p.deposit.grid, region, settings.seal_gap_mm,
                                     settings.groove_depth_mm);
   });
-  const double t_beads = least_of_3([&] {
-    place_on_beads(surface, p.beads, p.deposit.grid.voxel_mm());
-  });
+  const double t_beads =
+      least_of_3([&] { place_on_beads(surface, p.beads, p.deposit.grid.voxel_mm()); });
   const std::vector<Vec3>& pts = surface.points_mm;
   std::vector<double> d;
   std::vector<std::uint32_t> tri;
