@@ -25,13 +25,14 @@ void to_bead_surface(const DepositSurface& s, std::span<const SurfaceBead> beads
                      std::vector<double>& signed_mm) {
   if (s.face_bead.empty()) return;
   const double v = s.voxel_mm;
+  const detail::BeadIndex index(beads);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t i = r.begin(); i != r.end(); ++i) {
                         const std::uint32_t f = nearest[i];
                         if (f >= s.face_bead.size() || s.face_bead[f] == kNoBead) continue;
                         const detail::BeadDistance b =
-                            detail::nearest_bead(beads, s.face_tags[f].line, points[i]);
+                            index.nearest(s.face_tags[f].line, points[i]);
                         if (b.bead != kNoBead && std::abs(-b.signed_mm - signed_mm[i]) <= v)
                           signed_mm[i] = -b.signed_mm;
                       }
