@@ -26,7 +26,7 @@ class ZeroedArray {
   ZeroedArray() = default;
   explicit ZeroedArray(std::size_t n) : size_(n) {
     if (n == 0) return;
-    const std::size_t bytes = n * sizeof(T);
+    const std::size_t bytes = n * kElementBytes;
 #if defined(__linux__)
     if (bytes >= kMapBytes) {
       void* p = mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
@@ -36,11 +36,11 @@ class ZeroedArray {
       return;
     }
 #endif
-    data_ = static_cast<T*>(std::calloc(n, sizeof(T)));
+    data_ = static_cast<T*>(std::calloc(n, kElementBytes));
     if (data_ == nullptr) throw std::bad_alloc();
   }
   ZeroedArray(const ZeroedArray& o) : ZeroedArray(o.size_) {
-    if (size_ != 0) std::memcpy(data_, o.data_, size_ * sizeof(T));
+    if (size_ != 0) std::memcpy(data_, o.data_, size_ * kElementBytes);
   }
   ZeroedArray(ZeroedArray&& o) noexcept { swap(o); }
   ZeroedArray& operator=(ZeroedArray o) noexcept {
@@ -62,12 +62,14 @@ class ZeroedArray {
   const T& operator[](std::size_t i) const { return data_[i]; }
 
  private:
+  /// T may be a pointer (a directory of blocks): its own size is meant.
+  static constexpr std::size_t kElementBytes = sizeof(T);  // NOLINT(bugprone-sizeof-expression)
   static constexpr std::size_t kMapBytes = std::size_t{1} << 20;
   void release() noexcept {
     if (data_ == nullptr) return;
 #if defined(__linux__)
     if (mapped_) {
-      munmap(data_, size_ * sizeof(T));
+      munmap(data_, size_ * kElementBytes);
       data_ = nullptr;
       return;
     }

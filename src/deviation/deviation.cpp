@@ -277,7 +277,7 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   int max_layer = -1;
   for (const auto& t : surface.face_tags)
     max_layer = std::max(max_layer, static_cast<int>(t.layer));
-  const auto n_layers = static_cast<std::size_t>(max_layer + 1);
+  const std::size_t n_layers = max_layer < 0 ? 0 : static_cast<std::size_t>(max_layer) + 1;
   std::vector<LayerDeviation> layers(n_layers);
   std::vector<std::size_t> dep_begin, mesh_begin;
   std::vector<double> dep_values, mesh_values, dep_weights;
@@ -340,7 +340,7 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   for (std::size_t l = 0; l < n_layers;
        ++l)  // layers no sample of either direction is nearest to: none
     if (dep_begin[l] != dep_begin[l + 1] || mesh_begin[l] != mesh_begin[l + 1])
-      out.per_layer.push_back(std::move(layers[l]));
+      out.per_layer.push_back(layers[l]);
 
   // Regions: missing = design surface the deposit does not reach; excess = deposit surface
   // beyond the design.

@@ -80,7 +80,10 @@ inline Cube dilate_z(const Cube* lo_p, const Cube* m_p, const Cube* hi_p, int r)
   Cube out;
   for (int z = 0; z < kE; ++z) {
     std::uint64_t v = 0;
-    for (int k = -r; k <= r; ++k) v |= s[static_cast<std::size_t>(kE + z + k)];
+    for (int k = -r; k <= r; ++k) {
+      const int at = kE + z + k;
+      v |= s[static_cast<std::size_t>(at)];
+    }
     out[static_cast<std::size_t>(z)] = v;
   }
   return out;
