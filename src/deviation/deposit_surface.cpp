@@ -119,6 +119,141 @@ std::vector<std::uint32_t> face_cell_groups(const DepositSurface& surface) {
   return cells;
 }
 
+namespace {
+
+/// The exact nearest face of a point: p's own cell, then the cells a bound reaches, then
+/// rings of cells and rings of groups of cells (a coarse level flags where faces are, so
+/// points far from the deposit, say a missing wall, skip empty space quickly).
+class FaceSearch {
+ public:
+  FaceSearch(const DepositSurface& s, bool portable)
+      : buckets_(s),
+        half_(0.5 * s.voxel_mm),
+        scan_faces_(face_scan_kernel(portable)),
+        faces_{buckets_.center, buckets_.axis.data(), buckets_.n} {
+    groups_ = (buckets_.cells.array() + kGroup - 1) / kGroup;
+    group_has_.assign(static_cast<std::size_t>(groups_.x()) * groups_.y() * groups_.z(), 0);
+    static_assert(kGroup % 2 == 0);
+    for (const Eigen::Vector3i& b : buckets_.held)  // a group is kGroup / 2 pair blocks across
+      group_has_[group_index(b / (kGroup / 2))] = 1;
+    group_mm_ = buckets_.cell_mm * kGroup;
+    max_group_ring_ = groups_.maxCoeff();
+  }
+
+  /// The nearest face of p; `bound` (may be infinite) is a distance within which a face is
+  /// known to lie (it only prunes).
+  [[nodiscard]] NearestFace nearest(const Vec3& p, double bound) const {
+    NearestFace best;
+    // p's own cell first; then the bound (the caller's, or the best face of p's cell) limits
+    // the search to the cells its ball touches (at most 2 per axis): all faces within the
+    // bound are in them, so the minimum over them is the global one.
+    const Eigen::Vector3i c0 = buckets_.cell_coord(p);
+    scan_cell(p, c0, best);
+    bound = std::min(bound, std::sqrt(best.d2) * (1 + 1e-9) + 1e-9);
+    bool done = bound < buckets_.cell_mm && scan_within(p, c0, bound, best);
+    for (int ring = 0; ring <= kFineRings && !done; ++ring)
+      done = scan_fine_ring(p, c0, ring, best);
+    const Eigen::Vector3i g0 = c0 / kGroup;
+    for (int ring = 0; ring <= max_group_ring_ && !done; ++ring)
+      done = scan_group_ring(p, g0, ring, best);
+    return best;
+  }
+
+ private:
+  static constexpr int kGroup = 8;
+  static constexpr int kFineRings = 2;
+
+  [[nodiscard]] std::size_t group_index(const Eigen::Vector3i& g) const {
+    return (static_cast<std::size_t>(g.z()) * groups_.y() + g.y()) * groups_.x() + g.x();
+  }
+  /// Squared distance from p to a box of `size` at `lo`, widened by half a voxel (a face
+  /// centred in a cell reaches half a voxel beyond it).
+  [[nodiscard]] double box_dist2(const Vec3& p, const Vec3& lo, double size) const {
+    double b2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double l = lo[a] - half_, h = lo[a] + size + half_;
+      const double e = p[a] < l ? l - p[a] : (p[a] > h ? p[a] - h : 0.0);
+      b2 += e * e;
+    }
+    return b2;
+  }
+  /// Every face as close as the best so far is visited (strict pruning), and ties go to the
+  /// lowest face index: the result does not depend on the order cells are scanned.
+  void scan_cell(const Vec3& p, const Eigen::Vector3i& c, NearestFace& best) const {
+    if ((c.array() < 0).any() || (c.array() >= buckets_.cells.array()).any()) return;
+    std::uint32_t lo = 0, hi = 0;
+    buckets_.cell_range(c, lo, hi);
+    if (lo == hi) return;
+    if (box_dist2(p, buckets_.origin_mm + buckets_.cell_mm * c.cast<double>(), buckets_.cell_mm) >
+        best.d2)
+      return;
+    scan_faces_(faces_, lo, hi, p, half_, best);
+  }
+  /// The cells the ball of radius `bound` about p touches; true when the best is within it.
+  bool scan_within(const Vec3& p, const Eigen::Vector3i& c0, double bound,
+                   NearestFace& best) const {
+    const double reach_mm = bound + half_;
+    Eigen::Vector3i lo, hi;
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::max(0, static_cast<int>(std::floor((p[a] - reach_mm - buckets_.origin_mm[a]) /
+                                                      buckets_.cell_mm)));
+      hi[a] = std::min(buckets_.cells[a] - 1,
+                       static_cast<int>(std::floor((p[a] + reach_mm - buckets_.origin_mm[a]) /
+                                                   buckets_.cell_mm)));
+    }
+    for (int z = lo.z(); z <= hi.z(); ++z)
+      for (int y = lo.y(); y <= hi.y(); ++y)
+        for (int x = lo.x(); x <= hi.x(); ++x) {
+          const Eigen::Vector3i c(x, y, z);
+          if (c != c0) scan_cell(p, c, best);
+        }
+    return best.d2 <= bound * bound;
+  }
+  /// Ring `ring` of cells around p's cell; every cell of ring + 1 is at least
+  /// ring * cell - half away: true when the best is closer.
+  bool scan_fine_ring(const Vec3& p, const Eigen::Vector3i& c0, int ring, NearestFace& best) const {
+    for (int dz = -ring; dz <= ring; ++dz)
+      for (int dy = -ring; dy <= ring; ++dy)
+        for (int dx = -ring; dx <= ring; ++dx)
+          if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) == ring)
+            scan_cell(p, c0 + Eigen::Vector3i(dx, dy, dz), best);
+    const double reach = ring * buckets_.cell_mm - half_;
+    return reach > 0 && best.d2 < reach * reach;
+  }
+  /// Far points: a ring of groups, descending only into groups that hold faces and may beat
+  /// the best so far (cells already scanned are simply scanned again).
+  bool scan_group_ring(const Vec3& p, const Eigen::Vector3i& g0, int ring,
+                       NearestFace& best) const {
+    for (int dz = -ring; dz <= ring; ++dz)
+      for (int dy = -ring; dy <= ring; ++dy)
+        for (int dx = -ring; dx <= ring; ++dx) {
+          if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) != ring) continue;
+          const Eigen::Vector3i g = g0 + Eigen::Vector3i(dx, dy, dz);
+          if ((g.array() < 0).any() || (g.array() >= groups_.array()).any()) continue;
+          if (group_has_[group_index(g)] == 0) continue;
+          if (box_dist2(p, buckets_.origin_mm + group_mm_ * g.cast<double>(), group_mm_) > best.d2)
+            continue;
+          for (int z = 0; z < kGroup; ++z)
+            for (int y = 0; y < kGroup; ++y)
+              for (int x = 0; x < kGroup; ++x)
+                scan_cell(p, g * kGroup + Eigen::Vector3i(x, y, z), best);
+        }
+    const double reach = ring * group_mm_ - half_;
+    return reach > 0 && best.d2 < reach * reach;
+  }
+
+  FaceBuckets buckets_;
+  double half_;
+  FaceScan scan_faces_;
+  FaceArrays faces_;
+  Eigen::Vector3i groups_ = Eigen::Vector3i::Zero();
+  std::vector<std::uint8_t> group_has_;
+  double group_mm_ = 0;
+  int max_group_ring_ = 0;
+};
+
+}  // namespace
+
 void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> points,
                                std::vector<double>& signed_mm,
                                std::vector<std::uint32_t>* nearest_face, bool portable,
@@ -131,25 +266,7 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
     std::fill(signed_mm.begin(), signed_mm.end(), -far);
     return;
   }
-  const FaceBuckets buckets(s);
-  const double half = 0.5 * s.voxel_mm;
-  const FaceScan scan_faces = face_scan_kernel(portable);
-  const FaceArrays faces{buckets.center, buckets.axis.data(), buckets.n};
-  // A coarse level (groups of kGroup^3 cells) flags where faces are, so that points far from
-  // the deposit (a missing wall) skip empty space quickly; the search stays exact.
-  constexpr int kGroup = 8;
-  const Eigen::Vector3i groups = (buckets.cells.array() + kGroup - 1) / kGroup;
-  std::vector<std::uint8_t> group_has(
-      static_cast<std::size_t>(groups.x()) * groups.y() * groups.z(), 0);
-  const auto group_index = [&](const Eigen::Vector3i& g) {
-    return (static_cast<std::size_t>(g.z()) * groups.y() + g.y()) * groups.x() + g.x();
-  };
-  static_assert(kGroup % 2 == 0);
-  for (const Eigen::Vector3i& b : buckets.held)  // a group is kGroup / 2 pair blocks across
-    group_has[group_index(b / (kGroup / 2))] = 1;
-  const double group_mm = buckets.cell_mm * kGroup;
-  const int max_group_ring = groups.maxCoeff();
-  constexpr int kFineRings = 2;
+  const FaceSearch search(s, portable);
   // Queries in cells of the buckets' size, column by column: neighbouring queries read the
   // same cells and filled bits (the input, say mesh samples in triangle order, may jump).
   DepositQueryGroups own;
@@ -158,105 +275,24 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
     pregrouped = &own;
   }
   const std::vector<std::uint32_t>& order = pregrouped->order;
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, points.size(), 2048),
-      [&](const tbb::blocked_range<std::size_t>& range) {
-        // The previous point of this chunk and its distance: by the triangle inequality the
-        // nearest face of p is at most prev_d + |p - prev_p| away, which bounds the search.
-        Vec3 prev_p = Vec3::Zero();
-        double prev_d = std::numeric_limits<double>::infinity();
-        for (std::size_t j = range.begin(); j != range.end(); ++j) {
-          const std::size_t i = order[j];
-          const Vec3& p = points[i];
-          NearestFace best;
-          const double& best2 = best.d2;
-          // Squared distance from p to a box of `size` at `lo`, widened by half a voxel (a face
-          // centred in a cell reaches half a voxel beyond it).
-          const auto box_dist2 = [&](const Vec3& lo, double size) {
-            double b2 = 0;
-            for (int a = 0; a < 3; ++a) {
-              const double l = lo[a] - half, h = lo[a] + size + half;
-              const double e = p[a] < l ? l - p[a] : (p[a] > h ? p[a] - h : 0.0);
-              b2 += e * e;
-            }
-            return b2;
-          };
-          // Every face as close as the best so far is visited (strict pruning), and ties go to
-          // the lowest face index: the result does not depend on the order cells are scanned.
-          const auto scan_cell = [&](const Eigen::Vector3i& c) {
-            if ((c.array() < 0).any() || (c.array() >= buckets.cells.array()).any()) return;
-            std::uint32_t lo = 0, hi = 0;
-            buckets.cell_range(c, lo, hi);
-            if (lo == hi) return;
-            if (box_dist2(buckets.origin_mm + buckets.cell_mm * c.cast<double>(), buckets.cell_mm) >
-                best2)
-              return;
-            scan_faces(faces, lo, hi, p, half, best);
-          };
-          // p's own cell first; then the bound (the previous point's, or the best face of p's
-          // cell) limits the search to the cells its ball touches (at most 2 per axis): all
-          // faces within the bound are in them, so the minimum over them is the global one.
-          const Eigen::Vector3i c0 = buckets.cell_coord(p);
-          scan_cell(c0);
-          bool done = false;
-          const double bound = std::min((prev_d + (p - prev_p).norm()) * (1 + 1e-9) + 1e-9,
-                                        std::sqrt(best2) * (1 + 1e-9) + 1e-9);
-          if (bound < buckets.cell_mm) {
-            const double reach_mm = bound + half;
-            Eigen::Vector3i lo, hi;
-            for (int a = 0; a < 3; ++a) {
-              lo[a] = std::max(0, static_cast<int>(std::floor(
-                                      (p[a] - reach_mm - buckets.origin_mm[a]) / buckets.cell_mm)));
-              hi[a] = std::min(buckets.cells[a] - 1,
-                               static_cast<int>(std::floor(
-                                   (p[a] + reach_mm - buckets.origin_mm[a]) / buckets.cell_mm)));
-            }
-            for (int z = lo.z(); z <= hi.z(); ++z)
-              for (int y = lo.y(); y <= hi.y(); ++y)
-                for (int x = lo.x(); x <= hi.x(); ++x) {
-                  const Eigen::Vector3i c(x, y, z);
-                  if (c != c0) scan_cell(c);
-                }
-            done = best2 <= bound * bound;
-          }
-          // Fine rings around p's cell; every cell of ring + 1 is at least ring * cell - half away.
-          for (int ring = 0; ring <= kFineRings && !done; ++ring) {
-            for (int dz = -ring; dz <= ring; ++dz)
-              for (int dy = -ring; dy <= ring; ++dy)
-                for (int dx = -ring; dx <= ring; ++dx)
-                  if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) == ring)
-                    scan_cell(c0 + Eigen::Vector3i(dx, dy, dz));
-            const double reach = ring * buckets.cell_mm - half;
-            done = reach > 0 && best2 < reach * reach;
-          }
-          // Far points: rings of groups, descending only into groups that hold faces and may
-          // beat the best so far (cells already scanned are simply scanned again).
-          const Eigen::Vector3i g0 = c0 / kGroup;
-          for (int ring = 0; ring <= max_group_ring && !done; ++ring) {
-            for (int dz = -ring; dz <= ring; ++dz)
-              for (int dy = -ring; dy <= ring; ++dy)
-                for (int dx = -ring; dx <= ring; ++dx) {
-                  if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) != ring) continue;
-                  const Eigen::Vector3i g = g0 + Eigen::Vector3i(dx, dy, dz);
-                  if ((g.array() < 0).any() || (g.array() >= groups.array()).any()) continue;
-                  if (group_has[group_index(g)] == 0) continue;
-                  if (box_dist2(buckets.origin_mm + group_mm * g.cast<double>(), group_mm) > best2)
-                    continue;
-                  for (int z = 0; z < kGroup; ++z)
-                    for (int y = 0; y < kGroup; ++y)
-                      for (int x = 0; x < kGroup; ++x)
-                        scan_cell(g * kGroup + Eigen::Vector3i(x, y, z));
-                }
-            const double reach = ring * group_mm - half;
-            done = reach > 0 && best2 < reach * reach;
-          }
-          const double d = std::sqrt(best2);
-          prev_p = p;
-          prev_d = d;
-          signed_mm[i] = s.filled(p) ? d : -d;
-          if (nearest_face != nullptr) (*nearest_face)[i] = best.face;
-        }
-      });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 2048),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      // The previous point of this chunk and its distance: by the triangle
+                      // inequality the nearest face of p is at most prev_d + |p - prev_p| away.
+                      Vec3 prev_p = Vec3::Zero();
+                      double prev_d = std::numeric_limits<double>::infinity();
+                      for (std::size_t j = range.begin(); j != range.end(); ++j) {
+                        const std::size_t i = order[j];
+                        const Vec3& p = points[i];
+                        const NearestFace best =
+                            search.nearest(p, (prev_d + (p - prev_p).norm()) * (1 + 1e-9) + 1e-9);
+                        const double d = std::sqrt(best.d2);
+                        prev_p = p;
+                        prev_d = d;
+                        signed_mm[i] = s.filled(p) ? d : -d;
+                        if (nearest_face != nullptr) (*nearest_face)[i] = best.face;
+                      }
+                    });
 }
 
 }  // namespace detail

@@ -25,13 +25,14 @@ void to_bead_surface(const DepositSurface& s, std::span<const SurfaceBead> beads
                      std::vector<double>& signed_mm) {
   if (s.face_bead.empty()) return;
   const double v = s.voxel_mm;
+  const detail::BeadIndex index(beads);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t i = r.begin(); i != r.end(); ++i) {
                         const std::uint32_t f = nearest[i];
                         if (f >= s.face_bead.size() || s.face_bead[f] == kNoBead) continue;
                         const detail::BeadDistance b =
-                            detail::nearest_bead(beads, s.face_tags[f].line, points[i]);
+                            index.nearest(s.face_tags[f].line, points[i]);
                         if (b.bead != kNoBead && std::abs(-b.signed_mm - signed_mm[i]) <= v)
                           signed_mm[i] = -b.signed_mm;
                       }
@@ -85,6 +86,110 @@ void wall_roughness(const Mesh& mesh, std::span<const double> d,
     out.wall_area_mm2 = static_cast<double>(w);
   }
 }
+/// Distances grouped by layer with a counting sort (sample order kept within a layer):
+/// layer l's values are values[begin[l] .. begin[l + 1]), with their weights when w is given.
+template <class LayerOf>
+void group_by_layer(std::size_t n_layers, std::size_t n, const LayerOf& layer_of,
+                    std::span<const double> d, std::vector<std::size_t>& begin,
+                    std::vector<double>& values, std::span<const double> w = {},
+                    std::vector<double>* weights = nullptr) {
+  begin.assign(n_layers + 1, 0);
+  for (std::size_t i = 0; i < n; ++i)
+    if (const int l = layer_of(i); l >= 0) ++begin[static_cast<std::size_t>(l) + 1];
+  for (std::size_t l = 0; l < n_layers; ++l) begin[l + 1] += begin[l];
+  values.resize(begin[n_layers]);
+  if (weights != nullptr) weights->resize(w.empty() ? 0 : begin[n_layers]);
+  std::vector<std::size_t> fill(begin.begin(), begin.end() - 1);
+  for (std::size_t i = 0; i < n; ++i)
+    if (const int l = layer_of(i); l >= 0) {
+      const std::size_t k = fill[static_cast<std::size_t>(l)]++;
+      values[k] = d[i];
+      if (weights != nullptr && !w.empty()) (*weights)[k] = w[i];
+    }
+}
+
+/// One direction's per-layer statistics, layers in parallel.
+void layer_stats(std::vector<LayerDeviation>& layers, const std::vector<std::size_t>& begin,
+                 const std::vector<double>& values, DeviationStats LayerDeviation::*field,
+                 double tolerance_mm, const std::vector<double>& weights = {}) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, layers.size()),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t l = r.begin(); l != r.end(); ++l) {
+                        const std::size_t b = begin[l], n = begin[l + 1] - begin[l];
+                        layers[l].*field = deviation_stats(
+                            std::span<const double>(values).subspan(b, n),
+                            weights.empty() ? std::span<const double>{}
+                                            : std::span<const double>(weights).subspan(b, n),
+                            tolerance_mm);
+                      }
+                    });
+}
+/// The regions out of tolerance (missing from the mesh samples below -tolerance, excess from
+/// the deposit points above +tolerance), clustered; those under the minimum area are noise,
+/// counted but neither regions nor in the worst figures.
+template <class MeshSample, class DepSample>
+void find_regions(const DeviationSettings& settings, double v, double spacing,
+                  std::span<const double> d_mesh, std::span<const double> d_dep,
+                  const MeshSample& mesh_sample, const DepSample& dep_sample,
+                  DeviationResult& out) {
+  const std::size_t ns = d_mesh.size();
+  const double radius = settings.cluster_radius_mm > 0 ? settings.cluster_radius_mm
+                                                       : std::max(2.0 * v, 3.0 * spacing);
+  // Only the out-of-tolerance samples are clustered (in sample order: the same regions as
+  // clustering all of them), so the full sample lists exist only when they are kept.
+  const auto out_of_tolerance = [&](std::size_t n, std::span<const double> d, double sign,
+                                    const auto& make) {
+    std::vector<DeviationSample> list;
+    for (std::size_t i = 0; i < n; ++i)
+      if (sign * d[i] > settings.tolerance_mm) list.push_back(make(i));
+    return list;
+  };
+  const std::vector<DeviationSample> mesh_out = out_of_tolerance(ns, d_mesh, -1.0, mesh_sample);
+  const std::vector<DeviationSample> dep_out =
+      out_of_tolerance(d_dep.size(), d_dep, 1.0, dep_sample);
+  std::vector<std::int32_t> missing_of, excess_of;
+  auto missing = cluster_regions(mesh_out, settings.tolerance_mm, radius, spacing * spacing,
+                                 RegionKind::missing, settings.max_region_lines, &missing_of);
+  auto excess = cluster_regions(dep_out, settings.tolerance_mm, radius, v * v, RegionKind::excess,
+                                settings.max_region_lines, &excess_of);
+  // Clusters below the minimum area are voxel noise: not regions, not in the gate figures.
+  const auto is_noise = [&](const std::vector<DeviationRegion>& regions, std::int32_t r) {
+    return r >= 0 && regions[static_cast<std::size_t>(r)].area_mm2 < settings.min_region_area_mm2;
+  };
+  // Within tolerance: in no region. Out of it: counted unless its region is noise.
+  const auto max_within = [&](std::span<const double> d, double sign) {
+    double m = 0;
+    for (const double x : d)
+      if (!(sign * x > settings.tolerance_mm)) m = std::max(m, sign * x);
+    return m;
+  };
+  out.max_excess_mm = max_within(d_dep, 1.0);
+  for (std::size_t k = 0; k < dep_out.size(); ++k)
+    if (!is_noise(excess, excess_of[k]))
+      out.max_excess_mm = std::max(out.max_excess_mm, dep_out[k].distance_mm);
+  out.max_deficit_mm = max_within(d_mesh, -1.0);
+  for (std::size_t k = 0; k < mesh_out.size(); ++k)
+    if (!is_noise(missing, missing_of[k]))
+      out.max_deficit_mm = std::max(out.max_deficit_mm, -mesh_out[k].distance_mm);
+  for (auto* list : {&missing, &excess})
+    for (auto& r : *list) {
+      if (r.area_mm2 < settings.min_region_area_mm2) {
+        ++out.noise_regions;
+        out.noise_area_mm2 += r.area_mm2;
+      } else {
+        out.regions.push_back(std::move(r));
+      }
+    }
+  std::stable_sort(out.regions.begin(), out.regions.end(),
+                   [](const DeviationRegion& a, const DeviationRegion& b) {
+                     if (a.area_mm2 != b.area_mm2) return a.area_mm2 > b.area_mm2;
+                     return std::abs(a.worst_mm) > std::abs(b.worst_mm);
+                   });
+  if (settings.max_regions >= 0 &&
+      out.regions.size() > static_cast<std::size_t>(settings.max_regions))
+    out.regions.resize(static_cast<std::size_t>(settings.max_regions));
+}
+
 }  // namespace
 
 Result<DeviationResult> compute_deviation(const Mesh& mesh, const VoxelGrid& deposit,
@@ -172,41 +277,8 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   int max_layer = -1;
   for (const auto& t : surface.face_tags)
     max_layer = std::max(max_layer, static_cast<int>(t.layer));
-  const auto n_layers = static_cast<std::size_t>(max_layer + 1);
-  const auto group = [&](std::size_t n, const auto& layer_of, std::span<const double> d,
-                         std::vector<std::size_t>& begin, std::vector<double>& values,
-                         std::span<const double> w = {}, std::vector<double>* weights = nullptr) {
-    begin.assign(n_layers + 1, 0);
-    for (std::size_t i = 0; i < n; ++i)
-      if (const int l = layer_of(i); l >= 0) ++begin[static_cast<std::size_t>(l) + 1];
-    for (std::size_t l = 0; l < n_layers; ++l) begin[l + 1] += begin[l];
-    values.resize(begin[n_layers]);
-    if (weights != nullptr) weights->resize(w.empty() ? 0 : begin[n_layers]);
-    std::vector<std::size_t> fill(begin.begin(), begin.end() - 1);
-    for (std::size_t i = 0; i < n; ++i)
-      if (const int l = layer_of(i); l >= 0) {
-        const std::size_t k = fill[static_cast<std::size_t>(l)]++;
-        values[k] = d[i];
-        if (weights != nullptr && !w.empty()) (*weights)[k] = w[i];
-      }
-  };
+  const std::size_t n_layers = max_layer < 0 ? 0 : static_cast<std::size_t>(max_layer) + 1;
   std::vector<LayerDeviation> layers(n_layers);
-  // One direction's per-layer statistics, layers in parallel.
-  const auto layer_stats =
-      [&](const std::vector<std::size_t>& begin, const std::vector<double>& values,
-          DeviationStats LayerDeviation::*field, const std::vector<double>& weights = {}) {
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_layers),
-                          [&](const tbb::blocked_range<std::size_t>& r) {
-                            for (std::size_t l = r.begin(); l != r.end(); ++l) {
-                              const std::size_t b = begin[l], n = begin[l + 1] - begin[l];
-                              layers[l].*field = deviation_stats(
-                                  std::span<const double>(values).subspan(b, n),
-                                  weights.empty() ? std::span<const double>{}
-                                                  : std::span<const double>(weights).subspan(b, n),
-                                  settings.tolerance_mm);
-                            }
-                          });
-      };
   std::vector<std::size_t> dep_begin, mesh_begin;
   std::vector<double> dep_values, mesh_values, dep_weights;
   // The highest surface voxel of each layer (a voxel's centre height grows with its z key).
@@ -226,11 +298,12 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
         tbb::parallel_invoke(
             [&] { out.deposit_to_mesh = deviation_stats(d_dep, face_area, settings.tolerance_mm); },
             [&] {
-              group(
-                  d_dep.size(),
+              group_by_layer(
+                  n_layers, d_dep.size(),
                   [&](std::size_t i) { return static_cast<int>(surface.face_tags[i].layer); },
                   d_dep, dep_begin, dep_values, face_area, &dep_weights);
-              layer_stats(dep_begin, dep_values, &LayerDeviation::deposit_to_mesh, dep_weights);
+              layer_stats(layers, dep_begin, dep_values, &LayerDeviation::deposit_to_mesh,
+                          settings.tolerance_mm, dep_weights);
             });
       },
       [&] {
@@ -239,10 +312,11 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
         if (weighted) to_bead_surface(surface, beads, query_points, nearest, d_query);
         const std::span<const double> d_mesh(d_query.data(), ns);
         out.mesh_to_deposit = deviation_stats(d_mesh, settings.tolerance_mm);
-        group(
-            ns, [&](std::size_t i) { return static_cast<int>(mesh_tag(i).layer); }, d_mesh,
-            mesh_begin, mesh_values);
-        layer_stats(mesh_begin, mesh_values, &LayerDeviation::mesh_to_deposit);
+        group_by_layer(
+            n_layers, ns, [&](std::size_t i) { return static_cast<int>(mesh_tag(i).layer); },
+            d_mesh, mesh_begin, mesh_values);
+        layer_stats(layers, mesh_begin, mesh_values, &LayerDeviation::mesh_to_deposit,
+                    settings.tolerance_mm);
         for (std::size_t i = 0; i < surface.faces.size(); ++i) {
           const int layer = surface.face_tags[i].layer;
           if (layer < 0) continue;
@@ -266,65 +340,11 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   for (std::size_t l = 0; l < n_layers;
        ++l)  // layers no sample of either direction is nearest to: none
     if (dep_begin[l] != dep_begin[l + 1] || mesh_begin[l] != mesh_begin[l + 1])
-      out.per_layer.push_back(std::move(layers[l]));
+      out.per_layer.push_back(layers[l]);
 
   // Regions: missing = design surface the deposit does not reach; excess = deposit surface
   // beyond the design.
-  const double radius = settings.cluster_radius_mm > 0 ? settings.cluster_radius_mm
-                                                       : std::max(2.0 * v, 3.0 * spacing);
-  // Only the out-of-tolerance samples are clustered (in sample order: the same regions as
-  // clustering all of them), so the full sample lists exist only when they are kept.
-  const auto out_of_tolerance = [&](std::size_t n, std::span<const double> d, double sign,
-                                    const auto& make) {
-    std::vector<DeviationSample> list;
-    for (std::size_t i = 0; i < n; ++i)
-      if (sign * d[i] > settings.tolerance_mm) list.push_back(make(i));
-    return list;
-  };
-  const std::vector<DeviationSample> mesh_out = out_of_tolerance(ns, d_mesh, -1.0, mesh_sample);
-  const std::vector<DeviationSample> dep_out =
-      out_of_tolerance(d_dep.size(), d_dep, 1.0, dep_sample);
-  std::vector<std::int32_t> missing_of, excess_of;
-  auto missing = cluster_regions(mesh_out, settings.tolerance_mm, radius, spacing * spacing,
-                                 RegionKind::missing, settings.max_region_lines, &missing_of);
-  auto excess = cluster_regions(dep_out, settings.tolerance_mm, radius, v * v, RegionKind::excess,
-                                settings.max_region_lines, &excess_of);
-  // Clusters below the minimum area are voxel noise: not regions, not in the gate figures.
-  const auto is_noise = [&](const std::vector<DeviationRegion>& regions, std::int32_t r) {
-    return r >= 0 && regions[static_cast<std::size_t>(r)].area_mm2 < settings.min_region_area_mm2;
-  };
-  // Within tolerance: in no region. Out of it: counted unless its region is noise.
-  const auto max_within = [&](std::span<const double> d, double sign) {
-    double m = 0;
-    for (const double x : d)
-      if (!(sign * x > settings.tolerance_mm)) m = std::max(m, sign * x);
-    return m;
-  };
-  out.max_excess_mm = max_within(d_dep, 1.0);
-  for (std::size_t k = 0; k < dep_out.size(); ++k)
-    if (!is_noise(excess, excess_of[k]))
-      out.max_excess_mm = std::max(out.max_excess_mm, dep_out[k].distance_mm);
-  out.max_deficit_mm = max_within(d_mesh, -1.0);
-  for (std::size_t k = 0; k < mesh_out.size(); ++k)
-    if (!is_noise(missing, missing_of[k]))
-      out.max_deficit_mm = std::max(out.max_deficit_mm, -mesh_out[k].distance_mm);
-  for (auto* list : {&missing, &excess})
-    for (auto& r : *list) {
-      if (r.area_mm2 < settings.min_region_area_mm2) {
-        ++out.noise_regions;
-        out.noise_area_mm2 += r.area_mm2;
-      } else {
-        out.regions.push_back(std::move(r));
-      }
-    }
-  std::stable_sort(out.regions.begin(), out.regions.end(),
-                   [](const DeviationRegion& a, const DeviationRegion& b) {
-                     if (a.area_mm2 != b.area_mm2) return a.area_mm2 > b.area_mm2;
-                     return std::abs(a.worst_mm) > std::abs(b.worst_mm);
-                   });
-  if (settings.max_regions >= 0 &&
-      out.regions.size() > static_cast<std::size_t>(settings.max_regions))
-    out.regions.resize(static_cast<std::size_t>(settings.max_regions));
+  find_regions(settings, v, spacing, d_mesh, d_dep, mesh_sample, dep_sample, out);
 
   if (settings.keep_samples) {  // the arrays computed above become the columns, no copy
     DeviationSamples& ms = out.mesh_samples;

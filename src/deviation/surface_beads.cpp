@@ -81,10 +81,11 @@ std::pair<std::size_t, std::size_t> beads_of_line(std::span<const SurfaceBead> b
           static_cast<std::size_t>(hi - beads.begin())};
 }
 
-BeadDistance nearest_bead(std::span<const SurfaceBead> beads, std::uint32_t line, const Vec3& p) {
+namespace {
+/// The nearest of beads [lo, hi) of a line and their neighbours along the path.
+BeadDistance nearest_in(std::span<const SurfaceBead> beads, std::size_t lo, std::size_t hi,
+                        const Vec3& p) {
   BeadDistance best;
-  if (beads.empty()) return best;
-  auto [lo, hi] = beads_of_line(beads, line);
   if (lo == hi) return best;
   // The bead of the line and its neighbours along the path (the moves before and after).
   lo = lo > 0 ? lo - 1 : lo;
@@ -100,38 +101,64 @@ BeadDistance nearest_bead(std::span<const SurfaceBead> beads, std::uint32_t line
   }
   return best;
 }
+}  // namespace
+
+BeadDistance nearest_bead(std::span<const SurfaceBead> beads, std::uint32_t line, const Vec3& p) {
+  if (beads.empty()) return {};
+  const auto [lo, hi] = beads_of_line(beads, line);
+  return nearest_in(beads, lo, hi, p);
+}
+
+BeadIndex::BeadIndex(std::span<const SurfaceBead> beads) : beads_(beads) {
+  if (beads.empty()) return;
+  first_.assign(static_cast<std::size_t>(beads.back().line) + 2,
+                static_cast<std::uint32_t>(beads.size()));
+  // Beads are sorted by line: line l's first bead is the first with line >= l.
+  std::size_t l = 0;
+  for (std::size_t k = 0; k < beads.size(); ++k)
+    for (; l <= beads[k].line; ++l) first_[l] = static_cast<std::uint32_t>(k);
+}
+
+BeadDistance BeadIndex::nearest(std::uint32_t line, const Vec3& p) const {
+  const auto [lo, hi] = of_line(line);
+  return nearest_in(beads_, lo, hi, p);
+}
 
 }  // namespace detail
 
 void place_on_beads(DepositSurface& s, std::span<const SurfaceBead> beads, double max_shift_mm) {
-  s.points_mm = s.face_centers_mm;
   const double v = s.voxel_mm;
-  s.face_area_mm2.assign(s.faces.size(), v * v);
-  s.face_bead.assign(s.faces.size(), kNoBead);
-  if (beads.empty() || s.faces.empty()) return;
+  const std::size_t n = s.faces.size();
+  // Sized without their initial values (each element is written below, in parallel).
+  s.points_mm.resize(n);
+  s.face_area_mm2.resize(n);
+  s.face_bead.resize(n);
+  const detail::BeadIndex index(beads);
   tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, s.faces.size(), 4096),
-      [&](const tbb::blocked_range<std::size_t>& r) {
+      tbb::blocked_range<std::size_t>(0, n, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
           const Vec3 p = s.face_centers_mm[i];
-          const detail::BeadDistance near = detail::nearest_bead(beads, s.face_tags[i].line, p);
+          s.points_mm[i] = p;
+          s.face_area_mm2[i] = v * v;
+          s.face_bead[i] = kNoBead;
+          const detail::BeadDistance near = index.nearest(s.face_tags[i].line, p);
           if (near.bead == kNoBead || !(std::abs(near.signed_mm) <= max_shift_mm)) continue;
           const SurfaceBead& b = beads[near.bead];
-          Vec3 n = p - near.core_point;
-          const double len = n.norm();
+          Vec3 nrm = p - near.core_point;
+          const double len = nrm.norm();
           if (len > 1e-12) {
-            n /= len;
+            nrm /= len;
           } else {  // on the core: the face's own normal
-            n = Vec3::Zero();
-            n[s.faces[i].axis] = s.faces[i].side;
+            nrm = Vec3::Zero();
+            nrm[s.faces[i].axis] = s.faces[i].side;
           }
           // The face must face the way the bead's surface does: a face on the far side of a
           // bead's core (a thin wall's back) belongs to another surface.
-          if (n[s.faces[i].axis] * s.faces[i].side <= 0) continue;
-          s.points_mm[i] = near.core_point + (0.5 * b.height_mm) * n;
+          if (nrm[s.faces[i].axis] * s.faces[i].side <= 0) continue;
+          s.points_mm[i] = near.core_point + (0.5 * b.height_mm) * nrm;
           // A surface of normal n is voxelised into faces of total area |n_x| + |n_y| + |n_z|
           // times its own: each face stands for its area over that sum.
-          s.face_area_mm2[i] = v * v / (std::abs(n.x()) + std::abs(n.y()) + std::abs(n.z()));
+          s.face_area_mm2[i] = v * v / (std::abs(nrm.x()) + std::abs(nrm.y()) + std::abs(nrm.z()));
           s.face_bead[i] = near.bead;
         }
       });

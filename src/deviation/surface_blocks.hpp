@@ -2,13 +2,12 @@
 // The outer surface's block toolkit (private to src/deviation/): the grid's 8^3 blocks as 8
 // words (word z = z-slice z, bit y * 8 + x = voxel (x, y)), their cube dilations, the flood
 // within a block, and the region's block box. Used by each step of the outer surface
-// (outer_surface.cpp: flood, seal and faces; surface_reopen.cpp: groove reopening).
+// (surface_steps.hpp).
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <array>
 #include <cstdint>
-#include <functional>
 #include <memory>
 #include <vector>
 
@@ -81,7 +80,10 @@ inline Cube dilate_z(const Cube* lo_p, const Cube* m_p, const Cube* hi_p, int r)
   Cube out;
   for (int z = 0; z < kE; ++z) {
     std::uint64_t v = 0;
-    for (int k = -r; k <= r; ++k) v |= s[static_cast<std::size_t>(kE + z + k)];
+    for (int k = -r; k <= r; ++k) {
+      const int at = kE + z + k;
+      v |= s[static_cast<std::size_t>(at)];
+    }
     out[static_cast<std::size_t>(z)] = v;
   }
   return out;
@@ -280,8 +282,6 @@ class DilatedField {
                     z = b.z() + (axis == 0 ? d : 0);
           if (!box_.contains(x, y, z)) continue;
           const std::size_t j = box_.index(x, y, z);
-          mark_.claim(j);
-          memo_[static_cast<std::size_t>(st)].claim(j);
           // Computed by an earlier call: neither it nor what it reads is needed again.
           if (mark_[j] == 0 && memo_[static_cast<std::size_t>(st)][j] == 0) {
             mark_[j] = 1;
@@ -358,14 +358,5 @@ class DilatedField {
   CubePool pool_;
   ZeroedArray<std::uint8_t> mark_;  ///< prepare's scratch: blocks already listed
 };
-
-/// Step 3b, the groove reopening (surface_reopen.cpp): what the seal closed opens again to
-/// `steps` 6-connected steps through empty region voxels from the outside found (a geodesic
-/// dilation of the not-filled voxels of the mixed blocks within their free voxels, `region_of`
-/// minus `part_of` of a block's box index). The mixed set must cover every block within
-/// `steps` voxels of an outside voxel; blocks not in it stay as they are.
-void reopen_grooves(DepositSurface& s, const BlockBox& box, const std::vector<std::uint32_t>& mixed,
-                    int steps, const std::function<Cube(std::size_t)>& region_of,
-                    const std::function<Cube(std::size_t)>& part_of);
 
 }  // namespace printtwin::surface_blocks

@@ -5,6 +5,7 @@
 #include <limits>
 #include <span>
 #include <utility>
+#include <vector>
 
 #include "printtwin/deviation.hpp"
 
@@ -27,5 +28,23 @@ struct BeadDistance {
 /// The nearest (least signed distance) of the beads of `line` and their neighbours along the
 /// path (the bead before and after); bead = kNoBead when the line laid no bead.
 BeadDistance nearest_bead(std::span<const SurfaceBead> beads, std::uint32_t line, const Vec3& p);
+
+/// The beads by G-code line, for many look-ups: a table of each line's first bead (one entry
+/// per line up to the last bead's), so a look-up reads two entries instead of searching.
+class BeadIndex {
+ public:
+  explicit BeadIndex(std::span<const SurfaceBead> beads);
+  /// As beads_of_line.
+  [[nodiscard]] std::pair<std::size_t, std::size_t> of_line(std::uint32_t line) const {
+    if (line + std::size_t{1} >= first_.size()) return {beads_.size(), beads_.size()};
+    return {first_[line], first_[line + 1]};
+  }
+  /// As nearest_bead.
+  [[nodiscard]] BeadDistance nearest(std::uint32_t line, const Vec3& p) const;
+
+ private:
+  std::span<const SurfaceBead> beads_;
+  std::vector<std::uint32_t> first_;  ///< first bead of line l (beads_.size() when none after)
+};
 
 }  // namespace printtwin::detail

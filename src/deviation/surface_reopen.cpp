@@ -7,26 +7,24 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <functional>
 
-#include "deviation/outer_surface.hpp"
-#include "deviation/surface_blocks.hpp"
+#include "deviation/surface_steps.hpp"
 
 namespace printtwin::surface_blocks {
 
-void reopen_grooves(DepositSurface& s, const BlockBox& box, const std::vector<std::uint32_t>& mixed,
-                    int steps, const std::function<Cube(std::size_t)>& region_of,
-                    const std::function<Cube(std::size_t)>& part_of) {
+void reopen_grooves(DepositSurface& s, const SurfaceRegion& region, const PartBlocks& part,
+                    const std::vector<std::uint32_t>& mixed, int steps) {
+  const BlockBox& box = region.box;
   std::vector<Cube> free(mixed.size());  // region voxels that are not part
   tbb::parallel_for(std::size_t{0}, mixed.size(), [&](std::size_t m) {
-    const Cube r = region_of(mixed[m]);
-    const Cube p = part_of(mixed[m]);
+    const Cube r = region.region_cube_of(mixed[m]);
+    const Cube& p = or_empty(part.of[mixed[m]]);
     for (std::size_t z = 0; z < kE; ++z) free[m][z] = r[z] & ~p[z];
   });
   // Not filled, per mixed block (the state of the step before).
   std::vector<Cube> open(mixed.size()), next(mixed.size());
   tbb::parallel_for(std::size_t{0}, mixed.size(), [&](std::size_t m) {
-    const Cube r = region_of(mixed[m]);
+    const Cube r = region.region_cube_of(mixed[m]);
     for (std::size_t z = 0; z < kE; ++z) open[m][z] = r[z] & ~s.filled_masks[m][z];
   });
   Cube all;

@@ -3,6 +3,7 @@
 // analytic answers.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <numbers>
 
@@ -16,8 +17,37 @@
 namespace printtwin {
 namespace {
 
-/// A wall of `layers` square loops of beads (width w, height h) whose outer edges touch the
-/// faces of the box [lo, lo + side] x [lo, lo + side] x [0, layers h].
+/// A square tube: the box [lo, lo + side]^2 x [0, height] minus [lo + wall, lo + side - wall]^2,
+/// a closed solid with outward normals (its inner faces face the hole).
+Mesh make_square_tube(double lo, double side, double wall, double height) {
+  Mesh m;
+  const double in_lo = lo + wall, in_hi = lo + side - wall, hi = lo + side;
+  const std::array<std::array<double, 2>, 4> outer{{{lo, lo}, {hi, lo}, {hi, hi}, {lo, hi}}};
+  const std::array<std::array<double, 2>, 4> inner{
+      {{in_lo, in_lo}, {in_hi, in_lo}, {in_hi, in_hi}, {in_lo, in_hi}}};
+  // Vertex of corner k (0..3) of the outer (0) or inner (1) square at the bottom (0) or top.
+  const auto v = [](int ring, int k, int top) {
+    return static_cast<std::uint32_t>(ring * 8 + top * 4 + (k % 4));
+  };
+  for (const auto* sq : {&outer, &inner})
+    for (const double z : {0.0, height})
+      for (const auto& c : *sq) m.vertices_mm.emplace_back(c[0], c[1], z);
+  const auto quad = [&m](std::uint32_t a, std::uint32_t b, std::uint32_t c, std::uint32_t d) {
+    m.triangles.push_back({a, b, c});
+    m.triangles.push_back({a, c, d});
+  };
+  for (int k = 0; k < 4; ++k) {
+    quad(v(0, k, 0), v(0, k + 1, 0), v(0, k + 1, 1), v(0, k, 1));  // outer wall, facing out
+    quad(v(1, k + 1, 0), v(1, k, 0), v(1, k, 1), v(1, k + 1, 1));  // inner wall, facing the hole
+    quad(v(0, k, 1), v(0, k + 1, 1), v(1, k + 1, 1), v(1, k, 1));  // top ring, facing up
+    quad(v(1, k, 0), v(1, k + 1, 0), v(0, k + 1, 0), v(0, k, 0));  // bottom ring, facing down
+  }
+  return m;
+}
+
+/// A wall of `layers` square loops of beads (width w, height h) whose outer and inner edges
+/// touch the faces of a square tube of wall w: [lo, lo + side]^2 x [0, layers h] minus the
+/// hole w inside it.
 struct Wall {
   std::vector<Move> moves;
   Mesh mesh;
@@ -41,7 +71,7 @@ Wall lay_wall(double h, double w, int layers, double side = 10.0) {
   }
   Wall wall;
   wall.moves = bw.moves;
-  wall.mesh = make_box_mesh(Vec3(lo, lo, 0), Vec3(lo + side, lo + side, h * layers));
+  wall.mesh = make_square_tube(lo, side, w, h * layers);
   DepositSettings ds;
   ds.voxel_mm = 0.05;
   auto d = deposit_moves(wall.moves, profile, ds);
@@ -87,9 +117,11 @@ TEST(SurfaceBeads, BeadsFollowTheMovesWithTheStadiumWidth) {
   EXPECT_EQ(hi, 6U);
 }
 
-// Known gap, disabled until it holds: the per-layer figures here also take the loop's inner
-// face (0.45 mm inside the design), so they read ~0.29 mm; the outer faces alone must be
-// selected (e.g. a capped box, or the samples' triangles) before the 10 % bounds can be met.
+// Known gap, disabled until it holds (docs/deviation.md, Limits): the tube's inner and outer
+// faces both touch the beads, so every wall face has the analytic answer, but the voxelised
+// groove stops where the cusp between two beads is narrower than a voxel: deposit->mesh RMS and
+// mean read x1.14 / x1.10 at h = 0.1, x0.74 / x0.73 at 0.2, x0.72 / x0.72 at 0.3; mesh->deposit
+// RMS x1.39 at 0.1, x1.20 at 0.2 and within 10 % at 0.3.
 TEST(SurfaceLayerLines, DISABLED_WallOfStackedBeadsGivesTheAnalyticFigures) {
   // Stadium beads whose outer edge touches the design plane: over one layer's round side
   // (radius R = h / 2, area-weighted), the surface lies 0.363 R inside the plane on average

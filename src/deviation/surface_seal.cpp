@@ -1,0 +1,82 @@
+// Step 3 of the outer surface: the filled volume. Filled = R minus (the outside dilated back
+// by the seal radius r, where not part): a morphological opening of the empty space, so gaps
+// narrower than the seal (pinholes between beads) do not let the outside in. What the seal
+// closed then opens again to the groove depth (surface_reopen.cpp).
+#include <tbb/parallel_for.h>
+
+#include <cstdint>
+#include <vector>
+
+#include "deviation/surface_steps.hpp"
+
+namespace printtwin::surface_blocks {
+
+namespace {
+
+/// Region voxels that are not filled, over the mixed blocks and the wholly outside ones.
+std::size_t count_not_filled(const DepositSurface& s, const SurfaceRegion& region,
+                             const OutsideFlood& flood, const std::vector<std::uint32_t>& mixed) {
+  std::size_t not_filled = 0;
+  for (std::size_t m = 0; m < mixed.size(); ++m) {
+    const Cube r = region.region_cube_of(mixed[m]);
+    for (std::size_t z = 0; z < kE; ++z)
+      not_filled += static_cast<std::size_t>(popcount64(r[z] & ~s.filled_masks[m][z]));
+  }
+  for (std::size_t i = 0; i < flood.kind.size(); ++i)
+    if (flood.kind[i] == OutsideFlood::kWhole) not_filled += region.region_voxels_of(i);
+  return not_filled;
+}
+
+}  // namespace
+
+void fill_volume(DepositSurface& s, const SurfaceRegion& region, const PartBlocks& part,
+                 const OutsideFlood& flood, int seal_r, int reopen) {
+  const BlockBox& box = region.box;
+  const std::size_t n_blocks = box.size();
+  const auto& kind = flood.kind;
+  // Only blocks within reach of a block the outside entered can differ from "all filled"
+  // (untouched) or "none filled" (wholly outside, which holds no part voxel).
+  const int reach = (seal_r + kE - 1) / kE;
+  std::vector<std::uint8_t> near_outside(n_blocks, 0);
+  for (std::size_t i = 0; i < n_blocks; ++i)
+    near_outside[i] = kind[i] == OutsideFlood::kWhole || (kind[i] == OutsideFlood::kPartial &&
+                                                          any(flood.outside[flood.slot[i]]))
+                          ? 1
+                          : 0;
+  dilate_flags(near_outside, box, reach + (seal_r > 0 ? (reopen + kE - 1) / kE : 0));
+  s.filled_block_code.assign(n_blocks, DepositSurface::kAllFilled);
+  std::vector<std::uint32_t> mixed;
+  for (std::size_t i = 0; i < n_blocks; ++i) {
+    if (kind[i] == OutsideFlood::kWhole)
+      s.filled_block_code[i] = DepositSurface::kNoneFilled;
+    else if (near_outside[i] != 0)
+      mixed.push_back(static_cast<std::uint32_t>(i));
+  }
+  const Cube full = full_cube();
+  const auto outside_cube = [&](int bx, int by, int bz) -> const Cube* {
+    const std::size_t i = box.index(bx, by, bz);
+    if (kind[i] == OutsideFlood::kWhole) return &full;  // R's part of it: the field clips to R
+    if (kind[i] == OutsideFlood::kPartial) return &flood.outside[flood.slot[i]];
+    return nullptr;
+  };
+  const auto region_cube = [&](int bx, int by, int bz) { return region.region_cube(bx, by, bz); };
+  DilatedField outside_back(box, seal_r, outside_cube, region_cube);
+  outside_back.prepare(mixed);
+  s.filled_masks.resize(mixed.size());
+  tbb::parallel_for(std::size_t{0}, mixed.size(), [&](std::size_t m) {
+    const Eigen::Vector3i b = box.coords(mixed[m]);
+    Cube o{};
+    const bool some = outside_back.top_of(b.x(), b.y(), b.z(), o);
+    const Cube& p = or_empty(part.of[mixed[m]]);
+    const Cube r = region.region_cube(b.x(), b.y(), b.z());
+    Cube& f = s.filled_masks[m];
+    for (std::size_t z = 0; z < kE; ++z) f[z] = r[z] & ~((some ? o[z] : 0) & ~p[z]);
+  });
+  for (std::size_t m = 0; m < mixed.size(); ++m)
+    s.filled_block_code[mixed[m]] = DepositSurface::kFirstMask + static_cast<std::uint32_t>(m);
+  if (seal_r > 0 && reopen > 0) reopen_grooves(s, region, part, mixed, reopen);
+  const auto n = s.dims.cast<std::size_t>();
+  s.filled_voxels = n.x() * n.y() * n.z() - count_not_filled(s, region, flood, mixed);
+}
+
+}  // namespace printtwin::surface_blocks
