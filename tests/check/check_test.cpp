@@ -664,6 +664,40 @@ TEST(CheckSelfIntersections, GridAndFilterFindExactlyTheExhaustivePairs) {
   EXPECT_EQ(find_self_intersections(bumpy_sphere(10, 60, 120, Vec3(1, 2, 3))).pairs, 0U);
 }
 
+/// find_self_intersections with the mesh's health: the pairs around vertices whose fans are
+/// certified are settled without a test.
+std::vector<std::array<std::uint32_t, 2>> all_pairs_with_health(const Mesh& m) {
+  const MeshHealth h = analyze_mesh_health(m);
+  return find_self_intersections(m, m.triangles.size() * m.triangles.size(), &h).first_pairs;
+}
+
+TEST(CheckSelfIntersections, CertifiedFansGiveTheExhaustivePairs) {
+  // Closed, manifold shells crossing each other: the fans are certified, the pairs between
+  // the shells are still found.
+  Mesh spheres = bumpy_sphere(5, 12, 24, Vec3(0, 0, 0));
+  spheres = merged(spheres, bumpy_sphere(4, 10, 20, Vec3(6, 1, 0.5)));
+  ASSERT_TRUE(analyze_mesh_health(spheres).closed);
+  const auto expected = detail::self_intersecting_pairs_exhaustive(spheres);
+  EXPECT_GT(expected.size(), 50U);
+  EXPECT_EQ(all_pairs_with_health(spheres), expected);
+
+  // Folds inside one closed shell: a vertex pushed through the far side of the sphere (its
+  // fan crosses other faces), one pulled across its neighbours (its own faces overlap
+  // each other), one pushed exactly into the plane of a neighbour.
+  for (const Vec3& moved : {Vec3(0, 0, -7.0), Vec3(0.0, 1.5, 4.2), Vec3(0.3, 0.2, 4.98)}) {
+    Mesh folded = bumpy_sphere(5, 12, 24, Vec3(0, 0, 0));
+    folded.vertices_mm[0] = moved;  // the north pole
+    const auto fold_expected = detail::self_intersecting_pairs_exhaustive(folded);
+    EXPECT_EQ(all_pairs_with_health(folded), fold_expected) << moved.transpose();
+  }
+  Mesh pulled = bumpy_sphere(5, 12, 24, Vec3(0, 0, 0));
+  pulled.vertices_mm[40] =
+      pulled.vertices_mm[41] + 0.8 * (pulled.vertices_mm[41] - pulled.vertices_mm[40]);
+  const auto pulled_expected = detail::self_intersecting_pairs_exhaustive(pulled);
+  EXPECT_GT(pulled_expected.size(), 0U);
+  EXPECT_EQ(all_pairs_with_health(pulled), pulled_expected);
+}
+
 }  // namespace
 }  // namespace printtwin
 
