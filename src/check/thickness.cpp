@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "check/check_internal.hpp"
+#include "core/plain_path.hpp"
 #include "printtwin/check.hpp"
 #include "printtwin/mesh_query.hpp"
 
@@ -40,7 +41,11 @@ Result<ThicknessResult> measure_thickness(const Mesh& mesh, double min_thickness
                                           bool skip_internal_faces) {
   std::optional<MeshQuery> own;
   if (prebuilt == nullptr) {
-    auto built = MeshQuery::build(mesh);
+    // A quicker BVH build: two rays per face do not repay a high-quality one
+    // (PRINTTWIN_PLAIN=check_bvh_fast builds the high-quality one).
+    auto built = MeshQuery::build(mesh, detail::plain_path("check_bvh_fast")
+                                            ? MeshQuery::BuildQuality::high
+                                            : MeshQuery::BuildQuality::fast);
     if (!built) return built.error();
     own.emplace(std::move(*built));
   }
