@@ -70,6 +70,13 @@ void BM_Thickness(benchmark::State& state) {
 }
 BENCHMARK(BM_Thickness)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
 
+void BM_ThicknessWithinLimit(benchmark::State& state) {  // inward rays end at the limit
+  for (auto _ : state)
+    benchmark::DoNotOptimize(
+        measure_thickness(bench_mesh(), 0.4, 0.45, nullptr, Vec3::Zero(), false));
+}
+BENCHMARK(BM_ThicknessWithinLimit)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
+
 void BM_Overhangs(benchmark::State& state) {
   const Mesh placed = place_on_bed(bench_mesh(), 117.5, 117.5);
   for (auto _ : state) benchmark::DoNotOptimize(find_overhangs(placed, CheckSettings{}));

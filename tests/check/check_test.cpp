@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <random>
@@ -662,6 +663,30 @@ TEST(CheckSelfIntersections, GridAndFilterFindExactlyTheExhaustivePairs) {
 
   // A closed bumpy sphere alone: no pair at all.
   EXPECT_EQ(find_self_intersections(bumpy_sphere(10, 60, 120, Vec3(1, 2, 3))).pairs, 0U);
+}
+
+TEST(CheckThickness, BoundedInwardRaysGiveTheUnboundedResult) {
+  // Two thick bumpy spheres (no wall under 5 mm: only the thinnest is reported), then with
+  // a 0.3 mm plate beside them (thin faces): the inward rays stop past the thinnest sampled
+  // wall, the unbounded ones (PRINTTWIN_PLAIN=check_ray_bound) do not; the figures agree.
+  Mesh plate = test::make_cube_mm(10, Vec3(20, 0, 0));
+  for (auto& v : plate.vertices_mm) v.z() = v.z() > 5 ? 0.3 : 0.0;
+  const Mesh spheres =
+      merged(bumpy_sphere(5, 30, 60, Vec3(0, 0, 0)), bumpy_sphere(3, 20, 40, Vec3(0, 12, 0)));
+  for (const Mesh& m : {spheres, merged(spheres, plate)}) {
+    ASSERT_EQ(::setenv("PRINTTWIN_PLAIN", "check_ray_bound", 1), 0);
+    const auto plain = measure_thickness(m, 0.4, 0.45);
+    ::unsetenv("PRINTTWIN_PLAIN");
+    const auto bounded = measure_thickness(m, 0.4, 0.45);
+    ASSERT_TRUE(plain && bounded);
+    EXPECT_TRUE(std::isfinite(plain->min_thickness_mm));
+    EXPECT_EQ(bounded->min_thickness_mm, plain->min_thickness_mm);
+    EXPECT_EQ(bounded->min_thickness_at_mm, plain->min_thickness_at_mm);
+    EXPECT_EQ(bounded->thin_faces, plain->thin_faces);
+    EXPECT_EQ(bounded->thin_area_mm2, plain->thin_area_mm2);
+    EXPECT_EQ(bounded->min_gap_mm, plain->min_gap_mm);
+    EXPECT_EQ(bounded->narrow_gap_faces, plain->narrow_gap_faces);
+  }
 }
 
 /// find_self_intersections with the mesh's health: the pairs around vertices whose fans are
