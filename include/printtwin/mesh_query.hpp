@@ -32,13 +32,9 @@ struct RayHit {
 
 class MeshQuery {
  public:
-  /// How much time the BVH build spends to make later queries faster. Every quality
-  /// gives the same answers; `fast` suits a few rays per triangle (check's thickness).
-  enum class BuildQuality { high, fast };
   /// Builds the BVH. Fails only when the ray-tracing device cannot be created or the
   /// mesh has no triangles.
-  [[nodiscard]] static Result<MeshQuery> build(const Mesh& mesh,
-                                               BuildQuality quality = BuildQuality::high);
+  [[nodiscard]] static Result<MeshQuery> build(const Mesh& mesh);
 
   MeshQuery(MeshQuery&&) noexcept;
   MeshQuery& operator=(MeshQuery&&) noexcept;

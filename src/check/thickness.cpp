@@ -41,11 +41,7 @@ Result<ThicknessResult> measure_thickness(const Mesh& mesh, double min_thickness
                                           bool skip_internal_faces) {
   std::optional<MeshQuery> own;
   if (prebuilt == nullptr) {
-    // A quicker BVH build: two rays per face do not repay a high-quality one
-    // (PRINTTWIN_PLAIN=check_bvh_fast builds the high-quality one).
-    auto built = MeshQuery::build(mesh, detail::plain_path("check_bvh_fast")
-                                            ? MeshQuery::BuildQuality::high
-                                            : MeshQuery::BuildQuality::fast);
+    auto built = MeshQuery::build(mesh);
     if (!built) return built.error();
     own.emplace(std::move(*built));
   }

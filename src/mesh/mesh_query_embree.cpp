@@ -175,7 +175,7 @@ MeshQuery::MeshQuery(MeshQuery&&) noexcept = default;
 MeshQuery& MeshQuery::operator=(MeshQuery&&) noexcept = default;
 MeshQuery::~MeshQuery() = default;
 
-Result<MeshQuery> MeshQuery::build(const Mesh& mesh, BuildQuality quality) {
+Result<MeshQuery> MeshQuery::build(const Mesh& mesh) {
   if (mesh.triangles.empty()) return bad_input("mesh has no triangles to query");
   auto impl = std::make_unique<Impl>();
   impl->mesh = mesh;
@@ -186,8 +186,7 @@ Result<MeshQuery> MeshQuery::build(const Mesh& mesh, BuildQuality quality) {
   if (impl->device == nullptr) return internal_error("cannot create the Embree device");
   impl->scene = rtcNewScene(impl->device);
   rtcSetSceneFlags(impl->scene, RTC_SCENE_FLAG_ROBUST);
-  rtcSetSceneBuildQuality(impl->scene, quality == BuildQuality::high ? RTC_BUILD_QUALITY_HIGH
-                                                                     : RTC_BUILD_QUALITY_MEDIUM);
+  rtcSetSceneBuildQuality(impl->scene, RTC_BUILD_QUALITY_HIGH);
 
   RTCGeometry geom = rtcNewGeometry(impl->device, RTC_GEOMETRY_TYPE_TRIANGLE);
   auto* verts = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
