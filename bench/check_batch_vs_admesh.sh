@@ -2,8 +2,10 @@
 # A folder of 40 STLs (the samples plus 34 OpenSCAD parts of about 1k to 250k triangles)
 # checked in one `printtwin check DIR --summary --junit` run, against admesh run on each file
 # in turn (its default checks). Median of 3 wall-clock runs each; also user+sys CPU.
-#   bench/check_batch_vs_admesh.sh [build-dir] [parts-dir]
+#   [FORMAT=binary] bench/check_batch_vs_admesh.sh [build-dir] [parts-dir]
 # parts-dir is kept when given (made when missing), else a temporary folder is used.
+# OpenSCAD writes ASCII STL; FORMAT=binary times binary copies of the same parts instead
+# (written by `admesh -c -b`, no check or fix).
 set -eu
 here=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-$here/build}
@@ -33,6 +35,11 @@ if [ ! -d "$parts" ] || [ -z "$(ls "$parts")" ]; then
   for n in 16 32 48 64 96 128 160 200 240 350; do  # tori
     scad "rotate_extrude(\$fn = $n) translate([20, 0]) circle(r = 6, \$fn = $n);" "torus_$n"
   done
+fi
+if [ "${FORMAT:-ascii}" = binary ]; then
+  mkdir -p "$tmp/binary"
+  for f in "$parts"/*.stl; do admesh -c -b "$tmp/binary/$(basename "$f")" "$f" >/dev/null; done
+  parts=$tmp/binary
 fi
 count=$(ls "$parts"/*.stl | wc -l)
 tris=$("$cli" check "$parts" 2>/dev/null | awk -F'|' 'NR > 4 { s += $6 } END { print s }')

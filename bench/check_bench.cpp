@@ -59,10 +59,23 @@ void BM_SelfIntersections(benchmark::State& state) {
 }
 BENCHMARK(BM_SelfIntersections)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
 
+void BM_SelfIntersectionsWithHealth(benchmark::State& state) {
+  const MeshHealth health = analyze_mesh_health(bench_mesh());
+  for (auto _ : state) benchmark::DoNotOptimize(find_self_intersections(bench_mesh(), 5, &health));
+}
+BENCHMARK(BM_SelfIntersectionsWithHealth)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
+
 void BM_Thickness(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(measure_thickness(bench_mesh(), 0.4, 0.45));
 }
 BENCHMARK(BM_Thickness)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
+
+void BM_ThicknessWithinLimit(benchmark::State& state) {  // inward rays end at the limit
+  for (auto _ : state)
+    benchmark::DoNotOptimize(
+        measure_thickness(bench_mesh(), 0.4, 0.45, nullptr, Vec3::Zero(), false));
+}
+BENCHMARK(BM_ThicknessWithinLimit)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
 
 void BM_Overhangs(benchmark::State& state) {
   const Mesh placed = place_on_bed(bench_mesh(), 117.5, 117.5);

@@ -36,6 +36,8 @@ mesh_query_avx2   | bench:deviation_bench:BM_DeviationStage/ | cpu  | AVX2 candi
 bead_avx512       | bench:deposit_bench:BM_DepositOnly/0     | cpu  | AVX-512 bead tile kernel (deposit/kernels.cpp)
 bead_avx2         | bench:deposit_bench:BM_DepositOnly/0     | cpu  | AVX2 bead tile and support-count kernels (deposit/kernels.cpp)
 sha_ni            | cli:verify:load                          | wall | SHA extensions for the input hashes (core/kernels.cpp); stage: verify "load"
+check_fans        | bench:check_bench:BM_SelfIntersectionsWithHealth | cpu | face pairs around certified vertex fans not tested (check/self_intersections_cgal.cpp)
+check_ray_bound   | bench:check_bench:BM_Thickness/           | cpu  | inward rays end past the thinnest sampled wall (check/thickness.cpp)
 march_x86_64_v2   | build:bench:deviation_bench:BM_DeviationStage/ | cpu | -march=x86-64-v2 for all code (CMakeLists.txt PRINTTWIN_X86_64_V2)
 march_x86_64_v2   | build:bench:deposit_bench:BM_DepositOnly/0     | cpu | -march=x86-64-v2 for all code (CMakeLists.txt PRINTTWIN_X86_64_V2)
 march_x86_64_v2   | build:cli:verify                               | cpu | -march=x86-64-v2 for all code (CMakeLists.txt PRINTTWIN_X86_64_V2)

@@ -132,8 +132,11 @@ struct IntersectionEffect {
 /// Pairs of faces that intersect other than along a shared edge or at a shared vertex.
 /// Broad phase over a uniform grid of face bounding boxes, exact predicates (CGAL Epick)
 /// in the narrow phase. Degenerate faces are skipped. `max_locations` bounds the lists.
+/// `health` (analyze_mesh_health of the same mesh), when given, lets pairs of faces around a
+/// vertex be settled at once where the mesh is closed and manifold (the same pairs result).
 [[nodiscard]] SelfIntersections find_self_intersections(const Mesh& mesh,
-                                                        std::size_t max_locations = 5);
+                                                        std::size_t max_locations = 5,
+                                                        const MeshHealth* health = nullptr);
 
 /// Where the slicer would put the part.
 struct Placement {

@@ -503,7 +503,7 @@ Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& p
   rep.overhang_angle_deg = settings.overhang_angle_deg;
   rep.health = analyze_mesh_health(mesh);
   if (settings.self_intersections) {
-    const SelfIntersections si = find_self_intersections(mesh, settings.max_locations);
+    const SelfIntersections si = find_self_intersections(mesh, settings.max_locations, &rep.health);
     rep.health.self_intersections = si.pairs;
     rep.health.self_intersection_locations_mm = si.locations_mm;
     rep.health.self_intersections_checked = true;

@@ -2,8 +2,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
-#include <map>
-#include <tuple>
+#include <cstdint>
 
 #include "check/check_internal.hpp"
 #include "printtwin/check.hpp"
@@ -100,22 +99,33 @@ OrientationAdvice advise_orientation(const Mesh& mesh, const CheckSettings& s) {
   add(Vec3(-1, 0, 0), "-X side down");
   add(Vec3(0, 1, 0), "+Y side down");
   add(Vec3(0, -1, 0), "-Y side down");
-  // Flat faces: normals equal within ~0.6 degrees, by area.
-  std::map<std::tuple<long, long, long>, std::pair<double, Vec3>> groups;
+  // Flat faces: normals equal within ~0.6 degrees, by area. Faces are grouped by their
+  // normal rounded to 0.01 per axis (in [-100, 100]: 8 bits each), groups in key order and
+  // each group summed in face order.
+  std::vector<std::uint64_t> keyed;
+  keyed.reserve(nf);
   for (std::size_t f = 0; f < nf; ++f) {
     if (!(areas[f] > 0)) continue;
     const Vec3& n = normals[f];
-    auto [it, fresh] = groups.try_emplace(
-        {std::lround(n.x() * 100), std::lround(n.y() * 100), std::lround(n.z() * 100)}, 0.0,
-        Vec3::Zero());
-    auto& g = it->second;
-    g.first += areas[f];
-    g.second += areas[f] * n;
+    std::uint64_t key = 0;
+    for (int a = 0; a < 3; ++a)
+      key = (key << 8) | static_cast<std::uint64_t>(std::lround(n[a] * 100) + 100);
+    keyed.push_back((key << 32) | f);
   }
+  std::sort(keyed.begin(), keyed.end());
   std::vector<std::pair<double, Vec3>> flat;
-  for (const auto& [key, g] : groups)
-    if (g.first >= 0.01 * total && g.second.norm() > 0)
-      flat.push_back({g.first, g.second.normalized()});
+  for (std::size_t i = 0; i < keyed.size();) {
+    std::size_t j = i;
+    double area = 0;
+    Vec3 weighted = Vec3::Zero();
+    for (; j < keyed.size() && keyed[j] >> 32 == keyed[i] >> 32; ++j) {
+      const std::size_t f = keyed[j] & 0xFFFFFFFFU;
+      area += areas[f];
+      weighted += areas[f] * normals[f];
+    }
+    if (area >= 0.01 * total && weighted.norm() > 0) flat.push_back({area, weighted.normalized()});
+    i = j;
+  }
   std::stable_sort(flat.begin(), flat.end(),
                    [](const auto& a, const auto& b) { return a.first > b.first; });
   for (std::size_t i = 0; i < flat.size() && i < kMaxFlatFaces; ++i)

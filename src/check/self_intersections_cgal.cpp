@@ -17,6 +17,7 @@
 #include <initializer_list>
 
 #include "check/check_internal.hpp"
+#include "core/plain_path.hpp"
 #include "printtwin/check.hpp"
 
 namespace printtwin {
@@ -298,45 +299,149 @@ FaceGrid build_face_grid(const std::vector<Box3>& boxes, const std::vector<std::
   return g;
 }
 
+/// Sign of the orientation of the triangle (a, b, c) projected along axis `ax` (the other two
+/// coordinates in cyclic order) when floating point decides it for certain, else 0.
+/// Shewchuk's orient2d with its first error bound; dropping a coordinate is exact.
+inline int certain_orientation_2d(const Vec3& a, const Vec3& b, const Vec3& c, int ax) {
+  constexpr double kEps = 0x1p-53;
+  constexpr double kBound = (3.0 + 16.0 * kEps) * kEps;
+  const int x = (ax + 1) % 3, y = (ax + 2) % 3;
+  const double left = (a[x] - c[x]) * (b[y] - c[y]);
+  const double right = (a[y] - c[y]) * (b[x] - c[x]);
+  const double det = left - right;
+  const double bound = kBound * (std::abs(left) + std::abs(right));
+  return det > bound ? 1 : (-det > bound ? -1 : 0);
+}
+
+/// Vertices whose fan of faces certainly meets itself only along its shared edges and at
+/// the vertex: projected along the axis nearest the vertex normal (exact), every face of the
+/// fan keeps one orientation for certain and the fan winds around the vertex exactly once,
+/// so the projected faces tile the plane around it without overlap, and faces whose
+/// projections meet only in a shared edge or vertex meet in 3D there only. Needs every
+/// vertex's fan to be one closed cycle (a closed, consistently oriented mesh with manifold
+/// edges and vertices and no duplicate faces); vertices of degenerate faces are never
+/// certified. Pairs sharing a certified vertex need no test.
+std::vector<char> certified_fans(const Mesh& mesh) {
+  const auto& v = mesh.vertices_mm;
+  const std::size_t nf = mesh.triangles.size();
+  std::vector<Vec3> normal(v.size(), Vec3::Zero());
+  std::vector<char> ok(v.size(), 1);
+  for (std::size_t f = 0; f < nf; ++f) {
+    const auto& t = mesh.triangles[f];
+    if (detail::is_degenerate_face(mesh, f)) {
+      for (auto k : t) ok[k] = 0;
+      continue;
+    }
+    const Vec3 n = (v[t[1]] - v[t[0]]).cross(v[t[2]] - v[t[0]]);
+    for (auto k : t) normal[k] += n;
+  }
+  std::vector<std::int8_t> axis(v.size()), sign(v.size());
+  for (std::size_t k = 0; k < v.size(); ++k) {
+    int ax = 0;
+    normal[k].cwiseAbs().maxCoeff(&ax);
+    axis[k] = static_cast<std::int8_t>(ax);
+    sign[k] = normal[k][ax] > 0 ? 1 : -1;
+  }
+  // Winding of the link (the edges opposite the vertex, a -> b for each face (v, a, b)):
+  // with every wedge positive, each upward crossing of the horizontal through v lies to its
+  // right and counts +1, and no other crossing does (half-open rule: exact comparisons);
+  // with every wedge negative, the downward crossings count.
+  std::vector<std::uint32_t> crossings(v.size(), 0);
+  for (std::size_t f = 0; f < nf; ++f) {
+    const auto& t = mesh.triangles[f];
+    for (int i = 0; i < 3; ++i) {
+      const std::uint32_t c = t[i];
+      if (ok[c] == 0) continue;
+      const Vec3 &pc = v[c], &pa = v[t[(i + 1) % 3]], &pb = v[t[(i + 2) % 3]];
+      const int ax = axis[c];
+      if (certain_orientation_2d(pc, pa, pb, ax) != sign[c]) {
+        ok[c] = 0;
+        continue;
+      }
+      const int y = (ax + 2) % 3;
+      const bool up = pa[y] <= pc[y] && pc[y] < pb[y];
+      const bool down = pb[y] <= pc[y] && pc[y] < pa[y];
+      if (sign[c] > 0 ? up : down) ++crossings[c];
+    }
+  }
+  for (std::size_t k = 0; k < v.size(); ++k)
+    if (crossings[k] != 1) ok[k] = 0;
+  return ok;
+}
+
+/// True when faces f and g share a vertex whose fan is certified (see certified_fans).
+inline bool share_certified_vertex(const std::array<std::uint32_t, 3>& f,
+                                   const std::array<std::uint32_t, 3>& g,
+                                   const std::vector<char>& certified) {
+  for (auto a : f)
+    if (certified[a] != 0 && (a == g[0] || a == g[1] || a == g[2])) return true;
+  return false;
+}
+
+/// A face of one cell, with what the pair tests read, side by side.
+struct CellEntry {
+  Box3 box;
+  Cell3 lo_cell;
+  std::uint32_t face;
+};
+
+/// Tests the pairs of one cell's faces whose boxes overlap and whose overlap's min corner is
+/// in this cell (`here`), sweeping the faces in order of their boxes' min x; appends the
+/// intersecting ones to `out`.
+void test_cell(const Mesh& mesh, std::vector<CellEntry>& entries, const Cell3& here,
+               const std::vector<char>& certified, std::vector<std::array<std::uint32_t, 2>>& out) {
+  std::sort(entries.begin(), entries.end(),
+            [](const CellEntry& a, const CellEntry& b) { return a.box.min.x() < b.box.min.x(); });
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    const CellEntry& ef = entries[i];
+    const Box3& bf = ef.box;
+    for (std::size_t j = i + 1; j < entries.size() && entries[j].box.min.x() <= bf.max.x(); ++j) {
+      const CellEntry& eg = entries[j];
+      if (std::max(ef.lo_cell[0], eg.lo_cell[0]) != here[0] ||
+          std::max(ef.lo_cell[1], eg.lo_cell[1]) != here[1] ||
+          std::max(ef.lo_cell[2], eg.lo_cell[2]) != here[2])
+        continue;
+      const Box3& bg = eg.box;
+      if (bf.min.y() > bg.max.y() || bg.min.y() > bf.max.y() || bf.min.z() > bg.max.z() ||
+          bg.min.z() > bf.max.z())
+        continue;
+      const auto& tf = mesh.triangles[ef.face];
+      const auto& tg = mesh.triangles[eg.face];
+      if (!certified.empty() && share_certified_vertex(tf, tg, certified)) continue;
+      if (faces_intersect(mesh, tf, tg))
+        out.push_back({std::min(ef.face, eg.face), std::max(ef.face, eg.face)});
+    }
+  }
+}
+
 /// Tests every pair of faces that share a cell, in the cell holding the min corner of the two
 /// boxes' overlap only (the per-axis max of their min cells), so never twice.
 std::vector<std::array<std::uint32_t, 2>> intersecting_pairs(const Mesh& mesh,
                                                              const std::vector<Box3>& boxes,
-                                                             const FaceGrid& grid) {
+                                                             const FaceGrid& grid,
+                                                             const std::vector<char>& certified) {
   const std::uint64_t nx = grid.nx, ny = grid.ny;
   const auto& runs = grid.runs;
   const auto& run_cell = grid.run_cell;
   const auto& cell_faces = grid.cell_faces;
   const auto& lo_cell = grid.lo_cell;
   tbb::enumerable_thread_specific<std::vector<std::array<std::uint32_t, 2>>> found;
+  tbb::enumerable_thread_specific<std::vector<CellEntry>> scratch;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, runs.size(), 64),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       auto& local = found.local();
+                      auto& entries = scratch.local();
                       for (std::size_t ri = r.begin(); ri != r.end(); ++ri) {
-                        const auto [begin, end] = runs[ri];
                         const std::uint64_t id = run_cell[ri];
                         const Cell3 here{static_cast<std::int32_t>(id % nx),
                                          static_cast<std::int32_t>((id / nx) % ny),
                                          static_cast<std::int32_t>(id / (nx * ny))};
-                        for (std::size_t i = begin; i < end; ++i) {
+                        entries.clear();
+                        for (std::size_t i = runs[ri].first; i < runs[ri].second; ++i) {
                           const std::uint32_t f = cell_faces[i];
-                          const Box3& bf = boxes[f];
-                          const Cell3& lf = lo_cell[f];
-                          for (std::size_t j = i + 1; j < end; ++j) {
-                            const std::uint32_t g = cell_faces[j];
-                            const Cell3& lg = lo_cell[g];
-                            if (std::max(lf[0], lg[0]) != here[0] ||
-                                std::max(lf[1], lg[1]) != here[1] ||
-                                std::max(lf[2], lg[2]) != here[2])
-                              continue;
-                            const Box3& bg = boxes[g];
-                            if ((bf.min.array() > bg.max.array()).any() ||
-                                (bg.min.array() > bf.max.array()).any())
-                              continue;
-                            if (faces_intersect(mesh, mesh.triangles[f], mesh.triangles[g]))
-                              local.push_back({std::min(f, g), std::max(f, g)});
-                          }
+                          entries.push_back({boxes[f], lo_cell[f], f});
                         }
+                        test_cell(mesh, entries, here, certified, local);
                       }
                     });
   std::vector<std::array<std::uint32_t, 2>> pairs;
@@ -346,7 +451,8 @@ std::vector<std::array<std::uint32_t, 2>> intersecting_pairs(const Mesh& mesh,
 }
 }  // namespace
 
-SelfIntersections find_self_intersections(const Mesh& mesh, std::size_t max_locations) {
+SelfIntersections find_self_intersections(const Mesh& mesh, std::size_t max_locations,
+                                          const MeshHealth* health) {
   SelfIntersections out;
   const std::size_t nf = mesh.triangles.size();
   if (nf < 2) return out;
@@ -367,7 +473,14 @@ SelfIntersections find_self_intersections(const Mesh& mesh, std::size_t max_loca
   if (faces.size() < 2) return out;
 
   const FaceGrid grid = build_face_grid(boxes, faces, all, extent_sum);
-  const std::vector<std::array<std::uint32_t, 2>> pairs = intersecting_pairs(mesh, boxes, grid);
+  // Fans are one closed cycle each only on a closed, consistently oriented, manifold mesh.
+  // PRINTTWIN_PLAIN=check_fans tests every pair instead (bench/RESULTS.md).
+  const bool cycles = health != nullptr && !detail::plain_path("check_fans") && health->closed &&
+                      health->inconsistent_edges == 0 && health->non_manifold_vertices == 0 &&
+                      health->duplicate_faces == 0;
+  const std::vector<char> certified = cycles ? certified_fans(mesh) : std::vector<char>();
+  const std::vector<std::array<std::uint32_t, 2>> pairs =
+      intersecting_pairs(mesh, boxes, grid, certified);
   out.pairs = pairs.size();
   for (const auto& pr : pairs) {
     out.faces.push_back(pr[0]);

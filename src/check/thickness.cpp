@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "check/check_internal.hpp"
+#include "core/plain_path.hpp"
 #include "printtwin/check.hpp"
 #include "printtwin/mesh_query.hpp"
 
@@ -89,32 +90,53 @@ Result<ThicknessResult> measure_thickness(const Mesh& mesh, double min_thickness
     return std::nullopt;
   };
 
+  // One face's rays; inward ones end at `inward_max`.
+  auto sample_face = [&](std::size_t f, double inward_max) {
+    FaceSample sample;
+    Vec3 n = triangle_normal(mesh, f);
+    const double len = n.norm();
+    if (!(len > 0) || detail::is_degenerate_face(mesh, f) || internal[f]) return sample;
+    n /= len;
+    const Vec3 c = detail::face_centroid(mesh, f) - shift;
+    // Inward: the first surface hit from behind is the far side of the wall.
+    if (auto hit = first_surface(c, -n, t_min, inward_max, f)) {
+      // The far side of a wall faces back within 60 degrees and is no neighbour of f: a
+      // ray leaving through a face beside f (a corner or a chamfer) measures no wall.
+      if (hit->normal.dot(-n) > kWallCos && !shares_vertex(mesh, f, hit->triangle))
+        sample.thickness_mm = hit->t_mm;
+    }
+    // Outward: the first surface hit head-on, facing back at us, bounds the gap.
+    if (auto hit = first_surface(c, n, t_min, line_width_mm * 4, f)) {
+      if (hit->normal.dot(n) < -kFacingCos && !shares_vertex(mesh, f, hit->triangle))
+        sample.gap_mm = hit->t_mm;
+    }
+    return sample;
+  };
+  // Within the limit, an inward ray's first hit is the unbounded ray's whenever that one is
+  // thin. Beyond it, only the thinnest wall is reported, so an inward ray need not look
+  // farther than a wall already measured: every kStride-th face is cast without limit
+  // first, and the others stop just past the thinnest of those (the thinnest wall and every
+  // thin face come out the same; PRINTTWIN_PLAIN=check_ray_bound casts them all unbounded).
+  constexpr std::size_t kStride = 16;
+  const bool bound = beyond_limit && !detail::plain_path("check_ray_bound");
   std::vector<FaceSample> samples(nf);
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, nf, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t f = r.begin(); f != r.end(); ++f) {
-          Vec3 n = triangle_normal(mesh, f);
-          const double len = n.norm();
-          if (!(len > 0) || detail::is_degenerate_face(mesh, f) || internal[f]) continue;
-          n /= len;
-          const Vec3 c = detail::face_centroid(mesh, f) - shift;
-          // Inward: the first surface hit from behind is the far side of the wall.
-          // Within the limit, the first hit is the unbounded ray's whenever that one is thin.
-          const double t_max =
-              beyond_limit ? std::numeric_limits<double>::infinity() : min_thickness_mm;
-          if (auto hit = first_surface(c, -n, t_min, t_max, f)) {
-            // The far side of a wall faces back within 60 degrees and is no neighbour of f: a
-            // ray leaving through a face beside f (a corner or a chamfer) measures no wall.
-            if (hit->normal.dot(-n) > kWallCos && !shares_vertex(mesh, f, hit->triangle))
-              samples[f].thickness_mm = hit->t_mm;
-          }
-          // Outward: the first surface hit head-on, facing back at us, bounds the gap.
-          if (auto hit = first_surface(c, n, t_min, line_width_mm * 4, f)) {
-            if (hit->normal.dot(n) < -kFacingCos && !shares_vertex(mesh, f, hit->triangle))
-              samples[f].gap_mm = hit->t_mm;
-          }
-        }
-      });
+  double inward_max = beyond_limit ? kInf : min_thickness_mm;
+  if (bound) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (nf + kStride - 1) / kStride, 64),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t i = r.begin(); i != r.end(); ++i)
+                          samples[i * kStride] = sample_face(i * kStride, kInf);
+                      });
+    double thinnest = kInf;
+    for (std::size_t f = 0; f < nf; f += kStride)
+      thinnest = std::min(thinnest, samples[f].thickness_mm);
+    if (thinnest < kInf) inward_max = std::max(thinnest, min_thickness_mm) * (1 + 1e-6);
+  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nf, 1024),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t f = r.begin(); f != r.end(); ++f)
+                        if (!bound || f % kStride != 0) samples[f] = sample_face(f, inward_max);
+                    });
 
   ThicknessResult out;
   out.min_thickness_mm = kInf;

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <random>
@@ -662,6 +663,64 @@ TEST(CheckSelfIntersections, GridAndFilterFindExactlyTheExhaustivePairs) {
 
   // A closed bumpy sphere alone: no pair at all.
   EXPECT_EQ(find_self_intersections(bumpy_sphere(10, 60, 120, Vec3(1, 2, 3))).pairs, 0U);
+}
+
+TEST(CheckThickness, BoundedInwardRaysGiveTheUnboundedResult) {
+  // Two thick bumpy spheres (no wall under 5 mm: only the thinnest is reported), then with
+  // a 0.3 mm plate beside them (thin faces): the inward rays stop past the thinnest sampled
+  // wall, the unbounded ones (PRINTTWIN_PLAIN=check_ray_bound) do not; the figures agree.
+  Mesh plate = test::make_cube_mm(10, Vec3(20, 0, 0));
+  for (auto& v : plate.vertices_mm) v.z() = v.z() > 5 ? 0.3 : 0.0;
+  const Mesh spheres =
+      merged(bumpy_sphere(5, 30, 60, Vec3(0, 0, 0)), bumpy_sphere(3, 20, 40, Vec3(0, 12, 0)));
+  for (const Mesh& m : {spheres, merged(spheres, plate)}) {
+    ASSERT_EQ(::setenv("PRINTTWIN_PLAIN", "check_ray_bound", 1), 0);
+    const auto plain = measure_thickness(m, 0.4, 0.45);
+    ::unsetenv("PRINTTWIN_PLAIN");
+    const auto bounded = measure_thickness(m, 0.4, 0.45);
+    ASSERT_TRUE(plain && bounded);
+    EXPECT_TRUE(std::isfinite(plain->min_thickness_mm));
+    EXPECT_EQ(bounded->min_thickness_mm, plain->min_thickness_mm);
+    EXPECT_EQ(bounded->min_thickness_at_mm, plain->min_thickness_at_mm);
+    EXPECT_EQ(bounded->thin_faces, plain->thin_faces);
+    EXPECT_EQ(bounded->thin_area_mm2, plain->thin_area_mm2);
+    EXPECT_EQ(bounded->min_gap_mm, plain->min_gap_mm);
+    EXPECT_EQ(bounded->narrow_gap_faces, plain->narrow_gap_faces);
+  }
+}
+
+/// find_self_intersections with the mesh's health: the pairs around vertices whose fans are
+/// certified are settled without a test.
+std::vector<std::array<std::uint32_t, 2>> all_pairs_with_health(const Mesh& m) {
+  const MeshHealth h = analyze_mesh_health(m);
+  return find_self_intersections(m, m.triangles.size() * m.triangles.size(), &h).first_pairs;
+}
+
+TEST(CheckSelfIntersections, CertifiedFansGiveTheExhaustivePairs) {
+  // Closed, manifold shells crossing each other: the fans are certified, the pairs between
+  // the shells are still found.
+  Mesh spheres = bumpy_sphere(5, 12, 24, Vec3(0, 0, 0));
+  spheres = merged(spheres, bumpy_sphere(4, 10, 20, Vec3(6, 1, 0.5)));
+  ASSERT_TRUE(analyze_mesh_health(spheres).closed);
+  const auto expected = detail::self_intersecting_pairs_exhaustive(spheres);
+  EXPECT_GT(expected.size(), 50U);
+  EXPECT_EQ(all_pairs_with_health(spheres), expected);
+
+  // Folds inside one closed shell: a vertex pushed through the far side of the sphere (its
+  // fan crosses other faces), one pulled across its neighbours (its own faces overlap
+  // each other), one pushed exactly into the plane of a neighbour.
+  for (const Vec3& moved : {Vec3(0, 0, -7.0), Vec3(0.0, 1.5, 4.2), Vec3(0.3, 0.2, 4.98)}) {
+    Mesh folded = bumpy_sphere(5, 12, 24, Vec3(0, 0, 0));
+    folded.vertices_mm[0] = moved;  // the north pole
+    const auto fold_expected = detail::self_intersecting_pairs_exhaustive(folded);
+    EXPECT_EQ(all_pairs_with_health(folded), fold_expected) << moved.transpose();
+  }
+  Mesh pulled = bumpy_sphere(5, 12, 24, Vec3(0, 0, 0));
+  pulled.vertices_mm[40] =
+      pulled.vertices_mm[41] + 0.8 * (pulled.vertices_mm[41] - pulled.vertices_mm[40]);
+  const auto pulled_expected = detail::self_intersecting_pairs_exhaustive(pulled);
+  EXPECT_GT(pulled_expected.size(), 0U);
+  EXPECT_EQ(all_pairs_with_health(pulled), pulled_expected);
 }
 
 }  // namespace
