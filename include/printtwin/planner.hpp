@@ -59,6 +59,13 @@ struct MotionLimits {
   /// square_corner_velocity_mm_s (Orca reads SET_VELOCITY_LIMIT SQUARE_CORNER_VELOCITY as
   /// X/Y jerk; limits_from_slicer_config sets it to machine_max_jerk_x).
   bool orca_compat = false;
+  /// With orca_compat: Bambu Studio's junction rule instead of OrcaSlicer's. The junction
+  /// speed is the largest v at which v times the per-axis change of the X, Y, Z unit
+  /// directions stays within each axis's jerk (E is not checked), and it is not capped by
+  /// the two blocks' speeds: a slow block followed by a fast one hands the fast one its
+  /// junction speed (within what the slow block can reach). Set by
+  /// limits_from_prusaslicer_config when the header names Bambu Studio.
+  bool bambu_junction = false;
   /// M204 values are clamped to these (PrusaSlicer's machine_max_acceleration_extruding,
   /// _retracting, _travel); infinity = no clamp, as in Marlin.
   Eigen::Vector3d accel_cap_mm_s2 =

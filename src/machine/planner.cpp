@@ -49,13 +49,13 @@ double slowdown_speed(const MotionLimits& L, double length_mm, double v, std::si
 
 /// Orca's estimator: a gentle XY bend (< 29 degrees) caps the speed at sqrt(a r), r the
 /// radius of the circle through this move's chord and the bend.
-double orca_bend_speed(const MotionLimits& L, const Eigen::Vector2d& dir,
+double orca_bend_speed(double accel, const Eigen::Vector2d& dir,
                        const Eigen::Vector2d& previous_dir, double xy_len, double v) {
   const double diff = (dir - previous_dir).norm();
   if (diff < 0.5 && diff > 1e-5) {
     const double cos_a = std::clamp(dir.dot(previous_dir), -1.0, 1.0);
     const double sin_half = std::sqrt(0.5 * (1.0 - cos_a));
-    if (sin_half > 0) v = std::min(v, std::sqrt(L.print_accel_mm_s2 * xy_len * 0.5 / sin_half));
+    if (sin_half > 0) v = std::min(v, std::sqrt(accel * xy_len * 0.5 / sin_half));
   }
   return v;
 }
@@ -81,20 +81,23 @@ double axis_limited_accel(const MotionLimits& L, const Eigen::Vector4d& unit, do
 
 /// A block's acceleration: M204 R for E-only moves, T for moves without E, P otherwise, then
 /// per axis; the estimators clamp each by machine_max_acceleration_*.
+/// The estimators' acceleration of a move type before the per-axis limits: PrusaSlicer's
+/// move types (retracting while moving, a wipe, counts as travel; for Orca an extrusion
+/// with Z and no XY too), each clamped by machine_max_acceleration_* whoever set it (M204,
+/// SET_VELOCITY_LIMIT).
+double estimator_type_accel(const MotionLimits& L, double e_mm, bool e_only, double xy_len) {
+  const bool extrude = e_mm > 0 && !(L.orca_compat && xy_len == 0);
+  const int type = e_only ? 1 : (extrude ? 0 : 2);
+  return std::min(type == 1 ? L.retract_accel_mm_s2
+                            : (type == 0 ? L.print_accel_mm_s2 : L.travel_accel_mm_s2),
+                  L.accel_cap_mm_s2[type]);
+}
+
 double block_accel(const MotionLimits& L, const Eigen::Vector4d& unit, double e_mm, bool e_only,
                    double xy_len) {
   double accel;
   if (L.prusaslicer_compat) {
-    // PrusaSlicer's move types: retracting while moving (wipe) counts as travel; for Orca an
-    // extrusion with Z and no XY too.
-    const bool extrude = e_mm > 0 && !(L.orca_compat && xy_len == 0);
-    // The estimators clamp each acceleration by machine_max_acceleration_* whoever set it
-    // (M204, SET_VELOCITY_LIMIT).
-    const int type = e_only ? 1 : (extrude ? 0 : 2);
-    accel = std::min(type == 1 ? L.retract_accel_mm_s2
-                               : (type == 0 ? L.print_accel_mm_s2 : L.travel_accel_mm_s2),
-                     L.accel_cap_mm_s2[type]);
-    accel = axis_limited_accel(L, unit, accel);
+    accel = axis_limited_accel(L, unit, estimator_type_accel(L, e_mm, e_only, xy_len));
   } else if (e_only) {
     accel = L.retract_accel_mm_s2;
   } else {
@@ -162,6 +165,8 @@ double jerk_safe_speed(const MotionLimits& L, const Eigen::Vector4d& axis_speed,
 
 /// The two blocks of a classic-jerk junction (this one and the previous).
 struct JerkJunction {
+  Eigen::Vector4d unit;
+  Eigen::Vector4d previous_unit;
   Eigen::Vector4d axis_speed;
   Eigen::Vector4d previous_axis_speed;
   double nominal;
@@ -173,7 +178,24 @@ struct JerkJunction {
 /// Classic jerk: the highest junction speed at which no axis changes its speed by more than
 /// its jerk (Marlin's rule; Orca's X, Y, Z vector rule for its estimator). `same_arc`: the
 /// blocks are segments of one G2/G3, which Orca joins without a jerk limit.
+/// Bambu Studio's estimator: v * |change of the XYZ unit direction| <= jerk per axis, the
+/// junction not capped by the blocks' speeds; then the coasting rule.
+double bambu_junction_speed(const MotionLimits& L, const JerkJunction& j) {
+  const Eigen::Vector3d jerk_xyz(L.square_corner_velocity_mm_s, L.square_corner_velocity_mm_s,
+                                 L.jerk_mm_s[2]);
+  const Eigen::Vector3d du = (j.unit.head<3>() - j.previous_unit.head<3>()).cwiseAbs();
+  double vmax_junction = std::min(j.nominal, j.previous_nominal);
+  double k_min = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < 3; ++i)
+    if (du[i] > 0) k_min = std::min(k_min, jerk_xyz[i] / du[i]);
+  if (std::isfinite(k_min)) vmax_junction = k_min;
+  const double threshold = vmax_junction * 0.99;
+  if (j.previous_safe > threshold && j.safe > threshold) vmax_junction = j.safe;
+  return vmax_junction;
+}
+
 double jerk_junction_speed(const MotionLimits& L, const JerkJunction& j, bool same_arc) {
+  if (L.bambu_junction && !same_arc) return bambu_junction_speed(L, j);
   const bool prev_larger = j.previous_nominal > j.nominal;
   double vmax_junction = prev_larger ? j.nominal : j.previous_nominal;
   const double smaller_factor = vmax_junction / j.previous_nominal;
@@ -324,9 +346,10 @@ void Planner::add(const Move& move, MoveSink& sink) {
     v = slowdown_speed(L, b.length_mm, v, queued);
   const double xy_len = b.delta_mm.head<2>().norm();
   if (L.orca_compat) {
-    if (xy_len > 0 && previous_xy_len_ > 0) {
+    if (xy_len > 0 && previous_xy_len_ > 0 && !e_only) {
       const Eigen::Vector2d dir = b.delta_mm.head<2>() / xy_len;
-      v = orca_bend_speed(L, dir, previous_xy_dir_, xy_len, v);
+      v = orca_bend_speed(estimator_type_accel(L, move.e_mm, e_only, xy_len), dir,
+                          previous_xy_dir_, xy_len, v);
     }
     previous_xy_len_ = xy_len;
     if (xy_len > 0) previous_xy_dir_ = b.delta_mm.head<2>() / xy_len;
@@ -352,6 +375,7 @@ void Planner::add(const Move& move, MoveSink& sink) {
       const bool same_arc =
           L.orca_compat && move.line == previous_line_ && move.line > 0 && xy_len > 0;
       JerkJunction j{
+          b.unit,     previous_unit_,
           axis_speed, previous_axis_speed_mm_s_, b.nominal_speed_mm_s, previous_nominal_speed_mm_s_,
           safe,       previous_safe_speed_mm_s_};
       vmax_junction = jerk_junction_speed(L, j, same_arc);

@@ -392,6 +392,7 @@ std::string simulation_to_json(const SimulationResult& r, const std::string& inp
       {"min_segment_time_s", L.min_segment_time_s},
       {"prusaslicer_compat", L.prusaslicer_compat},
       {"planner", L.klipper              ? "klipper"
+                  : L.bambu_junction     ? "bambustudio_estimator"
                   : L.orca_compat        ? "orcaslicer_estimator"
                   : L.prusaslicer_compat ? "prusaslicer_estimator"
                                          : "marlin"}};
