@@ -8,6 +8,7 @@
 #include <random>
 #include <vector>
 
+#include "deposit/height_map.hpp"
 #include "deposit/kernels.hpp"
 #include "deposit/nibbles.hpp"
 
@@ -161,6 +162,25 @@ TEST(BeadRaster, CountHeldMatchesAColumnByColumnCount) {
     total += expect;
   }
   EXPECT_GT(total, 1000);
+}
+
+// The map keeps, per column, the rows the earlier layers left under the layer that holds its
+// top: what the droop model reads under this layer's beads.
+TEST(HeightMap, KeepsTheRowsBeforeTheTopLayer) {
+  HeightMap map(0.05, Vec3::Zero(), 16, 16, 2, 2);
+  const std::size_t tile = map.index(0, 0);
+  const std::uint64_t col0 = 1, col1 = 2;   // columns (0, 0), (1, 0)
+  map.raise_tile(tile, col0 | col1, 4, 0);  // layer 0: 4 rows
+  map.raise_tile(tile, col0, 8, 1);         // layer 1 covers (0, 0)
+  map.raise_tile(tile, col0, 9, 1);         // and again, higher
+  map.raise_tile(tile, col1, 3, 1);         // below (1, 0)'s top
+  EXPECT_EQ(map.rows(0.01, 0.01), 9);
+  EXPECT_EQ(map.rows_before_top_layer(0.01, 0.01), 4);  // layer 0's rows
+  EXPECT_EQ(*map.top_layer_at(0.01, 0.01), 1);
+  EXPECT_EQ(map.rows(0.06, 0.01), 4);  // not reached: layer 0's
+  EXPECT_EQ(*map.top_layer_at(0.06, 0.01), 0);
+  EXPECT_EQ(map.rows_before_top_layer(0.06, 0.01), 0);
+  EXPECT_EQ(map.rows_before_top_layer(-1.0, 0.01), 0);  // outside the map
 }
 
 }  // namespace
