@@ -35,7 +35,6 @@ face_avx2         | bench:deviation_bench:BM_DeviationStage/ | cpu  | AVX2 4-wid
 mesh_query_avx2   | bench:deviation_bench:BM_DeviationStage/ | cpu  | AVX2 candidate box filter + 4-wide exact closest point (mesh/kernels.cpp)
 claim_pages       | bench:deviation_bench:BM_DeviationStage/ | cpu  | ZeroedArray::claim page reuse (core/zeroed_array.hpp, the outer-surface arrays)
 bead_avx512       | bench:deposit_bench:BM_DepositOnly/0     | cpu  | AVX-512 bead tile kernel (deposit/kernels.cpp)
-bead_avx2         | bench:deposit_bench:BM_DepositOnly/0     | cpu  | AVX2 bead tile and support-count kernels (deposit/kernels.cpp)
 sha_ni            | cli:verify:load                          | wall | SHA extensions for the input hashes (core/kernels.cpp); stage: verify "load"
 march_x86_64_v2   | build:bench:deviation_bench:BM_DeviationStage/ | cpu | -march=x86-64-v2 for all code (CMakeLists.txt PRINTTWIN_X86_64_V2)
 march_x86_64_v2   | build:bench:deposit_bench:BM_DepositOnly/0     | cpu | -march=x86-64-v2 for all code (CMakeLists.txt PRINTTWIN_X86_64_V2)

@@ -20,7 +20,7 @@ HeightMap::HeightMap(double voxel_mm, const Vec3& origin_mm, int nx, int ny, std
       nx_(nx),
       ny_(ny),
       tiles_x_(tiles_x),
-      top_(tiles_x * tiles_y * 64 + 1),
+      top_(tiles_x * tiles_y * 64),
       top_layer_(top_.size()),
       before_(top_.size()) {}
 

@@ -84,7 +84,7 @@ class HeightMap {
   double ox_, oy_, oz_;
   int nx_, ny_;
   std::size_t tiles_x_;
-  ZeroedArray<std::uint16_t> top_;       // rows per column, + 1 padding entry (count_held)
+  ZeroedArray<std::uint16_t> top_;       // rows per column
   ZeroedArray<std::int32_t> top_layer_;  // layer of each column's top voxel
   ZeroedArray<std::uint16_t> before_;    // rows before that layer first wrote the top
 };

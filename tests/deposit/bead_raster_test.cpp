@@ -62,7 +62,7 @@ BeadFrame bead(double ax, double ay, double z_top, double t, double len, double 
   return f;
 }
 
-// Every kernel (AVX-512 two rows at a time, AVX2 a row at a time, portable) gives the same bits,
+// Both kernels (AVX-512 two rows at a time, portable a voxel at a time) give the same bits,
 // over odd and even row ranges, one layer at a time or a tile's layers at once.
 TEST(BeadRaster, DispatchedKernelMatchesThePortableOne) {
   std::mt19937 rng(7);
@@ -83,8 +83,6 @@ TEST(BeadRaster, DispatchedKernelMatchesThePortableOne) {
       const std::uint64_t a = test_tile(f, i0, j0, k, row_lo, row_hi, lanes);
       const std::uint64_t b = test_tile_scalar(f, i0, j0, k, row_lo, row_hi, lanes);
       ASSERT_EQ(a, b) << "trial " << trial << " tile " << tile;
-      // The AVX2 kernel too where the dispatch picks AVX-512 (rows one at a time vs two).
-      ASSERT_EQ(test_tile_avx2_kernel(f, i0, j0, k, row_lo, row_hi, lanes), b) << "trial " << trial;
       // All of a bead's layers of the tile at once: each layer's bits as alone.
       const std::array<std::int32_t, 5> ks{k - 2, k - 1, k, k + 1, k + 3};
       std::array<std::uint64_t, 5> masks{};
@@ -150,7 +148,7 @@ TEST(BeadRaster, CountHeldMatchesAColumnByColumnCount) {
   std::uniform_real_distribution<double> u(-6.0, 44.0), unit(-1.0, 1.0);
   int total = 0;
   for (int trial = 0; trial < 3000; ++trial) {
-    const int n = 1 + trial % 13;  // tails of every length after the groups of 4
+    const int n = 1 + trial % 13;
     std::vector<double> s(static_cast<std::size_t>(n));
     for (int t = 0; t < n; ++t) s[static_cast<std::size_t>(t)] = -0.5 * n + t + 0.5;
     const double x = u(rng), y = u(rng), dx = unit(rng), dy = unit(rng);
@@ -158,7 +156,6 @@ TEST(BeadRaster, CountHeldMatchesAColumnByColumnCount) {
     int expect = 0;
     for (const double st : s) expect += column(x + st * dx, y + st * dy) >= need ? 1 : 0;
     ASSERT_EQ(count_held(map, x, y, dx, dy, s.data(), n, need), expect) << "trial " << trial;
-    ASSERT_EQ(count_held_scalar(map, x, y, dx, dy, s.data(), n, need), expect) << "trial " << trial;
     total += expect;
   }
   EXPECT_GT(total, 1000);
