@@ -34,7 +34,6 @@ PATHS='
 face_avx2         | bench:deviation_bench:BM_DeviationStage/ | cpu  | AVX2 4-wide face-square distance test (deviation/kernels.cpp)
 mesh_query_avx2   | bench:deviation_bench:BM_DeviationStage/ | cpu  | AVX2 candidate box filter + 4-wide exact closest point (mesh/kernels.cpp)
 bead_avx512       | bench:deposit_bench:BM_DepositOnly/0     | cpu  | AVX-512 bead tile kernel (deposit/kernels.cpp)
-bead_avx2         | bench:deposit_bench:BM_DepositOnly/0     | cpu  | AVX2 bead tile and support-count kernels (deposit/kernels.cpp)
 sha_ni            | cli:verify:load                          | wall | SHA extensions for the input hashes (core/kernels.cpp); stage: verify "load"
 check_fans        | bench:check_bench:BM_SelfIntersectionsWithHealth | cpu | face pairs around certified vertex fans not tested (check/self_intersections_cgal.cpp)
 check_ray_bound   | bench:check_bench:BM_Thickness/           | cpu  | inward rays end past the thinnest sampled wall (check/thickness.cpp)

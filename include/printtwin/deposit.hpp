@@ -37,11 +37,11 @@ struct DepositSettings {
   std::size_t max_memory_bytes = std::size_t{2} << 30;
   /// Unsupported stretches shorter than this are not reported (still in `unsupported`).
   double min_unsupported_mm = 1.0;
-  /// Conserve volume: the part of a bead that falls on earlier plastic squeezes into the
-  /// free voxels nearest its section, up to half the nozzle diameter away (beside and below
-  /// it first, above its top only when those are full). Off: that material is lost (it still
-  /// counts in overlap_mm3). Off by default for now: the squeeze costs about 9x the
-  /// deposit's time on the benchmark part (`--conserve-volume` on simulate and verify).
+  /// Conserve volume: the part of a bead that falls on earlier plastic squeezes into free
+  /// voxels near its section, up to half the nozzle diameter away (beside and below it first,
+  /// above its top only when those are full). Off: that material is lost (it still counts in
+  /// overlap_mm3). Off by default for now: it adds about half to the deposit's time on the
+  /// benchmark part (`--conserve-volume` on simulate and verify; docs/deposit.md).
   bool conserve_volume = false;
 };
 

@@ -167,9 +167,9 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
       "printers), "
       "ender3, ender3-marlin1, ender3-klipper, a profile .json or a Klipper printer.cfg");
   cmd->add_option("--voxel", o->voxel_mm, "deposit voxel edge in mm (default 0.05)");
-  cmd->add_flag(
-      "--conserve-volume", o->conserve_volume,
-      "squeeze material a bead cannot place into free space beside and below it (docs/deposit.md)");
+  cmd->add_flag("--conserve-volume,!--no-conserve-volume", o->conserve_volume,
+                "squeeze material a bead cannot place into free space beside and below it "
+                "(docs/deposit.md; --no-conserve-volume: lose it, the default)");
   cmd->add_option("--sample-spacing", o->spacing_mm,
                   "mesh surface sample spacing in mm (default: twice the voxel)");
   cmd->add_option(

@@ -236,10 +236,8 @@ Frame frame_for(const Box3& tips, double margin_mm, double voxel) {
 double grid_bytes(const Eigen::Vector3i& dims, std::size_t blocks, std::size_t tags) {
   const Eigen::Vector3d bd = ((dims.array() + 7) / 8).cast<double>();
   return bd.prod() * 4.0 + static_cast<double>(blocks) * detail::VoxelBlocks::kBlockBytes +
-         static_cast<double>(dims.x()) * dims.y() *
-             (sizeof(std::uint16_t) + sizeof(std::int32_t)) +  // height, top layer
-         static_cast<double>(tags) * sizeof(VoxelTag) +
-         1024.0 * detail::VoxelBlocks::kBlockBytes;
+         static_cast<double>(dims.x()) * dims.y() * HeightMap::kColumnBytes +  // the height map
+         static_cast<double>(tags) * sizeof(VoxelTag) + 1024.0 * detail::VoxelBlocks::kBlockBytes;
 }
 
 /// The estimate at one voxel size: bead footprints marked block by block.

@@ -24,65 +24,25 @@ void DroopProbe::begin_bead(const Move& mv, const Vec3& a, const Vec3& b, int sa
   skip_ = !model_.deforms() || mv.feature == Feature::sparse_infill ||
           mv.feature == Feature::support || mv.feature == Feature::support_interface ||
           mv.feature == Feature::solid_infill || mv.feature == Feature::top_solid_infill;
-  if (model_.deforms() && below_rows_.size() == 0) {
-    const HeightMapView v = map.view();
-    const std::size_t n = v.tiles_x * static_cast<std::size_t>((v.ny + 7) / 8) * 64;
-    below_rows_ = ZeroedArray<std::uint16_t>(n);
-    below_stamp_ = ZeroedArray<std::int32_t>(n);
-    oz_ = map.top_mm(a.x(), a.y()) - map.rows(a.x(), a.y()) * voxel_;
-  }
+  oz_ = map.top_mm(a.x(), a.y()) - map.rows(a.x(), a.y()) * voxel_;
   drops_.assign(static_cast<std::size_t>(samples), 0.0);
   fwd_ = back_ = kNoAnchor;
   fwd_at_ = back_at_ = -1;
 }
 
-bool DroopProbe::column(double x, double y, std::size_t& at) const {
-  const HeightMapView v = map_->view();
-  const int i = floor_int(map_->u(x)), j = floor_int(map_->v(y));
-  if (i < 0 || j < 0 || i >= v.nx || j >= v.ny) return false;
-  at = v.index(i, j);
-  return true;
-}
-
 double DroopProbe::earlier_top(double x, double y) const {
   const auto layer = map_->top_layer_at(x, y);
-  if (!layer) return oz_;
+  if (!layer || *layer > mv_.layer) return oz_;
   if (*layer < mv_.layer) return map_->top_mm(x, y);
-  std::size_t at = 0;
-  if (column(x, y, at) && below_stamp_[at] == mv_.layer + 1) return oz_ + below_rows_[at] * voxel_;
-  return oz_;
+  return oz_ + map_->rows_before_top_layer(x, y) * voxel_;
 }
 
 bool DroopProbe::holds(double x, double y, double bottom) const {
   const auto layer = map_->top_layer_at(x, y);
-  if (!layer) return false;
+  if (!layer || *layer > mv_.layer) return false;
   if (*layer < mv_.layer) return map_->top_mm(x, y) >= bottom - 2.0 * h_;
-  std::size_t at = 0;
-  if (*layer != mv_.layer || !column(x, y, at) || below_stamp_[at] != mv_.layer + 1 ||
-      below_rows_[at] == 0)
-    return false;
-  return oz_ + below_rows_[at] * voxel_ >= bottom - 2.0 * h_;
-}
-
-void DroopProbe::remember_below(const SweptBead& bead, const HeightMap& map) {
-  map_ = &map;
-  const Vec2 a = bead.a_mm.head<2>(), b = bead.b_mm.head<2>();
-  const double len = (b - a).norm();
-  const int along = std::max(1, static_cast<int>(std::ceil(len / voxel_)));
-  const int across = std::max(1, static_cast<int>(std::ceil(bead.w_mm / voxel_))) + 2;
-  for (int i = 0; i <= along; ++i) {
-    const Vec2 q = a + (static_cast<double>(i) / along) * (b - a);
-    for (int j = 0; j <= across; ++j) {
-      const Vec2 p =
-          q + (-0.5 * bead.w_mm - voxel_ + (bead.w_mm + 2 * voxel_) * j / across) * bead.n;
-      std::size_t at = 0;
-      if (!column(p.x(), p.y(), at) || below_stamp_[at] == bead.layer + 1) continue;
-      const auto layer = map.top_layer_at(p.x(), p.y());
-      if (layer && *layer >= bead.layer) continue;  // covered by this layer already: unknown
-      below_rows_[at] = static_cast<std::uint16_t>(map.rows(p.x(), p.y()));
-      below_stamp_[at] = bead.layer + 1;
-    }
-  }
+  const int rows = map_->rows_before_top_layer(x, y);
+  return rows > 0 && oz_ + rows * voxel_ >= bottom - 2.0 * h_;
 }
 
 bool DroopProbe::anchors(double x, double y, double bottom, double top, double& low) const {
@@ -145,12 +105,6 @@ BeadSweep::Laid DroopProbe::lay(const SweptBead& bead, BeadSweep& sweep, VoxelGr
                                 std::uint32_t tag, HeightMap& map) {
   // Knots every half millimetre at most, kept where the lowering bends by a fifth of a voxel.
   const int stride = std::max(1, static_cast<int>(std::lround(0.5 / std::max(step_mm_, 1e-9))));
-  // Perimeters are what a later bead of the same layer hangs beside (slicers lay the inner
-  // perimeters before the outer one); infill is not remembered, to keep the cost down.
-  if (model_.deforms() &&
-      (mv_.feature == Feature::perimeter || mv_.feature == Feature::outer_perimeter ||
-       mv_.feature == Feature::overhang_perimeter || mv_.feature == Feature::unknown))
-    remember_below(bead, map);
   if (skip_ || drops_.empty())
     knots_.clear();
   else

@@ -7,7 +7,6 @@
 #include <span>
 #include <vector>
 
-#include "core/zeroed_array.hpp"
 #include "deposit/droop.hpp"
 #include "deposit/height_map.hpp"
 #include "deposit/sweep.hpp"
@@ -36,16 +35,10 @@ class DroopProbe {
 
  private:
   /// Earlier-layer material within 2 layers of the bead's bottom (an edge that holds it),
-  /// also where a bead of this layer has covered it since.
+  /// also where a bead of this layer has covered it since (HeightMap::rows_before_top_layer).
   [[nodiscard]] bool holds(double x, double y, double bottom) const;
-  /// Keeps, for the columns under `bead` that no bead of its layer has covered yet, the
-  /// height the earlier layers left (holds() reads it once this layer's beads cover them).
-  /// Called for perimeter beads only (lay()).
-  void remember_below(const SweptBead& bead, const HeightMap& map);
   /// Top (mm) of the earlier layers' material in the column under (x, y), the bed when none.
   [[nodiscard]] double earlier_top(double x, double y) const;
-  /// Index of the column under (x, y) in the map's layout; false outside the map.
-  [[nodiscard]] bool column(double x, double y, std::size_t& at) const;
   /// An anchor along the path: material that holds, or a bead of this layer (lowered or not:
   /// `low` gets how far it hangs below `top`).
   [[nodiscard]] bool anchors(double x, double y, double bottom, double top, double& low) const;
@@ -65,11 +58,7 @@ class DroopProbe {
   double fwd_low_ = 0, back_low_ = 0;  // how far those anchors hang below the tip
   int fwd_at_ = -1, back_at_ = -1;
   std::vector<DropKnot> knots_;  // scratch
-  // Per column (the map's layout): rows before this layer's first bead covered it, and the
-  // layer + 1 that recorded them.
-  ZeroedArray<std::uint16_t> below_rows_;
-  ZeroedArray<std::int32_t> below_stamp_;
-  double oz_ = 0;  // the map's bottom (mm)
+  double oz_ = 0;                // the map's bottom (mm)
 };
 
 }  // namespace printtwin::detail

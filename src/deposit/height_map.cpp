@@ -20,8 +20,9 @@ HeightMap::HeightMap(double voxel_mm, const Vec3& origin_mm, int nx, int ny, std
       nx_(nx),
       ny_(ny),
       tiles_x_(tiles_x),
-      top_(tiles_x * tiles_y * 64 + 1),
-      top_layer_(top_.size()) {}
+      top_(tiles_x * tiles_y * 64),
+      top_layer_(top_.size()),
+      before_(top_.size()) {}
 
 std::optional<std::int32_t> HeightMap::top_layer_at(double x_mm, double y_mm) const {
   const double u = (x_mm - ox_) * inv_voxel_, v = (y_mm - oy_) * inv_voxel_;
@@ -32,6 +33,12 @@ std::optional<std::int32_t> HeightMap::top_layer_at(double x_mm, double y_mm) co
   return top_layer_[at];
 }
 
+int HeightMap::rows_before_top_layer(double x_mm, double y_mm) const {
+  const int i = floor_int(u(x_mm)), j = floor_int(v(y_mm));
+  if (i < 0 || j < 0 || i >= nx_ || j >= ny_) return 0;
+  return before_[index(i, j)];
+}
+
 int HeightMap::rows_reaching(double z_mm) const {
   int r = static_cast<int>(std::ceil((z_mm - oz_) * inv_voxel_));
   while (r > 0 && oz_ + (r - 1) * voxel_ >= z_mm) --r;
@@ -39,13 +46,13 @@ int HeightMap::rows_reaching(double z_mm) const {
   return std::max(r, 0);
 }
 
-void HeightMap::raise_tops(std::uint16_t* tile, std::int32_t* layers, std::uint64_t mask,
-                           std::uint16_t rows, std::int32_t layer) {
+void HeightMap::raise_tops(std::uint16_t* tile, std::int32_t* layers, std::uint16_t* before,
+                           std::uint64_t mask, std::uint16_t rows, std::int32_t layer) {
 #if defined(__SSE2__)
   const __m128i bit = _mm_setr_epi16(1, 2, 4, 8, 16, 32, 64, 128);
   const __m128i value = _mm_set1_epi16(static_cast<short>(rows));
   const __m128i layer4 = _mm_set1_epi32(layer);
-  for (int y = 0; y < 8; ++y, tile += 8, layers += 8) {
+  for (int y = 0; y < 8; ++y, tile += 8, layers += 8, before += 8) {
     const auto m = static_cast<short>((mask >> (8 * y)) & 0xFFu);
     if (m == 0) continue;
     const __m128i lanes = _mm_cmpeq_epi16(_mm_and_si128(_mm_set1_epi16(m), bit), bit);
@@ -55,18 +62,28 @@ void HeightMap::raise_tops(std::uint16_t* tile, std::int32_t* layers, std::uint6
     const __m128i reach = _mm_andnot_si128(_mm_cmpgt_epi16(old, value), lanes);
     _mm_storeu_si128(p, _mm_max_epi16(old, _mm_and_si128(lanes, value)));
     auto* lp = reinterpret_cast<__m128i*>(layers);
+    const __m128i l_lo = _mm_loadu_si128(lp), l_hi = _mm_loadu_si128(lp + 1);
+    // Columns whose top passes to another layer keep the rows they held.
+    const __m128i same =
+        _mm_packs_epi32(_mm_cmpeq_epi32(l_lo, layer4), _mm_cmpeq_epi32(l_hi, layer4));
+    const __m128i handed = _mm_andnot_si128(same, reach);
+    auto* bp = reinterpret_cast<__m128i*>(before);
+    _mm_storeu_si128(bp, _mm_or_si128(_mm_and_si128(handed, old),
+                                      _mm_andnot_si128(handed, _mm_loadu_si128(bp))));
     const __m128i r_lo = _mm_unpacklo_epi16(reach, reach), r_hi = _mm_unpackhi_epi16(reach, reach);
-    _mm_storeu_si128(
-        lp, _mm_or_si128(_mm_and_si128(r_lo, layer4), _mm_andnot_si128(r_lo, _mm_loadu_si128(lp))));
-    _mm_storeu_si128(lp + 1, _mm_or_si128(_mm_and_si128(r_hi, layer4),
-                                          _mm_andnot_si128(r_hi, _mm_loadu_si128(lp + 1))));
+    _mm_storeu_si128(lp, _mm_or_si128(_mm_and_si128(r_lo, layer4), _mm_andnot_si128(r_lo, l_lo)));
+    _mm_storeu_si128(lp + 1,
+                     _mm_or_si128(_mm_and_si128(r_hi, layer4), _mm_andnot_si128(r_hi, l_hi)));
   }
 #else
-  for (int y = 0; y < 8; ++y, tile += 8, layers += 8) {
+  for (int y = 0; y < 8; ++y, tile += 8, layers += 8, before += 8) {
     const auto m = static_cast<unsigned>(mask >> (8 * y)) & 0xFFu;
     for (int x = 0; x < 8; ++x) {
       if (((m >> x) & 1u) == 0) continue;
-      if (rows >= tile[x]) layers[x] = layer;
+      if (rows >= tile[x]) {
+        if (layers[x] != layer) before[x] = tile[x];
+        layers[x] = layer;
+      }
       tile[x] = std::max(tile[x], rows);
     }
   }

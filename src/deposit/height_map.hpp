@@ -1,6 +1,8 @@
 #pragma once
 // The deposit's height map: per XY column, the rows of voxels occupied up to (0 = bed or
-// empty), and the layer of the move that last wrote the column's top voxel. The bead model
+// empty), the layer of the move that last wrote the column's top voxel, and the rows the
+// column held before that layer first reached its top (what the earlier layers left, which
+// the droop model reads under this layer's beads). The bead model
 // reads it for each bead's height and support; the sweep raises it as it lays the bead. It
 // never reads the grid, whose writes may still be under way on the writer thread.
 //
@@ -50,35 +52,41 @@ class HeightMap {
   /// Layer of the move that last wrote the top voxel of the column under (x, y) (mm);
   /// nullopt when the column is empty or outside the map.
   [[nodiscard]] std::optional<std::int32_t> top_layer_at(double x_mm, double y_mm) const;
+  /// Rows the column under (x, y) (mm) held before the layer of its top voxel first wrote its
+  /// top (the earlier layers' material under that layer's beads); 0 outside the map.
+  [[nodiscard]] int rows_before_top_layer(double x_mm, double y_mm) const;
   /// Smallest row count r with oz + r * voxel >= z_mm (the same comparison top_mm makes).
   [[nodiscard]] int rows_reaching(double z_mm) const;
 
   /// Raises the 64 columns of the tile whose first column has index `at` to at least `rows`
   /// where `mask` (bit y * 8 + x) is set; where the write reaches a column's top (rows >= its
-  /// height), the column's top voxel is now `layer`'s.
+  /// height), the column's top voxel is now `layer`'s; where that changes the column's top
+  /// layer, the rows it held before are kept (rows_before_top_layer).
   void raise_tile(std::size_t at, std::uint64_t mask, std::uint16_t rows, std::int32_t layer) {
-    raise_tops(top_.data() + at, top_layer_.data() + at, mask, rows, layer);
+    raise_tops(top_.data() + at, top_layer_.data() + at, before_.data() + at, mask, rows, layer);
   }
 
-  [[nodiscard]] std::size_t memory_bytes() const {
-    return top_.size() * sizeof(std::uint16_t) + top_layer_.size() * sizeof(std::int32_t);
-  }
+  /// Bytes per column of the map (for the memory estimate).
+  static constexpr std::size_t kColumnBytes = 2 * sizeof(std::uint16_t) + sizeof(std::int32_t);
+  [[nodiscard]] std::size_t memory_bytes() const { return top_.size() * kColumnBytes; }
   /// Frees the map.
   void release() {
     top_ = {};
     top_layer_ = {};
+    before_ = {};
   }
 
  private:
-  static void raise_tops(std::uint16_t* tile, std::int32_t* layers, std::uint64_t mask,
-                         std::uint16_t rows, std::int32_t layer);
+  static void raise_tops(std::uint16_t* tile, std::int32_t* layers, std::uint16_t* before,
+                         std::uint64_t mask, std::uint16_t rows, std::int32_t layer);
 
   double voxel_, inv_voxel_;
   double ox_, oy_, oz_;
   int nx_, ny_;
   std::size_t tiles_x_;
-  ZeroedArray<std::uint16_t> top_;       // rows per column, + 1 padding entry (count_held)
+  ZeroedArray<std::uint16_t> top_;       // rows per column
   ZeroedArray<std::int32_t> top_layer_;  // layer of each column's top voxel
+  ZeroedArray<std::uint16_t> before_;    // rows before that layer first wrote the top
 };
 
 }  // namespace printtwin::detail

@@ -1,7 +1,6 @@
 // The deposit's kernels (see kernels.hpp). The tile kernels evaluate the same
-// single-precision operations in the same order (no fused multiply-add: the AVX2 kernel is
-// compiled for AVX2 only, the AVX-512 one with contraction off, and the build does not
-// contract), so they set the same bits.
+// single-precision operations in the same order (no fused multiply-add: the AVX-512 kernel is
+// compiled with contraction off, and the build does not contract), so they set the same bits.
 #include "deposit/kernels.hpp"
 
 #include "core/bits.hpp"
@@ -11,7 +10,7 @@
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #include <immintrin.h>
-#define PRINTTWIN_HAVE_AVX2_KERNEL 1
+#define PRINTTWIN_HAVE_AVX512_KERNEL 1
 #endif
 
 namespace printtwin::detail {
@@ -55,80 +54,14 @@ inline bool inside(const BeadFrame& f, float X, float Y, float Z, std::uint32_t 
   return (p.s0 >= 0.0f) & (p.s1 < 0.0f) & (p.dz >= -f.r) & (p.dz < f.r) & round_ok;
 }
 
-#if PRINTTWIN_HAVE_AVX2_KERNEL
-[[gnu::target("avx2")]] std::uint64_t test_tile_avx2(const BeadFrame& f, std::int32_t i0,
-                                                     std::int32_t j0, std::int32_t k, int row_lo,
-                                                     int row_hi, unsigned lanes) {
-  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-  const __m256i vi = _mm256_add_epi32(_mm256_set1_epi32(i0), lane);
-  const __m256i ihash = _mm256_mullo_epi32(vi, _mm256_set1_epi32(static_cast<int>(0x8da6b343u)));
-  const __m256 X = _mm256_cvtepi32_ps(_mm256_sub_epi32(vi, _mm256_set1_epi32(f.ia)));
-  const __m256 Z = _mm256_set1_ps(static_cast<float>(k - f.ka));
-  const __m256i c1 = _mm256_set1_epi32(0x7feb352d);
-  const __m256i c2 = _mm256_set1_epi32(static_cast<int>(0x846ca68bu));
-  const __m256i ten = _mm256_set1_epi32(0x3FF);
-  const __m256 scale = _mm256_set1_ps(kJitterScale), half = _mm256_set1_ps(kJitterHalf);
-  const __m256 fa_x = _mm256_set1_ps(f.fa_x), fa_y = _mm256_set1_ps(f.fa_y);
-  const __m256 m0x = _mm256_set1_ps(f.m0_x), m0y = _mm256_set1_ps(f.m0_y);
-  const __m256 m1x = _mm256_set1_ps(f.m1_x), m1y = _mm256_set1_ps(f.m1_y),
-               e1 = _mm256_set1_ps(f.e1);
-  const __m256 dx = _mm256_set1_ps(f.d_x), dy = _mm256_set1_ps(f.d_y);
-  const __m256 nx = _mm256_set1_ps(f.n_x), ny = _mm256_set1_ps(f.n_y);
-  const __m256 c0 = _mm256_set1_ps(f.c0), slope = _mm256_set1_ps(f.slope);
-  const __m256 r = _mm256_set1_ps(f.r), neg_r = _mm256_set1_ps(-f.r), r2 = _mm256_set1_ps(f.r2);
-  const __m256 flat = _mm256_set1_ps(f.flat), zero = _mm256_setzero_ps();
-  const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));
-  const std::uint32_t khash = static_cast<std::uint32_t>(k) * 0xcb1ab31fu;
-  std::uint64_t out = 0;
-  for (int y = row_lo; y < row_hi; ++y) {
-    const std::int32_t j = j0 + y;
-    const std::uint32_t row_hash = static_cast<std::uint32_t>(j) * 0xd8163841u ^ khash;
-    __m256i h = _mm256_xor_si256(ihash, _mm256_set1_epi32(static_cast<int>(row_hash)));
-    h = _mm256_xor_si256(h, _mm256_srli_epi32(h, 16));
-    h = _mm256_mullo_epi32(h, c1);
-    h = _mm256_xor_si256(h, _mm256_srli_epi32(h, 15));
-    h = _mm256_mullo_epi32(h, c2);
-    h = _mm256_xor_si256(h, _mm256_srli_epi32(h, 16));
-    const __m256 jx =
-        _mm256_add_ps(_mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_and_si256(h, ten)), scale), half);
-    const __m256 jy = _mm256_add_ps(
-        _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(h, 10), ten)), scale),
-        half);
-    const __m256 jz = _mm256_add_ps(
-        _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(h, 20), ten)), scale),
-        half);
-    const __m256 Y = _mm256_set1_ps(static_cast<float>(j - f.ja));
-    const __m256 rx = _mm256_sub_ps(_mm256_add_ps(X, jx), fa_x);
-    const __m256 ry = _mm256_sub_ps(_mm256_add_ps(Y, jy), fa_y);
-    const __m256 z = _mm256_add_ps(Z, jz);
-    const __m256 s0 = _mm256_add_ps(_mm256_mul_ps(m0x, rx), _mm256_mul_ps(m0y, ry));
-    const __m256 s1 =
-        _mm256_sub_ps(_mm256_add_ps(_mm256_mul_ps(m1x, rx), _mm256_mul_ps(m1y, ry)), e1);
-    const __m256 u = _mm256_add_ps(_mm256_mul_ps(dx, rx), _mm256_mul_ps(dy, ry));
-    const __m256 dz = _mm256_sub_ps(z, _mm256_add_ps(c0, _mm256_mul_ps(slope, u)));
-    const __m256 l = _mm256_sub_ps(
-        _mm256_and_ps(_mm256_add_ps(_mm256_mul_ps(nx, rx), _mm256_mul_ps(ny, ry)), abs_mask), flat);
-    const __m256 round_ok = _mm256_or_ps(
-        _mm256_cmp_ps(l, zero, _CMP_LE_OQ),
-        _mm256_cmp_ps(_mm256_add_ps(_mm256_mul_ps(l, l), _mm256_mul_ps(dz, dz)), r2, _CMP_LE_OQ));
-    __m256 ok =
-        _mm256_and_ps(_mm256_cmp_ps(s0, zero, _CMP_GE_OQ), _mm256_cmp_ps(s1, zero, _CMP_LT_OQ));
-    ok = _mm256_and_ps(ok, _mm256_cmp_ps(dz, neg_r, _CMP_GE_OQ));
-    ok = _mm256_and_ps(ok, _mm256_cmp_ps(dz, r, _CMP_LT_OQ));
-    ok = _mm256_and_ps(ok, round_ok);
-    const auto bits = static_cast<unsigned>(_mm256_movemask_ps(ok)) & lanes;
-    out |= static_cast<std::uint64_t>(bits) << (8 * y);
-  }
-  return out;
-}
-
+#if PRINTTWIN_HAVE_AVX512_KERNEL
 // GCC 12 flags the "undefined" source operands inside its own AVX-512 intrinsics.
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wuninitialized"
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-/// The AVX2 kernel's operations on two rows at once (lanes 0-7 row y, lanes 8-15 row y + 1),
-/// each an IEEE single-precision operation as there (no contraction into fused multiply-adds,
-/// which AVX-512 would allow), so the same bits.
+/// The portable kernel's operations on two rows at once (lanes 0-7 row y, lanes 8-15 row
+/// y + 1), each an IEEE single-precision operation in the same order (no contraction into
+/// fused multiply-adds, which AVX-512 would allow), so the same bits.
 [[gnu::target("avx512f"), gnu::optimize("fp-contract=off")]] void test_tile_layers_avx512(
     const BeadFrame& f, std::int32_t i0, std::int32_t j0, const std::int32_t* ks, int nk,
     int row_lo, int row_hi, unsigned lanes, std::uint64_t* masks) {
@@ -209,83 +142,26 @@ inline bool inside(const BeadFrame& f, float X, float Y, float Z, std::uint32_t 
 #pragma GCC diagnostic pop
 #endif
 
-int count_held_portable(const HeightMapView& m, double u, double v, double du, double dv,
-                        const double* s, int n, int need) {
-  int held = 0;
-  for (int t = 0; t < n; ++t) held += m.rows_at(u + s[t] * du, v + s[t] * dv) >= need ? 1 : 0;
-  return held;
-}
-
-#if PRINTTWIN_HAVE_AVX2_KERNEL
-[[gnu::target("avx2")]] int count_held_avx2(const HeightMapView& m, double u, double v, double du,
-                                            double dv, const double* s, int n, int need) {
-  const __m256d uu = _mm256_set1_pd(u), vv = _mm256_set1_pd(v);
-  const __m256d duu = _mm256_set1_pd(du), dvv = _mm256_set1_pd(dv);
-  const __m128i zero = _mm_setzero_si128(), seven = _mm_set1_epi32(7);
-  const __m128i nx = _mm_set1_epi32(m.nx), ny = _mm_set1_epi32(m.ny);
-  const __m128i tiles_x = _mm_set1_epi32(static_cast<int>(m.tiles_x));
-  const __m128i low16 = _mm_set1_epi32(0xFFFF), need_minus_1 = _mm_set1_epi32(need - 1);
-  const auto* base = reinterpret_cast<const int*>(m.top);
-  int held = 0;
-  int t = 0;
-  for (; t + 4 <= n; t += 4) {
-    const __m256d st = _mm256_loadu_pd(s + t);
-    const __m128i i =
-        _mm256_cvttpd_epi32(_mm256_floor_pd(_mm256_add_pd(uu, _mm256_mul_pd(st, duu))));
-    const __m128i j =
-        _mm256_cvttpd_epi32(_mm256_floor_pd(_mm256_add_pd(vv, _mm256_mul_pd(st, dvv))));
-    // Inside: 0 <= i < nx and 0 <= j < ny.
-    const __m128i in =
-        _mm_andnot_si128(_mm_or_si128(_mm_cmplt_epi32(i, zero), _mm_cmplt_epi32(j, zero)),
-                         _mm_and_si128(_mm_cmplt_epi32(i, nx), _mm_cmplt_epi32(j, ny)));
-    const __m128i tile =
-        _mm_add_epi32(_mm_mullo_epi32(_mm_srai_epi32(j, 3), tiles_x), _mm_srai_epi32(i, 3));
-    const __m128i idx = _mm_or_si128(
-        _mm_slli_epi32(tile, 6),
-        _mm_or_si128(_mm_slli_epi32(_mm_and_si128(j, seven), 3), _mm_and_si128(i, seven)));
-    // Lanes outside the map are not read and hold 0 rows (as in rows_at).
-    const __m128i safe_idx = _mm_and_si128(idx, in);
-    const __m128i rows =
-        _mm_and_si128(_mm_mask_i32gather_epi32(zero, base, safe_idx, in, 2), low16);
-    const __m128i ok = _mm_cmpgt_epi32(rows, need_minus_1);
-    const auto bits = static_cast<unsigned>(_mm_movemask_ps(_mm_castsi128_ps(ok)));
-    held += static_cast<int>((0x4332322132212110ull >> (4 * bits)) & 0xFu);  // bits set in 4 bits
-  }
-  for (; t < n; ++t) held += m.rows_at(u + s[t] * du, v + s[t] * dv) >= need ? 1 : 0;
-  return held;
-}
+/// Whether this run uses the AVX-512 tile kernel: the CPU has it and PRINTTWIN_PLAIN does not
+/// name `bead_avx512` (core/plain_path.hpp).
+bool use_avx512() {
+  static const bool use = [] {
+#if PRINTTWIN_HAVE_AVX512_KERNEL
+    return cpu_has_avx512f() && !plain_path("bead_avx512");
+#else
+    return false;
 #endif
-
-/// The kernels this run uses: the CPU's, less those PRINTTWIN_PLAIN turns off
-/// (`bead_avx512`, `bead_avx2`; core/plain_path.hpp).
-struct KernelChoice {
-  bool avx512 = false, avx2 = false;
-};
-const KernelChoice& kernels() {
-  static const KernelChoice choice = [] {
-    KernelChoice c;
-#if PRINTTWIN_HAVE_AVX2_KERNEL
-    c.avx512 = cpu_has_avx512f() && !plain_path("bead_avx512");
-    c.avx2 = cpu_has_avx2() && !plain_path("bead_avx2");
-#endif
-    return c;
   }();
-  return choice;
+  return use;
 }
 
 }  // namespace
 
 int count_held(const HeightMapView& map, double u, double v, double du, double dv, const double* s,
                int n, int need) {
-#if PRINTTWIN_HAVE_AVX2_KERNEL
-  if (kernels().avx2) return count_held_avx2(map, u, v, du, dv, s, n, need);
-#endif
-  return count_held_portable(map, u, v, du, dv, s, n, need);
-}
-
-int count_held_scalar(const HeightMapView& map, double u, double v, double du, double dv,
-                      const double* s, int n, int need) {
-  return count_held_portable(map, u, v, du, dv, s, n, need);
+  int held = 0;
+  for (int t = 0; t < n; ++t) held += map.rows_at(u + s[t] * du, v + s[t] * dv) >= need ? 1 : 0;
+  return held;
 }
 
 void section_offset(const BeadFrame& f, std::int32_t i, std::int32_t j, std::int32_t k, float& l,
@@ -314,23 +190,11 @@ std::uint64_t test_tile_scalar(const BeadFrame& f, std::int32_t i0, std::int32_t
   return out;
 }
 
-std::uint64_t test_tile_avx2_kernel(const BeadFrame& f, std::int32_t i0, std::int32_t j0,
-                                    std::int32_t k, int row_lo, int row_hi, unsigned lanes) {
-#if PRINTTWIN_HAVE_AVX2_KERNEL
-  if (cpu_has_avx2()) return test_tile_avx2(f, i0, j0, k, row_lo, row_hi, lanes);
-#endif
-  return test_tile_scalar(f, i0, j0, k, row_lo, row_hi, lanes);
-}
-
 void test_tile_layers(const BeadFrame& f, std::int32_t i0, std::int32_t j0, const std::int32_t* ks,
                       int nk, int row_lo, int row_hi, unsigned lanes, std::uint64_t* masks) {
-#if PRINTTWIN_HAVE_AVX2_KERNEL
-  if (kernels().avx512) {
+#if PRINTTWIN_HAVE_AVX512_KERNEL
+  if (use_avx512()) {
     test_tile_layers_avx512(f, i0, j0, ks, nk, row_lo, row_hi, lanes, masks);
-    return;
-  }
-  if (kernels().avx2) {
-    for (int n = 0; n < nk; ++n) masks[n] = test_tile_avx2(f, i0, j0, ks[n], row_lo, row_hi, lanes);
     return;
   }
 #endif
@@ -344,8 +208,6 @@ std::uint64_t test_tile(const BeadFrame& f, std::int32_t i0, std::int32_t j0, st
   return mask;
 }
 
-bool bead_raster_uses_avx2() { return kernels().avx2 && !kernels().avx512; }
-
-bool bead_raster_uses_avx512() { return kernels().avx512; }
+bool bead_raster_uses_avx512() { return use_avx512(); }
 
 }  // namespace printtwin::detail

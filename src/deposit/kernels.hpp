@@ -1,17 +1,16 @@
 #pragma once
 // The deposit's kernels: the sample-point tests of a bead, 64 voxels at a time (the inner
-// loop of the deposit), and the support count across a bead. Each has a portable twin that
-// gives the same bits; the SIMD kernels are chosen at run time in one place (kernels() in
-// kernels.cpp), and PRINTTWIN_PLAIN (core/plain_path.hpp) turns them off by name:
-// `bead_avx512` (the AVX-512 tile kernel), `bead_avx2` (the AVX2 tile and support kernels).
-// Each was kept because it saves at least 10 % of the deposit's time against its twin.
+// loop of the deposit), and the support count across a bead. The tile test has an AVX-512
+// kernel, chosen at run time (use_avx512() in kernels.cpp), and a portable twin that gives
+// the same bits; PRINTTWIN_PLAIN=bead_avx512 (core/plain_path.hpp) takes the twin. It is
+// kept because it saves at least 10 % of the deposit's time (bench/RESULTS.md).
 //
 // A voxel (i, j, k) is occupied by a bead when its sample point lies inside the bead. The
 // sample point is fixed per voxel: (i + jx, j + jy, k + jz) in voxel units, the jitter
 // (jx, jy, jz) in (0, 1)^3 taken from an integer hash of the key (10 bits per axis). The
 // test is evaluated in single precision on coordinates relative to the bead's start, in a
-// fixed order of operations, so the portable, AVX2 and AVX-512 kernels give the same voxels
-// bit for bit.
+// fixed order of operations, so the portable and AVX-512 kernels give the same voxels bit
+// for bit.
 #include <cstddef>
 #include <cstdint>
 
@@ -48,8 +47,7 @@ inline std::uint32_t voxel_jitter_bits(std::int32_t i, std::int32_t j, std::int3
 /// Tests the 8 x 8 voxels (i0 + x, j0 + y, k) for x in 0..7 and y in row_lo..row_hi-1 (0 <= row_lo
 /// < row_hi <= 8). Bit y * 8 + x of the result is set when the voxel's sample point is inside
 /// the bead; `lanes` (bits 0..7) masks the x that may be set. Dispatches to the AVX-512
-/// kernel (two rows per instruction) or the AVX2 one (a row) when the CPU has them; every
-/// kernel gives the same bits.
+/// kernel (two rows per instruction) when the CPU has it; both kernels give the same bits.
 std::uint64_t test_tile(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k,
                         int row_lo, int row_hi, unsigned lanes);
 
@@ -64,16 +62,12 @@ void test_tile_layers(const BeadFrame& f, std::int32_t i0, std::int32_t j0, cons
 void section_offset(const BeadFrame& f, std::int32_t i, std::int32_t j, std::int32_t k, float& l,
                     float& dz);
 
-/// The portable kernel (what test_tile runs without AVX2), for the tests.
+/// The portable kernel (what test_tile runs without AVX-512), for the tests.
 std::uint64_t test_tile_scalar(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k,
                                int row_lo, int row_hi, unsigned lanes);
-/// The AVX2 kernel (the portable one without AVX2), for the tests.
-std::uint64_t test_tile_avx2_kernel(const BeadFrame& f, std::int32_t i0, std::int32_t j0,
-                                    std::int32_t k, int row_lo, int row_hi, unsigned lanes);
 
 /// The deposit's height map, stored in 8 x 8 tiles (column (i, j) at
-/// ((j / 8) * tiles_x + i / 8) * 64 + (j % 8) * 8 + i % 8), with one padding entry at the end
-/// (the AVX2 kernel reads 32 bits per column).
+/// ((j / 8) * tiles_x + i / 8) * 64 + (j % 8) * 8 + i % 8).
 struct HeightMapView {
   const std::uint16_t* top = nullptr;
   std::size_t tiles_x = 0;
@@ -96,15 +90,10 @@ struct HeightMapView {
 
 /// How many of the points (u + s[t] * du, v + s[t] * dv), t < n (voxel units from the grid
 /// origin), stand on a column (floor of each coordinate, inside the map) holding at least
-/// `need` rows. Points outside the map hold nothing. Same result with or without AVX2.
+/// `need` rows. Points outside the map hold nothing.
 int count_held(const HeightMapView& map, double u, double v, double du, double dv, const double* s,
                int n, int need);
-/// The portable kernel of count_held, for the tests.
-int count_held_scalar(const HeightMapView& map, double u, double v, double du, double dv,
-                      const double* s, int n, int need);
 
-/// True when test_tile uses the AVX2 kernel on this CPU.
-bool bead_raster_uses_avx2();
 /// True when test_tile uses the AVX-512 kernel on this CPU.
 bool bead_raster_uses_avx512();
 

@@ -7,7 +7,6 @@
 #include <bit>
 #include <cmath>
 #include <limits>
-#include <tuple>
 
 namespace printtwin::detail {
 
@@ -229,6 +228,35 @@ void BeadSweep::for_each_tile(const SweptBead& bead, const Vec2& a2, const Vec2&
   }
 }
 
+namespace {
+
+/// The tile's voxels next to those of `m` (bit y * 8 + x) in x or y, and `m` itself.
+std::uint64_t dilate_xy(std::uint64_t m) {
+  constexpr std::uint64_t kColumn0 = 0x0101010101010101ull, kColumn7 = 0x8080808080808080ull;
+  return m | ((m << 1) & ~kColumn0) | ((m >> 1) & ~kColumn7) | (m << 8) | (m >> 8);
+}
+
+/// The `n` lowest set bits of `m` (all of them when it has fewer).
+std::uint64_t lowest_bits(std::uint64_t m, std::size_t n) {
+  std::uint64_t out = 0;
+  for (; m != 0 && n > 0; --n) {
+    out |= m & (~m + 1);
+    m &= m - 1;
+  }
+  return out;
+}
+
+/// The section of `f` grown by `by` voxels (a stadium is a segment's disc sweep: grow the disc).
+BeadFrame grown(const BeadFrame& f, double by) {
+  BeadFrame g = f;
+  const double r = static_cast<double>(f.r) + by;
+  g.r = static_cast<float>(r);
+  g.r2 = static_cast<float>(r * r);
+  return g;
+}
+
+}  // namespace
+
 BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint32_t tag,
                                HeightMap& map) {
   BeadFrame f;
@@ -236,95 +264,121 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
   double hw;
   Laid laid;
   if (!set_up(bead, f, a2, b2, hw)) return laid;
-  masks_.resize(reached_.size());
+  const std::size_t nk = reached_.size();
+  masks_.resize(nk);
+  const bool squeezing = bead.squeeze_mm > 0;
+  if (squeezing) hits_.resize(nk);
+  // The squeeze's first ring: one voxel around the section, over the bead's own layers, in
+  // the tile where the bead fell on earlier plastic; what finds no room there moves on to the
+  // next tiles of the bead.
+  const Ring local{nullptr,      masks_.data(), reached_.data(), static_cast<int>(nk),
+                   hits_.data(), bead.layer};
+  std::size_t carry = 0;
   for_each_tile(bead, a2, b2, hw, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
     const std::size_t at = map.index(8 * bx, 8 * by);
-    test_tile_layers(f, 8 * bx, 8 * by, reached_.data(), static_cast<int>(reached_.size()), t_lo,
-                     t_hi, lanes, masks_.data());
-    for (std::size_t layer_at = 0; layer_at < reached_.size(); ++layer_at) {
+    test_tile_layers(f, 8 * bx, 8 * by, reached_.data(), static_cast<int>(nk), t_lo, t_hi, lanes,
+                     masks_.data());
+    std::size_t tile_overlap = 0;
+    for (std::size_t layer_at = 0; layer_at < nk; ++layer_at) {
       const std::uint64_t mask = masks_[layer_at];
+      if (squeezing) hits_[layer_at] = 0;
       if (mask == 0) continue;
       const int k = reached_[layer_at];
+      if (squeezing) {
+        const std::uint64_t* occ = detail::VoxelBlocks::block_occupancy(grid, bx, by, k >> 3);
+        hits_[layer_at] = mask & (occ != nullptr ? occ[k & 7] : 0);
+      }
       const std::size_t fresh = detail::VoxelBlocks::write_tile(grid, bx, by, k, mask, tag);
-      laid.overlap += static_cast<std::size_t>(std::popcount(mask)) - fresh;
+      tile_overlap += static_cast<std::size_t>(std::popcount(mask)) - fresh;
       map.raise_tile(at, mask, static_cast<std::uint16_t>(k + 1), bead.layer);
     }
+    laid.overlap += tile_overlap;
+    if (!squeezing || carry + tile_overlap == 0) return;
+    const std::size_t placed =
+        squeeze_tile(local, bx, by, 0, std::min(8, ny_ - 8 * by),
+                     (1u << std::min(8, nx_ - 8 * bx)) - 1u, carry + tile_overlap, grid, tag, map);
+    laid.squeezed += placed;
+    carry = carry + tile_overlap - placed;
   });
-  if (laid.overlap > 0 && bead.squeeze_mm > 0)
-    laid.squeezed = squeeze(bead, f, a2, b2, laid.overlap, grid, tag, map);
+  if (carry > 0) laid.squeezed += squeeze(bead, f, a2, b2, carry, grid, tag, map);
   return laid;
 }
 
-// The squeeze: the material that fell on occupied voxels goes to the free voxels nearest the
-// bead's section (distance from the section's stadium), up to squeeze_mm away, within the
-// bead's own cuts: beside it and below it first; above the tip (the layer rising, as in an
-// over-full solid layer) only when nothing beside or below is free.
+// The squeeze: the material that fell on occupied voxels goes to the free voxels near the
+// bead's section, within the bead's own cuts: the section grown a voxel at a time (beside it
+// and, a voxel layer further each time, below it) up to squeeze_mm; then above the tip (the
+// layer rising, as in an over-full solid layer), a voxel layer at a time.
 std::size_t BeadSweep::squeeze(const SweptBead& bead, const BeadFrame& f, const Vec2& a2,
                                const Vec2& b2, std::size_t lost, VoxelGrid& grid, std::uint32_t tag,
                                HeightMap& map) {
   const double delta = bead.squeeze_mm * inv_voxel_;
-  // The section grown by delta (a stadium is a segment's disc sweep: grow the disc).
-  BeadFrame g = f;
-  const double rg = static_cast<double>(f.r) + delta;
-  g.r = static_cast<float>(rg);
-  g.r2 = static_cast<float>(rg * rg);
-  // Layers: from the lowest grown bottom to the highest grown top.
-  const int k_top = std::min(nz_ - 1, reached_.back() + static_cast<int>(std::ceil(delta)) + 1);
-  const int k_bottom = std::max(0, floor_int(static_cast<double>(reached_.front()) - delta - 1.0));
-  layers_.clear();
-  for (int k = k_bottom; k <= k_top; ++k) layers_.push_back(k);
-  masks_.resize(layers_.size());
-  const double hw = static_cast<double>(f.flat) + rg + kBoundSlack;
-  const auto fdelta = static_cast<float>(delta);
-  candidates_.clear();
-  for_each_tile(bead, a2, b2, hw, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
-    test_tile_layers(g, 8 * bx, 8 * by, layers_.data(), static_cast<int>(layers_.size()), t_lo,
-                     t_hi, lanes, masks_.data());
-    for (std::size_t n = 0; n < layers_.size(); ++n) {
-      const int k = layers_[n];
-      const std::uint64_t* occ = detail::VoxelBlocks::block_occupancy(grid, bx, by, k >> 3);
-      std::uint64_t free = masks_[n] & ~(occ != nullptr ? occ[k & 7] : 0);
-      for (; free != 0; free &= free - 1) {
-        const int bit = std::countr_zero(free);
-        const std::int32_t i = 8 * bx + (bit & 7), j = 8 * by + (bit >> 3);
-        float l, dz;
-        section_offset(f, i, j, k, l, dz);
-        const float lp = std::max(l, 0.0f);
-        float d = std::sqrt(lp * lp + dz * dz) - f.r;
-        if (!(d <= fdelta)) continue;
-        // Above the tip only when nothing beside or below is free: the layer rises there.
-        if (!(dz < f.r)) d += 2.0f * fdelta;
-        candidates_.push_back(Candidate{d, voxel_jitter_bits(i, j, k), i, j, k});
-      }
-    }
-  });
-  // The `lost` nearest (ties by the voxel's hash, then its key: the same choice every run).
-  auto nearer = [](const Candidate& x, const Candidate& y) {
-    if (x.d != y.d) return x.d < y.d;
-    if (x.hash != y.hash) return x.hash < y.hash;
-    return std::tie(x.k, x.j, x.i) < std::tie(y.k, y.j, y.i);
-  };
-  if (candidates_.size() > lost) {
-    std::nth_element(candidates_.begin(), candidates_.begin() + static_cast<std::ptrdiff_t>(lost),
-                     candidates_.end(), nearer);
-    candidates_.resize(lost);
-  }
-  // Written tile by tile (block row, block, layer).
-  std::sort(candidates_.begin(), candidates_.end(), [](const Candidate& x, const Candidate& y) {
-    return std::make_tuple(x.j >> 3, x.i >> 3, x.k) < std::make_tuple(y.j >> 3, y.i >> 3, y.k);
-  });
+  const int steps = std::max(1, static_cast<int>(std::ceil(delta - 1e-9)));
+  const int k_lo = reached_.front(), k_hi = reached_.back();
   std::size_t placed = 0;
-  for (std::size_t c = 0; c < candidates_.size();) {
-    const Candidate& first = candidates_[c];
-    const int bx = first.i >> 3, by = first.j >> 3, k = first.k;
-    std::uint64_t mask = 0;
-    for (; c < candidates_.size() && candidates_[c].i >> 3 == bx && candidates_[c].j >> 3 == by &&
-           candidates_[c].k == k;
-         ++c)
-      mask |= std::uint64_t{1} << ((candidates_[c].j & 7) * 8 + (candidates_[c].i & 7));
-    placed += detail::VoxelBlocks::write_tile(grid, bx, by, k, mask, tag);
-    map.raise_tile(map.index(8 * bx, 8 * by), mask, static_cast<std::uint16_t>(k + 1), bead.layer);
+  auto pass = [&](const BeadFrame& g, double reach) {
+    const Ring ring{&g,      nullptr,   layers_.data(), static_cast<int>(layers_.size()),
+                    nullptr, bead.layer};
+    const double hw = static_cast<double>(f.flat) + static_cast<double>(f.r) + reach + kBoundSlack;
+    for_each_tile(bead, a2, b2, hw, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
+      if (placed < lost)
+        placed += squeeze_tile(ring, bx, by, t_lo, t_hi, lanes, lost - placed, grid, tag, map);
+    });
+  };
+  for (int step = 1; step <= steps && placed < lost; ++step) {
+    const double reach = std::min(static_cast<double>(step), delta);
+    layers_.clear();
+    for (int k = std::max(0, k_lo - step); k <= k_hi; ++k) layers_.push_back(k);
+    pass(grown(f, reach), reach);
   }
+  const BeadFrame widest = grown(f, delta);
+  for (int k = k_hi + 1; k <= std::min(nz_ - 1, k_hi + steps) && placed < lost; ++k) {
+    layers_.assign(1, k);
+    pass(widest, delta);
+  }
+  return placed;
+}
+
+std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo, int row_hi,
+                                    unsigned lanes, std::size_t need, VoxelGrid& grid,
+                                    std::uint32_t tag, HeightMap& map) {
+  const auto nk = static_cast<std::size_t>(ring.count);
+  ring_.resize(nk);
+  // Voxels next to each other's in x, y (dilate_xy) or z (the layer list is consecutive).
+  auto next_to = [&](const std::uint64_t* m, std::size_t n) {
+    std::uint64_t near = dilate_xy(m[n]);
+    if (n > 0 && ring.layers[n - 1] == ring.layers[n] - 1) near |= m[n - 1];
+    if (n + 1 < nk && ring.layers[n + 1] == ring.layers[n] + 1) near |= m[n + 1];
+    return near;
+  };
+  if (ring.grown != nullptr) {
+    test_tile_layers(*ring.grown, 8 * bx, 8 * by, ring.layers, ring.count, row_lo, row_hi, lanes,
+                     ring_.data());
+  } else {
+    const std::uint64_t rows =
+        row_hi - row_lo >= 8 ? ~std::uint64_t{0}
+                             : ((std::uint64_t{1} << (8 * (row_hi - row_lo))) - 1) << (8 * row_lo);
+    const std::uint64_t inside = rows & (static_cast<std::uint64_t>(lanes) * 0x0101010101010101ull);
+    for (std::size_t n = 0; n < nk; ++n) ring_[n] = next_to(ring.masks, n) & inside;
+  }
+  for (std::size_t n = 0; n < nk; ++n) {
+    const int k = ring.layers[n];
+    const std::uint64_t* occ = detail::VoxelBlocks::block_occupancy(grid, bx, by, k >> 3);
+    ring_[n] &= ~(occ != nullptr ? occ[k & 7] : 0);
+  }
+  const std::size_t at = map.index(8 * bx, 8 * by);
+  std::size_t placed = 0;
+  auto place = [&](std::size_t n, std::uint64_t free) {
+    const std::uint64_t mask = lowest_bits(free, need - placed);
+    if (mask == 0) return;
+    const int k = ring.layers[n];
+    placed += detail::VoxelBlocks::write_tile(grid, bx, by, k, mask, tag);
+    map.raise_tile(at, mask, static_cast<std::uint16_t>(k + 1), ring.bead_layer);
+    ring_[n] &= ~mask;
+  };
+  if (ring.hits != nullptr)
+    for (std::size_t n = 0; n < nk && placed < need; ++n)
+      place(n, ring_[n] & next_to(ring.hits, n));
+  for (std::size_t n = 0; n < nk && placed < need; ++n) place(n, ring_[n]);
   return placed;
 }
 

@@ -51,16 +51,25 @@ class BeadSweep {
   template <class Fn>
   void for_each_tile(const SweptBead& bead, const Vec2& a2, const Vec2& b2, double hw,
                      Fn&& fn) const;
-  /// Places up to `lost` voxels of material in the free voxels nearest the bead; returns how
-  /// many it placed.
+  /// Places up to `lost` voxels of material in the free voxels near the bead: the section
+  /// grown a voxel at a time (beside and below it) up to the bead's squeeze_mm, then above the
+  /// tip a voxel layer at a time. Returns how many it placed.
   std::size_t squeeze(const SweptBead& bead, const BeadFrame& f, const Vec2& a2, const Vec2& b2,
                       std::size_t lost, VoxelGrid& grid, std::uint32_t tag, HeightMap& map);
-
-  struct Candidate {
-    float d;             // distance beyond the section (voxel units)
-    std::uint32_t hash;  // tie-break
-    std::int32_t i, j, k;
+  /// Where a squeeze places material: a grown section, over some layers of a tile's rows.
+  struct Ring {
+    const BeadFrame* grown;      ///< the section grown by the ring's reach, or nullptr:
+    const std::uint64_t* masks;  ///< per layer, the bead's voxels; the ring: those next to them
+    const std::int32_t* layers;  ///< the voxel layers, lowest first
+    int count;                   ///< how many
+    const std::uint64_t* hits;   ///< per layer, voxels next to which material goes first
+    std::int32_t bead_layer;     ///< the layer the placed voxels belong to
   };
+  /// Places up to `need` voxels in the free voxels of tile (bx, by) inside the ring (rows
+  /// row_lo..row_hi-1, x lanes `lanes`): those next to ring.hits first (when given; beside,
+  /// above and below), then the rest, lower layers first. Returns how many it placed.
+  std::size_t squeeze_tile(const Ring& ring, int bx, int by, int row_lo, int row_hi, unsigned lanes,
+                           std::size_t need, VoxelGrid& grid, std::uint32_t tag, HeightMap& map);
 
   Vec3 origin_;
   double inv_voxel_;
@@ -70,7 +79,8 @@ class BeadSweep {
   std::vector<std::int32_t> reached_;  // scratch: the voxel layers a bead reaches
   std::vector<std::uint64_t> masks_;   // scratch: a tile's occupancy word per reached layer
   std::vector<std::int32_t> layers_;   // scratch: the layers of the squeeze
-  std::vector<Candidate> candidates_;  // scratch: free voxels of the squeeze
+  std::vector<std::uint64_t> hits_;    // scratch: the bead's voxels that were occupied already
+  std::vector<std::uint64_t> ring_;    // scratch: a tile's free voxels in a squeeze ring
 };
 
 }  // namespace printtwin::detail
