@@ -2,6 +2,8 @@
 // the pictures of docs/deposit.md (the as-printed mesh of --deposit-mesh).
 //   mesh_render MESH OUT.png DX DY DZ [XMIN YMIN ZMIN XMAX YMAX ZMAX] [WIDTH_PX]
 // (DX, DY, DZ): the viewing direction; the box keeps the triangles with every vertex inside.
+#include <array>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -14,8 +16,9 @@
 int main(int argc, char** argv) {
   using namespace printtwin;
   if (argc != 6 && argc != 12 && argc != 13) {
-    std::fprintf(stderr,
-                 "usage: mesh_render MESH OUT.png DX DY DZ [XMIN YMIN ZMIN XMAX YMAX ZMAX] [WIDTH]\n");
+    std::fprintf(
+        stderr,
+        "usage: mesh_render MESH OUT.png DX DY DZ [XMIN YMIN ZMIN XMAX YMAX ZMAX] [WIDTH]\n");
     return 2;
   }
   auto mesh = load_mesh(argv[1]);
@@ -28,14 +31,24 @@ int main(int argc, char** argv) {
     const Vec3 lo(std::atof(argv[6]), std::atof(argv[7]), std::atof(argv[8]));
     const Vec3 hi(std::atof(argv[9]), std::atof(argv[10]), std::atof(argv[11]));
     Mesh crop;
-    crop.vertices_mm = m.vertices_mm;
+    std::vector<std::uint32_t> remap(m.vertices_mm.size(), ~0U);
     for (const auto& t : m.triangles) {
       bool in = true;
       for (const auto v : t) {
         const Vec3& p = m.vertices_mm[v];
         in = in && (p.array() >= lo.array()).all() && (p.array() <= hi.array()).all();
       }
-      if (in) crop.triangles.push_back(t);
+      if (!in) continue;
+      std::array<std::uint32_t, 3> kept{};
+      for (int k = 0; k < 3; ++k) {
+        std::uint32_t& r = remap[t[static_cast<std::size_t>(k)]];
+        if (r == ~0U) {
+          r = static_cast<std::uint32_t>(crop.vertices_mm.size());
+          crop.vertices_mm.push_back(m.vertices_mm[t[static_cast<std::size_t>(k)]]);
+        }
+        kept[static_cast<std::size_t>(k)] = r;
+      }
+      crop.triangles.push_back(kept);
     }
     m = std::move(crop);
   }

@@ -163,7 +163,11 @@ Result<Solid> filled_volume_of(const VoxelGrid& grid, const DepositMeshOptions& 
     box.extend(g.center_mm({b.base.x + 7, b.base.y + 7, b.base.z + 7}));
   });
   if (box.empty()) return Solid{};
-  const DepositSurface surf = extract_outer_surface(g, box, 0.0);
+  // Sealed as the deviation stage seals it: pinholes between beads do not let the outside
+  // into the infill, layer grooves stay surface.
+  const DeviationSettings sealed;
+  const DepositSurface surf =
+      extract_outer_surface(g, box, sealed.seal_gap_mm, sealed.groove_depth_mm);
   if (surf.filled_blocks_dims.minCoeff() <= 0) return Solid{};
   const Eigen::Vector3i lo = surf.filled_blocks_lo - Eigen::Vector3i::Ones();
   const Eigen::Vector3i cells = (surf.filled_blocks_dims + Eigen::Vector3i(2, 2, 2)) * 8;
