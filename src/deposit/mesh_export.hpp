@@ -5,8 +5,10 @@
 // without T-junctions, so the mesh is closed and consistently oriented (outward).
 //
 // Model:
-// - Filled volume: the deposit's outer-surface routine (a flood of the outside air); voxels of
-//   skirt/brim, support, wipe tower and custom (start code, purge) are air unless included.
+// - Filled volume: the deposit's outer-surface routine (a flood of the outside air, sealed
+//   and grooved with the deviation stage's defaults, so pinholes do not open the infill);
+//   voxels of skirt/brim, support, wipe tower and custom (start code, purge) are air unless
+//   included.
 // - Manifold: a voxel surface is a 2-manifold exactly when no 2x2 square of voxels holds two
 //   diagonal filled voxels beside two empty ones and no 2x2x2 cube holds exactly two
 //   opposite-corner filled (or empty) voxels (well-composed sets). Each such configuration
