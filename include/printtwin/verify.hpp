@@ -162,6 +162,7 @@ struct VerifyReport {
   double elapsed_s = 0;
   /// The deposit's voxels, when settings.keep_deposit_grid (machine frame).
   std::shared_ptr<const VoxelGrid> deposit_grid;
+  std::vector<SurfaceBead> deposit_beads;  ///< their beads, when keep_deposit_grid
 };
 
 /// The run's time as reports show it: `elapsed_s` when measured, else the sum of the stages.

@@ -111,8 +111,9 @@ Result<std::string> write_verified_deposit_mesh(VerifyReport& report,
                                                 const std::string& path, const std::string& out_dir,
                                                 ReportOptions& report_options) {
   if (!report.deposit_grid) return internal_error("verify kept no deposit grid for --deposit-mesh");
-  auto mesh = build_deposit_mesh(*report.deposit_grid, options);
+  auto mesh = build_deposit_mesh(*report.deposit_grid, options, report.deposit_beads);
   report.deposit_grid.reset();
+  report.deposit_beads = {};
   if (!mesh) return mesh.error();
   std::vector<float> deviation;  // PLY only: the other formats carry no per-vertex value
   std::string ext = std::filesystem::path(path).extension().string();
@@ -133,7 +134,8 @@ Result<std::string> write_verified_deposit_mesh(VerifyReport& report,
       std::to_string(mesh->mesh.triangles.size()) + " triangles, closed" +
       (mesh->cell_voxels > 1
            ? ", within " + format_fixed(mesh->error_bound_mm, 3) + " mm of the voxel surface"
-           : ", on the voxel faces") +
+       : mesh->smoothed_vertices > 0 ? ", on the bead surfaces where they explain the voxels"
+                                     : ", on the voxel faces") +
       (deviation.empty() ? std::string() : "; deviation from the design per vertex (PLY quality)");
   return deposit_mesh_summary(*mesh, path);
 }

@@ -49,6 +49,8 @@ void add_deposit_mesh_options(CLI::App& cmd, DepositMeshCliOptions& o) {
   cmd.add_option("--deposit-mesh-max-triangles", o.max_triangles,
                  "Decimate the mesh to at most this many triangles (coarser cells; the error bound "
                  "is printed)");
+  cmd.add_flag("--deposit-mesh-voxel-faces", o.voxel_faces,
+               "Keep the mesh on the voxel faces (no sub-voxel smoothing onto the beads)");
 }
 
 Result<DepositMeshOptions> deposit_mesh_options(const DepositMeshCliOptions& o) {
@@ -58,6 +60,7 @@ Result<DepositMeshOptions> deposit_mesh_options(const DepositMeshCliOptions& o) 
   if (!o.include.empty())
     if (auto st = parse_deposit_mesh_include(o.include, out); !st) return st.error();
   out.max_triangles = o.max_triangles;
+  out.smooth = !o.voxel_faces;
   return out;
 }
 
@@ -113,6 +116,8 @@ Status DepositStage::run(const PrinterProfile& profile, SimulationResult& sim) {
   settings.support_fraction = options_.support_fraction;
   settings.max_memory_bytes = *budget;
   auto deposit = deposit_moves(moves_, profile, settings);
+  std::vector<SurfaceBead> beads;  // the mesh's vertices go onto these
+  if (!options_.mesh.path.empty()) beads = surface_beads(moves_, profile);
   moves_ = {};
   if (!deposit) return deposit.error();
   if (!options_.octomap_path.empty()) {
@@ -127,7 +132,7 @@ Status DepositStage::run(const PrinterProfile& profile, SimulationResult& sim) {
   if (!options_.mesh.path.empty()) {
     auto mesh_options = deposit_mesh_options(options_.mesh);
     if (!mesh_options) return mesh_options.error();
-    auto mesh = build_deposit_mesh(deposit->grid, *mesh_options);
+    auto mesh = build_deposit_mesh(deposit->grid, *mesh_options, beads);
     if (!mesh) return mesh.error();
     if (auto st = write_deposit_mesh(*mesh, options_.mesh.path); !st) return st.error();
     mesh_summary_ = deposit_mesh_summary(*mesh, options_.mesh.path);

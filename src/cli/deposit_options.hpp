@@ -20,11 +20,13 @@
 
 namespace printtwin::cli {
 
-/// --deposit-mesh, --deposit-mesh-include, --deposit-mesh-max-triangles (simulate and verify).
+/// --deposit-mesh, --deposit-mesh-include, --deposit-mesh-max-triangles,
+/// --deposit-mesh-voxel-faces (simulate and verify).
 struct DepositMeshCliOptions {
   std::string path;               ///< out.stl|out.3mf|out.ply
   std::string include;            ///< comma list: skirt, support, purge, all
   std::size_t max_triangles = 0;  ///< 0: full resolution
+  bool voxel_faces = false;       ///< --deposit-mesh-voxel-faces: no sub-voxel smoothing
 };
 
 /// Declares the --deposit-mesh options on a subcommand.

@@ -6,6 +6,8 @@
 // purge pieces dropped) -> optionally the same on coarser cells until the size fits.
 #include "deposit/mesh_export.hpp"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -17,6 +19,7 @@
 #include <optional>
 #include <vector>
 
+#include "deposit/mesh_export_internal.hpp"
 #include "deposit/voxel_blocks.hpp"
 #include "deviation/outer_surface.hpp"
 #include "printtwin/deviation.hpp"
@@ -160,7 +163,11 @@ Result<Solid> filled_volume_of(const VoxelGrid& grid, const DepositMeshOptions& 
     box.extend(g.center_mm({b.base.x + 7, b.base.y + 7, b.base.z + 7}));
   });
   if (box.empty()) return Solid{};
-  const DepositSurface surf = extract_outer_surface(g, box, 0.0);
+  // Sealed as the deviation stage seals it: pinholes between beads do not let the outside
+  // into the infill, layer grooves stay surface.
+  const DeviationSettings sealed;
+  const DepositSurface surf =
+      extract_outer_surface(g, box, sealed.seal_gap_mm, sealed.groove_depth_mm);
   if (surf.filled_blocks_dims.minCoeff() <= 0) return Solid{};
   const Eigen::Vector3i lo = surf.filled_blocks_lo - Eigen::Vector3i::Ones();
   const Eigen::Vector3i cells = (surf.filled_blocks_dims + Eigen::Vector3i(2, 2, 2)) * 8;
@@ -208,6 +215,23 @@ Result<Solid> filled_volume_of(const VoxelGrid& grid, const DepositMeshOptions& 
         }
       }
   return s;
+}
+
+/// Runs fn(bz, out) for every block layer bz in parallel, each appending to its own vector,
+/// and returns the vectors joined in layer order (the same result on any thread count).
+template <class T, class Fn>
+std::vector<T> per_block_layer(int layers, Fn&& fn) {
+  std::vector<std::vector<T>> parts(static_cast<std::size_t>(std::max(layers, 0)));
+  tbb::parallel_for(0, layers, [&](int bz) { fn(bz, parts[static_cast<std::size_t>(bz)]); });
+  std::size_t total = 0;
+  for (const auto& p : parts) total += p.size();
+  std::vector<T> out;
+  out.reserve(total);
+  for (auto& p : parts) {
+    out.insert(out.end(), p.begin(), p.end());
+    p = {};
+  }
+  return out;
 }
 
 // ---------------------------------------------------------------- slices of neighbours
@@ -271,8 +295,8 @@ std::array<std::int8_t, 256> make_fill_table() {
 /// Fills cells until no critical configuration is left; returns how many were filled.
 std::size_t make_well_composed(Solid& s) {
   static const std::array<std::int8_t, 256> kFill = make_fill_table();
-  std::vector<std::array<int, 3>> work;
-  for (int bz = 0; bz < s.nb.z(); ++bz)
+  using Cell = std::array<int, 3>;
+  auto work = per_block_layer<Cell>(s.nb.z(), [&](int bz, std::vector<Cell>& found) {
     for (int by = 0; by < s.nb.y(); ++by)
       for (int bx = 0; bx < s.nb.x(); ++bx) {
         // Cubes with their min cell in this block touch the blocks b + {0,1}^3 only.
@@ -306,10 +330,11 @@ std::size_t make_well_composed(Solid& s) {
           }
           for (; bad != 0; bad &= bad - 1) {
             const int bit = std::countr_zero(bad);
-            work.push_back({bx * 8 + (bit & 7), by * 8 + (bit >> 3), bz * 8 + z});
+            found.push_back({bx * 8 + (bit & 7), by * 8 + (bit >> 3), bz * 8 + z});
           }
         }
       }
+  });
   std::size_t filled = 0;
   while (!work.empty()) {
     const auto c = work.back();
@@ -340,48 +365,67 @@ std::uint64_t face_key(int axis, int side, int c, int u, int v) {
 
 /// Sorts `keys` ascending, LSD radix on 11-bit digits (2048 buckets stay in cache; digits
 /// above the largest key, or shared by all keys, are skipped); `vals` (optional, same
-/// length) move along with their keys (stable).
+/// length) move along with their keys (stable, so the result does not depend on the
+/// threads). Large inputs are counted and scattered in fixed chunks in parallel.
 void radix_sort(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>* vals = nullptr) {
   constexpr int kBits = 11;
   constexpr std::size_t kBuckets = std::size_t{1} << kBits;
+  const std::size_t n = keys.size();
+  const std::size_t chunks = n < (std::size_t{1} << 16) ? 1 : 16;
+  const std::size_t per = (n + chunks - 1) / chunks;
   std::uint64_t all_bits = 0;
   for (const std::uint64_t k : keys) all_bits |= k;
-  std::vector<std::uint64_t> tmp(keys.size());
+  std::vector<std::uint64_t> tmp(n);
   std::vector<std::uint32_t> tmp_vals(vals != nullptr ? vals->size() : 0);
-  std::vector<std::size_t> count(kBuckets);
+  std::vector<std::size_t> count(chunks * kBuckets);
   for (int shift = 0; shift < 64 && (all_bits >> shift) != 0; shift += kBits) {
-    std::fill(count.begin(), count.end(), 0);
-    for (const std::uint64_t k : keys) ++count[(k >> shift) & (kBuckets - 1)];
-    if (std::count(count.begin(), count.end(), keys.size()) == 1) continue;  // one digit: in order
+    auto each_chunk = [&](auto&& fn) {
+      tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+        fn(c, c * per, std::min(n, (c + 1) * per), &count[c * kBuckets]);
+      });
+    };
+    each_chunk([&](std::size_t, std::size_t lo, std::size_t hi, std::size_t* cnt) {
+      std::fill(cnt, cnt + kBuckets, 0);
+      for (std::size_t i = lo; i < hi; ++i) ++cnt[(keys[i] >> shift) & (kBuckets - 1)];
+    });
     std::size_t sum = 0;
-    for (auto& c : count) {
-      const std::size_t n = c;
-      c = sum;
-      sum += n;
+    bool one_digit = false;
+    for (std::size_t b = 0; b < kBuckets; ++b) {
+      std::size_t total = 0;
+      for (std::size_t c = 0; c < chunks; ++c) {
+        const std::size_t m = count[c * kBuckets + b];
+        count[c * kBuckets + b] = sum;
+        sum += m;
+        total += m;
+      }
+      one_digit |= total == n;
     }
-    for (std::size_t i = 0; i < keys.size(); ++i) {
-      const std::size_t at = count[(keys[i] >> shift) & (kBuckets - 1)]++;
-      tmp[at] = keys[i];
-      if (vals != nullptr) tmp_vals[at] = (*vals)[i];
-    }
+    if (one_digit) continue;  // one digit: already in order
+    each_chunk([&](std::size_t, std::size_t lo, std::size_t hi, std::size_t* at) {
+      for (std::size_t i = lo; i < hi; ++i) {
+        const std::size_t to = at[(keys[i] >> shift) & (kBuckets - 1)]++;
+        tmp[to] = keys[i];
+        if (vals != nullptr) tmp_vals[to] = (*vals)[i];
+      }
+    });
     keys.swap(tmp);
     if (vals != nullptr) vals->swap(tmp_vals);
   }
 }
 
 std::vector<std::uint64_t> exposed_faces(const Solid& s) {
-  std::vector<std::uint64_t> keys;
-  auto emit = [&](std::uint64_t bits, int axis, int side, int bx, int by, int bz, int z) {
-    for (; bits != 0; bits &= bits - 1) {
-      const int bit = std::countr_zero(bits);
-      const int x = bx * 8 + (bit & 7), y = by * 8 + (bit >> 3), zz = bz * 8 + z;
-      const std::array<int, 3> p = {x, y, zz};
-      const int u = p[static_cast<std::size_t>((axis + 1) % 3)],
-                v = p[static_cast<std::size_t>((axis + 2) % 3)];
-      keys.push_back(face_key(axis, side, p[static_cast<std::size_t>(axis)] + side, u, v));
-    }
-  };
-  for (int bz = 0; bz < s.nb.z(); ++bz)
+  auto keys = per_block_layer<std::uint64_t>(s.nb.z(), [&](int bz,
+                                                           std::vector<std::uint64_t>& out) {
+    auto emit = [&](std::uint64_t bits, int axis, int side, int bx, int by, int z) {
+      for (; bits != 0; bits &= bits - 1) {
+        const int bit = std::countr_zero(bits);
+        const int x = bx * 8 + (bit & 7), y = by * 8 + (bit >> 3), zz = bz * 8 + z;
+        const std::array<int, 3> p = {x, y, zz};
+        const int u = p[static_cast<std::size_t>((axis + 1) % 3)],
+                  v = p[static_cast<std::size_t>((axis + 2) % 3)];
+        out.push_back(face_key(axis, side, p[static_cast<std::size_t>(axis)] + side, u, v));
+      }
+    };
     for (int by = 0; by < s.nb.y(); ++by)
       for (int bx = 0; bx < s.nb.x(); ++bx) {
         const std::uint32_t c = s.code[s.index(bx, by, bz)];
@@ -395,16 +439,17 @@ std::vector<std::uint64_t> exposed_faces(const Solid& s) {
         for (int z = 0; z < 8; ++z) {
           const std::uint64_t w = s.word(bx, by, bz, z);
           if (w == 0) continue;
-          emit(w & ~prev_x(w, s.word(bx - 1, by, bz, z)), 0, 0, bx, by, bz, z);
-          emit(w & ~next_x(w, s.word(bx + 1, by, bz, z)), 0, 1, bx, by, bz, z);
-          emit(w & ~prev_y(w, s.word(bx, by - 1, bz, z)), 1, 0, bx, by, bz, z);
-          emit(w & ~next_y(w, s.word(bx, by + 1, bz, z)), 1, 1, bx, by, bz, z);
+          emit(w & ~prev_x(w, s.word(bx - 1, by, bz, z)), 0, 0, bx, by, z);
+          emit(w & ~next_x(w, s.word(bx + 1, by, bz, z)), 0, 1, bx, by, z);
+          emit(w & ~prev_y(w, s.word(bx, by - 1, bz, z)), 1, 0, bx, by, z);
+          emit(w & ~next_y(w, s.word(bx, by + 1, bz, z)), 1, 1, bx, by, z);
           const std::uint64_t below = z > 0 ? s.word(bx, by, bz, z - 1) : s.word(bx, by, bz - 1, 7);
           const std::uint64_t above = z < 7 ? s.word(bx, by, bz, z + 1) : s.word(bx, by, bz + 1, 0);
-          emit(w & ~below, 2, 0, bx, by, bz, z);
-          emit(w & ~above, 2, 1, bx, by, bz, z);
+          emit(w & ~below, 2, 0, bx, by, z);
+          emit(w & ~above, 2, 1, bx, by, z);
         }
       }
+  });
   radix_sort(keys);
   return keys;
 }
@@ -471,173 +516,6 @@ std::array<int, 3> lattice_point(int axis, int c, int u, int v) {
   p[static_cast<std::size_t>((axis + 2) % 3)] = v;
   return p;
 }
-std::uint64_t point_key(const std::array<int, 3>& p) {
-  return (static_cast<std::uint64_t>(p[0]) << 32) | (static_cast<std::uint64_t>(p[1]) << 16) |
-         static_cast<std::uint64_t>(p[2]);
-}
-/// Key of point p on the lattice line along axis t through it: t | other coords | position.
-std::uint64_t line_key(int t, const std::array<int, 3>& p) {
-  const int o1 = p[static_cast<std::size_t>((t + 1) % 3)],
-            o2 = p[static_cast<std::size_t>((t + 2) % 3)];
-  return (static_cast<std::uint64_t>(t) << 48) | (static_cast<std::uint64_t>(o1) << 32) |
-         (static_cast<std::uint64_t>(o2) << 16) |
-         static_cast<std::uint64_t>(p[static_cast<std::size_t>(t)]);
-}
-
-struct Triangulated {
-  Mesh mesh;
-  std::vector<std::uint32_t> rect_of_triangle;
-};
-
-/// Triangles of the rectangles, with every rectangle corner that lies on another
-/// rectangle's side inserted into that side (no T-junctions). Lookups are done by sorting
-/// and sweeping (corners -> vertices, side ranges -> points on their lattice line), which
-/// keeps the memory access sequential.
-Triangulated triangulate(const Solid& s, const std::vector<Rect>& rects, double voxel_mm,
-                         const Vec3& grid_origin_mm) {
-  const std::size_t nr = rects.size();
-  auto corner_uv = [](const Rect& r, int k) {
-    return std::array<int, 2>{(k == 1 || k == 2) ? r.u1 : r.u0, k >= 2 ? r.v1 : r.v0};
-  };
-  auto corner_point = [&](const Rect& r, int k) {
-    const auto uv = corner_uv(r, k);
-    return lattice_point(r.axis, r.c, uv[0], uv[1]);
-  };
-  // Corners -> unique vertices.
-  std::vector<std::uint64_t> keys(4 * nr);
-  std::vector<std::uint32_t> ids(4 * nr);
-  for (std::size_t ri = 0; ri < nr; ++ri)
-    for (int k = 0; k < 4; ++k) {
-      keys[4 * ri + static_cast<std::size_t>(k)] = point_key(corner_point(rects[ri], k));
-      ids[4 * ri + static_cast<std::size_t>(k)] =
-          static_cast<std::uint32_t>(4 * ri + static_cast<std::size_t>(k));
-    }
-  radix_sort(keys, &ids);
-  std::vector<std::uint32_t> corner_vertex(4 * nr);
-  std::vector<std::uint64_t> verts;
-  for (std::size_t i = 0; i < keys.size(); ++i) {
-    if (verts.empty() || verts.back() != keys[i]) verts.push_back(keys[i]);
-    corner_vertex[ids[i]] = static_cast<std::uint32_t>(verts.size() - 1);
-  }
-  // Every vertex on its three lattice lines.
-  std::vector<std::uint64_t> lines(3 * verts.size());
-  std::vector<std::uint32_t> line_vertex(3 * verts.size());
-  for (std::size_t i = 0; i < verts.size(); ++i) {
-    const std::uint64_t k = verts[i];
-    const std::array<int, 3> p = {static_cast<int>(k >> 32), static_cast<int>((k >> 16) & 0xFFFF),
-                                  static_cast<int>(k & 0xFFFF)};
-    for (int t = 0; t < 3; ++t) {
-      lines[3 * i + static_cast<std::size_t>(t)] = line_key(t, p);
-      line_vertex[3 * i + static_cast<std::size_t>(t)] = static_cast<std::uint32_t>(i);
-    }
-  }
-  radix_sort(lines, &line_vertex);
-  // Sides two or more cells long may carry points: query (line, lo + 1) .. (line, hi - 1).
-  // Side k runs from corner k to corner k + 1 along u (k even) or v (k odd).
-  keys.clear();
-  ids.clear();
-  std::vector<std::uint32_t> side_hi;
-  for (std::size_t ri = 0; ri < nr; ++ri) {
-    const Rect& r = rects[ri];
-    for (int k = 0; k < 4; ++k) {
-      const int len = k % 2 == 0 ? r.u1 - r.u0 : r.v1 - r.v0;
-      if (len < 2) continue;
-      const int t = k % 2 == 0 ? (r.axis + 1) % 3 : (r.axis + 2) % 3;
-      auto p = corner_point(r, k);
-      const int lo = k % 2 == 0 ? r.u0 : r.v0;
-      p[static_cast<std::size_t>(t)] = lo + 1;
-      keys.push_back(line_key(t, p));
-      ids.push_back(static_cast<std::uint32_t>(4 * ri + static_cast<std::size_t>(k)));
-    }
-  }
-  radix_sort(keys, &ids);
-  std::vector<std::uint32_t> begin(4 * nr + 1, 0);
-  std::vector<std::uint32_t> inserted;
-  for (int pass = 0; pass < 2; ++pass) {
-    std::size_t j = 0;
-    for (std::size_t q = 0; q < keys.size(); ++q) {
-      const Rect& r = rects[ids[q] / 4];
-      const int k = static_cast<int>(ids[q] % 4);
-      const std::uint64_t hi =
-          (keys[q] & ~0xFFFFull) | static_cast<std::uint64_t>(k % 2 == 0 ? r.u1 : r.v1);
-      while (j < lines.size() && lines[j] < keys[q]) ++j;
-      std::size_t e = j;
-      while (e < lines.size() && lines[e] < hi) ++e;
-      if (pass == 0) {
-        begin[ids[q] + 1] = static_cast<std::uint32_t>(e - j);
-      } else {
-        std::uint32_t at = begin[ids[q]];
-        for (std::size_t x = j; x < e; ++x) inserted[at++] = line_vertex[x];
-      }
-    }
-    if (pass == 0) {
-      for (std::size_t i = 1; i < begin.size(); ++i) begin[i] += begin[i - 1];
-      inserted.resize(begin.back());
-    }
-  }
-  keys = {};
-  lines = {};
-
-  Triangulated out;
-  Mesh& m = out.mesh;
-  const double step = voxel_mm * s.cell;
-  const Vec3 base = grid_origin_mm + voxel_mm * Vec3(s.origin.x, s.origin.y, s.origin.z);
-  m.vertices_mm.reserve(verts.size());
-  for (const std::uint64_t k : verts)
-    m.vertices_mm.push_back(base + step * Vec3(static_cast<double>(k >> 32),
-                                               static_cast<double>((k >> 16) & 0xFFFF),
-                                               static_cast<double>(k & 0xFFFF)));
-  m.triangles.reserve(2 * nr + inserted.size());
-  out.rect_of_triangle.reserve(2 * nr + inserted.size());
-  std::vector<std::uint32_t> loop;
-  for (std::size_t ri = 0; ri < nr; ++ri) {
-    const Rect& r = rects[ri];
-    loop.clear();
-    std::array<int, 4> start{}, count{};
-    for (int k = 0; k < 4; ++k) {
-      const std::size_t side = 4 * ri + static_cast<std::size_t>(k);
-      start[static_cast<std::size_t>(k)] = static_cast<int>(loop.size());
-      loop.push_back(corner_vertex[side]);
-      // The points come in increasing lattice order; sides 2 and 3 run backwards.
-      const std::size_t at = loop.size();
-      loop.insert(loop.end(), inserted.begin() + begin[side], inserted.begin() + begin[side + 1]);
-      if (k >= 2) std::reverse(loop.begin() + static_cast<std::ptrdiff_t>(at), loop.end());
-      count[static_cast<std::size_t>(k)] = static_cast<int>(begin[side + 1] - begin[side]);
-    }
-    const bool flip = r.side == 0;  // the loop runs counter-clockwise seen from +axis
-    auto add = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
-      m.triangles.push_back(flip ? std::array<std::uint32_t, 3>{a, c, b}
-                                 : std::array<std::uint32_t, 3>{a, b, c});
-      out.rect_of_triangle.push_back(static_cast<std::uint32_t>(ri));
-    };
-    const int n = static_cast<int>(loop.size());
-    // A corner whose two sides carry no inserted point: a fan from it has no degenerate
-    // triangle. Otherwise a fan from the rectangle's centre.
-    int apex = -1;
-    for (int k = 0; k < 4 && apex < 0; ++k)
-      if (count[static_cast<std::size_t>(k)] == 0 &&
-          count[static_cast<std::size_t>((k + 3) % 4)] == 0)
-        apex = start[static_cast<std::size_t>(k)];
-    if (apex >= 0) {
-      for (int i = 1; i + 1 < n; ++i)
-        add(loop[static_cast<std::size_t>(apex)], loop[static_cast<std::size_t>((apex + i) % n)],
-            loop[static_cast<std::size_t>((apex + i + 1) % n)]);
-    } else {
-      const auto centre = static_cast<std::uint32_t>(m.vertices_mm.size());
-      const auto p = lattice_point(r.axis, r.c, 0, 0);
-      Vec3 cp = base + step * Vec3(p[0], p[1], p[2]);
-      const int ua = (r.axis + 1) % 3, va = (r.axis + 2) % 3;
-      cp[ua] += step * 0.5 * (r.u0 + r.u1);
-      cp[va] += step * 0.5 * (r.v0 + r.v1);
-      m.vertices_mm.push_back(cp);
-      for (int i = 0; i < n; ++i)
-        add(centre, loop[static_cast<std::size_t>(i)], loop[static_cast<std::size_t>((i + 1) % n)]);
-    }
-  }
-  return out;
-}
-
-// ---------------------------------------------------------------- components
 
 std::uint32_t find_root(std::vector<std::uint32_t>& parent, std::uint32_t i) {
   while (parent[i] != i) {
@@ -646,6 +524,230 @@ std::uint32_t find_root(std::vector<std::uint32_t>& parent, std::uint32_t i) {
   }
   return i;
 }
+
+struct Triangulated {
+  Mesh mesh;
+  std::vector<std::uint32_t> rect_of_triangle;
+  std::vector<std::uint32_t> rect_vertex;  ///< a corner vertex of each rectangle
+  /// Union-find forest over the vertices: joined when they bound one rectangle.
+  std::vector<std::uint32_t> parent;
+};
+
+/// The mesh's vertices as bits on the solid's lattice: point p in the block p >> 3 (the
+/// solid's empty padding keeps every surface point inside its blocks), bit
+/// (z & 7) * 64 + (y & 7) * 8 + (x & 7); vertex ids follow the blocks' order, then the bits.
+class VertexLattice {
+ public:
+  VertexLattice(const Solid& s, const std::vector<Rect>& rects) : s_(s) {
+    slot_.assign(s.code.size(), kNone);
+    for (const Rect& r : rects)
+      for (int k = 0; k < 4; ++k) slot_[block_of(corner_point(r, k))] = 0;
+    std::uint32_t n = 0;
+    for (std::size_t b = 0; b < slot_.size(); ++b)
+      if (slot_[b] == 0) {
+        slot_[b] = n++;
+        block_.push_back(static_cast<std::uint32_t>(b));
+      }
+    masks_.assign(n, Mask{});
+    for (const Rect& r : rects)
+      for (int k = 0; k < 4; ++k) {
+        const auto p = corner_point(r, k);
+        masks_[slot_[block_of(p)]][static_cast<std::size_t>(p[2] & 7)] |= bit_of(p);
+      }
+    base_.resize(n + 1);
+    std::uint32_t sum = 0;
+    for (std::uint32_t k = 0; k < n; ++k) {
+      base_[k] = sum;
+      for (const std::uint64_t w : masks_[k]) sum += static_cast<std::uint32_t>(std::popcount(w));
+    }
+    base_[n] = sum;
+  }
+
+  [[nodiscard]] std::uint32_t size() const { return base_.back(); }
+
+  /// Id of a vertex point.
+  [[nodiscard]] std::uint32_t id(const std::array<int, 3>& p) const {
+    const std::uint32_t k = slot_[block_of(p)];
+    const Mask& m = masks_[k];
+    const int z = p[2] & 7;
+    std::uint32_t r = base_[k];
+    for (int i = 0; i < z; ++i)
+      r += static_cast<std::uint32_t>(std::popcount(m[static_cast<std::size_t>(i)]));
+    return r + static_cast<std::uint32_t>(
+                   std::popcount(m[static_cast<std::size_t>(z)] & (bit_of(p) - 1)));
+  }
+
+  /// Appends the ids of the vertices strictly between the corners k and k + 1 of r, from
+  /// corner k's end (the loop's direction); returns how many.
+  int side_points(const Rect& r, int k, std::vector<std::uint32_t>& out) const {
+    const int t = k % 2 == 0 ? (r.axis + 1) % 3 : (r.axis + 2) % 3;
+    const int lo = k % 2 == 0 ? r.u0 : r.v0, hi = k % 2 == 0 ? r.u1 : r.v1;
+    if (hi - lo < 2) return 0;
+    auto p = corner_point(r, k);
+    const std::size_t at = out.size();
+    std::uint32_t k_slot = kNone;
+    int block = -1;
+    for (int q = lo + 1; q < hi; ++q) {
+      p[static_cast<std::size_t>(t)] = q;
+      if ((q >> 3) != block) {
+        block = q >> 3;
+        k_slot = slot_[block_of(p)];
+      }
+      if (k_slot == kNone) {  // no vertex in this block: skip to the next one
+        q = (block << 3) + 7;
+        continue;
+      }
+      if ((masks_[k_slot][static_cast<std::size_t>(p[2] & 7)] & bit_of(p)) != 0)
+        out.push_back(id(p));
+    }
+    if (k >= 2) std::reverse(out.begin() + static_cast<std::ptrdiff_t>(at), out.end());
+    return static_cast<int>(out.size() - at);
+  }
+
+  /// Lattice point of every vertex, in id order.
+  template <class Fn>
+  void each_vertex(Fn&& fn) const {
+    for (std::size_t k = 0; k < block_.size(); ++k) {
+      const std::uint32_t b = block_[k];
+      const auto nx = static_cast<std::uint32_t>(s_.nb.x()),
+                 ny = static_cast<std::uint32_t>(s_.nb.y());
+      const int bx = static_cast<int>(b % nx), by = static_cast<int>((b / nx) % ny),
+                bz = static_cast<int>(b / nx / ny);
+      for (int z = 0; z < 8; ++z)
+        for (std::uint64_t w = masks_[k][static_cast<std::size_t>(z)]; w != 0; w &= w - 1) {
+          const int bit = std::countr_zero(w);
+          fn(std::array<int, 3>{bx * 8 + (bit & 7), by * 8 + (bit >> 3), bz * 8 + z});
+        }
+    }
+  }
+
+  static std::array<int, 3> corner_point(const Rect& r, int k) {
+    return lattice_point(r.axis, r.c, (k == 1 || k == 2) ? r.u1 : r.u0, k >= 2 ? r.v1 : r.v0);
+  }
+
+ private:
+  static constexpr std::uint32_t kNone = ~0U;
+  [[nodiscard]] std::size_t block_of(const std::array<int, 3>& p) const {
+    return s_.index(p[0] >> 3, p[1] >> 3, p[2] >> 3);
+  }
+  static std::uint64_t bit_of(const std::array<int, 3>& p) {
+    return 1ull << ((p[1] & 7) * 8 + (p[0] & 7));
+  }
+  const Solid& s_;
+  std::vector<std::uint32_t> slot_;   // per block of the solid
+  std::vector<std::uint32_t> block_;  // per slot
+  std::vector<Mask> masks_;
+  std::vector<std::uint32_t> base_;
+};
+
+/// The boundary loop of a rectangle (counter-clockwise seen from +axis): its corners with
+/// the vertices lying on its sides; `count[k]` points on side k, `start[k]` corner k's index.
+struct RectLoop {
+  std::vector<std::uint32_t> ids;
+  std::array<int, 4> start{}, count{};
+  void build(const VertexLattice& lattice, const Rect& r) {
+    ids.clear();
+    for (int k = 0; k < 4; ++k) {
+      start[static_cast<std::size_t>(k)] = static_cast<int>(ids.size());
+      ids.push_back(lattice.id(VertexLattice::corner_point(r, k)));
+      count[static_cast<std::size_t>(k)] = lattice.side_points(r, k, ids);
+    }
+  }
+  /// A corner whose two sides carry no inserted point (a fan from it has no degenerate
+  /// triangle), or -1: then a fan from the rectangle's centre.
+  [[nodiscard]] int apex() const {
+    for (int k = 0; k < 4; ++k)
+      if (count[static_cast<std::size_t>(k)] == 0 &&
+          count[static_cast<std::size_t>((k + 3) % 4)] == 0)
+        return start[static_cast<std::size_t>(k)];
+    return -1;
+  }
+};
+
+/// Triangles of the rectangles, with every rectangle corner that lies on another
+/// rectangle's side inserted into that side (no T-junctions). Vertices are found on a bit
+/// lattice; the rectangles are triangulated in parallel chunks (counted, then written at
+/// their offsets, so the result does not depend on the threads).
+Triangulated triangulate(const Solid& s, const std::vector<Rect>& rects, double voxel_mm,
+                         const Vec3& grid_origin_mm) {
+  const std::size_t nr = rects.size();
+  const VertexLattice lattice(s, rects);
+  Triangulated out;
+  Mesh& m = out.mesh;
+  const double step = voxel_mm * s.cell;
+  const Vec3 base = grid_origin_mm + voxel_mm * Vec3(s.origin.x, s.origin.y, s.origin.z);
+  const std::uint32_t nv = lattice.size();
+  m.vertices_mm.reserve(nv + nr / 8);
+  lattice.each_vertex([&](const std::array<int, 3>& p) {
+    m.vertices_mm.push_back(base + step * Vec3(p[0], p[1], p[2]));
+  });
+  // Pass 1: triangles per rectangle (n - 2 for a corner fan, n from the centre).
+  std::vector<std::uint32_t> tri_begin(nr + 1, 0);
+  std::vector<std::uint8_t> centred(nr, 0);
+  constexpr std::size_t kChunk = 4096;
+  const std::size_t chunks = (nr + kChunk - 1) / kChunk;
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    RectLoop loop;
+    for (std::size_t ri = c * kChunk; ri < std::min(nr, (c + 1) * kChunk); ++ri) {
+      loop.build(lattice, rects[ri]);
+      const auto n = static_cast<std::uint32_t>(loop.ids.size());
+      const bool centre = loop.apex() < 0;
+      centred[ri] = centre ? 1 : 0;
+      tri_begin[ri + 1] = centre ? n : n - 2;
+    }
+  });
+  for (std::size_t i = 0; i < nr; ++i) tri_begin[i + 1] += tri_begin[i];
+  std::vector<std::uint32_t> centre_id(nr, 0);
+  for (std::size_t ri = 0; ri < nr; ++ri) {
+    if (centred[ri] == 0) continue;
+    const Rect& r = rects[ri];
+    centre_id[ri] = static_cast<std::uint32_t>(m.vertices_mm.size());
+    const auto p = lattice_point(r.axis, r.c, 0, 0);
+    Vec3 cp = base + step * Vec3(p[0], p[1], p[2]);
+    cp[(r.axis + 1) % 3] += step * 0.5 * (r.u0 + r.u1);
+    cp[(r.axis + 2) % 3] += step * 0.5 * (r.v0 + r.v1);
+    m.vertices_mm.push_back(cp);
+  }
+  m.triangles.resize(tri_begin[nr]);
+  out.rect_of_triangle.resize(tri_begin[nr]);
+  out.rect_vertex.resize(nr);
+  // Pass 2: the triangles at their offsets.
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    RectLoop loop;
+    for (std::size_t ri = c * kChunk; ri < std::min(nr, (c + 1) * kChunk); ++ri) {
+      const Rect& r = rects[ri];
+      loop.build(lattice, r);
+      out.rect_vertex[ri] = loop.ids[0];
+      const bool flip = r.side == 0;  // the loop runs counter-clockwise seen from +axis
+      std::size_t at = tri_begin[ri];
+      auto add = [&](std::uint32_t a, std::uint32_t b, std::uint32_t d) {
+        m.triangles[at] =
+            flip ? std::array<std::uint32_t, 3>{a, d, b} : std::array<std::uint32_t, 3>{a, b, d};
+        out.rect_of_triangle[at++] = static_cast<std::uint32_t>(ri);
+      };
+      const auto& l = loop.ids;
+      const std::size_t n = l.size();
+      const int apex = loop.apex();
+      if (apex >= 0) {
+        const auto a0 = static_cast<std::size_t>(apex);
+        for (std::size_t i = 1; i + 1 < n; ++i) add(l[a0], l[(a0 + i) % n], l[(a0 + i + 1) % n]);
+      } else {
+        for (std::size_t i = 0; i < n; ++i) add(centre_id[ri], l[i], l[(i + 1) % n]);
+      }
+    }
+  });
+  // Components: vertices joined along each triangle's edges.
+  out.parent.resize(m.vertices_mm.size());
+  std::iota(out.parent.begin(), out.parent.end(), 0U);
+  for (const auto& t : m.triangles) {
+    const std::uint32_t root = find_root(out.parent, t[0]);
+    out.parent[find_root(out.parent, t[1])] = root;
+    out.parent[find_root(out.parent, t[2])] = root;
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------- components
 
 bool is_part_feature(Feature f) {
   switch (f) {
@@ -680,23 +782,17 @@ struct Pieces {
 };
 
 /// Connected pieces of the surface and which of them are part (see mesh_export.hpp).
-Pieces classify(const Solid& s, const std::vector<Rect>& rects, const Triangulated& t,
+Pieces classify(const Solid& s, const std::vector<Rect>& rects, Triangulated& t,
                 const VoxelGrid& grid, const DepositMeshOptions& o) {
-  std::vector<std::uint32_t> parent(t.mesh.vertices_mm.size());
-  std::iota(parent.begin(), parent.end(), 0U);
-  for (const auto& tri : t.mesh.triangles) {
-    const std::uint32_t a = find_root(parent, tri[0]);
-    parent[find_root(parent, tri[1])] = a;
-    parent[find_root(parent, tri[2])] = a;
-  }
+  std::vector<std::uint32_t> parent = std::move(t.parent);
   Pieces p;
   p.component_of_rect.assign(rects.size(), 0);
   std::vector<std::uint32_t> id(parent.size(), ~0U);
   std::uint32_t n = 0;
-  for (std::size_t ti = 0; ti < t.mesh.triangles.size(); ++ti) {
-    const std::uint32_t root = find_root(parent, t.mesh.triangles[ti][0]);
+  for (std::size_t ri = 0; ri < rects.size(); ++ri) {
+    const std::uint32_t root = find_root(parent, t.rect_vertex[ri]);
     if (id[root] == ~0U) id[root] = n++;
-    p.component_of_rect[t.rect_of_triangle[ti]] = id[root];
+    p.component_of_rect[ri] = id[root];
   }
   bool tagged = false;
   for (const auto& tag : detail::VoxelBlocks::tag_table(grid))
@@ -796,6 +892,27 @@ Built mesh_solid(Solid& s, double voxel_mm, const Vec3& origin_mm) {
   return b;
 }
 
+/// The volume the closed mesh encloses (signed tetrahedra against a point near the mesh),
+/// summed in fixed chunks in parallel and added in chunk order (the same on any thread count).
+double enclosed_volume_mm3(const Mesh& m) {
+  if (m.triangles.empty()) return 0.0;
+  const Vec3 ref = m.vertices_mm[m.triangles[0][0]];
+  constexpr std::size_t kChunk = std::size_t{1} << 16;
+  const std::size_t n = m.triangles.size(), chunks = (n + kChunk - 1) / kChunk;
+  std::vector<double> part(chunks, 0.0);
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    double six_v = 0;
+    for (std::size_t i = c * kChunk; i < std::min(n, (c + 1) * kChunk); ++i) {
+      const auto& t = m.triangles[i];
+      const Vec3 a = m.vertices_mm[t[0]] - ref, b = m.vertices_mm[t[1]] - ref,
+                 d = m.vertices_mm[t[2]] - ref;
+      six_v += a.dot(b.cross(d));
+    }
+    part[c] = six_v;
+  });
+  return std::accumulate(part.begin(), part.end(), 0.0) / 6.0;
+}
+
 /// Keeps the triangles of the kept components, with their vertices renumbered.
 Mesh kept_part(const Triangulated& t, const Pieces& p) {
   Mesh out;
@@ -819,7 +936,8 @@ Mesh kept_part(const Triangulated& t, const Pieces& p) {
 
 }  // namespace
 
-Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid, const DepositMeshOptions& options) {
+Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid, const DepositMeshOptions& options,
+                                       std::span<const SurfaceBead> beads) {
   const auto t0 = std::chrono::steady_clock::now();
   DepositMesh out;
   out.voxel_mm = grid.voxel_mm();
@@ -881,7 +999,14 @@ Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid, const DepositMeshO
       factor = std::min(max_factor, std::max(factor + 1, grown));
     }
   }
-  out.volume_mm3 = signed_volume_mm3(out.mesh);
+  if (out.cell_voxels == 1 && options.smooth && !beads.empty()) {
+    out.smoothing_skipped = out.mesh.triangles.size() > detail::kMaxCheckedTriangles;
+    out.smoothed_vertices = detail::smooth_onto_beads(out.mesh, grid, beads);
+  }
+  if (out.smoothed_vertices > 0)
+    out.error_bound_mm =
+        std::max(out.error_bound_mm, std::sqrt(3.0) * detail::kMaxShiftVoxels * grid.voxel_mm());
+  out.volume_mm3 = enclosed_volume_mm3(out.mesh);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }

@@ -5,8 +5,10 @@
 // without T-junctions, so the mesh is closed and consistently oriented (outward).
 //
 // Model:
-// - Filled volume: the deposit's outer-surface routine (a flood of the outside air); voxels of
-//   skirt/brim, support, wipe tower and custom (start code, purge) are air unless included.
+// - Filled volume: the deposit's outer-surface routine (a flood of the outside air, sealed
+//   and grooved with the deviation stage's defaults, so pinholes do not open the infill);
+//   voxels of skirt/brim, support, wipe tower and custom (start code, purge) are air unless
+//   included.
 // - Manifold: a voxel surface is a 2-manifold exactly when no 2x2 square of voxels holds two
 //   diagonal filled voxels beside two empty ones and no 2x2x2 cube holds exactly two
 //   opposite-corner filled (or empty) voxels (well-composed sets). Each such configuration
@@ -17,6 +19,10 @@
 // - Components: connected pieces of the surface with no voxel of a part feature (perimeter,
 //   infill, ...) are dropped (a purge line or skirt that lies apart); a G-code without
 //   feature labels keeps the pieces that span more than one layer.
+// - Smoothing (full resolution, beads given, at most 2 M triangles): each vertex moves onto
+//   the surface of the bead of the one G-code line whose voxels touch it (not where lines
+//   meet: grooves, corners), at most 0.45 voxel per axis; folded triangles and every pair of
+//   triangles the exact self-intersection test finds put their vertices back on the lattice.
 // - Decimation (max_triangles): the filled volume on cells of s x s x s voxels (a cell is
 //   filled when any of its voxels is), s the smallest that fits. The coarse solid contains
 //   the fine one and every point of its surface lies within error_bound_mm of the
@@ -26,6 +32,7 @@
 #include <span>
 #include <string>
 
+#include "printtwin/deviation.hpp"
 #include "printtwin/mesh.hpp"
 #include "printtwin/result.hpp"
 #include "printtwin/voxel_grid.hpp"
@@ -37,6 +44,8 @@ struct DepositMeshOptions {
   bool include_support = false;   ///< support and support interface
   bool include_custom = false;    ///< wipe tower, start/end code and purge lines
   std::size_t max_triangles = 0;  ///< 0: full resolution
+  /// Full resolution with beads given: vertices move onto the bead surfaces (sub-voxel).
+  bool smooth = true;
 };
 
 struct DepositMesh {
@@ -50,6 +59,8 @@ struct DepositMesh {
   double filled_volume_mm3 =
       0;  ///< kept components' filled voxels (full resolution, before repairs)
   std::size_t repaired_cells = 0;      ///< cells filled to make the surface a 2-manifold
+  std::size_t smoothed_vertices = 0;   ///< vertices moved onto a bead surface
+  bool smoothing_skipped = false;      ///< too many triangles for the smoothing's check
   std::size_t rectangles = 0;          ///< merged faces
   std::size_t full_res_triangles = 0;  ///< triangles of the full-resolution mesh
   std::size_t components = 0;          ///< kept connected pieces
@@ -57,9 +68,12 @@ struct DepositMesh {
   double seconds = 0;                  ///< time to build
 };
 
-/// Builds the mesh. Errors: max_triangles too small for any mesh of the part (usage).
+/// Builds the mesh. `beads` (surface_beads of the G-code that laid the grid; may be empty):
+/// at full resolution the vertices are placed on the beads' surfaces (sub-voxel smoothing).
+/// Errors: max_triangles too small for any mesh of the part (usage).
 [[nodiscard]] Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid,
-                                                     const DepositMeshOptions& options);
+                                                     const DepositMeshOptions& options,
+                                                     std::span<const SurfaceBead> beads = {});
 
 /// Checks that `path` ends in .stl, .3mf or .ply (usage error otherwise).
 [[nodiscard]] Status check_deposit_mesh_path(const std::filesystem::path& path);

@@ -246,11 +246,20 @@ std::string deposit_mesh_summary(const DepositMesh& dm, const std::filesystem::p
     s += "decimated to cells of " + std::to_string(dm.cell_voxels) + " voxels from " +
          std::to_string(dm.full_res_triangles) + " triangles: within " +
          format_fixed(dm.error_bound_mm, 3) + " mm of the voxel surface, enclosing it\n";
+  else if (dm.smoothed_vertices > 0)
+    s += "smoothed: " + std::to_string(dm.smoothed_vertices) + " of " +
+         std::to_string(dm.mesh.vertices_mm.size()) +
+         " vertices on the bead surfaces (each within 0.45 voxel per axis of the voxel "
+         "surface), the rest on the voxel faces\n";
   else if (dm.error_bound_mm > 0)
     s += "on the voxel faces, within " + format_fixed(dm.error_bound_mm, 3) + " mm where " +
          std::to_string(dm.repaired_cells) + " voxels were filled to make it a manifold\n";
   else
     s += "exactly on the voxel faces\n";
+  if (dm.smoothing_skipped)
+    s += "  not smoothed onto the beads: " + std::to_string(dm.mesh.triangles.size()) +
+         " triangles, more than the 2000000 its self-intersection check takes (use a coarser "
+         "--voxel)\n";
   if (dm.dropped_components > 0)
     s += "  left out " + std::to_string(dm.dropped_components) +
          " piece(s) without part voxels (skirt, purge line); --deposit-mesh-include adds auxiliary "
@@ -271,6 +280,7 @@ std::string deposit_mesh_json(const DepositMesh& dm, const std::filesystem::path
   j["volume_mm3"] = dm.volume_mm3;
   j["filled_volume_mm3"] = dm.filled_volume_mm3;
   j["repaired_voxels"] = dm.repaired_cells;
+  j["smoothed_vertices"] = dm.smoothed_vertices;
   j["components"] = dm.components;
   j["dropped_components"] = dm.dropped_components;
   return j.dump();

@@ -130,8 +130,10 @@ Result<VerifyReport> measure_with(const PreparedPart& part, const VerifySettings
   for (const auto& r : report.deviation.regions)
     report.findings.push_back(region_finding(r, settings.gates.tolerance_mm));
   evaluate_gates(report);
-  if (settings.keep_deposit_grid)
+  if (settings.keep_deposit_grid) {
     report.deposit_grid = std::make_shared<const VoxelGrid>(std::move(printed.deposit.grid));
+    report.deposit_beads = std::move(printed.beads);
+  }
   return report;
 }
 

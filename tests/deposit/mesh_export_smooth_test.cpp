@@ -1,0 +1,139 @@
+// Sub-voxel smoothing of the as-printed mesh: vertices on the true bead surfaces (round beads,
+// layer grooves), the mesh still closed, oriented, without self-intersections, with the
+// deposit's volume.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <map>
+
+#include "deposit/deposit_test_support.hpp"
+#include "deposit/mesh_export.hpp"
+#include "deposit/mesh_export_internal.hpp"
+#include "deviation/surface_internal.hpp"
+#include "printtwin/check.hpp"
+#include "printtwin/deposit.hpp"
+#include "printtwin/deviation.hpp"
+
+namespace printtwin {
+namespace {
+
+/// `layers` square loops of stadium beads (w x h) around [20, 30]^2,
+/// deposited at 0.05 mm.
+struct Printed {
+  std::vector<Move> moves;
+  DepositResult deposit;
+};
+Printed lay_loops(double h, double w, int layers) {
+  const PrinterProfile profile = ender3_marlin2();
+  test::BeadWriter bw(profile);
+  bw.feature = Feature::outer_perimeter;
+  const double a = 20.0 + 0.5 * w, b = 30.0 - 0.5 * w;
+  const std::array<Vec2, 4> corners = {Vec2(b, a), Vec2(b, b), Vec2(a, b), Vec2(a, a)};
+  for (bw.layer = 0; bw.layer < layers; ++bw.layer) {
+    const double z = h * (bw.layer + 1);
+    bw.travel({a, a, z});
+    for (const Vec2& c : corners) {
+      bw.extrude({c.x(), c.y(), z}, w, h);
+      bw.moves.back().height_hint_mm = static_cast<float>(h);  // the slicer's ;HEIGHT:
+    }
+  }
+  Printed p;
+  p.moves = bw.moves;
+  DepositSettings ds;
+  ds.voxel_mm = 0.05;
+  auto d = deposit_moves(p.moves, profile, ds);
+  EXPECT_TRUE(d.ok());
+  if (d.ok()) p.deposit = std::move(*d);
+  return p;
+}
+
+void expect_closed_oriented(const Mesh& m) {
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> directed;
+  for (const auto& t : m.triangles)
+    for (int k = 0; k < 3; ++k) ++directed[{t[k], t[(k + 1) % 3]}];
+  std::size_t bad = 0;
+  for (const auto& [e, n] : directed) {
+    const auto rev = directed.find({e.second, e.first});
+    if (n != 1 || rev == directed.end() || rev->second != 1) ++bad;
+  }
+  EXPECT_EQ(bad, 0u);
+  const MeshHealth h = analyze_mesh_health(m);
+  EXPECT_TRUE(h.closed);
+  EXPECT_EQ(h.degenerate_faces, 0u);
+  EXPECT_EQ(h.inconsistent_edges, 0u);
+  EXPECT_EQ(h.non_manifold_vertices, 0u);
+  EXPECT_EQ(find_self_intersections(m).pairs, 0u);
+}
+
+/// Mean |distance| from the vertices to the surface of the nearest bead of any line.
+double mean_bead_distance(const Mesh& m, std::span<const SurfaceBead> beads) {
+  double sum = 0;
+  for (const Vec3& p : m.vertices_mm) {
+    double best = 1e9;
+    for (const SurfaceBead& b : beads) {
+      Vec3 c;
+      best = std::min(best, std::abs(detail::bead_closest(b, p, c)));
+    }
+    sum += best;
+  }
+  return sum / static_cast<double>(m.vertices_mm.size());
+}
+
+TEST(DepositMeshSmooth, VerticesGoOntoTheBeadsAndTheMeshStaysClosed) {
+  const Printed p = lay_loops(0.2, 0.45, 6);
+  const auto beads = surface_beads(p.moves, ender3_marlin2());
+  ASSERT_FALSE(beads.empty());
+  DepositMeshOptions o;
+  o.smooth = false;
+  auto stair = build_deposit_mesh(p.deposit.grid, o, beads);
+  o.smooth = true;
+  auto smooth = build_deposit_mesh(p.deposit.grid, o, beads);
+  ASSERT_TRUE(stair.ok() && smooth.ok());
+  EXPECT_EQ(stair->smoothed_vertices, 0u);
+  // A good share of the vertices lie on the beads (not where lines meet).
+  EXPECT_GT(smooth->smoothed_vertices, smooth->mesh.vertices_mm.size() / 3);
+  EXPECT_EQ(smooth->mesh.triangles, stair->mesh.triangles);  // positions only
+  expect_closed_oriented(smooth->mesh);
+  // Within a voxel of the filled volume, and much closer to the beads than the staircase.
+  EXPECT_NEAR(smooth->volume_mm3 / smooth->filled_volume_mm3, 1.0, 0.01);
+  const double d_stair = mean_bead_distance(stair->mesh, beads);
+  const double d_smooth = mean_bead_distance(smooth->mesh, beads);
+  EXPECT_LT(d_smooth, 0.8 * d_stair) << d_smooth << " vs " << d_stair;
+  EXPECT_GE(smooth->error_bound_mm, std::sqrt(3.0) * detail::kMaxShiftVoxels * 0.05 - 1e-12);
+}
+
+TEST(DepositMeshSmooth, GroovesBetweenLayersShowOnTheOuterWall) {
+  // On the -x wall (x = 20), the bead sides bulge out at mid-layer and recede at the layer
+  // boundaries: the smoothed vertices' x spans part of the groove depth R (1 - cos 45) ... R.
+  const Printed p = lay_loops(0.2, 0.45, 6);
+  const auto beads = surface_beads(p.moves, ender3_marlin2());
+  auto m = build_deposit_mesh(p.deposit.grid, {}, beads);
+  ASSERT_TRUE(m.ok());
+  double xmin_mid = 1e9, xmax_groove = -1e9;
+  for (const Vec3& v : m->mesh.vertices_mm) {
+    if (v.x() > 20.2 || v.y() < 22 || v.y() > 28 || v.z() < 0.3 || v.z() > 1.0) continue;
+    const double f = std::fmod(v.z(), 0.2) / 0.2;  // 0 at a layer boundary, 0.5 mid-layer
+    if (std::abs(f - 0.5) < 0.15) xmin_mid = std::min(xmin_mid, v.x());
+    if (f < 0.15 || f > 0.85) xmax_groove = std::max(xmax_groove, v.x());
+  }
+  EXPECT_LT(xmin_mid, 20.03);     // the bead's outer edge (x = 20)
+  EXPECT_GT(xmax_groove, 20.04);  // the groove, about R = 0.1 deep
+}
+
+TEST(DepositMeshSmooth, NoBeadsOrDecimationKeepTheVoxelFaces) {
+  const Printed p = lay_loops(0.2, 0.45, 3);
+  const auto beads = surface_beads(p.moves, ender3_marlin2());
+  auto plain = build_deposit_mesh(p.deposit.grid, {});
+  ASSERT_TRUE(plain.ok());
+  EXPECT_EQ(plain->smoothed_vertices, 0u);
+  DepositMeshOptions o;
+  o.max_triangles = plain->mesh.triangles.size() / 4;
+  auto coarse = build_deposit_mesh(p.deposit.grid, o, beads);
+  ASSERT_TRUE(coarse.ok());
+  EXPECT_GT(coarse->cell_voxels, 1);
+  EXPECT_EQ(coarse->smoothed_vertices, 0u);
+}
+
+}  // namespace
+}  // namespace printtwin
