@@ -520,6 +520,27 @@ std::vector<Case> corpus() {
                },
                1,
                {"out_of_bounds", "line 8", "leaves the build volume"}});
+  // A zero-radius full circle (I0 J0 at the current position) with E: Marlin rejects it, so
+  // its filament is never laid; a warning, an error under --strict.
+  for (const bool strict : {false, true}) {
+    c.push_back(
+        {std::string("zero-radius arc with E") + (strict ? ", --strict" : ""),
+         [strict](const fs::path& d) {
+           put(d / "arc.gcode",
+               kStart + "G1 Z0.2 F600\nG1 X50 Y50 F3000\nG2 X50 Y50 I0 J0 E5 F1200\nG1 X60 E1\n");
+           return std::string("simulate ") + (strict ? "--strict " : "") + q(d / "arc.gcode");
+         },
+         strict ? 3 : 0,
+         strict ? std::vector<std::string>{"arc.gcode:9:", "zero radius", "5.000 mm of filament"}
+                : std::vector<std::string>{"bad_arc (line 9)", "zero radius", "not laid"}});
+  }
+  c.push_back({"verify with another part's G-code",
+               [cube20, prusa_gcode](const fs::path& d) {
+                 return "verify " + q(cube20) + " --gcode " + q(prusa_gcode) +
+                        " --voxel 0.2 --out " + q(d / "r");
+               },
+               1,
+               {"does not appear to be this part", "printed 9.6 x 9.6 x 9.8 mm"}});
   // --- empty deposits: every export writes a valid empty file, exit 0
   for (const char* ext : {".ot", ".bt", ".ply"}) {
     for (const char* kind : {"travel only", "all-cold extrusion"}) {
@@ -580,6 +601,23 @@ std::vector<Case> corpus() {
                },
                3,
                {"plan.json", "not valid JSON", "number overflow"},
+               10});
+  c.push_back({"Klipper printer.cfg with a word for a number",
+               [cube20](const fs::path& d) {
+                 put(d / "printer.cfg", "[printer]\nkinematics: cartesian\nmax_velocity: abc\n");
+                 return "check " + q(cube20) + " --printer " + q(d / "printer.cfg");
+               },
+               3,
+               {"printer.cfg:3:", "max_velocity", "expected a number"},
+               10});
+  c.push_back({"slicer .ini line without '='",
+               [cube20](const fs::path& d) {
+                 put(d / "bad.ini", "layer_height = 0.2\nperimeters 3\n");
+                 return "slice " + q(cube20) + " --config " + q(d / "bad.ini") + " -o " +
+                        q(d / "x.gcode");
+               },
+               3,
+               {"bad.ini:2:", "expected 'key = value'", "perimeters 3"},
                10});
   c.push_back({"printer profile that is not JSON",
                [cube20](const fs::path& d) {
