@@ -114,6 +114,11 @@ struct SweepConfigs {
   }
 };
 
+Error config_for_other_slicer(const std::string& config, const std::string& slicer) {
+  return usage_error("--config " + config + " is for " + slicer +
+                     ", which is not a --slicer of this comparison");
+}
+
 Result<SweepConfigs> parse_configs(const std::vector<std::string>& configs,
                                    const std::vector<std::string>& slicers) {
   SweepConfigs out;
@@ -122,8 +127,7 @@ Result<SweepConfigs> parse_configs(const std::vector<std::string>& configs,
     const std::string prefix = eq == std::string::npos ? std::string() : c.substr(0, eq);
     const bool named = !prefix.empty() && is_known_slicer(prefix);
     if (named && std::find(slicers.begin(), slicers.end(), prefix) == slicers.end())
-      return usage_error("--config " + c + " is for " + prefix +
-                         ", which is not a --slicer of this comparison");
+      return config_for_other_slicer(c, prefix);
     out.slicer.push_back(named ? prefix : std::string());
     out.path.push_back(named ? c.substr(eq + 1) : c);
     out.name.push_back(stem_of(out.path.back()));
