@@ -4,10 +4,11 @@
 # applied (a path stays only when it saves at least 10 % of its stage's time).
 #
 # The twins are switched at run time in one binary with PRINTTWIN_PLAIN=<name>
-# (src/core/plain_path.hpp); a name the binary does not know measures no difference. The
-# compiler flag -march=x86-64-v2 cannot be switched at run time: its rows compare this build
-# with a build configured with -DPRINTTWIN_X86_64_V2=OFF, given as MARCH_BASE_BUILD (the
-# rows are skipped without it).
+# (src/core/plain_path.hpp); a name the binary does not know measures no difference. A
+# compiler flag cannot be switched at run time: a "build:" row compares this build with
+# another build of the same source configured without the flag, given as MARCH_BASE_BUILD
+# (the rows are skipped without it). No such flag is in the build today: -march=x86-64-v2
+# measured under 10 % on every stage and was removed.
 #
 # Per stage and run, the stage is timed once with every special path on and once with each
 # path's twin, in an order rotated from run to run; the table gives the medians over RUNS.
@@ -15,7 +16,9 @@
 #
 # Usage: bench/results.sh [build-dir]   env: RUNS (default 3), MARCH_BASE_BUILD, OUT
 #   (default bench/RESULTS.md), RAW (default OUT with .raw: every timing, one line each
-#   "stage|configuration|wall cpu"), FROM_RAW=file (no timing: the table from that file).
+#   "stage|configuration|wall cpu"), FROM_RAW=file (no timing: the table from that file),
+#   STAGES=regex (time only the stages matching it, e.g. '^build:'; the other stages'
+#   timings are kept from RAW, and the table says when each part was measured).
 #   Needs the bench programs and printtwin built in build-dir and the benchmark part
 #   (bench/make_bench_data.sh, run first by this script).
 set -euo pipefail
@@ -27,7 +30,7 @@ raw="${RAW:-${out%.md}.raw}"
 # shellcheck source=bench/timing_lib.sh
 . "$root/bench/timing_lib.sh"
 
-# The special paths: name | stage (see timing_lib.sh; "build:" = the -march rows) |
+# The special paths: name | stage (see timing_lib.sh; "build:" = a compiler-flag row) |
 # verdict basis (cpu: user + system of all threads, robust under load; wall: for a path
 # that trades CPU for elapsed time) | what it is. Edit this list only.
 PATHS='
@@ -37,9 +40,6 @@ bead_avx512       | bench:deposit_bench:BM_DepositOnly/0     | cpu  | AVX-512 be
 sha_ni            | cli:verify:load                          | wall | SHA extensions for the input hashes (core/kernels.cpp); stage: verify "load"
 check_fans        | bench:check_bench:BM_SelfIntersectionsWithHealth | cpu | face pairs around certified vertex fans not tested (check/self_intersections_cgal.cpp)
 check_ray_bound   | bench:check_bench:BM_Thickness/           | cpu  | inward rays end past the thinnest sampled wall (check/thickness.cpp)
-march_x86_64_v2   | build:bench:deviation_bench:BM_DeviationStage/ | cpu | -march=x86-64-v2 for all code (CMakeLists.txt PRINTTWIN_X86_64_V2)
-march_x86_64_v2   | build:bench:deposit_bench:BM_DepositOnly/0     | cpu | -march=x86-64-v2 for all code (CMakeLists.txt PRINTTWIN_X86_64_V2)
-march_x86_64_v2   | build:cli:verify                               | cpu | -march=x86-64-v2 for all code (CMakeLists.txt PRINTTWIN_X86_64_V2)
 '
 
 tmp="$(mktemp -d)"
@@ -48,10 +48,9 @@ field() { echo "$1" | cut -d'|' -f"$2" | sed 's/^ *//; s/ *$//'; }
 rows=()
 while IFS= read -r line; do [ -n "${line// }" ] && rows+=("$line"); done <<< "$PATHS"
 
+only="${STAGES:-}"
 if [ -n "${FROM_RAW:-}" ]; then
   cp "$FROM_RAW" "$tmp/raw"
-  started=$(sed -n 's/^# started //p' "$tmp/raw") machine_before=$(sed -n 's/^# machine //p' "$tmp/raw")
-  machine_after=$(sed -n 's/^# after //p' "$tmp/raw")
 else
   "$root/bench/make_bench_data.sh" "$build" > /dev/null
   [ -n "${MARCH_BASE_BUILD:-}" ] && [ ! -d "$MARCH_BASE_BUILD/benchdata" ] && ln -s "$build/benchdata" "$MARCH_BASE_BUILD/benchdata"
@@ -62,10 +61,19 @@ else
     [[ " ${stages[*]-} " == *" $s "* ]] || stages+=("$s")
   done
   started=$(date -u '+%Y-%m-%d %H:%M UTC')
-  machine_before=$(machine_line)
-  printf '# started %s\n# machine %s\n' "$started" "$machine_before" > "$raw"
+  if [ -n "$only" ]; then
+    # The other stages' timings and the header of the run that measured them stay.
+    [ -f "$raw" ] || { echo "STAGES needs the earlier timings in $raw" >&2; exit 2; }
+    awk -F'|' -v re="$only" '/^# partial/ {if (index($0, "stages " re " measured ") == 0) print; next}
+      /^#/ {print; next} $1 !~ re' "$raw" > "$tmp/kept"
+    cp "$tmp/kept" "$raw"
+    partial="# partial stages $only measured $started on $(machine_line)"
+  else
+    printf '# started %s\n# machine %s\n' "$started" "$(machine_line)" > "$raw"
+  fi
   for stage in "${stages[@]}"; do
     if [[ "$stage" == build:* ]] && [ -z "${MARCH_BASE_BUILD:-}" ]; then continue; fi
+    if [ -n "$only" ] && ! [[ "$stage" =~ $only ]]; then continue; fi
     configs=(special)
     for line in "${rows[@]}"; do [ "$(field "$line" 2)" = "$stage" ] && configs+=("$(field "$line" 1)"); done
     n=${#configs[@]}
@@ -84,10 +92,15 @@ else
       done
     done
   done
-  machine_after="load average $(cut -d' ' -f1-3 /proc/loadavg)"
-  echo "# after $machine_after" >> "$raw"
+  if [ -n "$only" ]; then
+    echo "$partial (at the end: load average $(cut -d' ' -f1-3 /proc/loadavg))" >> "$raw"
+  else
+    echo "# after load average $(cut -d' ' -f1-3 /proc/loadavg)" >> "$raw"
+  fi
   cp "$raw" "$tmp/raw"
 fi
+started=$(sed -n 's/^# started //p' "$tmp/raw") machine_before=$(sed -n 's/^# machine //p' "$tmp/raw")
+machine_after=$(sed -n 's/^# after //p' "$tmp/raw")
 # The median of column COL (1 wall, 2 cpu) of STAGE's CONFIG timings.
 med() { awk -F'|' -v s="$1" -v c="$2" '$1 == s && $2 == c {print $3}' "$tmp/raw" | awk -v k="$3" '{print $k}' | median; }
 runs_done=$(awk -F'|' '!/^#/ && $2 == "special" {n[$1]++} END {m = 0; for (s in n) if (n[s] > m) m = n[s]; print m}' "$tmp/raw")
@@ -97,6 +110,9 @@ runs_done=$(awk -F'|' '!/^#/ && $2 == "special" {n[$1]++} END {m = 0; for (s in 
   echo
   echo "Generated by \`bench/results.sh\` (do not edit by hand). Measured $started on:"
   echo "$machine_before (at the start; at the end: $machine_after)."
+  # STAGES runs: what was measured again, when, on what load.
+  sed -n 's/^# partial stages \(.*\)$/Stages matching `\1; the others as above./p' "$tmp/raw" |
+    sed 's/ measured /` measured again /' 
   echo
   echo "Each stage was timed $runs_done times per configuration, alternating (every special path on, then"
   echo "each path's plain twin via \`PRINTTWIN_PLAIN=<name>\`, the order rotated per run); medians in ms."

@@ -24,6 +24,8 @@ if [ "$mode" = all ] || [ "$mode" = --format ]; then
 fi
 
 if [ "$mode" = all ] || [ "$mode" = --tidy ]; then
+  # The Debian package clang-tidy brings clang-tidy and run-clang-tidy.
+  command -v run-clang-tidy >/dev/null || PRINTTWIN_EXTRA_PACKAGES=clang-tidy scripts/setup.sh --packages-only
   db="$BUILD_DIR/compile_commands.json"
   if [ ! -f "$db" ]; then
     echo "lint: $db missing; configure first (scripts/setup.sh)" >&2
@@ -31,6 +33,7 @@ if [ "$mode" = all ] || [ "$mode" = --tidy ]; then
   fi
   echo "lint: clang-tidy on src/ with $JOBS jobs"
   start=$(date +%s)
+  times >"$BUILD_DIR/clang-tidy.cpu"  # this shell's children's CPU time so far (a builtin: no fork)
   log="$BUILD_DIR/clang-tidy.log"
   # The database holds GCC's flags: clang ignores the GCC-only warning options and
   # attributes, and reports its own compiler warnings as warnings, not errors (the GCC
@@ -40,9 +43,14 @@ if [ "$mode" = all ] || [ "$mode" = --tidy ]; then
     -extra-arg=-Wno-unknown-warning-option -extra-arg=-Wno-unknown-attributes \
     -extra-arg=-Wno-error "$PWD/src/.*\.cpp\$" 2>&1 |
     sed 's/\x1b\[[0-9;]*m//g' >"$log" || true
-  grep -E -A3 '^/.*: (warning|error):' "$log" || true
-  findings=$(grep -cE '^/.*: (warning|error):' "$log" || true)
-  echo "lint: clang-tidy found $findings issue(s) in $(( $(date +%s) - start )) s (log: $log)"
+  # A finding in a header is reported once per source file that includes it: count and
+  # show each place once.
+  awk '/^\/.*: (warning|error):/ {show = !seen[$0]++; n = 4} n > 0 && show {print} {n--}' "$log"
+  findings=$(grep -E '^/.*: (warning|error):' "$log" | sort -u | wc -l)
+  times >>"$BUILD_DIR/clang-tidy.cpu"
+  cpu=$(awk '{for (i = 1; i <= 2; ++i) {split($i, t, /[ms]/); s += (NR == 4 ? 1 : NR == 2 ? -1 : 0) * (60 * t[1] + t[2])}}
+    END {printf "%.0f", s}' "$BUILD_DIR/clang-tidy.cpu")
+  echo "lint: clang-tidy found $findings issue(s) in $(( $(date +%s) - start )) s wall, $cpu s CPU (log: $log)"
   [ "$findings" -eq 0 ] || status=1
 fi
 exit $status

@@ -140,6 +140,124 @@ Result<std::string> write_verified_deposit_mesh(VerifyReport& report,
   return deposit_mesh_summary(*mesh, path);
 }
 
+// The command line's settings for the verify pipeline.
+Status fill_verify_settings(const VerifyCliOptions& o, VerifySettings& s) {
+  s.gates.tolerance_mm = o.tolerance_mm;
+  if (o.max_excess_mm >= 0) s.gates.max_excess_mm = o.max_excess_mm;
+  if (o.max_deficit_mm >= 0) s.gates.max_deficit_mm = o.max_deficit_mm;
+  if (o.max_rms_mm >= 0) s.gates.max_rms_mm = o.max_rms_mm;
+  s.printer = o.printer;
+  s.voxel_mm = o.voxel_mm;
+  s.conserve_volume = o.conserve_volume;
+  s.mesh_sample_spacing_mm = o.spacing_mm;
+  s.seed = o.seed;
+  s.keep_deposit_grid = !o.deposit_mesh.path.empty();
+  s.slice_config_ini = o.slice_config;
+  for (const auto& kv : o.slice_sets) {
+    const auto eq = kv.find('=');
+    if (eq == std::string::npos || eq == 0)
+      return usage_error("--set expects key=value, got '" + kv + "'");
+    s.slice_overrides.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
+  }
+  if (!o.place.empty())
+    if (auto st = parse_place_option(o.place, s); !st) return st.error();
+  if (!o.units.empty())
+    if (auto st = parse_units_option(o.units, s); !st) return st.error();
+  s.object = o.object;
+  return Ok{};
+}
+
+// --slicer NAME: the external slicer writes the G-code beside the report; the twin then
+// verifies it as any --gcode, on the printer its embedded settings name (--printer auto).
+Status slice_with_external_slicer(const VerifyCliOptions& o, VerifyOptions& options) {
+  VerifySettings& s = options.settings;
+  if (!o.gcode.empty()) return usage_error("--slicer slices the part; do not give --gcode too");
+  if (!(o.slicer_timeout_s > 0)) return usage_error("--slicer-timeout must be > 0 s");
+  auto program = find_slicer_program(o.slicer, o.slicer_path);
+  if (!program) return program.error();
+  SlicerJob job;
+  job.mesh_path = o.mesh;
+  job.settings = s.slice_overrides;
+  job.cura_definition = o.cura_definition;
+  const std::filesystem::path dir =
+      o.out.empty() ? std::filesystem::path("reports") / std::filesystem::path(o.mesh).stem()
+                    : std::filesystem::path(o.out);
+  const std::string stem = dir.filename().string() + "-" + o.slicer;
+  job.out_gcode = (dir.parent_path() / (stem + ".gcode")).string();
+  auto config = slicer_config_file(o.slicer, o.slice_config, dir.parent_path() / (stem + ".ini"));
+  if (!config) return config.error();
+  job.config_path = *config;
+  std::string command;
+  const Status sliced = run_external_slicer(*program, job, o.slicer_timeout_s, &command);
+  if (!o.quiet) std::printf("sliced with %s: %s\n", program->version.c_str(), command.c_str());
+  if (!sliced) return sliced.error();
+  options.gcode_path = job.out_gcode;
+  // A Cura G-code names no printer: under auto the definition's printer is the twin's.
+  if (o.slicer == "cura" && (s.printer.empty() || s.printer == "auto"))
+    if (auto id = cura_definition_printer(o.cura_definition); !id.empty()) s.printer = id;
+  s.slice_config_ini.clear();
+  s.slice_overrides.clear();
+  return Ok{};
+}
+
+int run_verify(const VerifyCliOptions& o) {
+  if (auto st = check_output_paths({{o.out, "--out", OutputKind::folder},
+                                    {o.deviation_ply, "--deviation-ply", OutputKind::file},
+                                    {o.deposit_mesh.path, "--deposit-mesh", OutputKind::file}});
+      !st)
+    return report_error(st.error());
+  auto mesh_options = deposit_mesh_options(o.deposit_mesh);
+  if (!mesh_options) return report_error(mesh_options.error());
+  VerifyOptions options;
+  options.mesh_path = o.mesh;
+  options.gcode_path = o.gcode;
+  VerifySettings& s = options.settings;
+  if (auto st = fill_verify_settings(o, s); !st) return report_error(st.error());
+  if (o.mesh.empty() == o.manifest.empty())
+    return report_error(usage_error("give one part (mesh) or --manifest FILE"));
+  if (!o.manifest.empty()) {
+    if (o.slicer != "printtwin" || !o.gcode.empty() || !o.deviation_ply.empty())
+      return report_error(
+          usage_error("--manifest names each part's G-code; --gcode, --slicer and "
+                      "--deviation-ply take one part"));
+    return run_verify_manifest({o.manifest, o.out, o.summary_out, o.junit_out, o.quiet}, s);
+  }
+  if (!o.summary_out.empty() || !o.junit_out.empty())
+    return report_error(
+        usage_error("--summary and --junit go with --manifest (one part writes them into --out)"));
+  if (auto st = check_slicer_name(o.slicer); !st) return report_error(st.error());
+  if (o.slicer != "printtwin")
+    if (auto st = slice_with_external_slicer(o, options); !st) return report_error(st.error());
+  // The whole folder (report.html, junit.xml, summary.md, heatmaps) plus report.json and
+  // deviation.ply, swapped into place only when complete.
+  const std::string out_dir =
+      o.out.empty()
+          ? (std::filesystem::path("reports") / std::filesystem::path(o.mesh).stem()).string()
+          : o.out;
+  ReportOptions report_options;
+  report_options.generated_utc = report_timestamp_utc();
+  std::string mesh_summary;
+  DerivedOutputs derived;
+  if (!o.deposit_mesh.path.empty())
+    derived = [&](VerifyReport& finished, ReportOptions& with_link) -> Status {
+      auto written = write_verified_deposit_mesh(finished, *mesh_options, o.deposit_mesh.path,
+                                                 out_dir, with_link);
+      if (!written) return written.error();
+      mesh_summary = *written;
+      return Ok{};
+    };
+  auto report = verify_to_folder(options, out_dir, report_options, derived);
+  if (!report) return report_error(report.error());
+  if (!o.deviation_ply.empty()) {
+    auto ply = read_file(std::filesystem::path(out_dir) / "deviation.ply");
+    if (!ply) return report_error(ply.error());
+    if (auto st = write_file_atomic(o.deviation_ply, *ply); !st) return report_error(st.error());
+  }
+  if (!o.quiet) print_summary(*report, out_dir);
+  if (!o.quiet) std::fputs(mesh_summary.c_str(), stdout);
+  return report->pass ? kPass : kFail;
+}
+
 }  // namespace
 
 void add_verify_command(CLI::App& app, CommandRunner& runner) {
@@ -200,121 +318,7 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
       "the slicer's program (default: found on the PATH)");
   add_deposit_mesh_options(*cmd, o->deposit_mesh);
   cmd->add_flag("-q,--quiet", o->quiet, "no summary table");
-  cmd->callback([o, &runner] {
-    runner.run = [o]() -> int {
-      if (auto st =
-              check_output_paths({{o->out, "--out", OutputKind::folder},
-                                  {o->deviation_ply, "--deviation-ply", OutputKind::file},
-                                  {o->deposit_mesh.path, "--deposit-mesh", OutputKind::file}});
-          !st)
-        return report_error(st.error());
-      auto mesh_options = deposit_mesh_options(o->deposit_mesh);
-      if (!mesh_options) return report_error(mesh_options.error());
-      VerifyOptions options;
-      options.mesh_path = o->mesh;
-      options.gcode_path = o->gcode;
-      VerifySettings& s = options.settings;
-      s.gates.tolerance_mm = o->tolerance_mm;
-      if (o->max_excess_mm >= 0) s.gates.max_excess_mm = o->max_excess_mm;
-      if (o->max_deficit_mm >= 0) s.gates.max_deficit_mm = o->max_deficit_mm;
-      if (o->max_rms_mm >= 0) s.gates.max_rms_mm = o->max_rms_mm;
-      s.printer = o->printer;
-      s.voxel_mm = o->voxel_mm;
-      s.conserve_volume = o->conserve_volume;
-      s.mesh_sample_spacing_mm = o->spacing_mm;
-      s.seed = o->seed;
-      s.keep_deposit_grid = !o->deposit_mesh.path.empty();
-      s.slice_config_ini = o->slice_config;
-      for (const auto& kv : o->slice_sets) {
-        const auto eq = kv.find('=');
-        if (eq == std::string::npos || eq == 0)
-          return report_error(usage_error("--set expects key=value, got '" + kv + "'"));
-        s.slice_overrides.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
-      }
-      if (!o->place.empty())
-        if (auto st = parse_place_option(o->place, s); !st) return report_error(st.error());
-      if (!o->units.empty())
-        if (auto st = parse_units_option(o->units, s); !st) return report_error(st.error());
-      s.object = o->object;
-      if (o->mesh.empty() == o->manifest.empty())
-        return report_error(usage_error("give one part (mesh) or --manifest FILE"));
-      if (!o->manifest.empty()) {
-        if (o->slicer != "printtwin" || !o->gcode.empty() || !o->deviation_ply.empty())
-          return report_error(
-              usage_error("--manifest names each part's G-code; --gcode, --slicer and "
-                          "--deviation-ply take one part"));
-        return run_verify_manifest({o->manifest, o->out, o->summary_out, o->junit_out, o->quiet},
-                                   s);
-      }
-      if (!o->summary_out.empty() || !o->junit_out.empty())
-        return report_error(usage_error(
-            "--summary and --junit go with --manifest (one part writes them into --out)"));
-      if (auto st = check_slicer_name(o->slicer); !st) return report_error(st.error());
-      if (o->slicer != "printtwin") {
-        // An external slicer writes the G-code beside the report; the twin then verifies it
-        // as any --gcode, on the printer its embedded settings name (--printer auto).
-        if (!o->gcode.empty())
-          return report_error(usage_error("--slicer slices the part; do not give --gcode too"));
-        if (!(o->slicer_timeout_s > 0))
-          return report_error(usage_error("--slicer-timeout must be > 0 s"));
-        auto program = find_slicer_program(o->slicer, o->slicer_path);
-        if (!program) return report_error(program.error());
-        SlicerJob job;
-        job.mesh_path = o->mesh;
-        job.settings = s.slice_overrides;
-        job.cura_definition = o->cura_definition;
-        const std::filesystem::path dir = o->out.empty() ? std::filesystem::path("reports") /
-                                                               std::filesystem::path(o->mesh).stem()
-                                                         : std::filesystem::path(o->out);
-        const std::string stem = dir.filename().string() + "-" + o->slicer;
-        job.out_gcode = (dir.parent_path() / (stem + ".gcode")).string();
-        auto config =
-            slicer_config_file(o->slicer, o->slice_config, dir.parent_path() / (stem + ".ini"));
-        if (!config) return report_error(config.error());
-        job.config_path = *config;
-        std::string command;
-        const Status sliced = run_external_slicer(*program, job, o->slicer_timeout_s, &command);
-        if (!o->quiet)
-          std::printf("sliced with %s: %s\n", program->version.c_str(), command.c_str());
-        if (!sliced) return report_error(sliced.error());
-        options.gcode_path = job.out_gcode;
-        // A Cura G-code names no printer: under auto the definition's printer is the twin's.
-        if (o->slicer == "cura" && (s.printer.empty() || s.printer == "auto"))
-          if (auto id = cura_definition_printer(o->cura_definition); !id.empty()) s.printer = id;
-        s.slice_config_ini.clear();
-        s.slice_overrides.clear();
-      }
-      // The whole folder (report.html, junit.xml, summary.md, heatmaps) plus report.json and
-      // deviation.ply, swapped into place only when complete.
-      const std::string out_dir =
-          o->out.empty()
-              ? (std::filesystem::path("reports") / std::filesystem::path(o->mesh).stem()).string()
-              : o->out;
-      ReportOptions report_options;
-      report_options.generated_utc = report_timestamp_utc();
-      std::string mesh_summary;
-      DerivedOutputs derived;
-      if (!o->deposit_mesh.path.empty())
-        derived = [&](VerifyReport& finished, ReportOptions& with_link) -> Status {
-          auto written = write_verified_deposit_mesh(finished, *mesh_options, o->deposit_mesh.path,
-                                                     out_dir, with_link);
-          if (!written) return written.error();
-          mesh_summary = *written;
-          return Ok{};
-        };
-      auto report = verify_to_folder(options, out_dir, report_options, derived);
-      if (!report) return report_error(report.error());
-      if (!o->deviation_ply.empty()) {
-        auto ply = read_file(std::filesystem::path(out_dir) / "deviation.ply");
-        if (!ply) return report_error(ply.error());
-        if (auto st = write_file_atomic(o->deviation_ply, *ply); !st)
-          return report_error(st.error());
-      }
-      if (!o->quiet) print_summary(*report, out_dir);
-      if (!o->quiet) std::fputs(mesh_summary.c_str(), stdout);
-      return report->pass ? kPass : kFail;
-    };
-  });
+  cmd->callback([o, &runner] { runner.run = [o]() -> int { return run_verify(*o); }; });
 }
 
 }  // namespace printtwin::cli

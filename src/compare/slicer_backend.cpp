@@ -30,6 +30,20 @@ namespace printtwin {
 
 namespace {
 
+// "key=value" in one allocation (a setting on a command line, an environment entry).
+std::string key_value(std::string_view key, std::string_view value) {
+  std::string out;
+  out.reserve(key.size() + 1 + value.size());
+  out.append(key).append(1, '=').append(value);
+  return out;
+}
+
+Error slicer_path_without_slicer(const std::string& value, bool no_external_slicer) {
+  return usage_error("--slicer-path " + value +
+                     ": say which slicer it is for (name=path, e.g. prusa-slicer=" + value + ")" +
+                     (no_external_slicer ? ", and give that --slicer" : ""));
+}
+
 namespace fs = std::filesystem;
 
 struct SlicerInfo {
@@ -357,10 +371,7 @@ Result<std::vector<SettingKV>> parse_slicer_paths(const std::vector<std::string>
       out.emplace_back(v.substr(0, eq), v.substr(eq + 1));
       continue;
     }
-    if (external.size() != 1)
-      return usage_error("--slicer-path " + v +
-                         ": say which slicer it is for (name=path, e.g. prusa-slicer=" + v + ")" +
-                         (external.empty() ? ", and give that --slicer" : ""));
+    if (external.size() != 1) return slicer_path_without_slicer(v, external.empty());
     out.emplace_back(external.front(), v);
   }
   return out;
@@ -399,7 +410,7 @@ Result<std::vector<std::string>> slicer_command(const SlicerProgram& program,
       from_command.insert(k);
     }
     add_cura_children(effective, from_file, from_command);
-    for (const auto& [k, v] : effective) argv.insert(argv.end(), {"-s", k + "=" + v});
+    for (const auto& [k, v] : effective) argv.insert(argv.end(), {"-s", key_value(k, v)});
     argv.insert(argv.end(), {"-l", job.mesh_path, "-o", job.out_gcode});
     return argv;
   }
@@ -444,6 +455,7 @@ ProcessRun run_process(const std::vector<std::string>& argv, const std::vector<S
   if (out_fd < 0) return r;
   const std::string out_path = tmpl;
   std::vector<char*> args;
+  args.reserve(argv.size() + 1);
   for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
   args.push_back(nullptr);
   // The child's environment is built here: between fork and exec a threaded process may
@@ -457,8 +469,9 @@ ProcessRun run_process(const std::vector<std::string>& argv, const std::vector<S
     });
     if (!replaced) env_text.emplace_back(entry);
   }
-  for (const auto& [k, v] : env) env_text.push_back(k + "=" + v);
+  for (const auto& [k, v] : env) env_text.push_back(key_value(k, v));
   std::vector<char*> envp;
+  envp.reserve(env_text.size() + 1);
   for (auto& e : env_text) envp.push_back(e.data());
   envp.push_back(nullptr);
   const pid_t pid = ::fork();
@@ -521,7 +534,8 @@ Result<std::string> slicer_command_line(const SlicerProgram& program, const Slic
   if (!argv) return argv.error();
   std::string prefix;
   for (const auto& [k, v] : slicer_environment(program, job))
-    prefix += shell_quote({k + "=" + v}) + " ";
+    prefix += shell_quote({key_value(k, v)});
+  prefix += ' ';
   return prefix + shell_quote(*argv);
 }
 

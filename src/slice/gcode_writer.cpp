@@ -424,6 +424,12 @@ double role_speed(const SliceSettings& s, Role r) {
   return s.perimeter_speed_mm_s;
 }
 
+Error unknown_placeholder(const std::string& name, const std::string& which,
+                          const std::string& known) {
+  return bad_input("unknown placeholder {" + name + "} in the printer profile's " + which +
+                   " (known: " + known + ")");
+}
+
 // Expands {name} placeholders of the printer's start / end code.
 Result<std::string> expand(const std::string& text,
                            const std::vector<std::pair<std::string, std::string>>& vars,
@@ -449,9 +455,11 @@ Result<std::string> expand(const std::string& text,
       }
     if (!found) {
       std::string known;
-      for (const auto& kv : vars) known += (known.empty() ? "" : ", ") + kv.first;
-      return bad_input("unknown placeholder {" + name + "} in the printer profile's " + which +
-                       " (known: " + known + ")");
+      for (const auto& kv : vars) {
+        if (!known.empty()) known += ", ";
+        known += kv.first;
+      }
+      return unknown_placeholder(name, which, known);
     }
     i = close + 1;
   }
@@ -585,7 +593,13 @@ void write_header(std::string& out, std::size_t layers, const PrinterProfile& pr
   out += "; printer: " + printer.name + "\n";
   out += "; flavor: marlin2, relative E (M83)\n";
   out += "; layers: " + std::to_string(layers) + "\n";
-  for (const auto& [k, v] : slice_settings_entries(s)) out += "; " + k + " = " + v + "\n";
+  for (const auto& [k, v] : slice_settings_entries(s)) {
+    out += "; ";
+    out += k;
+    out += " = ";
+    out += v;
+    out += '\n';
+  }
   out += "\n";
 }
 
