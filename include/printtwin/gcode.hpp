@@ -171,7 +171,7 @@ class GcodeInterpreter {
 
  private:
   void add_finding(Finding f);
-  Status warn(long line, std::string_view text, std::string message, std::string code);
+  Status warn(long line, std::string_view text, const std::string& message, std::string code);
   Status linear_move(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
   Status arc_move(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
   /// The F, X/Y/Z and E words of G0-G3 applied to the modal state: new feedrate, the target

@@ -40,7 +40,7 @@ bool same_cycle(const std::vector<P3>& pa, const Polygon& a, const std::vector<P
 }
 
 void add(std::vector<RepairChange>& changes, std::string code, std::size_t count,
-         std::string message) {
+         const std::string& message) {
   if (count > 0)
     changes.push_back({std::move(code), count, message + ": " + std::to_string(count)});
 }

@@ -318,15 +318,20 @@ std::string summary_markdown(const std::vector<PartOutcome>& parts, const std::s
     }
     std::string problem = main_problem(p);
     if (problem.size() > 200) problem = problem.substr(0, 197) + "...";
-    md += "| " + md_cell(p.file) + " | " + (p.exit_code == kPass ? "" : "**") + verdict(p) +
-          (p.exit_code == kPass ? "" : "**") + " | " + std::to_string(c[2]) + " | " +
-          std::to_string(c[1]) + " | " + tri + " | " + size + " | " + md_cell(problem) + " |" +
-          (repaired ? " " +
-                          (p.repaired ? md_cell(repair_counters_text(p.repaired->counters))
-                                      : std::string("-")) +
-                          " |"
-                    : "") +
-          "\n";
+    const char* bold = p.exit_code == kPass ? "" : "**";
+    for (const std::string& cell : {md_cell(p.file), bold + verdict(p) + bold, std::to_string(c[2]),
+                                    std::to_string(c[1]), tri, size, md_cell(problem)}) {
+      md += "| ";
+      md += cell;
+      md += ' ';
+    }
+    md += '|';
+    if (repaired) {
+      md += ' ';
+      md += p.repaired ? md_cell(repair_counters_text(p.repaired->counters)) : std::string("-");
+      md += " |";
+    }
+    md += '\n';
   }
   return md;
 }
@@ -485,6 +490,7 @@ int run_batch(const CheckOptions& o, const std::vector<PartJob>& jobs,
               const std::string& printer_name) {
   std::vector<PartOutcome> parts(jobs.size());
   std::vector<std::string> files;
+  files.reserve(jobs.size());
   for (const auto& j : jobs) files.push_back(j.file);
   const std::vector<std::string> repair_files = repair_paths(o.repair_out, files);
   if (!o.repair_out.empty()) {

@@ -52,14 +52,22 @@ class Reader {
     return (q.is_absolute() || dir_.empty() ? q : dir_ / q).lexically_normal().string();
   }
 
+  static std::string unknown_key_message(const std::string& key, bool is_part) {
+    std::string m = "unknown key '" + key + "' (expected ";
+    m += key_list(is_part);
+    m += ')';
+    return m;
+  }
   /// Reads the settings keys of `obj` (a part entry or "defaults") into `s`.
   Status settings(const json& obj, const std::string& where, bool is_part, PartSettings& s) const {
     if (!obj.is_object()) return fail(where, "expected an object");
-    for (const auto& [key, value] : obj.items()) {
+    for (const auto& item : obj.items()) {
+      const std::string& key = item.key();
+      const json& value = item.value();
       if (std::find_if(std::begin(kPartKeys), std::end(kPartKeys),
-                       [&](const char* k) { return key == k; }) == std::end(kPartKeys) ||
+                       [&key](const char* k) { return key == k; }) == std::end(kPartKeys) ||
           (!is_part && key == "file"))
-        return fail(where, "unknown key '" + key + "' (expected " + key_list(is_part) + ")");
+        return fail(where, unknown_key_message(key, is_part));
       const std::string at = where + "." + key;
       if (key == "file") continue;
       if (key == "printer" || key == "units" || key == "gcode" || key == "object") {

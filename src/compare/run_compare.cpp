@@ -238,7 +238,12 @@ class ExternalSlicing {
         programs.emplace(v.slicer, std::move(*found));
       }
       std::string key = v.slicer + '\n' + v.config_path;
-      for (const auto& [k, val] : effective_settings(v.settings)) key += '\n' + k + '=' + val;
+      for (const auto& [k, val] : effective_settings(v.settings)) {
+        key += '\n';
+        key += k;
+        key += '=';
+        key += val;
+      }
       auto [it, fresh] = by_key.emplace(key, jobs_.size());
       if (fresh) {
         auto job = std::make_unique<Job>();
@@ -273,7 +278,7 @@ class ExternalSlicing {
 
   void start(double timeout_s) {
     if (jobs_.empty()) return;
-    worker_ = std::jthread([this, timeout_s](std::stop_token stop) {
+    worker_ = std::jthread([this, timeout_s](const std::stop_token& stop) {
       for (auto& job : jobs_) {
         if (stop.stop_requested()) break;
         Status st =

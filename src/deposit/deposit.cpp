@@ -110,7 +110,7 @@ struct DepositBuilder::State {
   }
 
   /// Lays the pending bead; `m1` is its end cut normal (nullopt: square cut).
-  void flush(std::optional<Vec2> m1) {
+  void flush(const std::optional<Vec2>& m1) {
     if (!pending) return;
     const PendingBead pb = *pending;
     pending.reset();

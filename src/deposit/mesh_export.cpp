@@ -265,8 +265,8 @@ constexpr std::array<std::array<int, 4>, 6> kSquares = {
 
 /// The cell to fill for a cube configuration (bit i: cell i filled), or -1 when the
 /// configuration is well-composed.
-std::array<std::int8_t, 256> make_fill_table() {
-  std::array<std::int8_t, 256> t{};
+std::array<std::int16_t, 256> make_fill_table() {
+  std::array<std::int16_t, 256> t{};
   for (int cfg = 0; cfg < 256; ++cfg) {
     auto in = [&](int i) { return ((cfg >> i) & 1) != 0; };
     int fill = -1;
@@ -294,7 +294,7 @@ std::array<std::int8_t, 256> make_fill_table() {
 
 /// Fills cells until no critical configuration is left; returns how many were filled.
 std::size_t make_well_composed(Solid& s) {
-  static const std::array<std::int8_t, 256> kFill = make_fill_table();
+  static const std::array<std::int16_t, 256> kFill = make_fill_table();
   using Cell = std::array<int, 3>;
   auto work = per_block_layer<Cell>(s.nb.z(), [&](int bz, std::vector<Cell>& found) {
     for (int by = 0; by < s.nb.y(); ++by)

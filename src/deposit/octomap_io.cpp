@@ -43,7 +43,7 @@ std::string lower_extension(const std::filesystem::path& p) {
 /// OctoMap addresses +-32768 voxels around the origin on each axis.
 Status check_key_range(const VoxelGrid& grid) {
   const double limit = 32767.0 * grid.voxel_mm();
-  const Vec3 lo = grid.origin_mm();
+  const Vec3& lo = grid.origin_mm();
   const Vec3 hi = lo + grid.voxel_mm() * grid.dims().cast<double>();
   if (lo.cwiseAbs().maxCoeff() >= limit || hi.cwiseAbs().maxCoeff() >= limit)
     return usage_error("the deposit does not fit OctoMap's key range (+-" + format_number(limit) +
@@ -424,13 +424,14 @@ class OtEncoder {
         const int bit = std::countr_zero(w);
         w &= w - 1;
         if (shared != 0) {
-          voxel_[static_cast<std::size_t>(z * 64 + bit)] = shared;
+          voxel_[static_cast<std::size_t>(z) * 64 + static_cast<std::size_t>(bit)] = shared;
           continue;
         }
         const int gx = g0[0] + (bit & 7), gy = g0[1] + (bit >> 3), gz = g0[2] + z;
-        const auto bi = static_cast<std::size_t>(((gx >> 3) - b0[0]) | (((gy >> 3) - b0[1]) << 1) |
-                                                 (((gz >> 3) - b0[2]) << 2));
-        voxel_[static_cast<std::size_t>(z * 64 + bit)] =
+        const int block_of_eight =
+            ((gx >> 3) - b0[0]) | (((gy >> 3) - b0[1]) << 1) | (((gz >> 3) - b0[2]) << 2);
+        const auto bi = static_cast<std::size_t>(block_of_eight);
+        voxel_[static_cast<std::size_t>(z) * 64 + static_cast<std::size_t>(bit)] =
             block_colour[bi] != 0
                 ? block_colour[bi]
                 : colours_[blocks[bi]->tag_index((gz & 7) * 64 + (gy & 7) * 8 + (gx & 7))];
@@ -523,7 +524,7 @@ OtBytes encode_ot(const VoxelGrid& grid, VoxelColoring coloring) {
   const std::size_t nodes = encoder.encode(out.buffer.get() + kHeadRoom);
   const std::string text = octomap_header(false, "ColorOcTree", nodes, grid.voxel_mm());
   char* start = out.buffer.get() + kHeadRoom - text.size();
-  std::memcpy(start, text.data(), text.size());
+  std::copy(text.begin(), text.end(), start);
   out.bytes = std::string_view(start, text.size() + encoder.size());
   return out;
 }

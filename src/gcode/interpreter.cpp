@@ -133,7 +133,7 @@ void GcodeInterpreter::add_finding(Finding f) {
     }
 }
 
-Status GcodeInterpreter::warn(long line, std::string_view text, std::string message,
+Status GcodeInterpreter::warn(long line, std::string_view text, const std::string& message,
                               std::string code) {
   if (options_.strict)
     return bad_input(message + " in \"" + excerpt(text) + "\" (--strict)", {}, line);

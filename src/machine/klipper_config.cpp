@@ -229,7 +229,7 @@ Status apply_printer_section(const std::vector<KlipperSection>& secs, const fs::
     return bad_input("[printer] has no kinematics", path.string());
   }
   std::optional<double> v, a, scv, mcr, atd, zv, za;
-  for (auto st :
+  for (const auto& st :
        {num(printer, "max_velocity", 1e-3, 1e5, v), num(printer, "max_accel", 1e-3, 1e7, a),
         num(printer, "square_corner_velocity", 0, 1e4, scv),
         num(printer, "minimum_cruise_ratio", 0, 0.99, mcr),
@@ -279,8 +279,9 @@ Status apply_steppers(const std::vector<KlipperSection>& secs, const fs::path& p
       return bad_input("no [" + name + "] section (Klipper requires one for " + p.name + ")",
                        path.string());
     std::optional<double> lo, hi, hs;
-    for (auto st : {num(s, "position_min", -1e4, 1e4, lo), num(s, "position_max", -1e4, 1e4, hi),
-                    num(s, "homing_speed", 1e-3, 1e4, hs)})
+    for (const auto& st :
+         {num(s, "position_min", -1e4, 1e4, lo), num(s, "position_max", -1e4, 1e4, hi),
+          num(s, "homing_speed", 1e-3, 1e4, hs)})
       if (!st) return st.error();
     if (!hi)
       return bad_input("[" + name + "] has no position_max (Klipper requires it)", path.string());
@@ -323,7 +324,7 @@ Status apply_steppers(const std::vector<KlipperSection>& secs, const fs::path& p
 Status apply_extruder(const KlipperSection* e, PrinterProfile& p) {
   auto num = number_option;
   std::optional<double> nd, fd, ev, ea, mt;
-  for (auto st :
+  for (const auto& st :
        {num(e, "nozzle_diameter", 0.05, 5, nd), num(e, "filament_diameter", 0.5, 5, fd),
         num(e, "max_extrude_only_velocity", 1e-3, 1e5, ev),
         num(e, "max_extrude_only_accel", 1e-3, 1e7, ea), num(e, "min_extrude_temp", 0, 500, mt)})
@@ -347,9 +348,10 @@ Status apply_extruder(const KlipperSection* e, PrinterProfile& p) {
 Status apply_firmware_retraction(const KlipperSection* r, const fs::path& path, PrinterProfile& p) {
   auto num = number_option;
   std::optional<double> len, spd, extra, uspd;
-  for (auto st : {num(r, "retract_length", 0, 100, len), num(r, "retract_speed", 1e-3, 1e4, spd),
-                  num(r, "unretract_extra_length", 0, 100, extra),
-                  num(r, "unretract_speed", 1e-3, 1e4, uspd)})
+  for (const auto& st :
+       {num(r, "retract_length", 0, 100, len), num(r, "retract_speed", 1e-3, 1e4, spd),
+        num(r, "unretract_extra_length", 0, 100, extra),
+        num(r, "unretract_speed", 1e-3, 1e4, uspd)})
     if (!st) return st.error();
   // Klipper's defaults: retract_length 0, retract_speed 20, unretract_speed 10.
   p.firmware_retraction = true;
