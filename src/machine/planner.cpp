@@ -88,9 +88,9 @@ double axis_limited_accel(const MotionLimits& L, const Eigen::Vector4d& unit, do
 double estimator_type_accel(const MotionLimits& L, double e_mm, bool e_only, double xy_len) {
   const bool extrude = e_mm > 0 && !(L.orca_compat && xy_len == 0);
   const int type = e_only ? 1 : (extrude ? 0 : 2);
-  return std::min(type == 1 ? L.retract_accel_mm_s2
-                            : (type == 0 ? L.print_accel_mm_s2 : L.travel_accel_mm_s2),
-                  L.accel_cap_mm_s2[type]);
+  return std::min(
+      type == 1 ? L.retract_accel_mm_s2 : (type == 0 ? L.print_accel_mm_s2 : L.travel_accel_mm_s2),
+      L.accel_cap_mm_s2[type]);
 }
 
 double block_accel(const MotionLimits& L, const Eigen::Vector4d& unit, double e_mm, bool e_only,
@@ -348,8 +348,8 @@ void Planner::add(const Move& move, MoveSink& sink) {
   if (L.orca_compat) {
     if (xy_len > 0 && previous_xy_len_ > 0 && !e_only) {
       const Eigen::Vector2d dir = b.delta_mm.head<2>() / xy_len;
-      v = orca_bend_speed(estimator_type_accel(L, move.e_mm, e_only, xy_len), dir,
-                          previous_xy_dir_, xy_len, v);
+      v = orca_bend_speed(estimator_type_accel(L, move.e_mm, e_only, xy_len), dir, previous_xy_dir_,
+                          xy_len, v);
     }
     previous_xy_len_ = xy_len;
     if (xy_len > 0) previous_xy_dir_ = b.delta_mm.head<2>() / xy_len;
@@ -374,10 +374,14 @@ void Planner::add(const Move& move, MoveSink& sink) {
       // Orca plans an arc (G2/G3) as one block: its segments join without a jerk limit.
       const bool same_arc =
           L.orca_compat && move.line == previous_line_ && move.line > 0 && xy_len > 0;
-      JerkJunction j{
-          b.unit,     previous_unit_,
-          axis_speed, previous_axis_speed_mm_s_, b.nominal_speed_mm_s, previous_nominal_speed_mm_s_,
-          safe,       previous_safe_speed_mm_s_};
+      JerkJunction j{b.unit,
+                     previous_unit_,
+                     axis_speed,
+                     previous_axis_speed_mm_s_,
+                     b.nominal_speed_mm_s,
+                     previous_nominal_speed_mm_s_,
+                     safe,
+                     previous_safe_speed_mm_s_};
       vmax_junction = jerk_junction_speed(L, j, same_arc);
     }
   }
