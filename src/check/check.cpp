@@ -30,7 +30,7 @@ Finding make_finding(Severity severity, std::string code, std::string message,
   f.severity = severity;
   f.code = std::move(code);
   f.message = std::move(message);
-  f.position_mm = position;
+  f.position_mm = std::move(position);
   f.count = count;
   return f;
 }

@@ -335,11 +335,11 @@ std::vector<char> certified_fans(const Mesh& mesh) {
     const Vec3 n = (v[t[1]] - v[t[0]]).cross(v[t[2]] - v[t[0]]);
     for (auto k : t) normal[k] += n;
   }
-  std::vector<std::int8_t> axis(v.size()), sign(v.size());
+  std::vector<std::int16_t> axis(v.size()), sign(v.size());
   for (std::size_t k = 0; k < v.size(); ++k) {
     int ax = 0;
     normal[k].cwiseAbs().maxCoeff(&ax);
-    axis[k] = static_cast<std::int8_t>(ax);
+    axis[k] = static_cast<std::int16_t>(ax);
     sign[k] = normal[k][ax] > 0 ? 1 : -1;
   }
   // Winding of the link (the edges opposite the vertex, a -> b for each face (v, a, b)):

@@ -94,10 +94,10 @@ std::vector<std::pair<std::size_t, double>> order_statistics_by_histogram(
   std::vector<std::size_t> bins(bin_of);
   bins.erase(std::unique(bins.begin(), bins.end()), bins.end());
   std::vector<std::vector<double>> values(bins.size());
-  std::vector<std::int8_t> list_of(count.size(), -1);  // bins.size() <= 7
+  std::vector<std::int16_t> list_of(count.size(), -1);  // bins.size() <= 7
   for (std::size_t k = 0; k < bins.size(); ++k) {
     values[k].reserve(count[bins[k]]);
-    list_of[bins[k]] = static_cast<std::int8_t>(k);
+    list_of[bins[k]] = static_cast<std::int16_t>(k);
   }
   if (!bins.empty())
     for (const double v : d)

@@ -130,7 +130,7 @@ TEST(DepositMesh, EnclosedCavityIsFilledAndTouchingTheGridLimitsWorks) {
   EXPECT_EQ(dm.mesh.triangles.size(), 12u);
   EXPECT_NEAR(dm.volume_mm3, 16 * 16 * 16 * std::pow(kVoxel, 3), 1e-9);
   // The outer-surface routine agrees on the filled volume.
-  const DepositSurface s = extract_outer_surface(g, Box3(Vec3(10, 20, 0), Vec3(11.6, 21.6, 1.6)));
+  const DepositSurface s = extract_outer_surface(g, Box3{Vec3(10, 20, 0), Vec3(11.6, 21.6, 1.6)});
   EXPECT_NEAR(dm.volume_mm3, static_cast<double>(s.filled_voxels) * std::pow(kVoxel, 3), 1e-9);
 }
 
