@@ -68,7 +68,9 @@ class Reader {
                        [&key](const char* k) { return key == k; }) == std::end(kPartKeys) ||
           (!is_part && key == "file"))
         return fail(where, unknown_key_message(key, is_part));
-      const std::string at = where + "." + key;
+      std::string at = where;
+      at += '.';
+      at += key;
       if (key == "file") continue;
       if (key == "printer" || key == "units" || key == "gcode" || key == "object") {
         if (!value.is_string() || value.get<std::string>().empty())

@@ -287,7 +287,7 @@ std::array<std::int16_t, 256> make_fill_table() {
           fill = i;  // two opposite corners empty: fill one
         if (fill >= 0) break;
       }
-    t[static_cast<std::size_t>(cfg)] = static_cast<std::int8_t>(fill);
+    t[static_cast<std::size_t>(cfg)] = static_cast<std::int16_t>(fill);
   }
   return t;
 }

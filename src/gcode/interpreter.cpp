@@ -721,9 +721,9 @@ Status GcodeInterpreter::arc_move(const GcodeCommand& c, std::string_view text,
   const double e_before = e_logical_mm_;
   if (auto st = motion_words(c, text, target, de); !st) return st;
   // A rejected arc leaves the position, E included, where it was (Marlin skips the command).
-  auto reject = [&](std::string message) {
+  auto reject = [&](const std::string& message) {
     e_logical_mm_ = e_before;
-    return warn(c.line, text, std::move(message), "bad_arc");
+    return warn(c.line, text, message, "bad_arc");
   };
   // Centre offset from the start: I/J, or from the radius R (Marlin G2_G3.cpp).
   Vec2 offset(c.get('I') * unit, c.get('J') * unit);
