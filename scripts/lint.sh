@@ -46,7 +46,7 @@ if [ "$mode" = all ] || [ "$mode" = --tidy ]; then
   # A finding in a header is reported once per source file that includes it: count and
   # show each place once.
   awk '/^\/.*: (warning|error):/ {show = !seen[$0]++; n = 4} n > 0 && show {print} {n--}' "$log"
-  findings=$(grep -E '^/.*: (warning|error):' "$log" | sort -u | wc -l)
+  findings=$({ grep -E '^/.*: (warning|error):' "$log" || true; } | sort -u | wc -l)
   times >>"$BUILD_DIR/clang-tidy.cpu"
   cpu=$(awk '{for (i = 1; i <= 2; ++i) {split($i, t, /[ms]/); s += (NR == 4 ? 1 : NR == 2 ? -1 : 0) * (60 * t[1] + t[2])}}
     END {printf "%.0f", s}' "$BUILD_DIR/clang-tidy.cpu")
