@@ -21,6 +21,7 @@
 // Settings keys follow PrusaSlicer's names (docs/slicer.md lists every key).
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -137,9 +138,19 @@ struct SliceSettings {
                                        std::string_view value);
 
 /// Keys of a PrusaSlicer config file that printtwin reads and the ones it ignores.
+/// Where a setting was given: a config file and its 1-based line.
+struct SettingSource {
+  std::string file;
+  long line = 0;
+};
+/// Setting key (PrusaSlicer's name) -> where its value came from. Keys given on the command
+/// line are absent.
+using SettingSources = std::map<std::string, SettingSource, std::less<>>;
+
 struct IniLoadReport {
   std::vector<std::string> used_keys;
   std::vector<std::string> ignored_keys;  ///< known to PrusaSlicer, not used by printtwin
+  SettingSources sources;                 ///< each used key's file and line (the last one)
 };
 
 /// Applies a flat PrusaSlicer .ini (`key = value` lines, `#` comments) to `settings`.
@@ -164,7 +175,8 @@ inline constexpr std::string_view kProjectConfigEntry = "Metadata/Slic3r_PE.conf
 
 /// Rejects impossible combinations (layer height above 80 % of the nozzle, negative or
 /// zero widths/speeds, density outside 0..100 %, ...) with a usage error naming the key.
-[[nodiscard]] Status validate_slice_settings(const SliceSettings& settings);
+[[nodiscard]] Status validate_slice_settings(const SliceSettings& settings,
+                                             const SettingSources& sources = {});
 
 /// Every setting as (PrusaSlicer key, value text) in a fixed order: the G-code header.
 [[nodiscard]] std::vector<std::pair<std::string, std::string>> slice_settings_entries(

@@ -86,10 +86,12 @@ int run_slice(const SliceOptions& o) {
     return report_error(st.error());
   SliceSettings settings;
   std::vector<std::string> ignored;
+  SettingSources sources;
   for (const auto& cfg : o.configs) {
     auto rep = load_prusa_ini(settings, cfg);
     if (!rep) return report_error(rep.error());
     ignored.insert(ignored.end(), rep->ignored_keys.begin(), rep->ignored_keys.end());
+    for (auto& [key, where] : rep->sources) sources[key] = std::move(where);
   }
   for (const auto& [flag, key] : flag_keys()) {
     auto it = o.flag_values.find(flag);
@@ -99,16 +101,18 @@ int run_slice(const SliceOptions& o) {
       e.message = "--" + flag + ": " + e.message;
       return report_error(e);
     }
+    sources.erase(key);
   }
   for (const auto& kv : o.sets) {
     std::string key, value;
     if (auto err = parse_pair(kv, key, value)) return report_error(*err);
     if (auto st = set_slice_setting(settings, key, value); !st) return report_error(st.error());
+    sources.erase(key);
   }
   if (!o.center.empty()) settings.center_mm = Vec2(o.center[0], o.center[1]);
   if (!o.place.empty()) settings.place_offset_mm = Vec3(o.place[0], o.place[1], o.place[2]);
   settings.estimate_time = !o.no_time;
-  if (auto st = validate_slice_settings(settings); !st) return report_error(st.error());
+  if (auto st = validate_slice_settings(settings, sources); !st) return report_error(st.error());
 
   auto printer = load_printer_profile(o.printer);
   if (!printer) return report_error(printer.error());

@@ -32,13 +32,17 @@ double seconds_since(Clock::time_point t0) {
 // A slicer variant's settings: defaults, its config, then its key=value list in order.
 Result<SliceSettings> slice_settings_of(const VariantSpec& spec) {
   SliceSettings s;
+  SettingSources sources;
   if (!spec.config_path.empty()) {
     auto loaded = load_prusa_ini(s, spec.config_path);
     if (!loaded) return loaded.error();
+    sources = std::move(loaded->sources);
   }
-  for (const auto& [key, value] : spec.settings)
+  for (const auto& [key, value] : spec.settings) {
     if (auto st = set_slice_setting(s, key, value); !st) return st.error();
-  if (auto st = validate_slice_settings(s); !st) return st.error();
+    sources.erase(key);
+  }
+  if (auto st = validate_slice_settings(s, sources); !st) return st.error();
   // compare simulates the G-code itself: the slicer's own time estimate (a second planner
   // run over the same text) would be thrown away.
   s.estimate_time = false;

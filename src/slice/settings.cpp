@@ -10,6 +10,7 @@
 #include "core/zip_reader.hpp"
 #include "printtwin/io.hpp"
 #include "printtwin/slice.hpp"
+#include "slice/project_settings.hpp"
 
 namespace printtwin {
 
@@ -296,6 +297,7 @@ Result<IniLoadReport> apply_prusa_ini(SliceSettings& settings, std::string_view 
       std::string msg = apply(settings, *e, value);
       if (!msg.empty()) return bad_input(msg, std::string(source), line_no);
       report.used_keys.emplace_back(key);
+      report.sources[std::string(key)] = SettingSource{std::string(source), line_no};
     }
     if (end == text.size()) break;
   }
@@ -312,7 +314,26 @@ Result<std::string> prusa_config_text(std::string bytes, const std::string& sour
                          "): save the project from PrusaSlicer, or give its settings as an .ini "
                          "(File > Export > Export Config)",
                      source);
-  return std::move(**entry);
+  std::string text = std::move(**entry);
+  // The objects' own settings override the project's, as in PrusaSlicer.
+  auto model_config = detail::zip_entry(bytes, detail::kProjectModelConfigEntry, source);
+  if (!model_config) return model_config.error();
+  auto ranges = detail::zip_entry(bytes, detail::kProjectLayerRangesEntry, source);
+  if (!ranges) return ranges.error();
+  auto overrides = detail::project_object_settings(model_config->value_or(std::string{}),
+                                                   ranges->value_or(std::string{}), source);
+  if (!overrides) return overrides.error();
+  if (!overrides->empty()) {
+    if (!text.empty() && text.back() != '\n') text += '\n';
+    text += "# The object's own settings (" + std::string(detail::kProjectModelConfigEntry) + ")\n";
+    for (const auto& [key, value] : *overrides) {
+      std::string one_line = value;  // a multi-line value keeps the .ini's escaped form
+      for (std::size_t at = 0; (at = one_line.find_first_of("\r\n", at)) != std::string::npos;)
+        one_line.replace(at, 1, one_line[at] == '\n' ? "\\n" : "\\r");
+      text += key + " = " + one_line + "\n";
+    }
+  }
+  return text;
 }
 
 Result<std::string> read_prusa_config(const std::filesystem::path& path) {
@@ -366,16 +387,23 @@ double min_thin_wall_width_mm(const SliceSettings& s) {
   return s.nozzle_diameter_mm / 3.0;  // PrusaSlicer prints thin walls down to about nozzle/3
 }
 
-Status validate_slice_settings(const SliceSettings& s) {
-  auto fail = [](const std::string& key, double v, const std::string& expected) -> Status {
-    return usage_error("setting '" + key + "' = " + format_number(v) +
-                       " is impossible: " + expected);
+Status validate_slice_settings(const SliceSettings& s, const SettingSources& sources) {
+  auto fail = [&sources](const std::string& key, double v, const std::string& expected) -> Status {
+    Error e =
+        usage_error("setting '" + key + "' = " + format_number(v) + " is impossible: " + expected);
+    if (auto it = sources.find(key); it != sources.end()) {
+      e.code = ErrorCode::bad_input;  // a config file's line, not a command-line mistake
+      e.file = it->second.file;
+      e.line = it->second.line;
+    }
+    return e;
   };
   if (!(s.nozzle_diameter_mm >= 0.05 && s.nozzle_diameter_mm <= 3.0))
     return fail("nozzle_diameter", s.nozzle_diameter_mm, "expected 0.05 to 3 mm");
   if (!(s.filament_diameter_mm >= 0.5 && s.filament_diameter_mm <= 5.0))
     return fail("filament_diameter", s.filament_diameter_mm, "expected 0.5 to 5 mm");
-  const double max_h = 0.8 * s.nozzle_diameter_mm;
+  // Rounded to the micron so that the message reads 0.32, not 0.32000000000000006.
+  const double max_h = std::round(0.8 * s.nozzle_diameter_mm * 1e6) / 1e6;
   if (!(s.layer_height_mm >= 0.01 && s.layer_height_mm <= max_h))
     return fail(
         "layer_height", s.layer_height_mm,

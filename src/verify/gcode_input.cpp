@@ -21,6 +21,7 @@ Result<GcodeInput> read_gcode_input(const std::filesystem::path& gcode_path) {
 Result<SliceSettings> verify_slice_settings(const VerifySettings& settings,
                                             std::vector<VerifyInput>* inputs) {
   SliceSettings slice_settings;
+  SettingSources sources;
   if (!settings.slice_config_ini.empty()) {
     std::string ini_text;
     auto ini_in = describe_input("slice_config", settings.slice_config_ini, &ini_text);
@@ -30,10 +31,13 @@ Result<SliceSettings> verify_slice_settings(const VerifySettings& settings,
     if (!config) return config.error();
     auto applied = apply_prusa_ini(slice_settings, *config, settings.slice_config_ini);
     if (!applied) return applied.error();
+    sources = std::move(applied->sources);
   }
-  for (const auto& [key, value] : settings.slice_overrides)
+  for (const auto& [key, value] : settings.slice_overrides) {
     if (auto st = set_slice_setting(slice_settings, key, value); !st) return st.error();
-  if (auto st = validate_slice_settings(slice_settings); !st) return st.error();
+    sources.erase(key);
+  }
+  if (auto st = validate_slice_settings(slice_settings, sources); !st) return st.error();
   return slice_settings;
 }
 

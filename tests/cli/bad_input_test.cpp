@@ -619,6 +619,22 @@ std::vector<Case> corpus() {
                3,
                {"bad.ini:2:", "expected 'key = value'", "perimeters 3"},
                10});
+  c.push_back({"slicer .ini with an impossible layer height",
+               [cube20](const fs::path& d) {
+                 put(d / "neg.ini", "nozzle_diameter = 0.4\nlayer_height = -1\n");
+                 return "slice " + q(cube20) + " --config " + q(d / "neg.ini") + " -o " +
+                        q(d / "x.gcode");
+               },
+               3,
+               {"neg.ini:2:", "layer_height", "-1", "(0.32 mm)"},
+               10});
+  c.push_back({"impossible layer height given on the command line",
+               [cube20](const fs::path& d) {
+                 return "slice " + q(cube20) + " --set layer_height=0.9 -o " + q(d / "x.gcode");
+               },
+               2,
+               {"layer_height", "0.9", "80 % of the nozzle"},
+               10});
   c.push_back({"printer profile that is not JSON",
                [cube20](const fs::path& d) {
                  put(d / "printer.json", "{ not json");
