@@ -53,6 +53,20 @@ inline int certain_orientation(const Vec3& a, const Vec3& b, const Vec3& c, cons
   return det > bound ? 1 : (-det > bound ? -1 : 0);
 }
 
+/// Sign of the orientation of the triangle (a, b, c) projected along axis `ax` (the other two
+/// coordinates in cyclic order) when floating point decides it for certain, else 0.
+/// Shewchuk's orient2d with its first error bound; dropping a coordinate is exact.
+inline int certain_orientation_2d(const Vec3& a, const Vec3& b, const Vec3& c, int ax) {
+  constexpr double kEps = 0x1p-53;
+  constexpr double kBound = (3.0 + 16.0 * kEps) * kEps;
+  const int x = (ax + 1) % 3, y = (ax + 2) % 3;
+  const double left = (a[x] - c[x]) * (b[y] - c[y]);
+  const double right = (a[y] - c[y]) * (b[x] - c[x]);
+  const double det = left - right;
+  const double bound = kBound * (std::abs(left) + std::abs(right));
+  return det > bound ? 1 : (-det > bound ? -1 : 0);
+}
+
 /// True when every point of `pts` lies strictly on one side of the plane of (a, b, c),
 /// certainly (so nothing of theirs can meet the plane's triangle).
 inline bool certainly_one_side(const Vec3& a, const Vec3& b, const Vec3& c,
@@ -111,6 +125,17 @@ bool faces_intersect(const Mesh& mesh, const std::array<std::uint32_t, 3>& f,
       if (k != a && k != b) s = k;
     if (filter && certain_orientation(v[a], v[b], v[f[r]], v[s]) != 0)
       return false;  // not coplanar
+    // Coplanar or nearly: projected along an axis where (a, b, r) certainly keeps its
+    // orientation (so the projection of their plane is one-to-one), r and s certainly on
+    // opposite sides of ab means no fold: false whether s is in that plane or not.
+    if (filter) {
+      const Vec3 n = (v[b] - v[a]).cross(v[f[r]] - v[a]);
+      int ax = 0;
+      n.cwiseAbs().maxCoeff(&ax);
+      const int o_r = certain_orientation_2d(v[a], v[b], v[f[r]], ax);
+      const int o_s = certain_orientation_2d(v[a], v[b], v[s], ax);
+      if (o_r != 0 && o_s != 0 && o_r != o_s) return false;
+    }
     const P3 pa = p(a), pb = p(b), pr = p(f[r]), ps = p(s);
     return CGAL::coplanar(pa, pb, pr, ps) &&
            CGAL::coplanar_orientation(pa, pb, pr, ps) == CGAL::POSITIVE;
@@ -138,6 +163,7 @@ bool faces_intersect(const Mesh& mesh, const std::array<std::uint32_t, 3>& f,
   if (filter && (certainly_one_side(f0, f1, f2, {&g0, &g1, &g2}) ||
                  certainly_one_side(g0, g1, g2, {&f0, &f1, &f2})))
     return false;
+
   return CGAL::do_intersect(T3(p(f[0]), p(f[1]), p(f[2])), T3(p(g[0]), p(g[1]), p(g[2])));
 }
 
@@ -299,20 +325,6 @@ FaceGrid build_face_grid(const std::vector<Box3>& boxes, const std::vector<std::
   return g;
 }
 
-/// Sign of the orientation of the triangle (a, b, c) projected along axis `ax` (the other two
-/// coordinates in cyclic order) when floating point decides it for certain, else 0.
-/// Shewchuk's orient2d with its first error bound; dropping a coordinate is exact.
-inline int certain_orientation_2d(const Vec3& a, const Vec3& b, const Vec3& c, int ax) {
-  constexpr double kEps = 0x1p-53;
-  constexpr double kBound = (3.0 + 16.0 * kEps) * kEps;
-  const int x = (ax + 1) % 3, y = (ax + 2) % 3;
-  const double left = (a[x] - c[x]) * (b[y] - c[y]);
-  const double right = (a[y] - c[y]) * (b[x] - c[x]);
-  const double det = left - right;
-  const double bound = kBound * (std::abs(left) + std::abs(right));
-  return det > bound ? 1 : (-det > bound ? -1 : 0);
-}
-
 /// Vertices whose fan of faces certainly meets itself only along its shared edges and at
 /// the vertex: projected along the axis nearest the vertex normal (exact), every face of the
 /// fan keeps one orientation for certain and the fan winds around the vertex exactly once,
@@ -378,17 +390,19 @@ inline bool share_certified_vertex(const std::array<std::uint32_t, 3>& f,
   return false;
 }
 
-/// A face of one cell, with what the pair tests read, side by side.
+/// A face of one cell, with what the pair tests read, side by side. `here` has bit a set
+/// when the face's box starts in this cell along axis a: the min corner of two boxes'
+/// overlap lies in this cell exactly when the two faces' bits cover all three axes.
 struct CellEntry {
   Box3 box;
-  Cell3 lo_cell;
   std::uint32_t face;
+  std::uint32_t here;
 };
 
 /// Tests the pairs of one cell's faces whose boxes overlap and whose overlap's min corner is
 /// in this cell (`here`), sweeping the faces in order of their boxes' min x; appends the
 /// intersecting ones to `out`.
-void test_cell(const Mesh& mesh, std::vector<CellEntry>& entries, const Cell3& here,
+void test_cell(const Mesh& mesh, std::vector<CellEntry>& entries,
                const std::vector<char>& certified, std::vector<std::array<std::uint32_t, 2>>& out) {
   std::sort(entries.begin(), entries.end(),
             [](const CellEntry& a, const CellEntry& b) { return a.box.min.x() < b.box.min.x(); });
@@ -397,10 +411,7 @@ void test_cell(const Mesh& mesh, std::vector<CellEntry>& entries, const Cell3& h
     const Box3& bf = ef.box;
     for (std::size_t j = i + 1; j < entries.size() && entries[j].box.min.x() <= bf.max.x(); ++j) {
       const CellEntry& eg = entries[j];
-      if (std::max(ef.lo_cell[0], eg.lo_cell[0]) != here[0] ||
-          std::max(ef.lo_cell[1], eg.lo_cell[1]) != here[1] ||
-          std::max(ef.lo_cell[2], eg.lo_cell[2]) != here[2])
-        continue;
+      if ((ef.here | eg.here) != 7U) continue;  // the pair's overlap starts in another cell
       const Box3& bg = eg.box;
       if (bf.min.y() > bg.max.y() || bg.min.y() > bf.max.y() || bf.min.z() > bg.max.z() ||
           bg.min.z() > bf.max.z())
@@ -439,9 +450,12 @@ std::vector<std::array<std::uint32_t, 2>> intersecting_pairs(const Mesh& mesh,
                         entries.clear();
                         for (std::size_t i = runs[ri].first; i < runs[ri].second; ++i) {
                           const std::uint32_t f = cell_faces[i];
-                          entries.push_back({boxes[f], lo_cell[f], f});
+                          const std::uint32_t bits = (lo_cell[f][0] == here[0] ? 1U : 0U) |
+                                                     (lo_cell[f][1] == here[1] ? 2U : 0U) |
+                                                     (lo_cell[f][2] == here[2] ? 4U : 0U);
+                          entries.push_back({boxes[f], f, bits});
                         }
-                        test_cell(mesh, entries, here, certified, local);
+                        test_cell(mesh, entries, certified, local);
                       }
                     });
   std::vector<std::array<std::uint32_t, 2>> pairs;
