@@ -96,6 +96,42 @@ inline bool segment_certainly_misses(const Vec3& p, const Vec3& q, const Vec3& a
   return (o1 > 0 || o2 > 0 || o3 > 0) && (o1 < 0 || o2 < 0 || o3 < 0);
 }
 
+/// The axis along which the plane of (a, b, c) is most nearly flat when projected (the
+/// largest component of its normal): coplanar faces keep their shapes best there.
+inline int projection_axis(const Vec3& a, const Vec3& b, const Vec3& c) {
+  int ax = 0;
+  (b - a).cross(c - a).cwiseAbs().maxCoeff(&ax);
+  return ax;
+}
+
+/// True when every point of `pts` lies certainly strictly outside edge uv of a triangle of
+/// orientation `o` (projected along `ax`): the edge's line separates them from it.
+inline bool certainly_beyond_2d(const Vec3& u, const Vec3& v, int o,
+                                std::initializer_list<const Vec3*> pts, int ax) {
+  for (const Vec3* q : pts)
+    if (certain_orientation_2d(u, v, *q, ax) != -o) return false;
+  return true;
+}
+
+/// True when the projections along `ax` of triangle abc and the points `pts` (a segment or
+/// a triangle) are certainly apart: a line through an edge of abc, or (for a segment) the
+/// segment's own line, separates them. Apart in projection means apart in space. This
+/// settles the coplanar pairs (flat caps, fans of slivers) that the 3D filters cannot.
+inline bool certainly_apart_2d(const Vec3& a, const Vec3& b, const Vec3& c,
+                               std::initializer_list<const Vec3*> pts, int ax) {
+  const int o = certain_orientation_2d(a, b, c, ax);
+  if (o == 0) return false;
+  if (certainly_beyond_2d(a, b, o, pts, ax) || certainly_beyond_2d(b, c, o, pts, ax) ||
+      certainly_beyond_2d(c, a, o, pts, ax))
+    return true;
+  if (pts.size() != 2) return false;
+  const Vec3& p = **pts.begin();
+  const Vec3& q = **(pts.begin() + 1);
+  const int sa = certain_orientation_2d(p, q, a, ax);
+  return sa != 0 && sa == certain_orientation_2d(p, q, b, ax) &&
+         sa == certain_orientation_2d(p, q, c, ax);
+}
+
 /// Do faces f and g intersect other than along what they share (PMP's rules)? A
 /// floating-point filter first: a pair it settles (nearly every pair of a mesh's
 /// neighbouring faces, which is most of what the broad phase hands over) gets the exact
@@ -152,8 +188,11 @@ bool faces_intersect(const Mesh& mesh, const std::array<std::uint32_t, 3>& f,
     const Vec3& fb = v[f[(i + 2) % 3]];
     const Vec3& ga = v[g[(j + 1) % 3]];
     const Vec3& gb = v[g[(j + 2) % 3]];
-    const bool f_edge_clear = filter && segment_certainly_misses(fa, fb, g0, g1, g2);
-    const bool g_edge_clear = filter && segment_certainly_misses(ga, gb, f0, f1, f2);
+    const int ax = filter ? projection_axis(f0, f1, f2) : 0;
+    const bool f_edge_clear = filter && (segment_certainly_misses(fa, fb, g0, g1, g2) ||
+                                         certainly_apart_2d(g0, g1, g2, {&fa, &fb}, ax));
+    const bool g_edge_clear = filter && (segment_certainly_misses(ga, gb, f0, f1, f2) ||
+                                         certainly_apart_2d(f0, f1, f2, {&ga, &gb}, ax));
     if (f_edge_clear && g_edge_clear) return false;
     const T3 tf(p(f[0]), p(f[1]), p(f[2]));
     const T3 tg(p(g[0]), p(g[1]), p(g[2]));
@@ -163,7 +202,12 @@ bool faces_intersect(const Mesh& mesh, const std::array<std::uint32_t, 3>& f,
   if (filter && (certainly_one_side(f0, f1, f2, {&g0, &g1, &g2}) ||
                  certainly_one_side(g0, g1, g2, {&f0, &f1, &f2})))
     return false;
-
+  if (filter) {
+    const int ax = projection_axis(f0, f1, f2);
+    if (certainly_apart_2d(f0, f1, f2, {&g0, &g1, &g2}, ax) ||
+        certainly_apart_2d(g0, g1, g2, {&f0, &f1, &f2}, ax))
+      return false;
+  }
   return CGAL::do_intersect(T3(p(f[0]), p(f[1]), p(f[2])), T3(p(g[0]), p(g[1]), p(g[2])));
 }
 
