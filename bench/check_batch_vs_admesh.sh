@@ -1,8 +1,11 @@
 #!/bin/sh
 # A folder of 40 STLs (the samples plus 34 OpenSCAD parts of about 1k to 250k triangles)
 # checked in one `printtwin check DIR --summary --junit` run, against admesh run on each file
-# in turn (its default checks). Median of 3 wall-clock runs each; also user+sys CPU.
-#   [FORMAT=binary] bench/check_batch_vs_admesh.sh [build-dir] [parts-dir]
+# in turn (its default checks). printtwin checks the parts in parallel on every core (the
+# core count is printed), admesh is one single-threaded process per file. Runs alternate
+# between the tools; the median of RUNS (3) wall-clock runs each, and its user+sys CPU.
+#   [FORMAT=binary] [RUNS=n] [BASE=other-build-dir] bench/check_batch_vs_admesh.sh [build-dir] [parts-dir]
+# BASE times a second build's printtwin in the same alternation (before/after a change).
 # parts-dir is kept when given (made when missing), else a temporary folder is used.
 # OpenSCAD writes ASCII STL; FORMAT=binary times binary copies of the same parts instead
 # (written by `admesh -c -b`, no check or fix).
@@ -44,25 +47,41 @@ fi
 count=$(ls "$parts"/*.stl | wc -l)
 tris=$("$cli" check "$parts" 2>/dev/null | awk -F'|' 'NR > 4 { s += $6 } END { print s }')
 
-# median wall time in seconds of 3 runs of "$@" (output discarded; exit code ignored), and
-# the CPU seconds (user + sys) of the median run.
-median3() {
-  for i in 1 2 3; do
-    /usr/bin/time -f '%e %U %S' -o "$tmp/t" "$@" >/dev/null 2>&1 || true
-    tail -n 1 "$tmp/t" | awk '{ printf "%.3f %.3f\n", $1, $2 + $3 }'
-  done | sort -n | sed -n 2p
+# Each command run RUNS times (default 3), the three commands alternating so that they share
+# the machine's load; per command the median wall time in seconds and the CPU seconds
+# (user + sys, all threads) of that median run.
+runs=${RUNS:-3}
+timed() {  # timed NAME CMD...: one run, appends "wall cpu" to $tmp/NAME
+  name=$1
+  shift
+  /usr/bin/time -f '%e %U %S' -o "$tmp/t" "$@" >/dev/null 2>&1 || true
+  tail -n 1 "$tmp/t" | awk '{ printf "%.3f %.3f\n", $1, $2 + $3 }' >> "$tmp/$name"
 }
-
-set -- $(median3 "$cli" check "$parts" --summary "$tmp/s.md" --junit "$tmp/j.xml")
+median() { sort -n "$tmp/$1" | sed -n "$(( (runs + 1) / 2 ))p"; }
+load_before=$(cut -d' ' -f1-3 /proc/loadavg)
+i=0
+while [ "$i" -lt "$runs" ]; do
+  timed ours "$cli" check "$parts" --summary "$tmp/s.md" --junit "$tmp/j.xml"
+  timed ad sh -c 'for f in "$1"/*.stl; do admesh "$f" >/dev/null 2>&1; done' sh "$parts"
+  timed nosi "$cli" check "$parts" --summary "$tmp/s.md" --no-self-intersections
+  [ -n "${BASE:-}" ] && timed base "$BASE/src/printtwin" check "$parts" --summary "$tmp/s.md" --junit "$tmp/j.xml"
+  i=$((i + 1))
+done
+set -- $(median ours)
 ours_wall=$1 ours_cpu=$2
-set -- $(median3 "$cli" check "$parts" --summary "$tmp/s.md" --no-self-intersections)
+set -- $(median nosi)
 nosi_wall=$1 nosi_cpu=$2
-set -- $(median3 sh -c 'for f in "$1"/*.stl; do admesh "$f" >/dev/null 2>&1; done' sh "$parts")
+set -- $(median ad)
 ad_wall=$1 ad_cpu=$2
 
-printf '%d files, %s triangles in all\n' "$count" "$tris"
+printf '%d files, %s triangles in all; %s cores; load average %s before, %s after\n' \
+  "$count" "$tris" "$(nproc)" "$load_before" "$(cut -d' ' -f1-3 /proc/loadavg)"
 printf '%-52s %8s s wall %8s s CPU\n' "printtwin check DIR --summary --junit" "$ours_wall" "$ours_cpu"
 printf '%-52s %8s s wall %8s s CPU\n' "printtwin check DIR --no-self-intersections" "$nosi_wall" "$nosi_cpu"
 printf '%-52s %8s s wall %8s s CPU\n' "admesh FILE, each file in turn" "$ad_wall" "$ad_cpu"
+if [ -n "${BASE:-}" ]; then
+  set -- $(median base)
+  printf '%-52s %8s s wall %8s s CPU\n' "BASE: printtwin check DIR --summary --junit" "$1" "$2"
+fi
 awk -v a="$ours_wall" -v b="$ad_wall" -v c="$ours_cpu" -v d="$ad_cpu" \
   'BEGIN { printf "ratio printtwin / admesh: %.2f wall, %.2f CPU\n", a / b, c / d }'

@@ -276,14 +276,22 @@ struct RepairCounters {
   std::size_t backwards_edges = 0;  ///< facet edges of the result whose neighbour runs the same way
   std::size_t holes_filled = 0;     ///< patches of added faces (connected over shared edges)
   std::size_t parts = 0;            ///< shells of the result
+  /// Open facet edges of the input whose two ends each lie within kNearbyEdgeMm of the ends
+  /// of another open facet edge running the other way (not at them): seams that welding
+  /// vertices within that tolerance (admesh --nearby) would close. The repair does not weld.
+  std::size_t nearby_edges = 0;
 };
+
+/// The tolerance of RepairCounters::nearby_edges.
+inline constexpr double kNearbyEdgeMm = 0.01;
 
 /// Counts what changed from `before` to `after` (see RepairCounters). `after` must reuse the
 /// input's vertex positions (repair_mesh moves none).
 [[nodiscard]] RepairCounters measure_repair(const Mesh& before, const Mesh& after);
 
 /// "edges fixed 0, facets removed 2, facets added 2, facets reversed 2, backwards edges 0,
-/// holes filled 1, degenerate facets 0, parts 1": every counter, admesh's names and order.
+/// holes filled 1, degenerate facets 0, parts 1, nearby edges 0": every counter, admesh's
+/// names and order, then the nearby edges.
 [[nodiscard]] std::string repair_counters_text(const RepairCounters& c);
 
 struct RepairResult {

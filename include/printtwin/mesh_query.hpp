@@ -35,6 +35,11 @@ class MeshQuery {
   /// Builds the BVH. Fails only when the ray-tracing device cannot be created or the
   /// mesh has no triangles.
   [[nodiscard]] static Result<MeshQuery> build(const Mesh& mesh);
+  /// A BVH for ray queries only (first_hit, crossings, inside), for one pass of rays: built
+  /// about four times faster (Embree's low-quality Morton builder, no closest-point data)
+  /// and traced a little slower; the hits are the same. Closest-point queries on it are not
+  /// allowed.
+  [[nodiscard]] static Result<MeshQuery> build_for_rays(const Mesh& mesh);
 
   MeshQuery(MeshQuery&&) noexcept;
   MeshQuery& operator=(MeshQuery&&) noexcept;
@@ -67,6 +72,7 @@ class MeshQuery {
   friend struct detail::MeshQueryAccess;  // batched queries of the deviation stage (src/mesh/)
   struct Impl;
   explicit MeshQuery(std::unique_ptr<Impl> impl);
+  static Result<MeshQuery> build_scene(const Mesh& mesh, bool rays_only);
   std::unique_ptr<Impl> impl_;
 };
 

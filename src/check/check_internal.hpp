@@ -1,6 +1,8 @@
 #pragma once
 // Internals shared by the src/check/*.cpp files (not installed, not public).
+#include <algorithm>
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <utility>
 #include <vector>
@@ -12,6 +14,24 @@ namespace printtwin::detail {
 /// Zero area: a repeated index, or vertices collinear to ~1e-8 of the longest edge.
 bool is_degenerate_face(const Mesh& mesh, std::size_t f);
 Vec3 face_centroid(const Mesh& mesh, std::size_t f);
+
+/// Stable LSD radix sort of `items` by `key(item)` (an unsigned integer below 2^key_bits),
+/// at most 12 bits per pass: equal keys keep their order, so ties stay in insertion order.
+template <class T, class KeyFn>
+void radix_sort_stable(std::vector<T>& items, KeyFn key, int key_bits) {
+  const int passes = (key_bits + 11) / 12;
+  const int digit_bits = (key_bits + passes - 1) / passes;
+  const std::size_t buckets = std::size_t{1} << digit_bits;
+  std::vector<T> tmp(items.size());
+  std::vector<std::size_t> count(buckets + 1);
+  for (int shift = 0; shift < key_bits; shift += digit_bits) {
+    std::fill(count.begin(), count.end(), 0);
+    for (const T& x : items) ++count[((key(x) >> shift) & (buckets - 1)) + 1];
+    for (std::size_t b = 1; b <= buckets; ++b) count[b] += count[b - 1];
+    for (const T& x : items) tmp[count[(key(x) >> shift) & (buckets - 1)]++] = x;
+    items.swap(tmp);
+  }
+}
 
 struct UnionFind {
   explicit UnionFind(std::size_t n);

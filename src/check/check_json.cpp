@@ -149,7 +149,8 @@ std::string check_report_to_json(const CheckReport& r, const CheckSource& source
                        {"backwards_edges", k.backwards_edges},
                        {"holes_filled", k.holes_filled},
                        {"degenerate_facets", k.degenerate_facets},
-                       {"parts", k.parts}}},
+                       {"parts", k.parts},
+                       {"nearby_edges", k.nearby_edges}}},
                      {"changes", changes},
                      {"after", health_json(repair->after, Vec3::Zero())}};
   }

@@ -42,62 +42,50 @@ void UnionFind::unite(std::uint32_t a, std::uint32_t b) {
 
 UnionFind::UnionFind(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0U); }
 
-namespace {
-
-/// Stable LSD radix sort of `items` by `key(item)` (an unsigned integer below 2^key_bits),
-/// at most 12 bits per pass: equal keys keep their order, so ties stay in insertion order.
-template <class T, class KeyFn>
-void radix_sort_stable(std::vector<T>& items, KeyFn key, int key_bits) {
-  const int passes = (key_bits + 11) / 12;
-  const int digit_bits = (key_bits + passes - 1) / passes;
-  const std::size_t buckets = std::size_t{1} << digit_bits;
-  std::vector<T> tmp(items.size());
-  std::vector<std::size_t> count(buckets + 1);
-  for (int shift = 0; shift < key_bits; shift += digit_bits) {
-    std::fill(count.begin(), count.end(), 0);
-    for (const T& x : items) ++count[((key(x) >> shift) & (buckets - 1)) + 1];
-    for (std::size_t b = 1; b <= buckets; ++b) count[b] += count[b - 1];
-    for (const T& x : items) tmp[count[(key(x) >> shift) & (buckets - 1)]++] = x;
-    items.swap(tmp);
-  }
-}
-
-/// Bits needed for values below `n` (at least 1).
-int bits_for(std::size_t n) {
-  int b = 1;
-  while (b < 64 && (std::uint64_t{1} << b) < n) ++b;
-  return b;
-}
-
-}  // namespace
-
 EdgeTable build_edge_table(const Mesh& mesh, const std::vector<char>& skip_face) {
   EdgeTable table;
-  table.half_edges.reserve(3 * mesh.triangles.size());
+  const std::size_t nv = mesh.vertices_mm.size();
+  const auto kept = [&](std::size_t f) { return skip_face.empty() || skip_face[f] == 0; };
+  // Sorted by (lo, hi, face): half-edges are placed by lo with a counting sort in face order,
+  // then each vertex's few half-edges are sorted by hi, stably (one face never holds an
+  // undirected edge twice once repeated indices are skipped; if it did, both would sit
+  // together in face order). A vertex has about six half-edges starting at it: insertion
+  // sort, or a stable sort for a large fan.
+  std::vector<std::uint32_t> start(nv + 1, 0);
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
-    if (!skip_face.empty() && skip_face[f] != 0) continue;
+    if (!kept(f)) continue;
+    const auto& t = mesh.triangles[f];
+    for (int k = 0; k < 3; ++k) ++start[std::size_t{std::min(t[k], t[(k + 1) % 3])} + 1];
+  }
+  for (std::size_t v = 1; v <= nv; ++v) start[v] += start[v - 1];
+  table.half_edges.resize(start[nv]);
+  std::vector<std::uint32_t> next(start.begin(), start.end() - 1);
+  for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+    if (!kept(f)) continue;
     const auto& t = mesh.triangles[f];
     for (int k = 0; k < 3; ++k) {
       const std::uint32_t a = t[k];
       const std::uint32_t b = t[(k + 1) % 3];
-      table.half_edges.push_back(
-          {std::min(a, b), std::max(a, b), static_cast<std::uint32_t>(f), a < b});
+      const std::uint32_t lo = std::min(a, b);
+      table.half_edges[next[lo]++] = {lo, std::max(a, b), static_cast<std::uint32_t>(f), a < b};
     }
   }
-  // Sorted by (lo, hi, face): a stable radix sort by (lo, hi) of half-edges pushed in face
-  // order (one face never holds an undirected edge twice once repeated indices are skipped;
-  // if it did, both would sit together in push order).
-  const int vbits = bits_for(mesh.vertices_mm.size());
-  if (2 * vbits <= 64) {
-    radix_sort_stable(
-        table.half_edges,
-        [vbits](const HalfEdge& e) { return (std::uint64_t{e.lo} << vbits) | e.hi; }, 2 * vbits);
-  } else {
-    std::stable_sort(table.half_edges.begin(), table.half_edges.end(),
-                     [](const HalfEdge& x, const HalfEdge& y) {
-                       return x.lo != y.lo ? x.lo < y.lo : x.hi < y.hi;
-                     });
+  const auto by_hi = [](const HalfEdge& x, const HalfEdge& y) { return x.hi < y.hi; };
+  for (std::size_t v = 0; v < nv; ++v) {
+    const auto first = table.half_edges.begin() + start[v];
+    const auto last = table.half_edges.begin() + start[v + 1];
+    if (last - first > 32) {
+      std::stable_sort(first, last, by_hi);
+      continue;
+    }
+    for (auto i = first + 1; i < last; ++i) {
+      const HalfEdge e = *i;
+      auto j = i;
+      for (; j > first && e.hi < (j - 1)->hi; --j) *j = *(j - 1);
+      *j = e;
+    }
   }
+  table.groups.reserve(table.half_edges.size() / 2 + 1);
   for (std::size_t i = 0; i < table.half_edges.size();) {
     std::size_t j = i + 1;
     while (j < table.half_edges.size() && table.half_edges[j].lo == table.half_edges[i].lo &&
@@ -111,37 +99,54 @@ EdgeTable build_edge_table(const Mesh& mesh, const std::vector<char>& skip_face)
 
 std::vector<char> duplicate_or_index_degenerate_faces(const Mesh& mesh, std::size_t* duplicates) {
   const std::size_t n = mesh.triangles.size();
+  const std::size_t nv = mesh.vertices_mm.size();
   std::vector<char> skip(n, 0);
-  std::vector<std::pair<std::array<std::uint32_t, 3>, std::uint32_t>> keys;
-  keys.reserve(n);
-  for (std::size_t f = 0; f < n; ++f) {
+  // Faces by their lowest vertex (a counting sort in face order), then within each vertex's
+  // few faces every face whose vertex set an earlier face already has is a repeat: the
+  // first face stays, its repeats are marked.
+  const auto sorted = [&](std::size_t f) {
     auto t = mesh.triangles[f];
+    std::sort(t.begin(), t.end());
+    return t;
+  };
+  std::vector<std::uint32_t> start(nv + 1, 0);
+  for (std::size_t f = 0; f < n; ++f) {
+    const auto& t = mesh.triangles[f];
     if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) {
       skip[f] = 1;
       continue;
     }
-    std::sort(t.begin(), t.end());
-    keys.push_back({t, static_cast<std::uint32_t>(f)});
+    ++start[std::size_t{std::min({t[0], t[1], t[2]})} + 1];
   }
-  // Sorted by vertex set; among equal sets the lowest face first (stable sort of keys pushed
-  // in face order), so the first face stays and its repeats are marked.
-  const int vbits = bits_for(mesh.vertices_mm.size());
-  if (3 * vbits <= 64) {
-    radix_sort_stable(
-        keys,
-        [vbits](const std::pair<std::array<std::uint32_t, 3>, std::uint32_t>& k) {
-          return (((std::uint64_t{k.first[0]} << vbits) | k.first[1]) << vbits) | k.first[2];
-        },
-        3 * vbits);
-  } else {
-    std::sort(keys.begin(), keys.end());
+  for (std::size_t v = 1; v <= nv; ++v) start[v] += start[v - 1];
+  std::vector<std::pair<std::array<std::uint32_t, 3>, std::uint32_t>> keys(start[nv]);
+  std::vector<std::uint32_t> next(start.begin(), start.end() - 1);
+  for (std::size_t f = 0; f < n; ++f) {
+    if (skip[f] != 0) continue;
+    const auto t = sorted(f);
+    keys[next[t[0]]++] = {t, static_cast<std::uint32_t>(f)};
   }
   std::size_t dup = 0;
-  for (std::size_t i = 1; i < keys.size(); ++i)
-    if (keys[i].first == keys[i - 1].first) {
-      skip[keys[i].second] = 1;
-      ++dup;
+  for (std::size_t v = 0; v < nv; ++v) {
+    const auto first = keys.begin() + start[v];
+    const auto last = keys.begin() + start[v + 1];
+    if (last - first > 32) {  // a large fan: sorted by vertex set, faces ascending in a set
+      std::sort(first, last);
+      for (auto i = first + 1; i < last; ++i)
+        if (i->first == (i - 1)->first) {
+          skip[i->second] = 1;
+          ++dup;
+        }
+      continue;
     }
+    for (auto i = first + 1; i < last; ++i)
+      for (auto j = first; j < i; ++j)
+        if (j->first == i->first) {
+          skip[i->second] = 1;
+          ++dup;
+          break;
+        }
+  }
   if (duplicates != nullptr) *duplicates = dup;
   return skip;
 }

@@ -112,7 +112,9 @@ OrientationAdvice advise_orientation(const Mesh& mesh, const CheckSettings& s) {
       key = (key << 8) | static_cast<std::uint64_t>(std::lround(n[a] * 100) + 100);
     keyed.push_back((key << 32) | f);
   }
-  std::sort(keyed.begin(), keyed.end());
+  // Sorted by key, faces ascending within a key (pushed in face order; the sort is stable).
+  detail::radix_sort_stable(
+      keyed, [](std::uint64_t k) { return k >> 32; }, 24);
   std::vector<std::pair<double, Vec3>> flat;
   for (std::size_t i = 0; i < keyed.size();) {
     std::size_t j = i;

@@ -7,6 +7,7 @@
 // (reversed); what is left over was removed (input) or added (result).
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <tuple>
@@ -106,6 +107,53 @@ FacetEdges facet_edges(const Mesh& m) {
     i = j;
   }
   return out;
+}
+
+/// RepairCounters::nearby_edges of `m` (its facet edges `e`) for the tolerance `tol`.
+std::size_t nearby_open_edges(const Mesh& m, const FacetEdges& e, double tol) {
+  struct Open {
+    Vec3 from, to;
+  };
+  std::vector<Open> open;
+  for (std::size_t s = 0; s < e.group.size(); ++s) {
+    if (e.group_size[e.group[s]] != 1) continue;
+    const auto& t = m.triangles[s / 3];
+    const std::uint32_t a = t[s % 3], b = t[(s % 3 + 1) % 3];
+    if (a != b) open.push_back({m.vertices_mm[a], m.vertices_mm[b]});
+  }
+  // The open edges by the cell (of edge `tol`) of their end; a partner's end lies in one of
+  // the 27 cells around an edge's start. Coordinates too large for cell numbers have none.
+  using Cell = std::array<std::int64_t, 3>;
+  const auto cell_of = [tol](const Vec3& p, Cell& c) {
+    for (int a = 0; a < 3; ++a) {
+      const double q = std::floor(p[a] / tol);
+      if (!(std::abs(q) < 1e15)) return false;
+      c[static_cast<std::size_t>(a)] = static_cast<std::int64_t>(q);
+    }
+    return true;
+  };
+  std::vector<std::pair<Cell, std::uint32_t>> by_end;
+  for (std::size_t i = 0; i < open.size(); ++i)
+    if (Cell c{}; cell_of(open[i].to, c)) by_end.emplace_back(c, static_cast<std::uint32_t>(i));
+  std::sort(by_end.begin(), by_end.end());
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < open.size(); ++i) {
+    Cell c{};
+    if (!cell_of(open[i].from, c)) continue;
+    bool found = false;
+    for (int d = 0; d < 27 && !found; ++d) {
+      const Cell n{c[0] + d % 3 - 1, c[1] + d / 3 % 3 - 1, c[2] + d / 9 - 1};
+      auto it = std::lower_bound(by_end.begin(), by_end.end(), std::make_pair(n, 0U));
+      for (; it != by_end.end() && it->first == n && !found; ++it) {
+        const Open& o = open[it->second];
+        found = it->second != i && (o.to - open[i].from).norm() <= tol &&
+                (o.from - open[i].to).norm() <= tol &&
+                !(o.to == open[i].from && o.from == open[i].to);
+      }
+    }
+    count += found ? 1 : 0;
+  }
+  return count;
 }
 
 }  // namespace
@@ -211,6 +259,7 @@ RepairCounters measure_repair(const Mesh& before, const Mesh& after) {
   c.degenerate_facets = hb.degenerate_faces;
   c.backwards_edges = 2 * ha.inconsistent_edges;
   c.parts = ha.shells;
+  c.nearby_edges = nearby_open_edges(before, eb, kNearbyEdgeMm);
   return c;
 }
 
@@ -223,7 +272,8 @@ std::string repair_counters_text(const RepairCounters& c) {
                                 {"backwards edges", c.backwards_edges},
                                 {"holes filled", c.holes_filled},
                                 {"degenerate facets", c.degenerate_facets},
-                                {"parts", c.parts}})
+                                {"parts", c.parts},
+                                {"nearby edges", c.nearby_edges}})
     t += (t.empty() ? "" : ", ") + std::string(name) + " " + std::to_string(n);
   return t;
 }

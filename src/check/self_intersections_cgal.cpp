@@ -53,6 +53,20 @@ inline int certain_orientation(const Vec3& a, const Vec3& b, const Vec3& c, cons
   return det > bound ? 1 : (-det > bound ? -1 : 0);
 }
 
+/// Sign of the orientation of the triangle (a, b, c) projected along axis `ax` (the other two
+/// coordinates in cyclic order) when floating point decides it for certain, else 0.
+/// Shewchuk's orient2d with its first error bound; dropping a coordinate is exact.
+inline int certain_orientation_2d(const Vec3& a, const Vec3& b, const Vec3& c, int ax) {
+  constexpr double kEps = 0x1p-53;
+  constexpr double kBound = (3.0 + 16.0 * kEps) * kEps;
+  const int x = (ax + 1) % 3, y = (ax + 2) % 3;
+  const double left = (a[x] - c[x]) * (b[y] - c[y]);
+  const double right = (a[y] - c[y]) * (b[x] - c[x]);
+  const double det = left - right;
+  const double bound = kBound * (std::abs(left) + std::abs(right));
+  return det > bound ? 1 : (-det > bound ? -1 : 0);
+}
+
 /// True when every point of `pts` lies strictly on one side of the plane of (a, b, c),
 /// certainly (so nothing of theirs can meet the plane's triangle).
 inline bool certainly_one_side(const Vec3& a, const Vec3& b, const Vec3& c,
@@ -80,6 +94,42 @@ inline bool segment_certainly_misses(const Vec3& p, const Vec3& q, const Vec3& a
   const int o1 = certain_orientation(p, q, a, b), o2 = certain_orientation(p, q, b, c),
             o3 = certain_orientation(p, q, c, a);
   return (o1 > 0 || o2 > 0 || o3 > 0) && (o1 < 0 || o2 < 0 || o3 < 0);
+}
+
+/// The axis along which the plane of (a, b, c) is most nearly flat when projected (the
+/// largest component of its normal): coplanar faces keep their shapes best there.
+inline int projection_axis(const Vec3& a, const Vec3& b, const Vec3& c) {
+  int ax = 0;
+  (b - a).cross(c - a).cwiseAbs().maxCoeff(&ax);
+  return ax;
+}
+
+/// True when every point of `pts` lies certainly strictly outside edge uv of a triangle of
+/// orientation `o` (projected along `ax`): the edge's line separates them from it.
+inline bool certainly_beyond_2d(const Vec3& u, const Vec3& v, int o,
+                                std::initializer_list<const Vec3*> pts, int ax) {
+  for (const Vec3* q : pts)
+    if (certain_orientation_2d(u, v, *q, ax) != -o) return false;
+  return true;
+}
+
+/// True when the projections along `ax` of triangle abc and the points `pts` (a segment or
+/// a triangle) are certainly apart: a line through an edge of abc, or (for a segment) the
+/// segment's own line, separates them. Apart in projection means apart in space. This
+/// settles the coplanar pairs (flat caps, fans of slivers) that the 3D filters cannot.
+inline bool certainly_apart_2d(const Vec3& a, const Vec3& b, const Vec3& c,
+                               std::initializer_list<const Vec3*> pts, int ax) {
+  const int o = certain_orientation_2d(a, b, c, ax);
+  if (o == 0) return false;
+  if (certainly_beyond_2d(a, b, o, pts, ax) || certainly_beyond_2d(b, c, o, pts, ax) ||
+      certainly_beyond_2d(c, a, o, pts, ax))
+    return true;
+  if (pts.size() != 2) return false;
+  const Vec3& p = **pts.begin();
+  const Vec3& q = **(pts.begin() + 1);
+  const int sa = certain_orientation_2d(p, q, a, ax);
+  return sa != 0 && sa == certain_orientation_2d(p, q, b, ax) &&
+         sa == certain_orientation_2d(p, q, c, ax);
 }
 
 /// Do faces f and g intersect other than along what they share (PMP's rules)? A
@@ -111,6 +161,17 @@ bool faces_intersect(const Mesh& mesh, const std::array<std::uint32_t, 3>& f,
       if (k != a && k != b) s = k;
     if (filter && certain_orientation(v[a], v[b], v[f[r]], v[s]) != 0)
       return false;  // not coplanar
+    // Coplanar or nearly: projected along an axis where (a, b, r) certainly keeps its
+    // orientation (so the projection of their plane is one-to-one), r and s certainly on
+    // opposite sides of ab means no fold: false whether s is in that plane or not.
+    if (filter) {
+      const Vec3 n = (v[b] - v[a]).cross(v[f[r]] - v[a]);
+      int ax = 0;
+      n.cwiseAbs().maxCoeff(&ax);
+      const int o_r = certain_orientation_2d(v[a], v[b], v[f[r]], ax);
+      const int o_s = certain_orientation_2d(v[a], v[b], v[s], ax);
+      if (o_r != 0 && o_s != 0 && o_r != o_s) return false;
+    }
     const P3 pa = p(a), pb = p(b), pr = p(f[r]), ps = p(s);
     return CGAL::coplanar(pa, pb, pr, ps) &&
            CGAL::coplanar_orientation(pa, pb, pr, ps) == CGAL::POSITIVE;
@@ -127,8 +188,11 @@ bool faces_intersect(const Mesh& mesh, const std::array<std::uint32_t, 3>& f,
     const Vec3& fb = v[f[(i + 2) % 3]];
     const Vec3& ga = v[g[(j + 1) % 3]];
     const Vec3& gb = v[g[(j + 2) % 3]];
-    const bool f_edge_clear = filter && segment_certainly_misses(fa, fb, g0, g1, g2);
-    const bool g_edge_clear = filter && segment_certainly_misses(ga, gb, f0, f1, f2);
+    const int ax = filter ? projection_axis(f0, f1, f2) : 0;
+    const bool f_edge_clear = filter && (segment_certainly_misses(fa, fb, g0, g1, g2) ||
+                                         certainly_apart_2d(g0, g1, g2, {&fa, &fb}, ax));
+    const bool g_edge_clear = filter && (segment_certainly_misses(ga, gb, f0, f1, f2) ||
+                                         certainly_apart_2d(f0, f1, f2, {&ga, &gb}, ax));
     if (f_edge_clear && g_edge_clear) return false;
     const T3 tf(p(f[0]), p(f[1]), p(f[2]));
     const T3 tg(p(g[0]), p(g[1]), p(g[2]));
@@ -138,6 +202,12 @@ bool faces_intersect(const Mesh& mesh, const std::array<std::uint32_t, 3>& f,
   if (filter && (certainly_one_side(f0, f1, f2, {&g0, &g1, &g2}) ||
                  certainly_one_side(g0, g1, g2, {&f0, &f1, &f2})))
     return false;
+  if (filter) {
+    const int ax = projection_axis(f0, f1, f2);
+    if (certainly_apart_2d(f0, f1, f2, {&g0, &g1, &g2}, ax) ||
+        certainly_apart_2d(g0, g1, g2, {&f0, &f1, &f2}, ax))
+      return false;
+  }
   return CGAL::do_intersect(T3(p(f[0]), p(f[1]), p(f[2])), T3(p(g[0]), p(g[1]), p(g[2])));
 }
 
@@ -299,20 +369,6 @@ FaceGrid build_face_grid(const std::vector<Box3>& boxes, const std::vector<std::
   return g;
 }
 
-/// Sign of the orientation of the triangle (a, b, c) projected along axis `ax` (the other two
-/// coordinates in cyclic order) when floating point decides it for certain, else 0.
-/// Shewchuk's orient2d with its first error bound; dropping a coordinate is exact.
-inline int certain_orientation_2d(const Vec3& a, const Vec3& b, const Vec3& c, int ax) {
-  constexpr double kEps = 0x1p-53;
-  constexpr double kBound = (3.0 + 16.0 * kEps) * kEps;
-  const int x = (ax + 1) % 3, y = (ax + 2) % 3;
-  const double left = (a[x] - c[x]) * (b[y] - c[y]);
-  const double right = (a[y] - c[y]) * (b[x] - c[x]);
-  const double det = left - right;
-  const double bound = kBound * (std::abs(left) + std::abs(right));
-  return det > bound ? 1 : (-det > bound ? -1 : 0);
-}
-
 /// Vertices whose fan of faces certainly meets itself only along its shared edges and at
 /// the vertex: projected along the axis nearest the vertex normal (exact), every face of the
 /// fan keeps one orientation for certain and the fan winds around the vertex exactly once,
@@ -378,17 +434,19 @@ inline bool share_certified_vertex(const std::array<std::uint32_t, 3>& f,
   return false;
 }
 
-/// A face of one cell, with what the pair tests read, side by side.
+/// A face of one cell, with what the pair tests read, side by side. `here` has bit a set
+/// when the face's box starts in this cell along axis a: the min corner of two boxes'
+/// overlap lies in this cell exactly when the two faces' bits cover all three axes.
 struct CellEntry {
   Box3 box;
-  Cell3 lo_cell;
   std::uint32_t face;
+  std::uint32_t here;
 };
 
 /// Tests the pairs of one cell's faces whose boxes overlap and whose overlap's min corner is
 /// in this cell (`here`), sweeping the faces in order of their boxes' min x; appends the
 /// intersecting ones to `out`.
-void test_cell(const Mesh& mesh, std::vector<CellEntry>& entries, const Cell3& here,
+void test_cell(const Mesh& mesh, std::vector<CellEntry>& entries,
                const std::vector<char>& certified, std::vector<std::array<std::uint32_t, 2>>& out) {
   std::sort(entries.begin(), entries.end(),
             [](const CellEntry& a, const CellEntry& b) { return a.box.min.x() < b.box.min.x(); });
@@ -397,10 +455,7 @@ void test_cell(const Mesh& mesh, std::vector<CellEntry>& entries, const Cell3& h
     const Box3& bf = ef.box;
     for (std::size_t j = i + 1; j < entries.size() && entries[j].box.min.x() <= bf.max.x(); ++j) {
       const CellEntry& eg = entries[j];
-      if (std::max(ef.lo_cell[0], eg.lo_cell[0]) != here[0] ||
-          std::max(ef.lo_cell[1], eg.lo_cell[1]) != here[1] ||
-          std::max(ef.lo_cell[2], eg.lo_cell[2]) != here[2])
-        continue;
+      if ((ef.here | eg.here) != 7U) continue;  // the pair's overlap starts in another cell
       const Box3& bg = eg.box;
       if (bf.min.y() > bg.max.y() || bg.min.y() > bf.max.y() || bf.min.z() > bg.max.z() ||
           bg.min.z() > bf.max.z())
@@ -439,9 +494,12 @@ std::vector<std::array<std::uint32_t, 2>> intersecting_pairs(const Mesh& mesh,
                         entries.clear();
                         for (std::size_t i = runs[ri].first; i < runs[ri].second; ++i) {
                           const std::uint32_t f = cell_faces[i];
-                          entries.push_back({boxes[f], lo_cell[f], f});
+                          const std::uint32_t bits = (lo_cell[f][0] == here[0] ? 1U : 0U) |
+                                                     (lo_cell[f][1] == here[1] ? 2U : 0U) |
+                                                     (lo_cell[f][2] == here[2] ? 4U : 0U);
+                          entries.push_back({boxes[f], f, bits});
                         }
-                        test_cell(mesh, entries, here, certified, local);
+                        test_cell(mesh, entries, certified, local);
                       }
                     });
   std::vector<std::array<std::uint32_t, 2>> pairs;

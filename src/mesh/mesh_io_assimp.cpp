@@ -31,6 +31,7 @@
 #include <tuple>
 #include <vector>
 
+#include "core/plain_path.hpp"
 #include "printtwin/io.hpp"
 #include "printtwin/mesh.hpp"
 
@@ -363,6 +364,27 @@ Result<Mesh> welded_mesh(const aiScene& scene, double s, const std::string& name
       }
       mesh.triangles.push_back(tri);
     }
+  }
+  return mesh;
+}
+
+/// A binary STL whose size matches its header count, read straight from the bytes (already
+/// validated: size and finite coordinates): the same mesh as assimp's import followed by
+/// welded_mesh (vertices in order of first use, the same weld), without assimp's copies.
+/// PRINTTWIN_PLAIN=stl_direct reads it through assimp instead.
+Mesh binary_stl_mesh(std::string_view bytes, double s) {
+  const std::size_t count = stl_header_count(bytes);
+  Mesh mesh;
+  mesh.triangles.resize(count);
+  mesh.vertices_mm.reserve(count / 2 + 16);
+  PointIndex index(count / 2 + 16);
+  const char* record = bytes.data() + kStlHeaderBytes;
+  for (std::size_t t = 0; t < count; ++t, record += kStlTriangleBytes) {
+    std::array<float, 9> v{};
+    std::memcpy(v.data(), record + 12, sizeof(v));  // after the stored normal
+    for (int k = 0; k < 3; ++k)
+      mesh.triangles[t][k] = index.find_or_add(
+          Vec3(s * v[3 * k], s * v[3 * k + 1], s * v[3 * k + 2]), mesh.vertices_mm);
   }
   return mesh;
 }
@@ -903,6 +925,10 @@ Result<Mesh> load_mesh_from_memory(std::string_view bytes, const fs::path& path,
                        ? validate_binary_stl(bytes, name)
                        : validate_ascii_stl(bytes, name);
     if (!valid) return valid.error();
+    if (size_matches_binary && !detail::plain_path("stl_direct")) {
+      const double s = unit_factor(options.units) * options.scale;
+      return finish_mesh(binary_stl_mesh(bytes, s), s, name);
+    }
   }
 
   const double s = unit_factor(options.units) * options.scale;

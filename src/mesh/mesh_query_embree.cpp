@@ -175,7 +175,11 @@ MeshQuery::MeshQuery(MeshQuery&&) noexcept = default;
 MeshQuery& MeshQuery::operator=(MeshQuery&&) noexcept = default;
 MeshQuery::~MeshQuery() = default;
 
-Result<MeshQuery> MeshQuery::build(const Mesh& mesh) {
+Result<MeshQuery> MeshQuery::build(const Mesh& mesh) { return build_scene(mesh, false); }
+
+Result<MeshQuery> MeshQuery::build_for_rays(const Mesh& mesh) { return build_scene(mesh, true); }
+
+Result<MeshQuery> MeshQuery::build_scene(const Mesh& mesh, bool rays_only) {
   if (mesh.triangles.empty()) return bad_input("mesh has no triangles to query");
   auto impl = std::make_unique<Impl>();
   impl->mesh = mesh;
@@ -185,10 +189,15 @@ Result<MeshQuery> MeshQuery::build(const Mesh& mesh) {
   impl->device = rtcNewDevice("threads=0");
   if (impl->device == nullptr) return internal_error("cannot create the Embree device");
   impl->scene = rtcNewScene(impl->device);
-  rtcSetSceneFlags(impl->scene, RTC_SCENE_FLAG_ROBUST);
-  rtcSetSceneBuildQuality(impl->scene, RTC_BUILD_QUALITY_HIGH);
+  rtcSetSceneFlags(impl->scene, static_cast<RTCSceneFlags>(RTC_SCENE_FLAG_ROBUST |
+                                                           RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION));
+  // Ray hits do not depend on the BVH (the closest hit along the ray is the same); the
+  // quality only trades build time against traversal time.
+  const RTCBuildQuality quality = rays_only ? RTC_BUILD_QUALITY_LOW : RTC_BUILD_QUALITY_HIGH;
+  rtcSetSceneBuildQuality(impl->scene, quality);
 
   RTCGeometry geom = rtcNewGeometry(impl->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  rtcSetGeometryBuildQuality(geom, quality);
   auto* verts = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
                                                             RTC_FORMAT_FLOAT3, 3 * sizeof(float),
                                                             mesh.vertices_mm.size()));
@@ -210,7 +219,7 @@ Result<MeshQuery> MeshQuery::build(const Mesh& mesh) {
       }
       idx[3 * t + k] = mesh.triangles[t][k];
     }
-  impl->bounds.resize(mesh.triangles.size());
+  if (!rays_only) impl->bounds.resize(mesh.triangles.size());
   const auto down = [](double x) {
     const auto f = static_cast<float>(x);
     return static_cast<double>(f) > x ? std::nextafter(f, -std::numeric_limits<float>::infinity())
@@ -221,7 +230,7 @@ Result<MeshQuery> MeshQuery::build(const Mesh& mesh) {
     return static_cast<double>(f) < x ? std::nextafter(f, std::numeric_limits<float>::infinity())
                                       : f;
   };
-  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+  for (std::size_t t = 0; t < impl->bounds.size(); ++t) {
     const Vec3 n = triangle_normal(mesh, t);
     const double len = n.norm();
     const auto& tri = mesh.triangles[t];
@@ -322,6 +331,30 @@ void MeshQuery::closest_points(std::span<const Vec3> points, std::vector<Closest
                     });
 }
 
+namespace {
+/// The closest hit's state while one ray is traced: hits at the same distance (the ray
+/// through an edge, or coincident faces) are resolved to the lowest triangle index, so the
+/// hit does not depend on the BVH's traversal order (which differs with the build quality).
+struct TieBreakContext {
+  RTCIntersectContext base;  // first member: Embree passes &base to the filter
+  float best_t = std::numeric_limits<float>::infinity();
+  unsigned best_prim = RTC_INVALID_GEOMETRY_ID;
+};
+
+void lowest_triangle_on_ties(const RTCFilterFunctionNArguments* args) {
+  if (args->N != 1 || args->valid[0] == 0) return;
+  auto* ctx = reinterpret_cast<TieBreakContext*>(args->context);
+  const float t = RTCRayN_tfar(args->ray, 1, 0);  // the candidate's distance
+  const unsigned prim = RTCHitN_primID(args->hit, 1, 0);
+  if (t == ctx->best_t && prim > ctx->best_prim) {
+    args->valid[0] = 0;
+    return;
+  }
+  ctx->best_t = t;
+  ctx->best_prim = prim;
+}
+}  // namespace
+
 std::optional<RayHit> MeshQuery::first_hit(const Vec3& origin, const Vec3& dir, double t_min,
                                            double t_max) const {
   const double len = dir.norm();
@@ -341,13 +374,18 @@ std::optional<RayHit> MeshQuery::first_hit(const Vec3& origin, const Vec3& dir, 
   rh.ray.flags = 0;
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
-  rtcIntersect1(impl_->scene, &context, &rh);
+  TieBreakContext context;
+  rtcInitIntersectContext(&context.base);
+  context.base.filter = lowest_triangle_on_ties;
+  rtcIntersect1(impl_->scene, &context.base, &rh);
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
-  // The unit normal kept for the plane bound (the same division); a sliver keeps none there.
-  const TriangleBounds& tb = impl_->bounds[rh.hit.primID];
-  Vec3 n(tb.n[0], tb.n[1], tb.n[2]);
+  // The unit normal kept for the plane bound (the same division); a sliver keeps none there,
+  // a query for rays only keeps no bounds.
+  Vec3 n = Vec3::Zero();
+  if (!impl_->bounds.empty()) {
+    const TriangleBounds& tb = impl_->bounds[rh.hit.primID];
+    n = Vec3(tb.n[0], tb.n[1], tb.n[2]);
+  }
   if (n.isZero(0)) {
     n = triangle_normal(impl_->mesh, rh.hit.primID);
     const double nl = n.norm();

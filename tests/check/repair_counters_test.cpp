@@ -88,6 +88,26 @@ TEST(RepairCounters, SeamOfSplitVerticesIsStitched) {
   expect_counters(repaired(m), 8, 0, 0, 0, 0);
 }
 
+TEST(RepairCounters, NearbyEdgesAreSeamsThatAToleranceWouldClose) {
+  // The +z face on its own corners 0.001 mm above the sides (as bench/repair_vs_admesh.sh's
+  // cube_seam): 4 open edges on each side of the seam, every one within 0.01 mm of a
+  // partner running the other way. admesh --nearby joins them (its 8 edges fixed).
+  Mesh m = test::make_cube_mm(10);
+  for (std::uint32_t v = 4; v < 8; ++v)
+    m.vertices_mm.push_back(m.vertices_mm[v] + Vec3(0, 0, 0.001));
+  for (std::size_t f = 2; f < 4; ++f)
+    for (auto& v : m.triangles[f]) v += 4;
+  EXPECT_EQ(measure_repair(m, m).nearby_edges, 8U);
+  // 0.1 mm apart: beyond the tolerance.
+  for (std::size_t v = 8; v < 12; ++v) m.vertices_mm[v].z() += 0.099;
+  EXPECT_EQ(measure_repair(m, m).nearby_edges, 0U);
+  // A hole has no partner edges; a good cube has no open edge.
+  Mesh hole = test::make_cube_mm(10);
+  hole.triangles.pop_back();
+  EXPECT_EQ(measure_repair(hole, hole).nearby_edges, 0U);
+  EXPECT_EQ(measure_repair(test::make_cube_mm(10), test::make_cube_mm(10)).nearby_edges, 0U);
+}
+
 TEST(RepairCounters, DegenerateAndStrayFacetsAreRemoved) {
   Mesh m = test::make_cube_mm(10);
   m.vertices_mm.emplace_back(5, 0, 0);

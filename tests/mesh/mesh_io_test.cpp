@@ -284,6 +284,26 @@ TEST_F(MeshIoTest, FromMemoryMatchesFromFile) {
             std::string::npos);
 }
 
+/// Binary STL is read straight from its bytes; assimp's import (PRINTTWIN_PLAIN=stl_direct)
+/// gives the same mesh: vertices in order of first use, -0 and +0 one vertex, repeated and
+/// zero-area facets kept, the same scaled coordinates.
+TEST_F(MeshIoTest, DirectBinaryStlMatchesAssimp) {
+  Mesh m = test::make_cube_mm(10, Vec3(-5, -0.0, 3.25));
+  m.vertices_mm[1].x() = -0.0;            // -0 (written as a float -0) joins +0
+  m.triangles.push_back(m.triangles[3]);  // a repeated facet
+  m.triangles.push_back({m.triangles[0][0], m.triangles[0][0], m.triangles[0][1]});
+  const std::string bytes = binary_stl(m, static_cast<std::uint32_t>(m.triangles.size()));
+  for (const MeshLoadOptions& o : {MeshLoadOptions{}, MeshLoadOptions{0.3, LengthUnit::inch}}) {
+    auto direct = load_mesh_from_memory(bytes, "p.stl", o);
+    ASSERT_EQ(::setenv("PRINTTWIN_PLAIN", "stl_direct", 1), 0);
+    auto assimp = load_mesh_from_memory(bytes, "p.stl", o);
+    ::unsetenv("PRINTTWIN_PLAIN");
+    ASSERT_TRUE(direct.ok() && assimp.ok());
+    EXPECT_EQ(*direct, *assimp);
+    EXPECT_EQ(direct->triangles.size(), 14U);
+  }
+}
+
 /// Vertices are numbered in order of first use; -0 and +0 are one coordinate; sub-meshes
 /// (OBJ objects) share the vertices they have in common.
 TEST_F(MeshIoTest, WeldKeepsFirstUseOrderAndJoinsAcrossSubMeshes) {

@@ -175,6 +175,36 @@ TEST(MeshQuery, RaysHitTheNearFaceAndCountCrossings) {
   EXPECT_EQ(q->crossings(Vec3(5, 5, 20), Vec3(0, 0, -1)), 2);
 }
 
+TEST(MeshQuery, RayOnlyBuildGivesTheSameHitsAndBreaksTiesByLowestTriangle) {
+  // A cube with every face repeated the other way round (coincident faces, as in a mesh
+  // with duplicate facets): every ray hits two triangles at the same distance.
+  Mesh cube = test::make_cube_mm(10.0);
+  const std::size_t n = cube.triangles.size();
+  for (std::size_t t = 0; t < n; ++t) {
+    const auto tri = cube.triangles[t];
+    cube.triangles.push_back({tri[0], tri[2], tri[1]});
+  }
+  auto full = MeshQuery::build(cube);
+  auto rays = MeshQuery::build_for_rays(cube);
+  ASSERT_TRUE(full.ok());
+  ASSERT_TRUE(rays.ok());
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int i = 0; i < 500; ++i) {
+    const Vec3 origin(5 + 4 * u(rng), 5 + 4 * u(rng), 5 + 4 * u(rng));
+    const Vec3 dir(u(rng), u(rng), u(rng));
+    const auto a = full->first_hit(origin, dir);
+    const auto b = rays->first_hit(origin, dir);
+    ASSERT_TRUE(a.has_value());
+    ASSERT_TRUE(b.has_value());
+    EXPECT_EQ(a->t_mm, b->t_mm);
+    EXPECT_EQ(a->triangle, b->triangle);
+    EXPECT_LT(a->triangle, n);  // of two coincident faces, the first
+    EXPECT_EQ(a->normal, b->normal);
+  }
+  EXPECT_EQ(rays->crossings(Vec3(5, 5, 20), Vec3(0, 0, -1)), 2);
+}
+
 TEST(MeshQuery, EmptyMeshIsAnError) {
   auto q = MeshQuery::build(Mesh{});
   EXPECT_FALSE(q.ok());
