@@ -110,6 +110,12 @@ struct Footprint {
   }
 };
 
+/// Values that are whole up to rounding (Z 0.4 / 0.05 = 7.9999999) snapped to them.
+double snap_whole(double v) {
+  const double r = std::round(v);
+  return std::abs(v - r) < 1e-6 ? r : v;
+}
+
 // Widening of the footprint bounds, so that they never cut a cell the single-precision test
 // would take.
 constexpr double kBoundSlack = 1e-3;
@@ -128,10 +134,7 @@ BeadSweep::BeadSweep(const VoxelGrid& grid, bool exhaustive)
 bool BeadSweep::set_up(const SweptBead& bead, BeadFrame& f, Vec2& a2, Vec2& b2, double& hw) {
   // Heights that are whole voxels up to rounding (Z 0.4 / 0.05 = 7.9999999) are snapped, so
   // layer boundaries stay on voxel boundaries.
-  auto snap = [](double v) {
-    const double r = std::round(v);
-    return std::abs(v - r) < 1e-6 ? r : v;
-  };
+  const auto snap = snap_whole;
   Vec3 a = (bead.a_mm - origin_) * inv_voxel_;
   Vec3 b = (bead.b_mm - origin_) * inv_voxel_;
   a.z() = snap(a.z());
@@ -274,6 +277,10 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
   const Ring local{nullptr,      masks_.data(), reached_.data(), static_cast<int>(nk),
                    hits_.data(), bead.layer};
   std::size_t carry = 0;
+  // A round join is laid first, outside the bead: it takes material the bead lays on earlier
+  // plastic (the corner's inner overlap), which the squeeze then no longer places. (A join
+  // larger than the bead's overlap, after a very short bead, adds the difference.)
+  std::size_t credit = bead.join_w_mm > 0 ? lay_join(bead, f, grid, tag, map) : 0;
   for_each_tile(bead, a2, b2, hw, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
     const std::size_t at = map.index(8 * bx, 8 * by);
     test_tile_layers(f, 8 * bx, 8 * by, reached_.data(), static_cast<int>(nk), t_lo, t_hi, lanes,
@@ -293,6 +300,10 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
       map.raise_tile(at, mask, static_cast<std::uint16_t>(k + 1), bead.layer);
     }
     laid.overlap += tile_overlap;
+    const std::size_t used = std::min(credit, tile_overlap);
+    credit -= used;
+    tile_overlap -= used;
+    laid.squeezed += used;
     if (!squeezing || carry + tile_overlap == 0) return;
     const std::size_t placed =
         squeeze_tile(local, bx, by, 0, std::min(8, ny_ - 8 * by),
@@ -302,6 +313,60 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
   });
   if (carry > 0) laid.squeezed += squeeze(bead, f, a2, b2, carry, grid, tag, map);
   return laid;
+}
+
+std::size_t BeadSweep::lay_join(const SweptBead& bead, const BeadFrame& f, VoxelGrid& grid,
+                                std::uint32_t tag, HeightMap& map) {
+  const Vec3 c = (bead.a_mm - origin_) * inv_voxel_;
+  const double z = snap_whole(c.z());
+  const double hh = snap_whole(bead.join_h_mm * inv_voxel_);
+  const double r = 0.5 * hh;
+  const double flat = 0.5 * (bead.join_w_mm - bead.join_h_mm) * inv_voxel_;
+  // The join's section about the start, in the wedge past the previous bead's square end
+  // (join_d . q > 0) and before this bead's square start (d . q < 0): the rest of the disc
+  // lies in the two beads.
+  BeadFrame g = f;
+  g.c0 = static_cast<float>(z - r - f.ka);
+  g.r = static_cast<float>(r), g.r2 = static_cast<float>(r * r), g.flat = static_cast<float>(flat);
+  g.m0_x = static_cast<float>(bead.join_d.x()), g.m0_y = static_cast<float>(bead.join_d.y());
+  g.m1_x = static_cast<float>(bead.d.x()), g.m1_y = static_cast<float>(bead.d.y()), g.e1 = 0;
+  // The wedge's box: its apex, the ends of its two edges (square to each bead) and the disc's
+  // extreme points in x and y that lie in it.
+  const double reach = flat + r + kBoundSlack;
+  Vec2 lo = Vec2::Zero(), hi = Vec2::Zero();
+  auto take = [&](const Vec2& u) {
+    if (bead.join_d.dot(u) < -1e-9 || bead.d.dot(u) > 1e-9) return;
+    lo = lo.cwiseMin(reach * u), hi = hi.cwiseMax(reach * u);
+  };
+  const Vec2 n0(-bead.join_d.y(), bead.join_d.x());
+  for (const Vec2& u : {n0, Vec2(-n0), bead.n, Vec2(-bead.n), Vec2(Vec2::UnitX()),
+                        Vec2(-Vec2::UnitX()), Vec2(Vec2::UnitY()), Vec2(-Vec2::UnitY())})
+    take(u);
+  const int i_lo = std::max(0, floor_int(c.x() + lo.x() - kBoundSlack));
+  const int i_hi = std::min(nx_ - 1, floor_int(c.x() + hi.x() + kBoundSlack));
+  const int j_lo = std::max(0, floor_int(c.y() + lo.y() - kBoundSlack));
+  const int j_hi = std::min(ny_ - 1, floor_int(c.y() + hi.y() + kBoundSlack));
+  const int k_lo = std::max(0, floor_int(z - hh));
+  const int k_hi = std::min(nz_ - 1, static_cast<int>(std::ceil(z)) - 1);
+  std::size_t filled = 0;
+  for (int by = j_lo >> 3; by <= j_hi >> 3; ++by) {
+    const int row_lo = std::max(j_lo - 8 * by, 0), row_hi = std::min(j_hi - 8 * by + 1, 8);
+    for (int bx = i_lo >> 3; bx <= i_hi >> 3; ++bx) {
+      const int x_lo = std::max(i_lo - 8 * bx, 0), x_hi = std::min(i_hi - 8 * bx, 7);
+      const unsigned lanes = ((2u << x_hi) - 1u) & ~((1u << x_lo) - 1u);
+      const std::size_t at = map.index(8 * bx, 8 * by);
+      for (int k = k_lo; k <= k_hi; ++k) {
+        std::uint64_t mask = test_tile_disc(g, 8 * bx, 8 * by, k, row_lo, row_hi, lanes);
+        if (mask == 0) continue;
+        const std::uint64_t* occ = detail::VoxelBlocks::block_occupancy(grid, bx, by, k >> 3);
+        mask &= ~(occ != nullptr ? occ[k & 7] : 0);
+        if (mask == 0) continue;
+        filled += detail::VoxelBlocks::write_tile(grid, bx, by, k, mask, tag);
+        map.raise_tile(at, mask, static_cast<std::uint16_t>(k + 1), bead.layer);
+      }
+    }
+  }
+  return filled;
 }
 
 // The squeeze: the material that fell on occupied voxels goes to the free voxels near the

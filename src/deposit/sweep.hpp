@@ -27,6 +27,11 @@ struct SweptBead {
   /// How far (mm) the material that falls on occupied voxels may squeeze out of the section
   /// into free voxels (0: it is lost).
   double squeeze_mm = 0;
+  /// A round join at a_mm with the bead before it (both cut square there): a section of
+  /// height join_h_mm and width join_w_mm (the wider bead's), revolved about the vertical
+  /// through a_mm, fills what neither bead covers. join_w_mm 0: no join.
+  double join_h_mm = 0, join_w_mm = 0;
+  Vec2 join_d = Vec2::UnitX();  ///< the bead before's direction (unit, xy)
 };
 
 class BeadSweep {
@@ -51,6 +56,11 @@ class BeadSweep {
   template <class Fn>
   void for_each_tile(const SweptBead& bead, const Vec2& a2, const Vec2& b2, double hw,
                      Fn&& fn) const;
+  /// The round join at the start of `bead` (frame f): fills the free voxels of the join's
+  /// section revolved about the vertical through the start that the bead does not cover, with
+  /// tag `tag`, and raises the height map under them. Returns how many it filled.
+  std::size_t lay_join(const SweptBead& bead, const BeadFrame& f, VoxelGrid& grid,
+                       std::uint32_t tag, HeightMap& map);
   /// Places up to `lost` voxels of material in the free voxels near the bead: the section
   /// grown a voxel at a time (beside and below it) up to the bead's squeeze_mm, then above the
   /// tip a voxel layer at a time. Returns how many it placed.
