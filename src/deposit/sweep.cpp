@@ -331,7 +331,7 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
     laid.squeezed += placed;
     carry = carry + tile_overlap - placed;
   });
-  if (carry > 0) laid.squeezed += squeeze(bead, f, a2, b2, carry, grid, tag, map);
+  if (carry > 0) laid.squeezed += squeeze(bead, f, a2, b2, sides, carry, grid, tag, map);
   return laid;
 }
 
@@ -394,32 +394,30 @@ std::size_t BeadSweep::lay_join(const SweptBead& bead, const BeadFrame& f, Voxel
 // and, a voxel layer further each time, below it) up to squeeze_mm; then above the tip (the
 // layer rising, as in an over-full solid layer), a voxel layer at a time.
 std::size_t BeadSweep::squeeze(const SweptBead& bead, const BeadFrame& f, const Vec2& a2,
-                               const Vec2& b2, std::size_t lost, VoxelGrid& grid, std::uint32_t tag,
-                               HeightMap& map) {
+                               const Vec2& b2, const Sides& sides, std::size_t lost,
+                               VoxelGrid& grid, std::uint32_t tag, HeightMap& map) {
   const double delta = bead.squeeze_mm * inv_voxel_;
   const int steps = std::max(1, static_cast<int>(std::ceil(delta - 1e-9)));
   const int k_lo = reached_.front(), k_hi = reached_.back();
   std::size_t placed = 0;
-  auto pass = [&](const BeadFrame& g, double reach) {
+  auto pass = [&](const BeadFrame& g, double reach, const Sides* within) {
     const Ring ring{&g,      nullptr,    layers_.data(), static_cast<int>(layers_.size()),
-                    nullptr, bead.layer, nullptr,        0};
+                    nullptr, bead.layer, within,         0};
     const double hw = static_cast<double>(f.flat) + static_cast<double>(f.r) + reach + kBoundSlack;
     for_each_tile(bead, a2, b2, hw, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
       if (placed < lost)
         placed += squeeze_tile(ring, bx, by, t_lo, t_hi, lanes, lost - placed, grid, tag, map);
     });
   };
-  // Beside and below, nearest first (the local rings have tried within the sides).
-  for (int step = 1; step <= steps && placed < lost; ++step) {
-    const double reach = std::min(static_cast<double>(step), delta);
-    layers_.clear();
-    for (int k = std::max(0, k_lo - step); k <= k_hi; ++k) layers_.push_back(k);
-    pass(grown(f, reach), reach);
-  }
-  const BeadFrame widest = grown(f, delta);
+  // Beside and below, within the bead's reach: within the sides first, then on both sides.
+  layers_.clear();
+  for (int k = std::max(0, k_lo - steps); k <= k_hi; ++k) layers_.push_back(k);
+  const BeadFrame reach = grown(f, delta);
+  if (!sides.open()) pass(reach, delta, &sides);
+  if (placed < lost) pass(reach, delta, nullptr);
   for (int k = k_hi + 1; k <= std::min(nz_ - 1, k_hi + steps) && placed < lost; ++k) {
     layers_.assign(1, k);
-    pass(widest, delta);
+    pass(reach, delta, nullptr);
   }
   return placed;
 }

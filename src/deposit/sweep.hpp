@@ -77,11 +77,12 @@ class BeadSweep {
   /// just beyond its edges at its centre height.
   Sides sides_of(const BeadFrame& f, const SweptBead& bead, const Vec2& a2, const Vec2& b2,
                  const VoxelGrid& grid) const;
-  /// Places up to `lost` voxels of material in the free voxels near the bead: the section
-  /// grown a voxel at a time (beside and below it) up to the bead's squeeze_mm, then above the
-  /// tip a voxel layer at a time. Returns how many it placed.
+  /// Places up to `lost` voxels of material in the free voxels near the bead: within the
+  /// bead's squeeze_mm beside and below it (within `sides` first, then on both sides), then
+  /// above the tip a voxel layer at a time. Returns how many it placed.
   std::size_t squeeze(const SweptBead& bead, const BeadFrame& f, const Vec2& a2, const Vec2& b2,
-                      std::size_t lost, VoxelGrid& grid, std::uint32_t tag, HeightMap& map);
+                      const Sides& sides, std::size_t lost, VoxelGrid& grid, std::uint32_t tag,
+                      HeightMap& map);
   /// Where a squeeze places material: a grown section, over some layers of a tile's rows.
   struct Ring {
     const BeadFrame* grown;      ///< the section grown by the ring's reach, or nullptr:
