@@ -18,8 +18,11 @@
 namespace printtwin::detail {
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr double kJoinTolMm = 1e-3;    // path continuity: end of one move = start of next
-constexpr double kMitreMinCos = -0.5;  // turns sharper than 120 deg get square cuts
+constexpr double kJoinTolMm = 1e-3;  // path continuity: end of one move = start of next
+// Joints of a continuous path turning by up to 60 deg are mitred (the mitre's outer tip lies
+// within about a voxel column of the round join's arc); sharper ones are cut square and
+// joined round (BeadSweep's round join).
+constexpr double kMitreMinCos = 0.5;
 
 /// Nominal layer height: the slicer's `;HEIGHT:` when given, else the Z step from the
 /// previous layer's extrusions to this move. Sloped extrusions (vase-mode spirals, where
@@ -45,8 +48,11 @@ inline bool is_bead(const Move& m) { return m.kind == MoveKind::extrude && m.e_m
 struct PendingBead {
   Move move;
   double nominal_h_mm = 0;
-  bool continues_path = false;  // joined to the previous bead
-  Vec2 m0 = Vec2::Zero();       // cut normal at the start (xy, unit)
+  bool continues_path = false;          // joined to the previous bead
+  bool round_start = false;             // continues it with a square cut and a round join
+  double join_h_mm = 0, join_w_mm = 0;  // the previous bead's section (for the round join)
+  Vec2 join_d = Vec2::UnitX();          // and its direction
+  Vec2 m0 = Vec2::Zero();               // cut normal at the start (xy, unit)
 };
 
 /// The section of one bead.

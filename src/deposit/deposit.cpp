@@ -45,6 +45,7 @@ struct DepositBuilder::State {
   LayerTracker layers;
   std::optional<PendingBead> pending;
   std::vector<double> gaps_;  // scratch of bead_section
+  BeadSection last_section;   // of the bead laid last
   detail::SupportTracker support;
   detail::BeadSweep sweeper;
   detail::DroopProbe droop;  // sag, droop, elephant's foot
@@ -86,11 +87,12 @@ struct DepositBuilder::State {
     bool continues = false;
     bool mitred = false;
     Vec2 m0 = d;
+    Vec2 dp = d;  // the previous bead's direction
     if (pending) {
       const Move& p = pending->move;
       continues = p.layer == m.layer && (p.end_mm - m.start_mm).norm() < detail::kJoinTolMm;
       if (continues) {
-        const Vec2 dp = (p.end_mm - p.start_mm).head<2>().normalized();
+        dp = (p.end_mm - p.start_mm).head<2>().normalized();
         if (dp.dot(d) >= detail::kMitreMinCos) {
           m0 = (dp + d).normalized();
           mitred = true;
@@ -103,6 +105,10 @@ struct DepositBuilder::State {
     pb.move = m;
     pb.nominal_h_mm = layers.nominal_mm(m, nozzle_mm, voxel);
     pb.continues_path = continues;
+    pb.round_start = continues && !mitred;
+    pb.join_h_mm = last_section.h_mm;
+    pb.join_w_mm = last_section.w_mm;
+    pb.join_d = dp;
     pb.m0 = m0;
     tag = detail::VoxelBlocks::add_tag(
         grid, VoxelTag{static_cast<std::uint32_t>(std::max(m.line, 0L)), m.layer, m.feature});
@@ -131,6 +137,13 @@ struct DepositBuilder::State {
     detail::SweptBead bead{
         a,  b,      d,      n,        pb.m0,
         m1, s.h_mm, s.w_mm, mv.layer, settings.conserve_volume ? 0.5 * nozzle_mm : 0.0};
+    if (pb.round_start) {  // the wider of the two beads' sections
+      const bool prev_wider = pb.join_w_mm > s.w_mm;
+      bead.join_h_mm = prev_wider ? pb.join_h_mm : s.h_mm;
+      bead.join_w_mm = prev_wider ? pb.join_w_mm : s.w_mm;
+      bead.join_d = pb.join_d;
+    }
+    last_section = s;
     droop.elephant_foot(bead, mv.feature, area_mm2, map);
     droop.begin_bead(mv, bead.a_mm, bead.b_mm, samples, bead.h_mm, bead.w_mm, map);
     support.check_bead(mv, bead.a_mm, bead.b_mm, n, samples, bead.h_mm, bead.w_mm,

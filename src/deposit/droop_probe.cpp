@@ -121,6 +121,7 @@ BeadSweep::Laid DroopProbe::lay(const SweptBead& bead, BeadSweep& sweep, VoxelGr
     piece.b_mm = bead.a_mm + k1.t * (bead.b_mm - bead.a_mm) - Vec3(0, 0, k1.mm);
     piece.m0 = k == 0 ? bead.m0 : bead.d;
     piece.m1 = k + 2 == knots_.size() ? bead.m1 : bead.d;
+    if (k > 0) piece.join_w_mm = 0;
     const BeadSweep::Laid laid = sweep.lay(piece, grid, tag, map);
     total.overlap += laid.overlap;
     total.squeezed += laid.squeezed;

@@ -26,18 +26,16 @@ struct SamplePoint {
   float s0, s1;  // start cut (inside >= 0), end cut (inside < 0)
   float l, dz;   // beyond the flat part laterally, above the section centre
 };
+/// The jitter of jitter bits h along one axis (`shift`: 0 x, 10 y, 20 z).
+inline float jitter(std::uint32_t h, int shift) {
+  return static_cast<float>(static_cast<std::int32_t>((h >> shift) & 0x3FFu)) * kJitterScale +
+         kJitterHalf;
+}
+
 inline SamplePoint sample_point(const BeadFrame& f, float X, float Y, float Z, std::uint32_t h) {
-  const float jx =
-      static_cast<float>(static_cast<std::int32_t>(h & 0x3FFu)) * kJitterScale + kJitterHalf;
-  const float jy =
-      static_cast<float>(static_cast<std::int32_t>((h >> 10) & 0x3FFu)) * kJitterScale +
-      kJitterHalf;
-  const float jz =
-      static_cast<float>(static_cast<std::int32_t>((h >> 20) & 0x3FFu)) * kJitterScale +
-      kJitterHalf;
-  const float rx = (X + jx) - f.fa_x;
-  const float ry = (Y + jy) - f.fa_y;
-  const float z = Z + jz;
+  const float rx = (X + jitter(h, 0)) - f.fa_x;
+  const float ry = (Y + jitter(h, 10)) - f.fa_y;
+  const float z = Z + jitter(h, 20);
   SamplePoint p;
   p.s0 = f.m0_x * rx + f.m0_y * ry;
   p.s1 = (f.m1_x * rx + f.m1_y * ry) - f.e1;
@@ -172,8 +170,13 @@ void section_offset(const BeadFrame& f, std::int32_t i, std::int32_t j, std::int
   dz = p.dz;
 }
 
-std::uint64_t test_tile_scalar(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k,
-                               int row_lo, int row_hi, unsigned lanes) {
+namespace {
+
+/// The bits of a tile (as test_tile) whose voxel passes `in(X, Y, Z, jitter bits)` (integer
+/// offsets from the frame's voxel); only the x in `lanes` are tested.
+template <class Inside>
+std::uint64_t scan_tile(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k,
+                        int row_lo, int row_hi, unsigned lanes, const Inside& in) {
   const float Z = static_cast<float>(k - f.ka);
   std::uint64_t out = 0;
   for (int y = row_lo; y < row_hi; ++y) {
@@ -181,13 +184,39 @@ std::uint64_t test_tile_scalar(const BeadFrame& f, std::int32_t i0, std::int32_t
     const float Y = static_cast<float>(j - f.ja);
     unsigned bits = 0;
     for (int x = 0; x < 8; ++x) {
+      if (((lanes >> x) & 1u) == 0) continue;
       const std::int32_t i = i0 + x;
-      const bool in = inside(f, static_cast<float>(i - f.ia), Y, Z, voxel_jitter_bits(i, j, k));
-      bits |= static_cast<unsigned>(in) << x;
+      bits |=
+          static_cast<unsigned>(in(static_cast<float>(i - f.ia), Y, Z, voxel_jitter_bits(i, j, k)))
+          << x;
     }
-    out |= static_cast<std::uint64_t>(bits & lanes) << (8 * y);
+    out |= static_cast<std::uint64_t>(bits) << (8 * y);
   }
   return out;
+}
+
+}  // namespace
+
+std::uint64_t test_tile_scalar(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k,
+                               int row_lo, int row_hi, unsigned lanes) {
+  return scan_tile(
+      f, i0, j0, k, row_lo, row_hi, lanes,
+      [&](float X, float Y, float Z, std::uint32_t h) { return inside(f, X, Y, Z, h); });
+}
+
+std::uint64_t test_tile_disc(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k,
+                             int row_lo, int row_hi, unsigned lanes) {
+  return scan_tile(f, i0, j0, k, row_lo, row_hi, lanes,
+                   [&](float X, float Y, float Z, std::uint32_t h) {
+                     const float rx = (X + jitter(h, 0)) - f.fa_x;
+                     const float ry = (Y + jitter(h, 10)) - f.fa_y;
+                     const float dz = (Z + jitter(h, 20)) - f.c0;
+                     const float s0 = f.m0_x * rx + f.m0_y * ry;
+                     const float s1 = (f.m1_x * rx + f.m1_y * ry) - f.e1;
+                     const float l = std::sqrt(rx * rx + ry * ry) - f.flat;
+                     return (s0 >= 0.0f) & (s1 < 0.0f) & (dz >= -f.r) & (dz < f.r) &
+                            ((l <= 0.0f) | (l * l + dz * dz <= f.r2));
+                   });
 }
 
 void test_tile_layers(const BeadFrame& f, std::int32_t i0, std::int32_t j0, const std::int32_t* ks,

@@ -62,6 +62,15 @@ void test_tile_layers(const BeadFrame& f, std::int32_t i0, std::int32_t j0, cons
 void section_offset(const BeadFrame& f, std::int32_t i, std::int32_t j, std::int32_t k, float& l,
                     float& dz);
 
+/// A round join: the section of `f` revolved about the vertical line through the start (the
+/// disc the nozzle's footprint leaves where a path turns), between the cuts of `f`. Inside:
+/// the cuts hold, |dz| is within the section's half-height, and the horizontal distance rho
+/// from the line has rho <= flat or (rho - flat)^2 + dz^2 <= r^2; the direction and slope of
+/// `f` are not used. Same arguments and bits as test_tile, but only the x in `lanes` are
+/// tested; portable code only (joins are few).
+std::uint64_t test_tile_disc(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k,
+                             int row_lo, int row_hi, unsigned lanes);
+
 /// The portable kernel (what test_tile runs without AVX-512), for the tests.
 std::uint64_t test_tile_scalar(const BeadFrame& f, std::int32_t i0, std::int32_t j0, std::int32_t k,
                                int row_lo, int row_hi, unsigned lanes);

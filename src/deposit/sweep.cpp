@@ -110,6 +110,12 @@ struct Footprint {
   }
 };
 
+/// Values that are whole up to rounding (Z 0.4 / 0.05 = 7.9999999) snapped to them.
+double snap_whole(double v) {
+  const double r = std::round(v);
+  return std::abs(v - r) < 1e-6 ? r : v;
+}
+
 // Widening of the footprint bounds, so that they never cut a cell the single-precision test
 // would take.
 constexpr double kBoundSlack = 1e-3;
@@ -128,10 +134,7 @@ BeadSweep::BeadSweep(const VoxelGrid& grid, bool exhaustive)
 bool BeadSweep::set_up(const SweptBead& bead, BeadFrame& f, Vec2& a2, Vec2& b2, double& hw) {
   // Heights that are whole voxels up to rounding (Z 0.4 / 0.05 = 7.9999999) are snapped, so
   // layer boundaries stay on voxel boundaries.
-  auto snap = [](double v) {
-    const double r = std::round(v);
-    return std::abs(v - r) < 1e-6 ? r : v;
-  };
+  const auto snap = snap_whole;
   Vec3 a = (bead.a_mm - origin_) * inv_voxel_;
   Vec3 b = (bead.b_mm - origin_) * inv_voxel_;
   a.z() = snap(a.z());
@@ -230,10 +233,12 @@ void BeadSweep::for_each_tile(const SweptBead& bead, const Vec2& a2, const Vec2&
 
 namespace {
 
-/// The tile's voxels next to those of `m` (bit y * 8 + x) in x or y, and `m` itself.
-std::uint64_t dilate_xy(std::uint64_t m) {
+/// The tile's voxels next to those of `m` (bit y * 8 + x) in x or y, and `m` itself; with
+/// `diagonal`, also those next to them diagonally.
+std::uint64_t dilate_xy(std::uint64_t m, bool diagonal = false) {
   constexpr std::uint64_t kColumn0 = 0x0101010101010101ull, kColumn7 = 0x8080808080808080ull;
-  return m | ((m << 1) & ~kColumn0) | ((m >> 1) & ~kColumn7) | (m << 8) | (m >> 8);
+  const std::uint64_t row = m | ((m << 1) & ~kColumn0) | ((m >> 1) & ~kColumn7);
+  return diagonal ? row | (row << 8) | (row >> 8) : row | (m << 8) | (m >> 8);
 }
 
 /// The `n` lowest set bits of `m` (all of them when it has fewer).
@@ -265,43 +270,123 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
   Laid laid;
   if (!set_up(bead, f, a2, b2, hw)) return laid;
   const std::size_t nk = reached_.size();
-  masks_.resize(nk);
   const bool squeezing = bead.squeeze_mm > 0;
-  if (squeezing) hits_.resize(nk);
-  // The squeeze's first ring: one voxel around the section, over the bead's own layers, in
-  // the tile where the bead fell on earlier plastic; what finds no room there moves on to the
-  // next tiles of the bead.
-  const Ring local{nullptr,      masks_.data(), reached_.data(), static_cast<int>(nk),
-                   hits_.data(), bead.layer};
+  const int steps = std::max(1, static_cast<int>(std::ceil(bead.squeeze_mm * inv_voxel_ - 1e-9)));
+  // The squeeze's local ring, in the tile where the bead fell on earlier plastic: up to
+  // squeeze_mm from the bead's voxels, over its own layers and as many below (their masks and
+  // hits stay 0); what finds no room there moves on to the next tiles of the bead.
+  const std::size_t below =
+      squeezing ? static_cast<std::size_t>(std::min(steps, reached_.front())) : 0;
+  local_layers_.clear();
+  for (std::size_t n = below; n > 0; --n)
+    local_layers_.push_back(reached_.front() - static_cast<std::int32_t>(n));
+  local_layers_.insert(local_layers_.end(), reached_.begin(), reached_.end());
+  masks_.assign(below + nk, 0);
+  hits_.assign(squeezing ? below + nk : 0, 0);
+  std::uint64_t* const masks = masks_.data() + below;
+  std::uint64_t* const hits = hits_.data() + below;
+  Sides sides;
+  bool have_sides = false;
+  const Ring local{nullptr,
+                   masks_.data(),
+                   local_layers_.data(),
+                   static_cast<int>(below + nk),
+                   hits_.data(),
+                   bead.layer,
+                   &sides,
+                   steps};
   std::size_t carry = 0;
+  // A round join is laid first, outside the bead: it takes material the bead lays on earlier
+  // plastic (the corner's inner overlap), which the squeeze then no longer places. (A join
+  // larger than the bead's overlap, after a very short bead, adds the difference.)
+  std::size_t credit = bead.join_w_mm > 0 ? lay_join(bead, f, grid, tag, map) : 0;
   for_each_tile(bead, a2, b2, hw, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
     const std::size_t at = map.index(8 * bx, 8 * by);
     test_tile_layers(f, 8 * bx, 8 * by, reached_.data(), static_cast<int>(nk), t_lo, t_hi, lanes,
-                     masks_.data());
+                     masks);
     std::size_t tile_overlap = 0;
     for (std::size_t layer_at = 0; layer_at < nk; ++layer_at) {
-      const std::uint64_t mask = masks_[layer_at];
-      if (squeezing) hits_[layer_at] = 0;
+      const std::uint64_t mask = masks[layer_at];
+      if (squeezing) hits[layer_at] = 0;
       if (mask == 0) continue;
       const int k = reached_[layer_at];
       if (squeezing) {
         const std::uint64_t* occ = detail::VoxelBlocks::block_occupancy(grid, bx, by, k >> 3);
-        hits_[layer_at] = mask & (occ != nullptr ? occ[k & 7] : 0);
+        hits[layer_at] = mask & (occ != nullptr ? occ[k & 7] : 0);
       }
       const std::size_t fresh = detail::VoxelBlocks::write_tile(grid, bx, by, k, mask, tag);
       tile_overlap += static_cast<std::size_t>(std::popcount(mask)) - fresh;
       map.raise_tile(at, mask, static_cast<std::uint16_t>(k + 1), bead.layer);
     }
     laid.overlap += tile_overlap;
+    const std::size_t used = std::min(credit, tile_overlap);
+    credit -= used;
+    tile_overlap -= used;
+    laid.squeezed += used;
     if (!squeezing || carry + tile_overlap == 0) return;
+    if (!have_sides) sides = sides_of(f, bead, a2, b2, grid), have_sides = true;
     const std::size_t placed =
         squeeze_tile(local, bx, by, 0, std::min(8, ny_ - 8 * by),
                      (1u << std::min(8, nx_ - 8 * bx)) - 1u, carry + tile_overlap, grid, tag, map);
     laid.squeezed += placed;
     carry = carry + tile_overlap - placed;
   });
-  if (carry > 0) laid.squeezed += squeeze(bead, f, a2, b2, carry, grid, tag, map);
+  if (carry > 0) laid.squeezed += squeeze(bead, f, a2, b2, sides, carry, grid, tag, map);
   return laid;
+}
+
+std::size_t BeadSweep::lay_join(const SweptBead& bead, const BeadFrame& f, VoxelGrid& grid,
+                                std::uint32_t tag, HeightMap& map) {
+  const Vec3 c = (bead.a_mm - origin_) * inv_voxel_;
+  const double z = snap_whole(c.z());
+  const double hh = snap_whole(bead.join_h_mm * inv_voxel_);
+  const double r = 0.5 * hh;
+  const double flat = 0.5 * (bead.join_w_mm - bead.join_h_mm) * inv_voxel_;
+  // The join's section about the start, in the wedge past the previous bead's square end
+  // (join_d . q > 0) and before this bead's square start (d . q < 0): the rest of the disc
+  // lies in the two beads.
+  BeadFrame g = f;
+  g.c0 = static_cast<float>(z - r - f.ka);
+  g.r = static_cast<float>(r), g.r2 = static_cast<float>(r * r), g.flat = static_cast<float>(flat);
+  g.m0_x = static_cast<float>(bead.join_d.x()), g.m0_y = static_cast<float>(bead.join_d.y());
+  g.m1_x = static_cast<float>(bead.d.x()), g.m1_y = static_cast<float>(bead.d.y()), g.e1 = 0;
+  // The wedge's box: its apex, the ends of its two edges (square to each bead) and the disc's
+  // extreme points in x and y that lie in it.
+  const double reach = flat + r + kBoundSlack;
+  Vec2 lo = Vec2::Zero(), hi = Vec2::Zero();
+  auto take = [&](const Vec2& u) {
+    if (bead.join_d.dot(u) < -1e-9 || bead.d.dot(u) > 1e-9) return;
+    lo = lo.cwiseMin(reach * u), hi = hi.cwiseMax(reach * u);
+  };
+  const Vec2 n0(-bead.join_d.y(), bead.join_d.x());
+  for (const Vec2& u : {n0, Vec2(-n0), bead.n, Vec2(-bead.n), Vec2(Vec2::UnitX()),
+                        Vec2(-Vec2::UnitX()), Vec2(Vec2::UnitY()), Vec2(-Vec2::UnitY())})
+    take(u);
+  const int i_lo = std::max(0, floor_int(c.x() + lo.x() - kBoundSlack));
+  const int i_hi = std::min(nx_ - 1, floor_int(c.x() + hi.x() + kBoundSlack));
+  const int j_lo = std::max(0, floor_int(c.y() + lo.y() - kBoundSlack));
+  const int j_hi = std::min(ny_ - 1, floor_int(c.y() + hi.y() + kBoundSlack));
+  const int k_lo = std::max(0, floor_int(z - hh));
+  const int k_hi = std::min(nz_ - 1, static_cast<int>(std::ceil(z)) - 1);
+  std::size_t filled = 0;
+  for (int by = j_lo >> 3; by <= j_hi >> 3; ++by) {
+    const int row_lo = std::max(j_lo - 8 * by, 0), row_hi = std::min(j_hi - 8 * by + 1, 8);
+    for (int bx = i_lo >> 3; bx <= i_hi >> 3; ++bx) {
+      const int x_lo = std::max(i_lo - 8 * bx, 0), x_hi = std::min(i_hi - 8 * bx, 7);
+      const unsigned lanes = ((2u << x_hi) - 1u) & ~((1u << x_lo) - 1u);
+      const std::size_t at = map.index(8 * bx, 8 * by);
+      for (int k = k_lo; k <= k_hi; ++k) {
+        std::uint64_t mask = test_tile_disc(g, 8 * bx, 8 * by, k, row_lo, row_hi, lanes);
+        if (mask == 0) continue;
+        const std::uint64_t* occ = detail::VoxelBlocks::block_occupancy(grid, bx, by, k >> 3);
+        mask &= ~(occ != nullptr ? occ[k & 7] : 0);
+        if (mask == 0) continue;
+        filled += detail::VoxelBlocks::write_tile(grid, bx, by, k, mask, tag);
+        map.raise_tile(at, mask, static_cast<std::uint16_t>(k + 1), bead.layer);
+      }
+    }
+  }
+  return filled;
 }
 
 // The squeeze: the material that fell on occupied voxels goes to the free voxels near the
@@ -309,31 +394,30 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
 // and, a voxel layer further each time, below it) up to squeeze_mm; then above the tip (the
 // layer rising, as in an over-full solid layer), a voxel layer at a time.
 std::size_t BeadSweep::squeeze(const SweptBead& bead, const BeadFrame& f, const Vec2& a2,
-                               const Vec2& b2, std::size_t lost, VoxelGrid& grid, std::uint32_t tag,
-                               HeightMap& map) {
+                               const Vec2& b2, const Sides& sides, std::size_t lost,
+                               VoxelGrid& grid, std::uint32_t tag, HeightMap& map) {
   const double delta = bead.squeeze_mm * inv_voxel_;
   const int steps = std::max(1, static_cast<int>(std::ceil(delta - 1e-9)));
   const int k_lo = reached_.front(), k_hi = reached_.back();
   std::size_t placed = 0;
-  auto pass = [&](const BeadFrame& g, double reach) {
-    const Ring ring{&g,      nullptr,   layers_.data(), static_cast<int>(layers_.size()),
-                    nullptr, bead.layer};
+  auto pass = [&](const BeadFrame& g, double reach, const Sides* within) {
+    const Ring ring{&g,      nullptr,    layers_.data(), static_cast<int>(layers_.size()),
+                    nullptr, bead.layer, within,         0};
     const double hw = static_cast<double>(f.flat) + static_cast<double>(f.r) + reach + kBoundSlack;
     for_each_tile(bead, a2, b2, hw, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
       if (placed < lost)
         placed += squeeze_tile(ring, bx, by, t_lo, t_hi, lanes, lost - placed, grid, tag, map);
     });
   };
-  for (int step = 1; step <= steps && placed < lost; ++step) {
-    const double reach = std::min(static_cast<double>(step), delta);
-    layers_.clear();
-    for (int k = std::max(0, k_lo - step); k <= k_hi; ++k) layers_.push_back(k);
-    pass(grown(f, reach), reach);
-  }
-  const BeadFrame widest = grown(f, delta);
+  // Beside and below, within the bead's reach: within the sides first, then on both sides.
+  layers_.clear();
+  for (int k = std::max(0, k_lo - steps); k <= k_hi; ++k) layers_.push_back(k);
+  const BeadFrame reach = grown(f, delta);
+  if (!sides.open()) pass(reach, delta, &sides);
+  if (placed < lost) pass(reach, delta, nullptr);
   for (int k = k_hi + 1; k <= std::min(nz_ - 1, k_hi + steps) && placed < lost; ++k) {
     layers_.assign(1, k);
-    pass(widest, delta);
+    pass(reach, delta, nullptr);
   }
   return placed;
 }
@@ -343,43 +427,131 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
                                     std::uint32_t tag, HeightMap& map) {
   const auto nk = static_cast<std::size_t>(ring.count);
   ring_.resize(nk);
+  free_.resize(nk);
   // Voxels next to each other's in x, y (dilate_xy) or z (the layer list is consecutive).
-  auto next_to = [&](const std::uint64_t* m, std::size_t n) {
-    std::uint64_t near = dilate_xy(m[n]);
+  auto next_to = [&](const std::uint64_t* m, std::size_t n, bool diagonal = false) {
+    std::uint64_t near = dilate_xy(m[n], diagonal);
     if (n > 0 && ring.layers[n - 1] == ring.layers[n] - 1) near |= m[n - 1];
     if (n + 1 < nk && ring.layers[n + 1] == ring.layers[n] + 1) near |= m[n + 1];
     return near;
   };
-  if (ring.grown != nullptr) {
-    test_tile_layers(*ring.grown, 8 * bx, 8 * by, ring.layers, ring.count, row_lo, row_hi, lanes,
-                     ring_.data());
-  } else {
-    const std::uint64_t rows =
-        row_hi - row_lo >= 8 ? ~std::uint64_t{0}
-                             : ((std::uint64_t{1} << (8 * (row_hi - row_lo))) - 1) << (8 * row_lo);
-    const std::uint64_t inside = rows & (static_cast<std::uint64_t>(lanes) * 0x0101010101010101ull);
-    for (std::size_t n = 0; n < nk; ++n) ring_[n] = next_to(ring.masks, n) & inside;
-  }
+  const std::uint64_t rows =
+      row_hi - row_lo >= 8 ? ~std::uint64_t{0}
+                           : ((std::uint64_t{1} << (8 * (row_hi - row_lo))) - 1) << (8 * row_lo);
+  const std::uint64_t inside = rows & (static_cast<std::uint64_t>(lanes) * 0x0101010101010101ull);
+  const bool sided = ring.sides != nullptr && !ring.sides->open();
+  const std::uint64_t within = sided ? ring.sides->tile_mask(8 * bx, 8 * by) & inside : inside;
+  std::uint64_t any_free = 0;
   for (std::size_t n = 0; n < nk; ++n) {
     const int k = ring.layers[n];
     const std::uint64_t* occ = detail::VoxelBlocks::block_occupancy(grid, bx, by, k >> 3);
-    ring_[n] &= ~(occ != nullptr ? occ[k & 7] : 0);
+    free_[n] = ~(occ != nullptr ? occ[k & 7] : 0);
+    any_free |= free_[n] & (ring.grown != nullptr ? within : inside);
   }
-  const std::size_t at = map.index(8 * bx, 8 * by);
+  if (any_free == 0) return 0;  // no room: the section test is not needed
+  // What goes where is decided on the masks; each layer is written once at the end.
   std::size_t placed = 0;
-  auto place = [&](std::size_t n, std::uint64_t free) {
-    const std::uint64_t mask = lowest_bits(free, need - placed);
-    if (mask == 0) return;
-    const int k = ring.layers[n];
-    placed += detail::VoxelBlocks::write_tile(grid, bx, by, k, mask, tag);
-    map.raise_tile(at, mask, static_cast<std::uint16_t>(k + 1), ring.bead_layer);
+  put_.assign(nk, 0);
+  auto place = [&](std::size_t n, std::uint64_t room) {
+    const std::size_t left = need - placed;
+    const auto count = static_cast<std::size_t>(std::popcount(room));
+    const std::uint64_t mask = count <= left ? room : lowest_bits(room, left);
+    placed += std::min(count, left);
+    put_[n] |= mask;
+    free_[n] &= ~mask;
     ring_[n] &= ~mask;
   };
-  if (ring.hits != nullptr)
-    for (std::size_t n = 0; n < nk && placed < need; ++n)
-      place(n, ring_[n] & next_to(ring.hits, n));
-  for (std::size_t n = 0; n < nk && placed < need; ++n) place(n, ring_[n]);
-  return placed;
+  if (ring.hits != nullptr) {
+    hit_near_.resize(nk);
+    for (std::size_t n = 0; n < nk; ++n) hit_near_[n] = next_to(ring.hits, n);
+  }
+  auto place_ring = [&] {
+    if (ring.hits != nullptr)
+      for (std::size_t n = 0; n < nk && placed < need; ++n) place(n, ring_[n] & hit_near_[n]);
+    for (std::size_t n = 0; n < nk && placed < need; ++n) place(n, ring_[n]);
+  };
+  auto write = [&] {
+    const std::size_t at = map.index(8 * bx, 8 * by);
+    for (std::size_t n = 0; n < nk; ++n) {
+      if (put_[n] == 0) continue;
+      const int k = ring.layers[n];
+      detail::VoxelBlocks::write_tile(grid, bx, by, k, put_[n], tag);
+      map.raise_tile(at, put_[n], static_cast<std::uint16_t>(k + 1), ring.bead_layer);
+    }
+    return placed;
+  };
+  if (ring.grown != nullptr) {
+    test_tile_layers(*ring.grown, 8 * bx, 8 * by, ring.layers, ring.count, row_lo, row_hi, lanes,
+                     ring_.data());
+    for (std::size_t n = 0; n < nk; ++n) ring_[n] &= free_[n] & within;
+    place_ring();
+    return write();
+  }
+  // The local ring: a voxel further from the bead's voxels each step, through anything; first
+  // within the sides, then (what is left) on both sides.
+  for (const std::uint64_t room : {within, inside}) {
+    reach_.assign(ring.masks, ring.masks + nk);
+    for (int step = 0; step < ring.steps && placed < need; ++step) {
+      // Steps alternately square and diagonal: an octagon, about a disc of the reach.
+      for (std::size_t n = 0; n < nk; ++n) ring_[n] = next_to(reach_.data(), n, (step & 1) != 0);
+      for (std::size_t n = 0; n < nk; ++n) {
+        reach_[n] = ring_[n] & inside;
+        ring_[n] &= free_[n] & room;
+      }
+      place_ring();
+    }
+    if (!sided || placed == need) break;
+  }
+  return write();
+}
+
+std::uint64_t BeadSweep::Sides::tile_mask(int i0, int j0) const {
+  // Offsets l(x, y) = n . (centre - a2) are linear: per row, the x between the limits.
+  const double lo = -neg, hi = pos;
+  std::uint64_t m = 0;
+  for (int y = 0; y < 8; ++y) {
+    const double c = n.x() * (i0 + 0.5 - a2.x()) + n.y() * (j0 + y + 0.5 - a2.y());
+    double xl = 0, xh = 7;
+    if (std::abs(n.x()) < 1e-12) {
+      if (c < lo || c > hi) continue;
+    } else {
+      double t0 = (lo - c) / n.x(), t1 = (hi - c) / n.x();
+      if (t0 > t1) std::swap(t0, t1);
+      xl = std::max(xl, std::ceil(t0)), xh = std::min(xh, std::floor(t1));
+      if (xl > xh) continue;
+    }
+    const auto x0 = static_cast<unsigned>(xl), x1 = static_cast<unsigned>(xh);
+    const std::uint64_t bits = ((2u << x1) - 1u) & ~((1u << x0) - 1u);
+    m |= bits << (8 * y);
+  }
+  return m;
+}
+
+BeadSweep::Sides BeadSweep::sides_of(const BeadFrame& f, const SweptBead& bead, const Vec2& a2,
+                                     const Vec2& b2, const VoxelGrid& grid) const {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  Sides s;
+  s.a2 = a2;
+  s.n = bead.n;
+  const double flat = static_cast<double>(f.flat);
+  const double out = flat + static_cast<double>(f.r) + 1.5;  // just beyond the edge
+  int held[2] = {0, 0};                                      // +n, -n
+  for (const double t : {0.25, 0.5, 0.75}) {
+    const Vec2 q = a2 + t * (b2 - a2);
+    const int k = floor_int(static_cast<double>(f.ka) + static_cast<double>(f.c0) +
+                            static_cast<double>(f.slope) * t * (b2 - a2).norm());
+    for (int side = 0; side < 2; ++side) {
+      const Vec2 p = q + (side == 0 ? out : -out) * bead.n;
+      const int i = floor_int(p.x()), j = floor_int(p.y());
+      if (i < 0 || j < 0 || k < 0 || i >= nx_ || j >= ny_ || k >= nz_) continue;
+      const std::uint64_t* occ = detail::VoxelBlocks::block_occupancy(grid, i >> 3, j >> 3, k >> 3);
+      if (occ != nullptr && ((occ[k & 7] >> (8 * (j & 7) + (i & 7))) & 1u) != 0) ++held[side];
+    }
+  }
+  // A side holding earlier plastic is inside; a side holding none ends at the flat part.
+  s.pos = held[0] > 0 ? kInf : flat;
+  s.neg = held[1] > 0 ? kInf : flat;
+  return s;
 }
 
 }  // namespace printtwin::detail

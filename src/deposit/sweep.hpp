@@ -7,6 +7,7 @@
 // of a block's z-slice is tested layer by layer (kernels.cpp) and written as one
 // occupancy word per layer into the grid, and the height map is raised under it. Material
 // that falls on occupied voxels squeezes into the free voxels nearest the section.
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -27,6 +28,11 @@ struct SweptBead {
   /// How far (mm) the material that falls on occupied voxels may squeeze out of the section
   /// into free voxels (0: it is lost).
   double squeeze_mm = 0;
+  /// A round join at a_mm with the bead before it (both cut square there): a section of
+  /// height join_h_mm and width join_w_mm (the wider bead's), revolved about the vertical
+  /// through a_mm, fills what neither bead covers. join_w_mm 0: no join.
+  double join_h_mm = 0, join_w_mm = 0;
+  Vec2 join_d = Vec2::UnitX();  ///< the bead before's direction (unit, xy)
 };
 
 class BeadSweep {
@@ -51,23 +57,48 @@ class BeadSweep {
   template <class Fn>
   void for_each_tile(const SweptBead& bead, const Vec2& a2, const Vec2& b2, double hw,
                      Fn&& fn) const;
-  /// Places up to `lost` voxels of material in the free voxels near the bead: the section
-  /// grown a voxel at a time (beside and below it) up to the bead's squeeze_mm, then above the
-  /// tip a voxel layer at a time. Returns how many it placed.
+  /// The round join at the start of `bead` (frame f): fills the free voxels of the join's
+  /// section revolved about the vertical through the start that the bead does not cover, with
+  /// tag `tag`, and raises the height map under them. Returns how many it filled.
+  std::size_t lay_join(const SweptBead& bead, const BeadFrame& f, VoxelGrid& grid,
+                       std::uint32_t tag, HeightMap& map);
+  /// Where a bead's squeezed material may go sideways: voxel centres whose offset from the
+  /// centre line (voxel units, along +n) lies in [-neg, pos]. A side against earlier plastic
+  /// is open (infinite); a side open to air ends at the bead's own flat part, so the grooves
+  /// between layers on the outside of a wall stay.
+  struct Sides {
+    Vec2 a2 = Vec2::Zero(), n = Vec2::UnitY();
+    double pos = 0, neg = 0;
+    [[nodiscard]] bool open() const { return std::isinf(pos) && std::isinf(neg); }
+    /// The tile's voxels (bit y * 8 + x) that lie between the limits.
+    [[nodiscard]] std::uint64_t tile_mask(int i0, int j0) const;
+  };
+  /// The sides of `bead` (frame f, start a2, end b2): which side holds earlier plastic, probed
+  /// just beyond its edges at its centre height.
+  Sides sides_of(const BeadFrame& f, const SweptBead& bead, const Vec2& a2, const Vec2& b2,
+                 const VoxelGrid& grid) const;
+  /// Places up to `lost` voxels of material in the free voxels near the bead: within the
+  /// bead's squeeze_mm beside and below it (within `sides` first, then on both sides), then
+  /// above the tip a voxel layer at a time. Returns how many it placed.
   std::size_t squeeze(const SweptBead& bead, const BeadFrame& f, const Vec2& a2, const Vec2& b2,
-                      std::size_t lost, VoxelGrid& grid, std::uint32_t tag, HeightMap& map);
+                      const Sides& sides, std::size_t lost, VoxelGrid& grid, std::uint32_t tag,
+                      HeightMap& map);
   /// Where a squeeze places material: a grown section, over some layers of a tile's rows.
   struct Ring {
     const BeadFrame* grown;      ///< the section grown by the ring's reach, or nullptr:
-    const std::uint64_t* masks;  ///< per layer, the bead's voxels; the ring: those next to them
+    const std::uint64_t* masks;  ///< per layer, the bead's voxels; the ring: up to `steps`
+                                 ///< voxels from them (x, y or z steps, within the tile)
     const std::int32_t* layers;  ///< the voxel layers, lowest first
     int count;                   ///< how many
     const std::uint64_t* hits;   ///< per layer, voxels next to which material goes first
     std::int32_t bead_layer;     ///< the layer the placed voxels belong to
+    const Sides* sides;          ///< where it may go sideways (nullptr: anywhere)
+    int steps;                   ///< the local ring's reach (voxels)
   };
   /// Places up to `need` voxels in the free voxels of tile (bx, by) inside the ring (rows
-  /// row_lo..row_hi-1, x lanes `lanes`): those next to ring.hits first (when given; beside,
-  /// above and below), then the rest, lower layers first. Returns how many it placed.
+  /// row_lo..row_hi-1, x lanes `lanes`, within ring.sides): nearest first; of equal distance,
+  /// those next to ring.hits first (when given; beside, above and below), then the rest,
+  /// lower layers first. Returns how many it placed.
   std::size_t squeeze_tile(const Ring& ring, int bx, int by, int row_lo, int row_hi, unsigned lanes,
                            std::size_t need, VoxelGrid& grid, std::uint32_t tag, HeightMap& map);
 
@@ -76,11 +107,16 @@ class BeadSweep {
   int nx_, ny_, nz_;
   Eigen::Vector3i block_dims_;
   bool exhaustive_;
-  std::vector<std::int32_t> reached_;  // scratch: the voxel layers a bead reaches
-  std::vector<std::uint64_t> masks_;   // scratch: a tile's occupancy word per reached layer
-  std::vector<std::int32_t> layers_;   // scratch: the layers of the squeeze
-  std::vector<std::uint64_t> hits_;    // scratch: the bead's voxels that were occupied already
-  std::vector<std::uint64_t> ring_;    // scratch: a tile's free voxels in a squeeze ring
+  std::vector<std::int32_t> reached_;       // scratch: the voxel layers a bead reaches
+  std::vector<std::uint64_t> masks_;        // scratch: a tile's occupancy word per reached layer
+  std::vector<std::int32_t> layers_;        // scratch: the layers of the squeeze
+  std::vector<std::int32_t> local_layers_;  // scratch: the layers of the local ring
+  std::vector<std::uint64_t> hits_;         // scratch: the bead's voxels that were occupied already
+  std::vector<std::uint64_t> ring_;         // scratch: a tile's free voxels in a squeeze ring
+  std::vector<std::uint64_t> reach_;     // scratch: a tile's voxels within the local ring's reach
+  std::vector<std::uint64_t> put_;       // scratch: a tile's voxels a squeeze fills, per layer
+  std::vector<std::uint64_t> hit_near_;  // scratch: a tile's voxels next to the hits, per layer
+  std::vector<std::uint64_t> free_;      // scratch: a tile's free voxels per ring layer
 };
 
 }  // namespace printtwin::detail

@@ -260,7 +260,9 @@ TEST(DepositBead, SingleWallPrintVolumeMatchesExtrusion) {
   auto r = deposit_moves(w.moves, profile, lay_only);
   ASSERT_TRUE(r.ok());
   EXPECT_NEAR(r->volume_mm3 / r->extruded_mm3, 1.0, 0.02);
-  EXPECT_LT(r->overlap_mm3, 0.005 * r->extruded_mm3);
+  // The 90 degree corners are round joins: the beads' square ends overlap inside the corner
+  // (counted) and the join places that material outside it, but for (1 - pi/4) hw^2 per corner.
+  EXPECT_LT(r->overlap_mm3 - r->squeezed_mm3, 0.005 * r->extruded_mm3);
   EXPECT_NEAR(r->bbox_mm.max.z(), 8.0, 1e-9);
   EXPECT_NEAR(r->bbox_mm.size().x(), 20.45, 0.06);
   EXPECT_TRUE(r->findings.empty());
@@ -301,6 +303,36 @@ TEST(DepositBead, SpiralVolumeMatchesExtrusion) {
   EXPECT_NEAR(r->volume_mm3 / r->extruded_mm3, 1.0, 0.02);
   EXPECT_LT(r->overlap_mm3, 0.01 * r->extruded_mm3);
   EXPECT_TRUE(r->findings.empty());
+}
+
+// A path turning by more than 60 degrees is cut square at the turn and joined round: the
+// nozzle's footprint is a disc, so the tip of a sharp corner is filled out to the bead's
+// half-width, and no further.
+TEST(DepositBead, SharpHairpinIsJoinedRoundToTheDisc) {
+  const auto profile = ender3_marlin2();
+  BeadWriter w(profile);
+  const double h = 0.2, bw = 0.45, hw = 0.5 * bw;
+  const Vec3 v(60, 50, h);
+  const double half = 15.0 * std::numbers::pi / 180.0;  // a 30 degree hairpin about -x
+  const Vec3 a = v + 8.0 * Vec3(-std::cos(half), std::sin(half), 0);
+  const Vec3 b = v + 8.0 * Vec3(-std::cos(half), -std::sin(half), 0);
+  w.travel(a);
+  w.extrude(v, bw, h);
+  w.extrude(b, bw, h);
+  auto r = deposit_moves(w.moves, profile, DepositSettings{});
+  ASSERT_TRUE(r.ok());
+  // Beyond the vertex, along the bisector at mid-height: filled to the disc's edge, empty past it.
+  auto filled = [&](double t) {
+    return r->grid.occupied(r->grid.key_of(Vec3(v.x() + t, v.y() + 0.01, 0.5 * h)));
+  };
+  for (double t = 0.0; t <= hw - 0.05; t += 0.025) EXPECT_TRUE(filled(t)) << t;
+  for (double t = hw + 0.05; t <= hw + 0.3; t += 0.025) EXPECT_FALSE(filled(t)) << t;
+  // The tip reaches the disc's edge (hw), not the square cuts' corners.
+  EXPECT_NEAR(r->bbox_mm.max.x(), v.x() + hw, 0.051);
+  // The join's voxels take material of the overlap inside the hairpin; none is made.
+  EXPECT_GT(r->squeezed_mm3, 0.0);
+  EXPECT_LE(r->squeezed_mm3, r->overlap_mm3);
+  EXPECT_LE(r->volume_mm3, r->extruded_mm3);
 }
 
 TEST(DepositBead, ZigZagInfillKeepsEveryBead) {
