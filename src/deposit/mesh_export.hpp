@@ -22,7 +22,8 @@
 // - Smoothing (full resolution, beads given, at most 2 M triangles): each vertex moves onto
 //   the surface of the bead of the one G-code line whose voxels touch it (not where lines
 //   meet: grooves, corners), at most 0.45 voxel per axis; folded triangles and every pair of
-//   triangles the exact self-intersection test finds put their vertices back on the lattice.
+//   triangles of different lattice planes that cross (a local check around the moved
+//   vertices) put their vertices back on the lattice.
 // - Decimation (max_triangles): the filled volume on cells of s x s x s voxels (a cell is
 //   filled when any of its voxels is), s the smallest that fits. The coarse solid contains
 //   the fine one and every point of its surface lies within error_bound_mm of the

@@ -258,7 +258,7 @@ std::string deposit_mesh_summary(const DepositMesh& dm, const std::filesystem::p
     s += "exactly on the voxel faces\n";
   if (dm.smoothing_skipped)
     s += "  not smoothed onto the beads: " + std::to_string(dm.mesh.triangles.size()) +
-         " triangles, more than the 2000000 its self-intersection check takes (use a coarser "
+         " triangles, more than the 2000000 its crossing check is allowed (use a coarser "
          "--voxel)\n";
   if (dm.dropped_components > 0)
     s += "  left out " + std::to_string(dm.dropped_components) +
