@@ -504,13 +504,15 @@ class VertexLattice {
         const auto p = corner_point(r, k);
         masks_[slot_[block_of(p)]][static_cast<std::size_t>(p[2] & 7)] |= bit_of(p);
       }
-    base_.resize(n + 1);
+    // First id of each slice (slot k, slice z): base_[8 k + z]; base_[8 n] = the count.
+    base_.resize(8 * static_cast<std::size_t>(n) + 1);
     std::uint32_t sum = 0;
-    for (std::uint32_t k = 0; k < n; ++k) {
-      base_[k] = sum;
-      for (const std::uint64_t w : masks_[k]) sum += static_cast<std::uint32_t>(std::popcount(w));
-    }
-    base_[n] = sum;
+    for (std::uint32_t k = 0; k < n; ++k)
+      for (std::size_t z = 0; z < 8; ++z) {
+        base_[8 * static_cast<std::size_t>(k) + z] = sum;
+        sum += static_cast<std::uint32_t>(std::popcount(masks_[k][z]));
+      }
+    base_.back() = sum;
   }
 
   [[nodiscard]] std::uint32_t size() const { return base_.back(); }
@@ -518,13 +520,9 @@ class VertexLattice {
   /// Id of a vertex point.
   [[nodiscard]] std::uint32_t id(const std::array<int, 3>& p) const {
     const std::uint32_t k = slot_[block_of(p)];
-    const Mask& m = masks_[k];
-    const int z = p[2] & 7;
-    std::uint32_t r = base_[k];
-    for (int i = 0; i < z; ++i)
-      r += static_cast<std::uint32_t>(std::popcount(m[static_cast<std::size_t>(i)]));
-    return r + static_cast<std::uint32_t>(
-                   std::popcount(m[static_cast<std::size_t>(z)] & (bit_of(p) - 1)));
+    const auto z = static_cast<std::size_t>(p[2] & 7);
+    return base_[8 * static_cast<std::size_t>(k) + z] +
+           static_cast<std::uint32_t>(std::popcount(masks_[k][z] & (bit_of(p) - 1)));
   }
 
   /// Appends the ids of the vertices strictly between the corners k and k + 1 of r, from
