@@ -98,6 +98,31 @@ def main():
         weighted_off = max(dm, dr)  # the last row is the area-weighted one
     print("agreement (area-weighted, goal within 5 %%): %s" %
           ("OK" if weighted_off <= 0.05 else "NOT OK"))
+    # Where they differ: by layer (a vertex in the first layer whose top is at or above it;
+    # verify's layer figures combined by their sample counts, an approximation).
+    layers = json.load(open(sys.argv[4])).get("per_layer", [])
+    if len(layers) >= 5:
+        tops = [l["z_mm"] for l in layers]
+        groups = (("first two layers", 0, 2), ("middle layers", 2, len(tops) - 2),
+                  ("last two layers", len(tops) - 2, len(tops)))
+        acc = [[0.0, 0.0, 0.0] for _ in groups]
+        for i in range(n):
+            z = xyz[3 * i + 2]
+            k = next((j for j, t in enumerate(tops) if t >= z - 1e-6), len(tops) - 1)
+            g = 0 if k < 2 else (2 if k >= len(tops) - 2 else 1)
+            acc[g][0] += w[i]
+            acc[g][1] += w[i] * d[i]
+            acc[g][2] += w[i] * d[i] * d[i]
+        for (name, lo, hi), (a, s1, s2) in zip(groups, acc):
+            cnt = sum(l["deposit_to_mesh"]["samples"] for l in layers[lo:hi])
+            if cnt == 0 or a == 0:
+                continue
+            vm = sum(l["deposit_to_mesh"]["samples"] * l["deposit_to_mesh"]["mean_mm"]
+                     for l in layers[lo:hi]) / cnt
+            vr = math.sqrt(sum(l["deposit_to_mesh"]["samples"] * l["deposit_to_mesh"]["rms_mm"] ** 2
+                               for l in layers[lo:hi]) / cnt)
+            print("  %-17s verify mean %+.4f RMS %.4f | C2M area-weighted mean %+.4f RMS %.4f"
+                  " (%.0f mm2)" % (name, vm, vr, s1 / a, math.sqrt(s2 / a), a))
 
 
 if __name__ == "__main__":
