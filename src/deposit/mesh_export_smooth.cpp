@@ -332,12 +332,14 @@ std::size_t smooth_onto_beads(Mesh& mesh, std::span<const std::uint32_t> plane_o
     if (is_moved[i] != 0) mesh.vertices_mm[i] = moved[i];
   moved = {};
   // Triangles to look at: first those with a moved vertex, then those whose vertices went
-  // back in the round before.
+  // back in the round before (`fold`: for the fold test; `dirty`: for the crossing check,
+  // gathered until it runs).
   std::vector<std::uint8_t> dirty(nt, 0);
   tbb::parallel_for(std::size_t{0}, nt, [&](std::size_t t) {
     const auto& tr = mesh.triangles[t];
     dirty[t] = (is_moved[tr[0]] | is_moved[tr[1]] | is_moved[tr[2]]) != 0 ? 1 : 0;
   });
+  std::vector<std::uint8_t> fold = dirty;
   const double min_cos = std::cos(kMaxTurnDegrees * 3.14159265358979323846 / 180.0);
   constexpr std::size_t kChunk = 65536;
   std::vector<std::vector<std::uint32_t>> folded((nt + kChunk - 1) / kChunk);
@@ -347,7 +349,7 @@ std::size_t smooth_onto_beads(Mesh& mesh, std::span<const std::uint32_t> plane_o
     tbb::parallel_for(std::size_t{0}, folded.size(), [&](std::size_t c) {
       folded[c].clear();
       for (std::size_t ti = c * kChunk; ti < std::min(nt, (c + 1) * kChunk); ++ti) {
-        if (dirty[ti] == 0) continue;
+        if (fold[ti] == 0) continue;
         const auto& t = mesh.triangles[ti];
         if (is_moved[t[0]] == 0 && is_moved[t[1]] == 0 && is_moved[t[2]] == 0) continue;
         const Vec3& a = lattice[t[0]];
@@ -383,6 +385,7 @@ std::size_t smooth_onto_beads(Mesh& mesh, std::span<const std::uint32_t> plane_o
       const auto& tr = mesh.triangles[t];
       const bool near = (back[tr[0]] | back[tr[1]] | back[tr[2]]) != 0;
       dirty[t] = near || (!crossing_check && dirty[t] != 0) ? 1 : 0;
+      fold[t] = near ? 1 : 0;
     });
     std::fill(back.begin(), back.end(), 0);
   }
