@@ -975,8 +975,10 @@ Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid, const DepositMeshO
   // The plane of each kept triangle's rectangle (the smoothing's intersection check skips
   // pairs in one plane).
   std::vector<std::uint32_t> plane_of_triangle;
-  if (options.smooth && !beads.empty() &&
-      out.mesh.triangles.size() <= detail::kMaxSmoothedTriangles) {
+  const auto too_many_to_smooth = [&](std::size_t n) {
+    return options.smooth_max_triangles > 0 && n > options.smooth_max_triangles;
+  };
+  if (options.smooth && !beads.empty() && !too_many_to_smooth(out.mesh.triangles.size())) {
     plane_of_triangle.reserve(out.mesh.triangles.size());
     for (const std::uint32_t ri : full.tris.rect_of_triangle) {
       if (out.dropped_components > 0 && !pieces.keep[pieces.component_of_rect[ri]]) continue;
@@ -1016,7 +1018,7 @@ Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid, const DepositMeshO
     }
   }
   if (out.cell_voxels == 1 && options.smooth && !beads.empty()) {
-    out.smoothing_skipped = out.mesh.triangles.size() > detail::kMaxSmoothedTriangles;
+    out.smoothing_skipped = too_many_to_smooth(out.mesh.triangles.size());
     if (!out.smoothing_skipped)
       out.smoothed_vertices = detail::smooth_onto_beads(out.mesh, plane_of_triangle, grid, beads);
   }

@@ -20,9 +20,6 @@ constexpr double kMaxTurnDegrees = 75.0;
 constexpr double kMinAreaRatio = 0.05;
 /// Cells of the smoothing's crossing check, in voxels.
 constexpr double kCellVoxels = 2.0;
-/// Meshes above this many triangles are not smoothed: the crossing check of the moved
-/// triangles costs about 3 s of CPU per million triangles.
-constexpr std::size_t kMaxSmoothedTriangles = 2'000'000;
 
 /// Moves the vertices of a closed voxel-face mesh of `grid`'s deposit onto the surface of
 /// the nearest bead of the occupied voxels around each vertex, where that surface faces the

@@ -135,6 +135,29 @@ TEST(DepositMeshSmooth, NoBeadsOrDecimationKeepTheVoxelFaces) {
   EXPECT_EQ(coarse->smoothed_vertices, 0u);
 }
 
+// Above smooth_max_triangles the mesh stays on the voxel faces and says so; 0 lifts the limit.
+TEST(DepositMeshSmooth, TheTriangleLimitSkipsSmoothingAndZeroLiftsIt) {
+  const Printed p = lay_loops(0.2, 0.45, 2);
+  const auto beads = surface_beads(p.moves, ender3_marlin2());
+  DepositMeshOptions o;
+  auto full = build_deposit_mesh(p.deposit.grid, o, beads);
+  ASSERT_TRUE(full.ok());
+  ASSERT_GT(full->smoothed_vertices, 0u);
+  EXPECT_FALSE(full->smoothing_skipped);
+  o.smooth_max_triangles = full->mesh.triangles.size() - 1;
+  auto limited = build_deposit_mesh(p.deposit.grid, o, beads);
+  ASSERT_TRUE(limited.ok());
+  EXPECT_TRUE(limited->smoothing_skipped);
+  EXPECT_EQ(limited->smoothed_vertices, 0u);
+  EXPECT_NE(deposit_mesh_summary(*limited, "x.stl").find("--deposit-mesh-smooth-max-triangles"),
+            std::string::npos);
+  o.smooth_max_triangles = 0;
+  auto unlimited = build_deposit_mesh(p.deposit.grid, o, beads);
+  ASSERT_TRUE(unlimited.ok());
+  EXPECT_FALSE(unlimited->smoothing_skipped);
+  EXPECT_EQ(unlimited->mesh.vertices_mm, full->mesh.vertices_mm);
+}
+
 }  // namespace
 }  // namespace printtwin
 
