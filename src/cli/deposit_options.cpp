@@ -51,6 +51,10 @@ void add_deposit_mesh_options(CLI::App& cmd, DepositMeshCliOptions& o) {
                  "is printed)");
   cmd.add_flag("--deposit-mesh-voxel-faces", o.voxel_faces,
                "Keep the mesh on the voxel faces (no sub-voxel smoothing onto the beads)");
+  cmd.add_option("--deposit-mesh-smooth-max-triangles", o.smooth_max_triangles,
+                 "Smooth meshes up to this many triangles (about 3 s of CPU per million; "
+                 "0: any size)")
+      ->capture_default_str();
 }
 
 Result<DepositMeshOptions> deposit_mesh_options(const DepositMeshCliOptions& o) {
@@ -61,6 +65,7 @@ Result<DepositMeshOptions> deposit_mesh_options(const DepositMeshCliOptions& o) 
     if (auto st = parse_deposit_mesh_include(o.include, out); !st) return st.error();
   out.max_triangles = o.max_triangles;
   out.smooth = !o.voxel_faces;
+  out.smooth_max_triangles = o.smooth_max_triangles;
   return out;
 }
 

@@ -27,6 +27,8 @@ struct DepositMeshCliOptions {
   std::string include;            ///< comma list: skirt, support, purge, all
   std::size_t max_triangles = 0;  ///< 0: full resolution
   bool voxel_faces = false;       ///< --deposit-mesh-voxel-faces: no sub-voxel smoothing
+  /// --deposit-mesh-smooth-max-triangles: larger meshes stay on the voxel faces (0: no limit)
+  std::size_t smooth_max_triangles = DepositMeshOptions{}.smooth_max_triangles;
 };
 
 /// Declares the --deposit-mesh options on a subcommand.

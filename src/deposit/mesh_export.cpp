@@ -363,56 +363,6 @@ std::uint64_t face_key(int axis, int side, int c, int u, int v) {
          static_cast<std::uint64_t>(u);
 }
 
-/// Sorts `keys` ascending, LSD radix on 11-bit digits (2048 buckets stay in cache; digits
-/// above the largest key, or shared by all keys, are skipped); `vals` (optional, same
-/// length) move along with their keys (stable, so the result does not depend on the
-/// threads). Large inputs are counted and scattered in fixed chunks in parallel.
-void radix_sort(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>* vals = nullptr) {
-  constexpr int kBits = 11;
-  constexpr std::size_t kBuckets = std::size_t{1} << kBits;
-  const std::size_t n = keys.size();
-  const std::size_t chunks = n < (std::size_t{1} << 16) ? 1 : 16;
-  const std::size_t per = (n + chunks - 1) / chunks;
-  std::uint64_t all_bits = 0;
-  for (const std::uint64_t k : keys) all_bits |= k;
-  std::vector<std::uint64_t> tmp(n);
-  std::vector<std::uint32_t> tmp_vals(vals != nullptr ? vals->size() : 0);
-  std::vector<std::size_t> count(chunks * kBuckets);
-  for (int shift = 0; shift < 64 && (all_bits >> shift) != 0; shift += kBits) {
-    auto each_chunk = [&](auto&& fn) {
-      tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
-        fn(c, c * per, std::min(n, (c + 1) * per), &count[c * kBuckets]);
-      });
-    };
-    each_chunk([&](std::size_t, std::size_t lo, std::size_t hi, std::size_t* cnt) {
-      std::fill(cnt, cnt + kBuckets, 0);
-      for (std::size_t i = lo; i < hi; ++i) ++cnt[(keys[i] >> shift) & (kBuckets - 1)];
-    });
-    std::size_t sum = 0;
-    bool one_digit = false;
-    for (std::size_t b = 0; b < kBuckets; ++b) {
-      std::size_t total = 0;
-      for (std::size_t c = 0; c < chunks; ++c) {
-        const std::size_t m = count[c * kBuckets + b];
-        count[c * kBuckets + b] = sum;
-        sum += m;
-        total += m;
-      }
-      one_digit |= total == n;
-    }
-    if (one_digit) continue;  // one digit: already in order
-    each_chunk([&](std::size_t, std::size_t lo, std::size_t hi, std::size_t* at) {
-      for (std::size_t i = lo; i < hi; ++i) {
-        const std::size_t to = at[(keys[i] >> shift) & (kBuckets - 1)]++;
-        tmp[to] = keys[i];
-        if (vals != nullptr) tmp_vals[to] = (*vals)[i];
-      }
-    });
-    keys.swap(tmp);
-    if (vals != nullptr) vals->swap(tmp_vals);
-  }
-}
-
 std::vector<std::uint64_t> exposed_faces(const Solid& s) {
   auto keys = per_block_layer<std::uint64_t>(s.nb.z(), [&](int bz,
                                                            std::vector<std::uint64_t>& out) {
@@ -450,7 +400,7 @@ std::vector<std::uint64_t> exposed_faces(const Solid& s) {
         }
       }
   });
-  radix_sort(keys);
+  detail::radix_sort(keys, nullptr);
   return keys;
 }
 
@@ -554,13 +504,15 @@ class VertexLattice {
         const auto p = corner_point(r, k);
         masks_[slot_[block_of(p)]][static_cast<std::size_t>(p[2] & 7)] |= bit_of(p);
       }
-    base_.resize(n + 1);
+    // First id of each slice (slot k, slice z): base_[8 k + z]; base_[8 n] = the count.
+    base_.resize(8 * static_cast<std::size_t>(n) + 1);
     std::uint32_t sum = 0;
-    for (std::uint32_t k = 0; k < n; ++k) {
-      base_[k] = sum;
-      for (const std::uint64_t w : masks_[k]) sum += static_cast<std::uint32_t>(std::popcount(w));
-    }
-    base_[n] = sum;
+    for (std::uint32_t k = 0; k < n; ++k)
+      for (std::size_t z = 0; z < 8; ++z) {
+        base_[8 * static_cast<std::size_t>(k) + z] = sum;
+        sum += static_cast<std::uint32_t>(std::popcount(masks_[k][z]));
+      }
+    base_.back() = sum;
   }
 
   [[nodiscard]] std::uint32_t size() const { return base_.back(); }
@@ -568,13 +520,9 @@ class VertexLattice {
   /// Id of a vertex point.
   [[nodiscard]] std::uint32_t id(const std::array<int, 3>& p) const {
     const std::uint32_t k = slot_[block_of(p)];
-    const Mask& m = masks_[k];
-    const int z = p[2] & 7;
-    std::uint32_t r = base_[k];
-    for (int i = 0; i < z; ++i)
-      r += static_cast<std::uint32_t>(std::popcount(m[static_cast<std::size_t>(i)]));
-    return r + static_cast<std::uint32_t>(
-                   std::popcount(m[static_cast<std::size_t>(z)] & (bit_of(p) - 1)));
+    const auto z = static_cast<std::size_t>(p[2] & 7);
+    return base_[8 * static_cast<std::size_t>(k) + z] +
+           static_cast<std::uint32_t>(std::popcount(masks_[k][z] & (bit_of(p) - 1)));
   }
 
   /// Appends the ids of the vertices strictly between the corners k and k + 1 of r, from
@@ -936,6 +884,60 @@ Mesh kept_part(const Triangulated& t, const Pieces& p) {
 
 }  // namespace
 
+namespace detail {
+
+/// Sorts `keys` ascending, LSD radix on 11-bit digits (2048 buckets stay in cache; digits
+/// above the largest key, or shared by all keys, are skipped); `vals` (optional, same
+/// length) move along with their keys (stable, so the result does not depend on the
+/// threads). Large inputs are counted and scattered in fixed chunks in parallel.
+void radix_sort(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>* vals) {
+  constexpr int kBits = 11;
+  constexpr std::size_t kBuckets = std::size_t{1} << kBits;
+  const std::size_t n = keys.size();
+  const std::size_t chunks = n < (std::size_t{1} << 16) ? 1 : 16;
+  const std::size_t per = (n + chunks - 1) / chunks;
+  std::uint64_t all_bits = 0;
+  for (const std::uint64_t k : keys) all_bits |= k;
+  std::vector<std::uint64_t> tmp(n);
+  std::vector<std::uint32_t> tmp_vals(vals != nullptr ? vals->size() : 0);
+  std::vector<std::size_t> count(chunks * kBuckets);
+  for (int shift = 0; shift < 64 && (all_bits >> shift) != 0; shift += kBits) {
+    auto each_chunk = [&](auto&& fn) {
+      tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+        fn(c, c * per, std::min(n, (c + 1) * per), &count[c * kBuckets]);
+      });
+    };
+    each_chunk([&](std::size_t, std::size_t lo, std::size_t hi, std::size_t* cnt) {
+      std::fill(cnt, cnt + kBuckets, 0);
+      for (std::size_t i = lo; i < hi; ++i) ++cnt[(keys[i] >> shift) & (kBuckets - 1)];
+    });
+    std::size_t sum = 0;
+    bool one_digit = false;
+    for (std::size_t b = 0; b < kBuckets; ++b) {
+      std::size_t total = 0;
+      for (std::size_t c = 0; c < chunks; ++c) {
+        const std::size_t m = count[c * kBuckets + b];
+        count[c * kBuckets + b] = sum;
+        sum += m;
+        total += m;
+      }
+      one_digit |= total == n;
+    }
+    if (one_digit) continue;  // one digit: already in order
+    each_chunk([&](std::size_t, std::size_t lo, std::size_t hi, std::size_t* at) {
+      for (std::size_t i = lo; i < hi; ++i) {
+        const std::size_t to = at[(keys[i] >> shift) & (kBuckets - 1)]++;
+        tmp[to] = keys[i];
+        if (vals != nullptr) tmp_vals[to] = (*vals)[i];
+      }
+    });
+    keys.swap(tmp);
+    if (vals != nullptr) vals->swap(tmp_vals);
+  }
+}
+
+}  // namespace detail
+
 Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid, const DepositMeshOptions& options,
                                        std::span<const SurfaceBead> beads) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -970,6 +972,22 @@ Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid, const DepositMeshO
     kept_rects += pieces.keep[pieces.component_of_rect[ri]] ? 1 : 0;
   out.rectangles = kept_rects;
   out.error_bound_mm = full.repaired > 0 ? std::sqrt(6.0) * grid.voxel_mm() : 0.0;
+  // The plane of each kept triangle's rectangle (the smoothing's intersection check skips
+  // pairs in one plane).
+  std::vector<std::uint32_t> plane_of_triangle;
+  const auto too_many_to_smooth = [&](std::size_t n) {
+    return options.smooth_max_triangles > 0 && n > options.smooth_max_triangles;
+  };
+  if (options.smooth && !beads.empty() && !too_many_to_smooth(out.mesh.triangles.size())) {
+    plane_of_triangle.reserve(out.mesh.triangles.size());
+    for (const std::uint32_t ri : full.tris.rect_of_triangle) {
+      if (out.dropped_components > 0 && !pieces.keep[pieces.component_of_rect[ri]]) continue;
+      const Rect& r = full.rects[ri];
+      plane_of_triangle.push_back((static_cast<std::uint32_t>(r.axis) << 17) |
+                                  (static_cast<std::uint32_t>(r.side) << 16) |
+                                  static_cast<std::uint32_t>(r.c));
+    }
+  }
   full = {};
 
   const std::size_t n_max = options.max_triangles;
@@ -1000,8 +1018,9 @@ Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid, const DepositMeshO
     }
   }
   if (out.cell_voxels == 1 && options.smooth && !beads.empty()) {
-    out.smoothing_skipped = out.mesh.triangles.size() > detail::kMaxCheckedTriangles;
-    out.smoothed_vertices = detail::smooth_onto_beads(out.mesh, grid, beads);
+    out.smoothing_skipped = too_many_to_smooth(out.mesh.triangles.size());
+    if (!out.smoothing_skipped)
+      out.smoothed_vertices = detail::smooth_onto_beads(out.mesh, plane_of_triangle, grid, beads);
   }
   if (out.smoothed_vertices > 0)
     out.error_bound_mm =

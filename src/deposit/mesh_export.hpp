@@ -19,10 +19,11 @@
 // - Components: connected pieces of the surface with no voxel of a part feature (perimeter,
 //   infill, ...) are dropped (a purge line or skirt that lies apart); a G-code without
 //   feature labels keeps the pieces that span more than one layer.
-// - Smoothing (full resolution, beads given, at most 2 M triangles): each vertex moves onto
+// - Smoothing (full resolution, beads given, at most smooth_max_triangles): each vertex moves onto
 //   the surface of the bead of the one G-code line whose voxels touch it (not where lines
 //   meet: grooves, corners), at most 0.45 voxel per axis; folded triangles and every pair of
-//   triangles the exact self-intersection test finds put their vertices back on the lattice.
+//   triangles of different lattice planes that cross (a local check around the moved
+//   vertices) put their vertices back on the lattice.
 // - Decimation (max_triangles): the filled volume on cells of s x s x s voxels (a cell is
 //   filled when any of its voxels is), s the smallest that fits. The coarse solid contains
 //   the fine one and every point of its surface lies within error_bound_mm of the
@@ -46,6 +47,9 @@ struct DepositMeshOptions {
   std::size_t max_triangles = 0;  ///< 0: full resolution
   /// Full resolution with beads given: vertices move onto the bead surfaces (sub-voxel).
   bool smooth = true;
+  /// Larger meshes are not smoothed (0: no limit): smoothing costs about 3 s of CPU per
+  /// million triangles.
+  std::size_t smooth_max_triangles = 2'000'000;
 };
 
 struct DepositMesh {

@@ -1,7 +1,9 @@
 #pragma once
 // Internals of the as-printed mesh (mesh_export*.cpp), for its tests.
 #include <cstddef>
+#include <cstdint>
 #include <span>
+#include <vector>
 
 #include "printtwin/deviation.hpp"
 #include "printtwin/mesh.hpp"
@@ -16,17 +18,18 @@ constexpr double kMaxShiftVoxels = 0.45;
 constexpr double kMaxTurnDegrees = 75.0;
 /// ...and keep at least this share of its area; otherwise its vertices stay on the lattice.
 constexpr double kMinAreaRatio = 0.05;
-/// Rounds of the self-intersection check before every vertex goes back to the lattice.
-constexpr int kMaxIntersectionRounds = 8;
-/// Meshes above this many triangles are not smoothed: the exact check would take minutes
-/// and the local rules alone leave intersections (at the crossings of bead surfaces).
-constexpr std::size_t kMaxCheckedTriangles = 2'000'000;
+/// Cells of the smoothing's crossing check, in voxels.
+constexpr double kCellVoxels = 2.0;
 
 /// Moves the vertices of a closed voxel-face mesh of `grid`'s deposit onto the surface of
 /// the nearest bead of the occupied voxels around each vertex, where that surface faces the
-/// same way and lies within a voxel (mesh_export_smooth.cpp has the safety rules). Returns
-/// the number of vertices moved.
-std::size_t smooth_onto_beads(Mesh& mesh, const VoxelGrid& grid,
-                              std::span<const SurfaceBead> beads);
+/// same way and lies within a voxel (mesh_export_smooth.cpp has the safety rules).
+/// `plane_of_triangle`: the lattice plane (axis, side, coordinate) of each triangle's voxel
+/// faces. Returns the number of vertices moved.
+std::size_t smooth_onto_beads(Mesh& mesh, std::span<const std::uint32_t> plane_of_triangle,
+                              const VoxelGrid& grid, std::span<const SurfaceBead> beads);
+
+/// Sorts `keys` ascending (LSD radix, stable); `vals` (optional, same length) move along.
+void radix_sort(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>* vals);
 
 }  // namespace printtwin::detail

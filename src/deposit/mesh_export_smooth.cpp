@@ -9,19 +9,26 @@
 //   triangles made from them stay at least (1 - 2 kMaxShiftVoxels) voxel apart;
 // - triangles that share a vertex could fold over each other: every triangle whose normal
 //   turns by more than kMaxTurn from its voxel face's normal (or whose area collapses) puts
-//   its vertices back on the lattice, repeated until no triangle does; then every pair of
-//   triangles that still intersects (exact test of the check stage) does the same.
+//   its vertices back on the lattice;
+// - triangles of one lattice plane then cannot cross: each keeps its orientation seen along
+//   the plane's normal and the plane's boundary stays simple, so the plane's moved triangles
+//   form a graph over it. Triangles of two different planes can, where the planes meet (a
+//   step, a corner): every pair of triangles of different planes whose boxes overlap, one of
+//   them moved, is tested (a uniform grid of cells of one voxel, and a conservative
+//   floating-point test: touching counts), and both put their vertices back;
+// - the last two steps repeat on the triangles whose vertices went back, until none does.
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
+#include <span>
 #include <vector>
 
 #include "deposit/mesh_export_internal.hpp"
 #include "deviation/surface_internal.hpp"
-#include "printtwin/check.hpp"
 #include "printtwin/deviation.hpp"
 
 namespace printtwin::detail {
@@ -31,8 +38,8 @@ namespace {
 /// The bead surface point for a vertex at p (its outward normal `normal`), or nothing: the
 /// nearest bead of the lines of the occupied voxels touching p, when its surface there faces
 /// the same way as the mesh.
-bool bead_point(const VoxelGrid& grid, std::span<const SurfaceBead> beads, const Vec3& p,
-                const Vec3& normal, Vec3& target) {
+bool bead_point(const VoxelGrid& grid, const BeadIndex& index, std::span<const SurfaceBead> beads,
+                const Vec3& p, const Vec3& normal, Vec3& target) {
   const double v = grid.voxel_mm();
   const Vec3 q = (p - grid.origin_mm()) / v;
   std::array<int, 3> lo{}, n{};
@@ -56,11 +63,7 @@ bool bead_point(const VoxelGrid& grid, std::span<const SurfaceBead> beads, const
   // Where voxels of several lines meet (a layer groove, the inside of a corner), the beads'
   // surfaces cross at a crease and their nearest points jump: the lattice point stays.
   if (nl != 1) return false;
-  BeadDistance best;
-  for (int i = 0; i < nl; ++i) {
-    const BeadDistance d = nearest_bead(beads, lines[static_cast<std::size_t>(i)], p);
-    if (d.signed_mm < best.signed_mm) best = d;
-  }
+  const BeadDistance best = index.nearest(lines[0], p);
   if (best.bead == kNoBead) return false;
   Vec3 out = p - best.core_point;
   const double len = out.norm();
@@ -71,14 +74,235 @@ bool bead_point(const VoxelGrid& grid, std::span<const SurfaceBead> beads, const
   return true;
 }
 
+// ---------------------------------------------------------------- local intersection check
+
+/// Sign-robust enough for a conservative test: a pair is reported when the floating-point
+/// test cannot tell it apart from touching (reverting its vertices is always safe).
+struct TriTri {
+  double eps;  // length tolerance (mm)
+
+  /// Does segment q0-q1 meet triangle (a, b, c) (closed, within eps)?
+  [[nodiscard]] bool segment_hits(const Vec3& q0, const Vec3& q1, const Vec3& a, const Vec3& b,
+                                  const Vec3& c) const {
+    const Vec3 n = (b - a).cross(c - a);
+    const double nl = n.norm();
+    if (!(nl > 0)) return false;  // degenerate: settled by its neighbours
+    const double d0 = n.dot(q0 - a) / nl, d1 = n.dot(q1 - a) / nl;
+    if ((d0 > eps && d1 > eps) || (d0 < -eps && d1 < -eps)) return false;
+    const Vec3 u = n / nl;
+    auto inside = [&](const Vec3& x) {  // x in the plane: inside the closed triangle, within eps
+      return u.dot((b - a).cross(x - a)) >= -eps * (b - a).norm() &&
+             u.dot((c - b).cross(x - b)) >= -eps * (c - b).norm() &&
+             u.dot((a - c).cross(x - c)) >= -eps * (a - c).norm();
+    };
+    if (std::abs(d0) <= eps && std::abs(d1) <= eps) {  // in the plane: a 2-D test
+      const Vec3 p0 = q0 - d0 * u, p1 = q1 - d1 * u;
+      if (inside(p0) || inside(p1)) return true;
+      const std::array<const Vec3*, 3> t{&a, &b, &c};
+      for (int k = 0; k < 3; ++k)
+        if (segments_cross(p0, p1, *t[static_cast<std::size_t>(k)],
+                           *t[static_cast<std::size_t>((k + 1) % 3)], u))
+          return true;
+      return false;
+    }
+    const double t = std::clamp(d0 / (d0 - d1), 0.0, 1.0);
+    return inside(q0 + t * (q1 - q0));
+  }
+  /// Coplanar segments p0-p1 and r0-r1 (plane normal u) cross or touch within eps.
+  [[nodiscard]] bool segments_cross(const Vec3& p0, const Vec3& p1, const Vec3& r0, const Vec3& r1,
+                                    const Vec3& u) const {
+    const Vec3 dp = p1 - p0, dr = r1 - r0;
+    const double lp = std::max(dp.norm(), 1e-300), lr = std::max(dr.norm(), 1e-300);
+    const double s0 = u.dot(dp.cross(r0 - p0)) / lp, s1 = u.dot(dp.cross(r1 - p0)) / lp;
+    const double t0 = u.dot(dr.cross(p0 - r0)) / lr, t1 = u.dot(dr.cross(p1 - r0)) / lr;
+    if ((s0 > eps && s1 > eps) || (s0 < -eps && s1 < -eps)) return false;
+    if ((t0 > eps && t1 > eps) || (t0 < -eps && t1 < -eps)) return false;
+    // Both straddle (or touch) the other's line: they cross, unless collinear and apart.
+    if (std::abs(s0) <= eps && std::abs(s1) <= eps) {
+      const double a0 = 0, a1 = dp.dot(dp) / lp, b0 = dp.dot(r0 - p0) / lp,
+                   b1 = dp.dot(r1 - p0) / lp;
+      return std::max(a0, std::min(b0, b1)) <= std::min(a1, std::max(b0, b1)) + eps;
+    }
+    return true;
+  }
+
+  /// Triangles (ids ta, tb of vertex ids) meet other than along their shared vertices/edge.
+  [[nodiscard]] bool meet(const std::array<std::uint32_t, 3>& ta,
+                          const std::array<std::uint32_t, 3>& tb,
+                          const std::vector<Vec3>& pos) const {
+    int shared = 0;
+    std::array<int, 3> in_b{-1, -1, -1};
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        if (ta[static_cast<std::size_t>(i)] == tb[static_cast<std::size_t>(j)]) {
+          in_b[static_cast<std::size_t>(i)] = j;
+          ++shared;
+        }
+    const Vec3 &a0 = pos[ta[0]], &a1 = pos[ta[1]], &a2 = pos[ta[2]];
+    const Vec3 &b0 = pos[tb[0]], &b1 = pos[tb[1]], &b2 = pos[tb[2]];
+    if (shared >= 2) {  // a shared edge: they meet only when folded onto each other
+      const Vec3 na = (a1 - a0).cross(a2 - a0), nb = (b1 - b0).cross(b2 - b0);
+      return na.dot(nb) < -0.999 * na.norm() * nb.norm();
+    }
+    const std::array<const Vec3*, 3> pa{&a0, &a1, &a2}, pb{&b0, &b1, &b2};
+    if (shared == 1) {  // each one's edge opposite the shared vertex against the other
+      int ia = 0;
+      while (in_b[static_cast<std::size_t>(ia)] < 0) ++ia;
+      const int ib = in_b[static_cast<std::size_t>(ia)];
+      const Vec3& ea0 = *pa[static_cast<std::size_t>((ia + 1) % 3)];
+      const Vec3& ea1 = *pa[static_cast<std::size_t>((ia + 2) % 3)];
+      const Vec3& eb0 = *pb[static_cast<std::size_t>((ib + 1) % 3)];
+      const Vec3& eb1 = *pb[static_cast<std::size_t>((ib + 2) % 3)];
+      return segment_hits(ea0, ea1, b0, b1, b2) || segment_hits(eb0, eb1, a0, a1, a2);
+    }
+    for (int k = 0; k < 3; ++k) {
+      if (segment_hits(*pa[static_cast<std::size_t>(k)], *pa[static_cast<std::size_t>((k + 1) % 3)],
+                       b0, b1, b2) ||
+          segment_hits(*pb[static_cast<std::size_t>(k)], *pb[static_cast<std::size_t>((k + 1) % 3)],
+                       a0, a1, a2))
+        return true;
+    }
+    return false;
+  }
+};
+
+/// Triangles of different planes, at least one of them `dirty`, whose boxes overlap and that
+/// meet (TriTri): the pairs, in a deterministic order.
+std::vector<std::array<std::uint32_t, 2>> crossing_pairs(const Mesh& mesh,
+                                                         std::span<const std::uint32_t> plane,
+                                                         const std::vector<std::uint8_t>& dirty,
+                                                         double cell_mm) {
+  const std::size_t nt = mesh.triangles.size();
+  const auto& pos = mesh.vertices_mm;
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity());
+  for (const Vec3& p : pos) lo = lo.cwiseMin(p);
+  lo -= Vec3::Constant(2 * cell_mm);
+  const double eps = 1e-7;
+  auto cell_range = [&](std::uint32_t t, std::array<int, 3>& c0, std::array<int, 3>& c1) {
+    const auto& tr = mesh.triangles[t];
+    const Vec3 mn = pos[tr[0]].cwiseMin(pos[tr[1]]).cwiseMin(pos[tr[2]]);
+    const Vec3 mx = pos[tr[0]].cwiseMax(pos[tr[1]]).cwiseMax(pos[tr[2]]);
+    for (int a = 0; a < 3; ++a) {
+      c0[static_cast<std::size_t>(a)] =
+          static_cast<int>(std::floor((mn[a] - eps - lo[a]) / cell_mm));
+      c1[static_cast<std::size_t>(a)] =
+          static_cast<int>(std::floor((mx[a] + eps - lo[a]) / cell_mm));
+    }
+  };
+  auto key = [](int x, int y, int z) {
+    return (static_cast<std::uint64_t>(z) << 42) | (static_cast<std::uint64_t>(y) << 21) |
+           static_cast<std::uint64_t>(x);
+  };
+  std::size_t n_dirty = 0;
+  for (const std::uint8_t d : dirty) n_dirty += d;
+  if (n_dirty == 0) return {};
+  // Few dirty triangles: only the cells they touch take the others.
+  std::vector<std::uint64_t> dirty_cells;
+  const bool all = n_dirty * 8 > nt;
+  constexpr std::size_t kChunk = 65536;
+  const std::size_t chunks = (nt + kChunk - 1) / kChunk;
+  if (!all) {
+    for (std::uint32_t t = 0; t < nt; ++t) {
+      if (dirty[t] == 0) continue;
+      std::array<int, 3> c0{}, c1{};
+      cell_range(t, c0, c1);
+      for (int z = c0[2]; z <= c1[2]; ++z)
+        for (int y = c0[1]; y <= c1[1]; ++y)
+          for (int x = c0[0]; x <= c1[0]; ++x) dirty_cells.push_back(key(x, y, z));
+    }
+    std::sort(dirty_cells.begin(), dirty_cells.end());
+    dirty_cells.erase(std::unique(dirty_cells.begin(), dirty_cells.end()), dirty_cells.end());
+  }
+  std::vector<std::vector<std::uint64_t>> part_keys(chunks);
+  std::vector<std::vector<std::uint32_t>> part_ids(chunks);
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    auto& ks = part_keys[c];
+    auto& ids = part_ids[c];
+    for (std::size_t t = c * kChunk; t < std::min(nt, (c + 1) * kChunk); ++t) {
+      std::array<int, 3> c0{}, c1{};
+      cell_range(static_cast<std::uint32_t>(t), c0, c1);
+      const bool take_all = all || dirty[t] != 0;
+      for (int z = c0[2]; z <= c1[2]; ++z)
+        for (int y = c0[1]; y <= c1[1]; ++y)
+          for (int x = c0[0]; x <= c1[0]; ++x) {
+            const std::uint64_t k = key(x, y, z);
+            if (!take_all && !std::binary_search(dirty_cells.begin(), dirty_cells.end(), k))
+              continue;
+            ks.push_back(k);
+            ids.push_back(static_cast<std::uint32_t>(t));
+          }
+    }
+  });
+  std::vector<std::uint64_t> keys;
+  std::vector<std::uint32_t> ids;
+  for (std::size_t c = 0; c < chunks; ++c) {
+    keys.insert(keys.end(), part_keys[c].begin(), part_keys[c].end());
+    ids.insert(ids.end(), part_ids[c].begin(), part_ids[c].end());
+    part_keys[c] = {};
+    part_ids[c] = {};
+  }
+  radix_sort(keys, &ids);
+  // Groups of one cell, split into chunks at group starts.
+  std::vector<std::size_t> starts;
+  for (std::size_t i = 0; i < keys.size(); ++i)
+    if (i == 0 || keys[i] != keys[i - 1]) starts.push_back(i);
+  starts.push_back(keys.size());
+  const std::size_t ng = starts.size() - 1;
+  constexpr std::size_t kGroups = 4096;
+  std::vector<std::vector<std::array<std::uint32_t, 2>>> found((ng + kGroups - 1) / kGroups);
+  const TriTri test{eps};
+  tbb::parallel_for(std::size_t{0}, found.size(), [&](std::size_t c) {
+    std::vector<std::pair<Vec3, Vec3>> box;
+    for (std::size_t g = c * kGroups; g < std::min(ng, (c + 1) * kGroups); ++g) {
+      const std::size_t b = starts[g], e = starts[g + 1];
+      if (e - b < 2) continue;
+      const std::uint64_t k = keys[b];
+      box.clear();
+      for (std::size_t i = b; i < e; ++i) {
+        const auto& tr = mesh.triangles[ids[i]];
+        box.emplace_back(pos[tr[0]].cwiseMin(pos[tr[1]]).cwiseMin(pos[tr[2]]),
+                         pos[tr[0]].cwiseMax(pos[tr[1]]).cwiseMax(pos[tr[2]]));
+      }
+      for (std::size_t i = b; i < e; ++i)
+        for (std::size_t j = i + 1; j < e; ++j) {
+          const std::uint32_t ta = ids[i], tb = ids[j];
+          if (dirty[ta] == 0 && dirty[tb] == 0) continue;
+          if (plane[ta] == plane[tb]) continue;
+          const auto& ba = box[i - b];
+          const auto& bb = box[j - b];
+          if ((ba.first.array() > bb.second.array() + eps).any() ||
+              (bb.first.array() > ba.second.array() + eps).any())
+            continue;
+          // Each pair once: in the cell of the low corner of the boxes' overlap.
+          const Vec3 m = ba.first.cwiseMax(bb.first);
+          std::array<int, 3> mc{};
+          for (int a = 0; a < 3; ++a)
+            mc[static_cast<std::size_t>(a)] =
+                std::max(0, static_cast<int>(std::floor((m[a] - eps - lo[a]) / cell_mm)));
+          if (key(mc[0], mc[1], mc[2]) != k) {
+            // The overlap starts in an earlier cell that holds both (the boxes were padded
+            // by eps the same way): tested there.
+            continue;
+          }
+          if (test.meet(mesh.triangles[ta], mesh.triangles[tb], pos))
+            found[c].push_back({std::min(ta, tb), std::max(ta, tb)});
+        }
+    }
+  });
+  std::vector<std::array<std::uint32_t, 2>> out;
+  for (auto& f : found) out.insert(out.end(), f.begin(), f.end());
+  return out;
+}
+
 }  // namespace
 
-std::size_t smooth_onto_beads(Mesh& mesh, const VoxelGrid& grid,
-                              std::span<const SurfaceBead> beads) {
+std::size_t smooth_onto_beads(Mesh& mesh, std::span<const std::uint32_t> plane_of_triangle,
+                              const VoxelGrid& grid, std::span<const SurfaceBead> beads) {
   const std::size_t nv = mesh.vertices_mm.size(), nt = mesh.triangles.size();
-  if (beads.empty() || nv == 0 || nt > kMaxCheckedTriangles) return 0;
+  if (beads.empty() || nv == 0 || plane_of_triangle.size() != nt) return 0;
   const double v = grid.voxel_mm();
   const double max_shift = kMaxShiftVoxels * v;
+  const BeadIndex index(beads);
   // Outward vertex normals (area-weighted; the triangles are oriented outward).
   std::vector<Vec3> normal(nv, Vec3::Zero());
   for (const auto& t : mesh.triangles) {
@@ -92,7 +316,7 @@ std::size_t smooth_onto_beads(Mesh& mesh, const VoxelGrid& grid,
     for (std::size_t i = c * 4096; i < std::min(nv, (c + 1) * 4096); ++i) {
       const Vec3& p = mesh.vertices_mm[i];
       Vec3 target;
-      if (!bead_point(grid, beads, p, normal[i], target)) continue;
+      if (!bead_point(grid, index, beads, p, normal[i], target)) continue;
       Vec3 d = target - p;
       // A bead surface more than a voxel away does not explain this vertex (the deposit
       // differs from the nominal bead there: squeezed, sagged or merged).
@@ -103,59 +327,67 @@ std::size_t smooth_onto_beads(Mesh& mesh, const VoxelGrid& grid,
     }
   });
   normal = {};
-  // Triangles that would fold: their vertices go back to the lattice, until none is left.
+  const std::vector<Vec3> lattice = mesh.vertices_mm;
+  for (std::size_t i = 0; i < nv; ++i)
+    if (is_moved[i] != 0) mesh.vertices_mm[i] = moved[i];
+  moved = {};
+  // Triangles to look at: first those with a moved vertex, then those whose vertices went
+  // back in the round before (`fold`: for the fold test; `dirty`: for the crossing check,
+  // gathered until it runs).
+  std::vector<std::uint8_t> dirty(nt, 0);
+  tbb::parallel_for(std::size_t{0}, nt, [&](std::size_t t) {
+    const auto& tr = mesh.triangles[t];
+    dirty[t] = (is_moved[tr[0]] | is_moved[tr[1]] | is_moved[tr[2]]) != 0 ? 1 : 0;
+  });
+  std::vector<std::uint8_t> fold = dirty;
   const double min_cos = std::cos(kMaxTurnDegrees * 3.14159265358979323846 / 180.0);
-  auto pos = [&](std::uint32_t i) -> const Vec3& {
-    return is_moved[i] != 0 ? moved[i] : mesh.vertices_mm[i];
-  };
   constexpr std::size_t kChunk = 65536;
   std::vector<std::vector<std::uint32_t>> folded((nt + kChunk - 1) / kChunk);
+  std::vector<std::uint8_t> back(nv, 0);  // vertices put back in this round
   for (;;) {
+    // Triangles that fold (or collapse) against their voxel face.
     tbb::parallel_for(std::size_t{0}, folded.size(), [&](std::size_t c) {
       folded[c].clear();
       for (std::size_t ti = c * kChunk; ti < std::min(nt, (c + 1) * kChunk); ++ti) {
+        if (fold[ti] == 0) continue;
         const auto& t = mesh.triangles[ti];
         if (is_moved[t[0]] == 0 && is_moved[t[1]] == 0 && is_moved[t[2]] == 0) continue;
-        const Vec3& a = mesh.vertices_mm[t[0]];
-        const Vec3 n0 = (mesh.vertices_mm[t[1]] - a).cross(mesh.vertices_mm[t[2]] - a);
-        const Vec3 n1 = (pos(t[1]) - pos(t[0])).cross(pos(t[2]) - pos(t[0]));
+        const Vec3& a = lattice[t[0]];
+        const Vec3 n0 = (lattice[t[1]] - a).cross(lattice[t[2]] - a);
+        const auto& q = mesh.vertices_mm;
+        const Vec3 n1 = (q[t[1]] - q[t[0]]).cross(q[t[2]] - q[t[0]]);
         const double l0 = n0.norm(), l1 = n1.norm();
         if (n1.dot(n0) >= min_cos * l0 * l1 && l1 >= kMinAreaRatio * l0) continue;
         folded[c].push_back(static_cast<std::uint32_t>(ti));
       }
     });
-    bool any = false;
-    for (const auto& f : folded)
-      for (const std::uint32_t ti : f) {
-        for (const std::uint32_t i : mesh.triangles[ti]) is_moved[i] = 0;
-        any = true;
+    std::vector<std::uint32_t> hit;
+    for (const auto& f : folded) hit.insert(hit.end(), f.begin(), f.end());
+    const bool crossing_check = hit.empty();  // once nothing folds: the dirty ones are done
+    if (crossing_check) {
+      for (const auto& pr : crossing_pairs(mesh, plane_of_triangle, dirty, kCellVoxels * v)) {
+        hit.push_back(pr[0]);
+        hit.push_back(pr[1]);
       }
-    if (!any) break;
-  }
-  // Triangles of rectangles that touch may still cross where they turn differently (at the
-  // corners of a loop): the vertices of every intersecting pair go back too, until none is
-  // left (or, after a few rounds, all of them: the voxel-face mesh has none).
-  const std::vector<Vec3> lattice = mesh.vertices_mm;
-  auto apply = [&] {
-    for (std::size_t i = 0; i < nv; ++i)
-      mesh.vertices_mm[i] = is_moved[i] != 0 ? moved[i] : lattice[i];
-  };
-  for (int round = 0;; ++round) {
-    apply();
-    const SelfIntersections si = find_self_intersections(mesh, 0);
-    if (si.pairs == 0) break;
-    if (round == kMaxIntersectionRounds) {
-      std::fill(is_moved.begin(), is_moved.end(), 0);
-      apply();
-      break;
     }
-    // Their vertices and the vertices of every triangle around those (fewer rounds).
-    std::vector<std::uint8_t> hit(nv, 0);
-    for (const std::uint32_t f : si.faces)
-      for (const std::uint32_t i : mesh.triangles[f]) hit[i] = 1;
-    for (const auto& t : mesh.triangles)
-      if (hit[t[0]] != 0 || hit[t[1]] != 0 || hit[t[2]] != 0)
-        for (const std::uint32_t i : t) is_moved[i] = 0;
+    bool any = false;
+    for (const std::uint32_t ti : hit)
+      for (const std::uint32_t i : mesh.triangles[ti])
+        if (is_moved[i] != 0) {
+          is_moved[i] = 0;
+          mesh.vertices_mm[i] = lattice[i];
+          back[i] = 1;
+          any = true;
+        }
+    if (!any) break;
+    // Triangles around the vertices put back join the ones still to check for crossings.
+    tbb::parallel_for(std::size_t{0}, nt, [&](std::size_t t) {
+      const auto& tr = mesh.triangles[t];
+      const bool near = (back[tr[0]] | back[tr[1]] | back[tr[2]]) != 0;
+      dirty[t] = near || (!crossing_check && dirty[t] != 0) ? 1 : 0;
+      fold[t] = near ? 1 : 0;
+    });
+    std::fill(back.begin(), back.end(), 0);
   }
   return static_cast<std::size_t>(std::count(is_moved.begin(), is_moved.end(), 1));
 }

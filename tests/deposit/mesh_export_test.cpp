@@ -2,6 +2,7 @@
 // skirt and purge pieces left out, decimation within its stated bound, every format loads.
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <map>
 #include <random>
 #include <set>
@@ -295,6 +296,32 @@ TEST(DepositMesh, EmptyDepositWritesValidEmptyFiles) {
   EXPECT_EQ(zip.rfind("PK\x03\x04", 0), 0u);
   EXPECT_NE(zip.find("3D/3dmodel.model"), std::string::npos);
   EXPECT_NE(deposit_mesh_summary(dm, dir / "e.stl").find("no part voxels"), std::string::npos);
+}
+
+// The streamed writers: a folder in the way is a clear error naming the path, and neither the
+// folder nor a temporary file is left behind; a good write replaces an old file whole.
+TEST(DepositMesh, StreamedWritersRefuseAFolderAndReplaceWhole) {
+  VoxelGrid g = make_grid(16);
+  fill_box(g, {2, 2, 2}, {9, 7, 5});
+  const DepositMesh dm = build(g);
+  const auto dir = test::temp_dir("deposit_mesh_streamed");
+  for (const char* name : {"m.stl", "m.ply"}) {
+    SCOPED_TRACE(name);
+    const auto taken = dir / (std::string("taken_") + name);
+    std::filesystem::create_directories(taken / name);
+    const Status st = write_deposit_mesh(dm, taken / name);
+    ASSERT_FALSE(st.ok());
+    EXPECT_NE(st.error().describe().find(name), std::string::npos) << st.error().describe();
+    std::size_t entries = 0;
+    for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(taken)) ++entries;
+    EXPECT_EQ(entries, 1u);  // the folder only
+    ASSERT_TRUE(write_file_atomic(dir / name, std::string(1000000, 'x')).ok());
+    ASSERT_TRUE(write_deposit_mesh(dm, dir / name).ok());
+    auto back = load_mesh(dir / name);
+    ASSERT_TRUE(back.ok());
+    EXPECT_EQ(back->triangles.size(), dm.mesh.triangles.size());
+  }
+  EXPECT_EQ(read_file(dir / "m.stl")->size(), 84 + 50 * dm.mesh.triangles.size());
 }
 
 TEST(DepositMesh, BadExtensionIsAUsageError) {

@@ -1,0 +1,129 @@
+#!/usr/bin/env python3
+"""Helper of bench/mesh_c2m_compare.sh (no third-party modules).
+
+  mesh_c2m_stats.py vertices ASPRINTED.ply VERTICES.ply
+      the vertices of printtwin's binary PLY mesh as a point cloud (binary PLY, float x y z)
+  mesh_c2m_stats.py compare ASPRINTED.ply CC.asc REPORT.json
+      CloudCompare's C2M distances (ASC: x y z d per line, the vertices in file order):
+      mean and RMS per vertex and weighted by vertex area (a third of the area of the
+      triangles around each vertex), against verify's deposit -> mesh mean and RMS.
+"""
+import json
+import math
+import struct
+import sys
+from array import array
+
+
+def read_mesh(path):
+    with open(path, "rb") as f:
+        data = f.read()
+    end = data.index(b"end_header\n") + len(b"end_header\n")
+    header = data[:end].decode().splitlines()
+    nv = nf = 0
+    props = 0
+    in_vertex = False
+    for line in header:
+        p = line.split()
+        if p[:2] == ["element", "vertex"]:
+            nv, in_vertex = int(p[2]), True
+        elif p[:2] == ["element", "face"]:
+            nf, in_vertex = int(p[2]), False
+        elif p[:2] == ["property", "float"] and in_vertex:
+            props += 1
+    verts = array("f")
+    verts.frombytes(data[end:end + nv * props * 4])
+    xyz = array("d", [0.0]) * (3 * nv)
+    for i in range(nv):
+        xyz[3 * i:3 * i + 3] = array("d", verts[props * i:props * i + 3])
+    faces = []
+    off = end + nv * props * 4
+    rec = struct.Struct("<B3i")
+    for k in range(nf):
+        faces.append(rec.unpack_from(data, off + 13 * k)[1:])
+    return xyz, faces
+
+
+def vertex_areas(xyz, faces):
+    area = array("d", [0.0]) * (len(xyz) // 3)
+    for a, b, c in faces:
+        ax, ay, az = xyz[3 * a:3 * a + 3]
+        ux, uy, uz = xyz[3 * b] - ax, xyz[3 * b + 1] - ay, xyz[3 * b + 2] - az
+        vx, vy, vz = xyz[3 * c] - ax, xyz[3 * c + 1] - ay, xyz[3 * c + 2] - az
+        cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+        third = math.sqrt(cx * cx + cy * cy + cz * cz) / 6.0
+        area[a] += third
+        area[b] += third
+        area[c] += third
+    return area
+
+
+def main():
+    if sys.argv[1] == "vertices":
+        xyz, _ = read_mesh(sys.argv[2])
+        n = len(xyz) // 3
+        with open(sys.argv[3], "wb") as f:
+            f.write(("ply\nformat binary_little_endian 1.0\nelement vertex %d\nproperty float x\n"
+                     "property float y\nproperty float z\nend_header\n" % n).encode())
+            array("f", xyz).tofile(f)
+        return
+    xyz, faces = read_mesh(sys.argv[2])
+    d = array("d")
+    with open(sys.argv[3]) as f:
+        for line in f:
+            p = line.replace(",", " ").split()
+            if len(p) >= 4:
+                d.append(float(p[-1]))
+    n = len(xyz) // 3
+    if len(d) != n:
+        sys.exit("CloudCompare gave %d distances for %d vertices" % (len(d), n))
+    w = vertex_areas(xyz, faces)
+    sw = sum(w)
+    plain_mean = sum(d) / n
+    plain_rms = math.sqrt(sum(x * x for x in d) / n)
+    w_mean = sum(wi * x for wi, x in zip(w, d)) / sw
+    w_rms = math.sqrt(sum(wi * x * x for wi, x in zip(w, d)) / sw)
+    ours = json.load(open(sys.argv[4]))["deviation"]["deposit_to_mesh"]
+    print("verify deposit -> mesh (area-weighted): mean %+.4f mm, RMS %.4f mm (%d points)" %
+          (ours["mean_mm"], ours["rms_mm"], ours["samples"]))
+    print("mesh area %.1f mm2, %d vertices" % (sw, n))
+    weighted_off = 0.0  # the larger relative difference of the area-weighted figures
+    for name, m, r in (("CloudCompare C2M per vertex", plain_mean, plain_rms),
+                       ("CloudCompare C2M area-weighted", w_mean, w_rms)):
+        dm = abs(m - ours["mean_mm"]) / abs(ours["mean_mm"])
+        dr = abs(r - ours["rms_mm"]) / ours["rms_mm"]
+        print("%-31s mean %+.4f mm (%+.1f %%), RMS %.4f mm (%+.1f %%)" %
+              (name, m, 100 * (m - ours["mean_mm"]) / abs(ours["mean_mm"]), r,
+               100 * (r - ours["rms_mm"]) / ours["rms_mm"]))
+        weighted_off = max(dm, dr)  # the last row is the area-weighted one
+    print("agreement (area-weighted, goal within 5 %%): %s" %
+          ("OK" if weighted_off <= 0.05 else "NOT OK"))
+    # Where they differ: by layer (a vertex in the first layer whose top is at or above it;
+    # verify's layer figures combined by their sample counts, an approximation).
+    layers = json.load(open(sys.argv[4])).get("per_layer", [])
+    if len(layers) >= 5:
+        tops = [l["z_mm"] for l in layers]
+        groups = (("first two layers", 0, 2), ("middle layers", 2, len(tops) - 2),
+                  ("last two layers", len(tops) - 2, len(tops)))
+        acc = [[0.0, 0.0, 0.0] for _ in groups]
+        for i in range(n):
+            z = xyz[3 * i + 2]
+            k = next((j for j, t in enumerate(tops) if t >= z - 1e-6), len(tops) - 1)
+            g = 0 if k < 2 else (2 if k >= len(tops) - 2 else 1)
+            acc[g][0] += w[i]
+            acc[g][1] += w[i] * d[i]
+            acc[g][2] += w[i] * d[i] * d[i]
+        for (name, lo, hi), (a, s1, s2) in zip(groups, acc):
+            cnt = sum(l["deposit_to_mesh"]["samples"] for l in layers[lo:hi])
+            if cnt == 0 or a == 0:
+                continue
+            vm = sum(l["deposit_to_mesh"]["samples"] * l["deposit_to_mesh"]["mean_mm"]
+                     for l in layers[lo:hi]) / cnt
+            vr = math.sqrt(sum(l["deposit_to_mesh"]["samples"] * l["deposit_to_mesh"]["rms_mm"] ** 2
+                               for l in layers[lo:hi]) / cnt)
+            print("  %-17s verify mean %+.4f RMS %.4f | C2M area-weighted mean %+.4f RMS %.4f"
+                  " (%.0f mm2)" % (name, vm, vr, s1 / a, math.sqrt(s2 / a), a))
+
+
+if __name__ == "__main__":
+    main()
