@@ -639,7 +639,7 @@ class BgcodeStreamBuf final : public std::streambuf {
         } else {
           std::size_t size = 0;
           std::string why;
-          if (!detail::meatpack_decode(*data, unpacked_, size, why))
+          if (!detail::meatpack_decode(*data, unpacked_, raw_, size, why))
             return stop(reader_.error(why, true).error());
           show(unpacked_.data(), size);
         }
@@ -665,7 +665,7 @@ class BgcodeStreamBuf final : public std::streambuf {
   BlockReader reader_;
   BgcodeMetadata meta_;
   std::string header_, trailer_, chunk_;
-  detail::Bytes decompressed_, unpacked_;
+  detail::Bytes decompressed_, unpacked_, raw_;
   int first_gcode_index_ = 1;
   Phase phase_ = Phase::header;
   std::uint64_t chunk_start_ = 0;  ///< stream position of eback()
