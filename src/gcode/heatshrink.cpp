@@ -22,10 +22,13 @@ std::uint64_t peek64(const unsigned char* src, std::size_t size, std::uint64_t a
   return w << (at & 7u);
 }
 
-}  // namespace
-
-bool heatshrink_decode(std::string_view in, int window_bits, int lookahead_bits,
-                       std::size_t expected_size, Bytes& out, std::string& why) {
+/// The decoder; kWindow and kLookahead, when not 0, fix the bit widths at compile time
+/// (constant shifts and masks for the two widths binary G-code uses).
+template <int kWindow, int kLookahead>
+bool decode(std::string_view in, int window_arg, int lookahead_arg, std::size_t expected_size,
+            Bytes& out, std::string& why) {
+  const int window_bits = kWindow != 0 ? kWindow : window_arg;
+  const int lookahead_bits = kLookahead != 0 ? kLookahead : lookahead_arg;
   // 16 bytes of slack past the end let a back-reference copy a whole 16-byte word.
   constexpr std::size_t kSlack = 16;
   out.resize(expected_size + kSlack);
@@ -79,6 +82,17 @@ bool heatshrink_decode(std::string_view in, int window_bits, int lookahead_bits,
     return false;
   }
   return true;
+}
+
+}  // namespace
+
+bool heatshrink_decode(std::string_view in, int window_bits, int lookahead_bits,
+                       std::size_t expected_size, Bytes& out, std::string& why) {
+  if (window_bits == 11 && lookahead_bits == 4)
+    return decode<11, 4>(in, window_bits, lookahead_bits, expected_size, out, why);
+  if (window_bits == 12 && lookahead_bits == 4)
+    return decode<12, 4>(in, window_bits, lookahead_bits, expected_size, out, why);
+  return decode<0, 0>(in, window_bits, lookahead_bits, expected_size, out, why);
 }
 
 }  // namespace printtwin::detail
