@@ -1,6 +1,7 @@
-// Binary G-code against its text twin: the same print simulated from each, and the decoding
-// alone (bgcode.hpp). The ratio BM_SimulateBinary / BM_SimulateText is the cost of reading
-// .bgcode instead of text.
+// Binary G-code against its text twin: the same print simulated from each, the decoding
+// alone, and the fixed cost of opening a file (header, metadata and thumbnail blocks, the
+// slicer's deflated settings; bgcode.hpp). The ratio BM_SimulateBinary / BM_SimulateText is
+// the cost of reading .bgcode instead of text.
 //
 //   build/bench/bgcode_bench --benchmark_repetitions=9 --benchmark_report_aggregates_only=true
 //                                      # PrusaSlicer's MK4S pair in the shared real-world folder
@@ -115,6 +116,15 @@ void BM_DecodeBinary(benchmark::State& state) {
       static_cast<std::int64_t>(state.iterations() * pair_for(state).binary.size()));
 }
 
+/// Opening alone: the metadata blocks read and the G-code stream set up, nothing decoded.
+void BM_OpenBinary(benchmark::State& state) {
+  for (auto _ : state) {
+    auto in = printtwin::BgcodeGcodeStream::from_memory(pair_for(state).binary, "bench.bgcode");
+    if (!in) state.SkipWithError(in.error().describe().c_str());
+    benchmark::DoNotOptimize(in);
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -127,7 +137,8 @@ int main(int argc, char** argv) {
   // Argument 0: the file as it is; 1: its G-code repeated kRepeats times.
   for (auto* b : {benchmark::RegisterBenchmark("BM_SimulateText", BM_SimulateText),
                   benchmark::RegisterBenchmark("BM_SimulateBinary", BM_SimulateBinary),
-                  benchmark::RegisterBenchmark("BM_DecodeBinary", BM_DecodeBinary)})
+                  benchmark::RegisterBenchmark("BM_DecodeBinary", BM_DecodeBinary),
+                  benchmark::RegisterBenchmark("BM_OpenBinary", BM_OpenBinary)})
     b->Arg(0)
         ->Arg(1)
         ->Unit(benchmark::kMillisecond)

@@ -114,8 +114,11 @@ class BlockReader {
     return Ok{};
   }
 
-  /// Moves to the block header at `offset`, which is block number `index` (1-based).
+  /// Moves to the block header at `offset`, which is block number `index` (1-based). When
+  /// that is the block just read, the next next() gives it again without reading it (or
+  /// checking its CRC) a second time.
   void seek(std::uint64_t offset, int index) {
+    again_ = loaded_ && offset == info_.offset && index == info_.index;
     offset_ = offset;
     index_ = index - 1;
   }
@@ -124,6 +127,13 @@ class BlockReader {
   /// Reads the next block's header, parameters and stored data and checks its CRC.
   /// False at the end of the file.
   Result<bool> next() {
+    if (again_) {
+      again_ = false;
+      offset_ = loaded_end_;
+      index_ = info_.index;
+      return true;
+    }
+    loaded_ = false;
     if (offset_ >= size_) return false;
     info_ = {};
     info_.index = ++index_;
@@ -198,6 +208,8 @@ class BlockReader {
                      true);
     }
     offset_ += need;
+    loaded_ = true;
+    loaded_end_ = offset_;
     return true;
   }
 
@@ -301,6 +313,9 @@ class BlockReader {
   std::uint64_t size_;
   std::string name_;
   bool crc_ = true;
+  bool loaded_ = false;  ///< info_, params_ and the stored data are those of a whole block
+  bool again_ = false;   ///< next() gives the loaded block again
+  std::uint64_t loaded_end_ = 0;
   std::uint64_t offset_ = 0;
   int index_ = 0;
   BgcodeBlockInfo info_;
@@ -311,6 +326,8 @@ class BlockReader {
 };
 
 Status parse_ini(std::string_view text, BgcodeKeyValues& out, const BlockReader& reader) {
+  out.reserve(out.size() + static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')) +
+              1);
   std::size_t line_no = 0;
   while (!text.empty()) {
     const auto nl = text.find('\n');
@@ -399,6 +416,9 @@ std::uint64_t stream_size(std::istream& in) {
 }
 
 void append_pairs(std::string& out, const BgcodeKeyValues& pairs) {
+  std::size_t bytes = out.size();
+  for (const auto& [key, value] : pairs) bytes += key.size() + value.size() + 6;
+  out.reserve(bytes);
   for (const auto& [key, value] : pairs) {
     out += "; ";
     out += key;
@@ -639,7 +659,7 @@ class BgcodeStreamBuf final : public std::streambuf {
         } else {
           std::size_t size = 0;
           std::string why;
-          if (!detail::meatpack_decode(*data, unpacked_, size, why))
+          if (!detail::meatpack_decode(*data, unpacked_, raw_, size, why))
             return stop(reader_.error(why, true).error());
           show(unpacked_.data(), size);
         }
@@ -665,7 +685,7 @@ class BgcodeStreamBuf final : public std::streambuf {
   BlockReader reader_;
   BgcodeMetadata meta_;
   std::string header_, trailer_, chunk_;
-  detail::Bytes decompressed_, unpacked_;
+  detail::Bytes decompressed_, unpacked_, raw_;
   int first_gcode_index_ = 1;
   Phase phase_ = Phase::header;
   std::uint64_t chunk_start_ = 0;  ///< stream position of eback()

@@ -5,20 +5,41 @@
 
 namespace printtwin::detail {
 
-bool heatshrink_decode(std::string_view in, int window_bits, int lookahead_bits,
-                       std::size_t expected_size, Bytes& out, std::string& why) {
+namespace {
+
+/// The 64 bits of `src` from bit `at` on, most significant first; bits past the end read
+/// as zero. At least 57 of them come from the input when it has that many.
+std::uint64_t peek64(const unsigned char* src, std::size_t size, std::uint64_t at) {
+  const auto byte = static_cast<std::size_t>(at >> 3);
+  std::uint64_t w = 0;
+  if (byte + 8 <= size) {
+    std::memcpy(&w, src + byte, 8);
+    w = __builtin_bswap64(w);
+  } else {
+    for (std::size_t k = 0; byte + k < size; ++k)
+      w |= static_cast<std::uint64_t>(src[byte + k]) << (56 - 8 * k);
+  }
+  return w << (at & 7u);
+}
+
+/// The decoder; kWindow and kLookahead, when not 0, fix the bit widths at compile time
+/// (constant shifts and masks for the two widths binary G-code uses).
+template <int kWindow, int kLookahead>
+bool decode(std::string_view in, int window_arg, int lookahead_arg, std::size_t expected_size,
+            Bytes& out, std::string& why) {
+  const int window_bits = kWindow != 0 ? kWindow : window_arg;
+  const int lookahead_bits = kLookahead != 0 ? kLookahead : lookahead_arg;
   // 16 bytes of slack past the end let a back-reference copy a whole 16-byte word.
   constexpr std::size_t kSlack = 16;
   out.resize(expected_size + kSlack);
   char* const dst = out.data();
   std::size_t n = 0;
-  // MSB-first bit buffer: `bits` valid bits in the low end of `acc`, refilled a byte at a
-  // time to at least one whole token (1 + window + lookahead <= 24 bits) when the input has it.
+  // Each token is read from a 64-bit big-endian load at its bit position: a literal is
+  // 1 + 8 bits, a back-reference 1 + window + lookahead <= 24 bits.
   const auto* src = reinterpret_cast<const unsigned char*>(in.data());
   const std::size_t src_size = in.size();
-  std::size_t pos = 0;
-  std::uint64_t acc = 0;
-  int bits = 0;
+  const std::uint64_t total_bits = 8 * static_cast<std::uint64_t>(src_size);
+  std::uint64_t bit = 0;
   const int backref_bits = 1 + window_bits + lookahead_bits;
   const std::uint32_t window_mask = (1u << window_bits) - 1u,
                       count_mask = (1u << lookahead_bits) - 1u;
@@ -27,24 +48,19 @@ bool heatshrink_decode(std::string_view in, int window_bits, int lookahead_bits,
           " bytes the block header states";
     return false;
   };
-  for (;;) {
-    if (bits < backref_bits) {
-      while (bits <= 56 && pos < src_size) {
-        acc = (acc << 8) | src[pos++];
-        bits += 8;
-      }
-      if (bits == 0) break;
-    }
-    if ((acc >> (bits - 1)) & 1u) {  // literal
-      if (bits < 9) break;           // padding
-      bits -= 9;
+  while (bit < total_bits) {
+    const std::uint64_t left = total_bits - bit;
+    const std::uint64_t w = peek64(src, src_size, bit);
+    if ((w >> 63) != 0) {   // literal
+      if (left < 9) break;  // padding
       if (n == expected_size) return too_long();
-      dst[n++] = static_cast<char>((acc >> bits) & 0xFFu);
+      dst[n++] = static_cast<char>((w >> 55) & 0xFFu);
+      bit += 9;
       continue;
     }
-    if (bits < backref_bits) break;  // padding
-    bits -= backref_bits;
-    const auto token = static_cast<std::uint32_t>(acc >> bits);
+    if (left < static_cast<std::uint64_t>(backref_bits)) break;  // padding
+    bit += static_cast<std::uint64_t>(backref_bits);
+    const auto token = static_cast<std::uint32_t>(w >> (64 - backref_bits));
     const std::size_t offset = ((token >> lookahead_bits) & window_mask) + 1;
     const std::size_t count = (token & count_mask) + 1;
     if (count > expected_size - n) return too_long();
@@ -66,6 +82,17 @@ bool heatshrink_decode(std::string_view in, int window_bits, int lookahead_bits,
     return false;
   }
   return true;
+}
+
+}  // namespace
+
+bool heatshrink_decode(std::string_view in, int window_bits, int lookahead_bits,
+                       std::size_t expected_size, Bytes& out, std::string& why) {
+  if (window_bits == 11 && lookahead_bits == 4)
+    return decode<11, 4>(in, window_bits, lookahead_bits, expected_size, out, why);
+  if (window_bits == 12 && lookahead_bits == 4)
+    return decode<12, 4>(in, window_bits, lookahead_bits, expected_size, out, why);
+  return decode<0, 0>(in, window_bits, lookahead_bits, expected_size, out, why);
 }
 
 }  // namespace printtwin::detail

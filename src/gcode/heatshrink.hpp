@@ -7,16 +7,42 @@
 // in the output, the copy may overlap what it writes. The window starts as zero bytes, so an
 // offset past the start of the output reads zeros. The encoder pads the last byte with
 // zero bits, fewer than a whole literal or back-reference, which the decoder ignores.
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
+#include <memory>
 #include <string>
 #include <string_view>
-#include <vector>
 
 namespace printtwin::detail {
 
-/// A byte buffer of the decoders.
-using Bytes = std::vector<char>;
+/// A byte buffer of the decoders: resize() never clears what it adds (the decoders write
+/// every byte they hand out) and never gives memory back, so a buffer reused block after
+/// block costs neither a clear nor an allocation per block.
+class Bytes {
+ public:
+  [[nodiscard]] char* data() { return data_.get(); }
+  [[nodiscard]] const char* data() const { return data_.get(); }
+  [[nodiscard]] std::size_t size() const { return size_; }
+  [[nodiscard]] bool empty() const { return size_ == 0; }
+  char& operator[](std::size_t i) { return data_[i]; }
+  /// Sets the size; bytes past the old size are left unset.
+  void resize(std::size_t n) {
+    if (n > capacity_) {
+      const std::size_t cap = std::max(n, capacity_ + capacity_ / 2);
+      auto bigger = std::make_unique_for_overwrite<char[]>(cap);
+      if (size_ > 0) std::memcpy(bigger.get(), data_.get(), size_);
+      data_ = std::move(bigger);
+      capacity_ = cap;
+    }
+    size_ = n;
+  }
+
+ private:
+  std::unique_ptr<char[]> data_;
+  std::size_t size_ = 0, capacity_ = 0;
+};
 
 /// Decodes `in` into `out` (resized to `expected_size`). False, with `why` set, when the
 /// stream does not produce exactly `expected_size` bytes. window_bits <= 15,
