@@ -659,7 +659,7 @@ class BgcodeStreamBuf final : public std::streambuf {
         } else {
           std::size_t size = 0;
           std::string why;
-          if (!detail::meatpack_decode(*data, unpacked_, raw_, size, why))
+          if (!detail::meatpack_decode(*data, unpacked_, size, why))
             return stop(reader_.error(why, true).error());
           show(unpacked_.data(), size);
         }
@@ -685,7 +685,7 @@ class BgcodeStreamBuf final : public std::streambuf {
   BlockReader reader_;
   BgcodeMetadata meta_;
   std::string header_, trailer_, chunk_;
-  detail::Bytes decompressed_, unpacked_, raw_;
+  detail::Bytes decompressed_, unpacked_;
   int first_gcode_index_ = 1;
   Phase phase_ = Phase::header;
   std::uint64_t chunk_start_ = 0;  ///< stream position of eback()

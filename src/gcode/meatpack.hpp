@@ -21,19 +21,12 @@
 
 namespace printtwin::detail {
 
-/// Decodes one MeatPack-encoded block into the first `size` bytes of `buf`; `raw` is scratch
-/// space. Both are grown as needed and never shrunk, so buffers reused block after block
-/// are neither cleared nor reallocated. Packed bytes go through a table (one lookup gives
-/// both characters), plain runs through memchr, then the text writer's rules are applied
-/// line by line. False, with `why` set (naming the byte offset in the block's data), on an
+/// Decodes one MeatPack-encoded block into the first `size` bytes of `buf`, which is grown
+/// as needed and never shrunk, so a buffer reused block after block is neither cleared nor
+/// reallocated. False, with `why` set (naming the byte offset in the block's data), on an
 /// unknown command byte or a block that ends inside a command or before a pending
-/// full-width character. PRINTTWIN_PLAIN=meatpack_table takes meatpack_decode_plain.
-[[nodiscard]] bool meatpack_decode(std::string_view in, Bytes& buf, Bytes& raw, std::size_t& size,
+/// full-width character.
+[[nodiscard]] bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size,
                                    std::string& why);
-
-/// The same decoding, one byte and one character at a time through the state machine and
-/// the writer's rules (the plain twin: the reference of the tests and the benchmarks).
-[[nodiscard]] bool meatpack_decode_plain(std::string_view in, Bytes& buf, std::size_t& size,
-                                         std::string& why);
 
 }  // namespace printtwin::detail

@@ -6,7 +6,6 @@
 
 #include <algorithm>
 #include <fstream>
-#include <random>
 #include <sstream>
 
 #include "gcode/meatpack.hpp"
@@ -307,45 +306,6 @@ TEST(Bgcode, MeatPackDecodesWithAndWithoutComments) {
     const std::string stripped = meatpack_encode(kGcode, false, no_spaces);
     EXPECT_EQ(decoded(encode_file(file_with({gcode_block(stripped, 1, 1)}))),
               kHeader + without_comments + kTrailer);
-  }
-}
-
-/// The table-driven MeatPack decoder and its plain twin agree: same text, same verdict,
-/// same message, on encoded G-code and on random byte soup rich in the bytes that matter
-/// (0xFF, commands, "not packed" codes, '\n', 'G', parameter letters, spaces).
-TEST(Bgcode, TableMeatPackDecoderMatchesThePlainOne) {
-  detail::Bytes table_out, raw, plain_out;
-  auto same = [&](const std::string& in) {
-    std::size_t table_size = 0, plain_size = 0;
-    std::string table_why, plain_why;
-    const bool table_ok = detail::meatpack_decode(in, table_out, raw, table_size, table_why);
-    const bool plain_ok = detail::meatpack_decode_plain(in, plain_out, plain_size, plain_why);
-    const std::string_view table_text(table_out.data(), table_ok ? table_size : 0);
-    const std::string_view plain_text(plain_out.data(), plain_ok ? plain_size : 0);
-    return table_ok == plain_ok && table_why == plain_why && table_text == plain_text;
-  };
-  for (const bool comments : {false, true})
-    for (const bool no_spaces : {false, true}) {
-      const std::string in = meatpack_encode(kGcode, comments, no_spaces);
-      ASSERT_TRUE(same(in));
-      ASSERT_TRUE(same(in.substr(0, in.size() / 2)));  // cut anywhere
-    }
-  std::mt19937 rng(20);
-  const std::string special = "\xFF\xFB\xFA\xF9\xF8\xF7\xF6\x0F\xF0\xC0\x0C\xFC\xCF\n GXYEF;";
-  for (int round = 0; round < 20000; ++round) {
-    std::string in;
-    if (rng() % 2 == 0) in = "\xFF\xFF\xFB";  // packing on
-    const std::size_t n = rng() % 48;
-    for (std::size_t k = 0; k < n; ++k) {
-      const unsigned pick = rng() % 4;
-      if (pick == 0)
-        in += "\xFF\xFF" + std::string(1, special[1 + rng() % 6]);  // a command
-      else if (pick == 1)
-        in += special[rng() % special.size()];
-      else
-        in += static_cast<char>(rng() % 256);
-    }
-    ASSERT_TRUE(same(in)) << "round " << round;
   }
 }
 
