@@ -44,8 +44,15 @@ void to_bead_surface(const DepositSurface& s, std::span<const SurfaceBead> beads
           detail::BeadDistance b = index.nearest(s.face_tags[f].line, points[i]);
           if (k + std::size_t{1} < s.bead_touch_begin.size())
             for (std::uint32_t j = s.bead_touch_begin[k]; j < s.bead_touch_begin[k + 1]; ++j) {
+              // A bead is no nearer than the height from its core less its radius.
+              const SurfaceBead& t = beads[s.bead_touch[j]];
+              const double rt = 0.5 * t.height_mm, pz = points[i].z();
+              const double gap = std::max({pz - (std::max(t.start_mm.z(), t.end_mm.z()) - rt),
+                                           std::min(t.start_mm.z(), t.end_mm.z()) - rt - pz, 0.0}) -
+                                 rt;
+              if (gap >= b.signed_mm) continue;
               Vec3 core;
-              const double sd = detail::bead_closest(beads[s.bead_touch[j]], points[i], core);
+              const double sd = detail::bead_closest(t, points[i], core);
               if (sd < b.signed_mm) {
                 b.signed_mm = sd;
                 b.bead = s.bead_touch[j];

@@ -2,10 +2,12 @@
 // placed on the side of a bead gives way to points laid on that bead's stadium section, where
 // the section is exposed: around the faces, and on to where another bead covers it, so the
 // cusp between two stacked beads (narrower than a voxel, where no face exists) is sampled.
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <numbers>
@@ -25,6 +27,8 @@ constexpr double kPi = std::numbers::pi;
 constexpr double kCoverMm = 1e-5;
 /// Rows of a bead's points per group of the closest-point search.
 constexpr int kRowsPerGroup = 2;
+/// The edge of the cells that find the beads near a bead (mm).
+constexpr double kGridCellMm = 0.5;
 
 /// A bead's frame: its core's centre line (h / 2 below the nozzle tip) from a along d, the
 /// level unit vector across it, the unit vector up its section, and the section's sizes.
@@ -118,58 +122,89 @@ double segment_distance2(const Vec3& p, const Vec3& u, const Vec3& q, const Vec3
   return (p + s * u - (q + t * w)).squaredNorm();
 }
 
-/// The beads by the cells (edge `cell_mm`) their centre lines pass through, for the beads
-/// near a bead.
+/// The beads by the cells (edge `cell_mm`, a dense grid over the beads' box) their outlines
+/// reach, for the beads near a bead: a bead is listed in every cell within its reach of its
+/// centre line, so two beads whose outlines may touch share a cell.
 class BeadGrid {
  public:
-  BeadGrid(const std::vector<BeadFrame>& frames, double cell_mm) : cell_(cell_mm) {
-    std::vector<std::uint64_t> keys;
-    for (std::size_t k = 0; k < frames.size(); ++k) {
-      keys_of(frames[k], keys);
-      for (const std::uint64_t key : keys)
-        entries_.emplace_back(key, static_cast<std::uint32_t>(k));
+  BeadGrid(const std::vector<BeadFrame>& frames, std::span<const std::uint32_t> listed,
+           double cell_mm)
+      : cell_(cell_mm) {
+    Box3 box;
+    for (const std::uint32_t k : listed) {
+      box.extend(frames[k].a);
+      box.extend(frames[k].a + frames[k].d);
     }
-    tbb::parallel_sort(entries_.begin(), entries_.end());
+    if (box.empty()) return;
+    // The grid covers the box with a cell of margin; no more than 2^24 cells.
+    const Vec3 size = box.size() + Vec3::Constant(4 * cell_);
+    while (size.x() / cell_ * (size.y() / cell_) * (size.z() / cell_) > double(1 << 24)) cell_ *= 2;
+    lo_ = box.min - Vec3::Constant(2 * cell_);
+    for (int i = 0; i < 3; ++i) n_[i] = static_cast<int>(std::ceil(size[i] / cell_)) + 1;
+    begin_.assign(static_cast<std::size_t>(n_[0]) * n_[1] * n_[2] + 1, 0);
+    std::vector<std::uint32_t> keys;
+    for (const std::uint32_t k : listed) {
+      cells_of(frames[k], keys);
+      for (const std::uint32_t c : keys) ++begin_[c + 1];
+    }
+    for (std::size_t c = 1; c < begin_.size(); ++c) begin_[c] += begin_[c - 1];
+    beads_.resize(begin_.back());
+    std::vector<std::uint32_t> fill(begin_.begin(), begin_.end() - 1);
+    for (const std::uint32_t k : listed) {
+      cells_of(frames[k], keys);
+      for (const std::uint32_t c : keys) beads_[fill[c]++] = k;
+    }
   }
-  /// The beads in the cells next to those of f's centre line (repeats possible).
-  void near(const BeadFrame& f, std::vector<std::uint32_t>& out) const {
-    std::vector<std::uint64_t> keys;
-    keys_of(f, keys);
-    for (const std::uint64_t key : keys)
-      for (int dx = -1; dx <= 1; ++dx)
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dz = -1; dz <= 1; ++dz) {
-            const std::uint64_t k = key + offset(dx, dy, dz);
-            auto it = std::lower_bound(entries_.begin(), entries_.end(),
-                                       std::pair<std::uint64_t, std::uint32_t>(k, 0));
-            for (; it != entries_.end() && it->first == k; ++it) out.push_back(it->second);
-          }
+  /// A thread's marks of the beads already listed.
+  struct Seen {
+    std::vector<std::uint32_t> stamp;
+    std::uint32_t now = 0;
+  };
+  /// The beads sharing a cell with f, each once.
+  void near(const BeadFrame& f, std::vector<std::uint32_t>& out, Seen& seen) const {
+    if (begin_.empty()) return;
+    std::vector<std::uint32_t> keys;
+    cells_of(f, keys);
+    if (++seen.now == 0) {  // the stamps wrapped round
+      std::fill(seen.stamp.begin(), seen.stamp.end(), 0);
+      seen.now = 1;
+    }
+    for (const std::uint32_t c : keys)
+      for (std::uint32_t j = begin_[c]; j < begin_[c + 1]; ++j)
+        if (seen.stamp[beads_[j]] != seen.now) {
+          seen.stamp[beads_[j]] = seen.now;
+          out.push_back(beads_[j]);
+        }
   }
 
  private:
-  static constexpr std::int64_t kOff = std::int64_t{1} << 20;
-  static std::uint64_t offset(int dx, int dy, int dz) {
-    return static_cast<std::uint64_t>((static_cast<std::int64_t>(dx) << 42) +
-                                      (static_cast<std::int64_t>(dy) << 21) + dz);
-  }
-  /// The cells of points along f's centre line at most cell / 2 apart (consecutive repeats
-  /// dropped).
-  void keys_of(const BeadFrame& f, std::vector<std::uint64_t>& keys) const {
+  /// The cells within f's reach of its centre line: the centre line in pieces of at most two
+  /// cells, each piece's box grown by the reach; sorted and unique.
+  void cells_of(const BeadFrame& f, std::vector<std::uint32_t>& keys) const {
     keys.clear();
-    const int n = 1 + static_cast<int>(std::ceil(f.len / (0.5 * cell_)));
-    for (int i = 0; i <= n; ++i) {
-      const Vec3 p = f.a + (static_cast<double>(i) / n) * f.d;
-      const auto c = [&](double x) {
-        return static_cast<std::int64_t>(std::floor(x / cell_)) + kOff;
-      };
-      const std::uint64_t key = (static_cast<std::uint64_t>(c(p.x())) << 42) |
-                                (static_cast<std::uint64_t>(c(p.y())) << 21) |
-                                static_cast<std::uint64_t>(c(p.z()));
-      if (keys.empty() || keys.back() != key) keys.push_back(key);
+    const int pieces = 1 + static_cast<int>(f.len / (2 * cell_));
+    const double pad = f.reach() + kCoverMm;
+    const auto c = [&](double x, int axis) {
+      return std::clamp(static_cast<int>(std::floor((x - lo_[axis]) / cell_)), 0, n_[axis] - 1);
+    };
+    for (int i = 0; i < pieces; ++i) {
+      const Vec3 p = f.a + (static_cast<double>(i) / pieces) * f.d;
+      const Vec3 q = f.a + (static_cast<double>(i + 1) / pieces) * f.d;
+      const Vec3 lo = p.cwiseMin(q) - Vec3::Constant(pad), hi = p.cwiseMax(q) + Vec3::Constant(pad);
+      for (int x = c(lo.x(), 0); x <= c(hi.x(), 0); ++x)
+        for (int y = c(lo.y(), 1); y <= c(hi.y(), 1); ++y)
+          for (int z = c(lo.z(), 2); z <= c(hi.z(), 2); ++z)
+            keys.push_back(static_cast<std::uint32_t>((x * n_[1] + y) * n_[2] + z));
+    }
+    if (pieces > 1) {
+      std::sort(keys.begin(), keys.end());
+      keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
     }
   }
   double cell_;
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> entries_;
+  Vec3 lo_ = Vec3::Zero();
+  std::array<int, 3> n_{};
+  std::vector<std::uint32_t> begin_, beads_;
 };
 
 /// The points one bead lays, with the beads that touch it.
@@ -189,38 +224,40 @@ struct Sampler {
   std::span<const Vec3> face_points;
   double arc_step, along_step;
 
-  /// The beads whose outline may touch bead k's, with the span of k's centre line (length
-  /// along it) where each may.
-  void touching(std::uint32_t k, std::vector<std::uint32_t>& touch,
-                std::vector<std::pair<double, double>>& span) const {
+  /// Whether the outlines of bead k's centre line from `from` along `along` and of bead c
+  /// may touch.
+  [[nodiscard]] bool may_touch(const BeadFrame& f, const Vec3& from, const Vec3& along,
+                               std::uint32_t c) const {
+    const BeadFrame& g = frames[c];
+    const double reach = f.reach() + g.reach() + kCoverMm;
+    return segment_distance2(from, along, g.a, g.d) <= reach * reach;
+  }
+  /// The beads whose outline may touch bead k's, in index order.
+  void touching(std::uint32_t k, std::vector<std::uint32_t>& touch, BeadGrid::Seen& seen) const {
     const BeadFrame& f = frames[k];
     touch.clear();
-    grid.near(f, touch);
+    grid.near(f, touch, seen);
+    std::erase_if(touch, [&](std::uint32_t c) { return c == k || !may_touch(f, f.a, f.d, c); });
     std::sort(touch.begin(), touch.end());
-    touch.erase(std::unique(touch.begin(), touch.end()), touch.end());
-    std::erase_if(touch, [&](std::uint32_t c) {
-      const BeadFrame& g = frames[c];
-      const double reach = f.reach() + g.reach() + kCoverMm;
-      return c == k || segment_distance2(f.a, f.d, g.a, g.d) > reach * reach;
-    });
-    span.clear();
-    for (const std::uint32_t c : touch) {
-      const BeadFrame& g = frames[c];
-      const double t0 = (g.a - f.a).dot(f.dir), t1 = (g.a + g.d - f.a).dot(f.dir);
-      const double pad = f.reach() + g.reach() + kCoverMm;
-      span.emplace_back(std::min(t0, t1) - pad, std::max(t0, t1) + pad);
-    }
   }
 
   void lay(std::uint32_t k, std::span<const std::uint32_t> faces, double ext_extra,
-           BeadPoints& out) const;
+           BeadGrid::Seen& seen, BeadPoints& out) const;
 };
 
 void Sampler::lay(std::uint32_t k, std::span<const std::uint32_t> faces, double ext_extra,
-                  BeadPoints& out) const {
+                  BeadGrid::Seen& seen, BeadPoints& out) const {
   const BeadFrame& f = frames[k];
   const Section sec(f, arc_step, along_step);
   const int m = sec.cells();
+  struct Cell {
+    double s = 0, z = 0, len = 0;
+  };
+  std::vector<Cell> cell(static_cast<std::size_t>(m));
+  for (int c = 0; c < m; ++c) {
+    Cell& x = cell[static_cast<std::size_t>(c)];
+    sec.cell(c, x.s, x.z, x.len);
+  }
   const int rows = std::max(1, static_cast<int>(std::ceil(f.len / along_step)));
   const double du = f.len / rows;
   std::vector<std::uint8_t> marked(static_cast<std::size_t>(rows) * m, 0);
@@ -230,11 +267,26 @@ void Sampler::lay(std::uint32_t k, std::span<const std::uint32_t> faces, double 
     const int row = std::clamp(static_cast<int>(u / du), 0, rows - 1);
     marked[static_cast<std::size_t>(row) * m + sec.cell_of(rel.dot(f.across), rel.dot(f.up))] = 1;
   }
-  std::vector<std::pair<double, double>> span;
-  touching(k, out.touch, span);
+  touching(k, out.touch, seen);
+  // Each touching bead: the span of k's centre line it may cover (length along it) and the
+  // heights it may cover.
+  struct Near {
+    std::uint32_t bead;
+    double u0, u1, z0, z1;
+  };
+  std::vector<Near> near;
+  near.reserve(out.touch.size());
+  for (const std::uint32_t c : out.touch) {
+    const BeadFrame& g = frames[c];
+    const double t0 = (g.a - f.a).dot(f.dir), t1 = (g.a + g.d - f.a).dot(f.dir);
+    const double pad = f.reach() + g.reach() + kCoverMm, rz = g.r + kCoverMm;
+    const double za = g.a.z(), zb = g.a.z() + g.d.z();
+    near.push_back({c, std::min(t0, t1) - pad, std::max(t0, t1) + pad, std::min(za, zb) - rz,
+                    std::max(za, zb) + rz});
+  }
   // The outline extends past its faces by up to a quarter circle and a voxel.
   const double ext = 0.5 * kPi * f.r + ext_extra;
-  std::vector<std::uint32_t> active;
+  std::vector<const Near*> active;
   std::vector<std::int8_t> covered(static_cast<std::size_t>(m));
   std::vector<std::uint8_t> exposed(static_cast<std::size_t>(m));
   for (int row = 0; row < rows; ++row) {
@@ -243,28 +295,27 @@ void Sampler::lay(std::uint32_t k, std::span<const std::uint32_t> faces, double 
     const double u = (row + 0.5) * du;
     const Vec3 q0 = f.a + u * f.dir;
     active.clear();
-    for (std::size_t j = 0; j < out.touch.size(); ++j)
-      if (span[j].first <= u + 0.5 * du && span[j].second >= u - 0.5 * du)
-        active.push_back(out.touch[j]);
+    for (const Near& x : near)
+      if (x.u0 <= u + 0.5 * du && x.u1 >= u - 0.5 * du) active.push_back(&x);
     std::fill(covered.begin(), covered.end(), -1);
     std::fill(exposed.begin(), exposed.end(), 0);
-    const auto point = [&](int c, double& len) {
-      double s = 0, z = 0;
-      sec.cell(c, s, z, len);
-      return Vec3(q0 + s * f.across + z * f.up);
+    const auto point = [&](int c) {
+      const Cell& x = cell[static_cast<std::size_t>(c)];
+      return Vec3(q0 + x.s * f.across + x.z * f.up);
     };
     const auto is_covered = [&](int c) {
       auto& memo = covered[static_cast<std::size_t>(c)];
       if (memo < 0) {
-        double len = 0;
-        const Vec3 p = point(c, len);
+        const Vec3 p = point(c);
         memo = 0;
         Vec3 core;
-        for (const std::uint32_t b : active)
-          if (detail::bead_closest(beads[b], p, core) <= kCoverMm) {
+        for (const Near* x : active) {
+          if (p.z() < x->z0 || p.z() > x->z1) continue;
+          if (detail::bead_closest(beads[x->bead], p, core) <= kCoverMm) {
             memo = 1;
             break;
           }
+        }
       }
       return memo != 0;
     };
@@ -272,10 +323,9 @@ void Sampler::lay(std::uint32_t k, std::span<const std::uint32_t> faces, double 
       if (mk[c] == 0 || is_covered(c)) continue;
       exposed[static_cast<std::size_t>(c)] = 1;
       for (const int step : {1, m - 1}) {  // both ways round the outline
-        double acc = 0, len = 0;
+        double acc = 0;
         for (int j = (c + step) % m, n = 1; n < m && mk[j] == 0; j = (j + step) % m, ++n) {
-          double s_j = 0, z_j = 0;
-          sec.cell(j, s_j, z_j, len);
+          const double len = cell[static_cast<std::size_t>(j)].len;
           if (acc + len > ext + 1e-12 || is_covered(j)) break;
           acc += len;
           exposed[static_cast<std::size_t>(j)] = 1;
@@ -286,9 +336,8 @@ void Sampler::lay(std::uint32_t k, std::span<const std::uint32_t> faces, double 
       out.group.push_back(static_cast<std::uint32_t>(out.p.size()));
     for (int c = 0; c < m; ++c) {
       if (exposed[static_cast<std::size_t>(c)] == 0) continue;
-      double len = 0;
-      out.p.push_back(point(c, len));
-      out.area.push_back(len * du);
+      out.p.push_back(point(c));
+      out.area.push_back(cell[static_cast<std::size_t>(c)].len * du);
     }
   }
   if (!out.group.empty() && out.group.back() == out.p.size()) out.group.pop_back();
@@ -322,21 +371,31 @@ void sample_bead_outlines(DepositSurface& s, std::span<const SurfaceBead> beads,
       if (replaced[i] != 0) by_bead[fill[s.face_bead[i]]++] = static_cast<std::uint32_t>(i);
   }
   std::vector<std::uint32_t> sampled;
-  double max_width = 0;
-  for (std::size_t k = 0; k < beads.size(); ++k) {
+  for (std::size_t k = 0; k < beads.size(); ++k)
     if (begin[k + 1] > begin[k]) sampled.push_back(static_cast<std::uint32_t>(k));
-    max_width = std::max(max_width, static_cast<double>(beads[k].width_mm));
-  }
   const double v = s.voxel_mm;
   std::vector<BeadPoints> laid(sampled.size());
   if (!sampled.empty()) {
-    const BeadGrid grid(frames, std::max(0.5, 2 * max_width + 2 * kCoverMm));
+    // The beads that may cover a sampled bead's exposed outline: the sampled beads (the
+    // layers above and below a wall, the neighbours of a top skin) and their neighbours along
+    // the path. A bead no face lies on (an inner perimeter) is not one: the outline extends
+    // no further than a quarter circle past its faces.
+    std::vector<std::uint32_t> listed;
+    for (const std::uint32_t k : sampled)
+      for (std::uint32_t c = k > 0 ? k - 1 : k; c <= k + 1 && c < beads.size(); ++c)
+        if (listed.empty() || listed.back() < c) listed.push_back(c);
+    const BeadGrid grid(frames, listed, kGridCellMm);
     const Sampler sampler{beads, frames, grid, face_points, v, 2 * v};
+    tbb::enumerable_thread_specific<BeadGrid::Seen> seen_of([&] {
+      BeadGrid::Seen seen;
+      seen.stamp.assign(beads.size(), 0);
+      return seen;
+    });
     tbb::parallel_for(std::size_t{0}, sampled.size(), [&](std::size_t j) {
       const std::uint32_t k = sampled[j];
       const std::span<const std::uint32_t> faces(by_bead.data() + begin[k],
                                                  begin[k + 1] - begin[k]);
-      sampler.lay(k, faces, v, laid[j]);
+      sampler.lay(k, faces, v, seen_of.local(), laid[j]);
       // The bead's layer and feature from a face of its own line, if any.
       VoxelTag tag = s.face_tags[faces.front()];
       for (const std::uint32_t i : faces)
