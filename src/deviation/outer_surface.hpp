@@ -105,9 +105,13 @@ void place_on_beads(DepositSurface& surface, std::span<const SurfaceBead> beads,
 void sample_bead_outlines(DepositSurface& surface, std::span<const SurfaceBead> beads,
                           std::span<const Vec3> face_points, std::span<const double> face_area_mm2);
 
-/// Exact distances from points to the union of the surface's face squares, signed
-/// positive when the point is in the filled volume. Nearest face index per point in
-/// `nearest_face` (may be null). Parallel (TBB).
+/// Where the deposit -> mesh search stops (mm): a point farther than this from every face
+/// reads this distance (at least), so a mesh placed far from its print is measured quickly.
+inline constexpr double kDepositFarMm = 10.0;
+
+/// Exact distances from points to the union of the surface's face squares (up to
+/// kDepositFarMm), signed positive when the point is in the filled volume. Nearest face index per
+/// point in `nearest_face` (may be null). Parallel (TBB).
 void distances_to_deposit(const DepositSurface& surface, std::span<const Vec3> points,
                           std::vector<double>& signed_mm, std::vector<std::uint32_t>* nearest_face);
 

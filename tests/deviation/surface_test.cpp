@@ -177,5 +177,23 @@ TEST(SurfaceLayerLines, SealKeepsGroovesButNotPinholesIntoTheInfill) {
   EXPECT_TRUE(s.filled(Vec3(0.925, 0.375, 0.5)));  // 0.375 mm in: sealed
 }
 
+TEST(SurfaceDistances, FarPointsReadTheFarLimitQuickly) {
+  // A 1 mm cube of voxels: a point 5 mm beside it is measured exactly, one 50 mm away reads
+  // the far limit (at least that far), and a mesh 100 mm from its print is measured quickly.
+  VoxelGrid grid(0.05, Vec3(0, 0, 0), Eigen::Vector3i(20, 20, 20));
+  for (int z = 0; z < 20; ++z)
+    for (int y = 0; y < 20; ++y)
+      for (int x = 0; x < 20; ++x) grid.set({x, y, z}, VoxelTag{1, 0, Feature::outer_perimeter});
+  const DepositSurface s = extract_outer_surface(grid, Box3{Vec3(0, 0, 0), Vec3(1, 1, 1)});
+  std::vector<Vec3> points{Vec3(6.0, 0.5, 0.5), Vec3(51.0, 0.5, 0.5), Vec3(0.5, 0.5, 0.5)};
+  for (int i = 0; i < 20000; ++i) points.emplace_back(101.0 + 1e-3 * i, 0.5, 0.5);
+  std::vector<double> d;
+  distances_to_deposit(s, points, d, nullptr);
+  EXPECT_NEAR(d[0], -5.0, 1e-9);
+  EXPECT_DOUBLE_EQ(d[1], -kDepositFarMm);
+  EXPECT_NEAR(d[2], 0.5, 1e-9);  // inside: to the nearest face
+  EXPECT_DOUBLE_EQ(d.back(), -kDepositFarMm);
+}
+
 }  // namespace
 }  // namespace printtwin
