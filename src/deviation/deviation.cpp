@@ -162,8 +162,8 @@ void layer_stats(std::vector<LayerDeviation>& layers, const std::vector<std::siz
 template <class MeshSample, class DepSample>
 void find_regions(const DeviationSettings& settings, double v, double spacing,
                   std::span<const double> d_mesh, std::span<const double> d_dep,
-                  const MeshSample& mesh_sample, const DepSample& dep_sample,
-                  DeviationResult& out) {
+                  std::span<const double> dep_area, const MeshSample& mesh_sample,
+                  const DepSample& dep_sample, DeviationResult& out) {
   const std::size_t ns = d_mesh.size();
   const double radius = settings.cluster_radius_mm > 0 ? settings.cluster_radius_mm
                                                        : std::max(2.0 * v, 3.0 * spacing);
@@ -179,11 +179,15 @@ void find_regions(const DeviationSettings& settings, double v, double spacing,
   const std::vector<DeviationSample> mesh_out = out_of_tolerance(ns, d_mesh, -1.0, mesh_sample);
   const std::vector<DeviationSample> dep_out =
       out_of_tolerance(d_dep.size(), d_dep, 1.0, dep_sample);
+  std::vector<double> dep_out_area;  // the area each deposit point stands for
+  if (!dep_area.empty())
+    for (std::size_t i = 0; i < d_dep.size(); ++i)
+      if (d_dep[i] > settings.tolerance_mm) dep_out_area.push_back(dep_area[i]);
   std::vector<std::int32_t> missing_of, excess_of;
   auto missing = cluster_regions(mesh_out, settings.tolerance_mm, radius, spacing * spacing,
                                  RegionKind::missing, settings.max_region_lines, &missing_of);
   auto excess = cluster_regions(dep_out, settings.tolerance_mm, radius, v * v, RegionKind::excess,
-                                settings.max_region_lines, &excess_of);
+                                settings.max_region_lines, &excess_of, dep_out_area);
   // Clusters below the minimum area are voxel noise: not regions, not in the gate figures.
   const auto is_noise = [&](const std::vector<DeviationRegion>& regions, std::int32_t r) {
     return r >= 0 && regions[static_cast<std::size_t>(r)].area_mm2 < settings.min_region_area_mm2;
@@ -380,7 +384,7 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
 
   // Regions: missing = design surface the deposit does not reach; excess = deposit surface
   // beyond the design.
-  find_regions(settings, v, spacing, d_mesh, d_dep, mesh_sample, dep_sample, out);
+  find_regions(settings, v, spacing, d_mesh, d_dep, face_area, mesh_sample, dep_sample, out);
 
   if (settings.keep_samples) {  // the arrays computed above become the columns, no copy
     DeviationSamples& ms = out.mesh_samples;

@@ -197,3 +197,23 @@ TEST(SurfaceDistances, FarPointsReadTheFarLimitQuickly) {
 
 }  // namespace
 }  // namespace printtwin
+
+namespace printtwin {
+namespace {
+
+TEST(SurfaceRegions, RegionAreaIsTheSumOfItsPointsAreas) {
+  // Three excess points 0.01 mm apart, standing for 0.004, 0.002 and 0.001 mm2.
+  std::vector<DeviationSample> samples;
+  for (int i = 0; i < 3; ++i) samples.push_back({Vec3(0.01 * i, 0, 0), 0.5, 1, 7, 0});
+  const std::vector<double> area{0.004, 0.002, 0.001};
+  const auto weighted =
+      cluster_regions(samples, 0.3, 0.1, 0.0025, RegionKind::excess, 20, nullptr, area);
+  ASSERT_EQ(weighted.size(), 1U);
+  EXPECT_NEAR(weighted[0].area_mm2, 0.007, 1e-12);
+  const auto counted = cluster_regions(samples, 0.3, 0.1, 0.0025, RegionKind::excess);
+  ASSERT_EQ(counted.size(), 1U);
+  EXPECT_NEAR(counted[0].area_mm2, 0.0075, 1e-12);
+}
+
+}  // namespace
+}  // namespace printtwin
