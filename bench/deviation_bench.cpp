@@ -243,7 +243,8 @@ int checksum() {
   std::vector<double> d;
   std::vector<std::uint32_t> tri;
   const double near_mm = std::max(4.0 * p.deposit.grid.voxel_mm(), settings.tolerance_mm);
-  const std::vector<std::uint32_t> cells = detail::face_cell_groups(surface);
+  const std::vector<std::uint32_t> cells =
+      surface.point_groups.empty() ? detail::face_cell_groups(surface) : surface.point_groups;
   const double t_dep =
       least_of_3([&] { target->signed_distances(Vec3::Zero(), pts, near_mm, d, &tri, cells); });
   std::vector<Vec3> q;

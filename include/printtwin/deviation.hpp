@@ -344,11 +344,13 @@ struct DeviationSettings {
 /// `radius_mm` links). `area_per_sample_mm2` is what one sample stands for. For `missing`,
 /// samples with d < -tolerance are clustered; for `excess`, samples with d > tolerance.
 /// Regions come largest first. `sample_region` (optional) receives, per sample, the index of
-/// its region in the result or -1.
+/// its region in the result or -1. `sample_area_mm2` (optional, one per sample) replaces
+/// area_per_sample_mm2 where samples stand for different areas.
 [[nodiscard]] std::vector<DeviationRegion> cluster_regions(
     std::span<const DeviationSample> samples, double tolerance_mm, double radius_mm,
     double area_per_sample_mm2, RegionKind kind, std::size_t max_lines = 20,
-    std::vector<std::int32_t>* sample_region = nullptr);
+    std::vector<std::int32_t>* sample_region = nullptr,
+    std::span<const double> sample_area_mm2 = {});
 
 /// PLY of the mesh with a per-vertex signed deviation (`quality` for MeshLab, `deviation`
 /// for CloudCompare's scalar fields) and an RGB colour (blue: deficit, green: within

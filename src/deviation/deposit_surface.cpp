@@ -121,6 +121,8 @@ std::vector<std::uint32_t> face_cell_groups(const DepositSurface& surface) {
 
 namespace {
 
+constexpr double kFarMm = kDepositFarMm;
+
 /// The exact nearest face of a point: p's own cell, then the cells a bound reaches, then
 /// rings of cells and rings of groups of cells (a coarse level flags where faces are, so
 /// points far from the deposit, say a missing wall, skip empty space quickly).
@@ -137,13 +139,22 @@ class FaceSearch {
     for (const Eigen::Vector3i& b : buckets_.held)  // a group is kGroup / 2 pair blocks across
       group_has_[group_index(b / (kGroup / 2))] = 1;
     group_mm_ = buckets_.cell_mm * kGroup;
-    max_group_ring_ = groups_.maxCoeff();
+    // Far points: the search goes no further than kFarMm past the faces' box.
+    for (std::size_t i = 0; i < s.face_centers_mm.size(); ++i) {
+      lo_ = i == 0 ? s.face_centers_mm[i] : lo_.cwiseMin(s.face_centers_mm[i]);
+      hi_ = i == 0 ? s.face_centers_mm[i] : hi_.cwiseMax(s.face_centers_mm[i]);
+    }
+    max_group_ring_ =
+        std::min(groups_.maxCoeff(), static_cast<int>(std::ceil((kFarMm + half_) / group_mm_)) + 1);
   }
 
   /// The nearest face of p; `bound` (may be infinite) is a distance within which a face is
   /// known to lie (it only prunes).
   [[nodiscard]] NearestFace nearest(const Vec3& p, double bound) const {
     NearestFace best;
+    // Farther than kFarMm from every face: that distance, and the first face.
+    const Vec3 out = (lo_ - p).cwiseMax(p - hi_).cwiseMax(Vec3::Zero());
+    if (out.squaredNorm() > (kFarMm + half_) * (kFarMm + half_)) return far();
     // p's own cell first; then the bound (the caller's, or the best face of p's cell) limits
     // the search to the cells its ball touches (at most 2 per axis): all faces within the
     // bound are in them, so the minimum over them is the global one.
@@ -156,11 +167,17 @@ class FaceSearch {
     const Eigen::Vector3i g0 = c0 / kGroup;
     for (int ring = 0; ring <= max_group_ring_ && !done; ++ring)
       done = scan_group_ring(p, g0, ring, best);
-    return best;
+    return done || best.d2 <= kFarMm * kFarMm ? best : far();
   }
 
  private:
   static constexpr int kGroup = 8;
+  static NearestFace far() {
+    NearestFace f;
+    f.d2 = kFarMm * kFarMm;
+    f.face = 0;
+    return f;
+  }
   static constexpr int kFineRings = 2;
 
   [[nodiscard]] std::size_t group_index(const Eigen::Vector3i& g) const {
@@ -248,6 +265,7 @@ class FaceSearch {
   FaceArrays faces_;
   Eigen::Vector3i groups_ = Eigen::Vector3i::Zero();
   std::vector<std::uint8_t> group_has_;
+  Vec3 lo_ = Vec3::Zero(), hi_ = Vec3::Zero();  ///< the face centres' box
   double group_mm_ = 0;
   int max_group_ring_ = 0;
 };

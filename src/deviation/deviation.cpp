@@ -16,35 +16,67 @@
 namespace printtwin {
 
 namespace {
+/// Whether a bead's core point (detail::bead_closest) lies strictly between its ends.
+bool on_side(const SurfaceBead& b, const Vec3& core) {
+  const Vec3 d = b.end_mm - b.start_mm;
+  const double t = (core - (b.start_mm - Vec3(0, 0, 0.5 * b.height_mm))).dot(d);
+  return t > 1e-12 * d.squaredNorm() && t < (1 - 1e-12) * d.squaredNorm();
+}
+
 /// Mesh -> deposit on the true bead surface: where a point's nearest face was placed on a bead,
-/// its distance becomes the exact distance to the nearest bead of that face's line and path
-/// neighbours, when that agrees with the distance to the faces within a voxel (the bead model
-/// describes that part of the surface).
+/// its distance becomes the exact distance to the union of the beads of that face's line, their
+/// path neighbours and the beads touching the face's bead, when that agrees with the distance
+/// to the faces within a voxel and half the bead's height (the bead model describes that part
+/// of the surface; the faces miss the cusp between two beads, up to h / 2 deep).
 void to_bead_surface(const DepositSurface& s, std::span<const SurfaceBead> beads,
                      std::span<const Vec3> points, const std::vector<std::uint32_t>& nearest,
                      std::vector<double>& signed_mm) {
   if (s.face_bead.empty()) return;
   const double v = s.voxel_mm;
   const detail::BeadIndex index(beads);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                        const std::uint32_t f = nearest[i];
-                        if (f >= s.face_bead.size() || s.face_bead[f] == kNoBead) continue;
-                        const detail::BeadDistance b =
-                            index.nearest(s.face_tags[f].line, points[i]);
-                        if (b.bead != kNoBead && std::abs(-b.signed_mm - signed_mm[i]) <= v)
-                          signed_mm[i] = -b.signed_mm;
-                      }
-                    });
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, points.size(), 4096),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const std::uint32_t f = nearest[i];
+          if (f >= s.face_bead.size() || s.face_bead[f] == kNoBead) continue;
+          const std::uint32_t k = s.face_bead[f];
+          detail::BeadDistance b = index.nearest(s.face_tags[f].line, points[i]);
+          if (k + std::size_t{1} < s.bead_touch_begin.size())
+            for (std::uint32_t j = s.bead_touch_begin[k]; j < s.bead_touch_begin[k + 1]; ++j) {
+              // A bead is no nearer than the height from its core less its radius.
+              const SurfaceBead& t = beads[s.bead_touch[j]];
+              const double rt = 0.5 * t.height_mm, pz = points[i].z();
+              const double gap = std::max({pz - (std::max(t.start_mm.z(), t.end_mm.z()) - rt),
+                                           std::min(t.start_mm.z(), t.end_mm.z()) - rt - pz, 0.0}) -
+                                 rt;
+              if (gap >= b.signed_mm) continue;
+              Vec3 core;
+              const double sd = detail::bead_closest(t, points[i], core);
+              if (sd < b.signed_mm) {
+                b.signed_mm = sd;
+                b.bead = s.bead_touch[j];
+                b.core_point = core;
+              }
+            }
+          // Beside a bead (not past its ends, where the deposit may cut it square), the faces
+          // may miss a cusp up to h / 2 deep.
+          const double tol = b.bead != kNoBead && on_side(beads[b.bead], b.core_point)
+                                 ? v + 0.5 * beads[b.bead].height_mm
+                                 : v;
+          if (b.bead != kNoBead && std::abs(-b.signed_mm - signed_mm[i]) <= tol)
+            signed_mm[i] = -b.signed_mm;
+        }
+      });
 }
 
 /// Layer lines on walls: per layer and over the part, the area-weighted RMS distance of the
 /// deposit points whose closest design triangle is within 15 degrees of vertical, and their
 /// RMS about the layer's own mean (Rq).
 void wall_roughness(const Mesh& mesh, std::span<const double> d,
-                    std::span<const std::uint32_t> triangle, const DepositSurface& s, double v,
-                    std::vector<LayerDeviation>& layers, DeviationResult& out) {
+                    std::span<const std::uint32_t> triangle, std::span<const VoxelTag> tags,
+                    std::span<const double> area, double v, std::vector<LayerDeviation>& layers,
+                    DeviationResult& out) {
   std::vector<std::uint8_t> wall(mesh.triangles.size(), 0);
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     const auto& tri = mesh.triangles[t];
@@ -60,10 +92,10 @@ void wall_roughness(const Mesh& mesh, std::span<const double> d,
   std::vector<Sums> per(layers.size());
   for (std::size_t i = 0; i < d.size(); ++i) {
     const std::uint32_t t = triangle[i];
-    const int l = s.face_tags[i].layer;
+    const int l = tags[i].layer;
     if (t >= wall.size() || wall[t] == 0 || l < 0 || static_cast<std::size_t>(l) >= per.size())
       continue;
-    const long double w = s.face_area_mm2.empty() ? v * v : s.face_area_mm2[i];
+    const long double w = area.empty() ? v * v : area[i];
     Sums& p = per[static_cast<std::size_t>(l)];
     p.w += w;
     p.wd += w * d[i];
@@ -130,8 +162,8 @@ void layer_stats(std::vector<LayerDeviation>& layers, const std::vector<std::siz
 template <class MeshSample, class DepSample>
 void find_regions(const DeviationSettings& settings, double v, double spacing,
                   std::span<const double> d_mesh, std::span<const double> d_dep,
-                  const MeshSample& mesh_sample, const DepSample& dep_sample,
-                  DeviationResult& out) {
+                  std::span<const double> dep_area, const MeshSample& mesh_sample,
+                  const DepSample& dep_sample, DeviationResult& out) {
   const std::size_t ns = d_mesh.size();
   const double radius = settings.cluster_radius_mm > 0 ? settings.cluster_radius_mm
                                                        : std::max(2.0 * v, 3.0 * spacing);
@@ -147,11 +179,15 @@ void find_regions(const DeviationSettings& settings, double v, double spacing,
   const std::vector<DeviationSample> mesh_out = out_of_tolerance(ns, d_mesh, -1.0, mesh_sample);
   const std::vector<DeviationSample> dep_out =
       out_of_tolerance(d_dep.size(), d_dep, 1.0, dep_sample);
+  std::vector<double> dep_out_area;  // the area each deposit point stands for
+  if (!dep_area.empty())
+    for (std::size_t i = 0; i < d_dep.size(); ++i)
+      if (d_dep[i] > settings.tolerance_mm) dep_out_area.push_back(dep_area[i]);
   std::vector<std::int32_t> missing_of, excess_of;
   auto missing = cluster_regions(mesh_out, settings.tolerance_mm, radius, spacing * spacing,
                                  RegionKind::missing, settings.max_region_lines, &missing_of);
   auto excess = cluster_regions(dep_out, settings.tolerance_mm, radius, v * v, RegionKind::excess,
-                                settings.max_region_lines, &excess_of);
+                                settings.max_region_lines, &excess_of, dep_out_area);
   // Clusters below the minimum area are voxel noise: not regions, not in the gate figures.
   const auto is_noise = [&](const std::vector<DeviationRegion>& regions, std::int32_t r) {
     return r >= 0 && regions[static_cast<std::size_t>(r)].area_mm2 < settings.min_region_area_mm2;
@@ -261,13 +297,15 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   // Deposit -> mesh, from every exposed face centre.
   const std::vector<Vec3>& face_points =
       surface.points_mm.empty() ? surface.face_centers_mm : surface.points_mm;
-  const std::span<const double> face_area = surface.face_area_mm2;
+  const std::span<const double> face_area = surface.point_area_mm2;
+  const std::vector<VoxelTag>& dep_tags =
+      surface.point_tags.empty() ? surface.face_tags : surface.point_tags;
   const bool weighted = !beads.empty();
   std::vector<double> d_dep;
   std::vector<std::uint32_t> dep_triangles;
   const auto dep_sample = [&](std::size_t i) {
-    return DeviationSample{face_points[i], d_dep[i], surface.face_tags[i].layer,
-                           surface.face_tags[i].line, dep_triangles[i]};
+    return DeviationSample{face_points[i], d_dep[i], dep_tags[i].layer, dep_tags[i].line,
+                           dep_triangles[i]};
   };
 
   std::vector<double> d_query;
@@ -293,15 +331,17 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
         // The faces come cell by cell (cells of 4 voxels, near_mm at the defaults and no
         // wider): the non-empty cells are the groups.
         target.signed_distances(offset, face_points, std::max(4.0 * v, settings.tolerance_mm),
-                                d_dep, &dep_triangles, detail::face_cell_groups(surface));
+                                d_dep, &dep_triangles,
+                                surface.point_groups.empty() ? detail::face_cell_groups(surface)
+                                                             : surface.point_groups);
         // The longer direction: its figures for the whole and per layer side by side too.
         tbb::parallel_invoke(
             [&] { out.deposit_to_mesh = deviation_stats(d_dep, face_area, settings.tolerance_mm); },
             [&] {
               group_by_layer(
                   n_layers, d_dep.size(),
-                  [&](std::size_t i) { return static_cast<int>(surface.face_tags[i].layer); },
-                  d_dep, dep_begin, dep_values, face_area, &dep_weights);
+                  [&](std::size_t i) { return static_cast<int>(dep_tags[i].layer); }, d_dep,
+                  dep_begin, dep_values, face_area, &dep_weights);
               layer_stats(layers, dep_begin, dep_values, &LayerDeviation::deposit_to_mesh,
                           settings.tolerance_mm, dep_weights);
             });
@@ -336,7 +376,7 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
     if (top_key[l] != std::numeric_limits<int>::min())
       ld.z_mm = deposit.center_mm(VoxelKey{0, 0, top_key[l]}).z() + 0.5 * v;
   }
-  wall_roughness(mesh, d_dep, dep_triangles, surface, v, layers, out);
+  wall_roughness(mesh, d_dep, dep_triangles, dep_tags, face_area, v, layers, out);
   for (std::size_t l = 0; l < n_layers;
        ++l)  // layers no sample of either direction is nearest to: none
     if (dep_begin[l] != dep_begin[l + 1] || mesh_begin[l] != mesh_begin[l + 1])
@@ -344,7 +384,7 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
 
   // Regions: missing = design surface the deposit does not reach; excess = deposit surface
   // beyond the design.
-  find_regions(settings, v, spacing, d_mesh, d_dep, mesh_sample, dep_sample, out);
+  find_regions(settings, v, spacing, d_mesh, d_dep, face_area, mesh_sample, dep_sample, out);
 
   if (settings.keep_samples) {  // the arrays computed above become the columns, no copy
     DeviationSamples& ms = out.mesh_samples;
@@ -364,7 +404,8 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
     ds.positions_mm = surface.points_mm.empty() ? std::move(surface.face_centers_mm)
                                                 : std::move(surface.points_mm);
     ds.distances_mm = std::move(d_dep);
-    ds.tags = std::move(surface.face_tags);
+    ds.tags =
+        surface.point_tags.empty() ? std::move(surface.face_tags) : std::move(surface.point_tags);
     ds.triangles = std::move(dep_triangles);
   }
   return out;

@@ -32,12 +32,20 @@ struct DepositSurface {
   std::vector<SurfaceFace> faces;
   std::vector<Vec3> face_centers_mm;  ///< centre of each face (the deposit->mesh points)
   std::vector<VoxelTag> face_tags;    ///< tag of each face's voxel
-  /// After place_on_beads: each face's point on the true bead surface (the deposit -> mesh
-  /// points; empty: the face centres), the area of true surface it stands for (empty: one
-  /// face, voxel^2 each) and its bead (kNoBead where the face centre stays).
+  /// After place_on_beads, the deposit -> mesh points: where a bead owns the surface, points
+  /// laid on its exposed outline (sample_bead_outlines); elsewhere each face's point (its
+  /// centre, or moved onto a bead). Empty: the face centres stand for themselves.
   std::vector<Vec3> points_mm;
-  std::vector<double> face_area_mm2;
+  std::vector<double> point_area_mm2;  ///< true surface each point stands for
+  std::vector<VoxelTag> point_tags;    ///< layer, line and feature of each point
+  /// Runs of nearby points for the closest-point search: run g is
+  /// [point_groups[g], point_groups[g + 1]).
+  std::vector<std::uint32_t> point_groups;
+  /// Per face: the bead its point was placed on (kNoBead where the face centre stays).
   std::vector<std::uint32_t> face_bead;
+  /// Per bead (CSR, beads + 1 entries; empty lists for beads laid no points): the beads whose
+  /// outline may touch it, for the distance to the beads' union near it.
+  std::vector<std::uint32_t> bead_touch_begin, bead_touch;
   /// The blocks holding faces, as indices into filled_block_code, ascending.
   std::vector<std::uint32_t> face_blocks;
   /// First face of cell c (0..7: y half * 4 + x half * 2 + z half) of face block k:
@@ -82,13 +90,28 @@ struct DepositSurface {
 /// nearest bead among those of its voxel's G-code line and their neighbours along the path,
 /// when that surface lies within `max_shift_mm` of the centre and faces the same way; its
 /// area becomes voxel^2 / (|n_x| + |n_y| + |n_z|) for the bead surface's normal n (the true
-/// area a staircase face stands for). Fills points_mm, face_area_mm2 and face_bead.
+/// area a staircase face stands for). Fills face_bead, then sample_bead_outlines fills the
+/// deposit -> mesh points.
 void place_on_beads(DepositSurface& surface, std::span<const SurfaceBead> beads,
                     double max_shift_mm);
 
-/// Exact distances from points to the union of the surface's face squares, signed
-/// positive when the point is in the filled volume. Nearest face index per point in
-/// `nearest_face` (may be null). Parallel (TBB).
+/// The deposit -> mesh points from the placed faces (surface_samples.cpp). A face placed on
+/// the side of a bead (not beyond its ends) gives way to points laid on that bead's outline:
+/// its stadium section at a fixed arc-length and along-line spacing, area = arc x along
+/// length. A bead's outline is exposed where its faces lie, extended along the section (up to
+/// a quarter circle plus a voxel) to where another bead covers it: the cusp between two
+/// stacked beads, narrower than a voxel, is reached. Other faces keep their point. Fills
+/// points_mm, point_area_mm2, point_tags, point_groups and the bead_touch lists.
+void sample_bead_outlines(DepositSurface& surface, std::span<const SurfaceBead> beads,
+                          std::span<const Vec3> face_points, std::span<const double> face_area_mm2);
+
+/// Where the deposit -> mesh search stops (mm): a point farther than this from every face
+/// reads this distance (at least), so a mesh placed far from its print is measured quickly.
+inline constexpr double kDepositFarMm = 10.0;
+
+/// Exact distances from points to the union of the surface's face squares (up to
+/// kDepositFarMm), signed positive when the point is in the filled volume. Nearest face index per
+/// point in `nearest_face` (may be null). Parallel (TBB).
 void distances_to_deposit(const DepositSurface& surface, std::span<const Vec3> points,
                           std::vector<double>& signed_mm, std::vector<std::uint32_t>* nearest_face);
 

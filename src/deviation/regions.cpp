@@ -27,7 +27,8 @@ std::vector<DeviationRegion> cluster_regions(std::span<const DeviationSample> sa
                                              double tolerance_mm, double radius_mm,
                                              double area_per_sample_mm2, RegionKind kind,
                                              std::size_t max_lines,
-                                             std::vector<std::int32_t>* sample_region) {
+                                             std::vector<std::int32_t>* sample_region,
+                                             std::span<const double> sample_area_mm2) {
   if (sample_region != nullptr) sample_region->assign(samples.size(), -1);
   std::vector<std::uint32_t> picked;
   for (std::size_t i = 0; i < samples.size(); ++i) {
@@ -80,7 +81,11 @@ std::vector<DeviationRegion> cluster_regions(std::span<const DeviationSample> sa
     DeviationRegion r;
     r.kind = kind;
     r.samples = m.size();
-    r.area_mm2 = static_cast<double>(m.size()) * area_per_sample_mm2;
+    if (sample_area_mm2.size() == samples.size()) {
+      for (const std::uint32_t i : m) r.area_mm2 += sample_area_mm2[i];
+    } else {
+      r.area_mm2 = static_cast<double>(m.size()) * area_per_sample_mm2;
+    }
     std::vector<std::uint32_t> by_worst(m.begin(), m.end());
     std::stable_sort(by_worst.begin(), by_worst.end(), [&](std::uint32_t a, std::uint32_t b) {
       return std::abs(samples[a].distance_mm) > std::abs(samples[b].distance_mm);

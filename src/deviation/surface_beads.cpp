@@ -130,16 +130,16 @@ void place_on_beads(DepositSurface& s, std::span<const SurfaceBead> beads, doubl
   const double v = s.voxel_mm;
   const std::size_t n = s.faces.size();
   // Sized without their initial values (each element is written below, in parallel).
-  s.points_mm.resize(n);
-  s.face_area_mm2.resize(n);
+  std::vector<Vec3> points(n);
+  std::vector<double> area(n);
   s.face_bead.resize(n);
   const detail::BeadIndex index(beads);
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, n, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
           const Vec3 p = s.face_centers_mm[i];
-          s.points_mm[i] = p;
-          s.face_area_mm2[i] = v * v;
+          points[i] = p;
+          area[i] = v * v;
           s.face_bead[i] = kNoBead;
           const detail::BeadDistance near = index.nearest(s.face_tags[i].line, p);
           if (near.bead == kNoBead || !(std::abs(near.signed_mm) <= max_shift_mm)) continue;
@@ -155,13 +155,14 @@ void place_on_beads(DepositSurface& s, std::span<const SurfaceBead> beads, doubl
           // The face must face the way the bead's surface does: a face on the far side of a
           // bead's core (a thin wall's back) belongs to another surface.
           if (nrm[s.faces[i].axis] * s.faces[i].side <= 0) continue;
-          s.points_mm[i] = near.core_point + (0.5 * b.height_mm) * nrm;
+          points[i] = near.core_point + (0.5 * b.height_mm) * nrm;
           // A surface of normal n is voxelised into faces of total area |n_x| + |n_y| + |n_z|
           // times its own: each face stands for its area over that sum.
-          s.face_area_mm2[i] = v * v / (std::abs(nrm.x()) + std::abs(nrm.y()) + std::abs(nrm.z()));
+          area[i] = v * v / (std::abs(nrm.x()) + std::abs(nrm.y()) + std::abs(nrm.z()));
           s.face_bead[i] = near.bead;
         }
       });
+  sample_bead_outlines(s, beads, points, area);
 }
 
 }  // namespace printtwin

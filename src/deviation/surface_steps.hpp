@@ -5,7 +5,8 @@
 //   3. surface_seal.cpp    the filled volume: the outside dilated back, the grooves reopened
 //                          (surface_reopen.cpp), the filled voxels counted
 //   4. surface_faces.cpp   the exposed faces in the fixed cell order
-// then, for the deviation stage, surface_beads.cpp places the faces on the beads.
+// then, for the deviation stage, surface_beads.cpp places the faces on the beads and
+// surface_samples.cpp lays the deposit -> mesh points on the beads' exposed outlines.
 #include <cstddef>
 #include <cstdint>
 #include <vector>
