@@ -20,27 +20,49 @@ namespace {
 /// A square tube: the box [lo, lo + side]^2 x [0, height] minus [lo + wall, lo + side - wall]^2,
 /// a closed solid with outward normals (its inner faces face the hole).
 Mesh make_square_tube(double lo, double side, double wall, double height) {
-  Mesh m;
-  const double in_lo = lo + wall, in_hi = lo + side - wall, hi = lo + side;
-  const std::array<std::array<double, 2>, 4> outer{{{lo, lo}, {hi, lo}, {hi, hi}, {lo, hi}}};
+  // The outer corners are rounded with radius wall / 2 about the loop's corners, as a
+  // nozzle leaves them (the deposit joins sharp turns round); the inner corners are sharp.
+  constexpr int kArc = 16;  // segments per outer corner: chord error 0.0003 mm at r = 0.225
+  const double r = 0.5 * wall, in_lo = lo + wall, in_hi = lo + side - wall;
+  const std::array<std::array<double, 2>, 4> centre{{{lo + r, lo + r},
+                                                     {lo + side - r, lo + r},
+                                                     {lo + side - r, lo + side - r},
+                                                     {lo + r, lo + side - r}}};
   const std::array<std::array<double, 2>, 4> inner{
       {{in_lo, in_lo}, {in_hi, in_lo}, {in_hi, in_hi}, {in_lo, in_hi}}};
-  // Vertex of corner k (0..3) of the outer (0) or inner (1) square at the bottom (0) or top.
-  const auto v = [](int ring, int k, int top) {
-    return static_cast<std::uint32_t>(ring * 8 + top * 4 + (k % 4));
+  Mesh m;
+  std::vector<std::array<double, 2>> outer;  // counter-clockwise, kArc + 1 points per corner
+  for (int k = 0; k < 4; ++k)
+    for (int a = 0; a <= kArc; ++a) {
+      const double t =
+          std::numbers::pi * (1.25 + 0.5 * k) + 0.5 * std::numbers::pi * (a - 0.5 * kArc) / kArc;
+      outer.push_back({centre[k][0] + r * std::cos(t), centre[k][1] + r * std::sin(t)});
+    }
+  const auto n_out = static_cast<std::uint32_t>(outer.size());
+  // Vertices: outer ring bottom, outer ring top, inner square bottom, inner square top.
+  for (const double z : {0.0, height})
+    for (const auto& c : outer) m.vertices_mm.emplace_back(c[0], c[1], z);
+  for (const double z : {0.0, height})
+    for (const auto& c : inner) m.vertices_mm.emplace_back(c[0], c[1], z);
+  const auto o = [n_out](std::uint32_t i, std::uint32_t top) { return top * n_out + i % n_out; };
+  const auto q = [n_out](std::uint32_t k, std::uint32_t top) {
+    return 2 * n_out + top * 4 + k % 4;
   };
-  for (const auto* sq : {&outer, &inner})
-    for (const double z : {0.0, height})
-      for (const auto& c : *sq) m.vertices_mm.emplace_back(c[0], c[1], z);
   const auto quad = [&m](std::uint32_t a, std::uint32_t b, std::uint32_t c, std::uint32_t d) {
     m.triangles.push_back({a, b, c});
     m.triangles.push_back({a, c, d});
   };
-  for (int k = 0; k < 4; ++k) {
-    quad(v(0, k, 0), v(0, k + 1, 0), v(0, k + 1, 1), v(0, k, 1));  // outer wall, facing out
-    quad(v(1, k + 1, 0), v(1, k, 0), v(1, k, 1), v(1, k + 1, 1));  // inner wall, facing the hole
-    quad(v(0, k, 1), v(0, k + 1, 1), v(1, k + 1, 1), v(1, k, 1));  // top ring, facing up
-    quad(v(1, k, 0), v(1, k + 1, 0), v(0, k + 1, 0), v(0, k, 0));  // bottom ring, facing down
+  for (std::uint32_t i = 0; i < n_out; ++i) quad(o(i, 0), o(i + 1, 0), o(i + 1, 1), o(i, 1));
+  for (std::uint32_t k = 0; k < 4; ++k) {
+    quad(q(k + 1, 0), q(k, 0), q(k, 1), q(k + 1, 1));  // inner wall, facing the hole
+    const std::uint32_t first = k * (kArc + 1), last = first + kArc;
+    for (std::uint32_t i = first; i < last; ++i) {  // the corner's fan to the inner corner
+      m.triangles.push_back({o(i, 1), o(i + 1, 1), q(k, 1)});  // top, facing up
+      m.triangles.push_back({o(i + 1, 0), o(i, 0), q(k, 0)});  // bottom, facing down
+    }
+    // The straight side from this corner's last arc point to the next corner's first.
+    quad(o(last, 1), o(last + 1, 1), q(k + 1, 1), q(k, 1));
+    quad(o(last + 1, 0), o(last, 0), q(k, 0), q(k + 1, 0));
   }
   return m;
 }
