@@ -30,7 +30,14 @@ std::optional<std::int32_t> HeightMap::top_layer_at(double x_mm, double y_mm) co
   if (i < 0 || j < 0 || i >= nx_ || j >= ny_) return std::nullopt;
   const std::size_t at = index(i, j);
   if (top_[at] == 0) return std::nullopt;
-  return top_layer_[at];
+  return top_layer_[at] >> 1;  // an arithmetic shift: layer_code's floor division by 2
+}
+
+bool HeightMap::top_is_support(double x_mm, double y_mm) const {
+  const int i = floor_int(u(x_mm)), j = floor_int(v(y_mm));
+  if (i < 0 || j < 0 || i >= nx_ || j >= ny_) return false;
+  const std::size_t at = index(i, j);
+  return top_[at] != 0 && (top_layer_[at] & 1) != 0;
 }
 
 int HeightMap::rows_before_top_layer(double x_mm, double y_mm) const {
