@@ -69,7 +69,7 @@ class HeightMap {
   /// Raises the 64 columns of the tile whose first column has index `at` to at least `rows`
   /// where `mask` (bit y * 8 + x) is set; where the write reaches a column's top (rows >= its
   /// height), the column's top voxel is now `layer`'s (a layer_code); where that changes the
-  /// column's top layer code, the rows it held before are kept (rows_before_top_layer).
+  /// column's top layer, the rows it held before are kept (rows_before_top_layer).
   void raise_tile(std::size_t at, std::uint64_t mask, std::uint16_t rows, std::int32_t layer) {
     raise_tops(top_.data() + at, top_layer_.data() + at, before_.data() + at, mask, rows, layer);
   }

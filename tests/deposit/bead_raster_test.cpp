@@ -181,6 +181,15 @@ TEST(HeightMap, KeepsTheRowsBeforeTheTopLayer) {
   EXPECT_EQ(*map.top_layer_at(0.06, 0.01), 0);
   EXPECT_TRUE(map.top_is_support(0.06, 0.01));
   EXPECT_FALSE(map.top_is_support(0.11, 0.01));  // empty
+  // Support and part of one layer are one layer: the rows before stay the earlier layers'.
+  const std::uint64_t col2 = 4;  // column (2, 0)
+  map.raise_tile(tile, col2, 4, HeightMap::layer_code(0, false));
+  map.raise_tile(tile, col2, 6, HeightMap::layer_code(1, true));
+  EXPECT_TRUE(map.top_is_support(0.11, 0.01));
+  map.raise_tile(tile, col2, 8, part1);
+  EXPECT_FALSE(map.top_is_support(0.11, 0.01));
+  EXPECT_EQ(*map.top_layer_at(0.11, 0.01), 1);
+  EXPECT_EQ(map.rows_before_top_layer(0.11, 0.01), 4);
   EXPECT_EQ(map.rows_before_top_layer(0.06, 0.01), 0);
   EXPECT_EQ(map.rows_before_top_layer(-1.0, 0.01), 0);  // outside the map
 }
