@@ -43,6 +43,10 @@ class LayerTracker {
 
 /// An extruding move with material (the moves the deposit lays or counts).
 inline bool is_bead(const Move& m) { return m.kind == MoveKind::extrude && m.e_mm > 0; }
+/// Support or support interface (removed after printing).
+inline bool is_support(Feature f) {
+  return f == Feature::support || f == Feature::support_interface;
+}
 
 /// A bead waiting for the next move, which decides its end cut.
 struct PendingBead {

@@ -27,6 +27,7 @@ namespace printtwin {
 using detail::BeadSection;
 using detail::HeightMap;
 using detail::is_bead;
+using detail::is_support;
 using detail::LayerTracker;
 using detail::PendingBead;
 
@@ -134,9 +135,10 @@ struct DepositBuilder::State {
     const Vec2 n(-d.y(), d.x());
     const int samples = std::max(1, static_cast<int>(std::ceil(len_mm * (1.0 / voxel))));
     const BeadSection s = detail::bead_section(pb, area_mm2, samples, map, voxel, gaps_);
+    const std::int32_t code = HeightMap::layer_code(mv.layer, is_support(mv.feature));
     detail::SweptBead bead{
-        a,  b,      d,      n,        pb.m0,
-        m1, s.h_mm, s.w_mm, mv.layer, settings.conserve_volume ? 0.5 * nozzle_mm : 0.0};
+        a,  b,      d,      n,    pb.m0,
+        m1, s.h_mm, s.w_mm, code, settings.conserve_volume ? 0.5 * nozzle_mm : 0.0};
     if (pb.round_start) {  // the wider of the two beads' sections
       const bool prev_wider = pb.join_w_mm > s.w_mm;
       bead.join_h_mm = prev_wider ? pb.join_h_mm : s.h_mm;

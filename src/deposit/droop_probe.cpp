@@ -4,7 +4,15 @@
 #include <algorithm>
 #include <cmath>
 
+#include "deposit/bead_model.hpp"
+
 namespace printtwin::detail {
+
+namespace {
+// Widest gap between support lines searched for across a bead: support grids are a few mm
+// apart; a bead with no support line this close on both sides is not held by them.
+constexpr double kSupportSpanMm = 10.0;
+}  // namespace
 
 void DroopProbe::begin_bead(const Move& mv, const Vec3& a, const Vec3& b, int samples, double h,
                             double w, const HeightMap& map) {
@@ -21,10 +29,10 @@ void DroopProbe::begin_bead(const Move& mv, const Vec3& a, const Vec3& b, int sa
   step_mm_ = len / samples;
   // Sparse infill spans the cells below; support is removed after printing; solid infill is
   // laid as a sheet over support or infill, each line beside the last (not modelled: a limit).
-  skip_ = !model_.deforms() || mv.feature == Feature::sparse_infill ||
-          mv.feature == Feature::support || mv.feature == Feature::support_interface ||
+  skip_ = !model_.deforms() || mv.feature == Feature::sparse_infill || is_support(mv.feature) ||
           mv.feature == Feature::solid_infill || mv.feature == Feature::top_solid_infill;
   oz_ = map.top_mm(a.x(), a.y()) - map.rows(a.x(), a.y()) * voxel_;
+  support_laid_ = support_laid_ || is_support(mv.feature);
   drops_.assign(static_cast<std::size_t>(samples), 0.0);
   fwd_ = back_ = kNoAnchor;
   fwd_at_ = back_at_ = -1;
@@ -55,6 +63,57 @@ bool DroopProbe::anchors(double x, double y, double bottom, double top, double& 
     return t >= bottom - 2.0 * h_;
   }
   return *layer == mv_.layer;  // a bead of this layer, hanging `low` below its tip
+}
+
+bool DroopProbe::rests(double x, double y, double bottom, double& gap) const {
+  const auto layer = map_->top_layer_at(x, y);
+  if (!layer || *layer >= mv_.layer || !map_->top_is_support(x, y)) return false;
+  const double t = map_->top_mm(x, y);
+  if (t < bottom - 2.0 * h_) return false;
+  gap = std::max(0.0, bottom - t);
+  return true;
+}
+
+double DroopProbe::support_line(const Vec2& p, const Vec2& dir, double bottom, double max_mm,
+                                double& gap) const {
+  double g = 0;
+  auto rest = [&](double x, double y) { return rests(x, y, bottom, g); };
+  const double s = distance_to_anchor(p, dir, voxel_, max_mm, rest);
+  if (!(s < kNoAnchor)) return s;
+  // The first column reached is the line's rounded flank: its crest lies within a bead width.
+  gap = g;
+  for (double t = s + voxel_; t <= s + w_ + 1e-9; t += voxel_) {
+    const Vec2 q = p + t * dir;
+    if (rests(q.x(), q.y(), bottom, g)) gap = std::min(gap, g);
+  }
+  return s;
+}
+
+void DroopProbe::rest_on_support(const Vec2& p, double bottom, double room, Drop& drop) const {
+  if (!(drop.mm > 0) || !support_laid_) return;
+  // Support lines across the path on both sides (a wall along the support lines): a bridge
+  // from line to line, hanging from their crests.
+  double gap_l = 0, gap_r = 0;
+  const double l = support_line(p, n_, bottom, kSupportSpanMm, gap_l);
+  const double r = support_line(p, -n_, bottom, kSupportSpanMm, gap_r);
+  double held = kNoAnchor;
+  if (l < kNoAnchor && r < kNoAnchor)
+    held = gap_l + (gap_r - gap_l) * (l / (l + r)) + model_.bridge_sag(l + r, l);
+  // A support line within the fall limit in any direction: the bead falls at most onto it.
+  const double fall = model_.overhang_fall_mm;
+  if (l <= fall) held = std::min(held, gap_l);
+  if (r <= fall) held = std::min(held, gap_r);
+  constexpr double kR = 0.70710678118654752;
+  const Vec2 dirs[6] = {d_, -d_, kR * (d_ + n_), kR * (d_ - n_), kR * (n_ - d_), -kR * (d_ + n_)};
+  for (const Vec2& dir : dirs) {
+    double gap = 0;
+    if (support_line(p, dir, bottom, fall, gap) < kNoAnchor) held = std::min(held, gap);
+  }
+  held = std::min(held, std::max(room, 0.0));
+  if (held < drop.mm) {
+    drop.mm = held;
+    drop.kind = held > 0 ? DropKind::bridge : DropKind::none;
+  }
 }
 
 Drop DroopProbe::sample(int i) {
@@ -91,6 +150,7 @@ Drop DroopProbe::sample(int i) {
   const double fwd = fwd_ - (i - fwd_at_) * step_mm_;
   const double back = back_ + (i - back_at_) * step_mm_;
   Drop drop = predict_drop(model_, back, fwd, edge, room, back_low_, fwd_low_);
+  rest_on_support(p, bottom, room, drop);
   // Between half a layer and a layer of air beneath (the support test holds a bead on half a
   // layer): the bead settles onto what is there.
   if (room > drop.mm && room >= 0.5 * h_ && room <= h_) {

@@ -43,6 +43,18 @@ class DroopProbe {
   /// `low` gets how far it hangs below `top`).
   [[nodiscard]] bool anchors(double x, double y, double bottom, double top, double& low) const;
 
+  /// Support of an earlier layer whose top is within 2 layers of the bead's bottom: a support
+  /// line the bead rests on across the support's Z gap; `gap` gets how far below the bottom.
+  [[nodiscard]] bool rests(double x, double y, double bottom, double& gap) const;
+  /// Distance along the unit `dir` to the first support line the bead rests on (kNoAnchor:
+  /// none within max_mm); `gap` gets how far below the bead's bottom the line's crest lies.
+  [[nodiscard]] double support_line(const Vec2& p, const Vec2& dir, double bottom, double max_mm,
+                                    double& gap) const;
+  /// Lowers `drop` to what the support beneath holds: a bead within the fall limit of a
+  /// support line falls at most onto its top; one between support lines on both sides across
+  /// its path is a bridge from line to line. `room`: how far it can go down.
+  void rest_on_support(const Vec2& p, double bottom, double room, Drop& drop) const;
+
   DroopModel model_;
   double voxel_;
   const HeightMap* map_ = nullptr;
@@ -51,7 +63,8 @@ class DroopProbe {
   Vec2 d_ = Vec2::UnitX(), n_ = Vec2::UnitY();
   int samples_ = 0;
   double h_ = 0, w_ = 0, step_mm_ = 0;
-  bool skip_ = false;  // sparse infill: its crossings of the cells below are not deformed
+  bool support_laid_ = false;  // a support bead was laid: beads may rest on support lines
+  bool skip_ = false;          // sparse infill: its crossings of the cells below are not deformed
   std::vector<double> drops_;
   // Anchors along the path found for an earlier sample of this bead (distance, sample).
   double fwd_ = kNoAnchor, back_ = kNoAnchor;

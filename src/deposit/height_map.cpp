@@ -30,7 +30,14 @@ std::optional<std::int32_t> HeightMap::top_layer_at(double x_mm, double y_mm) co
   if (i < 0 || j < 0 || i >= nx_ || j >= ny_) return std::nullopt;
   const std::size_t at = index(i, j);
   if (top_[at] == 0) return std::nullopt;
-  return top_layer_[at];
+  return top_layer_[at] >> 1;  // an arithmetic shift: layer_code's floor division by 2
+}
+
+bool HeightMap::top_is_support(double x_mm, double y_mm) const {
+  const int i = floor_int(u(x_mm)), j = floor_int(v(y_mm));
+  if (i < 0 || j < 0 || i >= nx_ || j >= ny_) return false;
+  const std::size_t at = index(i, j);
+  return top_[at] != 0 && (top_layer_[at] & 1) != 0;
 }
 
 int HeightMap::rows_before_top_layer(double x_mm, double y_mm) const {
@@ -63,9 +70,11 @@ void HeightMap::raise_tops(std::uint16_t* tile, std::int32_t* layers, std::uint1
     _mm_storeu_si128(p, _mm_max_epi16(old, _mm_and_si128(lanes, value)));
     auto* lp = reinterpret_cast<__m128i*>(layers);
     const __m128i l_lo = _mm_loadu_si128(lp), l_hi = _mm_loadu_si128(lp + 1);
-    // Columns whose top passes to another layer keep the rows they held.
-    const __m128i same =
-        _mm_packs_epi32(_mm_cmpeq_epi32(l_lo, layer4), _mm_cmpeq_epi32(l_hi, layer4));
+    // Columns whose top passes to another layer keep the rows they held (the layer: the code
+    // without its support bit).
+    const __m128i layer_only = _mm_srai_epi32(layer4, 1);
+    const __m128i same = _mm_packs_epi32(_mm_cmpeq_epi32(_mm_srai_epi32(l_lo, 1), layer_only),
+                                         _mm_cmpeq_epi32(_mm_srai_epi32(l_hi, 1), layer_only));
     const __m128i handed = _mm_andnot_si128(same, reach);
     auto* bp = reinterpret_cast<__m128i*>(before);
     _mm_storeu_si128(bp, _mm_or_si128(_mm_and_si128(handed, old),
@@ -81,7 +90,7 @@ void HeightMap::raise_tops(std::uint16_t* tile, std::int32_t* layers, std::uint1
     for (int x = 0; x < 8; ++x) {
       if (((m >> x) & 1u) == 0) continue;
       if (rows >= tile[x]) {
-        if (layers[x] != layer) before[x] = tile[x];
+        if ((layers[x] >> 1) != (layer >> 1)) before[x] = tile[x];
         layers[x] = layer;
       }
       tile[x] = std::max(tile[x], rows);

@@ -2,7 +2,8 @@
 // The deposit's height map: per XY column, the rows of voxels occupied up to (0 = bed or
 // empty), the layer of the move that last wrote the column's top voxel, and the rows the
 // column held before that layer first reached its top (what the earlier layers left, which
-// the droop model reads under this layer's beads). The bead model
+// the droop model reads under this layer's beads), and whether that top voxel is support
+// (the droop model rests beads on support tops across the support's Z gap). The bead model
 // reads it for each bead's height and support; the sweep raises it as it lays the bead. It
 // never reads the grid, whose writes may still be under way on the writer thread.
 //
@@ -49,9 +50,16 @@ class HeightMap {
   [[nodiscard]] double top_mm(double x_mm, double y_mm) const {
     return oz_ + rows(x_mm, y_mm) * voxel_;
   }
+  /// The value raise_tile stores per column for a bead of `layer`: the layer and whether the
+  /// bead is support (its lowest bit).
+  [[nodiscard]] static constexpr std::int32_t layer_code(std::int32_t layer, bool support) {
+    return layer * 2 + (support ? 1 : 0);
+  }
   /// Layer of the move that last wrote the top voxel of the column under (x, y) (mm);
   /// nullopt when the column is empty or outside the map.
   [[nodiscard]] std::optional<std::int32_t> top_layer_at(double x_mm, double y_mm) const;
+  /// Whether the top voxel of the column under (x, y) (mm) is support (false when empty).
+  [[nodiscard]] bool top_is_support(double x_mm, double y_mm) const;
   /// Rows the column under (x, y) (mm) held before the layer of its top voxel first wrote its
   /// top (the earlier layers' material under that layer's beads); 0 outside the map.
   [[nodiscard]] int rows_before_top_layer(double x_mm, double y_mm) const;
@@ -60,8 +68,8 @@ class HeightMap {
 
   /// Raises the 64 columns of the tile whose first column has index `at` to at least `rows`
   /// where `mask` (bit y * 8 + x) is set; where the write reaches a column's top (rows >= its
-  /// height), the column's top voxel is now `layer`'s; where that changes the column's top
-  /// layer, the rows it held before are kept (rows_before_top_layer).
+  /// height), the column's top voxel is now `layer`'s (a layer_code); where that changes the
+  /// column's top layer, the rows it held before are kept (rows_before_top_layer).
   void raise_tile(std::size_t at, std::uint64_t mask, std::uint16_t rows, std::int32_t layer) {
     raise_tops(top_.data() + at, top_layer_.data() + at, before_.data() + at, mask, rows, layer);
   }
@@ -85,7 +93,7 @@ class HeightMap {
   int nx_, ny_;
   std::size_t tiles_x_;
   ZeroedArray<std::uint16_t> top_;       // rows per column
-  ZeroedArray<std::int32_t> top_layer_;  // layer of each column's top voxel
+  ZeroedArray<std::int32_t> top_layer_;  // layer_code of each column's top voxel
   ZeroedArray<std::uint16_t> before_;    // rows before that layer first wrote the top
 };
 

@@ -24,7 +24,7 @@ struct SweptBead {
   Vec2 d, n;        ///< unit direction (xy) and lateral normal
   Vec2 m0, m1;      ///< start and end cut normals (unit, xy)
   double h_mm = 0, w_mm = 0;
-  std::int32_t layer = 0;
+  std::int32_t layer = 0;  ///< HeightMap::layer_code of the bead's layer
   /// How far (mm) the material that falls on occupied voxels may squeeze out of the section
   /// into free voxels (0: it is lost).
   double squeeze_mm = 0;

@@ -166,16 +166,30 @@ TEST(BeadRaster, CountHeldMatchesAColumnByColumnCount) {
 TEST(HeightMap, KeepsTheRowsBeforeTheTopLayer) {
   HeightMap map(0.05, Vec3::Zero(), 16, 16, 2, 2);
   const std::size_t tile = map.index(0, 0);
-  const std::uint64_t col0 = 1, col1 = 2;   // columns (0, 0), (1, 0)
-  map.raise_tile(tile, col0 | col1, 4, 0);  // layer 0: 4 rows
-  map.raise_tile(tile, col0, 8, 1);         // layer 1 covers (0, 0)
-  map.raise_tile(tile, col0, 9, 1);         // and again, higher
-  map.raise_tile(tile, col1, 3, 1);         // below (1, 0)'s top
+  const std::uint64_t col0 = 1, col1 = 2;  // columns (0, 0), (1, 0)
+  const std::int32_t support0 = HeightMap::layer_code(0, true);
+  const std::int32_t part1 = HeightMap::layer_code(1, false);
+  map.raise_tile(tile, col0 | col1, 4, support0);  // layer 0's support: 4 rows
+  map.raise_tile(tile, col0, 8, part1);            // layer 1 covers (0, 0)
+  map.raise_tile(tile, col0, 9, part1);            // and again, higher
+  map.raise_tile(tile, col1, 3, part1);            // below (1, 0)'s top
   EXPECT_EQ(map.rows(0.01, 0.01), 9);
   EXPECT_EQ(map.rows_before_top_layer(0.01, 0.01), 4);  // layer 0's rows
   EXPECT_EQ(*map.top_layer_at(0.01, 0.01), 1);
+  EXPECT_FALSE(map.top_is_support(0.01, 0.01));
   EXPECT_EQ(map.rows(0.06, 0.01), 4);  // not reached: layer 0's
   EXPECT_EQ(*map.top_layer_at(0.06, 0.01), 0);
+  EXPECT_TRUE(map.top_is_support(0.06, 0.01));
+  EXPECT_FALSE(map.top_is_support(0.11, 0.01));  // empty
+  // Support and part of one layer are one layer: the rows before stay the earlier layers'.
+  const std::uint64_t col2 = 4;  // column (2, 0)
+  map.raise_tile(tile, col2, 4, HeightMap::layer_code(0, false));
+  map.raise_tile(tile, col2, 6, HeightMap::layer_code(1, true));
+  EXPECT_TRUE(map.top_is_support(0.11, 0.01));
+  map.raise_tile(tile, col2, 8, part1);
+  EXPECT_FALSE(map.top_is_support(0.11, 0.01));
+  EXPECT_EQ(*map.top_layer_at(0.11, 0.01), 1);
+  EXPECT_EQ(map.rows_before_top_layer(0.11, 0.01), 4);
   EXPECT_EQ(map.rows_before_top_layer(0.06, 0.01), 0);
   EXPECT_EQ(map.rows_before_top_layer(-1.0, 0.01), 0);  // outside the map
 }

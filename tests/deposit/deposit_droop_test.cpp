@@ -167,6 +167,70 @@ TEST(DepositDroop, ABeadFarBeyondTheEdgeFallsOntoWhatIsBelow) {
   EXPECT_NE(r->findings[0].message.find("falls onto what is below"), std::string::npos);
 }
 
+/// A plate over a support grid: two pillars (x 26-28 and 62-64, y 39-53) up to the plate's
+/// bottom, support lines along x every 2.5 mm (y 40-50) between them, one layer short of the
+/// plate (the support's Z gap), then the plate's walls along x over the whole width: three
+/// between support lines and one 1.4 mm beyond the last. `with_support` false: the same
+/// without the support, a bridge from pillar to pillar.
+constexpr int kPlateLayer = 6;
+constexpr double kPlateWallY[4] = {41.25, 43.75, 46.25, 51.4};
+std::vector<Move> plate_over_support(const PrinterProfile& p, bool with_support) {
+  BeadWriter w(p);
+  for (int layer = 0; layer < kPlateLayer; ++layer) {
+    w.layer = layer;
+    const double z = kH * (layer + 1);
+    w.feature = Feature::perimeter;
+    for (const double x0 : {26.2, 62.2})
+      for (double x = x0; x < x0 + 1.7; x += 0.4) {
+        w.travel({x, 39, z});
+        w.extrude({x, 53, z}, kW, kH);
+      }
+    if (!with_support || layer + 1 >= kPlateLayer) continue;  // the Z gap: one layer
+    w.feature = Feature::support;
+    for (double y = 40; y < 50.1; y += 2.5) {
+      w.travel({29, y, z});
+      w.extrude({61, y, z}, kW, kH);
+    }
+  }
+  w.layer = kPlateLayer;
+  w.feature = Feature::perimeter;
+  const double z = kH * (kPlateLayer + 1);
+  for (const double y : kPlateWallY) {
+    w.travel({26.5, y, z});
+    w.extrude({63.5, y, z}, kW, kH);
+  }
+  return w.moves;
+}
+
+TEST(DepositDroop, BeadsOverASupportGridRestOnItAcrossTheZGap) {
+  const auto profile = ender3_marlin2();
+  auto on = deposit_moves(plate_over_support(profile, true), profile, DepositSettings{});
+  auto off = deposit_moves(plate_over_support(profile, false), profile, DepositSettings{});
+  ASSERT_TRUE(on.ok() && off.ok());
+  const double bottom = kH * kPlateLayer;             // the walls' nominal bottom
+  const double support_top = kH * (kPlateLayer - 1);  // one layer lower: the Z gap
+  const double gap = bottom - support_top;
+  for (const double y : kPlateWallY) {
+    SCOPED_TRACE(y);
+    for (const double x : {35.0, 45.0, 55.0}) {
+      // On the support grid the wall falls at most onto the support's top.
+      const double rest = lowest_bottom(*on, x, y, 0.1);
+      EXPECT_GE(rest, support_top - on->voxel_mm - 1e-9) << x;
+      EXPECT_LE(rest, bottom + on->voxel_mm) << x;
+    }
+    // Without the support it is a 34 mm bridge from pillar to pillar: 0.8 (34 / 50)^2 = 0.37
+    // mm at mid-span, below where the support's top would be.
+    EXPECT_LT(lowest_bottom(*off, 45.0, y, 0.1), support_top - off->voxel_mm);
+  }
+  double drop = 0;
+  for (const auto& s : on->unsupported) drop = std::max(drop, s.drop_mm);
+  EXPECT_LE(drop, gap + on->voxel_mm);
+  double sag = 0;
+  for (const auto& s : off->unsupported) sag = std::max(sag, s.drop_mm);
+  // At least the parabola's 0.37 mm (the walls also hang from the pillars' rounded flanks).
+  EXPECT_GT(sag, 0.8 * (34.0 / 50) * (34.0 / 50) - 0.02);
+}
+
 TEST(DepositDroop, SparseInfillOverTheCellsBelowIsInfoAndStaysInPlace) {
   const auto profile = ender3_marlin2();
   BeadWriter w(profile);
