@@ -245,6 +245,26 @@ TEST(VerifyRealworld, CuraBracketIsFoundLaidFlatWithP95DeviationBelowPointThree)
   EXPECT_LT(r->deviation.mesh_to_deposit.p95_abs_mm, 0.3);
 }
 
+// At the default voxel size the bracket passes a 0.3 mm gate: its sharp leg corners are
+// joined round as a nozzle leaves them, and the plate over Cura's support rests on the
+// support lines across the support's Z gap instead of sagging as a 44 mm bridge.
+TEST(VerifyRealworld, CuraBracketPassesAtPointThree) {
+  const auto [gcode, stl] = realworld_pair("cura-3.6.0_Ender3_bedlevel_base_bracket_FR.gcode",
+                                           "ender3_bedlevel_base_bracket_FR.stl");
+  if (gcode.empty())
+    GTEST_SKIP() << "no shared/realworld with cura-3.6.0_Ender3_bedlevel_base_bracket_FR.gcode";
+  VerifyOptions options;
+  options.mesh_path = stl;
+  options.gcode_path = gcode;
+  options.settings.gates.tolerance_mm = 0.3;
+  auto r = verify(options);
+  ASSERT_TRUE(r.ok()) << r.error().describe();
+  EXPECT_TRUE(r->registration.matches) << r->registration.mismatch;
+  EXPECT_TRUE(r->pass);
+  EXPECT_LT(r->deviation.mesh_to_deposit.max_mm, 0.3);
+  EXPECT_GT(r->deviation.mesh_to_deposit.min_mm, -0.3);
+}
+
 TEST(VerifyRealworld, KisslicerLidInMetresRegisters) {
   const auto [gcode, stl] = realworld_pair("kisslicer-1.4.5.10_musicutility_lid.gcode",
                                            "kisslicer_pair_musicutility_lid.stl");
