@@ -140,7 +140,9 @@ TEST(Registration, FindsAThirtyDegreeTurnAboutZ) {
   EXPECT_NEAR(r.reg.transform.scale, 1.0, 0);
   EXPECT_LT(r.worst_mm, 0.3);
   EXPECT_LT(r.reg.residual_rms_mm, 0.4);
-  EXPECT_LT(r.reg.seconds, 2.0) << r.reg.candidates << " poses";
+  // A handful of poses, not a sweep of every angle (the speed itself is benchmarked, not
+  // timed here: sanitizer builds on a loaded machine run it many times slower).
+  EXPECT_LE(r.reg.candidates, 24) << r.reg.candidates << " poses";
 }
 
 TEST(Registration, FindsAPartLaidOnItsSide) {
