@@ -120,11 +120,12 @@ Status write_stl(const Mesh& m, const std::filesystem::path& path) {
     const double len = n.norm();
     if (len > 0) n /= len;
     std::array<float, 12> fl{};
-    for (int k = 0; k < 3; ++k) {
-      fl[static_cast<std::size_t>(k)] = static_cast<float>(n[k]);
-      fl[static_cast<std::size_t>(3 + k)] = static_cast<float>(a[k]);
-      fl[static_cast<std::size_t>(6 + k)] = static_cast<float>(b[k]);
-      fl[static_cast<std::size_t>(9 + k)] = static_cast<float>(c[k]);
+    for (std::size_t k = 0; k < 3; ++k) {
+      const auto e = static_cast<Eigen::Index>(k);
+      fl[k] = static_cast<float>(n[e]);
+      fl[3 + k] = static_cast<float>(a[e]);
+      fl[6 + k] = static_cast<float>(b[e]);
+      fl[9 + k] = static_cast<float>(c[e]);
     }
     out.append(reinterpret_cast<const char*>(fl.data()), sizeof(fl));
     out.append(2, '\0');

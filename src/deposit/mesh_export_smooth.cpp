@@ -166,75 +166,76 @@ struct TriTri {
   }
 };
 
-/// Triangles of different planes, at least one of them `dirty`, whose boxes overlap and that
-/// meet (TriTri): the pairs, in a deterministic order.
-std::vector<std::array<std::uint32_t, 2>> crossing_pairs(const Mesh& mesh,
-                                                         std::span<const std::uint32_t> plane,
-                                                         const std::vector<std::uint8_t>& dirty,
-                                                         double cell_mm) {
-  const std::size_t nt = mesh.triangles.size();
-  const auto& pos = mesh.vertices_mm;
-  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity());
-  for (const Vec3& p : pos) lo = lo.cwiseMin(p);
-  lo -= Vec3::Constant(2 * cell_mm);
-  const double eps = 1e-7;
-  auto cell_range = [&](std::uint32_t t, std::array<int, 3>& c0, std::array<int, 3>& c1) {
+/// A uniform grid of cubic cells over a mesh's box, padded by two cells: the cells a
+/// triangle's box touches, each cell as one 64-bit key.
+struct TriangleCells {
+  const Mesh& mesh;
+  double cell_mm;
+  double eps = 1e-7;
+  Vec3 lo;
+
+  TriangleCells(const Mesh& m, double cell) : mesh(m), cell_mm(cell) {
+    lo = Vec3::Constant(std::numeric_limits<double>::infinity());
+    for (const Vec3& p : mesh.vertices_mm) lo = lo.cwiseMin(p);
+    lo -= Vec3::Constant(2 * cell_mm);
+  }
+  [[nodiscard]] int cell(double x, int a) const {
+    return static_cast<int>(std::floor((x - lo[a]) / cell_mm));
+  }
+  [[nodiscard]] std::pair<Vec3, Vec3> box(std::uint32_t t) const {
     const auto& tr = mesh.triangles[t];
-    const Vec3 mn = pos[tr[0]].cwiseMin(pos[tr[1]]).cwiseMin(pos[tr[2]]);
-    const Vec3 mx = pos[tr[0]].cwiseMax(pos[tr[1]]).cwiseMax(pos[tr[2]]);
+    const auto& pos = mesh.vertices_mm;
+    return {pos[tr[0]].cwiseMin(pos[tr[1]]).cwiseMin(pos[tr[2]]),
+            pos[tr[0]].cwiseMax(pos[tr[1]]).cwiseMax(pos[tr[2]])};
+  }
+  void range(std::uint32_t t, std::array<int, 3>& c0, std::array<int, 3>& c1) const {
+    const auto [mn, mx] = box(t);
     for (int a = 0; a < 3; ++a) {
-      c0[static_cast<std::size_t>(a)] =
-          static_cast<int>(std::floor((mn[a] - eps - lo[a]) / cell_mm));
-      c1[static_cast<std::size_t>(a)] =
-          static_cast<int>(std::floor((mx[a] + eps - lo[a]) / cell_mm));
+      c0[static_cast<std::size_t>(a)] = cell(mn[a] - eps, a);
+      c1[static_cast<std::size_t>(a)] = cell(mx[a] + eps, a);
     }
-  };
-  auto key = [](int x, int y, int z) {
+  }
+  static std::uint64_t key(int x, int y, int z) {
     return (static_cast<std::uint64_t>(z) << 42) | (static_cast<std::uint64_t>(y) << 21) |
            static_cast<std::uint64_t>(x);
-  };
-  std::size_t n_dirty = 0;
-  for (const std::uint8_t d : dirty) n_dirty += d;
-  if (n_dirty == 0) return {};
-  // Few dirty triangles: only the cells they touch take the others.
+  }
+  /// Calls f(key) for every cell triangle t's box touches.
+  template <class F>
+  void for_cells(std::uint32_t t, F&& f) const {
+    std::array<int, 3> c0{}, c1{};
+    range(t, c0, c1);
+    for (int z = c0[2]; z <= c1[2]; ++z)
+      for (int y = c0[1]; y <= c1[1]; ++y)
+        for (int x = c0[0]; x <= c1[0]; ++x) f(key(x, y, z));
+  }
+};
+
+/// (cell, triangle) entries sorted by cell: every triangle when `all`, else only in the
+/// cells that a dirty triangle touches.
+void cell_entries(const TriangleCells& cells, const std::vector<std::uint8_t>& dirty, bool all,
+                  std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>& ids) {
+  const std::size_t nt = cells.mesh.triangles.size();
   std::vector<std::uint64_t> dirty_cells;
-  const bool all = n_dirty * 8 > nt;
-  constexpr std::size_t kChunk = 65536;
-  const std::size_t chunks = (nt + kChunk - 1) / kChunk;
   if (!all) {
-    for (std::uint32_t t = 0; t < nt; ++t) {
-      if (dirty[t] == 0) continue;
-      std::array<int, 3> c0{}, c1{};
-      cell_range(t, c0, c1);
-      for (int z = c0[2]; z <= c1[2]; ++z)
-        for (int y = c0[1]; y <= c1[1]; ++y)
-          for (int x = c0[0]; x <= c1[0]; ++x) dirty_cells.push_back(key(x, y, z));
-    }
+    for (std::uint32_t t = 0; t < nt; ++t)
+      if (dirty[t] != 0) cells.for_cells(t, [&](std::uint64_t k) { dirty_cells.push_back(k); });
     std::sort(dirty_cells.begin(), dirty_cells.end());
     dirty_cells.erase(std::unique(dirty_cells.begin(), dirty_cells.end()), dirty_cells.end());
   }
+  constexpr std::size_t kChunk = 65536;
+  const std::size_t chunks = (nt + kChunk - 1) / kChunk;
   std::vector<std::vector<std::uint64_t>> part_keys(chunks);
   std::vector<std::vector<std::uint32_t>> part_ids(chunks);
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
-    auto& ks = part_keys[c];
-    auto& ids = part_ids[c];
     for (std::size_t t = c * kChunk; t < std::min(nt, (c + 1) * kChunk); ++t) {
-      std::array<int, 3> c0{}, c1{};
-      cell_range(static_cast<std::uint32_t>(t), c0, c1);
       const bool take_all = all || dirty[t] != 0;
-      for (int z = c0[2]; z <= c1[2]; ++z)
-        for (int y = c0[1]; y <= c1[1]; ++y)
-          for (int x = c0[0]; x <= c1[0]; ++x) {
-            const std::uint64_t k = key(x, y, z);
-            if (!take_all && !std::binary_search(dirty_cells.begin(), dirty_cells.end(), k))
-              continue;
-            ks.push_back(k);
-            ids.push_back(static_cast<std::uint32_t>(t));
-          }
+      cells.for_cells(static_cast<std::uint32_t>(t), [&](std::uint64_t k) {
+        if (!take_all && !std::binary_search(dirty_cells.begin(), dirty_cells.end(), k)) return;
+        part_keys[c].push_back(k);
+        part_ids[c].push_back(static_cast<std::uint32_t>(t));
+      });
     }
   });
-  std::vector<std::uint64_t> keys;
-  std::vector<std::uint32_t> ids;
   for (std::size_t c = 0; c < chunks; ++c) {
     keys.insert(keys.end(), part_keys[c].begin(), part_keys[c].end());
     ids.insert(ids.end(), part_ids[c].begin(), part_ids[c].end());
@@ -242,6 +243,54 @@ std::vector<std::array<std::uint32_t, 2>> crossing_pairs(const Mesh& mesh,
     part_ids[c] = {};
   }
   radix_sort(keys, &ids);
+}
+
+/// The crossing pairs among the triangles of one cell (entries [b, e)), each pair found once:
+/// in the cell of the low corner of the two boxes' overlap.
+void pairs_in_cell(const TriangleCells& cells, std::span<const std::uint32_t> plane,
+                   const std::vector<std::uint8_t>& dirty, std::span<const std::uint32_t> ids,
+                   std::uint64_t key, std::vector<std::pair<Vec3, Vec3>>& box,
+                   std::vector<std::array<std::uint32_t, 2>>& found) {
+  const TriTri test{cells.eps};
+  const double eps = cells.eps;
+  box.clear();
+  for (const std::uint32_t t : ids) box.push_back(cells.box(t));
+  for (std::size_t i = 0; i < ids.size(); ++i)
+    for (std::size_t j = i + 1; j < ids.size(); ++j) {
+      const std::uint32_t ta = ids[i], tb = ids[j];
+      if ((dirty[ta] == 0 && dirty[tb] == 0) || plane[ta] == plane[tb]) continue;
+      const auto& ba = box[i];
+      const auto& bb = box[j];
+      if ((ba.first.array() > bb.second.array() + eps).any() ||
+          (bb.first.array() > ba.second.array() + eps).any())
+        continue;
+      // Tested only in the cell of the overlap's low corner (the boxes were padded by eps
+      // the same way, so that cell holds both).
+      const Vec3 m = ba.first.cwiseMax(bb.first);
+      std::array<int, 3> mc{};
+      for (int a = 0; a < 3; ++a)
+        mc[static_cast<std::size_t>(a)] = std::max(0, cells.cell(m[a] - eps, a));
+      if (TriangleCells::key(mc[0], mc[1], mc[2]) != key) continue;
+      if (test.meet(cells.mesh.triangles[ta], cells.mesh.triangles[tb], cells.mesh.vertices_mm))
+        found.push_back({std::min(ta, tb), std::max(ta, tb)});
+    }
+}
+
+/// Triangles of different planes, at least one of them `dirty`, whose boxes overlap and that
+/// meet (TriTri): the pairs, in a deterministic order.
+std::vector<std::array<std::uint32_t, 2>> crossing_pairs(const Mesh& mesh,
+                                                         std::span<const std::uint32_t> plane,
+                                                         const std::vector<std::uint8_t>& dirty,
+                                                         double cell_mm) {
+  const std::size_t nt = mesh.triangles.size();
+  std::size_t n_dirty = 0;
+  for (const std::uint8_t d : dirty) n_dirty += d;
+  if (n_dirty == 0) return {};
+  const TriangleCells cells(mesh, cell_mm);
+  std::vector<std::uint64_t> keys;
+  std::vector<std::uint32_t> ids;
+  // Few dirty triangles: only the cells they touch take the others.
+  cell_entries(cells, dirty, n_dirty * 8 > nt, keys, ids);
   // Groups of one cell, split into chunks at group starts.
   std::vector<std::size_t> starts;
   for (std::size_t i = 0; i < keys.size(); ++i)
@@ -250,43 +299,13 @@ std::vector<std::array<std::uint32_t, 2>> crossing_pairs(const Mesh& mesh,
   const std::size_t ng = starts.size() - 1;
   constexpr std::size_t kGroups = 4096;
   std::vector<std::vector<std::array<std::uint32_t, 2>>> found((ng + kGroups - 1) / kGroups);
-  const TriTri test{eps};
   tbb::parallel_for(std::size_t{0}, found.size(), [&](std::size_t c) {
     std::vector<std::pair<Vec3, Vec3>> box;
     for (std::size_t g = c * kGroups; g < std::min(ng, (c + 1) * kGroups); ++g) {
       const std::size_t b = starts[g], e = starts[g + 1];
       if (e - b < 2) continue;
-      const std::uint64_t k = keys[b];
-      box.clear();
-      for (std::size_t i = b; i < e; ++i) {
-        const auto& tr = mesh.triangles[ids[i]];
-        box.emplace_back(pos[tr[0]].cwiseMin(pos[tr[1]]).cwiseMin(pos[tr[2]]),
-                         pos[tr[0]].cwiseMax(pos[tr[1]]).cwiseMax(pos[tr[2]]));
-      }
-      for (std::size_t i = b; i < e; ++i)
-        for (std::size_t j = i + 1; j < e; ++j) {
-          const std::uint32_t ta = ids[i], tb = ids[j];
-          if (dirty[ta] == 0 && dirty[tb] == 0) continue;
-          if (plane[ta] == plane[tb]) continue;
-          const auto& ba = box[i - b];
-          const auto& bb = box[j - b];
-          if ((ba.first.array() > bb.second.array() + eps).any() ||
-              (bb.first.array() > ba.second.array() + eps).any())
-            continue;
-          // Each pair once: in the cell of the low corner of the boxes' overlap.
-          const Vec3 m = ba.first.cwiseMax(bb.first);
-          std::array<int, 3> mc{};
-          for (int a = 0; a < 3; ++a)
-            mc[static_cast<std::size_t>(a)] =
-                std::max(0, static_cast<int>(std::floor((m[a] - eps - lo[a]) / cell_mm)));
-          if (key(mc[0], mc[1], mc[2]) != k) {
-            // The overlap starts in an earlier cell that holds both (the boxes were padded
-            // by eps the same way): tested there.
-            continue;
-          }
-          if (test.meet(mesh.triangles[ta], mesh.triangles[tb], pos))
-            found[c].push_back({std::min(ta, tb), std::max(ta, tb)});
-        }
+      pairs_in_cell(cells, plane, dirty, std::span<const std::uint32_t>(ids).subspan(b, e - b),
+                    keys[b], box, found[c]);
     }
   });
   std::vector<std::array<std::uint32_t, 2>> out;

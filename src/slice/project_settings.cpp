@@ -161,7 +161,10 @@ Result<std::vector<Object>> read_objects(std::string_view xml, const std::string
 
 std::string describe_settings(const Settings& s) {
   std::string out;
-  for (const auto& [k, v] : s) out += (out.empty() ? "" : ", ") + k + " = " + v;
+  for (const auto& [k, v] : s) {
+    if (!out.empty()) out += ", ";
+    out.append(k).append(" = ").append(v);
+  }
   return out.empty() ? "none" : out;
 }
 

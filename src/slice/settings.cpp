@@ -330,7 +330,7 @@ Result<std::string> prusa_config_text(std::string bytes, const std::string& sour
       std::string one_line = value;  // a multi-line value keeps the .ini's escaped form
       for (std::size_t at = 0; (at = one_line.find_first_of("\r\n", at)) != std::string::npos;)
         one_line.replace(at, 1, one_line[at] == '\n' ? "\\n" : "\\r");
-      text += key + " = " + one_line + "\n";
+      text.append(key).append(" = ").append(one_line).append("\n");
     }
   }
   return text;
