@@ -112,7 +112,7 @@ struct Object {
   std::vector<Volume> volumes;
 };
 
-Result<std::vector<Object>> read_objects(std::string_view xml, const std::string& where) {
+Result<std::vector<Object>> read_objects(std::string_view xml, const std::string& source) {
   std::vector<Object> objects;
   Object* object = nullptr;
   Volume* volume = nullptr;
@@ -120,7 +120,9 @@ Result<std::vector<Object>> read_objects(std::string_view xml, const std::string
   while ((pos = xml.find('<', pos)) != std::string_view::npos) {
     const std::size_t end = xml.find('>', pos);
     if (end == std::string_view::npos)
-      return bad_input(where + ": a tag is not closed (the project is damaged)", where);
+      return bad_input(
+          std::string(kProjectModelConfigEntry) + ": a tag is not closed (the project is damaged)",
+          source);
     Tag tag = parse_tag(xml.substr(pos + 1, end - pos - 1));
     pos = end + 1;
     if (tag.name == "object") {
@@ -210,7 +212,7 @@ Result<Settings> project_object_settings(std::string_view model_config,
                          "project without them, or give the print settings as an .ini",
                      source);
   }
-  auto objects = read_objects(model_config, source + ":" + std::string(kProjectModelConfigEntry));
+  auto objects = read_objects(model_config, source);
   if (!objects) return objects.error();
   std::optional<Settings> common;
   std::string first_name;

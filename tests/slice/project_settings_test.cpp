@@ -162,6 +162,7 @@ TEST(ProjectSettings, ReadsEscapedValuesAndSkipsDeclarations) {
   auto broken = detail::project_object_settings("<config><object id=\"1\"", "", "p.3mf");
   ASSERT_FALSE(broken);
   EXPECT_NE(broken.error().message.find("not closed"), std::string::npos);
+  EXPECT_EQ(broken.error().file, "p.3mf");  // the archive, as every other error names it
 }
 
 }  // namespace
