@@ -17,8 +17,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       split == std::string_view::npos ? std::string_view{} : bytes.substr(split + 1);
   auto settings = printtwin::detail::project_object_settings(model, ranges, "fuzz.3mf");
   if (!settings) {
-    if (settings.error().message.empty() || settings.error().file != "fuzz.3mf")
-      __builtin_trap();
+    if (settings.error().message.empty() || settings.error().file != "fuzz.3mf") __builtin_trap();
     return 0;
   }
   for (const auto& [key, value] : *settings)

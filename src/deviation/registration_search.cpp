@@ -315,6 +315,46 @@ void describe(Registration& reg, const Pose& pose, const Search& search, const M
 
 }  // namespace
 
+/// The pose to report, from the best fit: the unrotated pose when it fits as well (a
+/// symmetric part), then a quarter-turn angle taken exactly when it fits as well. Sets
+/// `reg.transform.rotation`; true when the slicer's centring was kept exactly.
+bool settle_pose(Search& search, Pose& best, Registration& reg) {
+  // A symmetric part (a cube, a cylinder) fits several poses equally well: keep it as
+  // designed when the unrotated pose fits as well as the best, so that the report does not
+  // claim a turn the slicer never made.
+  const auto fits_as_well = [&search](const Pose& p, const Pose& than) {
+    return search.residual(p) <=
+           search.residual(than) + std::max(0.01, 0.02 * search.residual(than));
+  };
+  if (!best.rotation().isIdentity(1e-9)) {
+    Pose upright = best;
+    upright.up_matrix = Mat3::Identity();
+    upright.theta = 0;
+    upright.t = search.centred(Mat3::Identity(), best.scale, *best.object);
+    search.evaluate(upright, best.object->wall_points_mm);
+    if (fits_as_well(upright, best)) best = upright;
+  }
+
+  // Slicers rotate by whole degrees and most parts not at all: a quarter-turn angle within
+  // half a degree that fits as well (with the slicer's centring) is taken exactly.
+  const double quarters = std::round(best.theta / kQuarter);
+  bool exact = false;
+  if (std::abs(best.theta - quarters * kQuarter) < 0.5 * M_PI / 180) {
+    Pose snapped = best;
+    const Mat3 r = rz_quarter(static_cast<int>(quarters)) * best.up_matrix;
+    snapped.theta = quarters * kQuarter;
+    snapped.t = search.centred(r, best.scale, *best.object);
+    search.evaluate(snapped, best.object->wall_points_mm);
+    if (fits_as_well(snapped, best)) {
+      best = snapped;
+      reg.transform.rotation = r;
+      exact = true;
+    }
+  }
+  if (!exact) reg.transform.rotation = best.rotation();
+  return exact;
+}
+
 Result<Registration> register_mesh(const Mesh& mesh, const MeshQuery& query, const PartExtent& part,
                                    const RegistrationOptions& options) {
   const auto start = std::chrono::steady_clock::now();
@@ -425,26 +465,8 @@ Result<Registration> register_mesh(const Mesh& mesh, const MeshQuery& query, con
   std::stable_sort(candidates.begin(), candidates.begin() + static_cast<std::ptrdiff_t>(finalists),
                    by_score);
   Pose best = candidates.front();
-
-  // Slicers rotate by whole degrees and most parts not at all: a quarter-turn angle within
-  // half a degree that fits as well (with the slicer's centring) is taken exactly.
   Registration reg;
-  const double quarters = std::round(best.theta / kQuarter);
-  bool exact = false;
-  if (std::abs(best.theta - quarters * kQuarter) < 0.5 * M_PI / 180) {
-    Pose snapped = best;
-    const Mat3 r = rz_quarter(static_cast<int>(quarters)) * best.up_matrix;
-    snapped.theta = quarters * kQuarter;
-    snapped.t = search.centred(r, best.scale, *best.object);
-    search.evaluate(snapped, best.object->wall_points_mm);
-    if (search.residual(snapped) <=
-        search.residual(best) + std::max(0.01, 0.02 * search.residual(best))) {
-      best = snapped;
-      reg.transform.rotation = r;
-      exact = true;
-    }
-  }
-  if (!exact) reg.transform.rotation = best.rotation();
+  const bool exact = settle_pose(search, best, reg);
   reg.transform.scale = best.scale;
   reg.transform.translation_mm = best.t;
   reg.candidates = tried;

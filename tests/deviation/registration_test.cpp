@@ -132,6 +132,16 @@ TEST(Registration, UnrotatedPartKeepsTheSlicersCentringExactly) {
   EXPECT_GT(r.reg.coverage_pct, 95);
 }
 
+// A cube fits every quarter turn and flip equally well: printed as designed, it is reported
+// unrotated, not as a turn the slicer never made.
+TEST(Registration, SymmetricPartPrintedAsDesignedIsNotReportedTurned) {
+  const Mesh design = make_prism({{0, 0}, {12, 0}, {12, 12}, {0, 12}}, 0, 12);
+  const Registered r = register_against(design, design);
+  EXPECT_TRUE(r.reg.matches) << r.reg.mismatch;
+  EXPECT_TRUE(r.reg.transform.translation_only());
+  EXPECT_LT(r.worst_mm, 0.15);
+}
+
 TEST(Registration, FindsAThirtyDegreeTurnAboutZ) {
   const Mesh design = bracket();
   const Registered r = register_against(design, rotate(design, Vec3(0, 0, 30)));
