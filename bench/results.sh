@@ -131,7 +131,9 @@ runs_done=$(awk -F'|' '!/^#/ && $2 == "special" {n[$1]++} END {m = 0; for (s in 
     line=${rows[$i]}
     name=$(field "$line" 1) stage=$(field "$line" 2) basis=$(field "$line" 3) what=$(field "$line" 4)
     if [ -z "$(med "$stage" "$name" 1)" ] || [ "$(med "$stage" "$name" 1)" = nan ]; then
-      echo "| \`$name\` | $what | \`$stage\` | | | not measured | (build rows: set MARCH_BASE_BUILD) |"
+      why="(re-run with STAGES matching this stage)"
+      [[ "$stage" == build:* ]] && why="(a build row: set MARCH_BASE_BUILD)"
+      echo "| \`$name\` | $what | \`$stage\` | | | not measured | $why |"
       continue
     fi
     col=2; [ "$basis" = wall ] && col=1
