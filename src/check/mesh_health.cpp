@@ -74,6 +74,7 @@ EdgeTable build_edge_table(const Mesh& mesh, const std::vector<char>& skip_face)
   for (std::size_t v = 0; v < nv; ++v) {
     const auto first = table.half_edges.begin() + start[v];
     const auto last = table.half_edges.begin() + start[v + 1];
+    if (last - first < 2) continue;  // nothing to order (and no first + 1 past an empty run)
     if (last - first > 32) {
       std::stable_sort(first, last, by_hi);
       continue;
@@ -130,7 +131,8 @@ std::vector<char> duplicate_or_index_degenerate_faces(const Mesh& mesh, std::siz
   for (std::size_t v = 0; v < nv; ++v) {
     const auto first = keys.begin() + start[v];
     const auto last = keys.begin() + start[v + 1];
-    if (last - first > 32) {  // a large fan: sorted by vertex set, faces ascending in a set
+    if (last - first < 2) continue;  // no repeat possible (and no first + 1 past an empty run)
+    if (last - first > 32) {         // a large fan: sorted by vertex set, faces ascending in a set
       std::sort(first, last);
       for (auto i = first + 1; i < last; ++i)
         if (i->first == (i - 1)->first) {
