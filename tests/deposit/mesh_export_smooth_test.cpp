@@ -24,6 +24,18 @@ struct Printed {
   std::vector<Move> moves;
   DepositResult deposit;
 };
+
+/// The moves and their deposit at 0.05 mm voxels.
+Printed deposited(const std::vector<Move>& moves, const PrinterProfile& profile) {
+  Printed p;
+  p.moves = moves;
+  DepositSettings ds;
+  ds.voxel_mm = 0.05;
+  auto d = deposit_moves(p.moves, profile, ds);
+  EXPECT_TRUE(d.ok());
+  if (d.ok()) p.deposit = std::move(*d);
+  return p;
+}
 Printed lay_loops(double h, double w, int layers) {
   const PrinterProfile profile = ender3_marlin2();
   test::BeadWriter bw(profile);
@@ -38,14 +50,7 @@ Printed lay_loops(double h, double w, int layers) {
       bw.moves.back().height_hint_mm = static_cast<float>(h);  // the slicer's ;HEIGHT:
     }
   }
-  Printed p;
-  p.moves = bw.moves;
-  DepositSettings ds;
-  ds.voxel_mm = 0.05;
-  auto d = deposit_moves(p.moves, profile, ds);
-  EXPECT_TRUE(d.ok());
-  if (d.ok()) p.deposit = std::move(*d);
-  return p;
+  return deposited(bw.moves, profile);
 }
 
 void expect_closed_oriented(const Mesh& m) {
@@ -177,14 +182,7 @@ Printed lay_path(const std::vector<Vec2>& path, const std::vector<double>& zs, d
       bw.moves.back().height_hint_mm = static_cast<float>(h);
     }
   }
-  Printed p;
-  p.moves = bw.moves;
-  DepositSettings ds;
-  ds.voxel_mm = 0.05;
-  auto d = deposit_moves(p.moves, profile, ds);
-  EXPECT_TRUE(d.ok());
-  if (d.ok()) p.deposit = std::move(*d);
-  return p;
+  return deposited(bw.moves, profile);
 }
 
 // One bead, and a zig-zag of beads at odd angles over three layers (creases where lines
