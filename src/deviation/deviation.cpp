@@ -52,7 +52,7 @@ void to_bead_surface(const DepositSurface& s, std::span<const SurfaceBead> beads
                                  rt;
               if (gap >= b.signed_mm) continue;
               Vec3 core;
-              const double sd = detail::bead_closest(t, points[i], core);
+              const double sd = index.cores()[s.bead_touch[j]].closest(points[i], core);
               if (sd < b.signed_mm) {
                 b.signed_mm = sd;
                 b.bead = s.bead_touch[j];

@@ -48,26 +48,24 @@ std::vector<SurfaceBead> surface_beads(std::span<const Move> moves, const Printe
 
 namespace detail {
 
-double bead_closest(const SurfaceBead& b, const Vec3& p, Vec3& core_point) {
+BeadCore BeadCore::of(const SurfaceBead& b) {
   // The bead is its core (a level ribbon of width w - h along the move, h / 2 below the nozzle
   // tip) grown by a ball of radius h / 2: the stadium section swept along the move.
-  const double r = 0.5 * b.height_mm;
-  const Vec3 a = b.start_mm - Vec3(0, 0, r), e = b.end_mm - Vec3(0, 0, r);
-  const Vec3 d = e - a;
-  const double len2 = d.squaredNorm();
-  double t = len2 > 0 ? (p - a).dot(d) / len2 : 0.0;
-  t = std::clamp(t, 0.0, 1.0);
-  const Vec3 q0 = a + t * d;
-  Vec3 across(-d.y(), d.x(), 0.0);
+  BeadCore c;
+  c.r = 0.5 * b.height_mm;
+  c.a = b.start_mm - Vec3(0, 0, c.r);
+  const Vec3 e = b.end_mm - Vec3(0, 0, c.r);
+  c.d = e - c.a;
+  c.len2 = c.d.squaredNorm();
+  Vec3 across(-c.d.y(), c.d.x(), 0.0);
   const double n = across.norm();
-  const double half = 0.5 * std::max(0.0, static_cast<double>(b.width_mm) - b.height_mm);
-  double s = 0;
-  if (n > 0) {
-    across /= n;
-    s = std::clamp((p - q0).dot(across), -half, half);
-  }
-  core_point = q0 + s * across;
-  return (p - core_point).norm() - r;
+  c.half = 0.5 * std::max(0.0, static_cast<double>(b.width_mm) - b.height_mm);
+  if (n > 0) c.across = across / n;
+  return c;
+}
+
+double bead_closest(const SurfaceBead& b, const Vec3& p, Vec3& core_point) {
+  return BeadCore::of(b).closest(p, core_point);
 }
 
 std::pair<std::size_t, std::size_t> beads_of_line(std::span<const SurfaceBead> beads,
@@ -83,16 +81,17 @@ std::pair<std::size_t, std::size_t> beads_of_line(std::span<const SurfaceBead> b
 
 namespace {
 /// The nearest of beads [lo, hi) of a line and their neighbours along the path.
-BeadDistance nearest_in(std::span<const SurfaceBead> beads, std::size_t lo, std::size_t hi,
-                        const Vec3& p) {
+template <class Closest>
+BeadDistance nearest_in(std::size_t n_beads, std::size_t lo, std::size_t hi, const Vec3& p,
+                        const Closest& closest) {
   BeadDistance best;
   if (lo == hi) return best;
   // The bead of the line and its neighbours along the path (the moves before and after).
   lo = lo > 0 ? lo - 1 : lo;
-  hi = std::min(hi + 1, beads.size());
+  hi = std::min(hi + 1, n_beads);
   for (std::size_t k = lo; k < hi; ++k) {
     Vec3 c;
-    const double sd = bead_closest(beads[k], p, c);
+    const double sd = closest(k, p, c);
     if (sd < best.signed_mm) {
       best.signed_mm = sd;
       best.bead = static_cast<std::uint32_t>(k);
@@ -106,11 +105,19 @@ BeadDistance nearest_in(std::span<const SurfaceBead> beads, std::size_t lo, std:
 BeadDistance nearest_bead(std::span<const SurfaceBead> beads, std::uint32_t line, const Vec3& p) {
   if (beads.empty()) return {};
   const auto [lo, hi] = beads_of_line(beads, line);
-  return nearest_in(beads, lo, hi, p);
+  return nearest_in(beads.size(), lo, hi, p, [&](std::size_t k, const Vec3& q, Vec3& c) {
+    return bead_closest(beads[k], q, c);
+  });
 }
 
 BeadIndex::BeadIndex(std::span<const SurfaceBead> beads) : beads_(beads) {
   if (beads.empty()) return;
+  cores_.resize(beads.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, beads.size(), 4096),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t k = r.begin(); k != r.end(); ++k)
+                        cores_[k] = BeadCore::of(beads[k]);
+                    });
   first_.assign(static_cast<std::size_t>(beads.back().line) + 2,
                 static_cast<std::uint32_t>(beads.size()));
   // Beads are sorted by line: line l's first bead is the first with line >= l.
@@ -121,7 +128,8 @@ BeadIndex::BeadIndex(std::span<const SurfaceBead> beads) : beads_(beads) {
 
 BeadDistance BeadIndex::nearest(std::uint32_t line, const Vec3& p) const {
   const auto [lo, hi] = of_line(line);
-  return nearest_in(beads_, lo, hi, p);
+  return nearest_in(beads_.size(), lo, hi, p,
+                    [&](std::size_t k, const Vec3& q, Vec3& c) { return cores_[k].closest(q, c); });
 }
 
 }  // namespace detail

@@ -1,5 +1,6 @@
 #pragma once
 // Internals of the outer surface's sub-voxel step (surface_beads.cpp), for the tests.
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -16,6 +17,27 @@ namespace printtwin::detail {
 /// point nearest p is that core point plus h / 2 towards p.
 double bead_closest(const SurfaceBead& bead, const Vec3& p, Vec3& core_point);
 
+/// A bead's core made ready for many distance queries: bead_closest without recomputing the
+/// core's frame (the same arithmetic, so the same bits).
+struct BeadCore {
+  Vec3 a = Vec3::Zero();       ///< the core's centre line starts here (h / 2 below the tip)
+  Vec3 d = Vec3::Zero();       ///< and runs along d
+  Vec3 across = Vec3::Zero();  ///< level unit vector across the move (zero for a vertical move)
+  double len2 = 0, half = 0, r = 0;
+
+  static BeadCore of(const SurfaceBead& b);
+  /// As bead_closest.
+  double closest(const Vec3& p, Vec3& core_point) const {
+    double t = len2 > 0 ? (p - a).dot(d) / len2 : 0.0;
+    t = std::clamp(t, 0.0, 1.0);
+    const Vec3 q0 = a + t * d;
+    double s = 0;
+    if (across.x() != 0 || across.y() != 0) s = std::clamp((p - q0).dot(across), -half, half);
+    core_point = q0 + s * across;
+    return (p - core_point).norm() - r;
+  }
+};
+
 /// The beads of G-code line `line` (beads sorted by line): [first, last).
 std::pair<std::size_t, std::size_t> beads_of_line(std::span<const SurfaceBead> beads,
                                                   std::uint32_t line);
@@ -30,10 +52,13 @@ struct BeadDistance {
 BeadDistance nearest_bead(std::span<const SurfaceBead> beads, std::uint32_t line, const Vec3& p);
 
 /// The beads by G-code line, for many look-ups: a table of each line's first bead (one entry
-/// per line up to the last bead's), so a look-up reads two entries instead of searching.
+/// per line up to the last bead's), so a look-up reads two entries instead of searching, and
+/// each bead's core (BeadCore).
 class BeadIndex {
  public:
   explicit BeadIndex(std::span<const SurfaceBead> beads);
+  /// The cores, by bead.
+  [[nodiscard]] const std::vector<BeadCore>& cores() const { return cores_; }
   /// As beads_of_line.
   [[nodiscard]] std::pair<std::size_t, std::size_t> of_line(std::uint32_t line) const {
     if (line + std::size_t{1} >= first_.size()) return {beads_.size(), beads_.size()};
@@ -44,6 +69,7 @@ class BeadIndex {
 
  private:
   std::span<const SurfaceBead> beads_;
+  std::vector<BeadCore> cores_;
   std::vector<std::uint32_t> first_;  ///< first bead of line l (beads_.size() when none after)
 };
 

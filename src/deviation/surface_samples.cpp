@@ -2,6 +2,7 @@
 // placed on the side of a bead gives way to points laid on that bead's stadium section, where
 // the section is exposed: around the faces, and on to where another bead covers it, so the
 // cusp between two stacked beads (narrower than a voxel, where no face exists) is sampled.
+#include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
@@ -11,6 +12,7 @@
 #include <cmath>
 #include <cstdint>
 #include <numbers>
+#include <span>
 #include <utility>
 #include <vector>
 
@@ -155,15 +157,16 @@ class BeadGrid {
       for (const std::uint32_t c : keys) beads_[fill[c]++] = k;
     }
   }
-  /// A thread's marks of the beads already listed.
+  /// A thread's marks of the beads already listed, and its cell list.
   struct Seen {
     std::vector<std::uint32_t> stamp;
     std::uint32_t now = 0;
+    std::vector<std::uint32_t> keys;
   };
   /// The beads sharing a cell with f, each once.
   void near(const BeadFrame& f, std::vector<std::uint32_t>& out, Seen& seen) const {
     if (begin_.empty()) return;
-    std::vector<std::uint32_t> keys;
+    std::vector<std::uint32_t>& keys = seen.keys;
     cells_of(f, keys);
     if (++seen.now == 0) {  // the stamps wrapped round
       std::fill(seen.stamp.begin(), seen.stamp.end(), 0);
@@ -207,19 +210,45 @@ class BeadGrid {
   std::vector<std::uint32_t> begin_, beads_;
 };
 
-/// The points one bead lays, with the beads that touch it.
-struct BeadPoints {
+/// A cell of a bead's outline: its centre's offsets across and up from the centre line, and
+/// its length round the outline.
+struct OutlineCell {
+  double s = 0, z = 0, len = 0;
+};
+/// A bead that may cover another's outline: the span of the other's centre line it may cover
+/// (length along it) and the heights it may cover.
+struct NearBead {
+  std::uint32_t bead;
+  double u0, u1, z0, z1;
+};
+/// A thread's working memory for laying beads (reused from bead to bead).
+struct Scratch {
+  BeadGrid::Seen seen;
+  std::vector<OutlineCell> cell;
+  std::vector<std::uint8_t> marked, exposed;
+  std::vector<std::int8_t> covered;
+  std::vector<NearBead> near;
+  std::vector<const NearBead*> active;
+};
+
+/// The points a run of consecutive sampled beads lays, bead after bead, with the beads that
+/// touch each; chunks are concatenated in order, so the output does not depend on the threads.
+struct ChunkPoints {
   std::vector<Vec3> p;
   std::vector<double> area;
-  std::vector<std::uint32_t> group;  ///< local start of each group
+  std::vector<std::uint32_t> group;  ///< start of each group, in the chunk's points
   std::vector<std::uint32_t> touch;
-  VoxelTag tag;
+  std::vector<std::uint32_t> point_end, touch_end;  ///< per bead of the chunk
+  std::vector<VoxelTag> tag;                        ///< per bead of the chunk
 };
+/// Sampled beads per chunk.
+constexpr std::size_t kBeadsPerChunk = 32;
 
 /// What the beads' sampling shares.
 struct Sampler {
   std::span<const SurfaceBead> beads;
   const std::vector<BeadFrame>& frames;
+  const std::vector<detail::BeadCore>& cores;
   const BeadGrid& grid;
   std::span<const Vec3> face_points;
   double arc_step, along_step;
@@ -232,51 +261,53 @@ struct Sampler {
     const double reach = f.reach() + g.reach() + kCoverMm;
     return segment_distance2(from, along, g.a, g.d) <= reach * reach;
   }
-  /// The beads whose outline may touch bead k's, in index order.
+  /// The beads whose outline may touch bead k's, in index order, appended to `touch`.
   void touching(std::uint32_t k, std::vector<std::uint32_t>& touch, BeadGrid::Seen& seen) const {
     const BeadFrame& f = frames[k];
-    touch.clear();
+    const std::size_t from = touch.size();
     grid.near(f, touch, seen);
-    std::erase_if(touch, [&](std::uint32_t c) { return c == k || !may_touch(f, f.a, f.d, c); });
-    std::sort(touch.begin(), touch.end());
+    const auto first = touch.begin() + static_cast<std::ptrdiff_t>(from);
+    touch.erase(
+        std::remove_if(first, touch.end(),
+                       [&](std::uint32_t c) { return c == k || !may_touch(f, f.a, f.d, c); }),
+        touch.end());
+    std::sort(touch.begin() + static_cast<std::ptrdiff_t>(from), touch.end());
   }
 
-  void lay(std::uint32_t k, std::span<const std::uint32_t> faces, double ext_extra,
-           BeadGrid::Seen& seen, BeadPoints& out) const;
+  void lay(std::uint32_t k, std::span<const std::uint32_t> faces, double ext_extra, Scratch& w,
+           ChunkPoints& out) const;
 };
 
 void Sampler::lay(std::uint32_t k, std::span<const std::uint32_t> faces, double ext_extra,
-                  BeadGrid::Seen& seen, BeadPoints& out) const {
+                  Scratch& w, ChunkPoints& out) const {
   const BeadFrame& f = frames[k];
   const Section sec(f, arc_step, along_step);
   const int m = sec.cells();
-  struct Cell {
-    double s = 0, z = 0, len = 0;
-  };
-  std::vector<Cell> cell(static_cast<std::size_t>(m));
+  const auto mm = static_cast<std::size_t>(m);
+  std::vector<OutlineCell>& cell = w.cell;
+  cell.resize(mm);
   for (int c = 0; c < m; ++c) {
-    Cell& x = cell[static_cast<std::size_t>(c)];
+    OutlineCell& x = cell[static_cast<std::size_t>(c)];
     sec.cell(c, x.s, x.z, x.len);
   }
   const int rows = std::max(1, static_cast<int>(std::ceil(f.len / along_step)));
   const double du = f.len / rows;
-  std::vector<std::uint8_t> marked(static_cast<std::size_t>(rows) * m, 0);
+  std::vector<std::uint8_t>& marked = w.marked;
+  marked.assign(static_cast<std::size_t>(rows) * mm, 0);
   for (const std::uint32_t i : faces) {
     const Vec3 rel = face_points[i] - f.a;
     const double u = rel.dot(f.dir);
     const int row = std::clamp(static_cast<int>(u / du), 0, rows - 1);
-    marked[static_cast<std::size_t>(row) * m + sec.cell_of(rel.dot(f.across), rel.dot(f.up))] = 1;
+    marked[static_cast<std::size_t>(row) * mm + sec.cell_of(rel.dot(f.across), rel.dot(f.up))] = 1;
   }
-  touching(k, out.touch, seen);
-  // Each touching bead: the span of k's centre line it may cover (length along it) and the
-  // heights it may cover.
-  struct Near {
-    std::uint32_t bead;
-    double u0, u1, z0, z1;
-  };
-  std::vector<Near> near;
-  near.reserve(out.touch.size());
-  for (const std::uint32_t c : out.touch) {
+  const std::size_t touch_from = out.touch.size();
+  touching(k, out.touch, w.seen);
+  const std::span<const std::uint32_t> touch(out.touch.data() + touch_from,
+                                             out.touch.size() - touch_from);
+  // Each touching bead: the span of k's centre line it may cover and the heights it may cover.
+  std::vector<NearBead>& near = w.near;
+  near.clear();
+  for (const std::uint32_t c : touch) {
     const BeadFrame& g = frames[c];
     const double t0 = (g.a - f.a).dot(f.dir), t1 = (g.a + g.d - f.a).dot(f.dir);
     const double pad = f.reach() + g.reach() + kCoverMm, rz = g.r + kCoverMm;
@@ -286,21 +317,24 @@ void Sampler::lay(std::uint32_t k, std::span<const std::uint32_t> faces, double 
   }
   // The outline extends past its faces by up to a quarter circle and a voxel.
   const double ext = 0.5 * kPi * f.r + ext_extra;
-  std::vector<const Near*> active;
-  std::vector<std::int8_t> covered(static_cast<std::size_t>(m));
-  std::vector<std::uint8_t> exposed(static_cast<std::size_t>(m));
+  std::vector<const NearBead*>& active = w.active;
+  std::vector<std::int8_t>& covered = w.covered;
+  std::vector<std::uint8_t>& exposed = w.exposed;
+  covered.resize(mm);
+  exposed.resize(mm);
+  const std::size_t group_from = out.group.size();
   for (int row = 0; row < rows; ++row) {
-    const std::uint8_t* mk = &marked[static_cast<std::size_t>(row) * m];
+    const std::uint8_t* mk = &marked[static_cast<std::size_t>(row) * mm];
     if (std::none_of(mk, mk + m, [](std::uint8_t x) { return x != 0; })) continue;
     const double u = (row + 0.5) * du;
     const Vec3 q0 = f.a + u * f.dir;
     active.clear();
-    for (const Near& x : near)
+    for (const NearBead& x : near)
       if (x.u0 <= u + 0.5 * du && x.u1 >= u - 0.5 * du) active.push_back(&x);
     std::fill(covered.begin(), covered.end(), -1);
     std::fill(exposed.begin(), exposed.end(), 0);
     const auto point = [&](int c) {
-      const Cell& x = cell[static_cast<std::size_t>(c)];
+      const OutlineCell& x = cell[static_cast<std::size_t>(c)];
       return Vec3(q0 + x.s * f.across + x.z * f.up);
     };
     const auto is_covered = [&](int c) {
@@ -309,9 +343,9 @@ void Sampler::lay(std::uint32_t k, std::span<const std::uint32_t> faces, double 
         const Vec3 p = point(c);
         memo = 0;
         Vec3 core;
-        for (const Near* x : active) {
+        for (const NearBead* x : active) {
           if (p.z() < x->z0 || p.z() > x->z1) continue;
-          if (detail::bead_closest(beads[x->bead], p, core) <= kCoverMm) {
+          if (cores[x->bead].closest(p, core) <= kCoverMm) {
             memo = 1;
             break;
           }
@@ -332,7 +366,7 @@ void Sampler::lay(std::uint32_t k, std::span<const std::uint32_t> faces, double 
         }
       }
     }
-    if (row % kRowsPerGroup == 0 || out.group.empty())
+    if (row % kRowsPerGroup == 0 || out.group.size() == group_from)
       out.group.push_back(static_cast<std::uint32_t>(out.p.size()));
     for (int c = 0; c < m; ++c) {
       if (exposed[static_cast<std::size_t>(c)] == 0) continue;
@@ -340,7 +374,120 @@ void Sampler::lay(std::uint32_t k, std::span<const std::uint32_t> faces, double 
       out.area.push_back(cell[static_cast<std::size_t>(c)].len * du);
     }
   }
-  if (!out.group.empty() && out.group.back() == out.p.size()) out.group.pop_back();
+  if (out.group.size() > group_from && out.group.back() == out.p.size()) out.group.pop_back();
+  out.point_end.push_back(static_cast<std::uint32_t>(out.p.size()));
+  out.touch_end.push_back(static_cast<std::uint32_t>(out.touch.size()));
+}
+
+/// The faces on a bead's side (not past its ends), which give way to the bead's outline, by
+/// bead: faces of bead k are by_bead[begin[k] .. begin[k + 1]), in face order.
+struct ReplacedFaces {
+  std::vector<std::uint8_t> replaced;  ///< per face
+  std::vector<std::uint32_t> begin, by_bead;
+};
+ReplacedFaces replaced_faces(const DepositSurface& s, const std::vector<BeadFrame>& frames,
+                             std::span<const Vec3> face_points) {
+  const std::size_t n = s.faces.size();
+  ReplacedFaces r;
+  r.replaced.resize(n);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1 << 14),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                        const std::uint32_t k = s.face_bead[i];
+                        bool on_side = false;
+                        if (k != kNoBead && frames[k].len > 0) {
+                          const double u = (face_points[i] - frames[k].a).dot(frames[k].dir);
+                          on_side = u > 0 && u < frames[k].len;
+                        }
+                        r.replaced[i] = on_side ? 1 : 0;
+                      }
+                    });
+  r.begin.assign(frames.size() + 1, 0);
+  for (std::size_t i = 0; i < n; ++i)
+    if (r.replaced[i] != 0) ++r.begin[s.face_bead[i] + 1];
+  for (std::size_t k = 0; k < frames.size(); ++k) r.begin[k + 1] += r.begin[k];
+  r.by_bead.resize(r.begin.back());
+  std::vector<std::uint32_t> fill(r.begin.begin(), r.begin.end() - 1);
+  for (std::size_t i = 0; i < n; ++i)
+    if (r.replaced[i] != 0) r.by_bead[fill[s.face_bead[i]]++] = static_cast<std::uint32_t>(i);
+  return r;
+}
+
+/// The output lists sized for `kept` faces' points and the chunks' points, written in
+/// parallel: the faces kept, in their cell order (a cell's kept faces one group), then the
+/// beads' points in bead order.
+void assemble(DepositSurface& s, const ReplacedFaces& faces, std::span<const Vec3> face_points,
+              std::span<const double> face_area_mm2, std::span<const std::uint32_t> sampled,
+              const std::vector<ChunkPoints>& chunks, std::size_t n_beads) {
+  const std::size_t n_cells = s.face_cell_begin.empty() ? 0 : s.face_cell_begin.size() - 1;
+  // Per cell: its kept faces; then where its points and group start.
+  std::vector<std::uint32_t> kept(n_cells + 1, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_cells, 1 << 12),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t c = r.begin(); c != r.end(); ++c) {
+                        std::uint32_t x = 0;
+                        for (std::uint32_t i = s.face_cell_begin[c]; i < s.face_cell_begin[c + 1];
+                             ++i)
+                          x += faces.replaced[i] == 0 ? 1 : 0;
+                        kept[c + 1] = x;
+                      }
+                    });
+  std::vector<std::uint32_t> cell_group(n_cells + 1, 0);
+  for (std::size_t c = 0; c < n_cells; ++c) {
+    cell_group[c + 1] = cell_group[c] + (kept[c + 1] > 0 ? 1 : 0);
+    kept[c + 1] += kept[c];
+  }
+  // Per chunk: where its points, groups and touch lists start.
+  const std::size_t nc = chunks.size();
+  std::vector<std::size_t> p0(nc + 1, kept[n_cells]), g0(nc + 1, cell_group[n_cells]),
+      t0(nc + 1, 0);
+  for (std::size_t c = 0; c < nc; ++c) {
+    p0[c + 1] = p0[c] + chunks[c].p.size();
+    g0[c + 1] = g0[c] + chunks[c].group.size();
+    t0[c + 1] = t0[c] + chunks[c].touch.size();
+  }
+  s.points_mm.resize(p0[nc]);
+  s.point_area_mm2.resize(p0[nc]);
+  s.point_tags.resize(p0[nc]);
+  s.point_groups.resize(g0[nc] + 1);
+  s.bead_touch.resize(t0[nc]);
+  s.bead_touch_begin.assign(n_beads + 1, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_cells, 1 << 12),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t c = r.begin(); c != r.end(); ++c) {
+                        std::size_t o = kept[c];
+                        if (kept[c + 1] > o) s.point_groups[cell_group[c]] = kept[c];
+                        for (std::uint32_t i = s.face_cell_begin[c]; i < s.face_cell_begin[c + 1];
+                             ++i) {
+                          if (faces.replaced[i] != 0) continue;
+                          s.points_mm[o] = face_points[i];
+                          s.point_area_mm2[o] = face_area_mm2[i];
+                          s.point_tags[o] = s.face_tags[i];
+                          ++o;
+                        }
+                      }
+                    });
+  tbb::parallel_for(std::size_t{0}, nc, [&](std::size_t c) {
+    const ChunkPoints& x = chunks[c];
+    std::copy(x.p.begin(), x.p.end(), s.points_mm.begin() + static_cast<std::ptrdiff_t>(p0[c]));
+    std::copy(x.area.begin(), x.area.end(),
+              s.point_area_mm2.begin() + static_cast<std::ptrdiff_t>(p0[c]));
+    for (std::size_t g = 0; g < x.group.size(); ++g)
+      s.point_groups[g0[c] + g] = static_cast<std::uint32_t>(p0[c] + x.group[g]);
+    std::copy(x.touch.begin(), x.touch.end(),
+              s.bead_touch.begin() + static_cast<std::ptrdiff_t>(t0[c]));
+    std::uint32_t pb = 0, tb = 0;
+    for (std::size_t j = 0; j < x.tag.size(); ++j) {
+      std::fill(s.point_tags.begin() + static_cast<std::ptrdiff_t>(p0[c] + pb),
+                s.point_tags.begin() + static_cast<std::ptrdiff_t>(p0[c] + x.point_end[j]),
+                x.tag[j]);
+      pb = x.point_end[j];
+      s.bead_touch_begin[sampled[c * kBeadsPerChunk + j] + 1] = x.touch_end[j] - tb;
+      tb = x.touch_end[j];
+    }
+  });
+  s.point_groups.back() = static_cast<std::uint32_t>(p0[nc]);
+  for (std::size_t k = 0; k < n_beads; ++k) s.bead_touch_begin[k + 1] += s.bead_touch_begin[k];
 }
 
 }  // namespace
@@ -348,33 +495,18 @@ void Sampler::lay(std::uint32_t k, std::span<const std::uint32_t> faces, double 
 void sample_bead_outlines(DepositSurface& s, std::span<const SurfaceBead> beads,
                           std::span<const Vec3> face_points,
                           std::span<const double> face_area_mm2) {
-  const std::size_t n = s.faces.size();
   std::vector<BeadFrame> frames(beads.size());
-  tbb::parallel_for(std::size_t{0}, beads.size(),
-                    [&](std::size_t k) { frames[k] = BeadFrame::of(beads[k]); });
-  // The faces on a bead's side (not past its ends) give way to the bead's outline.
-  std::vector<std::uint8_t> replaced(n, 0);
-  std::vector<std::uint32_t> begin(beads.size() + 1, 0);
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::uint32_t k = s.face_bead[i];
-    if (k == kNoBead || !(frames[k].len > 0)) continue;
-    const double u = (face_points[i] - frames[k].a).dot(frames[k].dir);
-    if (!(u > 0 && u < frames[k].len)) continue;
-    replaced[i] = 1;
-    ++begin[k + 1];
-  }
-  for (std::size_t k = 0; k < beads.size(); ++k) begin[k + 1] += begin[k];
-  std::vector<std::uint32_t> by_bead(begin.back());
-  {
-    std::vector<std::uint32_t> fill(begin.begin(), begin.end() - 1);
-    for (std::size_t i = 0; i < n; ++i)
-      if (replaced[i] != 0) by_bead[fill[s.face_bead[i]]++] = static_cast<std::uint32_t>(i);
-  }
+  std::vector<detail::BeadCore> cores(beads.size());
+  tbb::parallel_for(std::size_t{0}, beads.size(), [&](std::size_t k) {
+    frames[k] = BeadFrame::of(beads[k]);
+    cores[k] = detail::BeadCore::of(beads[k]);
+  });
+  const ReplacedFaces faces = replaced_faces(s, frames, face_points);
   std::vector<std::uint32_t> sampled;
   for (std::size_t k = 0; k < beads.size(); ++k)
-    if (begin[k + 1] > begin[k]) sampled.push_back(static_cast<std::uint32_t>(k));
+    if (faces.begin[k + 1] > faces.begin[k]) sampled.push_back(static_cast<std::uint32_t>(k));
   const double v = s.voxel_mm;
-  std::vector<BeadPoints> laid(sampled.size());
+  std::vector<ChunkPoints> chunks((sampled.size() + kBeadsPerChunk - 1) / kBeadsPerChunk);
   if (!sampled.empty()) {
     // The beads that may cover a sampled bead's exposed outline: the sampled beads (the
     // layers above and below a wall, the neighbours of a top skin) and their neighbours along
@@ -385,59 +517,34 @@ void sample_bead_outlines(DepositSurface& s, std::span<const SurfaceBead> beads,
       for (std::uint32_t c = k > 0 ? k - 1 : k; c <= k + 1 && c < beads.size(); ++c)
         if (listed.empty() || listed.back() < c) listed.push_back(c);
     const BeadGrid grid(frames, listed, kGridCellMm);
-    const Sampler sampler{beads, frames, grid, face_points, v, 2 * v};
-    tbb::enumerable_thread_specific<BeadGrid::Seen> seen_of([&] {
-      BeadGrid::Seen seen;
-      seen.stamp.assign(beads.size(), 0);
-      return seen;
+    const Sampler sampler{beads, frames, cores, grid, face_points, v, 2 * v};
+    tbb::enumerable_thread_specific<Scratch> scratch_of([&] {
+      Scratch w;
+      w.seen.stamp.assign(beads.size(), 0);
+      return w;
     });
-    tbb::parallel_for(std::size_t{0}, sampled.size(), [&](std::size_t j) {
-      const std::uint32_t k = sampled[j];
-      const std::span<const std::uint32_t> faces(by_bead.data() + begin[k],
-                                                 begin[k + 1] - begin[k]);
-      sampler.lay(k, faces, v, seen_of.local(), laid[j]);
-      // The bead's layer and feature from a face of its own line, if any.
-      VoxelTag tag = s.face_tags[faces.front()];
-      for (const std::uint32_t i : faces)
-        if (s.face_tags[i].line == beads[k].line) {
-          tag = s.face_tags[i];
-          break;
-        }
-      tag.line = beads[k].line;
-      laid[j].tag = tag;
+    tbb::parallel_for(std::size_t{0}, chunks.size(), [&](std::size_t c) {
+      Scratch& w = scratch_of.local();
+      ChunkPoints& out = chunks[c];
+      const std::size_t j1 = std::min(sampled.size(), (c + 1) * kBeadsPerChunk);
+      for (std::size_t j = c * kBeadsPerChunk; j < j1; ++j) {
+        const std::uint32_t k = sampled[j];
+        const std::span<const std::uint32_t> bead_faces(faces.by_bead.data() + faces.begin[k],
+                                                        faces.begin[k + 1] - faces.begin[k]);
+        sampler.lay(k, bead_faces, v, w, out);
+        // The bead's layer and feature from a face of its own line, if any.
+        VoxelTag tag = s.face_tags[bead_faces.front()];
+        for (const std::uint32_t i : bead_faces)
+          if (s.face_tags[i].line == beads[k].line) {
+            tag = s.face_tags[i];
+            break;
+          }
+        tag.line = beads[k].line;
+        out.tag.push_back(tag);
+      }
     });
   }
-  // The points: the faces kept, in their cell order (a cell's kept faces one group), then the
-  // beads' in bead order.
-  s.points_mm.clear();
-  s.point_area_mm2.clear();
-  s.point_tags.clear();
-  s.point_groups.clear();
-  for (std::size_t c = 0; c + 1 < s.face_cell_begin.size(); ++c) {
-    bool first = true;
-    for (std::uint32_t i = s.face_cell_begin[c]; i < s.face_cell_begin[c + 1]; ++i) {
-      if (replaced[i] != 0) continue;
-      if (first) s.point_groups.push_back(static_cast<std::uint32_t>(s.points_mm.size()));
-      first = false;
-      s.points_mm.push_back(face_points[i]);
-      s.point_area_mm2.push_back(face_area_mm2[i]);
-      s.point_tags.push_back(s.face_tags[i]);
-    }
-  }
-  s.bead_touch_begin.assign(beads.size() + 1, 0);
-  for (std::size_t j = 0; j < sampled.size(); ++j)
-    s.bead_touch_begin[sampled[j] + 1] = static_cast<std::uint32_t>(laid[j].touch.size());
-  for (std::size_t k = 0; k < beads.size(); ++k) s.bead_touch_begin[k + 1] += s.bead_touch_begin[k];
-  s.bead_touch.clear();
-  for (const BeadPoints& b : laid) {
-    const auto base = static_cast<std::uint32_t>(s.points_mm.size());
-    for (const std::uint32_t g : b.group) s.point_groups.push_back(base + g);
-    s.points_mm.insert(s.points_mm.end(), b.p.begin(), b.p.end());
-    s.point_area_mm2.insert(s.point_area_mm2.end(), b.area.begin(), b.area.end());
-    s.point_tags.insert(s.point_tags.end(), b.p.size(), b.tag);
-    s.bead_touch.insert(s.bead_touch.end(), b.touch.begin(), b.touch.end());
-  }
-  s.point_groups.push_back(static_cast<std::uint32_t>(s.points_mm.size()));
+  assemble(s, faces, face_points, face_area_mm2, sampled, chunks, beads.size());
 }
 
 }  // namespace printtwin
