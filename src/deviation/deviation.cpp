@@ -279,7 +279,6 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
       [&] {
         surface =
             extract_outer_surface(deposit, region, settings.seal_gap_mm, settings.groove_depth_mm);
-        if (!beads.empty()) place_on_beads(surface, beads, v);
       },
       [&] {
         // The samples and the mesh's vertices (for the per-vertex deviation)
@@ -288,6 +287,18 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
         for (std::size_t i = 0; i < mesh.vertices_mm.size(); ++i)
           query_points[ns + i] = mesh.vertices_mm[i] + offset;
         query_groups = detail::group_deposit_queries(query_points, v);
+      });
+  // Mesh -> deposit to the faces needs only the faces: side by side with their placement on
+  // the beads (which fills in the deposit -> mesh points).
+  std::vector<double> d_query;
+  std::vector<std::uint32_t> nearest;
+  tbb::parallel_invoke(
+      [&] {
+        if (!beads.empty()) place_on_beads(surface, beads, v);
+      },
+      [&] {
+        detail::distances_to_deposit_with(surface, query_points, d_query, &nearest, false,
+                                          &query_groups);
       });
   out.deposit_volume_mm3 = static_cast<double>(surface.occupied_voxels) * v * v * v;
   out.surface_faces = surface.faces.size();
@@ -308,8 +319,6 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
                            dep_triangles[i]};
   };
 
-  std::vector<double> d_query;
-  std::vector<std::uint32_t> nearest;
   // Per layer (layer of the nearest deposit voxel); z = top of that layer's surface voxels.
   // Distances grouped by layer with a counting sort (sample order kept within a layer).
   int max_layer = -1;
@@ -347,8 +356,6 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
             });
       },
       [&] {
-        detail::distances_to_deposit_with(surface, query_points, d_query, &nearest, false,
-                                          &query_groups);
         if (weighted) to_bead_surface(surface, beads, query_points, nearest, d_query);
         const std::span<const double> d_mesh(d_query.data(), ns);
         out.mesh_to_deposit = deviation_stats(d_mesh, settings.tolerance_mm);
