@@ -12,13 +12,17 @@
 
 namespace printtwin::detail {
 
-/// Signed distance from p to a bead (negative inside), and the point of the bead's core (the
-/// level ribbon of width w - h, h / 2 below the nozzle tip) closest to p: the bead's surface
-/// point nearest p is that core point plus h / 2 towards p.
+/// Signed distance from p to a bead (negative inside), and the point of the bead's core
+/// closest to p: the bead's surface point nearest p is that core point plus h / 2 towards p.
+/// The core is the level ribbon of width w - h along the move, h / 2 below the nozzle tip,
+/// ended by level half-discs of radius (w - h) / 2 about its end points: the stadium section
+/// swept along the move, capped round at both ends by the section revolved half a turn about
+/// the vertical through the end (a nozzle's footprint; the deposit's round caps at path ends
+/// and round joins at turns; inside the next bead where a path goes on straight).
 double bead_closest(const SurfaceBead& bead, const Vec3& p, Vec3& core_point);
 
 /// A bead's core made ready for many distance queries: bead_closest without recomputing the
-/// core's frame (the same arithmetic, so the same bits).
+/// core's frame.
 struct BeadCore {
   Vec3 a = Vec3::Zero();       ///< the core's centre line starts here (h / 2 below the tip)
   Vec3 d = Vec3::Zero();       ///< and runs along d
@@ -28,12 +32,16 @@ struct BeadCore {
   static BeadCore of(const SurfaceBead& b);
   /// As bead_closest.
   double closest(const Vec3& p, Vec3& core_point) const {
-    double t = len2 > 0 ? (p - a).dot(d) / len2 : 0.0;
-    t = std::clamp(t, 0.0, 1.0);
-    const Vec3 q0 = a + t * d;
-    double s = 0;
-    if (across.x() != 0 || across.y() != 0) s = std::clamp((p - q0).dot(across), -half, half);
-    core_point = q0 + s * across;
+    const double t = len2 > 0 ? (p - a).dot(d) / len2 : 0.0;
+    if (t > 0 && t < 1 && (across.x() != 0 || across.y() != 0)) {  // beside the move
+      const Vec3 q0 = a + t * d;
+      core_point = q0 + std::clamp((p - q0).dot(across), -half, half) * across;
+    } else {  // past an end (or along a vertical move): the level disc about the centre line
+      const Vec3 q0 = a + std::clamp(t, 0.0, 1.0) * d;
+      const Vec3 g(p.x() - q0.x(), p.y() - q0.y(), 0.0);
+      const double rho = g.norm();
+      core_point = rho > half ? Vec3(q0 + (half / rho) * g) : Vec3(q0 + g);
+    }
     return (p - core_point).norm() - r;
   }
 };

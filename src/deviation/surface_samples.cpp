@@ -98,6 +98,39 @@ struct Section {
   }
 };
 
+/// A round cap's half section, revolved half a turn about the vertical through the core's end
+/// point: the bottom flat from the axis out (n_flat cells), the round side from the bottom up
+/// (the side's n_arc cells), the top flat back to the axis. Cell centres are (radius from the
+/// axis, height from the core) offsets; an open chain (past either end lies the other half of
+/// the cap, or the bead).
+struct CapSection {
+  int n_flat = 0, n_arc = 1;
+  double half = 0, r = 0;
+
+  CapSection(const Section& side, double flat_step)
+      : n_arc(side.n_arc), half(side.half), r(side.r) {
+    n_flat = half > 0 ? std::max(1, static_cast<int>(std::ceil(half / flat_step))) : 0;
+  }
+  [[nodiscard]] int cells() const { return 2 * n_flat + n_arc; }
+  void cell(int c, double& rho, double& z, double& len) const {
+    const double flat_len = n_flat > 0 ? half / n_flat : 0;
+    if (c < n_flat) {
+      rho = (c + 0.5) * flat_len, z = -r, len = flat_len;
+    } else if (c < n_flat + n_arc) {
+      const double t = -0.5 * kPi + (c - n_flat + 0.5) * kPi / n_arc;
+      rho = half + r * std::cos(t), z = r * std::sin(t), len = kPi * r / n_arc;
+    } else {
+      rho = half - (c - n_flat - n_arc + 0.5) * flat_len, z = r, len = flat_len;
+    }
+  }
+  [[nodiscard]] int cell_of(double rho, double z) const {
+    const auto in = [](double x, int n) { return std::clamp(static_cast<int>(x * n), 0, n - 1); };
+    if (rho > half || n_flat == 0)
+      return n_flat + in((std::atan2(z, rho - half) + 0.5 * kPi) / kPi, n_arc);
+    return z < 0 ? in(rho / half, n_flat) : n_flat + n_arc + in((half - rho) / half, n_flat);
+  }
+};
+
 /// Squared distance between segments [p, p + u] and [q, q + w].
 double segment_distance2(const Vec3& p, const Vec3& u, const Vec3& q, const Vec3& w) {
   const Vec3 r = p - q;
@@ -225,10 +258,24 @@ struct NearBead {
 struct Scratch {
   BeadGrid::Seen seen;
   std::vector<OutlineCell> cell;
-  std::vector<std::uint8_t> marked, exposed;
+  std::vector<std::uint8_t> marked, exposed, cap_marked;
   std::vector<std::int8_t> covered;
   std::vector<NearBead> near;
   std::vector<const NearBead*> active;
+  /// The cells of a section (Section or CapSection), as `cell`.
+  template <class S>
+  const std::vector<OutlineCell>& cells_of(const S& sec) {
+    cell.resize(static_cast<std::size_t>(sec.cells()));
+    for (std::size_t c = 0; c < cell.size(); ++c)
+      sec.cell(static_cast<int>(c), cell[c].s, cell[c].z, cell[c].len);
+    return cell;
+  }
+  /// The near beads that may cover the span [u0, u1] of the centre line, as `active`.
+  void activate(double u0, double u1) {
+    active.clear();
+    for (const NearBead& x : near)
+      if (x.u0 <= u1 && x.u1 >= u0) active.push_back(&x);
+  }
 };
 
 /// The points a run of consecutive sampled beads lays, bead after bead, with the beads that
@@ -274,9 +321,57 @@ struct Sampler {
     std::sort(touch.begin() + static_cast<std::ptrdiff_t>(from), touch.end());
   }
 
+  [[nodiscard]] bool covered(std::uint32_t k, const Vec3& p,
+                             std::span<const NearBead* const> active) const;
   void lay(std::uint32_t k, std::span<const std::uint32_t> faces, double ext_extra, Scratch& w,
            ChunkPoints& out) const;
+  /// The points on bead k's round caps, where faces lie past its ends.
+  void lay_caps(std::uint32_t k, std::span<const std::uint32_t> faces, const Section& sec,
+                double ext, Scratch& w, ChunkPoints& out) const;
 };
+
+/// Marks exposed[c] for the cells of one row of an outline: each marked cell that is not
+/// covered, and from it both ways along the row (round it when `cyclic`) up to `ext` of
+/// length, until a covered or a marked cell.
+template <class Covered>
+void expose_row(const std::uint8_t* mk, int m, bool cyclic, const std::vector<OutlineCell>& cell,
+                double ext, const Covered& is_covered, std::vector<std::uint8_t>& exposed) {
+  for (int c = 0; c < m; ++c) {
+    if (mk[c] == 0 || is_covered(c)) continue;
+    exposed[static_cast<std::size_t>(c)] = 1;
+    for (const int step : {1, -1}) {  // both ways along the row
+      double acc = 0;
+      for (int j = c + step, n = 1; n < m; j += step, ++n) {
+        if (cyclic) j = (j + m) % m;
+        if (j < 0 || j >= m || mk[j] != 0) break;
+        const double len = cell[static_cast<std::size_t>(j)].len;
+        if (acc + len > ext + 1e-12 || is_covered(j)) break;
+        acc += len;
+        exposed[static_cast<std::size_t>(j)] = 1;
+      }
+    }
+  }
+}
+
+/// Whether point p of bead k's outline is covered by one of the `active` beads: inside it, or
+/// on its surface where that surface is another bead's contact face (the normals oppose: a
+/// layer on the one below) or is the same surface owned by a lower bead (two round ends that
+/// meet: one of them samples it).
+bool Sampler::covered(std::uint32_t k, const Vec3& p,
+                      std::span<const NearBead* const> active) const {
+  Vec3 core;
+  for (const NearBead* x : active) {
+    if (p.z() < x->z0 || p.z() > x->z1) continue;
+    const double sd = cores[x->bead].closest(p, core);
+    if (sd < -kCoverMm) return true;
+    if (sd > kCoverMm) continue;
+    if (x->bead < k) return true;
+    Vec3 own;
+    cores[k].closest(p, own);
+    if ((p - own).dot(p - core) < 0) return true;
+  }
+  return false;
+}
 
 void Sampler::lay(std::uint32_t k, std::span<const std::uint32_t> faces, double ext_extra,
                   Scratch& w, ChunkPoints& out) const {
@@ -284,19 +379,19 @@ void Sampler::lay(std::uint32_t k, std::span<const std::uint32_t> faces, double 
   const Section sec(f, arc_step, along_step);
   const int m = sec.cells();
   const auto mm = static_cast<std::size_t>(m);
-  std::vector<OutlineCell>& cell = w.cell;
-  cell.resize(mm);
-  for (int c = 0; c < m; ++c) {
-    OutlineCell& x = cell[static_cast<std::size_t>(c)];
-    sec.cell(c, x.s, x.z, x.len);
-  }
+  const std::vector<OutlineCell>& cell = w.cells_of(sec);
   const int rows = std::max(1, static_cast<int>(std::ceil(f.len / along_step)));
   const double du = f.len / rows;
   std::vector<std::uint8_t>& marked = w.marked;
   marked.assign(static_cast<std::size_t>(rows) * mm, 0);
+  bool capped = false;  // a face lies past an end, on a round cap
   for (const std::uint32_t i : faces) {
     const Vec3 rel = face_points[i] - f.a;
     const double u = rel.dot(f.dir);
+    if (!(u > 0 && u < f.len)) {
+      capped = true;
+      continue;
+    }
     const int row = std::clamp(static_cast<int>(u / du), 0, rows - 1);
     marked[static_cast<std::size_t>(row) * mm + sec.cell_of(rel.dot(f.across), rel.dot(f.up))] = 1;
   }
@@ -315,12 +410,12 @@ void Sampler::lay(std::uint32_t k, std::span<const std::uint32_t> faces, double 
     near.push_back({c, std::min(t0, t1) - pad, std::max(t0, t1) + pad, std::min(za, zb) - rz,
                     std::max(za, zb) + rz});
   }
+  std::vector<const NearBead*>& active = w.active;
   // The outline extends past its faces by up to a quarter circle and a voxel.
   const double ext = 0.5 * kPi * f.r + ext_extra;
-  std::vector<const NearBead*>& active = w.active;
-  std::vector<std::int8_t>& covered = w.covered;
+  std::vector<std::int8_t>& covered_memo = w.covered;
   std::vector<std::uint8_t>& exposed = w.exposed;
-  covered.resize(mm);
+  covered_memo.resize(mm);
   exposed.resize(mm);
   const std::size_t group_from = out.group.size();
   for (int row = 0; row < rows; ++row) {
@@ -328,44 +423,19 @@ void Sampler::lay(std::uint32_t k, std::span<const std::uint32_t> faces, double 
     if (std::none_of(mk, mk + m, [](std::uint8_t x) { return x != 0; })) continue;
     const double u = (row + 0.5) * du;
     const Vec3 q0 = f.a + u * f.dir;
-    active.clear();
-    for (const NearBead& x : near)
-      if (x.u0 <= u + 0.5 * du && x.u1 >= u - 0.5 * du) active.push_back(&x);
-    std::fill(covered.begin(), covered.end(), -1);
+    w.activate(u - 0.5 * du, u + 0.5 * du);
+    std::fill(covered_memo.begin(), covered_memo.end(), -1);
     std::fill(exposed.begin(), exposed.end(), 0);
     const auto point = [&](int c) {
       const OutlineCell& x = cell[static_cast<std::size_t>(c)];
       return Vec3(q0 + x.s * f.across + x.z * f.up);
     };
     const auto is_covered = [&](int c) {
-      auto& memo = covered[static_cast<std::size_t>(c)];
-      if (memo < 0) {
-        const Vec3 p = point(c);
-        memo = 0;
-        Vec3 core;
-        for (const NearBead* x : active) {
-          if (p.z() < x->z0 || p.z() > x->z1) continue;
-          if (cores[x->bead].closest(p, core) <= kCoverMm) {
-            memo = 1;
-            break;
-          }
-        }
-      }
+      auto& memo = covered_memo[static_cast<std::size_t>(c)];
+      if (memo < 0) memo = covered(k, point(c), active) ? 1 : 0;
       return memo != 0;
     };
-    for (int c = 0; c < m; ++c) {
-      if (mk[c] == 0 || is_covered(c)) continue;
-      exposed[static_cast<std::size_t>(c)] = 1;
-      for (const int step : {1, m - 1}) {  // both ways round the outline
-        double acc = 0;
-        for (int j = (c + step) % m, n = 1; n < m && mk[j] == 0; j = (j + step) % m, ++n) {
-          const double len = cell[static_cast<std::size_t>(j)].len;
-          if (acc + len > ext + 1e-12 || is_covered(j)) break;
-          acc += len;
-          exposed[static_cast<std::size_t>(j)] = 1;
-        }
-      }
-    }
+    expose_row(mk, m, true, cell, ext, is_covered, exposed);
     if (row % kRowsPerGroup == 0 || out.group.size() == group_from)
       out.group.push_back(static_cast<std::uint32_t>(out.p.size()));
     for (int c = 0; c < m; ++c) {
@@ -374,9 +444,83 @@ void Sampler::lay(std::uint32_t k, std::span<const std::uint32_t> faces, double 
       out.area.push_back(cell[static_cast<std::size_t>(c)].len * du);
     }
   }
+  if (capped) lay_caps(k, faces, sec, ext, w, out);
   if (out.group.size() > group_from && out.group.back() == out.p.size()) out.group.pop_back();
   out.point_end.push_back(static_cast<std::uint32_t>(out.p.size()));
   out.touch_end.push_back(static_cast<std::uint32_t>(out.touch.size()));
+}
+
+void Sampler::lay_caps(std::uint32_t k, std::span<const std::uint32_t> faces, const Section& sec,
+                       double ext, Scratch& w, ChunkPoints& out) const {
+  const BeadFrame& f = frames[k];
+  if (f.across.x() == 0 && f.across.y() == 0) return;  // a vertical move: no level cap
+  const CapSection cap(sec, along_step);
+  const int m = cap.cells();
+  const auto mm = static_cast<std::size_t>(m);
+  const std::vector<OutlineCell>& cell = w.cells_of(cap);
+  // Azimuth rows of at most a row's length at the cap's rim, from its right round to its left.
+  const int n_az = std::max(4, static_cast<int>(std::ceil(kPi * f.reach() / along_step)));
+  const double dphi = kPi / n_az;
+  const Vec3 dir_h = Vec3(f.d.x(), f.d.y(), 0.0).normalized();
+  std::vector<std::uint8_t>& marked = w.cap_marked;
+  marked.assign(2 * static_cast<std::size_t>(n_az) * mm, 0);
+  // Cap e (0 = start, 1 = end): its centre, outward and leftward directions.
+  const auto frame = [&](int e, Vec3& centre, Vec3& out_dir, Vec3& left) {
+    centre = e == 0 ? f.a : Vec3(f.a + f.d);
+    out_dir = e == 0 ? Vec3(-dir_h) : dir_h;
+    left = e == 0 ? Vec3(-f.across) : f.across;
+  };
+  for (const std::uint32_t i : faces) {
+    const double u = (face_points[i] - f.a).dot(f.dir);
+    if (u > 0 && u < f.len) continue;
+    const int e = u <= 0 ? 0 : 1;
+    Vec3 centre, out_dir, left;
+    frame(e, centre, out_dir, left);
+    const Vec3 rel = face_points[i] - centre;
+    const Vec3 g(rel.x(), rel.y(), 0.0);
+    const double phi = std::clamp(std::atan2(g.dot(left), g.dot(out_dir)), -0.5 * kPi, 0.5 * kPi);
+    const int az = std::clamp(static_cast<int>((phi + 0.5 * kPi) / dphi), 0, n_az - 1);
+    marked[(static_cast<std::size_t>(e) * n_az + az) * mm + cap.cell_of(g.norm(), rel.z())] = 1;
+  }
+  std::vector<std::int8_t>& covered_memo = w.covered;
+  std::vector<std::uint8_t>& exposed = w.exposed;
+  covered_memo.resize(mm);
+  exposed.resize(mm);
+  for (int e = 0; e < 2; ++e) {
+    Vec3 centre, out_dir, left;
+    frame(e, centre, out_dir, left);
+    bool grouped = false;
+    for (int az = 0; az < n_az; ++az) {
+      const std::uint8_t* mk = &marked[(static_cast<std::size_t>(e) * n_az + az) * mm];
+      if (std::none_of(mk, mk + m, [](std::uint8_t x) { return x != 0; })) continue;
+      const double phi = -0.5 * kPi + (az + 0.5) * dphi;
+      const Vec3 radial = std::cos(phi) * out_dir + std::sin(phi) * left;
+      if (e == 0)
+        w.activate(-f.reach(), 0.0);
+      else
+        w.activate(f.len, f.len + f.reach());
+      std::fill(covered_memo.begin(), covered_memo.end(), -1);
+      std::fill(exposed.begin(), exposed.end(), 0);
+      const auto point = [&](int c) {
+        const OutlineCell& x = cell[static_cast<std::size_t>(c)];
+        return Vec3(centre + x.s * radial + Vec3(0, 0, x.z));
+      };
+      const auto is_covered = [&](int c) {
+        auto& memo = covered_memo[static_cast<std::size_t>(c)];
+        if (memo < 0) memo = covered(k, point(c), w.active) ? 1 : 0;
+        return memo != 0;
+      };
+      expose_row(mk, m, false, cell, ext, is_covered, exposed);
+      if (!grouped) out.group.push_back(static_cast<std::uint32_t>(out.p.size()));
+      grouped = true;
+      for (int c = 0; c < m; ++c) {
+        if (exposed[static_cast<std::size_t>(c)] == 0) continue;
+        const OutlineCell& x = cell[static_cast<std::size_t>(c)];
+        out.p.push_back(point(c));
+        out.area.push_back(x.len * x.s * dphi);
+      }
+    }
+  }
 }
 
 /// The faces on a bead's side (not past its ends), which give way to the bead's outline, by
@@ -394,12 +538,14 @@ ReplacedFaces replaced_faces(const DepositSurface& s, const std::vector<BeadFram
                     [&](const tbb::blocked_range<std::size_t>& range) {
                       for (std::size_t i = range.begin(); i != range.end(); ++i) {
                         const std::uint32_t k = s.face_bead[i];
-                        bool on_side = false;
+                        bool on_bead = false;
                         if (k != kNoBead && frames[k].len > 0) {
-                          const double u = (face_points[i] - frames[k].a).dot(frames[k].dir);
-                          on_side = u > 0 && u < frames[k].len;
+                          const BeadFrame& f = frames[k];
+                          const double u = (face_points[i] - f.a).dot(f.dir);
+                          const bool level_cap = f.across.x() != 0 || f.across.y() != 0;
+                          on_bead = (u > 0 && u < f.len) || level_cap;
                         }
-                        r.replaced[i] = on_side ? 1 : 0;
+                        r.replaced[i] = on_bead ? 1 : 0;
                       }
                     });
   r.begin.assign(frames.size() + 1, 0);
