@@ -150,6 +150,16 @@ struct PartOutcome {
   double seconds = 0;
 };
 
+constexpr const char* kMeshExtensions[] = {".stl", ".obj", ".ply", ".off", ".3mf", ".amf"};
+
+bool has_mesh_extension(const std::filesystem::path& p) {
+  std::string ext = p.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return std::find(std::begin(kMeshExtensions), std::end(kMeshExtensions), ext) !=
+         std::end(kMeshExtensions);
+}
+
 PartOutcome check_part(const CheckOptions& o, const std::string& file,
                        const PrinterProfile& printer, const CheckSettings& settings,
                        std::optional<double> mm_per_unit, const std::string& repair_out) {
@@ -166,7 +176,13 @@ PartOutcome check_part(const CheckOptions& o, const std::string& file,
   };
   MeshLoadOptions load;
   load.scale = o.scale * mm_per_unit.value_or(1.0);
-  auto mesh = load_mesh(file, load);
+  // The file is read once: the same bytes are welded and hashed. A name without a mesh
+  // extension goes to load_mesh for its error.
+  if (!has_mesh_extension(file)) return fail(load_mesh(file, load).error());
+  if (auto st = check_mesh_file_header(file); !st) return fail(st.error());
+  auto bytes = read_file(file);
+  if (!bytes) return fail(bytes.error());
+  auto mesh = load_mesh_from_memory(*bytes, file, load);
   if (!mesh) return fail(mesh.error());
   std::string units_used = mm_per_unit ? o.units : "mm";
   std::optional<UnitGuess> guess;
@@ -209,7 +225,7 @@ PartOutcome check_part(const CheckOptions& o, const std::string& file,
     out.repair_file = repair_out;
   }
   out.source.file = file;
-  if (auto bytes = read_file(file)) out.source.sha256 = sha256_hex(*bytes);
+  out.source.sha256 = sha256_hex(*bytes);
   out.source.units = units_used;
   out.source.scale = o.scale;
   out.source.printer = printer.name;
@@ -217,16 +233,6 @@ PartOutcome check_part(const CheckOptions& o, const std::string& file,
   out.report = std::move(*report);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
-}
-
-constexpr const char* kMeshExtensions[] = {".stl", ".obj", ".ply", ".off", ".3mf", ".amf"};
-
-bool has_mesh_extension(const std::filesystem::path& p) {
-  std::string ext = p.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return std::find(std::begin(kMeshExtensions), std::end(kMeshExtensions), ext) !=
-         std::end(kMeshExtensions);
 }
 
 /// Files, folders (every mesh file below them, sorted) and globs -> the parts, in order,
@@ -500,13 +506,26 @@ int run_batch(const CheckOptions& o, const std::vector<PartJob>& jobs,
       return report_error(
           bad_input(o.repair_out + ": cannot create the --repair folder: " + ec.message()));
   }
+  // The largest files first, so that no core waits at the end while one checks a big part
+  // (the report keeps the order of the arguments).
+  std::vector<std::uintmax_t> bytes(jobs.size(), 0);
+  for (std::size_t i = 0; i < jobs.size(); ++i) {
+    std::error_code ec;
+    const std::uintmax_t size = std::filesystem::file_size(jobs[i].file, ec);
+    bytes[i] = ec ? 0 : size;
+  }
+  std::vector<std::size_t> order(jobs.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return bytes[a] > bytes[b]; });
   std::atomic<std::size_t> next{0};
   const std::size_t workers = std::max<std::size_t>(
       1, std::min<std::size_t>(jobs.size(), std::thread::hardware_concurrency()));
   std::vector<std::thread> pool;
   for (std::size_t w = 0; w < workers; ++w)
     pool.emplace_back([&] {
-      for (std::size_t i = next++; i < jobs.size(); i = next++) {
+      for (std::size_t k = next++; k < jobs.size(); k = next++) {
+        const std::size_t i = order[k];
         const PartJob& job = jobs[i];
         if (!job.setup) {
           parts[i].file = job.file;
