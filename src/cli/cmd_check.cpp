@@ -49,7 +49,8 @@ struct CheckOptions {
   bool no_center = false;
   bool no_self_intersections = false;
   bool orient = false;
-  std::string manifest;  ///< --manifest FILE
+  double weld_tolerance_mm = -1;  ///< --weld-tolerance; negative: admesh's default
+  std::string manifest;           ///< --manifest FILE
 };
 
 std::string f2(double v) { return format_fixed(v, 2); }
@@ -124,7 +125,8 @@ void print_text(const CheckOptions& o, const PrinterProfile& printer, const Chec
     std::printf("  %-7s %-24s %s\n", std::string(to_string(f.severity)).c_str(), f.code.c_str(),
                 f.message.c_str());
   if (repair != nullptr) {
-    std::printf("repair     wrote %s\n", o.repair_out.c_str());
+    std::printf("repair     wrote %s (open seams welded within %s mm)\n", o.repair_out.c_str(),
+                format_fixed(repair->weld_tolerance_mm, 4).c_str());
     std::printf("           %s\n", repair_counters_text(repair->counters).c_str());
     if (repair->changes.empty()) std::printf("           nothing to change\n");
     for (const auto& c : repair->changes) std::printf("           %s\n", c.message.c_str());
@@ -218,7 +220,9 @@ PartOutcome check_part(const CheckOptions& o, const std::string& file,
         report->findings.begin() + static_cast<std::ptrdiff_t>(first_warning(report->findings)),
         units_guessed_finding(*guess, report->health.bbox_mm.size()));
   if (!repair_out.empty()) {
-    auto rr = repair_mesh(*mesh);
+    RepairSettings repair;
+    repair.weld_tolerance_mm = o.weld_tolerance_mm;
+    auto rr = repair_mesh(*mesh, repair);
     if (!rr) return fail(rr.error());
     if (auto st = save_stl(rr->mesh, repair_out); !st) return fail(st.error());
     out.repaired = std::move(*rr);
@@ -635,6 +639,11 @@ void add_check_command(CLI::App& app, CommandRunner& runner) {
   cmd->add_option("--repair", opts->repair_out,
                   "write a repaired mesh (binary STL) and count what changed (admesh's counters); "
                   "a batch: a folder, one <part>.stl each");
+  cmd->add_option("--weld-tolerance", opts->weld_tolerance_mm,
+                  "--repair first joins open seams whose ends lie within this many mm (admesh "
+                  "--nearby); 0: no weld; default: admesh's, the shortest edge + 0.01 % of the "
+                  "diagonal")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--overhang-angle", opts->overhang_angle_deg,
                   "overhang limit in degrees from vertical")
       ->check(CLI::Range(0.0, 90.0))
