@@ -1039,12 +1039,12 @@ Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid, const DepositMeshO
   }
   if (out.cell_voxels == 1 && options.smooth && !beads.empty()) {
     out.smoothing_skipped = too_many_to_smooth(out.mesh.triangles.size());
+    double max_shift = 0;
     if (!out.smoothing_skipped)
-      out.smoothed_vertices = detail::smooth_onto_beads(out.mesh, plane_of_triangle, grid, beads);
+      out.smoothed_vertices =
+          detail::smooth_onto_beads(out.mesh, plane_of_triangle, grid, beads, &max_shift);
+    out.error_bound_mm = std::max(out.error_bound_mm, max_shift);
   }
-  if (out.smoothed_vertices > 0)
-    out.error_bound_mm =
-        std::max(out.error_bound_mm, std::sqrt(3.0) * detail::kMaxShiftVoxels * grid.voxel_mm());
   out.volume_mm3 = enclosed_volume_mm3(out.mesh);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;

@@ -370,8 +370,8 @@ std::string deposit_mesh_summary(const DepositMesh& dm, const std::filesystem::p
   else if (dm.smoothed_vertices > 0)
     s += "smoothed: " + std::to_string(dm.smoothed_vertices) + " of " +
          std::to_string(dm.mesh.vertices_mm.size()) +
-         " vertices on the bead surfaces (each within 0.45 voxel per axis of the voxel "
-         "surface), the rest on the voxel faces\n";
+         " vertices on the bead surfaces (each within " + format_fixed(dm.error_bound_mm, 3) +
+         " mm of the voxel surface), the rest on the voxel faces\n";
   else if (dm.error_bound_mm > 0)
     s += "on the voxel faces, within " + format_fixed(dm.error_bound_mm, 3) + " mm where " +
          std::to_string(dm.repaired_cells) + " voxels were filled to make it a manifold\n";
