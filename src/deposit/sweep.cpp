@@ -1,5 +1,6 @@
 // The sweep (see sweep.hpp).
 #include "deposit/sweep.hpp"
+#include "core/bits.hpp"
 #include "deposit/voxel_blocks.hpp"
 
 #include <algorithm>
@@ -334,7 +335,7 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
         hits[layer_at] = mask & (occ != nullptr ? occ[k & 7] : 0);
       }
       const std::size_t fresh = detail::VoxelBlocks::write_tile(grid, bx, by, k, mask, tag);
-      tile_overlap += static_cast<std::size_t>(std::popcount(mask)) - fresh;
+      tile_overlap += static_cast<std::size_t>(popcount64(mask)) - fresh;
       if ((mask & ~raised) != 0)
         map.raise_tile(at, mask & ~raised, static_cast<std::uint16_t>(k + 1), bead.layer);
       raised |= mask;
@@ -408,7 +409,7 @@ std::size_t BeadSweep::lay_disc(const Disc& disc, VoxelGrid& grid, std::uint32_t
         }
         const std::size_t fresh = detail::VoxelBlocks::write_tile(grid, bx, by, k, mask, tag);
         filled += fresh;
-        if (overlap != nullptr) *overlap += static_cast<std::size_t>(std::popcount(mask)) - fresh;
+        if (overlap != nullptr) *overlap += static_cast<std::size_t>(popcount64(mask)) - fresh;
         if ((mask & ~raised) != 0)
           map.raise_tile(at, mask & ~raised, static_cast<std::uint16_t>(k + 1), disc.layer);
         raised |= mask;
@@ -483,7 +484,7 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
   put_.assign(nk, 0);
   auto place = [&](std::size_t n, std::uint64_t room) {
     const std::size_t left = need - placed;
-    const auto count = static_cast<std::size_t>(std::popcount(room));
+    const auto count = static_cast<std::size_t>(popcount64(room));
     const std::uint64_t mask = count <= left ? room : lowest_bits(room, left);
     placed += std::min(count, left);
     put_[n] |= mask;
