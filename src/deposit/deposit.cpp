@@ -6,6 +6,7 @@
 // voxels and squeezes the material that falls on earlier plastic into the free voxels
 // beside and below it. This file also holds the memory estimate and the public entry points.
 #include "printtwin/deposit.hpp"
+#include "core/bits.hpp"
 #include "deposit/deposit_run.hpp"
 #include "deposit/voxel_blocks.hpp"
 
@@ -324,7 +325,7 @@ DepositEstimate estimate_at(std::span<const Move> moves, const PrinterProfile& p
           }
     }
   }
-  for (auto w : marked) e.blocks += static_cast<std::size_t>(std::popcount(w));
+  for (auto w : marked) e.blocks += static_cast<std::size_t>(popcount64(w));
   e.bytes = static_cast<std::size_t>(grid_bytes(f.dims, e.blocks, tags));
   return e;
 }

@@ -1,5 +1,6 @@
 // The sweep (see sweep.hpp).
 #include "deposit/sweep.hpp"
+#include "core/bits.hpp"
 #include "deposit/voxel_blocks.hpp"
 
 #include <algorithm>
@@ -321,7 +322,10 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
     test_tile_layers(f, 8 * bx, 8 * by, reached_.data(), static_cast<int>(nk), t_lo, t_hi, lanes,
                      masks);
     std::size_t tile_overlap = 0;
-    for (std::size_t layer_at = 0; layer_at < nk; ++layer_at) {
+    // Top layer first: a column is raised once, by its highest voxel (raising it by a lower
+    // one after that changes nothing).
+    std::uint64_t raised = 0;
+    for (std::size_t layer_at = nk; layer_at-- > 0;) {
       const std::uint64_t mask = masks[layer_at];
       if (squeezing) hits[layer_at] = 0;
       if (mask == 0) continue;
@@ -331,8 +335,10 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
         hits[layer_at] = mask & (occ != nullptr ? occ[k & 7] : 0);
       }
       const std::size_t fresh = detail::VoxelBlocks::write_tile(grid, bx, by, k, mask, tag);
-      tile_overlap += static_cast<std::size_t>(std::popcount(mask)) - fresh;
-      map.raise_tile(at, mask, static_cast<std::uint16_t>(k + 1), bead.layer);
+      tile_overlap += static_cast<std::size_t>(popcount64(mask)) - fresh;
+      if ((mask & ~raised) != 0)
+        map.raise_tile(at, mask & ~raised, static_cast<std::uint16_t>(k + 1), bead.layer);
+      raised |= mask;
     }
     laid.overlap += tile_overlap;
     const std::size_t used = std::min(credit, tile_overlap);
@@ -392,7 +398,8 @@ std::size_t BeadSweep::lay_disc(const Disc& disc, VoxelGrid& grid, std::uint32_t
       const int x_lo = std::max(i_lo - 8 * bx, 0), x_hi = std::min(i_hi - 8 * bx, 7);
       const unsigned lanes = ((2u << x_hi) - 1u) & ~((1u << x_lo) - 1u);
       const std::size_t at = map.index(8 * bx, 8 * by);
-      for (int k = k_lo; k <= k_hi; ++k) {
+      std::uint64_t raised = 0;  // top layer first: each column raised by its highest voxel
+      for (int k = k_hi; k >= k_lo; --k) {
         std::uint64_t mask = test_tile_disc(g, 8 * bx, 8 * by, k, row_lo, row_hi, lanes);
         if (mask == 0) continue;
         if (overlap == nullptr) {  // a join: only the free voxels
@@ -402,8 +409,10 @@ std::size_t BeadSweep::lay_disc(const Disc& disc, VoxelGrid& grid, std::uint32_t
         }
         const std::size_t fresh = detail::VoxelBlocks::write_tile(grid, bx, by, k, mask, tag);
         filled += fresh;
-        if (overlap != nullptr) *overlap += static_cast<std::size_t>(std::popcount(mask)) - fresh;
-        map.raise_tile(at, mask, static_cast<std::uint16_t>(k + 1), disc.layer);
+        if (overlap != nullptr) *overlap += static_cast<std::size_t>(popcount64(mask)) - fresh;
+        if ((mask & ~raised) != 0)
+          map.raise_tile(at, mask & ~raised, static_cast<std::uint16_t>(k + 1), disc.layer);
+        raised |= mask;
       }
     }
   }
@@ -475,7 +484,7 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
   put_.assign(nk, 0);
   auto place = [&](std::size_t n, std::uint64_t room) {
     const std::size_t left = need - placed;
-    const auto count = static_cast<std::size_t>(std::popcount(room));
+    const auto count = static_cast<std::size_t>(popcount64(room));
     const std::uint64_t mask = count <= left ? room : lowest_bits(room, left);
     placed += std::min(count, left);
     put_[n] |= mask;
