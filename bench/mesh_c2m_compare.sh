@@ -14,7 +14,11 @@
 # 3. CloudCompare 2.11: `CloudCompare -SILENT -AUTO_SAVE OFF -O vertices.ply -O mesh.stl
 #    -C2M_DIST -C_EXPORT_FMT ASC -SAVE_CLOUDS FILE cc.asc` (vertices.ply: the as-printed
 #    mesh's vertices as a point cloud, in file order).
-# 4. bench/mesh_c2m_stats.py: mean and RMS of CloudCompare's signed distances, per vertex
+# 4. The same C2M from points spread uniformly over the mesh's surface (mesh_c2m_stats.py
+#    surface: one per SURFACE_SPACING_MM^2 on average, default 0.05 mm, fixed seed): the
+#    mean over the surface whatever the triangulation (a long rectangle's fan puts most of
+#    its area on a few corner vertices).
+# 5. bench/mesh_c2m_stats.py: mean and RMS of CloudCompare's signed distances, per vertex
 #    (as CloudCompare shows them) and weighted by each vertex's area (a third of the
 #    triangles around it: the surface integral over the mesh, which is what verify's figure
 #    is), against verify's.
@@ -41,5 +45,10 @@ python3 "$root/bench/mesh_c2m_stats.py" vertices "$work/asprinted.ply" "$work/ve
 QT_QPA_PLATFORM=offscreen CloudCompare -SILENT -AUTO_SAVE OFF -O "$work/vertices.ply" \
   -O "$work/mesh.stl" -C2M_DIST -C_EXPORT_FMT ASC -SAVE_CLOUDS FILE "$work/cc.asc" \
   > "$work/cc.log" 2>&1
+python3 "$root/bench/mesh_c2m_stats.py" surface "$work/asprinted.ply" "$work/surface.ply" \
+  "${SURFACE_SPACING_MM:-0.05}"
+QT_QPA_PLATFORM=offscreen CloudCompare -SILENT -AUTO_SAVE OFF -O "$work/surface.ply" \
+  -O "$work/mesh.stl" -C2M_DIST -C_EXPORT_FMT ASC -SAVE_CLOUDS FILE "$work/cc_surface.asc" \
+  > "$work/cc_surface.log" 2>&1
 python3 "$root/bench/mesh_c2m_stats.py" compare "$work/asprinted.ply" "$work/cc.asc" \
-  "$work/report/report.json"
+  "$work/report/report.json" "$work/cc_surface.asc"

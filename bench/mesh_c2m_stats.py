@@ -3,13 +3,18 @@
 
   mesh_c2m_stats.py vertices ASPRINTED.ply VERTICES.ply
       the vertices of printtwin's binary PLY mesh as a point cloud (binary PLY, float x y z)
-  mesh_c2m_stats.py compare ASPRINTED.ply CC.asc REPORT.json
+  mesh_c2m_stats.py surface ASPRINTED.ply POINTS.ply [SPACING_MM]
+      points spread uniformly over the mesh's surface (one per SPACING^2 of area on average,
+      default 0.05 mm; fixed seed), as a point cloud: C2M from them is the mean over the
+      surface, as verify's figure is, whatever the triangulation
+  mesh_c2m_stats.py compare ASPRINTED.ply CC.asc REPORT.json [CC_SURFACE.asc]
       CloudCompare's C2M distances (ASC: x y z d per line, the vertices in file order):
       mean and RMS per vertex and weighted by vertex area (a third of the area of the
       triangles around each vertex), against verify's deposit -> mesh mean and RMS.
 """
 import json
 import math
+import random
 import struct
 import sys
 from array import array
@@ -58,7 +63,46 @@ def vertex_areas(xyz, faces):
     return area
 
 
+def surface_points(xyz, faces, spacing, seed=1):
+    rng = random.Random(seed)
+    density = 1.0 / (spacing * spacing)
+    out = array("f")
+    for a, b, c in faces:
+        ax, ay, az = xyz[3 * a:3 * a + 3]
+        ux, uy, uz = xyz[3 * b] - ax, xyz[3 * b + 1] - ay, xyz[3 * b + 2] - az
+        vx, vy, vz = xyz[3 * c] - ax, xyz[3 * c + 1] - ay, xyz[3 * c + 2] - az
+        cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+        expect = 0.5 * math.sqrt(cx * cx + cy * cy + cz * cz) * density
+        k = int(expect)
+        if rng.random() < expect - k:
+            k += 1
+        for _ in range(k):
+            s, t = rng.random(), rng.random()
+            if s + t > 1.0:
+                s, t = 1.0 - s, 1.0 - t
+            out.extend((ax + s * ux + t * vx, ay + s * uy + t * vy, az + s * uz + t * vz))
+    return out
+
+
+def read_distances(path):
+    d = array("d")
+    with open(path) as f:
+        for line in f:
+            p = line.replace(",", " ").split()
+            if len(p) >= 4:
+                d.append(float(p[-1]))
+    return d
+
+
 def main():
+    if sys.argv[1] == "surface":
+        xyz, faces = read_mesh(sys.argv[2])
+        pts = surface_points(xyz, faces, float(sys.argv[4]) if len(sys.argv) > 4 else 0.05)
+        with open(sys.argv[3], "wb") as f:
+            f.write(("ply\nformat binary_little_endian 1.0\nelement vertex %d\nproperty float x\n"
+                     "property float y\nproperty float z\nend_header\n" % (len(pts) // 3)).encode())
+            pts.tofile(f)
+        return
     if sys.argv[1] == "vertices":
         xyz, _ = read_mesh(sys.argv[2])
         n = len(xyz) // 3
@@ -98,6 +142,18 @@ def main():
         weighted_off = max(dm, dr)  # the last row is the area-weighted one
     print("agreement (area-weighted, goal within 5 %%): %s" %
           ("OK" if weighted_off <= 0.05 else "NOT OK"))
+    if len(sys.argv) > 5:  # C2M from points spread over the mesh's surface
+        ds = read_distances(sys.argv[5])
+        m = sum(ds) / len(ds)
+        r = math.sqrt(sum(x * x for x in ds) / len(ds))
+        off = max(abs(m - ours["mean_mm"]) / abs(ours["mean_mm"]),
+                  abs(r - ours["rms_mm"]) / ours["rms_mm"])
+        print("%-31s mean %+.4f mm (%+.1f %%), RMS %.4f mm (%+.1f %%) (%d points)" %
+              ("CloudCompare C2M surface points", m,
+               100 * (m - ours["mean_mm"]) / abs(ours["mean_mm"]), r,
+               100 * (r - ours["rms_mm"]) / ours["rms_mm"], len(ds)))
+        print("agreement (surface points, goal within 5 %%): %s" %
+              ("OK" if off <= 0.05 else "NOT OK"))
     # Where they differ: by layer (a vertex in the first layer whose top is at or above it;
     # verify's layer figures combined by their sample counts, an approximation).
     layers = json.load(open(sys.argv[4])).get("per_layer", [])

@@ -1,6 +1,6 @@
 #!/bin/sh
 # Repair counters side by side: `printtwin check --repair` against admesh (default: every fix)
-# on the same broken files. Builds five small cases (a 20 mm cube with one defect each) and
+# on the same broken files. Builds six small cases (a 20 mm cube with one defect each) and
 # adds the files given on the command line. Prints one Markdown row per file and tool.
 #   bench/repair_vs_admesh.sh [build-dir] [file.stl...]        (default build-dir: build)
 set -eu
@@ -17,12 +17,14 @@ trap 'rm -rf "$tmp"' EXIT
 # cube CASE > file: the 20 mm cube (12 outward facets) with one defect:
 #   flipped (facet 1 wound the other way), hole (facet 12 left out), duplicate (facet 4
 #   again at the end), inverted (every facet the other way), seam (the top's corners 0.001
-#   mm off). Stored normals follow each facet's winding.
+#   mm off), crack (one corner of the top 0.002 mm higher). Stored normals follow each
+#   facet's winding.
 cube() {
   awk -v c="$1" '
   function facet(a, b, d,    i, p, q, r, nx, ny, nz, l) {
     split(V[a], p, " "); split(V[b], q, " "); split(V[d], r, " ")
     if (c == "seam" && top) { p[1] += 0.001; q[1] += 0.001; r[1] += 0.001 }
+    if (c == "crack" && top) { if (a == 7) p[3] += 0.002; if (b == 7) q[3] += 0.002; if (d == 7) r[3] += 0.002 }
     nx = (q[2]-p[2])*(r[3]-p[3]) - (q[3]-p[3])*(r[2]-p[2])
     ny = (q[3]-p[3])*(r[1]-p[1]) - (q[1]-p[1])*(r[3]-p[3])
     nz = (q[1]-p[1])*(r[2]-p[2]) - (q[2]-p[2])*(r[1]-p[1])
@@ -48,7 +50,7 @@ cube() {
 }
 
 files=""
-for c in flipped hole duplicate inverted seam; do
+for c in flipped hole duplicate inverted seam crack; do
   cube "$c" > "$tmp/cube_$c.stl"
   files="$files $tmp/cube_$c.stl"
 done

@@ -19,6 +19,8 @@ find_package(ZLIB REQUIRED)  # deflate blocks of binary G-code
 
 find_package(PkgConfig REQUIRED)
 pkg_check_modules(POLYCLIPPING REQUIRED IMPORTED_TARGET polyclipping)
+# Deflate blocks and CRC32 of binary G-code, 2-3x faster than zlib (zlib is its plain twin).
+pkg_check_modules(LIBDEFLATE REQUIRED IMPORTED_TARGET libdeflate)
 
 
 find_path(STB_INCLUDE_DIR stb/stb_image_write.h)

@@ -2,20 +2,48 @@
 // header, blocks, CRC32, deflate, heatshrink, MeatPack, metadata, and the seekable text
 // stream. Besides crashes and sanitizer reports, it traps when the reader's answers
 // disagree: the metadata reader and the stream must accept the same headers, an error must
-// say something, and seeking must give back the bytes of a straight read.
+// say something, and seeking must give back the bytes of a straight read. It also holds
+// the fast paths to their references: libdeflate to zlib (PRINTTWIN_PLAIN=bgcode_libdeflate)
+// on the whole file, and MeatPack's fast loop to its byte-at-a-time state machine on the raw
+// bytes; each pair must give the same text, or both an error.
 // Seeds (fuzz/corpus_bgcode/) carry checksum type 0, so mutations reach the decoders
 // instead of stopping at the CRC.
 #include <cstddef>
 #include <cstdint>
+#include <cstdlib>
 #include <string>
 #include <string_view>
 
+#include "gcode/meatpack.hpp"
 #include "printtwin/bgcode.hpp"
+
+namespace {
+
+/// MeatPack's fast loop and its reference give the same text, or both an error.
+void meatpack_paths_agree(std::string_view bytes) {
+  printtwin::detail::Bytes fast_buf, slow_buf;
+  std::size_t fast_size = 0, slow_size = 0;
+  std::string fast_why, slow_why;
+  const bool fast = printtwin::detail::meatpack_decode(bytes, fast_buf, fast_size, fast_why, true);
+  const bool slow = printtwin::detail::meatpack_decode(bytes, slow_buf, slow_size, slow_why, false);
+  if (fast != slow || fast_why != slow_why) __builtin_trap();
+  if (fast &&
+      std::string_view(fast_buf.data(), fast_size) != std::string_view(slow_buf.data(), slow_size))
+    __builtin_trap();
+}
+
+}  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view bytes(reinterpret_cast<const char*>(data), size);
   auto meta = printtwin::read_bgcode_metadata(bytes, "fuzz.bgcode");
   auto text = printtwin::decode_bgcode(bytes, "fuzz.bgcode");
+  meatpack_paths_agree(bytes);
+  // zlib, the plain twin of libdeflate, accepts and decodes the same files.
+  setenv("PRINTTWIN_PLAIN", "bgcode_libdeflate", 1);
+  auto plain = printtwin::decode_bgcode(bytes, "fuzz.bgcode");
+  unsetenv("PRINTTWIN_PLAIN");
+  if (plain.ok() != text.ok() || (plain.ok() && *plain != *text)) __builtin_trap();
   if (!meta.ok() && meta.error().message.empty()) __builtin_trap();
   if (!text.ok()) {
     if (text.error().message.empty() || text.error().file != "fuzz.bgcode") __builtin_trap();

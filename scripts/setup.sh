@@ -9,7 +9,8 @@ cd "$(dirname "$0")/.."
 PACKAGES=(build-essential cmake pkg-config ccache
   libcgal-dev libgmp-dev libmpfr-dev libboost-dev libassimp-dev liboctomap-dev libeigen3-dev
   libembree-dev libpolyclipping-dev libtbb-dev libcli11-dev nlohmann-json3-dev
-  libfmt-dev libgtest-dev libgmock-dev libbenchmark-dev libpng-dev libstb-dev zlib1g-dev)
+  libfmt-dev libgtest-dev libgmock-dev libbenchmark-dev libpng-dev libstb-dev zlib1g-dev
+  libdeflate-dev)
 PACKAGES+=(${PRINTTWIN_EXTRA_PACKAGES:-})
 
 missing=()

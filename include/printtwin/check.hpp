@@ -259,7 +259,16 @@ struct RepairChange {
 struct RepairSettings {
   /// Holes with at most this many boundary edges are filled (larger ones are left open).
   std::size_t max_hole_edges = 64;
+  /// Open seams are welded first: the ends of an open facet edge move onto those of an open
+  /// edge running the other way when each lies within this distance (admesh --nearby). 0:
+  /// no weld; negative: admesh's default (nearby_weld_tolerance_mm).
+  double weld_tolerance_mm = -1;
 };
+
+/// admesh's default tolerance for --nearby: the shortest edge of the mesh (the largest
+/// coordinate difference of its ends, over faces without a repeated corner) plus the
+/// increment of its second iteration, 0.01 % of the bounding box's diagonal.
+[[nodiscard]] double nearby_weld_tolerance_mm(const Mesh& mesh);
 
 /// What a repair changed, measured by comparing the mesh before and after (faces matched by
 /// their corner positions), in the counters admesh prints. Edge counters count facet edges,
@@ -276,18 +285,21 @@ struct RepairCounters {
   std::size_t backwards_edges = 0;  ///< facet edges of the result whose neighbour runs the same way
   std::size_t holes_filled = 0;     ///< patches of added faces (connected over shared edges)
   std::size_t parts = 0;            ///< shells of the result
-  /// Open facet edges of the input whose two ends each lie within kNearbyEdgeMm of the ends
-  /// of another open facet edge running the other way (not at them): seams that welding
-  /// vertices within that tolerance (admesh --nearby) would close. The repair does not weld.
+  /// Open facet edges of the input whose two ends each lie within the nearby tolerance of the
+  /// ends of another face's open facet edge running the other way (not at them): the seams
+  /// that the weld closes (admesh --nearby).
   std::size_t nearby_edges = 0;
 };
 
-/// The tolerance of RepairCounters::nearby_edges.
+/// The tolerance of RepairCounters::nearby_edges when the repair does not weld.
 inline constexpr double kNearbyEdgeMm = 0.01;
 
-/// Counts what changed from `before` to `after` (see RepairCounters). `after` must reuse the
-/// input's vertex positions (repair_mesh moves none).
-[[nodiscard]] RepairCounters measure_repair(const Mesh& before, const Mesh& after);
+/// Counts what changed from `before` to `after` (see RepairCounters). `after` reuses the
+/// positions of `moved` (the input after the weld: its vertices, some moved; by default the
+/// input itself); `nearby_mm` is the tolerance of nearby_edges.
+[[nodiscard]] RepairCounters measure_repair(const Mesh& before, const Mesh& after,
+                                            double nearby_mm = kNearbyEdgeMm,
+                                            const Mesh* moved = nullptr);
 
 /// "edges fixed 0, facets removed 2, facets added 2, facets reversed 2, backwards edges 0,
 /// holes filled 1, degenerate facets 0, parts 1, nearby edges 0": every counter, admesh's
@@ -298,6 +310,7 @@ struct RepairResult {
   Mesh mesh;
   std::vector<RepairChange> changes;  ///< only kinds with count > 0
   RepairCounters counters;            ///< measured from the meshes (measure_repair)
+  double weld_tolerance_mm = 0;       ///< the weld's tolerance (0: no weld)
   MeshHealth before;
   MeshHealth
       after;  ///< of the repaired mesh with vertices at one position joined (as its STL reads)

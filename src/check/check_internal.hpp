@@ -80,6 +80,13 @@ std::vector<std::array<std::uint32_t, 2>> self_intersecting_pairs_exhaustive(con
 /// The mesh with vertices at the same position joined (as a reader of its STL sees it).
 Mesh welded_by_position(const Mesh& mesh);
 
+/// admesh's --nearby on `mesh`: every open facet edge is paired with the nearest open facet
+/// edge of another face running the other way whose ends each lie within `tolerance_mm` of
+/// its own (not at them), and the paired ends are joined: each group of joined vertices
+/// takes the position of its lowest-numbered vertex. Returns the mesh with those vertices
+/// moved (same vertices and faces); `moved` counts the vertices that changed position.
+Mesh weld_nearby_vertices(const Mesh& mesh, double tolerance_mm, std::size_t& moved);
+
 /// Reverses every inverted shell (see Shell::inverted); returns how many.
 std::size_t flip_inverted_shells(Mesh& mesh);
 

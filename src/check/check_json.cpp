@@ -141,6 +141,7 @@ std::string check_report_to_json(const CheckReport& r, const CheckSource& source
       changes.push_back({{"code", c.code}, {"count", c.count}, {"message", c.message}});
     const RepairCounters& k = repair->counters;
     doc["repair"] = {{"output", repair_file},
+                     {"weld_tolerance_mm", repair->weld_tolerance_mm},
                      {"counters",
                       {{"edges_fixed", k.edges_fixed},
                        {"facets_removed", k.facets_removed},

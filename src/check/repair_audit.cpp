@@ -1,7 +1,8 @@
 // measure_repair: what a repair changed, found by comparing the meshes (not by trusting the
 // repair steps' own counts), in admesh's counters.
 //
-// Faces are matched by their corner positions (the repair moves no vertex), so vertices
+// Faces are matched by their corner positions (the input's after the weld, the only step
+// that moves vertices), so vertices
 // that were split or merged by index do not matter. Within a group of faces on the same
 // three positions, faces of the same winding pair first; the rest pair across windings
 // (reversed); what is left over was removed (input) or added (result).
@@ -9,6 +10,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <tuple>
 #include <utility>
@@ -109,17 +111,25 @@ FacetEdges facet_edges(const Mesh& m) {
   return out;
 }
 
-/// RepairCounters::nearby_edges of `m` (its facet edges `e`) for the tolerance `tol`.
-std::size_t nearby_open_edges(const Mesh& m, const FacetEdges& e, double tol) {
+/// Each open facet edge of `m` (its facet edges `e`) with a partner for the tolerance `tol`:
+/// {slot, partner slot}: the nearest open facet edge of another face that runs the other way
+/// with each end within `tol` of this edge's (ties to the lower one), when this edge is its
+/// nearest too and they are apart (an edge with a partner exactly at it is stitched, not
+/// welded). Slot 3 f + k is the edge from corner k to k + 1 of face f.
+std::vector<std::array<std::uint32_t, 2>> nearby_open_edges(const Mesh& m, const FacetEdges& e,
+                                                            double tol) {
+  std::vector<std::array<std::uint32_t, 2>> pairs;
+  if (!(tol > 0)) return pairs;
   struct Open {
     Vec3 from, to;
+    std::uint32_t slot;
   };
   std::vector<Open> open;
   for (std::size_t s = 0; s < e.group.size(); ++s) {
     if (e.group_size[e.group[s]] != 1) continue;
     const auto& t = m.triangles[s / 3];
     const std::uint32_t a = t[s % 3], b = t[(s % 3 + 1) % 3];
-    if (a != b) open.push_back({m.vertices_mm[a], m.vertices_mm[b]});
+    if (a != b) open.push_back({m.vertices_mm[a], m.vertices_mm[b], static_cast<std::uint32_t>(s)});
   }
   // The open edges by the cell (of edge `tol`) of their end; a partner's end lies in one of
   // the 27 cells around an edge's start. Coordinates too large for cell numbers have none.
@@ -136,24 +146,35 @@ std::size_t nearby_open_edges(const Mesh& m, const FacetEdges& e, double tol) {
   for (std::size_t i = 0; i < open.size(); ++i)
     if (Cell c{}; cell_of(open[i].to, c)) by_end.emplace_back(c, static_cast<std::uint32_t>(i));
   std::sort(by_end.begin(), by_end.end());
-  std::size_t count = 0;
+  // Each edge's nearest partner (an exact one, at distance 0, is stitched without a weld).
+  std::vector<std::uint32_t> nearest(open.size(), kNone);
+  std::vector<double> distance(open.size(), 0);
   for (std::size_t i = 0; i < open.size(); ++i) {
     Cell c{};
     if (!cell_of(open[i].from, c)) continue;
-    bool found = false;
-    for (int d = 0; d < 27 && !found; ++d) {
+    double best = std::numeric_limits<double>::infinity();
+    for (int d = 0; d < 27; ++d) {
       const Cell n{c[0] + d % 3 - 1, c[1] + d / 3 % 3 - 1, c[2] + d / 9 - 1};
       auto it = std::lower_bound(by_end.begin(), by_end.end(), std::make_pair(n, 0U));
-      for (; it != by_end.end() && it->first == n && !found; ++it) {
+      for (; it != by_end.end() && it->first == n; ++it) {
         const Open& o = open[it->second];
-        found = it->second != i && (o.to - open[i].from).norm() <= tol &&
-                (o.from - open[i].to).norm() <= tol &&
-                !(o.to == open[i].from && o.from == open[i].to);
+        if (o.slot / 3 == open[i].slot / 3) continue;  // the same face
+        const double err = std::max((o.to - open[i].from).norm(), (o.from - open[i].to).norm());
+        if (err <= tol && (err < best || (err == best && it->second < nearest[i]))) {
+          best = err;
+          nearest[i] = it->second;
+        }
       }
     }
-    count += found ? 1 : 0;
+    distance[i] = best;
   }
-  return count;
+  // Pairs: each the other's nearest, apart.
+  for (std::size_t i = 0; i < open.size(); ++i) {
+    const std::uint32_t p = nearest[i];
+    if (p != kNone && nearest[p] == i && distance[i] > 0)
+      pairs.push_back({open[i].slot, open[p].slot});
+  }
+  return pairs;
 }
 
 }  // namespace
@@ -171,10 +192,68 @@ Mesh detail::welded_by_position(const Mesh& mesh) {
   return out;
 }
 
-RepairCounters measure_repair(const Mesh& before, const Mesh& after) {
+double nearby_weld_tolerance_mm(const Mesh& mesh) {
+  double shortest = std::numeric_limits<double>::infinity();
+  for (const auto& t : mesh.triangles) {
+    if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0]) continue;
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 d = mesh.vertices_mm[t[k]] - mesh.vertices_mm[t[(k + 1) % 3]];
+      shortest = std::min(shortest, d.cwiseAbs().maxCoeff());
+    }
+  }
+  if (!std::isfinite(shortest)) return 0;
+  return shortest + 1e-4 * bounding_box(mesh).size().norm();
+}
+
+Mesh detail::weld_nearby_vertices(const Mesh& mesh, double tolerance_mm, std::size_t& moved) {
+  Mesh out = mesh;
+  moved = 0;
+  const FacetEdges e = facet_edges(mesh);
+  const auto pairs = nearby_open_edges(mesh, e, tolerance_mm);
+  if (pairs.empty()) return out;
+  const auto corner = [&](std::uint32_t slot, std::uint32_t k) {
+    return mesh.triangles[slot / 3][(slot % 3 + k) % 3];
+  };
+  // Two ends of one edge are never joined (that would collapse a face: the ends of a small
+  // hole are each other's nearest open edges).
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
+  edges.reserve(3 * mesh.triangles.size());
+  for (const auto& t : mesh.triangles)
+    for (int k = 0; k < 3; ++k)
+      edges.emplace_back(std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3]));
+  std::sort(edges.begin(), edges.end());
+  const auto joins_an_edge = [&](std::uint32_t a, std::uint32_t b) {
+    return a != b && std::binary_search(edges.begin(), edges.end(),
+                                        std::make_pair(std::min(a, b), std::max(a, b)));
+  };
+  detail::UnionFind uf(mesh.vertices_mm.size());
+  for (const auto& [s, p] : pairs) {
+    // This edge's start with the partner's end, its end with the partner's start.
+    if (joins_an_edge(corner(s, 0), corner(p, 1)) || joins_an_edge(corner(s, 1), corner(p, 0)))
+      continue;
+    uf.unite(corner(s, 0), corner(p, 1));
+    uf.unite(corner(s, 1), corner(p, 0));
+  }
+  std::vector<std::uint32_t> lowest(mesh.vertices_mm.size(), kNone);
+  for (std::uint32_t v = 0; v < mesh.vertices_mm.size(); ++v) {
+    std::uint32_t& l = lowest[uf.find(v)];
+    if (l == kNone) l = v;
+  }
+  for (std::uint32_t v = 0; v < mesh.vertices_mm.size(); ++v) {
+    const Vec3& to = mesh.vertices_mm[lowest[uf.find(v)]];
+    if (to == mesh.vertices_mm[v]) continue;
+    out.vertices_mm[v] = to;
+    ++moved;
+  }
+  return out;
+}
+
+RepairCounters measure_repair(const Mesh& before, const Mesh& after, double nearby_mm,
+                              const Mesh* moved) {
   RepairCounters c;
   std::vector<std::uint32_t> ids_b, ids_a;
-  canonical_ids(before, after, ids_b, ids_a);
+  // Faces and edges are matched on the positions after the weld (the input's when none).
+  canonical_ids(moved != nullptr ? *moved : before, after, ids_b, ids_a);
   const std::vector<FaceKey> kb = face_keys(before, ids_b);
   const std::vector<FaceKey> ka = face_keys(after, ids_a);
 
@@ -259,7 +338,7 @@ RepairCounters measure_repair(const Mesh& before, const Mesh& after) {
   c.degenerate_facets = hb.degenerate_faces;
   c.backwards_edges = 2 * ha.inconsistent_edges;
   c.parts = ha.shells;
-  c.nearby_edges = nearby_open_edges(before, eb, kNearbyEdgeMm);
+  c.nearby_edges = nearby_open_edges(before, eb, nearby_mm).size();
   return c;
 }
 

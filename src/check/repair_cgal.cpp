@@ -15,6 +15,7 @@
 
 #include "check/check_internal.hpp"
 #include "printtwin/check.hpp"
+#include "printtwin/io.hpp"
 
 namespace printtwin {
 
@@ -50,16 +51,28 @@ void add(std::vector<RepairChange>& changes, std::string code, std::size_t count
 Result<RepairResult> repair_mesh(const Mesh& mesh, const RepairSettings& settings) {
   RepairResult out;
   out.before = analyze_mesh_health(mesh);
+  // Open seams first (admesh --nearby): their ends move together, then merge as duplicates.
+  out.weld_tolerance_mm =
+      settings.weld_tolerance_mm < 0 ? nearby_weld_tolerance_mm(mesh) : settings.weld_tolerance_mm;
+  std::size_t welded = 0;
+  const Mesh moved = out.weld_tolerance_mm > 0
+                         ? detail::weld_nearby_vertices(mesh, out.weld_tolerance_mm, welded)
+                         : mesh;
   try {
     std::vector<P3> points;
-    points.reserve(mesh.vertices_mm.size());
-    for (const auto& v : mesh.vertices_mm) points.emplace_back(v.x(), v.y(), v.z());
+    points.reserve(moved.vertices_mm.size());
+    for (const auto& v : moved.vertices_mm) points.emplace_back(v.x(), v.y(), v.z());
     std::vector<Polygon> polygons;
-    polygons.reserve(mesh.triangles.size());
-    for (const auto& t : mesh.triangles) polygons.push_back({t[0], t[1], t[2]});
+    polygons.reserve(moved.triangles.size());
+    for (const auto& t : moved.triangles) polygons.push_back({t[0], t[1], t[2]});
 
+    // Each welded vertex now repeats its group's position and merges once.
     const std::size_t merged = PMP::merge_duplicate_points_in_polygon_soup(points, polygons);
-    add(out.changes, "merged_vertices", merged, "duplicate vertices merged");
+    add(out.changes, "welded_vertices", welded,
+        "vertices moved onto a vertex across an open seam (within " +
+            format_fixed(out.weld_tolerance_mm, 4) + " mm)");
+    add(out.changes, "merged_vertices", merged - std::min(merged, welded),
+        "duplicate vertices merged");
 
     // Zero-area faces (repeated index or collinear corners) carry no surface.
     std::size_t degenerate = 0;
@@ -165,7 +178,8 @@ Result<RepairResult> repair_mesh(const Mesh& mesh, const RepairSettings& setting
   // Judged as the written file will be read: vertices split to separate fans that met at a
   // point are one vertex again there.
   out.after = analyze_mesh_health(detail::welded_by_position(out.mesh));
-  out.counters = measure_repair(mesh, out.mesh);
+  out.counters = measure_repair(
+      mesh, out.mesh, out.weld_tolerance_mm > 0 ? out.weld_tolerance_mm : kNearbyEdgeMm, &moved);
   return out;
 }
 

@@ -1,12 +1,16 @@
 // Wall thickness and gap width by ray casting along face normals (MeshQuery / Embree).
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <span>
+#include <vector>
 
 #include "check/check_internal.hpp"
 #include "core/plain_path.hpp"
+#include "mesh/mesh_query_rays.hpp"
 #include "printtwin/check.hpp"
 #include "printtwin/mesh_query.hpp"
 
@@ -81,40 +85,97 @@ Result<ThicknessResult> measure_thickness(const Mesh& mesh, double min_thickness
                         }
                       });
   }
-  // First hit along the ray that is not an internal face.
-  auto first_surface = [&](const Vec3& c, const Vec3& dir, double t0, double t1,
+  std::vector<FaceSample> samples(nf);
+  // First hit along the ray that is not an internal face or f itself, given the first hit
+  // from t0 on (`hit`): at most 64 hits are looked at.
+  auto first_surface = [&](std::optional<RayHit> hit, const Vec3& c, const Vec3& dir, double t1,
                            std::size_t f) -> std::optional<RayHit> {
-    double t = t0;
-    for (int i = 0; i < 64; ++i) {
-      auto hit = query.first_hit(c, dir, t, t1);
+    for (int i = 1;; ++i) {
       if (!hit || (hit->triangle != f && !internal[hit->triangle])) return hit;
-      t = hit->t_mm + t_min;
+      if (i == 64) return std::nullopt;
+      hit = query.first_hit(c, dir, hit->t_mm + t_min, t1);
     }
-    return std::nullopt;
   };
 
-  // One face's rays; inward ones end at `inward_max`.
-  auto sample_face = [&](std::size_t f, double inward_max) {
-    FaceSample sample;
-    Vec3 n = triangle_normal(mesh, f);
-    const double len = n.norm();
-    if (!(len > 0) || detail::is_degenerate_face(mesh, f) || internal[f]) return sample;
-    n /= len;
-    const Vec3 c = detail::face_centroid(mesh, f) - shift;
-    // Inward: the first surface hit from behind is the far side of the wall.
-    if (auto hit = first_surface(c, -n, t_min, inward_max, f)) {
-      // The far side of a wall faces back within 60 degrees and is no neighbour of f: a
-      // ray leaving through a face beside f (a corner or a chamfer) measures no wall.
-      if (hit->normal.dot(-n) > kWallCos && !shares_vertex(mesh, f, hit->triangle))
-        sample.thickness_mm = hit->t_mm;
-    }
-    // Outward: the first surface hit head-on, facing back at us, bounds the gap.
-    if (auto hit = first_surface(c, n, t_min, line_width_mm * 4, f)) {
-      if (hit->normal.dot(n) < -kFacingCos && !shares_vertex(mesh, f, hit->triangle))
-        sample.gap_mm = hit->t_mm;
-    }
-    return sample;
+  // The rays of a group of faces; inward ones end at `inward_max`. Neighbouring faces' rays
+  // are traced as one stream (detail::first_hits: the same hits as one by one, faster;
+  // PRINTTWIN_PLAIN=check_ray_stream traces them one by one).
+  const bool stream = !detail::plain_path("check_ray_stream");
+  struct Scratch {
+    std::vector<std::uint32_t> faces;
+    std::vector<Vec3> normal;
+    std::vector<detail::RayRequest> rays;
+    std::vector<std::optional<RayHit>> hits;
   };
+  auto sample_faces = [&](std::span<const std::uint32_t> group, double inward_max, Scratch& sc) {
+    sc.faces.clear();
+    sc.normal.clear();
+    sc.rays.clear();
+    for (const std::uint32_t f : group) {
+      Vec3 n = triangle_normal(mesh, f);
+      const double len = n.norm();
+      if (!(len > 0) || detail::is_degenerate_face(mesh, f) || internal[f]) {
+        samples[f] = FaceSample{};
+        continue;
+      }
+      n /= len;
+      sc.faces.push_back(f);
+      sc.normal.push_back(n);
+      sc.rays.push_back({detail::face_centroid(mesh, f) - shift, -n, t_min, inward_max});
+    }
+    const std::size_t m = sc.faces.size();
+    // Outward: the same origins, up to four line widths.
+    for (std::size_t i = 0; i < m; ++i)
+      sc.rays.push_back({sc.rays[i].origin, sc.normal[i], t_min, line_width_mm * 4});
+    sc.hits.resize(sc.rays.size());
+    if (stream) {
+      detail::first_hits(query, sc.rays, sc.hits);
+    } else {
+      for (std::size_t i = 0; i < sc.rays.size(); ++i)
+        sc.hits[i] =
+            query.first_hit(sc.rays[i].origin, sc.rays[i].dir, sc.rays[i].t_min, sc.rays[i].t_max);
+    }
+    for (std::size_t i = 0; i < m; ++i) {
+      const std::uint32_t f = sc.faces[i];
+      const Vec3& n = sc.normal[i];
+      const Vec3& c = sc.rays[i].origin;
+      FaceSample sample;
+      // Inward: the first surface hit from behind is the far side of the wall.
+      if (auto hit = first_surface(sc.hits[i], c, -n, inward_max, f)) {
+        // The far side of a wall faces back within 60 degrees and is no neighbour of f: a
+        // ray leaving through a face beside f (a corner or a chamfer) measures no wall.
+        if (hit->normal.dot(-n) > kWallCos && !shares_vertex(mesh, f, hit->triangle))
+          sample.thickness_mm = hit->t_mm;
+      }
+      // Outward: the first surface hit head-on, facing back at us, bounds the gap.
+      if (auto hit = first_surface(sc.hits[m + i], c, n, line_width_mm * 4, f)) {
+        if (hit->normal.dot(n) < -kFacingCos && !shares_vertex(mesh, f, hit->triangle))
+          sample.gap_mm = hit->t_mm;
+      }
+      samples[f] = sample;
+    }
+  };
+  // Groups of neighbouring faces (by index) for one stream of rays.
+  constexpr std::size_t kGroup = 16;
+  tbb::enumerable_thread_specific<Scratch> scratch;
+  tbb::enumerable_thread_specific<std::vector<std::uint32_t>> group_of;
+  auto sample_range = [&](std::size_t begin, std::size_t end, std::size_t step, double inward_max,
+                          auto&& keep) {
+    auto& sc = scratch.local();
+    auto& group = group_of.local();
+    group.clear();
+    for (std::size_t f = begin; f < end; f += step) {
+      if (!keep(f)) continue;
+      group.push_back(static_cast<std::uint32_t>(f));
+      if (group.size() == kGroup) {
+        sample_faces(group, inward_max, sc);
+        group.clear();
+      }
+    }
+    if (!group.empty()) sample_faces(group, inward_max, sc);
+    group.clear();
+  };
+
   // Within the limit, an inward ray's first hit is the unbounded ray's whenever that one is
   // thin. Beyond it, only the thinnest wall is reported, so an inward ray need not look
   // farther than a wall already measured: every kStride-th face is cast without limit
@@ -122,13 +183,13 @@ Result<ThicknessResult> measure_thickness(const Mesh& mesh, double min_thickness
   // thin face come out the same; PRINTTWIN_PLAIN=check_ray_bound casts them all unbounded).
   constexpr std::size_t kStride = 16;
   const bool bound = beyond_limit && !detail::plain_path("check_ray_bound");
-  std::vector<FaceSample> samples(nf);
   double inward_max = beyond_limit ? kInf : min_thickness_mm;
+  const auto all = [](std::size_t) { return true; };
   if (bound) {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (nf + kStride - 1) / kStride, 64),
                       [&](const tbb::blocked_range<std::size_t>& r) {
-                        for (std::size_t i = r.begin(); i != r.end(); ++i)
-                          samples[i * kStride] = sample_face(i * kStride, kInf);
+                        sample_range(r.begin() * kStride, std::min(nf, r.end() * kStride), kStride,
+                                     kInf, all);
                       });
     double thinnest = kInf;
     for (std::size_t f = 0; f < nf; f += kStride)
@@ -137,8 +198,8 @@ Result<ThicknessResult> measure_thickness(const Mesh& mesh, double min_thickness
   }
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nf, 1024),
                     [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t f = r.begin(); f != r.end(); ++f)
-                        if (!bound || f % kStride != 0) samples[f] = sample_face(f, inward_max);
+                      sample_range(r.begin(), r.end(), 1, inward_max,
+                                   [&](std::size_t f) { return !bound || f % kStride != 0; });
                     });
 
   ThicknessResult out;

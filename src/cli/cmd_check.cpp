@@ -49,7 +49,8 @@ struct CheckOptions {
   bool no_center = false;
   bool no_self_intersections = false;
   bool orient = false;
-  std::string manifest;  ///< --manifest FILE
+  double weld_tolerance_mm = -1;  ///< --weld-tolerance; negative: admesh's default
+  std::string manifest;           ///< --manifest FILE
 };
 
 std::string f2(double v) { return format_fixed(v, 2); }
@@ -124,7 +125,8 @@ void print_text(const CheckOptions& o, const PrinterProfile& printer, const Chec
     std::printf("  %-7s %-24s %s\n", std::string(to_string(f.severity)).c_str(), f.code.c_str(),
                 f.message.c_str());
   if (repair != nullptr) {
-    std::printf("repair     wrote %s\n", o.repair_out.c_str());
+    std::printf("repair     wrote %s (open seams welded within %s mm)\n", o.repair_out.c_str(),
+                format_fixed(repair->weld_tolerance_mm, 4).c_str());
     std::printf("           %s\n", repair_counters_text(repair->counters).c_str());
     if (repair->changes.empty()) std::printf("           nothing to change\n");
     for (const auto& c : repair->changes) std::printf("           %s\n", c.message.c_str());
@@ -150,6 +152,16 @@ struct PartOutcome {
   double seconds = 0;
 };
 
+constexpr const char* kMeshExtensions[] = {".stl", ".obj", ".ply", ".off", ".3mf", ".amf"};
+
+bool has_mesh_extension(const std::filesystem::path& p) {
+  std::string ext = p.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return std::find(std::begin(kMeshExtensions), std::end(kMeshExtensions), ext) !=
+         std::end(kMeshExtensions);
+}
+
 PartOutcome check_part(const CheckOptions& o, const std::string& file,
                        const PrinterProfile& printer, const CheckSettings& settings,
                        std::optional<double> mm_per_unit, const std::string& repair_out) {
@@ -166,7 +178,13 @@ PartOutcome check_part(const CheckOptions& o, const std::string& file,
   };
   MeshLoadOptions load;
   load.scale = o.scale * mm_per_unit.value_or(1.0);
-  auto mesh = load_mesh(file, load);
+  // The file is read once: the same bytes are welded and hashed. A name without a mesh
+  // extension goes to load_mesh for its error.
+  if (!has_mesh_extension(file)) return fail(load_mesh(file, load).error());
+  if (auto st = check_mesh_file_header(file); !st) return fail(st.error());
+  auto bytes = read_file(file);
+  if (!bytes) return fail(bytes.error());
+  auto mesh = load_mesh_from_memory(*bytes, file, load);
   if (!mesh) return fail(mesh.error());
   std::string units_used = mm_per_unit ? o.units : "mm";
   std::optional<UnitGuess> guess;
@@ -202,14 +220,16 @@ PartOutcome check_part(const CheckOptions& o, const std::string& file,
         report->findings.begin() + static_cast<std::ptrdiff_t>(first_warning(report->findings)),
         units_guessed_finding(*guess, report->health.bbox_mm.size()));
   if (!repair_out.empty()) {
-    auto rr = repair_mesh(*mesh);
+    RepairSettings repair;
+    repair.weld_tolerance_mm = o.weld_tolerance_mm;
+    auto rr = repair_mesh(*mesh, repair);
     if (!rr) return fail(rr.error());
     if (auto st = save_stl(rr->mesh, repair_out); !st) return fail(st.error());
     out.repaired = std::move(*rr);
     out.repair_file = repair_out;
   }
   out.source.file = file;
-  if (auto bytes = read_file(file)) out.source.sha256 = sha256_hex(*bytes);
+  out.source.sha256 = sha256_hex(*bytes);
   out.source.units = units_used;
   out.source.scale = o.scale;
   out.source.printer = printer.name;
@@ -217,16 +237,6 @@ PartOutcome check_part(const CheckOptions& o, const std::string& file,
   out.report = std::move(*report);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
-}
-
-constexpr const char* kMeshExtensions[] = {".stl", ".obj", ".ply", ".off", ".3mf", ".amf"};
-
-bool has_mesh_extension(const std::filesystem::path& p) {
-  std::string ext = p.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return std::find(std::begin(kMeshExtensions), std::end(kMeshExtensions), ext) !=
-         std::end(kMeshExtensions);
 }
 
 /// Files, folders (every mesh file below them, sorted) and globs -> the parts, in order,
@@ -500,13 +510,26 @@ int run_batch(const CheckOptions& o, const std::vector<PartJob>& jobs,
       return report_error(
           bad_input(o.repair_out + ": cannot create the --repair folder: " + ec.message()));
   }
+  // The largest files first, so that no core waits at the end while one checks a big part
+  // (the report keeps the order of the arguments).
+  std::vector<std::uintmax_t> bytes(jobs.size(), 0);
+  for (std::size_t i = 0; i < jobs.size(); ++i) {
+    std::error_code ec;
+    const std::uintmax_t size = std::filesystem::file_size(jobs[i].file, ec);
+    bytes[i] = ec ? 0 : size;
+  }
+  std::vector<std::size_t> order(jobs.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return bytes[a] > bytes[b]; });
   std::atomic<std::size_t> next{0};
   const std::size_t workers = std::max<std::size_t>(
       1, std::min<std::size_t>(jobs.size(), std::thread::hardware_concurrency()));
   std::vector<std::thread> pool;
   for (std::size_t w = 0; w < workers; ++w)
     pool.emplace_back([&] {
-      for (std::size_t i = next++; i < jobs.size(); i = next++) {
+      for (std::size_t k = next++; k < jobs.size(); k = next++) {
+        const std::size_t i = order[k];
         const PartJob& job = jobs[i];
         if (!job.setup) {
           parts[i].file = job.file;
@@ -616,6 +639,11 @@ void add_check_command(CLI::App& app, CommandRunner& runner) {
   cmd->add_option("--repair", opts->repair_out,
                   "write a repaired mesh (binary STL) and count what changed (admesh's counters); "
                   "a batch: a folder, one <part>.stl each");
+  cmd->add_option("--weld-tolerance", opts->weld_tolerance_mm,
+                  "--repair first joins open seams whose ends lie within this many mm (admesh "
+                  "--nearby); 0: no weld; default: admesh's, the shortest edge + 0.01 % of the "
+                  "diagonal")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--overhang-angle", opts->overhang_angle_deg,
                   "overhang limit in degrees from vertical")
       ->check(CLI::Range(0.0, 90.0))

@@ -37,8 +37,8 @@ double LayerTracker::clamp(double h, double nozzle_mm, double voxel_mm) {
   return std::clamp(h, std::min(voxel_mm, 0.5 * nozzle_mm), 2.0 * nozzle_mm);
 }
 
-BeadSection bead_section(const PendingBead& pb, double area_mm2, int samples, const HeightMap& map,
-                         double voxel_mm, std::vector<double>& gaps) {
+BeadSection bead_section(const PendingBead& pb, double area_mm2, int samples, int caps,
+                         const HeightMap& map, double voxel_mm, std::vector<double>& gaps) {
   const Move& mv = pb.move;
   const Vec3 a = mv.start_mm;
   const Vec3 b = mv.end_mm;
@@ -62,10 +62,36 @@ BeadSection bead_section(const PendingBead& pb, double area_mm2, int samples, co
     std::nth_element(gaps.begin(), mid, gaps.end());
     if (std::abs(*mid - nominal) > voxel_mm + 1e-9) s.h_mm = *mid;
   }
-  s.w_mm = stadium_width_mm(area_mm2, s.h_mm);
+  return capped_section(area_mm2, s.h_mm, pb.move.xy_length_mm(), caps);
+}
+
+BeadSection section_of(double area_mm2, double h_mm) {
+  BeadSection s{h_mm, stadium_width_mm(area_mm2, h_mm)};
   if (s.w_mm < s.h_mm) {  // too little material for a full-height bead: a round strand
     s.h_mm = std::sqrt(4.0 * area_mm2 / kPi);
     s.w_mm = s.h_mm;
+  }
+  return s;
+}
+
+double cap_length_mm(const BeadSection& s) {
+  // Half a turn of the stadium (flat half-width f, radius r) about its centre line's
+  // vertical: (pi / 2) * integral of (f + sqrt(r^2 - z^2))^2 dz over [-r, r].
+  const double f = 0.5 * (s.w_mm - s.h_mm), r = 0.5 * s.h_mm;
+  const double volume = 0.5 * kPi * (2.0 * r * f * f + kPi * f * r * r + 4.0 / 3.0 * r * r * r);
+  const double area = 2.0 * f * s.h_mm + kPi * r * r;
+  return area > 0 ? volume / area : 0.0;
+}
+
+BeadSection capped_section(double area_mm2, double h_mm, double len_mm, int caps) {
+  BeadSection s = section_of(area_mm2, h_mm);
+  if (caps == 0) return s;
+  // The caps' material comes out of the bead: area' (len + caps * cap_length(area')) =
+  // area * len. The cap length changes little with the area: two rounds converge; a bead too
+  // short to pay for its caps keeps at least half its section.
+  for (int round = 0; round < 2; ++round) {
+    const double a = area_mm2 * len_mm / (len_mm + caps * cap_length_mm(s));
+    s = section_of(std::max(a, 0.5 * area_mm2), h_mm);
   }
   return s;
 }

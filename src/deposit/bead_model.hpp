@@ -65,6 +65,24 @@ struct BeadSection {
   double w_mm = 0;  ///< width
 };
 
+/// The area of section `s`: the stadium (w - h) h + pi h^2 / 4.
+inline double section_area_mm2(const BeadSection& s) {
+  return (s.w_mm - s.h_mm) * s.h_mm + 0.25 * kPi * s.h_mm * s.h_mm;
+}
+
+/// The section of area `area_mm2` at height `h_mm`: the stadium, or a round strand when the
+/// area is too small for a full-height bead.
+BeadSection section_of(double area_mm2, double h_mm);
+
+/// The length of bead of section `s` whose volume one round end cap holds: the section
+/// revolved half a turn about the vertical through its centre.
+double cap_length_mm(const BeadSection& s);
+
+/// The section of a bead of length `len_mm` with `caps` (0-2) round end caps, all made of the
+/// material of a bead of area `area_mm2` cut square: the section shrinks to pay for the caps
+/// (to no less than half its area).
+BeadSection capped_section(double area_mm2, double h_mm, double len_mm, int caps);
+
 /// The section of the bead `pb` with cross-section area `area_mm2` over the deposit in `map`,
 /// sampled `samples` times along its centre line (`gaps`: scratch). Height: the gap between the tip
 /// and the surface beneath the centre line. A column whose top is within half a layer of the tip
@@ -73,8 +91,8 @@ struct BeadSection {
 /// spiral); gaps over 1.5 layers are air. The median of the remaining gaps is the bead height (the
 /// nominal layer height when none remain, or when they agree with it to within the voxel
 /// quantisation). Width: the stadium of that height and area; a round strand when the area is too
-/// small.
-BeadSection bead_section(const PendingBead& pb, double area_mm2, int samples, const HeightMap& map,
-                         double voxel_mm, std::vector<double>& gaps);
+/// small. `caps` (0-2): the round end caps the bead pays for (capped_section).
+BeadSection bead_section(const PendingBead& pb, double area_mm2, int samples, int caps,
+                         const HeightMap& map, double voxel_mm, std::vector<double>& gaps);
 
 }  // namespace printtwin::detail

@@ -6,6 +6,7 @@
 // voxels and squeezes the material that falls on earlier plastic into the free voxels
 // beside and below it. This file also holds the memory estimate and the public entry points.
 #include "printtwin/deposit.hpp"
+#include "core/bits.hpp"
 #include "deposit/deposit_run.hpp"
 #include "deposit/voxel_blocks.hpp"
 
@@ -75,13 +76,13 @@ struct DepositBuilder::State {
   // -- moves -----------------------------------------------------------------------------
   void add(const Move& m) {
     if (!is_bead(m)) {
-      flush(std::nullopt);
+      flush(std::nullopt, true);
       return;
     }
     extruded_mm3 += m.e_mm * filament_area_mm2;
     if (m.xy_length_mm() < 1e-9) {  // Z-only or in-place extrusion: a blob we do not model
       ++skipped;
-      flush(std::nullopt);
+      flush(std::nullopt, true);
       return;
     }
     const Vec2 d = (m.end_mm - m.start_mm).head<2>().normalized();
@@ -100,7 +101,7 @@ struct DepositBuilder::State {
         }
       }
       // The previous bead ends on the shared mitre plane, or square when not mitred.
-      flush(mitred ? std::optional<Vec2>(m0) : std::nullopt);
+      flush(mitred ? std::optional<Vec2>(m0) : std::nullopt, !continues);
     }
     PendingBead pb;
     pb.move = m;
@@ -116,16 +117,17 @@ struct DepositBuilder::State {
     pending = pb;
   }
 
-  /// Lays the pending bead; `m1` is its end cut normal (nullopt: square cut).
-  void flush(const std::optional<Vec2>& m1) {
+  /// Lays the pending bead; `m1` is its end cut normal (nullopt: square cut); `path_end`: the
+  /// path stops there (a round end cap).
+  void flush(const std::optional<Vec2>& m1, bool path_end) {
     if (!pending) return;
     const PendingBead pb = *pending;
     pending.reset();
     const Vec2 d = (pb.move.end_mm - pb.move.start_mm).head<2>().normalized();
-    lay(pb, m1.value_or(d));
+    lay(pb, m1.value_or(d), path_end);
   }
 
-  void lay(const PendingBead& pb, const Vec2& m1) {
+  void lay(const PendingBead& pb, const Vec2& m1, bool path_end) {
     const Move& mv = pb.move;
     const double len_mm = mv.xy_length_mm();
     const double area_mm2 = mv.e_mm * filament_area_mm2 / len_mm;
@@ -134,7 +136,11 @@ struct DepositBuilder::State {
     const Vec2 d = (b - a).head<2>() / len_mm;
     const Vec2 n(-d.y(), d.x());
     const int samples = std::max(1, static_cast<int>(std::ceil(len_mm * (1.0 / voxel))));
-    const BeadSection s = detail::bead_section(pb, area_mm2, samples, map, voxel, gaps_);
+    // A path's start and end are round (the nozzle's footprint is a disc), made of the
+    // bead's own material.
+    const bool cap_start = !pb.continues_path;
+    const int caps = (cap_start ? 1 : 0) + (path_end ? 1 : 0);
+    const BeadSection s = detail::bead_section(pb, area_mm2, samples, caps, map, voxel, gaps_);
     const std::int32_t code = HeightMap::layer_code(mv.layer, is_support(mv.feature));
     detail::SweptBead bead{
         a,  b,      d,      n,    pb.m0,
@@ -145,8 +151,10 @@ struct DepositBuilder::State {
       bead.join_w_mm = prev_wider ? pb.join_w_mm : s.w_mm;
       bead.join_d = pb.join_d;
     }
+    bead.cap_start = cap_start;
+    bead.cap_end = path_end;
     last_section = s;
-    droop.elephant_foot(bead, mv.feature, area_mm2, map);
+    droop.elephant_foot(bead, mv.feature, detail::section_area_mm2(s), map);
     droop.begin_bead(mv, bead.a_mm, bead.b_mm, samples, bead.h_mm, bead.w_mm, map);
     support.check_bead(mv, bead.a_mm, bead.b_mm, n, samples, bead.h_mm, bead.w_mm,
                        pb.continues_path, map, &droop);
@@ -158,7 +166,7 @@ struct DepositBuilder::State {
 
   // -- results ---------------------------------------------------------------------------
   DepositResult finish() {
-    flush(std::nullopt);
+    flush(std::nullopt, true);
     support.close_stretch(false);
     DepositResult r;
     r.voxel_mm = voxel;
@@ -317,7 +325,7 @@ DepositEstimate estimate_at(std::span<const Move> moves, const PrinterProfile& p
           }
     }
   }
-  for (auto w : marked) e.blocks += static_cast<std::size_t>(std::popcount(w));
+  for (auto w : marked) e.blocks += static_cast<std::size_t>(popcount64(w));
   e.bytes = static_cast<std::size_t>(grid_bytes(f.dims, e.blocks, tags));
   return e;
 }

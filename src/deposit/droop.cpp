@@ -72,13 +72,22 @@ void drop_knots(std::span<const double> drops, int stride, double tol_mm,
     all.push_back({static_cast<double>(k) / n, 0.5 * (drops[static_cast<std::size_t>(k - 1)] +
                                                       drops[static_cast<std::size_t>(k)])});
   all.push_back({1.0, drops.back()});
-  // Keep a knot when the line from the last kept knot to the next candidate misses it.
+  // Keep a knot when the line from the last kept knot to the next candidate misses it or any
+  // candidate since the last kept knot (a smooth sag bends little from one candidate to the
+  // next, but much over many).
   out.push_back(all.front());
+  std::size_t kept = 0;
   for (std::size_t i = 1; i + 1 < all.size(); ++i) {
-    const DropKnot& a = out.back();
+    const DropKnot& a = all[kept];
     const DropKnot& c = all[i + 1];
-    const double along = (all[i].t - a.t) / (c.t - a.t);
-    if (std::abs(a.mm + along * (c.mm - a.mm) - all[i].mm) > tol_mm) out.push_back(all[i]);
+    for (std::size_t j = kept + 1; j <= i; ++j) {
+      const double along = (all[j].t - a.t) / (c.t - a.t);
+      if (std::abs(a.mm + along * (c.mm - a.mm) - all[j].mm) > tol_mm) {
+        out.push_back(all[i]);
+        kept = i;
+        break;
+      }
+    }
   }
   out.push_back(all.back());
 }

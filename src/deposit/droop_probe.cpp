@@ -65,6 +65,16 @@ bool DroopProbe::anchors(double x, double y, double bottom, double top, double& 
   return *layer == mv_.layer;  // a bead of this layer, hanging `low` below its tip
 }
 
+double DroopProbe::anchor_low(const Vec2& p, const Vec2& dir, double s, double bottom, double top,
+                              double low) const {
+  for (double t = s + voxel_; t <= s + w_ + 1e-9 && low > 0; t += voxel_) {
+    const Vec2 q = p + t * dir;
+    double l = 0;
+    if (anchors(q.x(), q.y(), bottom, top, l)) low = std::min(low, l);
+  }
+  return low;
+}
+
 bool DroopProbe::rests(double x, double y, double bottom, double& gap) const {
   const auto layer = map_->top_layer_at(x, y);
   if (!layer || *layer >= mv_.layer || !map_->top_is_support(x, y)) return false;
@@ -139,12 +149,12 @@ Drop DroopProbe::sample(int i) {
   auto anchor = [&](double x, double y) { return anchors(x, y, bottom, q.z(), low); };
   if (fwd_at_ < 0 || fwd_ - (i - fwd_at_) * step_mm_ <= 0) {
     fwd_ = distance_to_anchor(p, d_, voxel_, model_.max_span_mm(), anchor);
-    fwd_low_ = fwd_ < kNoAnchor ? low : 0;
+    fwd_low_ = fwd_ < kNoAnchor ? anchor_low(p, d_, fwd_, bottom, q.z(), low) : 0;
     fwd_at_ = i;
   }
   if (back_at_ < 0) {
     back_ = distance_to_anchor(p, -d_, voxel_, model_.max_span_mm(), anchor);
-    back_low_ = back_ < kNoAnchor ? low : 0;
+    back_low_ = back_ < kNoAnchor ? anchor_low(p, -d_, back_, bottom, q.z(), low) : 0;
     back_at_ = i;
   }
   const double fwd = fwd_ - (i - fwd_at_) * step_mm_;
@@ -182,6 +192,8 @@ BeadSweep::Laid DroopProbe::lay(const SweptBead& bead, BeadSweep& sweep, VoxelGr
     piece.m0 = k == 0 ? bead.m0 : bead.d;
     piece.m1 = k + 2 == knots_.size() ? bead.m1 : bead.d;
     if (k > 0) piece.join_w_mm = 0;
+    piece.cap_start = k == 0 && bead.cap_start;
+    piece.cap_end = k + 2 == knots_.size() && bead.cap_end;
     const BeadSweep::Laid laid = sweep.lay(piece, grid, tag, map);
     total.overlap += laid.overlap;
     total.squeezed += laid.squeezed;

@@ -42,6 +42,11 @@ class DroopProbe {
   /// An anchor along the path: material that holds, or a bead of this layer (lowered or not:
   /// `low` gets how far it hangs below `top`).
   [[nodiscard]] bool anchors(double x, double y, double bottom, double top, double& low) const;
+  /// How far the anchor first reached at distance `s` along `dir` from `p` hangs below the
+  /// tip: the least over a bead width past it (the first column reached is the rounded flank
+  /// or end cap of the bead that holds it; its crest lies within a bead width).
+  [[nodiscard]] double anchor_low(const Vec2& p, const Vec2& dir, double s, double bottom,
+                                  double top, double low) const;
 
   /// Support of an earlier layer whose top is within 2 layers of the bead's bottom: a support
   /// line the bead rests on across the support's Z gap; `gap` gets how far below the bottom.

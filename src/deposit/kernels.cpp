@@ -162,6 +162,17 @@ int count_held(const HeightMapView& map, double u, double v, double du, double d
   return held;
 }
 
+bool held_at_least(const HeightMapView& map, double u, double v, double du, double dv,
+                   const double* s, int n, int need, int enough) {
+  int held = 0;
+  for (int t = 0; t < n; ++t) {
+    if (held >= enough) return true;
+    if (held + (n - t) < enough) return false;  // the rest cannot make it
+    held += map.rows_at(u + s[t] * du, v + s[t] * dv) >= need ? 1 : 0;
+  }
+  return held >= enough;
+}
+
 void section_offset(const BeadFrame& f, std::int32_t i, std::int32_t j, std::int32_t k, float& l,
                     float& dz) {
   const SamplePoint p = sample_point(f, static_cast<float>(i - f.ia), static_cast<float>(j - f.ja),

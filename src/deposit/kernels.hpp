@@ -103,6 +103,11 @@ struct HeightMapView {
 int count_held(const HeightMapView& map, double u, double v, double du, double dv, const double* s,
                int n, int need);
 
+/// Whether at least `enough` of count_held's points stand on a column holding `need` rows:
+/// count_held(...) >= enough, reading the map only until the answer is known.
+bool held_at_least(const HeightMapView& map, double u, double v, double du, double dv,
+                   const double* s, int n, int need, int enough);
+
 /// True when test_tile uses the AVX-512 kernel on this CPU.
 bool bead_raster_uses_avx512();
 

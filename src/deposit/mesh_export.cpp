@@ -612,10 +612,18 @@ struct RectLoop {
   }
 };
 
+/// The boundary loops of a run of rectangles, built once: loop k is
+/// ids[begin[k] .. begin[k + 1]), with its fan apex (-1: a fan from the centre).
+struct LoopChunk {
+  std::vector<std::uint32_t> ids;
+  std::vector<std::uint32_t> begin{0};
+  std::vector<std::int32_t> apex;
+};
+
 /// Triangles of the rectangles, with every rectangle corner that lies on another
 /// rectangle's side inserted into that side (no T-junctions). Vertices are found on a bit
-/// lattice; the rectangles are triangulated in parallel chunks (counted, then written at
-/// their offsets, so the result does not depend on the threads).
+/// lattice; the rectangles' loops are built in parallel chunks, counted, then the triangles
+/// written at their offsets (the result does not depend on the threads).
 Triangulated triangulate(const Solid& s, const std::vector<Rect>& rects, double voxel_mm,
                          const Vec3& grid_origin_mm) {
   const std::size_t nr = rects.size();
@@ -629,25 +637,32 @@ Triangulated triangulate(const Solid& s, const std::vector<Rect>& rects, double 
   lattice.each_vertex([&](const std::array<int, 3>& p) {
     m.vertices_mm.push_back(base + step * Vec3(p[0], p[1], p[2]));
   });
-  // Pass 1: triangles per rectangle (n - 2 for a corner fan, n from the centre).
-  std::vector<std::uint32_t> tri_begin(nr + 1, 0);
-  std::vector<std::uint8_t> centred(nr, 0);
+  // Pass 1: each rectangle's loop, and its triangles (n - 2 for a corner fan, n from the
+  // centre).
   constexpr std::size_t kChunk = 4096;
   const std::size_t chunks = (nr + kChunk - 1) / kChunk;
+  std::vector<LoopChunk> loops(chunks);
+  std::vector<std::uint32_t> tri_begin(nr + 1, 0);
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
     RectLoop loop;
-    for (std::size_t ri = c * kChunk; ri < std::min(nr, (c + 1) * kChunk); ++ri) {
+    LoopChunk& lc = loops[c];
+    const std::size_t r0 = c * kChunk, r1 = std::min(nr, (c + 1) * kChunk);
+    lc.ids.reserve(8 * (r1 - r0));
+    lc.apex.reserve(r1 - r0);
+    for (std::size_t ri = r0; ri < r1; ++ri) {
       loop.build(lattice, rects[ri]);
       const auto n = static_cast<std::uint32_t>(loop.ids.size());
-      const bool centre = loop.apex() < 0;
-      centred[ri] = centre ? 1 : 0;
-      tri_begin[ri + 1] = centre ? n : n - 2;
+      const int apex = loop.apex();
+      lc.ids.insert(lc.ids.end(), loop.ids.begin(), loop.ids.end());
+      lc.begin.push_back(static_cast<std::uint32_t>(lc.ids.size()));
+      lc.apex.push_back(apex);
+      tri_begin[ri + 1] = apex < 0 ? n : n - 2;
     }
   });
   for (std::size_t i = 0; i < nr; ++i) tri_begin[i + 1] += tri_begin[i];
   std::vector<std::uint32_t> centre_id(nr, 0);
   for (std::size_t ri = 0; ri < nr; ++ri) {
-    if (centred[ri] == 0) continue;
+    if (loops[ri / kChunk].apex[ri % kChunk] >= 0) continue;
     const Rect& r = rects[ri];
     centre_id[ri] = static_cast<std::uint32_t>(m.vertices_mm.size());
     const auto p = lattice_point(r.axis, r.c, 0, 0);
@@ -661,21 +676,20 @@ Triangulated triangulate(const Solid& s, const std::vector<Rect>& rects, double 
   out.rect_vertex.resize(nr);
   // Pass 2: the triangles at their offsets.
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
-    RectLoop loop;
+    const LoopChunk& lc = loops[c];
     for (std::size_t ri = c * kChunk; ri < std::min(nr, (c + 1) * kChunk); ++ri) {
-      const Rect& r = rects[ri];
-      loop.build(lattice, r);
-      out.rect_vertex[ri] = loop.ids[0];
-      const bool flip = r.side == 0;  // the loop runs counter-clockwise seen from +axis
+      const std::size_t k = ri - c * kChunk;
+      const std::uint32_t* l = lc.ids.data() + lc.begin[k];
+      const std::size_t n = lc.begin[k + 1] - lc.begin[k];
+      out.rect_vertex[ri] = l[0];
+      const bool flip = rects[ri].side == 0;  // the loop runs counter-clockwise seen from +axis
       std::size_t at = tri_begin[ri];
       auto add = [&](std::uint32_t a, std::uint32_t b, std::uint32_t d) {
         m.triangles[at] =
             flip ? std::array<std::uint32_t, 3>{a, d, b} : std::array<std::uint32_t, 3>{a, b, d};
         out.rect_of_triangle[at++] = static_cast<std::uint32_t>(ri);
       };
-      const auto& l = loop.ids;
-      const std::size_t n = l.size();
-      const int apex = loop.apex();
+      const int apex = lc.apex[k];
       if (apex >= 0) {
         const auto a0 = static_cast<std::size_t>(apex);
         for (std::size_t i = 1; i + 1 < n; ++i) add(l[a0], l[(a0 + i) % n], l[(a0 + i + 1) % n]);
@@ -684,13 +698,19 @@ Triangulated triangulate(const Solid& s, const std::vector<Rect>& rects, double 
       }
     }
   });
-  // Components: vertices joined along each triangle's edges.
+  // Components: the vertices of each rectangle's loop (its triangles fan over them) joined.
   out.parent.resize(m.vertices_mm.size());
   std::iota(out.parent.begin(), out.parent.end(), 0U);
-  for (const auto& t : m.triangles) {
-    const std::uint32_t root = find_root(out.parent, t[0]);
-    out.parent[find_root(out.parent, t[1])] = root;
-    out.parent[find_root(out.parent, t[2])] = root;
+  for (std::size_t c = 0; c < chunks; ++c) {
+    const LoopChunk& lc = loops[c];
+    for (std::size_t k = 0; k < lc.apex.size(); ++k) {
+      const std::uint32_t root = find_root(out.parent, lc.ids[lc.begin[k]]);
+      for (std::uint32_t i = lc.begin[k] + 1; i < lc.begin[k + 1]; ++i) {
+        const std::uint32_t r = find_root(out.parent, lc.ids[i]);
+        if (r != root) out.parent[r] = root;
+      }
+      if (lc.apex[k] < 0) out.parent[centre_id[c * kChunk + k]] = root;  // a root of its own
+    }
   }
   return out;
 }
@@ -1019,12 +1039,12 @@ Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid, const DepositMeshO
   }
   if (out.cell_voxels == 1 && options.smooth && !beads.empty()) {
     out.smoothing_skipped = too_many_to_smooth(out.mesh.triangles.size());
+    double max_shift = 0;
     if (!out.smoothing_skipped)
-      out.smoothed_vertices = detail::smooth_onto_beads(out.mesh, plane_of_triangle, grid, beads);
+      out.smoothed_vertices =
+          detail::smooth_onto_beads(out.mesh, plane_of_triangle, grid, beads, &max_shift);
+    out.error_bound_mm = std::max(out.error_bound_mm, max_shift);
   }
-  if (out.smoothed_vertices > 0)
-    out.error_bound_mm =
-        std::max(out.error_bound_mm, std::sqrt(3.0) * detail::kMaxShiftVoxels * grid.voxel_mm());
   out.volume_mm3 = enclosed_volume_mm3(out.mesh);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;

@@ -20,10 +20,12 @@
 //   infill, ...) are dropped (a purge line or skirt that lies apart); a G-code without
 //   feature labels keeps the pieces that span more than one layer.
 // - Smoothing (full resolution, beads given, at most smooth_max_triangles): each vertex moves onto
-//   the surface of the bead of the one G-code line whose voxels touch it (not where lines
-//   meet: grooves, corners), at most 0.45 voxel per axis; folded triangles and every pair of
-//   triangles of different lattice planes that cross (a local check around the moved
-//   vertices) put their vertices back on the lattice.
+//   the surface of the bead of the one G-code line whose voxels touch it, at most 0.45 voxel
+//   per axis; where lines of two layers meet (a layer groove) it moves level into the crease
+//   between their beads (up to half a bead height plus a voxel); where lines of one layer
+//   meet (the inside of a corner) it stays. Folded triangles and every pair of triangles
+//   that cross (of different lattice planes, or any with a vertex moved beyond 0.45 voxel; a
+//   local check around the moved vertices) put their vertices back on the lattice.
 // - Decimation (max_triangles): the filled volume on cells of s x s x s voxels (a cell is
 //   filled when any of its voxels is), s the smallest that fits. The coarse solid contains
 //   the fine one and every point of its surface lies within error_bound_mm of the

@@ -11,8 +11,9 @@
 
 namespace printtwin::detail {
 
-/// Largest move of a smoothed vertex from its lattice point, per axis, in voxels (< 1/2:
-/// triangles of faces that share no lattice point cannot meet).
+/// A smoothed vertex moved farther than this from its lattice point on some axis, in voxels,
+/// can bring triangles of its own lattice plane to cross: the crossing check tests those pairs
+/// too (below it, triangles of faces that share no lattice point cannot meet).
 constexpr double kMaxShiftVoxels = 0.45;
 /// A smoothed triangle may turn at most this far from its voxel face's normal...
 constexpr double kMaxTurnDegrees = 75.0;
@@ -22,12 +23,14 @@ constexpr double kMinAreaRatio = 0.05;
 constexpr double kCellVoxels = 2.0;
 
 /// Moves the vertices of a closed voxel-face mesh of `grid`'s deposit onto the surface of
-/// the nearest bead of the occupied voxels around each vertex, where that surface faces the
-/// same way and lies within a voxel (mesh_export_smooth.cpp has the safety rules).
-/// `plane_of_triangle`: the lattice plane (axis, side, coordinate) of each triangle's voxel
-/// faces. Returns the number of vertices moved.
+/// the union of the beads of the occupied voxels around each vertex, along the vertex's
+/// normal, within half a bead height plus a voxel (mesh_export_smooth.cpp has the safety
+/// rules). `plane_of_triangle`: the lattice plane (axis, side, coordinate) of each
+/// triangle's voxel faces. Returns the number of vertices moved; `max_shift_mm` (optional):
+/// the largest move.
 std::size_t smooth_onto_beads(Mesh& mesh, std::span<const std::uint32_t> plane_of_triangle,
-                              const VoxelGrid& grid, std::span<const SurfaceBead> beads);
+                              const VoxelGrid& grid, std::span<const SurfaceBead> beads,
+                              double* max_shift_mm = nullptr);
 
 /// Sorts `keys` ascending (LSD radix, stable); `vals` (optional, same length) move along.
 void radix_sort(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>* vals);

@@ -1,6 +1,7 @@
 // Writers of the as-printed mesh: binary STL and binary little-endian PLY (with an optional
 // per-vertex `quality`, the deviation), streamed through one buffer, and 3MF (an OPC zip holding
 // [Content_Types].xml, _rels/.rels and 3D/3dmodel.model, deflated with zlib).
+#include <tbb/parallel_for.h>
 #include <zlib.h>
 
 #include <nlohmann/json.hpp>
@@ -68,9 +69,26 @@ class StreamedFile {
     return Ok{};
   }
   std::string& buffer() { return buf_; }
-  /// Flushes the buffer when it is nearly full (call after appending at most 4 KiB).
-  void maybe_flush() {
-    if (buf_.size() >= kBuffer - 4096) flush();
+  /// `n` records of `bytes` each, record i written by fill(i, dest): batches of pieces are
+  /// filled in parallel, then written in order (the bytes do not depend on the threads).
+  template <class Fill>
+  void records(std::size_t n, std::size_t bytes, Fill&& fill) {
+    flush();
+    constexpr std::size_t kPiece = std::size_t{1} << 20, kBatch = 8;
+    const std::size_t per = std::max<std::size_t>(1, kPiece / bytes);
+    std::vector<std::string> pieces(kBatch);
+    for (std::size_t first = 0; first < n; first += per * kBatch) {
+      const std::size_t np = std::min(kBatch, (n - first + per - 1) / per);
+      tbb::parallel_for(std::size_t{0}, np, [&](std::size_t p) {
+        const std::size_t lo = first + p * per, hi = std::min(n, lo + per);
+        std::string& piece = pieces[p];
+        piece.resize((hi - lo) * bytes);
+        for (std::size_t i = lo; i < hi; ++i) fill(i, piece.data() + (i - lo) * bytes);
+      });
+      for (std::size_t p = 0; p < np && !failed_; ++p)
+        if (std::fwrite(pieces[p].data(), 1, pieces[p].size(), file_) != pieces[p].size())
+          failed_ = true;
+    }
   }
   Status finish() {
     flush();
@@ -114,7 +132,8 @@ Status write_stl(const Mesh& m, const std::filesystem::path& path) {
   std::memcpy(header.data(), title.data(), title.size());
   out += header;
   put(out, static_cast<std::uint32_t>(m.triangles.size()));
-  for (const auto& t : m.triangles) {
+  f.records(m.triangles.size(), 50, [&](std::size_t i, char* dest) {
+    const auto& t = m.triangles[i];
     const Vec3 &a = m.vertices_mm[t[0]], &b = m.vertices_mm[t[1]], &c = m.vertices_mm[t[2]];
     Vec3 n = (b - a).cross(c - a);
     const double len = n.norm();
@@ -127,10 +146,9 @@ Status write_stl(const Mesh& m, const std::filesystem::path& path) {
       fl[6 + k] = static_cast<float>(b[e]);
       fl[9 + k] = static_cast<float>(c[e]);
     }
-    out.append(reinterpret_cast<const char*>(fl.data()), sizeof(fl));
-    out.append(2, '\0');
-    f.maybe_flush();
-  }
+    std::memcpy(dest, fl.data(), sizeof(fl));
+    dest[48] = dest[49] = 0;
+  });
   return f.finish();
 }
 
@@ -155,19 +173,19 @@ Status write_ply(const DepositMesh& dm, std::span<const float> deviation,
   if (quality) out += "property float quality\nproperty float scalar_deviation\n";
   out += "element face " + std::to_string(m.triangles.size()) +
          "\nproperty list uchar int vertex_indices\nend_header\n";
-  for (std::size_t i = 0; i < m.vertices_mm.size(); ++i) {
-    for (int k = 0; k < 3; ++k) put(out, static_cast<float>(m.vertices_mm[i][k]));
-    if (quality) {
-      put(out, deviation[i]);
-      put(out, deviation[i]);
-    }
-    f.maybe_flush();
-  }
-  for (const auto& t : m.triangles) {
-    put(out, std::uint8_t{3});
-    for (const std::uint32_t v : t) put(out, static_cast<std::int32_t>(v));
-    f.maybe_flush();
-  }
+  f.records(m.vertices_mm.size(), quality ? 20 : 12, [&](std::size_t i, char* dest) {
+    std::array<float, 5> fl{};
+    for (int k = 0; k < 3; ++k)
+      fl[static_cast<std::size_t>(k)] = static_cast<float>(m.vertices_mm[i][k]);
+    if (quality) fl[3] = fl[4] = deviation[i];
+    std::memcpy(dest, fl.data(), quality ? 20 : 12);
+  });
+  f.records(m.triangles.size(), 13, [&](std::size_t i, char* dest) {
+    dest[0] = 3;
+    std::array<std::int32_t, 3> ids{};
+    for (std::size_t k = 0; k < 3; ++k) ids[k] = static_cast<std::int32_t>(m.triangles[i][k]);
+    std::memcpy(dest + 1, ids.data(), sizeof(ids));
+  });
   return f.finish();
 }
 
@@ -352,8 +370,8 @@ std::string deposit_mesh_summary(const DepositMesh& dm, const std::filesystem::p
   else if (dm.smoothed_vertices > 0)
     s += "smoothed: " + std::to_string(dm.smoothed_vertices) + " of " +
          std::to_string(dm.mesh.vertices_mm.size()) +
-         " vertices on the bead surfaces (each within 0.45 voxel per axis of the voxel "
-         "surface), the rest on the voxel faces\n";
+         " vertices on the bead surfaces (each within " + format_fixed(dm.error_bound_mm, 3) +
+         " mm of the voxel surface), the rest on the voxel faces\n";
   else if (dm.error_bound_mm > 0)
     s += "on the voxel faces, within " + format_fixed(dm.error_bound_mm, 3) + " mm where " +
          std::to_string(dm.repaired_cells) + " voxels were filled to make it a manifold\n";

@@ -1,21 +1,30 @@
 // Sub-voxel smoothing of the as-printed mesh: its vertices move from the voxel lattice onto
 // the true surface of the beads that laid the voxels around them (the stadium beads of the
 // deposit's model, the same ones the deviation stage places its surface points on).
+// - A vertex among the voxels of one G-code line: onto the nearest point of that line's
+//   beads, at most kMaxShiftVoxels per axis.
+// - A vertex where lines of two layers meet (a layer groove): straight in (or out) along the
+//   level part of its normal to the crease between their beads, up to half a bead height
+//   plus a voxel: the groove between stacked round beads is deeper than the voxels show.
+// - Elsewhere (lines of one layer meeting, the inside of a corner), and where the nominal
+//   bead lies more than a voxel from the vertex (squeezed, sagged), the vertex stays.
 //
 // Safety, so the mesh stays closed, 2-manifold, oriented and free of self-intersections:
 // - only positions change, never the connectivity;
-// - every vertex stays within kMaxShiftVoxels of its lattice point on each axis (< 1/2): two
-//   voxel faces that share no lattice point are at least one voxel apart on some axis, so the
-//   triangles made from them stay at least (1 - 2 kMaxShiftVoxels) voxel apart;
+// - a vertex within kMaxShiftVoxels of its lattice point on each axis (< 1/2) is "near": two
+//   voxel faces that share no lattice point are at least one voxel apart on some axis, so
+//   triangles of near vertices made from them stay at least (1 - 2 kMaxShiftVoxels) voxel
+//   apart; a crease vertex moved farther is "far";
 // - triangles that share a vertex could fold over each other: every triangle whose normal
 //   turns by more than kMaxTurn from its voxel face's normal (or whose area collapses) puts
-//   its vertices back on the lattice;
-// - triangles of one lattice plane then cannot cross: each keeps its orientation seen along
-//   the plane's normal and the plane's boundary stays simple, so the plane's moved triangles
-//   form a graph over it. Triangles of two different planes can, where the planes meet (a
-//   step, a corner): every pair of triangles of different planes whose boxes overlap, one of
-//   them moved, is tested (a uniform grid of cells of one voxel, and a conservative
-//   floating-point test: touching counts), and both put their vertices back;
+//   its vertices back on the lattice (its far ones first, when it has any);
+// - triangles of one lattice plane with near vertices then cannot cross: each keeps its
+//   orientation seen along the plane's normal and the plane's boundary stays simple, so the
+//   plane's moved triangles form a graph over it. Triangles of two different planes can,
+//   where the planes meet (a step, a corner), and a triangle with a far vertex can meet any:
+//   every such pair whose boxes overlap, one of them moved, is tested (a uniform grid of
+//   cells of two voxels, and a conservative floating-point test: touching counts), and both
+//   put their vertices back (far ones first);
 // - the last two steps repeat on the triangles whose vertices went back, until none does.
 #include <tbb/parallel_for.h>
 
@@ -35,13 +44,11 @@ namespace printtwin::detail {
 
 namespace {
 
-/// The bead surface point for a vertex at p (its outward normal `normal`), or nothing: the
-/// nearest bead of the lines of the occupied voxels touching p, when its surface there faces
-/// the same way as the mesh.
-bool bead_point(const VoxelGrid& grid, const BeadIndex& index, std::span<const SurfaceBead> beads,
-                const Vec3& p, const Vec3& normal, Vec3& target) {
-  const double v = grid.voxel_mm();
-  const Vec3 q = (p - grid.origin_mm()) / v;
+/// The lines (up to 8) of the occupied part voxels touching lattice point p, and whether
+/// they lie in more than one layer; returns how many.
+int lines_at(const VoxelGrid& grid, const Vec3& p, std::array<std::uint32_t, 8>& lines,
+             bool& layers_meet) {
+  const Vec3 q = (p - grid.origin_mm()) / grid.voxel_mm();
   std::array<int, 3> lo{}, n{};
   for (int a = 0; a < 3; ++a) {
     const double r = std::round(q[a]);
@@ -50,18 +57,89 @@ bool bead_point(const VoxelGrid& grid, const BeadIndex& index, std::span<const S
         on_plane ? static_cast<int>(r) - 1 : static_cast<int>(std::floor(q[a]));
     n[static_cast<std::size_t>(a)] = on_plane ? 2 : 1;
   }
-  std::array<std::uint32_t, 8> lines{};
-  int nl = 0;
+  int nl = 0, layer = -1;
+  layers_meet = false;
   for (int dz = 0; dz < n[2]; ++dz)
     for (int dy = 0; dy < n[1]; ++dy)
       for (int dx = 0; dx < n[0]; ++dx) {
         const auto tag = grid.tag({lo[0] + dx, lo[1] + dy, lo[2] + dz});
         if (!tag || is_auxiliary_feature(tag->feature)) continue;
+        layers_meet |= layer >= 0 && tag->layer != layer;
+        layer = tag->layer;
         if (std::find(lines.begin(), lines.begin() + nl, tag->line) == lines.begin() + nl)
           lines[static_cast<std::size_t>(nl++)] = tag->line;
       }
-  // Where voxels of several lines meet (a layer groove, the inside of a corner), the beads'
-  // surfaces cross at a crease and their nearest points jump: the lattice point stays.
+  return nl;
+}
+
+/// Where the horizontal line through p along `dir` (unit, level) meets the surface of the
+/// union of the beads of `lines` (and their neighbours along the path), within half a bead
+/// height plus a voxel of p, when that surface lies within a voxel of p.
+bool crease_point(const BeadIndex& index, std::span<const SurfaceBead> beads,
+                  std::span<const std::uint32_t> lines, double v, const Vec3& p, const Vec3& dir,
+                  Vec3& target) {
+  double height = 0;
+  // Signed distance to the union of the beads (a lower bound of the true one: the union's
+  // surface is no nearer than the nearest bead's, inside or out).
+  const auto union_distance = [&](const Vec3& q) {
+    double best = std::numeric_limits<double>::infinity();
+    for (const std::uint32_t line : lines) {
+      const BeadDistance d = index.nearest(line, q);
+      if (d.bead != kNoBead && d.signed_mm < best) {
+        best = d.signed_mm;
+        height = std::max(height, static_cast<double>(beads[d.bead].height_mm));
+      }
+    }
+    return best;
+  };
+  double f = union_distance(p);
+  if (!(std::abs(f) <= v)) return false;
+  const double limit = 0.5 * height + v;
+  // March against `dir` from outside (f > 0) or along it from inside, by the distance (never
+  // past the surface) but at least a quarter voxel (a line grazing a bead's round side closes
+  // in slowly), until the sign changes; then bisect.
+  const double sign = f > 0 ? -1.0 : 1.0;
+  double s_from = 0, s_to = 0;
+  for (;;) {
+    s_from = s_to;
+    s_to += sign * std::max(std::abs(f), 0.25 * v);
+    if (std::abs(s_to) > limit + 0.25 * v) return false;
+    const double g = union_distance(p + s_to * dir);
+    if ((g > 0) != (f > 0) || g == 0) break;
+    f = g;
+  }
+  for (int it = 0; it < 20; ++it) {
+    const double mid = 0.5 * (s_from + s_to);
+    if ((union_distance(p + mid * dir) > 0) == (sign < 0))
+      s_from = mid;
+    else
+      s_to = mid;
+  }
+  const double s = 0.5 * (s_from + s_to);
+  if (std::abs(s) > limit) return false;
+  target = p + s * dir;
+  return true;
+}
+
+/// The bead surface point for a vertex at p (its outward normal `normal`), or nothing.
+/// Occupied voxels of one line around p: the nearest point of that line's beads, when it
+/// faces the same way as the mesh and lies within a voxel (moved at most kMaxShiftVoxels per
+/// axis). Voxels of lines of two layers (a layer groove): the crease between their beads,
+/// straight in along the normal's level part, which the voxels are too coarse to show.
+/// Elsewhere (lines of one layer meeting: the inside of a corner) the vertex stays.
+bool bead_point(const VoxelGrid& grid, const BeadIndex& index, std::span<const SurfaceBead> beads,
+                const Vec3& p, const Vec3& normal, Vec3& target) {
+  std::array<std::uint32_t, 8> lines{};
+  bool layers_meet = false;
+  const int nl = lines_at(grid, p, lines, layers_meet);
+  const double v = grid.voxel_mm();
+  if (nl > 1) {
+    Vec3 level(normal.x(), normal.y(), 0.0);
+    const double len = level.norm();
+    if (!layers_meet || !(len > 0.5 * normal.norm())) return false;
+    return crease_point(index, beads, std::span<const std::uint32_t>(lines.data(), nl), v, p,
+                        level / len, target);
+  }
   if (nl != 1) return false;
   const BeadDistance best = index.nearest(lines[0], p);
   if (best.bead == kNoBead) return false;
@@ -70,7 +148,11 @@ bool bead_point(const VoxelGrid& grid, const BeadIndex& index, std::span<const S
   if (!(len > 1e-12)) return false;
   out /= len;
   if (out.dot(normal) <= 0) return false;  // the far side of the bead: another surface
-  target = best.core_point + (0.5 * beads[best.bead].height_mm) * out;
+  Vec3 d = best.core_point + (0.5 * beads[best.bead].height_mm) * out - p;
+  if (!(d.norm() <= v)) return false;
+  const double max_shift = kMaxShiftVoxels * v;
+  for (int a = 0; a < 3; ++a) d[a] = std::clamp(d[a], -max_shift, max_shift);
+  target = p + d;
   return true;
 }
 
@@ -248,17 +330,23 @@ void cell_entries(const TriangleCells& cells, const std::vector<std::uint8_t>& d
 /// The crossing pairs among the triangles of one cell (entries [b, e)), each pair found once:
 /// in the cell of the low corner of the two boxes' overlap.
 void pairs_in_cell(const TriangleCells& cells, std::span<const std::uint32_t> plane,
-                   const std::vector<std::uint8_t>& dirty, std::span<const std::uint32_t> ids,
-                   std::uint64_t key, std::vector<std::pair<Vec3, Vec3>>& box,
+                   const std::vector<std::uint8_t>& dirty, const std::vector<std::uint8_t>& far,
+                   std::span<const std::uint32_t> ids, std::uint64_t key,
+                   std::vector<std::pair<Vec3, Vec3>>& box,
                    std::vector<std::array<std::uint32_t, 2>>& found) {
   const TriTri test{cells.eps};
   const double eps = cells.eps;
   box.clear();
   for (const std::uint32_t t : ids) box.push_back(cells.box(t));
+  const auto far_moved = [&](std::uint32_t t) {
+    const auto& tr = cells.mesh.triangles[t];
+    return (far[tr[0]] | far[tr[1]] | far[tr[2]]) != 0;
+  };
   for (std::size_t i = 0; i < ids.size(); ++i)
     for (std::size_t j = i + 1; j < ids.size(); ++j) {
       const std::uint32_t ta = ids[i], tb = ids[j];
-      if ((dirty[ta] == 0 && dirty[tb] == 0) || plane[ta] == plane[tb]) continue;
+      if (dirty[ta] == 0 && dirty[tb] == 0) continue;
+      if (plane[ta] == plane[tb] && !far_moved(ta) && !far_moved(tb)) continue;
       const auto& ba = box[i];
       const auto& bb = box[j];
       if ((ba.first.array() > bb.second.array() + eps).any() ||
@@ -276,11 +364,13 @@ void pairs_in_cell(const TriangleCells& cells, std::span<const std::uint32_t> pl
     }
 }
 
-/// Triangles of different planes, at least one of them `dirty`, whose boxes overlap and that
-/// meet (TriTri): the pairs, in a deterministic order.
+/// Triangles of different planes (or of one, when a vertex of either is `far` moved), at
+/// least one of them `dirty`, whose boxes overlap and that meet (TriTri): the pairs, in a
+/// deterministic order.
 std::vector<std::array<std::uint32_t, 2>> crossing_pairs(const Mesh& mesh,
                                                          std::span<const std::uint32_t> plane,
                                                          const std::vector<std::uint8_t>& dirty,
+                                                         const std::vector<std::uint8_t>& far,
                                                          double cell_mm) {
   const std::size_t nt = mesh.triangles.size();
   std::size_t n_dirty = 0;
@@ -304,7 +394,7 @@ std::vector<std::array<std::uint32_t, 2>> crossing_pairs(const Mesh& mesh,
     for (std::size_t g = c * kGroups; g < std::min(ng, (c + 1) * kGroups); ++g) {
       const std::size_t b = starts[g], e = starts[g + 1];
       if (e - b < 2) continue;
-      pairs_in_cell(cells, plane, dirty, std::span<const std::uint32_t>(ids).subspan(b, e - b),
+      pairs_in_cell(cells, plane, dirty, far, std::span<const std::uint32_t>(ids).subspan(b, e - b),
                     keys[b], box, found[c]);
     }
   });
@@ -316,11 +406,13 @@ std::vector<std::array<std::uint32_t, 2>> crossing_pairs(const Mesh& mesh,
 }  // namespace
 
 std::size_t smooth_onto_beads(Mesh& mesh, std::span<const std::uint32_t> plane_of_triangle,
-                              const VoxelGrid& grid, std::span<const SurfaceBead> beads) {
+                              const VoxelGrid& grid, std::span<const SurfaceBead> beads,
+                              double* max_shift_mm) {
   const std::size_t nv = mesh.vertices_mm.size(), nt = mesh.triangles.size();
+  if (max_shift_mm != nullptr) *max_shift_mm = 0;
   if (beads.empty() || nv == 0 || plane_of_triangle.size() != nt) return 0;
   const double v = grid.voxel_mm();
-  const double max_shift = kMaxShiftVoxels * v;
+  const double near_shift = kMaxShiftVoxels * v;
   const BeadIndex index(beads);
   // Outward vertex normals (area-weighted; the triangles are oriented outward).
   std::vector<Vec3> normal(nv, Vec3::Zero());
@@ -331,18 +423,17 @@ std::size_t smooth_onto_beads(Mesh& mesh, std::span<const std::uint32_t> plane_o
   }
   std::vector<Vec3> moved(nv);
   std::vector<std::uint8_t> is_moved(nv, 0);
+  // Moved farther than near_shift on some axis: its triangles may cross those of their own
+  // lattice plane too, so the crossing check tests those pairs as well.
+  std::vector<std::uint8_t> far(nv, 0);
   tbb::parallel_for(std::size_t{0}, (nv + 4095) / 4096, [&](std::size_t c) {
     for (std::size_t i = c * 4096; i < std::min(nv, (c + 1) * 4096); ++i) {
       const Vec3& p = mesh.vertices_mm[i];
       Vec3 target;
       if (!bead_point(grid, index, beads, p, normal[i], target)) continue;
-      Vec3 d = target - p;
-      // A bead surface more than a voxel away does not explain this vertex (the deposit
-      // differs from the nominal bead there: squeezed, sagged or merged).
-      if (!(d.norm() <= v)) continue;
-      for (int a = 0; a < 3; ++a) d[a] = std::clamp(d[a], -max_shift, max_shift);
-      moved[i] = p + d;
+      moved[i] = target;
       is_moved[i] = 1;
+      far[i] = ((target - p).cwiseAbs().array() > near_shift).any() ? 1 : 0;
     }
   });
   normal = {};
@@ -384,20 +475,25 @@ std::size_t smooth_onto_beads(Mesh& mesh, std::span<const std::uint32_t> plane_o
     for (const auto& f : folded) hit.insert(hit.end(), f.begin(), f.end());
     const bool crossing_check = hit.empty();  // once nothing folds: the dirty ones are done
     if (crossing_check) {
-      for (const auto& pr : crossing_pairs(mesh, plane_of_triangle, dirty, kCellVoxels * v)) {
+      for (const auto& pr : crossing_pairs(mesh, plane_of_triangle, dirty, far, kCellVoxels * v)) {
         hit.push_back(pr[0]);
         hit.push_back(pr[1]);
       }
     }
     bool any = false;
-    for (const std::uint32_t ti : hit)
-      for (const std::uint32_t i : mesh.triangles[ti])
-        if (is_moved[i] != 0) {
+    for (const std::uint32_t ti : hit) {
+      // A far-moved vertex (a crease) goes back first: the others may stay.
+      const auto& tr = mesh.triangles[ti];
+      const bool any_far = (far[tr[0]] | far[tr[1]] | far[tr[2]]) != 0;
+      for (const std::uint32_t i : tr)
+        if (is_moved[i] != 0 && (!any_far || far[i] != 0)) {
           is_moved[i] = 0;
+          far[i] = 0;
           mesh.vertices_mm[i] = lattice[i];
           back[i] = 1;
           any = true;
         }
+    }
     if (!any) break;
     // Triangles around the vertices put back join the ones still to check for crossings.
     tbb::parallel_for(std::size_t{0}, nt, [&](std::size_t t) {
@@ -408,6 +504,10 @@ std::size_t smooth_onto_beads(Mesh& mesh, std::span<const std::uint32_t> plane_o
     });
     std::fill(back.begin(), back.end(), 0);
   }
+  if (max_shift_mm != nullptr)
+    for (std::size_t i = 0; i < nv; ++i)
+      if (is_moved[i] != 0)
+        *max_shift_mm = std::max(*max_shift_mm, (mesh.vertices_mm[i] - lattice[i]).norm());
   return static_cast<std::size_t>(std::count(is_moved.begin(), is_moved.end(), 1));
 }
 

@@ -36,13 +36,14 @@ void SupportTracker::check_bead(const Move& mv, const Vec3& a, const Vec3& b, co
   // need are found once.
   const bool level = a.z() == b.z();
   const int level_rows = level ? map.rows_reaching((a.z() - h) - tol) : 0;
+  // A sample is supported when at least support_fraction of its points are held.
+  const int enough = std::max(0, static_cast<int>(std::ceil(support_fraction_ * across - 1e-9)));
   for (int i = 0; i < samples; ++i) {
     const Vec3 q = a + ((i + 0.5) / samples) * (b - a);
     const double bottom = q.z() - h;
     const int need_rows = level ? level_rows : map.rows_reaching(bottom - tol);
-    const int held =
-        count_held(view, map.u(q.x()), map.v(q.y()), nxv, nyv, offsets_.data(), across, need_rows);
-    const bool supported = held >= support_fraction_ * across - 1e-9;
+    const bool supported = held_at_least(view, map.u(q.x()), map.v(q.y()), nxv, nyv,
+                                         offsets_.data(), across, need_rows, enough);
     sample(mv, a, b, i, samples, step_mm, supported,
            supported || droop == nullptr ? Drop{} : droop->sample(i));
   }

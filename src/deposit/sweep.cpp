@@ -1,5 +1,6 @@
 // The sweep (see sweep.hpp).
 #include "deposit/sweep.hpp"
+#include "core/bits.hpp"
 #include "deposit/voxel_blocks.hpp"
 
 #include <algorithm>
@@ -299,13 +300,32 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
   // A round join is laid first, outside the bead: it takes material the bead lays on earlier
   // plastic (the corner's inner overlap), which the squeeze then no longer places. (A join
   // larger than the bead's overlap, after a very short bead, adds the difference.)
-  std::size_t credit = bead.join_w_mm > 0 ? lay_join(bead, f, grid, tag, map) : 0;
+  std::size_t credit = 0;
+  if (bead.join_w_mm > 0)
+    credit =
+        lay_disc(Disc{bead.a_mm, bead.join_h_mm, bead.join_w_mm, bead.join_d, bead.d, bead.layer},
+                 grid, tag, map, nullptr);
+  // Round end caps, outside the bead's square end cuts: the bead's own material (the bead
+  // model took their volume from its section); where they fall on earlier plastic, that is
+  // overlap like the bead's own.
+  std::size_t cap_overlap = 0;
+  if (bead.cap_start)
+    lay_disc(Disc{bead.a_mm, bead.h_mm, bead.w_mm, Vec2(-bead.d), bead.d, bead.layer}, grid, tag,
+             map, &cap_overlap);
+  if (bead.cap_end)
+    lay_disc(Disc{bead.b_mm, bead.h_mm, bead.w_mm, bead.d, Vec2(-bead.d), bead.layer}, grid, tag,
+             map, &cap_overlap);
+  laid.overlap += cap_overlap;
+  if (squeezing) carry = cap_overlap;
   for_each_tile(bead, a2, b2, hw, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
     const std::size_t at = map.index(8 * bx, 8 * by);
     test_tile_layers(f, 8 * bx, 8 * by, reached_.data(), static_cast<int>(nk), t_lo, t_hi, lanes,
                      masks);
     std::size_t tile_overlap = 0;
-    for (std::size_t layer_at = 0; layer_at < nk; ++layer_at) {
+    // Top layer first: a column is raised once, by its highest voxel (raising it by a lower
+    // one after that changes nothing).
+    std::uint64_t raised = 0;
+    for (std::size_t layer_at = nk; layer_at-- > 0;) {
       const std::uint64_t mask = masks[layer_at];
       if (squeezing) hits[layer_at] = 0;
       if (mask == 0) continue;
@@ -315,8 +335,10 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
         hits[layer_at] = mask & (occ != nullptr ? occ[k & 7] : 0);
       }
       const std::size_t fresh = detail::VoxelBlocks::write_tile(grid, bx, by, k, mask, tag);
-      tile_overlap += static_cast<std::size_t>(std::popcount(mask)) - fresh;
-      map.raise_tile(at, mask, static_cast<std::uint16_t>(k + 1), bead.layer);
+      tile_overlap += static_cast<std::size_t>(popcount64(mask)) - fresh;
+      if ((mask & ~raised) != 0)
+        map.raise_tile(at, mask & ~raised, static_cast<std::uint16_t>(k + 1), bead.layer);
+      raised |= mask;
     }
     laid.overlap += tile_overlap;
     const std::size_t used = std::min(credit, tile_overlap);
@@ -335,32 +357,33 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
   return laid;
 }
 
-std::size_t BeadSweep::lay_join(const SweptBead& bead, const BeadFrame& f, VoxelGrid& grid,
-                                std::uint32_t tag, HeightMap& map) {
-  const Vec3 c = (bead.a_mm - origin_) * inv_voxel_;
+std::size_t BeadSweep::lay_disc(const Disc& disc, VoxelGrid& grid, std::uint32_t tag,
+                                HeightMap& map, std::size_t* overlap) {
+  const Vec3 c = (disc.centre_mm - origin_) * inv_voxel_;
   const double z = snap_whole(c.z());
-  const double hh = snap_whole(bead.join_h_mm * inv_voxel_);
+  const double hh = snap_whole(disc.h_mm * inv_voxel_);
   const double r = 0.5 * hh;
-  const double flat = 0.5 * (bead.join_w_mm - bead.join_h_mm) * inv_voxel_;
-  // The join's section about the start, in the wedge past the previous bead's square end
-  // (join_d . q > 0) and before this bead's square start (d . q < 0): the rest of the disc
-  // lies in the two beads.
-  BeadFrame g = f;
-  g.c0 = static_cast<float>(z - r - f.ka);
+  const double flat = 0.5 * (disc.w_mm - disc.h_mm) * inv_voxel_;
+  // The section revolved about the vertical through the centre, where m0 . q >= 0 and
+  // m1 . q < 0 (q from the centre), in a frame on the centre's voxel.
+  BeadFrame g;
+  g.ia = floor_int(c.x()), g.ja = floor_int(c.y()), g.ka = floor_int(z);
+  g.fa_x = static_cast<float>(c.x() - g.ia), g.fa_y = static_cast<float>(c.y() - g.ja);
+  g.c0 = static_cast<float>(z - r - g.ka);
   g.r = static_cast<float>(r), g.r2 = static_cast<float>(r * r), g.flat = static_cast<float>(flat);
-  g.m0_x = static_cast<float>(bead.join_d.x()), g.m0_y = static_cast<float>(bead.join_d.y());
-  g.m1_x = static_cast<float>(bead.d.x()), g.m1_y = static_cast<float>(bead.d.y()), g.e1 = 0;
-  // The wedge's box: its apex, the ends of its two edges (square to each bead) and the disc's
-  // extreme points in x and y that lie in it.
+  g.m0_x = static_cast<float>(disc.m0.x()), g.m0_y = static_cast<float>(disc.m0.y());
+  g.m1_x = static_cast<float>(disc.m1.x()), g.m1_y = static_cast<float>(disc.m1.y()), g.e1 = 0;
+  // The wedge's box: its apex, the ends of its two edges and the disc's extreme points in x
+  // and y that lie in it.
   const double reach = flat + r + kBoundSlack;
   Vec2 lo = Vec2::Zero(), hi = Vec2::Zero();
   auto take = [&](const Vec2& u) {
-    if (bead.join_d.dot(u) < -1e-9 || bead.d.dot(u) > 1e-9) return;
+    if (disc.m0.dot(u) < -1e-9 || disc.m1.dot(u) > 1e-9) return;
     lo = lo.cwiseMin(reach * u), hi = hi.cwiseMax(reach * u);
   };
-  const Vec2 n0(-bead.join_d.y(), bead.join_d.x());
-  for (const Vec2& u : {n0, Vec2(-n0), bead.n, Vec2(-bead.n), Vec2(Vec2::UnitX()),
-                        Vec2(-Vec2::UnitX()), Vec2(Vec2::UnitY()), Vec2(-Vec2::UnitY())})
+  const Vec2 n0(-disc.m0.y(), disc.m0.x()), n1(-disc.m1.y(), disc.m1.x());
+  for (const Vec2& u : {n0, Vec2(-n0), n1, Vec2(-n1), Vec2(Vec2::UnitX()), Vec2(-Vec2::UnitX()),
+                        Vec2(Vec2::UnitY()), Vec2(-Vec2::UnitY())})
     take(u);
   const int i_lo = std::max(0, floor_int(c.x() + lo.x() - kBoundSlack));
   const int i_hi = std::min(nx_ - 1, floor_int(c.x() + hi.x() + kBoundSlack));
@@ -375,14 +398,21 @@ std::size_t BeadSweep::lay_join(const SweptBead& bead, const BeadFrame& f, Voxel
       const int x_lo = std::max(i_lo - 8 * bx, 0), x_hi = std::min(i_hi - 8 * bx, 7);
       const unsigned lanes = ((2u << x_hi) - 1u) & ~((1u << x_lo) - 1u);
       const std::size_t at = map.index(8 * bx, 8 * by);
-      for (int k = k_lo; k <= k_hi; ++k) {
+      std::uint64_t raised = 0;  // top layer first: each column raised by its highest voxel
+      for (int k = k_hi; k >= k_lo; --k) {
         std::uint64_t mask = test_tile_disc(g, 8 * bx, 8 * by, k, row_lo, row_hi, lanes);
         if (mask == 0) continue;
-        const std::uint64_t* occ = detail::VoxelBlocks::block_occupancy(grid, bx, by, k >> 3);
-        mask &= ~(occ != nullptr ? occ[k & 7] : 0);
-        if (mask == 0) continue;
-        filled += detail::VoxelBlocks::write_tile(grid, bx, by, k, mask, tag);
-        map.raise_tile(at, mask, static_cast<std::uint16_t>(k + 1), bead.layer);
+        if (overlap == nullptr) {  // a join: only the free voxels
+          const std::uint64_t* occ = detail::VoxelBlocks::block_occupancy(grid, bx, by, k >> 3);
+          mask &= ~(occ != nullptr ? occ[k & 7] : 0);
+          if (mask == 0) continue;
+        }
+        const std::size_t fresh = detail::VoxelBlocks::write_tile(grid, bx, by, k, mask, tag);
+        filled += fresh;
+        if (overlap != nullptr) *overlap += static_cast<std::size_t>(popcount64(mask)) - fresh;
+        if ((mask & ~raised) != 0)
+          map.raise_tile(at, mask & ~raised, static_cast<std::uint16_t>(k + 1), disc.layer);
+        raised |= mask;
       }
     }
   }
@@ -454,7 +484,7 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
   put_.assign(nk, 0);
   auto place = [&](std::size_t n, std::uint64_t room) {
     const std::size_t left = need - placed;
-    const auto count = static_cast<std::size_t>(std::popcount(room));
+    const auto count = static_cast<std::size_t>(popcount64(room));
     const std::uint64_t mask = count <= left ? room : lowest_bits(room, left);
     placed += std::min(count, left);
     put_[n] |= mask;

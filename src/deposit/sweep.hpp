@@ -33,6 +33,10 @@ struct SweptBead {
   /// through a_mm, fills what neither bead covers. join_w_mm 0: no join.
   double join_h_mm = 0, join_w_mm = 0;
   Vec2 join_d = Vec2::UnitX();  ///< the bead before's direction (unit, xy)
+  /// Round end caps: the section revolved half a turn about the vertical through a_mm (behind
+  /// the start) and b_mm (past the end), the disc a nozzle leaves where a path starts or
+  /// stops. The ends must be cut square (m0 = m1 = d).
+  bool cap_start = false, cap_end = false;
 };
 
 class BeadSweep {
@@ -57,11 +61,20 @@ class BeadSweep {
   template <class Fn>
   void for_each_tile(const SweptBead& bead, const Vec2& a2, const Vec2& b2, double hw,
                      Fn&& fn) const;
-  /// The round join at the start of `bead` (frame f): fills the free voxels of the join's
-  /// section revolved about the vertical through the start that the bead does not cover, with
-  /// tag `tag`, and raises the height map under them. Returns how many it filled.
-  std::size_t lay_join(const SweptBead& bead, const BeadFrame& f, VoxelGrid& grid,
-                       std::uint32_t tag, HeightMap& map);
+  /// A section (height h_mm, width w_mm) revolved about the vertical through centre_mm, in
+  /// the wedge where m0 . q >= 0 and m1 . q < 0 (q from the centre, xy): a round join or an
+  /// end cap.
+  struct Disc {
+    Vec3 centre_mm;
+    double h_mm, w_mm;
+    Vec2 m0, m1;
+    std::int32_t layer;  ///< HeightMap::layer_code
+  };
+  /// Lays `disc` with tag `tag` and raises the height map under it. `overlap` nullptr (a
+  /// join): fills only the free voxels; otherwise writes them all and adds those that were
+  /// occupied already to *overlap. Returns how many free voxels it filled.
+  std::size_t lay_disc(const Disc& disc, VoxelGrid& grid, std::uint32_t tag, HeightMap& map,
+                       std::size_t* overlap);
   /// Where a bead's squeezed material may go sideways: voxel centres whose offset from the
   /// centre line (voxel units, along +n) lies in [-neg, pos]. A side against earlier plastic
   /// is open (infinite); a side open to air ends at the bead's own flat part, so the grooves

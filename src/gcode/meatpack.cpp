@@ -159,7 +159,8 @@ struct Unpacker {
 
 }  // namespace
 
-bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size, std::string& why) {
+bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size, std::string& why,
+                     bool fast) {
   // Each input byte gives at most two characters, each of which may get a space before it.
   if (buf.size() < 4 * in.size() + 8) buf.resize(4 * in.size() + 8);
   char* const begin = buf.data();
@@ -189,10 +190,14 @@ bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size, std::st
 
   const auto* bytes = reinterpret_cast<const std::uint8_t*>(in.data());
   const std::size_t n = in.size();
-  for (std::size_t i = 0; i < n; ++i) {
-    // Fast paths, when no pair, character or command is pending: runs of packed digits and
-    // '.' (the bulk of G-code), and the plain bytes of comment lines.
-    if (m.full_pending == 0 && m.signals == 0 && !m.command_next) {
+  std::size_t i = 0;
+  while (i < n) {
+    // Fast paths, when no pair, character or command is pending (the machine's state is
+    // then just the packing and "no spaces" modes): whole packed pairs and the whole-byte
+    // characters they announce, with runs of digits and '.' (the bulk of G-code) apart;
+    // in plain mode, the bytes of comment lines. Anything else (0xFF, a pair cut by the
+    // end of the block) goes through the machine byte by byte.
+    if (fast && m.full_pending == 0 && m.signals == 0 && !m.command_next) {
       if (m.packing) {
         while (i < n && kPlainPair[bytes[i]]) {
           o[0] = kCodes[bytes[i] & 15];
@@ -200,13 +205,46 @@ bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size, std::st
           o += 2;
           ++i;
         }
+        if (i == n) break;
+        const std::uint8_t b = bytes[i];
+        const std::uint8_t lo = b & 15, hi = b >> 4;
+        if (b != kSignal) {
+          if (lo != kNotPacked && hi != kNotPacked) {
+            const char first = m.unpacked(lo);
+            put(first);
+            if (first != '\n') put(m.unpacked(hi));
+            ++i;
+            continue;
+          }
+          if (lo != kNotPacked && m.unpacked(lo) == '\n') {  // the high nibble is padding
+            put('\n');
+            ++i;
+            continue;
+          }
+          const std::size_t whole = lo == kNotPacked && hi == kNotPacked ? 2 : 1;
+          if (i + whole < n && bytes[i + 1] != kSignal && (whole == 1 || bytes[i + 2] != kSignal)) {
+            if (whole == 2) {
+              put(static_cast<char>(bytes[i + 1]));
+              put(static_cast<char>(bytes[i + 2]));
+            } else if (lo == kNotPacked) {
+              put(static_cast<char>(bytes[i + 1]));
+              put(m.unpacked(hi));
+            } else {
+              put(m.unpacked(lo));
+              put(static_cast<char>(bytes[i + 1]));
+            }
+            i += whole + 1;
+            continue;
+          }
+        }
       } else if (!g_line) {
         while (i < n && bytes[i] != kSignal && bytes[i] != '\n' && bytes[i] != 'G')
           *o++ = prev = static_cast<char>(bytes[i++]);
+        if (i == n) break;
       }
-      if (i == n) break;
     }
     if (!m.step(bytes, i, put, why)) return false;
+    ++i;
   }
   size = static_cast<std::size_t>(o - begin);
   return m.finish(why);

@@ -25,8 +25,9 @@ namespace printtwin::detail {
 /// as needed and never shrunk, so a buffer reused block after block is neither cleared nor
 /// reallocated. False, with `why` set (naming the byte offset in the block's data), on an
 /// unknown command byte or a block that ends inside a command or before a pending
-/// full-width character.
+/// full-width character. `fast` = false runs every byte through the byte-at-a-time state
+/// machine alone: the reference the tests and the fuzz target hold the fast paths to.
 [[nodiscard]] bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size,
-                                   std::string& why);
+                                   std::string& why, bool fast = true);
 
 }  // namespace printtwin::detail

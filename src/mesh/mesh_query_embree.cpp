@@ -16,6 +16,7 @@
 
 #include "mesh/kernels.hpp"
 #include "mesh/mesh_query_ball.hpp"
+#include "mesh/mesh_query_rays.hpp"
 #include "printtwin/mesh_query.hpp"
 
 namespace printtwin {
@@ -353,15 +354,33 @@ void lowest_triangle_on_ties(const RTCFilterFunctionNArguments* args) {
   ctx->best_t = t;
   ctx->best_prim = prim;
 }
-}  // namespace
 
-std::optional<RayHit> MeshQuery::first_hit(const Vec3& origin, const Vec3& dir, double t_min,
-                                           double t_max) const {
-  const double len = dir.norm();
-  if (!(len > 0)) return std::nullopt;
-  const Vec3 d = dir / len;
-  const Vec3 o = origin - impl_->center;
-  RTCRayHit rh{};
+/// Stream tracing's tie rule: the same as lowest_triangle_on_ties, per ray of the stream
+/// (each ray's id is its index).
+struct StreamTieBreakContext {
+  RTCIntersectContext base;  // first member: Embree passes &base to the filter
+  float* best_t = nullptr;
+  unsigned* best_prim = nullptr;
+};
+
+void lowest_triangle_on_ties_stream(const RTCFilterFunctionNArguments* args) {
+  auto* ctx = reinterpret_cast<StreamTieBreakContext*>(args->context);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] == 0) continue;
+    const unsigned id = RTCRayN_id(args->ray, args->N, i);
+    const float t = RTCRayN_tfar(args->ray, args->N, i);
+    const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
+    if (t == ctx->best_t[id] && prim > ctx->best_prim[id]) {
+      args->valid[i] = 0;
+      continue;
+    }
+    ctx->best_t[id] = t;
+    ctx->best_prim[id] = prim;
+  }
+}
+
+/// Embree's ray for origin + t * dir (dir unit), t in (t_min, t_max], in the BVH's frame.
+void set_ray(RTCRayHit& rh, const Vec3& o, const Vec3& d, double t_min, double t_max) {
   rh.ray.org_x = static_cast<float>(o.x());
   rh.ray.org_y = static_cast<float>(o.y());
   rh.ray.org_z = static_cast<float>(o.z());
@@ -374,24 +393,69 @@ std::optional<RayHit> MeshQuery::first_hit(const Vec3& origin, const Vec3& dir, 
   rh.ray.flags = 0;
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  TieBreakContext context;
-  rtcInitIntersectContext(&context.base);
-  context.base.filter = lowest_triangle_on_ties;
-  rtcIntersect1(impl_->scene, &context.base, &rh);
+}
+
+/// The hit of a traced ray with the triangle's unit normal: the one kept for the plane bound
+/// (the same division); a sliver keeps none there, a query for rays only keeps no bounds.
+std::optional<RayHit> ray_hit(const Mesh& mesh, const std::vector<TriangleBounds>& bounds,
+                              const RTCRayHit& rh) {
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
-  // The unit normal kept for the plane bound (the same division); a sliver keeps none there,
-  // a query for rays only keeps no bounds.
   Vec3 n = Vec3::Zero();
-  if (!impl_->bounds.empty()) {
-    const TriangleBounds& tb = impl_->bounds[rh.hit.primID];
+  if (!bounds.empty()) {
+    const TriangleBounds& tb = bounds[rh.hit.primID];
     n = Vec3(tb.n[0], tb.n[1], tb.n[2]);
   }
   if (n.isZero(0)) {
-    n = triangle_normal(impl_->mesh, rh.hit.primID);
+    n = triangle_normal(mesh, rh.hit.primID);
     const double nl = n.norm();
     if (nl > 0) n /= nl;
   }
   return RayHit{static_cast<double>(rh.ray.tfar), rh.hit.primID, n};
+}
+}  // namespace
+
+std::optional<RayHit> MeshQuery::first_hit(const Vec3& origin, const Vec3& dir, double t_min,
+                                           double t_max) const {
+  const double len = dir.norm();
+  if (!(len > 0)) return std::nullopt;
+  RTCRayHit rh{};
+  set_ray(rh, origin - impl_->center, dir / len, t_min, t_max);
+  TieBreakContext context;
+  rtcInitIntersectContext(&context.base);
+  context.base.filter = lowest_triangle_on_ties;
+  rtcIntersect1(impl_->scene, &context.base, &rh);
+  return ray_hit(impl_->mesh, impl_->bounds, rh);
+}
+
+void detail::first_hits(const MeshQuery& query, std::span<const RayRequest> rays,
+                        std::span<std::optional<RayHit>> out) {
+  const auto& impl = MeshQueryAccess::impl(query);
+  thread_local std::vector<RTCRayHit> stream;
+  thread_local std::vector<float> best_t;
+  thread_local std::vector<unsigned> best_prim;
+  stream.assign(rays.size(), RTCRayHit{});
+  best_t.assign(rays.size(), std::numeric_limits<float>::infinity());
+  best_prim.assign(rays.size(), RTC_INVALID_GEOMETRY_ID);
+  for (std::size_t i = 0; i < rays.size(); ++i) {
+    const RayRequest& r = rays[i];
+    const double len = r.dir.norm();
+    if (len > 0) {
+      set_ray(stream[i], r.origin - impl.center, r.dir / len, r.t_min, r.t_max);
+    } else {  // no direction: no hit (an empty interval)
+      set_ray(stream[i], Vec3::Zero(), Vec3::UnitX(), 1, 0);
+    }
+    stream[i].ray.id = static_cast<unsigned>(i);
+  }
+  StreamTieBreakContext context;
+  rtcInitIntersectContext(&context.base);
+  context.base.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  context.base.filter = lowest_triangle_on_ties_stream;
+  context.best_t = best_t.data();
+  context.best_prim = best_prim.data();
+  rtcIntersect1M(impl.scene, &context.base, stream.data(), static_cast<unsigned>(rays.size()),
+                 sizeof(RTCRayHit));
+  for (std::size_t i = 0; i < rays.size(); ++i)
+    out[i] = rays[i].dir.norm() > 0 ? ray_hit(impl.mesh, impl.bounds, stream[i]) : std::nullopt;
 }
 
 int MeshQuery::crossings(const Vec3& origin, const Vec3& dir) const {

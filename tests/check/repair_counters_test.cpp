@@ -2,6 +2,7 @@
 // each defect must show in its own counter and nowhere else.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <utility>
 
 #include "printtwin/check.hpp"
@@ -88,15 +89,21 @@ TEST(RepairCounters, SeamOfSplitVerticesIsStitched) {
   expect_counters(repaired(m), 8, 0, 0, 0, 0);
 }
 
+/// The 10 mm cube with its +z face on its own corners `dz` above the sides: a seam of 8
+/// open facet edges.
+Mesh seam_cube(double dz) {
+  Mesh m = test::make_cube_mm(10);
+  for (std::uint32_t v = 4; v < 8; ++v) m.vertices_mm.push_back(m.vertices_mm[v] + Vec3(0, 0, dz));
+  for (std::size_t f = 2; f < 4; ++f)
+    for (auto& v : m.triangles[f]) v += 4;
+  return m;
+}
+
 TEST(RepairCounters, NearbyEdgesAreSeamsThatAToleranceWouldClose) {
   // The +z face on its own corners 0.001 mm above the sides (as bench/repair_vs_admesh.sh's
   // cube_seam): 4 open edges on each side of the seam, every one within 0.01 mm of a
   // partner running the other way. admesh --nearby joins them (its 8 edges fixed).
-  Mesh m = test::make_cube_mm(10);
-  for (std::uint32_t v = 4; v < 8; ++v)
-    m.vertices_mm.push_back(m.vertices_mm[v] + Vec3(0, 0, 0.001));
-  for (std::size_t f = 2; f < 4; ++f)
-    for (auto& v : m.triangles[f]) v += 4;
+  Mesh m = seam_cube(0.001);
   EXPECT_EQ(measure_repair(m, m).nearby_edges, 8U);
   // 0.1 mm apart: beyond the tolerance.
   for (std::size_t v = 8; v < 12; ++v) m.vertices_mm[v].z() += 0.099;
@@ -106,6 +113,51 @@ TEST(RepairCounters, NearbyEdgesAreSeamsThatAToleranceWouldClose) {
   hole.triangles.pop_back();
   EXPECT_EQ(measure_repair(hole, hole).nearby_edges, 0U);
   EXPECT_EQ(measure_repair(test::make_cube_mm(10), test::make_cube_mm(10)).nearby_edges, 0U);
+}
+
+TEST(RepairCounters, TheWeldClosesASeamAsAdmeshNearbyDoes) {
+  // admesh (default, every fix) on this seam: 8 edges fixed, nothing removed or added.
+  const Mesh m = seam_cube(0.001);
+  // Default: the shortest edge (10 mm) + 0.01 % of the diagonal.
+  EXPECT_DOUBLE_EQ(nearby_weld_tolerance_mm(m), 10 + 1e-4 * std::sqrt(200 + 10.001 * 10.001));
+  auto r = repair_mesh(m);
+  ASSERT_TRUE(r.ok());
+  EXPECT_TRUE(r->after.closed);
+  expect_counters(r->counters, 8, 0, 0, 0, 0);
+  EXPECT_EQ(r->counters.nearby_edges, 8U);
+  EXPECT_EQ(r->mesh.triangles.size(), 12U);
+  ASSERT_FALSE(r->changes.empty());
+  EXPECT_EQ(r->changes.front().code, "welded_vertices");
+  EXPECT_EQ(r->changes.front().count, 4U);
+  // The lowest-numbered vertex of each joined pair stays: the sides' corners.
+  for (const auto& v : r->mesh.vertices_mm) EXPECT_TRUE(v.z() == 0.0 || v.z() == 10.0);
+
+  // Without the weld the top is a loose piece: removed, and the hole filled flat.
+  RepairSettings no_weld;
+  no_weld.weld_tolerance_mm = 0;
+  auto plain = repair_mesh(m, no_weld);
+  ASSERT_TRUE(plain.ok());
+  expect_counters(plain->counters, 0, 2, 2, 0, 1);
+  // A stated tolerance below the seam's width leaves it open too.
+  RepairSettings tight;
+  tight.weld_tolerance_mm = 0.0005;
+  auto narrow = repair_mesh(m, tight);
+  ASSERT_TRUE(narrow.ok());
+  EXPECT_EQ(narrow->counters.nearby_edges, 0U);
+  expect_counters(narrow->counters, 0, 2, 2, 0, 1);
+}
+
+TEST(RepairCounters, TheWeldNeverCollapsesAHole) {
+  // The default tolerance is the shortest edge (10 mm here): the edges around a missing
+  // facet are each other's nearest open edges, but joining their ends would collapse the
+  // faces beside the hole. The hole is filled instead, as admesh does.
+  Mesh hole = test::make_cube_mm(10);
+  hole.triangles.pop_back();
+  auto r = repair_mesh(hole);
+  ASSERT_TRUE(r.ok());
+  EXPECT_TRUE(r->after.closed);
+  expect_counters(r->counters, 0, 0, 1, 0, 1);
+  for (const auto& c : r->changes) EXPECT_NE(c.code, "welded_vertices");
 }
 
 TEST(RepairCounters, DegenerateAndStrayFacetsAreRemoved) {

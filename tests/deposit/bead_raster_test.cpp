@@ -156,6 +156,9 @@ TEST(BeadRaster, CountHeldMatchesAColumnByColumnCount) {
     int expect = 0;
     for (const double st : s) expect += column(x + st * dx, y + st * dy) >= need ? 1 : 0;
     ASSERT_EQ(count_held(map, x, y, dx, dy, s.data(), n, need), expect) << "trial " << trial;
+    for (int enough = 0; enough <= n + 1; ++enough)
+      ASSERT_EQ(held_at_least(map, x, y, dx, dy, s.data(), n, need, enough), expect >= enough)
+          << "trial " << trial << " enough " << enough;
     total += expect;
   }
   EXPECT_GT(total, 1000);

@@ -66,9 +66,10 @@ TEST(DepositSupport, OverhangFacesAt60And75DegreesAreFlagged) {
   double reported_mm = 0;
   for (const auto& s : r->unsupported) reported_mm += s.length_mm;
   EXPECT_NEAR(reported_mm, 2 * (layers - 1) * 20.0, 0.5);
-  // Near the 50 % threshold (45 deg) a few short stretches fall under min_unsupported_mm.
+  // Near the 50 % threshold (45 deg) a few short stretches fall under min_unsupported_mm (the
+  // beads pay for their round end caps: 1.6 % less section, 56 % supported becomes 55 %).
   EXPECT_GE(r->unsupported_mm, reported_mm);
-  EXPECT_LT(r->unsupported_mm, reported_mm + 10.0);
+  EXPECT_LT(r->unsupported_mm, reported_mm + 40.0);
   // Each stretch names the G-code line of its bead.
   for (const auto& s : r->unsupported) {
     EXPECT_EQ(s.first_line, s.last_line);

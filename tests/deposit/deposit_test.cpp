@@ -186,9 +186,9 @@ TEST(DepositBead, SingleLineVolumeMatchesExtrusion) {
     EXPECT_NEAR(r->bbox_mm.min.z(), 0.0, 1e-9);
     EXPECT_NEAR(r->bbox_mm.max.z(), 0.2, 1e-9);
     EXPECT_TRUE(r->findings.empty());
-    if (angle_deg == 0.0) {
+    if (angle_deg == 0.0) {  // round ends: half a bead width past each end
       EXPECT_NEAR(r->bbox_mm.size().y(), 0.45, 0.051);
-      EXPECT_NEAR(r->bbox_mm.size().x(), 25.0, 0.051);
+      EXPECT_NEAR(r->bbox_mm.size().x(), 25.45, 0.051);
     }
   }
 }
@@ -262,7 +262,9 @@ TEST(DepositBead, SingleWallPrintVolumeMatchesExtrusion) {
   EXPECT_NEAR(r->volume_mm3 / r->extruded_mm3, 1.0, 0.02);
   // The 90 degree corners are round joins: the beads' square ends overlap inside the corner
   // (counted) and the join places that material outside it, but for (1 - pi/4) hw^2 per corner.
-  EXPECT_LT(r->overlap_mm3 - r->squeezed_mm3, 0.005 * r->extruded_mm3);
+  // Each loop closes on its own start (no seam gap): its round end cap lies on the first bead
+  // and the last bead on the round start cap, two caps (0.0132 mm3 each) per layer of 5.7 mm3.
+  EXPECT_LT(r->overlap_mm3 - r->squeezed_mm3, 0.01 * r->extruded_mm3);
   EXPECT_NEAR(r->bbox_mm.max.z(), 8.0, 1e-9);
   EXPECT_NEAR(r->bbox_mm.size().x(), 20.45, 0.06);
   EXPECT_TRUE(r->findings.empty());
@@ -333,6 +335,88 @@ TEST(DepositBead, SharpHairpinIsJoinedRoundToTheDisc) {
   EXPECT_GT(r->squeezed_mm3, 0.0);
   EXPECT_LE(r->squeezed_mm3, r->overlap_mm3);
   EXPECT_LE(r->volume_mm3, r->extruded_mm3);
+}
+
+// A path's start and end are round: the nozzle's footprint is a disc, so a straight bead
+// ends in half-discs of its half-width, made of its own material.
+TEST(DepositBead, PathEndsAreRoundHalfDiscs) {
+  const auto profile = ender3_marlin2();
+  BeadWriter w(profile);
+  const double h = 0.2, bw = 0.45, hw = 0.5 * bw;
+  const Vec3 a(50, 50, h), b(60, 50, h);
+  w.travel(a);
+  w.extrude(b, bw, h);
+  DepositSettings lay_only;
+  lay_only.conserve_volume = false;
+  auto r = deposit_moves(w.moves, profile, lay_only);
+  ASSERT_TRUE(r.ok());
+  // At mid-height, around each end: filled to the disc's edge, empty past it, at every angle.
+  auto filled = [&](const Vec3& c, double angle, double rho) {
+    const Vec3 p = c + rho * Vec3(std::cos(angle), std::sin(angle), 0);
+    return r->grid.occupied(r->grid.key_of(Vec3(p.x(), p.y(), 0.5 * h)));
+  };
+  for (double deg = -80; deg <= 80; deg += 20) {
+    const double t = deg * std::numbers::pi / 180.0;
+    for (double rho = 0.02; rho <= hw - 0.06; rho += 0.025) {
+      EXPECT_TRUE(filled(b, t, rho)) << deg << " " << rho;
+      EXPECT_TRUE(filled(a, std::numbers::pi + t, rho)) << deg << " " << rho;
+    }
+    for (double rho = hw + 0.05; rho <= hw + 0.2; rho += 0.025) {
+      EXPECT_FALSE(filled(b, t, rho)) << deg << " " << rho;
+      EXPECT_FALSE(filled(a, std::numbers::pi + t, rho)) << deg << " " << rho;
+    }
+  }
+  EXPECT_NEAR(r->bbox_mm.min.x(), a.x() - hw, 0.051);
+  EXPECT_NEAR(r->bbox_mm.max.x(), b.x() + hw, 0.051);
+  // The caps are the bead's own material: the section is narrower by their volume.
+  EXPECT_NEAR(r->volume_mm3 / r->extruded_mm3, 1.0, 0.01);
+  EXPECT_LT(r->overlap_mm3, 1e-9);
+}
+
+// A perimeter loop with a seam gap (the path stops 0.06 mm short of its start, at a corner):
+// the two round ends fill the seam's outer corner out to the bead's half-width, as a round
+// join does at the other corners; square ends left a quarter disc of it empty.
+TEST(DepositBead, LoopSeamCornerIsFilledByTheRoundEnds) {
+  const auto profile = ender3_marlin2();
+  const double h = 0.2, bw = 0.45, hw = 0.5 * bw, gap = 0.06;
+  BeadWriter w(profile);
+  for (int layer = 0; layer < 3; ++layer) {
+    const double z = h * (layer + 1);
+    w.layer = layer;
+    w.travel({50, 50, z});
+    w.extrude({60, 50, z}, bw, h);
+    w.extrude({60, 60, z}, bw, h);
+    w.extrude({50, 60, z}, bw, h);
+    w.extrude({50, 50 + gap, z}, bw, h);
+  }
+  DepositSettings lay_only;  // the beads as laid (the squeeze places the seam's overlap)
+  lay_only.conserve_volume = false;
+  auto r = deposit_moves(w.moves, profile, lay_only);
+  ASSERT_TRUE(r.ok());
+  const double diag = std::numbers::pi * 1.25;  // outward from the seam corner
+  auto filled = [&](const Vec3& c, double angle, double rho, double z) {
+    const Vec3 p = c + rho * Vec3(std::cos(angle), std::sin(angle), 0);
+    return r->grid.occupied(r->grid.key_of(Vec3(p.x(), p.y(), z)));
+  };
+  for (int layer = 0; layer < 3; ++layer) {
+    const double z = h * (layer + 0.5);
+    for (double rho = 0.0; rho <= hw - 0.06; rho += 0.025) {
+      EXPECT_TRUE(filled({50, 50, 0}, diag, rho, z)) << layer << " " << rho;
+      EXPECT_TRUE(filled({60, 60, 0}, diag - std::numbers::pi, rho, z)) << layer << " " << rho;
+    }
+    for (double rho = hw + 0.05; rho <= hw + 0.2; rho += 0.025)
+      EXPECT_FALSE(filled({50, 50, 0}, diag, rho, z)) << layer << " " << rho;
+  }
+  // The seam corner reaches as far out as the joined corners do.
+  EXPECT_NEAR(r->bbox_mm.min.x(), 50 - hw, 0.051);
+  EXPECT_NEAR(r->bbox_mm.min.y(), 50 - hw, 0.051);
+  // Where the round ends lie on each other is overlap; squeezed, the volume is kept.
+  EXPECT_GT(r->overlap_mm3, 0.0);
+  DepositSettings conserve;
+  conserve.conserve_volume = true;
+  auto kept = deposit_moves(w.moves, profile, conserve);
+  ASSERT_TRUE(kept.ok());
+  EXPECT_NEAR(kept->volume_mm3 / kept->extruded_mm3, 1.0, 0.005);
 }
 
 TEST(DepositBead, ZigZagInfillKeepsEveryBead) {

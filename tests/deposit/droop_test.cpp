@@ -112,6 +112,25 @@ TEST(DroopModel, KnotsFollowTheDropsWithinTolerance) {
   }
 }
 
+// A long bridge, as the deposit samples it (40 mm at 0.05 mm, a candidate every 0.5 mm):
+// the parabola bends little from one candidate to the next, but the lowering must follow it
+// over the whole span, its mid-span sag included.
+TEST(DroopModel, KnotsFollowALongSagOverItsWholeSpan) {
+  const auto m = stock();
+  std::vector<double> drops(800);
+  for (std::size_t i = 0; i < drops.size(); ++i)
+    drops[i] = m.bridge_sag(40, 40 * (i + 0.5) / 800.0);
+  std::vector<DropKnot> knots;
+  drop_knots(drops, 10, 0.01, knots);
+  std::size_t k = 1;
+  for (std::size_t i = 0; i < drops.size(); ++i) {
+    const double t = (i + 0.5) / 800.0;
+    while (knots[k].t < t) ++k;
+    const double f = (t - knots[k - 1].t) / (knots[k].t - knots[k - 1].t);
+    EXPECT_NEAR(knots[k - 1].mm + f * (knots[k].mm - knots[k - 1].mm), drops[i], 0.012) << i;
+  }
+}
+
 TEST(DroopModel, ElephantFootWidensTheOpenSideAndKeepsTheArea) {
   const double w = 0.45, h = 0.2;
   const double area = (w - h) * h + std::numbers::pi * h * h / 4;

@@ -105,7 +105,13 @@ TEST(DepositMeshSmooth, VerticesGoOntoTheBeadsAndTheMeshStaysClosed) {
   const double d_stair = mean_bead_distance(stair->mesh, beads);
   const double d_smooth = mean_bead_distance(smooth->mesh, beads);
   EXPECT_LT(d_smooth, 0.8 * d_stair) << d_smooth << " vs " << d_stair;
-  EXPECT_GE(smooth->error_bound_mm, std::sqrt(3.0) * detail::kMaxShiftVoxels * 0.05 - 1e-12);
+  // The bound is the largest move; the layer grooves' vertices go deeper than half a voxel.
+  double largest = 0;
+  for (std::size_t i = 0; i < smooth->mesh.vertices_mm.size(); ++i)
+    largest = std::max(largest, (smooth->mesh.vertices_mm[i] - stair->mesh.vertices_mm[i]).norm());
+  EXPECT_DOUBLE_EQ(smooth->error_bound_mm, largest);
+  EXPECT_GT(largest, 0.5 * 0.05);
+  EXPECT_LE(largest, 0.5 * 0.2 + 0.05 + 1e-9);  // half a bead height plus a voxel
 }
 
 TEST(DepositMeshSmooth, GroovesBetweenLayersShowOnTheOuterWall) {
@@ -122,8 +128,10 @@ TEST(DepositMeshSmooth, GroovesBetweenLayersShowOnTheOuterWall) {
     if (std::abs(f - 0.5) < 0.15) xmin_mid = std::min(xmin_mid, v.x());
     if (f < 0.15 || f > 0.85) xmax_groove = std::max(xmax_groove, v.x());
   }
-  EXPECT_LT(xmin_mid, 20.03);     // the bead's outer edge (x = 20)
-  EXPECT_GT(xmax_groove, 20.04);  // the groove, about R = 0.1 deep
+  EXPECT_LT(xmin_mid, 20.03);  // the bead's outer edge (x = 20)
+  // The groove between stacked round beads, R = 0.1 deep: the crease vertices reach it
+  // (the voxels alone show at most a voxel of it).
+  EXPECT_GT(xmax_groove, 20.08);
 }
 
 TEST(DepositMeshSmooth, NoBeadsOrDecimationKeepTheVoxelFaces) {

@@ -261,6 +261,18 @@ const std::string kGcodeMeatpacked =
     ";LAYER_CHANGE\n;Z:0.2\nM104 S215\nG1 X10.5 Y20 Z.2 E.3 F1200\nG1 X110.25 Y-2.5 E12.75\n"
     ";TYPE:External perimeter\nG2 X20 Y20 I5 J5 E1.2\nG28 W\nM204 P4000 R1200 T4000\nG92 E0\n";
 
+/// Bytes as \xNN escapes (failure messages).
+std::string printable_for_test(std::string_view bytes) {
+  std::string s;
+  for (unsigned char c : bytes) {
+    static constexpr char kHex[] = "0123456789ABCDEF";
+    s += "\\x";
+    s += kHex[c >> 4];
+    s += kHex[c & 15];
+  }
+  return s;
+}
+
 std::string decoded(const std::string& bytes) {
   auto text = decode_bgcode(bytes, "test.bgcode");
   EXPECT_TRUE(text.ok()) << (text.ok() ? "" : text.error().describe());
@@ -345,6 +357,46 @@ TEST(Bgcode, DecoderCornerCases) {
       put32(file, static_cast<std::uint32_t>(stored.size()));
   file += encoding_param(0) + stored;
   EXPECT_EQ(decoded(file), std::string("\0\0AAAAAA", 8));
+}
+
+TEST(Bgcode, MeatPackFastPathsMatchTheStateMachine) {
+  // The fast loop against the byte-at-a-time machine (its reference): encoded G-code in
+  // every mode, and random bytes rich in 0xFF, commands and whole-byte codes, cut anywhere.
+  std::vector<std::string> inputs;
+  for (bool comments : {false, true})
+    for (bool no_spaces : {false, true})
+      inputs.push_back(meatpack_encode(kGcode + kGcode, comments, no_spaces));
+  std::uint32_t seed = 20;
+  auto next = [&seed] { return seed = seed * 1664525u + 1013904223u, seed >> 8; };
+  for (int k = 0; k < 4000; ++k) {
+    std::string s = k % 4 == 0 ? "" : "\xFF\xFF\xFB";  // packing on, mostly
+    const auto len = next() % 48;
+    for (std::uint32_t j = 0; j < len; ++j) {
+      const auto r = next() % 16;
+      s.push_back(static_cast<char>(r == 0   ? 0xFF
+                                    : r == 1 ? 0xF6 + next() % 6
+                                    : r == 2 ? 0xF0 | (next() & 15)
+                                    : r == 3 ? (next() & 0xF0) | 0x0F
+                                             : next() & 0xFF));
+    }
+    inputs.push_back(s);
+  }
+  std::size_t decoded_ok = 0;
+  for (const std::string& in : inputs) {
+    detail::Bytes fast_buf, slow_buf;
+    std::size_t fast_size = 0, slow_size = 0;
+    std::string fast_why, slow_why;
+    const bool fast = detail::meatpack_decode(in, fast_buf, fast_size, fast_why, true);
+    const bool slow = detail::meatpack_decode(in, slow_buf, slow_size, slow_why, false);
+    ASSERT_EQ(fast, slow) << printable_for_test(in);
+    ASSERT_EQ(fast_why, slow_why) << printable_for_test(in);
+    if (!fast) continue;
+    ++decoded_ok;
+    ASSERT_EQ(std::string_view(fast_buf.data(), fast_size),
+              std::string_view(slow_buf.data(), slow_size))
+        << printable_for_test(in);
+  }
+  EXPECT_GT(decoded_ok, inputs.size() / 2);
 }
 
 TEST(Bgcode, MetadataAndThumbnailsAreExposed) {
@@ -680,6 +732,16 @@ TEST(Bgcode, BadInputNamesTheBlock) {
   const auto cases = bad_cases();
   EXPECT_GT(cases.size(), 30u);
   for (const auto& c : cases) expect_rejected(c);
+}
+
+TEST(Bgcode, ZlibTwinOfLibdeflateReadsAndRejectsTheSame) {
+  // zlib (PRINTTWIN_PLAIN=bgcode_libdeflate) inflates and checks CRCs as libdeflate does:
+  // the same text from every compression, the same words for every bad file.
+  const std::string good = encode_file(file_with({gcode_block(kGcode, 1, 0)}));
+  ASSERT_EQ(::setenv("PRINTTWIN_PLAIN", "bgcode_libdeflate", 1), 0);
+  EXPECT_EQ(decoded(good), kHeader + kGcode + kTrailer);
+  for (const auto& c : bad_cases()) expect_rejected(c);
+  ::unsetenv("PRINTTWIN_PLAIN");
 }
 
 TEST(Bgcode, SimulateExitsThreeOnBadInput) {

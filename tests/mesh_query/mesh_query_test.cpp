@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "mesh/mesh_query_ball.hpp"
+#include "mesh/mesh_query_rays.hpp"
 #include "support/test_support.hpp"
 
 namespace printtwin {
@@ -175,15 +176,22 @@ TEST(MeshQuery, RaysHitTheNearFaceAndCountCrossings) {
   EXPECT_EQ(q->crossings(Vec3(5, 5, 20), Vec3(0, 0, -1)), 2);
 }
 
-TEST(MeshQuery, RayOnlyBuildGivesTheSameHitsAndBreaksTiesByLowestTriangle) {
-  // A cube with every face repeated the other way round (coincident faces, as in a mesh
-  // with duplicate facets): every ray hits two triangles at the same distance.
+/// A cube with every face repeated the other way round (coincident faces, as in a mesh with
+/// duplicate facets).
+Mesh doubled_cube() {
   Mesh cube = test::make_cube_mm(10.0);
   const std::size_t n = cube.triangles.size();
   for (std::size_t t = 0; t < n; ++t) {
     const auto tri = cube.triangles[t];
     cube.triangles.push_back({tri[0], tri[2], tri[1]});
   }
+  return cube;
+}
+
+TEST(MeshQuery, RayOnlyBuildGivesTheSameHitsAndBreaksTiesByLowestTriangle) {
+  // Every ray hits two triangles at the same distance.
+  const Mesh cube = doubled_cube();
+  const std::size_t n = cube.triangles.size() / 2;
   auto full = MeshQuery::build(cube);
   auto rays = MeshQuery::build_for_rays(cube);
   ASSERT_TRUE(full.ok());
@@ -203,6 +211,38 @@ TEST(MeshQuery, RayOnlyBuildGivesTheSameHitsAndBreaksTiesByLowestTriangle) {
     EXPECT_EQ(a->normal, b->normal);
   }
   EXPECT_EQ(rays->crossings(Vec3(5, 5, 20), Vec3(0, 0, -1)), 2);
+}
+
+TEST(MeshQuery, RayStreamGivesTheHitsOfSingleRays) {
+  // Coincident faces (ties at every hit), rays from inside and outside, bounded and
+  // unbounded, some missing everything, and one without a direction.
+  const Mesh cube = doubled_cube();
+  const std::size_t n = cube.triangles.size() / 2;
+  auto q = MeshQuery::build_for_rays(cube);
+  ASSERT_TRUE(q.ok());
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::vector<detail::RayRequest> rays;
+  for (int i = 0; i < 300; ++i)
+    rays.push_back({Vec3(5 + 8 * u(rng), 5 + 8 * u(rng), 5 + 8 * u(rng)),
+                    Vec3(u(rng), u(rng), u(rng)), 1e-4, i % 3 == 0 ? 3.0 : 1e30});
+  rays.push_back({Vec3(5, 5, 5), Vec3::Zero(), 0, 1e30});
+  std::vector<std::optional<RayHit>> hits(rays.size());
+  detail::first_hits(*q, rays, hits);
+  int hit_count = 0;
+  for (std::size_t i = 0; i < rays.size(); ++i) {
+    const auto one = q->first_hit(rays[i].origin, rays[i].dir, rays[i].t_min, rays[i].t_max);
+    ASSERT_EQ(one.has_value(), hits[i].has_value()) << "ray " << i;
+    if (!one) continue;
+    ++hit_count;
+    EXPECT_EQ(one->t_mm, hits[i]->t_mm);
+    EXPECT_EQ(one->triangle, hits[i]->triangle);
+    EXPECT_LT(hits[i]->triangle, n);  // of two coincident faces, the first
+    EXPECT_EQ(one->normal, hits[i]->normal);
+  }
+  EXPECT_GT(hit_count, 100);
+  EXPECT_LT(hit_count, 300);
+  EXPECT_FALSE(hits.back().has_value());
 }
 
 TEST(MeshQuery, EmptyMeshIsAnError) {

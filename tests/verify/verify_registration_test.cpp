@@ -209,7 +209,9 @@ TEST(VerifyRegistrationPrusaSlicer, FourBridgesSideBySideArePlacedByAllFour) {
   EXPECT_NEAR(reg.transform.translation_mm.x(), 90, 0.05);
   EXPECT_NEAR(reg.transform.translation_mm.y(), 94, 0.05);
   EXPECT_GT(reg.coverage_pct, 95);
-  EXPECT_LT(r->deviation.deposit_to_mesh.p95_abs_mm, 0.2);
+  // The decks sag over their spans as the bridge model says (0.51 mm mid-span at 40 mm, 0.29 at
+  // 30 mm): the bridges' undersides are part of the worst 5 %.
+  EXPECT_LT(r->deviation.deposit_to_mesh.p95_abs_mm, 0.3);
 }
 
 /// A G-code and its model from shared/realworld; empty paths when either is missing.
