@@ -366,6 +366,17 @@ TEST(Bgcode, MeatPackFastPathsMatchTheStateMachine) {
   for (bool comments : {false, true})
     for (bool no_spaces : {false, true})
       inputs.push_back(meatpack_encode(kGcode + kGcode, comments, no_spaces));
+  // The worst case, four characters per byte ("G X X X ..."): the buffer grows.
+  inputs.push_back("\xFF\xFF\xFB\xED" + std::string(3000, '\xEE'));
+  {
+    detail::Bytes buf;
+    std::size_t size = 0;
+    std::string why;
+    ASSERT_TRUE(detail::meatpack_decode(inputs.back(), buf, size, why));
+    std::string expected = "G X";
+    for (int k = 0; k < 6000; ++k) expected += " X";
+    EXPECT_EQ(std::string_view(buf.data(), size), expected);
+  }
   std::uint32_t seed = 20;
   auto next = [&seed] { return seed = seed * 1664525u + 1013904223u, seed >> 8; };
   for (int k = 0; k < 4000; ++k) {
