@@ -42,6 +42,7 @@ check_fans        | bench:check_bench:BM_SelfIntersectionsWithHealth | cpu | fac
 check_ray_bound   | bench:check_bench:BM_Thickness/           | cpu  | inward rays end past the thinnest sampled wall (check/thickness.cpp)
 check_bvh_rays    | bench:check_bench:BM_Thickness/           | cpu  | BVH for rays only, built by Embree at low quality (mesh/mesh_query_embree.cpp, check/thickness.cpp)
 stl_direct        | bench:check_bench:BM_Load/                | cpu  | binary STL welded straight from its bytes, not through assimp (mesh/mesh_io_assimp.cpp)
+bgcode_libdeflate | bench:bgcode_bench:BM_OpenBinary/0        | cpu  | libdeflate, not zlib, inflates and checksums binary G-code blocks (gcode/bgcode.cpp); stage: opening a .bgcode
 '
 
 tmp="$(mktemp -d)"

@@ -1,6 +1,7 @@
 // MeatPack decoder: see meatpack.hpp for the encoding.
 #include "gcode/meatpack.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <cstring>
@@ -161,11 +162,26 @@ struct Unpacker {
 
 bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size, std::string& why,
                      bool fast) {
-  // Each input byte gives at most two characters, each of which may get a space before it.
-  if (buf.size() < 4 * in.size() + 8) buf.resize(4 * in.size() + 8);
-  char* const begin = buf.data();
+  // Each input byte gives at most two characters, each of which may get a space before it,
+  // but G-code rarely comes near that: the buffer starts at twice the input and grows when
+  // fewer than 2 kRoom bytes are left (a step of the loop below writes at most 4 bytes
+  // after its runs, which stop kRoom bytes short of the end). Sizing it
+  // for the worst case (4x) put a 64 KiB block's buffer above malloc's mmap threshold:
+  // fresh pages, faulted in, for every file opened.
+  constexpr std::size_t kRoom = 16;
+  if (buf.size() < 2 * in.size() + 4 * kRoom) buf.resize(2 * in.size() + 4 * kRoom);
+  char* begin = buf.data();
   char* o = begin;
+  char* end = begin + buf.size();
   size = 0;
+  auto room = [&] {  // at least 2 kRoom bytes free from o on
+    if (static_cast<std::size_t>(end - o) >= 2 * kRoom) return;
+    const auto used = static_cast<std::size_t>(o - begin);
+    buf.resize(2 * buf.size());
+    begin = buf.data();
+    o = begin + used;
+    end = begin + buf.size();
+  };
 
   // The text writer (PrusaSlicer's reader): spaces back before the parameters of a line
   // that starts with 'G', no empty lines. `prev` is the last character written, '\0' at
@@ -192,6 +208,7 @@ bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size, std::st
   const std::size_t n = in.size();
   std::size_t i = 0;
   while (i < n) {
+    room();
     // Fast paths, when no pair, character or command is pending (the machine's state is
     // then just the packing and "no spaces" modes): whole packed pairs and the whole-byte
     // characters they announce, with runs of digits and '.' (the bulk of G-code) apart;
@@ -199,13 +216,16 @@ bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size, std::st
     // end of the block) goes through the machine byte by byte.
     if (fast && m.full_pending == 0 && m.signals == 0 && !m.command_next) {
       if (m.packing) {
-        while (i < n && kPlainPair[bytes[i]]) {
+        const std::size_t run_end =
+            std::min(n, i + (static_cast<std::size_t>(end - o) - kRoom) / 2);
+        while (i < run_end && kPlainPair[bytes[i]]) {
           o[0] = kCodes[bytes[i] & 15];
           o[1] = prev = kCodes[bytes[i] >> 4];
           o += 2;
           ++i;
         }
         if (i == n) break;
+        if (i == run_end) continue;  // out of room
         const std::uint8_t b = bytes[i];
         const std::uint8_t lo = b & 15, hi = b >> 4;
         if (b != kSignal) {
@@ -238,9 +258,11 @@ bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size, std::st
           }
         }
       } else if (!g_line) {
-        while (i < n && bytes[i] != kSignal && bytes[i] != '\n' && bytes[i] != 'G')
+        const std::size_t run_end = std::min(n, i + static_cast<std::size_t>(end - o) - kRoom);
+        while (i < run_end && bytes[i] != kSignal && bytes[i] != '\n' && bytes[i] != 'G')
           *o++ = prev = static_cast<char>(bytes[i++]);
         if (i == n) break;
+        if (i == run_end) continue;  // out of room
       }
     }
     if (!m.step(bytes, i, put, why)) return false;
