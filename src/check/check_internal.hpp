@@ -46,8 +46,20 @@ void radix_sort_stable(std::vector<T>& items, KeyFn key, int key_bits) {
 
 struct UnionFind {
   explicit UnionFind(std::size_t n);
-  std::uint32_t find(std::uint32_t x);
-  void unite(std::uint32_t a, std::uint32_t b);
+  /// The root of x's set (paths halved on the way). Inline: called per face or corner.
+  std::uint32_t find(std::uint32_t x) {
+    while (parent[x] != x) {
+      parent[x] = parent[parent[x]];
+      x = parent[x];
+    }
+    return x;
+  }
+  /// Joins the sets of a and b; the lower root becomes the root.
+  void unite(std::uint32_t a, std::uint32_t b) {
+    a = find(a);
+    b = find(b);
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+  }
   std::vector<std::uint32_t> parent;
 };
 

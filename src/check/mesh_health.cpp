@@ -14,20 +14,6 @@ Vec3 face_centroid(const Mesh& mesh, std::size_t f) {
   return (mesh.vertices_mm[t[0]] + mesh.vertices_mm[t[1]] + mesh.vertices_mm[t[2]]) / 3.0;
 }
 
-std::uint32_t UnionFind::find(std::uint32_t x) {
-  while (parent[x] != x) {
-    parent[x] = parent[parent[x]];
-    x = parent[x];
-  }
-  return x;
-}
-
-void UnionFind::unite(std::uint32_t a, std::uint32_t b) {
-  a = find(a);
-  b = find(b);
-  if (a != b) parent[std::max(a, b)] = std::min(a, b);
-}
-
 UnionFind::UnionFind(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0U); }
 
 EdgeTable build_edge_table(const Mesh& mesh, const std::vector<char>& skip_face) {
