@@ -41,6 +41,7 @@ sha_ni            | cli:verify:load                          | wall | SHA extens
 check_fans        | bench:check_bench:BM_SelfIntersectionsWithHealth | cpu | face pairs around certified vertex fans not tested (check/self_intersections_cgal.cpp)
 check_ray_bound   | bench:check_bench:BM_Thickness/           | cpu  | inward rays end past the thinnest sampled wall (check/thickness.cpp)
 check_bvh_rays    | bench:check_bench:BM_Thickness/           | cpu  | BVH for rays only, built by Embree at low quality (mesh/mesh_query_embree.cpp, check/thickness.cpp)
+check_ray_stream  | bench:check_bench:BM_Thickness/           | cpu  | the rays of 16 faces traced as one Embree stream of coherent rays (mesh/mesh_query_embree.cpp, check/thickness.cpp)
 stl_direct        | bench:check_bench:BM_Load/                | cpu  | binary STL welded straight from its bytes, not through assimp (mesh/mesh_io_assimp.cpp)
 bgcode_libdeflate | bench:bgcode_bench:BM_OpenBinary/0        | cpu  | libdeflate, not zlib, inflates and checksums binary G-code blocks (gcode/bgcode.cpp); stage: opening a .bgcode
 '

@@ -11,8 +11,19 @@
 
 namespace printtwin::detail {
 
-/// Zero area: a repeated index, or vertices collinear to ~1e-8 of the longest edge.
-bool is_degenerate_face(const Mesh& mesh, std::size_t f);
+/// Zero area: a repeated index, or vertices collinear to ~1e-8 of the longest edge. Inline:
+/// every stage asks it of every face.
+inline bool is_degenerate_face(const Mesh& mesh, std::size_t f) {
+  const auto& t = mesh.triangles[f];
+  if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) return true;
+  const Vec3& a = mesh.vertices_mm[t[0]];
+  const Vec3& b = mesh.vertices_mm[t[1]];
+  const Vec3& c = mesh.vertices_mm[t[2]];
+  const double longest2 =
+      std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
+  // Zero area relative to the face's size: collinear to about 1e-8 of its longest edge.
+  return (b - a).cross(c - a).squaredNorm() <= 1e-16 * longest2 * longest2;
+}
 Vec3 face_centroid(const Mesh& mesh, std::size_t f);
 
 /// Stable LSD radix sort of `items` by `key(item)` (an unsigned integer below 2^key_bits),
@@ -35,8 +46,20 @@ void radix_sort_stable(std::vector<T>& items, KeyFn key, int key_bits) {
 
 struct UnionFind {
   explicit UnionFind(std::size_t n);
-  std::uint32_t find(std::uint32_t x);
-  void unite(std::uint32_t a, std::uint32_t b);
+  /// The root of x's set (paths halved on the way). Inline: called per face or corner.
+  std::uint32_t find(std::uint32_t x) {
+    while (parent[x] != x) {
+      parent[x] = parent[parent[x]];
+      x = parent[x];
+    }
+    return x;
+  }
+  /// Joins the sets of a and b; the lower root becomes the root.
+  void unite(std::uint32_t a, std::uint32_t b) {
+    a = find(a);
+    b = find(b);
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+  }
   std::vector<std::uint32_t> parent;
 };
 

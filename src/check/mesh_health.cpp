@@ -9,35 +9,9 @@ namespace printtwin {
 
 namespace detail {
 
-bool is_degenerate_face(const Mesh& mesh, std::size_t f) {
-  const auto& t = mesh.triangles[f];
-  if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) return true;
-  const Vec3& a = mesh.vertices_mm[t[0]];
-  const Vec3& b = mesh.vertices_mm[t[1]];
-  const Vec3& c = mesh.vertices_mm[t[2]];
-  const double longest2 =
-      std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
-  // Zero area relative to the face's size: collinear to about 1e-8 of its longest edge.
-  return (b - a).cross(c - a).squaredNorm() <= 1e-16 * longest2 * longest2;
-}
-
 Vec3 face_centroid(const Mesh& mesh, std::size_t f) {
   const auto& t = mesh.triangles[f];
   return (mesh.vertices_mm[t[0]] + mesh.vertices_mm[t[1]] + mesh.vertices_mm[t[2]]) / 3.0;
-}
-
-std::uint32_t UnionFind::find(std::uint32_t x) {
-  while (parent[x] != x) {
-    parent[x] = parent[parent[x]];
-    x = parent[x];
-  }
-  return x;
-}
-
-void UnionFind::unite(std::uint32_t a, std::uint32_t b) {
-  a = find(a);
-  b = find(b);
-  if (a != b) parent[std::max(a, b)] = std::min(a, b);
 }
 
 UnionFind::UnionFind(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0U); }
@@ -166,7 +140,8 @@ ShellTable compute_shells(const Mesh& mesh, const std::vector<char>& skip, const
   ShellTable table;
   table.shell_of_face.assign(nf, UINT32_MAX);
   std::vector<std::uint32_t> index_of_root(nf, UINT32_MAX);
-  const Vec3 ref = bounding_box(mesh).empty() ? Vec3::Zero() : bounding_box(mesh).center();
+  const Box3 box = bounding_box(mesh);
+  const Vec3 ref = box.empty() ? Vec3::Zero() : box.center();
   for (std::size_t f = 0; f < nf; ++f) {
     if (!skip.empty() && skip[f] != 0) continue;
     const std::uint32_t root = uf.find(static_cast<std::uint32_t>(f));

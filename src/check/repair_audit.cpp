@@ -2,8 +2,8 @@
 // repair steps' own counts), in admesh's counters.
 //
 // Faces are matched by their corner positions (the input's after the weld, the only step
-// that moves vertices), so vertices
-// that were split or merged by index do not matter. Within a group of faces on the same
+// that moves vertices), so vertices that were split or merged by index do not matter.
+// Within a group of faces on the same
 // three positions, faces of the same winding pair first; the rest pair across windings
 // (reversed); what is left over was removed (input) or added (result).
 #include <algorithm>

@@ -425,15 +425,6 @@ std::vector<char> certified_fans(const Mesh& mesh) {
   return ok;
 }
 
-/// True when faces f and g share a vertex whose fan is certified (see certified_fans).
-inline bool share_certified_vertex(const std::array<std::uint32_t, 3>& f,
-                                   const std::array<std::uint32_t, 3>& g,
-                                   const std::vector<char>& certified) {
-  for (auto a : f)
-    if (certified[a] != 0 && (a == g[0] || a == g[1] || a == g[2])) return true;
-  return false;
-}
-
 /// A face of one cell, with what the pair tests read, side by side. `here` has bit a set
 /// when the face's box starts in this cell along axis a: the min corner of two boxes'
 /// overlap lies in this cell exactly when the two faces' bits cover all three axes.
@@ -441,13 +432,17 @@ struct CellEntry {
   Box3 box;
   std::uint32_t face;
   std::uint32_t here;
+  std::array<std::uint32_t, 3> corner;  ///< the face's vertices, certified ones only
 };
+
+/// CellEntry::corner of a vertex whose fan is not certified.
+constexpr std::uint32_t kNotCertified = UINT32_MAX;
 
 /// Tests the pairs of one cell's faces whose boxes overlap and whose overlap's min corner is
 /// in this cell (`here`), sweeping the faces in order of their boxes' min x; appends the
 /// intersecting ones to `out`.
 void test_cell(const Mesh& mesh, std::vector<CellEntry>& entries,
-               const std::vector<char>& certified, std::vector<std::array<std::uint32_t, 2>>& out) {
+               std::vector<std::array<std::uint32_t, 2>>& out) {
   std::sort(entries.begin(), entries.end(),
             [](const CellEntry& a, const CellEntry& b) { return a.box.min.x() < b.box.min.x(); });
   for (std::size_t i = 0; i < entries.size(); ++i) {
@@ -460,9 +455,16 @@ void test_cell(const Mesh& mesh, std::vector<CellEntry>& entries,
       if (bf.min.y() > bg.max.y() || bg.min.y() > bf.max.y() || bf.min.z() > bg.max.z() ||
           bg.min.z() > bf.max.z())
         continue;
+      // A certified vertex of both: no test (see certified_fans).
+      const auto& cf = ef.corner;
+      const auto& cg = eg.corner;
+      bool shared = false;
+      for (int a = 0; a < 3; ++a)
+        shared |=
+            cf[a] != kNotCertified && ((cf[a] == cg[0]) | (cf[a] == cg[1]) | (cf[a] == cg[2]));
+      if (shared) continue;
       const auto& tf = mesh.triangles[ef.face];
       const auto& tg = mesh.triangles[eg.face];
-      if (!certified.empty() && share_certified_vertex(tf, tg, certified)) continue;
       if (faces_intersect(mesh, tf, tg))
         out.push_back({std::min(ef.face, eg.face), std::max(ef.face, eg.face)});
     }
@@ -497,9 +499,14 @@ std::vector<std::array<std::uint32_t, 2>> intersecting_pairs(const Mesh& mesh,
                           const std::uint32_t bits = (lo_cell[f][0] == here[0] ? 1U : 0U) |
                                                      (lo_cell[f][1] == here[1] ? 2U : 0U) |
                                                      (lo_cell[f][2] == here[2] ? 4U : 0U);
-                          entries.push_back({boxes[f], f, bits});
+                          std::array<std::uint32_t, 3> corner{};
+                          for (int k = 0; k < 3; ++k) {
+                            const std::uint32_t v = mesh.triangles[f][k];
+                            corner[k] = !certified.empty() && certified[v] != 0 ? v : kNotCertified;
+                          }
+                          entries.push_back({boxes[f], f, bits, corner});
                         }
-                        test_cell(mesh, entries, certified, local);
+                        test_cell(mesh, entries, local);
                       }
                     });
   std::vector<std::array<std::uint32_t, 2>> pairs;

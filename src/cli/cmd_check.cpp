@@ -229,7 +229,8 @@ PartOutcome check_part(const CheckOptions& o, const std::string& file,
     out.repair_file = repair_out;
   }
   out.source.file = file;
-  out.source.sha256 = sha256_hex(*bytes);
+  // The hash goes only into the JSON report.
+  if (!o.json_out.empty()) out.source.sha256 = sha256_hex(*bytes);
   out.source.units = units_used;
   out.source.scale = o.scale;
   out.source.printer = printer.name;

@@ -311,15 +311,22 @@ TEST(CheckCli, PrinterProfiles) {
   EXPECT_NE(bad.err.find("bed_max_x_mmm"), std::string::npos) << bad.err;
 }
 
+/// `check DIR/in.stl --repair DIR/fixed.stl --json DIR/r.json` on `mesh` written to in.stl;
+/// the exit code is the input's (still reported as it is).
+test::CliRun repair_run(const Mesh& mesh, const fs::path& dir) {
+  EXPECT_TRUE(save_stl(mesh, dir / "in.stl").ok());
+  auto run = test::run_cli("check " + q(dir / "in.stl") + " --repair " + q(dir / "fixed.stl") +
+                           " --json " + q(dir / "r.json"));
+  EXPECT_EQ(run.exit_code, 1) << "the input is still reported as it is";
+  return run;
+}
+
 TEST(CheckCli, RepairWritesAFixedMeshAndListsChanges) {
   const fs::path dir = test::temp_dir("check_cli_repair");
   // The cube without one of its faces.
   Mesh open = test::make_cube_mm(20);
   open.triangles.pop_back();
-  ASSERT_TRUE(save_stl(open, dir / "open.stl").ok());
-  const auto run = test::run_cli("check " + q(dir / "open.stl") + " --repair " +
-                                 q(dir / "fixed.stl") + " --json " + q(dir / "r.json"));
-  EXPECT_EQ(run.exit_code, 1) << "the input is still reported as it is";
+  const auto run = repair_run(open, dir);
   EXPECT_NE(run.out.find("holes filled: 1"), std::string::npos) << run.out;
   const json j = read_json(dir / "r.json");
   ASSERT_TRUE(j.contains("repair"));
@@ -332,6 +339,43 @@ TEST(CheckCli, RepairWritesAFixedMeshAndListsChanges) {
   auto fixed = load_mesh(dir / "fixed.stl");
   ASSERT_TRUE(fixed.ok());
   EXPECT_NEAR(signed_volume_mm3(*fixed), 8000.0, 1e-3);
+}
+
+TEST(CheckCli, RepairWeldsAnOpenSeamWithinTheTolerance) {
+  // The 20 mm cube with its top on corners of its own, 0.01 mm higher: a seam of 8 open
+  // facet edges. The default tolerance (admesh's: the shortest edge, 20 mm, + 0.01 % of the
+  // diagonal) joins it as admesh does; 0.005 mm does not, and the top goes as a loose piece.
+  const fs::path dir = test::temp_dir("check_cli_weld");
+  Mesh m = test::make_cube_mm(20);
+  for (std::uint32_t v = 4; v < 8; ++v)
+    m.vertices_mm.push_back(m.vertices_mm[v] + Vec3(0, 0, 0.01));
+  for (std::size_t f = 2; f < 4; ++f)
+    for (auto& v : m.triangles[f]) v += 4;
+  const auto run = repair_run(m, dir);
+  EXPECT_NE(run.out.find("open seams welded within 20.0035 mm"), std::string::npos) << run.out;
+  const json j = read_json(dir / "r.json");
+  EXPECT_NEAR(j["repair"]["weld_tolerance_mm"].get<double>(), 20.0035, 1e-4);
+  EXPECT_EQ(j["repair"]["counters"]["edges_fixed"], 8);
+  EXPECT_EQ(j["repair"]["counters"]["facets_removed"], 0);
+  EXPECT_EQ(j["repair"]["counters"]["facets_added"], 0);
+  EXPECT_EQ(j["repair"]["counters"]["nearby_edges"], 8);
+  EXPECT_EQ(j["repair"]["changes"][0]["code"], "welded_vertices");
+  EXPECT_EQ(j["repair"]["after"]["closed"], true);
+  auto fixed = load_mesh(dir / "fixed.stl");
+  ASSERT_TRUE(fixed.ok());
+  // Each joined pair takes the position of the vertex first in the file: the top's (its faces
+  // come first), so the cube is 20.01 mm tall.
+  EXPECT_NEAR(signed_volume_mm3(*fixed), 8004.0, 1e-3);
+
+  const auto tight =
+      test::run_cli("check " + q(dir / "in.stl") + " --repair " + q(dir / "tight.stl") +
+                    " --weld-tolerance 0.005 --json " + q(dir / "t.json"));
+  EXPECT_EQ(tight.exit_code, 1);
+  const json t = read_json(dir / "t.json");
+  EXPECT_EQ(t["repair"]["weld_tolerance_mm"], 0.005);
+  EXPECT_EQ(t["repair"]["counters"]["nearby_edges"], 0);
+  EXPECT_EQ(t["repair"]["counters"]["facets_removed"], 2);
+  EXPECT_EQ(test::run_cli("check " + q(dir / "in.stl") + " --weld-tolerance -1").exit_code, 2);
 }
 
 TEST(CheckCli, RepairOfTheBrokenSample) {
