@@ -49,7 +49,7 @@ struct DepositMeshOptions {
   std::size_t max_triangles = 0;  ///< 0: full resolution
   /// Full resolution with beads given: vertices move onto the bead surfaces (sub-voxel).
   bool smooth = true;
-  /// Larger meshes are not smoothed (0: no limit): smoothing costs about 3 s of CPU per
+  /// Larger meshes are not smoothed (0: no limit): smoothing costs about 3.5 s of CPU per
   /// million triangles.
   std::size_t smooth_max_triangles = 2'000'000;
 };
