@@ -320,11 +320,6 @@ std::size_t make_well_composed(Solid& s) {
             const std::uint64_t p = v[q[0]], a = v[q[1]], b = v[q[2]], d = v[q[3]];
             bad |= (p & d & ~a & ~b) | (a & b & ~p & ~d);
           }
-          std::uint64_t all = ~0ull, none = ~0ull;
-          for (const std::uint64_t w : v) {
-            all &= w;
-            none &= ~w;
-          }
           for (int i = 0; i < 4; ++i) {
             std::uint64_t others_in = ~0ull, others_out = ~0ull;
             for (int j = 0; j < 8; ++j)
