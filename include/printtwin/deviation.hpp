@@ -312,6 +312,7 @@ struct DeviationSettings {
   double min_region_area_mm2 = 0.1;
   std::size_t max_region_lines = 20;  ///< G-code lines listed per region
   bool keep_samples = true;           ///< fill DeviationResult::{deposit,mesh}_samples
+  bool keep_filled_volume = false;    ///< fill DeviationResult::filled_volume
 };
 
 /// Two-sided deviation of a deposit against a placed mesh: statistics, per-layer stats,

@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <iterator>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -109,6 +110,8 @@ struct DeviationRegion {
   std::vector<long> gcode_lines;  ///< lines that laid the nearest deposit (sorted, unique, capped)
 };
 
+struct DepositSurface;
+
 struct DeviationResult {
   double tolerance_mm = 0.2;
   DeviationStats deposit_to_mesh;
@@ -137,6 +140,10 @@ struct DeviationResult {
   std::string registration_method;             ///< "auto" or "--place"
   /// Signed deviation per mesh vertex (for the deviation PLY and heatmaps).
   std::vector<double> vertex_deviation_mm;
+  /// The deposit's filled volume as the outer-surface step found it (region, filled blocks
+  /// and masks only; no faces), when DeviationSettings::keep_filled_volume: --deposit-mesh
+  /// builds the as-printed mesh on it instead of extracting it again.
+  std::shared_ptr<const DepositSurface> filled_volume;
 };
 
 }  // namespace printtwin

@@ -111,7 +111,9 @@ Result<std::string> write_verified_deposit_mesh(VerifyReport& report,
                                                 const std::string& path, const std::string& out_dir,
                                                 ReportOptions& report_options) {
   if (!report.deposit_grid) return internal_error("verify kept no deposit grid for --deposit-mesh");
-  auto mesh = build_deposit_mesh(*report.deposit_grid, options, report.deposit_beads);
+  auto mesh = build_deposit_mesh(*report.deposit_grid, options, report.deposit_beads,
+                                 report.deviation.filled_volume.get());
+  report.deviation.filled_volume.reset();
   report.deposit_grid.reset();
   report.deposit_beads = {};
   if (!mesh) return mesh.error();

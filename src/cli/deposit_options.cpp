@@ -52,7 +52,7 @@ void add_deposit_mesh_options(CLI::App& cmd, DepositMeshCliOptions& o) {
   cmd.add_flag("--deposit-mesh-voxel-faces", o.voxel_faces,
                "Keep the mesh on the voxel faces (no sub-voxel smoothing onto the beads)");
   cmd.add_option("--deposit-mesh-smooth-max-triangles", o.smooth_max_triangles,
-                 "Smooth meshes up to this many triangles (about 3 s of CPU per million; "
+                 "Smooth meshes up to this many triangles (about 3.5 s of CPU per million; "
                  "0: any size)")
       ->capture_default_str();
 }

@@ -148,26 +148,9 @@ VoxelGrid with_included_features(const VoxelGrid& grid, const DepositMeshOptions
   return copy;
 }
 
-/// Adapter to the deposit's outer-surface routine (the lead re-points it when the routines
-/// are unified): the filled volume (occupied voxels plus the cavities the outside air does
-/// not reach) of the non-auxiliary voxels, as a Solid of single voxels whose origin is
+/// The filled volume of an outer surface as a Solid of single voxels whose origin is
 /// block-aligned with the grid and padded by one empty block on every side.
-Result<Solid> filled_volume_of(const VoxelGrid& grid, const DepositMeshOptions& o) {
-  const bool relabel = o.include_skirt || o.include_support || o.include_custom;
-  std::optional<VoxelGrid> relabelled;
-  if (relabel) relabelled.emplace(with_included_features(grid, o));
-  const VoxelGrid& g = relabelled ? *relabelled : grid;
-  Box3 box;
-  detail::VoxelBlocks::visit_blocks(g, [&](const detail::VoxelBlocks::BlockView& b) {
-    box.extend(g.center_mm(b.base));
-    box.extend(g.center_mm({b.base.x + 7, b.base.y + 7, b.base.z + 7}));
-  });
-  if (box.empty()) return Solid{};
-  // Sealed as the deviation stage seals it: pinholes between beads do not let the outside
-  // into the infill, layer grooves stay surface.
-  const DeviationSettings sealed;
-  const DepositSurface surf =
-      extract_outer_surface(g, box, sealed.seal_gap_mm, sealed.groove_depth_mm);
+Result<Solid> solid_of(const DepositSurface& surf) {
   if (surf.filled_blocks_dims.minCoeff() <= 0) return Solid{};
   const Eigen::Vector3i lo = surf.filled_blocks_lo - Eigen::Vector3i::Ones();
   const Eigen::Vector3i cells = (surf.filled_blocks_dims + Eigen::Vector3i(2, 2, 2)) * 8;
@@ -215,6 +198,29 @@ Result<Solid> filled_volume_of(const VoxelGrid& grid, const DepositMeshOptions& 
         }
       }
   return s;
+}
+
+/// Adapter to the deposit's outer-surface routine (the lead re-points it when the routines
+/// are unified): the filled volume (occupied voxels plus the cavities the outside air does
+/// not reach) of the non-auxiliary voxels, as solid_of gives it; `given` (may be null): the
+/// deviation stage's, used unless auxiliary features are included.
+Result<Solid> filled_volume_of(const VoxelGrid& grid, const DepositMeshOptions& o,
+                               const DepositSurface* given) {
+  const bool relabel = o.include_skirt || o.include_support || o.include_custom;
+  if (given != nullptr && !relabel) return solid_of(*given);
+  std::optional<VoxelGrid> relabelled;
+  if (relabel) relabelled.emplace(with_included_features(grid, o));
+  const VoxelGrid& g = relabelled ? *relabelled : grid;
+  Box3 box;
+  detail::VoxelBlocks::visit_blocks(g, [&](const detail::VoxelBlocks::BlockView& b) {
+    box.extend(g.center_mm(b.base));
+    box.extend(g.center_mm({b.base.x + 7, b.base.y + 7, b.base.z + 7}));
+  });
+  if (box.empty()) return Solid{};
+  // Sealed as the deviation stage seals it: pinholes between beads do not let the outside
+  // into the infill, layer grooves stay surface.
+  const DeviationSettings sealed;
+  return solid_of(extract_outer_surface(g, box, sealed.seal_gap_mm, sealed.groove_depth_mm));
 }
 
 /// Runs fn(bz, out) for every block layer bz in parallel, each appending to its own vector,
@@ -313,11 +319,6 @@ std::size_t make_well_composed(Solid& s) {
           for (const auto& q : kSquares) {
             const std::uint64_t p = v[q[0]], a = v[q[1]], b = v[q[2]], d = v[q[3]];
             bad |= (p & d & ~a & ~b) | (a & b & ~p & ~d);
-          }
-          std::uint64_t all = ~0ull, none = ~0ull;
-          for (const std::uint64_t w : v) {
-            all &= w;
-            none &= ~w;
           }
           for (int i = 0; i < 4; ++i) {
             std::uint64_t others_in = ~0ull, others_out = ~0ull;
@@ -959,11 +960,12 @@ void radix_sort(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>* va
 }  // namespace detail
 
 Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid, const DepositMeshOptions& options,
-                                       std::span<const SurfaceBead> beads) {
+                                       std::span<const SurfaceBead> beads,
+                                       const DepositSurface* filled) {
   const auto t0 = std::chrono::steady_clock::now();
   DepositMesh out;
   out.voxel_mm = grid.voxel_mm();
-  auto solid = filled_volume_of(grid, options);
+  auto solid = filled_volume_of(grid, options, filled);
   if (!solid) return solid.error();
   Solid& fine = *solid;
   if (fine.code.empty()) {

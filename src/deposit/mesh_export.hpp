@@ -49,7 +49,7 @@ struct DepositMeshOptions {
   std::size_t max_triangles = 0;  ///< 0: full resolution
   /// Full resolution with beads given: vertices move onto the bead surfaces (sub-voxel).
   bool smooth = true;
-  /// Larger meshes are not smoothed (0: no limit): smoothing costs about 3 s of CPU per
+  /// Larger meshes are not smoothed (0: no limit): smoothing costs about 3.5 s of CPU per
   /// million triangles.
   std::size_t smooth_max_triangles = 2'000'000;
 };
@@ -74,12 +74,19 @@ struct DepositMesh {
   double seconds = 0;                  ///< time to build
 };
 
+struct DepositSurface;
+
 /// Builds the mesh. `beads` (surface_beads of the G-code that laid the grid; may be empty):
 /// at full resolution the vertices are placed on the beads' surfaces (sub-voxel smoothing).
-/// Errors: max_triangles too small for any mesh of the part (usage).
+/// `filled` (optional): the grid's filled volume as the deviation stage extracted it, sealed
+/// with the default seal and groove depth over a region holding every part voxel (verify's
+/// DeviationResult::filled_volume); used instead of extracting it again unless the options
+/// include auxiliary features. Errors: max_triangles too small for any mesh of the part
+/// (usage).
 [[nodiscard]] Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid,
                                                      const DepositMeshOptions& options,
-                                                     std::span<const SurfaceBead> beads = {});
+                                                     std::span<const SurfaceBead> beads = {},
+                                                     const DepositSurface* filled = nullptr);
 
 /// Checks that `path` ends in .stl, .3mf or .ply (usage error otherwise).
 [[nodiscard]] Status check_deposit_mesh_path(const std::filesystem::path& path);

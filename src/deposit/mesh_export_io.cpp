@@ -380,7 +380,7 @@ std::string deposit_mesh_summary(const DepositMesh& dm, const std::filesystem::p
   if (dm.smoothing_skipped)
     s += "  not smoothed onto the beads: " + std::to_string(dm.mesh.triangles.size()) +
          " triangles, more than --deposit-mesh-smooth-max-triangles (2000000 by default; "
-         "smoothing costs about 3 s of CPU per million triangles; 0 smooths any size)\n";
+         "smoothing costs about 3.5 s of CPU per million triangles; 0 smooths any size)\n";
   if (dm.dropped_components > 0)
     s += "  left out " + std::to_string(dm.dropped_components) +
          " piece(s) without part voxels (skirt, purge line); --deposit-mesh-include adds auxiliary "

@@ -415,6 +415,20 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
         surface.point_tags.empty() ? std::move(surface.face_tags) : std::move(surface.point_tags);
     ds.triangles = std::move(dep_triangles);
   }
+  if (settings.keep_filled_volume) {  // for the as-printed mesh: the filled blocks only
+    auto kept = std::make_shared<DepositSurface>();
+    kept->voxel_mm = surface.voxel_mm;
+    kept->origin_mm = surface.origin_mm;
+    kept->origin_key = surface.origin_key;
+    kept->dims = surface.dims;
+    kept->filled_blocks_lo = surface.filled_blocks_lo;
+    kept->filled_blocks_dims = surface.filled_blocks_dims;
+    kept->filled_block_code = std::move(surface.filled_block_code);
+    kept->filled_masks = std::move(surface.filled_masks);
+    kept->occupied_voxels = surface.occupied_voxels;
+    kept->filled_voxels = surface.filled_voxels;
+    out.filled_volume = std::move(kept);
+  }
   return out;
 }
 

@@ -111,7 +111,12 @@ Result<VerifyReport> measure_with(const PreparedPart& part, const VerifySettings
   // Deviation.
   if (on_stage) on_stage("deviation");
   report.placed_mesh = placed(part.mesh, reg.transform);
-  const DeviationSettings dev_settings = deviation_settings_of(settings);
+  DeviationSettings dev_settings = deviation_settings_of(settings);
+  // --deposit-mesh builds on the deviation stage's filled volume when it is sealed as the
+  // mesh seals it (the defaults).
+  dev_settings.keep_filled_volume =
+      settings.keep_deposit_grid && dev_settings.seal_gap_mm == DeviationSettings{}.seal_gap_mm &&
+      dev_settings.groove_depth_mm == DeviationSettings{}.groove_depth_mm;
   // The part's prepared target (built once, shared by compare's variants) when the mesh is
   // only translated, else one for this call.
   const Vec3 offset = reg.transform.translation_mm;

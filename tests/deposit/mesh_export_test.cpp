@@ -161,6 +161,33 @@ TEST(DepositMesh, SkirtSupportAndLoosePurgeLineAreLeftOut) {
   EXPECT_EQ(parse_deposit_mesh_include("skirt,raft", bad).error().code, ErrorCode::usage);
 }
 
+// verify hands its deviation stage's filled volume to the mesh: the same mesh as one built
+// on its own, unless the options include auxiliary features (then the mesh extracts its own).
+TEST(DepositMesh, TheDeviationStagesFilledVolumeIsReused) {
+  VoxelGrid g = make_grid(64);
+  fill_box(g, {20, 20, 0}, {30, 30, 10}, Feature::outer_perimeter);
+  for (int z = 2; z < 8; ++z)  // an enclosed cavity
+    for (int y = 22; y < 28; ++y)
+      for (int x = 22; x < 28; ++x) g.clear({x, y, z});
+  fill_box(g, {10, 10, 0}, {40, 12, 1}, Feature::skirt, 0);
+  const DeviationSettings d;
+  const Box3 region{Vec3(11.5, 21.5, -0.5), Vec3(13.5, 23.5, 1.5)};  // the part, 0.5 mm margin
+  const DepositSurface filled = extract_outer_surface(g, region, d.seal_gap_mm, d.groove_depth_mm);
+  const DepositMesh own = build(g);
+  auto reused = build_deposit_mesh(g, {}, {}, &filled);
+  ASSERT_TRUE(reused.ok());
+  expect_closed_oriented(reused->mesh);
+  EXPECT_EQ(reused->mesh.triangles, own.mesh.triangles);
+  EXPECT_EQ(reused->mesh.vertices_mm, own.mesh.vertices_mm);
+  EXPECT_NEAR(reused->volume_mm3, 1000 * std::pow(kVoxel, 3), 1e-9);  // cavity filled
+
+  DepositMeshOptions with;
+  ASSERT_TRUE(parse_deposit_mesh_include("skirt", with).ok());
+  auto skirt = build_deposit_mesh(g, with, {}, &filled);
+  ASSERT_TRUE(skirt.ok());
+  EXPECT_EQ(skirt->components, 2u);  // the part and the skirt strip
+}
+
 TEST(DepositMesh, WithoutFeatureLabelsOneLayerPiecesAreLeftOut) {
   VoxelGrid g = make_grid(64);
   for (int z = 0; z < 8; ++z) fill_box(g, {20, 20, z}, {30, 30, z + 1}, Feature::unknown, z);
