@@ -42,6 +42,8 @@ check_fans        | bench:check_bench:BM_SelfIntersectionsWithHealth | cpu | fac
 check_ray_bound   | bench:check_bench:BM_Thickness/           | cpu  | inward rays end past the thinnest sampled wall (check/thickness.cpp)
 check_bvh_rays    | bench:check_bench:BM_Thickness/           | cpu  | BVH for rays only, built by Embree at low quality (mesh/mesh_query_embree.cpp, check/thickness.cpp)
 stl_direct        | bench:check_bench:BM_Load/                | cpu  | binary STL welded straight from its bytes, not through assimp (mesh/mesh_io_assimp.cpp)
+closest_hints     | cli:verify:registration                  | wall | ICP closest-point queries bounded from the last step's triangles (mesh/mesh_query_embree.cpp, deviation/registration_search.cpp)
+hull_filter       | cli:verify:registration                  | wall | footprint hull drops the points inside the extreme octagon before its sort (deviation/registration.cpp)
 '
 
 tmp="$(mktemp -d)"
