@@ -54,6 +54,12 @@ class MeshQuery {
                                                                  double max_distance_mm) const;
   /// Closest points of many query points, in parallel (TBB). `out` is resized.
   void closest_points(std::span<const Vec3> points, std::vector<ClosestPoint>& out) const;
+  /// The same with a hint per point: a triangle likely near it (say, its closest triangle of
+  /// a previous query, as in ICP), whose distance bounds the search from the start. The
+  /// results are those of closest_points() (ties go to the lowest triangle) whatever the
+  /// hints; good hints only make it faster. `hints` is empty or one per point.
+  void closest_points(std::span<const Vec3> points, std::vector<ClosestPoint>& out,
+                      std::span<const std::uint32_t> hints) const;
 
   /// First surface hit along `origin + t * dir` for t in (t_min, t_max]; `dir` need not be unit.
   [[nodiscard]] std::optional<RayHit> first_hit(const Vec3& origin, const Vec3& dir,

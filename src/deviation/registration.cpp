@@ -1,10 +1,13 @@
 // Registration, first half: find the part (or the objects) among the extrusions and sample
 // them for the pose search (registration_search.cpp).
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <numeric>
 
+#include "core/plain_path.hpp"
 #include "deviation/disjoint_sets.hpp"
 #include "deviation/registration_internal.hpp"
 #include "printtwin/deviation.hpp"
@@ -171,7 +174,51 @@ std::vector<std::vector<const Move*>> footprint_groups(const std::vector<const M
 
 namespace detail {
 
+namespace {
+
+/// Drops the points strictly inside the octagon of the extreme points in 8 directions
+/// (Akl-Toussaint): they cannot be hull vertices. A margin far above rounding keeps every
+/// point that could be one, so the hull is the same; the sort then has few points left.
+void drop_inner_points(std::vector<Vec2>& p) {
+  if (p.size() < 64) return;
+  static constexpr std::array<std::array<double, 2>, 8> kDirections = {
+      {{1, 0}, {1, 1}, {0, 1}, {-1, 1}, {-1, 0}, {-1, -1}, {0, -1}, {1, -1}}};
+  std::array<std::size_t, 8> extreme{};
+  std::array<double, 8> best;
+  best.fill(-std::numeric_limits<double>::infinity());
+  double reach = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    reach = std::max(reach, p[i].cwiseAbs().maxCoeff());
+    for (std::size_t k = 0; k < kDirections.size(); ++k) {
+      const double s = kDirections[k][0] * p[i].x() + kDirections[k][1] * p[i].y();
+      if (s > best[k]) {
+        best[k] = s;
+        extreme[k] = i;
+      }
+    }
+  }
+  if (!std::isfinite(reach)) return;
+  std::vector<Vec2> corners;  // counter-clockwise (support points by direction angle)
+  for (const std::size_t i : extreme)
+    if (corners.empty() || (p[i] != corners.back() && p[i] != corners.front()))
+      corners.push_back(p[i]);
+  if (corners.size() < 3) return;
+  const double margin = 1e-9 * (1 + reach) * (1 + reach);
+  std::erase_if(p, [&](const Vec2& q) {
+    for (std::size_t k = 0; k < corners.size(); ++k) {
+      const Vec2& a = corners[k];
+      const Vec2& b = corners[(k + 1) % corners.size()];
+      if ((b.x() - a.x()) * (q.y() - a.y()) - (b.y() - a.y()) * (q.x() - a.x()) <= margin)
+        return false;
+    }
+    return true;
+  });
+}
+
+}  // namespace
+
 std::vector<Vec2> convex_hull(std::vector<Vec2> p) {
+  if (!detail::plain_path("hull_filter")) drop_inner_points(p);
   std::sort(p.begin(), p.end(), [](const Vec2& a, const Vec2& b) {
     return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
   });

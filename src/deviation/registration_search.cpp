@@ -145,7 +145,13 @@ class Search {
     q_.resize(points.size());
     const Mat3 rt = r.transpose();
     for (std::size_t i = 0; i < points.size(); ++i) q_[i] = rt * (points[i] - t) / s;
-    query_.closest_points(q_, cp_);
+    // The closest triangles of the previous query of the same points (the last ICP step, or
+    // the pose before) bound each search from the start; the answers are the same.
+    if (hint_points_ != points.data() || hints_.size() != points.size()) hints_.clear();
+    query_.closest_points(q_, cp_, hints_);
+    hint_points_ = points.data();
+    hints_.resize(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) hints_[i] = cp_[i].triangle;
     d.resize(points.size());
     if (closest_machine != nullptr) closest_machine->resize(points.size());
     for (std::size_t i = 0; i < points.size(); ++i) {
@@ -241,6 +247,8 @@ class Search {
   std::vector<Vec3> coverage_samples_;
   std::vector<Vec3> q_;
   std::vector<ClosestPoint> cp_;
+  const Vec3* hint_points_ = nullptr;  ///< the points `hints_` were found for
+  std::vector<std::uint32_t> hints_;
 };
 
 /// Every `stride`-th point, at most `n`.

@@ -14,6 +14,7 @@
 #include <cmath>
 #include <limits>
 
+#include "core/plain_path.hpp"
 #include "mesh/kernels.hpp"
 #include "mesh/mesh_query_ball.hpp"
 #include "mesh/mesh_query_rays.hpp"
@@ -324,12 +325,32 @@ void detail::closest_points_in_ball(const MeshQuery& query, const Vec3& center, 
 }
 
 void MeshQuery::closest_points(std::span<const Vec3> points, std::vector<ClosestPoint>& out) const {
+  closest_points(points, out, {});
+}
+
+void MeshQuery::closest_points(std::span<const Vec3> points, std::vector<ClosestPoint>& out,
+                               std::span<const std::uint32_t> hints) const {
   out.resize(points.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 1024),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i)
-                        out[i] = closest_point(points[i]);
-                    });
+  const bool hinted = hints.size() == points.size() && !detail::plain_path("closest_hints");
+  const std::size_t triangles = impl_->mesh.triangles.size();
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, points.size(), 1024),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          if (!hinted || hints[i] >= triangles) {
+            out[i] = closest_point(points[i]);
+            continue;
+          }
+          // The hint's exact distance is an upper bound of the closest one:
+          // the ball of that radius (padded like the callback's) holds every
+          // triangle that wins or ties, so the answer is unchanged.
+          PointQueryState st{&impl_->mesh, &impl_->bounds, points[i]};
+          detail::offer_unboxed(st, hints[i]);
+          run_point_query(impl_->scene, points[i] - impl_->center, std::sqrt(st.best_d2),
+                          point_query_callback, &st);
+          out[i] = ClosestPoint{st.best_point, std::sqrt(st.best_d2), st.best_triangle};
+        }
+      });
 }
 
 namespace {

@@ -5,8 +5,11 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <random>
 #include <sstream>
 
+#include "deviation/registration_internal.hpp"
 #include "printtwin/deviation.hpp"
 #include "printtwin/machine.hpp"
 #include "printtwin/mesh_query.hpp"
@@ -110,6 +113,29 @@ Mesh rotate(const Mesh& m, const Vec3& xyz_deg) {
   RigidTransform t;
   t.rotation = rotation_from_xyz_deg(xyz_deg);
   return transformed(m, t);
+}
+
+TEST(Registration, HullWithoutItsInnerPointsIsTheSameHull) {
+  // The footprint hull drops the points inside the octagon of extreme points before its
+  // sort: the same hull as the plain path, on a disc, a square with points on its sides and
+  // a thin sliver (collinear-ish points).
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<std::vector<Vec2>> clouds(3);
+  for (int i = 0; i < 3000; ++i) {
+    const double a = 2 * M_PI * u(rng), r = std::sqrt(std::abs(u(rng)));
+    clouds[0].emplace_back(50 + 18 * r * std::cos(a), 40 + 18 * r * std::sin(a));
+    clouds[1].emplace_back(std::round(20 * u(rng)) / 2, std::round(20 * u(rng)) / 2);
+    clouds[2].emplace_back(100 * u(rng), 1e-7 * u(rng));
+  }
+  for (const auto& cloud : clouds) {
+    const std::vector<Vec2> fast = detail::convex_hull(cloud);
+    ASSERT_EQ(::setenv("PRINTTWIN_PLAIN", "hull_filter", 1), 0);
+    const std::vector<Vec2> plain = detail::convex_hull(cloud);
+    ::unsetenv("PRINTTWIN_PLAIN");
+    EXPECT_GE(plain.size(), 3U);
+    EXPECT_EQ(fast, plain);
+  }
 }
 
 TEST(Registration, EulerAnglesRoundTrip) {

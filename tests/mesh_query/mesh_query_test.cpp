@@ -40,6 +40,40 @@ TEST(MeshQuery, ClosestPointMatchesBruteForce) {
   }
 }
 
+TEST(MeshQuery, HintsNeverChangeTheClosestPoints) {
+  // Hinted batches (the right triangle, a neighbour's, a random one, an invalid index) give
+  // closest_points' answers bit for bit, ties on the cube's edges and corners included.
+  const Mesh cube = test::make_cube_mm(20.0, Vec3(100, 100, 0));
+  auto q = MeshQuery::build(cube);
+  ASSERT_TRUE(q.ok());
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(90, 130);
+  std::vector<Vec3> pts;
+  for (int i = 0; i < 2000; ++i) pts.emplace_back(u(rng), u(rng), u(rng) - 100);
+  pts.emplace_back(110, 110, 25);  // above the top face's diagonal (a tie)
+  pts.emplace_back(125, 125, 25);  // beyond a corner (ties of three faces)
+  pts.emplace_back(100, 100, 0);   // on a corner
+  std::vector<ClosestPoint> want;
+  q->closest_points(pts, want);
+  std::uniform_int_distribution<std::uint32_t> tri(0, 11);
+  for (int variant = 0; variant < 4; ++variant) {
+    std::vector<std::uint32_t> hints(pts.size());
+    for (std::size_t i = 0; i < pts.size(); ++i)
+      hints[i] = variant == 0   ? want[i].triangle
+                 : variant == 1 ? want[(i + 1) % pts.size()].triangle
+                 : variant == 2 ? tri(rng)
+                                : 1000;  // out of range: ignored
+    std::vector<ClosestPoint> got;
+    q->closest_points(pts, got, hints);
+    ASSERT_EQ(got.size(), pts.size());
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      EXPECT_EQ(got[i].triangle, want[i].triangle) << variant << " " << i;
+      EXPECT_EQ(got[i].distance_mm, want[i].distance_mm) << variant << " " << i;
+      EXPECT_EQ(got[i].point_mm, want[i].point_mm) << variant << " " << i;
+    }
+  }
+}
+
 TEST(MeshQuery, BallQueryGivesClosestPointsBitForBitOrNothing) {
   // A wavy height field of 2 x 40 x 40 triangles (10 x 10 mm): groups of nearby points around
   // random centres, one ball query per group. Every answer it vouches for is exactly
