@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 #include <zlib.h>
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <cstdio>
@@ -40,12 +41,47 @@ nlohmann::json read_json(const std::filesystem::path& path) {
   return nlohmann::json::parse(in, nullptr, false);
 }
 
+namespace {
+// The folders temp_dir() made, removed when the test process that made them exits (not in a
+// forked child), so a suite run leaves nothing in the temporary folder. Set
+// PRINTTWIN_KEEP_TEST_DIRS=1 to keep them for a look after a failure.
+class MadeDirs {
+ public:
+  void add(const std::filesystem::path& dir) {
+    if (std::find(dirs_.begin(), dirs_.end(), dir) == dirs_.end()) dirs_.push_back(dir);
+  }
+  MadeDirs() = default;
+  MadeDirs(const MadeDirs&) = delete;
+  MadeDirs& operator=(const MadeDirs&) = delete;
+  MadeDirs(MadeDirs&&) = delete;
+  MadeDirs& operator=(MadeDirs&&) = delete;
+  ~MadeDirs() {
+    const char* keep = std::getenv("PRINTTWIN_KEEP_TEST_DIRS");
+    if (::getpid() != owner_ || (keep != nullptr && *keep != '\0' && *keep != '0')) return;
+    for (const auto& dir : dirs_) {
+      std::error_code ec;
+      std::filesystem::remove_all(dir, ec);
+    }
+  }
+
+ private:
+  pid_t owner_ = ::getpid();
+  std::vector<std::filesystem::path> dirs_;
+};
+
+MadeDirs& made_dirs() {
+  static MadeDirs dirs;
+  return dirs;
+}
+}  // namespace
+
 std::filesystem::path temp_dir(const std::string& name) {
   // One folder per test process: ctest runs tests in parallel, each in its own process.
   auto dir = std::filesystem::temp_directory_path() /
              ("printtwin_test_" + name + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
+  made_dirs().add(dir);
   return dir;
 }
 
