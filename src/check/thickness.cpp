@@ -37,6 +37,70 @@ struct FaceSample {
   double gap_mm = kInf;
 };
 
+/// Faces inside the solid (a shell overlapping or touching another): the point just off
+/// the face, outside its own shell, is still inside the part when the surfaces crossed along
+/// its normal, exits minus entries, number more than zero. Such a face is no surface of the
+/// print: it casts no ray and rays pass through it.
+std::vector<char> internal_faces(const Mesh& mesh, const MeshQuery& query, const Vec3& shift,
+                                 double t_min) {
+  const std::size_t nf = mesh.triangles.size();
+  std::vector<char> internal(nf, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nf, 1024),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t f = r.begin(); f != r.end(); ++f) {
+                        Vec3 n = triangle_normal(mesh, f);
+                        const double len = n.norm();
+                        if (!(len > 0)) continue;
+                        n /= len;
+                        const Vec3 c = detail::face_centroid(mesh, f) - shift;
+                        int winding = 0;
+                        double t = t_min;
+                        for (int i = 0; i < 256; ++i) {
+                          auto hit = query.first_hit(c, n, t);
+                          if (!hit) break;
+                          if (hit->triangle != f) winding += hit->normal.dot(n) > 0 ? 1 : -1;
+                          t = hit->t_mm + t_min;
+                        }
+                        internal[f] = winding > 0 ? 1 : 0;
+                      }
+                    });
+  return internal;
+}
+
+/// The thinnest wall, the narrowest gap, and the faces under each limit.
+ThicknessResult summarise(const Mesh& mesh, const std::vector<FaceSample>& samples,
+                          double min_thickness_mm, double line_width_mm) {
+  ThicknessResult out;
+  out.min_thickness_mm = kInf;
+  out.min_gap_mm = kInf;
+  for (std::size_t f = 0; f < samples.size(); ++f) {
+    const FaceSample& s = samples[f];
+    if (s.thickness_mm == kInf && s.gap_mm == kInf) continue;
+    const double area = 0.5 * triangle_normal(mesh, f).norm();
+    const Vec3 c = detail::face_centroid(mesh, f);
+    if (s.thickness_mm < out.min_thickness_mm) {
+      out.min_thickness_mm = s.thickness_mm;
+      out.min_thickness_at_mm = c;
+    }
+    // 1 um of slack: a 0.4 mm wall stored in float STL coordinates measures 0.39999 mm.
+    if (s.thickness_mm < min_thickness_mm - 1e-3) {
+      ++out.thin_faces;
+      out.thin_area_mm2 += area;
+      for (auto v : mesh.triangles[f]) out.thin_bbox_mm.extend(mesh.vertices_mm[v]);
+    }
+    if (s.gap_mm < out.min_gap_mm) {
+      out.min_gap_mm = s.gap_mm;
+      out.min_gap_at_mm = c;
+    }
+    if (s.gap_mm < line_width_mm - 1e-3) {
+      ++out.narrow_gap_faces;
+      out.narrow_gap_area_mm2 += area;
+      for (auto v : mesh.triangles[f]) out.narrow_gap_bbox_mm.extend(mesh.vertices_mm[v]);
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 Result<ThicknessResult> measure_thickness(const Mesh& mesh, double min_thickness_mm,
@@ -59,32 +123,9 @@ Result<ThicknessResult> measure_thickness(const Mesh& mesh, double min_thickness
   // the mesh, so hits closer than ~1e-4 mm of the origin are the face itself or a neighbour.
   const double t_min = 1e-4 + 1e-7 * bounding_box(mesh).size().norm();
 
-  // Faces inside the solid (a shell overlapping or touching another): the point just off
-  // the face, outside its own shell, is still inside the part when the surfaces crossed
-  // along its normal, exits minus entries, number more than zero. Such a face is no surface
-  // of the print: it casts no ray and rays pass through it.
-  std::vector<char> internal(nf, 0);
-  if (skip_internal_faces) {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nf, 1024),
-                      [&](const tbb::blocked_range<std::size_t>& r) {
-                        for (std::size_t f = r.begin(); f != r.end(); ++f) {
-                          Vec3 n = triangle_normal(mesh, f);
-                          const double len = n.norm();
-                          if (!(len > 0)) continue;
-                          n /= len;
-                          const Vec3 c = detail::face_centroid(mesh, f) - shift;
-                          int winding = 0;
-                          double t = t_min;
-                          for (int i = 0; i < 256; ++i) {
-                            auto hit = query.first_hit(c, n, t);
-                            if (!hit) break;
-                            if (hit->triangle != f) winding += hit->normal.dot(n) > 0 ? 1 : -1;
-                            t = hit->t_mm + t_min;
-                          }
-                          internal[f] = winding > 0 ? 1 : 0;
-                        }
-                      });
-  }
+  // Faces inside the solid cast no ray, and rays pass through them.
+  const std::vector<char> internal =
+      skip_internal_faces ? internal_faces(mesh, query, shift, t_min) : std::vector<char>(nf, 0);
   std::vector<FaceSample> samples(nf);
   // First hit along the ray that is not an internal face or f itself, given the first hit
   // from t0 on (`hit`): at most 64 hits are looked at.
@@ -202,35 +243,7 @@ Result<ThicknessResult> measure_thickness(const Mesh& mesh, double min_thickness
                                    [&](std::size_t f) { return !bound || f % kStride != 0; });
                     });
 
-  ThicknessResult out;
-  out.min_thickness_mm = kInf;
-  out.min_gap_mm = kInf;
-  for (std::size_t f = 0; f < nf; ++f) {
-    const FaceSample& s = samples[f];
-    if (s.thickness_mm == kInf && s.gap_mm == kInf) continue;
-    const double area = 0.5 * triangle_normal(mesh, f).norm();
-    const Vec3 c = detail::face_centroid(mesh, f);
-    if (s.thickness_mm < out.min_thickness_mm) {
-      out.min_thickness_mm = s.thickness_mm;
-      out.min_thickness_at_mm = c;
-    }
-    // 1 um of slack: a 0.4 mm wall stored in float STL coordinates measures 0.39999 mm.
-    if (s.thickness_mm < min_thickness_mm - 1e-3) {
-      ++out.thin_faces;
-      out.thin_area_mm2 += area;
-      for (auto v : mesh.triangles[f]) out.thin_bbox_mm.extend(mesh.vertices_mm[v]);
-    }
-    if (s.gap_mm < out.min_gap_mm) {
-      out.min_gap_mm = s.gap_mm;
-      out.min_gap_at_mm = c;
-    }
-    if (s.gap_mm < line_width_mm - 1e-3) {
-      ++out.narrow_gap_faces;
-      out.narrow_gap_area_mm2 += area;
-      for (auto v : mesh.triangles[f]) out.narrow_gap_bbox_mm.extend(mesh.vertices_mm[v]);
-    }
-  }
-  return out;
+  return summarise(mesh, samples, min_thickness_mm, line_width_mm);
 }
 
 }  // namespace printtwin

@@ -238,6 +238,36 @@ Result<DeviationResult> compute_deviation(const Mesh& mesh, const VoxelGrid& dep
   return compute_deviation(*target, Vec3::Zero(), deposit, settings, part_box_mm, beads);
 }
 
+namespace {
+/// Each layer's number, and its height: the top of its highest surface voxel.
+void number_layers(std::vector<LayerDeviation>& layers, const std::vector<int>& top_key,
+                   const VoxelGrid& deposit) {
+  for (std::size_t l = 0; l < layers.size(); ++l) {
+    LayerDeviation& ld = layers[l];
+    ld.layer = static_cast<int>(l);
+    if (top_key[l] != std::numeric_limits<int>::min())
+      ld.z_mm = deposit.center_mm(VoxelKey{0, 0, top_key[l]}).z() + 0.5 * deposit.voxel_mm();
+  }
+}
+
+/// The filled blocks of `surface` (moved out of it), for the as-printed mesh: the deviation
+/// stage has already extracted them, so the mesh export need not do it again.
+std::shared_ptr<DepositSurface> filled_volume_of(DepositSurface& surface) {
+  auto kept = std::make_shared<DepositSurface>();
+  kept->voxel_mm = surface.voxel_mm;
+  kept->origin_mm = surface.origin_mm;
+  kept->origin_key = surface.origin_key;
+  kept->dims = surface.dims;
+  kept->filled_blocks_lo = surface.filled_blocks_lo;
+  kept->filled_blocks_dims = surface.filled_blocks_dims;
+  kept->filled_block_code = std::move(surface.filled_block_code);
+  kept->filled_masks = std::move(surface.filled_masks);
+  kept->occupied_voxels = surface.occupied_voxels;
+  kept->filled_voxels = surface.filled_voxels;
+  return kept;
+}
+}  // namespace
+
 Result<DeviationResult> compute_deviation(const DeviationTarget& target, const Vec3& offset,
                                           const VoxelGrid& deposit,
                                           const DeviationSettings& settings,
@@ -377,12 +407,7 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
     const VoxelTag tag = mesh_tag(i);
     return DeviationSample{query_points[i], d_mesh[i], tag.layer, tag.line, samples[i].triangle};
   };
-  for (std::size_t l = 0; l < n_layers; ++l) {
-    LayerDeviation& ld = layers[l];
-    ld.layer = static_cast<int>(l);
-    if (top_key[l] != std::numeric_limits<int>::min())
-      ld.z_mm = deposit.center_mm(VoxelKey{0, 0, top_key[l]}).z() + 0.5 * v;
-  }
+  number_layers(layers, top_key, deposit);
   wall_roughness(mesh, d_dep, dep_triangles, dep_tags, face_area, v, layers, out);
   for (std::size_t l = 0; l < n_layers;
        ++l)  // layers no sample of either direction is nearest to: none
@@ -415,20 +440,7 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
         surface.point_tags.empty() ? std::move(surface.face_tags) : std::move(surface.point_tags);
     ds.triangles = std::move(dep_triangles);
   }
-  if (settings.keep_filled_volume) {  // for the as-printed mesh: the filled blocks only
-    auto kept = std::make_shared<DepositSurface>();
-    kept->voxel_mm = surface.voxel_mm;
-    kept->origin_mm = surface.origin_mm;
-    kept->origin_key = surface.origin_key;
-    kept->dims = surface.dims;
-    kept->filled_blocks_lo = surface.filled_blocks_lo;
-    kept->filled_blocks_dims = surface.filled_blocks_dims;
-    kept->filled_block_code = std::move(surface.filled_block_code);
-    kept->filled_masks = std::move(surface.filled_masks);
-    kept->occupied_voxels = surface.occupied_voxels;
-    kept->filled_voxels = surface.filled_voxels;
-    out.filled_volume = std::move(kept);
-  }
+  if (settings.keep_filled_volume) out.filled_volume = filled_volume_of(surface);
   return out;
 }
 

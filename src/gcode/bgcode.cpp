@@ -98,8 +98,10 @@ libdeflate_decompressor* thread_decompressor() {
 /// Inflates the zlib stream `in` into `out`, which has room for exactly `expected` bytes.
 /// Empty on success, else what is wrong (the same words from either library).
 std::string inflate_block(bool fast, std::string_view in, char* out, std::size_t expected) {
-  const std::string too_long = "deflate data decodes to more than the " + std::to_string(expected) +
-                               " bytes the block header states";
+  const auto too_long = [expected] {
+    return "deflate data decodes to more than the " + std::to_string(expected) +
+           " bytes the block header states";
+  };
   std::size_t produced = 0, consumed = 0;
   unsigned char dummy = 0;
   void* const dst = expected > 0 ? static_cast<void*>(out) : &dummy;
@@ -111,7 +113,7 @@ std::string inflate_block(bool fast, std::string_view in, char* out, std::size_t
       case LIBDEFLATE_SUCCESS:
         break;
       case LIBDEFLATE_INSUFFICIENT_SPACE:
-        return too_long;
+        return too_long();
       default:
         return "deflate data is corrupt (invalid or incomplete data)";
     }
@@ -120,7 +122,7 @@ std::string inflate_block(bool fast, std::string_view in, char* out, std::size_t
     uLong in_len = static_cast<uLong>(in.size());
     const int rc = ::uncompress2(static_cast<Bytef*>(dst), &out_len,
                                  reinterpret_cast<const Bytef*>(in.data()), &in_len);
-    if (rc == Z_BUF_ERROR) return too_long;
+    if (rc == Z_BUF_ERROR) return too_long();
     if (rc != Z_OK)
       return rc == Z_MEM_ERROR ? "deflate data cannot be decoded (out of memory)"
                                : "deflate data is corrupt (invalid or incomplete data)";
