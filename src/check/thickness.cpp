@@ -78,25 +78,24 @@ ThicknessResult summarise(const Mesh& mesh, const std::vector<FaceSample>& sampl
     if (s.thickness_mm == kInf && s.gap_mm == kInf) continue;
     const double area = 0.5 * triangle_normal(mesh, f).norm();
     const Vec3 c = detail::face_centroid(mesh, f);
-    if (s.thickness_mm < out.min_thickness_mm) {
-      out.min_thickness_mm = s.thickness_mm;
-      out.min_thickness_at_mm = c;
-    }
-    // 1 um of slack: a 0.4 mm wall stored in float STL coordinates measures 0.39999 mm.
-    if (s.thickness_mm < min_thickness_mm - 1e-3) {
-      ++out.thin_faces;
-      out.thin_area_mm2 += area;
-      for (auto v : mesh.triangles[f]) out.thin_bbox_mm.extend(mesh.vertices_mm[v]);
-    }
-    if (s.gap_mm < out.min_gap_mm) {
-      out.min_gap_mm = s.gap_mm;
-      out.min_gap_at_mm = c;
-    }
-    if (s.gap_mm < line_width_mm - 1e-3) {
-      ++out.narrow_gap_faces;
-      out.narrow_gap_area_mm2 += area;
-      for (auto v : mesh.triangles[f]) out.narrow_gap_bbox_mm.extend(mesh.vertices_mm[v]);
-    }
+    // The least value and where; the faces under the limit (1 um of slack: a 0.4 mm wall
+    // stored in float STL coordinates measures 0.39999 mm), their area and extent.
+    const auto tally = [&](double value, double limit, double& least, Vec3& at, std::size_t& faces,
+                           double& faces_area, Box3& box) {
+      if (value < least) {
+        least = value;
+        at = c;
+      }
+      if (value < limit - 1e-3) {
+        ++faces;
+        faces_area += area;
+        for (auto v : mesh.triangles[f]) box.extend(mesh.vertices_mm[v]);
+      }
+    };
+    tally(s.thickness_mm, min_thickness_mm, out.min_thickness_mm, out.min_thickness_at_mm,
+          out.thin_faces, out.thin_area_mm2, out.thin_bbox_mm);
+    tally(s.gap_mm, line_width_mm, out.min_gap_mm, out.min_gap_at_mm, out.narrow_gap_faces,
+          out.narrow_gap_area_mm2, out.narrow_gap_bbox_mm);
   }
   return out;
 }
