@@ -1,13 +1,28 @@
 #pragma once
 // Builds Moves in code, the way the G-code interpreter would resolve them: each call is one
 // G-code line, E is computed from the wanted bead width and height (stadium model).
+#include <gtest/gtest.h>
+
 #include <numbers>
+#include <span>
 #include <vector>
 
+#include "printtwin/deposit.hpp"
 #include "printtwin/machine.hpp"
 #include "printtwin/toolpath.hpp"
 
 namespace printtwin::test {
+
+/// The deposit of `moves` at `voxel_mm` voxels (the default settings otherwise); a failure
+/// fails the calling test and gives an empty deposit.
+inline DepositResult deposit_at(std::span<const Move> moves, const PrinterProfile& profile,
+                                double voxel_mm = 0.05) {
+  DepositSettings ds;
+  ds.voxel_mm = voxel_mm;
+  auto d = deposit_moves(moves, profile, ds);
+  EXPECT_TRUE(d.ok());
+  return d.ok() ? std::move(*d) : DepositResult{};
+}
 
 /// Filament (mm) for a bead of width w, height h and length len.
 inline double bead_e_mm(double w, double h, double len, const PrinterProfile& p) {

@@ -29,11 +29,7 @@ struct Printed {
 Printed deposited(const std::vector<Move>& moves, const PrinterProfile& profile) {
   Printed p;
   p.moves = moves;
-  DepositSettings ds;
-  ds.voxel_mm = 0.05;
-  auto d = deposit_moves(p.moves, profile, ds);
-  EXPECT_TRUE(d.ok());
-  if (d.ok()) p.deposit = std::move(*d);
+  p.deposit = test::deposit_at(p.moves, profile);
   return p;
 }
 Printed lay_loops(double h, double w, int layers) {

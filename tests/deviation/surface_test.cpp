@@ -96,11 +96,7 @@ Wall lay_wall(double h, double w, int layers, double side = 10.0) {
   Wall wall;
   wall.moves = bw.moves;
   wall.mesh = make_square_tube(lo, side, w, h * layers);
-  DepositSettings ds;
-  ds.voxel_mm = 0.05;
-  auto d = deposit_moves(wall.moves, profile, ds);
-  EXPECT_TRUE(d.ok());
-  if (d.ok()) wall.deposit = std::move(*d);
+  wall.deposit = test::deposit_at(wall.moves, profile);
   return wall;
 }
 

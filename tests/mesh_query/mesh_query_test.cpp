@@ -25,14 +25,25 @@ ClosestPoint brute_force(const Mesh& m, const Vec3& p) {
   return best;
 }
 
+// n points in a box 10 mm around the 20 mm test cube at (100, 100, 0).
+std::vector<Vec3> points_near_cube(std::mt19937& rng, int n) {
+  std::uniform_real_distribution<double> u(90, 130);
+  std::vector<Vec3> pts;
+  for (int i = 0; i < n; ++i) {
+    const double x = u(rng), y = u(rng), z = u(rng) - 100;
+    pts.emplace_back(x, y, z);
+  }
+  return pts;
+}
+
 TEST(MeshQuery, ClosestPointMatchesBruteForce) {
   const Mesh cube = test::make_cube_mm(20.0, Vec3(100, 100, 0));
   auto q = MeshQuery::build(cube);
   ASSERT_TRUE(q.ok());
   std::mt19937 rng(7);
-  std::uniform_real_distribution<double> u(90, 130);
-  for (int i = 0; i < 500; ++i) {
-    const Vec3 p(u(rng), u(rng), u(rng) - 100);
+  const std::vector<Vec3> pts = points_near_cube(rng, 500);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    const Vec3& p = pts[i];
     const auto got = q->closest_point(p);
     const auto want = brute_force(cube, p);
     EXPECT_NEAR(got.distance_mm, want.distance_mm, 1e-9 * (1 + want.distance_mm))
@@ -47,9 +58,7 @@ TEST(MeshQuery, HintsNeverChangeTheClosestPoints) {
   auto q = MeshQuery::build(cube);
   ASSERT_TRUE(q.ok());
   std::mt19937 rng(11);
-  std::uniform_real_distribution<double> u(90, 130);
-  std::vector<Vec3> pts;
-  for (int i = 0; i < 2000; ++i) pts.emplace_back(u(rng), u(rng), u(rng) - 100);
+  std::vector<Vec3> pts = points_near_cube(rng, 2000);
   pts.emplace_back(110, 110, 25);  // above the top face's diagonal (a tie)
   pts.emplace_back(125, 125, 25);  // beyond a corner (ties of three faces)
   pts.emplace_back(100, 100, 0);   // on a corner
