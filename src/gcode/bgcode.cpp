@@ -737,7 +737,7 @@ class BgcodeStreamBuf final : public std::streambuf {
         } else {
           std::size_t size = 0;
           std::string why;
-          if (!detail::meatpack_decode(*data, unpacked_, size, why))
+          if (!detail::meatpack_decode(*data, unpacked_, size, why, fast_meatpack_))
             return stop(reader_.error(why, true).error());
           show(unpacked_.data(), size);
         }
@@ -771,6 +771,9 @@ class BgcodeStreamBuf final : public std::streambuf {
   char last_char_ = '\n';
   std::size_t gcode_blocks_read_ = 0;
   std::optional<Error> error_;
+  /// MeatPack's table-driven loop, else its byte-at-a-time state machine alone (the plain
+  /// twin: PRINTTWIN_PLAIN=bgcode_meatpack, core/plain_path.hpp).
+  bool fast_meatpack_ = !detail::plain_path("bgcode_meatpack");
 };
 
 BgcodeGcodeStream::BgcodeGcodeStream(std::unique_ptr<BgcodeStreamBuf> buf)

@@ -29,14 +29,6 @@ constexpr std::array<bool, 256> kGParameter = [] {
   return t;
 }();
 
-/// Packed bytes whose two characters are both digits or '.' (the bulk of G-code): none of
-/// the writer's rules apply to them, whatever the "no spaces" mode.
-constexpr std::array<bool, 256> kPlainPair = [] {
-  std::array<bool, 256> t{};
-  for (int b = 0; b < 256; ++b) t[static_cast<std::size_t>(b)] = (b & 15) <= 10 && (b >> 4) <= 10;
-  return t;
-}();
-
 /// Applies the command byte `b` that follows 0xFF 0xFF at byte `i` of the block's data.
 /// False, with `why` set, on an unknown command.
 bool apply_command(std::uint8_t b, std::size_t i, bool& packing, char& code11, std::string& why) {
@@ -158,6 +150,223 @@ struct Unpacker {
   }
 };
 
+/// The writer's state between two characters, for the table-driven loop (the reference
+/// writer in meatpack_decode() keeps `prev` and `g_line` instead).
+enum Writer : std::uint8_t {
+  kBlockStart,  ///< nothing written yet: a '\n' is written, a 'G' starts a G line
+  kLineStart,   ///< after a '\n': another '\n' is dropped, a 'G' starts a G line
+  kGLine,       ///< inside a G line, after anything but a space: parameters get a space
+  kGLineSpace,  ///< inside a G line, after a space
+  kOtherLine,   ///< inside any other line
+  kWriterStates
+};
+
+/// One character through the writer: what it writes (up to two bytes: a space and the
+/// character) and the state after it.
+struct CharStep {
+  std::array<char, 2> out{};
+  std::uint8_t len = 0;
+  std::uint8_t next = kOtherLine;
+};
+
+constexpr CharStep char_step(int state, char c) {
+  CharStep s;
+  if (c == '\n') {
+    s.next = kLineStart;
+    if (state != kLineStart) s.out[s.len++] = c;
+    return s;
+  }
+  const bool line_start = state == kBlockStart || state == kLineStart;
+  if (c == 'G' && line_start) {
+    s.out[s.len++] = c;
+    s.next = kGLine;
+    return s;
+  }
+  if (state == kGLine || state == kGLineSpace) {
+    if (state == kGLine && kGParameter[static_cast<unsigned char>(c)]) s.out[s.len++] = ' ';
+    s.out[s.len++] = c;
+    s.next = c == ' ' ? kGLineSpace : kGLine;
+    return s;
+  }
+  s.out[s.len++] = c;
+  s.next = kOtherLine;
+  return s;
+}
+
+using CharTable = std::array<std::array<CharStep, 256>, kWriterStates>;
+constexpr CharTable kCharSteps = [] {
+  CharTable t{};
+  for (int state = 0; state < kWriterStates; ++state)
+    for (int c = 0; c < 256; ++c)
+      t[static_cast<std::size_t>(state)][static_cast<std::size_t>(c)] =
+          char_step(state, static_cast<char>(c));
+  return t;
+}();
+
+/// What one byte of packed data does, from a state with nothing pending.
+enum PairKind : std::uint8_t {
+  kPair,      ///< both characters packed (or a '\n' first): `out` is all it writes
+  kHighFull,  ///< packed first character (in `out`), then the next byte whole
+  kLowFull,   ///< the next byte whole first, then the packed character `second`
+  kBothFull,  ///< the next two bytes whole
+  kSignal1,   ///< 0xFF: a command may follow; the state machine takes it
+};
+
+/// One packed byte through the unpacker and the writer.
+struct PairStep {
+  std::array<char, 4> out{};
+  std::uint8_t len = 0;
+  std::uint8_t next = kOtherLine;
+  std::uint8_t kind = kPair;
+  char second = '\0';
+};
+
+using PairTable = std::array<std::array<PairStep, 256>, kWriterStates>;
+
+/// The table for one "no spaces" mode (`code11` = ' ' or 'E').
+constexpr PairTable pair_table(char code11) {
+  PairTable t{};
+  auto code = [code11](int nibble) {
+    return nibble == 11 ? code11 : kCodes[static_cast<std::size_t>(nibble)];
+  };
+  for (int state = 0; state < kWriterStates; ++state) {
+    for (int b = 0; b < 256; ++b) {
+      PairStep& p = t[static_cast<std::size_t>(state)][static_cast<std::size_t>(b)];
+      p.next = static_cast<std::uint8_t>(state);
+      const int lo = b & 15, hi = b >> 4;
+      auto write = [&p](char c) {
+        const CharStep& s = kCharSteps[p.next][static_cast<unsigned char>(c)];
+        for (int k = 0; k < s.len; ++k) p.out[p.len++] = s.out[static_cast<std::size_t>(k)];
+        p.next = s.next;
+      };
+      if (b == kSignal) {
+        p.kind = kSignal1;
+      } else if (lo == kNotPacked) {
+        p.kind = hi == kNotPacked ? kBothFull : kLowFull;
+        if (hi != kNotPacked) p.second = code(hi);
+      } else {
+        write(code(lo));
+        if (code(lo) == '\n') continue;  // the high nibble is padding
+        if (hi == kNotPacked)
+          p.kind = kHighFull;
+        else
+          write(code(hi));
+      }
+    }
+  }
+  return t;
+}
+
+constexpr PairTable kPairSpaces = pair_table(' ');
+constexpr PairTable kPairNoSpaces = pair_table('E');
+
+/// Writes what one step gives at `o` (a whole word: the buffer has slack) and moves `o`.
+void emit(char*& o, const PairStep& p) {
+  std::memcpy(o, p.out.data(), 4);
+  o += p.len;
+}
+void emit(char*& o, const CharStep& c) {
+  std::memcpy(o, c.out.data(), 2);
+  o += c.len;
+}
+
+/// A byte that is a whole pair and leaves the writer in `state`.
+constexpr bool stays(const PairStep& p, std::uint8_t state) {
+  return (p.kind | (p.next ^ state)) == 0;
+}
+
+/// The table-driven loop over packed bytes, from a state with nothing pending: each byte's
+/// characters, the spaces before the parameters of a G line and the dropped empty lines
+/// come from one lookup by writer state and byte (kPairSpaces, kPairNoSpaces); a byte
+/// announcing whole-byte characters takes them through kCharSteps. Writes from `o` on,
+/// never past `limit` (at most 4 bytes per byte read, and 4 more of slack). `prev` and
+/// `g_line` are the reference writer's state, read on entry and left as it would leave
+/// them. True when it stopped for room (or at the end); false when byte `i` needs the
+/// state machine (0xFF, or a pair whose whole bytes are cut off or are 0xFF).
+bool packed_run(const std::uint8_t* bytes, std::size_t n, std::size_t& i, char code11,
+                const char* begin, char*& o, const char* limit, char& prev, bool& g_line) {
+  const PairTable& table = code11 == 'E' ? kPairNoSpaces : kPairSpaces;
+  std::uint8_t w = o == begin     ? kBlockStart
+                   : prev == '\n' ? kLineStart
+                   : !g_line      ? kOtherLine
+                   : prev == ' '  ? kGLineSpace
+                                  : kGLine;
+  const std::size_t run_end = std::min(n, i + static_cast<std::size_t>(limit - o) / 4);
+  bool room_or_end = true;
+  const std::array<PairStep, 256>& g_row = table[kGLine];
+  const std::array<PairStep, 256>& start_row = table[kLineStart];
+  const std::array<CharStep, 256>& g_chars = kCharSteps[kGLine];
+  while (i < run_end) {
+    // Inside a G line, most bytes leave the state as it is, and a G line follows the '\n':
+    // the rows of those two states are fixed, so no lookup waits for the state the one
+    // before it gives, and the branches are predicted.
+    while (w == kGLine && i < run_end) {
+      const PairStep& p = g_row[bytes[i]];
+      if (stays(p, kGLine)) {
+        emit(o, p);
+        ++i;
+        continue;
+      }
+      if (stays(p, kLineStart)) {  // the line ends
+        emit(o, p);
+        ++i;
+        w = kLineStart;
+        if (i == run_end) break;
+        const PairStep& q = start_row[bytes[i]];
+        if (!stays(q, kGLine)) break;
+        emit(o, q);
+        ++i;
+        w = kGLine;
+        continue;
+      }
+      // A parameter letter stored whole (Y, Z, F...) beside a packed character.
+      if ((p.kind != kHighFull && p.kind != kLowFull) || i + 1 == n) break;
+      const std::uint8_t c = bytes[i + 1];
+      const CharStep& whole = g_chars[c];
+      if (c == kSignal || whole.next != kGLine || p.next != kGLine) break;
+      if (p.kind == kHighFull) {
+        emit(o, p);
+        emit(o, whole);
+      } else {
+        emit(o, whole);
+        const CharStep& second = g_chars[static_cast<std::uint8_t>(p.second)];
+        emit(o, second);
+        w = second.next;
+      }
+      i += 2;
+    }
+    if (i >= run_end) break;
+    // Any state, any byte: one lookup, the whole bytes through kCharSteps.
+    const PairStep& p = table[w][bytes[i]];
+    if (p.kind == kPair) {
+      emit(o, p);
+      w = p.next;
+      ++i;
+      continue;
+    }
+    const std::size_t whole = p.kind == kBothFull ? 2 : 1;
+    if (p.kind == kSignal1 || i + whole >= n || bytes[i + 1] == kSignal ||
+        bytes[i + whole] == kSignal) {
+      room_or_end = false;
+      break;
+    }
+    emit(o, p);  // kHighFull's packed first character, else nothing
+    w = p.next;
+    auto write = [&](std::uint8_t c) {
+      const CharStep& step = kCharSteps[w][c];
+      emit(o, step);
+      w = step.next;
+    };
+    write(bytes[i + 1]);
+    if (p.kind == kLowFull) write(static_cast<std::uint8_t>(p.second));
+    if (p.kind == kBothFull) write(bytes[i + 2]);
+    i += whole + 1;
+  }
+  if (o != begin) prev = o[-1];
+  g_line = w == kGLine || w == kGLineSpace;
+  return room_or_end;
+}
+
 }  // namespace
 
 bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size, std::string& why,
@@ -210,53 +419,17 @@ bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size, std::st
   while (i < n) {
     room();
     // Fast paths, when no pair, character or command is pending (the machine's state is
-    // then just the packing and "no spaces" modes): whole packed pairs and the whole-byte
-    // characters they announce, with runs of digits and '.' (the bulk of G-code) apart;
-    // in plain mode, the bytes of comment lines. Anything else (0xFF, a pair cut by the
-    // end of the block) goes through the machine byte by byte.
+    // then just the packing and "no spaces" modes): a whole command; in packing mode, the
+    // table loop; in plain mode, the bytes of comment lines. Anything else (a lone 0xFF, a
+    // pair cut by the end of the block or by 0xFF) goes through the machine byte by byte.
     if (fast && m.full_pending == 0 && m.signals == 0 && !m.command_next) {
+      if (bytes[i] == kSignal && i + 2 < n && bytes[i + 1] == kSignal) {
+        if (!apply_command(bytes[i + 2], i + 2, m.packing, m.code11, why)) return false;
+        i += 3;
+        continue;
+      }
       if (m.packing) {
-        const std::size_t run_end =
-            std::min(n, i + (static_cast<std::size_t>(end - o) - kRoom) / 2);
-        while (i < run_end && kPlainPair[bytes[i]]) {
-          o[0] = kCodes[bytes[i] & 15];
-          o[1] = prev = kCodes[bytes[i] >> 4];
-          o += 2;
-          ++i;
-        }
-        if (i == n) break;
-        if (i == run_end) continue;  // out of room
-        const std::uint8_t b = bytes[i];
-        const std::uint8_t lo = b & 15, hi = b >> 4;
-        if (b != kSignal) {
-          if (lo != kNotPacked && hi != kNotPacked) {
-            const char first = m.unpacked(lo);
-            put(first);
-            if (first != '\n') put(m.unpacked(hi));
-            ++i;
-            continue;
-          }
-          if (lo != kNotPacked && m.unpacked(lo) == '\n') {  // the high nibble is padding
-            put('\n');
-            ++i;
-            continue;
-          }
-          const std::size_t whole = lo == kNotPacked && hi == kNotPacked ? 2 : 1;
-          if (i + whole < n && bytes[i + 1] != kSignal && (whole == 1 || bytes[i + 2] != kSignal)) {
-            if (whole == 2) {
-              put(static_cast<char>(bytes[i + 1]));
-              put(static_cast<char>(bytes[i + 2]));
-            } else if (lo == kNotPacked) {
-              put(static_cast<char>(bytes[i + 1]));
-              put(m.unpacked(hi));
-            } else {
-              put(m.unpacked(lo));
-              put(static_cast<char>(bytes[i + 1]));
-            }
-            i += whole + 1;
-            continue;
-          }
-        }
+        if (packed_run(bytes, n, i, m.code11, begin, o, end - kRoom, prev, g_line)) continue;
       } else if (!g_line) {
         const std::size_t run_end = std::min(n, i + static_cast<std::size_t>(end - o) - kRoom);
         while (i < run_end && bytes[i] != kSignal && bytes[i] != '\n' && bytes[i] != 'G')
