@@ -4,8 +4,9 @@
 // disagree: the metadata reader and the stream must accept the same headers, an error must
 // say something, and seeking must give back the bytes of a straight read. It also holds
 // the fast paths to their references: libdeflate to zlib (PRINTTWIN_PLAIN=bgcode_libdeflate)
-// on the whole file, and MeatPack's fast loop to its byte-at-a-time state machine on the raw
-// bytes; each pair must give the same text, or both an error.
+// on the whole file, and MeatPack's table-driven loop to its byte-at-a-time state machine
+// (PRINTTWIN_PLAIN=bgcode_meatpack) on the raw bytes, also with packing switched on first;
+// each pair must give the same text, or both an error.
 // Seeds (fuzz/corpus_bgcode/) carry checksum type 0, so mutations reach the decoders
 // instead of stopping at the CRC.
 #include <cstddef>
@@ -38,7 +39,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string_view bytes(reinterpret_cast<const char*>(data), size);
   auto meta = printtwin::read_bgcode_metadata(bytes, "fuzz.bgcode");
   auto text = printtwin::decode_bgcode(bytes, "fuzz.bgcode");
+  // MeatPack on the raw bytes, and with packing switched on first (plain and "no spaces"),
+  // so that the table-driven loop sees the bytes as packed data.
   meatpack_paths_agree(bytes);
+  for (std::string_view prefix :
+       {std::string_view("\xFF\xFF\xFB"), std::string_view("\xFF\xFF\xF7\xFF\xFF\xFB")})
+    meatpack_paths_agree(std::string(prefix) + std::string(bytes));
   // zlib, the plain twin of libdeflate, accepts and decodes the same files.
   setenv("PRINTTWIN_PLAIN", "bgcode_libdeflate", 1);
   auto plain = printtwin::decode_bgcode(bytes, "fuzz.bgcode");

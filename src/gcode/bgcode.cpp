@@ -398,11 +398,7 @@ Status parse_ini(std::string_view text, BgcodeKeyValues& out, const BlockReader&
 
 /// Appends `; key = value` lines, the way a text G-code file states settings.
 void append_comment_line(std::string& out, std::string_view key, std::string_view value) {
-  out += "; ";
-  out += key;
-  out += " = ";
-  out += value;
-  out += '\n';
+  out.append("; ", 2).append(key).append(" = ", 3).append(value).push_back('\n');
 }
 
 /// What read_metadata() does with the slicer metadata block. The G-code stream wants it

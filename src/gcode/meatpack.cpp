@@ -423,7 +423,8 @@ bool meatpack_decode(std::string_view in, Bytes& buf, std::size_t& size, std::st
     // table loop; in plain mode, the bytes of comment lines. Anything else (a lone 0xFF, a
     // pair cut by the end of the block or by 0xFF) goes through the machine byte by byte.
     if (fast && m.full_pending == 0 && m.signals == 0 && !m.command_next) {
-      if (bytes[i] == kSignal && i + 2 < n && bytes[i + 1] == kSignal) {
+      if (bytes[i] == kSignal && i + 2 < n && bytes[i + 1] == kSignal &&
+          bytes[i + 2] != kSignal) {  // (a third 0xFF is a signal again, not the command)
         if (!apply_command(bytes[i + 2], i + 2, m.packing, m.code11, why)) return false;
         i += 3;
         continue;

@@ -380,6 +380,9 @@ TEST(Bgcode, MeatPackFastPathsMatchTheStateMachine) {
     for (int k = 0; k < 6000; ++k) expected += " X";
     EXPECT_EQ(std::string_view(buf.data(), size), expected);
   }
+  // Three 0xFF in a row: the third is a signal again, and the byte after it the command.
+  inputs.push_back("\xFF\xFF\xFF\xFB\x1D\x2C");
+  inputs.push_back("\xFF\xFF\xFB\x1D\xFF\xFF\xFF\x60");
   std::uint32_t seed = 20;
   auto next = [&seed] { return seed = seed * 1664525u + 1013904223u, seed >> 8; };
   for (int k = 0; k < 4000; ++k) {
