@@ -301,6 +301,16 @@ bool packed_run(const std::uint8_t* bytes, std::size_t n, std::size_t& i, char c
     // the rows of those two states are fixed, so no lookup waits for the state the one
     // before it gives, and the branches are predicted.
     while (w == kGLine && i < run_end) {
+      if (i + 1 < run_end) {  // two bytes that both stay in the line: one branch for both
+        const PairStep& a = g_row[bytes[i]];
+        const PairStep& b = g_row[bytes[i + 1]];
+        if ((a.kind | (a.next ^ kGLine) | b.kind | (b.next ^ kGLine)) == 0) {
+          emit(o, a);
+          emit(o, b);
+          i += 2;
+          continue;
+        }
+      }
       const PairStep& p = g_row[bytes[i]];
       if (stays(p, kGLine)) {
         emit(o, p);
