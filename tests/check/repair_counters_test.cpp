@@ -91,13 +91,7 @@ TEST(RepairCounters, SeamOfSplitVerticesIsStitched) {
 
 /// The 10 mm cube with its +z face on its own corners `dz` above the sides: a seam of 8
 /// open facet edges.
-Mesh seam_cube(double dz) {
-  Mesh m = test::make_cube_mm(10);
-  for (std::uint32_t v = 4; v < 8; ++v) m.vertices_mm.push_back(m.vertices_mm[v] + Vec3(0, 0, dz));
-  for (std::size_t f = 2; f < 4; ++f)
-    for (auto& v : m.triangles[f]) v += 4;
-  return m;
-}
+Mesh seam_cube(double dz) { return test::make_seam_cube_mm(10, dz); }
 
 TEST(RepairCounters, NearbyEdgesAreSeamsThatAToleranceWouldClose) {
   // The +z face on its own corners 0.001 mm above the sides (as bench/repair_vs_admesh.sh's
