@@ -418,7 +418,10 @@ RepairCounters measure_repair(const Mesh& before, const Mesh& after, double near
   // The faces a T-junction split makes (the fan of each split face) are added, but they
   // fill no hole: edges they close are fixed, and they are no hole patch.
   const Mesh& base = moved != nullptr ? *moved : before;
-  const Mesh split = detail::split_t_junctions(base, nearby_mm, c.t_junction_edges);
+  const MeshHealth hb = analyze_mesh_health(before);
+  // Edges open by position are open by index: without open edges, no T-junction.
+  const Mesh split =
+      hb.boundary_edges > 0 ? detail::split_t_junctions(base, nearby_mm, c.t_junction_edges) : base;
   std::vector<std::array<std::uint32_t, 3>> fan;
   for (std::size_t f = 0; f < split.triangles.size(); ++f) {
     const auto& t = split.triangles[f];
@@ -476,7 +479,6 @@ RepairCounters measure_repair(const Mesh& before, const Mesh& after, double near
   for (std::uint32_t f = 0; f < after.triangles.size(); ++f)
     c.holes_filled += added[f] == 1 && uf.find(f) == f;
 
-  const MeshHealth hb = analyze_mesh_health(before);
   const MeshHealth ha = analyze_mesh_health(welded);
   c.degenerate_facets = hb.degenerate_faces;
   c.backwards_edges = 2 * ha.inconsistent_edges;

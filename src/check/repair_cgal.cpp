@@ -61,7 +61,8 @@ Result<RepairResult> repair_mesh(const Mesh& mesh, const RepairSettings& setting
   // Then T-junctions: a face whose open edge has the other side's vertices on its middle is
   // split there (admesh has no such step; its --nearby leaves them open).
   std::size_t t_split = 0;
-  const Mesh joined = out.weld_tolerance_mm > 0
+  // (Edges open by position are open by index, so a mesh without open edges has none.)
+  const Mesh joined = out.weld_tolerance_mm > 0 && out.before.boundary_edges > 0
                           ? detail::split_t_junctions(moved, out.weld_tolerance_mm, t_split)
                           : moved;
   try {
