@@ -1,6 +1,6 @@
 #!/bin/sh
 # Repair counters side by side: `printtwin check --repair` against admesh (default: every fix)
-# on the same broken files. Builds six small cases (a 20 mm cube with one defect each) and
+# on the same broken files. Builds seven small cases (a 20 mm cube with one defect each) and
 # adds the files given on the command line. Prints one Markdown row per file and tool.
 #   bench/repair_vs_admesh.sh [build-dir] [file.stl...]        (default build-dir: build)
 set -eu
@@ -17,8 +17,9 @@ trap 'rm -rf "$tmp"' EXIT
 # cube CASE > file: the 20 mm cube (12 outward facets) with one defect:
 #   flipped (facet 1 wound the other way), hole (facet 12 left out), duplicate (facet 4
 #   again at the end), inverted (every facet the other way), seam (the top's corners 0.001
-#   mm off), crack (one corner of the top 0.002 mm higher). Stored normals follow each
-#   facet's winding.
+#   mm off), crack (one corner of the top 0.002 mm higher), tjunction (the top a fan of three
+#   facets from a vertex in the middle of its edge with the +x side, whose facet keeps that
+#   edge whole). Stored normals follow each facet's winding.
 cube() {
   awk -v c="$1" '
   function facet(a, b, d,    i, p, q, r, nx, ny, nz, l) {
@@ -34,23 +35,24 @@ cube() {
     print "  endloop\n endfacet"
   }
   BEGIN {
-    split("0 0 0|20 0 0|20 20 0|0 20 0|0 0 20|20 0 20|20 20 20|0 20 20", V, "|")
+    split("0 0 0|20 0 0|20 20 0|0 20 0|0 0 20|20 0 20|20 20 20|0 20 20|20 10 20", V, "|")
     split("1 3 2|1 4 3|5 6 7|5 7 8|1 2 6|1 6 5|2 3 7|2 7 6|3 4 8|3 8 7|4 1 5|4 5 8", T, "|")
     print "solid " c
     for (k = 1; k <= 12; k++) {
-      if (c == "hole" && k == 12) continue
+      if ((c == "hole" && k == 12) || (c == "tjunction" && (k == 3 || k == 4))) continue
       split(T[k], t, " ")
       top = (k == 3 || k == 4)
       if ((c == "flipped" && k == 1) || c == "inverted") facet(t[1], t[3], t[2])
       else facet(t[1], t[2], t[3])
     }
     if (c == "duplicate") { split(T[4], t, " "); top = 1; facet(t[1], t[2], t[3]) }
+    if (c == "tjunction") { top = 0; facet(9, 7, 8); facet(9, 8, 5); facet(9, 5, 6) }
     print "endsolid " c
   }'
 }
 
 files=""
-for c in flipped hole duplicate inverted seam crack; do
+for c in flipped hole duplicate inverted seam crack tjunction; do
   cube "$c" > "$tmp/cube_$c.stl"
   files="$files $tmp/cube_$c.stl"
 done

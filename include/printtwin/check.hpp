@@ -289,6 +289,9 @@ struct RepairCounters {
   /// ends of another face's open facet edge running the other way (not at them): the seams
   /// that the weld closes (admesh --nearby).
   std::size_t nearby_edges = 0;
+  /// Open facet edges of the input (after the weld) with a vertex of other open edges on their
+  /// middle, within the nearby tolerance (a T-junction): the edges the repair splits.
+  std::size_t t_junction_edges = 0;
 };
 
 /// The tolerance of RepairCounters::nearby_edges when the repair does not weld.

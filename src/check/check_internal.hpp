@@ -110,6 +110,13 @@ Mesh welded_by_position(const Mesh& mesh);
 /// moved (same vertices and faces); `moved` counts the vertices that changed position.
 Mesh weld_nearby_vertices(const Mesh& mesh, double tolerance_mm, std::size_t& moved);
 
+/// Closes T-junctions: each open facet edge with vertices of other open edges on its middle
+/// (within `tolerance_mm` and 1 % of its length of its line, with an open edge of theirs
+/// running back along it) has its face split at them into a fan from the opposite corner,
+/// so that the other side's short edges find partners. Same vertices; `split` counts the
+/// edges split.
+Mesh split_t_junctions(const Mesh& mesh, double tolerance_mm, std::size_t& split);
+
 /// Reverses every inverted shell (see Shell::inverted); returns how many.
 std::size_t flip_inverted_shells(Mesh& mesh);
 

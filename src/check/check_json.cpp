@@ -151,7 +151,8 @@ std::string check_report_to_json(const CheckReport& r, const CheckSource& source
                        {"holes_filled", k.holes_filled},
                        {"degenerate_facets", k.degenerate_facets},
                        {"parts", k.parts},
-                       {"nearby_edges", k.nearby_edges}}},
+                       {"nearby_edges", k.nearby_edges},
+                       {"t_junction_edges", k.t_junction_edges}}},
                      {"changes", changes},
                      {"after", health_json(repair->after, Vec3::Zero())}};
   }

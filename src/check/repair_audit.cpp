@@ -177,6 +177,100 @@ std::vector<std::array<std::uint32_t, 2>> nearby_open_edges(const Mesh& m, const
   return pairs;
 }
 
+/// The T-junctions of `m`: open facet edges (a -> b) with vertices of other open edges on
+/// their middle (a vertex in the middle of an edge: the other side's chain of short open
+/// edges b -> ... -> a). A vertex counts when it lies strictly between a and b, within `tol`
+/// and 1 % of the edge's length of the line through them (so the split faces keep the
+/// face's plane within about half a degree), and one of its open edges runs from it back
+/// towards a along the line (to a itself or to another such vertex): a chain, not a vertex
+/// that happens to lie near the edge. Positions decide (vertices at one position are one);
+/// each edge's vertices come sorted from a to b.
+struct TJunction {
+  std::uint32_t slot = 0;               ///< 3 f + k: the edge from corner k to k + 1 of face f
+  std::vector<std::uint32_t> vertices;  ///< on the edge, from a to b (vertices of `m`)
+};
+
+std::vector<TJunction> t_junctions(const Mesh& m, double tol) {
+  std::vector<TJunction> out;
+  if (!(tol > 0)) return out;
+  std::vector<std::uint32_t> ids, unused;
+  canonical_ids(m, Mesh{}, ids, unused);
+  // m on its distinct positions (faces in the same order); zero-area faces, removed by the
+  // repair, have no edges here.
+  Mesh w;
+  w.triangles.reserve(m.triangles.size());
+  for (std::size_t f = 0; f < m.triangles.size(); ++f) {
+    const auto& t = m.triangles[f];
+    w.triangles.push_back(detail::is_degenerate_face(m, f)
+                              ? std::array<std::uint32_t, 3>{0, 0, 0}
+                              : std::array<std::uint32_t, 3>{ids[t[0]], ids[t[1]], ids[t[2]]});
+  }
+  std::uint32_t count = 0;
+  for (const std::uint32_t id : ids) count = std::max(count, id + 1);
+  w.vertices_mm.resize(count);
+  std::vector<std::uint32_t> rep(count, kNone);  // the lowest vertex of m at each position
+  for (std::uint32_t v = 0; v < ids.size(); ++v) {
+    w.vertices_mm[ids[v]] = m.vertices_mm[v];
+    if (rep[ids[v]] == kNone) rep[ids[v]] = v;
+  }
+  const FacetEdges e = facet_edges(w);
+  // Open facet edges (from, to, slot), by their start.
+  std::vector<std::array<std::uint32_t, 3>> open;
+  for (std::size_t s = 0; s < e.group.size(); ++s) {
+    if (e.group_size[e.group[s]] != 1) continue;
+    const auto& t = w.triangles[s / 3];
+    const std::uint32_t a = t[s % 3], b = t[(s % 3 + 1) % 3];
+    if (a != b) open.push_back({a, b, static_cast<std::uint32_t>(s)});
+  }
+  if (open.size() < 3) return out;
+  std::sort(open.begin(), open.end());
+  // The open edges' starts by x, to find those near an edge.
+  std::vector<std::uint32_t> starts;
+  for (const auto& o : open) starts.push_back(o[0]);
+  starts.erase(std::unique(starts.begin(), starts.end()), starts.end());
+  const auto& p = w.vertices_mm;
+  std::sort(starts.begin(), starts.end(),
+            [&](std::uint32_t i, std::uint32_t j) { return p[i].x() < p[j].x(); });
+  for (const auto& [a, b, slot] : open) {
+    const Vec3 d = p[b] - p[a];
+    const double len2 = d.squaredNorm();
+    if (!(len2 > 0)) continue;
+    const double lim = std::min(tol, 0.01 * std::sqrt(len2));
+    // Position along a -> b (0 at a, 1 at b) of q, or -1 when q is off the line.
+    const auto along = [&](const Vec3& q) {
+      const double t = (q - p[a]).dot(d) / len2;
+      return (q - p[a] - t * d).norm() <= lim ? t : -1.0;
+    };
+    const double lo = std::min(p[a].x(), p[b].x()) - lim, hi = std::max(p[a].x(), p[b].x()) + lim;
+    auto it = std::lower_bound(starts.begin(), starts.end(), lo,
+                               [&](std::uint32_t i, double x) { return p[i].x() < x; });
+    std::vector<std::pair<double, std::uint32_t>> on;
+    for (; it != starts.end() && p[*it].x() <= hi; ++it) {
+      const std::uint32_t v = *it;
+      if (v == a || v == b) continue;
+      const double t = along(p[v]);
+      if (!(t > 0 && t < 1)) continue;
+      // An open edge from v back towards a, along the line.
+      auto from = std::lower_bound(open.begin(), open.end(), std::array<std::uint32_t, 3>{v, 0, 0});
+      bool chain = false;
+      for (; from != open.end() && (*from)[0] == v && !chain; ++from) {
+        const std::uint32_t x = (*from)[1];
+        chain = x == a || (x != b && along(p[x]) >= 0 && along(p[x]) < t);
+      }
+      if (chain) on.emplace_back(t, v);
+    }
+    if (on.empty()) continue;
+    std::sort(on.begin(), on.end());
+    TJunction j;
+    j.slot = slot;
+    for (const auto& [t, v] : on) j.vertices.push_back(rep[v]);
+    out.push_back(std::move(j));
+  }
+  std::sort(out.begin(), out.end(),
+            [](const TJunction& x, const TJunction& y) { return x.slot < y.slot; });
+  return out;
+}
+
 }  // namespace
 
 Mesh detail::welded_by_position(const Mesh& mesh) {
@@ -248,6 +342,38 @@ Mesh detail::weld_nearby_vertices(const Mesh& mesh, double tolerance_mm, std::si
   return out;
 }
 
+Mesh detail::split_t_junctions(const Mesh& mesh, double tolerance_mm, std::size_t& split) {
+  Mesh out = mesh;
+  split = 0;
+  // A face with T-junctions on two or three edges is split along one per pass.
+  for (int pass = 0; pass < 3; ++pass) {
+    const std::vector<TJunction> found = t_junctions(out, tolerance_mm);
+    std::vector<char> done(out.triangles.size(), 0);
+    bool again = false;
+    for (const TJunction& j : found) {
+      const std::uint32_t f = j.slot / 3, k = j.slot % 3;
+      if (done[f] != 0) {
+        again = true;
+        continue;
+      }
+      done[f] = 1;
+      ++split;
+      // Face (a, b, c) with the vertices m1..mn on a -> b: (a, m1, c), (m1, m2, c), ...,
+      // (mn, b, c), the same winding. The first replaces the face, the others go at the end.
+      const auto t = out.triangles[f];
+      const std::uint32_t a = t[k], b = t[(k + 1) % 3], c = t[(k + 2) % 3];
+      std::vector<std::uint32_t> chain{a};
+      chain.insert(chain.end(), j.vertices.begin(), j.vertices.end());
+      chain.push_back(b);
+      out.triangles[f] = {chain[0], chain[1], c};
+      for (std::size_t i = 1; i + 1 < chain.size(); ++i)
+        out.triangles.push_back({chain[i], chain[i + 1], c});
+    }
+    if (!again) break;
+  }
+  return out;
+}
+
 RepairCounters measure_repair(const Mesh& before, const Mesh& after, double nearby_mm,
                               const Mesh* moved) {
   RepairCounters c;
@@ -289,6 +415,26 @@ RepairCounters measure_repair(const Mesh& before, const Mesh& after, double near
   }
   for (char a : added) c.facets_added += a != 0;
 
+  // The faces a T-junction split makes (the fan of each split face) are added, but they
+  // fill no hole: edges they close are fixed, and they are no hole patch.
+  const Mesh& base = moved != nullptr ? *moved : before;
+  const MeshHealth hb = analyze_mesh_health(before);
+  // Edges open by position are open by index: without open edges, no T-junction.
+  const Mesh split =
+      hb.boundary_edges > 0 ? detail::split_t_junctions(base, nearby_mm, c.t_junction_edges) : base;
+  std::vector<std::array<std::uint32_t, 3>> fan;
+  for (std::size_t f = 0; f < split.triangles.size(); ++f) {
+    const auto& t = split.triangles[f];
+    if (f < base.triangles.size() && t == base.triangles[f]) continue;
+    std::array<std::uint32_t, 3> key{ids_b[t[0]], ids_b[t[1]], ids_b[t[2]]};
+    std::sort(key.begin(), key.end());
+    fan.push_back(key);
+  }
+  std::sort(fan.begin(), fan.end());
+  for (const FaceKey& k : ka)
+    if (added[k.face] != 0 && std::binary_search(fan.begin(), fan.end(), k.ids))
+      added[k.face] = 2;  // a piece of a split face
+
   // The result as a reader of its file sees it: vertices at one position are one vertex
   // (faces keep their indices), so vertices split apart by the repair do not close edges.
   const Mesh welded = detail::welded_by_position(after);
@@ -296,7 +442,7 @@ RepairCounters measure_repair(const Mesh& before, const Mesh& after, double near
   const FacetEdges ea = facet_edges(welded);
   std::vector<char> group_has_added(ea.group_size.size(), 0);
   for (std::size_t s = 0; s < ea.group.size(); ++s)
-    if (added[s / 3] != 0) group_has_added[ea.group[s]] = 1;
+    if (added[s / 3] == 1) group_has_added[ea.group[s]] = 1;
 
   // Edges fixed: open or non-manifold facet edges of kept faces, closed by input faces.
   for (std::size_t f = 0; f < before.triangles.size(); ++f) {
@@ -323,7 +469,7 @@ RepairCounters measure_repair(const Mesh& before, const Mesh& after, double near
   std::vector<std::uint32_t> first_added_in_group(ea.group_size.size(), kNone);
   for (std::size_t s = 0; s < ea.group.size(); ++s) {
     const auto f = static_cast<std::uint32_t>(s / 3);
-    if (added[f] == 0) continue;
+    if (added[f] != 1) continue;
     std::uint32_t& first = first_added_in_group[ea.group[s]];
     if (first == kNone)
       first = f;
@@ -331,9 +477,8 @@ RepairCounters measure_repair(const Mesh& before, const Mesh& after, double near
       uf.unite(first, f);
   }
   for (std::uint32_t f = 0; f < after.triangles.size(); ++f)
-    c.holes_filled += added[f] != 0 && uf.find(f) == f;
+    c.holes_filled += added[f] == 1 && uf.find(f) == f;
 
-  const MeshHealth hb = analyze_mesh_health(before);
   const MeshHealth ha = analyze_mesh_health(welded);
   c.degenerate_facets = hb.degenerate_faces;
   c.backwards_edges = 2 * ha.inconsistent_edges;
@@ -352,7 +497,8 @@ std::string repair_counters_text(const RepairCounters& c) {
                                 {"holes filled", c.holes_filled},
                                 {"degenerate facets", c.degenerate_facets},
                                 {"parts", c.parts},
-                                {"nearby edges", c.nearby_edges}})
+                                {"nearby edges", c.nearby_edges},
+                                {"T-junction edges", c.t_junction_edges}})
     t += (t.empty() ? "" : ", ") + std::string(name) + " " + std::to_string(n);
   return t;
 }

@@ -58,13 +58,20 @@ Result<RepairResult> repair_mesh(const Mesh& mesh, const RepairSettings& setting
   const Mesh moved = out.weld_tolerance_mm > 0
                          ? detail::weld_nearby_vertices(mesh, out.weld_tolerance_mm, welded)
                          : mesh;
+  // Then T-junctions: a face whose open edge has the other side's vertices on its middle is
+  // split there (admesh has no such step; its --nearby leaves them open).
+  std::size_t t_split = 0;
+  // (Edges open by position are open by index, so a mesh without open edges has none.)
+  const Mesh joined = out.weld_tolerance_mm > 0 && out.before.boundary_edges > 0
+                          ? detail::split_t_junctions(moved, out.weld_tolerance_mm, t_split)
+                          : moved;
   try {
     std::vector<P3> points;
-    points.reserve(moved.vertices_mm.size());
-    for (const auto& v : moved.vertices_mm) points.emplace_back(v.x(), v.y(), v.z());
+    points.reserve(joined.vertices_mm.size());
+    for (const auto& v : joined.vertices_mm) points.emplace_back(v.x(), v.y(), v.z());
     std::vector<Polygon> polygons;
-    polygons.reserve(moved.triangles.size());
-    for (const auto& t : moved.triangles) polygons.push_back({t[0], t[1], t[2]});
+    polygons.reserve(joined.triangles.size());
+    for (const auto& t : joined.triangles) polygons.push_back({t[0], t[1], t[2]});
 
     // Each welded vertex now repeats its group's position and merges once.
     const std::size_t merged = PMP::merge_duplicate_points_in_polygon_soup(points, polygons);
@@ -73,6 +80,8 @@ Result<RepairResult> repair_mesh(const Mesh& mesh, const RepairSettings& setting
             format_fixed(out.weld_tolerance_mm, 4) + " mm)");
     add(out.changes, "merged_vertices", merged - std::min(merged, welded),
         "duplicate vertices merged");
+    add(out.changes, "split_t_junctions", t_split,
+        "faces split where the other side's vertices lay on their open edge (T-junctions)");
 
     // Zero-area faces (repeated index or collinear corners) carry no surface.
     std::size_t degenerate = 0;

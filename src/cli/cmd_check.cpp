@@ -451,6 +451,7 @@ CheckOptions with_part_settings(CheckOptions o, const PartSettings& p) {
   if (p.min_thickness_mm) o.min_thickness_mm = *p.min_thickness_mm;
   if (p.line_width_mm) o.line_width_mm = *p.line_width_mm;
   if (p.self_intersections) o.no_self_intersections = !*p.self_intersections;
+  if (p.weld_tolerance_mm) o.weld_tolerance_mm = *p.weld_tolerance_mm;
   return o;
 }
 

@@ -25,6 +25,7 @@ constexpr const char* kPartKeys[] = {"file",
                                      "min_thickness_mm",
                                      "line_width_mm",
                                      "self_intersections",
+                                     "weld_tolerance_mm",
                                      "gcode",
                                      "tolerance_mm",
                                      "max_excess_mm",
@@ -101,6 +102,11 @@ class Reader {
           s.overhang_angle_deg = v;
           continue;
         }
+        if (key == "weld_tolerance_mm") {
+          if (v < 0) return fail(at, "expected a number >= 0 (0: no weld)");
+          s.weld_tolerance_mm = v;
+          continue;
+        }
         if (!(v > 0)) return fail(at, "expected a number > 0");
         std::optional<double>* slots[] = {&s.scale,        &s.min_thickness_mm, &s.line_width_mm,
                                           &s.tolerance_mm, &s.max_excess_mm,    &s.max_deficit_mm,
@@ -132,6 +138,7 @@ PartSettings merged(PartSettings base, const PartSettings& over) {
   take(base.min_thickness_mm, over.min_thickness_mm);
   take(base.line_width_mm, over.line_width_mm);
   take(base.self_intersections, over.self_intersections);
+  take(base.weld_tolerance_mm, over.weld_tolerance_mm);
   take(base.gcode, over.gcode);
   take(base.tolerance_mm, over.tolerance_mm);
   take(base.max_excess_mm, over.max_excess_mm);

@@ -34,6 +34,7 @@ struct PartSettings {
   std::optional<double> min_thickness_mm;
   std::optional<double> line_width_mm;
   std::optional<bool> self_intersections;
+  std::optional<double> weld_tolerance_mm;  ///< --repair's weld; 0: none
   // verify only
   std::optional<std::string> gcode;  ///< resolved path
   std::optional<double> tolerance_mm;

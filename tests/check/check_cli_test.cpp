@@ -346,11 +346,7 @@ TEST(CheckCli, RepairWeldsAnOpenSeamWithinTheTolerance) {
   // facet edges. The default tolerance (admesh's: the shortest edge, 20 mm, + 0.01 % of the
   // diagonal) joins it as admesh does; 0.005 mm does not, and the top goes as a loose piece.
   const fs::path dir = test::temp_dir("check_cli_weld");
-  Mesh m = test::make_cube_mm(20);
-  for (std::uint32_t v = 4; v < 8; ++v)
-    m.vertices_mm.push_back(m.vertices_mm[v] + Vec3(0, 0, 0.01));
-  for (std::size_t f = 2; f < 4; ++f)
-    for (auto& v : m.triangles[f]) v += 4;
+  const Mesh m = test::make_seam_cube_mm(20, 0.01);
   const auto run = repair_run(m, dir);
   EXPECT_NE(run.out.find("open seams welded within 20.0035 mm"), std::string::npos) << run.out;
   const json j = read_json(dir / "r.json");

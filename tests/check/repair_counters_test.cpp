@@ -2,6 +2,7 @@
 // each defect must show in its own counter and nowhere else.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <utility>
 
@@ -91,13 +92,7 @@ TEST(RepairCounters, SeamOfSplitVerticesIsStitched) {
 
 /// The 10 mm cube with its +z face on its own corners `dz` above the sides: a seam of 8
 /// open facet edges.
-Mesh seam_cube(double dz) {
-  Mesh m = test::make_cube_mm(10);
-  for (std::uint32_t v = 4; v < 8; ++v) m.vertices_mm.push_back(m.vertices_mm[v] + Vec3(0, 0, dz));
-  for (std::size_t f = 2; f < 4; ++f)
-    for (auto& v : m.triangles[f]) v += 4;
-  return m;
-}
+Mesh seam_cube(double dz) { return test::make_seam_cube_mm(10, dz); }
 
 TEST(RepairCounters, NearbyEdgesAreSeamsThatAToleranceWouldClose) {
   // The +z face on its own corners 0.001 mm above the sides (as bench/repair_vs_admesh.sh's
@@ -193,6 +188,70 @@ TEST(RepairCounters, MeasuredFromTheMeshesNotFromTheSteps) {
                 "edges fixed 0, facets removed 1, facets added 1, facets reversed 1", 0),
             0U)
       << repair_counters_text(c);
+}
+
+/// The 10 mm cube with its top (+z) face a fan from a vertex in the middle of its edge with
+/// the +x face: the +x face's top edge is one open facet edge, the top's two halves of it
+/// two others (a T-junction, as CAD exports leave where faces were meshed apart).
+Mesh t_junction_cube() {
+  Mesh m = test::make_cube_mm(10);
+  std::erase_if(m.triangles, [&](const auto& t) {
+    return m.vertices_mm[t[0]].z() == 10 && m.vertices_mm[t[1]].z() == 10 &&
+           m.vertices_mm[t[2]].z() == 10;
+  });
+  const auto at = [&](double x, double y) {
+    for (std::uint32_t v = 0; v < m.vertices_mm.size(); ++v)
+      if (m.vertices_mm[v] == Vec3(x, y, 10)) return v;
+    return UINT32_MAX;
+  };
+  const std::uint32_t p0 = at(0, 0), p1 = at(10, 0), p2 = at(10, 10), p3 = at(0, 10);
+  const auto mid = static_cast<std::uint32_t>(m.vertices_mm.size());
+  m.vertices_mm.emplace_back(10, 5, 10);
+  for (const auto& t : {std::array<std::uint32_t, 3>{mid, p2, p3}, {mid, p3, p0}, {mid, p0, p1}})
+    m.triangles.push_back(t);
+  return m;
+}
+
+TEST(RepairCounters, TJunctionIsSplitAndJoined) {
+  const Mesh m = t_junction_cube();
+  ASSERT_EQ(analyze_mesh_health(m).boundary_edges, 3U);
+  EXPECT_EQ(measure_repair(m, m).t_junction_edges, 1U);
+  auto r = repair_mesh(m);
+  ASSERT_TRUE(r.ok()) << r.error().describe();
+  EXPECT_TRUE(r->after.closed);
+  EXPECT_EQ(r->after.boundary_edges, 0U);
+  EXPECT_NEAR(signed_volume_mm3(r->mesh), 1000.0, 1e-9);
+  // The +x face's triangle is replaced by two (no face added to fill a hole, nothing
+  // removed but it): one T-junction edge.
+  EXPECT_EQ(r->mesh.triangles.size(), m.triangles.size() + 1);
+  EXPECT_EQ(r->counters.t_junction_edges, 1U);
+  EXPECT_EQ(r->counters.facets_removed, 1U);
+  EXPECT_EQ(r->counters.facets_added, 2U);
+  bool reported = false;
+  for (const auto& c : r->changes)
+    reported = reported || (c.code == "split_t_junctions" && c.count == 1);
+  EXPECT_TRUE(reported);
+  // Without the weld (tolerance 0) nothing is split: the sliver hole is filled instead.
+  RepairSettings no_weld;
+  no_weld.weld_tolerance_mm = 0;
+  auto plain = repair_mesh(m, no_weld);
+  ASSERT_TRUE(plain.ok());
+  for (const auto& c : plain->changes) EXPECT_NE(c.code, "split_t_junctions");
+}
+
+TEST(RepairCounters, AHoleIsNoTJunction) {
+  // The corners around a missing facet lie near each other's edges at the default tolerance
+  // (the shortest edge, 10 mm), but off their lines: no split, the hole is filled.
+  Mesh hole = test::make_cube_mm(10);
+  hole.triangles.pop_back();
+  EXPECT_EQ(measure_repair(hole, hole, 10.0).t_junction_edges, 0U);
+  auto r = repair_mesh(hole);
+  ASSERT_TRUE(r.ok());
+  for (const auto& c : r->changes) EXPECT_NE(c.code, "split_t_junctions");
+  // A vertex on the edge's line but with no open edge of its own along it: no split.
+  Mesh lone = test::make_cube_mm(10);
+  lone.vertices_mm.emplace_back(10, 5, 10);
+  EXPECT_EQ(measure_repair(lone, lone, 10.0).t_junction_edges, 0U);
 }
 
 }  // namespace

@@ -157,6 +157,8 @@ TEST(Manifest, ErrorsNameTheFileAndTheKey) {
         Case{R"({"parts": [{"file": "cube.stl", "units": "furlong"}]})", "unknown unit 'furlong'"},
         Case{R"({"parts": [{"file": "cube.stl", "scale": -1}]})",
              "parts[0].scale: expected a number > 0"},
+        Case{R"({"defaults": {"weld_tolerance_mm": -0.1}, "parts": []})",
+             "defaults.weld_tolerance_mm: expected a number >= 0"},
         Case{R"({"parts": [{"file": "cube.stl"}, {"file": "./cube.stl"}]})", "listed twice"},
         Case{R"({"parts": [{"printer": "ender3"}]})", "parts[0]: expected \"file\""},
         Case{R"({"version": 2, "parts": []})", "version: expected 1"},
@@ -208,6 +210,31 @@ TEST(Manifest, PartSettingsWinOverDefaultsAndTheCommandLine) {
   const auto listed = test::run_cli("check --manifest " + q(dir / "printtwin.json"));
   EXPECT_EQ(listed.exit_code, 0) << listed.out << listed.err;
   EXPECT_NE(listed.out.find("2 of 2 parts printable"), std::string::npos) << listed.out;
+}
+
+TEST(Manifest, WeldToleranceOfEachPartGoesToItsRepair) {
+  // Two copies of a 10 mm cube whose top sits on its own corners 0.001 mm above the sides
+  // (a seam of 8 open facet edges): the manifest's weld tolerance closes one seam and turns
+  // the weld off for the other (its top is then a loose piece, removed, the hole filled).
+  const fs::path dir = test::temp_dir("manifest_weld");
+  const Mesh m = test::make_seam_cube_mm(10, 0.001);
+  ASSERT_TRUE(save_stl(m, dir / "welded.stl").ok());
+  ASSERT_TRUE(save_stl(m, dir / "unwelded.stl").ok());
+  std::ofstream(dir / "printtwin.json") << R"({"defaults": {"weld_tolerance_mm": 0.01},
+    "parts": [{"file": "welded.stl"}, {"file": "unwelded.stl", "weld_tolerance_mm": 0}]})";
+  const auto r = test::run_cli("check " + q(dir) + " --weld-tolerance 5 --repair " +
+                               q(dir / "fixed") + " --json " + q(dir / "all.json"));
+  EXPECT_EQ(r.exit_code, 1) << r.out << r.err;  // the seams are open edges
+  const json j = test::read_json(dir / "all.json");
+  ASSERT_EQ(j["parts"].size(), 2U) << j.dump();
+  for (const auto& part : j["parts"]) {
+    const json& repair = part["report"]["repair"];
+    const bool welded = part["file"].get<std::string>().find("unwelded") == std::string::npos;
+    EXPECT_DOUBLE_EQ(repair["weld_tolerance_mm"].get<double>(), welded ? 0.01 : 0.0)
+        << part["file"];
+    EXPECT_EQ(repair["counters"]["edges_fixed"].get<int>(), welded ? 8 : 0) << repair.dump();
+    EXPECT_EQ(repair["counters"]["facets_added"].get<int>(), welded ? 0 : 2) << repair.dump();
+  }
 }
 
 }  // namespace

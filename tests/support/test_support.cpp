@@ -112,6 +112,15 @@ Mesh make_cube_mm(double size_mm, const Vec3& min_mm) {
   return make_box_mesh(min_mm, min_mm + Vec3::Constant(size_mm));
 }
 
+Mesh make_seam_cube_mm(double size_mm, double dz_mm) {
+  Mesh m = make_cube_mm(size_mm);
+  for (std::uint32_t v = 4; v < 8; ++v)
+    m.vertices_mm.push_back(m.vertices_mm[v] + Vec3(0, 0, dz_mm));
+  for (std::size_t f = 2; f < 4; ++f)
+    for (auto& v : m.triangles[f]) v += 4;
+  return m;
+}
+
 namespace {
 void put_le(std::string& out, std::uint64_t v, int bytes) {
   for (int i = 0; i < bytes; ++i) out += static_cast<char>((v >> (8 * i)) & 0xff);

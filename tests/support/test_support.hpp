@@ -37,4 +37,8 @@ std::string make_zip(const std::vector<std::pair<std::string, std::string>>& ent
 /// Closed outward-oriented cube of edge `size_mm` with its min corner at `min_mm`.
 Mesh make_cube_mm(double size_mm, const Vec3& min_mm = Vec3::Zero());
 
+/// make_cube_mm(size_mm) with its +z face on its own copies of the corners, `dz_mm` higher:
+/// a seam of 8 open facet edges (4 on each side).
+Mesh make_seam_cube_mm(double size_mm, double dz_mm);
+
 }  // namespace printtwin::test
