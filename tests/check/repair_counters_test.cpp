@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cmath>
+#include <initializer_list>
 #include <utility>
 
 #include "printtwin/check.hpp"
@@ -190,45 +191,62 @@ TEST(RepairCounters, MeasuredFromTheMeshesNotFromTheSteps) {
       << repair_counters_text(c);
 }
 
-/// The 10 mm cube with its top (+z) face a fan from a vertex in the middle of its edge with
-/// the +x face: the +x face's top edge is one open facet edge, the top's two halves of it
-/// two others (a T-junction, as CAD exports leave where faces were meshed apart).
-Mesh t_junction_cube() {
+using Corner = std::array<double, 2>;
+
+/// The 10 mm cube with its top (+z) face replaced by `facets`, each given by the (x, y) of its
+/// corners at z = 10 (the cube's corners reused, other points added).
+Mesh cube_with_top(std::initializer_list<std::array<Corner, 3>> facets) {
   Mesh m = test::make_cube_mm(10);
   std::erase_if(m.triangles, [&](const auto& t) {
     return m.vertices_mm[t[0]].z() == 10 && m.vertices_mm[t[1]].z() == 10 &&
            m.vertices_mm[t[2]].z() == 10;
   });
-  const auto at = [&](double x, double y) {
+  const auto at = [&](const Corner& c) {
+    const Vec3 p(c[0], c[1], 10);
     for (std::uint32_t v = 0; v < m.vertices_mm.size(); ++v)
-      if (m.vertices_mm[v] == Vec3(x, y, 10)) return v;
-    return UINT32_MAX;
+      if (m.vertices_mm[v] == p) return v;
+    m.vertices_mm.push_back(p);
+    return static_cast<std::uint32_t>(m.vertices_mm.size() - 1);
   };
-  const std::uint32_t p0 = at(0, 0), p1 = at(10, 0), p2 = at(10, 10), p3 = at(0, 10);
-  const auto mid = static_cast<std::uint32_t>(m.vertices_mm.size());
-  m.vertices_mm.emplace_back(10, 5, 10);
-  for (const auto& t : {std::array<std::uint32_t, 3>{mid, p2, p3}, {mid, p3, p0}, {mid, p0, p1}})
-    m.triangles.push_back(t);
+  for (const auto& f : facets) m.triangles.push_back({at(f[0]), at(f[1]), at(f[2])});
   return m;
+}
+
+/// The top a fan from a vertex in the middle of its edge with the +x face: the +x face's top
+/// edge is one open facet edge, the top's two halves of it two others (a T-junction, as CAD
+/// exports leave where faces were meshed apart).
+Mesh t_junction_cube() {
+  return cube_with_top(
+      {{{{10, 5}, {10, 10}, {0, 10}}}, {{{10, 5}, {0, 10}, {0, 0}}}, {{{10, 5}, {0, 0}, {10, 0}}}});
+}
+
+/// Repairs `m`, a 10 mm cube with one T-junction edge carrying `pieces` - 1 vertices, and
+/// expects its face split in `pieces`: closed, 1000 mm3, 1 facet removed and `pieces`
+/// added, the other side's `pieces` facet edges fixed, no hole filled.
+RepairResult expect_split_in(const Mesh& m, std::size_t pieces) {
+  auto r = repair_mesh(m);
+  EXPECT_TRUE(r.ok()) << r.error().describe();
+  if (!r.ok()) return {};
+  EXPECT_TRUE(r->after.closed);
+  EXPECT_NEAR(signed_volume_mm3(r->mesh), 1000.0, 1e-9);
+  EXPECT_EQ(r->mesh.triangles.size(), m.triangles.size() + pieces - 1);
+  EXPECT_EQ(r->counters.t_junction_edges, 1U);
+  EXPECT_EQ(r->counters.facets_removed, 1U);
+  EXPECT_EQ(r->counters.facets_added, pieces);
+  EXPECT_EQ(r->counters.edges_fixed, pieces);
+  EXPECT_EQ(r->counters.holes_filled, 0U);
+  return *r;
 }
 
 TEST(RepairCounters, TJunctionIsSplitAndJoined) {
   const Mesh m = t_junction_cube();
   ASSERT_EQ(analyze_mesh_health(m).boundary_edges, 3U);
   EXPECT_EQ(measure_repair(m, m).t_junction_edges, 1U);
-  auto r = repair_mesh(m);
-  ASSERT_TRUE(r.ok()) << r.error().describe();
-  EXPECT_TRUE(r->after.closed);
-  EXPECT_EQ(r->after.boundary_edges, 0U);
-  EXPECT_NEAR(signed_volume_mm3(r->mesh), 1000.0, 1e-9);
   // The +x face's triangle is replaced by two (no face added to fill a hole, nothing
   // removed but it): one T-junction edge.
-  EXPECT_EQ(r->mesh.triangles.size(), m.triangles.size() + 1);
-  EXPECT_EQ(r->counters.t_junction_edges, 1U);
-  EXPECT_EQ(r->counters.facets_removed, 1U);
-  EXPECT_EQ(r->counters.facets_added, 2U);
+  const RepairResult r = expect_split_in(m, 2);
   bool reported = false;
-  for (const auto& c : r->changes)
+  for (const auto& c : r.changes)
     reported = reported || (c.code == "split_t_junctions" && c.count == 1);
   EXPECT_TRUE(reported);
   // Without the weld (tolerance 0) nothing is split: the sliver hole is filled instead.
@@ -237,6 +255,16 @@ TEST(RepairCounters, TJunctionIsSplitAndJoined) {
   auto plain = repair_mesh(m, no_weld);
   ASSERT_TRUE(plain.ok());
   for (const auto& c : plain->changes) EXPECT_NE(c.code, "split_t_junctions");
+}
+
+TEST(RepairCounters, TJunctionWithTwoVerticesOnTheEdgeIsSplitInThree) {
+  // The top as four facets with two vertices on its edge with the +x side (at y = 4 and 7).
+  const Mesh m = cube_with_top({{{{0, 0}, {10, 0}, {10, 4}}},
+                                {{{0, 0}, {10, 4}, {10, 7}}},
+                                {{{0, 0}, {10, 7}, {10, 10}}},
+                                {{{0, 0}, {10, 10}, {0, 10}}}});
+  ASSERT_EQ(analyze_mesh_health(m).boundary_edges, 4U);
+  expect_split_in(m, 3);
 }
 
 TEST(RepairCounters, AHoleIsNoTJunction) {
