@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <numbers>
 #include <span>
 
@@ -84,7 +85,7 @@ constexpr double kSharpDeg = 30.0;
 /// farther than kWallEdgeMarginMm from the design's sharp edges, and their RMS about the
 /// layer's own mean (Rq); the RMS of the mesh samples on those walls (mesh -> deposit). The
 /// points are in the G-code's frame, the mesh at `offset` from it.
-void wall_roughness(const Mesh& mesh, std::span<const double> d,
+void wall_roughness(const Mesh& mesh, const detail::SharpEdges& edges, std::span<const double> d,
                     std::span<const std::uint32_t> triangle, std::span<const VoxelTag> tags,
                     std::span<const double> area, std::span<const Vec3> points,
                     std::span<const double> d_mesh, std::span<const SurfaceSample> samples,
@@ -97,7 +98,6 @@ void wall_roughness(const Mesh& mesh, std::span<const double> d,
     const double len = n.norm();
     wall[t] = len > 0 && std::abs(n.z()) <= sin_wall * len ? 1 : 0;
   }
-  const detail::SharpEdges edges(mesh, kSharpDeg, kWallEdgeMarginMm);
   // Per point: on a wall, away from its edges (in parallel; the sums below in order).
   const auto on_wall = [&](std::span<const Vec3> p, const auto& triangle_of) {
     std::vector<std::uint8_t> keep(p.size(), 0);
@@ -339,6 +339,7 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   const std::size_t ns = samples.size();
   std::vector<Vec3> query_points(ns + mesh.vertices_mm.size());
   detail::DepositQueryGroups query_groups;
+  std::unique_ptr<detail::SharpEdges> edges;
   tbb::parallel_invoke(
       [&] {
         surface =
@@ -351,6 +352,8 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
         for (std::size_t i = 0; i < mesh.vertices_mm.size(); ++i)
           query_points[ns + i] = mesh.vertices_mm[i] + offset;
         query_groups = detail::group_deposit_queries(query_points, v);
+        // For the layer-line figures (from the mesh alone, beside the surface's extraction).
+        edges = std::make_unique<detail::SharpEdges>(mesh, kSharpDeg, kWallEdgeMarginMm);
       });
   // Mesh -> deposit to the faces needs only the faces: side by side with their placement on
   // the beads (which fills in the deposit -> mesh points).
@@ -442,8 +445,8 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
     return DeviationSample{query_points[i], d_mesh[i], tag.layer, tag.line, samples[i].triangle};
   };
   number_layers(layers, top_key, deposit);
-  wall_roughness(mesh, d_dep, dep_triangles, dep_tags, face_area, face_points, d_mesh, samples,
-                 std::span<const Vec3>(query_points.data(), ns), offset, v, layers, out);
+  wall_roughness(mesh, *edges, d_dep, dep_triangles, dep_tags, face_area, face_points, d_mesh,
+                 samples, std::span<const Vec3>(query_points.data(), ns), offset, v, layers, out);
   for (std::size_t l = 0; l < n_layers;
        ++l)  // layers no sample of either direction is nearest to: none
     if (dep_begin[l] != dep_begin[l + 1] || mesh_begin[l] != mesh_begin[l + 1])
