@@ -91,8 +91,9 @@ struct LayerDeviation {
   DeviationStats deposit_to_mesh;
   DeviationStats mesh_to_deposit;
   /// Layer lines: over this layer's deposit surface on walls (points whose closest design
-  /// triangle is within 15 degrees of vertical), area-weighted: the RMS distance to the design
-  /// and the roughness Rq (RMS about the layer's own mean). 0 where the layer has no wall.
+  /// triangle is within 15 degrees of vertical, farther than 0.3 mm from the design's sharp
+  /// edges), area-weighted: the RMS distance to the design and the roughness Rq (RMS about
+  /// the layer's own mean). 0 where the layer has no wall.
   double wall_rms_mm = 0, wall_rq_mm = 0;
 };
 
@@ -135,7 +136,8 @@ struct DeviationResult {
   /// Layer lines over the whole part's walls (LayerDeviation::wall_rms_mm, wall_rq_mm): RMS
   /// to the design and Rq (the root of the area-weighted mean of each layer's variance).
   double wall_rms_mm = 0, wall_rq_mm = 0;
-  double wall_area_mm2 = 0;                    ///< deposit surface on walls
+  double wall_area_mm2 = 0;     ///< deposit surface on walls
+  double wall_mesh_rms_mm = 0;  ///< mesh -> deposit RMS of the mesh samples on those walls
   Vec3 registration_offset_mm = Vec3::Zero();  ///< added to the mesh to reach the G-code frame
   std::string registration_method;             ///< "auto" or "--place"
   /// Signed deviation per mesh vertex (for the deviation PLY and heatmaps).

@@ -41,7 +41,8 @@ struct DepositSurface {
   /// Runs of nearby points for the closest-point search: run g is
   /// [point_groups[g], point_groups[g + 1]).
   std::vector<std::uint32_t> point_groups;
-  /// Per face: the bead its point was placed on (kNoBead where the face centre stays).
+  /// Per face: the bead its point was placed on, or whose outline covers the voxel pit the
+  /// face lies in (kNoBead where the face centre stays).
   std::vector<std::uint32_t> face_bead;
   /// Per bead (CSR, beads + 1 entries; empty lists for beads laid no points): the beads whose
   /// outline may touch it, for the distance to the beads' union near it.

@@ -134,6 +134,23 @@ BeadDistance BeadIndex::nearest(std::uint32_t line, const Vec3& p) const {
 
 }  // namespace detail
 
+namespace {
+/// Whether a face that could not be placed lies in a pit of the voxelisation: the empty voxel
+/// it faces has its centre inside the bead, less than half a voxel's diagonal deep. A voxel
+/// is laid when its jittered sample point falls inside a bead (docs/deposit.md), so a voxel the
+/// bead's outline only partly covers stays empty with the chance of the part uncovered; the
+/// bead's outline (sample_bead_outlines) is the surface there, and the pit's faces are none of
+/// it. Such a face belongs to the bead (it gives way to the outline like a placed face).
+bool in_voxel_pit(const detail::BeadCore& core, const SurfaceFace& face, const Vec3& centre,
+                  double v) {
+  Vec3 empty = centre;
+  empty[face.axis] += 0.5 * v * face.side;
+  Vec3 c;
+  const double sd = core.closest(empty, c);
+  return sd < 0 && sd > -0.5 * std::sqrt(3.0) * v;
+}
+}  // namespace
+
 void place_on_beads(DepositSurface& s, std::span<const SurfaceBead> beads, double max_shift_mm) {
   const double v = s.voxel_mm;
   const std::size_t n = s.faces.size();
@@ -150,7 +167,12 @@ void place_on_beads(DepositSurface& s, std::span<const SurfaceBead> beads, doubl
           area[i] = v * v;
           s.face_bead[i] = kNoBead;
           const detail::BeadDistance near = index.nearest(s.face_tags[i].line, p);
-          if (near.bead == kNoBead || !(std::abs(near.signed_mm) <= max_shift_mm)) continue;
+          if (near.bead == kNoBead) continue;
+          if (!(std::abs(near.signed_mm) <= max_shift_mm)) {
+            if (in_voxel_pit(index.cores()[near.bead], s.faces[i], p, v))
+              s.face_bead[i] = near.bead;
+            continue;
+          }
           const SurfaceBead& b = beads[near.bead];
           Vec3 nrm = p - near.core_point;
           const double len = nrm.norm();
@@ -162,7 +184,11 @@ void place_on_beads(DepositSurface& s, std::span<const SurfaceBead> beads, doubl
           }
           // The face must face the way the bead's surface does: a face on the far side of a
           // bead's core (a thin wall's back) belongs to another surface.
-          if (nrm[s.faces[i].axis] * s.faces[i].side <= 0) continue;
+          if (nrm[s.faces[i].axis] * s.faces[i].side <= 0) {
+            if (in_voxel_pit(index.cores()[near.bead], s.faces[i], p, v))
+              s.face_bead[i] = near.bead;
+            continue;
+          }
           points[i] = near.core_point + (0.5 * b.height_mm) * nrm;
           // A surface of normal n is voxelised into faces of total area |n_x| + |n_y| + |n_z|
           // times its own: each face stands for its area over that sum.

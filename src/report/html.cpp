@@ -237,8 +237,10 @@ void append_key_numbers_html(std::string& h, const VerifyReport& report) {
                   ""});
   if (dev.wall_area_mm2 > 0)
     h += card_html({"Layer lines", fixed(dev.wall_rq_mm, 3), " mm Rq",
-                    "roughness of the walls (RMS about each layer's mean) · " +
-                        fixed(dev.wall_rms_mm, 3) + " mm RMS from the design",
+                    "roughness of the walls away from sharp edges (RMS about each layer's "
+                    "mean) · " +
+                        fixed(dev.wall_rms_mm, 3) + " mm RMS from the design · " +
+                        fixed(dev.wall_mesh_rms_mm, 3) + " mm RMS from the design to the print",
                     ""});
   h += card_html({"Print time", html_escape(detail::duration_text(sim.print_time_s)), "",
                   std::to_string(sim.layers) + " layers · " + std::to_string(sim.gcode_lines) +

@@ -135,7 +135,8 @@ std::string verify_report_json(const VerifyReport& r) {
   dev["surface_voxels"] = d.surface_voxels;
   dev["layer_lines"] = {{"wall_rms_mm", num(d.wall_rms_mm)},
                         {"wall_rq_mm", num(d.wall_rq_mm)},
-                        {"wall_area_mm2", num(d.wall_area_mm2)}};
+                        {"wall_area_mm2", num(d.wall_area_mm2)},
+                        {"wall_mesh_rms_mm", num(d.wall_mesh_rms_mm)}};
   dev["registration"] = registration_json(r.registration, d);
   j["deviation"] = dev;
 

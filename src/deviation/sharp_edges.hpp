@@ -1,0 +1,29 @@
+#pragma once
+// The design's sharp edges, for the layer-line figures: those measure walls as the analytic
+// model of a layer line defines them (a straight wall face), so points near an edge of the
+// design, where a nozzle rounds the plastic, are left out.
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+#include "printtwin/mesh.hpp"
+
+namespace printtwin::detail {
+
+/// The edges of a mesh whose two faces turn by more than `min_angle_deg`, and the open or
+/// non-manifold ones, with a hash grid for "is p within `margin_mm` of one of them".
+class SharpEdges {
+ public:
+  SharpEdges(const Mesh& mesh, double min_angle_deg, double margin_mm);
+  /// Whether p lies within the margin of a sharp edge.
+  [[nodiscard]] bool near(const Vec3& p) const;
+  [[nodiscard]] std::size_t size() const { return a_.size(); }
+
+ private:
+  [[nodiscard]] std::uint64_t key(const Vec3& p) const;
+  double margin_ = 0, cell_ = 1;
+  std::vector<Vec3> a_, b_;  ///< the edges' end points
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells_;
+};
+
+}  // namespace printtwin::detail
