@@ -1089,6 +1089,10 @@ bool layered_surface(Solid& fine, const VoxelGrid& grid, std::span<const Surface
   detail::LayerSurface surf;
   for (;;) {
     surf = detail::build_layer_surface(in, lo);
+    if ((surf.mesh.triangles.empty() || !detail::is_closed_oriented(surf.mesh)) && !lo.exact) {
+      lo.exact = true;  // an intersection the inexact constructions snapped aside
+      continue;
+    }
     if (surf.mesh.triangles.empty() || !detail::is_closed_oriented(surf.mesh)) {
       out.layers_fallback = "the layered surface did not close (outlines that cross)";
       return false;

@@ -4,6 +4,11 @@
 // reach), made 2-manifold, its coplanar voxel faces merged into rectangles, triangulated
 // without T-junctions, so the mesh is closed and consistently oriented (outward).
 //
+// Two surfaces (DepositMeshSurface): `layers` (default; mesh_export_layers.cpp, docs/deposit.md)
+// is a slab per printed layer: the slab's traced and simplified outlines, its side as rings on
+// the bead's round profile, caps over the exclusive-or of consecutive slabs; it falls back to
+// `voxel` (below) without beads or when it does not close. The voxel surface:
+//
 // Model:
 // - Filled volume: the deposit's outer-surface routine (a flood of the outside air, sealed
 //   and grooved with the deviation stage's defaults, so pinholes do not open the infill);

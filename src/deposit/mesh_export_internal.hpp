@@ -55,6 +55,9 @@ struct LayerSurfaceOptions {
   double tolerance_mm = 0.025;
   /// Rings per quarter of the bead's round side (1: the slab's side is a chevron).
   int profile_steps = 2;
+  /// Caps on exact constructions only (otherwise inexact first, exact where a ring is found
+  /// not to bound its region).
+  bool exact = false;
 };
 
 struct LayerSurface {

@@ -33,13 +33,21 @@ namespace {
 
 using P2 = Eigen::Vector2d;
 
-using K = CGAL::Exact_predicates_exact_constructions_kernel;
-using Vb = CGAL::Triangulation_vertex_base_with_info_2<std::uint32_t, K>;
-using Fbi = CGAL::Triangulation_face_base_with_info_2<unsigned char, K>;
-using Fb = CGAL::Constrained_triangulation_face_base_2<K, Fbi>;
-using Tds = CGAL::Triangulation_data_structure_2<Vb, Fb>;
-using Cdt = CGAL::Constrained_Delaunay_triangulation_2<K, Tds, CGAL::Exact_intersections_tag>;
-using Ct = CGAL::Constrained_triangulation_plus_2<Cdt>;
+/// The caps' triangulation on kernel K: inexact constructions (fast; an intersection may
+/// snap to a nearby vertex) or exact ones (the fall-back when the fast one finds a ring that
+/// does not bound its region).
+template <class K, class Itag>
+using CtOf = CGAL::Constrained_triangulation_plus_2<CGAL::Constrained_Delaunay_triangulation_2<
+    K,
+    CGAL::Triangulation_data_structure_2<
+        CGAL::Triangulation_vertex_base_with_info_2<std::uint32_t, K>,
+        CGAL::Constrained_triangulation_face_base_2<
+            K, CGAL::Triangulation_face_base_with_info_2<unsigned char, K>>>,
+    Itag>>;
+using CtFast =
+    CtOf<CGAL::Exact_predicates_inexact_constructions_kernel, CGAL::Exact_predicates_tag>;
+using CtExact =
+    CtOf<CGAL::Exact_predicates_exact_constructions_kernel, CGAL::Exact_intersections_tag>;
 
 // ---------------------------------------------------------------- outlines
 
@@ -48,6 +56,7 @@ struct Outline {
   std::vector<P2> pts;    ///< mm
   std::vector<P2> miter;  ///< per vertex: the move of one mm of inset (toward the fill)
   double scale = 1;       ///< share of the rounded profile kept (0: a straight side)
+  bool capped = false;    ///< miters limited by the edge lengths (after a crossing)
   std::vector<P2> raw;    ///< the marching-squares outline (simple; outlines never meet)
   int seed_x = 0, seed_y = 0;
 };
@@ -188,16 +197,20 @@ std::vector<P2> simplify_closed(const std::vector<P2>& pts, double tol) {
 }
 
 /// The miter vectors of a closed outline filled on its left: moving vertex k by d * miter[k]
-/// moves both its edges d toward the fill.
-std::vector<P2> miters(const std::vector<P2>& p) {
+/// moves both its edges d toward the fill. `r` > 0: a vertex between short edges moves less
+/// (at most half its shorter edge at the full inset r), so the zigzags of a traced outline
+/// do not fold into swallowtails.
+std::vector<P2> miters(const std::vector<P2>& p, double r) {
   const std::size_t n = p.size();
   std::vector<P2> m(n);
   for (std::size_t k = 0; k < n; ++k) {
-    const P2 din = (p[k] - p[(k + n - 1) % n]).normalized();
-    const P2 dout = (p[(k + 1) % n] - p[k]).normalized();
+    const P2 ein = p[k] - p[(k + n - 1) % n], eout = p[(k + 1) % n] - p[k];
+    const P2 din = ein.normalized(), dout = eout.normalized();
     const P2 nin(-din.y(), din.x()), nout(-dout.y(), dout.x());
     const double c = 1.0 + nin.dot(nout);
     m[k] = (nin + nout) / std::max(c, 0.5);
+    const double reach = m[k].norm() * r, room = 0.5 * std::min(ein.norm(), eout.norm());
+    if (r > 0 && reach > room) m[k] *= std::max(room / reach, 0.05);
   }
   return m;
 }
@@ -244,7 +257,11 @@ Slab trace_slab(const LayerSlabs& in, int s, double tol, std::vector<std::uint64
     Outline o;
     o.pts = simplify_closed(pts, tol);
     o.raw = std::move(pts);
-    o.miter = miters(o.pts);
+    o.miter = miters(o.pts, 0);
+    if (!inset_keeps_edges(o, r + slab.end_inset)) {  // the zigzag folds: capped miters
+      o.capped = true;
+      o.miter = miters(o.pts, r);
+    }
     o.seed_x = seeds[l][0];
     o.seed_y = seeds[l][1];
     o.scale = 0;
@@ -328,16 +345,17 @@ void weld_as_float(Boundary& b) {
 
 /// Marks each face with the regions (bit 0: below's top, bit 1: above's bottom) it lies in,
 /// crossing the rings' sub-segments from the infinite face.
+template <class Ct>
 void mark_faces(Ct& ct, const std::unordered_map<std::uint64_t, unsigned char>& toggles) {
   for (auto f : ct.all_face_handles()) f->info() = 0;
-  std::vector<Ct::Face_handle> stack{ct.infinite_face()};
+  std::vector<typename Ct::Face_handle> stack{ct.infinite_face()};
   ct.infinite_face()->info() = 0x80;
   while (!stack.empty()) {
-    const Ct::Face_handle f = stack.back();
+    const typename Ct::Face_handle f = stack.back();
     stack.pop_back();
     const unsigned char state = f->info() & 3U;
     for (int i = 0; i < 3; ++i) {
-      const Ct::Face_handle g = f->neighbor(i);
+      const typename Ct::Face_handle g = f->neighbor(i);
       if ((g->info() & 0x80U) != 0) continue;
       const auto va = f->vertex(Ct::cw(i)), vb = f->vertex(Ct::ccw(i));
       unsigned char t = 0;
@@ -350,13 +368,15 @@ void mark_faces(Ct& ct, const std::unordered_map<std::uint64_t, unsigned char>& 
   }
 }
 
-/// The cap between `below`'s top rings and `above`'s bottom rings (either may be null).
-Boundary cap(const Slab* below, const Slab* above, int steps) {
+/// The cap on triangulation Ct (see cap).
+template <class Ct>
+Boundary cap_on(const Slab* below, const Slab* above, int steps) {
+  using Point = typename Ct::Point;
   Boundary b;
   Ct ct;
   struct Ring {
-    std::vector<K::Point_2> pts;
-    Ct::Constraint_id cid;
+    std::vector<Point> pts;
+    typename Ct::Constraint_id cid;
     unsigned char side;
   };
   std::vector<Ring> rings;
@@ -406,20 +426,20 @@ Boundary cap(const Slab* below, const Slab* above, int steps) {
     b.pos.push_back(static_cast<std::uint32_t>(b.seq.size() - 1));
   }
   mark_faces(ct, toggles);
-  std::vector<Ct::Vertex_handle> handle(n);
+  std::vector<typename Ct::Vertex_handle> handle(n);
   for (auto v : ct.finite_vertex_handles()) handle[v->info()] = v;
   const std::size_t n_below = below != nullptr ? below->outlines.size() : 0;
   for (std::size_t ri = 0; ri < rings.size(); ++ri) {
     const std::size_t begin = b.pos[b.pos_base[ri]];
     const std::size_t end = b.pos[b.pos_base[ri] + rings[ri].pts.size()];
     for (std::size_t i = begin; i < end; ++i) {
-      Ct::Face_handle f;
+      typename Ct::Face_handle f;
       int opposite = 0;
       if (b.seq[i] == b.seq[i + 1] ||
           !ct.is_edge(handle[b.seq[i]], handle[b.seq[i + 1]], f, opposite))
         continue;
       const bool left = f->vertex(Ct::ccw(opposite)) == handle[b.seq[i]];
-      const Ct::Face_handle inner = left ? f : f->neighbor(opposite);
+      const typename Ct::Face_handle inner = left ? f : f->neighbor(opposite);
       if ((inner->info() & rings[ri].side) == 0) {
         b.crossed.push_back(ri < n_below ? std::array<std::size_t, 2>{0, ri}
                                          : std::array<std::size_t, 2>{1, ri - n_below});
@@ -436,6 +456,16 @@ Boundary cap(const Slab* below, const Slab* above, int steps) {
     b.tris.push_back(s == 1 ? std::array{a, c, d} : std::array{a, d, c});
   }
   weld_as_float(b);
+  return b;
+}
+
+/// The cap between `below`'s top rings and `above`'s bottom rings (either may be null):
+/// the fast triangulation, or the exact one where the fast one finds a ring that does not
+/// bound its region (a real crossing, or an intersection snapped aside).
+Boundary cap(const Slab* below, const Slab* above, int steps, bool exact) {
+  if (exact) return cap_on<CtExact>(below, above, steps);
+  Boundary b = cap_on<CtFast>(below, above, steps);
+  if (!b.ok || !b.crossed.empty()) b = cap_on<CtExact>(below, above, steps);
   return b;
 }
 
@@ -514,16 +544,17 @@ void side(const SideInput& in, int steps, const std::vector<Vec3>& v,
 }
 
 /// Caps of every boundary; rings that cross (themselves, or another ring of their side)
-/// get straight sides, then their unsimplified outline (simple, and apart from the others).
+/// get capped miters, then straight sides, then their unsimplified outline (simple, and
+/// apart from the others).
 /// False when some still cross.
-bool make_caps(std::vector<Slab>& slabs, int steps, std::vector<Boundary>& caps) {
+bool make_caps(std::vector<Slab>& slabs, int steps, bool exact, std::vector<Boundary>& caps) {
   const std::size_t ns = slabs.size();
   caps.assign(ns + 1, Boundary{});
   std::vector<char> redo(ns + 1, 1);
-  for (int round = 0; round < 3; ++round) {
+  for (int round = 0; round < 4; ++round) {
     tbb::parallel_for(std::size_t{0}, ns + 1, [&](std::size_t b) {
       if (redo[b] != 0)
-        caps[b] = cap(b > 0 ? &slabs[b - 1] : nullptr, b < ns ? &slabs[b] : nullptr, steps);
+        caps[b] = cap(b > 0 ? &slabs[b - 1] : nullptr, b < ns ? &slabs[b] : nullptr, steps, exact);
     });
     std::fill(redo.begin(), redo.end(), 0);
     bool any = false;
@@ -531,12 +562,16 @@ bool make_caps(std::vector<Slab>& slabs, int steps, std::vector<Boundary>& caps)
       for (const auto& [below_or_above, l] : caps[b].crossed) {
         const std::size_t s = below_or_above == 0 ? b - 1 : b;
         Outline& o = slabs[s].outlines[l];
-        if (o.scale > 0) {
+        const double r = 0.5 * (slabs[s].z_hi - slabs[s].z_lo);
+        if (o.scale > 0 && !o.capped) {
+          o.capped = true;
+          o.miter = miters(o.pts, r);
+        } else if (o.scale > 0) {
           o.scale = 0;
         } else if (o.pts.size() != o.raw.size()) {
           slabs[s].points += o.raw.size() - o.pts.size();
           o.pts = o.raw;
-          o.miter = miters(o.pts);
+          o.miter = miters(o.pts, 0);
         }
         redo[s] = redo[s + 1] = 1;
         any = true;
@@ -561,7 +596,7 @@ LayerSurface build_layer_surface(const LayerSlabs& in, const LayerSurfaceOptions
     slabs[static_cast<std::size_t>(s)] = trace_slab(in, s, options.tolerance_mm, rows);
   });
   std::vector<Boundary> caps;
-  if (!make_caps(slabs, steps, caps)) return out;  // rings kept crossing: no mesh
+  if (!make_caps(slabs, steps, options.exact, caps)) return out;  // rings kept crossing: no mesh
   // Vertices: each boundary's, then each slab's inner rings.
   std::vector<std::uint32_t> cap_base(ns + 1), inner_base(ns);
   std::size_t nv = 0;
