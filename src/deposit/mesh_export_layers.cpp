@@ -249,7 +249,8 @@ Slab trace_slab(const LayerSlabs& in, int s, double tol, std::vector<std::uint64
     pts.reserve(loops[l].size());
     for (const std::uint64_t id : loops[l]) {
       const std::int64_t cell = static_cast<std::int64_t>(id >> 1);
-      const auto x = static_cast<double>(cell % in.width), y = static_cast<double>(cell / in.width);
+      const std::int64_t row = cell / in.width;  // the cell's y
+      const auto x = static_cast<double>(cell % in.width), y = static_cast<double>(row);
       const bool vertical = (id & 1U) != 0;
       pts.emplace_back(in.base_mm.x() + half * (2 * x + (vertical ? 1 : 2)),
                        in.base_mm.y() + half * (2 * y + (vertical ? 2 : 1)));
