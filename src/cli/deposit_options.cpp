@@ -49,6 +49,15 @@ void add_deposit_mesh_options(CLI::App& cmd, DepositMeshCliOptions& o) {
   cmd.add_option("--deposit-mesh-max-triangles", o.max_triangles,
                  "Decimate the mesh to at most this many triangles (coarser cells; the error bound "
                  "is printed)");
+  cmd.add_option("--deposit-mesh-surface", o.surface,
+                 "layers: a slab per printed layer with the beads' round sides (falls back to "
+                 "voxel where it cannot close); voxel: the voxel faces merged into rectangles")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"layers", "voxel"}));
+  cmd.add_option("--deposit-mesh-tolerance", o.tolerance_mm,
+                 "layers: simplify each layer's outlines within this distance (mm)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 5.0));
   cmd.add_flag("--deposit-mesh-voxel-faces", o.voxel_faces,
                "Keep the mesh on the voxel faces (no sub-voxel smoothing onto the beads)");
   cmd.add_option("--deposit-mesh-smooth-max-triangles", o.smooth_max_triangles,
@@ -65,6 +74,8 @@ Result<DepositMeshOptions> deposit_mesh_options(const DepositMeshCliOptions& o) 
     if (auto st = parse_deposit_mesh_include(o.include, out); !st) return st.error();
   out.max_triangles = o.max_triangles;
   out.smooth = !o.voxel_faces;
+  out.surface = o.surface == "voxel" ? DepositMeshSurface::voxel : DepositMeshSurface::layers;
+  out.outline_tolerance_mm = o.tolerance_mm;
   out.smooth_max_triangles = o.smooth_max_triangles;
   return out;
 }

@@ -23,10 +23,13 @@ namespace printtwin::cli {
 /// --deposit-mesh, --deposit-mesh-include, --deposit-mesh-max-triangles,
 /// --deposit-mesh-voxel-faces (simulate and verify).
 struct DepositMeshCliOptions {
-  std::string path;               ///< out.stl|out.3mf|out.ply
-  std::string include;            ///< comma list: skirt, support, purge, all
-  std::size_t max_triangles = 0;  ///< 0: full resolution
-  bool voxel_faces = false;       ///< --deposit-mesh-voxel-faces: no sub-voxel smoothing
+  std::string path;                ///< out.stl|out.3mf|out.ply
+  std::string include;             ///< comma list: skirt, support, purge, all
+  std::size_t max_triangles = 0;   ///< 0: full resolution
+  bool voxel_faces = false;        ///< --deposit-mesh-voxel-faces: no sub-voxel smoothing
+  std::string surface = "layers";  ///< --deposit-mesh-surface layers|voxel
+  /// --deposit-mesh-tolerance: layers' outline simplification (mm)
+  double tolerance_mm = DepositMeshOptions{}.outline_tolerance_mm;
   /// --deposit-mesh-smooth-max-triangles: larger meshes stay on the voxel faces (0: no limit)
   std::size_t smooth_max_triangles = DepositMeshOptions{}.smooth_max_triangles;
 };

@@ -17,6 +17,7 @@
 #include <cstring>
 #include <numeric>
 #include <optional>
+#include <unordered_map>
 #include <vector>
 
 #include "deposit/mesh_export_internal.hpp"
@@ -959,19 +960,170 @@ void radix_sort(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>* va
 
 }  // namespace detail
 
-Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid, const DepositMeshOptions& options,
-                                       std::span<const SurfaceBead> beads,
-                                       const DepositSurface* filled) {
-  const auto t0 = std::chrono::steady_clock::now();
-  DepositMesh out;
-  out.voxel_mm = grid.voxel_mm();
-  auto solid = filled_volume_of(grid, options, filled);
-  if (!solid) return solid.error();
-  Solid& fine = *solid;
-  if (fine.code.empty()) {
-    out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    return out;
+namespace {
+
+// ---------------------------------------------------------------- layered surface
+
+/// The solid's slabs: one per printed layer (boundaries at the beads' tops, at least two
+/// cells apart), from its lowest to its highest filled cell.
+detail::LayerSlabs slabs_of(const Solid& s, const VoxelGrid& grid,
+                            std::span<const SurfaceBead> beads) {
+  detail::LayerSlabs in;
+  in.width = s.dims().x();
+  in.height = s.dims().y();
+  in.cell_mm = grid.voxel_mm() * s.cell;
+  in.base_mm = grid.origin_mm() + grid.voxel_mm() * Vec3(s.origin.x, s.origin.y, s.origin.z);
+  int zmin = s.dims().z(), zmax = -1;
+  for (int bz = 0; bz < s.nb.z(); ++bz)
+    for (int by = 0; by < s.nb.y(); ++by)
+      for (int bx = 0; bx < s.nb.x(); ++bx)
+        if (s.code[s.index(bx, by, bz)] != Solid::kEmpty)
+          for (int z = 0; z < 8; ++z)
+            if (s.word(bx, by, bz, z) != 0) {
+              zmin = std::min(zmin, bz * 8 + z);
+              zmax = std::max(zmax, bz * 8 + z + 1);
+            }
+  if (zmax < 0) return in;
+  std::vector<int> tops;
+  for (const SurfaceBead& b : beads) {
+    const auto k = static_cast<int>(std::lround((b.end_mm.z() - in.base_mm.z()) / in.cell_mm));
+    if (k > zmin && k < zmax) tops.push_back(k);
   }
+  std::sort(tops.begin(), tops.end());
+  in.bounds.push_back(zmin);
+  for (const int k : tops)
+    if (k - in.bounds.back() >= 2) in.bounds.push_back(k);
+  if (zmax - in.bounds.back() < 2 && in.bounds.size() > 1)
+    in.bounds.back() = zmax;
+  else
+    in.bounds.push_back(zmax);
+  const int words = (in.width + 63) / 64;
+  in.project = [&s, words](int z0, int z1, std::vector<std::uint64_t>& rows) {
+    for (int bz = z0 >> 3; bz <= (z1 - 1) >> 3; ++bz)
+      for (int by = 0; by < s.nb.y(); ++by)
+        for (int bx = 0; bx < s.nb.x(); ++bx) {
+          if (s.code[s.index(bx, by, bz)] == Solid::kEmpty) continue;
+          std::uint64_t w = 0;
+          for (int z = std::max(z0, bz * 8); z < std::min(z1, bz * 8 + 8); ++z)
+            w |= s.word(bx, by, bz, z & 7);
+          for (int y = 0; w != 0 && y < 8; ++y) {
+            const std::uint64_t row = (w >> (y * 8)) & 0xFFU;
+            rows[static_cast<std::size_t>(by * 8 + y) * static_cast<std::size_t>(words) +
+                 static_cast<std::size_t>(bx >> 3)] |= row << ((bx & 7) * 8);
+          }
+        }
+  };
+  return in;
+}
+
+/// Connected pieces of the layered mesh and which are part (as classify does for the voxel
+/// surface); drops the others from the mesh and the solid. Returns the kept count.
+std::size_t keep_part_pieces(detail::LayerSurface& surf, const detail::LayerSlabs& in, Solid& s,
+                             const VoxelGrid& grid, const DepositMeshOptions& o, DepositMesh& out) {
+  Mesh& m = surf.mesh;
+  std::vector<std::uint32_t> parent(m.vertices_mm.size());
+  std::iota(parent.begin(), parent.end(), 0U);
+  for (const auto& t : m.triangles)
+    for (int k = 1; k < 3; ++k) {
+      const std::uint32_t a = find_root(parent, t[0]),
+                          b = find_root(parent, t[static_cast<std::size_t>(k)]);
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    }
+  bool tagged = false;
+  for (const auto& tag : detail::VoxelBlocks::tag_table(grid))
+    tagged |= kept_feature(tag.feature, o);
+  std::unordered_map<std::uint32_t, std::array<int, 3>> piece;  // root: has part, layer range
+  for (const auto& seed : surf.seeds) {
+    const std::uint32_t root = find_root(parent, m.triangles[seed.triangle][0]);
+    auto [it, fresh] = piece.try_emplace(root, std::array<int, 3>{0, 1 << 30, -1});
+    if (tagged && it->second[0] != 0) continue;
+    for (int z = in.bounds[static_cast<std::size_t>(seed.slab)];
+         z < in.bounds[static_cast<std::size_t>(seed.slab) + 1]; ++z) {
+      const auto tag = grid.tag(s.key_of_cell(seed.x, seed.y, z));
+      if (!tag) continue;
+      if (kept_feature(tag->feature, o)) it->second[0] = 1;
+      it->second[1] = std::min(it->second[1], tag->layer);
+      it->second[2] = std::max(it->second[2], tag->layer);
+    }
+  }
+  const auto kept = [&](const std::array<int, 3>& p) { return tagged ? p[0] != 0 : p[2] > p[1]; };
+  std::size_t n_kept = 0;
+  for (const auto& [root, p] : piece) n_kept += kept(p) ? 1 : 0;
+  if (!tagged && n_kept == 0) return piece.size();  // every piece one layer tall: keep all
+  out.dropped_components = piece.size() - n_kept;
+  if (out.dropped_components == 0) return n_kept;
+  for (const auto& seed : surf.seeds) {  // clear the dropped pieces from the solid
+    const auto& p = piece.at(find_root(parent, m.triangles[seed.triangle][0]));
+    if (kept(p)) continue;
+    for (int z = in.bounds[static_cast<std::size_t>(seed.slab)];
+         z < in.bounds[static_cast<std::size_t>(seed.slab) + 1]; ++z)
+      if (s.get(seed.x, seed.y, z)) clear_piece(s, {seed.x, seed.y, z});
+  }
+  std::vector<std::uint32_t> remap(m.vertices_mm.size(), ~0U);
+  Mesh k;
+  for (const auto& t : m.triangles) {
+    if (kept(piece.at(find_root(parent, t[0])))) {
+      std::array<std::uint32_t, 3> tri{};
+      for (std::size_t c = 0; c < 3; ++c) {
+        std::uint32_t& r = remap[t[c]];
+        if (r == ~0U) {
+          r = static_cast<std::uint32_t>(k.vertices_mm.size());
+          k.vertices_mm.push_back(m.vertices_mm[t[c]]);
+        }
+        tri[c] = r;
+      }
+      k.triangles.push_back(tri);
+    }
+  }
+  m = std::move(k);
+  return n_kept;
+}
+
+/// The layered surface into `out` (true), or false with out.layers_fallback saying why.
+bool layered_surface(Solid& fine, const VoxelGrid& grid, std::span<const SurfaceBead> beads,
+                     const DepositMeshOptions& options, DepositMesh& out) {
+  const detail::LayerSlabs in = slabs_of(fine, grid, beads);
+  detail::LayerSurfaceOptions lo;
+  lo.tolerance_mm = options.outline_tolerance_mm;
+  lo.profile_steps = options.profile_steps;
+  detail::LayerSurface surf;
+  for (;;) {
+    surf = detail::build_layer_surface(in, lo);
+    if ((surf.mesh.triangles.empty() || !detail::is_closed_oriented(surf.mesh)) && !lo.exact) {
+      lo.exact = true;  // an intersection the inexact constructions snapped aside
+      continue;
+    }
+    if (surf.mesh.triangles.empty() || !detail::is_closed_oriented(surf.mesh)) {
+      out.layers_fallback = "the layered surface did not close (outlines that cross)";
+      return false;
+    }
+    if (options.max_triangles == 0 || surf.mesh.triangles.size() <= options.max_triangles) break;
+    lo.tolerance_mm *= 2;
+    if (lo.tolerance_mm > 2.0) {
+      out.layers_fallback = "no layered surface within --deposit-mesh-max-triangles";
+      return false;
+    }
+  }
+  out.surface = DepositMeshSurface::layers;
+  out.layers = in.bounds.size() - 1;
+  out.outlines = surf.outlines;
+  out.straight_outlines = surf.straight_outlines;
+  out.outline_tolerance_mm = lo.tolerance_mm;
+  out.components = keep_part_pieces(surf, in, fine, grid, options, out);
+  out.filled_volume_mm3 = static_cast<double>(fine.count()) * std::pow(grid.voxel_mm(), 3);
+  out.full_res_triangles = surf.mesh.triangles.size();
+  // Outlines within the tolerance of the marching-squares outline, itself within half a
+  // cell's diagonal of the voxel faces.
+  out.error_bound_mm = lo.tolerance_mm + 0.5 * std::sqrt(2.0) * in.cell_mm;
+  out.mesh = std::move(surf.mesh);
+  return true;
+}
+
+/// The voxel surface of the filled solid (mesh_export.hpp: faces, components, smoothing,
+/// decimation) into `out`.
+Status voxel_surface(Solid& fine, const VoxelGrid& grid, const DepositMeshOptions& options,
+                     std::span<const SurfaceBead> beads, DepositMesh& out) {
+  out.surface = DepositMeshSurface::voxel;
   Built full = mesh_solid(fine, grid.voxel_mm(), grid.origin_mm());
   const Pieces pieces = classify(fine, full.rects, full.tris, grid, options);
   std::vector<bool> cleared(pieces.keep.size(), false);
@@ -1047,7 +1199,32 @@ Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid, const DepositMeshO
           detail::smooth_onto_beads(out.mesh, plane_of_triangle, grid, beads, &max_shift);
     out.error_bound_mm = std::max(out.error_bound_mm, max_shift);
   }
-  out.volume_mm3 = enclosed_volume_mm3(out.mesh);
+  return Ok{};
+}
+
+}  // namespace
+
+Result<DepositMesh> build_deposit_mesh(const VoxelGrid& grid, const DepositMeshOptions& options,
+                                       std::span<const SurfaceBead> beads,
+                                       const DepositSurface* filled) {
+  const auto t0 = std::chrono::steady_clock::now();
+  DepositMesh out;
+  out.voxel_mm = grid.voxel_mm();
+  auto solid = filled_volume_of(grid, options, filled);
+  if (!solid) return solid.error();
+  Solid& fine = *solid;
+  if (!fine.code.empty()) {
+    bool layered = false;
+    if (options.surface == DepositMeshSurface::layers) {
+      if (beads.empty())
+        out.layers_fallback = "no beads (the G-code's layers are not known)";
+      else
+        layered = layered_surface(fine, grid, beads, options, out);
+    }
+    if (!layered)
+      if (auto st = voxel_surface(fine, grid, options, beads, out); !st) return st.error();
+    out.volume_mm3 = enclosed_volume_mm3(out.mesh);
+  }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }

@@ -4,6 +4,11 @@
 // reach), made 2-manifold, its coplanar voxel faces merged into rectangles, triangulated
 // without T-junctions, so the mesh is closed and consistently oriented (outward).
 //
+// Two surfaces (DepositMeshSurface): `layers` (default; mesh_export_layers.cpp, docs/deposit.md)
+// is a slab per printed layer: the slab's traced and simplified outlines, its side as rings on
+// the bead's round profile, caps over the exclusive-or of consecutive slabs; it falls back to
+// `voxel` (below) without beads or when it does not close. The voxel surface:
+//
 // Model:
 // - Filled volume: the deposit's outer-surface routine (a flood of the outside air, sealed
 //   and grooved with the deviation stage's defaults, so pinholes do not open the infill);
@@ -42,7 +47,17 @@
 
 namespace printtwin {
 
+/// The surface the mesh is built as: `layers` (default) a slab per printed layer with the
+/// beads' rounded sides, `voxel` the voxel faces merged into rectangles.
+enum class DepositMeshSurface { layers, voxel };
+
 struct DepositMeshOptions {
+  DepositMeshSurface surface = DepositMeshSurface::layers;
+  /// Layers: outlines simplified within this distance of their marching-squares outline;
+  /// decimation doubles it until the mesh fits max_triangles.
+  double outline_tolerance_mm = 0.025;
+  /// Layers: rings per quarter of a bead's round side (2: five rings per layer).
+  int profile_steps = 2;
   bool include_skirt = false;     ///< skirt and brim
   bool include_support = false;   ///< support and support interface
   bool include_custom = false;    ///< wipe tower, start/end code and purge lines
@@ -56,7 +71,14 @@ struct DepositMeshOptions {
 
 struct DepositMesh {
   Mesh mesh;
-  double voxel_mm = 0;  ///< the deposit's voxel edge
+  DepositMeshSurface surface = DepositMeshSurface::voxel;  ///< the surface built
+  /// Why the layered surface was not built when it was asked for (empty otherwise).
+  std::string layers_fallback;
+  std::size_t layers = 0;             ///< layers: slabs
+  std::size_t outlines = 0;           ///< layers: outlines over all slabs
+  std::size_t straight_outlines = 0;  ///< layers: outlines kept with straight sides
+  double outline_tolerance_mm = 0;    ///< layers: the simplification's tolerance used
+  double voxel_mm = 0;                ///< the deposit's voxel edge
   int cell_voxels = 1;  ///< s: the mesh is built on cells of s^3 voxels (1: no decimation)
   /// Every point of the mesh lies within this distance of the full-resolution voxel surface
   /// of the kept components (0 at full resolution without repairs).

@@ -2,6 +2,7 @@
 // Internals of the as-printed mesh (mesh_export*.cpp), for its tests.
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -34,5 +35,53 @@ std::size_t smooth_onto_beads(Mesh& mesh, std::span<const std::uint32_t> plane_o
 
 /// Sorts `keys` ascending (LSD radix, stable); `vals` (optional, same length) move along.
 void radix_sort(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>* vals);
+
+// ---------------------------------------------------------------- layered surface
+
+/// The filled volume as the layered surface reads it: cells on a lattice, grouped in slabs
+/// (one per printed layer) along z.
+struct LayerSlabs {
+  int width = 0, height = 0;  ///< cells on x and y; the cells of the border are empty
+  std::vector<int> bounds;    ///< slab boundaries in cells along z, ascending (slabs: size - 1)
+  double cell_mm = 0;
+  Vec3 base_mm = Vec3::Zero();  ///< min corner of cell (0, 0, 0)
+  /// Fills `rows` (height rows of (width + 63) / 64 words; bit x of row y) with the cells
+  /// (x, y) filled at some z in [z0, z1). Called from several threads at once.
+  std::function<void(int z0, int z1, std::vector<std::uint64_t>& rows)> project;
+};
+
+struct LayerSurfaceOptions {
+  /// Outlines are simplified within this distance of the marching-squares outline.
+  double tolerance_mm = 0.025;
+  /// Rings per quarter of the bead's round side (1: the slab's side is a chevron).
+  int profile_steps = 2;
+  /// Caps on exact constructions only (otherwise inexact first, exact where a ring is found
+  /// not to bound its region).
+  bool exact = false;
+};
+
+struct LayerSurface {
+  Mesh mesh;
+  /// One per outline: a filled cell (x, y) of slab `slab` inside it, and a triangle of its
+  /// side, so that a connected piece of the mesh can be told from its voxels.
+  struct Seed {
+    int x = 0, y = 0, slab = 0;
+    std::uint32_t triangle = 0;
+  };
+  std::vector<Seed> seeds;
+  std::size_t outlines = 0;           ///< outlines over all slabs
+  std::size_t straight_outlines = 0;  ///< outlines whose rounded side would fold: straight
+  std::size_t cap_triangles = 0;      ///< horizontal triangles (between slabs, bottom, top)
+};
+
+/// The layered surface (mesh_export.hpp has the model): per slab the outlines of the
+/// cross-section (marching squares, simplified), the slab's side as rings on the bead's
+/// rounded profile, caps over the exclusive-or of consecutive slabs (constrained Delaunay
+/// triangulation, crossings split on both rings). Closed and oriented outward when every
+/// outline is simple and the outlines of one slab do not cross (is_closed_oriented checks).
+LayerSurface build_layer_surface(const LayerSlabs& slabs, const LayerSurfaceOptions& options);
+
+/// True when every edge of the mesh is used exactly once in each direction.
+bool is_closed_oriented(const Mesh& mesh);
 
 }  // namespace printtwin::detail

@@ -134,7 +134,10 @@ Status write_stl(const Mesh& m, const std::filesystem::path& path) {
   put(out, static_cast<std::uint32_t>(m.triangles.size()));
   f.records(m.triangles.size(), 50, [&](std::size_t i, char* dest) {
     const auto& t = m.triangles[i];
-    const Vec3 &a = m.vertices_mm[t[0]], &b = m.vertices_mm[t[1]], &c = m.vertices_mm[t[2]];
+    // The normal of the corners as written (float), so readers that check it agree on slivers.
+    const auto as_written = [](const Vec3& p) { return p.cast<float>().cast<double>().eval(); };
+    const Vec3 a = as_written(m.vertices_mm[t[0]]), b = as_written(m.vertices_mm[t[1]]),
+               c = as_written(m.vertices_mm[t[2]]);
     Vec3 n = (b - a).cross(c - a);
     const double len = n.norm();
     if (len > 0) n /= len;
@@ -363,7 +366,15 @@ std::string deposit_mesh_summary(const DepositMesh& dm, const std::filesystem::p
       ", " + format_fixed(dm.seconds, 2) + " s\n";
   s += "  closed and oriented outward; volume " + format_fixed(dm.volume_mm3, 1) +
        " mm3 (filled voxels " + format_fixed(dm.filled_volume_mm3, 1) + " mm3); ";
-  if (dm.cell_voxels > 1)
+  if (dm.surface == DepositMeshSurface::layers)
+    s += std::to_string(dm.layers) + " layers, " + std::to_string(dm.outlines) +
+         " outlines simplified within " + format_fixed(dm.outline_tolerance_mm, 4) +
+         " mm, sides on the beads' round profile" +
+         (dm.straight_outlines > 0 ? " (" + std::to_string(dm.straight_outlines) +
+                                         " small outlines with flatter or straight sides)"
+                                   : std::string()) +
+         "; within " + format_fixed(dm.error_bound_mm, 3) + " mm of the voxel outlines\n";
+  else if (dm.cell_voxels > 1)
     s += "decimated to cells of " + std::to_string(dm.cell_voxels) + " voxels from " +
          std::to_string(dm.full_res_triangles) + " triangles: within " +
          format_fixed(dm.error_bound_mm, 3) + " mm of the voxel surface, enclosing it\n";
@@ -377,6 +388,8 @@ std::string deposit_mesh_summary(const DepositMesh& dm, const std::filesystem::p
          std::to_string(dm.repaired_cells) + " voxels were filled to make it a manifold\n";
   else
     s += "exactly on the voxel faces\n";
+  if (!dm.layers_fallback.empty())
+    s += "  voxel surface instead of the layered one: " + dm.layers_fallback + "\n";
   if (dm.smoothing_skipped)
     s += "  not smoothed onto the beads: " + std::to_string(dm.mesh.triangles.size()) +
          " triangles, more than --deposit-mesh-smooth-max-triangles (2000000 by default; "
@@ -396,6 +409,8 @@ std::string deposit_mesh_json(const DepositMesh& dm, const std::filesystem::path
   j["triangles"] = dm.mesh.triangles.size();
   j["vertices"] = dm.mesh.vertices_mm.size();
   j["bytes"] = ec ? 0 : bytes;
+  j["surface"] = dm.surface == DepositMeshSurface::layers ? "layers" : "voxel";
+  if (!dm.layers_fallback.empty()) j["layers_fallback"] = dm.layers_fallback;
   j["cell_voxels"] = dm.cell_voxels;
   j["error_bound_mm"] = dm.error_bound_mm;
   j["volume_mm3"] = dm.volume_mm3;

@@ -10,6 +10,7 @@
 #include "deposit/deposit_test_support.hpp"
 #include "deposit/mesh_export.hpp"
 #include "deposit/mesh_export_internal.hpp"
+#include "deposit/mesh_test_support.hpp"
 #include "deviation/surface_internal.hpp"
 #include "printtwin/check.hpp"
 #include "printtwin/deposit.hpp"
@@ -17,6 +18,13 @@
 
 namespace printtwin {
 namespace {
+
+/// These tests are about the voxel surface's smoothing (the default surface is layers).
+DepositMeshOptions voxel_surface() {
+  DepositMeshOptions o;
+  o.surface = DepositMeshSurface::voxel;
+  return o;
+}
 
 /// `layers` square loops of stadium beads (w x h) around [20, 30]^2,
 /// deposited at 0.05 mm.
@@ -49,23 +57,7 @@ Printed lay_loops(double h, double w, int layers) {
   return deposited(bw.moves, profile);
 }
 
-void expect_closed_oriented(const Mesh& m) {
-  std::map<std::pair<std::uint32_t, std::uint32_t>, int> directed;
-  for (const auto& t : m.triangles)
-    for (int k = 0; k < 3; ++k) ++directed[{t[k], t[(k + 1) % 3]}];
-  std::size_t bad = 0;
-  for (const auto& [e, n] : directed) {
-    const auto rev = directed.find({e.second, e.first});
-    if (n != 1 || rev == directed.end() || rev->second != 1) ++bad;
-  }
-  EXPECT_EQ(bad, 0u);
-  const MeshHealth h = analyze_mesh_health(m);
-  EXPECT_TRUE(h.closed);
-  EXPECT_EQ(h.degenerate_faces, 0u);
-  EXPECT_EQ(h.inconsistent_edges, 0u);
-  EXPECT_EQ(h.non_manifold_vertices, 0u);
-  EXPECT_EQ(find_self_intersections(m).pairs, 0u);
-}
+using test::expect_closed_oriented;
 
 /// Mean |distance| from the vertices to the surface of the nearest bead of any line.
 double mean_bead_distance(const Mesh& m, std::span<const SurfaceBead> beads) {
@@ -86,6 +78,7 @@ TEST(DepositMeshSmooth, VerticesGoOntoTheBeadsAndTheMeshStaysClosed) {
   const auto beads = surface_beads(p.moves, ender3_marlin2());
   ASSERT_FALSE(beads.empty());
   DepositMeshOptions o;
+  o.surface = DepositMeshSurface::voxel;
   o.smooth = false;
   auto stair = build_deposit_mesh(p.deposit.grid, o, beads);
   o.smooth = true;
@@ -116,7 +109,7 @@ TEST(DepositMeshSmooth, GroovesBetweenLayersShowOnTheOuterWall) {
   // boundaries: the smoothed vertices' x spans part of the groove depth R (1 - cos 45) ... R.
   const Printed p = lay_loops(0.2, 0.45, 6);
   const auto beads = surface_beads(p.moves, ender3_marlin2());
-  auto m = build_deposit_mesh(p.deposit.grid, {}, beads);
+  auto m = build_deposit_mesh(p.deposit.grid, voxel_surface(), beads);
   ASSERT_TRUE(m.ok());
   double xmin_mid = 1e9, xmax_groove = -1e9;
   for (const Vec3& v : m->mesh.vertices_mm) {
@@ -138,6 +131,7 @@ TEST(DepositMeshSmooth, NoBeadsOrDecimationKeepTheVoxelFaces) {
   ASSERT_TRUE(plain.ok());
   EXPECT_EQ(plain->smoothed_vertices, 0u);
   DepositMeshOptions o;
+  o.surface = DepositMeshSurface::voxel;
   o.max_triangles = plain->mesh.triangles.size() / 4;
   auto coarse = build_deposit_mesh(p.deposit.grid, o, beads);
   ASSERT_TRUE(coarse.ok());
@@ -150,6 +144,7 @@ TEST(DepositMeshSmooth, TheTriangleLimitSkipsSmoothingAndZeroLiftsIt) {
   const Printed p = lay_loops(0.2, 0.45, 2);
   const auto beads = surface_beads(p.moves, ender3_marlin2());
   DepositMeshOptions o;
+  o.surface = DepositMeshSurface::voxel;
   auto full = build_deposit_mesh(p.deposit.grid, o, beads);
   ASSERT_TRUE(full.ok());
   ASSERT_GT(full->smoothed_vertices, 0u);
@@ -202,6 +197,7 @@ TEST(DepositMeshSmooth, SingleBeadAndZigZagStayFreeOfSelfIntersections) {
     const Printed p = lay_path(path, zs, 0.45, 0.2);
     const auto beads = surface_beads(p.moves, ender3_marlin2());
     DepositMeshOptions o;
+    o.surface = DepositMeshSurface::voxel;
     auto m = build_deposit_mesh(p.deposit.grid, o, beads);
     ASSERT_TRUE(m.ok());
     SCOPED_TRACE(path.size());

@@ -1,0 +1,679 @@
+// The layered surface of the as-printed mesh (mesh_export.hpp has the model).
+//
+// Steps, each slab (layer) in parallel: the cross-section (the slab's cells projected) ->
+// marching-squares outlines (filled on the left, diagonal neighbours apart) -> simplified
+// (Douglas-Peucker) -> one miter vector per vertex, the rounded side's inset checked so no
+// edge turns back. Each boundary between slabs in parallel: the top rings of the slab below
+// and the bottom rings of the slab above as constraints of one constrained Delaunay
+// triangulation (crossings split exactly on both) -> the faces inside exactly one of the
+// two regions, up or down. Each slab again: its side as strips between rings, the end rings
+// taken from the triangulations with their split points (no T-junctions). Vertices and
+// triangles are joined in slab order (the same on any thread count).
+#include <tbb/parallel_for.h>
+
+#include <CGAL/Constrained_Delaunay_triangulation_2.h>
+#include <CGAL/Constrained_triangulation_plus_2.h>
+#include <CGAL/Exact_predicates_exact_constructions_kernel.h>
+#include <CGAL/Triangulation_face_base_with_info_2.h>
+#include <CGAL/Triangulation_vertex_base_with_info_2.h>
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <numbers>
+#include <unordered_map>
+#include <vector>
+
+#include "deposit/mesh_export_internal.hpp"
+
+namespace printtwin::detail {
+
+namespace {
+
+using P2 = Eigen::Vector2d;
+
+/// The caps' triangulation on kernel K: inexact constructions (fast; an intersection may
+/// snap to a nearby vertex) or exact ones (the fall-back when the fast one finds a ring that
+/// does not bound its region).
+template <class K, class Itag>
+using CtOf = CGAL::Constrained_triangulation_plus_2<CGAL::Constrained_Delaunay_triangulation_2<
+    K,
+    CGAL::Triangulation_data_structure_2<
+        CGAL::Triangulation_vertex_base_with_info_2<std::uint32_t, K>,
+        CGAL::Constrained_triangulation_face_base_2<
+            K, CGAL::Triangulation_face_base_with_info_2<unsigned char, K>>>,
+    Itag>>;
+using CtFast =
+    CtOf<CGAL::Exact_predicates_inexact_constructions_kernel, CGAL::Exact_predicates_tag>;
+using CtExact =
+    CtOf<CGAL::Exact_predicates_exact_constructions_kernel, CGAL::Exact_intersections_tag>;
+
+// ---------------------------------------------------------------- outlines
+
+/// One closed outline of a slab's cross-section, filled on its left.
+struct Outline {
+  std::vector<P2> pts;    ///< mm
+  std::vector<P2> miter;  ///< per vertex: the move of one mm of inset (toward the fill)
+  double scale = 1;       ///< share of the rounded profile kept (0: a straight side)
+  bool capped = false;    ///< miters limited by the edge lengths (after a crossing)
+  std::vector<P2> raw;    ///< the marching-squares outline (simple; outlines never meet)
+  int seed_x = 0, seed_y = 0;
+};
+
+struct Slab {
+  std::vector<Outline> outlines;
+  double z_lo = 0, z_hi = 0;
+  /// Extra inset of the top and bottom rings (a fiftieth of a cell): where the slab below
+  /// and the one above touch along an edge only (diagonal cells), their rings would share
+  /// it in opposite directions (four triangles on one edge); this keeps them apart.
+  double end_inset = 0;
+  std::size_t points = 0;  ///< over its outlines
+};
+
+struct Segment {
+  std::uint64_t from = 0, to = 0;  // edge-midpoint ids: (y * width + x) * 2 + vertical
+  int seed_x = 0, seed_y = 0;      // the filled cell the segment cuts off
+};
+
+/// Marching-squares segments of a bit image: in each cell (x, y)..(x + 1, y + 1) of pixel
+/// centres, from each "out" crossing (filled corner to empty, counter-clockwise) to the
+/// previous "in" crossing, so the fill is on the left and diagonal pixels stay apart.
+std::vector<Segment> march(const std::vector<std::uint64_t>& rows, int width, int height) {
+  const int words = (width + 63) / 64;
+  std::vector<Segment> segs;
+  const auto h_id = [&](int x, int y) {
+    return static_cast<std::uint64_t>(static_cast<std::int64_t>(y) * width + x) * 2;
+  };
+  for (int y = 0; y + 1 < height; ++y) {
+    const std::uint64_t* ra = &rows[static_cast<std::size_t>(y) * words];
+    const std::uint64_t* rb = ra + words;
+    for (int w = 0; w < words; ++w) {
+      const std::uint64_t a = ra[w], b = rb[w];
+      const std::uint64_t a_next = w + 1 < words ? ra[w + 1] : 0,
+                          b_next = w + 1 < words ? rb[w + 1] : 0;
+      const std::uint64_t a1 = (a >> 1) | (a_next << 63), b1 = (b >> 1) | (b_next << 63);
+      std::uint64_t mixed = (a | a1 | b | b1) & ~(a & a1 & b & b1);
+      for (; mixed != 0; mixed &= mixed - 1) {
+        const int bit = std::countr_zero(mixed);
+        const int x = w * 64 + bit;
+        if (x + 1 >= width) continue;
+        const std::array<bool, 4> c{((a >> bit) & 1U) != 0, ((a1 >> bit) & 1U) != 0,
+                                    ((b1 >> bit) & 1U) != 0, ((b >> bit) & 1U) != 0};
+        const std::array<std::uint64_t, 4> e{h_id(x, y), h_id(x + 1, y) + 1, h_id(x, y + 1),
+                                             h_id(x, y) + 1};
+        const std::array<int, 4> cx{x, x + 1, x + 1, x}, cy{y, y, y + 1, y + 1};
+        for (int k = 0; k < 4; ++k) {
+          if (!c[static_cast<std::size_t>(k)] || c[static_cast<std::size_t>((k + 1) & 3)]) continue;
+          for (int d = 1; d < 4; ++d) {
+            const auto j = static_cast<std::size_t>((k + 4 - d) & 3);
+            if (c[j] || !c[(j + 1) & 3]) continue;
+            segs.push_back({e[static_cast<std::size_t>(k)], e[j], cx[static_cast<std::size_t>(k)],
+                            cy[static_cast<std::size_t>(k)]});
+            break;
+          }
+        }
+      }
+    }
+  }
+  return segs;
+}
+
+/// Closes the segments into loops of edge-midpoint ids (each midpoint starts one segment).
+std::vector<std::vector<std::uint64_t>> close_loops(std::vector<Segment>& segs,
+                                                    std::vector<std::array<int, 2>>& seeds) {
+  std::sort(segs.begin(), segs.end(),
+            [](const Segment& p, const Segment& q) { return p.from < q.from; });
+  std::vector<char> used(segs.size(), 0);
+  std::vector<std::vector<std::uint64_t>> loops;
+  for (std::size_t s = 0; s < segs.size(); ++s) {
+    if (used[s] != 0) continue;
+    std::vector<std::uint64_t> loop;
+    std::size_t cur = s;
+    bool closed = false;
+    for (;;) {
+      used[cur] = 1;
+      loop.push_back(segs[cur].from);
+      const auto it =
+          std::lower_bound(segs.begin(), segs.end(), segs[cur].to,
+                           [](const Segment& p, std::uint64_t id) { return p.from < id; });
+      if (it == segs.end() || it->from != segs[cur].to) break;
+      cur = static_cast<std::size_t>(it - segs.begin());
+      if (cur == s) {
+        closed = true;
+        break;
+      }
+      if (used[cur] != 0) break;
+    }
+    if (!closed || loop.size() < 3) continue;
+    loops.push_back(std::move(loop));
+    seeds.push_back({segs[s].seed_x, segs[s].seed_y});
+  }
+  return loops;
+}
+
+double segment_distance(const P2& p, const P2& a, const P2& b) {
+  const P2 d = b - a;
+  const double len2 = d.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((p - a).dot(d) / len2, 0.0, 1.0) : 0.0;
+  return (p - (a + t * d)).norm();
+}
+
+/// Douglas-Peucker on a closed polyline: the kept points, in order (at least three).
+std::vector<P2> simplify_closed(const std::vector<P2>& pts, double tol) {
+  const std::size_t n = pts.size();
+  if (n <= 4 || tol <= 0) return pts;
+  std::size_t far = 0;
+  for (std::size_t i = 1; i < n; ++i)
+    if ((pts[i] - pts[0]).squaredNorm() > (pts[far] - pts[0]).squaredNorm()) far = i;
+  std::vector<char> keep(n, 0);
+  keep[0] = keep[far] = 1;
+  std::vector<std::array<std::size_t, 2>> stack{{0, far}, {far, n}};
+  while (!stack.empty()) {
+    const auto [i, j] = stack.back();
+    stack.pop_back();
+    const P2& a = pts[i];
+    const P2& b = pts[j % n];
+    double worst = -1;
+    std::size_t at = i;
+    for (std::size_t k = i + 1; k < j; ++k) {
+      const double d = segment_distance(pts[k], a, b);
+      if (d > worst) {
+        worst = d;
+        at = k;
+      }
+    }
+    if (worst > tol) {
+      keep[at] = 1;
+      stack.push_back({i, at});
+      stack.push_back({at, j});
+    }
+  }
+  std::vector<P2> out;
+  for (std::size_t i = 0; i < n; ++i)
+    if (keep[i] != 0) out.push_back(pts[i]);
+  if (out.size() < 3) return pts;
+  return out;
+}
+
+/// The miter vectors of a closed outline filled on its left: moving vertex k by d * miter[k]
+/// moves both its edges d toward the fill. `r` > 0: a vertex between short edges moves less
+/// (at most half its shorter edge at the full inset r), so the zigzags of a traced outline
+/// do not fold into swallowtails.
+std::vector<P2> miters(const std::vector<P2>& p, double r) {
+  const std::size_t n = p.size();
+  std::vector<P2> m(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const P2 ein = p[k] - p[(k + n - 1) % n], eout = p[(k + 1) % n] - p[k];
+    const P2 din = ein.normalized(), dout = eout.normalized();
+    const P2 nin(-din.y(), din.x()), nout(-dout.y(), dout.x());
+    const double c = 1.0 + nin.dot(nout);
+    m[k] = (nin + nout) / std::max(c, 0.5);
+    const double reach = m[k].norm() * r, room = 0.5 * std::min(ein.norm(), eout.norm());
+    if (r > 0 && reach > room) m[k] *= std::max(room / reach, 0.05);
+  }
+  return m;
+}
+
+/// True when insetting the outline by d turns no edge back.
+bool inset_keeps_edges(const Outline& o, double d) {
+  const std::size_t n = o.pts.size();
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t k1 = (k + 1) % n;
+    const P2 e = o.pts[k1] - o.pts[k];
+    const P2 f = (o.pts[k1] + d * o.miter[k1]) - (o.pts[k] + d * o.miter[k]);
+    if (e.dot(f) <= 0.05 * e.squaredNorm()) return false;
+  }
+  return true;
+}
+
+/// The slab's outlines: its cells projected, marched, simplified, with miters and the
+/// share of the rounded profile each can take.
+Slab trace_slab(const LayerSlabs& in, int s, double tol, std::vector<std::uint64_t>& rows) {
+  Slab slab;
+  const int z0 = in.bounds[static_cast<std::size_t>(s)],
+            z1 = in.bounds[static_cast<std::size_t>(s) + 1];
+  slab.z_lo = in.base_mm.z() + in.cell_mm * z0;
+  slab.z_hi = in.base_mm.z() + in.cell_mm * z1;
+  const double r = 0.5 * (slab.z_hi - slab.z_lo);
+  slab.end_inset = 0.02 * in.cell_mm;
+  rows.assign(static_cast<std::size_t>(in.height) * static_cast<std::size_t>((in.width + 63) / 64),
+              0);
+  in.project(z0, z1, rows);
+  std::vector<Segment> segs = march(rows, in.width, in.height);
+  std::vector<std::array<int, 2>> seeds;
+  const auto loops = close_loops(segs, seeds);
+  const double half = 0.5 * in.cell_mm;
+  for (std::size_t l = 0; l < loops.size(); ++l) {
+    std::vector<P2> pts;
+    pts.reserve(loops[l].size());
+    for (const std::uint64_t id : loops[l]) {
+      const std::int64_t cell = static_cast<std::int64_t>(id >> 1);
+      const std::int64_t row = cell / in.width;  // the cell's y
+      const auto x = static_cast<double>(cell % in.width), y = static_cast<double>(row);
+      const bool vertical = (id & 1U) != 0;
+      pts.emplace_back(in.base_mm.x() + half * (2 * x + (vertical ? 1 : 2)),
+                       in.base_mm.y() + half * (2 * y + (vertical ? 2 : 1)));
+    }
+    Outline o;
+    o.pts = simplify_closed(pts, tol);
+    o.raw = std::move(pts);
+    o.miter = miters(o.pts, 0);
+    if (!inset_keeps_edges(o, r + slab.end_inset)) {  // the zigzag folds: capped miters
+      o.capped = true;
+      o.miter = miters(o.pts, r);
+    }
+    o.seed_x = seeds[l][0];
+    o.seed_y = seeds[l][1];
+    o.scale = 0;
+    for (const double share : {1.0, 0.5, 0.25})
+      if (inset_keeps_edges(o, share * r + slab.end_inset)) {
+        o.scale = share;
+        break;
+      }
+    slab.points += o.pts.size();
+    slab.outlines.push_back(std::move(o));
+  }
+  return slab;
+}
+
+// ---------------------------------------------------------------- rings
+
+/// Ring j (0 .. 2 steps) of a slab's side: the bead's round side at angle phi_j from
+/// -90 to +90 degrees, inset r (1 - cos phi) toward the fill at height mid + r sin phi.
+double ring_inset(const Slab& s, const Outline& o, int j, int steps) {
+  const double r = 0.5 * (s.z_hi - s.z_lo);
+  const double phi = (j - steps) * (0.5 * std::numbers::pi / steps);
+  return o.scale * r * (1.0 - std::cos(phi)) + (j == 0 || j == 2 * steps ? s.end_inset : 0.0);
+}
+double ring_z(const Slab& s, int j, int steps) {
+  if (j == 0) return s.z_lo;
+  if (j == 2 * steps) return s.z_hi;
+  const double r = 0.5 * (s.z_hi - s.z_lo);
+  return s.z_lo + r + r * std::sin((j - steps) * (0.5 * std::numbers::pi / steps));
+}
+P2 ring_point(const Slab& s, const Outline& o, std::size_t k, int j, int steps) {
+  return o.pts[k] + ring_inset(s, o, j, steps) * o.miter[k];
+}
+
+// ---------------------------------------------------------------- caps
+
+/// A boundary between slabs: its vertices, the cap triangles, and each ring's vertices in
+/// order with its split points (`pos[k]`: the place of the ring's vertex k in `seq`).
+struct Boundary {
+  std::vector<P2> verts;
+  std::vector<std::array<std::uint32_t, 3>> tris;
+  std::vector<std::uint32_t> seq;       // all rings, each closed (first repeated at the end)
+  std::vector<std::uint32_t> pos;       // all rings: n + 1 entries each, into seq
+  std::vector<std::uint32_t> pos_base;  // per ring: its first entry in pos
+  bool ok = true;
+  /// Rings that cross themselves or another ring of their side (the region is not on
+  /// their left): 0 / 1 for below / above, and the outline.
+  std::vector<std::array<std::size_t, 2>> crossed;
+};
+
+std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
+  return (static_cast<std::uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
+}
+
+/// Vertices that coincide once written as float (as every mesh format stores them) become
+/// one (a split point a hair from a ring's vertex); triangles that lose an edge go.
+void weld_as_float(Boundary& b) {
+  std::vector<std::uint32_t> rep(b.verts.size());
+  std::unordered_map<std::uint64_t, std::uint32_t> at;
+  at.reserve(b.verts.size());
+  std::vector<P2> kept;
+  kept.reserve(b.verts.size());
+  for (std::size_t i = 0; i < b.verts.size(); ++i) {
+    const std::uint64_t key = (static_cast<std::uint64_t>(
+                                   std::bit_cast<std::uint32_t>(static_cast<float>(b.verts[i].x())))
+                               << 32) |
+                              std::bit_cast<std::uint32_t>(static_cast<float>(b.verts[i].y()));
+    const auto [it, fresh] = at.try_emplace(key, static_cast<std::uint32_t>(kept.size()));
+    if (fresh) kept.push_back(b.verts[i]);
+    rep[i] = it->second;
+  }
+  if (kept.size() == b.verts.size()) return;
+  b.verts = std::move(kept);
+  for (std::uint32_t& v : b.seq) v = rep[v];
+  std::size_t n = 0;
+  for (const auto& t : b.tris) {
+    const std::array<std::uint32_t, 3> r{rep[t[0]], rep[t[1]], rep[t[2]]};
+    if (r[0] != r[1] && r[1] != r[2] && r[0] != r[2]) b.tris[n++] = r;
+  }
+  b.tris.resize(n);
+}
+
+/// Marks each face with the regions (bit 0: below's top, bit 1: above's bottom) it lies in,
+/// crossing the rings' sub-segments from the infinite face.
+template <class Ct>
+void mark_faces(Ct& ct, const std::unordered_map<std::uint64_t, unsigned char>& toggles) {
+  for (auto f : ct.all_face_handles()) f->info() = 0;
+  std::vector<typename Ct::Face_handle> stack{ct.infinite_face()};
+  ct.infinite_face()->info() = 0x80;
+  while (!stack.empty()) {
+    const typename Ct::Face_handle f = stack.back();
+    stack.pop_back();
+    const unsigned char state = f->info() & 3U;
+    for (int i = 0; i < 3; ++i) {
+      const typename Ct::Face_handle g = f->neighbor(i);
+      if ((g->info() & 0x80U) != 0) continue;
+      const auto va = f->vertex(Ct::cw(i)), vb = f->vertex(Ct::ccw(i));
+      unsigned char t = 0;
+      if (!ct.is_infinite(va) && !ct.is_infinite(vb))
+        if (const auto it = toggles.find(edge_key(va->info(), vb->info())); it != toggles.end())
+          t = it->second;
+      g->info() = static_cast<unsigned char>(0x80U | (state ^ t));
+      stack.push_back(g);
+    }
+  }
+}
+
+/// The cap on triangulation Ct (see cap).
+template <class Ct>
+Boundary cap_on(const Slab* below, const Slab* above, int steps) {
+  using Point = typename Ct::Point;
+  Boundary b;
+  Ct ct;
+  struct Ring {
+    std::vector<Point> pts;
+    typename Ct::Constraint_id cid;
+    unsigned char side;
+  };
+  std::vector<Ring> rings;
+  const auto add = [&](const Slab* s, int j, unsigned char side) {
+    if (s == nullptr) return;
+    for (const Outline& o : s->outlines) {
+      Ring r;
+      r.side = side;
+      for (std::size_t k = 0; k < o.pts.size(); ++k) {
+        const P2 p = ring_point(*s, o, k, j, steps);
+        r.pts.emplace_back(p.x(), p.y());
+      }
+      rings.push_back(std::move(r));
+    }
+  };
+  add(below, 2 * steps, 1);
+  add(above, 0, 2);
+  for (Ring& r : rings) r.cid = ct.insert_constraint(r.pts.begin(), r.pts.end(), true);
+  std::uint32_t n = 0;
+  for (auto v : ct.finite_vertex_handles()) {
+    v->info() = n++;
+    b.verts.emplace_back(CGAL::to_double(v->point().x()), CGAL::to_double(v->point().y()));
+  }
+  std::unordered_map<std::uint64_t, unsigned char> toggles;
+  for (const Ring& r : rings) {
+    b.pos_base.push_back(static_cast<std::uint32_t>(b.pos.size()));
+    const auto first = static_cast<std::uint32_t>(b.seq.size());
+    std::size_t k = 0;
+    for (auto it = ct.vertices_in_constraint_begin(r.cid);
+         it != ct.vertices_in_constraint_end(r.cid); ++it) {
+      const auto at = static_cast<std::uint32_t>(b.seq.size());
+      if (k < r.pts.size() && (*it)->point() == r.pts[k]) {
+        b.pos.push_back(at);
+        ++k;
+      }
+      if (at > first) {
+        const std::uint32_t u = b.seq.back(), v = (*it)->info();
+        if (u != v) toggles[edge_key(u, v)] ^= r.side;
+      }
+      b.seq.push_back((*it)->info());
+    }
+    // Closed: the first vertex again at the end.
+    if (k != r.pts.size() || b.seq.size() - first < 2 || b.seq.back() != b.seq[first]) {
+      b.ok = false;
+      return b;
+    }
+    b.pos.push_back(static_cast<std::uint32_t>(b.seq.size() - 1));
+  }
+  mark_faces(ct, toggles);
+  std::vector<typename Ct::Vertex_handle> handle(n);
+  for (auto v : ct.finite_vertex_handles()) handle[v->info()] = v;
+  const std::size_t n_below = below != nullptr ? below->outlines.size() : 0;
+  for (std::size_t ri = 0; ri < rings.size(); ++ri) {
+    const std::size_t begin = b.pos[b.pos_base[ri]];
+    const std::size_t end = b.pos[b.pos_base[ri] + rings[ri].pts.size()];
+    for (std::size_t i = begin; i < end; ++i) {
+      typename Ct::Face_handle f;
+      int opposite = 0;
+      if (b.seq[i] == b.seq[i + 1] ||
+          !ct.is_edge(handle[b.seq[i]], handle[b.seq[i + 1]], f, opposite))
+        continue;
+      const bool left = f->vertex(Ct::ccw(opposite)) == handle[b.seq[i]];
+      const typename Ct::Face_handle inner = left ? f : f->neighbor(opposite);
+      if ((inner->info() & rings[ri].side) == 0) {
+        b.crossed.push_back(ri < n_below ? std::array<std::size_t, 2>{0, ri}
+                                         : std::array<std::size_t, 2>{1, ri - n_below});
+        break;
+      }
+    }
+  }
+  if (!b.crossed.empty()) return b;
+  for (auto f : ct.finite_face_handles()) {
+    const unsigned s = f->info() & 3U;
+    if (s != 1 && s != 2) continue;
+    const std::uint32_t a = f->vertex(0)->info(), c = f->vertex(1)->info(),
+                        d = f->vertex(2)->info();
+    b.tris.push_back(s == 1 ? std::array{a, c, d} : std::array{a, d, c});
+  }
+  weld_as_float(b);
+  return b;
+}
+
+/// The cap between `below`'s top rings and `above`'s bottom rings (either may be null):
+/// the fast triangulation, or the exact one where the fast one finds a ring that does not
+/// bound its region (a real crossing, or an intersection snapped aside).
+Boundary cap(const Slab* below, const Slab* above, int steps, bool exact) {
+  if (exact) return cap_on<CtExact>(below, above, steps);
+  Boundary b = cap_on<CtFast>(below, above, steps);
+  if (!b.ok || !b.crossed.empty()) b = cap_on<CtExact>(below, above, steps);
+  return b;
+}
+
+// ---------------------------------------------------------------- sides
+
+/// Triangles between two chains along one outline edge (lower and upper ring), advancing on
+/// the chain whose next point comes first along the edge.
+void zip(const std::vector<std::uint32_t>& lo, const std::vector<std::uint32_t>& up,
+         const std::vector<Vec3>& v, std::vector<std::array<std::uint32_t, 3>>& out) {
+  const auto params = [&](const std::vector<std::uint32_t>& c, std::vector<double>& t) {
+    t.resize(c.size());
+    const P2 a = v[c.front()].head<2>(), b = v[c.back()].head<2>();
+    const P2 d = b - a;
+    const double len2 = d.squaredNorm();
+    for (std::size_t i = 0; i < c.size(); ++i)
+      t[i] = len2 > 0 ? (v[c[i]].head<2>() - a).dot(d) / len2
+                      : static_cast<double>(i) / static_cast<double>(c.size() - 1);
+  };
+  thread_local std::vector<double> tl, tu;
+  params(lo, tl);
+  params(up, tu);
+  std::size_t i = 0, j = 0;
+  while (i + 1 < lo.size() || j + 1 < up.size()) {
+    const bool lower = j + 1 >= up.size() || (i + 1 < lo.size() && tl[i + 1] <= tu[j + 1]);
+    const std::array<std::uint32_t, 3> t =
+        lower ? std::array{lo[i], lo[i + 1], up[j]} : std::array{lo[i], up[j + 1], up[j]};
+    if (t[0] != t[1] && t[1] != t[2] && t[0] != t[2]) out.push_back(t);
+    (lower ? i : j) += 1;
+  }
+}
+
+/// The chain of outline edge k of ring `ring` of boundary `b`, as global vertex ids.
+void boundary_chain(const Boundary& b, std::uint32_t base, std::size_t ring, std::size_t k,
+                    std::vector<std::uint32_t>& out) {
+  out.clear();
+  const std::size_t p = b.pos_base[ring] + k;
+  for (std::uint32_t i = b.pos[p]; i <= b.pos[p + 1]; ++i) out.push_back(base + b.seq[i]);
+}
+
+struct SideInput {
+  const Slab* slab;
+  const Boundary* bottom;  // boundary below: this slab's outlines are its "above" rings
+  const Boundary* top;     // boundary above: this slab's outlines are its "below" rings
+  std::uint32_t bottom_base, top_base, inner_base;
+  std::size_t bottom_first_ring;  // rings of the slab below come first in `bottom`
+};
+
+/// The side strips of one slab; `seeds` gets each outline's first triangle (slab-local).
+void side(const SideInput& in, int steps, const std::vector<Vec3>& v,
+          std::vector<std::array<std::uint32_t, 3>>& out, std::vector<std::uint32_t>& seeds) {
+  std::vector<std::uint32_t> lo, up;
+  std::size_t offset = 0;
+  for (std::size_t l = 0; l < in.slab->outlines.size(); ++l) {
+    const Outline& o = in.slab->outlines[l];
+    const std::size_t n = o.pts.size();
+    seeds.push_back(static_cast<std::uint32_t>(out.size()));
+    const auto inner = [&](int j, std::size_t k) {
+      return in.inner_base +
+             static_cast<std::uint32_t>(static_cast<std::size_t>(j - 1) * in.slab->points + offset +
+                                        k % n);
+    };
+    for (std::size_t k = 0; k < n; ++k)
+      for (int j = 0; j < 2 * steps; ++j) {
+        if (j == 0)
+          boundary_chain(*in.bottom, in.bottom_base, in.bottom_first_ring + l, k, lo);
+        else
+          lo = {inner(j, k), inner(j, k + 1)};
+        if (j + 1 == 2 * steps)
+          boundary_chain(*in.top, in.top_base, l, k, up);
+        else
+          up = {inner(j + 1, k), inner(j + 1, k + 1)};
+        zip(lo, up, v, out);
+      }
+    offset += n;
+  }
+}
+
+/// Caps of every boundary; rings that cross (themselves, or another ring of their side)
+/// get capped miters, then straight sides, then their unsimplified outline (simple, and
+/// apart from the others).
+/// False when some still cross.
+bool make_caps(std::vector<Slab>& slabs, int steps, bool exact, std::vector<Boundary>& caps) {
+  const std::size_t ns = slabs.size();
+  caps.assign(ns + 1, Boundary{});
+  std::vector<char> redo(ns + 1, 1);
+  for (int round = 0; round < 4; ++round) {
+    tbb::parallel_for(std::size_t{0}, ns + 1, [&](std::size_t b) {
+      if (redo[b] != 0)
+        caps[b] = cap(b > 0 ? &slabs[b - 1] : nullptr, b < ns ? &slabs[b] : nullptr, steps, exact);
+    });
+    std::fill(redo.begin(), redo.end(), 0);
+    bool any = false;
+    for (std::size_t b = 0; b <= ns; ++b)
+      for (const auto& [below_or_above, l] : caps[b].crossed) {
+        const std::size_t s = below_or_above == 0 ? b - 1 : b;
+        Outline& o = slabs[s].outlines[l];
+        const double r = 0.5 * (slabs[s].z_hi - slabs[s].z_lo);
+        if (o.scale > 0 && !o.capped) {
+          o.capped = true;
+          o.miter = miters(o.pts, r);
+        } else if (o.scale > 0) {
+          o.scale = 0;
+        } else if (o.pts.size() != o.raw.size()) {
+          slabs[s].points += o.raw.size() - o.pts.size();
+          o.pts = o.raw;
+          o.miter = miters(o.pts, 0);
+        }
+        redo[s] = redo[s + 1] = 1;
+        any = true;
+      }
+    if (!any) break;
+  }
+  return std::all_of(caps.begin(), caps.end(),
+                     [](const Boundary& b) { return b.ok && b.crossed.empty(); });
+}
+
+}  // namespace
+
+LayerSurface build_layer_surface(const LayerSlabs& in, const LayerSurfaceOptions& options) {
+  LayerSurface out;
+  const int n_slabs = static_cast<int>(in.bounds.size()) - 1;
+  if (n_slabs <= 0) return out;
+  const int steps = std::max(1, options.profile_steps);
+  const auto ns = static_cast<std::size_t>(n_slabs);
+  std::vector<Slab> slabs(ns);
+  tbb::parallel_for(0, n_slabs, [&](int s) {
+    thread_local std::vector<std::uint64_t> rows;
+    slabs[static_cast<std::size_t>(s)] = trace_slab(in, s, options.tolerance_mm, rows);
+  });
+  std::vector<Boundary> caps;
+  if (!make_caps(slabs, steps, options.exact, caps)) return out;  // rings kept crossing: no mesh
+  // Vertices: each boundary's, then each slab's inner rings.
+  std::vector<std::uint32_t> cap_base(ns + 1), inner_base(ns);
+  std::size_t nv = 0;
+  for (std::size_t b = 0; b <= ns; ++b) {
+    cap_base[b] = static_cast<std::uint32_t>(nv);
+    nv += caps[b].verts.size();
+  }
+  for (std::size_t s = 0; s < ns; ++s) {
+    inner_base[s] = static_cast<std::uint32_t>(nv);
+    nv += static_cast<std::size_t>(2 * steps - 1) * slabs[s].points;
+  }
+  Mesh& mesh = out.mesh;
+  mesh.vertices_mm.resize(nv);
+  tbb::parallel_for(std::size_t{0}, ns + 1, [&](std::size_t b) {
+    const double z = b < ns ? slabs[b].z_lo : slabs[b - 1].z_hi;
+    for (std::size_t i = 0; i < caps[b].verts.size(); ++i)
+      mesh.vertices_mm[cap_base[b] + i] = Vec3(caps[b].verts[i].x(), caps[b].verts[i].y(), z);
+  });
+  tbb::parallel_for(std::size_t{0}, ns, [&](std::size_t s) {
+    std::size_t at = inner_base[s];
+    for (int j = 1; j < 2 * steps; ++j)
+      for (const Outline& o : slabs[s].outlines)
+        for (std::size_t k = 0; k < o.pts.size(); ++k) {
+          const P2 p = ring_point(slabs[s], o, k, j, steps);
+          mesh.vertices_mm[at++] = Vec3(p.x(), p.y(), ring_z(slabs[s], j, steps));
+        }
+  });
+  std::vector<std::vector<std::array<std::uint32_t, 3>>> sides(ns);
+  std::vector<std::vector<std::uint32_t>> side_seeds(ns);
+  tbb::parallel_for(std::size_t{0}, ns, [&](std::size_t s) {
+    const SideInput si{&slabs[s],
+                       &caps[s],
+                       &caps[s + 1],
+                       cap_base[s],
+                       cap_base[s + 1],
+                       inner_base[s],
+                       s > 0 ? slabs[s - 1].outlines.size() : 0};
+    side(si, steps, mesh.vertices_mm, sides[s], side_seeds[s]);
+  });
+  for (std::size_t b = 0; b <= ns; ++b) {
+    for (const auto& t : caps[b].tris)
+      mesh.triangles.push_back({cap_base[b] + t[0], cap_base[b] + t[1], cap_base[b] + t[2]});
+    out.cap_triangles += caps[b].tris.size();
+  }
+  for (std::size_t s = 0; s < ns; ++s) {
+    const auto first = static_cast<std::uint32_t>(mesh.triangles.size());
+    mesh.triangles.insert(mesh.triangles.end(), sides[s].begin(), sides[s].end());
+    for (std::size_t l = 0; l < slabs[s].outlines.size(); ++l)
+      out.seeds.push_back({slabs[s].outlines[l].seed_x, slabs[s].outlines[l].seed_y,
+                           static_cast<int>(s), first + side_seeds[s][l]});
+    out.outlines += slabs[s].outlines.size();
+    for (const Outline& o : slabs[s].outlines) out.straight_outlines += o.scale < 1 ? 1 : 0;
+  }
+  return out;
+}
+
+bool is_closed_oriented(const Mesh& mesh) {
+  std::vector<std::uint64_t> keys;
+  std::vector<std::uint32_t> dirs;
+  keys.reserve(mesh.triangles.size() * 3);
+  dirs.reserve(mesh.triangles.size() * 3);
+  for (const auto& t : mesh.triangles)
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t a = t[static_cast<std::size_t>(k)],
+                          b = t[static_cast<std::size_t>((k + 1) % 3)];
+      if (a == b) return false;
+      keys.push_back(edge_key(a, b));
+      dirs.push_back(a < b ? 1U : 0U);
+    }
+  radix_sort(keys, &dirs);
+  if (keys.size() % 2 != 0) return false;
+  for (std::size_t i = 0; i < keys.size(); i += 2) {
+    if (keys[i] != keys[i + 1] || dirs[i] == dirs[i + 1]) return false;
+    if (i + 2 < keys.size() && keys[i + 2] == keys[i]) return false;
+  }
+  return true;
+}
+
+}  // namespace printtwin::detail

@@ -1,0 +1,219 @@
+// The layered as-printed mesh (--deposit-mesh-surface layers, the default): closed and
+// outward where consecutive outlines cross, touch diagonally or nest; the filled volume; the
+// fall-back to the voxel surface; decimation by a coarser outline tolerance.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "deposit/mesh_export.hpp"
+#include "deposit/mesh_export_internal.hpp"
+#include "deposit/mesh_test_support.hpp"
+#include "printtwin/io.hpp"
+#include "support/test_support.hpp"
+
+namespace printtwin {
+namespace {
+
+constexpr double kVoxel = 0.05;
+constexpr int kLayer = 4;  // voxels per layer: 0.2 mm
+
+double volume(const Mesh& m) {
+  double six = 0;
+  for (const auto& t : m.triangles)
+    six += m.vertices_mm[t[0]].dot(m.vertices_mm[t[1]].cross(m.vertices_mm[t[2]]));
+  return six / 6.0;
+}
+
+/// A part of `layers` layers on a 0.05 mm grid: each layer's cells where `inside(x, y,
+/// layer)` holds, as stadium beads do it: the top and bottom voxel rows of a layer are one
+/// voxel narrower at the outline than the middle rows. One bead per layer gives its top.
+struct Part {
+  VoxelGrid grid{kVoxel, Vec3(0, 0, 0), Eigen::Vector3i(160, 160, 64)};
+  std::vector<SurfaceBead> beads;
+};
+
+template <class Inside>
+Part make_part(int layers, Inside inside) {
+  Part p;
+  for (int l = 0; l < layers; ++l) {
+    for (int zz = 0; zz < kLayer; ++zz) {
+      const bool end_row = zz == 0 || zz == kLayer - 1;
+      for (int y = 1; y < 159; ++y)
+        for (int x = 1; x < 159; ++x) {
+          if (!inside(x, y, l)) continue;
+          // Narrower rows: the cell must have its four neighbours inside too.
+          if (end_row && !(inside(x - 1, y, l) && inside(x + 1, y, l) && inside(x, y - 1, l) &&
+                           inside(x, y + 1, l)))
+            continue;
+          p.grid.set({x, y, l * kLayer + zz}, {1, l, Feature::perimeter});
+        }
+    }
+    SurfaceBead b;
+    b.start_mm = Vec3(1, 1, (l + 1) * kLayer * kVoxel);
+    b.end_mm = Vec3(2, 1, (l + 1) * kLayer * kVoxel);
+    b.width_mm = 0.45F;
+    b.height_mm = static_cast<float>(kLayer * kVoxel);
+    p.beads.push_back(b);
+  }
+  return p;
+}
+
+DepositMesh build(const Part& p, const DepositMeshOptions& o = {}) {
+  auto r = build_deposit_mesh(p.grid, o, p.beads);
+  EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().describe());
+  return r.ok() ? *r : DepositMesh{};
+}
+
+/// `vertex_manifold` false: two outlines may touch at one point (a vertex shared by two
+/// sheets; every edge still closes), as coarse outlines do.
+void expect_layered_and_closed(const DepositMesh& dm, bool vertex_manifold = true) {
+  EXPECT_EQ(dm.surface, DepositMeshSurface::layers) << dm.layers_fallback;
+  EXPECT_TRUE(dm.layers_fallback.empty()) << dm.layers_fallback;
+  if (vertex_manifold) test::expect_closed_oriented(dm.mesh);
+  EXPECT_TRUE(detail::is_closed_oriented(dm.mesh));
+  EXPECT_GT(dm.volume_mm3, 0.0);
+}
+
+TEST(LayeredMesh, CylinderIsClosedWithTheFilledVolume) {
+  const Part p =
+      make_part(8, [](int x, int y, int) { return std::hypot(x - 80.0, y - 80.0) < 60.0; });
+  const DepositMesh dm = build(p);
+  expect_layered_and_closed(dm);
+  EXPECT_EQ(dm.layers, 8u);
+  EXPECT_NEAR(dm.volume_mm3, dm.filled_volume_mm3, 0.01 * dm.filled_volume_mm3);
+  EXPECT_NEAR(volume(dm.mesh), dm.volume_mm3, 1e-6 * dm.volume_mm3);
+  // Far smaller than the voxel surface of the same part.
+  DepositMeshOptions voxel;
+  voxel.surface = DepositMeshSurface::voxel;
+  const DepositMesh vm = build(p, voxel);
+  EXPECT_EQ(vm.surface, DepositMeshSurface::voxel);
+  EXPECT_LT(dm.mesh.triangles.size() * 3, vm.mesh.triangles.size());
+}
+
+TEST(LayeredMesh, SidesFollowTheRoundBeadIntoTheGroove) {
+  const Part p =
+      make_part(6, [](int x, int y, int) { return x >= 40 && x < 120 && y >= 40 && y < 120; });
+  const DepositMesh dm = build(p);
+  expect_layered_and_closed(dm);
+  // The wall x = 2.0 mm (cells from 40): at mid-layer the outline, at a layer boundary the
+  // groove half a layer (0.1 mm) in.
+  double mid_min_x = 1e9, groove_min_x = 1e9;
+  for (const Vec3& v : dm.mesh.vertices_mm) {
+    const double in_layer = std::fmod(v.z(), 0.2);
+    if (std::abs(in_layer - 0.1) < 1e-6) mid_min_x = std::min(mid_min_x, v.x());
+    if ((in_layer < 1e-6 || in_layer > 0.2 - 1e-6) && v.z() > 0.1 && v.z() < 1.1)
+      groove_min_x = std::min(groove_min_x, v.x());
+  }
+  EXPECT_NEAR(mid_min_x, 2.0, 0.03);
+  EXPECT_NEAR(groove_min_x, 2.1, 0.03);
+}
+
+TEST(LayeredMesh, CrossingNestedAndDiagonalOutlinesClose) {
+  // Squares that shift each layer (outlines cross), a hole that opens and closes, a second
+  // piece that touches the first only diagonally from one layer to the next.
+  const Part p = make_part(7, [](int x, int y, int l) {
+    const int s = 30 + 6 * l;
+    const bool square = x >= s && x < s + 60 && y >= 40 - l && y < 100 + 2 * l;
+    const bool hole = l >= 2 && l <= 4 && std::hypot(x - (s + 30.0), y - 70.0) < 8.0 + l;
+    const bool diagonal = (l % 2 == 0) ? (x >= 130 && x < 140 && y >= 130 && y < 140)
+                                       : (x >= 140 && x < 150 && y >= 140 && y < 150);
+    return (square && !hole) || diagonal;
+  });
+  const DepositMesh dm = build(p);
+  expect_layered_and_closed(dm);
+  // Small pieces (0.5 mm squares): four voxel rows per layer are a coarse stadium, the
+  // profile's rings a finer one; the real deposits agree within 1 % (cube, benchmark part).
+  EXPECT_NEAR(dm.volume_mm3, dm.filled_volume_mm3, 0.03 * dm.filled_volume_mm3);
+}
+
+TEST(LayeredMesh, ThinPinholesAndOneCellFeaturesClose) {
+  // Pin holes of one cell, a one-cell-wide fin and a narrow neck (rounded sides would fold
+  // there: those outlines get flatter or straight sides).
+  const Part p = make_part(4, [](int x, int y, int l) {
+    const bool body = x >= 20 && x < 100 && y >= 20 && y < 100 && !(x % 9 == 0 && y % 7 == 0);
+    const bool fin = x == 110 + l && y >= 20 && y < 100;
+    const bool neck = x >= 100 && x < 110 && y >= 58 && y < 61;
+    return body || fin || neck;
+  });
+  const DepositMesh dm = build(p);
+  expect_layered_and_closed(dm);
+  EXPECT_GT(dm.straight_outlines, 0u);
+}
+
+TEST(LayeredMesh, DecimationCoarsensTheOutlinesToFit) {
+  const Part p = make_part(5, [](int x, int y, int l) {
+    return std::hypot(x - 80.0, y - 80.0) < 50.0 + 3 * std::sin(x * 0.7 + l);
+  });
+  const DepositMesh full = build(p);
+  expect_layered_and_closed(full, false);
+  DepositMeshOptions o;
+  o.max_triangles = full.mesh.triangles.size() / 3;
+  const DepositMesh small = build(p, o);
+  expect_layered_and_closed(small, false);
+  EXPECT_LE(small.mesh.triangles.size(), o.max_triangles);
+  EXPECT_GT(small.outline_tolerance_mm, full.outline_tolerance_mm);
+  EXPECT_NEAR(small.volume_mm3, full.volume_mm3, 0.02 * full.volume_mm3);
+}
+
+TEST(LayeredMesh, WithoutBeadsTheVoxelSurfaceIsBuiltAndSaysWhy) {
+  const Part p =
+      make_part(3, [](int x, int y, int) { return x > 50 && x < 70 && y > 50 && y < 70; });
+  auto r = build_deposit_mesh(p.grid, {});
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->surface, DepositMeshSurface::voxel);
+  EXPECT_NE(r->layers_fallback.find("no beads"), std::string::npos);
+  EXPECT_NE(deposit_mesh_summary(*r, "x.stl").find("voxel surface instead"), std::string::npos);
+}
+
+TEST(LayeredMesh, EmptyAndSingleBeadDeposits) {
+  const Part empty = make_part(0, [](int, int, int) { return false; });
+  const DepositMesh e = build(empty);
+  EXPECT_TRUE(e.mesh.triangles.empty());
+  // One bead: a short stadium line, one layer.
+  const Part one =
+      make_part(1, [](int x, int y, int) { return x >= 20 && x < 80 && y >= 50 && y < 59; });
+  const DepositMesh dm = build(one);
+  expect_layered_and_closed(dm);
+  // 0.45 mm wide, one layer: mostly rounded side (see above).
+  EXPECT_NEAR(dm.volume_mm3, dm.filled_volume_mm3, 0.08 * dm.filled_volume_mm3);
+}
+
+TEST(LayeredMesh, SameInputSameMesh) {
+  const Part p = make_part(6, [](int x, int y, int l) {
+    return std::hypot(x - 70.0 - l, y - 80.0) < 40.0 ||
+           (x > 100 && x < 130 && y > 60 + l && y < 90);
+  });
+  const DepositMesh a = build(p), b = build(p);
+  ASSERT_EQ(a.mesh.triangles.size(), b.mesh.triangles.size());
+  EXPECT_EQ(a.mesh.triangles, b.mesh.triangles);
+  EXPECT_EQ(a.mesh.vertices_mm, b.mesh.vertices_mm);
+}
+
+TEST(LayeredMeshCli, SimulateCubeIsLayeredClosedWithItsVolume) {
+  const auto dir = test::temp_dir("deposit_mesh_layers_cli");
+  const auto gcode = test::source_path("samples/gcode/prusa_cube10.gcode");
+  const auto run = test::run_cli("simulate '" + gcode.string() + "' --deposit-mesh '" +
+                                 (dir / "cube.stl").string() + "' --json '" +
+                                 (dir / "cube.json").string() + "'");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("50 layers"), std::string::npos) << run.out;
+  const auto j = test::read_json(dir / "cube.json");
+  const auto& m = j["deposit"]["mesh"];
+  EXPECT_EQ(m["surface"].get<std::string>(), "layers");
+  const double v = m["volume_mm3"].get<double>(), filled = m["filled_volume_mm3"].get<double>();
+  EXPECT_NEAR(v, filled, 0.01 * filled);
+  auto back = load_mesh(dir / "cube.stl");
+  ASSERT_TRUE(back.ok()) << back.error().describe();
+  EXPECT_NEAR(signed_volume_mm3(*back), v, 0.001 * v);
+  const auto voxel =
+      test::run_cli("simulate '" + gcode.string() + "' --deposit-mesh '" +
+                    (dir / "cube_voxel.stl").string() + "' --deposit-mesh-surface voxel");
+  ASSERT_EQ(voxel.exit_code, 0) << voxel.err;
+  EXPECT_EQ(voxel.out.find("layers,"), std::string::npos) << voxel.out;
+  const auto bad = test::run_cli("simulate '" + gcode.string() + "' --deposit-mesh '" +
+                                 (dir / "c.stl").string() + "' --deposit-mesh-surface mesh");
+  EXPECT_EQ(bad.exit_code, 2);
+}
+
+}  // namespace
+}  // namespace printtwin
