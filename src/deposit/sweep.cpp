@@ -472,9 +472,12 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
   const bool sided = ring.sides != nullptr && !ring.sides->open();
   const std::uint64_t within = sided ? ring.sides->tile_mask(8 * bx, 8 * by) & inside : inside;
   std::uint64_t any_free = 0;
+  const std::uint64_t* occ = nullptr;
+  int occ_bz = -1;  // the block of `occ` (the layers are in order: one or two blocks)
   for (std::size_t n = 0; n < nk; ++n) {
     const int k = ring.layers[n];
-    const std::uint64_t* occ = detail::VoxelBlocks::block_occupancy(grid, bx, by, k >> 3);
+    if ((k >> 3) != occ_bz)
+      occ_bz = k >> 3, occ = detail::VoxelBlocks::block_occupancy(grid, bx, by, occ_bz);
     free_[n] = ~(occ != nullptr ? occ[k & 7] : 0);
     any_free |= free_[n] & (ring.grown != nullptr ? within : inside);
   }
@@ -483,6 +486,7 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
   std::size_t placed = 0;
   put_.assign(nk, 0);
   auto place = [&](std::size_t n, std::uint64_t room) {
+    if (room == 0) return;
     const std::size_t left = need - placed;
     const auto count = static_cast<std::size_t>(popcount64(room));
     const std::uint64_t mask = count <= left ? room : lowest_bits(room, left);
@@ -539,18 +543,21 @@ std::uint64_t BeadSweep::Sides::tile_mask(int i0, int j0) const {
   // Offsets l(x, y) = n . (centre - a2) are linear: per row, the x between the limits.
   const double lo = -neg, hi = pos;
   std::uint64_t m = 0;
+  const bool flat_x = std::abs(n.x()) < 1e-12;
   for (int y = 0; y < 8; ++y) {
     const double c = n.x() * (i0 + 0.5 - a2.x()) + n.y() * (j0 + y + 0.5 - a2.y());
-    double xl = 0, xh = 7;
-    if (std::abs(n.x()) < 1e-12) {
+    int x0 = 0, x1 = 7;
+    if (flat_x) {
       if (c < lo || c > hi) continue;
     } else {
       double t0 = (lo - c) / n.x(), t1 = (hi - c) / n.x();
       if (t0 > t1) std::swap(t0, t1);
-      xl = std::max(xl, std::ceil(t0)), xh = std::min(xh, std::floor(t1));
-      if (xl > xh) continue;
+      // ceil(t0) and floor(t1), clamped to the tile (floor_int: no library call).
+      if (t0 > 7 || t1 < 0) continue;
+      if (t0 > 0) x0 = -floor_int(-t0);
+      if (t1 < 7) x1 = floor_int(t1);
+      if (x0 > x1) continue;
     }
-    const auto x0 = static_cast<unsigned>(xl), x1 = static_cast<unsigned>(xh);
     const std::uint64_t bits = ((2u << x1) - 1u) & ~((1u << x0) - 1u);
     m |= bits << (8 * y);
   }
