@@ -226,6 +226,7 @@ std::vector<TJunction> t_junctions(const Mesh& m, double tol) {
   std::sort(open.begin(), open.end());
   // The open edges' starts by x, to find those near an edge.
   std::vector<std::uint32_t> starts;
+  starts.reserve(open.size());
   for (const auto& o : open) starts.push_back(o[0]);
   starts.erase(std::unique(starts.begin(), starts.end()), starts.end());
   const auto& p = w.vertices_mm;
@@ -237,9 +238,10 @@ std::vector<TJunction> t_junctions(const Mesh& m, double tol) {
     if (!(len2 > 0)) continue;
     const double lim = std::min(tol, 0.01 * std::sqrt(len2));
     // Position along a -> b (0 at a, 1 at b) of q, or -1 when q is off the line.
+    const Vec3 pa = p[a];  // clang before 16 cannot capture a structured binding
     const auto along = [&](const Vec3& q) {
-      const double t = (q - p[a]).dot(d) / len2;
-      return (q - p[a] - t * d).norm() <= lim ? t : -1.0;
+      const double t = (q - pa).dot(d) / len2;
+      return (q - pa - t * d).norm() <= lim ? t : -1.0;
     };
     const double lo = std::min(p[a].x(), p[b].x()) - lim, hi = std::max(p[a].x(), p[b].x()) + lim;
     auto it = std::lower_bound(starts.begin(), starts.end(), lo,
