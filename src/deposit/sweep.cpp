@@ -297,6 +297,7 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
                    &sides,
                    steps};
   std::size_t carry = 0;
+  std::size_t rehit = 0;  // voxels of the bead that held squeezed material
   // A round join is laid first, outside the bead: it takes material the bead lays on earlier
   // plastic (the corner's inner overlap), which the squeeze then no longer places. (A join
   // larger than the bead's overlap, after a very short bead, adds the difference.)
@@ -322,6 +323,7 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
     test_tile_layers(f, 8 * bx, 8 * by, reached_.data(), static_cast<int>(nk), t_lo, t_hi, lanes,
                      masks);
     std::size_t tile_overlap = 0;
+    std::size_t tile_rehit = 0;  // of it, squeezed material displaced again
     // Top layer first: a column is raised once, by its highest voxel (raising it by a lower
     // one after that changes nothing).
     std::uint64_t raised = 0;
@@ -333,6 +335,13 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
       if (squeezing) {
         const std::uint64_t* occ = detail::VoxelBlocks::block_occupancy(grid, bx, by, k >> 3);
         hits[layer_at] = mask & (occ != nullptr ? occ[k & 7] : 0);
+        if (hits[layer_at] != 0) {
+          if (std::uint64_t* sq = squeezed_words(bx, by, k >> 3, false); sq != nullptr) {
+            const std::uint64_t again = hits[layer_at] & sq[k & 7];
+            tile_rehit += static_cast<std::size_t>(popcount64(again));
+            sq[k & 7] &= ~again;  // now the bead's own material
+          }
+        }
       }
       const std::size_t fresh = detail::VoxelBlocks::write_tile(grid, bx, by, k, mask, tag);
       tile_overlap += static_cast<std::size_t>(popcount64(mask)) - fresh;
@@ -341,6 +350,7 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
       raised |= mask;
     }
     laid.overlap += tile_overlap;
+    rehit += tile_rehit;
     const std::size_t used = std::min(credit, tile_overlap);
     credit -= used;
     tile_overlap -= used;
@@ -354,6 +364,12 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
     carry = carry + tile_overlap - placed;
   });
   if (carry > 0) laid.squeezed += squeeze(bead, f, a2, b2, sides, carry, grid, tag, map);
+  // Squeezed material the bead fell on was counted as overlap by the bead that squeezed it;
+  // placed again, it is neither overlap nor squeezed a second time (what finds no room stays
+  // counted as lost).
+  const std::size_t once = std::min(rehit, laid.squeezed);
+  laid.overlap -= once;
+  laid.squeezed -= once;
   return laid;
 }
 
@@ -470,7 +486,12 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
                            : ((std::uint64_t{1} << (8 * (row_hi - row_lo))) - 1) << (8 * row_lo);
   const std::uint64_t inside = rows & (static_cast<std::uint64_t>(lanes) * 0x0101010101010101ull);
   const bool sided = ring.sides != nullptr && !ring.sides->open();
-  const std::uint64_t within = sided ? ring.sides->tile_mask(8 * bx, 8 * by) & inside : inside;
+  // The local ring stays between the bead's own end cuts (the next bead's stretch is its own).
+  const std::uint64_t cut = ring.grown == nullptr && ring.sides != nullptr
+                                ? ring.sides->cut_mask(8 * bx, 8 * by)
+                                : ~std::uint64_t{0};
+  const std::uint64_t within =
+      (sided ? ring.sides->tile_mask(8 * bx, 8 * by) & inside : inside) & cut;
   std::uint64_t any_free = 0;
   const std::uint64_t* occ = nullptr;
   int occ_bz = -1;  // the block of `occ` (the layers are in order: one or two blocks)
@@ -479,7 +500,7 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
     if ((k >> 3) != occ_bz)
       occ_bz = k >> 3, occ = detail::VoxelBlocks::block_occupancy(grid, bx, by, occ_bz);
     free_[n] = ~(occ != nullptr ? occ[k & 7] : 0);
-    any_free |= free_[n] & (ring.grown != nullptr ? within : inside);
+    any_free |= free_[n] & (ring.grown != nullptr ? within : inside & cut);
   }
   if (any_free == 0) return 0;  // no room: the section test is not needed
   // What goes where is decided on the masks; each layer is written once at the end.
@@ -511,6 +532,7 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
       const int k = ring.layers[n];
       detail::VoxelBlocks::write_tile(grid, bx, by, k, put_[n], tag);
       map.raise_tile(at, put_[n], static_cast<std::uint16_t>(k + 1), ring.bead_layer);
+      squeezed_words(bx, by, k >> 3, true)[k & 7] |= put_[n];
     }
     return placed;
   };
@@ -523,7 +545,7 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
   }
   // The local ring: a voxel further from the bead's voxels each step, through anything; first
   // within the sides, then (what is left) on both sides.
-  for (const std::uint64_t room : {within, inside}) {
+  for (const std::uint64_t room : {within, inside & cut}) {
     reach_.assign(ring.masks, ring.masks + nk);
     for (int step = 0; step < ring.steps && placed < need; ++step) {
       // Steps alternately square and diagonal: an octagon, about a disc of the reach.
@@ -539,13 +561,16 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
   return write();
 }
 
-std::uint64_t BeadSweep::Sides::tile_mask(int i0, int j0) const {
-  // Offsets l(x, y) = n . (centre - a2) are linear: per row, the x between the limits.
-  const double lo = -neg, hi = pos;
+namespace {
+
+/// The tile's voxels (bit y * 8 + x, tile corner (i0, j0)) whose centre q has lo <= n . (q - o)
+/// <= hi (either limit may be infinite).
+std::uint64_t band_mask(const Vec2& n, const Vec2& o, double lo, double hi, int i0, int j0) {
+  // Offsets l(x, y) = n . (centre - o) are linear: per row, the x between the limits.
   std::uint64_t m = 0;
   const bool flat_x = std::abs(n.x()) < 1e-12;
   for (int y = 0; y < 8; ++y) {
-    const double c = n.x() * (i0 + 0.5 - a2.x()) + n.y() * (j0 + y + 0.5 - a2.y());
+    const double c = n.x() * (i0 + 0.5 - o.x()) + n.y() * (j0 + y + 0.5 - o.y());
     int x0 = 0, x1 = 7;
     if (flat_x) {
       if (c < lo || c > hi) continue;
@@ -564,12 +589,51 @@ std::uint64_t BeadSweep::Sides::tile_mask(int i0, int j0) const {
   return m;
 }
 
+}  // namespace
+
+std::uint64_t BeadSweep::Sides::tile_mask(int i0, int j0) const {
+  return band_mask(n, a2, -neg, pos, i0, j0);
+}
+
+std::uint64_t BeadSweep::Sides::cut_mask(int i0, int j0) const {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  return band_mask(m0, a2, 0.0, kInf, i0, j0) & band_mask(m1, b2, -kInf, 0.0, i0, j0);
+}
+
+std::uint64_t* BeadSweep::squeezed_words(int bx, int by, int bz, bool make) {
+  if (bx < 0 || by < 0 || bz < 0 || bx >= block_dims_.x() || by >= block_dims_.y() ||
+      bz >= block_dims_.z())
+    return nullptr;
+  const std::size_t at = (static_cast<std::size_t>(bz) * static_cast<std::size_t>(block_dims_.y()) +
+                          static_cast<std::size_t>(by)) *
+                             static_cast<std::size_t>(block_dims_.x()) +
+                         static_cast<std::size_t>(bx);
+  if (squeezed_dir_.empty()) {
+    if (!make) return nullptr;
+    squeezed_dir_.assign(static_cast<std::size_t>(block_dims_.x()) *
+                             static_cast<std::size_t>(block_dims_.y()) *
+                             static_cast<std::size_t>(block_dims_.z()),
+                         0);
+  }
+  std::uint32_t d = squeezed_dir_[at];
+  if (d == 0) {
+    if (!make) return nullptr;
+    squeezed_.push_back({});
+    d = static_cast<std::uint32_t>(squeezed_.size());
+    squeezed_dir_[at] = d;
+  }
+  return squeezed_[d - 1].data();
+}
+
 BeadSweep::Sides BeadSweep::sides_of(const BeadFrame& f, const SweptBead& bead, const Vec2& a2,
                                      const Vec2& b2, const VoxelGrid& grid) const {
   constexpr double kInf = std::numeric_limits<double>::infinity();
   Sides s;
   s.a2 = a2;
   s.n = bead.n;
+  s.b2 = b2;
+  s.m0 = bead.m0;
+  s.m1 = bead.m1;
   const double flat = static_cast<double>(f.flat);
   const double out = flat + static_cast<double>(f.r) + 1.5;  // just beyond the edge
   int held[2] = {0, 0};                                      // +n, -n

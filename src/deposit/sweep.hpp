@@ -7,6 +7,7 @@
 // of a block's z-slice is tested layer by layer (kernels.cpp) and written as one
 // occupancy word per layer into the grid, and the height map is raised under it. Material
 // that falls on occupied voxels squeezes into the free voxels nearest the section.
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -82,9 +83,13 @@ class BeadSweep {
   struct Sides {
     Vec2 a2 = Vec2::Zero(), n = Vec2::UnitY();
     double pos = 0, neg = 0;
+    Vec2 b2 = Vec2::Zero(), m0 = Vec2::UnitX(), m1 = Vec2::UnitX();  ///< the bead's end cuts
     [[nodiscard]] bool open() const { return std::isinf(pos) && std::isinf(neg); }
     /// The tile's voxels (bit y * 8 + x) that lie between the limits.
     [[nodiscard]] std::uint64_t tile_mask(int i0, int j0) const;
+    /// The tile's voxels between the bead's start cut (m0 . (q - a2) >= 0) and end cut
+    /// (m1 . (q - b2) <= 0): the local ring stays on the bead's own stretch of the path.
+    [[nodiscard]] std::uint64_t cut_mask(int i0, int j0) const;
   };
   /// The sides of `bead` (frame f, start a2, end b2): which side holds earlier plastic, probed
   /// just beyond its edges at its centre height.
@@ -130,6 +135,14 @@ class BeadSweep {
   std::vector<std::uint64_t> put_;       // scratch: a tile's voxels a squeeze fills, per layer
   std::vector<std::uint64_t> hit_near_;  // scratch: a tile's voxels next to the hits, per layer
   std::vector<std::uint64_t> free_;      // scratch: a tile's free voxels per ring layer
+  // Voxels that hold squeezed material (per block: one word per z-slice, as the occupancy):
+  // a later bead that falls on them displaces that material again as its own overflow, but
+  // it is not counted as overlap a second time.
+  std::vector<std::uint32_t> squeezed_dir_;             // block -> 1 + index into squeezed_
+  std::vector<std::array<std::uint64_t, 8>> squeezed_;  // per block with squeezed material
+  /// The squeezed-material words of block (bx, by, bz); nullptr when it has none (`make`:
+  /// allocate them).
+  std::uint64_t* squeezed_words(int bx, int by, int bz, bool make);
 };
 
 }  // namespace printtwin::detail

@@ -307,6 +307,23 @@ TEST(DepositBead, SpiralVolumeMatchesExtrusion) {
   EXPECT_TRUE(r->findings.empty());
 }
 
+// With the squeeze on, the helix's overflow is placed nearby and still counted once: a later
+// turn that lands on squeezed material displaces it again as its own overflow, not as new
+// overlap, and the local squeeze stays between the bead's own end cuts (the next segment's
+// stretch of the path is its own).
+TEST(DepositBead, SpiralSqueezeCountsItsOverlapOnce) {
+  const auto profile = ender3_marlin2();
+  BeadWriter w(profile);
+  add_vase_spiral(w, Vec3(100, 100, 0), 12.0, 120, 25);
+  DepositSettings conserve;
+  conserve.conserve_volume = true;
+  auto r = deposit_moves(w.moves, profile, conserve);
+  ASSERT_TRUE(r.ok());
+  EXPECT_NEAR(r->volume_mm3 / r->extruded_mm3, 1.0, 0.005);
+  EXPECT_LT(r->overlap_mm3, 0.01 * r->extruded_mm3) << r->overlap_mm3;
+  EXPECT_LE(r->squeezed_mm3, r->overlap_mm3);
+}
+
 // A path turning by more than 60 degrees is cut square at the turn and joined round: the
 // nozzle's footprint is a disc, so the tip of a sharp corner is filled out to the bead's
 // half-width, and no further.

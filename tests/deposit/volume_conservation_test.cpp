@@ -47,7 +47,8 @@ TEST(VolumeConservation, SpiralVaseDepositsItsExtrudedVolume) {
   // Without the squeeze the overlap is lost; with it, it is placed nearby.
   EXPECT_LT(shortfall(lost), -0.02);
   EXPECT_NEAR(shortfall(kept), 0.0, 0.005) << kept.volume_mm3 << " of " << kept.extruded_mm3;
-  // The overlap is still reported (larger: squeezed material takes room later beads lay on).
+  // The overlap is still reported (no smaller: squeezed material takes room later beads lay
+  // on, though displacing it again is not counted a second time).
   EXPECT_GE(kept.overlap_mm3, lost.overlap_mm3);
   EXPECT_GT(kept.squeezed_mm3, 0.95 * kept.overlap_mm3);
   EXPECT_LE(kept.squeezed_mm3, kept.overlap_mm3);
