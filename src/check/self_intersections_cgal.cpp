@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstdint>
 #include <initializer_list>
+#include <limits>
 
 #include "check/check_internal.hpp"
 #include "core/plain_path.hpp"
@@ -443,17 +444,36 @@ constexpr std::uint32_t kNotCertified = UINT32_MAX;
 /// intersecting ones to `out`.
 void test_cell(const Mesh& mesh, std::vector<CellEntry>& entries,
                std::vector<std::array<std::uint32_t, 2>>& out) {
+  // Sweep axis: the one along which the boxes overlap least (their mean extent against the
+  // spread of their min corners).
+  int ax = 0;
+  {
+    Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo, ext = Vec3::Zero();
+    for (const CellEntry& e : entries) {
+      lo = lo.cwiseMin(e.box.min);
+      hi = hi.cwiseMax(e.box.min);
+      ext += e.box.max - e.box.min;
+    }
+    double best = -1;
+    for (int a = 0; a < 3; ++a) {
+      const double score = (hi[a] - lo[a]) / (ext[a] + 1e-300);
+      if (score > best) {
+        best = score;
+        ax = a;
+      }
+    }
+  }
   std::sort(entries.begin(), entries.end(),
-            [](const CellEntry& a, const CellEntry& b) { return a.box.min.x() < b.box.min.x(); });
+            [ax](const CellEntry& a, const CellEntry& b) { return a.box.min[ax] < b.box.min[ax]; });
   for (std::size_t i = 0; i < entries.size(); ++i) {
     const CellEntry& ef = entries[i];
     const Box3& bf = ef.box;
-    for (std::size_t j = i + 1; j < entries.size() && entries[j].box.min.x() <= bf.max.x(); ++j) {
+    for (std::size_t j = i + 1; j < entries.size() && entries[j].box.min[ax] <= bf.max[ax]; ++j) {
       const CellEntry& eg = entries[j];
       if ((ef.here | eg.here) != 7U) continue;  // the pair's overlap starts in another cell
       const Box3& bg = eg.box;
-      if (bf.min.y() > bg.max.y() || bg.min.y() > bf.max.y() || bf.min.z() > bg.max.z() ||
-          bg.min.z() > bf.max.z())
+      if (bf.min.x() > bg.max.x() || bg.min.x() > bf.max.x() || bf.min.y() > bg.max.y() ||
+          bg.min.y() > bf.max.y() || bf.min.z() > bg.max.z() || bg.min.z() > bf.max.z())
         continue;
       // A certified vertex of both: no test (see certified_fans).
       const auto& cf = ef.corner;
