@@ -100,6 +100,18 @@ ShellTable compute_shells(const Mesh& mesh, const std::vector<char>& skip, const
 /// by CGAL's exact predicates alone on all pairs, no broad phase and no filter (tests).
 std::vector<std::array<std::uint32_t, 2>> self_intersecting_pairs_exhaustive(const Mesh& mesh);
 
+/// True when every face certainly keeps one orientation seen from the mean of the vertices
+/// (exact orient3d) and the faces' solid angles sum to one whole sphere: the surface is
+/// star-shaped about that point and wraps it once. On a closed, consistently oriented,
+/// manifold mesh no two faces then meet other than along what they share: the central
+/// projection onto a sphere around the point maps each face one-to-one, keeps its
+/// orientation and has degree 1, so it covers the sphere once (a vertex whose fan wound
+/// twice would give the points near it two preimages) and every ray from the point meets
+/// the surface once, while two faces meeting in a point they do not share would put that
+/// point on one ray twice. Convex parts and blobs pass in one pass over the faces; any
+/// other surface fails at its first face turned away from the point.
+bool star_shaped_surface(const Mesh& mesh);
+
 /// The mesh with vertices at the same position joined (as a reader of its STL sees it).
 Mesh welded_by_position(const Mesh& mesh);
 

@@ -541,6 +541,14 @@ SelfIntersections find_self_intersections(const Mesh& mesh, std::size_t max_loca
   SelfIntersections out;
   const std::size_t nf = mesh.triangles.size();
   if (nf < 2) return out;
+  // Fans are one closed cycle each only on a closed, consistently oriented, manifold mesh.
+  // PRINTTWIN_PLAIN=check_fans tests every pair instead (bench/RESULTS.md).
+  const bool manifold = health != nullptr && health->closed && health->inconsistent_edges == 0 &&
+                        health->non_manifold_vertices == 0 && health->duplicate_faces == 0;
+  // A surface star-shaped about a point meets itself nowhere: no pair to test
+  // (PRINTTWIN_PLAIN=check_star tests them).
+  if (manifold && !detail::plain_path("check_star") && detail::star_shaped_surface(mesh))
+    return out;
 
   // Face boxes; degenerate faces are left out (reported as degenerate_face).
   std::vector<Box3> boxes(nf);
@@ -558,11 +566,7 @@ SelfIntersections find_self_intersections(const Mesh& mesh, std::size_t max_loca
   if (faces.size() < 2) return out;
 
   const FaceGrid grid = build_face_grid(boxes, faces, all, extent_sum);
-  // Fans are one closed cycle each only on a closed, consistently oriented, manifold mesh.
-  // PRINTTWIN_PLAIN=check_fans tests every pair instead (bench/RESULTS.md).
-  const bool cycles = health != nullptr && !detail::plain_path("check_fans") && health->closed &&
-                      health->inconsistent_edges == 0 && health->non_manifold_vertices == 0 &&
-                      health->duplicate_faces == 0;
+  const bool cycles = manifold && !detail::plain_path("check_fans");
   const std::vector<char> certified = cycles ? certified_fans(mesh) : std::vector<char>();
   const std::vector<std::array<std::uint32_t, 2>> pairs =
       intersecting_pairs(mesh, boxes, grid, certified);
@@ -582,6 +586,32 @@ SelfIntersections find_self_intersections(const Mesh& mesh, std::size_t max_loca
 }
 
 namespace detail {
+
+bool star_shaped_surface(const Mesh& mesh) {
+  const auto& v = mesh.vertices_mm;
+  if (mesh.triangles.empty() || v.empty()) return false;
+  Vec3 p = Vec3::Zero();
+  for (const Vec3& q : v) p += q;
+  p /= static_cast<double>(v.size());
+  int sign = 0;
+  for (const auto& t : mesh.triangles) {
+    const int s = certain_orientation(v[t[0]], v[t[1]], v[t[2]], p);
+    if (s == 0 || (sign != 0 && s != sign)) return false;
+    sign = s;
+  }
+  // Solid angles (Van Oosterom and Strackee): every face's has the same sign, so their sum
+  // is 4 pi times the winding number, to rounding far below a whole turn.
+  double sum = 0;
+  for (const auto& t : mesh.triangles) {
+    const Vec3 a = v[t[0]] - p, b = v[t[1]] - p, c = v[t[2]] - p;
+    const double la = a.norm(), lb = b.norm(), lc = c.norm();
+    const double num = a.dot(b.cross(c));
+    const double den = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
+    sum += 2.0 * std::atan2(num, den);
+  }
+  constexpr double kFourPi = 4.0 * 3.14159265358979323846;
+  return std::abs(std::abs(sum) / kFourPi - 1.0) < 0.25;
+}
 
 std::vector<std::array<std::uint32_t, 2>> self_intersecting_pairs_exhaustive(const Mesh& mesh) {
   std::vector<std::array<std::uint32_t, 2>> pairs;

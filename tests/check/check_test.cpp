@@ -723,6 +723,59 @@ TEST(CheckSelfIntersections, CertifiedFansGiveTheExhaustivePairs) {
   EXPECT_EQ(all_pairs_with_health(pulled), pulled_expected);
 }
 
+/// A closed torus (genus 1) about the z axis: never star-shaped about a point.
+Mesh torus(double big, double small, int nu, int nv) {
+  Mesh m;
+  for (int i = 0; i < nu; ++i)
+    for (int j = 0; j < nv; ++j) {
+      const double u = 2 * kPi * i / nu, w = 2 * kPi * j / nv;
+      const double r = big + small * std::cos(w);
+      m.vertices_mm.emplace_back(r * std::cos(u), r * std::sin(u), small * std::sin(w));
+    }
+  const auto id = [&](int i, int j) { return static_cast<std::uint32_t>((i % nu) * nv + j % nv); };
+  for (int i = 0; i < nu; ++i)
+    for (int j = 0; j < nv; ++j) {
+      m.triangles.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
+      m.triangles.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
+    }
+  return m;
+}
+
+TEST(CheckSelfIntersections, StarShapedSurfacesNeedNoPairTest) {
+  // Star-shaped about the mean of their vertices and wound once: a cube, a bumpy sphere.
+  EXPECT_TRUE(detail::star_shaped_surface(test::make_cube_mm(20)));
+  const Mesh sphere = bumpy_sphere(5, 12, 24, Vec3(1, 2, 3));
+  EXPECT_TRUE(detail::star_shaped_surface(sphere));
+  EXPECT_TRUE(detail::self_intersecting_pairs_exhaustive(sphere).empty());
+  EXPECT_TRUE(all_pairs_with_health(sphere).empty());
+  // Not certified, so every pair is tested (and the pairs found are the exhaustive ones): a
+  // torus (faces turned away from any point), two overlapping spheres (the point wrapped
+  // twice), a sphere holding a smaller one as its cavity (the inner faces turned away), a
+  // sphere with a vertex pushed through its far side (a fold).
+  const Mesh ring = torus(10, 3, 24, 12);
+  ASSERT_TRUE(analyze_mesh_health(ring).closed);
+  EXPECT_FALSE(detail::star_shaped_surface(ring));
+  EXPECT_TRUE(all_pairs_with_health(ring).empty());
+  const Mesh twice = merged(sphere, bumpy_sphere(4, 10, 20, Vec3(2, 2, 3)));
+  EXPECT_FALSE(detail::star_shaped_surface(twice));
+  const auto twice_expected = detail::self_intersecting_pairs_exhaustive(twice);
+  EXPECT_GT(twice_expected.size(), 10U);
+  EXPECT_EQ(all_pairs_with_health(twice), twice_expected);
+  Mesh cavity = bumpy_sphere(2, 8, 16, Vec3(1, 2, 3));
+  for (auto& t : cavity.triangles) std::swap(t[1], t[2]);
+  EXPECT_FALSE(detail::star_shaped_surface(merged(sphere, cavity)));
+  Mesh folded = sphere;
+  folded.vertices_mm[0] = Vec3(1, 2, -4);  // the north pole pushed out through the south
+  EXPECT_FALSE(detail::star_shaped_surface(folded));
+  const auto fold_expected = detail::self_intersecting_pairs_exhaustive(folded);
+  EXPECT_GT(fold_expected.size(), 0U);
+  EXPECT_EQ(all_pairs_with_health(folded), fold_expected);
+  // The plain path (PRINTTWIN_PLAIN=check_star) tests the pairs and finds none either.
+  ASSERT_EQ(::setenv("PRINTTWIN_PLAIN", "check_star", 1), 0);
+  EXPECT_TRUE(all_pairs_with_health(sphere).empty());
+  ::unsetenv("PRINTTWIN_PLAIN");
+}
+
 }  // namespace
 }  // namespace printtwin
 
