@@ -77,6 +77,12 @@ void BM_ThicknessWithinLimit(benchmark::State& state) {  // inward rays end at t
 }
 BENCHMARK(BM_ThicknessWithinLimit)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
 
+void BM_Orientation(benchmark::State& state) {
+  const CheckSettings settings;
+  for (auto _ : state) benchmark::DoNotOptimize(advise_orientation(bench_mesh(), settings));
+}
+BENCHMARK(BM_Orientation)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
+
 void BM_Overhangs(benchmark::State& state) {
   const Mesh placed = place_on_bed(bench_mesh(), 117.5, 117.5);
   for (auto _ : state) benchmark::DoNotOptimize(find_overhangs(placed, CheckSettings{}));

@@ -1,8 +1,10 @@
 // Orientation advice: which side of the part to stand on the bed (least overhang, most contact).
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 
 #include "check/check_internal.hpp"
 #include "printtwin/check.hpp"
@@ -61,6 +63,50 @@ void score(const Mesh& mesh, const std::vector<Vec3>& normals, const std::vector
   c.score = c.overhang_mm2 - c.contact_mm2;
 }
 
+/// The six axis directions down (-Z, +Z, +X, -X, +Y, -Y), scored in one pass over the faces:
+/// along an axis a vertex's height is its coordinate (or its negation), so a face rests on
+/// the bed when its box's far side along the axis lies within the contact band of the
+/// mesh's extreme, and leans down by its normal's coordinate. The same figures as `score`
+/// for each direction, summed in the same face order.
+void score_axes(const Mesh& mesh, const std::vector<Vec3>& normals,
+                const std::vector<double>& areas, const CheckSettings& s,
+                std::array<OrientationCandidate, 6>& c) {
+  constexpr std::array<int, 6> kAxis{2, 2, 0, 0, 1, 1};
+  constexpr std::array<double, 6> kSign{-1, 1, 1, -1, 1, -1};  // the down direction's sign
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  for (const Vec3& v : mesh.vertices_mm) {
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
+  const double limit = std::sin((s.overhang_angle_deg + 0.01) * kPi / 180.0);
+  for (std::size_t k = 0; k < 6; ++k) {
+    c[k].down = Vec3::Zero();
+    c[k].down[kAxis[k]] = kSign[k];
+    c[k].overhang_mm2 = c[k].contact_mm2 = 0;
+    c[k].height_mm = hi[kAxis[k]] - lo[kAxis[k]];
+  }
+  for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+    if (!(areas[f] > 0)) continue;
+    const auto& t = mesh.triangles[f];
+    const Vec3 &p = mesh.vertices_mm[t[0]], &q = mesh.vertices_mm[t[1]],
+               &r = mesh.vertices_mm[t[2]];
+    const Vec3 fmin = p.cwiseMin(q).cwiseMin(r), fmax = p.cwiseMax(q).cwiseMax(r);
+    for (std::size_t k = 0; k < 6; ++k) {
+      const int a = kAxis[k];
+      const double down = kSign[k] * normals[f][a];
+      if (down <= 0) continue;
+      // Up is -down: heights are -sign x the coordinate, lowest at the extreme on the down side.
+      const bool on_bed =
+          kSign[k] < 0 ? fmax[a] - lo[a] <= s.bed_contact_mm : hi[a] - fmin[a] <= s.bed_contact_mm;
+      if (on_bed)
+        c[k].contact_mm2 += areas[f];
+      else if (down > limit)
+        c[k].overhang_mm2 += areas[f];
+    }
+  }
+  for (auto& x : c) x.score = x.overhang_mm2 - x.contact_mm2;
+}
+
 }  // namespace
 
 Mesh rotated_mesh(const Mesh& mesh, const Vec3& rotation_xyz_deg) {
@@ -93,12 +139,16 @@ OrientationAdvice advise_orientation(const Mesh& mesh, const CheckSettings& s) {
     score(mesh, normals, areas, s, c);
     cands.push_back(std::move(c));
   };
-  add(Vec3(0, 0, -1), "as modelled");
-  add(Vec3(0, 0, 1), "upside down (+Z down)");
-  add(Vec3(1, 0, 0), "+X side down");
-  add(Vec3(-1, 0, 0), "-X side down");
-  add(Vec3(0, 1, 0), "+Y side down");
-  add(Vec3(0, -1, 0), "-Y side down");
+  std::array<OrientationCandidate, 6> axes;
+  score_axes(mesh, normals, areas, s, axes);
+  const std::array<const char*, 6> axis_labels{"as modelled",  "upside down (+Z down)",
+                                               "+X side down", "-X side down",
+                                               "+Y side down", "-Y side down"};
+  for (std::size_t k = 0; k < 6; ++k) {
+    axes[k].label = axis_labels[k];
+    axes[k].rotation_xyz_deg = rotation_for(axes[k].down);
+    cands.push_back(std::move(axes[k]));
+  }
   // Flat faces: normals equal within ~0.6 degrees, by area. Faces are grouped by their
   // normal rounded to 0.01 per axis (in [-100, 100]: 8 bits each), groups in key order and
   // each group summed in face order.
