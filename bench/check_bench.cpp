@@ -83,6 +83,11 @@ void BM_Orientation(benchmark::State& state) {
 }
 BENCHMARK(BM_Orientation)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
 
+void BM_Units(benchmark::State& state) {  // the unit guess (`--units auto`)
+  for (auto _ : state) benchmark::DoNotOptimize(guess_mesh_units(bench_mesh()));
+}
+BENCHMARK(BM_Units)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
+
 void BM_Overhangs(benchmark::State& state) {
   const Mesh placed = place_on_bed(bench_mesh(), 117.5, 117.5);
   for (auto _ : state) benchmark::DoNotOptimize(find_overhangs(placed, CheckSettings{}));

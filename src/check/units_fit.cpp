@@ -15,14 +15,18 @@ std::optional<UnitGuess> guess_mesh_units(const Mesh& mesh) {
   if (mesh.triangles.empty()) return std::nullopt;
   // Pieces = faces connected through shared vertices (cheaper than the edge-based shells of
   // analyze_mesh_health, and the same for sizing: stray facets share no vertex with the part).
-  detail::UnionFind pieces(mesh.vertices_mm.size());
+  const std::size_t nv = mesh.vertices_mm.size();
+  detail::UnionFind pieces(nv);
+  std::vector<char> used(nv, 0);
   for (const auto& t : mesh.triangles) {
     pieces.unite(t[0], t[1]);
     pieces.unite(t[0], t[2]);
+    used[t[0]] = used[t[1]] = used[t[2]] = 1;
   }
-  std::vector<Box3> boxes(mesh.vertices_mm.size());
-  for (const auto& t : mesh.triangles)
-    for (const std::uint32_t v : t) boxes[pieces.find(v)].extend(mesh.vertices_mm[v]);
+  // Each piece's box over its vertices (each once, not once per corner).
+  std::vector<Box3> boxes(nv);
+  for (std::uint32_t v = 0; v < nv; ++v)
+    if (used[v] != 0) boxes[pieces.find(v)].extend(mesh.vertices_mm[v]);
   double size = 0;
   for (const Box3& b : boxes)
     if (!b.empty()) size = std::max(size, b.size().maxCoeff());
