@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <string>
 
+#include "../tests/support/bumpy_sphere.hpp"
 #include "printtwin/check.hpp"
 #include "printtwin/machine.hpp"
 #include "printtwin/mesh.hpp"
@@ -64,6 +65,14 @@ void BM_SelfIntersectionsWithHealth(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(find_self_intersections(bench_mesh(), 5, &health));
 }
 BENCHMARK(BM_SelfIntersectionsWithHealth)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
+
+void BM_SelfIntersectionsStar(benchmark::State& state) {  // a blob: star-shaped, no pair
+  static const Mesh sphere = test::bumpy_sphere(20, 251, 400, Vec3::Zero());  // 200k triangles
+  const MeshHealth health = analyze_mesh_health(sphere);
+  for (auto _ : state) benchmark::DoNotOptimize(find_self_intersections(sphere, 5, &health));
+  state.counters["triangles"] = static_cast<double>(sphere.triangles.size());
+}
+BENCHMARK(BM_SelfIntersectionsStar)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
 
 void BM_Thickness(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(measure_thickness(bench_mesh(), 0.4, 0.45));

@@ -39,6 +39,7 @@ mesh_query_avx2   | bench:deviation_bench:BM_DeviationStage/ | cpu  | AVX2 candi
 bead_avx512       | bench:deposit_bench:BM_DepositOnly/0     | cpu  | AVX-512 bead tile kernel (deposit/kernels.cpp)
 sha_ni            | cli:verify:load                          | wall | SHA extensions for the input hashes (core/kernels.cpp); stage: verify "load"
 check_fans        | bench:check_bench:BM_SelfIntersectionsWithHealth | cpu | face pairs around certified vertex fans not tested (check/self_intersections_cgal.cpp)
+check_star        | bench:check_bench:BM_SelfIntersectionsStar | cpu | no pair tested on a surface certified star-shaped about its vertex mean (check/self_intersections_cgal.cpp)
 check_ray_bound   | bench:check_bench:BM_Thickness/           | cpu  | inward rays end past the thinnest sampled wall (check/thickness.cpp)
 check_bvh_rays    | bench:check_bench:BM_Thickness/           | cpu  | BVH for rays only, built by Embree at low quality (mesh/mesh_query_embree.cpp, check/thickness.cpp)
 check_ray_stream  | bench:check_bench:BM_Thickness/           | cpu  | the rays of 16 faces traced as one Embree stream of coherent rays (mesh/mesh_query_embree.cpp, check/thickness.cpp)

@@ -11,6 +11,7 @@
 #include "check/check_internal.hpp"
 #include "printtwin/check.hpp"
 #include "printtwin/mesh_query.hpp"
+#include "support/bumpy_sphere.hpp"
 #include "support/test_support.hpp"
 
 namespace printtwin {
@@ -594,32 +595,7 @@ TEST(CheckJson, SchemaKeys) {
   EXPECT_EQ(check_report_to_json(r, src), check_report_to_json(run(m), src)) << "deterministic";
 }
 
-/// A closed UV sphere of radius r with bumps (outward CCW), centred at c.
-Mesh bumpy_sphere(double r, int stacks, int slices, const Vec3& c) {
-  Mesh m;
-  m.vertices_mm.push_back(c + Vec3(0, 0, r));
-  for (int i = 1; i < stacks; ++i)
-    for (int j = 0; j < slices; ++j) {
-      const double t = kPi * i / stacks, p = 2 * kPi * j / slices;
-      const double rr = r * (1 + 0.08 * std::sin(5 * p) * std::sin(3 * t));
-      m.vertices_mm.push_back(
-          c + rr * Vec3(std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t)));
-    }
-  m.vertices_mm.push_back(c + Vec3(0, 0, -r));
-  const auto ring = [&](int i, int j) {
-    return static_cast<std::uint32_t>(1 + (i - 1) * slices + (j % slices));
-  };
-  const auto south = static_cast<std::uint32_t>(m.vertices_mm.size() - 1);
-  for (int j = 0; j < slices; ++j) {
-    m.triangles.push_back({0, ring(1, j), ring(1, j + 1)});
-    for (int i = 1; i + 1 < stacks; ++i) {
-      m.triangles.push_back({ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)});
-      m.triangles.push_back({ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)});
-    }
-    m.triangles.push_back({ring(stacks - 1, j), south, ring(stacks - 1, j + 1)});
-  }
-  return m;
-}
+using test::bumpy_sphere;
 
 std::vector<std::array<std::uint32_t, 2>> all_pairs(const Mesh& m) {
   return find_self_intersections(m, m.triangles.size() * m.triangles.size()).first_pairs;
