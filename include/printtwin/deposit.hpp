@@ -38,11 +38,11 @@ struct DepositSettings {
   /// Unsupported stretches shorter than this are not reported (still in `unsupported`).
   double min_unsupported_mm = 1.0;
   /// Conserve volume: the part of a bead that falls on earlier plastic squeezes into free
-  /// voxels near its section, up to half the nozzle diameter away (beside and below it first,
-  /// above its top only when those are full). Off: that material is lost (it still counts in
-  /// overlap_mm3). Off by default for now: it adds about half to the deposit's time on the
-  /// benchmark part (`--conserve-volume` on simulate and verify; docs/deposit.md).
-  bool conserve_volume = false;
+  /// voxels near its section, up to half the nozzle diameter away (beside and below it first;
+  /// a bead that may form the outer surface never past an open side's edge nor above its
+  /// top). Off: that material is lost (it still counts in overlap_mm3). On by default
+  /// (`--no-conserve-volume` on simulate and verify turns it off; docs/deposit.md).
+  bool conserve_volume = true;
 };
 
 /// A run of consecutive unsupported bead samples along one continuous extrusion path.

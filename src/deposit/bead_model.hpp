@@ -47,6 +47,18 @@ inline bool is_bead(const Move& m) { return m.kind == MoveKind::extrude && m.e_m
 inline bool is_support(Feature f) {
   return f == Feature::support || f == Feature::support_interface;
 }
+/// Whether a bead of feature `f` may form the part's side surface: an outer or overhang
+/// perimeter, or a bead whose feature the G-code does not say (SweptBead::keeps_sides).
+inline bool may_form_sides(Feature f) {
+  return f == Feature::outer_perimeter || f == Feature::overhang_perimeter || f == Feature::unknown;
+}
+/// How far (voxel layers) the squeezed material of a bead of feature `f` may rise above its
+/// tip (SweptBead::rise_voxels): not at all for one that may form the part's sides, a voxel
+/// for top solid infill (the part's top surface), else up to the squeeze's reach.
+inline int rise_voxels(Feature f) {
+  if (may_form_sides(f)) return 0;
+  return f == Feature::top_solid_infill ? 2 : -1;
+}
 
 /// A bead waiting for the next move, which decides its end cut.
 struct PendingBead {

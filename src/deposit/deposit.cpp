@@ -152,6 +152,8 @@ struct DepositBuilder::State {
       bead.join_d = pb.join_d;
     }
     bead.cap_start = cap_start;
+    bead.keeps_sides = detail::may_form_sides(mv.feature);
+    bead.rise_voxels = detail::rise_voxels(mv.feature);
     bead.cap_end = path_end;
     last_section = s;
     droop.elephant_foot(bead, mv.feature, detail::section_area_mm2(s), map);

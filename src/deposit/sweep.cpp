@@ -295,7 +295,8 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
                    hits_.data(),
                    bead.layer,
                    &sides,
-                   steps};
+                   steps,
+                   !bead.keeps_sides};
   std::size_t carry = 0;
   std::size_t rehit = 0;  // voxels of the bead that held squeezed material
   // A round join is laid first, outside the bead: it takes material the bead lays on earlier
@@ -448,7 +449,8 @@ std::size_t BeadSweep::squeeze(const SweptBead& bead, const BeadFrame& f, const 
   std::size_t placed = 0;
   auto pass = [&](const BeadFrame& g, double reach, const Sides* within) {
     const Ring ring{&g,      nullptr,    layers_.data(), static_cast<int>(layers_.size()),
-                    nullptr, bead.layer, within,         0};
+                    nullptr, bead.layer, within,         0,
+                    false};
     const double hw = static_cast<double>(f.flat) + static_cast<double>(f.r) + reach + kBoundSlack;
     for_each_tile(bead, a2, b2, hw, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
       if (placed < lost)
@@ -460,8 +462,12 @@ std::size_t BeadSweep::squeeze(const SweptBead& bead, const BeadFrame& f, const 
   for (int k = std::max(0, k_lo - steps); k <= k_hi; ++k) layers_.push_back(k);
   const BeadFrame reach = grown(f, delta);
   if (!sides.open()) pass(reach, delta, &sides);
+  // A bead that keeps its sides goes no further: past an open side lie the grooves between
+  // layers.
+  if (bead.keeps_sides && !sides.open()) return placed;
   if (placed < lost) pass(reach, delta, nullptr);
-  for (int k = k_hi + 1; k <= std::min(nz_ - 1, k_hi + steps) && placed < lost; ++k) {
+  const int rise = bead.rise_voxels < 0 ? steps : std::min(steps, bead.rise_voxels);
+  for (int k = k_hi + 1; k <= std::min(nz_ - 1, k_hi + rise) && placed < lost; ++k) {
     layers_.assign(1, k);
     pass(reach, delta, nullptr);
   }
@@ -556,7 +562,7 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
       }
       place_ring();
     }
-    if (!sided || placed == need) break;
+    if (!sided || placed == need || !ring.past_sides) break;
   }
   return write();
 }

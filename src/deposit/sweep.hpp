@@ -38,6 +38,17 @@ struct SweptBead {
   /// the start) and b_mm (past the end), the disc a nozzle leaves where a path starts or
   /// stops. The ends must be cut square (m0 = m1 = d).
   bool cap_start = false, cap_end = false;
+  /// The bead may form the part's side surface (an outer or overhang perimeter, or a bead of
+  /// unknown feature): its squeezed material stays off an open side beyond the bead's flat
+  /// part, so the grooves between layers stay open. Other beads (inner perimeters, infill,
+  /// gap fill, support, skirt, start code) lie inside the part or outside it: their material
+  /// may go past an open side.
+  bool keeps_sides = true;
+  /// How many voxel layers the squeezed material may rise above the tip, last (an over-full
+  /// solid layer rises); -1: up to squeeze_mm. 0 for a bead that keeps its sides (a raised top
+  /// narrows the next layer's gap, which then lays its bead thinner and wider), 1 for top
+  /// solid infill (the part's top surface rises by a voxel at most).
+  int rise_voxels = 0;
 };
 
 class BeadSweep {
@@ -112,6 +123,7 @@ class BeadSweep {
     std::int32_t bead_layer;     ///< the layer the placed voxels belong to
     const Sides* sides;          ///< where it may go sideways (nullptr: anywhere)
     int steps;                   ///< the local ring's reach (voxels)
+    bool past_sides;             ///< what finds no room within `sides` may go past them
   };
   /// Places up to `need` voxels in the free voxels of tile (bx, by) inside the ring (rows
   /// row_lo..row_hi-1, x lanes `lanes`, within ring.sides): nearest first; of equal distance,

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <numbers>
+#include <optional>
 #include <string>
 
 #include "deposit/deposit_test_support.hpp"
@@ -30,7 +31,7 @@ DepositResult deposit_file(const std::filesystem::path& gcode, bool conserve = t
   return std::move(r).value();
 }
 
-/// Settings with the squeeze on (it is off by default: see DepositSettings::conserve_volume).
+/// Settings with the squeeze on (the default: see DepositSettings::conserve_volume).
 DepositSettings conserving() {
   DepositSettings s;
   s.conserve_volume = true;
@@ -81,18 +82,25 @@ TEST(VolumeConservation, SingleWallBoxDepositsItsExtrudedVolume) {
   EXPECT_GT(lost->squeezed_mm3, 0.0);
 }
 
+/// The same 0.45 x 0.2 mm bead of `feature`, 20 mm along x at y = 50, laid twice on the bed.
+DepositResult same_bead_twice(const PrinterProfile& profile, Feature feature) {
+  BeadWriter w(profile);
+  w.feature = feature;
+  for (int twice = 0; twice < 2; ++twice) {
+    w.travel({50, 50, 0.2});
+    w.extrude({70, 50, 0.2}, 0.45, 0.2);
+  }
+  auto r = deposit_moves(w.moves, profile, conserving());
+  EXPECT_TRUE(r.ok());
+  return std::move(r).value();
+}
+
 TEST(VolumeConservation, SqueezeStaysWithinHalfANozzleOfTheBead) {
   // The same 0.45 x 0.2 mm bead laid twice on the bed: the second one's material has
   // nowhere to go but beside the first (the bed is below); it goes there, no further than
   // half the nozzle width from the bead's side, and on top of it only when the sides are full.
   const auto profile = ender3_marlin2();
-  BeadWriter w(profile);
-  w.travel({50, 50, 0.2});
-  w.extrude({70, 50, 0.2}, 0.45, 0.2);
-  w.travel({50, 50, 0.2});
-  w.extrude({70, 50, 0.2}, 0.45, 0.2);
-  auto r = deposit_moves(w.moves, profile, conserving());
-  ASSERT_TRUE(r.ok());
+  const auto r = std::make_optional(same_bead_twice(profile, Feature::perimeter));
   const double one = 0.5 * r->extruded_mm3;
   EXPECT_NEAR(r->overlap_mm3, one, 0.01 * one);
   EXPECT_GT(r->squeezed_mm3, 0.5 * one);
@@ -102,6 +110,25 @@ TEST(VolumeConservation, SqueezeStaysWithinHalfANozzleOfTheBead) {
     const Vec3 c = r->grid.center_mm(k);
     ASSERT_LE(std::abs(c.y() - 50.0), reach + r->voxel_mm) << c.transpose();
     ASSERT_LE(c.z(), 0.2 + 0.5 * profile.nozzle_diameter_mm) << c.transpose();
+  });
+}
+
+// A bead that may form the part's outer surface (an outer perimeter) keeps its overflow off
+// the open sides beyond its flat part and below its tip: there lie the grooves between layers
+// and the next layer's gap. Laid twice on the bed, with earlier plastic on neither side, the
+// second outer perimeter's material has no room and is reported lost; an inner perimeter's
+// goes beside the first (SqueezeStaysWithinHalfANozzleOfTheBead).
+TEST(VolumeConservation, OuterWallOverflowStaysOffTheOpenSidesAndTheTop) {
+  auto profile = ender3_marlin2();
+  profile.elephant_foot_mm = 0;  // the first layer's outer edge as laid
+  const auto r = std::make_optional(same_bead_twice(profile, Feature::outer_perimeter));
+  const double one = 0.5 * r->extruded_mm3;
+  EXPECT_NEAR(r->overlap_mm3, one, 0.01 * one);
+  EXPECT_LT(r->squeezed_mm3, 0.02 * one);
+  r->grid.for_each([&](const VoxelKey& k, const VoxelTag&) {
+    const Vec3 c = r->grid.center_mm(k);
+    ASSERT_LE(std::abs(c.y() - 50.0), 0.5 * 0.45 + r->voxel_mm) << c.transpose();
+    ASSERT_LE(c.z(), 0.2) << c.transpose();
   });
 }
 
