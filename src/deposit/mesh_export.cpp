@@ -204,11 +204,13 @@ Result<Solid> solid_of(const DepositSurface& surf) {
 /// True when the block holds a voxel of a feature the outer-surface routine keeps (not
 /// auxiliary); `aux[t]`: tag index t is auxiliary.
 bool has_part_voxel(const detail::VoxelBlocks::BlockView& b, const std::vector<char>& aux) {
+  // Tag indices past the table (none expected) count as auxiliary.
+  const auto is_aux = [&](std::uint32_t t) { return t >= aux.size() || aux[t] != 0; };
   bool any_aux = b.wide != nullptr;
-  for (int e = 0; e < b.palette_size && !any_aux; ++e) any_aux = aux[b.palette[e]] != 0;
+  for (int e = 0; e < b.palette_size && !any_aux; ++e) any_aux = is_aux(b.palette[e]);
   for (int z = 0; z < 8; ++z)
     for (std::uint64_t bits = b.occupancy[z]; bits != 0; bits &= bits - 1)
-      if (!any_aux || aux[b.tag_index(z * 64 + std::countr_zero(bits))] == 0) return true;
+      if (!any_aux || !is_aux(b.tag_index(z * 64 + std::countr_zero(bits)))) return true;
   return false;
 }
 
