@@ -201,6 +201,46 @@ Result<Solid> solid_of(const DepositSurface& surf) {
   return s;
 }
 
+/// True when the block holds a voxel of a feature the outer-surface routine keeps (not
+/// auxiliary); `aux[t]`: tag index t is auxiliary.
+bool has_part_voxel(const detail::VoxelBlocks::BlockView& b, const std::vector<char>& aux) {
+  // Tag indices past the table (none expected) count as auxiliary.
+  const auto is_aux = [&](std::uint32_t t) { return t >= aux.size() || aux[t] != 0; };
+  bool any_aux = b.wide != nullptr;
+  for (int e = 0; e < b.palette_size && !any_aux; ++e) any_aux = is_aux(b.palette[e]);
+  for (int z = 0; z < 8; ++z)
+    for (std::uint64_t bits = b.occupancy[z]; bits != 0; bits &= bits - 1)
+      if (!any_aux || !is_aux(b.tag_index(z * 64 + std::countr_zero(bits)))) return true;
+  return false;
+}
+
+/// The region the filled volume is extracted over: the grid's blocks, cut to `margin` voxels
+/// (rounded up to whole blocks) around the blocks holding part voxels. Auxiliary voxels are
+/// air to the outer-surface routine, and beyond the seal radius plus a voxel from the part the
+/// region's border changes no filled voxel, so this gives the same voxels as the whole grid
+/// without flooding the empty bed around a far skirt or purge line.
+Box3 filled_region(const VoxelGrid& g, int margin) {
+  const auto& table = detail::VoxelBlocks::tag_table(g);
+  std::vector<char> aux(table.size());
+  for (std::size_t i = 0; i < table.size(); ++i)
+    aux[i] = is_auxiliary_feature(table[i].feature) ? 1 : 0;
+  Box3 all, part;
+  constexpr int kE = detail::VoxelBlocks::kBlockEdge;
+  const int m = (margin + kE - 1) / kE * kE;
+  detail::VoxelBlocks::visit_blocks(g, [&](const detail::VoxelBlocks::BlockView& b) {
+    all.extend(g.center_mm(b.base));
+    all.extend(g.center_mm({b.base.x + kE - 1, b.base.y + kE - 1, b.base.z + kE - 1}));
+    if (!has_part_voxel(b, aux)) return;
+    part.extend(g.center_mm({b.base.x - m, b.base.y - m, b.base.z - m}));
+    part.extend(g.center_mm({b.base.x + kE - 1 + m, b.base.y + kE - 1 + m, b.base.z + kE - 1 + m}));
+  });
+  if (part.empty()) return all;
+  Box3 cut;
+  cut.min = all.min.cwiseMax(part.min);
+  cut.max = all.max.cwiseMin(part.max);
+  return cut;
+}
+
 /// Adapter to the deposit's outer-surface routine (the lead re-points it when the routines
 /// are unified): the filled volume (occupied voxels plus the cavities the outside air does
 /// not reach) of the non-auxiliary voxels, as solid_of gives it; `given` (may be null): the
@@ -212,16 +252,15 @@ Result<Solid> filled_volume_of(const VoxelGrid& grid, const DepositMeshOptions& 
   std::optional<VoxelGrid> relabelled;
   if (relabel) relabelled.emplace(with_included_features(grid, o));
   const VoxelGrid& g = relabelled ? *relabelled : grid;
-  Box3 box;
-  detail::VoxelBlocks::visit_blocks(g, [&](const detail::VoxelBlocks::BlockView& b) {
-    box.extend(g.center_mm(b.base));
-    box.extend(g.center_mm({b.base.x + 7, b.base.y + 7, b.base.z + 7}));
-  });
-  if (box.empty()) return Solid{};
   // Sealed as the deviation stage seals it: pinholes between beads do not let the outside
   // into the infill, layer grooves stay surface.
   const DeviationSettings sealed;
-  return solid_of(extract_outer_surface(g, box, sealed.seal_gap_mm, sealed.groove_depth_mm));
+  const int seal_r = static_cast<int>(std::floor(sealed.seal_gap_mm / (2 * g.voxel_mm()) + 1e-9));
+  const Box3 box = filled_region(g, seal_r + 2);
+  if (box.empty()) return Solid{};
+  const DepositSurface surf =
+      extract_filled_volume(g, box, sealed.seal_gap_mm, sealed.groove_depth_mm);
+  return solid_of(surf);
 }
 
 /// Runs fn(bz, out) for every block layer bz in parallel, each appending to its own vector,
@@ -1089,11 +1128,12 @@ bool layered_surface(Solid& fine, const VoxelGrid& grid, std::span<const Surface
   detail::LayerSurface surf;
   for (;;) {
     surf = detail::build_layer_surface(in, lo);
-    if ((surf.mesh.triangles.empty() || !detail::is_closed_oriented(surf.mesh)) && !lo.exact) {
+    const bool closed = !surf.mesh.triangles.empty() && detail::is_closed_oriented(surf.mesh);
+    if (!closed && !lo.exact) {
       lo.exact = true;  // an intersection the inexact constructions snapped aside
       continue;
     }
-    if (surf.mesh.triangles.empty() || !detail::is_closed_oriented(surf.mesh)) {
+    if (!closed) {
       out.layers_fallback = "the layered surface did not close (outlines that cross)";
       return false;
     }

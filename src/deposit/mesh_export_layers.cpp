@@ -9,6 +9,7 @@
 // two regions, up or down. Each slab again: its side as strips between rings, the end rings
 // taken from the triangulations with their split points (no T-junctions). Vertices and
 // triangles are joined in slab order (the same on any thread count).
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <CGAL/Constrained_Delaunay_triangulation_2.h>
@@ -18,6 +19,7 @@
 #include <CGAL/Triangulation_vertex_base_with_info_2.h>
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -655,25 +657,38 @@ LayerSurface build_layer_surface(const LayerSlabs& in, const LayerSurfaceOptions
 }
 
 bool is_closed_oriented(const Mesh& mesh) {
-  std::vector<std::uint64_t> keys;
-  std::vector<std::uint32_t> dirs;
-  keys.reserve(mesh.triangles.size() * 3);
-  dirs.reserve(mesh.triangles.size() * 3);
+  // Each vertex's outgoing edges (a -> b along a triangle), sorted: closed and oriented when
+  // no edge appears twice and every edge a -> b has its reverse b -> a.
+  const std::size_t nv = mesh.vertices_mm.size();
+  std::vector<std::uint32_t> begin(nv + 2, 0);
   for (const auto& t : mesh.triangles)
-    for (int k = 0; k < 3; ++k) {
-      const std::uint32_t a = t[static_cast<std::size_t>(k)],
-                          b = t[static_cast<std::size_t>((k + 1) % 3)];
-      if (a == b) return false;
-      keys.push_back(edge_key(a, b));
-      dirs.push_back(a < b ? 1U : 0U);
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (t[k] >= nv || t[k] == t[(k + 1) % 3]) return false;
+      ++begin[t[k] + 2];
     }
-  radix_sort(keys, &dirs);
-  if (keys.size() % 2 != 0) return false;
-  for (std::size_t i = 0; i < keys.size(); i += 2) {
-    if (keys[i] != keys[i + 1] || dirs[i] == dirs[i + 1]) return false;
-    if (i + 2 < keys.size() && keys[i + 2] == keys[i]) return false;
-  }
-  return true;
+  for (std::size_t v = 2; v < begin.size(); ++v) begin[v] += begin[v - 1];
+  std::vector<std::uint32_t> to(3 * mesh.triangles.size());
+  for (const auto& t : mesh.triangles)
+    for (std::size_t k = 0; k < 3; ++k) to[begin[t[k] + 1]++] = t[(k + 1) % 3];
+  // begin[v] .. begin[v + 1]: the edges out of v.
+  std::atomic<bool> ok{true};
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t v = r.begin(); v != r.end(); ++v)
+                        std::sort(to.begin() + begin[v], to.begin() + begin[v + 1]);
+                    });
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t v = r.begin(); v != r.end() && ok.load(); ++v)
+          for (std::uint32_t e = begin[v]; e < begin[v + 1]; ++e) {
+            const std::uint32_t b = to[e];
+            const auto first = to.begin() + begin[b], last = to.begin() + begin[b + 1];
+            if ((e + 1 < begin[v + 1] && to[e + 1] == b) ||
+                !std::binary_search(first, last, static_cast<std::uint32_t>(v)))
+              ok = false;
+          }
+      });
+  return ok.load();
 }
 
 }  // namespace printtwin::detail

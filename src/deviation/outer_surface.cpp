@@ -123,8 +123,11 @@ std::size_t SurfaceRegion::region_voxels_of(std::size_t i) const {
 
 }  // namespace surface_blocks
 
-DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_mm,
-                                     double seal_gap_mm, double groove_depth_mm) {
+namespace {
+
+/// The steps of extract_outer_surface; `faces` false stops after the filled volume.
+DepositSurface outer_surface(const VoxelGrid& grid, const Box3& region_mm, double seal_gap_mm,
+                             double groove_depth_mm, bool faces) {
   using namespace surface_blocks;  // NOLINT(google-build-using-namespace): the steps
   DepositSurface s;
   const SurfaceRegion region = SurfaceRegion::of(grid, region_mm, s);
@@ -145,8 +148,20 @@ DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_m
     const OutsideFlood flood = flood_outside(region, part, seal_r);
     fill_volume(s, region, part, flood, seal_r, reopen);
   }
-  extract_faces(s, grid, region, part);
+  if (faces) extract_faces(s, grid, region, part);
   return s;
+}
+
+}  // namespace
+
+DepositSurface extract_outer_surface(const VoxelGrid& grid, const Box3& region_mm,
+                                     double seal_gap_mm, double groove_depth_mm) {
+  return outer_surface(grid, region_mm, seal_gap_mm, groove_depth_mm, true);
+}
+
+DepositSurface extract_filled_volume(const VoxelGrid& grid, const Box3& region_mm,
+                                     double seal_gap_mm, double groove_depth_mm) {
+  return outer_surface(grid, region_mm, seal_gap_mm, groove_depth_mm, false);
 }
 
 }  // namespace printtwin

@@ -87,6 +87,12 @@ struct DepositSurface {
                                                    double seal_gap_mm = 0,
                                                    double groove_depth_mm = 0);
 
+/// The filled volume of extract_outer_surface alone (the same filled_block_code,
+/// filled_masks, occupied and filled counts; no faces): what the as-printed mesh reads.
+[[nodiscard]] DepositSurface extract_filled_volume(const VoxelGrid& grid, const Box3& region_mm,
+                                                   double seal_gap_mm = 0,
+                                                   double groove_depth_mm = 0);
+
 /// Sub-voxel placement: each face's point moves from the face centre onto the surface of the
 /// nearest bead among those of its voxel's G-code line and their neighbours along the path,
 /// when that surface lies within `max_shift_mm` of the centre and faces the same way; its

@@ -188,6 +188,42 @@ TEST(DepositMesh, TheDeviationStagesFilledVolumeIsReused) {
   EXPECT_EQ(skirt->components, 2u);  // the part and the skirt strip
 }
 
+// The mesh extracts the filled volume over the part's blocks only (plus the seal's reach): a
+// skirt far across the bed changes nothing, and the filled volume is the outer surface's.
+TEST(DepositMesh, AFarSkirtChangesNothingInThePart) {
+  VoxelGrid g = make_grid(160);
+  fill_box(g, {100, 100, 0}, {120, 120, 12}, Feature::outer_perimeter);
+  for (int z = 3; z < 9; ++z)  // a cavity behind a one-voxel pinhole (sealed) ...
+    for (int y = 104; y < 116; ++y)
+      for (int x = 104; x < 116; ++x) g.clear({x, y, z});
+  g.clear({100, 110, 5});
+  g.clear({101, 110, 5});
+  g.clear({102, 110, 5});
+  g.clear({103, 110, 5});
+  for (int x = 100; x < 120; ++x) g.clear({x, 100, 6});  // ... and a groove along a wall
+  DepositMeshOptions voxel;
+  voxel.surface = DepositMeshSurface::voxel;
+  const DepositMesh alone = build(g, voxel);
+  fill_box(g, {2, 2, 0}, {60, 4, 1}, Feature::skirt, 0);
+  const DepositMesh with_skirt = build(g, voxel);
+  expect_closed_oriented(with_skirt.mesh);
+  EXPECT_EQ(with_skirt.mesh.triangles.size(), alone.mesh.triangles.size());
+  EXPECT_DOUBLE_EQ(with_skirt.filled_volume_mm3, alone.filled_volume_mm3);
+  EXPECT_NEAR(with_skirt.volume_mm3, alone.volume_mm3, 1e-9);
+  // The same voxels as the deviation stage's outer surface over the whole grid.
+  const DeviationSettings d;
+  Box3 whole;
+  whole.extend(g.center_mm({0, 0, 0}));
+  whole.extend(g.center_mm({159, 159, 159}));
+  const DepositSurface s = extract_outer_surface(g, whole, d.seal_gap_mm, d.groove_depth_mm);
+  EXPECT_NEAR(with_skirt.filled_volume_mm3, s.filled_voxels * std::pow(kVoxel, 3), 1e-9);
+  const DepositSurface f = extract_filled_volume(g, whole, d.seal_gap_mm, d.groove_depth_mm);
+  EXPECT_EQ(f.filled_block_code, s.filled_block_code);
+  EXPECT_EQ(f.filled_masks, s.filled_masks);
+  EXPECT_EQ(f.filled_voxels, s.filled_voxels);
+  EXPECT_TRUE(f.faces.empty());
+}
+
 TEST(DepositMesh, WithoutFeatureLabelsOneLayerPiecesAreLeftOut) {
   VoxelGrid g = make_grid(64);
   for (int z = 0; z < 8; ++z) fill_box(g, {20, 20, z}, {30, 30, z + 1}, Feature::unknown, z);
