@@ -21,7 +21,10 @@
 # 5. bench/mesh_c2m_stats.py: mean and RMS of CloudCompare's signed distances, per vertex
 #    (as CloudCompare shows them) and weighted by each vertex's area (a third of the
 #    triangles around it: the surface integral over the mesh, which is what verify's figure
-#    is), against verify's.
+#    is), against verify's; then where they differ: per band of layers and per kind of mesh
+#    surface (side, caps up, caps down), the surface points' C2M against verify's per-layer
+#    figures (mesh_c2m_stats.py regions).
+# KEEP_DIR=DIR keeps every file (as-printed mesh, points, CloudCompare's distances, report).
 # Needs CloudCompare and openscad (../shared/peers); run from the repository root after building. Re-run it
 # after a change to verify's sampling: it reads verify's figures, it does not keep them.
 set -euo pipefail
@@ -30,8 +33,13 @@ build="$(cd "${BUILD_DIR:-$root/build}" && pwd)"
 mesh="${1:-}"
 gcode="${2:-$root/samples/gcode/prusa_cube10.gcode}"
 shift $(( $# > 2 ? 2 : $# ))
-work="$(mktemp -d)"
-trap 'rm -rf "$work"' EXIT
+if [ -n "${KEEP_DIR:-}" ]; then  # keep the files (mesh, points, distances, report) there
+  mkdir -p "$KEEP_DIR"
+  work="$(cd "$KEEP_DIR" && pwd)"
+else
+  work="$(mktemp -d)"
+  trap 'rm -rf "$work"' EXIT
+fi
 if [ -z "$mesh" ]; then  # the cube PrusaSlicer sliced for prusa_cube10.gcode (OpenSCAD)
   echo 'translate([-5, -5, 0]) cube(10);' > "$work/cube10.scad"
   openscad -o "$work/cube10.stl" "$work/cube10.scad" > /dev/null 2>&1
@@ -52,3 +60,5 @@ QT_QPA_PLATFORM=offscreen CloudCompare -SILENT -AUTO_SAVE OFF -O "$work/surface.
   > "$work/cc_surface.log" 2>&1
 python3 "$root/bench/mesh_c2m_stats.py" compare "$work/asprinted.ply" "$work/cc.asc" \
   "$work/report/report.json" "$work/cc_surface.asc"
+python3 "$root/bench/mesh_c2m_stats.py" regions "$work/asprinted.ply" "$work/cc_surface.asc" \
+  "$work/report/report.json" "${SURFACE_SPACING_MM:-0.05}" "${BANDS:-8}"

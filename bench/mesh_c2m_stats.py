@@ -11,6 +11,11 @@
       CloudCompare's C2M distances (ASC: x y z d per line, the vertices in file order):
       mean and RMS per vertex and weighted by vertex area (a third of the area of the
       triangles around each vertex), against verify's deposit -> mesh mean and RMS.
+  mesh_c2m_stats.py regions ASPRINTED.ply CC_SURFACE.asc REPORT.json [SPACING_MM [BANDS]]
+      where they differ: per band of layers (the first two and last two layers alone) and per
+      kind of mesh surface (side, caps facing up, caps facing down), the C2M of the surface
+      points (the same points as `surface` with the same spacing) against verify's
+      per-layer figures
 """
 import json
 import math
@@ -63,7 +68,9 @@ def vertex_areas(xyz, faces):
     return area
 
 
-def surface_points(xyz, faces, spacing, seed=1):
+def surface_points(xyz, faces, spacing, seed=1, normals=None):
+    """The points (x y z floats); `normals` (a list, optional) gets each point's triangle's
+    unit normal z."""
     rng = random.Random(seed)
     density = 1.0 / (spacing * spacing)
     out = array("f")
@@ -76,6 +83,9 @@ def surface_points(xyz, faces, spacing, seed=1):
         k = int(expect)
         if rng.random() < expect - k:
             k += 1
+        if normals is not None and k > 0:
+            nz = cz / max(math.sqrt(cx * cx + cy * cy + cz * cz), 1e-30)
+            normals.extend([nz] * k)
         for _ in range(k):
             s, t = rng.random(), rng.random()
             if s + t > 1.0:
@@ -94,7 +104,67 @@ def read_distances(path):
     return d
 
 
+def regions(mesh_path, cc_surface, report_path, spacing, bands):
+    """Per layer band and per kind of surface (side: |nz| < 0.99; up / down caps: flat): the C2M of
+    the points spread over the mesh against verify's per-layer deposit -> mesh figures (its
+    layers combined by sample count, all kinds of surface together)."""
+    xyz, faces = read_mesh(mesh_path)
+    nz = []
+    pts = surface_points(xyz, faces, spacing, normals=nz)
+    d = read_distances(cc_surface)
+    if len(d) != len(nz):
+        sys.exit("CloudCompare gave %d distances for %d surface points" % (len(d), len(nz)))
+    layers = json.load(open(report_path)).get("per_layer", [])
+    tops = [l["z_mm"] for l in layers]
+    if not tops:
+        sys.exit("no per_layer in the report")
+    n = len(tops)
+    edges = [0, 1, 2] + [2 + (n - 4) * i // bands for i in range(1, bands)] + [n - 2, n - 1, n]
+    edges = sorted(set(e for e in edges if 0 <= e <= n))
+    band_of = [0] * n
+    for b in range(len(edges) - 1):
+        for k in range(edges[b], edges[b + 1]):
+            band_of[k] = b
+    acc = [[[0, 0.0, 0.0] for _ in range(3)] for _ in range(len(edges) - 1)]
+    import bisect
+    for i in range(len(d)):
+        k = min(bisect.bisect_left(tops, pts[3 * i + 2] - 1e-6), n - 1)
+        kind = 0 if abs(nz[i]) < 0.99 else (1 if nz[i] > 0 else 2)
+        a = acc[band_of[k]][kind]
+        a[0] += 1
+        a[1] += d[i]
+        a[2] += d[i] * d[i]
+    area = spacing * spacing
+    print("%-13s | %-22s | %-30s | %-30s | %-22s" %
+          ("layers", "verify mean / RMS", "mesh all mean / RMS (mm2)", "mesh side mean / RMS (mm2)",
+           "mesh caps up / down mean"))
+    for b in range(len(edges) - 1):
+        lo, hi = edges[b], edges[b + 1]
+        cnt = sum(l["deposit_to_mesh"]["samples"] for l in layers[lo:hi])
+        vm = vr = float("nan")
+        if cnt:
+            vm = sum(l["deposit_to_mesh"]["samples"] * l["deposit_to_mesh"]["mean_mm"]
+                     for l in layers[lo:hi]) / cnt
+            vr = math.sqrt(sum(l["deposit_to_mesh"]["samples"] * l["deposit_to_mesh"]["rms_mm"] ** 2
+                               for l in layers[lo:hi]) / cnt)
+        tot = [sum(acc[b][k][j] for k in range(3)) for j in range(3)]
+
+        def fig(a):
+            if a[0] == 0:
+                return "      -"
+            return "%+.4f %.4f (%6.0f)" % (a[1] / a[0], math.sqrt(a[2] / a[0]), a[0] * area)
+        caps = " ".join("%+.4f" % (acc[b][k][1] / acc[b][k][0]) if acc[b][k][0] else "   -   "
+                        for k in (1, 2))
+        print("%4d-%-8d | %+.4f %.4f (%7d) | %-30s | %-30s | %s" %
+              (lo, hi - 1, vm, vr, cnt, fig(tot), fig(acc[b][0]), caps))
+
+
 def main():
+    if sys.argv[1] == "regions":
+        regions(sys.argv[2], sys.argv[3], sys.argv[4],
+                float(sys.argv[5]) if len(sys.argv) > 5 else 0.05,
+                int(sys.argv[6]) if len(sys.argv) > 6 else 8)
+        return
     if sys.argv[1] == "surface":
         xyz, faces = read_mesh(sys.argv[2])
         pts = surface_points(xyz, faces, float(sys.argv[4]) if len(sys.argv) > 4 else 0.05)

@@ -1,5 +1,6 @@
 #pragma once
 // Internals of the as-printed mesh (mesh_export*.cpp), for its tests.
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -49,6 +50,14 @@ struct LayerSlabs {
   /// (x, y) filled at some z in [z0, z1). Called from several threads at once.
   std::function<void(int z0, int z1, std::vector<std::uint64_t>& rows)> project;
 };
+
+/// The round side of a slab as a polyline of rings at -90 .. +90 degrees (`steps` per
+/// quarter), its inner rings at inset a r (1 - cos phi) and height b r sin phi: the mean and
+/// RMS inset along it (lengths weighted), in units of r.
+std::array<double, 2> profile_moments(int steps, double a, double b);
+/// The a and b for which profile_moments equals the round profile's (1 - 2 / pi,
+/// sqrt(3/2 - 4 / pi)); {1, 1} for one step.
+std::array<double, 2> profile_fit(int steps);
 
 struct LayerSurfaceOptions {
   /// Outlines are simplified within this distance of the marching-squares outline.

@@ -3,7 +3,9 @@
 // fall-back to the voxel surface; decimation by a coarser outline tolerance.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
+#include <numbers>
 
 #include "deposit/mesh_export.hpp"
 #include "deposit/mesh_export_internal.hpp"
@@ -106,6 +108,23 @@ TEST(LayeredMesh, SidesFollowTheRoundBeadIntoTheGroove) {
   }
   EXPECT_NEAR(mid_min_x, 2.0, 0.03);
   EXPECT_NEAR(groove_min_x, 2.1, 0.03);
+}
+
+TEST(LayeredMesh, SideProfileIsAsDeepOnAverageAsTheRoundBead) {
+  // Rings on the circle make a polygon inside it (0.396 r mean inset at two steps); the
+  // inner rings are placed so the polygon's mean and RMS inset (lengths weighted) are the
+  // round profile's: r (1 - 2 / pi) and r sqrt(3/2 - 4 / pi).
+  const double mean = 1 - 2 / std::numbers::pi, rms = std::sqrt(1.5 - 4 / std::numbers::pi);
+  EXPECT_GT(detail::profile_moments(2, 1, 1)[0], mean + 0.03);  // on the circle: too deep
+  for (const int steps : {2, 3, 4, 6}) {
+    const auto [a, b] = detail::profile_fit(steps);
+    EXPECT_LT(a, 1.0);
+    EXPECT_LE(b, 1.0);
+    const auto m = detail::profile_moments(steps, a, b);
+    EXPECT_NEAR(m[0], mean, 1e-6) << steps;
+    EXPECT_NEAR(m[1], rms, 1e-6) << steps;
+  }
+  EXPECT_EQ(detail::profile_fit(1), (std::array<double, 2>{1, 1}));  // no inner ring
 }
 
 TEST(LayeredMesh, CrossingNestedAndDiagonalOutlinesClose) {
