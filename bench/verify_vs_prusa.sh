@@ -3,7 +3,8 @@
 # PrusaSlicer slicing the same part (issue 5's goal: verify in under a third of PrusaSlicer's
 # time). Both whole processes, same session, alternating, median of RUNS; CPU = user + sys.
 # Also prints verify's stage timings (report.json "timings_s") of the last run.
-# Usage: bench/verify_vs_prusa.sh [build-dir]   env: RUNS (default 3)
+# Usage: bench/verify_vs_prusa.sh [build-dir]   env: RUNS (default 3); BASE=<build-dir or
+# printtwin binary> also times that verify in the same rounds (before / after a change).
 # Needs openscad and prusa-slicer (bench/make_bench_data.sh builds the inputs once).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -22,11 +23,16 @@ timed() {  # appends "wall cpu maxrss_kb" of "$@" to $out
 }
 out="$tmp/prusa"; : > "$out"; prusa="$out"
 out="$tmp/verify"; : > "$out"; ver="$out"
+out="$tmp/base"; : > "$out"; basef="$out"
+base="${BASE:-}"
+[ -z "$base" ] || [ -f "$base" ] || base="$base/src/printtwin"
 for ((r = 0; r < runs; ++r)); do
   out="$prusa" timed prusa-slicer --load "$ini" --layer-height 0.2 --center 110,110 \
     --export-gcode -o "$tmp/p.gcode" "$data/bench_model.stl"
   out="$ver" timed "$build/src/printtwin" verify "$data/bench_model.stl" \
     --gcode "$data/bench_model.gcode" --out "$tmp/report" --quiet
+  [ -z "$base" ] || out="$basef" timed "$base" verify "$data/bench_model.stl" \
+    --gcode "$data/bench_model.gcode" --out "$tmp/base_report" --quiet
 done
 median() { sort -g | awk '{a[NR]=$1} END {print (NR%2) ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2}'; }
 col() { awk -v c="$2" '{print $c}' "$1" | median; }
@@ -39,6 +45,13 @@ printf '%-40s %8.2f %8.2f %10.0f\n' "printtwin verify (whole, with report)" "$vw
   "$(echo "$(col "$ver" 3) / 1024" | bc -l)"
 printf 'verify / PrusaSlicer: wall %.2f, CPU %.2f (goal < 0.33)\n' \
   "$(echo "$vw / $pw" | bc -l)" "$(echo "$vc / $pc" | bc -l)"
+if [ -n "$base" ]; then
+  bw=$(col "$basef" 1); bc_=$(col "$basef" 2)
+  printf '%-40s %8.2f %8.2f %10.0f\n' "base verify ($base)" "$bw" "$bc_" \
+    "$(echo "$(col "$basef" 3) / 1024" | bc -l)"
+  printf 'base / PrusaSlicer: wall %.2f, CPU %.2f\n' "$(echo "$bw / $pw" | bc -l)" \
+    "$(echo "$bc_ / $pc" | bc -l)"
+fi
 python3 - "$tmp/report/report.json" <<'PY'
 import json, sys
 t = json.load(open(sys.argv[1]))["timings_s"]

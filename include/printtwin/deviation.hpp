@@ -117,6 +117,9 @@ constexpr std::uint32_t kNoBead = 0xFFFFFFFFu;
 
 class MeshQuery;
 struct DeviationSettings;
+namespace detail {
+struct DeviationTargetAccess;
+}
 
 /// The design side of the deviation, prepared once per mesh and reused for many deposits
 /// (the variants of `compare`, G-code from several slicers): the BVH for closest points
@@ -161,6 +164,7 @@ class DeviationTarget {
 
  private:
   struct Impl;
+  friend struct detail::DeviationTargetAccess;  // the design's sharp edges (src/deviation/)
   explicit DeviationTarget(std::shared_ptr<const Impl> impl);
   std::shared_ptr<const Impl> impl_;
 };

@@ -73,13 +73,6 @@ void to_bead_surface(const DepositSurface& s, std::span<const SurfaceBead> beads
       });
 }
 
-/// The margin round the design's sharp edges (faces turning by more than kSharpDeg) that the
-/// layer-line figures leave out: a nozzle rounds the plastic at a vertical edge with the
-/// bead's half-width (0.225 mm for a 0.45 mm bead), where the straight wall's analytic value
-/// does not hold.
-constexpr double kWallEdgeMarginMm = 0.3;
-constexpr double kSharpDeg = 30.0;
-
 /// Layer lines on walls: per layer and over the part, the area-weighted RMS distance of the
 /// deposit points whose closest design triangle is within 15 degrees of vertical and which lie
 /// farther than kWallEdgeMarginMm from the design's sharp edges, and their RMS about the
@@ -339,7 +332,6 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   const std::size_t ns = samples.size();
   std::vector<Vec3> query_points(ns + mesh.vertices_mm.size());
   detail::DepositQueryGroups query_groups;
-  std::unique_ptr<detail::SharpEdges> edges;
   tbb::parallel_invoke(
       [&] {
         surface =
@@ -352,8 +344,6 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
         for (std::size_t i = 0; i < mesh.vertices_mm.size(); ++i)
           query_points[ns + i] = mesh.vertices_mm[i] + offset;
         query_groups = detail::group_deposit_queries(query_points, v);
-        // For the layer-line figures (from the mesh alone, beside the surface's extraction).
-        edges = std::make_unique<detail::SharpEdges>(mesh, kSharpDeg, kWallEdgeMarginMm);
       });
   // Mesh -> deposit to the faces needs only the faces: side by side with their placement on
   // the beads (which fills in the deposit -> mesh points).
@@ -445,8 +435,9 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
     return DeviationSample{query_points[i], d_mesh[i], tag.layer, tag.line, samples[i].triangle};
   };
   number_layers(layers, top_key, deposit);
-  wall_roughness(mesh, *edges, d_dep, dep_triangles, dep_tags, face_area, face_points, d_mesh,
-                 samples, std::span<const Vec3>(query_points.data(), ns), offset, v, layers, out);
+  wall_roughness(mesh, detail::DeviationTargetAccess::sharp_edges(target), d_dep, dep_triangles,
+                 dep_tags, face_area, face_points, d_mesh, samples,
+                 std::span<const Vec3>(query_points.data(), ns), offset, v, layers, out);
   for (std::size_t l = 0; l < n_layers;
        ++l)  // layers no sample of either direction is nearest to: none
     if (dep_begin[l] != dep_begin[l + 1] || mesh_begin[l] != mesh_begin[l + 1])

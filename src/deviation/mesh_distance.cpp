@@ -4,6 +4,7 @@
 // ray-parity vote of MeshQuery::inside near open or non-manifold edges.
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <cmath>
@@ -11,6 +12,7 @@
 #include <unordered_map>
 
 #include "deviation/point_groups.hpp"
+#include "deviation/sharp_edges.hpp"
 #include "mesh/mesh_query_ball.hpp"
 #include "printtwin/deviation.hpp"
 
@@ -152,6 +154,7 @@ struct DeviationTarget::Impl {
   double spacing_mm = 0;
   std::uint64_t seed = 1;
   std::vector<SurfaceSample> samples;
+  std::unique_ptr<const detail::SharpEdges> edges;  ///< for the layer-line figures
 
   Impl(const Mesh& m, MeshQuery q) : mesh(m), query(std::move(q)), pn(m) {}
 };
@@ -174,8 +177,21 @@ Result<DeviationTarget> DeviationTarget::build(const Mesh& mesh, const Deviation
   impl->volume_mm3 = signed_volume_mm3(mesh);
   impl->seed = settings.seed;
   impl->spacing_mm = spacing;
-  if (impl->spacing_mm > 0) impl->samples = sample_surface(mesh, impl->spacing_mm, impl->seed);
+  tbb::parallel_invoke(
+      [&] {
+        if (impl->spacing_mm > 0)
+          impl->samples = sample_surface(mesh, impl->spacing_mm, impl->seed);
+      },
+      [&] {
+        impl->edges = std::make_unique<const detail::SharpEdges>(mesh, detail::kSharpDeg,
+                                                                 detail::kWallEdgeMarginMm);
+      });
   return DeviationTarget(std::move(impl));
+}
+
+const detail::SharpEdges& detail::DeviationTargetAccess::sharp_edges(
+    const DeviationTarget& target) {
+  return *target.impl_->edges;
 }
 
 const Mesh& DeviationTarget::mesh() const { return impl_->mesh; }

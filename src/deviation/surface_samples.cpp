@@ -27,8 +27,12 @@ constexpr double kPi = std::numbers::pi;
 /// A point this close to another bead (mm) is covered by it: two beads' coincident flats
 /// (a layer on the one below) cover each other.
 constexpr double kCoverMm = 1e-5;
-/// Rows of a bead's points per group of the closest-point search.
-constexpr int kRowsPerGroup = 2;
+/// Rows of a bead's side per point along the move. A straight bead's surface is the same all
+/// along it: where a cell of the outline is exposed in each row of a block, one point at the
+/// block's middle carries the block's area (the cell's length times the block's), else each
+/// exposed row keeps its own point. The rows (two voxels long) decide what is exposed; a
+/// block of rows is a group of the closest-point search.
+constexpr int kRowsPerPoint = 2;
 /// The edge of the cells that find the beads near a bead (mm).
 constexpr double kGridCellMm = 0.5;
 
@@ -335,7 +339,7 @@ struct Sampler {
 /// length, until a covered or a marked cell.
 template <class Covered>
 void expose_row(const std::uint8_t* mk, int m, bool cyclic, const std::vector<OutlineCell>& cell,
-                double ext, const Covered& is_covered, std::vector<std::uint8_t>& exposed) {
+                double ext, const Covered& is_covered, std::uint8_t* exposed) {
   for (int c = 0; c < m; ++c) {
     if (mk[c] == 0 || is_covered(c)) continue;
     exposed[static_cast<std::size_t>(c)] = 1;
@@ -351,6 +355,13 @@ void expose_row(const std::uint8_t* mk, int m, bool cyclic, const std::vector<Ou
       }
     }
   }
+}
+
+/// The outline point of cell c at length u along f's centre line.
+Vec3 point_at(const BeadFrame& f, const std::vector<OutlineCell>& cell, int c, double u) {
+  const OutlineCell& x = cell[static_cast<std::size_t>(c)];
+  const Vec3 q0 = f.a + u * f.dir;
+  return q0 + x.s * f.across + x.z * f.up;
 }
 
 /// Whether point p of bead k's outline is covered by one of the `active` beads: inside it, or
@@ -416,32 +427,47 @@ void Sampler::lay(std::uint32_t k, std::span<const std::uint32_t> faces, double 
   std::vector<std::int8_t>& covered_memo = w.covered;
   std::vector<std::uint8_t>& exposed = w.exposed;
   covered_memo.resize(mm);
-  exposed.resize(mm);
+  exposed.resize(kRowsPerPoint * mm);
   const std::size_t group_from = out.group.size();
-  for (int row = 0; row < rows; ++row) {
-    const std::uint8_t* mk = &marked[static_cast<std::size_t>(row) * mm];
-    if (std::none_of(mk, mk + m, [](std::uint8_t x) { return x != 0; })) continue;
-    const double u = (row + 0.5) * du;
-    const Vec3 q0 = f.a + u * f.dir;
-    w.activate(u - 0.5 * du, u + 0.5 * du);
-    std::fill(covered_memo.begin(), covered_memo.end(), -1);
-    std::fill(exposed.begin(), exposed.end(), 0);
-    const auto point = [&](int c) {
-      const OutlineCell& x = cell[static_cast<std::size_t>(c)];
-      return Vec3(q0 + x.s * f.across + x.z * f.up);
-    };
-    const auto is_covered = [&](int c) {
-      auto& memo = covered_memo[static_cast<std::size_t>(c)];
-      if (memo < 0) memo = covered(k, point(c), active) ? 1 : 0;
-      return memo != 0;
-    };
-    expose_row(mk, m, true, cell, ext, is_covered, exposed);
-    if (row % kRowsPerGroup == 0 || out.group.size() == group_from)
-      out.group.push_back(static_cast<std::uint32_t>(out.p.size()));
+  for (int r0 = 0; r0 < rows; r0 += kRowsPerPoint) {
+    // The block's rows, each exposed as its own row (the exposed area is the rows' own).
+    const int nr = std::min(kRowsPerPoint, rows - r0);
+    bool any = false;
+    for (int j = 0; j < nr; ++j) {
+      std::uint8_t* ex = &exposed[static_cast<std::size_t>(j) * mm];
+      std::fill(ex, ex + m, 0);
+      const std::uint8_t* mk = &marked[static_cast<std::size_t>(r0 + j) * mm];
+      if (std::none_of(mk, mk + m, [](std::uint8_t x) { return x != 0; })) continue;
+      any = true;
+      const double u = (r0 + j + 0.5) * du;
+      w.activate(u - 0.5 * du, u + 0.5 * du);
+      std::fill(covered_memo.begin(), covered_memo.end(), -1);
+      const auto is_covered = [&](int c) {
+        auto& memo = covered_memo[static_cast<std::size_t>(c)];
+        if (memo < 0) memo = covered(k, point_at(f, cell, c, u), active) ? 1 : 0;
+        return memo != 0;
+      };
+      expose_row(mk, m, true, cell, ext, is_covered, ex);
+    }
+    if (!any) continue;
+    out.group.push_back(static_cast<std::uint32_t>(out.p.size()));
+    // A cell exposed in every row of the block: one point at the block's middle, weighted by
+    // the block's length; else a point per exposed row.
     for (int c = 0; c < m; ++c) {
-      if (exposed[static_cast<std::size_t>(c)] == 0) continue;
-      out.p.push_back(point(c));
-      out.area.push_back(cell[static_cast<std::size_t>(c)].len * du);
+      int n = 0;
+      for (int j = 0; j < nr; ++j) n += exposed[static_cast<std::size_t>(j) * mm + c];
+      if (n == 0) continue;
+      const double len = cell[static_cast<std::size_t>(c)].len;
+      if (n == nr) {
+        out.p.push_back(point_at(f, cell, c, (r0 + 0.5 * nr) * du));
+        out.area.push_back(len * nr * du);
+        continue;
+      }
+      for (int j = 0; j < nr; ++j)
+        if (exposed[static_cast<std::size_t>(j) * mm + c] != 0) {
+          out.p.push_back(point_at(f, cell, c, (r0 + j + 0.5) * du));
+          out.area.push_back(len * du);
+        }
     }
   }
   if (capped) lay_caps(k, faces, sec, ext, w, out);
@@ -510,7 +536,7 @@ void Sampler::lay_caps(std::uint32_t k, std::span<const std::uint32_t> faces, co
         if (memo < 0) memo = covered(k, point(c), w.active) ? 1 : 0;
         return memo != 0;
       };
-      expose_row(mk, m, false, cell, ext, is_covered, exposed);
+      expose_row(mk, m, false, cell, ext, is_covered, exposed.data());
       if (!grouped) out.group.push_back(static_cast<std::uint32_t>(out.p.size()));
       grouped = true;
       for (int c = 0; c < m; ++c) {

@@ -212,6 +212,48 @@ TEST(SurfaceLayerLines, VoxelPitsUnderTheOutlineAreNotSurface) {
   EXPECT_NEAR(back / (0.194 * R), 1.0, 0.03) << "mesh->deposit rms " << back;
 }
 
+// Each deposit point on a bead's outline stands for its patch of the outline (cell length x
+// length along the bead), also where one point stands for two rows along a straight bead: the
+// points on a straight wall's outer round sides carry their area, pi R per layer of height
+// h = 2 R, with about half the points of one per cell and row.
+TEST(SurfaceLayerLines, OutlinePointsCarryTheirPatchArea) {
+  const double h = 0.2, w = 0.45;
+  const Wall wall = lay_wall(h, w, 20);
+  const auto beads = surface_beads(wall.moves, ender3_marlin2());
+  const DeviationSettings settings;
+  const double v = wall.deposit.grid.voxel_mm();
+  const Box3 region{Vec3(18, 18, -1), Vec3(32, 32, 5)};
+  DepositSurface surface = extract_outer_surface(wall.deposit.grid, region, settings.seal_gap_mm,
+                                                 settings.groove_depth_mm);
+  place_on_beads(surface, beads, v);
+  ASSERT_EQ(surface.points_mm.size(), surface.point_area_mm2.size());
+  // The round sides of the face x = 30 (centre x = 30 - R), away from its corners, over the
+  // ten layers from z = 1 to 3; the points on the outline (faces kept off it are not).
+  const double length = 8.0, layers = 10;
+  double area = 0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < surface.points_mm.size(); ++i) {
+    const Vec3& p = surface.points_mm[i];
+    if (p.x() < 30.0 - 0.5 * h - 1e-9 || p.y() < 21 || p.y() > 21 + length || p.z() < 1 ||
+        p.z() > 1 + layers * h)
+      continue;
+    double on = 1e9;
+    for (const SurfaceBead& b : beads) {
+      Vec3 core;
+      on = std::min(on, std::abs(detail::bead_closest(b, p, core)));
+    }
+    if (on > 1e-9) continue;
+    area += surface.point_area_mm2[i];
+    ++n;
+  }
+  const double expected = std::numbers::pi * 0.5 * h * length * layers;
+  EXPECT_NEAR(area / expected, 1.0, 0.02) << "area " << area << " of " << n << " points";
+  // At least 8 cells round a side, rows of two voxels.
+  const double cells_x_rows = 8 * layers * length / (2 * v);
+  EXPECT_LT(static_cast<double>(n), 0.75 * cells_x_rows) << n << " points";
+  EXPECT_GT(static_cast<double>(n), 0.25 * cells_x_rows) << n << " points";
+}
+
 /// The square tube of make_square_tube with sharp outer corners too (a design a slicer's
 /// loop cannot follow at its corners: the nozzle rounds them with the bead's half-width).
 Mesh make_sharp_tube(double lo, double side, double wall, double height) {
