@@ -566,11 +566,15 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
   };
   auto write = [&] {
     const std::size_t at = map.index(8 * bx, 8 * by);
-    for (std::size_t n = 0; n < nk; ++n) {
+    // Top layer first: a column is raised once, by its highest voxel.
+    std::uint64_t raised = 0;
+    for (std::size_t n = nk; n-- > 0;) {
       if (put_[n] == 0) continue;
       const int k = ring.layers[n];
       detail::VoxelBlocks::write_tile(grid, bx, by, k, put_[n], tag);
-      map.raise_tile(at, put_[n], static_cast<std::uint16_t>(k + 1), ring.bead_layer);
+      if ((put_[n] & ~raised) != 0)
+        map.raise_tile(at, put_[n] & ~raised, static_cast<std::uint16_t>(k + 1), ring.bead_layer);
+      raised |= put_[n];
       squeezed_words(bx, by, k >> 3, true)[k & 7] |= put_[n];
     }
     return placed;
