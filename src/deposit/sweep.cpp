@@ -8,6 +8,7 @@
 #include <bit>
 #include <cmath>
 #include <limits>
+#include <type_traits>
 
 namespace printtwin::detail {
 
@@ -227,7 +228,11 @@ void BeadSweep::for_each_tile(const SweptBead& bead, const Vec2& a2, const Vec2&
         t_hi = std::min(row_hi, floor_int(std::clamp(tyh + kBoundSlack - 8.0 * by, -1.0, 9.0)) + 1);
         if (t_lo >= t_hi) continue;
       }
-      fn(bx, by, t_lo, t_hi, lanes);
+      if constexpr (std::is_same_v<std::invoke_result_t<Fn&, int, int, int, int, unsigned>, bool>) {
+        if (!fn(bx, by, t_lo, t_hi, lanes)) return;  // fn asks for no more tiles
+      } else {
+        fn(bx, by, t_lo, t_hi, lanes);
+      }
     }
   }
 }
@@ -447,29 +452,47 @@ std::size_t BeadSweep::squeeze(const SweptBead& bead, const BeadFrame& f, const 
   const int steps = std::max(1, static_cast<int>(std::ceil(delta - 1e-9)));
   const int k_lo = reached_.front(), k_hi = reached_.back();
   std::size_t placed = 0;
-  auto pass = [&](const BeadFrame& g, double reach, const Sides* within) {
-    const Ring ring{&g,      nullptr,    layers_.data(), static_cast<int>(layers_.size()),
-                    nullptr, bead.layer, within,         0,
-                    false};
-    const double hw = static_cast<double>(f.flat) + static_cast<double>(f.r) + reach + kBoundSlack;
+  // `keep`: remember each tile's grown masks (tile_masks_) for a second pass over the same
+  // tiles and layers; `reuse`: take them from there.
+  auto pass = [&](const BeadFrame& g, double reach, const Sides* within, bool keep, bool reuse) {
+    Ring ring{&g,      nullptr,    layers_.data(), static_cast<int>(layers_.size()),
+              nullptr, bead.layer, within,         0,
+              false};
+    const auto nk = layers_.size();
+    double hw = static_cast<double>(f.flat) + static_cast<double>(f.r) + reach + kBoundSlack;
+    // Both sides end at the flat part: no voxel centre beyond it is within them, so the tiles
+    // whose cells lie wholly past it (by more than a cell's half-diagonal) need not be visited.
+    if (within != nullptr && !std::isinf(within->pos) && !std::isinf(within->neg))
+      hw = std::min(hw, std::max(within->pos, within->neg) + 1.0 + kBoundSlack);
+    std::size_t tile = 0;
     for_each_tile(bead, a2, b2, hw, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
-      if (placed < lost)
-        placed += squeeze_tile(ring, bx, by, t_lo, t_hi, lanes, lost - placed, grid, tag, map);
+      if (keep) tile_masks_.resize((tile + 1) * nk), tile_known_.resize(tile + 1, 0);
+      if (keep || reuse)
+        ring.cache = tile_masks_.data() + tile * nk, ring.known = &tile_known_[tile];
+      ++tile;
+      placed += squeeze_tile(ring, bx, by, t_lo, t_hi, lanes, lost - placed, grid, tag, map);
+      return placed < lost;
     });
   };
   // Beside and below, within the bead's reach: within the sides first, then on both sides.
   layers_.clear();
   for (int k = std::max(0, k_lo - steps); k <= k_hi; ++k) layers_.push_back(k);
   const BeadFrame reach = grown(f, delta);
-  if (!sides.open()) pass(reach, delta, &sides);
+  // The second pass visits the same tiles as the first (and may reuse its masks) unless the
+  // first was narrowed to the flat part on both sides.
+  const bool same_tiles = std::isinf(sides.pos) || std::isinf(sides.neg);
+  const bool second = !bead.keeps_sides || sides.open();
+  tile_masks_.clear();
+  tile_known_.clear();
+  if (!sides.open()) pass(reach, delta, &sides, second && same_tiles, false);
   // A bead that keeps its sides goes no further: past an open side lie the grooves between
   // layers.
-  if (bead.keeps_sides && !sides.open()) return placed;
-  if (placed < lost) pass(reach, delta, nullptr);
+  if (!second) return placed;
+  if (placed < lost) pass(reach, delta, nullptr, false, !sides.open() && same_tiles);
   const int rise = bead.rise_voxels < 0 ? steps : std::min(steps, bead.rise_voxels);
   for (int k = k_hi + 1; k <= std::min(nz_ - 1, k_hi + rise) && placed < lost; ++k) {
     layers_.assign(1, k);
-    pass(reach, delta, nullptr);
+    pass(reach, delta, nullptr, false, false);
   }
   return placed;
 }
@@ -492,12 +515,6 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
                            : ((std::uint64_t{1} << (8 * (row_hi - row_lo))) - 1) << (8 * row_lo);
   const std::uint64_t inside = rows & (static_cast<std::uint64_t>(lanes) * 0x0101010101010101ull);
   const bool sided = ring.sides != nullptr && !ring.sides->open();
-  // The local ring stays between the bead's own end cuts (the next bead's stretch is its own).
-  const std::uint64_t cut = ring.grown == nullptr && ring.sides != nullptr
-                                ? ring.sides->cut_mask(8 * bx, 8 * by)
-                                : ~std::uint64_t{0};
-  const std::uint64_t within =
-      (sided ? ring.sides->tile_mask(8 * bx, 8 * by) & inside : inside) & cut;
   std::uint64_t any_free = 0;
   const std::uint64_t* occ = nullptr;
   int occ_bz = -1;  // the block of `occ` (the layers are in order: one or two blocks)
@@ -506,9 +523,25 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
     if ((k >> 3) != occ_bz)
       occ_bz = k >> 3, occ = detail::VoxelBlocks::block_occupancy(grid, bx, by, occ_bz);
     free_[n] = ~(occ != nullptr ? occ[k & 7] : 0);
-    any_free |= free_[n] & (ring.grown != nullptr ? within : inside & cut);
+    any_free |= free_[n];
   }
-  if (any_free == 0) return 0;  // no room: the section test is not needed
+  any_free &= inside;
+  if (ring.grown == nullptr) {
+    // The local ring reaches no further (in x and y) than its steps from the bead's voxels.
+    std::uint64_t zone = 0;
+    for (std::size_t n = 0; n < nk; ++n) zone |= ring.masks[n];
+    for (int step = 0; step < ring.steps && (any_free & ~zone) != 0; ++step)
+      zone = dilate_xy(zone, (step & 1) != 0);
+    any_free &= zone;
+  }
+  if (any_free == 0) return 0;  // no room: the limits and the section test are not needed
+  // The local ring stays between the bead's own end cuts (the next bead's stretch is its own).
+  const std::uint64_t cut = ring.grown == nullptr && ring.sides != nullptr
+                                ? ring.sides->cut_mask(8 * bx, 8 * by)
+                                : ~std::uint64_t{0};
+  const std::uint64_t within =
+      (sided ? ring.sides->tile_mask(8 * bx, 8 * by) & inside : inside) & cut;
+  if ((any_free & (ring.grown != nullptr ? within : cut)) == 0) return 0;
   // What goes where is decided on the masks; each layer is written once at the end.
   std::size_t placed = 0;
   put_.assign(nk, 0);
@@ -533,18 +566,21 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
   };
   auto write = [&] {
     const std::size_t at = map.index(8 * bx, 8 * by);
-    for (std::size_t n = 0; n < nk; ++n) {
+    // Top layer first: a column is raised once, by its highest voxel.
+    std::uint64_t raised = 0;
+    for (std::size_t n = nk; n-- > 0;) {
       if (put_[n] == 0) continue;
       const int k = ring.layers[n];
       detail::VoxelBlocks::write_tile(grid, bx, by, k, put_[n], tag);
-      map.raise_tile(at, put_[n], static_cast<std::uint16_t>(k + 1), ring.bead_layer);
+      if ((put_[n] & ~raised) != 0)
+        map.raise_tile(at, put_[n] & ~raised, static_cast<std::uint16_t>(k + 1), ring.bead_layer);
+      raised |= put_[n];
       squeezed_words(bx, by, k >> 3, true)[k & 7] |= put_[n];
     }
     return placed;
   };
   if (ring.grown != nullptr) {
-    test_tile_layers(*ring.grown, 8 * bx, 8 * by, ring.layers, ring.count, row_lo, row_hi, lanes,
-                     ring_.data());
+    grown_masks(ring, bx, by, row_lo, row_hi, lanes, within);
     for (std::size_t n = 0; n < nk; ++n) ring_[n] &= free_[n] & within;
     place_ring();
     return write();
@@ -565,6 +601,37 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
     if (!sided || placed == need || !ring.past_sides) break;
   }
   return write();
+}
+
+void BeadSweep::grown_masks(const Ring& ring, int bx, int by, int row_lo, int row_hi,
+                            unsigned lanes, std::uint64_t within) {
+  // Only the layers with free voxels within the limits are tested (the others take nothing);
+  // masks a first pass over the tile computed are taken from ring.cache.
+  const auto nk = static_cast<std::size_t>(ring.count);
+  const bool cached = ring.cache != nullptr && nk <= 64;
+  const std::uint64_t known = cached ? *ring.known : 0;
+  test_layers_.clear();
+  for (std::size_t n = 0; n < nk; ++n) {
+    ring_[n] = 0;
+    if ((free_[n] & within) == 0) continue;
+    if (((known >> n) & 1u) != 0)
+      ring_[n] = ring.cache[n];
+    else
+      test_layers_.push_back(static_cast<std::int32_t>(n));
+  }
+  if (test_layers_.empty()) return;
+  test_ks_.resize(test_layers_.size());
+  test_out_.resize(test_layers_.size());
+  for (std::size_t t = 0; t < test_layers_.size(); ++t) test_ks_[t] = ring.layers[test_layers_[t]];
+  test_tile_layers(*ring.grown, 8 * bx, 8 * by, test_ks_.data(), static_cast<int>(test_ks_.size()),
+                   row_lo, row_hi, lanes, test_out_.data());
+  std::uint64_t now = known;
+  for (std::size_t t = 0; t < test_layers_.size(); ++t) {
+    const auto n = static_cast<std::size_t>(test_layers_[t]);
+    ring_[n] = test_out_[t];
+    if (cached) ring.cache[n] = test_out_[t], now |= std::uint64_t{1} << n;
+  }
+  if (cached) *ring.known = now;
 }
 
 namespace {

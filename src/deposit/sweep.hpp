@@ -69,7 +69,7 @@ class BeadSweep {
   /// its widest half-width over them (voxel units); false when it reaches none.
   bool set_up(const SweptBead& bead, BeadFrame& f, Vec2& a2, Vec2& b2, double& hw);
   /// Calls fn(bx, by, row_lo, row_hi, lanes) for each tile the footprint of half-width hw
-  /// (voxel units) reaches.
+  /// (voxel units) reaches; an fn that returns bool stops the walk by returning false.
   template <class Fn>
   void for_each_tile(const SweptBead& bead, const Vec2& a2, const Vec2& b2, double hw,
                      Fn&& fn) const;
@@ -124,7 +124,15 @@ class BeadSweep {
     const Sides* sides;          ///< where it may go sideways (nullptr: anywhere)
     int steps;                   ///< the local ring's reach (voxels)
     bool past_sides;             ///< what finds no room within `sides` may go past them
+    /// The grown section's masks of this tile, per layer, kept across two passes over the
+    /// same tiles and layers (nullptr: none); *known: bit n set when cache[n] is filled in.
+    std::uint64_t* cache = nullptr;
+    std::uint64_t* known = nullptr;
   };
+  /// Into ring_: the grown section's voxels of tile (bx, by) on each layer of `ring` that has
+  /// free voxels in `within` (free_), 0 on the others.
+  void grown_masks(const Ring& ring, int bx, int by, int row_lo, int row_hi, unsigned lanes,
+                   std::uint64_t within);
   /// Places up to `need` voxels in the free voxels of tile (bx, by) inside the ring (rows
   /// row_lo..row_hi-1, x lanes `lanes`, within ring.sides): nearest first; of equal distance,
   /// those next to ring.hits first (when given; beside, above and below), then the rest,
@@ -143,10 +151,15 @@ class BeadSweep {
   std::vector<std::int32_t> local_layers_;  // scratch: the layers of the local ring
   std::vector<std::uint64_t> hits_;         // scratch: the bead's voxels that were occupied already
   std::vector<std::uint64_t> ring_;         // scratch: a tile's free voxels in a squeeze ring
-  std::vector<std::uint64_t> reach_;     // scratch: a tile's voxels within the local ring's reach
-  std::vector<std::uint64_t> put_;       // scratch: a tile's voxels a squeeze fills, per layer
-  std::vector<std::uint64_t> hit_near_;  // scratch: a tile's voxels next to the hits, per layer
-  std::vector<std::uint64_t> free_;      // scratch: a tile's free voxels per ring layer
+  std::vector<std::uint64_t> reach_;       // scratch: a tile's voxels within the local ring's reach
+  std::vector<std::uint64_t> put_;         // scratch: a tile's voxels a squeeze fills, per layer
+  std::vector<std::uint64_t> hit_near_;    // scratch: a tile's voxels next to the hits, per layer
+  std::vector<std::uint64_t> free_;        // scratch: a tile's free voxels per ring layer
+  std::vector<std::uint64_t> tile_masks_;  // scratch: grown masks per tile of a first pass
+  std::vector<std::uint64_t> tile_known_;  // scratch: which of them are filled in, per tile
+  std::vector<std::int32_t> test_layers_;  // scratch: the ring layers a tile test covers
+  std::vector<std::int32_t> test_ks_;      // scratch: their voxel layers
+  std::vector<std::uint64_t> test_out_;    // scratch: their masks
   // Voxels that hold squeezed material (per block: one word per z-slice, as the occupancy):
   // a later bead that falls on them displaces that material again as its own overflow, but
   // it is not counted as overlap a second time.
