@@ -19,7 +19,8 @@ trap 'rm -rf "$tmp"' EXIT
 
 timed() {  # appends "wall cpu maxrss_kb" of "$@" to $out
   /usr/bin/time -f "%e %U %S %M" -o "$tmp/t" "$@" > /dev/null 2>&1 || true
-  awk '{printf "%.3f %.3f %d\n", $1, $2 + $3, $4}' "$tmp/t" >> "$out"
+  # time writes "Command exited with non-zero status N" first when the gate fails
+  awk '/^[0-9]/ {printf "%.3f %.3f %d\n", $1, $2 + $3, $4}' "$tmp/t" >> "$out"
 }
 out="$tmp/prusa"; : > "$out"; prusa="$out"
 out="$tmp/verify"; : > "$out"; ver="$out"
