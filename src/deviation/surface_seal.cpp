@@ -35,15 +35,18 @@ void fill_volume(DepositSurface& s, const SurfaceRegion& region, const PartBlock
   const std::size_t n_blocks = box.size();
   const auto& kind = flood.kind;
   // Only blocks within reach of a block the outside entered can differ from "all filled"
-  // (untouched) or "none filled" (wholly outside, which holds no part voxel).
-  const int reach = (seal_r + kE - 1) / kE;
+  // (untouched) or "none filled" (wholly outside, which holds no part voxel): a voxel the
+  // outside takes back lies within seal_r (Chebyshev) of a voxel the flood found, and one the
+  // reopening opens within `reopen` 6-connected steps of such a voxel, so within
+  // seal_r + reopen of the flood's outside.
+  const int reach = (seal_r + (seal_r > 0 ? reopen : 0) + kE - 1) / kE;
   std::vector<std::uint8_t> near_outside(n_blocks, 0);
   for (std::size_t i = 0; i < n_blocks; ++i)
     near_outside[i] = kind[i] == OutsideFlood::kWhole || (kind[i] == OutsideFlood::kPartial &&
                                                           any(flood.outside[flood.slot[i]]))
                           ? 1
                           : 0;
-  dilate_flags(near_outside, box, reach + (seal_r > 0 ? (reopen + kE - 1) / kE : 0));
+  dilate_flags(near_outside, box, reach);
   s.filled_block_code.assign(n_blocks, DepositSurface::kAllFilled);
   std::vector<std::uint32_t> mixed;
   for (std::size_t i = 0; i < n_blocks; ++i) {
