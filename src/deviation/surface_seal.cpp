@@ -13,17 +13,50 @@ namespace printtwin::surface_blocks {
 
 namespace {
 
-/// Region voxels that are not filled, over the mixed blocks and the wholly outside ones.
-std::size_t count_not_filled(const DepositSurface& s, const SurfaceRegion& region,
-                             const OutsideFlood& flood, const std::vector<std::uint32_t>& mixed) {
-  std::size_t not_filled = 0;
-  for (std::size_t m = 0; m < mixed.size(); ++m) {
-    const Cube r = region.region_cube_of(mixed[m]);
-    for (std::size_t z = 0; z < kE; ++z)
-      not_filled += static_cast<std::size_t>(popcount64(r[z] & ~s.filled_masks[m][z]));
-  }
+/// Region voxels that are not filled in the wholly outside blocks.
+std::size_t outside_voxels(const SurfaceRegion& region, const OutsideFlood& flood) {
+  std::size_t n = 0;
   for (std::size_t i = 0; i < flood.kind.size(); ++i)
-    if (flood.kind[i] == OutsideFlood::kWhole) not_filled += region.region_voxels_of(i);
+    if (flood.kind[i] == OutsideFlood::kWhole) n += region.region_voxels_of(i);
+  return n;
+}
+
+/// The mixed blocks whose mask came out all filled or none filled take those codes, the
+/// others keep a mask (renumbered, in the same order); returns the region voxels the masks
+/// leave not filled.
+std::size_t settle_masks(DepositSurface& s, const SurfaceRegion& region,
+                         const std::vector<std::uint32_t>& mixed) {
+  enum : std::uint8_t { kMixed = 0, kAll = 1, kNone = 2 };
+  std::vector<std::uint8_t> state(mixed.size());
+  std::vector<std::uint32_t> open_voxels(mixed.size());
+  tbb::parallel_for(std::size_t{0}, mixed.size(), [&](std::size_t m) {
+    const Cube r = region.region_cube_of(mixed[m]);
+    std::uint64_t filled = 0, open = 0;
+    int n = 0;
+    for (std::size_t z = 0; z < kE; ++z) {
+      const std::uint64_t f = s.filled_masks[m][z] & r[z];
+      filled |= f;
+      open |= r[z] & ~f;
+      n += popcount64(r[z] & ~f);
+    }
+    open_voxels[m] = static_cast<std::uint32_t>(n);
+    state[m] = open == 0 ? kAll : filled == 0 ? kNone : kMixed;
+  });
+  std::size_t not_filled = 0, kept = 0;
+  for (std::size_t m = 0; m < mixed.size(); ++m) {
+    not_filled += open_voxels[m];
+    std::uint32_t& code = s.filled_block_code[mixed[m]];
+    if (state[m] == kAll) {
+      code = DepositSurface::kAllFilled;
+    } else if (state[m] == kNone) {
+      code = DepositSurface::kNoneFilled;
+    } else {
+      if (kept != m) s.filled_masks[kept] = s.filled_masks[m];
+      code = DepositSurface::kFirstMask + static_cast<std::uint32_t>(kept++);
+    }
+  }
+  s.filled_masks.resize(kept);
+  s.filled_masks.shrink_to_fit();
   return not_filled;
 }
 
@@ -70,16 +103,21 @@ void fill_volume(DepositSurface& s, const SurfaceRegion& region, const PartBlock
     const Eigen::Vector3i b = box.coords(mixed[m]);
     Cube o{};
     const bool some = outside_back.top_of(b.x(), b.y(), b.z(), o);
-    const Cube& p = or_empty(part.of[mixed[m]]);
     const Cube r = region.region_cube(b.x(), b.y(), b.z());
     Cube& f = s.filled_masks[m];
-    for (std::size_t z = 0; z < kE; ++z) f[z] = r[z] & ~((some ? o[z] : 0) & ~p[z]);
+    if (!some) {
+      f = r;
+      return;
+    }
+    const Cube& p = or_empty(part.of[mixed[m]]);
+    for (std::size_t z = 0; z < kE; ++z) f[z] = r[z] & ~(o[z] & ~p[z]);
   });
   for (std::size_t m = 0; m < mixed.size(); ++m)
     s.filled_block_code[mixed[m]] = DepositSurface::kFirstMask + static_cast<std::uint32_t>(m);
   if (seal_r > 0 && reopen > 0) reopen_grooves(s, region, part, mixed, reopen);
+  const std::size_t not_filled = settle_masks(s, region, mixed) + outside_voxels(region, flood);
   const auto n = s.dims.cast<std::size_t>();
-  s.filled_voxels = n.x() * n.y() * n.z() - count_not_filled(s, region, flood, mixed);
+  s.filled_voxels = n.x() * n.y() * n.z() - not_filled;
 }
 
 }  // namespace printtwin::surface_blocks
