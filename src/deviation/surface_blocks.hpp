@@ -72,41 +72,44 @@ inline const Cube& or_empty(const Cube* c) { return c != nullptr ? *c : kNoCube;
 /// One axis of a cube dilation by r (1 <= r <= 8) of block `m` between its neighbours `lo`
 /// (at -1 along the axis) and `hi` (+1); null = empty.
 inline Cube dilate_z(const Cube* lo_p, const Cube* m_p, const Cube* hi_p, int r) {
-  std::array<std::uint64_t, 3 * kE> s{};
-  if (lo_p != nullptr) std::copy(lo_p->begin(), lo_p->end(), s.begin());
-  if (m_p != nullptr) std::copy(m_p->begin(), m_p->end(), s.begin() + kE);
-  if (hi_p != nullptr) std::copy(hi_p->begin(), hi_p->end(), s.begin() + 2 * kE);
+  std::array<std::uint64_t, 3 * kE> s;
+  const Cube &lo = or_empty(lo_p), &m = or_empty(m_p), &hi = or_empty(hi_p);
+  std::copy(lo.begin(), lo.end(), s.begin());
+  std::copy(m.begin(), m.end(), s.begin() + kE);
+  std::copy(hi.begin(), hi.end(), s.begin() + 2 * kE);
   Cube out;
   for (int z = 0; z < kE; ++z) {
     std::uint64_t v = 0;
-    for (int k = -r; k <= r; ++k) v |= s[static_cast<std::size_t>(kE + z + k)];
+    for (int k = -r; k <= r; ++k) {
+      const int at = kE + z + k;
+      v |= s[static_cast<std::size_t>(at)];
+    }
     out[static_cast<std::size_t>(z)] = v;
   }
   return out;
 }
-/// Slices moved by k voxels both ways along x, with the neighbours' bits that wrap in:
-/// towards +x, bit x -> x + k and bits 8 - k.. of the -x neighbour's row enter; towards -x
-/// likewise from the +x neighbour. Bits crossing into another row are masked.
-struct StepX {
-  std::uint64_t operator()(std::uint64_t lo, std::uint64_t m, std::uint64_t hi, int k) const {
-    return ((m << k) & x_bits(k, 8)) | ((lo >> (8 - k)) & x_bits(0, k)) |
-           ((m >> k) & x_bits(0, 8 - k)) | ((hi << (8 - k)) & x_bits(8 - k, 8));
-  }
-};
+/// Word w of a slice moved by k voxels both ways along x, with the neighbours' bits that
+/// wrap in: towards +x, bit x -> x + k and bits 8 - k.. of the -x neighbour's row enter;
+/// towards -x likewise from the +x neighbour. Bits crossing into another row are masked.
+inline std::uint64_t step_x(std::uint64_t lo, std::uint64_t m, std::uint64_t hi, int k) {
+  return ((m << k) & x_bits(k, 8)) | ((lo >> (8 - k)) & x_bits(0, k)) |
+         ((m >> k) & x_bits(0, 8 - k)) | ((hi << (8 - k)) & x_bits(8 - k, 8));
+}
 /// The same along y: rows move by k, the neighbours' rows enter (a whole block at k = 8).
-struct StepY {
-  std::uint64_t operator()(std::uint64_t lo, std::uint64_t m, std::uint64_t hi, int k) const {
-    if (k == kE) return lo | hi;
-    return (m << (8 * k)) | (lo >> (64 - 8 * k)) | (m >> (8 * k)) | (hi << (64 - 8 * k));
-  }
-};
-/// One in-slice axis (StepX or StepY) of a cube dilation by r (1 <= r <= 8).
+inline std::uint64_t step_y(std::uint64_t lo, std::uint64_t m, std::uint64_t hi, int k) {
+  if (k == kE) return lo | hi;
+  return (m << (8 * k)) | (lo >> (64 - 8 * k)) | (m >> (8 * k)) | (hi << (64 - 8 * k));
+}
+/// One in-slice axis (x: step_x, y: step_y) of a cube dilation by r (1 <= r <= 8).
 template <class Step>
 Cube dilate_in_slices(const Cube* lo_p, const Cube* m_p, const Cube* hi_p, int r, Step step) {
   const Cube &lo = or_empty(lo_p), &m = or_empty(m_p), &hi = or_empty(hi_p);
-  Cube out = m;
-  for (int k = 1; k <= r; ++k)
-    for (std::size_t z = 0; z < kE; ++z) out[z] |= step(lo[z], m[z], hi[z], k);
+  Cube out;
+  for (std::size_t z = 0; z < kE; ++z) {
+    std::uint64_t v = m[z];
+    for (int k = 1; k <= r; ++k) v |= step(lo[z], m[z], hi[z], k);
+    out[z] = v;
+  }
   return out;
 }
 
@@ -251,9 +254,6 @@ class CubePool {
 /// the result of each step clipped. The base gives stable pointers (null = empty). prepare()
 /// computes the stages below the top that given blocks read (each block's stage once, kept
 /// for later calls), then top_of() gives the top stage of those blocks from any thread.
-/// With one step (r <= 8) nothing is kept: top_of reads the block's 26 neighbours in the base
-/// at once (9 columns along z, 3 rows along x, then y), which costs less than the
-/// bookkeeping of shared stages.
 template <class Base, class Clip>
 class DilatedField {
  public:
@@ -262,13 +262,12 @@ class DilatedField {
     for (int left = r; left > 0; left -= kE) steps_.push_back(std::min(left, kE));
     top_ = 3 * static_cast<int>(steps_.size());
     memo_.resize(static_cast<std::size_t>(std::max(top_, 1)));
-    for (int st = 1; st < top_ && top_ > 3; ++st)
+    for (int st = 1; st < top_; ++st)
       memo_[static_cast<std::size_t>(st)] = ZeroedArray<std::uint32_t>(box_.size());
   }
   /// Computes every stage below the top that the blocks `targets` (box indices) read, a
   /// stage at a time, its blocks in parallel; then top_of may run on several threads.
   void prepare(const std::vector<std::uint32_t>& targets) {
-    if (top_ <= 3) return;  // one step: top_of reads the base
     std::vector<std::vector<std::uint32_t>> lists(static_cast<std::size_t>(std::max(top_, 1)));
     if (mark_.size() != box_.size()) mark_ = ZeroedArray<std::uint8_t>(box_.size());
     const std::vector<std::uint32_t>* cur = &targets;
@@ -318,7 +317,6 @@ class DilatedField {
       out = or_empty(c);
       return c != nullptr;
     }
-    if (top_ == 3) return one_step(bx, by, bz, out);
     return compute(
         top_, bx, by, bz, [&](int x, int y, int z) { return read(top_ - 1, x, y, z); }, out);
   }
@@ -336,42 +334,12 @@ class DilatedField {
     const Cube* hi = below(bx + dx, by + dy, bz + dz);
     if (lo == nullptr && m == nullptr && hi == nullptr) return false;
     out = axis == 0   ? dilate_z(lo, m, hi, r)
-          : axis == 1 ? dilate_in_slices(lo, m, hi, r, StepX{})
-                      : dilate_in_slices(lo, m, hi, r, StepY{});
+          : axis == 1 ? dilate_in_slices(lo, m, hi, r, step_x)
+                      : dilate_in_slices(lo, m, hi, r, step_y);
     if (axis == 2) {
       const Cube c = clip_(bx, by, bz);
       for (std::size_t z = 0; z < kE; ++z) out[z] &= c[z];
     }
-    return any(out);
-  }
-  /// The top stage with one step, from the base: along z (9 columns), then y (3 columns of
-  /// blocks), then x, clipped; the axes commute, so it equals compute()'s z, x, y.
-  bool one_step(int bx, int by, int bz, Cube& out) const {
-    const int r = steps_[0];
-    std::array<Cube, 3> planes;  // per dx: the column's blocks dilated along z and y
-    std::array<const Cube*, 3> plane_of{};
-    for (int dx = -1; dx <= 1; ++dx) {
-      std::array<Cube, 3> cols;  // per dy: dilated along z
-      std::array<const Cube*, 3> col_of{};
-      for (int dy = -1; dy <= 1; ++dy) {
-        const int x = bx + dx, y = by + dy;
-        const Cube* lo = read(0, x, y, bz - 1);
-        const Cube* m = read(0, x, y, bz);
-        const Cube* hi = read(0, x, y, bz + 1);
-        if (lo == nullptr && m == nullptr && hi == nullptr) continue;
-        Cube& c = cols[static_cast<std::size_t>(dy + 1)];
-        c = dilate_z(lo, m, hi, r);
-        col_of[static_cast<std::size_t>(dy + 1)] = &c;
-      }
-      if (col_of[0] == nullptr && col_of[1] == nullptr && col_of[2] == nullptr) continue;
-      Cube& w = planes[static_cast<std::size_t>(dx + 1)];
-      w = dilate_in_slices(col_of[0], col_of[1], col_of[2], r, StepY{});
-      plane_of[static_cast<std::size_t>(dx + 1)] = &w;
-    }
-    if (plane_of[0] == nullptr && plane_of[1] == nullptr && plane_of[2] == nullptr) return false;
-    out = dilate_in_slices(plane_of[0], plane_of[1], plane_of[2], r, StepX{});
-    const Cube c = clip_(bx, by, bz);
-    for (std::size_t z = 0; z < kE; ++z) out[z] &= c[z];
     return any(out);
   }
   /// A computed stage (st < top), or the base.
