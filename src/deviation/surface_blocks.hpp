@@ -88,19 +88,24 @@ inline Cube dilate_z(const Cube* lo_p, const Cube* m_p, const Cube* hi_p, int r)
   }
   return out;
 }
-/// Word w of a slice moved by k voxels both ways along x, with the neighbours' bits that
-/// wrap in: towards +x, bit x -> x + k and bits 8 - k.. of the -x neighbour's row enter;
-/// towards -x likewise from the +x neighbour. Bits crossing into another row are masked.
-inline std::uint64_t step_x(std::uint64_t lo, std::uint64_t m, std::uint64_t hi, int k) {
-  return ((m << k) & x_bits(k, 8)) | ((lo >> (8 - k)) & x_bits(0, k)) |
-         ((m >> k) & x_bits(0, 8 - k)) | ((hi << (8 - k)) & x_bits(8 - k, 8));
-}
+/// Slices moved by k voxels both ways along x, with the neighbours' bits that wrap in:
+/// towards +x, bit x -> x + k and bits 8 - k.. of the -x neighbour's row enter; towards -x
+/// likewise from the +x neighbour. Bits crossing into another row are masked. (Functors, so
+/// dilate_in_slices inlines them.)
+struct StepX {
+  std::uint64_t operator()(std::uint64_t lo, std::uint64_t m, std::uint64_t hi, int k) const {
+    return ((m << k) & x_bits(k, 8)) | ((lo >> (8 - k)) & x_bits(0, k)) |
+           ((m >> k) & x_bits(0, 8 - k)) | ((hi << (8 - k)) & x_bits(8 - k, 8));
+  }
+};
 /// The same along y: rows move by k, the neighbours' rows enter (a whole block at k = 8).
-inline std::uint64_t step_y(std::uint64_t lo, std::uint64_t m, std::uint64_t hi, int k) {
-  if (k == kE) return lo | hi;
-  return (m << (8 * k)) | (lo >> (64 - 8 * k)) | (m >> (8 * k)) | (hi << (64 - 8 * k));
-}
-/// One in-slice axis (x: step_x, y: step_y) of a cube dilation by r (1 <= r <= 8).
+struct StepY {
+  std::uint64_t operator()(std::uint64_t lo, std::uint64_t m, std::uint64_t hi, int k) const {
+    if (k == kE) return lo | hi;
+    return (m << (8 * k)) | (lo >> (64 - 8 * k)) | (m >> (8 * k)) | (hi << (64 - 8 * k));
+  }
+};
+/// One in-slice axis (StepX or StepY) of a cube dilation by r (1 <= r <= 8).
 template <class Step>
 Cube dilate_in_slices(const Cube* lo_p, const Cube* m_p, const Cube* hi_p, int r, Step step) {
   const Cube &lo = or_empty(lo_p), &m = or_empty(m_p), &hi = or_empty(hi_p);
@@ -334,8 +339,8 @@ class DilatedField {
     const Cube* hi = below(bx + dx, by + dy, bz + dz);
     if (lo == nullptr && m == nullptr && hi == nullptr) return false;
     out = axis == 0   ? dilate_z(lo, m, hi, r)
-          : axis == 1 ? dilate_in_slices(lo, m, hi, r, step_x)
-                      : dilate_in_slices(lo, m, hi, r, step_y);
+          : axis == 1 ? dilate_in_slices(lo, m, hi, r, StepX{})
+                      : dilate_in_slices(lo, m, hi, r, StepY{});
     if (axis == 2) {
       const Cube c = clip_(bx, by, bz);
       for (std::size_t z = 0; z < kE; ++z) out[z] &= c[z];
