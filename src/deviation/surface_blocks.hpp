@@ -119,11 +119,13 @@ Cube dilate_in_slices(const Cube* lo_p, const Cube* m_p, const Cube* hi_p, int r
 }
 
 /// Within one block, the voxels of `open` 6-connected to `seed` (seed inside open).
+/// Up the slices, then down, until a pass down changes nothing: each slice it visited was
+/// then grown to a fixed point against its neighbours' final state, so the flood is complete.
 inline Cube flood_cube(const Cube& open, Cube o) {
   for (bool changed = true; changed;) {
-    changed = false;
     // Up the slices, then down: each pass carries a front through the whole block in z.
-    for (int pass = 0; pass < 2; ++pass)
+    for (int pass = 0; pass < 2; ++pass) {
+      changed = false;
       for (int i = 0; i < kE; ++i) {
         const auto z = static_cast<std::size_t>(pass == 0 ? i : kE - 1 - i);
         std::uint64_t w = o[z];
@@ -141,6 +143,7 @@ inline Cube flood_cube(const Cube& open, Cube o) {
           changed = true;
         }
       }
+    }
   }
   return o;
 }
