@@ -74,6 +74,12 @@ class HeightMap {
     raise_tops(top_.data() + at, top_layer_.data() + at, before_.data() + at, mask, rows, layer);
   }
 
+  /// The columns (bit y * 8 + x) of the tile whose first column has index `at` that hold
+  /// exactly `rows` rows. The top voxel of a column is always occupied (every write raises
+  /// the map), so these are the columns whose voxel in row rows - 1 is occupied and is their
+  /// top.
+  [[nodiscard]] std::uint64_t tops_equal(std::size_t at, std::uint16_t rows) const;
+
   /// Bytes per column of the map (for the memory estimate).
   static constexpr std::size_t kColumnBytes = 2 * sizeof(std::uint16_t) + sizeof(std::int32_t);
   [[nodiscard]] std::size_t memory_bytes() const { return top_.size() * kColumnBytes; }
