@@ -332,8 +332,9 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
     std::size_t tile_overlap = 0;
     std::size_t tile_rehit = 0;  // of it, squeezed material displaced again
     // Top layer first: a column is raised once, by its highest voxel (raising it by a lower
-    // one after that changes nothing).
+    // one after that changes nothing); all of the tile's columns in one call.
     std::uint64_t raised = 0;
+    alignas(16) std::array<std::uint16_t, 64> rows{};
     for (std::size_t layer_at = nk; layer_at-- > 0;) {
       const std::uint64_t mask = masks[layer_at];
       if (squeezing) hits[layer_at] = 0;
@@ -357,9 +358,10 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
         tile_overlap += static_cast<std::size_t>(popcount64(mask)) - fresh;
       }
       if ((mask & ~raised) != 0)
-        map.raise_tile(at, mask & ~raised, static_cast<std::uint16_t>(k + 1), bead.layer);
+        HeightMap::set_columns(rows.data(), mask & ~raised, static_cast<std::uint16_t>(k + 1));
       raised |= mask;
     }
+    if (raised != 0) map.raise_tile_columns(at, raised, rows.data(), bead.layer);
     if (joined_) writer_->end_tile();  // the writer counts the overlap and the join's credit
     laid.overlap += tile_overlap;
     rehit += tile_rehit;
