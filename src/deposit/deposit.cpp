@@ -51,6 +51,9 @@ struct DepositBuilder::State {
   detail::SupportTracker support;
   detail::BeadSweep sweeper;
   detail::DroopProbe droop;  // sag, droop, elephant's foot
+  // The grid's writes without the squeeze (which reads the grid): on a writer thread when
+  // there is a second core (grid_writer.hpp).
+  std::unique_ptr<detail::GridWriter> writer;
 
   double extruded_mm3 = 0;
   std::size_t beads = 0;
@@ -71,7 +74,15 @@ struct DepositBuilder::State {
             static_cast<std::size_t>(detail::VoxelBlocks::block_dims(grid).y())),
         support(s.support_fraction, s.min_unsupported_mm, s.voxel_mm),
         sweeper(grid, s.exhaustive_tiles),
-        droop(detail::DroopModel::from(p), s.voxel_mm) {}
+        droop(detail::DroopModel::from(p), s.voxel_mm) {
+    using Writes = detail::DepositRunSettings::Writes;
+    if (!s.conserve_volume && s.writes != Writes::direct) {
+      const bool threaded = s.writes == Writes::thread ||
+                            (s.writes == Writes::automatic && detail::GridWriter::wanted(grid));
+      writer = std::make_unique<detail::GridWriter>(grid, threaded);
+      sweeper.defer_writes(writer.get());
+    }
+  }
 
   // -- moves -----------------------------------------------------------------------------
   void add(const Move& m) {
@@ -170,6 +181,11 @@ struct DepositBuilder::State {
   DepositResult finish() {
     flush(std::nullopt, true);
     support.close_stretch(false);
+    if (writer) {
+      const detail::GridWriter::Totals t = writer->finish();
+      overlap_voxels += t.overlap;
+      squeezed_voxels += t.squeezed;
+    }
     DepositResult r;
     r.voxel_mm = voxel;
     r.voxels = grid.count();

@@ -2,6 +2,7 @@
 #include "deposit/height_map.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 
 #if defined(__SSE2__)
@@ -53,15 +54,53 @@ int HeightMap::rows_reaching(double z_mm) const {
   return std::max(r, 0);
 }
 
-void HeightMap::raise_tops(std::uint16_t* tile, std::int32_t* layers, std::uint16_t* before,
-                           std::uint64_t mask, std::uint16_t rows, std::int32_t layer) {
+std::uint64_t HeightMap::tops_equal(std::size_t at, std::uint16_t rows) const {
+  const std::uint16_t* tile = top_.data() + at;
+  std::uint64_t m = 0;
+#if defined(__SSE2__)
+  const __m128i value = _mm_set1_epi16(static_cast<short>(rows));
+  for (int y = 0; y < 8; ++y) {
+    const __m128i eq =
+        _mm_cmpeq_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(tile + 8 * y)), value);
+    const auto bits = static_cast<unsigned>(_mm_movemask_epi8(_mm_packs_epi16(eq, eq))) & 0xFFu;
+    m |= static_cast<std::uint64_t>(bits) << (8 * y);
+  }
+#else
+  for (int s = 0; s < 64; ++s)
+    if (tile[s] == rows) m |= std::uint64_t{1} << s;
+#endif
+  return m;
+}
+
+void HeightMap::set_columns(std::uint16_t* rows, std::uint64_t mask, std::uint16_t value) {
 #if defined(__SSE2__)
   const __m128i bit = _mm_setr_epi16(1, 2, 4, 8, 16, 32, 64, 128);
-  const __m128i value = _mm_set1_epi16(static_cast<short>(rows));
+  const __m128i v = _mm_set1_epi16(static_cast<short>(value));
+  for (int y = 0; y < 8; ++y, rows += 8) {
+    const auto m = static_cast<short>((mask >> (8 * y)) & 0xFFu);
+    if (m == 0) continue;
+    const __m128i lanes = _mm_cmpeq_epi16(_mm_and_si128(_mm_set1_epi16(m), bit), bit);
+    auto* p = reinterpret_cast<__m128i*>(rows);
+    _mm_storeu_si128(
+        p, _mm_or_si128(_mm_and_si128(lanes, v), _mm_andnot_si128(lanes, _mm_loadu_si128(p))));
+  }
+#else
+  for (; mask != 0; mask &= mask - 1) rows[std::countr_zero(mask)] = value;
+#endif
+}
+
+void HeightMap::raise_tops(std::uint16_t* tile, std::int32_t* layers, std::uint16_t* before,
+                           std::uint64_t mask, const std::uint16_t* rows, bool per_column,
+                           std::int32_t layer) {
+#if defined(__SSE2__)
+  const __m128i bit = _mm_setr_epi16(1, 2, 4, 8, 16, 32, 64, 128);
+  const __m128i one_value = _mm_set1_epi16(static_cast<short>(rows[0]));
   const __m128i layer4 = _mm_set1_epi32(layer);
   for (int y = 0; y < 8; ++y, tile += 8, layers += 8, before += 8) {
     const auto m = static_cast<short>((mask >> (8 * y)) & 0xFFu);
     if (m == 0) continue;
+    const __m128i value =
+        per_column ? _mm_loadu_si128(reinterpret_cast<const __m128i*>(rows + 8 * y)) : one_value;
     const __m128i lanes = _mm_cmpeq_epi16(_mm_and_si128(_mm_set1_epi16(m), bit), bit);
     auto* p = reinterpret_cast<__m128i*>(tile);
     const __m128i old = _mm_loadu_si128(p);
@@ -89,11 +128,12 @@ void HeightMap::raise_tops(std::uint16_t* tile, std::int32_t* layers, std::uint1
     const auto m = static_cast<unsigned>(mask >> (8 * y)) & 0xFFu;
     for (int x = 0; x < 8; ++x) {
       if (((m >> x) & 1u) == 0) continue;
-      if (rows >= tile[x]) {
+      const std::uint16_t r = rows[per_column ? 8 * y + x : 0];
+      if (r >= tile[x]) {
         if ((layers[x] >> 1) != (layer >> 1)) before[x] = tile[x];
         layers[x] = layer;
       }
-      tile[x] = std::max(tile[x], rows);
+      tile[x] = std::max(tile[x], r);
     }
   }
 #endif

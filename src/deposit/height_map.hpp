@@ -71,8 +71,24 @@ class HeightMap {
   /// height), the column's top voxel is now `layer`'s (a layer_code); where that changes the
   /// column's top layer, the rows it held before are kept (rows_before_top_layer).
   void raise_tile(std::size_t at, std::uint64_t mask, std::uint16_t rows, std::int32_t layer) {
-    raise_tops(top_.data() + at, top_layer_.data() + at, before_.data() + at, mask, rows, layer);
+    raise_tops(top_.data() + at, top_layer_.data() + at, before_.data() + at, mask, &rows, false,
+               layer);
   }
+  /// raise_tile with rows per column: column s (bit s of `mask`) to at least rows[s]. One call
+  /// for a tile's voxel layers instead of one per layer (each column raised by its highest).
+  void raise_tile_columns(std::size_t at, std::uint64_t mask, const std::uint16_t* rows,
+                          std::int32_t layer) {
+    raise_tops(top_.data() + at, top_layer_.data() + at, before_.data() + at, mask, rows, true,
+               layer);
+  }
+  /// Sets rows[s] = value for the bits s of `mask` (the per-column rows of raise_tile_columns).
+  static void set_columns(std::uint16_t* rows, std::uint64_t mask, std::uint16_t value);
+
+  /// The columns (bit y * 8 + x) of the tile whose first column has index `at` that hold
+  /// exactly `rows` rows. The top voxel of a column is always occupied (every write raises
+  /// the map), so these are the columns whose voxel in row rows - 1 is occupied and is their
+  /// top.
+  [[nodiscard]] std::uint64_t tops_equal(std::size_t at, std::uint16_t rows) const;
 
   /// Bytes per column of the map (for the memory estimate).
   static constexpr std::size_t kColumnBytes = 2 * sizeof(std::uint16_t) + sizeof(std::int32_t);
@@ -85,8 +101,10 @@ class HeightMap {
   }
 
  private:
+  /// `rows`: one value for every column, or (per_column) 64 values.
   static void raise_tops(std::uint16_t* tile, std::int32_t* layers, std::uint16_t* before,
-                         std::uint64_t mask, std::uint16_t rows, std::int32_t layer);
+                         std::uint64_t mask, const std::uint16_t* rows, bool per_column,
+                         std::int32_t layer);
 
   double voxel_, inv_voxel_;
   double ox_, oy_, oz_;

@@ -308,6 +308,7 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
   // plastic (the corner's inner overlap), which the squeeze then no longer places. (A join
   // larger than the bead's overlap, after a very short bead, adds the difference.)
   std::size_t credit = 0;
+  joined_ = false;
   if (bead.join_w_mm > 0)
     credit =
         lay_disc(Disc{bead.a_mm, bead.join_h_mm, bead.join_w_mm, bead.join_d, bead.d, bead.layer},
@@ -331,8 +332,9 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
     std::size_t tile_overlap = 0;
     std::size_t tile_rehit = 0;  // of it, squeezed material displaced again
     // Top layer first: a column is raised once, by its highest voxel (raising it by a lower
-    // one after that changes nothing).
+    // one after that changes nothing); all of the tile's columns in one call.
     std::uint64_t raised = 0;
+    alignas(16) std::array<std::uint16_t, 64> rows{};
     for (std::size_t layer_at = nk; layer_at-- > 0;) {
       const std::uint64_t mask = masks[layer_at];
       if (squeezing) hits[layer_at] = 0;
@@ -349,12 +351,18 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
           }
         }
       }
-      const std::size_t fresh = detail::VoxelBlocks::write_tile(grid, bx, by, k, mask, tag);
-      tile_overlap += static_cast<std::size_t>(popcount64(mask)) - fresh;
+      if (writer_ != nullptr) {
+        writer_->bead(bx, by, k, mask, tag);
+      } else {
+        const std::size_t fresh = detail::VoxelBlocks::write_tile(grid, bx, by, k, mask, tag);
+        tile_overlap += static_cast<std::size_t>(popcount64(mask)) - fresh;
+      }
       if ((mask & ~raised) != 0)
-        map.raise_tile(at, mask & ~raised, static_cast<std::uint16_t>(k + 1), bead.layer);
+        HeightMap::set_columns(rows.data(), mask & ~raised, static_cast<std::uint16_t>(k + 1));
       raised |= mask;
     }
+    if (raised != 0) map.raise_tile_columns(at, raised, rows.data(), bead.layer);
+    if (joined_) writer_->end_tile();  // the writer counts the overlap and the join's credit
     laid.overlap += tile_overlap;
     rehit += tile_rehit;
     const std::size_t used = std::min(credit, tile_overlap);
@@ -369,6 +377,7 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
     laid.squeezed += placed;
     carry = carry + tile_overlap - placed;
   });
+  if (joined_) writer_->end_piece();
   if (carry > 0) laid.squeezed += squeeze(bead, f, a2, b2, sides, carry, grid, tag, map);
   // Squeezed material the bead fell on was counted as overlap by the bead that squeezed it;
   // placed again, it is neither overlap nor squeezed a second time (what finds no room stays
@@ -424,14 +433,27 @@ std::size_t BeadSweep::lay_disc(const Disc& disc, VoxelGrid& grid, std::uint32_t
       for (int k = k_hi; k >= k_lo; --k) {
         std::uint64_t mask = test_tile_disc(g, 8 * bx, 8 * by, k, row_lo, row_hi, lanes);
         if (mask == 0) continue;
-        if (overlap == nullptr) {  // a join: only the free voxels
-          const std::uint64_t* occ = detail::VoxelBlocks::block_occupancy(grid, bx, by, k >> 3);
-          mask &= ~(occ != nullptr ? occ[k & 7] : 0);
-          if (mask == 0) continue;
+        if (writer_ != nullptr) {
+          // The writer writes and counts. A join fills only the free voxels: of the occupied
+          // ones, those that are their column's top would hand the top to this layer; the
+          // others lie below a higher top and raise nothing.
+          if (overlap != nullptr) {
+            writer_->cap(bx, by, k, mask, tag);
+          } else {
+            writer_->join(bx, by, k, mask, tag);
+            joined_ = true;
+            mask &= ~map.tops_equal(at, static_cast<std::uint16_t>(k + 1));
+          }
+        } else {
+          if (overlap == nullptr) {  // a join: only the free voxels
+            const std::uint64_t* occ = detail::VoxelBlocks::block_occupancy(grid, bx, by, k >> 3);
+            mask &= ~(occ != nullptr ? occ[k & 7] : 0);
+            if (mask == 0) continue;
+          }
+          const std::size_t fresh = detail::VoxelBlocks::write_tile(grid, bx, by, k, mask, tag);
+          filled += fresh;
+          if (overlap != nullptr) *overlap += static_cast<std::size_t>(popcount64(mask)) - fresh;
         }
-        const std::size_t fresh = detail::VoxelBlocks::write_tile(grid, bx, by, k, mask, tag);
-        filled += fresh;
-        if (overlap != nullptr) *overlap += static_cast<std::size_t>(popcount64(mask)) - fresh;
         if ((mask & ~raised) != 0)
           map.raise_tile(at, mask & ~raised, static_cast<std::uint16_t>(k + 1), disc.layer);
         raised |= mask;

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "deposit/grid_writer.hpp"
 #include "deposit/height_map.hpp"
 #include "deposit/kernels.hpp"
 #include "printtwin/geometry.hpp"
@@ -63,6 +64,9 @@ class BeadSweep {
   };
   /// Lays `bead` into `grid` with tag `tag` and raises the height map under it.
   Laid lay(const SweptBead& bead, VoxelGrid& grid, std::uint32_t tag, HeightMap& map);
+  /// Sends the grid's writes to `writer` (nullptr: writes them at once), which then counts
+  /// the overlap (lay returns zeros). Only for beads without a squeeze, which reads the grid.
+  void defer_writes(GridWriter* writer) { writer_ = writer; }
 
  private:
   /// The frame of the sample-point tests, and the layers the section reaches (reached_) with
@@ -140,6 +144,8 @@ class BeadSweep {
   std::size_t squeeze_tile(const Ring& ring, int bx, int by, int row_lo, int row_hi, unsigned lanes,
                            std::size_t need, VoxelGrid& grid, std::uint32_t tag, HeightMap& map);
 
+  GridWriter* writer_ = nullptr;  // where the writes go (nullptr: into the grid at once)
+  bool joined_ = false;           // the bead laid last had a round join with writes
   Vec3 origin_;
   double inv_voxel_;
   int nx_, ny_, nz_;

@@ -197,5 +197,42 @@ TEST(HeightMap, KeepsTheRowsBeforeTheTopLayer) {
   EXPECT_EQ(map.rows_before_top_layer(-1.0, 0.01), 0);  // outside the map
 }
 
+// One call with rows per column (the sweep's, per tile) leaves the map as the calls per voxel
+// layer did (top layer first, each column raised by its highest voxel), on random layers of
+// random columns over a map that already holds other layers; tops_equal finds the tops.
+TEST(HeightMap, ColumnsOfATileInOneCallAsLayerByLayer) {
+  std::mt19937_64 rng(5);
+  HeightMap by_layer(0.05, Vec3::Zero(), 8, 8, 1, 1), at_once(0.05, Vec3::Zero(), 8, 8, 1, 1);
+  const std::size_t tile = by_layer.index(0, 0);
+  for (int trial = 0; trial < 400; ++trial) {
+    const std::int32_t layer = HeightMap::layer_code(trial / 20, trial % 3 == 0);
+    const int top = 4 + trial / 4 + static_cast<int>(rng() % 4);
+    std::uint64_t raised = 0;
+    std::array<std::uint16_t, 64> rows{};
+    for (int k = top; k > top - 5 && k >= 0; --k) {
+      const std::uint64_t mask = rng() & rng();
+      if ((mask & ~raised) != 0) {
+        by_layer.raise_tile(tile, mask & ~raised, static_cast<std::uint16_t>(k + 1), layer);
+        HeightMap::set_columns(rows.data(), mask & ~raised, static_cast<std::uint16_t>(k + 1));
+      }
+      raised |= mask;
+    }
+    if (raised != 0) at_once.raise_tile_columns(tile, raised, rows.data(), layer);
+    for (int s = 0; s < 64; ++s) {
+      const double x = 0.05 * (s % 8) + 0.01, y = 0.05 * (s / 8) + 0.01;
+      ASSERT_EQ(by_layer.rows(x, y), at_once.rows(x, y)) << trial << " " << s;
+      ASSERT_EQ(by_layer.top_layer_at(x, y), at_once.top_layer_at(x, y)) << trial << " " << s;
+      ASSERT_EQ(by_layer.top_is_support(x, y), at_once.top_is_support(x, y));
+      ASSERT_EQ(by_layer.rows_before_top_layer(x, y), at_once.rows_before_top_layer(x, y));
+    }
+    const auto r = static_cast<std::uint16_t>(top);
+    std::uint64_t eq = 0;
+    for (int s = 0; s < 64; ++s)
+      if (by_layer.rows(0.05 * (s % 8) + 0.01, 0.05 * (s / 8) + 0.01) == r)
+        eq |= std::uint64_t{1} << s;
+    ASSERT_EQ(at_once.tops_equal(tile, r), eq);
+  }
+}
+
 }  // namespace
 }  // namespace printtwin::detail
