@@ -90,6 +90,20 @@ struct LayerSurface {
 /// outline is simple and the outlines of one slab do not cross (is_closed_oriented checks).
 LayerSurface build_layer_surface(const LayerSlabs& slabs, const LayerSurfaceOptions& options);
 
+/// The cap between a slab's top rings (`lower`) and the next slab's bottom rings (`upper`):
+/// each ring closed (first point not repeated), its region on its left, the rings of one
+/// set apart. The exclusive-or of the two regions, triangulated (counter-clockwise where
+/// only the lower region is: facing up). Upper vertices within `snap_mm` of a lower vertex
+/// (rings running the same way) are snapped onto it. `ok` false: a ring crosses its set.
+struct LayerCap {
+  std::vector<Eigen::Vector2d> vertices;
+  std::vector<std::array<std::uint32_t, 3>> triangles;
+  bool ok = false;
+};
+LayerCap layer_cap(const std::vector<std::vector<Eigen::Vector2d>>& lower,
+                   const std::vector<std::vector<Eigen::Vector2d>>& upper, double snap_mm,
+                   bool exact = false);
+
 /// True when every edge of the mesh is used exactly once in each direction.
 bool is_closed_oriented(const Mesh& mesh);
 

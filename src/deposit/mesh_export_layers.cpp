@@ -124,6 +124,7 @@ struct Slab {
   /// and the one above touch along an edge only (diagonal cells), their rings would share
   /// it in opposite directions (four triangles on one edge); this keeps them apart.
   double end_inset = 0;
+  double cell_mm = 0;
   std::size_t points = 0;  ///< over its outlines
 };
 
@@ -293,6 +294,7 @@ Slab trace_slab(const LayerSlabs& in, int s, double tol, std::vector<std::uint64
   slab.z_hi = in.base_mm.z() + in.cell_mm * z1;
   const double r = 0.5 * (slab.z_hi - slab.z_lo);
   slab.end_inset = 0.02 * in.cell_mm;
+  slab.cell_mm = in.cell_mm;
   rows.assign(static_cast<std::size_t>(in.height) * static_cast<std::size_t>((in.width + 63) / 64),
               0);
   in.project(z0, z1, rows);
@@ -357,6 +359,13 @@ P2 ring_point(const Slab& s, const Outline& o, std::size_t k, int j, int steps) 
 }
 
 // ---------------------------------------------------------------- caps
+
+/// A closed ring of a cap (the first point not repeated), its region on its left.
+using CapRing = std::vector<P2>;
+
+/// Upper ring vertices this close to a lower ring vertex (in cells; 5 um at 0.05 mm) are
+/// snapped onto it: well under the outline tolerance, above the rounding of the rings.
+constexpr double kCapSnapCells = 0.1;
 
 /// A boundary between slabs: its vertices, the cap triangles, and each ring's vertices in
 /// order with its split points (`pos[k]`: the place of the ring's vertex k in `seq`).
@@ -429,9 +438,11 @@ void mark_faces(Ct& ct, const std::unordered_map<std::uint64_t, unsigned char>& 
   }
 }
 
-/// The cap on triangulation Ct (see cap).
+/// The cap on triangulation Ct (see cap) of `rings` (the first `n_below` are the lower
+/// slab's top rings, region bit 1; the others the upper slab's bottom rings, bit 2), the
+/// constraints inserted in ring order.
 template <class Ct>
-Boundary cap_on(const Slab* below, const Slab* above, int steps) {
+Boundary cap_on(const std::vector<CapRing>& in, std::size_t n_below) {
   using Point = typename Ct::Point;
   Boundary b;
   Ct ct;
@@ -440,21 +451,12 @@ Boundary cap_on(const Slab* below, const Slab* above, int steps) {
     typename Ct::Constraint_id cid;
     unsigned char side;
   };
-  std::vector<Ring> rings;
-  const auto add = [&](const Slab* s, int j, unsigned char side) {
-    if (s == nullptr) return;
-    for (const Outline& o : s->outlines) {
-      Ring r;
-      r.side = side;
-      for (std::size_t k = 0; k < o.pts.size(); ++k) {
-        const P2 p = ring_point(*s, o, k, j, steps);
-        r.pts.emplace_back(p.x(), p.y());
-      }
-      rings.push_back(std::move(r));
-    }
-  };
-  add(below, 2 * steps, 1);
-  add(above, 0, 2);
+  std::vector<Ring> rings(in.size());
+  for (std::size_t ri = 0; ri < in.size(); ++ri) {
+    rings[ri].side = ri < n_below ? 1 : 2;
+    rings[ri].pts.reserve(in[ri].size());
+    for (const P2& p : in[ri]) rings[ri].pts.emplace_back(p.x(), p.y());
+  }
   for (Ring& r : rings) r.cid = ct.insert_constraint(r.pts.begin(), r.pts.end(), true);
   std::uint32_t n = 0;
   for (auto v : ct.finite_vertex_handles()) {
@@ -466,13 +468,15 @@ Boundary cap_on(const Slab* below, const Slab* above, int steps) {
     b.pos_base.push_back(static_cast<std::uint32_t>(b.pos.size()));
     const auto first = static_cast<std::uint32_t>(b.seq.size());
     std::size_t k = 0;
+    if (r.cid == typename Ct::Constraint_id(nullptr)) {  // every point one (snapped)
+      b.ok = false;
+      return b;
+    }
     for (auto it = ct.vertices_in_constraint_begin(r.cid);
          it != ct.vertices_in_constraint_end(r.cid); ++it) {
       const auto at = static_cast<std::uint32_t>(b.seq.size());
-      if (k < r.pts.size() && (*it)->point() == r.pts[k]) {
-        b.pos.push_back(at);
-        ++k;
-      }
+      // Ring points snapped onto one vertex share its place (a side edge of no length).
+      for (; k < r.pts.size() && (*it)->point() == r.pts[k]; ++k) b.pos.push_back(at);
       if (at > first) {
         const std::uint32_t u = b.seq.back(), v = (*it)->info();
         if (u != v) toggles[edge_key(u, v)] ^= r.side;
@@ -489,7 +493,6 @@ Boundary cap_on(const Slab* below, const Slab* above, int steps) {
   mark_faces(ct, toggles);
   std::vector<typename Ct::Vertex_handle> handle(n);
   for (auto v : ct.finite_vertex_handles()) handle[v->info()] = v;
-  const std::size_t n_below = below != nullptr ? below->outlines.size() : 0;
   for (std::size_t ri = 0; ri < rings.size(); ++ri) {
     const std::size_t begin = b.pos[b.pos_base[ri]];
     const std::size_t end = b.pos[b.pos_base[ri] + rings[ri].pts.size()];
@@ -520,14 +523,98 @@ Boundary cap_on(const Slab* below, const Slab* above, int steps) {
   return b;
 }
 
-/// The cap between `below`'s top rings and `above`'s bottom rings (either may be null):
-/// the fast triangulation, or the exact one where the fast one finds a ring that does not
-/// bound its region (a real crossing, or an intersection snapped aside).
-Boundary cap(const Slab* below, const Slab* above, int steps, bool exact) {
-  if (exact) return cap_on<CtExact>(below, above, steps);
-  Boundary b = cap_on<CtFast>(below, above, steps);
-  if (!b.ok || !b.crossed.empty()) b = cap_on<CtExact>(below, above, steps);
+/// The tangent of a closed ring at vertex k (previous to next vertex).
+P2 ring_tangent(const CapRing& r, std::size_t k) {
+  const std::size_t n = r.size();
+  return r[(k + 1) % n] - r[(k + n - 1) % n];
+}
+
+/// Moves each upper ring vertex within `eps` of a lower ring vertex onto it (the nearest),
+/// when both rings run the same way there (rings that meet head-on, as diagonal neighbours'
+/// rings do, stay apart) and no other upper vertex took it, except the one just before on
+/// the same ring. Rings a few micrometres apart then share vertices instead of crossing
+/// near them, which leaves sliver triangles. A ring that would keep fewer than three points
+/// is left as it is.
+void snap_upper_to_lower(std::vector<CapRing>& rings, std::size_t n_below, double eps) {
+  if (n_below == 0 || n_below == rings.size() || eps <= 0) return;
+  const auto cell_of = [&](double v) { return static_cast<std::int64_t>(std::floor(v / eps)); };
+  const auto key = [](std::int64_t x, std::int64_t y) {
+    return (static_cast<std::uint64_t>(x) << 32) ^ static_cast<std::uint64_t>(y & 0xffffffff);
+  };
+  std::unordered_multimap<std::uint64_t, std::array<std::uint32_t, 2>> grid;
+  for (std::size_t ri = 0; ri < n_below; ++ri)
+    for (std::size_t k = 0; k < rings[ri].size(); ++k)
+      grid.emplace(key(cell_of(rings[ri][k].x()), cell_of(rings[ri][k].y())),
+                   std::array{static_cast<std::uint32_t>(ri), static_cast<std::uint32_t>(k)});
+  // Lower vertex -> the upper ring and vertex that took it.
+  std::unordered_map<std::uint64_t, std::array<std::size_t, 2>> taken;
+  for (std::size_t ri = n_below; ri < rings.size(); ++ri) {
+    CapRing moved = rings[ri];
+    std::vector<std::uint64_t> took;
+    for (std::size_t k = 0; k < moved.size(); ++k) {
+      const P2 p = rings[ri][k];
+      const P2 tangent = ring_tangent(rings[ri], k);
+      double best = eps * eps;
+      const std::array<std::uint32_t, 2>* hit = nullptr;
+      const std::int64_t cx = cell_of(p.x()), cy = cell_of(p.y());
+      for (std::int64_t dx = -1; dx <= 1; ++dx)
+        for (std::int64_t dy = -1; dy <= 1; ++dy) {
+          const auto [lo, hi] = grid.equal_range(key(cx + dx, cy + dy));
+          for (auto it = lo; it != hi; ++it) {
+            const CapRing& lower = rings[it->second[0]];
+            const double d2 = (lower[it->second[1]] - p).squaredNorm();
+            const bool closer = d2 < best || (d2 == best && hit != nullptr && it->second < *hit);
+            if (closer && ring_tangent(lower, it->second[1]).dot(tangent) > 0) {
+              best = d2;
+              hit = &it->second;
+            }
+          }
+        }
+      if (hit == nullptr) continue;
+      const std::uint64_t id = (static_cast<std::uint64_t>((*hit)[0]) << 32) | (*hit)[1];
+      const auto [at, fresh] = taken.try_emplace(id, std::array{ri, k});
+      if (!fresh && !(at->second[0] == ri && at->second[1] + 1 == k)) continue;
+      at->second = {ri, k};
+      moved[k] = rings[(*hit)[0]][(*hit)[1]];
+      took.push_back(id);
+    }
+    std::size_t distinct = 0;
+    for (std::size_t k = 0; k < moved.size(); ++k)
+      distinct += moved[k] != moved[(k + 1) % moved.size()] ? 1 : 0;
+    if (distinct >= 3)
+      rings[ri] = std::move(moved);
+    else
+      for (const std::uint64_t id : took) taken.erase(id);
+  }
+}
+
+/// The cap of `rings` (the first `n_below` the lower slab's top rings): the fast
+/// triangulation, or the exact one where the fast one finds a ring that does not bound its
+/// region (a real crossing, or an intersection of nearly parallel edges rounded aside).
+Boundary cap_of_rings(const std::vector<CapRing>& rings, std::size_t n_below, bool exact) {
+  if (exact) return cap_on<CtExact>(rings, n_below);
+  Boundary b = cap_on<CtFast>(rings, n_below);
+  if (!b.ok || !b.crossed.empty()) b = cap_on<CtExact>(rings, n_below);
   return b;
+}
+
+/// The cap between `below`'s top rings and `above`'s bottom rings (either may be null),
+/// upper vertices within a tenth of a cell of a lower one snapped onto it.
+Boundary cap(const Slab* below, const Slab* above, int steps, bool exact) {
+  std::vector<CapRing> rings;
+  const auto add = [&](const Slab* s, int j) {
+    if (s == nullptr) return;
+    for (const Outline& o : s->outlines) {
+      CapRing& r = rings.emplace_back();
+      r.reserve(o.pts.size());
+      for (std::size_t k = 0; k < o.pts.size(); ++k) r.push_back(ring_point(*s, o, k, j, steps));
+    }
+  };
+  add(below, 2 * steps);
+  add(above, 0);
+  const std::size_t n_below = below != nullptr ? below->outlines.size() : 0;
+  if (below != nullptr) snap_upper_to_lower(rings, n_below, kCapSnapCells * below->cell_mm);
+  return cap_of_rings(rings, n_below, exact);
 }
 
 // ---------------------------------------------------------------- sides
@@ -644,6 +731,21 @@ bool make_caps(std::vector<Slab>& slabs, int steps, bool exact, std::vector<Boun
 }
 
 }  // namespace
+
+LayerCap layer_cap(const std::vector<std::vector<Eigen::Vector2d>>& lower,
+                   const std::vector<std::vector<Eigen::Vector2d>>& upper, double snap_mm,
+                   bool exact) {
+  std::vector<CapRing> rings(lower.begin(), lower.end());
+  rings.insert(rings.end(), upper.begin(), upper.end());
+  snap_upper_to_lower(rings, lower.size(), snap_mm);
+  Boundary b = cap_of_rings(rings, lower.size(), exact);
+  LayerCap out;
+  out.ok = b.ok && b.crossed.empty();
+  if (!out.ok) return out;
+  out.vertices = std::move(b.verts);
+  out.triangles = std::move(b.tris);
+  return out;
+}
 
 LayerSurface build_layer_surface(const LayerSlabs& in, const LayerSurfaceOptions& options) {
   LayerSurface out;

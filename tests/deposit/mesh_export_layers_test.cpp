@@ -159,6 +159,75 @@ TEST(LayeredMesh, ThinPinholesAndOneCellFeaturesClose) {
   EXPECT_GT(dm.straight_outlines, 0u);
 }
 
+/// A closed ring along the corners (counter-clockwise), `per_side` edges per side, each
+/// vertex p moved by `wobble(i, p)` mm across its side (i counts the vertices).
+template <class Wobble>
+std::vector<Eigen::Vector2d> wobbly_rect(double x0, double y0, double x1, double y1, int per_side,
+                                         Wobble wobble) {
+  const std::array<Eigen::Vector2d, 4> c{Eigen::Vector2d(x0, y0), Eigen::Vector2d(x1, y0),
+                                         Eigen::Vector2d(x1, y1), Eigen::Vector2d(x0, y1)};
+  std::vector<Eigen::Vector2d> r;
+  for (std::size_t s = 0; s < 4; ++s) {
+    const Eigen::Vector2d a = c[s], b = c[(s + 1) % 4];
+    const Eigen::Vector2d n = Eigen::Vector2d(a.y() - b.y(), b.x() - a.x()).normalized();
+    for (int k = 0; k < per_side; ++k) {
+      const double t = static_cast<double>(k) / per_side;
+      const Eigen::Vector2d p = a + t * (b - a);
+      r.push_back(p + wobble(static_cast<int>(r.size()), p) * n);
+    }
+  }
+  return r;
+}
+
+/// Signed area of the cap (facing up positive) and the smallest triangle height.
+std::array<double, 2> cap_area_and_min_height(const detail::LayerCap& cap) {
+  double area = 0, min_height = 1e9;
+  for (const auto& t : cap.triangles) {
+    const Eigen::Vector2d a = cap.vertices[t[0]], b = cap.vertices[t[1]], c = cap.vertices[t[2]];
+    const Eigen::Vector2d u = b - a, v = c - a;
+    const double twice = u.x() * v.y() - u.y() * v.x();
+    area += 0.5 * twice;
+    const double longest = std::max({u.norm(), v.norm(), (c - b).norm()});
+    min_height = std::min(min_height, std::abs(twice) / longest);
+  }
+  return {area, min_height};
+}
+
+TEST(LayeredMesh, CapSnapsRingsAFewMicrometresApart) {
+  // The slab above has the same outline, its vertices 3 um to either side (an inset limited
+  // per edge puts rings this close): the rings cross near every vertex.
+  const auto lower = wobbly_rect(0, 0, 2, 2, 8, [](int, const Eigen::Vector2d&) { return 0.0; });
+  const auto upper = wobbly_rect(
+      0, 0, 2, 2, 8, [](int i, const Eigen::Vector2d&) { return i % 2 == 0 ? 0.003 : -0.003; });
+  const detail::LayerCap raw = detail::layer_cap({lower}, {upper}, 0.0);
+  ASSERT_TRUE(raw.ok);
+  EXPECT_LT(cap_area_and_min_height(raw)[1], 0.005);  // without snapping: slivers
+  const detail::LayerCap same = detail::layer_cap({lower}, {upper}, 0.005);
+  ASSERT_TRUE(same.ok);
+  EXPECT_TRUE(same.triangles.empty());  // one vertical wall: no cap at all
+
+  // Wider above (a step out on +x), the vertices of the shared sides 2-3 um apart: the cap is
+  // the step only, facing down, with no sliver along the shared sides.
+  const auto wide = wobbly_rect(0, 0, 3, 2, 12, [](int i, const Eigen::Vector2d& p) {
+    return p.x() > 2.0 || p.x() == 0.0 ? 0.0 : i % 3 == 0 ? 0.003 : -0.002;
+  });
+  const auto lower12 = wobbly_rect(0, 0, 2, 2, 8, [](int, const Eigen::Vector2d&) { return 0.0; });
+  const detail::LayerCap step = detail::layer_cap({lower12}, {wide}, 0.005);
+  ASSERT_TRUE(step.ok);
+  const auto [area, min_height] = cap_area_and_min_height(step);
+  EXPECT_NEAR(area, -2.0, 0.01);  // 1 x 2 mm, down
+  EXPECT_GT(min_height, 0.01);
+  for (const auto& t : step.triangles) {  // every triangle facing down
+    const Eigen::Vector2d u = step.vertices[t[1]] - step.vertices[t[0]],
+                          v = step.vertices[t[2]] - step.vertices[t[0]];
+    EXPECT_LT(u.x() * v.y() - u.y() * v.x(), 0.0);
+  }
+  // Exact constructions give the same cap.
+  const detail::LayerCap exact = detail::layer_cap({lower12}, {wide}, 0.005, true);
+  ASSERT_TRUE(exact.ok);
+  EXPECT_NEAR(cap_area_and_min_height(exact)[0], area, 1e-9);
+}
+
 TEST(LayeredMesh, DecimationCoarsensTheOutlinesToFit) {
   const Part p = make_part(5, [](int x, int y, int l) {
     return std::hypot(x - 80.0, y - 80.0) < 50.0 + 3 * std::sin(x * 0.7 + l);
