@@ -75,10 +75,12 @@ struct DepositBuilder::State {
         support(s.support_fraction, s.min_unsupported_mm, s.voxel_mm),
         sweeper(grid, s.exhaustive_tiles),
         droop(detail::DroopModel::from(p), s.voxel_mm) {
+    // Without a writer thread (one core, PRINTTWIN_PLAIN=deposit_writer) the sweep writes the
+    // grid itself; `at_once` (the tests) sends the writes through the writer on this thread.
     using Writes = detail::DepositRunSettings::Writes;
-    if (!s.conserve_volume && s.writes != Writes::direct) {
-      const bool threaded = s.writes == Writes::thread ||
-                            (s.writes == Writes::automatic && detail::GridWriter::wanted(grid));
+    const bool threaded = s.writes == Writes::thread ||
+                          (s.writes == Writes::automatic && detail::GridWriter::wanted(grid));
+    if (!s.conserve_volume && (threaded || s.writes == Writes::at_once)) {
       writer = std::make_unique<detail::GridWriter>(grid, threaded);
       sweeper.defer_writes(writer.get());
     }

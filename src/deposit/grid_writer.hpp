@@ -7,8 +7,8 @@
 // the writer counts the overlap. The grid, its tags and the counts end the same bit for bit
 // either way; the sweep and the writes run side by side on two cores.
 //
-// The writer thread is a special path (core/plain_path.hpp): PRINTTWIN_PLAIN=deposit_writer
-// applies the writes at once on the sweep's thread.
+// The writer thread is a special path (core/plain_path.hpp): with PRINTTWIN_PLAIN=deposit_writer
+// (or one hardware thread) the sweep writes the grid itself, as it does with the squeeze.
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
