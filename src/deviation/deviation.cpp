@@ -54,6 +54,19 @@ void to_bead_surface(const DepositSurface& s, std::span<const SurfaceBead> beads
                                            std::min(t.start_mm.z(), t.end_mm.z()) - rt - pz, 0.0}) -
                                  rt;
               if (gap >= b.signed_mm) continue;
+              // Nor nearer than the box of its core (its centre line's box grown by the
+              // core's half width across, level) less its radius: tested squared, with a
+              // margin for rounding, so a bead that could be the nearest is never skipped.
+              const double half =
+                  0.5 * std::max(0.0, static_cast<double>(t.width_mm) - t.height_mm);
+              const auto out_of = [&](int a) {
+                const double lo = std::min(t.start_mm[a], t.end_mm[a]) - half,
+                             hi = std::max(t.start_mm[a], t.end_mm[a]) + half;
+                return std::max({lo - points[i][a], points[i][a] - hi, 0.0});
+              };
+              const double dx = out_of(0), dy = out_of(1), dz = gap + rt;
+              const double lim = b.signed_mm + rt + 1e-9;
+              if (lim <= 0 || dx * dx + dy * dy + dz * dz >= lim * lim) continue;
               Vec3 core;
               const double sd = index.cores()[s.bead_touch[j]].closest(points[i], core);
               if (sd < b.signed_mm) {

@@ -219,7 +219,10 @@ class BeadGrid {
 
  private:
   /// The cells within f's reach of its centre line: the centre line in pieces of at most two
-  /// cells, each piece's box grown by the reach; sorted and unique.
+  /// cells, each piece's box grown by the reach; each cell once (in no set order). The
+  /// pieces' boxes move monotonically along each axis (the line is straight and the rounding
+  /// monotonic), so a cell in two boxes is in every box between them: a piece skips the
+  /// cells of the piece before it, and no sort is needed.
   void cells_of(const BeadFrame& f, std::vector<std::uint32_t>& keys) const {
     keys.clear();
     const int pieces = 1 + static_cast<int>(f.len / (2 * cell_));
@@ -227,18 +230,23 @@ class BeadGrid {
     const auto c = [&](double x, int axis) {
       return std::clamp(static_cast<int>(std::floor((x - lo_[axis]) / cell_)), 0, n_[axis] - 1);
     };
+    Eigen::Vector3i prev_lo(1, 1, 1), prev_hi(0, 0, 0);  // empty before the first piece
     for (int i = 0; i < pieces; ++i) {
       const Vec3 p = f.a + (static_cast<double>(i) / pieces) * f.d;
       const Vec3 q = f.a + (static_cast<double>(i + 1) / pieces) * f.d;
       const Vec3 lo = p.cwiseMin(q) - Vec3::Constant(pad), hi = p.cwiseMax(q) + Vec3::Constant(pad);
-      for (int x = c(lo.x(), 0); x <= c(hi.x(), 0); ++x)
-        for (int y = c(lo.y(), 1); y <= c(hi.y(), 1); ++y)
-          for (int z = c(lo.z(), 2); z <= c(hi.z(), 2); ++z)
-            keys.push_back(static_cast<std::uint32_t>((x * n_[1] + y) * n_[2] + z));
-    }
-    if (pieces > 1) {
-      std::sort(keys.begin(), keys.end());
-      keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+      const Eigen::Vector3i l(c(lo.x(), 0), c(lo.y(), 1), c(lo.z(), 2)),
+          h(c(hi.x(), 0), c(hi.y(), 1), c(hi.z(), 2));
+      const auto in_prev = [&](int axis, int x) {
+        return x >= prev_lo[axis] && x <= prev_hi[axis];
+      };
+      for (int x = l.x(); x <= h.x(); ++x)
+        for (int y = l.y(); y <= h.y(); ++y)
+          for (int z = l.z(); z <= h.z(); ++z)
+            if (!(in_prev(0, x) && in_prev(1, y) && in_prev(2, z)))
+              keys.push_back(static_cast<std::uint32_t>((x * n_[1] + y) * n_[2] + z));
+      prev_lo = l;
+      prev_hi = h;
     }
   }
   double cell_;
