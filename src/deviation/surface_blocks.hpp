@@ -88,24 +88,15 @@ inline Cube dilate_z(const Cube* lo_p, const Cube* m_p, const Cube* hi_p, int r)
   }
   return out;
 }
-/// Slices moved by k voxels both ways along x, with the neighbours' bits that wrap in:
-/// towards +x, bit x -> x + k and bits 8 - k.. of the -x neighbour's row enter; towards -x
-/// likewise from the +x neighbour. Bits crossing into another row are masked. (Functors, so
-/// dilate_in_slices inlines them.)
-struct StepX {
-  std::uint64_t operator()(std::uint64_t lo, std::uint64_t m, std::uint64_t hi, int k) const {
-    return ((m << k) & x_bits(k, 8)) | ((lo >> (8 - k)) & x_bits(0, k)) |
-           ((m >> k) & x_bits(0, 8 - k)) | ((hi << (8 - k)) & x_bits(8 - k, 8));
-  }
-};
-/// The same along y: rows move by k, the neighbours' rows enter (a whole block at k = 8).
+/// Slices moved by k voxels both ways along y: rows move by k, the neighbours' rows enter (a
+/// whole block at k = 8). A functor, so dilate_in_slices inlines it.
 struct StepY {
   std::uint64_t operator()(std::uint64_t lo, std::uint64_t m, std::uint64_t hi, int k) const {
     if (k == kE) return lo | hi;
     return (m << (8 * k)) | (lo >> (64 - 8 * k)) | (m >> (8 * k)) | (hi << (64 - 8 * k));
   }
 };
-/// One in-slice axis (StepX or StepY) of a cube dilation by r (1 <= r <= 8).
+/// One in-slice axis (StepY) of a cube dilation by r (1 <= r <= 8).
 template <class Step>
 Cube dilate_in_slices(const Cube* lo_p, const Cube* m_p, const Cube* hi_p, int r, Step step) {
   const Cube &lo = or_empty(lo_p), &m = or_empty(m_p), &hi = or_empty(hi_p);
@@ -114,6 +105,22 @@ Cube dilate_in_slices(const Cube* lo_p, const Cube* m_p, const Cube* hi_p, int r
     std::uint64_t v = m[z];
     for (int k = 1; k <= r; ++k) v |= step(lo[z], m[z], hi[z], k);
     out[z] = v;
+  }
+  return out;
+}
+/// The x axis of a cube dilation by r (1 <= r <= 8): slices moved by k voxels both ways
+/// along x, with the neighbours' bits that wrap in (towards +x, bit x -> x + k and bits
+/// 8 - k.. of the -x neighbour's row enter; towards -x likewise from the +x neighbour), bits
+/// crossing into another row masked; each shift's four masks made once for the 8 slices.
+inline Cube dilate_x(const Cube* lo_p, const Cube* m_p, const Cube* hi_p, int r) {
+  const Cube &lo = or_empty(lo_p), &m = or_empty(m_p), &hi = or_empty(hi_p);
+  Cube out = m;
+  for (int k = 1; k <= r; ++k) {
+    const std::uint64_t up = x_bits(k, 8), from_lo = x_bits(0, k), down = x_bits(0, 8 - k),
+                        from_hi = x_bits(8 - k, 8);
+    for (std::size_t z = 0; z < kE; ++z)
+      out[z] |= ((m[z] << k) & up) | ((lo[z] >> (8 - k)) & from_lo) | ((m[z] >> k) & down) |
+                ((hi[z] << (8 - k)) & from_hi);
   }
   return out;
 }
@@ -342,7 +349,7 @@ class DilatedField {
     const Cube* hi = below(bx + dx, by + dy, bz + dz);
     if (lo == nullptr && m == nullptr && hi == nullptr) return false;
     out = axis == 0   ? dilate_z(lo, m, hi, r)
-          : axis == 1 ? dilate_in_slices(lo, m, hi, r, StepX{})
+          : axis == 1 ? dilate_x(lo, m, hi, r)
                       : dilate_in_slices(lo, m, hi, r, StepY{});
     if (axis == 2) {
       const Cube c = clip_(bx, by, bz);

@@ -268,10 +268,12 @@ TEST(DeviationSurface, BlockFloodMatchesAVoxelByVoxelFloodFill) {
   const VoxelGrid shifted =
       voxelise(0.05, all, part, Feature::outer_perimeter, Vec3(0.0, -0.3, 0.0));
   // With a groove depth, what the seal closed opens again to that many 6-connected steps
-  // through empty voxels from the outside found (0.25 mm: 5 steps; 0.45 mm: 9, past a block).
+  // through empty voxels from the outside found (0.25 mm: 5 steps; 0.45 mm: 9, past a block;
+  // 0.6 mm: 12, with r = 5 the filled volume reaches 17 voxels, past two blocks).
   const std::vector<std::tuple<const VoxelGrid*, double, double>> cases{
-      {&padded, 0.1, 0.0},  {&padded, 0.0, 0.0},   {&padded, 0.25, 0.0},  {&padded, 0.95, 0.0},
-      {&shifted, 0.1, 0.0}, {&shifted, 1.75, 0.0}, {&padded, 0.25, 0.25}, {&shifted, 0.95, 0.45}};
+      {&padded, 0.1, 0.0},   {&padded, 0.0, 0.0},    {&padded, 0.25, 0.0},
+      {&padded, 0.95, 0.0},  {&shifted, 0.1, 0.0},   {&shifted, 1.75, 0.0},
+      {&padded, 0.25, 0.25}, {&shifted, 0.95, 0.45}, {&padded, 0.5, 0.6}};
   for (const auto& [grid_of_case, seal_mm, groove_mm] : cases) {
     const VoxelGrid& grid = *grid_of_case;
     const DepositSurface s = extract_outer_surface(grid, all, seal_mm, groove_mm);
