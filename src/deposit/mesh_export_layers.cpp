@@ -644,7 +644,8 @@ CapExtras snap_to_edges(const std::vector<CapRing>& rings, std::size_t n_below, 
         const auto [lo, hi] = grid.equal_range(key(cell_of(p.x()), cell_of(p.y())));
         for (auto it = lo; it != hi; ++it) {
           const CapRing& r = rings[it->second[0]];
-          const P2 a = r[it->second[1]], b = r[(it->second[1] + 1) % r.size()];
+          const P2& a = r[it->second[1]];
+          const P2& b = r[(it->second[1] + 1) % r.size()];
           const P2 d = b - a;
           const double len = d.norm();
           if (len <= 2 * eps || d.dot(tangent) <= 0) continue;
