@@ -363,6 +363,16 @@ P2 ring_point(const Slab& s, const Outline& o, std::size_t k, int j, int steps) 
 /// A closed ring of a cap (the first point not repeated), its region on its left.
 using CapRing = std::vector<P2>;
 
+/// A point put on a ring's edge (from vertex `after` to the next, at `t` along it): the
+/// other ring's vertex that lies a few micrometres from the edge. It is a split point of the
+/// ring, not one of its vertices.
+struct CapExtra {
+  std::uint32_t after = 0;
+  double t = 0;
+  P2 p;
+};
+using CapExtras = std::vector<std::vector<CapExtra>>;  // per ring, by edge and t
+
 /// Upper ring vertices this close to a lower ring vertex (in cells; 5 um at 0.05 mm) are
 /// snapped onto it: well under the outline tolerance, above the rounding of the rings.
 constexpr double kCapSnapCells = 0.1;
@@ -442,12 +452,13 @@ void mark_faces(Ct& ct, const std::unordered_map<std::uint64_t, unsigned char>& 
 /// slab's top rings, region bit 1; the others the upper slab's bottom rings, bit 2), the
 /// constraints inserted in ring order.
 template <class Ct>
-Boundary cap_on(const std::vector<CapRing>& in, std::size_t n_below) {
+Boundary cap_on(const std::vector<CapRing>& in, std::size_t n_below, const CapExtras& extras) {
   using Point = typename Ct::Point;
   Boundary b;
   Ct ct;
   struct Ring {
     std::vector<Point> pts;
+    std::vector<char> vertex;  // 0: a point from `extras`
     typename Ct::Constraint_id cid;
     unsigned char side;
   };
@@ -455,7 +466,16 @@ Boundary cap_on(const std::vector<CapRing>& in, std::size_t n_below) {
   for (std::size_t ri = 0; ri < in.size(); ++ri) {
     rings[ri].side = ri < n_below ? 1 : 2;
     rings[ri].pts.reserve(in[ri].size());
-    for (const P2& p : in[ri]) rings[ri].pts.emplace_back(p.x(), p.y());
+    auto extra = extras.empty() ? nullptr : extras[ri].data();
+    const auto extra_end = extras.empty() ? nullptr : extra + extras[ri].size();
+    for (std::size_t k = 0; k < in[ri].size(); ++k) {
+      rings[ri].pts.emplace_back(in[ri][k].x(), in[ri][k].y());
+      rings[ri].vertex.push_back(1);
+      for (; extra != extra_end && extra->after == k; ++extra) {
+        rings[ri].pts.emplace_back(extra->p.x(), extra->p.y());
+        rings[ri].vertex.push_back(0);
+      }
+    }
   }
   for (Ring& r : rings) r.cid = ct.insert_constraint(r.pts.begin(), r.pts.end(), true);
   std::uint32_t n = 0;
@@ -476,7 +496,8 @@ Boundary cap_on(const std::vector<CapRing>& in, std::size_t n_below) {
          it != ct.vertices_in_constraint_end(r.cid); ++it) {
       const auto at = static_cast<std::uint32_t>(b.seq.size());
       // Ring points snapped onto one vertex share its place (a side edge of no length).
-      for (; k < r.pts.size() && (*it)->point() == r.pts[k]; ++k) b.pos.push_back(at);
+      for (; k < r.pts.size() && (*it)->point() == r.pts[k]; ++k)
+        if (r.vertex[k] != 0) b.pos.push_back(at);
       if (at > first) {
         const std::uint32_t u = b.seq.back(), v = (*it)->info();
         if (u != v) toggles[edge_key(u, v)] ^= r.side;
@@ -495,7 +516,7 @@ Boundary cap_on(const std::vector<CapRing>& in, std::size_t n_below) {
   for (auto v : ct.finite_vertex_handles()) handle[v->info()] = v;
   for (std::size_t ri = 0; ri < rings.size(); ++ri) {
     const std::size_t begin = b.pos[b.pos_base[ri]];
-    const std::size_t end = b.pos[b.pos_base[ri] + rings[ri].pts.size()];
+    const std::size_t end = b.pos[b.pos_base[ri] + in[ri].size()];
     for (std::size_t i = begin; i < end; ++i) {
       typename Ct::Face_handle f;
       int opposite = 0;
@@ -588,13 +609,74 @@ void snap_upper_to_lower(std::vector<CapRing>& rings, std::size_t n_below, doubl
   }
 }
 
+/// Puts each vertex of one set of rings that lies within `eps` of an edge of the other set
+/// (not within `eps` of its ends, both rings running the same way) on that edge as a split
+/// point, for both sets: the two rings then share the point instead of crossing next to it.
+CapExtras snap_to_edges(const std::vector<CapRing>& rings, std::size_t n_below, double eps) {
+  CapExtras extras(rings.size());
+  if (n_below == 0 || n_below == rings.size() || eps <= 0) return extras;
+  constexpr double kCell = 0.25;  // mm: the edge grid
+  const auto cell_of = [](double v) { return static_cast<std::int64_t>(std::floor(v / kCell)); };
+  const auto key = [](std::int64_t x, std::int64_t y) {
+    return (static_cast<std::uint64_t>(x) << 32) ^ static_cast<std::uint64_t>(y & 0xffffffff);
+  };
+  for (int pass = 0; pass < 2; ++pass) {  // upper vertices onto lower edges, then the reverse
+    const std::size_t t0 = pass == 0 ? 0 : n_below, t1 = pass == 0 ? n_below : rings.size();
+    const std::size_t s0 = pass == 0 ? n_below : 0, s1 = pass == 0 ? rings.size() : n_below;
+    std::unordered_multimap<std::uint64_t, std::array<std::uint32_t, 2>> grid;
+    for (std::size_t ri = t0; ri < t1; ++ri)
+      for (std::size_t k = 0; k < rings[ri].size(); ++k) {
+        const P2 a = rings[ri][k], b = rings[ri][(k + 1) % rings[ri].size()];
+        for (std::int64_t x = cell_of(std::min(a.x(), b.x()) - eps);
+             x <= cell_of(std::max(a.x(), b.x()) + eps); ++x)
+          for (std::int64_t y = cell_of(std::min(a.y(), b.y()) - eps);
+               y <= cell_of(std::max(a.y(), b.y()) + eps); ++y)
+            grid.emplace(key(x, y),
+                         std::array{static_cast<std::uint32_t>(ri), static_cast<std::uint32_t>(k)});
+      }
+    for (std::size_t si = s0; si < s1; ++si)
+      for (std::size_t k = 0; k < rings[si].size(); ++k) {
+        const P2 p = rings[si][k];
+        const P2 tangent = ring_tangent(rings[si], k);
+        double best = eps;
+        std::array<std::uint32_t, 2> hit{~0U, ~0U};
+        double hit_t = 0;
+        const auto [lo, hi] = grid.equal_range(key(cell_of(p.x()), cell_of(p.y())));
+        for (auto it = lo; it != hi; ++it) {
+          const CapRing& r = rings[it->second[0]];
+          const P2& a = r[it->second[1]];
+          const P2& b = r[(it->second[1] + 1) % r.size()];
+          const P2 d = b - a;
+          const double len = d.norm();
+          if (len <= 2 * eps || d.dot(tangent) <= 0) continue;
+          const double t = (p - a).dot(d) / (len * len);
+          if (t * len <= eps || (1 - t) * len <= eps) continue;  // near an end: not an edge
+          const double dist = std::abs(d.x() * (p.y() - a.y()) - d.y() * (p.x() - a.x())) / len;
+          if (dist < best || (dist == best && it->second < hit)) {
+            best = dist;
+            hit = it->second;
+            hit_t = t;
+          }
+        }
+        if (hit[0] != ~0U) extras[hit[0]].push_back({hit[1], hit_t, p});
+      }
+  }
+  for (auto& e : extras)
+    std::sort(e.begin(), e.end(), [](const CapExtra& a, const CapExtra& b) {
+      return a.after != b.after ? a.after < b.after : a.t < b.t;
+    });
+  return extras;
+}
+
 /// The cap of `rings` (the first `n_below` the lower slab's top rings): the fast
 /// triangulation, or the exact one where the fast one finds a ring that does not bound its
 /// region (a real crossing, or an intersection of nearly parallel edges rounded aside).
-Boundary cap_of_rings(const std::vector<CapRing>& rings, std::size_t n_below, bool exact) {
-  if (exact) return cap_on<CtExact>(rings, n_below);
-  Boundary b = cap_on<CtFast>(rings, n_below);
-  if (!b.ok || !b.crossed.empty()) b = cap_on<CtExact>(rings, n_below);
+Boundary cap_of_rings(const std::vector<CapRing>& rings, std::size_t n_below, double eps,
+                      bool exact) {
+  const CapExtras extras = snap_to_edges(rings, n_below, eps);
+  if (exact) return cap_on<CtExact>(rings, n_below, extras);
+  Boundary b = cap_on<CtFast>(rings, n_below, extras);
+  if (!b.ok || !b.crossed.empty()) b = cap_on<CtExact>(rings, n_below, extras);
   return b;
 }
 
@@ -613,8 +695,9 @@ Boundary cap(const Slab* below, const Slab* above, int steps, bool exact) {
   add(below, 2 * steps);
   add(above, 0);
   const std::size_t n_below = below != nullptr ? below->outlines.size() : 0;
-  if (below != nullptr) snap_upper_to_lower(rings, n_below, kCapSnapCells * below->cell_mm);
-  return cap_of_rings(rings, n_below, exact);
+  const double eps = kCapSnapCells * (below != nullptr ? below->cell_mm : above->cell_mm);
+  snap_upper_to_lower(rings, n_below, eps);
+  return cap_of_rings(rings, n_below, eps, exact);
 }
 
 // ---------------------------------------------------------------- sides
@@ -738,7 +821,7 @@ LayerCap layer_cap(const std::vector<std::vector<Eigen::Vector2d>>& lower,
   std::vector<CapRing> rings(lower.begin(), lower.end());
   rings.insert(rings.end(), upper.begin(), upper.end());
   snap_upper_to_lower(rings, lower.size(), snap_mm);
-  Boundary b = cap_of_rings(rings, lower.size(), exact);
+  Boundary b = cap_of_rings(rings, lower.size(), snap_mm, exact);
   LayerCap out;
   out.ok = b.ok && b.crossed.empty();
   if (!out.ok) return out;
