@@ -96,5 +96,16 @@ BeadSection capped_section(double area_mm2, double h_mm, double len_mm, int caps
   return s;
 }
 
+double bound_flattened(BeadSection& s, double nominal_w_mm, double reach_mm, double len_mm,
+                       int caps) {
+  const double w_max = nominal_w_mm + 2.0 * reach_mm;
+  if (!(s.w_mm > w_max) || !(len_mm > 0)) return 0;
+  // The material of the body and the caps, before and after (capped_section's balance).
+  const double before = section_area_mm2(s) * (len_mm + caps * cap_length_mm(s));
+  s.w_mm = w_max;
+  const double after = section_area_mm2(s) * (len_mm + caps * cap_length_mm(s));
+  return std::max(0.0, before - after) / len_mm;
+}
+
 }  // namespace detail
 }  // namespace printtwin

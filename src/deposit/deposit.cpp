@@ -140,11 +140,17 @@ struct DepositBuilder::State {
     // bead's own material.
     const bool cap_start = !pb.continues_path;
     const int caps = (cap_start ? 1 : 0) + (path_end ? 1 : 0);
-    const BeadSection s = detail::bead_section(pb, area_mm2, samples, caps, map, voxel, gaps_);
+    BeadSection s = detail::bead_section(pb, area_mm2, samples, caps, map, voxel, gaps_);
+    const double squeeze_mm = settings.conserve_volume ? 0.5 * nozzle_mm : 0.0;
+    const double overflow_mm2 =
+        squeeze_mm > 0
+            ? detail::bound_flattened(
+                  s, detail::capped_section(area_mm2, pb.nominal_h_mm, len_mm, caps).w_mm,
+                  squeeze_mm, len_mm, caps)
+            : 0.0;
     const std::int32_t code = HeightMap::layer_code(mv.layer, is_support(mv.feature));
-    detail::SweptBead bead{
-        a,  b,      d,      n,    pb.m0,
-        m1, s.h_mm, s.w_mm, code, settings.conserve_volume ? 0.5 * nozzle_mm : 0.0};
+    detail::SweptBead bead{a, b, d, n, pb.m0, m1, s.h_mm, s.w_mm, code, squeeze_mm};
+    bead.overflow_mm2 = overflow_mm2;
     if (pb.round_start) {  // the wider of the two beads' sections
       const bool prev_wider = pb.join_w_mm > s.w_mm;
       bead.join_h_mm = prev_wider ? pb.join_h_mm : s.h_mm;

@@ -322,8 +322,10 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
   if (bead.cap_end)
     lay_disc(Disc{bead.b_mm, bead.h_mm, bead.w_mm, bead.d, Vec2(-bead.d), bead.layer}, grid, tag,
              map, &cap_overlap);
-  laid.overlap += cap_overlap;
-  if (squeezing) carry = cap_overlap;
+  // A flattened bead's material beyond the squeeze's bound is overflow like its overlap.
+  const std::size_t overflow = squeezing ? overflow_voxels(bead) : 0;
+  laid.overlap += cap_overlap + overflow;
+  if (squeezing) carry = cap_overlap + overflow;
   for_each_tile(bead, a2, b2, hw, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
     const std::size_t at = map.index(8 * bx, 8 * by);
     test_tile_layers(f, 8 * bx, 8 * by, reached_.data(), static_cast<int>(nk), t_lo, t_hi, lanes,
@@ -377,6 +379,13 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
   laid.overlap -= once;
   laid.squeezed -= once;
   return laid;
+}
+
+std::size_t BeadSweep::overflow_voxels(const SweptBead& bead) const {
+  if (!(bead.overflow_mm2 > 0)) return 0;
+  const double len_mm = (bead.b_mm - bead.a_mm).head<2>().norm();
+  const double v = inv_voxel_ * inv_voxel_ * inv_voxel_;
+  return static_cast<std::size_t>(std::lround(bead.overflow_mm2 * len_mm * v));
 }
 
 std::size_t BeadSweep::lay_disc(const Disc& disc, VoxelGrid& grid, std::uint32_t tag,
