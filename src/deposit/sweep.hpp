@@ -134,6 +134,9 @@ class BeadSweep {
     /// same tiles and layers (nullptr: none); *known: bit n set when cache[n] is filled in.
     std::uint64_t* cache = nullptr;
     std::uint64_t* known = nullptr;
+    /// The bead's lowest voxel layer: below it, only voxels on earlier plastic (or the bed)
+    /// take material.
+    std::int32_t bottom = 0;
   };
   /// Into ring_: the grown section's voxels of tile (bx, by) on each layer of `ring` that has
   /// free voxels in `within` (free_), 0 on the others.
