@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <initializer_list>
 #include <numbers>
 #include <optional>
 #include <string>
@@ -165,6 +166,26 @@ TEST(VolumeConservation, SqueezeFillsTheInsideBeforeGoingPastTheOpenEdge) {
   EXPECT_EQ(past, 0U) << "of " << squeezed;
 }
 
+/// A 0.2 mm layer of beads along x at `ys`, plastic that rose 0.15 mm above it at `rise_y`, then
+/// the next layer's 0.45 x 0.2 mm bead of `feature` at y = 50, 0.05 mm above that. Returns its
+/// G-code line.
+std::uint32_t bead_over_a_rise(BeadWriter& w, std::initializer_list<double> ys, double rise_y,
+                               Feature feature) {
+  for (const double y : ys) {
+    w.travel({50, y, 0.2});
+    w.extrude({70, y, 0.2}, 0.45, 0.2);
+  }
+  w.travel({50, rise_y, 0.35});
+  w.extrude({70, rise_y, 0.35}, 0.45, 0.15);
+  w.moves.back().height_hint_mm = 0.15;
+  w.layer = 1;
+  w.feature = feature;
+  w.travel({50, 50, 0.4});
+  w.extrude({70, 50, 0.4}, 0.45, 0.2);
+  w.moves.back().height_hint_mm = 0.2;
+  return static_cast<std::uint32_t>(w.moves.back().line);
+}
+
 // A bead laid in a gap much thinner than its layer (over earlier plastic that rose into it)
 // spreads sideways, but no further than half a nozzle beyond each edge of the bead it would be
 // at its layer height: about the nozzle's flat face. The rest is overflow the squeeze places
@@ -173,18 +194,7 @@ TEST(VolumeConservation, SqueezeFillsTheInsideBeforeGoingPastTheOpenEdge) {
 TEST(VolumeConservation, FlattenedBeadSpreadsNoFurtherThanHalfANozzle) {
   const auto profile = ender3_marlin2();
   BeadWriter w(profile);
-  for (const double y : {49.6, 50.0, 50.4}) {  // a 0.2 mm layer
-    w.travel({50, y, 0.2});
-    w.extrude({70, y, 0.2}, 0.45, 0.2);
-  }
-  w.travel({50, 50, 0.35});  // plastic that rose 0.15 mm above it
-  w.extrude({70, 50, 0.35}, 0.45, 0.15);
-  w.moves.back().height_hint_mm = 0.15;
-  w.layer = 1;
-  w.travel({50, 50, 0.4});
-  w.extrude({70, 50, 0.4}, 0.45, 0.2);  // the next layer's bead, 0.05 mm above it
-  w.moves.back().height_hint_mm = 0.2;
-  const auto top = static_cast<std::uint32_t>(w.moves.back().line);
+  const auto top = bead_over_a_rise(w, {49.6, 50.0, 50.4}, 50.0, Feature::perimeter);
   DepositSettings off;
   off.conserve_volume = false;
   auto r = deposit_moves(w.moves, profile, conserving());
@@ -210,19 +220,8 @@ TEST(VolumeConservation, FlattenedOuterWallKeepsItsEdge) {
   auto profile = ender3_marlin2();
   profile.elephant_foot_mm = 0;
   BeadWriter w(profile);
-  for (const double y : {49.6, 50.0}) {  // a 0.2 mm layer on the -y side only
-    w.travel({50, y, 0.2});
-    w.extrude({70, y, 0.2}, 0.45, 0.2);
-  }
-  w.travel({50, 49.8, 0.35});  // plastic that rose 0.15 mm above it
-  w.extrude({70, 49.8, 0.35}, 0.45, 0.15);
-  w.moves.back().height_hint_mm = 0.15;
-  w.layer = 1;
-  w.feature = Feature::outer_perimeter;
-  w.travel({50, 50, 0.4});
-  w.extrude({70, 50, 0.4}, 0.45, 0.2);
-  w.moves.back().height_hint_mm = 0.2;
-  const auto top = static_cast<std::uint32_t>(w.moves.back().line);
+  // The layer on the -y side only.
+  const auto top = bead_over_a_rise(w, {49.6, 50.0}, 49.8, Feature::outer_perimeter);
   auto r = deposit_moves(w.moves, profile, conserving());
   ASSERT_TRUE(r.ok());
   double lo = 50, hi = 50;
