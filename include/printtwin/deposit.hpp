@@ -40,10 +40,10 @@ struct DepositSettings {
   /// Conserve volume: the part of a bead that falls on earlier plastic squeezes into free
   /// voxels near its section, up to half the nozzle diameter away (beside and below it first;
   /// a bead that may form the outer surface never past an open side's edge nor above its
-  /// top). Off: that material is lost (it still counts in overlap_mm3). Off by default
-  /// (`--conserve-volume` on simulate and verify): on real parts an inner perimeter's
-  /// spill can push the outer wall past the design (docs/deposit.md).
-  bool conserve_volume = false;
+  /// top; a bead flattened over earlier plastic no wider than half a nozzle beyond its nominal
+  /// edges). Off (`--no-conserve-volume` on simulate and verify): that material is lost (it
+  /// still counts in overlap_mm3). On by default (docs/deposit.md).
+  bool conserve_volume = true;
 };
 
 /// A run of consecutive unsupported bead samples along one continuous extrusion path.

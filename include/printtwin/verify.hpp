@@ -64,7 +64,7 @@ struct GateResult {
 struct VerifySettings {
   VerifyGates gates;
   double voxel_mm = 0.05;             ///< deposit voxel edge
-  bool conserve_volume = false;       ///< DepositSettings::conserve_volume
+  bool conserve_volume = true;        ///< DepositSettings::conserve_volume
   double mesh_sample_spacing_mm = 0;  ///< mesh->deposit sample spacing (0: 2 x voxel_mm)
   std::optional<Vec3> place_mm;       ///< --place override of the registration offset
   /// --place rotation (degrees about the machine's X, then Y, then Z axes, applied to the

@@ -26,7 +26,7 @@ struct VerifyCliOptions {
   double max_excess_mm = -1, max_deficit_mm = -1, max_rms_mm = -1;
   std::string printer = "auto";
   double voxel_mm = 0.05;
-  bool conserve_volume = false;
+  bool conserve_volume = true;
   double spacing_mm = 0;
   std::string place;
   std::string units;
@@ -290,8 +290,8 @@ void add_verify_command(CLI::App& app, CommandRunner& runner) {
       "ender3, ender3-marlin1, ender3-klipper, a profile .json or a Klipper printer.cfg");
   cmd->add_option("--voxel", o->voxel_mm, "deposit voxel edge in mm (default 0.05)");
   cmd->add_flag("--conserve-volume,!--no-conserve-volume", o->conserve_volume,
-                "squeeze material a bead cannot place into free space beside and below it "
-                "(docs/deposit.md; --no-conserve-volume: lose it, the default)");
+                "squeeze material a bead cannot place into free space beside and below it, "
+                "the default (docs/deposit.md; --no-conserve-volume: lose it)");
   cmd->add_option("--sample-spacing", o->spacing_mm,
                   "mesh surface sample spacing in mm (default: twice the voxel)");
   cmd->add_option(

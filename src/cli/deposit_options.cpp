@@ -20,8 +20,8 @@ void add_deposit_options(CLI::App& cmd, DepositCliOptions& o) {
   cmd.add_flag("--deposit-summary", o.deposit,
                "Deposit the material (summary, findings and JSON) without writing voxel files");
   cmd.add_flag("--conserve-volume,!--no-conserve-volume", o.conserve_volume,
-               "Squeeze material a bead cannot place into free space beside and below it "
-               "(docs/deposit.md; --no-conserve-volume: lose it, the default)");
+               "Squeeze material a bead cannot place into free space beside and below it, the "
+               "default (docs/deposit.md; --no-conserve-volume: lose it)");
   cmd.add_option("--voxel", o.voxel_mm, "Deposit voxel edge (mm)")
       ->capture_default_str()
       ->check(CLI::Range(0.001, 10.0));

@@ -43,7 +43,7 @@ struct DepositCliOptions {
   std::string octomap_path;       ///< --deposit out.bt|out.ot
   std::string ply_path;           ///< --deposit-ply out.ply
   double voxel_mm = 0.05;         ///< --voxel
-  bool conserve_volume = false;   ///< --conserve-volume / --no-conserve-volume
+  bool conserve_volume = true;    ///< --conserve-volume (the default) / --no-conserve-volume
   std::string max_memory = "2G";  ///< --max-memory (bytes, or with K/M/G suffix)
   double support_fraction = 0.5;  ///< --support-fraction
   std::string color = "layer";    ///< --deposit-color layer|feature (.ot)

@@ -96,5 +96,30 @@ BeadSection capped_section(double area_mm2, double h_mm, double len_mm, int caps
   return s;
 }
 
+double bound_flattened(BeadSection& s, double nominal_w_mm, double widen_mm, double len_mm,
+                       int caps) {
+  const double w_max = nominal_w_mm + widen_mm;
+  if (!(s.w_mm > w_max) || !(len_mm > 0)) return 0;
+  // The material of the body and the caps, before and after (capped_section's balance).
+  const double before = section_area_mm2(s) * (len_mm + caps * cap_length_mm(s));
+  s.w_mm = w_max;
+  const double after = section_area_mm2(s) * (len_mm + caps * cap_length_mm(s));
+  return std::max(0.0, before - after) / len_mm;
+}
+
+int inside_side(const HeightMap& map, const Vec3& a, const Vec3& b, const Vec2& n, double half_w_mm,
+                double voxel_mm) {
+  double higher = 0;  // how much higher the +n side's columns stand, summed
+  for (const double t : {0.25, 0.5, 0.75}) {
+    const Vec2 q = (a + t * (b - a)).head<2>();
+    const Vec2 pos = q + (half_w_mm + 1.5 * voxel_mm) * n,
+               neg = q - (half_w_mm + 1.5 * voxel_mm) * n;
+    higher += map.top_mm(pos.x(), pos.y()) - map.top_mm(neg.x(), neg.y());
+  }
+  if (higher >= voxel_mm - 1e-9) return 1;
+  if (higher <= -voxel_mm + 1e-9) return -1;
+  return 0;
+}
+
 }  // namespace detail
 }  // namespace printtwin

@@ -95,6 +95,22 @@ double cap_length_mm(const BeadSection& s);
 /// (to no less than half its area).
 BeadSection capped_section(double area_mm2, double h_mm, double len_mm, int caps);
 
+/// The squeeze's bound on a flattened bead: a bead laid in a gap thinner than its layer (over
+/// earlier plastic that rose) spreads sideways, but its width grows by no more than `widen_mm`
+/// over the bead it would be at its nominal height (`nominal_w_mm` wide). Narrows `s` to that
+/// width at its height and returns the material it leaves out, per mm of the bead's path
+/// (`len_mm` long, `caps` round end caps paid from its section): the squeeze places it
+/// (SweptBead::overflow_mm2). 0 when `s` is within the bound.
+double bound_flattened(BeadSection& s, double nominal_w_mm, double widen_mm, double len_mm,
+                       int caps);
+
+/// Which side of the bead from `a` to `b` (lateral normal `n`) is the part's inside, read from
+/// the tops of the columns just beyond its edges (`half_w_mm` from its line) at a quarter, half
+/// and three quarters of its length: +1 (+n) or -1 where that side's plastic stands higher by a
+/// voxel or more in all, 0 when neither does.
+int inside_side(const HeightMap& map, const Vec3& a, const Vec3& b, const Vec2& n, double half_w_mm,
+                double voxel_mm);
+
 /// The section of the bead `pb` with cross-section area `area_mm2` over the deposit in `map`,
 /// sampled `samples` times along its centre line (`gaps`: scratch). Height: the gap between the tip
 /// and the surface beneath the centre line. A column whose top is within half a layer of the tip

@@ -153,11 +153,30 @@ struct DepositBuilder::State {
     // bead's own material.
     const bool cap_start = !pb.continues_path;
     const int caps = (cap_start ? 1 : 0) + (path_end ? 1 : 0);
-    const BeadSection s = detail::bead_section(pb, area_mm2, samples, caps, map, voxel, gaps_);
+    BeadSection s = detail::bead_section(pb, area_mm2, samples, caps, map, voxel, gaps_);
+    const double squeeze_mm = settings.conserve_volume ? 0.5 * nozzle_mm : 0.0;
+    // A flattened bead widens by up to the squeeze's reach beyond each nominal edge; one that
+    // may form the part's sides as much, but all towards the inside (not at all where that is
+    // unclear), its outer edge staying where it is.
+    double overflow_mm2 = 0;
+    Vec3 inward = Vec3::Zero();
+    if (squeeze_mm > 0) {
+      const double w_nominal = detail::capped_section(area_mm2, pb.nominal_h_mm, len_mm, caps).w_mm;
+      int side = 0;
+      if (detail::may_form_sides(mv.feature) && s.w_mm > w_nominal)
+        side = detail::inside_side(map, a, b, n, 0.5 * w_nominal, voxel);
+      const bool sided = detail::may_form_sides(mv.feature);
+      overflow_mm2 = detail::bound_flattened(
+          s, w_nominal, sided && side == 0 ? 0.0 : 2.0 * squeeze_mm, len_mm, caps);
+      if (side != 0) {
+        const double shift = 0.5 * side * (s.w_mm - w_nominal);
+        inward = Vec3(shift * n.x(), shift * n.y(), 0.0);
+      }
+    }
     const std::int32_t code = HeightMap::layer_code(mv.layer, is_support(mv.feature));
-    detail::SweptBead bead{
-        a,  b,      d,      n,    pb.m0,
-        m1, s.h_mm, s.w_mm, code, settings.conserve_volume ? 0.5 * nozzle_mm : 0.0};
+    detail::SweptBead bead{a + inward, b + inward, d,      n,    pb.m0,
+                           m1,         s.h_mm,     s.w_mm, code, squeeze_mm};
+    bead.overflow_mm2 = overflow_mm2;
     if (pb.round_start) {  // the wider of the two beads' sections
       const bool prev_wider = pb.join_w_mm > s.w_mm;
       bead.join_h_mm = prev_wider ? pb.join_h_mm : s.h_mm;

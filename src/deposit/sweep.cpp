@@ -293,15 +293,16 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
   std::uint64_t* const hits = hits_.data() + below;
   Sides sides;
   bool have_sides = false;
-  const Ring local{nullptr,
-                   masks_.data(),
-                   local_layers_.data(),
-                   static_cast<int>(below + nk),
-                   hits_.data(),
-                   bead.layer,
-                   &sides,
-                   steps,
-                   !bead.keeps_sides};
+  Ring local{nullptr,
+             masks_.data(),
+             local_layers_.data(),
+             static_cast<int>(below + nk),
+             hits_.data(),
+             bead.layer,
+             &sides,
+             steps,
+             !bead.keeps_sides};
+  local.bottom = reached_.front();
   std::size_t carry = 0;
   std::size_t rehit = 0;  // voxels of the bead that held squeezed material
   // A round join is laid first, outside the bead: it takes material the bead lays on earlier
@@ -323,8 +324,10 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
   if (bead.cap_end)
     lay_disc(Disc{bead.b_mm, bead.h_mm, bead.w_mm, bead.d, Vec2(-bead.d), bead.layer}, grid, tag,
              map, &cap_overlap);
-  laid.overlap += cap_overlap;
-  if (squeezing) carry = cap_overlap;
+  // A flattened bead's material beyond the squeeze's bound is overflow like its overlap.
+  const std::size_t overflow = squeezing ? overflow_voxels(bead) : 0;
+  laid.overlap += cap_overlap + overflow;
+  if (squeezing) carry = cap_overlap + overflow;
   for_each_tile(bead, a2, b2, hw, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
     const std::size_t at = map.index(8 * bx, 8 * by);
     test_tile_layers(f, 8 * bx, 8 * by, reached_.data(), static_cast<int>(nk), t_lo, t_hi, lanes,
@@ -386,6 +389,13 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
   laid.overlap -= once;
   laid.squeezed -= once;
   return laid;
+}
+
+std::size_t BeadSweep::overflow_voxels(const SweptBead& bead) const {
+  if (!(bead.overflow_mm2 > 0)) return 0;
+  const double len_mm = (bead.b_mm - bead.a_mm).head<2>().norm();
+  const double v = inv_voxel_ * inv_voxel_ * inv_voxel_;
+  return static_cast<std::size_t>(std::lround(bead.overflow_mm2 * len_mm * v));
 }
 
 std::size_t BeadSweep::lay_disc(const Disc& disc, VoxelGrid& grid, std::uint32_t tag,
@@ -480,6 +490,7 @@ std::size_t BeadSweep::squeeze(const SweptBead& bead, const BeadFrame& f, const 
     Ring ring{&g,      nullptr,    layers_.data(), static_cast<int>(layers_.size()),
               nullptr, bead.layer, within,         0,
               false};
+    ring.bottom = k_lo;
     const auto nk = layers_.size();
     double hw = static_cast<double>(f.flat) + static_cast<double>(f.r) + reach + kBoundSlack;
     // Both sides end at the flat part: no voxel centre beyond it is within them, so the tiles
@@ -539,13 +550,24 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
   const bool sided = ring.sides != nullptr && !ring.sides->open();
   std::uint64_t any_free = 0;
   const std::uint64_t* occ = nullptr;
-  int occ_bz = -1;  // the block of `occ` (the layers are in order: one or two blocks)
+  int occ_bz = -1;          // the block of `occ` (the layers are in order: one or two blocks)
+  std::uint64_t under = 0;  // the occupancy of the layer below (the bed: all)
   for (std::size_t n = 0; n < nk; ++n) {
     const int k = ring.layers[n];
+    if (n == 0 || ring.layers[n - 1] != k - 1) {
+      const std::uint64_t* b =
+          k > 0 ? detail::VoxelBlocks::block_occupancy(grid, bx, by, (k - 1) >> 3) : nullptr;
+      under = k == 0 ? ~std::uint64_t{0} : (b != nullptr ? b[(k - 1) & 7] : 0);
+    }
     if ((k >> 3) != occ_bz)
       occ_bz = k >> 3, occ = detail::VoxelBlocks::block_occupancy(grid, bx, by, occ_bz);
-    free_[n] = ~(occ != nullptr ? occ[k & 7] : 0);
+    const std::uint64_t held = occ != nullptr ? occ[k & 7] : 0;
+    free_[n] = ~held;
+    // Below the bead's layers material goes only where plastic (or the bed) holds it from
+    // beneath: into the cusps and gaps of the layer below, not into the air under a bridge.
+    if (k < ring.bottom) free_[n] &= under;
     any_free |= free_[n];
+    under = held;
   }
   any_free &= inside;
   if (ring.grown == nullptr) {

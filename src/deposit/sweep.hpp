@@ -45,6 +45,10 @@ struct SweptBead {
   /// gap fill, support, skirt, start code) lie inside the part or outside it: their material
   /// may go past an open side.
   bool keeps_sides = true;
+  /// Material (mm3 per mm of the path) the section leaves out: a bead flattened over earlier
+  /// plastic spreads no further than squeeze_mm beyond its nominal edges (bound_flattened);
+  /// the rest is overflow like the bead's overlap, and the squeeze places it.
+  double overflow_mm2 = 0;
   /// How many voxel layers the squeezed material may rise above the tip, last (an over-full
   /// solid layer rises); -1: up to squeeze_mm. 0 for a bead that keeps its sides (a raised top
   /// narrows the next layer's gap, which then lays its bead thinner and wider), 1 for top
@@ -91,6 +95,8 @@ class BeadSweep {
   /// occupied already to *overlap. Returns how many free voxels it filled.
   std::size_t lay_disc(const Disc& disc, VoxelGrid& grid, std::uint32_t tag, HeightMap& map,
                        std::size_t* overlap);
+  /// The voxels of material `bead` leaves out of its section (SweptBead::overflow_mm2).
+  std::size_t overflow_voxels(const SweptBead& bead) const;
   /// Where a bead's squeezed material may go sideways: voxel centres whose offset from the
   /// centre line (voxel units, along +n) lies in [-neg, pos]. A side against earlier plastic
   /// is open (infinite); a side open to air ends at the bead's own flat part, so the grooves
@@ -132,6 +138,9 @@ class BeadSweep {
     /// same tiles and layers (nullptr: none); *known: bit n set when cache[n] is filled in.
     std::uint64_t* cache = nullptr;
     std::uint64_t* known = nullptr;
+    /// The bead's lowest voxel layer: below it, only voxels on earlier plastic (or the bed)
+    /// take material.
+    std::int32_t bottom = 0;
   };
   /// Into ring_: the grown section's voxels of tile (bx, by) on each layer of `ring` that has
   /// free voxels in `within` (free_), 0 on the others.

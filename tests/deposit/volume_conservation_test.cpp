@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <initializer_list>
 #include <numbers>
 #include <optional>
 #include <string>
@@ -51,7 +52,7 @@ TEST(VolumeConservation, SpiralVaseDepositsItsExtrudedVolume) {
   // The overlap is still reported (no smaller: squeezed material takes room later beads lay
   // on, though displacing it again is not counted a second time).
   EXPECT_GE(kept.overlap_mm3, lost.overlap_mm3);
-  EXPECT_GT(kept.squeezed_mm3, 0.95 * kept.overlap_mm3);
+  EXPECT_GT(kept.squeezed_mm3, 0.94 * kept.overlap_mm3);
   EXPECT_LE(kept.squeezed_mm3, kept.overlap_mm3);
 }
 
@@ -163,6 +164,104 @@ TEST(VolumeConservation, SqueezeFillsTheInsideBeforeGoingPastTheOpenEdge) {
   });
   EXPECT_GT(squeezed, 0U);
   EXPECT_EQ(past, 0U) << "of " << squeezed;
+}
+
+/// A 0.2 mm layer of beads along x at `ys`, plastic that rose 0.15 mm above it at `rise_y`, then
+/// the next layer's 0.45 x 0.2 mm bead of `feature` at y = 50, 0.05 mm above that. Returns its
+/// G-code line.
+std::uint32_t bead_over_a_rise(BeadWriter& w, std::initializer_list<double> ys, double rise_y,
+                               Feature feature) {
+  for (const double y : ys) {
+    w.travel({50, y, 0.2});
+    w.extrude({70, y, 0.2}, 0.45, 0.2);
+  }
+  w.travel({50, rise_y, 0.35});
+  w.extrude({70, rise_y, 0.35}, 0.45, 0.15);
+  w.moves.back().height_hint_mm = 0.15;
+  w.layer = 1;
+  w.feature = feature;
+  w.travel({50, 50, 0.4});
+  w.extrude({70, 50, 0.4}, 0.45, 0.2);
+  w.moves.back().height_hint_mm = 0.2;
+  return static_cast<std::uint32_t>(w.moves.back().line);
+}
+
+// A bead laid in a gap much thinner than its layer (over earlier plastic that rose into it)
+// spreads sideways, but no further than half a nozzle beyond each edge of the bead it would be
+// at its layer height: about the nozzle's flat face. The rest is overflow the squeeze places
+// (half a nozzle further at most); without the bound the stadium of a 0.05 mm gap is over
+// 1.4 mm wide and stands out of a wall (the benchmark part's excess at its layers 133 and 196).
+TEST(VolumeConservation, FlattenedBeadSpreadsNoFurtherThanHalfANozzle) {
+  const auto profile = ender3_marlin2();
+  BeadWriter w(profile);
+  const auto top = bead_over_a_rise(w, {49.6, 50.0, 50.4}, 50.0, Feature::perimeter);
+  DepositSettings off;
+  off.conserve_volume = false;
+  auto r = deposit_moves(w.moves, profile, conserving());
+  auto wide = deposit_moves(w.moves, profile, off);
+  ASSERT_TRUE(r.ok() && wide.ok());
+  auto reach = [&](const DepositResult& d) {
+    double far = 0;
+    d.grid.for_each([&](const VoxelKey& k, const VoxelTag& tag) {
+      if (tag.line == top) far = std::max(far, std::abs(d.grid.center_mm(k).y() - 50.0));
+    });
+    return far;
+  };
+  // The bead reaches half a nozzle beyond its nominal edge, its overflow half a nozzle more.
+  const double bound = 0.5 * 0.45 + profile.nozzle_diameter_mm + r->voxel_mm;
+  EXPECT_GT(reach(*wide), bound);  // the unbounded stadium
+  EXPECT_LE(reach(*r), bound);
+  EXPECT_NEAR(shortfall(*r), 0.0, 0.01) << r->volume_mm3 << " of " << r->extruded_mm3;
+}
+
+// An outer wall flattened the same way widens as much, but only towards the part's inside (the
+// side whose plastic stands higher): its outer edge stays where the nozzle put it.
+TEST(VolumeConservation, FlattenedOuterWallKeepsItsEdge) {
+  auto profile = ender3_marlin2();
+  profile.elephant_foot_mm = 0;
+  BeadWriter w(profile);
+  // The layer on the -y side only.
+  const auto top = bead_over_a_rise(w, {49.6, 50.0}, 49.8, Feature::outer_perimeter);
+  auto r = deposit_moves(w.moves, profile, conserving());
+  ASSERT_TRUE(r.ok());
+  double lo = 50, hi = 50;
+  r->grid.for_each([&](const VoxelKey& k, const VoxelTag& tag) {
+    if (tag.line != top) return;
+    lo = std::min(lo, r->grid.center_mm(k).y());
+    hi = std::max(hi, r->grid.center_mm(k).y());
+  });
+  const double hw = 0.5 * 0.45, d = 0.5 * profile.nozzle_diameter_mm;
+  EXPECT_LE(hi, 50 + hw + r->voxel_mm);          // the outer edge
+  EXPECT_LT(lo, 50 - hw - r->voxel_mm);          // widened inwards
+  EXPECT_GE(lo, 50 - hw - 3 * d - r->voxel_mm);  // by a nozzle, its overflow half a nozzle more
+}
+
+// Below its own layers the squeeze fills only voxels resting on earlier plastic (the cusps of
+// the layer below), not the air: a bead laid twice in mid-air (rigid, no sag) keeps all of
+// its material at or above the bottom of the bead laid alone.
+TEST(VolumeConservation, OverflowDoesNotHangUnderABridge) {
+  auto profile = ender3_marlin2();
+  profile.bridge_sag_mm = 0;
+  profile.overhang_droop_mm = 0;
+  BeadWriter w(profile);
+  w.feature = Feature::bridge_infill;
+  for (int twice = 0; twice < 2; ++twice) {
+    w.travel({50, 50, 5.2});
+    w.extrude({70, 50, 5.2}, 0.45, 0.2);
+  }
+  DepositSettings off;
+  off.conserve_volume = false;
+  auto r = deposit_moves(w.moves, profile, conserving());
+  auto laid = deposit_moves(w.moves, profile, off);
+  ASSERT_TRUE(r.ok() && laid.ok());
+  EXPECT_GT(r->squeezed_mm3, 0.0);
+  auto lowest = [](const DepositResult& d) {
+    double z = 1e9;
+    d.grid.for_each(
+        [&](const VoxelKey& k, const VoxelTag&) { z = std::min(z, d.grid.center_mm(k).z()); });
+    return z;
+  };
+  EXPECT_GE(lowest(*r), lowest(*laid) - 1e-9);  // nothing under the beads' own bottom
 }
 
 TEST(VolumeConservation, PrusaSlicerCubeWithInfillDepositsItsExtrudedVolume) {
