@@ -4,12 +4,14 @@
 # time). Both whole processes, same session, alternating, median of RUNS; CPU = user + sys.
 # Also prints verify's stage timings (report.json "timings_s") of the last run.
 # Usage: bench/verify_vs_prusa.sh [build-dir]   env: RUNS (default 3); BASE=<build-dir or
-# printtwin binary> also times that verify in the same rounds (before / after a change).
+# printtwin binary> also times that verify in the same rounds (before / after a change);
+# VERIFY_ARGS: more options for both verify runs (e.g. VERIFY_ARGS=--no-conserve-volume).
 # Needs openscad and prusa-slicer (bench/make_bench_data.sh builds the inputs once).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="${1:-$root/build}"
 runs="${RUNS:-3}"
+read -r -a extra <<< "${VERIFY_ARGS:-}"
 "$root/bench/make_bench_data.sh" "$build"
 data="$build/benchdata"
 ini="$root/../shared/peers/prusa_ender3.ini"
@@ -31,9 +33,9 @@ for ((r = 0; r < runs; ++r)); do
   out="$prusa" timed prusa-slicer --load "$ini" --layer-height 0.2 --center 110,110 \
     --export-gcode -o "$tmp/p.gcode" "$data/bench_model.stl"
   out="$ver" timed "$build/src/printtwin" verify "$data/bench_model.stl" \
-    --gcode "$data/bench_model.gcode" --out "$tmp/report" --quiet
+    --gcode "$data/bench_model.gcode" --out "$tmp/report" --quiet "${extra[@]}"
   [ -z "$base" ] || out="$basef" timed "$base" verify "$data/bench_model.stl" \
-    --gcode "$data/bench_model.gcode" --out "$tmp/base_report" --quiet
+    --gcode "$data/bench_model.gcode" --out "$tmp/base_report" --quiet "${extra[@]}"
 done
 median() { sort -g | awk '{a[NR]=$1} END {print (NR%2) ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2}'; }
 col() { awk -v c="$2" '{print $c}' "$1" | median; }
