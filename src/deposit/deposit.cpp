@@ -51,8 +51,7 @@ struct DepositBuilder::State {
   detail::SupportTracker support;
   detail::BeadSweep sweeper;
   detail::DroopProbe droop;  // sag, droop, elephant's foot
-  // The grid's writes without the squeeze (which reads the grid): on a writer thread when
-  // there is a second core (grid_writer.hpp).
+  // The grid's writes: on a writer thread when there is a second core (grid_writer.hpp).
   std::unique_ptr<detail::GridWriter> writer;
 
   double extruded_mm3 = 0;
@@ -80,9 +79,13 @@ struct DepositBuilder::State {
     using Writes = detail::DepositRunSettings::Writes;
     const bool threaded = s.writes == Writes::thread ||
                           (s.writes == Writes::automatic && detail::GridWriter::wanted(grid));
-    if (!s.conserve_volume && (threaded || s.writes == Writes::at_once)) {
+    if (threaded || s.writes == Writes::at_once) {
       writer = std::make_unique<detail::GridWriter>(grid, threaded);
-      sweeper.defer_writes(writer.get());
+      // The squeeze reads the grid: the sweep keeps its own copy of the occupancy.
+      if (s.conserve_volume)
+        sweeper.mirror_writes(writer.get());
+      else
+        sweeper.defer_writes(writer.get());
     }
   }
 

@@ -56,6 +56,9 @@ void GridWriter::apply(Kind kind, int bx, int by, int k, std::uint64_t mask) {
       if (free != 0) a.credit += VoxelBlocks::write_tile(*grid_, bx, by, k, free, a.tag);
       return;
     }
+    case kPut:
+      VoxelBlocks::write_tile(*grid_, bx, by, k, mask, a.tag);
+      return;
     case kBead:
     case kCap: {
       const std::size_t fresh = VoxelBlocks::write_tile(*grid_, bx, by, k, mask, a.tag);

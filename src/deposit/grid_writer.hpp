@@ -1,14 +1,16 @@
 #pragma once
 // GridWriter: the deposit's voxel writes (occupancy bits and tags), applied to the grid in the
 // order the sweep makes them, either at once or on a writer thread that runs behind the sweep
-// through a ring of records. Without the volume squeeze the sweep reads nothing back from the
-// grid: it keeps its own height map, whose top voxel of a column is always occupied (so a
+// through a ring of records. The sweep reads nothing back from the grid. Without the volume
+// squeeze it keeps its own height map, whose top voxel of a column is always occupied (so a
 // round join, which fills only free voxels, knows from the map which columns it raises), and
-// the writer counts the overlap. The grid, its tags and the counts end the same bit for bit
-// either way; the sweep and the writes run side by side on two cores.
+// the writer counts the overlap. The squeeze reads which voxels are free: the sweep then keeps
+// its own copy of the occupancy bits (BeadSweep::mirror_writes), counts everything itself and
+// sends plain writes (put). The grid, its tags and the counts end the same bit for bit either
+// way; the sweep and the writes run side by side on two cores.
 //
 // The writer thread is a special path (core/plain_path.hpp): with PRINTTWIN_PLAIN=deposit_writer
-// (or one hardware thread) the sweep writes the grid itself, as it does with the squeeze.
+// (or one hardware thread) the sweep writes the grid itself.
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
@@ -54,6 +56,11 @@ class GridWriter {
   void end_tile() { push(kEndTile, 0, 0, 0, 0, tag_); }
   /// The end of a bead laid after a join: the credit left is dropped.
   void end_piece() { push(kEndPiece, 0, 0, 0, 0, tag_); }
+  /// Voxels written and counted by the caller (the sweep with the squeeze, which keeps its
+  /// own copy of the occupancy): the writer only writes them.
+  void put(int bx, int by, int k, std::uint64_t mask, std::uint32_t tag) {
+    push(kPut, bx, by, k, mask, tag);
+  }
 
   struct Totals {
     std::size_t overlap = 0;   ///< bead and cap voxels that were occupied already
@@ -64,7 +71,7 @@ class GridWriter {
   Totals finish();
 
  private:
-  enum Kind : std::uint16_t { kBead, kCap, kJoin, kEndTile, kEndPiece, kTag };
+  enum Kind : std::uint16_t { kBead, kCap, kJoin, kEndTile, kEndPiece, kTag, kPut };
   struct Record {  // 16 bytes; a kTag record holds the tag index in `mask`
     std::uint64_t mask;
     std::uint16_t bx, by, k, kind;
@@ -86,12 +93,12 @@ class GridWriter {
     }
     if (tag != tag_) {  // a tag change travels as a record of its own
       tag_ = tag;
-      put(Record{tag, 0, 0, 0, kTag});
+      put_record(Record{tag, 0, 0, 0, kTag});
     }
-    put(Record{mask, static_cast<std::uint16_t>(bx), static_cast<std::uint16_t>(by),
-               static_cast<std::uint16_t>(k), kind});
+    put_record(Record{mask, static_cast<std::uint16_t>(bx), static_cast<std::uint16_t>(by),
+                      static_cast<std::uint16_t>(k), kind});
   }
-  void put(const Record& r) {
+  void put_record(const Record& r) {
     if (produced_ - tail_seen_ >= kCapacity) wait_for_room();
     ring_[produced_ & (kCapacity - 1)] = r;
     if ((++produced_ & (kBatch - 1)) == 0) publish();

@@ -131,7 +131,25 @@ BeadSweep::BeadSweep(const VoxelGrid& grid, bool exhaustive)
       ny_(grid.dims().y()),
       nz_(grid.dims().z()),
       block_dims_(detail::VoxelBlocks::block_dims(grid)),
-      exhaustive_(exhaustive) {}
+      exhaustive_(exhaustive),
+      squeezed_(block_dims_),
+      mirror_(block_dims_) {}
+
+const std::uint64_t* BeadSweep::occupancy(const VoxelGrid& grid, int bx, int by, int bz) const {
+  if (mirror_to_ != nullptr) return mirror_.find(bx, by, bz);
+  return detail::VoxelBlocks::block_occupancy(grid, bx, by, bz);
+}
+
+std::uint64_t BeadSweep::write_slice(VoxelGrid& grid, int bx, int by, int k, std::uint64_t mask,
+                                     std::uint32_t tag) {
+  if (mirror_to_ == nullptr)
+    return detail::VoxelBlocks::write_tile_before(grid, bx, by, k, mask, tag);
+  std::uint64_t& word = mirror_.make(bx, by, k >> 3)[k & 7];
+  const std::uint64_t before = word;
+  word |= mask;
+  mirror_to_->put(bx, by, k, mask, tag);
+  return before;
+}
 
 bool BeadSweep::set_up(const SweptBead& bead, BeadFrame& f, Vec2& a2, Vec2& b2, double& hw) {
   // Heights that are whole voxels up to rounding (Z 0.4 / 0.05 = 7.9999999) are snapped, so
@@ -343,22 +361,19 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
       if (squeezing) hits[layer_at] = 0;
       if (mask == 0) continue;
       const int k = reached_[layer_at];
-      if (squeezing) {
-        const std::uint64_t* occ = detail::VoxelBlocks::block_occupancy(grid, bx, by, k >> 3);
-        hits[layer_at] = mask & (occ != nullptr ? occ[k & 7] : 0);
-        if (hits[layer_at] != 0) {
-          if (std::uint64_t* sq = squeezed_words(bx, by, k >> 3, false); sq != nullptr) {
-            const std::uint64_t again = hits[layer_at] & sq[k & 7];
+      if (writer_ != nullptr) {
+        writer_->bead(bx, by, k, mask, tag);  // without the squeeze: the writer counts
+      } else {
+        const std::uint64_t hit = mask & write_slice(grid, bx, by, k, mask, tag);
+        tile_overlap += static_cast<std::size_t>(popcount64(hit));
+        if (squeezing) hits[layer_at] = hit;
+        if (squeezing && hit != 0) {
+          if (std::uint64_t* sq = squeezed_.find(bx, by, k >> 3); sq != nullptr) {
+            const std::uint64_t again = hit & sq[k & 7];
             tile_rehit += static_cast<std::size_t>(popcount64(again));
             sq[k & 7] &= ~again;  // now the bead's own material
           }
         }
-      }
-      if (writer_ != nullptr) {
-        writer_->bead(bx, by, k, mask, tag);
-      } else {
-        const std::size_t fresh = detail::VoxelBlocks::write_tile(grid, bx, by, k, mask, tag);
-        tile_overlap += static_cast<std::size_t>(popcount64(mask)) - fresh;
       }
       if ((mask & ~raised) != 0)
         HeightMap::set_columns(rows.data(), mask & ~raised, static_cast<std::uint16_t>(k + 1));
@@ -456,11 +471,12 @@ std::size_t BeadSweep::lay_disc(const Disc& disc, VoxelGrid& grid, std::uint32_t
           }
         } else {
           if (overlap == nullptr) {  // a join: only the free voxels
-            const std::uint64_t* occ = detail::VoxelBlocks::block_occupancy(grid, bx, by, k >> 3);
+            const std::uint64_t* occ = occupancy(grid, bx, by, k >> 3);
             mask &= ~(occ != nullptr ? occ[k & 7] : 0);
             if (mask == 0) continue;
           }
-          const std::size_t fresh = detail::VoxelBlocks::write_tile(grid, bx, by, k, mask, tag);
+          const auto fresh =
+              static_cast<std::size_t>(popcount64(mask & ~write_slice(grid, bx, by, k, mask, tag)));
           filled += fresh;
           if (overlap != nullptr) *overlap += static_cast<std::size_t>(popcount64(mask)) - fresh;
         }
@@ -555,12 +571,10 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
   for (std::size_t n = 0; n < nk; ++n) {
     const int k = ring.layers[n];
     if (n == 0 || ring.layers[n - 1] != k - 1) {
-      const std::uint64_t* b =
-          k > 0 ? detail::VoxelBlocks::block_occupancy(grid, bx, by, (k - 1) >> 3) : nullptr;
+      const std::uint64_t* b = k > 0 ? occupancy(grid, bx, by, (k - 1) >> 3) : nullptr;
       under = k == 0 ? ~std::uint64_t{0} : (b != nullptr ? b[(k - 1) & 7] : 0);
     }
-    if ((k >> 3) != occ_bz)
-      occ_bz = k >> 3, occ = detail::VoxelBlocks::block_occupancy(grid, bx, by, occ_bz);
+    if ((k >> 3) != occ_bz) occ_bz = k >> 3, occ = occupancy(grid, bx, by, occ_bz);
     const std::uint64_t held = occ != nullptr ? occ[k & 7] : 0;
     free_[n] = ~held;
     // Below the bead's layers material goes only where plastic (or the bed) holds it from
@@ -615,11 +629,11 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
     for (std::size_t n = nk; n-- > 0;) {
       if (put_[n] == 0) continue;
       const int k = ring.layers[n];
-      detail::VoxelBlocks::write_tile(grid, bx, by, k, put_[n], tag);
+      write_slice(grid, bx, by, k, put_[n], tag);
       if ((put_[n] & ~raised) != 0)
         map.raise_tile(at, put_[n] & ~raised, static_cast<std::uint16_t>(k + 1), ring.bead_layer);
       raised |= put_[n];
-      squeezed_words(bx, by, k >> 3, true)[k & 7] |= put_[n];
+      squeezed_.make(bx, by, k >> 3)[k & 7] |= put_[n];
     }
     return placed;
   };
@@ -725,29 +739,19 @@ std::uint64_t BeadSweep::Sides::cut_mask(int i0, int j0) const {
   return band_mask(m0, a2, 0.0, kInf, i0, j0) & band_mask(m1, b2, -kInf, 0.0, i0, j0);
 }
 
-std::uint64_t* BeadSweep::squeezed_words(int bx, int by, int bz, bool make) {
-  if (bx < 0 || by < 0 || bz < 0 || bx >= block_dims_.x() || by >= block_dims_.y() ||
-      bz >= block_dims_.z())
-    return nullptr;
-  const std::size_t at = (static_cast<std::size_t>(bz) * static_cast<std::size_t>(block_dims_.y()) +
-                          static_cast<std::size_t>(by)) *
-                             static_cast<std::size_t>(block_dims_.x()) +
-                         static_cast<std::size_t>(bx);
-  if (squeezed_dir_.empty()) {
-    if (!make) return nullptr;
-    squeezed_dir_.assign(static_cast<std::size_t>(block_dims_.x()) *
-                             static_cast<std::size_t>(block_dims_.y()) *
-                             static_cast<std::size_t>(block_dims_.z()),
-                         0);
+std::uint64_t* BlockWords::make(int bx, int by, int bz) {
+  const std::size_t at = index(bx, by, bz);
+  if (at == kOutside) return nullptr;
+  if (dir_.empty())
+    dir_ = ZeroedArray<std::uint32_t>(static_cast<std::size_t>(dims_.x()) *
+                                      static_cast<std::size_t>(dims_.y()) *
+                                      static_cast<std::size_t>(dims_.z()));
+  if (dir_[at] == 0) {
+    words_.emplace_back();
+    words_.back().fill(0);
+    dir_[at] = static_cast<std::uint32_t>(words_.size());
   }
-  std::uint32_t d = squeezed_dir_[at];
-  if (d == 0) {
-    if (!make) return nullptr;
-    squeezed_.push_back({});
-    d = static_cast<std::uint32_t>(squeezed_.size());
-    squeezed_dir_[at] = d;
-  }
-  return squeezed_[d - 1].data();
+  return words_[dir_[at] - 1].data();
 }
 
 BeadSweep::Sides BeadSweep::sides_of(const BeadFrame& f, const SweptBead& bead, const Vec2& a2,
@@ -770,7 +774,7 @@ BeadSweep::Sides BeadSweep::sides_of(const BeadFrame& f, const SweptBead& bead, 
       const Vec2 p = q + (side == 0 ? out : -out) * bead.n;
       const int i = floor_int(p.x()), j = floor_int(p.y());
       if (i < 0 || j < 0 || k < 0 || i >= nx_ || j >= ny_ || k >= nz_) continue;
-      const std::uint64_t* occ = detail::VoxelBlocks::block_occupancy(grid, i >> 3, j >> 3, k >> 3);
+      const std::uint64_t* occ = occupancy(grid, i >> 3, j >> 3, k >> 3);
       if (occ != nullptr && ((occ[k & 7] >> (8 * (j & 7) + (i & 7))) & 1u) != 0) ++held[side];
     }
   }

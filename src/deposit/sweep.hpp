@@ -10,8 +10,11 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <deque>
+#include <utility>
 #include <vector>
 
+#include "core/zeroed_array.hpp"
 #include "deposit/grid_writer.hpp"
 #include "deposit/height_map.hpp"
 #include "deposit/kernels.hpp"
@@ -19,6 +22,39 @@
 #include "printtwin/voxel_grid.hpp"
 
 namespace printtwin::detail {
+
+/// Eight 64-bit words per 8 x 8 x 8 block of a grid (one per z-slice, bit y * 8 + x, as the
+/// occupancy), in a directory of the grid's blocks beside it; a block's words are allocated
+/// (zero) on their first write and never move.
+class BlockWords {
+ public:
+  explicit BlockWords(const Eigen::Vector3i& block_dims) : dims_(block_dims) {}
+  /// The words of block (bx, by, bz); nullptr when it has none or lies outside the grid.
+  [[nodiscard]] const std::uint64_t* find(int bx, int by, int bz) const {
+    const std::size_t at = index(bx, by, bz);
+    if (at == kOutside || dir_.empty() || dir_[at] == 0) return nullptr;
+    return words_[dir_[at] - 1].data();
+  }
+  [[nodiscard]] std::uint64_t* find(int bx, int by, int bz) {
+    return const_cast<std::uint64_t*>(std::as_const(*this).find(bx, by, bz));
+  }
+  /// The words of block (bx, by, bz), allocated when it had none; nullptr outside the grid.
+  std::uint64_t* make(int bx, int by, int bz);
+
+ private:
+  static constexpr std::size_t kOutside = ~std::size_t{0};
+  [[nodiscard]] std::size_t index(int bx, int by, int bz) const {
+    if (bx < 0 || by < 0 || bz < 0 || bx >= dims_.x() || by >= dims_.y() || bz >= dims_.z())
+      return kOutside;
+    return (static_cast<std::size_t>(bz) * static_cast<std::size_t>(dims_.y()) +
+            static_cast<std::size_t>(by)) *
+               static_cast<std::size_t>(dims_.x()) +
+           static_cast<std::size_t>(bx);
+  }
+  Eigen::Vector3i dims_;
+  ZeroedArray<std::uint32_t> dir_;                  // block -> 1 + index into words_ (0: none)
+  std::deque<std::array<std::uint64_t, 8>> words_;  // per block with words
+};
 
 /// One bead as the sweep lays it (mm, machine frame).
 struct SweptBead {
@@ -71,6 +107,10 @@ class BeadSweep {
   /// Sends the grid's writes to `writer` (nullptr: writes them at once), which then counts
   /// the overlap (lay returns zeros). Only for beads without a squeeze, which reads the grid.
   void defer_writes(GridWriter* writer) { writer_ = writer; }
+  /// With the squeeze: sends the grid's writes to `writer`, which only writes them, and keeps
+  /// a copy of the grid's occupancy that the sweep reads instead of the grid's, so that the
+  /// writes may run on a writer thread behind the sweep (the counts stay the sweep's).
+  void mirror_writes(GridWriter* writer) { mirror_to_ = writer; }
 
  private:
   /// The frame of the sample-point tests, and the layers the section reaches (reached_) with
@@ -153,8 +193,17 @@ class BeadSweep {
   std::size_t squeeze_tile(const Ring& ring, int bx, int by, int row_lo, int row_hi, unsigned lanes,
                            std::size_t need, VoxelGrid& grid, std::uint32_t tag, HeightMap& map);
 
-  GridWriter* writer_ = nullptr;  // where the writes go (nullptr: into the grid at once)
-  bool joined_ = false;           // the bead laid last had a round join with writes
+  /// The occupancy words of block (bx, by, bz) as the sweep has written them (the grid's, or
+  /// its copy with mirror_writes); nullptr when the block holds nothing.
+  [[nodiscard]] const std::uint64_t* occupancy(const VoxelGrid& grid, int bx, int by, int bz) const;
+  /// Writes `mask` into z-slice k of block (bx, by) with tag `tag` (into the grid, or into the
+  /// copy and to the writer with mirror_writes); returns the slice's occupancy before.
+  std::uint64_t write_slice(VoxelGrid& grid, int bx, int by, int k, std::uint64_t mask,
+                            std::uint32_t tag);
+
+  GridWriter* writer_ = nullptr;     // where the writes go (nullptr: into the grid at once)
+  GridWriter* mirror_to_ = nullptr;  // with the squeeze: where the writes go (nullptr: the grid)
+  bool joined_ = false;              // the bead laid last had a round join with writes
   Vec3 origin_;
   double inv_voxel_;
   int nx_, ny_, nz_;
@@ -178,11 +227,8 @@ class BeadSweep {
   // Voxels that hold squeezed material (per block: one word per z-slice, as the occupancy):
   // a later bead that falls on them displaces that material again as its own overflow, but
   // it is not counted as overlap a second time.
-  std::vector<std::uint32_t> squeezed_dir_;             // block -> 1 + index into squeezed_
-  std::vector<std::array<std::uint64_t, 8>> squeezed_;  // per block with squeezed material
-  /// The squeezed-material words of block (bx, by, bz); nullptr when it has none (`make`:
-  /// allocate them).
-  std::uint64_t* squeezed_words(int bx, int by, int bz, bool make);
+  BlockWords squeezed_;
+  BlockWords mirror_;  // with mirror_writes: the grid's occupancy as the sweep wrote it
 };
 
 }  // namespace printtwin::detail

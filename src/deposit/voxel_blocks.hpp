@@ -71,6 +71,9 @@ struct VoxelBlocks {
   /// were empty before.
   static std::size_t write_tile(VoxelGrid& grid, int bx, int by, std::int32_t z, std::uint64_t mask,
                                 std::uint32_t tag_index);
+  /// write_tile returning the z-slice's occupancy word before the write.
+  static std::uint64_t write_tile_before(VoxelGrid& grid, int bx, int by, std::int32_t z,
+                                         std::uint64_t mask, std::uint32_t tag_index);
   /// Pre-allocates room for `blocks` blocks (no effect on count()).
   static void reserve_blocks(VoxelGrid& grid, std::size_t blocks);
 

@@ -359,16 +359,22 @@ std::size_t VoxelBlocks::fill_row(VoxelGrid& grid, std::int32_t y, std::int32_t 
   return fresh;
 }
 
-std::size_t VoxelBlocks::write_tile(VoxelGrid& grid, int bx, int by, std::int32_t z,
-                                    std::uint64_t mask, std::uint32_t tag_index) {
+std::uint64_t VoxelBlocks::write_tile_before(VoxelGrid& grid, int bx, int by, std::int32_t z,
+                                             std::uint64_t mask, std::uint32_t tag_index) {
   VoxelGrid::Impl& g = *grid.impl_;
   const std::size_t b = g.block_for_write(bx, by, z >> 3);
   std::uint64_t& word = g.occ(b)[z & 7];
-  const auto fresh = static_cast<std::size_t>(popcount64(mask & ~word));
+  const std::uint64_t before = word;
   word |= mask;
   g.store_tags(b, z & 7, mask, tag_index);
-  g.occupied += fresh;
-  return fresh;
+  g.occupied += static_cast<std::size_t>(popcount64(mask & ~before));
+  return before;
+}
+
+std::size_t VoxelBlocks::write_tile(VoxelGrid& grid, int bx, int by, std::int32_t z,
+                                    std::uint64_t mask, std::uint32_t tag_index) {
+  return static_cast<std::size_t>(
+      popcount64(mask & ~write_tile_before(grid, bx, by, z, mask, tag_index)));
 }
 
 void VoxelGrid::clear(const VoxelKey& k) {

@@ -38,10 +38,11 @@ std::vector<Voxel> voxels_of(const VoxelGrid& g) {
 }
 
 DepositResult deposit_with(std::span<const Move> moves, const PrinterProfile& profile,
-                           Writes writes, double voxel_mm = 0.05) {
+                           Writes writes, bool squeeze, double voxel_mm = 0.05) {
   detail::DepositRunSettings s;
   s.voxel_mm = voxel_mm;
   s.writes = writes;
+  s.conserve_volume = squeeze;
   auto r = detail::DepositRun::moves(moves, profile, s);
   EXPECT_TRUE(r.ok()) << r.error().describe();
   return r.ok() ? std::move(*r) : DepositResult{};
@@ -121,17 +122,22 @@ std::vector<Move> benchmark_like_part(const PrinterProfile& profile) {
   return std::move(w.moves);
 }
 
+// Without the squeeze the writer counts the overlap; with it the sweep reads its own copy of
+// the occupancy (BeadSweep::mirror_writes).
 TEST(DepositWrites, WriterThreadLaysTheSameVoxelsAndTags) {
   const auto profile = ender3_marlin2();
   const auto moves = benchmark_like_part(profile);
-  const DepositResult direct = deposit_with(moves, profile, Writes::direct);
-  EXPECT_GT(direct.voxels, 100000u);
-  EXPECT_GT(direct.overlap_mm3, 0.0);
-  EXPECT_GT(direct.squeezed_mm3, 0.0);  // round joins took some of the overlap
-  EXPECT_FALSE(direct.unsupported.empty());
-  expect_same(direct, deposit_with(moves, profile, Writes::at_once), "at once");
-  expect_same(direct, deposit_with(moves, profile, Writes::thread), "thread");
-  expect_same(direct, deposit_with(moves, profile, Writes::automatic), "automatic");
+  for (const bool squeeze : {false, true}) {
+    SCOPED_TRACE(squeeze ? "squeeze" : "no squeeze");
+    const DepositResult direct = deposit_with(moves, profile, Writes::direct, squeeze);
+    EXPECT_GT(direct.voxels, 100000u);
+    EXPECT_GT(direct.overlap_mm3, 0.0);
+    EXPECT_GT(direct.squeezed_mm3, 0.0);  // round joins (and the squeeze) took the overlap
+    EXPECT_FALSE(direct.unsupported.empty());
+    expect_same(direct, deposit_with(moves, profile, Writes::at_once, squeeze), "at once");
+    expect_same(direct, deposit_with(moves, profile, Writes::thread, squeeze), "thread");
+    expect_same(direct, deposit_with(moves, profile, Writes::automatic, squeeze), "automatic");
+  }
 }
 
 /// The streamed builder's deposit, with the writes on a writer thread or not.
@@ -163,9 +169,11 @@ TEST(DepositWrites, RealSlicerFilesGiveTheSameDeposit) {
     auto moves = interpret_gcode_file(entry.path(), profile, SimulateOptions{});
     if (!moves.ok() || moves->empty()) continue;  // the interpreter's tests cover its errors
     // A coarser voxel keeps the test short; the writes follow the same paths.
-    const DepositResult direct = deposit_with(*moves, profile, Writes::direct, 0.2);
-    expect_same(direct, deposit_with(*moves, profile, Writes::thread, 0.2),
-                entry.path().filename().string());
+    for (const bool squeeze : {false, true}) {
+      const DepositResult direct = deposit_with(*moves, profile, Writes::direct, squeeze, 0.2);
+      expect_same(direct, deposit_with(*moves, profile, Writes::thread, squeeze, 0.2),
+                  entry.path().filename().string() + (squeeze ? " squeeze" : ""));
+    }
     ++tested;
   }
   if (tested == 0) GTEST_SKIP() << "no G-code the interpreter reads";
