@@ -261,10 +261,20 @@ struct OutlineCell {
   double s = 0, z = 0, len = 0;
 };
 /// A bead that may cover another's outline: the span of the other's centre line it may cover
-/// (length along it) and the heights it may cover.
+/// (length along it), the heights it may cover, its level box (its core's box grown by its
+/// radius and kCoverMm, with a margin for rounding) and its slab across (its core lies within
+/// `half` of its centre line across the move): a point outside the box or the slab grown by
+/// the radius and kCoverMm lies farther than kCoverMm from the bead.
 struct NearBead {
   std::uint32_t bead;
-  double u0, u1, z0, z1;
+  double u0, u1, z0, z1, x0, x1, y0, y1;
+  Vec3 a, across;  ///< the bead's centre line start and its level unit vector across
+  double slab;     ///< half + r + kCoverMm, with a margin for rounding
+  /// Whether p lies outside the box or the slab (so not within kCoverMm of the bead).
+  [[nodiscard]] bool clear_of(const Vec3& p) const {
+    return p.z() < z0 || p.z() > z1 || p.x() < x0 || p.x() > x1 || p.y() < y0 || p.y() > y1 ||
+           std::abs((p - a).dot(across)) > slab;
+  }
 };
 /// A thread's working memory for laying beads (reused from bead to bead).
 struct Scratch {
@@ -380,7 +390,7 @@ bool Sampler::covered(std::uint32_t k, const Vec3& p,
                       std::span<const NearBead* const> active) const {
   Vec3 core;
   for (const NearBead* x : active) {
-    if (p.z() < x->z0 || p.z() > x->z1) continue;
+    if (x->clear_of(p)) continue;
     const double sd = cores[x->bead].closest(p, core);
     if (sd < -kCoverMm) return true;
     if (sd > kCoverMm) continue;
@@ -426,8 +436,13 @@ void Sampler::lay(std::uint32_t k, std::span<const std::uint32_t> faces, double 
     const double t0 = (g.a - f.a).dot(f.dir), t1 = (g.a + g.d - f.a).dot(f.dir);
     const double pad = f.reach() + g.reach() + kCoverMm, rz = g.r + kCoverMm;
     const double za = g.a.z(), zb = g.a.z() + g.d.z();
+    // The core lies within its centre line's box grown by its half width across (level).
+    const double rxy = g.half + g.r + kCoverMm + 1e-9;
+    const Vec3 b = g.a + g.d;
     near.push_back({c, std::min(t0, t1) - pad, std::max(t0, t1) + pad, std::min(za, zb) - rz,
-                    std::max(za, zb) + rz});
+                    std::max(za, zb) + rz, std::min(g.a.x(), b.x()) - rxy,
+                    std::max(g.a.x(), b.x()) + rxy, std::min(g.a.y(), b.y()) - rxy,
+                    std::max(g.a.y(), b.y()) + rxy, g.a, g.across, rxy});
   }
   std::vector<const NearBead*>& active = w.active;
   // The outline extends past its faces by up to a quarter circle and a voxel.
