@@ -47,10 +47,8 @@ std::unique_ptr<octomap::ColorOcTree> tree_by_insertion(const VoxelGrid& grid,
 std::unique_ptr<octomap::ColorOcTree> read_ot(const std::filesystem::path& file) {
   std::unique_ptr<octomap::AbstractOcTree> any(octomap::AbstractOcTree::read(file.string()));
   if (!any) return nullptr;
-  auto* colour = dynamic_cast<octomap::ColorOcTree*>(any.get());
-  if (colour == nullptr) return nullptr;
-  any.release();
-  return std::unique_ptr<octomap::ColorOcTree>(colour);
+  if (dynamic_cast<octomap::ColorOcTree*>(any.get()) == nullptr) return nullptr;
+  return std::unique_ptr<octomap::ColorOcTree>(static_cast<octomap::ColorOcTree*>(any.release()));
 }
 
 /// Every occupied voxel (OctoMap key) with its colour; a leaf above the bottom stands for
