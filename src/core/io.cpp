@@ -1,6 +1,9 @@
 // Whole-file reads and atomic writes; locale-independent number formatting.
 #include "printtwin/io.hpp"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <array>
 #include <cerrno>
@@ -8,11 +11,13 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
+#include <functional>
 #include <optional>
 #include <random>
 #include <sstream>
 #include <system_error>
+
+#include "core/atomic_write.hpp"
 
 namespace printtwin {
 
@@ -99,6 +104,19 @@ Result<std::string> read_file(const fs::path& path) {
 }
 
 Status write_file_atomic(const fs::path& path, std::string_view content) {
+  return detail::write_file_atomic_with(path, [content](int fd) {
+    for (std::size_t done = 0; done < content.size();) {
+      const ssize_t n = ::write(fd, content.data() + done, content.size() - done);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) return false;
+      done += static_cast<std::size_t>(n);
+    }
+    return true;
+  });
+}
+
+Status detail::write_file_atomic_with(const fs::path& path,
+                                      const std::function<bool(int fd)>& fill) {
   std::error_code ec;
   if (fs::is_directory(path, ec))
     return bad_input("is a folder, expected a file to write", path.string());
@@ -106,21 +124,17 @@ Status write_file_atomic(const fs::path& path, std::string_view content) {
   // A unique temporary name beside the target, so that rename() is atomic.
   std::random_device rd;
   const fs::path tmp = path.string() + ".tmp" + std::to_string(rd() % 1000000);
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) {
-      return Error{ErrorCode::bad_input,
-                   std::string("cannot write: ") + std::strerror(errno),
-                   path.string(),
-                   {}};
-    }
-    out.write(content.data(), static_cast<std::streamsize>(content.size()));
-    out.flush();
-    if (!out) {
-      out.close();
-      fs::remove(tmp, ec);
-      return Error{ErrorCode::bad_input, "write failed (disk full?)", path.string(), {}};
-    }
+  const int fd = ::open(tmp.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (fd < 0) {
+    return Error{ErrorCode::bad_input,
+                 std::string("cannot write: ") + std::strerror(errno),
+                 path.string(),
+                 {}};
+  }
+  const bool filled = fill(fd);
+  if (::close(fd) != 0 || !filled) {
+    fs::remove(tmp, ec);
+    return Error{ErrorCode::bad_input, "write failed (disk full?)", path.string(), {}};
   }
   fs::rename(tmp, path, ec);
   if (ec) {

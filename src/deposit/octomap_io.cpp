@@ -7,11 +7,13 @@
 // to OctoMap keys one to one since the resolution equals the voxel size.
 #include <octomap/ColorOcTree.h>
 #include <octomap/OcTree.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <array>
 #include <bit>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -19,9 +21,10 @@
 #include <optional>
 #include <sstream>
 #include <string>
-#include <string_view>
 #include <vector>
 
+#include "core/atomic_write.hpp"
+#include "core/bits.hpp"
 #include "deposit/palette.hpp"
 #include "deposit/voxel_blocks.hpp"
 #include "printtwin/deposit.hpp"
@@ -137,8 +140,7 @@ class BtEncoder {
     std::uint64_t rows = 0;
     for (int y = y0; y < y0 + n; ++y) rows |= row << (8 * y);
     int total = 0;
-    for (int z = z0; z < z0 + n; ++z)
-      total += std::popcount(bits[static_cast<std::size_t>(z)] & rows);
+    for (int z = z0; z < z0 + n; ++z) total += popcount64(bits[static_cast<std::size_t>(z)] & rows);
     return total;
   }
   void encode_cube(const std::array<std::uint64_t, 8>& bits, int x0, int y0, int z0, int n) {
@@ -197,54 +199,66 @@ std::vector<Cube> cubes_of(const VoxelGrid& grid) {
   const Eigen::Vector3i nb = VoxelBlocks::block_dims(grid);
   const int ncx = nb.x() + 1, ncy = nb.y() + 1;
   using Bits = std::array<std::uint64_t, 8>;
-  std::array<std::vector<Bits>, 2> layers;
+  struct Layer {
+    std::vector<Bits> bits;              // per cell (cy * ncx + cx)
+    std::vector<std::uint32_t> touched;  // cells with bits set, in first-touch order
+    Bits& at(std::size_t cell) {
+      Bits& b = bits[cell];
+      if (std::all_of(b.begin(), b.end(), [](std::uint64_t v) { return v == 0; }))
+        touched.push_back(static_cast<std::uint32_t>(cell));
+      return b;
+    }
+  };
+  std::array<Layer, 2> layers;
   for (auto& l : layers)
-    l.assign(static_cast<std::size_t>(ncx) * static_cast<std::size_t>(ncy), Bits{});
+    l.bits.assign(static_cast<std::size_t>(ncx) * static_cast<std::size_t>(ncy), Bits{});
   std::vector<Cube> cubes;
+  cubes.reserve(VoxelBlocks::block_count(grid));
   auto flush = [&](int cz) {  // cube layer cz is complete
     auto& layer = layers[static_cast<std::size_t>(cz & 1)];
-    for (int cy = 0; cy < ncy; ++cy)
-      for (int cx = 0; cx < ncx; ++cx) {
-        Bits& bits = layer[static_cast<std::size_t>(cy) * static_cast<std::size_t>(ncx) +
-                           static_cast<std::size_t>(cx)];
-        if (std::all_of(bits.begin(), bits.end(), [](std::uint64_t v) { return v == 0; })) continue;
-        Cube c;
-        c.morton = morton3(qx + static_cast<std::uint32_t>(cx), qy + static_cast<std::uint32_t>(cy),
-                           qz + static_cast<std::uint32_t>(cz));
-        c.bits = bits;
-        cubes.push_back(c);
-        bits = Bits{};
-      }
+    for (const std::uint32_t cell : layer.touched) {
+      Bits& bits = layer.bits[cell];
+      const auto cx = static_cast<std::uint32_t>(cell % static_cast<std::uint32_t>(ncx)),
+                 cy = static_cast<std::uint32_t>(cell / static_cast<std::uint32_t>(ncx));
+      Cube c;
+      c.morton = morton3(qx + cx, qy + cy, qz + static_cast<std::uint32_t>(cz));
+      c.bits = bits;
+      cubes.push_back(c);
+      bits = Bits{};
+    }
+    layer.touched.clear();
   };
   // A block straddles up to 2 x 2 x 2 cubes: each z-slice's columns and rows are shifted
-  // into them (bit y * 8 + x).
+  // into them (bit y * 8 + x). Blocks come in z, y, x order: cube layer cz is complete once
+  // a block of layer cz + 1 comes.
   const std::uint64_t low_columns = 0x0101010101010101ull * (0xFFu >> sx);  // x < 8 - sx
-  for (int bz = 0; bz < nb.z(); ++bz) {
-    for (int by = 0; by < nb.y(); ++by)
-      for (int bx = 0; bx < nb.x(); ++bx) {
-        const std::uint64_t* occupancy = VoxelBlocks::block_occupancy(grid, bx, by, bz);
-        if (occupancy == nullptr) continue;
-        for (unsigned z = 0; z < 8; ++z) {
-          const std::uint64_t w = occupancy[z];
-          if (w == 0) continue;
-          const unsigned zz = z + sz;
-          auto& layer = layers[static_cast<std::size_t>((bz + static_cast<int>(zz >> 3)) & 1)];
-          const std::uint64_t x_parts[2] = {(w & low_columns) << sx,
-                                            sx == 0 ? 0 : (w & ~low_columns) >> (8 - sx)};
-          for (int dx = 0; dx < 2; ++dx) {
-            const std::uint64_t p = x_parts[dx];
-            if (p == 0) continue;
-            const auto cell = static_cast<std::size_t>(by) * static_cast<std::size_t>(ncx) +
-                              static_cast<std::size_t>(bx + dx);
-            layer[cell][zz & 7u] |= p << (8 * sy);  // rows y < 8 - sy
-            if (sy != 0)
-              layer[cell + static_cast<std::size_t>(ncx)][zz & 7u] |= p >> (8 * (8 - sy));
-          }
-        }
+  int flushed = 0;                                                          // cube layers done
+  VoxelBlocks::visit_blocks(grid, [&](const VoxelBlocks::BlockView& block) {
+    const int bx = block.base.x / VoxelBlocks::kBlockEdge,
+              by = block.base.y / VoxelBlocks::kBlockEdge,
+              bz = block.base.z / VoxelBlocks::kBlockEdge;
+    for (; flushed < bz; ++flushed) flush(flushed);
+    for (unsigned z = 0; z < 8; ++z) {
+      const std::uint64_t w = block.occupancy[z];
+      if (w == 0) continue;
+      const unsigned zz = z + sz;
+      auto& layer = layers[static_cast<std::size_t>((bz + static_cast<int>(zz >> 3)) & 1)];
+      const std::uint64_t x_parts[2] = {(w & low_columns) << sx,
+                                        sx == 0 ? 0 : (w & ~low_columns) >> (8 - sx)};
+      for (int dx = 0; dx < 2; ++dx) {
+        const std::uint64_t p = x_parts[dx];
+        if (p == 0) continue;
+        const auto cell = static_cast<std::size_t>(by) * static_cast<std::size_t>(ncx) +
+                          static_cast<std::size_t>(bx + dx);
+        if (const std::uint64_t rows = p << (8 * sy); rows != 0)  // rows y < 8 - sy
+          layer.at(cell)[zz & 7u] |= rows;
+        if (sy != 0)
+          if (const std::uint64_t rows = p >> (8 * (8 - sy)); rows != 0)
+            layer.at(cell + static_cast<std::size_t>(ncx))[zz & 7u] |= rows;
       }
-    flush(bz);
-  }
-  flush(nb.z());
+    }
+  });
+  for (; flushed <= nb.z(); ++flushed) flush(flushed);
   std::sort(cubes.begin(), cubes.end(),
             [](const Cube& a, const Cube& b) { return a.morton < b.morton; });
   return cubes;
@@ -304,6 +318,64 @@ OtNode parent_of(const OtNode* c) {
   return kInner | ((r / n) << 16) | ((g / n) << 8) | (b / n);
 }
 
+/// Writes `n` bytes at file offset `at` (pwrite, retried until done); false on an error.
+bool write_at(int fd, const char* bytes, std::size_t n, std::uint64_t at) {
+  while (n > 0) {
+    const ssize_t w = ::pwrite(fd, bytes, n, static_cast<off_t>(at));
+    if (w < 0 && errno == EINTR) continue;
+    if (w <= 0) return false;
+    bytes += w, n -= static_cast<std::size_t>(w), at += static_cast<std::uint64_t>(w);
+  }
+  return true;
+}
+
+/// The .ot node records, streamed to the file through a buffer of the latest ones (memory
+/// stays small however large the tree). Offsets count from the first record, which lies at
+/// `start` in the file. A node's colour is known only after its subtree, and eight leaves of
+/// one colour are taken back for one leaf, so writes may go back to records already flushed.
+class RecordSink {
+ public:
+  RecordSink(int fd, std::uint64_t start) : fd_(fd), start_(start), buffer_(new char[kBytes]) {}
+  /// Appends a record; returns its offset.
+  std::uint64_t put(const char* record) {
+    if (size_ - base_ + kRecord > kBytes) [[unlikely]]
+      flush();
+    std::memcpy(buffer_.get() + (size_ - base_), record, kRecord);
+    size_ += kRecord;
+    return size_ - kRecord;
+  }
+  /// Overwrites `n` bytes of the records put, from offset `at` on.
+  void patch(std::uint64_t at, const char* bytes, std::size_t n) {
+    if (at >= base_)
+      std::memcpy(buffer_.get() + (at - base_), bytes, n);
+    else
+      ok_ = ok_ && write_at(fd_, bytes, n, start_ + at);
+  }
+  /// Drops the records from offset `at` on (the file's stale bytes are overwritten or cut).
+  void truncate(std::uint64_t at) {
+    size_ = at;
+    base_ = std::min(base_, at);
+  }
+  /// Writes the buffered records out.
+  __attribute__((noinline)) void flush() {
+    ok_ = ok_ && write_at(fd_, buffer_.get(), size_ - base_, start_ + base_);
+    base_ = size_;
+  }
+  [[nodiscard]] std::uint64_t size() const { return size_; }
+  [[nodiscard]] bool ok() const { return ok_; }
+
+  static constexpr std::size_t kRecord = 8;
+
+ private:
+  static constexpr std::size_t kBytes = std::size_t{1} << 20;
+  int fd_;
+  std::uint64_t start_;
+  std::unique_ptr<char[]> buffer_;
+  std::uint64_t base_ = 0;  // offset of buffer_[0]
+  std::uint64_t size_ = 0;  // offset of the next record
+  bool ok_ = true;
+};
+
 class OtEncoder {
  public:
   OtEncoder(const VoxelGrid& grid, std::vector<Cube> cubes, VoxelColoring coloring,
@@ -318,43 +390,52 @@ class OtEncoder {
     for (int a = 0; a < 3; ++a)
       offset_[a] = static_cast<int>(std::llround(grid.origin_mm()[a] / grid.voxel_mm())) + 32768;
     std::memcpy(record_, &occupied_log_odds, 4);
+    // Every cube starts at the same place inside its grid block (offsets below 8): where
+    // each of its voxels lies among the up to 2 x 2 x 2 blocks it overlaps.
+    int shift[3];
+    for (int a = 0; a < 3; ++a) shift[a] = (-offset_[a]) & 7;
+    for (int bit = 0; bit < 64; ++bit) {
+      const int lx = shift[0] + (bit & 7), ly = shift[1] + (bit >> 3);
+      xy_block_[static_cast<std::size_t>(bit)] =
+          static_cast<std::uint8_t>((lx >> 3) | ((ly >> 3) << 1));
+      xy_slot_[static_cast<std::size_t>(bit)] = static_cast<std::uint8_t>((ly & 7) * 8 + (lx & 7));
+    }
+    for (int z = 0; z < 8; ++z) {
+      const int lz = shift[2] + z;
+      z_block_[static_cast<std::size_t>(z)] = static_cast<std::uint8_t>((lz >> 3) << 2);
+      z_slot_[static_cast<std::size_t>(z)] = static_cast<std::uint16_t>((lz & 7) * 64);
+    }
   }
-  /// Bytes the encoded tree needs at most, 8 a node: per cube its voxels and at most
-  /// min(voxels, 64) + min(voxels, 8) + 1 nodes above them inside the cube, plus a chain of
-  /// kCubeLevels ancestors.
-  [[nodiscard]] std::size_t max_bytes() const {
+  /// Nodes of the encoded tree at most: per cube its voxels and at most min(voxels, 64) +
+  /// min(voxels, 8) + 1 nodes above them inside the cube, plus a chain of kCubeLevels
+  /// ancestors.
+  [[nodiscard]] std::size_t max_nodes() const {
     std::size_t nodes = 0;
     for (const auto& c : cubes_) {
       std::size_t n = 0;
-      for (const auto w : c.bits) n += static_cast<std::size_t>(std::popcount(w));
+      for (const auto w : c.bits) n += static_cast<std::size_t>(popcount64(w));
       nodes += n + std::min<std::size_t>(n, 64) + std::min<std::size_t>(n, 8) + 1 + kCubeLevels;
     }
-    return 8 * nodes;
+    return nodes;
   }
-  /// Encodes the tree into `out` (max_bytes() of room); returns the node count (OctoMap's
-  /// size()); size() is then the bytes written.
-  std::size_t encode(char* out) {
-    out_ = out;
-    size_ = 0;
+  /// Encodes the tree into `out`; returns the node count (OctoMap's size()).
+  std::size_t encode(RecordSink& out) {
+    out_ = &out;
     nodes_ = 0;
     if (!cubes_.empty()) encode_range(0, cubes_.size(), 0);
     return nodes_;
   }
-  [[nodiscard]] std::size_t size() const { return size_; }
 
  private:
   [[nodiscard]] unsigned child_of(std::size_t i, int depth) const {
     return static_cast<unsigned>((cubes_[i].morton >> (3 * (kCubeLevels - 1 - depth))) & 7u);
   }
   /// Appends a node record (value, colour, child bits); returns its offset in the output.
-  std::size_t put_node(OtNode node, std::uint8_t children) {
-    const std::size_t at = size_;
+  std::uint64_t put_node(OtNode node, std::uint8_t children) {
     record_[4] = static_cast<char>(node >> 16), record_[5] = static_cast<char>(node >> 8);
     record_[6] = static_cast<char>(node), record_[7] = static_cast<char>(children);
-    std::memcpy(out_ + at, record_, sizeof record_);
-    size_ += sizeof record_;
     ++nodes_;
-    return at;
+    return out_->put(record_);
   }
   OtNode encode_range(std::size_t b, std::size_t e, int depth) {
     if (depth == kCubeLevels) return encode_cube(cubes_[b]);
@@ -367,23 +448,30 @@ class OtEncoder {
       split[c + 1] = i;
       if (split[c] != split[c + 1]) mask = static_cast<std::uint8_t>(mask | (1u << c));
     }
-    const std::size_t at = put_node(kInner | kWhite, mask);
+    const std::uint64_t at = put_node(kInner | kWhite, mask);
     const std::size_t nodes_before = nodes_;
     std::array<OtNode, 8> children{};
     for (unsigned c = 0; c < 8; ++c)
       if (split[c] != split[c + 1]) children[c] = encode_range(split[c], split[c + 1], depth + 1);
     const OtNode node = parent_of(children.data());
     if (node & kLeaf) {  // eight leaves of one colour: one leaf instead
-      size_ = at;
+      out_->truncate(at);
       nodes_ = nodes_before - 1;
       put_node(node, 0);
     } else {
-      out_[at + 4] = static_cast<char>(node >> 16);
-      out_[at + 5] = static_cast<char>(node >> 8);
-      out_[at + 6] = static_cast<char>(node);
+      const char colour[3] = {static_cast<char>(node >> 16), static_cast<char>(node >> 8),
+                              static_cast<char>(node)};
+      out_->patch(at + 4, colour, 3);
     }
     return node;
   }
+  /// A grid block as the cube reads it: the colour of each palette entry, or of each slot
+  /// when the block is wide.
+  struct BlockColours {
+    const std::uint8_t* nibbles = nullptr;
+    const std::uint32_t* wide = nullptr;
+    std::array<OtNode, VoxelBlocks::kPaletteSize> palette{};
+  };
   /// The packed leaf of every voxel of the cube (slot z * 64 + y * 8 + x; 0 where empty).
   /// Returns the colour all of them share when every grid block they come from has one
   /// colour for all its tags (then the voxels are filled without a per-voxel look-up),
@@ -393,48 +481,46 @@ class OtEncoder {
     for (int level = 0; level < kCubeLevels; ++level)
       for (int a = 0; a < 3; ++a)
         k[a] |= static_cast<std::uint32_t>((cube.morton >> (3 * level + a)) & 1u) << level;
-    int g0[3], b0[3], spans[3];
+    int b0[3], spans[3];
     for (int a = 0; a < 3; ++a) {
-      g0[a] = static_cast<int>(k[a] * 8) - offset_[a];
-      b0[a] = g0[a] >> 3;
-      spans[a] = ((g0[a] + 7) >> 3) - b0[a] + 1;  // 1 when aligned, else 2
+      const int g0 = static_cast<int>(k[a] * 8) - offset_[a];
+      b0[a] = g0 >> 3;
+      spans[a] = ((g0 + 7) >> 3) - b0[a] + 1;  // 1 when aligned, else 2
     }
-    // The blocks the cube overlaps, each with its one colour (0 when its tags differ).
-    std::array<std::optional<VoxelBlocks::BlockView>, 8> blocks;
-    std::array<OtNode, 8> block_colour{};
+    // The blocks the cube overlaps, and the one colour they share (0 when their tags differ).
     OtNode shared = ~OtNode{0};  // not yet known
     for (int dz = 0; dz < spans[2]; ++dz)
       for (int dy = 0; dy < spans[1]; ++dy)
         for (int dx = 0; dx < spans[0]; ++dx) {
-          const auto bi = static_cast<std::size_t>(dx | (dy << 1) | (dz << 2));
-          blocks[bi] = VoxelBlocks::block_view(grid_, b0[0] + dx, b0[1] + dy, b0[2] + dz);
-          if (!blocks[bi]) continue;
-          const auto& v = *blocks[bi];
-          OtNode c = v.wide == nullptr && v.palette_size > 0 ? colours_[v.palette[0]] : 0;
-          for (int i = 1; i < v.palette_size && c != 0; ++i)
-            if (colours_[v.palette[i]] != c) c = 0;
-          block_colour[bi] = c;
+          const auto view = VoxelBlocks::block_view(grid_, b0[0] + dx, b0[1] + dy, b0[2] + dz);
+          if (!view) continue;
+          BlockColours& b = blocks_[static_cast<std::size_t>(dx | (dy << 1) | (dz << 2))];
+          b.nibbles = view->nibbles;
+          b.wide = view->wide;
+          OtNode c = b.wide == nullptr && view->palette_size > 0 ? colours_[view->palette[0]] : 0;
+          for (int i = 0; i < view->palette_size; ++i) {
+            b.palette[static_cast<std::size_t>(i)] = colours_[view->palette[i]];
+            if (b.palette[static_cast<std::size_t>(i)] != c) c = 0;
+          }
           shared = shared == ~OtNode{0} ? c : (shared == c ? c : 0);
         }
     if (shared != 0 && cube.full()) return shared;  // the caller writes one leaf
     voxel_.fill(0);
-    for (int z = 0; z < 8; ++z) {
-      std::uint64_t w = cube.bits[static_cast<std::size_t>(z)];
-      while (w != 0) {
-        const int bit = std::countr_zero(w);
-        w &= w - 1;
-        if (shared != 0) {
-          voxel_[static_cast<std::size_t>(z) * 64 + static_cast<std::size_t>(bit)] = shared;
-          continue;
-        }
-        const int gx = g0[0] + (bit & 7), gy = g0[1] + (bit >> 3), gz = g0[2] + z;
-        const int block_of_eight =
-            ((gx >> 3) - b0[0]) | (((gy >> 3) - b0[1]) << 1) | (((gz >> 3) - b0[2]) << 2);
-        const auto bi = static_cast<std::size_t>(block_of_eight);
-        voxel_[static_cast<std::size_t>(z) * 64 + static_cast<std::size_t>(bit)] =
-            block_colour[bi] != 0
-                ? block_colour[bi]
-                : colours_[blocks[bi]->tag_index((gz & 7) * 64 + (gy & 7) * 8 + (gx & 7))];
+    for (std::size_t z = 0; z < 8; ++z) {
+      std::uint64_t w = cube.bits[z];
+      OtNode* slice = voxel_.data() + z * 64;
+      if (shared != 0) {
+        for (; w != 0; w &= w - 1) slice[std::countr_zero(w)] = shared;
+        continue;
+      }
+      const unsigned z_block = z_block_[z], z_slot = z_slot_[z];
+      for (; w != 0; w &= w - 1) {
+        const auto bit = static_cast<std::size_t>(std::countr_zero(w));
+        const BlockColours& b = blocks_[z_block | xy_block_[bit]];
+        const unsigned slot = z_slot + xy_slot_[bit];
+        slice[bit] = b.wide != nullptr
+                         ? colours_[b.wide[slot]]
+                         : b.palette[(b.nibbles[slot >> 1] >> ((slot & 1u) * 4)) & 15u];
       }
     }
     return shared;
@@ -499,34 +585,47 @@ class OtEncoder {
   std::vector<Cube> cubes_;
   std::vector<OtNode> colours_;  // per tag index, packed as a leaf
   int offset_[3] = {0, 0, 0};
-  char record_[8] = {};
+  char record_[RecordSink::kRecord] = {};
+  std::array<std::uint8_t, 64> xy_block_{};  // per bit y * 8 + x of a cube slice: its block
+  std::array<std::uint8_t, 64> xy_slot_{};   // ... and its slot's y * 8 + x there
+  std::array<std::uint8_t, 8> z_block_{};    // per cube slice z: its block (z bit)
+  std::array<std::uint16_t, 8> z_slot_{};    // ... and its slot's z * 64 there
+  std::array<BlockColours, 8> blocks_{};
   std::array<OtNode, 512> voxel_{};
   std::array<OtNode, 64> l1_{};
   std::array<OtNode, 8> l2_{};
-  char* out_ = nullptr;
-  std::size_t size_ = 0;
+  RecordSink* out_ = nullptr;
   std::size_t nodes_ = 0;
 };
 
-/// The .ot file's bytes: the header written just before the nodes, in one buffer whose
-/// untouched tail costs address space only.
-struct OtBytes {
-  std::unique_ptr<char[]> buffer;
-  std::string_view bytes;
-};
-
-OtBytes encode_ot(const VoxelGrid& grid, VoxelColoring coloring) {
+/// Writes the .ot file into `fd`: the node records first, streamed from where the longest
+/// header their count could need ends, then the header; when the header is shorter, the
+/// records are moved up to it. False when a write fails.
+bool write_ot(int fd, const VoxelGrid& grid, VoxelColoring coloring) {
   const octomap::ColorOcTree reference(grid.voxel_mm());  // empty: for its occupancy constants
   OtEncoder encoder(grid, cubes_of(grid), coloring, reference.getClampingThresMaxLog());
-  constexpr std::size_t kHeadRoom = 512;
-  OtBytes out;
-  out.buffer.reset(new char[kHeadRoom + encoder.max_bytes()]);
-  const std::size_t nodes = encoder.encode(out.buffer.get() + kHeadRoom);
-  const std::string text = octomap_header(false, "ColorOcTree", nodes, grid.voxel_mm());
-  char* start = out.buffer.get() + kHeadRoom - text.size();
-  std::copy(text.begin(), text.end(), start);
-  out.bytes = std::string_view(start, text.size() + encoder.size());
-  return out;
+  const std::uint64_t start =
+      octomap_header(false, "ColorOcTree", encoder.max_nodes(), grid.voxel_mm()).size();
+  RecordSink sink(fd, start);
+  const std::size_t nodes = encoder.encode(sink);
+  sink.flush();
+  const std::string header = octomap_header(false, "ColorOcTree", nodes, grid.voxel_mm());
+  if (!sink.ok() || header.size() > start) return false;
+  const std::uint64_t size = sink.size();
+  if (header.size() < start) {  // move the records up, front to back
+    std::vector<char> chunk(std::size_t{1} << 20);
+    for (std::uint64_t done = 0; done < size;) {
+      const auto n = static_cast<std::size_t>(std::min<std::uint64_t>(chunk.size(), size - done));
+      const ssize_t got = ::pread(fd, chunk.data(), n, static_cast<off_t>(start + done));
+      if (got < 0 && errno == EINTR) continue;
+      if (got <= 0 ||
+          !write_at(fd, chunk.data(), static_cast<std::size_t>(got), header.size() + done))
+        return false;
+      done += static_cast<std::uint64_t>(got);
+    }
+  }
+  return write_at(fd, header.data(), header.size(), 0) &&
+         ::ftruncate(fd, static_cast<off_t>(header.size() + size)) == 0;
 }
 
 }  // namespace
@@ -538,8 +637,7 @@ Status write_octomap(const VoxelGrid& grid, const std::filesystem::path& path,
     return usage_error("OctoMap output must end in .bt or .ot: " + path.string());
   if (auto st = check_key_range(grid); !st) return st.error();
   if (ext == ".bt") return write_file_atomic(path, encode_bt(grid));
-  const OtBytes ot = encode_ot(grid, coloring);
-  return write_file_atomic(path, ot.bytes);
+  return detail::write_file_atomic_with(path, [&](int fd) { return write_ot(fd, grid, coloring); });
 }
 
 Result<std::size_t> count_octomap_voxels(const std::filesystem::path& path) {

@@ -4,15 +4,18 @@
 // and every node of the written tree has the colour OctoMap gives the node at that place.
 #include <gtest/gtest.h>
 #include <octomap/ColorOcTree.h>
+#include <octomap/OcTree.h>
 
 #include <map>
 #include <memory>
+#include <sstream>
 #include <tuple>
 
 #include "deposit/deposit_test_support.hpp"
 #include "deposit/palette.hpp"
 #include "deposit/voxel_blocks.hpp"
 #include "printtwin/deposit.hpp"
+#include "printtwin/io.hpp"
 #include "support/test_support.hpp"
 
 namespace printtwin {
@@ -44,10 +47,8 @@ std::unique_ptr<octomap::ColorOcTree> tree_by_insertion(const VoxelGrid& grid,
 std::unique_ptr<octomap::ColorOcTree> read_ot(const std::filesystem::path& file) {
   std::unique_ptr<octomap::AbstractOcTree> any(octomap::AbstractOcTree::read(file.string()));
   if (!any) return nullptr;
-  auto* colour = dynamic_cast<octomap::ColorOcTree*>(any.get());
-  if (colour == nullptr) return nullptr;
-  any.release();
-  return std::unique_ptr<octomap::ColorOcTree>(colour);
+  if (dynamic_cast<octomap::ColorOcTree*>(any.get()) == nullptr) return nullptr;
+  return std::unique_ptr<octomap::ColorOcTree>(static_cast<octomap::ColorOcTree*>(any.release()));
 }
 
 /// Every occupied voxel (OctoMap key) with its colour; a leaf above the bottom stands for
@@ -102,23 +103,53 @@ void fill_box(VoxelGrid& g, const Eigen::Vector3i& lo, const Eigen::Vector3i& hi
 }
 
 // Boxes of several layers and features, holes, a lone voxel in the grid's far corner and
-// one at its origin, over grids whose blocks do and do not line up with OctoMap's cubes.
+// one at its origin; the grid's blocks line up with OctoMap's cubes or not, by `origin`.
+VoxelGrid boxes_and_holes(double origin) {
+  VoxelGrid g(0.05, Vec3(origin, origin + 0.1, 0), Eigen::Vector3i(70, 50, 40));
+  for (int layer = 0; layer < 8; ++layer) {
+    const auto t =
+        VoxelBlocks::add_tag(g, {static_cast<std::uint32_t>(layer + 1), layer,
+                                 layer % 3 == 0 ? Feature::gap_fill : Feature::sparse_infill});
+    fill_box(g, {3, 5, 4 * layer}, {60, 45, 4 * layer + 4}, t);
+  }
+  const auto outer = VoxelBlocks::add_tag(g, {100, 2, Feature::outer_perimeter});
+  fill_box(g, {0, 0, 8}, {3, 50, 12}, outer);
+  for (int z = 10; z < 20; ++z) g.clear({30, 20, z});
+  g.set({69, 49, 39}, VoxelTag{200, 9, Feature::support});
+  g.set({0, 0, 0}, VoxelTag{201, 0, Feature::skirt});
+  return g;
+}
+
 TEST(OctomapOt, SameVoxelsAndColoursAsOctomapsInsertPath) {
   for (const double origin : {0.0, 0.3, -1.15}) {
-    VoxelGrid g(0.05, Vec3(origin, origin + 0.1, 0), Eigen::Vector3i(70, 50, 40));
-    for (int layer = 0; layer < 8; ++layer) {
-      const auto t =
-          VoxelBlocks::add_tag(g, {static_cast<std::uint32_t>(layer + 1), layer,
-                                   layer % 3 == 0 ? Feature::gap_fill : Feature::sparse_infill});
-      fill_box(g, {3, 5, 4 * layer}, {60, 45, 4 * layer + 4}, t);
-    }
-    const auto outer = VoxelBlocks::add_tag(g, {100, 2, Feature::outer_perimeter});
-    fill_box(g, {0, 0, 8}, {3, 50, 12}, outer);
-    for (int z = 10; z < 20; ++z) g.clear({30, 20, z});
-    g.set({69, 49, 39}, VoxelTag{200, 9, Feature::support});
-    g.set({0, 0, 0}, VoxelTag{201, 0, Feature::skirt});
+    const VoxelGrid g = boxes_and_holes(origin);
     for (const auto coloring : {VoxelColoring::layer, VoxelColoring::feature})
       expect_same_as_insertion(g, coloring, "origin " + std::to_string(origin));
+  }
+}
+
+// The .bt holds the bytes OctoMap's writeBinary writes for the same voxels inserted one by
+// one (it prunes the tree first).
+TEST(OctomapBt, SameBytesAsOctomapsWriteBinary) {
+  for (const double origin : {0.0, 0.3, -1.15}) {
+    const VoxelGrid g = boxes_and_holes(origin);
+    const auto file = test::temp_dir("octomap_bt") / "grid.bt";
+    ASSERT_TRUE(write_octomap(g, file).ok());
+    octomap::OcTree tree(g.voxel_mm());
+    g.for_each([&](const VoxelKey& k, const VoxelTag&) {
+      const Vec3 c = g.center_mm(k);
+      tree.updateNode(
+          tree.coordToKey(octomap::point3d(static_cast<float>(c.x()), static_cast<float>(c.y()),
+                                           static_cast<float>(c.z()))),
+          true, /*lazy_eval=*/true);
+    });
+    tree.updateInnerOccupancy();
+    std::ostringstream reference;
+    ASSERT_TRUE(tree.writeBinary(reference));
+    const auto written = read_file(file);
+    ASSERT_TRUE(written.ok());
+    EXPECT_TRUE(*written == reference.str()) << "origin " << origin;
+    EXPECT_GT(written->size(), 200u);
   }
 }
 
@@ -162,6 +193,21 @@ TEST(OctomapOt, UniformCubesArePrunedWithoutLosingColour) {
   EXPECT_EQ(by_feature->getNumLeafNodes(), 1u);  // the 64^3 block, one colour
   EXPECT_EQ(by_layer->getNumLeafNodes(), 8u);    // its two halves, 4 nodes of 32^3 each
   expect_same_as_insertion(g, VoxelColoring::layer, "two halves");
+}
+
+// More records than the encoder buffers (1 MiB): the colours of nodes whose records were
+// already written out are patched in the file. Every other voxel of a checkerboard (no two
+// of a 2^3 cube alike) beside solid layers (merged into larger leaves).
+TEST(OctomapOt, LargeTreeStreamedToTheFile) {
+  VoxelGrid g(0.05, Vec3(0.3, 0.1, 0), Eigen::Vector3i(80, 72, 64));
+  for (int z = 0; z < 64; ++z)
+    for (int y = 0; y < 72; ++y)
+      for (int x = 0; x < 80; ++x)
+        if ((x + y + z) % 2 == 0 || x >= 64)
+          g.set({x, y, z}, VoxelTag{static_cast<std::uint32_t>(z / 4 + 1), z / 4,
+                                    x >= 64 ? Feature::solid_infill : Feature::sparse_infill});
+  ASSERT_GT(g.count(), 150000u);
+  expect_same_as_insertion(g, VoxelColoring::layer, "checkerboard");
 }
 
 TEST(OctomapOt, EmptyDepositIsAValidEmptyTree) {
