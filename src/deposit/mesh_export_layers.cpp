@@ -595,9 +595,13 @@ bool reduce_crossing_shares(std::vector<Outline>& outlines, double r,
           const Seg& t = segs[static_cast<std::uint32_t>(bins[v])];
           const std::size_t n = outlines[s.outline].pts.size();
           if (s.outline == t.outline && (t.k == (s.k + 1) % n || s.k == (t.k + 1) % n)) continue;
-          if (orient(s.a, s.b, t.a) * orient(s.a, s.b, t.b) > 0 ||
-              orient(t.a, t.b, s.a) * orient(t.a, t.b, s.b) > 0)
-            continue;
+          const double o1 = orient(s.a, s.b, t.a), o2 = orient(s.a, s.b, t.b);
+          if (o1 * o2 > 0 || orient(t.a, t.b, s.a) * orient(t.a, t.b, s.b) > 0) continue;
+          if (o1 == 0 && o2 == 0) {  // on one line (an axis-parallel wall): only if they overlap
+            const P2 dir = s.b - s.a;
+            const double t0 = (t.a - s.a).dot(dir), t1 = (t.b - s.a).dot(dir);
+            if (std::max(t0, t1) < 0 || std::min(t0, t1) > dir.squaredNorm()) continue;
+          }
           for (const Seg* e : {&s, &t}) {
             const auto m = static_cast<std::uint32_t>(outlines[e->outline].pts.size());
             hit.push_back({e->outline, e->k});
