@@ -553,7 +553,8 @@ bool reduce_crossing_shares(std::vector<Outline>& outlines, double r,
   const auto orient = [](const P2& a, const P2& b, const P2& c) {
     return (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
   };
-  for (const auto& [depth, extra] : levels) {
+  for (const auto& level : levels) {
+    const double depth = level[0], extra = level[1];  // named: the lambda below reads them
     segs.clear();
     bins.clear();
     P2 lo(1e300, 1e300);
