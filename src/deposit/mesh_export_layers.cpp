@@ -729,6 +729,7 @@ struct CapExtra {
   std::uint32_t after = 0;
   double t = 0;
   P2 p;
+  std::uint32_t ring = 0, vertex = 0;  ///< the other ring's vertex it comes from
 };
 using CapExtras = std::vector<std::vector<CapExtra>>;  // per ring, by edge and t
 
@@ -971,6 +972,12 @@ void snap_upper_to_lower(std::vector<CapRing>& rings, std::size_t n_below, doubl
 /// Puts each vertex of one set of rings that lies within `eps` of an edge of the other set
 /// (not within `eps` of its ends, both rings running the same way) on that edge as a split
 /// point, for both sets: the two rings then share the point instead of crossing next to it.
+/// The shared points keep one order along both rings: where two rings cross at a steep angle
+/// within `eps` of each other (short ring edges: per-vertex insets), a vertex u of one ring
+/// lies just after vertex l on l's ring and l just after u on u's ring; taking both would
+/// make the rings share the edge u-l head-on (four triangles on it). Then only the first
+/// (the upper vertex onto the lower edge) is taken; likewise, of two vertices of one ring put
+/// on one edge in the opposite order, only the first.
 CapExtras snap_to_edges(const std::vector<CapRing>& rings, std::size_t n_below, double eps) {
   CapExtras extras(rings.size());
   if (n_below == 0 || n_below == rings.size() || eps <= 0) return extras;
@@ -979,6 +986,11 @@ CapExtras snap_to_edges(const std::vector<CapRing>& rings, std::size_t n_below, 
   const auto key = [](std::int64_t x, std::int64_t y) {
     return (static_cast<std::uint64_t>(x) << 32) ^ static_cast<std::uint64_t>(y & 0xffffffff);
   };
+  const auto id = [](std::size_t ring, std::size_t k) {
+    return (static_cast<std::uint64_t>(ring) << 32) | static_cast<std::uint64_t>(k);
+  };
+  // Vertex (ring, k) -> the edge (ring, first vertex) it was put on.
+  std::unordered_map<std::uint64_t, std::uint64_t> put_on;
   for (int pass = 0; pass < 2; ++pass) {  // upper vertices onto lower edges, then the reverse
     const std::size_t t0 = pass == 0 ? 0 : n_below, t1 = pass == 0 ? n_below : rings.size();
     const std::size_t s0 = pass == 0 ? n_below : 0, s1 = pass == 0 ? rings.size() : n_below;
@@ -993,8 +1005,9 @@ CapExtras snap_to_edges(const std::vector<CapRing>& rings, std::size_t n_below, 
             grid.emplace(key(x, y),
                          std::array{static_cast<std::uint32_t>(ri), static_cast<std::uint32_t>(k)});
       }
-    for (std::size_t si = s0; si < s1; ++si)
-      for (std::size_t k = 0; k < rings[si].size(); ++k) {
+    for (std::size_t si = s0; si < s1; ++si) {
+      const std::size_t n = rings[si].size();
+      for (std::size_t k = 0; k < n; ++k) {
         const P2 p = rings[si][k];
         const P2 tangent = ring_tangent(rings[si], k);
         double best = eps;
@@ -1003,13 +1016,22 @@ CapExtras snap_to_edges(const std::vector<CapRing>& rings, std::size_t n_below, 
         const auto [lo, hi] = grid.equal_range(key(cell_of(p.x()), cell_of(p.y())));
         for (auto it = lo; it != hi; ++it) {
           const CapRing& r = rings[it->second[0]];
-          const P2& a = r[it->second[1]];
-          const P2& b = r[(it->second[1] + 1) % r.size()];
+          const std::size_t m = it->second[1], m1 = (m + 1) % r.size();
+          const P2& a = r[m];
+          const P2& b = r[m1];
           const P2 d = b - a;
           const double len = d.norm();
           if (len <= 2 * eps || d.dot(tangent) <= 0) continue;
           const double t = (p - a).dot(d) / (len * len);
           if (t * len <= eps || (1 - t) * len <= eps) continue;  // near an end: not an edge
+          // The edge's start already on this ring's edge from p, or its end on the edge
+          // into p: the two would share u-l head-on.
+          if (const auto f = put_on.find(id(it->second[0], m));
+              f != put_on.end() && f->second == id(si, k))
+            continue;
+          if (const auto f = put_on.find(id(it->second[0], m1));
+              f != put_on.end() && f->second == id(si, (k + n - 1) % n))
+            continue;
           const double dist = std::abs(d.x() * (p.y() - a.y()) - d.y() * (p.x() - a.x())) / len;
           if (dist < best || (dist == best && it->second < hit)) {
             best = dist;
@@ -1017,13 +1039,32 @@ CapExtras snap_to_edges(const std::vector<CapRing>& rings, std::size_t n_below, 
             hit_t = t;
           }
         }
-        if (hit[0] != ~0U) extras[hit[0]].push_back({hit[1], hit_t, p});
+        if (hit[0] == ~0U) continue;
+        extras[hit[0]].push_back(
+            {hit[1], hit_t, p, static_cast<std::uint32_t>(si), static_cast<std::uint32_t>(k)});
+        put_on.emplace(id(si, k), id(hit[0], hit[1]));
       }
+    }
   }
-  for (auto& e : extras)
+  for (auto& e : extras) {
     std::sort(e.begin(), e.end(), [](const CapExtra& a, const CapExtra& b) {
       return a.after != b.after ? a.after < b.after : a.t < b.t;
     });
+    // Of the points of one ring on one edge, those in that ring's order (the first kept).
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < e.size(); ++i) {
+      bool back = false;
+      for (std::size_t j = 0; j < kept && !back; ++j) {
+        const CapExtra& q = e[kept - 1 - j];
+        if (q.after != e[i].after) break;
+        if (q.ring != e[i].ring) continue;
+        const auto nr = static_cast<std::uint32_t>(rings[q.ring].size());
+        back = (q.vertex + nr - e[i].vertex) % nr < (e[i].vertex + nr - q.vertex) % nr;
+      }
+      if (!back) e[kept++] = e[i];
+    }
+    e.resize(kept);
+  }
   return extras;
 }
 
