@@ -78,9 +78,12 @@ struct LayerSurface {
     std::uint32_t triangle = 0;
   };
   std::vector<Seed> seeds;
-  std::size_t outlines = 0;           ///< outlines over all slabs
-  std::size_t straight_outlines = 0;  ///< outlines whose rounded side would fold: straight
-  std::size_t cap_triangles = 0;      ///< horizontal triangles (between slabs, bottom, top)
+  std::size_t outlines = 0;  ///< outlines over all slabs
+  /// Outlines that keep less than half of the rounded side (length-weighted): where the inset
+  /// would fold an edge or reach another part of an outline, each vertex keeps only part of
+  /// it (pin holes, one-cell fins, necks: nearly straight sides).
+  std::size_t straight_outlines = 0;
+  std::size_t cap_triangles = 0;  ///< horizontal triangles (between slabs, bottom, top)
 };
 
 /// The layered surface (mesh_export.hpp has the model): per slab the outlines of the

@@ -24,6 +24,7 @@
 #include <cmath>
 #include <cstdint>
 #include <numbers>
+#include <tuple>
 #include <unordered_map>
 #include <vector>
 
@@ -111,9 +112,12 @@ using CtExact =
 struct Outline {
   std::vector<P2> pts;    ///< mm
   std::vector<P2> miter;  ///< per vertex: the move of one mm of inset (toward the fill)
-  double scale = 1;       ///< share of the rounded profile kept (0: a straight side)
-  bool capped = false;    ///< miters limited by the edge lengths (after a crossing)
-  std::vector<P2> raw;    ///< the marching-squares outline (simple; outlines never meet)
+  /// Per vertex: the share of the rounded profile kept there (0: a straight side), so no
+  /// inset edge turns back and no ring comes near another part of an outline (limit_insets).
+  std::vector<double> share;
+  double scale = 1;     ///< share of the rounded profile kept by the whole outline (fall-back)
+  bool capped = false;  ///< miters limited by the edge lengths (after a crossing)
+  std::vector<P2> raw;  ///< the marching-squares outline (simple; outlines never meet)
   int seed_x = 0, seed_y = 0;
 };
 
@@ -272,21 +276,376 @@ std::vector<P2> miters(const std::vector<P2>& p, double r) {
   return m;
 }
 
-/// True when insetting the outline by d turns no edge back.
-bool inset_keeps_edges(const Outline& o, double d) {
+/// The inset of outline vertex k at its widest ring (the top or bottom ring): its share of
+/// the profile's depth r, plus the end rings' extra inset e.
+double end_ring_inset(const Outline& o, std::size_t k, double r, double e) {
+  return o.scale * o.share[k] * r + e;
+}
+
+/// True when the outline's widest rings (vertex k inset by end_ring_inset) turn no edge back.
+bool inset_keeps_edges(const Outline& o, double r, double e) {
   const std::size_t n = o.pts.size();
   for (std::size_t k = 0; k < n; ++k) {
     const std::size_t k1 = (k + 1) % n;
-    const P2 e = o.pts[k1] - o.pts[k];
-    const P2 f = (o.pts[k1] + d * o.miter[k1]) - (o.pts[k] + d * o.miter[k]);
-    if (e.dot(f) <= 0.05 * e.squaredNorm()) return false;
+    const P2 e0 = o.pts[k1] - o.pts[k];
+    const P2 f = (o.pts[k1] + end_ring_inset(o, k1, r, e) * o.miter[k1]) -
+                 (o.pts[k] + end_ring_inset(o, k, r, e) * o.miter[k]);
+    if (e0.dot(f) <= 0.05 * e0.squaredNorm()) return false;
   }
   return true;
 }
 
+/// Shares are multiples of this: the same outline in two slabs gets the same rings (no cap
+/// between them) unless a limit differs by a step, never by a few nanometres (a crossing a
+/// hair from a vertex, a sliver in the cap).
+constexpr double kShareStep = 1.0 / 64;
+
+/// The share of the profile for which a vertex's widest inset is at most `inset`: 0 .. 1, a
+/// multiple of kShareStep.
+double share_for(double inset, double r, double e) {
+  return r > 0 ? std::floor(std::clamp((inset - e) / r, 0.0, 1.0) / kShareStep) * kShareStep : 0.0;
+}
+
+/// Limits the shares so that no edge of the widest rings turns back or gets shorter than
+/// max(5 %, min(half, kMinEdge)) of its length (no near-duplicate ring vertices): on each
+/// edge that would, the insets of the vertices that shorten it are scaled down together,
+/// repeated until every edge keeps its direction.
+void limit_by_edges(Outline& o, double r, double e, double min_edge) {
+  const std::size_t n = o.pts.size();
+  std::vector<std::size_t> work(n);  // edges to check; an edge comes back when an end moves in
+  std::vector<char> queued(n, 1);
+  for (std::size_t k = 0; k < n; ++k) work[k] = k;
+  for (std::size_t w = 0; w < work.size(); ++w) {
+    const std::size_t k = work[w], k1 = (k + 1) % n;
+    queued[k] = 0;
+    const P2 d = o.pts[k1] - o.pts[k];
+    const double len = d.norm();
+    if (len <= 0) continue;
+    const P2 u = d / len;
+    const double da = end_ring_inset(o, k, r, e), db = end_ring_inset(o, k1, r, e);
+    const double ua = da * o.miter[k].dot(u), ub = -db * o.miter[k1].dot(u);  // > 0: shortens
+    const double room = len - std::max(0.05 * len, std::min(0.5 * len, min_edge));
+    const double shorten = std::max(ua, 0.0) + std::max(ub, 0.0);
+    const double lengthen = std::min(ua, 0.0) + std::min(ub, 0.0);
+    if (shorten + lengthen <= room || shorten <= 0) continue;
+    const double t = std::clamp((room - lengthen) / shorten, 0.0, 1.0) * 0.999;
+    for (const auto& [v, part, inset] : {std::tuple{k, ua, da}, std::tuple{k1, ub, db}}) {
+      if (part <= 0) continue;
+      const double s = share_for(t * inset, r, e);
+      if (s >= o.share[v]) continue;
+      o.share[v] = s;
+      for (const std::size_t edge : {(v + n - 1) % n, v})  // both edges of v again
+        if (queued[edge] == 0) {
+          queued[edge] = 1;
+          work.push_back(edge);
+        }
+    }
+  }
+}
+
+/// The edges of a slab's outlines binned on a grid of square cells (every cell an edge passes
+/// through), to find the edges near a point without looking at all of them.
+class EdgeGrid {
+ public:
+  EdgeGrid(const std::vector<Outline>& outlines, double cell) : outlines_(outlines), cell_(cell) {
+    P2 lo(1e300, 1e300), hi(-1e300, -1e300);
+    for (const Outline& o : outlines)
+      for (const P2& p : o.pts) {
+        lo = lo.cwiseMin(p);
+        hi = hi.cwiseMax(p);
+      }
+    lo_ = lo;
+    cols_ = static_cast<std::int64_t>((hi.x() - lo.x()) / cell) + 1;
+    rows_ = static_cast<std::int64_t>((hi.y() - lo.y()) / cell) + 1;
+    start_.assign(static_cast<std::size_t>(cols_ * rows_) + 1, 0);
+    // Two sweeps over every edge's cells: count, then fill (edges in order within a cell).
+    for (int fill = 0; fill < 2; ++fill) {
+      std::uint32_t id = 0;
+      for (std::size_t i = 0; i < outlines.size(); ++i) {
+        const auto& p = outlines[i].pts;
+        for (std::size_t k = 0; k < p.size(); ++k, ++id) {
+          if (fill == 0)
+            edge_at_.push_back({static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(k)});
+          const P2 a = p[k], b = p[(k + 1) % p.size()];
+          const int steps = 1 + static_cast<int>(2.0 * (b - a).norm() / cell);
+          std::int64_t last = -1;
+          for (int t = 0; t <= steps; ++t) {
+            const auto c = cell_of(a + (b - a) * (static_cast<double>(t) / steps));
+            const std::int64_t at = c[1] * cols_ + c[0];
+            if (at == last) continue;
+            last = at;
+            if (fill == 0)
+              ++start_[static_cast<std::size_t>(at) + 1];
+            else
+              ids_[next_[static_cast<std::size_t>(at)]++] = id;
+          }
+        }
+      }
+      if (fill == 0) {
+        for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
+        ids_.resize(start_.back());
+        next_.assign(start_.begin(), start_.end() - 1);
+      }
+    }
+  }
+
+  /// Calls f(outline, edge, t, closest point) for every edge that may pass within `radius`
+  /// of p (some twice).
+  template <class F>
+  void near(const P2& p, double radius, F&& f) const {
+    const auto c = cell_of(p);
+    const auto reach = static_cast<std::int64_t>(std::ceil(radius / cell_));
+    for (std::int64_t cy = c[1] - reach; cy <= c[1] + reach; ++cy)
+      for (std::int64_t cx = c[0] - reach; cx <= c[0] + reach; ++cx) {
+        if (cx < 0 || cy < 0 || cx >= cols_ || cy >= rows_) continue;
+        const auto cell = static_cast<std::size_t>(cy * cols_ + cx);
+        for (std::uint32_t at = start_[cell]; at < start_[cell + 1]; ++at) {
+          const auto [oi, ek] = edge_at_[ids_[at]];
+          const auto& q = outlines_[oi].pts;
+          const P2 a = q[ek], d = q[(ek + 1) % q.size()] - a;
+          const double len2 = d.squaredNorm();
+          const double t = len2 > 0 ? std::clamp((p - a).dot(d) / len2, 0.0, 1.0) : 0.0;
+          f(static_cast<std::size_t>(oi), static_cast<std::size_t>(ek), t, P2(a + t * d));
+        }
+      }
+  }
+
+ private:
+  std::array<std::int64_t, 2> cell_of(const P2& p) const {
+    return {static_cast<std::int64_t>((p.x() - lo_.x()) / cell_),
+            static_cast<std::int64_t>((p.y() - lo_.y()) / cell_)};
+  }
+  const std::vector<Outline>& outlines_;
+  double cell_;
+  P2 lo_ = P2::Zero();
+  std::int64_t cols_ = 1, rows_ = 1;
+  std::vector<std::uint32_t> start_, next_, ids_;      // per cell c: its edges, ids_[start_[c] ..]
+  std::vector<std::array<std::uint32_t, 2>> edge_at_;  // per edge id: outline, first vertex
+};
+
+/// The distance along a closed outline (cumulative edge lengths, n + 1 entries) between
+/// vertex k and the point at t along edge ek, the shorter way round.
+double along_outline(const std::vector<double>& arc, std::size_t k, std::size_t ek, double t) {
+  const double s = arc[ek] + t * (arc[ek + 1] - arc[ek]);
+  const double d = std::abs(s - arc[k]);
+  return std::min(d, arc.back() - d);
+}
+
+std::vector<double> arc_lengths(const Outline& o) {
+  const std::size_t n = o.pts.size();
+  std::vector<double> arc(n + 1, 0.0);
+  for (std::size_t k = 0; k < n; ++k) arc[k + 1] = arc[k] + (o.pts[(k + 1) % n] - o.pts[k]).norm();
+  return arc;
+}
+
+/// True when edge ek of outline oi (its point x at t nearest vertex k of outline i) is a
+/// feature that vertex's inset must stay clear of: in front of the vertex (along its miter),
+/// the vertex on the edge's fill side, and not the vertex's own neighbourhood: another
+/// outline, or a stretch of its own outline that faces it (the two fill sides turned toward
+/// each other: the flanks of a neck or a fin) or lies more than twice as far along the
+/// outline as across (a finely cut curve's next edges lie beside the vertex, not across).
+bool faces(const std::vector<Outline>& outlines, std::size_t i, std::size_t k,
+           const std::vector<double>& arc, std::size_t oi, std::size_t ek, double t, const P2& x) {
+  const Outline& o = outlines[i];
+  const auto& q = outlines[oi].pts;
+  const std::size_t n = o.pts.size(), ek1 = (ek + 1) % q.size();
+  if (oi == i && (ek == k || ek1 == k)) return false;
+  const P2 d = q[ek1] - q[ek], to = x - o.pts[k];
+  const P2 normal(-d.y(), d.x());  // toward the edge's fill (not unit)
+  if (to.dot(o.miter[k]) < 0 || to.dot(normal) > 0) return false;
+  if (oi != i) return true;
+  return o.miter[k].dot(normal) < 0 || along_outline(arc, k, ek, t) >= 2.0 * to.norm() || n < 4;
+}
+
+/// A share of the widest inset reaches at most this much of the distance to the nearest
+/// facing edge, so two rings facing each other keep a tenth of their gap.
+constexpr double kReach = 0.45;
+
+/// Limits each vertex's share of the profile by the local feature size: its widest inset
+/// moves it at most kReach of its distance to the nearest edge of the slab's outlines that
+/// lies on its fill side and is not its own neighbourhood (another outline, or a stretch of
+/// its own outline more than twice that distance away along it: a neck, a thin wall).
+void limit_vertices_by_feature_size(std::vector<Outline>& outlines, double r, double e,
+                                    double cell) {
+  const EdgeGrid grid(outlines, cell);
+  for (std::size_t i = 0; i < outlines.size(); ++i) {
+    Outline& o = outlines[i];
+    const std::vector<double> arc = arc_lengths(o);
+    for (std::size_t k = 0; k < o.pts.size(); ++k) {
+      const double m = o.miter[k].norm();
+      if (m <= 0) continue;
+      double nearest = (r + e) * m / kReach;  // only nearer edges limit the inset
+      grid.near(o.pts[k], nearest, [&](std::size_t oi, std::size_t ek, double t, const P2& x) {
+        const double dist = (x - o.pts[k]).norm();
+        if (dist >= nearest || !faces(outlines, i, k, arc, oi, ek, t, x)) return;
+        nearest = dist;
+      });
+      o.share[k] = std::min(o.share[k], share_for(kReach * nearest / m, r, e));
+    }
+  }
+}
+
+/// Splits the edges whose inset would come nearer than kReach of the distance to a vertex
+/// facing them (a long straight edge beside a pinhole or a neck: its ends are far from the
+/// feature, its middle is not), at the point nearest that vertex, so the ring can be
+/// limited there alone. True when some edge was split.
+bool split_edges_near_features(std::vector<Outline>& outlines, double r, double e, double cell,
+                               double min_gap) {
+  const EdgeGrid grid(outlines, cell);
+  std::vector<std::tuple<std::size_t, std::size_t, double>> splits;  // outline, edge, t
+  for (std::size_t i = 0; i < outlines.size(); ++i) {
+    const Outline& o = outlines[i];
+    const std::vector<double> arc = arc_lengths(o);
+    for (std::size_t k = 0; k < o.pts.size(); ++k)
+      grid.near(
+          o.pts[k], (r + e) / kReach, [&](std::size_t oi, std::size_t ek, double t, const P2& x) {
+            const Outline& q = outlines[oi];
+            const std::size_t ek1 = (ek + 1) % q.pts.size();
+            const P2 d = q.pts[ek1] - q.pts[ek];
+            const double len = d.norm(), dist = (o.pts[k] - x).norm();
+            if (len <= 0 || t * len < min_gap || (1 - t) * len < min_gap) return;  // near an end
+            const P2 normal(-d.y() / len, d.x() / len);  // toward the edge's fill
+            if (dist >= (r + e) / kReach || !faces(outlines, i, k, arc, oi, ek, t, x)) return;
+            const double inset = (1 - t) * end_ring_inset(q, ek, r, e) * q.miter[ek].dot(normal) +
+                                 t * end_ring_inset(q, ek1, r, e) * q.miter[ek1].dot(normal);
+            if (inset > kReach * dist) splits.emplace_back(oi, ek, t);
+          });
+  }
+  if (splits.empty()) return false;
+  std::sort(splits.begin(), splits.end());
+  std::size_t at = 0;
+  for (std::size_t i = 0; i < outlines.size(); ++i) {
+    Outline& o = outlines[i];
+    std::vector<P2> pts;
+    for (std::size_t k = 0; k < o.pts.size(); ++k) {
+      pts.push_back(o.pts[k]);
+      const P2 a = o.pts[k], b = o.pts[(k + 1) % o.pts.size()];
+      for (double last = 0;
+           at < splits.size() && std::get<0>(splits[at]) == i && std::get<1>(splits[at]) == k;
+           ++at) {
+        const double t = std::get<2>(splits[at]);
+        if ((t - last) * (b - a).norm() < min_gap) continue;  // one split per gap
+        pts.push_back(a + t * (b - a));
+        last = t;
+      }
+    }
+    if (pts.size() == o.pts.size()) continue;
+    o.pts = std::move(pts);
+    o.miter = miters(o.pts, 0);
+  }
+  return true;
+}
+
+/// Drops the rounded profile (share 0) at the ends of every two edges of the slab's rings
+/// that cross or touch, at each inset level (`levels`: per level the share of the
+/// profile's depth r and the extra inset: the widest rings, the inner ones). The rings' edges
+/// are binned on a grid of `cell` squares and the pairs within each cell tested. True when
+/// some share went down (the caller repeats until none does).
+bool reduce_crossing_shares(std::vector<Outline>& outlines, double r,
+                            const std::vector<std::array<double, 2>>& levels, double cell) {
+  struct Seg {
+    P2 a, b;
+    std::uint32_t outline, k;
+  };
+  std::vector<Seg> segs;
+  std::vector<std::uint64_t> bins;
+  std::vector<std::array<std::uint32_t, 2>> hit;  // outline, vertex
+  const auto orient = [](const P2& a, const P2& b, const P2& c) {
+    return (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
+  };
+  for (const auto& level : levels) {
+    const double depth = level[0], extra = level[1];  // named: the lambda below reads them
+    segs.clear();
+    bins.clear();
+    P2 lo(1e300, 1e300);
+    for (std::size_t i = 0; i < outlines.size(); ++i) {
+      const Outline& o = outlines[i];
+      const std::size_t n = o.pts.size();
+      const auto at = [&](std::size_t k) {
+        return P2(o.pts[k] + (o.scale * o.share[k] * r * depth + extra) * o.miter[k]);
+      };
+      for (std::size_t k = 0; k < n; ++k) {
+        segs.push_back(
+            {at(k), at((k + 1) % n), static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(k)});
+        lo = lo.cwiseMin(segs.back().a);
+      }
+    }
+    for (std::size_t id = 0; id < segs.size(); ++id) {
+      const P2 a = segs[id].a - lo, b = segs[id].b - lo;
+      const int steps = 1 + static_cast<int>(2.0 * (b - a).norm() / cell);
+      for (int t = 0; t < steps; ++t) {  // each piece's box: the cells it can pass through
+        const P2 p = a + (b - a) * (static_cast<double>(t) / steps),
+                 q = a + (b - a) * (static_cast<double>(t + 1) / steps);
+        const auto x0 = static_cast<std::uint64_t>(std::min(p.x(), q.x()) / cell),
+                   x1 = static_cast<std::uint64_t>(std::max(p.x(), q.x()) / cell),
+                   y0 = static_cast<std::uint64_t>(std::min(p.y(), q.y()) / cell),
+                   y1 = static_cast<std::uint64_t>(std::max(p.y(), q.y()) / cell);
+        for (std::uint64_t y = y0; y <= y1; ++y)
+          for (std::uint64_t x = x0; x <= x1; ++x)
+            bins.push_back((((y << 16) | (x & 0xFFFFU)) << 32) | id);
+      }
+    }
+    std::sort(bins.begin(), bins.end());
+    bins.erase(std::unique(bins.begin(), bins.end()), bins.end());
+    for (std::size_t g = 0; g < bins.size();) {
+      std::size_t end = g;
+      while (end < bins.size() && (bins[end] >> 32) == (bins[g] >> 32)) ++end;
+      for (std::size_t u = g; u < end; ++u)
+        for (std::size_t v = u + 1; v < end; ++v) {
+          const Seg& s = segs[static_cast<std::uint32_t>(bins[u])];
+          const Seg& t = segs[static_cast<std::uint32_t>(bins[v])];
+          const std::size_t n = outlines[s.outline].pts.size();
+          if (s.outline == t.outline && (t.k == (s.k + 1) % n || s.k == (t.k + 1) % n)) continue;
+          const double o1 = orient(s.a, s.b, t.a), o2 = orient(s.a, s.b, t.b);
+          if (o1 * o2 > 0 || orient(t.a, t.b, s.a) * orient(t.a, t.b, s.b) > 0) continue;
+          if (o1 == 0 && o2 == 0) {  // on one line (an axis-parallel wall): only if they overlap
+            const P2 dir = s.b - s.a;
+            const double t0 = (t.a - s.a).dot(dir), t1 = (t.b - s.a).dot(dir);
+            if (std::max(t0, t1) < 0 || std::min(t0, t1) > dir.squaredNorm()) continue;
+          }
+          for (const Seg* e : {&s, &t}) {
+            const auto m = static_cast<std::uint32_t>(outlines[e->outline].pts.size());
+            hit.push_back({e->outline, e->k});
+            hit.push_back({e->outline, (e->k + 1) % m});
+          }
+        }
+      g = end;
+    }
+  }
+  bool changed = false;
+  for (const auto& [i, k] : hit) {
+    changed = changed || outlines[i].share[k] > 0;
+    outlines[i].share[k] = 0;
+  }
+  return changed;
+}
+
+/// The shares of the slab's outlines: limited by the local feature size (after splitting the
+/// edges that pass a feature), then so that no edge turns back (limit_by_edges).
+void limit_insets(std::vector<Outline>& outlines, double r, double e, double cell_mm, int steps) {
+  // Grid cells as wide as a straight edge's widest inset could matter (a corner's reaches a
+  // few cells).
+  const double reach = (r + e) / kReach;
+  if (outlines.empty() || reach <= 0) return;
+  limit_vertices_by_feature_size(outlines, r, e, reach);
+  if (split_edges_near_features(outlines, r, e, reach, 0.5 * cell_mm)) {
+    for (Outline& o : outlines) o.share.assign(o.pts.size(), 1.0);
+    limit_vertices_by_feature_size(outlines, r, e, reach);
+  }
+  std::vector<std::array<double, 2>> levels{{1.0, e}};  // the widest rings, then inner ones
+  for (int j = 1; j < steps; ++j)
+    levels.push_back(
+        {profile_fit(steps)[0] * (1.0 - std::cos(j * 0.5 * std::numbers::pi / steps)), 0.0});
+  for (int round = 0; round < 16; ++round) {
+    for (Outline& o : outlines) limit_by_edges(o, r, e, 0.1 * cell_mm);
+    if (!reduce_crossing_shares(outlines, r, levels, reach)) break;
+  }
+}
+
 /// The slab's outlines: its cells projected, marched, simplified, with miters and the
 /// share of the rounded profile each can take.
-Slab trace_slab(const LayerSlabs& in, int s, double tol, std::vector<std::uint64_t>& rows) {
+Slab trace_slab(const LayerSlabs& in, int s, double tol, int steps,
+                std::vector<std::uint64_t>& rows) {
   Slab slab;
   const int z0 = in.bounds[static_cast<std::size_t>(s)],
             z1 = in.bounds[static_cast<std::size_t>(s) + 1];
@@ -317,20 +676,20 @@ Slab trace_slab(const LayerSlabs& in, int s, double tol, std::vector<std::uint64
     o.pts = simplify_closed(pts, tol);
     o.raw = std::move(pts);
     o.miter = miters(o.pts, 0);
-    if (!inset_keeps_edges(o, r + slab.end_inset)) {  // the zigzag folds: capped miters
-      o.capped = true;
-      o.miter = miters(o.pts, r);
-    }
+    o.share.assign(o.pts.size(), 1.0);
     o.seed_x = seeds[l][0];
     o.seed_y = seeds[l][1];
-    o.scale = 0;
-    for (const double share : {1.0, 0.5, 0.25})
-      if (inset_keeps_edges(o, share * r + slab.end_inset)) {
-        o.scale = share;
-        break;
-      }
     slab.points += o.pts.size();
     slab.outlines.push_back(std::move(o));
+  }
+  limit_insets(slab.outlines, r, slab.end_inset, in.cell_mm, steps);
+  slab.points = 0;
+  for (Outline& o : slab.outlines) {
+    slab.points += o.pts.size();
+    o.scale = 0;
+    for (const double share : {1.0, 0.5, 0.25})
+      if (o.scale = share; inset_keeps_edges(o, r, slab.end_inset)) break;
+    if (!inset_keeps_edges(o, r, slab.end_inset)) o.scale = 0;
   }
   return slab;
 }
@@ -340,12 +699,12 @@ Slab trace_slab(const LayerSlabs& in, int s, double tol, std::vector<std::uint64
 /// Ring j (0 .. 2 steps) of a slab's side: the bead's round side at angle phi_j from
 /// -90 to +90 degrees, inset r (1 - cos phi) toward the fill at height mid + r sin phi; the
 /// inner rings scaled by profile_fit so the side is as deep on average as the round one.
-double ring_inset(const Slab& s, const Outline& o, int j, int steps) {
+double ring_inset(const Slab& s, const Outline& o, std::size_t k, int j, int steps) {
   const double r = 0.5 * (s.z_hi - s.z_lo);
   const double phi = (j - steps) * (0.5 * std::numbers::pi / steps);
   const bool end = j == 0 || j == 2 * steps;
   const double a = end ? 1.0 : profile_fit(steps)[0];
-  return o.scale * r * a * (1.0 - std::cos(phi)) + (end ? s.end_inset : 0.0);
+  return o.scale * o.share[k] * r * a * (1.0 - std::cos(phi)) + (end ? s.end_inset : 0.0);
 }
 double ring_z(const Slab& s, int j, int steps) {
   if (j == 0) return s.z_lo;
@@ -355,7 +714,7 @@ double ring_z(const Slab& s, int j, int steps) {
          r * profile_fit(steps)[1] * std::sin((j - steps) * (0.5 * std::numbers::pi / steps));
 }
 P2 ring_point(const Slab& s, const Outline& o, std::size_t k, int j, int steps) {
-  return o.pts[k] + ring_inset(s, o, j, steps) * o.miter[k];
+  return o.pts[k] + ring_inset(s, o, k, j, steps) * o.miter[k];
 }
 
 // ---------------------------------------------------------------- caps
@@ -370,6 +729,7 @@ struct CapExtra {
   std::uint32_t after = 0;
   double t = 0;
   P2 p;
+  std::uint32_t ring = 0, vertex = 0;  ///< the other ring's vertex it comes from
 };
 using CapExtras = std::vector<std::vector<CapExtra>>;  // per ring, by edge and t
 
@@ -612,6 +972,12 @@ void snap_upper_to_lower(std::vector<CapRing>& rings, std::size_t n_below, doubl
 /// Puts each vertex of one set of rings that lies within `eps` of an edge of the other set
 /// (not within `eps` of its ends, both rings running the same way) on that edge as a split
 /// point, for both sets: the two rings then share the point instead of crossing next to it.
+/// The shared points keep one order along both rings: where two rings cross at a steep angle
+/// within `eps` of each other (short ring edges: per-vertex insets), a vertex u of one ring
+/// lies just after vertex l on l's ring and l just after u on u's ring; taking both would
+/// make the rings share the edge u-l head-on (four triangles on it). Then only the first
+/// (the upper vertex onto the lower edge) is taken; likewise, of two vertices of one ring put
+/// on one edge in the opposite order, only the first.
 CapExtras snap_to_edges(const std::vector<CapRing>& rings, std::size_t n_below, double eps) {
   CapExtras extras(rings.size());
   if (n_below == 0 || n_below == rings.size() || eps <= 0) return extras;
@@ -620,6 +986,11 @@ CapExtras snap_to_edges(const std::vector<CapRing>& rings, std::size_t n_below, 
   const auto key = [](std::int64_t x, std::int64_t y) {
     return (static_cast<std::uint64_t>(x) << 32) ^ static_cast<std::uint64_t>(y & 0xffffffff);
   };
+  const auto id = [](std::size_t ring, std::size_t k) {
+    return (static_cast<std::uint64_t>(ring) << 32) | static_cast<std::uint64_t>(k);
+  };
+  // Vertex (ring, k) -> the edge (ring, first vertex) it was put on.
+  std::unordered_map<std::uint64_t, std::uint64_t> put_on;
   for (int pass = 0; pass < 2; ++pass) {  // upper vertices onto lower edges, then the reverse
     const std::size_t t0 = pass == 0 ? 0 : n_below, t1 = pass == 0 ? n_below : rings.size();
     const std::size_t s0 = pass == 0 ? n_below : 0, s1 = pass == 0 ? rings.size() : n_below;
@@ -634,8 +1005,9 @@ CapExtras snap_to_edges(const std::vector<CapRing>& rings, std::size_t n_below, 
             grid.emplace(key(x, y),
                          std::array{static_cast<std::uint32_t>(ri), static_cast<std::uint32_t>(k)});
       }
-    for (std::size_t si = s0; si < s1; ++si)
-      for (std::size_t k = 0; k < rings[si].size(); ++k) {
+    for (std::size_t si = s0; si < s1; ++si) {
+      const std::size_t n = rings[si].size();
+      for (std::size_t k = 0; k < n; ++k) {
         const P2 p = rings[si][k];
         const P2 tangent = ring_tangent(rings[si], k);
         double best = eps;
@@ -644,13 +1016,22 @@ CapExtras snap_to_edges(const std::vector<CapRing>& rings, std::size_t n_below, 
         const auto [lo, hi] = grid.equal_range(key(cell_of(p.x()), cell_of(p.y())));
         for (auto it = lo; it != hi; ++it) {
           const CapRing& r = rings[it->second[0]];
-          const P2& a = r[it->second[1]];
-          const P2& b = r[(it->second[1] + 1) % r.size()];
+          const std::size_t m = it->second[1], m1 = (m + 1) % r.size();
+          const P2& a = r[m];
+          const P2& b = r[m1];
           const P2 d = b - a;
           const double len = d.norm();
           if (len <= 2 * eps || d.dot(tangent) <= 0) continue;
           const double t = (p - a).dot(d) / (len * len);
           if (t * len <= eps || (1 - t) * len <= eps) continue;  // near an end: not an edge
+          // The edge's start already on this ring's edge from p, or its end on the edge
+          // into p: the two would share u-l head-on.
+          if (const auto f = put_on.find(id(it->second[0], m));
+              f != put_on.end() && f->second == id(si, k))
+            continue;
+          if (const auto f = put_on.find(id(it->second[0], m1));
+              f != put_on.end() && f->second == id(si, (k + n - 1) % n))
+            continue;
           const double dist = std::abs(d.x() * (p.y() - a.y()) - d.y() * (p.x() - a.x())) / len;
           if (dist < best || (dist == best && it->second < hit)) {
             best = dist;
@@ -658,13 +1039,32 @@ CapExtras snap_to_edges(const std::vector<CapRing>& rings, std::size_t n_below, 
             hit_t = t;
           }
         }
-        if (hit[0] != ~0U) extras[hit[0]].push_back({hit[1], hit_t, p});
+        if (hit[0] == ~0U) continue;
+        extras[hit[0]].push_back(
+            {hit[1], hit_t, p, static_cast<std::uint32_t>(si), static_cast<std::uint32_t>(k)});
+        put_on.emplace(id(si, k), id(hit[0], hit[1]));
       }
+    }
   }
-  for (auto& e : extras)
+  for (auto& e : extras) {
     std::sort(e.begin(), e.end(), [](const CapExtra& a, const CapExtra& b) {
       return a.after != b.after ? a.after < b.after : a.t < b.t;
     });
+    // Of the points of one ring on one edge, those in that ring's order (the first kept).
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < e.size(); ++i) {
+      bool back = false;
+      for (std::size_t j = 0; j < kept && !back; ++j) {
+        const CapExtra& q = e[kept - 1 - j];
+        if (q.after != e[i].after) break;
+        if (q.ring != e[i].ring) continue;
+        const auto nr = static_cast<std::uint32_t>(rings[q.ring].size());
+        back = (q.vertex + nr - e[i].vertex) % nr < (e[i].vertex + nr - q.vertex) % nr;
+      }
+      if (!back) e[kept++] = e[i];
+    }
+    e.resize(kept);
+  }
   return extras;
 }
 
@@ -803,6 +1203,7 @@ bool make_caps(std::vector<Slab>& slabs, int steps, bool exact, std::vector<Boun
           slabs[s].points += o.raw.size() - o.pts.size();
           o.pts = o.raw;
           o.miter = miters(o.pts, 0);
+          o.share.assign(o.pts.size(), 0.0);
         }
         redo[s] = redo[s + 1] = 1;
         any = true;
@@ -811,6 +1212,18 @@ bool make_caps(std::vector<Slab>& slabs, int steps, bool exact, std::vector<Boun
   }
   return std::all_of(caps.begin(), caps.end(),
                      [](const Boundary& b) { return b.ok && b.crossed.empty(); });
+}
+
+/// The share of the rounded profile an outline keeps, its edges' lengths weighted.
+double kept_depth(const Outline& o) {
+  double len = 0, kept = 0;
+  for (std::size_t k = 0; k < o.pts.size(); ++k) {
+    const std::size_t k1 = (k + 1) % o.pts.size();
+    const double l = (o.pts[k1] - o.pts[k]).norm();
+    len += l;
+    kept += 0.5 * l * o.scale * (o.share[k] + o.share[k1]);
+  }
+  return len > 0 ? kept / len : 0.0;
 }
 
 }  // namespace
@@ -839,7 +1252,7 @@ LayerSurface build_layer_surface(const LayerSlabs& in, const LayerSurfaceOptions
   std::vector<Slab> slabs(ns);
   tbb::parallel_for(0, n_slabs, [&](int s) {
     thread_local std::vector<std::uint64_t> rows;
-    slabs[static_cast<std::size_t>(s)] = trace_slab(in, s, options.tolerance_mm, rows);
+    slabs[static_cast<std::size_t>(s)] = trace_slab(in, s, options.tolerance_mm, steps, rows);
   });
   std::vector<Boundary> caps;
   if (!make_caps(slabs, steps, options.exact, caps)) return out;  // rings kept crossing: no mesh
@@ -894,7 +1307,7 @@ LayerSurface build_layer_surface(const LayerSlabs& in, const LayerSurfaceOptions
       out.seeds.push_back({slabs[s].outlines[l].seed_x, slabs[s].outlines[l].seed_y,
                            static_cast<int>(s), first + side_seeds[s][l]});
     out.outlines += slabs[s].outlines.size();
-    for (const Outline& o : slabs[s].outlines) out.straight_outlines += o.scale < 1 ? 1 : 0;
+    for (const Outline& o : slabs[s].outlines) out.straight_outlines += kept_depth(o) < 0.5 ? 1 : 0;
   }
   return out;
 }

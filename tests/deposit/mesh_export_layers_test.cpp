@@ -2,6 +2,7 @@
 // outward where consecutive outlines cross, touch diagonally or nest; the filled volume; the
 // fall-back to the voxel surface; decimation by a coarser outline tolerance.
 #include <gtest/gtest.h>
+#include <set>
 
 #include <array>
 #include <cmath>
@@ -228,6 +229,32 @@ TEST(LayeredMesh, CapSnapsRingsAFewMicrometresApart) {
   const detail::LayerCap exact = detail::layer_cap({lower12}, {wide}, 0.005, true);
   ASSERT_TRUE(exact.ok);
   EXPECT_NEAR(cap_area_and_min_height(exact)[0], area, 1e-9);
+}
+
+TEST(LayeredMesh, CapSnapsKeepOneOrderAlongBothRings) {
+  // Two rings of one square, their bottom sides zigzagging by a few um with 7 - 10 um edges
+  // (per-vertex insets make such rings): the upper vertex (1.0143, 0.0029) lies a few um from
+  // the lower edge after (1.0149, -0.0042), and that lower vertex a few um from the upper edge
+  // after it. Taking both would make the rings share that short edge head-on (four triangles
+  // on it); every directed edge of the cap is used once.
+  using V = Eigen::Vector2d;
+  const std::vector<V> lower{
+      V(0, 0), V(1.0072, -0.0022), V(1.0149, -0.0042), V(1.0216, 0.0044), V(2, 0), V(2, 2),
+      V(0, 2)};
+  const std::vector<V> upper{
+      V(0, 0), V(1.0054, 0.0053), V(1.0143, 0.0029), V(1.0238, -0.0056), V(2, 0), V(2, 2), V(0, 2)};
+  for (const bool exact : {false, true}) {
+    const detail::LayerCap cap = detail::layer_cap({lower}, {upper}, 0.005, exact);
+    ASSERT_TRUE(cap.ok);
+    ASSERT_FALSE(cap.triangles.empty());  // the slivers between the zigzags
+    std::set<std::pair<std::uint32_t, std::uint32_t>> edges;
+    for (const auto& t : cap.triangles)
+      for (std::size_t k = 0; k < 3; ++k)
+        EXPECT_TRUE(edges.insert({t[k], t[(k + 1) % 3]}).second)
+            << "edge " << t[k] << " -> " << t[(k + 1) % 3] << " used twice";
+    // The slivers between the zigzags and the thin wedge to (2, 0): a few 0.001 mm2.
+    EXPECT_LT(std::abs(cap_area_and_min_height(cap)[0]), 0.005);
+  }
 }
 
 TEST(LayeredMesh, DecimationCoarsensTheOutlinesToFit) {
