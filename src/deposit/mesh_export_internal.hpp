@@ -88,8 +88,8 @@ struct LayerSurface {
 
 /// The layered surface (mesh_export.hpp has the model): per slab the outlines of the
 /// cross-section (marching squares, simplified), the slab's side as rings on the bead's
-/// rounded profile, caps over the exclusive-or of consecutive slabs (constrained Delaunay
-/// triangulation, crossings split on both rings). Closed and oriented outward when every
+/// rounded profile, caps over the exclusive-or of consecutive slabs (crossings split on both
+/// rings; mesh_export_caps.hpp). Closed and oriented outward when every
 /// outline is simple and the outlines of one slab do not cross (is_closed_oriented checks).
 LayerSurface build_layer_surface(const LayerSlabs& slabs, const LayerSurfaceOptions& options);
 

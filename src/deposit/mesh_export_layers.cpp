@@ -4,11 +4,12 @@
 // marching-squares outlines (filled on the left, diagonal neighbours apart) -> simplified
 // (Douglas-Peucker) -> one miter vector per vertex, the rounded side's inset checked so no
 // edge turns back. Each boundary between slabs in parallel: the top rings of the slab below
-// and the bottom rings of the slab above as constraints of one constrained Delaunay
-// triangulation (crossings split exactly on both) -> the faces inside exactly one of the
-// two regions, up or down. Each slab again: its side as strips between rings, the end rings
-// taken from the triangulations with their split points (no T-junctions). Vertices and
-// triangles are joined in slab order (the same on any thread count).
+// and the bottom rings of the slab above, crossings split exactly on both -> the faces inside
+// exactly one of the two regions, up or down, by the planar walk of mesh_export_caps.cpp, or
+// where it gives up by one constrained Delaunay triangulation with all rings as constraints.
+// Each slab again: its side as strips between rings, the end rings taken from the caps with
+// their split points (no T-junctions). Vertices and triangles are joined in slab order (the
+// same on any thread count).
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -28,6 +29,8 @@
 #include <unordered_map>
 #include <vector>
 
+#include "core/plain_path.hpp"
+#include "deposit/mesh_export_caps.hpp"
 #include "deposit/mesh_export_internal.hpp"
 
 namespace printtwin::detail {
@@ -719,37 +722,9 @@ P2 ring_point(const Slab& s, const Outline& o, std::size_t k, int j, int steps) 
 
 // ---------------------------------------------------------------- caps
 
-/// A closed ring of a cap (the first point not repeated), its region on its left.
-using CapRing = std::vector<P2>;
-
-/// A point put on a ring's edge (from vertex `after` to the next, at `t` along it): the
-/// other ring's vertex that lies a few micrometres from the edge. It is a split point of the
-/// ring, not one of its vertices.
-struct CapExtra {
-  std::uint32_t after = 0;
-  double t = 0;
-  P2 p;
-  std::uint32_t ring = 0, vertex = 0;  ///< the other ring's vertex it comes from
-};
-using CapExtras = std::vector<std::vector<CapExtra>>;  // per ring, by edge and t
-
 /// Upper ring vertices this close to a lower ring vertex (in cells; 5 um at 0.05 mm) are
 /// snapped onto it: well under the outline tolerance, above the rounding of the rings.
 constexpr double kCapSnapCells = 0.1;
-
-/// A boundary between slabs: its vertices, the cap triangles, and each ring's vertices in
-/// order with its split points (`pos[k]`: the place of the ring's vertex k in `seq`).
-struct Boundary {
-  std::vector<P2> verts;
-  std::vector<std::array<std::uint32_t, 3>> tris;
-  std::vector<std::uint32_t> seq;       // all rings, each closed (first repeated at the end)
-  std::vector<std::uint32_t> pos;       // all rings: n + 1 entries each, into seq
-  std::vector<std::uint32_t> pos_base;  // per ring: its first entry in pos
-  bool ok = true;
-  /// Rings that cross themselves or another ring of their side (the region is not on
-  /// their left): 0 / 1 for below / above, and the outline.
-  std::vector<std::array<std::size_t, 2>> crossed;
-};
 
 std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
   return (static_cast<std::uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
@@ -1075,6 +1050,13 @@ Boundary cap_of_rings(const std::vector<CapRing>& rings, std::size_t n_below, do
                       bool exact) {
   const CapExtras extras = snap_to_edges(rings, n_below, eps);
   if (exact) return cap_on<CtExact>(rings, n_below, extras);
+  if (!plain_path("caps")) {
+    Boundary b;
+    if (cap_by_walk(rings, n_below, extras, b)) {
+      if (b.crossed.empty()) weld_as_float(b);
+      return b;
+    }
+  }
   Boundary b = cap_on<CtFast>(rings, n_below, extras);
   if (!b.ok || !b.crossed.empty()) b = cap_on<CtExact>(rings, n_below, extras);
   return b;
