@@ -49,6 +49,7 @@ bgcode_libdeflate | bench:bgcode_bench:BM_OpenBinary/0        | cpu  | libdeflat
 bgcode_meatpack   | bench:bgcode_bench:BM_DecodeBinary/0      | cpu  | table-driven MeatPack loop, not the byte-at-a-time state machine (gcode/meatpack.cpp); stage: decoding a .bgcode to text
 closest_hints     | cli:verify:registration                  | wall | ICP closest-point queries bounded from the triangles of the previous step (mesh/mesh_query_embree.cpp, deviation/registration_search.cpp)
 hull_filter       | cli:verify:registration                  | wall | footprint hull drops the points inside the extreme octagon before its sort (deviation/registration.cpp)
+huge_pages        | cli:verify                               | wall | blocks of 4 MiB and more from operator new marked MADV_HUGEPAGE (cli/huge_pages.cpp); stage: the whole verify
 '
 
 tmp="$(mktemp -d)"
