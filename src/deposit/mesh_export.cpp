@@ -1004,7 +1004,9 @@ namespace {
 // ---------------------------------------------------------------- layered surface
 
 /// The solid's slabs: one per printed layer (boundaries at the beads' tops, at least two
-/// cells apart), from its lowest to its highest filled cell.
+/// cells apart), from its lowest to its highest filled cell. Cells above the last layer's
+/// top (a solid top layer's overflow, lifted by the squeeze) are a slab of their own, even
+/// one cell thin, so the last layer's top cap stays at its top.
 detail::LayerSlabs slabs_of(const Solid& s, const VoxelGrid& grid,
                             std::span<const SurfaceBead> beads) {
   detail::LayerSlabs in;
@@ -1032,10 +1034,7 @@ detail::LayerSlabs slabs_of(const Solid& s, const VoxelGrid& grid,
   in.bounds.push_back(zmin);
   for (const int k : tops)
     if (k - in.bounds.back() >= 2) in.bounds.push_back(k);
-  if (zmax - in.bounds.back() < 2 && in.bounds.size() > 1)
-    in.bounds.back() = zmax;
-  else
-    in.bounds.push_back(zmax);
+  if (zmax > in.bounds.back()) in.bounds.push_back(zmax);
   const int words = (in.width + 63) / 64;
   in.project = [&s, words](int z0, int z1, std::vector<std::uint64_t>& rows) {
     for (int bz = z0 >> 3; bz <= (z1 - 1) >> 3; ++bz)

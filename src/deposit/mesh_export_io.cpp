@@ -367,7 +367,7 @@ std::string deposit_mesh_summary(const DepositMesh& dm, const std::filesystem::p
   s += "  closed and oriented outward; volume " + format_fixed(dm.volume_mm3, 1) +
        " mm3 (filled voxels " + format_fixed(dm.filled_volume_mm3, 1) + " mm3); ";
   if (dm.surface == DepositMeshSurface::layers)
-    s += std::to_string(dm.layers) + " layers, " + std::to_string(dm.outlines) +
+    s += std::to_string(dm.layers) + " slabs, " + std::to_string(dm.outlines) +
          " outlines simplified within " + format_fixed(dm.outline_tolerance_mm, 4) +
          " mm, sides on the beads' round profile" +
          (dm.straight_outlines > 0 ? " (" + std::to_string(dm.straight_outlines) +

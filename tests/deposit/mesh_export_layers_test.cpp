@@ -77,6 +77,37 @@ void expect_layered_and_closed(const DepositMesh& dm, bool vertex_manifold = tru
   EXPECT_GT(dm.volume_mm3, 0.0);
 }
 
+TEST(LayeredMesh, MaterialRaisedAboveTheLastLayerIsItsOwnSlab) {
+  // The squeeze can lift a solid top layer's overflow one cell above the layer's top. That
+  // cell is a slab of its own: the top cap stays at the last layer's top everywhere else.
+  const auto square = [](int x, int y, int) { return x >= 40 && x < 120 && y >= 40 && y < 120; };
+  const DepositMesh flat = build(make_part(4, square));
+  Part p = make_part(4, square);
+  const int top = 4 * kLayer;  // the first cell above the last layer
+  for (int y = 70; y < 74; ++y)
+    for (int x = 70; x < 74; ++x) p.grid.set({x, y, top}, {1, 3, Feature::top_solid_infill});
+  const DepositMesh dm = build(p);
+  expect_layered_and_closed(dm);
+  EXPECT_EQ(flat.layers, 4u);
+  EXPECT_EQ(dm.layers, 5u);  // four layers and the raised cells
+  // The raised patch adds its own volume (16 cells), not a cell's height over the whole top.
+  EXPECT_NEAR(volume(dm.mesh) - volume(flat.mesh), 16 * kVoxel * kVoxel * kVoxel,
+              8 * kVoxel * kVoxel * kVoxel);
+  // Upward faces at the last layer's top cover the square but for the raised patch.
+  const double top_mm = top * kVoxel;
+  double area_at_top = 0, area_above = 0;
+  for (const auto& t : dm.mesh.triangles) {
+    const Vec3& a = dm.mesh.vertices_mm[t[0]];
+    const Vec3 n = (dm.mesh.vertices_mm[t[1]] - a).cross(dm.mesh.vertices_mm[t[2]] - a);
+    if (n.z() <= 0) continue;
+    const double z = (a.z() + dm.mesh.vertices_mm[t[1]].z() + dm.mesh.vertices_mm[t[2]].z()) / 3;
+    if (std::abs(z - top_mm) < 1e-6) area_at_top += 0.5 * n.norm();
+    if (z > top_mm + 1e-6) area_above += 0.5 * n.norm();
+  }
+  EXPECT_GT(area_at_top, 0.8 * 4.0 * 4.0);  // most of the 4 x 4 mm top
+  EXPECT_LT(area_above, 0.1);               // the 0.2 x 0.2 mm patch, not the whole top
+}
+
 TEST(LayeredMesh, CylinderIsClosedWithTheFilledVolume) {
   const Part p =
       make_part(8, [](int x, int y, int) { return std::hypot(x - 80.0, y - 80.0) < 60.0; });
@@ -313,7 +344,8 @@ TEST(LayeredMeshCli, SimulateCubeIsLayeredClosedWithItsVolume) {
                                  (dir / "cube.stl").string() + "' --json '" +
                                  (dir / "cube.json").string() + "'");
   ASSERT_EQ(run.exit_code, 0) << run.err;
-  EXPECT_NE(run.out.find("50 layers"), std::string::npos) << run.out;
+  // 50 printed layers, and the top layer's overflow the squeeze raised one cell above it.
+  EXPECT_NE(run.out.find("51 slabs"), std::string::npos) << run.out;
   const auto j = test::read_json(dir / "cube.json");
   const auto& m = j["deposit"]["mesh"];
   EXPECT_EQ(m["surface"].get<std::string>(), "layers");
@@ -326,7 +358,7 @@ TEST(LayeredMeshCli, SimulateCubeIsLayeredClosedWithItsVolume) {
       test::run_cli("simulate '" + gcode.string() + "' --deposit-mesh '" +
                     (dir / "cube_voxel.stl").string() + "' --deposit-mesh-surface voxel");
   ASSERT_EQ(voxel.exit_code, 0) << voxel.err;
-  EXPECT_EQ(voxel.out.find("layers,"), std::string::npos) << voxel.out;
+  EXPECT_EQ(voxel.out.find("slabs,"), std::string::npos) << voxel.out;
   const auto bad = test::run_cli("simulate '" + gcode.string() + "' --deposit-mesh '" +
                                  (dir / "c.stl").string() + "' --deposit-mesh-surface mesh");
   EXPECT_EQ(bad.exit_code, 2);
