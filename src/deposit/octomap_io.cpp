@@ -7,6 +7,10 @@
 // to OctoMap keys one to one since the resolution equals the voxel size.
 #include <octomap/ColorOcTree.h>
 #include <octomap/OcTree.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_pipeline.h>
+#include <tbb/task_arena.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -25,6 +29,7 @@
 
 #include "core/atomic_write.hpp"
 #include "core/bits.hpp"
+#include "core/plain_path.hpp"
 #include "deposit/palette.hpp"
 #include "deposit/voxel_blocks.hpp"
 #include "printtwin/deposit.hpp"
@@ -54,18 +59,21 @@ Status check_key_range(const VoxelGrid& grid) {
   return Ok{};
 }
 
-// --- .bt written straight from the grid ------------------------------------------------
+// --- The cubes and the subtrees ---------------------------------------------------------
 // OctoMap's own path (a node per voxel, then prune) needs tens of bytes and ~0.4 us per
-// voxel: ~5 GB and ~40 s for the 85 M voxels of the benchmark part. The pruned occupancy
-// tree it writes is a function of the occupied voxels alone, so it is produced here
-// directly: voxels are binned into 8^3 cubes aligned on OctoMap keys, the cubes sorted in
-// the tree's depth-first child order (Morton order of the cube key, x lowest), and the tree
-// encoded in OcTree::writeBinaryData's format (per inner node two bytes, two bits per child:
-// 00 absent, 01 occupied leaf, 11 inner node; then the inner children, in child order).
-// A node whose whole cube is occupied is a leaf, as OctoMap's prune() makes it.
+// voxel: ~5 GB and ~40 s for the 85 M voxels of the benchmark part. Both trees are produced
+// here directly instead: voxels are binned into 8^3 cubes aligned on OctoMap keys, the cubes
+// put in the tree's depth-first child order (Morton order of the cube key, x lowest), and
+// the tree encoded in OctoMap's format. The cubes are grouped into subtrees of 8^3 cubes
+// (64^3 voxels, the nodes at depth kSubtreeDepth): the subtrees are encoded on all cores
+// into separate pieces, and the levels above them are written around the pieces in tree
+// order, as the pieces come (a bounded number in flight).
 
 constexpr int kTreeDepth = 16;
-constexpr int kCubeLevels = kTreeDepth - 3;  // depth of the 8^3 cubes
+constexpr int kCubeLevels = kTreeDepth - 3;                  // depth of the 8^3 cubes
+constexpr int kSubtreeLevels = 3;                            // a subtree: 8^3 cubes
+constexpr int kSubtreeDepth = kCubeLevels - kSubtreeLevels;  // depth of the subtrees' roots
+constexpr std::size_t kPiecesInFlight = 16;
 
 struct Cube {
   std::uint64_t morton =
@@ -84,27 +92,354 @@ std::uint64_t morton3(std::uint32_t x, std::uint32_t y, std::uint32_t z) {
   return m;
 }
 
-class BtEncoder {
- public:
-  explicit BtEncoder(std::vector<Cube> cubes) : cubes_(std::move(cubes)) {
-    full_prefix_.resize(cubes_.size() + 1, 0);
-    for (std::size_t i = 0; i < cubes_.size(); ++i)
-      full_prefix_[i + 1] = full_prefix_[i] + (cubes_[i].full() ? 1 : 0);
+/// The cubes under one node at kSubtreeDepth, in tree order.
+struct Subtree {
+  std::uint64_t key = 0;  // the cubes' morton >> (3 * kSubtreeLevels)
+  const Cube* begin = nullptr;
+  const Cube* end = nullptr;
+};
+
+/// The grid's voxels as cubes, grouped by subtree; the subtrees in tree order.
+struct CubeSet {
+  std::vector<std::vector<Cube>> slabs;  // per slab of subtrees (64 voxels in z)
+  std::vector<Subtree> subtrees;
+};
+
+/// Runs `fn` on all cores, or on one with PRINTTWIN_PLAIN=octomap_threads (the plain twin:
+/// the same work in the same pieces, one after the other).
+template <class Fn>
+void on_export_threads(const Fn& fn) {
+  if (!detail::plain_path("octomap_threads")) {
+    fn();
+    return;
   }
-  /// Encodes the tree; returns the node count (OctoMap's size()).
-  std::size_t encode(std::string& out) {
-    if (cubes_.empty()) return 0;  // no root: OctoMap writes no data either
-    out_ = &out;
-    nodes_ = 1;
-    encode_range(0, cubes_.size(), 0);
+  tbb::task_arena one(1);
+  one.execute(fn);
+}
+
+/// Bins the grid's blocks into cubes aligned on OctoMap keys. The blocks are offset from the
+/// cubes by the same (sx, sy, sz) voxels: block (bx, by, bz) feeds cubes (bx, by, bz) +
+/// (0|1, 0|1, 0|1) (relative to the cube of block 0). A slab (the cube layers of one layer of
+/// subtrees) is assembled two cube layers at a time, so memory is the finished cubes plus
+/// two layers per thread.
+class CubeBinner {
+ public:
+  using Bits = std::array<std::uint64_t, 8>;
+  struct Layer {
+    std::vector<Bits> bits;              // per cell (cy * ncx + cx)
+    std::vector<std::uint32_t> touched;  // cells with bits set, in first-touch order
+    Bits& at(std::size_t cell) {
+      Bits& b = bits[cell];
+      if (std::all_of(b.begin(), b.end(), [](std::uint64_t v) { return v == 0; }))
+        touched.push_back(static_cast<std::uint32_t>(cell));
+      return b;
+    }
+  };
+  using Scratch = std::array<Layer, 2>;
+
+  explicit CubeBinner(const VoxelGrid& grid) : grid_(grid), nb_(VoxelBlocks::block_dims(grid)) {
+    // OctoMap key of voxel k: k + offset (its centre's coordinate / resolution, floored,
+    // + 2^15).
+    for (int a = 0; a < 3; ++a) {
+      const int offset =
+          static_cast<int>(std::llround(grid.origin_mm()[a] / grid.voxel_mm())) + 32768;
+      s_[a] = static_cast<unsigned>(offset & 7);
+      q_[a] = static_cast<std::uint32_t>(offset >> 3);
+    }
+    ncx_ = nb_.x() + 1;
+    ncy_ = nb_.y() + 1;
+  }
+  /// Slabs: cube layers 0 .. nb.z (relative to the cube of block 0) grouped by their
+  /// subtree layer.
+  [[nodiscard]] int slabs() const {
+    return static_cast<int>(((q_[2] + static_cast<std::uint32_t>(nb_.z())) >> 3) - (q_[2] >> 3)) +
+           1;
+  }
+  /// The cubes of slab `s`, in tree order.
+  std::vector<Cube> slab(int s, Scratch& layers) const {
+    const int first = static_cast<int>(((q_[2] >> 3) + static_cast<std::uint32_t>(s)) * 8) -
+                      static_cast<int>(q_[2]);
+    const int c0 = std::max(first, 0), c1 = std::min(first + 8, nb_.z() + 1);
+    for (auto& l : layers)
+      if (l.bits.empty())
+        l.bits.assign(static_cast<std::size_t>(ncx_) * static_cast<std::size_t>(ncy_), Bits{});
+    std::vector<Cube> cubes;
+    auto flush = [&](int cz) {  // cube layer cz is complete
+      auto& layer = layers[static_cast<std::size_t>(cz & 1)];
+      for (const std::uint32_t cell : layer.touched) {
+        Bits& bits = layer.bits[cell];
+        const auto cx = static_cast<std::uint32_t>(cell % static_cast<std::uint32_t>(ncx_)),
+                   cy = static_cast<std::uint32_t>(cell / static_cast<std::uint32_t>(ncx_));
+        Cube c;
+        c.morton = morton3(q_[0] + cx, q_[1] + cy, q_[2] + static_cast<std::uint32_t>(cz));
+        c.bits = bits;
+        cubes.push_back(c);
+        bits = Bits{};
+      }
+      layer.touched.clear();
+    };
+    // Cube layer cz takes the low slices of block layer cz and the high ones of cz - 1: it is
+    // complete once block layer cz + 1 comes.
+    int flushed = c0;
+    for (int bz = std::max(c0 - 1, 0); bz < std::min(c1, nb_.z()); ++bz) {
+      for (; flushed < bz; ++flushed) flush(flushed);
+      for (int by = 0; by < nb_.y(); ++by)
+        for (int bx = 0; bx < nb_.x(); ++bx)
+          if (const std::uint64_t* occupancy = VoxelBlocks::block_occupancy(grid_, bx, by, bz))
+            bin_block(occupancy, bx, by, bz, c0, c1, layers);
+    }
+    for (; flushed < c1; ++flushed) flush(flushed);
+    std::sort(cubes.begin(), cubes.end(),
+              [](const Cube& a, const Cube& b) { return a.morton < b.morton; });
+    return cubes;
+  }
+
+ private:
+  /// ORs the slices of a block that fall in cube layers [c0, c1) into their cubes. Each
+  /// z-slice's columns and rows are shifted into the up to 2 x 2 cubes it straddles (bit
+  /// y * 8 + x).
+  void bin_block(const std::uint64_t* occupancy, int bx, int by, int bz, int c0, int c1,
+                 Scratch& layers) const {
+    const unsigned sx = s_[0], sy = s_[1], sz = s_[2];
+    const std::uint64_t low_columns = 0x0101010101010101ull * (0xFFu >> sx);  // x < 8 - sx
+    for (unsigned z = 0; z < 8; ++z) {
+      const std::uint64_t w = occupancy[z];
+      if (w == 0) continue;
+      const unsigned zz = z + sz;
+      const int cz = bz + static_cast<int>(zz >> 3);
+      if (cz < c0 || cz >= c1) continue;
+      auto& layer = layers[static_cast<std::size_t>(cz & 1)];
+      const std::uint64_t x_parts[2] = {(w & low_columns) << sx,
+                                        sx == 0 ? 0 : (w & ~low_columns) >> (8 - sx)};
+      for (int dx = 0; dx < 2; ++dx) {
+        const std::uint64_t p = x_parts[dx];
+        if (p == 0) continue;
+        const auto cell = static_cast<std::size_t>(by) * static_cast<std::size_t>(ncx_) +
+                          static_cast<std::size_t>(bx + dx);
+        if (const std::uint64_t rows = p << (8 * sy); rows != 0)  // rows y < 8 - sy
+          layer.at(cell)[zz & 7u] |= rows;
+        if (sy != 0)
+          if (const std::uint64_t rows = p >> (8 * (8 - sy)); rows != 0)
+            layer.at(cell + static_cast<std::size_t>(ncx_))[zz & 7u] |= rows;
+      }
+    }
+  }
+
+  const VoxelGrid& grid_;
+  Eigen::Vector3i nb_;
+  unsigned s_[3] = {0, 0, 0};
+  std::uint32_t q_[3] = {0, 0, 0};
+  int ncx_ = 0, ncy_ = 0;
+};
+
+/// The voxels of the grid as cubes, grouped by subtree in tree order (the slabs are binned on
+/// all cores).
+CubeSet cubes_of(const VoxelGrid& grid) {
+  const CubeBinner binner(grid);
+  CubeSet set;
+  set.slabs.resize(static_cast<std::size_t>(binner.slabs()));
+  tbb::enumerable_thread_specific<CubeBinner::Scratch> scratch;
+  tbb::parallel_for(std::size_t{0}, set.slabs.size(), [&](std::size_t s) {
+    set.slabs[s] = binner.slab(static_cast<int>(s), scratch.local());
+  });
+  for (const auto& slab : set.slabs)
+    for (std::size_t i = 0; i < slab.size();) {
+      Subtree t;
+      t.key = slab[i].morton >> (3 * kSubtreeLevels);
+      t.begin = slab.data() + i;
+      while (i < slab.size() && slab[i].morton >> (3 * kSubtreeLevels) == t.key) ++i;
+      t.end = slab.data() + i;
+      set.subtrees.push_back(t);
+    }
+  std::sort(set.subtrees.begin(), set.subtrees.end(),
+            [](const Subtree& a, const Subtree& b) { return a.key < b.key; });
+  return set;
+}
+
+/// One subtree encoded: its bytes, its node count (its root included) and its root (the
+/// format's node word).
+struct Piece {
+  std::string bytes;
+  std::size_t nodes = 0;
+  std::uint32_t root = 0;
+};
+
+/// Encodes the subtrees on all cores (`encode(const Subtree&)` returns a Piece) and hands
+/// the pieces to `consume(Piece&)` one by one in tree order, at most kPiecesInFlight of them
+/// held at once.
+template <class Encode, class Consume>
+void encode_in_order(const std::vector<Subtree>& subtrees, const Encode& encode,
+                     const Consume& consume) {
+  std::size_t next = 0;
+  tbb::parallel_pipeline(
+      kPiecesInFlight,
+      tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order,
+                                          [&](tbb::flow_control& fc) -> std::size_t {
+                                            if (next == subtrees.size()) {
+                                              fc.stop();
+                                              return 0;
+                                            }
+                                            return next++;
+                                          }) &
+          tbb::make_filter<std::size_t, Piece>(tbb::filter_mode::parallel,
+                                               [&](std::size_t i) { return encode(subtrees[i]); }) &
+          tbb::make_filter<Piece, void>(tbb::filter_mode::serial_in_order,
+                                        [&](Piece p) { consume(p); }));
+}
+
+/// The levels of the tree above the subtrees (depths 0 .. kSubtreeDepth - 1), written around
+/// the subtrees' pieces, which come one by one in tree order. A node is opened (written with
+/// its child bits and a placeholder where its value depends on its children) when its first
+/// subtree comes, and closed (its value patched in, or the node replaced by a leaf) when its
+/// last has passed. `Format` writes the nodes:
+///   std::uint64_t open(std::uint8_t child_bits): writes a node, returns its offset;
+///   void append(const Piece&): appends a subtree;
+///   std::uint32_t close(std::uint64_t at, const std::array<std::uint32_t, 8>& children,
+///                       bool root, bool& leaf): finishes the node at `at`, returns it.
+template <class Format>
+class TopLevels {
+ public:
+  TopLevels(Format& format, const std::vector<Subtree>& subtrees)
+      : format_(format), subtrees_(subtrees) {}
+  void add(const Piece& piece) {
+    const std::uint64_t key = subtrees_[next_].key;
+    int from = 0;  // the shallowest level to open
+    if (next_ > 0) {
+      from = kSubtreeDepth;
+      for (int t = 1; t < kSubtreeDepth; ++t)
+        if (ancestor(key, t) != ancestor(last_, t)) {
+          from = t;
+          break;
+        }
+      close_from(from);
+    }
+    for (int t = from; t < kSubtreeDepth; ++t) {
+      Level& l = levels_[static_cast<std::size_t>(t)];
+      l = Level{};
+      l.at = format_.open(child_bits(t));
+    }
+    Level& parent = levels_[kSubtreeDepth - 1];
+    parent.children[key & 7u] = piece.root;
+    parent.nodes += piece.nodes;
+    format_.append(piece);
+    last_ = key;
+    ++next_;
+  }
+  /// Closes the open nodes; returns the tree's node count (0 when there were no subtrees).
+  std::size_t finish() {
+    if (next_ == 0) return 0;
+    close_from(0);
     return nodes_;
   }
 
  private:
-  /// Child index (0..7) of cube i under a node at `depth` (< kCubeLevels).
-  [[nodiscard]] unsigned child_of(std::size_t i, int depth) const {
-    return static_cast<unsigned>((cubes_[i].morton >> (3 * (kCubeLevels - 1 - depth))) & 7u);
+  struct Level {
+    std::uint64_t at = 0;
+    std::size_t nodes = 0;  // of the children's subtrees
+    std::array<std::uint32_t, 8> children{};
+  };
+  /// The node at depth t above subtree `key`.
+  static std::uint64_t ancestor(std::uint64_t key, int t) {
+    return key >> (3 * (kSubtreeDepth - t));
   }
+  /// Child bits of the node at depth t above the next subtree: the children that the
+  /// subtrees under it, from the next on, lie in.
+  [[nodiscard]] std::uint8_t child_bits(int t) const {
+    const std::uint64_t node = ancestor(subtrees_[next_].key, t);
+    unsigned bits = 0;
+    for (std::size_t i = next_; i < subtrees_.size() && ancestor(subtrees_[i].key, t) == node; ++i)
+      bits |= 1u << (ancestor(subtrees_[i].key, t + 1) & 7u);
+    return static_cast<std::uint8_t>(bits);
+  }
+  /// Closes the open nodes at depths kSubtreeDepth - 1 down to `from`.
+  void close_from(int from) {
+    for (int t = kSubtreeDepth - 1; t >= from; --t) {
+      Level& l = levels_[static_cast<std::size_t>(t)];
+      bool leaf = false;
+      const std::uint32_t node = format_.close(l.at, l.children, t == 0, leaf);
+      const std::size_t nodes = leaf ? 1 : l.nodes + 1;
+      if (t == 0) {
+        nodes_ = nodes;
+      } else {
+        Level& parent = levels_[static_cast<std::size_t>(t - 1)];
+        parent.children[ancestor(last_, t) & 7u] = node;
+        parent.nodes += nodes;
+      }
+    }
+  }
+
+  Format& format_;
+  const std::vector<Subtree>& subtrees_;
+  std::array<Level, kSubtreeDepth> levels_{};
+  std::size_t next_ = 0;    // index of the next subtree
+  std::uint64_t last_ = 0;  // key of the last subtree
+  std::size_t nodes_ = 0;
+};
+
+/// Child index (0..7) under a node at `depth` (< kCubeLevels) of the cube with this Morton
+/// code.
+unsigned child_of(std::uint64_t morton, int depth) {
+  return static_cast<unsigned>((morton >> (3 * (kCubeLevels - 1 - depth))) & 7u);
+}
+
+/// Splits cubes [b, e) under a node at `depth` by child: child c holds [split[c],
+/// split[c + 1]).
+std::array<std::size_t, 9> split_by_child(const Cube* cubes, std::size_t b, std::size_t e,
+                                          int depth) {
+  std::array<std::size_t, 9> split{};
+  split[0] = b;
+  std::size_t i = b;
+  for (unsigned c = 0; c < 8; ++c) {
+    while (i < e && child_of(cubes[i].morton, depth) == c) ++i;
+    split[c + 1] = i;
+  }
+  return split;
+}
+
+// --- .bt --------------------------------------------------------------------------------
+// OcTree::writeBinaryData's format: per inner node two bytes, two bits per child (00
+// absent, 01 occupied leaf, 11 inner node); then the inner children, in child order. A node
+// whose whole cube is occupied is a leaf, as OctoMap's prune() makes it. Node words: 2 for
+// an occupied leaf, 3 for an inner node (0: absent).
+
+constexpr std::uint32_t kBtLeaf = 2, kBtInner = 3;
+
+/// The two bytes of a node whose children have these words (two bits per child, child i at
+/// bits 2i (low) and 2i+1 (high) of its byte: OctoMap's bitset order; occupied leaf = (0, 1),
+/// inner = (1, 1)).
+std::array<char, 2> bt_code(const std::array<std::uint32_t, 8>& children) {
+  unsigned code = 0;
+  for (unsigned c = 0; c < 8; ++c) {
+    if (children[c] == kBtLeaf) code |= 2u << (2 * c);
+    if (children[c] == kBtInner) code |= 3u << (2 * c);
+  }
+  return {static_cast<char>(code & 0xFFu), static_cast<char>(code >> 8)};
+}
+
+/// Encodes one subtree of the .bt.
+class BtEncoder {
+ public:
+  Piece encode(const Subtree& s) {
+    cubes_ = s.begin;
+    const auto n = static_cast<std::size_t>(s.end - s.begin);
+    full_prefix_.assign(n + 1, 0);
+    for (std::size_t i = 0; i < n; ++i)
+      full_prefix_[i + 1] = full_prefix_[i] + (cubes_[i].full() ? 1 : 0);
+    Piece piece;
+    piece.nodes = 1;
+    if (range_full(0, n, kSubtreeDepth)) {
+      piece.root = kBtLeaf;
+      return piece;
+    }
+    piece.root = kBtInner;
+    out_ = &piece.bytes;
+    nodes_ = 1;
+    encode_range(0, n, kSubtreeDepth);
+    piece.nodes = nodes_;
+    return piece;
+  }
+
+ private:
   /// Cubes [b, e) all lie under one node at `depth`: is that node entirely occupied?
   [[nodiscard]] bool range_full(std::size_t b, std::size_t e, int depth) const {
     const std::size_t need = std::size_t{1} << (3 * (kCubeLevels - depth));
@@ -116,23 +451,16 @@ class BtEncoder {
       encode_cube(cubes_[b].bits, 0, 0, 0, 8);
       return;
     }
-    std::array<std::size_t, 9> split{};
-    split[0] = b;
-    std::size_t i = b;
-    for (unsigned c = 0; c < 8; ++c) {
-      while (i < e && child_of(i, depth) == c) ++i;
-      split[c + 1] = i;
-    }
-    std::uint16_t code = 0;
+    const auto split = split_by_child(cubes_, b, e, depth);
+    std::array<std::uint32_t, 8> kinds{};
     for (unsigned c = 0; c < 8; ++c) {
       if (split[c] == split[c + 1]) continue;
       ++nodes_;
-      code |= static_cast<std::uint16_t>((range_full(split[c], split[c + 1], depth + 1) ? 2u : 3u)
-                                         << (2 * c));
+      kinds[c] = range_full(split[c], split[c + 1], depth + 1) ? kBtLeaf : kBtInner;
     }
-    put(code);
+    put(kinds);
     for (unsigned c = 0; c < 8; ++c)
-      if (((code >> (2 * c)) & 3u) == 3u) encode_range(split[c], split[c + 1], depth + 1);
+      if (kinds[c] == kBtInner) encode_range(split[c], split[c + 1], depth + 1);
   }
   /// Occupied voxels of the sub-cube at (x0, y0, z0) of edge n inside one 8^3 cube.
   static int count(const std::array<std::uint64_t, 8>& bits, int x0, int y0, int z0, int n) {
@@ -145,124 +473,54 @@ class BtEncoder {
   }
   void encode_cube(const std::array<std::uint64_t, 8>& bits, int x0, int y0, int z0, int n) {
     const int h = n / 2;
-    std::uint16_t code = 0;
+    std::array<std::uint32_t, 8> kinds{};
     for (unsigned c = 0; c < 8; ++c) {
       const int cx = x0 + ((c & 1u) ? h : 0), cy = y0 + ((c & 2u) ? h : 0),
                 cz = z0 + ((c & 4u) ? h : 0);
       const int occupied = count(bits, cx, cy, cz, h);
       if (occupied == 0) continue;
       ++nodes_;
-      code |= static_cast<std::uint16_t>((occupied == h * h * h ? 2u : 3u) << (2 * c));
+      kinds[c] = occupied == h * h * h ? kBtLeaf : kBtInner;
     }
-    put(code);
+    put(kinds);
     for (unsigned c = 0; c < 8; ++c)
-      if (((code >> (2 * c)) & 3u) == 3u)
+      if (kinds[c] == kBtInner)
         encode_cube(bits, x0 + ((c & 1u) ? h : 0), y0 + ((c & 2u) ? h : 0), z0 + ((c & 4u) ? h : 0),
                     h);
   }
-  void put(std::uint16_t code) {
-    // Two bits per child, child i at bits 2i (low) and 2i+1 (high) of its byte: OctoMap's
-    // bitset order. Occupied leaf = (0, 1), inner = (1, 1).
-    auto byte_of = [](unsigned quad) {
-      unsigned out = 0;
-      for (unsigned i = 0; i < 4; ++i) {
-        const unsigned v = (quad >> (2 * i)) & 3u;  // 2: leaf, 3: inner
-        if (v == 2u) out |= 1u << (2 * i + 1);
-        if (v == 3u) out |= 3u << (2 * i);
-      }
-      return static_cast<char>(out);
-    };
-    out_->push_back(byte_of(code & 0xFFu));
-    out_->push_back(byte_of(code >> 8));
+  void put(const std::array<std::uint32_t, 8>& kinds) {
+    const auto code = bt_code(kinds);
+    out_->append(code.data(), code.size());
   }
 
-  std::vector<Cube> cubes_;
+  const Cube* cubes_ = nullptr;
   std::vector<std::size_t> full_prefix_;
   std::string* out_ = nullptr;
   std::size_t nodes_ = 0;
 };
 
-/// The voxels of the grid as 8^3 cubes aligned on OctoMap keys, in tree order. The grid's
-/// blocks are offset from the cubes by the same (sx, sy, sz) voxels: block (bx, by, bz)
-/// feeds cubes (bx, by, bz) + (0|1, 0|1, 0|1) (relative to the cube of block 0). Cubes are
-/// assembled two layers at a time, so memory is the finished cubes plus two layers.
-std::vector<Cube> cubes_of(const VoxelGrid& grid) {
-  // OctoMap key of voxel k: k + offset (its centre's coordinate / resolution, floored, + 2^15).
-  Eigen::Vector3i offset;
-  for (int a = 0; a < 3; ++a)
-    offset[a] = static_cast<int>(std::llround(grid.origin_mm()[a] / grid.voxel_mm())) + 32768;
-  const auto sx = static_cast<unsigned>(offset.x() & 7), sy = static_cast<unsigned>(offset.y() & 7),
-             sz = static_cast<unsigned>(offset.z() & 7);
-  const auto qx = static_cast<std::uint32_t>(offset.x() >> 3),
-             qy = static_cast<std::uint32_t>(offset.y() >> 3),
-             qz = static_cast<std::uint32_t>(offset.z() >> 3);
-  const Eigen::Vector3i nb = VoxelBlocks::block_dims(grid);
-  const int ncx = nb.x() + 1, ncy = nb.y() + 1;
-  using Bits = std::array<std::uint64_t, 8>;
-  struct Layer {
-    std::vector<Bits> bits;              // per cell (cy * ncx + cx)
-    std::vector<std::uint32_t> touched;  // cells with bits set, in first-touch order
-    Bits& at(std::size_t cell) {
-      Bits& b = bits[cell];
-      if (std::all_of(b.begin(), b.end(), [](std::uint64_t v) { return v == 0; }))
-        touched.push_back(static_cast<std::uint32_t>(cell));
-      return b;
+/// The levels above the .bt's subtrees, in memory.
+struct BtFormat {
+  std::string& out;
+  std::uint64_t open(std::uint8_t /*child_bits*/) {
+    out.append(2, '\0');  // the child codes, known when the node closes
+    return out.size() - 2;
+  }
+  void append(const Piece& piece) { out += piece.bytes; }
+  std::uint32_t close(std::uint64_t at, const std::array<std::uint32_t, 8>& children, bool root,
+                      bool& leaf) {
+    leaf = !root && std::all_of(children.begin(), children.end(),
+                                [](std::uint32_t c) { return c == kBtLeaf; });
+    if (leaf) {
+      out.resize(at);
+      return kBtLeaf;
     }
-  };
-  std::array<Layer, 2> layers;
-  for (auto& l : layers)
-    l.bits.assign(static_cast<std::size_t>(ncx) * static_cast<std::size_t>(ncy), Bits{});
-  std::vector<Cube> cubes;
-  cubes.reserve(VoxelBlocks::block_count(grid));
-  auto flush = [&](int cz) {  // cube layer cz is complete
-    auto& layer = layers[static_cast<std::size_t>(cz & 1)];
-    for (const std::uint32_t cell : layer.touched) {
-      Bits& bits = layer.bits[cell];
-      const auto cx = static_cast<std::uint32_t>(cell % static_cast<std::uint32_t>(ncx)),
-                 cy = static_cast<std::uint32_t>(cell / static_cast<std::uint32_t>(ncx));
-      Cube c;
-      c.morton = morton3(qx + cx, qy + cy, qz + static_cast<std::uint32_t>(cz));
-      c.bits = bits;
-      cubes.push_back(c);
-      bits = Bits{};
-    }
-    layer.touched.clear();
-  };
-  // A block straddles up to 2 x 2 x 2 cubes: each z-slice's columns and rows are shifted
-  // into them (bit y * 8 + x). Blocks come in z, y, x order: cube layer cz is complete once
-  // a block of layer cz + 1 comes.
-  const std::uint64_t low_columns = 0x0101010101010101ull * (0xFFu >> sx);  // x < 8 - sx
-  int flushed = 0;                                                          // cube layers done
-  VoxelBlocks::visit_blocks(grid, [&](const VoxelBlocks::BlockView& block) {
-    const int bx = block.base.x / VoxelBlocks::kBlockEdge,
-              by = block.base.y / VoxelBlocks::kBlockEdge,
-              bz = block.base.z / VoxelBlocks::kBlockEdge;
-    for (; flushed < bz; ++flushed) flush(flushed);
-    for (unsigned z = 0; z < 8; ++z) {
-      const std::uint64_t w = block.occupancy[z];
-      if (w == 0) continue;
-      const unsigned zz = z + sz;
-      auto& layer = layers[static_cast<std::size_t>((bz + static_cast<int>(zz >> 3)) & 1)];
-      const std::uint64_t x_parts[2] = {(w & low_columns) << sx,
-                                        sx == 0 ? 0 : (w & ~low_columns) >> (8 - sx)};
-      for (int dx = 0; dx < 2; ++dx) {
-        const std::uint64_t p = x_parts[dx];
-        if (p == 0) continue;
-        const auto cell = static_cast<std::size_t>(by) * static_cast<std::size_t>(ncx) +
-                          static_cast<std::size_t>(bx + dx);
-        if (const std::uint64_t rows = p << (8 * sy); rows != 0)  // rows y < 8 - sy
-          layer.at(cell)[zz & 7u] |= rows;
-        if (sy != 0)
-          if (const std::uint64_t rows = p >> (8 * (8 - sy)); rows != 0)
-            layer.at(cell + static_cast<std::size_t>(ncx))[zz & 7u] |= rows;
-      }
-    }
-  });
-  for (; flushed <= nb.z(); ++flushed) flush(flushed);
-  std::sort(cubes.begin(), cubes.end(),
-            [](const Cube& a, const Cube& b) { return a.morton < b.morton; });
-  return cubes;
-}
+    const auto code = bt_code(children);
+    out[at] = code[0];
+    out[at + 1] = code[1];
+    return kBtInner;
+  }
+};
 
 /// The text header OctoMap writes before the nodes (`binary`: .bt, else .ot).
 std::string octomap_header(bool binary, const char* tree_type, std::size_t nodes,
@@ -275,13 +533,21 @@ std::string octomap_header(bool binary, const char* tree_type, std::size_t nodes
 }
 
 std::string encode_bt(const VoxelGrid& grid) {
-  BtEncoder encoder(cubes_of(grid));
   std::string data;
-  const std::size_t nodes = encoder.encode(data);
+  std::size_t nodes = 0;
+  on_export_threads([&] {
+    const CubeSet cubes = cubes_of(grid);
+    BtFormat format{data};
+    TopLevels<BtFormat> top(format, cubes.subtrees);
+    encode_in_order(
+        cubes.subtrees, [](const Subtree& s) { return BtEncoder().encode(s); },
+        [&](const Piece& p) { top.add(p); });
+    nodes = top.finish();
+  });
   return octomap_header(true, "OcTree", nodes, grid.voxel_mm()) + data;
 }
 
-// --- .ot written straight from the grid ------------------------------------------------
+// --- .ot --------------------------------------------------------------------------------
 // The ColorOcTree file (AbstractOcTree::write): a text header, then the nodes depth-first
 // (OcTreeBaseImpl::writeNodesRecurs): per node its log-odds occupancy (float), its colour
 // (r, g, b bytes), a byte with one bit per existing child, then the existing children in
@@ -291,12 +557,13 @@ std::string encode_bt(const VoxelGrid& grid) {
 // of the children whose colour is not pure white; white when none is). A node whose eight
 // children are leaves of one colour is written as one leaf of that colour (lossless: unlike
 // OctoMap's own ColorOcTree pruning, which ignores colour), so full 8^3 cubes of one layer or
-// feature cost one node. The cubes are the .bt encoder's; a voxel's colour is looked up in
-// its grid block when its cube is written.
+// feature cost one node. A voxel's colour is looked up in its grid block when its cube is
+// written.
 
 // A node as one word: colour 0xRRGGBB in the low 24 bits, its kind above (0: absent).
 using OtNode = std::uint32_t;
 constexpr OtNode kLeaf = 1u << 24, kInner = 2u << 24, kWhite = 0xFFFFFFu;
+constexpr std::size_t kRecord = 8;  // bytes of a node record
 
 OtNode pack(const deposit_detail::Rgb& c) {
   return kLeaf | (std::uint32_t{c.r} << 16) | (std::uint32_t{c.g} << 8) | c.b;
@@ -336,13 +603,20 @@ bool write_at(int fd, const char* bytes, std::size_t n, std::uint64_t at) {
 class RecordSink {
  public:
   RecordSink(int fd, std::uint64_t start) : fd_(fd), start_(start), buffer_(new char[kBytes]) {}
-  /// Appends a record; returns its offset.
-  std::uint64_t put(const char* record) {
-    if (size_ - base_ + kRecord > kBytes) [[unlikely]]
+  /// Appends `n` bytes (whole records); returns their offset.
+  std::uint64_t put(const char* bytes, std::size_t n) {
+    if (size_ - base_ + n > kBytes) [[unlikely]] {
       flush();
-    std::memcpy(buffer_.get() + (size_ - base_), record, kRecord);
-    size_ += kRecord;
-    return size_ - kRecord;
+      if (n > kBytes) {
+        ok_ = ok_ && write_at(fd_, bytes, n, start_ + size_);
+        size_ += n;
+        base_ = size_;
+        return size_ - n;
+      }
+    }
+    std::memcpy(buffer_.get() + (size_ - base_), bytes, n);
+    size_ += n;
+    return size_ - n;
   }
   /// Overwrites `n` bytes of the records put, from offset `at` on.
   void patch(std::uint64_t at, const char* bytes, std::size_t n) {
@@ -364,8 +638,6 @@ class RecordSink {
   [[nodiscard]] std::uint64_t size() const { return size_; }
   [[nodiscard]] bool ok() const { return ok_; }
 
-  static constexpr std::size_t kRecord = 8;
-
  private:
   static constexpr std::size_t kBytes = std::size_t{1} << 20;
   int fd_;
@@ -376,92 +648,108 @@ class RecordSink {
   bool ok_ = true;
 };
 
-class OtEncoder {
- public:
-  OtEncoder(const VoxelGrid& grid, std::vector<Cube> cubes, VoxelColoring coloring,
-            float occupied_log_odds)
-      : grid_(grid), cubes_(std::move(cubes)) {
+/// What every .ot subtree encoder reads: the colour of every tag and where a cube's voxels
+/// lie in the grid's blocks.
+struct OtTables {
+  OtTables(const VoxelGrid& grid, VoxelColoring coloring, float occupied_log_odds) {
     const auto& table = VoxelBlocks::tag_table(grid);
-    colours_.reserve(table.size());
+    colours.reserve(table.size());
     for (const auto& tag : table)
-      colours_.push_back(pack(coloring == VoxelColoring::layer
-                                  ? deposit_detail::layer_color(tag.layer)
-                                  : deposit_detail::feature_color(tag.feature)));
+      colours.push_back(pack(coloring == VoxelColoring::layer
+                                 ? deposit_detail::layer_color(tag.layer)
+                                 : deposit_detail::feature_color(tag.feature)));
     for (int a = 0; a < 3; ++a)
-      offset_[a] = static_cast<int>(std::llround(grid.origin_mm()[a] / grid.voxel_mm())) + 32768;
-    std::memcpy(record_, &occupied_log_odds, 4);
+      offset[a] = static_cast<int>(std::llround(grid.origin_mm()[a] / grid.voxel_mm())) + 32768;
+    std::memcpy(value, &occupied_log_odds, 4);
     // Every cube starts at the same place inside its grid block (offsets below 8): where
     // each of its voxels lies among the up to 2 x 2 x 2 blocks it overlaps.
     int shift[3];
-    for (int a = 0; a < 3; ++a) shift[a] = (-offset_[a]) & 7;
+    for (int a = 0; a < 3; ++a) shift[a] = (-offset[a]) & 7;
     for (int bit = 0; bit < 64; ++bit) {
       const int lx = shift[0] + (bit & 7), ly = shift[1] + (bit >> 3);
-      xy_block_[static_cast<std::size_t>(bit)] =
+      xy_block[static_cast<std::size_t>(bit)] =
           static_cast<std::uint8_t>((lx >> 3) | ((ly >> 3) << 1));
-      xy_slot_[static_cast<std::size_t>(bit)] = static_cast<std::uint8_t>((ly & 7) * 8 + (lx & 7));
+      xy_slot[static_cast<std::size_t>(bit)] = static_cast<std::uint8_t>((ly & 7) * 8 + (lx & 7));
     }
     for (int z = 0; z < 8; ++z) {
       const int lz = shift[2] + z;
-      z_block_[static_cast<std::size_t>(z)] = static_cast<std::uint8_t>((lz >> 3) << 2);
-      z_slot_[static_cast<std::size_t>(z)] = static_cast<std::uint16_t>((lz & 7) * 64);
+      z_block[static_cast<std::size_t>(z)] = static_cast<std::uint8_t>((lz >> 3) << 2);
+      z_slot[static_cast<std::size_t>(z)] = static_cast<std::uint16_t>((lz & 7) * 64);
     }
   }
-  /// Nodes of the encoded tree at most: per cube its voxels and at most min(voxels, 64) +
-  /// min(voxels, 8) + 1 nodes above them inside the cube, plus a chain of kCubeLevels
-  /// ancestors.
-  [[nodiscard]] std::size_t max_nodes() const {
-    std::size_t nodes = 0;
-    for (const auto& c : cubes_) {
+  /// The record of `node` with these child bits.
+  void record(OtNode node, std::uint8_t children, char* out) const {
+    std::memcpy(out, value, 4);
+    out[4] = static_cast<char>(node >> 16), out[5] = static_cast<char>(node >> 8);
+    out[6] = static_cast<char>(node), out[7] = static_cast<char>(children);
+  }
+
+  std::vector<OtNode> colours;  // per tag index, packed as a leaf
+  int offset[3] = {0, 0, 0};
+  char value[4] = {};                       // the occupied log-odds, as written
+  std::array<std::uint8_t, 64> xy_block{};  // per bit y * 8 + x of a cube slice: its block
+  std::array<std::uint8_t, 64> xy_slot{};   // ... and its slot's y * 8 + x there
+  std::array<std::uint8_t, 8> z_block{};    // per cube slice z: its block (z bit)
+  std::array<std::uint16_t, 8> z_slot{};    // ... and its slot's z * 64 there
+};
+
+/// Nodes of the encoded .ot at most: per cube its voxels and at most min(voxels, 64) +
+/// min(voxels, 8) + 1 nodes above them inside the cube, plus a chain of kCubeLevels
+/// ancestors.
+std::size_t max_ot_nodes(const CubeSet& cubes) {
+  std::size_t nodes = 0;
+  for (const auto& slab : cubes.slabs)
+    for (const auto& c : slab) {
       std::size_t n = 0;
       for (const auto w : c.bits) n += static_cast<std::size_t>(popcount64(w));
       nodes += n + std::min<std::size_t>(n, 64) + std::min<std::size_t>(n, 8) + 1 + kCubeLevels;
     }
-    return nodes;
-  }
-  /// Encodes the tree into `out`; returns the node count (OctoMap's size()).
-  std::size_t encode(RecordSink& out) {
-    out_ = &out;
+  return nodes;
+}
+
+/// Encodes one subtree of the .ot into records in memory.
+class OtEncoder {
+ public:
+  OtEncoder(const VoxelGrid& grid, const OtTables& tables) : grid_(grid), t_(tables) {}
+  Piece encode(const Subtree& s) {
+    Piece piece;
+    cubes_ = s.begin;
+    out_ = &piece.bytes;
     nodes_ = 0;
-    if (!cubes_.empty()) encode_range(0, cubes_.size(), 0);
-    return nodes_;
+    piece.root = encode_range(0, static_cast<std::size_t>(s.end - s.begin), kSubtreeDepth);
+    piece.nodes = nodes_;
+    return piece;
   }
 
  private:
-  [[nodiscard]] unsigned child_of(std::size_t i, int depth) const {
-    return static_cast<unsigned>((cubes_[i].morton >> (3 * (kCubeLevels - 1 - depth))) & 7u);
-  }
-  /// Appends a node record (value, colour, child bits); returns its offset in the output.
-  std::uint64_t put_node(OtNode node, std::uint8_t children) {
-    record_[4] = static_cast<char>(node >> 16), record_[5] = static_cast<char>(node >> 8);
-    record_[6] = static_cast<char>(node), record_[7] = static_cast<char>(children);
+  /// Appends a node record (value, colour, child bits); returns its offset.
+  std::size_t put_node(OtNode node, std::uint8_t children) {
+    char record[kRecord];
+    t_.record(node, children, record);
     ++nodes_;
-    return out_->put(record_);
+    out_->append(record, kRecord);
+    return out_->size() - kRecord;
   }
   OtNode encode_range(std::size_t b, std::size_t e, int depth) {
     if (depth == kCubeLevels) return encode_cube(cubes_[b]);
-    std::array<std::size_t, 9> split{};
-    split[0] = b;
-    std::size_t i = b;
+    const auto split = split_by_child(cubes_, b, e, depth);
     std::uint8_t mask = 0;
-    for (unsigned c = 0; c < 8; ++c) {
-      while (i < e && child_of(i, depth) == c) ++i;
-      split[c + 1] = i;
+    for (unsigned c = 0; c < 8; ++c)
       if (split[c] != split[c + 1]) mask = static_cast<std::uint8_t>(mask | (1u << c));
-    }
-    const std::uint64_t at = put_node(kInner | kWhite, mask);
+    const std::size_t at = put_node(kInner | kWhite, mask);
     const std::size_t nodes_before = nodes_;
     std::array<OtNode, 8> children{};
     for (unsigned c = 0; c < 8; ++c)
       if (split[c] != split[c + 1]) children[c] = encode_range(split[c], split[c + 1], depth + 1);
     const OtNode node = parent_of(children.data());
     if (node & kLeaf) {  // eight leaves of one colour: one leaf instead
-      out_->truncate(at);
+      out_->resize(at);
       nodes_ = nodes_before - 1;
       put_node(node, 0);
     } else {
-      const char colour[3] = {static_cast<char>(node >> 16), static_cast<char>(node >> 8),
-                              static_cast<char>(node)};
-      out_->patch(at + 4, colour, 3);
+      (*out_)[at + 4] = static_cast<char>(node >> 16);
+      (*out_)[at + 5] = static_cast<char>(node >> 8);
+      (*out_)[at + 6] = static_cast<char>(node);
     }
     return node;
   }
@@ -483,7 +771,7 @@ class OtEncoder {
         k[a] |= static_cast<std::uint32_t>((cube.morton >> (3 * level + a)) & 1u) << level;
     int b0[3], spans[3];
     for (int a = 0; a < 3; ++a) {
-      const int g0 = static_cast<int>(k[a] * 8) - offset_[a];
+      const int g0 = static_cast<int>(k[a] * 8) - t_.offset[a];
       b0[a] = g0 >> 3;
       spans[a] = ((g0 + 7) >> 3) - b0[a] + 1;  // 1 when aligned, else 2
     }
@@ -497,9 +785,9 @@ class OtEncoder {
           BlockColours& b = blocks_[static_cast<std::size_t>(dx | (dy << 1) | (dz << 2))];
           b.nibbles = view->nibbles;
           b.wide = view->wide;
-          OtNode c = b.wide == nullptr && view->palette_size > 0 ? colours_[view->palette[0]] : 0;
+          OtNode c = b.wide == nullptr && view->palette_size > 0 ? t_.colours[view->palette[0]] : 0;
           for (int i = 0; i < view->palette_size; ++i) {
-            b.palette[static_cast<std::size_t>(i)] = colours_[view->palette[i]];
+            b.palette[static_cast<std::size_t>(i)] = t_.colours[view->palette[i]];
             if (b.palette[static_cast<std::size_t>(i)] != c) c = 0;
           }
           shared = shared == ~OtNode{0} ? c : (shared == c ? c : 0);
@@ -513,13 +801,13 @@ class OtEncoder {
         for (; w != 0; w &= w - 1) slice[std::countr_zero(w)] = shared;
         continue;
       }
-      const unsigned z_block = z_block_[z], z_slot = z_slot_[z];
+      const unsigned z_block = t_.z_block[z], z_slot = t_.z_slot[z];
       for (; w != 0; w &= w - 1) {
         const auto bit = static_cast<std::size_t>(std::countr_zero(w));
-        const BlockColours& b = blocks_[z_block | xy_block_[bit]];
-        const unsigned slot = z_slot + xy_slot_[bit];
+        const BlockColours& b = blocks_[z_block | t_.xy_block[bit]];
+        const unsigned slot = z_slot + t_.xy_slot[bit];
         slice[bit] = b.wide != nullptr
-                         ? colours_[b.wide[slot]]
+                         ? t_.colours[b.wide[slot]]
                          : b.palette[(b.nibbles[slot >> 1] >> ((slot & 1u) * 4)) & 15u];
       }
     }
@@ -582,20 +870,41 @@ class OtEncoder {
   }
 
   const VoxelGrid& grid_;
-  std::vector<Cube> cubes_;
-  std::vector<OtNode> colours_;  // per tag index, packed as a leaf
-  int offset_[3] = {0, 0, 0};
-  char record_[RecordSink::kRecord] = {};
-  std::array<std::uint8_t, 64> xy_block_{};  // per bit y * 8 + x of a cube slice: its block
-  std::array<std::uint8_t, 64> xy_slot_{};   // ... and its slot's y * 8 + x there
-  std::array<std::uint8_t, 8> z_block_{};    // per cube slice z: its block (z bit)
-  std::array<std::uint16_t, 8> z_slot_{};    // ... and its slot's z * 64 there
+  const OtTables& t_;
+  const Cube* cubes_ = nullptr;
   std::array<BlockColours, 8> blocks_{};
   std::array<OtNode, 512> voxel_{};
   std::array<OtNode, 64> l1_{};
   std::array<OtNode, 8> l2_{};
-  RecordSink* out_ = nullptr;
+  std::string* out_ = nullptr;
   std::size_t nodes_ = 0;
+};
+
+/// The levels above the .ot's subtrees, streamed to the file with the pieces.
+struct OtFormat {
+  RecordSink& sink;
+  const OtTables& tables;
+  std::uint64_t open(std::uint8_t child_bits) {
+    char record[kRecord];
+    tables.record(kInner | kWhite, child_bits, record);  // the colour comes when it closes
+    return sink.put(record, kRecord);
+  }
+  void append(const Piece& piece) { sink.put(piece.bytes.data(), piece.bytes.size()); }
+  OtNode close(std::uint64_t at, const std::array<OtNode, 8>& children, bool /*root*/, bool& leaf) {
+    const OtNode node = parent_of(children.data());
+    leaf = (node & kLeaf) != 0;
+    if (leaf) {  // eight leaves of one colour: one leaf instead
+      sink.truncate(at);
+      char record[kRecord];
+      tables.record(node, 0, record);
+      sink.put(record, kRecord);
+    } else {
+      const char colour[3] = {static_cast<char>(node >> 16), static_cast<char>(node >> 8),
+                              static_cast<char>(node)};
+      sink.patch(at + 4, colour, 3);
+    }
+    return node;
+  }
 };
 
 /// Writes the .ot file into `fd`: the node records first, streamed from where the longest
@@ -603,15 +912,26 @@ class OtEncoder {
 /// records are moved up to it. False when a write fails.
 bool write_ot(int fd, const VoxelGrid& grid, VoxelColoring coloring) {
   const octomap::ColorOcTree reference(grid.voxel_mm());  // empty: for its occupancy constants
-  OtEncoder encoder(grid, cubes_of(grid), coloring, reference.getClampingThresMaxLog());
-  const std::uint64_t start =
-      octomap_header(false, "ColorOcTree", encoder.max_nodes(), grid.voxel_mm()).size();
-  RecordSink sink(fd, start);
-  const std::size_t nodes = encoder.encode(sink);
-  sink.flush();
+  const OtTables tables(grid, coloring, reference.getClampingThresMaxLog());
+  std::uint64_t start = 0, size = 0;
+  std::size_t nodes = 0;
+  bool ok = false;
+  on_export_threads([&] {
+    const CubeSet cubes = cubes_of(grid);
+    start = octomap_header(false, "ColorOcTree", max_ot_nodes(cubes), grid.voxel_mm()).size();
+    RecordSink sink(fd, start);
+    OtFormat format{sink, tables};
+    TopLevels<OtFormat> top(format, cubes.subtrees);
+    encode_in_order(
+        cubes.subtrees, [&](const Subtree& s) { return OtEncoder(grid, tables).encode(s); },
+        [&](const Piece& p) { top.add(p); });
+    nodes = top.finish();
+    sink.flush();
+    ok = sink.ok();
+    size = sink.size();
+  });
   const std::string header = octomap_header(false, "ColorOcTree", nodes, grid.voxel_mm());
-  if (!sink.ok() || header.size() > start) return false;
-  const std::uint64_t size = sink.size();
+  if (!ok || header.size() > start) return false;
   if (header.size() < start) {  // move the records up, front to back
     std::vector<char> chunk(std::size_t{1} << 20);
     for (std::uint64_t done = 0; done < size;) {
