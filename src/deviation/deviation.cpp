@@ -1,14 +1,17 @@
 // compute_deviation: the two-sided comparison of a deposit and a placed mesh.
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <numbers>
+#include <optional>
 #include <span>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
+#include <tbb/parallel_reduce.h>
 
 #include "deviation/deposit_surface_internal.hpp"
 #include "deviation/outer_surface.hpp"
@@ -32,11 +35,10 @@ bool on_side(const SurfaceBead& b, const Vec3& core) {
 /// to the faces within a voxel and half the bead's height (the bead model describes that part
 /// of the surface; the faces miss the cusp between two beads, up to h / 2 deep).
 void to_bead_surface(const DepositSurface& s, std::span<const SurfaceBead> beads,
-                     std::span<const Vec3> points, const std::vector<std::uint32_t>& nearest,
-                     std::vector<double>& signed_mm) {
+                     const detail::BeadIndex& index, std::span<const Vec3> points,
+                     const std::vector<std::uint32_t>& nearest, std::vector<double>& signed_mm) {
   if (s.face_bead.empty()) return;
   const double v = s.voxel_mm;
-  const detail::BeadIndex index(beads);
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, points.size(), 4096),
       [&](const tbb::blocked_range<std::size_t>& r) {
@@ -290,6 +292,30 @@ void number_layers(std::vector<LayerDeviation>& layers, const std::vector<int>& 
   }
 }
 
+/// The voxels the faces belong to (a voxel's faces are consecutive), counted in parallel.
+std::size_t count_surface_voxels(const std::vector<SurfaceFace>& faces) {
+  return tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, faces.size(), 1 << 16), std::size_t{0},
+      [&](const tbb::blocked_range<std::size_t>& r, std::size_t n) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i)
+          if (i == 0 || !(faces[i].voxel == faces[i - 1].voxel)) ++n;
+        return n;
+      },
+      std::plus<>());
+}
+
+/// The highest layer of the tags (-1 when there is none), in parallel.
+int highest_layer(const std::vector<VoxelTag>& tags) {
+  return tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, tags.size(), 1 << 16), -1,
+      [&](const tbb::blocked_range<std::size_t>& r, int m) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i)
+          m = std::max(m, static_cast<int>(tags[i].layer));
+        return m;
+      },
+      [](int a, int b) { return std::max(a, b); });
+}
+
 /// The filled blocks of `surface` (moved out of it), for the as-printed mesh: the deviation
 /// stage has already extracted them, so the mesh export need not do it again.
 std::shared_ptr<DepositSurface> filled_volume_of(DepositSurface& surface) {
@@ -345,6 +371,9 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   const std::size_t ns = samples.size();
   std::vector<Vec3> query_points(ns + mesh.vertices_mm.size());
   detail::DepositQueryGroups query_groups;
+  // The beads' index (their cores, by line), made once for the placement, the outline
+  // sampling and the mesh -> deposit distances to the beads.
+  std::optional<detail::BeadIndex> bead_index;
   tbb::parallel_invoke(
       [&] {
         surface =
@@ -357,6 +386,9 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
         for (std::size_t i = 0; i < mesh.vertices_mm.size(); ++i)
           query_points[ns + i] = mesh.vertices_mm[i] + offset;
         query_groups = detail::group_deposit_queries(query_points, v);
+      },
+      [&] {
+        if (!beads.empty()) bead_index.emplace(beads);
       });
   // Mesh -> deposit to the faces needs only the faces: side by side with their placement on
   // the beads (which fills in the deposit -> mesh points).
@@ -364,7 +396,7 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   std::vector<std::uint32_t> nearest;
   tbb::parallel_invoke(
       [&] {
-        if (!beads.empty()) place_on_beads(surface, beads, v);
+        if (bead_index) detail::place_on_beads(surface, beads, *bead_index, v);
       },
       [&] {
         detail::distances_to_deposit_with(surface, query_points, d_query, &nearest, false,
@@ -372,8 +404,7 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
       });
   out.deposit_volume_mm3 = static_cast<double>(surface.occupied_voxels) * v * v * v;
   out.surface_faces = surface.faces.size();
-  for (std::size_t i = 0; i < surface.faces.size(); ++i)  // a voxel's faces are consecutive
-    if (i == 0 || !(surface.faces[i].voxel == surface.faces[i - 1].voxel)) ++out.surface_voxels;
+  out.surface_voxels = count_surface_voxels(surface.faces);
 
   // Deposit -> mesh, from every exposed face centre.
   const std::vector<Vec3>& face_points =
@@ -391,9 +422,7 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
 
   // Per layer (layer of the nearest deposit voxel); z = top of that layer's surface voxels.
   // Distances grouped by layer with a counting sort (sample order kept within a layer).
-  int max_layer = -1;
-  for (const auto& t : surface.face_tags)
-    max_layer = std::max(max_layer, static_cast<int>(t.layer));
+  const int max_layer = highest_layer(surface.face_tags);
   const std::size_t n_layers = max_layer < 0 ? 0 : static_cast<std::size_t>(max_layer) + 1;
   std::vector<LayerDeviation> layers(n_layers);
   std::vector<std::size_t> dep_begin, mesh_begin;
@@ -426,7 +455,8 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
             });
       },
       [&] {
-        if (weighted) to_bead_surface(surface, beads, query_points, nearest, d_query);
+        if (weighted && bead_index)
+          to_bead_surface(surface, beads, *bead_index, query_points, nearest, d_query);
         const std::span<const double> d_mesh(d_query.data(), ns);
         out.mesh_to_deposit = deviation_stats(d_mesh, settings.tolerance_mm);
         group_by_layer(

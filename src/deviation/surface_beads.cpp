@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 
 #include "deviation/outer_surface.hpp"
 #include "deviation/surface_internal.hpp"
@@ -152,13 +153,19 @@ bool in_voxel_pit(const detail::BeadCore& core, const SurfaceFace& face, const V
 }  // namespace
 
 void place_on_beads(DepositSurface& s, std::span<const SurfaceBead> beads, double max_shift_mm) {
+  const detail::BeadIndex index(beads);
+  detail::place_on_beads(s, beads, index, max_shift_mm);
+}
+
+void detail::place_on_beads(DepositSurface& s, std::span<const SurfaceBead> beads,
+                            const BeadIndex& index, double max_shift_mm) {
   const double v = s.voxel_mm;
   const std::size_t n = s.faces.size();
-  // Sized without their initial values (each element is written below, in parallel).
-  std::vector<Vec3> points(n);
-  std::vector<double> area(n);
+  // Without initial values: each element is written once, below, in parallel (the first
+  // touch of their pages is spread over the threads too).
+  const auto points = std::make_unique_for_overwrite<Vec3[]>(n);
+  const auto area = std::make_unique_for_overwrite<double[]>(n);
   s.face_bead.resize(n);
-  const detail::BeadIndex index(beads);
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, n, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
@@ -196,7 +203,8 @@ void place_on_beads(DepositSurface& s, std::span<const SurfaceBead> beads, doubl
           s.face_bead[i] = near.bead;
         }
       });
-  sample_bead_outlines(s, beads, points, area);
+  sample_bead_outlines(s, beads, index, std::span<const Vec3>(points.get(), n),
+                       std::span<const double>(area.get(), n));
 }
 
 }  // namespace printtwin

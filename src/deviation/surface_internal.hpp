@@ -10,6 +10,10 @@
 
 #include "printtwin/deviation.hpp"
 
+namespace printtwin {
+struct DepositSurface;
+}
+
 namespace printtwin::detail {
 
 /// Signed distance from p to a bead (negative inside), and the point of the bead's core
@@ -80,5 +84,14 @@ class BeadIndex {
   std::vector<BeadCore> cores_;
   std::vector<std::uint32_t> first_;  ///< first bead of line l (beads_.size() when none after)
 };
+
+/// place_on_beads with the beads' index made by the caller (compute_deviation builds it once
+/// for the placement, the outline sampling and the mesh -> deposit distances to the beads).
+void place_on_beads(DepositSurface& surface, std::span<const SurfaceBead> beads,
+                    const BeadIndex& index, double max_shift_mm);
+/// sample_bead_outlines with the beads' index made by the caller (its cores).
+void sample_bead_outlines(DepositSurface& surface, std::span<const SurfaceBead> beads,
+                          const BeadIndex& index, std::span<const Vec3> face_points,
+                          std::span<const double> face_area_mm2);
 
 }  // namespace printtwin::detail

@@ -5,12 +5,15 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <numbers>
 #include <span>
 #include <utility>
@@ -38,13 +41,16 @@ constexpr double kGridCellMm = 0.5;
 
 /// A bead's frame: its core's centre line (h / 2 below the nozzle tip) from a along d, the
 /// level unit vector across it, the unit vector up its section, and the section's sizes.
+/// Made only by of() (no member initialisers: the frames are written once, in parallel).
 struct BeadFrame {
-  Vec3 a = Vec3::Zero(), d = Vec3::Zero(), dir = Vec3::Zero(), across = Vec3::Zero(),
-       up = Vec3::UnitZ();
-  double len = 0, half = 0, r = 0;
+  Vec3 a, d, dir, across, up;
+  double len, half, r;
 
   static BeadFrame of(const SurfaceBead& b) {
     BeadFrame f;
+    f.dir = Vec3::Zero();
+    f.across = Vec3::Zero();
+    f.up = Vec3::UnitZ();
     f.r = 0.5 * b.height_mm;
     f.half = 0.5 * std::max(0.0, static_cast<double>(b.width_mm) - b.height_mm);
     f.a = b.start_mm - Vec3(0, 0, f.r);
@@ -166,8 +172,7 @@ double segment_distance2(const Vec3& p, const Vec3& u, const Vec3& q, const Vec3
 /// centre line, so two beads whose outlines may touch share a cell.
 class BeadGrid {
  public:
-  BeadGrid(const std::vector<BeadFrame>& frames, std::span<const std::uint32_t> listed,
-           double cell_mm)
+  BeadGrid(std::span<const BeadFrame> frames, std::span<const std::uint32_t> listed, double cell_mm)
       : cell_(cell_mm) {
     Box3 box;
     for (const std::uint32_t k : listed) {
@@ -316,7 +321,7 @@ constexpr std::size_t kBeadsPerChunk = 32;
 /// What the beads' sampling shares.
 struct Sampler {
   std::span<const SurfaceBead> beads;
-  const std::vector<BeadFrame>& frames;
+  std::span<const BeadFrame> frames;
   const std::vector<detail::BeadCore>& cores;
   const BeadGrid& grid;
   std::span<const Vec3> face_points;
@@ -578,11 +583,15 @@ struct ReplacedFaces {
   std::vector<std::uint8_t> replaced;  ///< per face
   std::vector<std::uint32_t> begin, by_bead;
 };
-ReplacedFaces replaced_faces(const DepositSurface& s, const std::vector<BeadFrame>& frames,
+ReplacedFaces replaced_faces(const DepositSurface& s, std::span<const BeadFrame> frames,
                              std::span<const Vec3> face_points) {
   const std::size_t n = s.faces.size();
   ReplacedFaces r;
   r.replaced.resize(n);
+  // Per bead, its replaced faces are counted, then listed, in parallel (relaxed atomic
+  // counters: the counts do not depend on the order), then each bead's list is sorted back
+  // into face order.
+  std::vector<std::atomic<std::uint32_t>> count(frames.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1 << 14),
                     [&](const tbb::blocked_range<std::size_t>& range) {
                       for (std::size_t i = range.begin(); i != range.end(); ++i) {
@@ -595,16 +604,31 @@ ReplacedFaces replaced_faces(const DepositSurface& s, const std::vector<BeadFram
                           on_bead = (u > 0 && u < f.len) || level_cap;
                         }
                         r.replaced[i] = on_bead ? 1 : 0;
+                        if (on_bead) count[k].fetch_add(1, std::memory_order_relaxed);
                       }
                     });
-  r.begin.assign(frames.size() + 1, 0);
-  for (std::size_t i = 0; i < n; ++i)
-    if (r.replaced[i] != 0) ++r.begin[s.face_bead[i] + 1];
-  for (std::size_t k = 0; k < frames.size(); ++k) r.begin[k + 1] += r.begin[k];
+  r.begin.resize(frames.size() + 1);
+  r.begin[0] = 0;
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    r.begin[k + 1] = r.begin[k] + count[k].load(std::memory_order_relaxed);
+    count[k].store(r.begin[k], std::memory_order_relaxed);  // now the bead's next slot
+  }
   r.by_bead.resize(r.begin.back());
-  std::vector<std::uint32_t> fill(r.begin.begin(), r.begin.end() - 1);
-  for (std::size_t i = 0; i < n; ++i)
-    if (r.replaced[i] != 0) r.by_bead[fill[s.face_bead[i]]++] = static_cast<std::uint32_t>(i);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1 << 14),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      for (std::size_t i = range.begin(); i != range.end(); ++i)
+                        if (r.replaced[i] != 0)
+                          r.by_bead[count[s.face_bead[i]].fetch_add(1, std::memory_order_relaxed)] =
+                              static_cast<std::uint32_t>(i);
+                    });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, frames.size(), 1 << 12),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      for (std::size_t k = range.begin(); k != range.end(); ++k) {
+                        const auto first = r.by_bead.begin() + r.begin[k],
+                                   last = r.by_bead.begin() + r.begin[k + 1];
+                        if (!std::is_sorted(first, last)) std::sort(first, last);
+                      }
+                    });
   return r;
 }
 
@@ -641,12 +665,15 @@ void assemble(DepositSurface& s, const ReplacedFaces& faces, std::span<const Vec
     g0[c + 1] = g0[c] + chunks[c].group.size();
     t0[c + 1] = t0[c] + chunks[c].touch.size();
   }
-  s.points_mm.resize(p0[nc]);
-  s.point_area_mm2.resize(p0[nc]);
-  s.point_tags.resize(p0[nc]);
-  s.point_groups.resize(g0[nc] + 1);
-  s.bead_touch.resize(t0[nc]);
-  s.bead_touch_begin.assign(n_beads + 1, 0);
+  // Sized side by side (resize writes each element's initial value).
+  tbb::parallel_invoke([&] { s.points_mm.resize(p0[nc]); },
+                       [&] { s.point_area_mm2.resize(p0[nc]); },
+                       [&] { s.point_tags.resize(p0[nc]); },
+                       [&] {
+                         s.point_groups.resize(g0[nc] + 1);
+                         s.bead_touch.resize(t0[nc]);
+                         s.bead_touch_begin.assign(n_beads + 1, 0);
+                       });
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_cells, 1 << 12),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t c = r.begin(); c != r.end(); ++c) {
@@ -690,12 +717,22 @@ void assemble(DepositSurface& s, const ReplacedFaces& faces, std::span<const Vec
 void sample_bead_outlines(DepositSurface& s, std::span<const SurfaceBead> beads,
                           std::span<const Vec3> face_points,
                           std::span<const double> face_area_mm2) {
-  std::vector<BeadFrame> frames(beads.size());
-  std::vector<detail::BeadCore> cores(beads.size());
-  tbb::parallel_for(std::size_t{0}, beads.size(), [&](std::size_t k) {
-    frames[k] = BeadFrame::of(beads[k]);
-    cores[k] = detail::BeadCore::of(beads[k]);
-  });
+  const detail::BeadIndex index(beads);
+  detail::sample_bead_outlines(s, beads, index, face_points, face_area_mm2);
+}
+
+void detail::sample_bead_outlines(DepositSurface& s, std::span<const SurfaceBead> beads,
+                                  const BeadIndex& index, std::span<const Vec3> face_points,
+                                  std::span<const double> face_area_mm2) {
+  const std::vector<detail::BeadCore>& cores = index.cores();
+  // Without initial values: each frame is written once, in parallel.
+  const auto frame_store = std::make_unique_for_overwrite<BeadFrame[]>(beads.size());
+  const std::span<BeadFrame> frames(frame_store.get(), beads.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, beads.size(), 4096),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t k = r.begin(); k != r.end(); ++k)
+                        frames[k] = BeadFrame::of(beads[k]);
+                    });
   const ReplacedFaces faces = replaced_faces(s, frames, face_points);
   std::vector<std::uint32_t> sampled;
   for (std::size_t k = 0; k < beads.size(); ++k)
