@@ -25,6 +25,7 @@
 #include <optional>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "core/atomic_write.hpp"
@@ -137,7 +138,7 @@ class CubeBinner {
   };
   using Scratch = std::array<Layer, 2>;
 
-  explicit CubeBinner(const VoxelGrid& grid) : grid_(grid), nb_(VoxelBlocks::block_dims(grid)) {
+  explicit CubeBinner(const VoxelGrid& grid) : nb_(VoxelBlocks::block_dims(grid)) {
     // OctoMap key of voxel k: k + offset (its centre's coordinate / resolution, floored,
     // + 2^15).
     for (int a = 0; a < 3; ++a) {
@@ -148,12 +149,27 @@ class CubeBinner {
     }
     ncx_ = nb_.x() + 1;
     ncy_ = nb_.y() + 1;
+    // Each allocated block goes to the slabs of the cube layers it feeds (bz, and bz + 1
+    // when shifted); a slab's blocks in the grid's (z, y, x) order.
+    blocks_.resize(static_cast<std::size_t>(slabs()));
+    VoxelBlocks::visit_blocks_as_allocated(grid, [&](const VoxelBlocks::BlockView& b) {
+      const BlockRef ref{b.occupancy, b.base.x / VoxelBlocks::kBlockEdge,
+                         b.base.y / VoxelBlocks::kBlockEdge, b.base.z / VoxelBlocks::kBlockEdge};
+      const int low = slab_of(ref.bz), high = slab_of(ref.bz + 1);
+      blocks_[static_cast<std::size_t>(low)].push_back(ref);
+      if (s_[2] != 0 && high != low) blocks_[static_cast<std::size_t>(high)].push_back(ref);
+    });
+    for (auto& slab : blocks_)
+      std::sort(slab.begin(), slab.end(), [](const BlockRef& a, const BlockRef& b) {
+        return std::tie(a.bz, a.by, a.bx) < std::tie(b.bz, b.by, b.bx);
+      });
   }
   /// Slabs: cube layers 0 .. nb.z (relative to the cube of block 0) grouped by their
   /// subtree layer.
-  [[nodiscard]] int slabs() const {
-    return static_cast<int>(((q_[2] + static_cast<std::uint32_t>(nb_.z())) >> 3) - (q_[2] >> 3)) +
-           1;
+  [[nodiscard]] int slabs() const { return slab_of(nb_.z()) + 1; }
+  /// The slab of cube layer cz.
+  [[nodiscard]] int slab_of(int cz) const {
+    return static_cast<int>(((q_[2] + static_cast<std::uint32_t>(cz)) >> 3) - (q_[2] >> 3));
   }
   /// The cubes of slab `s`, in tree order.
   std::vector<Cube> slab(int s, Scratch& layers) const {
@@ -181,12 +197,9 @@ class CubeBinner {
     // Cube layer cz takes the low slices of block layer cz and the high ones of cz - 1: it is
     // complete once block layer cz + 1 comes.
     int flushed = c0;
-    for (int bz = std::max(c0 - 1, 0); bz < std::min(c1, nb_.z()); ++bz) {
-      for (; flushed < bz; ++flushed) flush(flushed);
-      for (int by = 0; by < nb_.y(); ++by)
-        for (int bx = 0; bx < nb_.x(); ++bx)
-          if (const std::uint64_t* occupancy = VoxelBlocks::block_occupancy(grid_, bx, by, bz))
-            bin_block(occupancy, bx, by, bz, c0, c1, layers);
+    for (const BlockRef& b : blocks_[static_cast<std::size_t>(s)]) {
+      for (; flushed < b.bz; ++flushed) flush(flushed);
+      bin_block(b.occupancy, b.bx, b.by, b.bz, c0, c1, layers);
     }
     for (; flushed < c1; ++flushed) flush(flushed);
     std::sort(cubes.begin(), cubes.end(),
@@ -225,11 +238,16 @@ class CubeBinner {
     }
   }
 
-  const VoxelGrid& grid_;
+  struct BlockRef {
+    const std::uint64_t* occupancy;
+    int bx, by, bz;
+  };
+
   Eigen::Vector3i nb_;
   unsigned s_[3] = {0, 0, 0};
   std::uint32_t q_[3] = {0, 0, 0};
   int ncx_ = 0, ncy_ = 0;
+  std::vector<std::vector<BlockRef>> blocks_;  // per slab
 };
 
 /// The voxels of the grid as cubes, grouped by subtree in tree order (the slabs are binned on
@@ -259,10 +277,20 @@ CubeSet cubes_of(const VoxelGrid& grid) {
 /// One subtree encoded: its bytes, its node count (its root included) and its root (the
 /// format's node word).
 struct Piece {
-  std::string bytes;
+  std::unique_ptr<char[]> bytes;
+  std::size_t size = 0;  // bytes used
   std::size_t nodes = 0;
   std::uint32_t root = 0;
+  /// Room for `n` bytes (left uninitialised).
+  void allocate(std::size_t n) { bytes.reset(new char[n]); }
 };
+
+/// Voxels of a cube (its popcount).
+std::size_t voxels_of(const Cube& c) {
+  std::size_t n = 0;
+  for (const auto w : c.bits) n += static_cast<std::size_t>(popcount64(w));
+  return n;
+}
 
 /// Encodes the subtrees on all cores (`encode(const Subtree&)` returns a Piece) and hands
 /// the pieces to `consume(Piece&)` one by one in tree order, at most kPiecesInFlight of them
@@ -416,6 +444,40 @@ std::array<char, 2> bt_code(const std::array<std::uint32_t, 8>& children) {
   return {static_cast<char>(code & 0xFFu), static_cast<char>(code >> 8)};
 }
 
+/// The sub-cubes of one 8^3 cube that hold a voxel (`any`) and that are full (`all`): of
+/// edge 2 (4 x 4 x 4 of them, bit z * 16 + y * 4 + x) and of edge 4 (2 x 2 x 2, bit z * 4 +
+/// y * 2 + x). Pairs of slices, rows and columns are folded with | and &.
+struct SubCubes {
+  std::uint64_t any2 = 0, all2 = 0;
+  unsigned any4 = 0, all4 = 0;
+  explicit SubCubes(const std::array<std::uint64_t, 8>& bits) {
+    for (unsigned p = 0; p < 4; ++p) {
+      any2 |= fold8(bits[2 * p] | bits[2 * p + 1], true) << (16 * p);
+      all2 |= fold8(bits[2 * p] & bits[2 * p + 1], false) << (16 * p);
+    }
+    for (unsigned p = 0; p < 2; ++p) {
+      any4 |= fold4(((any2 >> (32 * p)) | (any2 >> (32 * p + 16))) & 0xFFFFu, true) << (4 * p);
+      all4 |= fold4(((all2 >> (32 * p)) & (all2 >> (32 * p + 16))) & 0xFFFFu, false) << (4 * p);
+    }
+  }
+  /// An 8 x 8 slice (bit y * 8 + x) folded to 4 x 4 (bit y * 4 + x): | or & of each 2 x 2.
+  static std::uint64_t fold8(std::uint64_t w, bool any) {
+    w = any ? (w | (w >> 8)) : (w & (w >> 8));
+    w = any ? (w | (w >> 1)) : (w & (w >> 1));
+    w &= 0x0055005500550055ull;  // even rows and columns
+    w = (w | (w >> 1)) & 0x0033003300330033ull;
+    w = (w | (w >> 2)) & 0x000F000F000F000Full;
+    w = (w | (w >> 12)) & 0x000000FF000000FFull;
+    return (w | (w >> 24)) & 0xFFFFull;
+  }
+  /// A 4 x 4 slice (bit y * 4 + x) folded to 2 x 2 (bit y * 2 + x).
+  static unsigned fold4(std::uint64_t w, bool any) {
+    w = any ? (w | (w >> 4)) : (w & (w >> 4));
+    w = any ? (w | (w >> 1)) : (w & (w >> 1));
+    return static_cast<unsigned>((w & 1u) | ((w >> 1) & 2u) | ((w >> 6) & 4u) | ((w >> 7) & 8u));
+  }
+};
+
 /// Encodes one subtree of the .bt.
 class BtEncoder {
  public:
@@ -432,9 +494,13 @@ class BtEncoder {
       return piece;
     }
     piece.root = kBtInner;
-    out_ = &piece.bytes;
+    // Inner nodes: at most 1 + 8 + 64 above the cubes and 1 + 8 + 64 in each.
+    piece.allocate(2 * (73 + 73 * n));
+    out_ = piece.bytes.get();
+    size_ = 0;
     nodes_ = 1;
     encode_range(0, n, kSubtreeDepth);
+    piece.size = size_;
     piece.nodes = nodes_;
     return piece;
   }
@@ -448,7 +514,8 @@ class BtEncoder {
   /// Writes the node above cubes [b, e) at `depth` (an inner node: not full, not empty).
   void encode_range(std::size_t b, std::size_t e, int depth) {
     if (depth == kCubeLevels) {
-      encode_cube(cubes_[b].bits, 0, 0, 0, 8);
+      const SubCubes sub(cubes_[b].bits);
+      encode_cube(cubes_[b].bits, sub, 8, 0, 0, 0);
       return;
     }
     const auto split = split_by_child(cubes_, b, e, depth);
@@ -462,40 +529,44 @@ class BtEncoder {
     for (unsigned c = 0; c < 8; ++c)
       if (kinds[c] == kBtInner) encode_range(split[c], split[c + 1], depth + 1);
   }
-  /// Occupied voxels of the sub-cube at (x0, y0, z0) of edge n inside one 8^3 cube.
-  static int count(const std::array<std::uint64_t, 8>& bits, int x0, int y0, int z0, int n) {
-    const std::uint64_t row = ((std::uint64_t{1} << n) - 1) << x0;
-    std::uint64_t rows = 0;
-    for (int y = y0; y < y0 + n; ++y) rows |= row << (8 * y);
-    int total = 0;
-    for (int z = z0; z < z0 + n; ++z) total += popcount64(bits[static_cast<std::size_t>(z)] & rows);
-    return total;
-  }
-  void encode_cube(const std::array<std::uint64_t, 8>& bits, int x0, int y0, int z0, int n) {
-    const int h = n / 2;
+  /// Writes the node of edge n at (x, y, z) (in units of n) inside one 8^3 cube: an inner
+  /// node.
+  void encode_cube(const std::array<std::uint64_t, 8>& bits, const SubCubes& sub, int n, int x,
+                   int y, int z) {
     std::array<std::uint32_t, 8> kinds{};
     for (unsigned c = 0; c < 8; ++c) {
-      const int cx = x0 + ((c & 1u) ? h : 0), cy = y0 + ((c & 2u) ? h : 0),
-                cz = z0 + ((c & 4u) ? h : 0);
-      const int occupied = count(bits, cx, cy, cz, h);
-      if (occupied == 0) continue;
+      const int cx = 2 * x + static_cast<int>(c & 1u), cy = 2 * y + static_cast<int>((c >> 1) & 1u),
+                cz = 2 * z + static_cast<int>(c >> 2);
+      bool any = false, all = false;
+      if (n == 8) {
+        any = ((sub.any4 >> c) & 1u) != 0, all = ((sub.all4 >> c) & 1u) != 0;
+      } else if (n == 4) {
+        const int bit = cz * 16 + cy * 4 + cx;
+        any = ((sub.any2 >> bit) & 1u) != 0, all = ((sub.all2 >> bit) & 1u) != 0;
+      } else {
+        any = all = ((bits[static_cast<std::size_t>(cz)] >> (cy * 8 + cx)) & 1u) != 0;
+      }
+      if (!any) continue;
       ++nodes_;
-      kinds[c] = occupied == h * h * h ? kBtLeaf : kBtInner;
+      kinds[c] = all ? kBtLeaf : kBtInner;
     }
     put(kinds);
     for (unsigned c = 0; c < 8; ++c)
       if (kinds[c] == kBtInner)
-        encode_cube(bits, x0 + ((c & 1u) ? h : 0), y0 + ((c & 2u) ? h : 0), z0 + ((c & 4u) ? h : 0),
-                    h);
+        encode_cube(bits, sub, n / 2, 2 * x + static_cast<int>(c & 1u),
+                    2 * y + static_cast<int>((c >> 1) & 1u), 2 * z + static_cast<int>(c >> 2));
   }
   void put(const std::array<std::uint32_t, 8>& kinds) {
     const auto code = bt_code(kinds);
-    out_->append(code.data(), code.size());
+    out_[size_] = code[0];
+    out_[size_ + 1] = code[1];
+    size_ += 2;
   }
 
   const Cube* cubes_ = nullptr;
   std::vector<std::size_t> full_prefix_;
-  std::string* out_ = nullptr;
+  char* out_ = nullptr;
+  std::size_t size_ = 0;
   std::size_t nodes_ = 0;
 };
 
@@ -506,7 +577,7 @@ struct BtFormat {
     out.append(2, '\0');  // the child codes, known when the node closes
     return out.size() - 2;
   }
-  void append(const Piece& piece) { out += piece.bytes; }
+  void append(const Piece& piece) { out.append(piece.bytes.get(), piece.size); }
   std::uint32_t close(std::uint64_t at, const std::array<std::uint32_t, 8>& children, bool root,
                       bool& leaf) {
     leaf = !root && std::all_of(children.begin(), children.end(),
@@ -700,8 +771,7 @@ std::size_t max_ot_nodes(const CubeSet& cubes) {
   std::size_t nodes = 0;
   for (const auto& slab : cubes.slabs)
     for (const auto& c : slab) {
-      std::size_t n = 0;
-      for (const auto w : c.bits) n += static_cast<std::size_t>(popcount64(w));
+      const std::size_t n = voxels_of(c);
       nodes += n + std::min<std::size_t>(n, 64) + std::min<std::size_t>(n, 8) + 1 + kCubeLevels;
     }
   return nodes;
@@ -713,10 +783,20 @@ class OtEncoder {
   OtEncoder(const VoxelGrid& grid, const OtTables& tables) : grid_(grid), t_(tables) {}
   Piece encode(const Subtree& s) {
     Piece piece;
+    // Records: at most 1 + 8 + 64 above the cubes, and per cube its voxels plus
+    // min(voxels, 64) + min(voxels, 8) + 1 nodes above them.
+    std::size_t records = 73;
+    for (const Cube* c = s.begin; c != s.end; ++c) {
+      const std::size_t n = voxels_of(*c);
+      records += n + std::min<std::size_t>(n, 64) + std::min<std::size_t>(n, 8) + 1;
+    }
+    piece.allocate(records * kRecord);
     cubes_ = s.begin;
-    out_ = &piece.bytes;
+    out_ = piece.bytes.get();
+    size_ = 0;
     nodes_ = 0;
     piece.root = encode_range(0, static_cast<std::size_t>(s.end - s.begin), kSubtreeDepth);
+    piece.size = size_;
     piece.nodes = nodes_;
     return piece;
   }
@@ -724,11 +804,10 @@ class OtEncoder {
  private:
   /// Appends a node record (value, colour, child bits); returns its offset.
   std::size_t put_node(OtNode node, std::uint8_t children) {
-    char record[kRecord];
-    t_.record(node, children, record);
+    t_.record(node, children, out_ + size_);
     ++nodes_;
-    out_->append(record, kRecord);
-    return out_->size() - kRecord;
+    size_ += kRecord;
+    return size_ - kRecord;
   }
   OtNode encode_range(std::size_t b, std::size_t e, int depth) {
     if (depth == kCubeLevels) return encode_cube(cubes_[b]);
@@ -743,13 +822,13 @@ class OtEncoder {
       if (split[c] != split[c + 1]) children[c] = encode_range(split[c], split[c + 1], depth + 1);
     const OtNode node = parent_of(children.data());
     if (node & kLeaf) {  // eight leaves of one colour: one leaf instead
-      out_->resize(at);
+      size_ = at;
       nodes_ = nodes_before - 1;
       put_node(node, 0);
     } else {
-      (*out_)[at + 4] = static_cast<char>(node >> 16);
-      (*out_)[at + 5] = static_cast<char>(node >> 8);
-      (*out_)[at + 6] = static_cast<char>(node);
+      out_[at + 4] = static_cast<char>(node >> 16);
+      out_[at + 5] = static_cast<char>(node >> 8);
+      out_[at + 6] = static_cast<char>(node);
     }
     return node;
   }
@@ -876,7 +955,8 @@ class OtEncoder {
   std::array<OtNode, 512> voxel_{};
   std::array<OtNode, 64> l1_{};
   std::array<OtNode, 8> l2_{};
-  std::string* out_ = nullptr;
+  char* out_ = nullptr;
+  std::size_t size_ = 0;
   std::size_t nodes_ = 0;
 };
 
@@ -889,7 +969,7 @@ struct OtFormat {
     tables.record(kInner | kWhite, child_bits, record);  // the colour comes when it closes
     return sink.put(record, kRecord);
   }
-  void append(const Piece& piece) { sink.put(piece.bytes.data(), piece.bytes.size()); }
+  void append(const Piece& piece) { sink.put(piece.bytes.get(), piece.size); }
   OtNode close(std::uint64_t at, const std::array<OtNode, 8>& children, bool /*root*/, bool& leaf) {
     const OtNode node = parent_of(children.data());
     leaf = (node & kLeaf) != 0;

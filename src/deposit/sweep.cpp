@@ -132,11 +132,10 @@ BeadSweep::BeadSweep(const VoxelGrid& grid, bool exhaustive)
       nz_(grid.dims().z()),
       block_dims_(detail::VoxelBlocks::block_dims(grid)),
       exhaustive_(exhaustive),
-      squeezed_(block_dims_),
-      mirror_(block_dims_) {}
+      words_(block_dims_) {}
 
 const std::uint64_t* BeadSweep::occupancy(const VoxelGrid& grid, int bx, int by, int bz) const {
-  if (mirror_to_ != nullptr) return mirror_.find(bx, by, bz);
+  if (mirror_to_ != nullptr) return words_.find(bx, by, bz);
   return detail::VoxelBlocks::block_occupancy(grid, bx, by, bz);
 }
 
@@ -144,7 +143,7 @@ std::uint64_t BeadSweep::write_slice(VoxelGrid& grid, int bx, int by, int k, std
                                      std::uint32_t tag) {
   if (mirror_to_ == nullptr)
     return detail::VoxelBlocks::write_tile_before(grid, bx, by, k, mask, tag);
-  std::uint64_t& word = mirror_.make(bx, by, k >> 3)[k & 7];
+  std::uint64_t& word = words_.make(bx, by, k >> 3)[k & 7];
   const std::uint64_t before = word;
   word |= mask;
   mirror_to_->put(bx, by, k, mask, tag);
@@ -368,10 +367,11 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
         tile_overlap += static_cast<std::size_t>(popcount64(hit));
         if (squeezing) hits[layer_at] = hit;
         if (squeezing && hit != 0) {
-          if (std::uint64_t* sq = squeezed_.find(bx, by, k >> 3); sq != nullptr) {
-            const std::uint64_t again = hit & sq[k & 7];
+          if (std::uint64_t* w = words_.find(bx, by, k >> 3); w != nullptr) {
+            std::uint64_t& sq = w[BlockWords::kSqueezed + (k & 7)];
+            const std::uint64_t again = hit & sq;
             tile_rehit += static_cast<std::size_t>(popcount64(again));
-            sq[k & 7] &= ~again;  // now the bead's own material
+            sq &= ~again;  // now the bead's own material
           }
         }
       }
@@ -633,7 +633,7 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
       if ((put_[n] & ~raised) != 0)
         map.raise_tile(at, put_[n] & ~raised, static_cast<std::uint16_t>(k + 1), ring.bead_layer);
       raised |= put_[n];
-      squeezed_.make(bx, by, k >> 3)[k & 7] |= put_[n];
+      words_.make(bx, by, k >> 3)[BlockWords::kSqueezed + (k & 7)] |= put_[n];
     }
     return placed;
   };
@@ -739,19 +739,21 @@ std::uint64_t BeadSweep::Sides::cut_mask(int i0, int j0) const {
   return band_mask(m0, a2, 0.0, kInf, i0, j0) & band_mask(m1, b2, -kInf, 0.0, i0, j0);
 }
 
+BlockWords::BlockWords(const Eigen::Vector3i& block_dims)
+    : dims_(block_dims), top_x_((block_dims.x() + 7) >> 3), top_y_((block_dims.y() + 7) >> 3) {}
+
 std::uint64_t* BlockWords::make(int bx, int by, int bz) {
-  const std::size_t at = index(bx, by, bz);
-  if (at == kOutside) return nullptr;
-  if (dir_.empty())
-    dir_ = ZeroedArray<std::uint32_t>(static_cast<std::size_t>(dims_.x()) *
-                                      static_cast<std::size_t>(dims_.y()) *
+  if (bx < 0 || by < 0 || bz < 0 || bx >= dims_.x() || by >= dims_.y() || bz >= dims_.z())
+    return nullptr;
+  if (top_.empty())
+    top_ = ZeroedArray<std::uint32_t>(static_cast<std::size_t>(top_x_) *
+                                      static_cast<std::size_t>(top_y_) *
                                       static_cast<std::size_t>(dims_.z()));
-  if (dir_[at] == 0) {
-    words_.emplace_back();
-    words_.back().fill(0);
-    dir_[at] = static_cast<std::uint32_t>(words_.size());
-  }
-  return words_[dir_[at] - 1].data();
+  std::uint32_t& group = top_[top_index(bx, by, bz)];
+  if (group == 0) group = groups_.add();
+  std::uint32_t& block = groups_.at(group - 1)[group_slot(bx, by)];
+  if (block == 0) block = words_.add();
+  return words_.at(block - 1);
 }
 
 BeadSweep::Sides BeadSweep::sides_of(const BeadFrame& f, const SweptBead& bead, const Vec2& a2,

@@ -10,7 +10,6 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
-#include <deque>
 #include <utility>
 #include <vector>
 
@@ -18,22 +17,36 @@
 #include "deposit/grid_writer.hpp"
 #include "deposit/height_map.hpp"
 #include "deposit/kernels.hpp"
+#include "deposit/voxel_blocks.hpp"
 #include "printtwin/geometry.hpp"
 #include "printtwin/voxel_grid.hpp"
 
 namespace printtwin::detail {
 
-/// Eight 64-bit words per 8 x 8 x 8 block of a grid (one per z-slice, bit y * 8 + x, as the
-/// occupancy), in a directory of the grid's blocks beside it; a block's words are allocated
-/// (zero) on their first write and never move.
+/// Sixteen 64-bit words per 8 x 8 x 8 block of a grid: the occupancy as the sweep wrote it
+/// (words 0-7, one per z-slice, bit y * 8 + x, as the grid's), then the voxels holding
+/// squeezed material (words 8-15). A block's words are allocated (zero) on their first write
+/// and never move.
+///
+/// The directory has two levels, so that its memory grows with the blocks written, not with
+/// the extent: a coarse directory (4 bytes per 8 x 8 blocks of a z-slab of blocks) points to
+/// the directories of 8 x 8 blocks that hold words, which, like the words, are taken in
+/// order from arenas of large chunks. Every page of those is written before it is read, so
+/// the kernel backs them with huge pages where it can; a dense directory of the extent, read
+/// before it is written, took a 4 KiB page fault per page touched.
 class BlockWords {
  public:
-  explicit BlockWords(const Eigen::Vector3i& block_dims) : dims_(block_dims) {}
+  static constexpr int kWords = 16;    ///< words per block
+  static constexpr int kSqueezed = 8;  ///< the first word of the squeezed voxels
+  explicit BlockWords(const Eigen::Vector3i& block_dims);
   /// The words of block (bx, by, bz); nullptr when it has none or lies outside the grid.
   [[nodiscard]] const std::uint64_t* find(int bx, int by, int bz) const {
-    const std::size_t at = index(bx, by, bz);
-    if (at == kOutside || dir_.empty() || dir_[at] == 0) return nullptr;
-    return words_[dir_[at] - 1].data();
+    if (bx < 0 || by < 0 || bz < 0 || bx >= dims_.x() || by >= dims_.y() || bz >= dims_.z())
+      return nullptr;
+    const std::uint32_t group = top_.empty() ? 0 : top_[top_index(bx, by, bz)];
+    if (group == 0) return nullptr;
+    const std::uint32_t block = groups_.at(group - 1)[group_slot(bx, by)];
+    return block == 0 ? nullptr : words_.at(block - 1);
   }
   [[nodiscard]] std::uint64_t* find(int bx, int by, int bz) {
     return const_cast<std::uint64_t*>(std::as_const(*this).find(bx, by, bz));
@@ -42,18 +55,44 @@ class BlockWords {
   std::uint64_t* make(int bx, int by, int bz);
 
  private:
-  static constexpr std::size_t kOutside = ~std::size_t{0};
-  [[nodiscard]] std::size_t index(int bx, int by, int bz) const {
-    if (bx < 0 || by < 0 || bz < 0 || bx >= dims_.x() || by >= dims_.y() || bz >= dims_.z())
-      return kOutside;
-    return (static_cast<std::size_t>(bz) * static_cast<std::size_t>(dims_.y()) +
-            static_cast<std::size_t>(by)) *
-               static_cast<std::size_t>(dims_.x()) +
-           static_cast<std::size_t>(bx);
+  /// Items of T taken in order from chunks of 2 MiB (kernel-zeroed mappings), `per` at a
+  /// time; item i starts at at(i).
+  template <class T, std::size_t kPer>
+  class Arena {
+   public:
+    static constexpr std::size_t kChunkItems = (std::size_t{2} << 20) / (kPer * sizeof(T));
+    [[nodiscard]] T* at(std::uint32_t i) const {
+      return bases_[i / kChunkItems] + (i % kChunkItems) * kPer;
+    }
+    /// A new zero item: its index + 1.
+    std::uint32_t add() {
+      if (count_ % kChunkItems == 0) {
+        chunks_.emplace_back(kChunkItems * kPer);
+        bases_.push_back(chunks_.back().data());
+        VoxelBlocks::advise_huge_pages(bases_.back(), kChunkItems * kPer * sizeof(T));
+      }
+      return static_cast<std::uint32_t>(++count_);
+    }
+
+   private:
+    std::vector<ZeroedArray<T>> chunks_;
+    std::vector<T*> bases_;  // chunks_[c].data()
+    std::size_t count_ = 0;
+  };
+  [[nodiscard]] std::size_t top_index(int bx, int by, int bz) const {
+    return (static_cast<std::size_t>(bz) * static_cast<std::size_t>(top_y_) +
+            static_cast<std::size_t>(by >> 3)) *
+               static_cast<std::size_t>(top_x_) +
+           static_cast<std::size_t>(bx >> 3);
+  }
+  static std::size_t group_slot(int bx, int by) {
+    return static_cast<std::size_t>(((by & 7) << 3) | (bx & 7));
   }
   Eigen::Vector3i dims_;
-  ZeroedArray<std::uint32_t> dir_;                  // block -> 1 + index into words_ (0: none)
-  std::deque<std::array<std::uint64_t, 8>> words_;  // per block with words
+  int top_x_, top_y_;
+  ZeroedArray<std::uint32_t> top_;      // 8 x 8 blocks -> 1 + their group (0: none)
+  Arena<std::uint32_t, 64> groups_;     // per group: block -> 1 + its words (0: none)
+  Arena<std::uint64_t, kWords> words_;  // per block with words
 };
 
 /// One bead as the sweep lays it (mm, machine frame).
@@ -224,11 +263,10 @@ class BeadSweep {
   std::vector<std::int32_t> test_layers_;  // scratch: the ring layers a tile test covers
   std::vector<std::int32_t> test_ks_;      // scratch: their voxel layers
   std::vector<std::uint64_t> test_out_;    // scratch: their masks
-  // Voxels that hold squeezed material (per block: one word per z-slice, as the occupancy):
-  // a later bead that falls on them displaces that material again as its own overflow, but
-  // it is not counted as overlap a second time.
-  BlockWords squeezed_;
-  BlockWords mirror_;  // with mirror_writes: the grid's occupancy as the sweep wrote it
+  // Per written block: with mirror_writes, the grid's occupancy as the sweep wrote it; and
+  // the voxels that hold squeezed material: a later bead that falls on them displaces that
+  // material again as its own overflow, but it is not counted as overlap a second time.
+  BlockWords words_;
 };
 
 }  // namespace printtwin::detail

@@ -6,9 +6,11 @@
 #include <octomap/ColorOcTree.h>
 #include <octomap/OcTree.h>
 
+#include <cstdlib>
 #include <map>
 #include <memory>
 #include <sstream>
+#include <string>
 #include <tuple>
 
 #include "deposit/deposit_test_support.hpp"
@@ -208,6 +210,56 @@ TEST(OctomapOt, LargeTreeStreamedToTheFile) {
                                     x >= 64 ? Feature::solid_infill : Feature::sparse_infill});
   ASSERT_GT(g.count(), 150000u);
   expect_same_as_insertion(g, VoxelColoring::layer, "checkerboard");
+}
+
+// The subtrees (64^3 voxels) are encoded on all cores and the levels above them written
+// around them: the same bytes as on one thread (PRINTTWIN_PLAIN=octomap_threads), and the
+// nodes above the subtrees are merged like those inside them (a 128^3 cube of one colour,
+// eight subtrees, is one leaf of the .ot and one occupied leaf of the .bt).
+TEST(OctomapOt, SubtreesOnAllCoresGiveTheBytesOfOneThread) {
+  VoxelGrid g(0.05, Vec3::Zero(), Eigen::Vector3i(136, 130, 129));
+  fill_box(g, {0, 0, 0}, {128, 128, 128}, VoxelBlocks::add_tag(g, {1, 0, Feature::sparse_infill}));
+  fill_box(g, {128, 0, 0}, {136, 130, 9}, VoxelBlocks::add_tag(g, {2, 1, Feature::perimeter}));
+  g.set({3, 129, 128}, VoxelTag{3, 2, Feature::support});
+  const auto dir = test::temp_dir("octomap_threads");
+  std::map<std::string, std::string> threaded;
+  for (const bool plain : {false, true}) {
+    if (plain) {
+      ASSERT_EQ(::setenv("PRINTTWIN_PLAIN", "octomap_threads", 1), 0);
+    }
+    for (const char* name : {"layer.ot", "feature.ot", "part.bt"}) {
+      const auto file = dir / name;
+      ASSERT_TRUE(
+          write_octomap(g, file, name[0] == 'f' ? VoxelColoring::feature : VoxelColoring::layer)
+              .ok())
+          << name;
+      const auto bytes = read_file(file);
+      ASSERT_TRUE(bytes.ok()) << name;
+      if (plain)
+        EXPECT_TRUE(*bytes == threaded[name]) << name;
+      else
+        threaded[name] = *bytes;
+    }
+    if (plain) ::unsetenv("PRINTTWIN_PLAIN");
+  }
+  const auto ot = read_ot(dir / "feature.ot");
+  ASSERT_NE(ot, nullptr);
+  const octomap::OcTreeKey corner(32768, 32768, 32768);
+  const auto* cube = ot->search(corner, ot->getTreeDepth() - 7);
+  ASSERT_NE(cube, nullptr);
+  EXPECT_FALSE(ot->nodeHasChildren(cube));
+  EXPECT_EQ(ot->search(corner)->getColor(),
+            ot->search(octomap::OcTreeKey(32895, 32895, 32895))->getColor());
+  octomap::OcTree bt(0.05);
+  ASSERT_TRUE(bt.readBinary((dir / "part.bt").string()));
+  const auto* occupied = bt.search(corner, bt.getTreeDepth() - 7);
+  ASSERT_NE(occupied, nullptr);
+  EXPECT_FALSE(bt.nodeHasChildren(occupied));
+  EXPECT_TRUE(bt.isNodeOccupied(occupied));
+  auto n = count_octomap_voxels(dir / "part.bt");
+  ASSERT_TRUE(n.ok());
+  EXPECT_EQ(*n, g.count());
+  expect_same_as_insertion(g, VoxelColoring::feature, "128^3 cube");
 }
 
 TEST(OctomapOt, EmptyDepositIsAValidEmptyTree) {
