@@ -1,7 +1,8 @@
 // OctoMap export benchmark: the deposit of a real slicer's G-code is built once (outside the
 // timing), then written as .bt (argument 0) or .ot coloured by layer (argument 1) each
 // iteration. process_cpu_ms counts every thread's CPU time (user + sys) of the export, the
-// figure to compare on a loaded machine; file_MB is the size written.
+// figure to compare on a loaded machine; file_MB is the size written. The export runs on
+// all cores; PRINTTWIN_PLAIN=octomap_threads runs it on one (the same bytes).
 //
 //   PRINTTWIN_DEPOSIT_GCODE=build/benchdata/bench_model.gcode build/bench/octomap_bench
 #include <benchmark/benchmark.h>

@@ -743,6 +743,7 @@ BlockWords::BlockWords(const Eigen::Vector3i& block_dims)
     : dims_(block_dims), top_x_((block_dims.x() + 7) >> 3), top_y_((block_dims.y() + 7) >> 3) {}
 
 std::uint64_t* BlockWords::make(int bx, int by, int bz) {
+  if (bx == last_.x() && by == last_.y() && bz == last_.z()) return last_words_;
   if (bx < 0 || by < 0 || bz < 0 || bx >= dims_.x() || by >= dims_.y() || bz >= dims_.z())
     return nullptr;
   if (top_.empty())
@@ -753,7 +754,8 @@ std::uint64_t* BlockWords::make(int bx, int by, int bz) {
   if (group == 0) group = groups_.add();
   std::uint32_t& block = groups_.at(group - 1)[group_slot(bx, by)];
   if (block == 0) block = words_.add();
-  return words_.at(block - 1);
+  last_ = Eigen::Vector3i(bx, by, bz), last_words_ = words_.at(block - 1);
+  return last_words_;
 }
 
 BeadSweep::Sides BeadSweep::sides_of(const BeadFrame& f, const SweptBead& bead, const Vec2& a2,

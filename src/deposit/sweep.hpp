@@ -41,12 +41,15 @@ class BlockWords {
   explicit BlockWords(const Eigen::Vector3i& block_dims);
   /// The words of block (bx, by, bz); nullptr when it has none or lies outside the grid.
   [[nodiscard]] const std::uint64_t* find(int bx, int by, int bz) const {
+    if (bx == last_.x() && by == last_.y() && bz == last_.z()) return last_words_;
     if (bx < 0 || by < 0 || bz < 0 || bx >= dims_.x() || by >= dims_.y() || bz >= dims_.z())
       return nullptr;
     const std::uint32_t group = top_.empty() ? 0 : top_[top_index(bx, by, bz)];
     if (group == 0) return nullptr;
     const std::uint32_t block = groups_.at(group - 1)[group_slot(bx, by)];
-    return block == 0 ? nullptr : words_.at(block - 1);
+    if (block == 0) return nullptr;
+    last_ = Eigen::Vector3i(bx, by, bz), last_words_ = words_.at(block - 1);
+    return last_words_;
   }
   [[nodiscard]] std::uint64_t* find(int bx, int by, int bz) {
     return const_cast<std::uint64_t*>(std::as_const(*this).find(bx, by, bz));
@@ -93,6 +96,9 @@ class BlockWords {
   ZeroedArray<std::uint32_t> top_;      // 8 x 8 blocks -> 1 + their group (0: none)
   Arena<std::uint32_t, 64> groups_;     // per group: block -> 1 + its words (0: none)
   Arena<std::uint64_t, kWords> words_;  // per block with words
+  // The block found or made last (the sweep writes a tile's layers in turn) and its words.
+  mutable Eigen::Vector3i last_{-1, -1, -1};
+  mutable std::uint64_t* last_words_ = nullptr;
 };
 
 /// One bead as the sweep lays it (mm, machine frame).

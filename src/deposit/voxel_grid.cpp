@@ -8,7 +8,8 @@
 // needs more becomes wide: a 32-bit tag index per voxel, kept beside the chunks. Blocks live in
 // fixed-size chunks, so growing never moves or copies them. A chunk is one anonymous mapping:
 // the kernel hands its pages out zeroed, so reserving chunks costs no time and no resident
-// memory; pages fault in as blocks are written.
+// memory; pages fault in as blocks are written (from the second chunk on as transparent huge
+// pages where the kernel has them: VoxelBlocks::advise_huge_pages).
 #include "printtwin/voxel_grid.hpp"
 
 #include <algorithm>

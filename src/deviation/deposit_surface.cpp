@@ -1,6 +1,7 @@
 // Exact distances from points to the deposit's outer surface (a bucket grid of face squares).
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <array>
@@ -9,6 +10,8 @@
 #include <cstring>
 #include <limits>
 #include <memory>
+#include <span>
+#include <utility>
 
 #include "core/zeroed_array.hpp"
 #include "deposit/voxel_blocks.hpp"
@@ -139,10 +142,25 @@ class FaceSearch {
     for (const Eigen::Vector3i& b : buckets_.held)  // a group is kGroup / 2 pair blocks across
       group_has_[group_index(b / (kGroup / 2))] = 1;
     group_mm_ = buckets_.cell_mm * kGroup;
-    // Far points: the search goes no further than kFarMm past the faces' box.
-    for (std::size_t i = 0; i < s.face_centers_mm.size(); ++i) {
-      lo_ = i == 0 ? s.face_centers_mm[i] : lo_.cwiseMin(s.face_centers_mm[i]);
-      hi_ = i == 0 ? s.face_centers_mm[i] : hi_.cwiseMax(s.face_centers_mm[i]);
+    // Far points: the search goes no further than kFarMm past the faces' box (in parallel:
+    // a minimum and a maximum do not depend on the order).
+    if (!s.face_centers_mm.empty()) {
+      const std::span<const Vec3> c = s.face_centers_mm;
+      using Bounds = std::pair<Vec3, Vec3>;
+      const Bounds b = tbb::parallel_reduce(
+          tbb::blocked_range<std::size_t>(0, c.size(), 1 << 16), Bounds(c[0], c[0]),
+          [&](const tbb::blocked_range<std::size_t>& r, Bounds x) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+              x.first = x.first.cwiseMin(c[i]);
+              x.second = x.second.cwiseMax(c[i]);
+            }
+            return x;
+          },
+          [](const Bounds& x, const Bounds& y) {
+            return Bounds(x.first.cwiseMin(y.first), x.second.cwiseMax(y.second));
+          });
+      lo_ = b.first;
+      hi_ = b.second;
     }
     max_group_ring_ =
         std::min(groups_.maxCoeff(), static_cast<int>(std::ceil((kFarMm + half_) / group_mm_)) + 1);

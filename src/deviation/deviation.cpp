@@ -36,13 +36,16 @@ bool on_side(const SurfaceBead& b, const Vec3& core) {
 /// of the surface; the faces miss the cusp between two beads, up to h / 2 deep).
 void to_bead_surface(const DepositSurface& s, std::span<const SurfaceBead> beads,
                      const detail::BeadIndex& index, std::span<const Vec3> points,
+                     std::span<const std::uint32_t> order,
                      const std::vector<std::uint32_t>& nearest, std::vector<double>& signed_mm) {
   if (s.face_bead.empty()) return;
   const double v = s.voxel_mm;
+  // In `order` (the points cell by cell): neighbouring points read the same faces and beads.
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, points.size(), 4096),
       [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+        for (std::size_t q = r.begin(); q != r.end(); ++q) {
+          const std::uint32_t i = order[q];
           const std::uint32_t f = nearest[i];
           if (f >= s.face_bead.size() || s.face_bead[f] == kNoBead) continue;
           const std::uint32_t k = s.face_bead[f];
@@ -456,7 +459,8 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
       },
       [&] {
         if (weighted && bead_index)
-          to_bead_surface(surface, beads, *bead_index, query_points, nearest, d_query);
+          to_bead_surface(surface, beads, *bead_index, query_points, query_groups.order, nearest,
+                          d_query);
         const std::span<const double> d_mesh(d_query.data(), ns);
         out.mesh_to_deposit = deviation_stats(d_mesh, settings.tolerance_mm);
         group_by_layer(

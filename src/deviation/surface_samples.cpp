@@ -10,7 +10,6 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <memory>
@@ -588,10 +587,6 @@ ReplacedFaces replaced_faces(const DepositSurface& s, std::span<const BeadFrame>
   const std::size_t n = s.faces.size();
   ReplacedFaces r;
   r.replaced.resize(n);
-  // Per bead, its replaced faces are counted, then listed, in parallel (relaxed atomic
-  // counters: the counts do not depend on the order), then each bead's list is sorted back
-  // into face order.
-  std::vector<std::atomic<std::uint32_t>> count(frames.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1 << 14),
                     [&](const tbb::blocked_range<std::size_t>& range) {
                       for (std::size_t i = range.begin(); i != range.end(); ++i) {
@@ -604,31 +599,16 @@ ReplacedFaces replaced_faces(const DepositSurface& s, std::span<const BeadFrame>
                           on_bead = (u > 0 && u < f.len) || level_cap;
                         }
                         r.replaced[i] = on_bead ? 1 : 0;
-                        if (on_bead) count[k].fetch_add(1, std::memory_order_relaxed);
                       }
                     });
-  r.begin.resize(frames.size() + 1);
-  r.begin[0] = 0;
-  for (std::size_t k = 0; k < frames.size(); ++k) {
-    r.begin[k + 1] = r.begin[k] + count[k].load(std::memory_order_relaxed);
-    count[k].store(r.begin[k], std::memory_order_relaxed);  // now the bead's next slot
-  }
+  r.begin.assign(frames.size() + 1, 0);
+  for (std::size_t i = 0; i < n; ++i)
+    if (r.replaced[i] != 0) ++r.begin[s.face_bead[i] + 1];
+  for (std::size_t k = 0; k < frames.size(); ++k) r.begin[k + 1] += r.begin[k];
   r.by_bead.resize(r.begin.back());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1 << 14),
-                    [&](const tbb::blocked_range<std::size_t>& range) {
-                      for (std::size_t i = range.begin(); i != range.end(); ++i)
-                        if (r.replaced[i] != 0)
-                          r.by_bead[count[s.face_bead[i]].fetch_add(1, std::memory_order_relaxed)] =
-                              static_cast<std::uint32_t>(i);
-                    });
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, frames.size(), 1 << 12),
-                    [&](const tbb::blocked_range<std::size_t>& range) {
-                      for (std::size_t k = range.begin(); k != range.end(); ++k) {
-                        const auto first = r.by_bead.begin() + r.begin[k],
-                                   last = r.by_bead.begin() + r.begin[k + 1];
-                        if (!std::is_sorted(first, last)) std::sort(first, last);
-                      }
-                    });
+  std::vector<std::uint32_t> fill(r.begin.begin(), r.begin.end() - 1);
+  for (std::size_t i = 0; i < n; ++i)
+    if (r.replaced[i] != 0) r.by_bead[fill[s.face_bead[i]]++] = static_cast<std::uint32_t>(i);
   return r;
 }
 
