@@ -741,6 +741,7 @@ struct OtTables {
       xy_block[static_cast<std::size_t>(bit)] =
           static_cast<std::uint8_t>((lx >> 3) | ((ly >> 3) << 1));
       xy_slot[static_cast<std::size_t>(bit)] = static_cast<std::uint8_t>((ly & 7) * 8 + (lx & 7));
+      xy_mask[xy_block[static_cast<std::size_t>(bit)]] |= std::uint64_t{1} << bit;
     }
     for (int z = 0; z < 8; ++z) {
       const int lz = shift[2] + z;
@@ -760,6 +761,7 @@ struct OtTables {
   char value[4] = {};                       // the occupied log-odds, as written
   std::array<std::uint8_t, 64> xy_block{};  // per bit y * 8 + x of a cube slice: its block
   std::array<std::uint8_t, 64> xy_slot{};   // ... and its slot's y * 8 + x there
+  std::array<std::uint64_t, 4> xy_mask{};   // per block (x bit, y bit): the bits in it
   std::array<std::uint8_t, 8> z_block{};    // per cube slice z: its block (z bit)
   std::array<std::uint16_t, 8> z_slot{};    // ... and its slot's z * 64 there
 };
@@ -837,6 +839,7 @@ class OtEncoder {
   struct BlockColours {
     const std::uint8_t* nibbles = nullptr;
     const std::uint32_t* wide = nullptr;
+    OtNode uniform = 0;  // the colour of all its tags, 0 when they differ
     std::array<OtNode, VoxelBlocks::kPaletteSize> palette{};
   };
   /// The packed leaf of every voxel of the cube (slot z * 64 + y * 8 + x; 0 where empty).
@@ -869,6 +872,7 @@ class OtEncoder {
             b.palette[static_cast<std::size_t>(i)] = t_.colours[view->palette[i]];
             if (b.palette[static_cast<std::size_t>(i)] != c) c = 0;
           }
+          b.uniform = c;
           shared = shared == ~OtNode{0} ? c : (shared == c ? c : 0);
         }
     if (shared != 0 && cube.full()) return shared;  // the caller writes one leaf
@@ -880,14 +884,27 @@ class OtEncoder {
         for (; w != 0; w &= w - 1) slice[std::countr_zero(w)] = shared;
         continue;
       }
-      const unsigned z_block = t_.z_block[z], z_slot = t_.z_slot[z];
-      for (; w != 0; w &= w - 1) {
-        const auto bit = static_cast<std::size_t>(std::countr_zero(w));
-        const BlockColours& b = blocks_[z_block | t_.xy_block[bit]];
-        const unsigned slot = z_slot + t_.xy_slot[bit];
-        slice[bit] = b.wide != nullptr
-                         ? t_.colours[b.wide[slot]]
-                         : b.palette[(b.nibbles[slot >> 1] >> ((slot & 1u) * 4)) & 15u];
+      // The slice's voxels block by block (up to 2 x 2 blocks): one colour, a palette
+      // index or a wide tag per voxel.
+      const unsigned z_slot = t_.z_slot[z];
+      for (unsigned q = 0; q < 4; ++q) {
+        std::uint64_t m = w & t_.xy_mask[q];
+        if (m == 0) continue;
+        const BlockColours& b = blocks_[t_.z_block[z] | q];
+        if (b.uniform != 0) {
+          for (; m != 0; m &= m - 1) slice[std::countr_zero(m)] = b.uniform;
+        } else if (b.wide != nullptr) {
+          for (; m != 0; m &= m - 1) {
+            const auto bit = static_cast<std::size_t>(std::countr_zero(m));
+            slice[bit] = t_.colours[b.wide[z_slot + t_.xy_slot[bit]]];
+          }
+        } else {
+          for (; m != 0; m &= m - 1) {
+            const auto bit = static_cast<std::size_t>(std::countr_zero(m));
+            const unsigned slot = z_slot + t_.xy_slot[bit];
+            slice[bit] = b.palette[(b.nibbles[slot >> 1] >> ((slot & 1u) * 4)) & 15u];
+          }
+        }
       }
     }
     return shared;
