@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cstdint>
 #include <memory>
 #include <utility>
@@ -236,35 +237,65 @@ inline void dilate_flags(std::vector<std::uint8_t>& f, const BlockBox& box, int 
     });
     f.swap(g);
   };
-  pass(nz, 1, 1, nx * ny, nz);       // z: within each column
+  // z: within each column, an entry at a time.
+  g.resize(f.size());
+  tbb::parallel_for(std::size_t{0}, nx * ny, [&](std::size_t o) {
+    const std::uint8_t* col = f.data() + o * nz;
+    std::uint8_t* out = g.data() + o * nz;
+    const auto k = static_cast<std::size_t>(reach);
+    for (std::size_t j = 0; j < nz; ++j) {
+      std::uint8_t v = 0;
+      for (std::size_t e = j >= k ? j - k : 0; e <= j + k && e < nz; ++e) v |= col[e];
+      out[j] = v;
+    }
+  });
+  f.swap(g);
   pass(nx, nz, nz, ny, nx * nz);     // x: columns of a row
   pass(ny, nx * nz, nx * nz, 1, 0);  // y: rows
 }
 
-/// Cubes appended in chunks (no copies as it grows), addressed by index.
+/// Cubes appended in chunks (no copies as it grows), addressed by index. Chunk c holds
+/// kFirst << c cubes: a small pool stays small, and a large one is made of few large blocks
+/// (which the command line's operator new backs with huge pages: one page fault per 2 MiB
+/// rather than per 4 KiB).
 class CubePool {
  public:
   std::uint32_t push(const Cube& c) {
-    if (size_ % kChunk == 0) chunks_.push_back(std::make_unique_for_overwrite<Cube[]>(kChunk));
-    chunks_.back()[size_ % kChunk] = c;
+    if (size_ == capacity_) add_chunk();
+    (*this)[size_] = c;
     return static_cast<std::uint32_t>(size_++);
   }
-  Cube& operator[](std::size_t i) { return chunks_[i / kChunk][i % kChunk]; }
-  const Cube& operator[](std::size_t i) const { return chunks_[i / kChunk][i % kChunk]; }
+  Cube& operator[](std::size_t i) {
+    const std::size_t c = chunk_of(i);
+    return chunks_[c][i - first_of(c)];
+  }
+  const Cube& operator[](std::size_t i) const {
+    const std::size_t c = chunk_of(i);
+    return chunks_[c][i - first_of(c)];
+  }
   [[nodiscard]] std::size_t size() const { return size_; }
   /// Room for n more cubes (uninitialised), at indices from the returned one on.
   std::size_t grow(std::size_t n) {
     const std::size_t first = size_;
     size_ += n;
-    while (chunks_.size() * kChunk < size_)
-      chunks_.push_back(std::make_unique_for_overwrite<Cube[]>(kChunk));
+    while (capacity_ < size_) add_chunk();
     return first;
   }
 
  private:
-  static constexpr std::size_t kChunk = 4096;
+  static constexpr std::size_t kFirst = 4096;
+  /// The chunk holding cube i: chunks 0..c hold kFirst * (2^(c + 1) - 1) cubes.
+  static std::size_t chunk_of(std::size_t i) {
+    return static_cast<std::size_t>(std::bit_width(i / kFirst + 1)) - 1;
+  }
+  static std::size_t first_of(std::size_t c) { return kFirst * ((std::size_t{1} << c) - 1); }
+  void add_chunk() {
+    const std::size_t n = kFirst << chunks_.size();
+    chunks_.push_back(std::make_unique_for_overwrite<Cube[]>(n));
+    capacity_ += n;
+  }
   std::vector<std::unique_ptr<Cube[]>> chunks_;
-  std::size_t size_ = 0;
+  std::size_t size_ = 0, capacity_ = 0;
 };
 
 /// A field of block cubes dilated by r voxels (1 <= r <= 8: one block at most), clipped, one

@@ -163,21 +163,26 @@ class Flood {
   /// (the one thread that claims it queues it); other blocks change kind only between waves.
   void pass_on(const Queued& q, const Cube& grown, std::vector<Seed>& mine,
                std::vector<Queued>& whole_now) {
+    // Whether the grown voxels touch each face (transfer(grown, d) not empty), from their
+    // union: a transfer is made only for a seed.
+    std::uint64_t all = 0;
+    for (const std::uint64_t w : grown) all |= w;
+    const std::array<bool, 6> touches{(all & kX0) != 0, (all & kX7) != 0, (all & kY0) != 0,
+                                      (all & kY7) != 0, grown[0] != 0,    grown[kE - 1] != 0};
     for (int d = 0; d < 6; ++d) {
+      if (!touches[static_cast<std::size_t>(d)]) continue;
       const int nbx = q.x + kDirs[d][0], nby = q.y + kDirs[d][1], nbz = q.z + kDirs[d][2];
       if (!box_.contains(nbx, nby, nbz)) continue;
       const auto n = static_cast<std::uint32_t>(static_cast<std::ptrdiff_t>(q.i) +
                                                 step_[static_cast<std::size_t>(d)]);
       std::atomic_ref<std::uint8_t> nk(out_.kind[n]);
       if (nk.load(std::memory_order_relaxed) == OutsideFlood::kWhole) continue;
-      const Cube t = transfer(grown, d);
-      if (!any(t)) continue;
       if (near_occ_[n] == 0) {
         std::uint8_t expected = OutsideFlood::kUntouched;
         if (nk.compare_exchange_strong(expected, OutsideFlood::kWhole, std::memory_order_relaxed))
           whole_now.push_back({n, nbx, nby, nbz});
       } else {
-        mine.push_back({{n, nbx, nby, nbz}, t});
+        mine.push_back({{n, nbx, nby, nbz}, transfer(grown, d)});
       }
     }
   }

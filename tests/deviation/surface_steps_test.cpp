@@ -138,3 +138,63 @@ TEST(SurfaceSteps, FacesOfABoxAreItsSixSides) {
 
 }  // namespace
 }  // namespace printtwin::surface_blocks
+
+namespace printtwin::surface_blocks {
+namespace {
+
+/// A box of 4 x 3 x 5 blocks holding sparse random cubes (a fixed sequence), some blocks
+/// empty (null) and some full, so each neighbourhood mixes the three.
+struct RandomField {
+  BlockBox box{Eigen::Vector3i(-1, 2, 0), Eigen::Vector3i(4, 3, 5)};
+  std::vector<Cube> cubes = std::vector<Cube>(box.size());
+  std::vector<const Cube*> of = std::vector<const Cube*>(box.size(), nullptr);
+  RandomField() {
+    std::uint64_t state = 0x9E3779B97F4A7C15ULL;
+    const auto next = [&state] {
+      state ^= state << 13;
+      state ^= state >> 7;
+      state ^= state << 17;
+      return state;
+    };
+    for (std::size_t i = 0; i < box.size(); ++i) {
+      const std::uint64_t kind = next() % 4;
+      if (kind == 0) continue;  // empty
+      for (auto& w : cubes[i]) w = kind == 1 ? ~std::uint64_t{0} : next() & next() & next();
+      of[i] = &cubes[i];
+    }
+  }
+};
+
+TEST(SurfaceSteps, NearDilationMatchesTheStagedField) {
+  const RandomField f;
+  const auto base_xyz = [&](int bx, int by, int bz) { return f.of[f.box.index(bx, by, bz)]; };
+  const auto base_index = [&](std::size_t i) { return f.of[i]; };
+  // A clip that cuts some voxels of every block.
+  const auto clip = [](int bx, int by, int bz) {
+    Cube c;
+    for (std::size_t z = 0; z < kE; ++z)
+      c[z] = ~(std::uint64_t{1} << ((static_cast<unsigned>(bx + 2 * by + 3 * bz) + z) % 64));
+    return c;
+  };
+  std::vector<std::uint32_t> all(f.box.size());
+  for (std::size_t i = 0; i < all.size(); ++i) all[i] = static_cast<std::uint32_t>(i);
+  for (int r = 1; r <= kE; ++r) {
+    DilatedField staged(f.box, r, base_xyz, clip);
+    staged.prepare(all);
+    const NearDilation near(f.box, r, base_index, clip);
+    int differing = 0, some = 0;
+    for (std::size_t i = 0; i < f.box.size(); ++i) {
+      const Eigen::Vector3i b = f.box.coords(i);
+      Cube a{}, n{};
+      const bool sa = staged.top_of(b.x(), b.y(), b.z(), a);
+      const bool sn = near.top_of(b.x(), b.y(), b.z(), n);
+      differing += (sa != sn || (sa && a != n)) ? 1 : 0;
+      some += sa ? 1 : 0;
+    }
+    EXPECT_EQ(differing, 0) << "r = " << r;
+    EXPECT_GT(some, 0) << "r = " << r;
+  }
+}
+
+}  // namespace
+}  // namespace printtwin::surface_blocks
