@@ -15,7 +15,7 @@ stage_env() {  # stage_env BUILD PROGRAM -> "VAR=value ..." lines
   case "$2" in
     deviation_bench) printf '%s\n' "PRINTTWIN_BENCH_GCODE=$data/bench_model.gcode" \
                                     "PRINTTWIN_BENCH_MESH=$data/bench_model.stl" ;;
-    deposit_bench) printf '%s\n' "PRINTTWIN_DEPOSIT_GCODE=$data/bench_model.gcode" ;;
+    deposit_bench | octomap_bench) printf '%s\n' "PRINTTWIN_DEPOSIT_GCODE=$data/bench_model.gcode" ;;
   esac
 }
 
