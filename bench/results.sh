@@ -51,7 +51,6 @@ closest_hints     | cli:verify:registration                  | wall | ICP closes
 hull_filter       | cli:verify:registration                  | wall | footprint hull drops the points inside the extreme octagon before its sort (deviation/registration.cpp)
 deposit_huge_pages | bench:deposit_bench:BM_DepositOnly/1   | cpu  | sweep block words in 2 MiB arenas and grid block chunks (6 MiB) marked MADV_HUGEPAGE (deposit/sweep.hpp, deposit/voxel_grid.cpp)
 octomap_threads   | bench:octomap_bench:BM_OctomapExport/1   | wall | .ot subtrees encoded on all cores, written in order (deposit/octomap_io.cpp); stage: the .ot export
-near_dilation     | bench:deviation_bench:BM_DeviationStage/ | cpu  | seal dilations computed from the 3^3 blocks around each block, nothing stored (deviation/surface_blocks.hpp)
 huge_pages        | cli:verify                               | wall | blocks of 4 MiB and more from operator new marked MADV_HUGEPAGE (cli/huge_pages.cpp); stage: the whole verify
 '
 

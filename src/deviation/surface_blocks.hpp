@@ -10,11 +10,9 @@
 #include <bit>
 #include <cstdint>
 #include <memory>
-#include <utility>
 #include <vector>
 
 #include "core/bits.hpp"
-#include "core/plain_path.hpp"
 #include "core/zeroed_array.hpp"
 #include "deposit/voxel_blocks.hpp"
 #include "deviation/outer_surface.hpp"
@@ -74,8 +72,7 @@ inline const Cube& or_empty(const Cube* c) { return c != nullptr ? *c : kNoCube;
 
 /// One axis of a cube dilation by r (1 <= r <= 8) of block `m` between its neighbours `lo`
 /// (at -1 along the axis) and `hi` (+1); null = empty.
-[[gnu::always_inline]] inline Cube dilate_z(const Cube* lo_p, const Cube* m_p, const Cube* hi_p,
-                                            int r) {
+inline Cube dilate_z(const Cube* lo_p, const Cube* m_p, const Cube* hi_p, int r) {
   std::array<std::uint64_t, 3 * kE> s;
   const Cube &lo = or_empty(lo_p), &m = or_empty(m_p), &hi = or_empty(hi_p);
   std::copy(lo.begin(), lo.end(), s.begin());
@@ -102,8 +99,7 @@ struct StepY {
 };
 /// One in-slice axis (StepY) of a cube dilation by r (1 <= r <= 8).
 template <class Step>
-[[gnu::always_inline]] inline Cube dilate_in_slices(const Cube* lo_p, const Cube* m_p,
-                                                    const Cube* hi_p, int r, Step step) {
+Cube dilate_in_slices(const Cube* lo_p, const Cube* m_p, const Cube* hi_p, int r, Step step) {
   const Cube &lo = or_empty(lo_p), &m = or_empty(m_p), &hi = or_empty(hi_p);
   Cube out;
   for (std::size_t z = 0; z < kE; ++z) {
@@ -117,8 +113,7 @@ template <class Step>
 /// along x, with the neighbours' bits that wrap in (towards +x, bit x -> x + k and bits
 /// 8 - k.. of the -x neighbour's row enter; towards -x likewise from the +x neighbour), bits
 /// crossing into another row masked; each shift's four masks made once for the 8 slices.
-[[gnu::always_inline]] inline Cube dilate_x(const Cube* lo_p, const Cube* m_p, const Cube* hi_p,
-                                            int r) {
+inline Cube dilate_x(const Cube* lo_p, const Cube* m_p, const Cube* hi_p, int r) {
   const Cube &lo = or_empty(lo_p), &m = or_empty(m_p), &hi = or_empty(hi_p);
   Cube out = m;
   for (int k = 1; k <= r; ++k) {
@@ -297,94 +292,6 @@ class CubePool {
   std::vector<std::unique_ptr<Cube[]>> chunks_;
   std::size_t size_ = 0, capacity_ = 0;
 };
-
-/// A field of block cubes dilated by r voxels (1 <= r <= 8: one block at most), clipped, one
-/// block at a time from its 3^3 neighbourhood: the same steps as DilatedField's single step
-/// (along z, then x, then y; the clip at the end), with nothing kept between blocks, so it
-/// allocates nothing and any thread may ask for any block. Base: a block's cube by box index,
-/// a stable pointer (null = empty), read inside the box only.
-template <class Base, class Clip>
-class NearDilation {
- public:
-  NearDilation(const BlockBox& box, int r, Base base, Clip clip)
-      : box_(box), r_(r), base_(std::move(base)), clip_(std::move(clip)) {}
-  /// Nothing to prepare (DilatedField's interface).
-  void prepare(const std::vector<std::uint32_t>& /*targets*/) {}
-  /// The dilated, clipped block (false = empty).
-  [[nodiscard]] bool top_of(int bx, int by, int bz, Cube& out) const {
-    switch (r_) {
-      case 1:
-        return top<1>(bx, by, bz, out);
-      case 2:
-        return top<2>(bx, by, bz, out);
-      case 3:
-        return top<3>(bx, by, bz, out);
-      case 4:
-        return top<4>(bx, by, bz, out);
-      case 5:
-        return top<5>(bx, by, bz, out);
-      case 6:
-        return top<6>(bx, by, bz, out);
-      case 7:
-        return top<7>(bx, by, bz, out);
-      default:
-        return top<8>(bx, by, bz, out);
-    }
-  }
-
- private:
-  /// top_of with the radius known to the compiler (every loop unrolled).
-  template <int R>
-  bool top(int bx, int by, int bz, Cube& out) const {
-    const auto nz = static_cast<std::ptrdiff_t>(box_.n.z());
-    const std::ptrdiff_t sx = nz, sy = nz * box_.n.x();
-    const auto i0 = static_cast<std::ptrdiff_t>(box_.index(bx, by, bz));
-    // A block off the box's border has its whole neighbourhood in the box.
-    const bool inner = bx > box_.lo.x() && by > box_.lo.y() && bz > box_.lo.z() &&
-                       bx + 1 < box_.lo.x() + box_.n.x() && by + 1 < box_.lo.y() + box_.n.y() &&
-                       bz + 1 < box_.lo.z() + box_.n.z();
-    const auto at = [&](int dx, int dy, int dz) -> const Cube* {
-      if (!inner && !box_.contains(bx + dx, by + dy, bz + dz)) return nullptr;
-      return base_(static_cast<std::size_t>(i0 + dx * sx + dy * sy + dz));
-    };
-    std::array<Cube, 3> rows;
-    std::array<const Cube*, 3> row_of{};
-    for (std::size_t ry = 0; ry < 3; ++ry) {
-      const int dy = static_cast<int>(ry) - 1;
-      std::array<Cube, 3> cols;
-      std::array<const Cube*, 3> col_of{};
-      for (std::size_t cx = 0; cx < 3; ++cx) {
-        const int dx = static_cast<int>(cx) - 1;
-        const Cube* lo = at(dx, dy, -1);
-        const Cube* m = at(dx, dy, 0);
-        const Cube* hi = at(dx, dy, 1);
-        if (lo == nullptr && m == nullptr && hi == nullptr) continue;
-        cols[cx] = dilate_z(lo, m, hi, R);
-        if (any(cols[cx])) col_of[cx] = &cols[cx];
-      }
-      if (col_of[0] == nullptr && col_of[1] == nullptr && col_of[2] == nullptr) continue;
-      rows[ry] = dilate_x(col_of[0], col_of[1], col_of[2], R);
-      if (any(rows[ry])) row_of[ry] = &rows[ry];
-    }
-    if (row_of[0] == nullptr && row_of[1] == nullptr && row_of[2] == nullptr) return false;
-    out = dilate_in_slices(row_of[0], row_of[1], row_of[2], R, StepY{});
-    const Cube c = clip_(bx, by, bz);
-    for (std::size_t z = 0; z < kE; ++z) out[z] &= c[z];
-    return any(out);
-  }
-  const BlockBox& box_;
-  int r_;
-  Base base_;
-  Clip clip_;
-};
-
-/// Whether a dilation by r runs as NearDilation (1 <= r <= 8) rather than DilatedField. A
-/// special path (core/plain_path.hpp): PRINTTWIN_PLAIN=near_dilation keeps DilatedField, whose
-/// stages are computed once per block and kept.
-inline bool use_near_dilation(int r) {
-  static const bool plain = detail::plain_path("near_dilation");
-  return r >= 1 && r <= kE && !plain;
-}
 
 /// A field of block cubes dilated by r voxels (a cube of 2r + 1) and clipped to a box,
 /// for the blocks asked for. The cube is the product of its three axis segments, and

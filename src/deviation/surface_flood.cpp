@@ -228,14 +228,10 @@ OutsideFlood flood_outside(const SurfaceRegion& region, const PartBlocks& part, 
   const auto interior_cube = [&](int bx, int by, int bz) {
     return region.interior_cube(bx, by, bz);
   };
-  Flood flood(region, part, seal_r);
-  if (use_near_dilation(seal_r)) {
-    const auto part_of = [&](std::size_t i) { return part.of[i]; };
-    NearDilation blocked(box, seal_r, part_of, interior_cube);
-    return flood.run(blocked);
-  }
   // Held only through the flood.
-  DilatedField blocked(box, seal_r, part_cube, interior_cube);
+  DilatedField<decltype(part_cube), decltype(interior_cube)> blocked(box, seal_r, part_cube,
+                                                                     interior_cube);
+  Flood flood(region, part, seal_r);
   return flood.run(blocked);
 }
 

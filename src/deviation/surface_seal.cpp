@@ -89,38 +89,29 @@ void fill_volume(DepositSurface& s, const SurfaceRegion& region, const PartBlock
       mixed.push_back(static_cast<std::uint32_t>(i));
   }
   const Cube full = full_cube();
-  const auto outside_of = [&](std::size_t i) -> const Cube* {
+  const auto outside_cube = [&](int bx, int by, int bz) -> const Cube* {
+    const std::size_t i = box.index(bx, by, bz);
     if (kind[i] == OutsideFlood::kWhole) return &full;  // R's part of it: the field clips to R
     if (kind[i] == OutsideFlood::kPartial) return &flood.outside[flood.slot[i]];
     return nullptr;
   };
-  const auto outside_cube = [&](int bx, int by, int bz) {
-    return outside_of(box.index(bx, by, bz));
-  };
   const auto region_cube = [&](int bx, int by, int bz) { return region.region_cube(bx, by, bz); };
+  DilatedField outside_back(box, seal_r, outside_cube, region_cube);
+  outside_back.prepare(mixed);
   s.filled_masks.resize(mixed.size());
-  const auto fill = [&](const auto& outside_back) {
-    tbb::parallel_for(std::size_t{0}, mixed.size(), [&](std::size_t m) {
-      const Eigen::Vector3i b = box.coords(mixed[m]);
-      Cube o{};
-      const bool some = outside_back.top_of(b.x(), b.y(), b.z(), o);
-      const Cube r = region.region_cube(b.x(), b.y(), b.z());
-      Cube& f = s.filled_masks[m];
-      if (!some) {
-        f = r;
-        return;
-      }
-      const Cube& p = or_empty(part.of[mixed[m]]);
-      for (std::size_t z = 0; z < kE; ++z) f[z] = r[z] & ~(o[z] & ~p[z]);
-    });
-  };
-  if (use_near_dilation(seal_r)) {
-    fill(NearDilation(box, seal_r, outside_of, region_cube));
-  } else {
-    DilatedField outside_back(box, seal_r, outside_cube, region_cube);
-    outside_back.prepare(mixed);
-    fill(outside_back);
-  }
+  tbb::parallel_for(std::size_t{0}, mixed.size(), [&](std::size_t m) {
+    const Eigen::Vector3i b = box.coords(mixed[m]);
+    Cube o{};
+    const bool some = outside_back.top_of(b.x(), b.y(), b.z(), o);
+    const Cube r = region.region_cube(b.x(), b.y(), b.z());
+    Cube& f = s.filled_masks[m];
+    if (!some) {
+      f = r;
+      return;
+    }
+    const Cube& p = or_empty(part.of[mixed[m]]);
+    for (std::size_t z = 0; z < kE; ++z) f[z] = r[z] & ~(o[z] & ~p[z]);
+  });
   for (std::size_t m = 0; m < mixed.size(); ++m)
     s.filled_block_code[mixed[m]] = DepositSurface::kFirstMask + static_cast<std::uint32_t>(m);
   if (seal_r > 0 && reopen > 0) reopen_grooves(s, region, part, mixed, reopen);
