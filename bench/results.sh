@@ -35,7 +35,6 @@ raw="${RAW:-${out%.md}.raw}"
 # that trades CPU for elapsed time) | what it is. Edit this list only.
 PATHS='
 face_avx2         | bench:deviation_bench:BM_DeviationStage/ | cpu  | AVX2 4-wide face-square distance test (deviation/kernels.cpp)
-mesh_query_avx2   | bench:deviation_bench:BM_DeviationStage/ | cpu  | AVX2 candidate box filter + 4-wide exact closest point (mesh/kernels.cpp)
 bead_avx512       | bench:deposit_bench:BM_DepositOnly/0     | cpu  | AVX-512 bead tile kernel (deposit/kernels.cpp)
 sha_ni            | cli:verify:load                          | wall | SHA extensions for the input hashes (core/kernels.cpp); stage: verify "load"
 check_fans        | bench:check_bench:BM_SelfIntersectionsWithHealth | cpu | face pairs around certified vertex fans not tested (check/self_intersections_cgal.cpp)

@@ -1,8 +1,6 @@
 #pragma once
-// The mesh query's kernels: the one place with instruction-set specific code in mesh/,
-// behind one dispatch point (candidate_kernel), and the per-query state they share with
-// mesh_query_embree.cpp. Each kernel keeps a plain twin that gives the same bits;
-// bench/RESULTS.md measures the pair (PRINTTWIN_PLAIN=mesh_query_avx2).
+// The mesh query's candidate scan (the inner loop of a ball query) and the per-query state
+// it shares with mesh_query_embree.cpp.
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -40,15 +38,8 @@ inline bool box_may_win(double box2, double best_d2) { return !(box2 > best_d2 *
 /// when it became the best (mesh_query_embree.cpp).
 bool offer_unboxed(PointQueryState& st, std::uint32_t t);
 
-/// Offers every candidate of a loaded BallScratch whose box may win; sets best_slot.
-using CandidateScan = void (*)(PointQueryState& st, const BallScratch& candidates);
-struct CandidateKernel {
-  CandidateScan scan;
-  bool corners;  ///< reads the candidates' corners (load them into the BallScratch)
-};
-/// The candidate scan to use: AVX2 (box test and exact closest point 4 candidates at a time)
-/// when the CPU has it, unless PRINTTWIN_PLAIN names mesh_query_avx2; else the plain loop.
-/// Both find the same (distance, triangle) bit for bit.
-CandidateKernel candidate_kernel();
+/// Offers every candidate of a loaded BallScratch whose box may win (the same arithmetic as
+/// box_distance2, so the same candidates pass); sets best_slot to the winner's column.
+void scan_candidates(PointQueryState& st, const BallScratch& candidates);
 
 }  // namespace printtwin::detail

@@ -16,7 +16,6 @@ namespace printtwin::detail {
 struct BallScratch {
   std::vector<std::uint32_t> ids;
   std::vector<double> lo[3], hi[3];
-  std::vector<double> corner[9];  ///< candidates' vertices a, b, c (x, y, z each)
 };
 
 /// Closest points of a group of nearby points from one BVH query of `query`: the triangles

@@ -110,42 +110,27 @@ bool offer(PointQueryState& st, std::uint32_t t) {
   return offer_unboxed(st, t);
 }
 
-/// The candidates of a ball query (`c.ids`) as columns: their boxes (for the 4-wide box
-/// test) and, with AVX2, their corners (for the 4-wide exact test); padded to a multiple of
-/// 4 with empty far boxes.
-void load_boxes(detail::BallScratch& c, const Mesh& mesh, const std::vector<TriangleBounds>& bounds,
-                bool corners) {
-  const std::size_t n = c.ids.size(), m = (n + 3) & ~std::size_t{3};
+/// The candidates of a ball query (`c.ids`) as columns: their boxes (for the box test).
+void load_boxes(detail::BallScratch& c, const std::vector<TriangleBounds>& bounds) {
+  const std::size_t n = c.ids.size();
   for (int a = 0; a < 3; ++a) {
-    c.lo[a].resize(m);
-    c.hi[a].resize(m);
+    c.lo[a].resize(n);
+    c.hi[a].resize(n);
   }
-  for (std::size_t k = 0; k < m; ++k)
+  for (std::size_t k = 0; k < n; ++k)
     for (int a = 0; a < 3; ++a) {
-      c.lo[a][k] = k < n ? static_cast<double>(bounds[c.ids[k]].lo[a])
-                         : std::numeric_limits<double>::infinity();
-      c.hi[a][k] = k < n ? static_cast<double>(bounds[c.ids[k]].hi[a])
-                         : std::numeric_limits<double>::infinity();
+      c.lo[a][k] = static_cast<double>(bounds[c.ids[k]].lo[a]);
+      c.hi[a][k] = static_cast<double>(bounds[c.ids[k]].hi[a]);
     }
-  if (!corners) return;
-  for (auto& col : c.corner) col.resize(m);
-  for (std::size_t k = 0; k < m; ++k) {
-    const auto& tri = mesh.triangles[c.ids[k < n ? k : 0]];
-    for (std::size_t v = 0; v < 3; ++v)
-      for (int a = 0; a < 3; ++a)
-        c.corner[3 * v + static_cast<std::size_t>(a)][k] = mesh.vertices_mm[tri[v]][a];
-  }
 }
 
-/// Swaps candidates i and j of a loaded BallScratch (ids, boxes and, with `corners`, corners).
-void swap_candidates(detail::BallScratch& c, std::size_t i, std::size_t j, bool corners) {
+/// Swaps candidates i and j of a loaded BallScratch (ids and boxes).
+void swap_candidates(detail::BallScratch& c, std::size_t i, std::size_t j) {
   std::swap(c.ids[i], c.ids[j]);
   for (int a = 0; a < 3; ++a) {
     std::swap(c.lo[a][i], c.lo[a][j]);
     std::swap(c.hi[a][i], c.hi[a][j]);
   }
-  if (corners)
-    for (auto& col : c.corner) std::swap(col[i], col[j]);
 }
 
 bool point_query_callback(RTCPointQueryFunctionArguments* args) {
@@ -308,15 +293,14 @@ void detail::closest_points_in_ball(const MeshQuery& query, const Vec3& center, 
   candidates.clear();
   run_point_query(impl->scene, center - impl->center, radius, gather_callback, &candidates);
   if (candidates.empty()) return;
-  static const detail::CandidateKernel kernel = detail::candidate_kernel();
-  load_boxes(boxes, impl->mesh, impl->bounds, kernel.corners);
+  load_boxes(boxes, impl->bounds);
   for (std::size_t i = 0; i < points.size(); ++i) {
     PointQueryState st{&impl->mesh, &impl->bounds, points[i]};
-    kernel.scan(st, boxes);
+    detail::scan_candidates(st, boxes);
     if (!std::isfinite(st.best_d2)) continue;
-    // The winner usually wins the next point too: moved into the first block, which is
-    // tested exactly first, so its distance prunes the other blocks by box.
-    if (st.best_slot >= 4) swap_candidates(boxes, 0, st.best_slot, kernel.corners);
+    // The winner usually wins the next point too: moved first, so that its distance prunes
+    // the other candidates by box (the answer does not depend on the order).
+    if (st.best_slot > 0) swap_candidates(boxes, 0, st.best_slot);
     const double d = std::sqrt(st.best_d2);
     // Every triangle within d of the point meets the query ball, so was a candidate.
     if ((points[i] - center).norm() + d * (1 + 1e-9) + 1e-9 <= radius)
