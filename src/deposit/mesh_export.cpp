@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <numeric>
 #include <optional>
 #include <unordered_map>
@@ -218,23 +219,38 @@ bool has_part_voxel(const detail::VoxelBlocks::BlockView& b, const std::vector<c
 /// (rounded up to whole blocks) around the blocks holding part voxels. Auxiliary voxels are
 /// air to the outer-surface routine, and beyond the seal radius plus a voxel from the part the
 /// region's border changes no filled voxel, so this gives the same voxels as the whole grid
-/// without flooding the empty bed around a far skirt or purge line.
+/// without flooding the empty bed around a far skirt or purge line. The blocks are read in
+/// their memory order (one pass over the grid's storage) and bounded in keys; a voxel's centre
+/// grows with its key, so the box is that of the extreme keys' centres.
 Box3 filled_region(const VoxelGrid& g, int margin) {
   const auto& table = detail::VoxelBlocks::tag_table(g);
   std::vector<char> aux(table.size());
   for (std::size_t i = 0; i < table.size(); ++i)
     aux[i] = is_auxiliary_feature(table[i].feature) ? 1 : 0;
-  Box3 all, part;
   constexpr int kE = detail::VoxelBlocks::kBlockEdge;
   const int m = (margin + kE - 1) / kE * kE;
-  detail::VoxelBlocks::visit_blocks(g, [&](const detail::VoxelBlocks::BlockView& b) {
-    all.extend(g.center_mm(b.base));
-    all.extend(g.center_mm({b.base.x + kE - 1, b.base.y + kE - 1, b.base.z + kE - 1}));
+  constexpr int kBig = std::numeric_limits<int>::max();
+  VoxelKey all_lo{kBig, kBig, kBig}, all_hi{-kBig, -kBig, -kBig};
+  VoxelKey part_lo = all_lo, part_hi = all_hi;
+  const auto extend = [](VoxelKey& lo, VoxelKey& hi, const VoxelKey& a, const VoxelKey& b) {
+    lo = {std::min(lo.x, a.x), std::min(lo.y, a.y), std::min(lo.z, a.z)};
+    hi = {std::max(hi.x, b.x), std::max(hi.y, b.y), std::max(hi.z, b.z)};
+  };
+  detail::VoxelBlocks::visit_blocks_as_allocated(g, [&](const detail::VoxelBlocks::BlockView& b) {
+    const VoxelKey last{b.base.x + kE - 1, b.base.y + kE - 1, b.base.z + kE - 1};
+    extend(all_lo, all_hi, b.base, last);
     if (!has_part_voxel(b, aux)) return;
-    part.extend(g.center_mm({b.base.x - m, b.base.y - m, b.base.z - m}));
-    part.extend(g.center_mm({b.base.x + kE - 1 + m, b.base.y + kE - 1 + m, b.base.z + kE - 1 + m}));
+    extend(part_lo, part_hi, {b.base.x - m, b.base.y - m, b.base.z - m},
+           {last.x + m, last.y + m, last.z + m});
   });
-  if (part.empty()) return all;
+  Box3 all, part;
+  if (all_lo.x <= all_hi.x) {
+    all.extend(g.center_mm(all_lo));
+    all.extend(g.center_mm(all_hi));
+  }
+  if (part_lo.x > part_hi.x) return all;
+  part.extend(g.center_mm(part_lo));
+  part.extend(g.center_mm(part_hi));
   Box3 cut;
   cut.min = all.min.cwiseMax(part.min);
   cut.max = all.max.cwiseMin(part.max);
