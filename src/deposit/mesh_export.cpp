@@ -6,7 +6,9 @@
 // purge pieces dropped) -> optionally the same on coarser cells until the size fits.
 #include "deposit/mesh_export.hpp"
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <array>
@@ -15,6 +17,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <numeric>
 #include <optional>
@@ -92,14 +95,20 @@ struct Solid {
       m[static_cast<std::size_t>(z & 7)] &= ~bit;
   }
   [[nodiscard]] std::size_t count() const {
-    std::size_t n = 0;
-    for (const std::uint32_t c : code) {
-      if (c == kFull)
-        n += 512;
-      else if (c >= 2)
-        for (const std::uint64_t w : masks[c - 2]) n += static_cast<std::size_t>(std::popcount(w));
-    }
-    return n;
+    return tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, code.size(), std::size_t{1} << 14), std::size_t{0},
+        [this](const tbb::blocked_range<std::size_t>& r, std::size_t n) {
+          for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            const std::uint32_t c = code[i];
+            if (c == kFull)
+              n += 512;
+            else if (c >= 2)
+              for (const std::uint64_t w : masks[c - 2])
+                n += static_cast<std::size_t>(std::popcount(w));
+          }
+          return n;
+        },
+        std::plus<>());
   }
   /// Grid key of the min corner of cell (x, y, z).
   [[nodiscard]] VoxelKey key_of_cell(int x, int y, int z) const {
@@ -1030,8 +1039,11 @@ detail::LayerSlabs slabs_of(const Solid& s, const VoxelGrid& grid,
   in.height = s.dims().y();
   in.cell_mm = grid.voxel_mm() * s.cell;
   in.base_mm = grid.origin_mm() + grid.voxel_mm() * Vec3(s.origin.x, s.origin.y, s.origin.z);
+  // The lowest and the highest filled cell: the block layers from the bottom up to the first
+  // that holds one, and from the top down.
   int zmin = s.dims().z(), zmax = -1;
-  for (int bz = 0; bz < s.nb.z(); ++bz)
+  const auto scan_layer = [&s, &zmin, &zmax](int bz) {
+    bool found = false;
     for (int by = 0; by < s.nb.y(); ++by)
       for (int bx = 0; bx < s.nb.x(); ++bx)
         if (s.code[s.index(bx, by, bz)] != Solid::kEmpty)
@@ -1039,8 +1051,14 @@ detail::LayerSlabs slabs_of(const Solid& s, const VoxelGrid& grid,
             if (s.word(bx, by, bz, z) != 0) {
               zmin = std::min(zmin, bz * 8 + z);
               zmax = std::max(zmax, bz * 8 + z + 1);
+              found = true;
             }
+    return found;
+  };
+  int lowest = 0;
+  while (lowest < s.nb.z() && !scan_layer(lowest)) ++lowest;
   if (zmax < 0) return in;
+  for (int bz = s.nb.z() - 1; bz > lowest && !scan_layer(bz); --bz) {}
   std::vector<int> tops;
   for (const SurfaceBead& b : beads) {
     const auto k = static_cast<int>(std::lround((b.end_mm.z() - in.base_mm.z()) / in.cell_mm));
