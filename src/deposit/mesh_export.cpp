@@ -6,7 +6,9 @@
 // purge pieces dropped) -> optionally the same on coarser cells until the size fits.
 #include "deposit/mesh_export.hpp"
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <array>
@@ -15,6 +17,8 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <functional>
+#include <limits>
 #include <numeric>
 #include <optional>
 #include <unordered_map>
@@ -91,14 +95,20 @@ struct Solid {
       m[static_cast<std::size_t>(z & 7)] &= ~bit;
   }
   [[nodiscard]] std::size_t count() const {
-    std::size_t n = 0;
-    for (const std::uint32_t c : code) {
-      if (c == kFull)
-        n += 512;
-      else if (c >= 2)
-        for (const std::uint64_t w : masks[c - 2]) n += static_cast<std::size_t>(std::popcount(w));
-    }
-    return n;
+    return tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, code.size(), std::size_t{1} << 14), std::size_t{0},
+        [this](const tbb::blocked_range<std::size_t>& r, std::size_t n) {
+          for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            const std::uint32_t c = code[i];
+            if (c == kFull)
+              n += 512;
+            else if (c >= 2)
+              for (const std::uint64_t w : masks[c - 2])
+                n += static_cast<std::size_t>(std::popcount(w));
+          }
+          return n;
+        },
+        std::plus<>());
   }
   /// Grid key of the min corner of cell (x, y, z).
   [[nodiscard]] VoxelKey key_of_cell(int x, int y, int z) const {
@@ -218,23 +228,38 @@ bool has_part_voxel(const detail::VoxelBlocks::BlockView& b, const std::vector<c
 /// (rounded up to whole blocks) around the blocks holding part voxels. Auxiliary voxels are
 /// air to the outer-surface routine, and beyond the seal radius plus a voxel from the part the
 /// region's border changes no filled voxel, so this gives the same voxels as the whole grid
-/// without flooding the empty bed around a far skirt or purge line.
+/// without flooding the empty bed around a far skirt or purge line. The blocks are read in
+/// their memory order (one pass over the grid's storage) and bounded in keys; a voxel's centre
+/// grows with its key, so the box is that of the extreme keys' centres.
 Box3 filled_region(const VoxelGrid& g, int margin) {
   const auto& table = detail::VoxelBlocks::tag_table(g);
   std::vector<char> aux(table.size());
   for (std::size_t i = 0; i < table.size(); ++i)
     aux[i] = is_auxiliary_feature(table[i].feature) ? 1 : 0;
-  Box3 all, part;
   constexpr int kE = detail::VoxelBlocks::kBlockEdge;
   const int m = (margin + kE - 1) / kE * kE;
-  detail::VoxelBlocks::visit_blocks(g, [&](const detail::VoxelBlocks::BlockView& b) {
-    all.extend(g.center_mm(b.base));
-    all.extend(g.center_mm({b.base.x + kE - 1, b.base.y + kE - 1, b.base.z + kE - 1}));
+  constexpr int kBig = std::numeric_limits<int>::max();
+  VoxelKey all_lo{kBig, kBig, kBig}, all_hi{-kBig, -kBig, -kBig};
+  VoxelKey part_lo = all_lo, part_hi = all_hi;
+  const auto extend = [](VoxelKey& lo, VoxelKey& hi, const VoxelKey& a, const VoxelKey& b) {
+    lo = {std::min(lo.x, a.x), std::min(lo.y, a.y), std::min(lo.z, a.z)};
+    hi = {std::max(hi.x, b.x), std::max(hi.y, b.y), std::max(hi.z, b.z)};
+  };
+  detail::VoxelBlocks::visit_blocks_as_allocated(g, [&](const detail::VoxelBlocks::BlockView& b) {
+    const VoxelKey last{b.base.x + kE - 1, b.base.y + kE - 1, b.base.z + kE - 1};
+    extend(all_lo, all_hi, b.base, last);
     if (!has_part_voxel(b, aux)) return;
-    part.extend(g.center_mm({b.base.x - m, b.base.y - m, b.base.z - m}));
-    part.extend(g.center_mm({b.base.x + kE - 1 + m, b.base.y + kE - 1 + m, b.base.z + kE - 1 + m}));
+    extend(part_lo, part_hi, {b.base.x - m, b.base.y - m, b.base.z - m},
+           {last.x + m, last.y + m, last.z + m});
   });
-  if (part.empty()) return all;
+  Box3 all, part;
+  if (all_lo.x <= all_hi.x) {
+    all.extend(g.center_mm(all_lo));
+    all.extend(g.center_mm(all_hi));
+  }
+  if (part_lo.x > part_hi.x) return all;
+  part.extend(g.center_mm(part_lo));
+  part.extend(g.center_mm(part_hi));
   Box3 cut;
   cut.min = all.min.cwiseMax(part.min);
   cut.max = all.max.cwiseMin(part.max);
@@ -1014,8 +1039,11 @@ detail::LayerSlabs slabs_of(const Solid& s, const VoxelGrid& grid,
   in.height = s.dims().y();
   in.cell_mm = grid.voxel_mm() * s.cell;
   in.base_mm = grid.origin_mm() + grid.voxel_mm() * Vec3(s.origin.x, s.origin.y, s.origin.z);
+  // The lowest and the highest filled cell: the block layers from the bottom up to the first
+  // that holds one, and from the top down.
   int zmin = s.dims().z(), zmax = -1;
-  for (int bz = 0; bz < s.nb.z(); ++bz)
+  const auto scan_layer = [&s, &zmin, &zmax](int bz) {
+    bool found = false;
     for (int by = 0; by < s.nb.y(); ++by)
       for (int bx = 0; bx < s.nb.x(); ++bx)
         if (s.code[s.index(bx, by, bz)] != Solid::kEmpty)
@@ -1023,8 +1051,14 @@ detail::LayerSlabs slabs_of(const Solid& s, const VoxelGrid& grid,
             if (s.word(bx, by, bz, z) != 0) {
               zmin = std::min(zmin, bz * 8 + z);
               zmax = std::max(zmax, bz * 8 + z + 1);
+              found = true;
             }
+    return found;
+  };
+  int lowest = 0;
+  while (lowest < s.nb.z() && !scan_layer(lowest)) ++lowest;
   if (zmax < 0) return in;
+  for (int bz = s.nb.z() - 1; bz > lowest && !scan_layer(bz); --bz) {}
   std::vector<int> tops;
   for (const SurfaceBead& b : beads) {
     const auto k = static_cast<int>(std::lround((b.end_mm.z() - in.base_mm.z()) / in.cell_mm));

@@ -321,19 +321,27 @@ class DilatedField {
       // Stage st + 1 reads stage st of a block and its two neighbours along its axis.
       const int axis = st % 3;
       auto& next = lists[static_cast<std::size_t>(st)];
-      for (const std::uint32_t i : *cur) {
-        const Eigen::Vector3i b = box_.coords(i);
-        for (int d = -1; d <= 1; ++d) {
-          const int x = b.x() + (axis == 1 ? d : 0), y = b.y() + (axis == 2 ? d : 0),
-                    z = b.z() + (axis == 0 ? d : 0);
-          if (!box_.contains(x, y, z)) continue;
-          const std::size_t j = box_.index(x, y, z);
-          // Computed by an earlier call: neither it nor what it reads is needed again.
-          if (mark_[j] == 0 && memo_[static_cast<std::size_t>(st)][j] == 0) {
-            mark_[j] = 1;
-            next.push_back(static_cast<std::uint32_t>(j));
-          }
+      // Along the axis: the index step and the blocks on it; a block's place on the axis is
+      // (index / step) % blocks (indices run y, then x, then z).
+      const auto nz = static_cast<std::size_t>(box_.n.z()),
+                 nx = static_cast<std::size_t>(box_.n.x());
+      const std::size_t stride = axis == 0 ? 1 : axis == 1 ? nz : nz * nx;
+      const auto len = static_cast<std::size_t>(axis == 0   ? box_.n.z()
+                                                : axis == 1 ? box_.n.x()
+                                                            : box_.n.y());
+      const auto& memo = memo_[static_cast<std::size_t>(st)];
+      const auto list = [&](std::size_t j) {
+        // Computed by an earlier call: neither it nor what it reads is needed again.
+        if (mark_[j] == 0 && memo[j] == 0) {
+          mark_[j] = 1;
+          next.push_back(static_cast<std::uint32_t>(j));
         }
+      };
+      for (const std::uint32_t i : *cur) {
+        const std::size_t at = (i / stride) % len;
+        if (at > 0) list(i - stride);
+        list(i);
+        if (at + 1 < len) list(i + stride);
       }
       for (const std::uint32_t j : next) mark_[j] = 0;
       cur = &next;
