@@ -1028,6 +1028,39 @@ namespace {
 
 // ---------------------------------------------------------------- layered surface
 
+/// Joins cells of a slab's projection that touch only at a corner (a 2x2 square holding two
+/// diagonal cells and two empty ones) by filling one of the empty two, the one in the lower
+/// row: the outlines then trace one region where the deposit is connected, not a one-cell
+/// piece beside it. Repeats until no such square is left (a filled cell can make a new one).
+/// `rows`: bit x of row y at rows[y * words + x / 64]; the border cells are empty.
+void join_diagonal_cells(std::vector<std::uint64_t>& rows, int words) {
+  const auto w = static_cast<std::size_t>(words);
+  const std::size_t height = rows.size() / w;
+  // Bit x of the result: bit x + 1 of the row (the neighbour on +x).
+  const auto next = [w](const std::uint64_t* r, std::size_t i) {
+    return (r[i] >> 1) | (i + 1 < w ? r[i + 1] << 63 : 0);
+  };
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (std::size_t y = 0; y + 1 < height; ++y) {
+      std::uint64_t* a = rows.data() + y * w;
+      const std::uint64_t* b = a + w;
+      std::uint64_t carry = 0;  // fills at bit 0 of word i from bit 63 of word i - 1
+      for (std::size_t i = 0; i < w; ++i) {
+        const std::uint64_t an = next(a, i), bn = next(b, i);
+        const std::uint64_t rising = a[i] & bn & ~an & ~b[i];   // (x, y) and (x+1, y+1)
+        const std::uint64_t falling = an & b[i] & ~a[i] & ~bn;  // (x+1, y) and (x, y+1)
+        const std::uint64_t fill = (rising << 1) | carry | falling;
+        carry = rising >> 63;
+        if ((fill & ~a[i]) != 0) {
+          a[i] |= fill;
+          changed = true;
+        }
+      }
+    }
+  }
+}
+
 /// The solid's slabs: one per printed layer (boundaries at the beads' tops, at least two
 /// cells apart), from its lowest to its highest filled cell. Cells above the last layer's
 /// top (a solid top layer's overflow, lifted by the squeeze) are a slab of their own, even
@@ -1084,6 +1117,7 @@ detail::LayerSlabs slabs_of(const Solid& s, const VoxelGrid& grid,
                  static_cast<std::size_t>(bx >> 3)] |= row << ((bx & 7) * 8);
           }
         }
+    join_diagonal_cells(rows, words);
   };
   return in;
 }

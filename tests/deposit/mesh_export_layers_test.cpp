@@ -77,6 +77,23 @@ void expect_layered_and_closed(const DepositMesh& dm, bool vertex_manifold = tru
   EXPECT_GT(dm.volume_mm3, 0.0);
 }
 
+TEST(LayeredMesh, ACellTouchingThePartAtACornerStaysPartOfIt) {
+  // A bead's end can leave a cell that touches the rest of its layer only diagonally. The
+  // deposit is one piece there, so the mesh is one piece too, not a one-cell speck beside it.
+  const auto square = [](int x, int y, int) { return x >= 40 && x < 120 && y >= 40 && y < 120; };
+  for (const bool rising : {true, false}) {
+    Part p = make_part(4, square);
+    // Cells at the square's +x,+y corner (rising diagonal) or at its +x,-y corner (falling).
+    const int y = rising ? 120 : 39;
+    for (int z = kLayer + 1; z < 2 * kLayer - 1; ++z)
+      p.grid.set({120, y, z}, {1, 1, Feature::perimeter});
+    const DepositMesh dm = build(p);
+    expect_layered_and_closed(dm);
+    EXPECT_EQ(dm.components, 1u) << (rising ? "rising" : "falling");
+    EXPECT_NEAR(dm.volume_mm3, dm.filled_volume_mm3, 0.01 * dm.filled_volume_mm3);
+  }
+}
+
 TEST(LayeredMesh, MaterialRaisedAboveTheLastLayerIsItsOwnSlab) {
   // The squeeze can lift a solid top layer's overflow one cell above the layer's top. That
   // cell is a slab of its own: the top cap stays at the last layer's top everywhere else.
