@@ -88,21 +88,30 @@ const ArcBoundaries& arc_boundaries(int n) {
 }
 /// The cell of direction (x, z), x >= 0, on a half circle of n cells from -pi/2 to pi/2
 /// (clamp(int(n (atan2(z, x) + pi / 2) / pi), 0, n - 1)) as the number of boundaries the
-/// direction lies past, when it lies clear of every boundary by far more than the rounding of
-/// either computation (1e-9 of |x| + |z|): then both give the same cell. Else -1 (the caller
-/// uses atan2).
+/// direction lies past (found by bisection: that side changes once along the half circle),
+/// when it lies clear of the cell's own boundaries by far more than the rounding of either
+/// computation (1e-9 of |x| + |z|): then both give the same cell, and every other boundary
+/// lies at least pi / n away. Else -1 (the caller uses atan2).
 int half_circle_cell(int n, double x, double z) {
   if (n > kMaxArcCells) return -1;
   const ArcBoundaries& b = arc_boundaries(n);
-  const double margin = 1e-9 * (std::abs(x) + std::abs(z));
-  int cell = 0;
-  bool clear = true;
-  for (std::size_t j = 1; j < static_cast<std::size_t>(n); ++j) {
-    const double side = b.sin_j[j] * z + b.cos_j[j] * x;  // |(x, z)| sin(angle past boundary j)
-    clear = clear && std::abs(side) > margin;
-    cell += side > 0 ? 1 : 0;
+  // |(x, z)| sin(angle past boundary j)
+  const auto side = [&](int j) {
+    const auto k = static_cast<std::size_t>(j);
+    return b.sin_j[k] * z + b.cos_j[k] * x;
+  };
+  int lo = 0, hi = n - 1;  // the cell is in [lo, hi]
+  while (lo < hi) {
+    const int mid = (lo + hi + 1) / 2;  // past boundary mid: the cell is mid or above
+    if (side(mid) > 0)
+      lo = mid;
+    else
+      hi = mid - 1;
   }
-  return clear ? cell : -1;
+  const double margin = 1e-9 * (std::abs(x) + std::abs(z));
+  if (lo > 0 && !(std::abs(side(lo)) > margin)) return -1;
+  if (lo + 1 < n && !(std::abs(side(lo + 1)) > margin)) return -1;
+  return lo;
 }
 
 /// The stadium section as cells of the outline: the right round side (n_arc cells, from the
