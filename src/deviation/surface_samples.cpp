@@ -66,6 +66,54 @@ struct BeadFrame {
   [[nodiscard]] double reach() const { return half + r; }
 };
 
+/// Half circles of at most this many cells find a direction's cell without atan2.
+constexpr int kMaxArcCells = 32;
+/// The boundaries between the cells of a half circle cut into n equal arcs from -pi/2 to
+/// pi/2: boundary j (0 < j < n) points along (sin(j pi / n), -cos(j pi / n)).
+struct ArcBoundaries {
+  std::array<double, kMaxArcCells> sin_j{}, cos_j{};
+};
+const ArcBoundaries& arc_boundaries(int n) {
+  static const std::array<ArcBoundaries, kMaxArcCells + 1> table = [] {
+    std::array<ArcBoundaries, kMaxArcCells + 1> t{};
+    for (std::size_t m = 1; m <= kMaxArcCells; ++m)
+      for (std::size_t j = 1; j < m; ++j) {
+        const double a = static_cast<double>(j) * kPi / static_cast<double>(m);
+        t[m].sin_j[j] = std::sin(a);
+        t[m].cos_j[j] = std::cos(a);
+      }
+    return t;
+  }();
+  return table[static_cast<std::size_t>(n)];
+}
+/// The cell of direction (x, z), x >= 0, on a half circle of n cells from -pi/2 to pi/2
+/// (clamp(int(n (atan2(z, x) + pi / 2) / pi), 0, n - 1)) as the number of boundaries the
+/// direction lies past (found by bisection: that side changes once along the half circle),
+/// when it lies clear of the cell's own boundaries by far more than the rounding of either
+/// computation (1e-9 of |x| + |z|): then both give the same cell, and every other boundary
+/// lies at least pi / n away. Else -1 (the caller uses atan2).
+int half_circle_cell(int n, double x, double z) {
+  if (n > kMaxArcCells) return -1;
+  const ArcBoundaries& b = arc_boundaries(n);
+  // |(x, z)| sin(angle past boundary j)
+  const auto side = [&](int j) {
+    const auto k = static_cast<std::size_t>(j);
+    return b.sin_j[k] * z + b.cos_j[k] * x;
+  };
+  int lo = 0, hi = n - 1;  // the cell is in [lo, hi]
+  while (lo < hi) {
+    const int mid = (lo + hi + 1) / 2;  // past boundary mid: the cell is mid or above
+    if (side(mid) > 0)
+      lo = mid;
+    else
+      hi = mid - 1;
+  }
+  const double margin = 1e-9 * (std::abs(x) + std::abs(z));
+  if (lo > 0 && !(std::abs(side(lo)) > margin)) return -1;
+  if (lo + 1 < n && !(std::abs(side(lo + 1)) > margin)) return -1;
+  return lo;
+}
+
 /// The stadium section as cells of the outline: the right round side (n_arc cells, from the
 /// bottom up), the top flat (n_flat, right to left), the left round side (top down), the
 /// bottom flat (left to right).
@@ -96,8 +144,13 @@ struct Section {
   /// The cell holding the outline point at offsets (s, z).
   [[nodiscard]] int cell_of(double s, double z) const {
     const auto in = [](double x, int n) { return std::clamp(static_cast<int>(x * n), 0, n - 1); };
-    if (s >= half) return in((std::atan2(z, s - half) + 0.5 * kPi) / kPi, n_arc);
+    if (s >= half) {
+      const int c = half_circle_cell(n_arc, s - half, z);
+      return c >= 0 ? c : in((std::atan2(z, s - half) + 0.5 * kPi) / kPi, n_arc);
+    }
     if (s <= -half) {
+      // From the top down: the cell of the opposite direction on the right side.
+      if (const int c = half_circle_cell(n_arc, -(s + half), -z); c >= 0) return n_arc + n_flat + c;
       double t = std::atan2(z, s + half);
       if (t < 0) t += 2 * kPi;
       return n_arc + n_flat + in((t - 0.5 * kPi) / kPi, n_arc);
@@ -134,8 +187,10 @@ struct CapSection {
   }
   [[nodiscard]] int cell_of(double rho, double z) const {
     const auto in = [](double x, int n) { return std::clamp(static_cast<int>(x * n), 0, n - 1); };
-    if (rho > half || n_flat == 0)
-      return n_flat + in((std::atan2(z, rho - half) + 0.5 * kPi) / kPi, n_arc);
+    if (rho > half || n_flat == 0) {
+      const int c = half_circle_cell(n_arc, rho - half, z);
+      return n_flat + (c >= 0 ? c : in((std::atan2(z, rho - half) + 0.5 * kPi) / kPi, n_arc));
+    }
     return z < 0 ? in(rho / half, n_flat) : n_flat + n_arc + in((half - rho) / half, n_flat);
   }
 };
