@@ -488,10 +488,17 @@ std::size_t BeadSweep::squeeze(const SweptBead& bead, const BeadFrame& f, const 
       hw = std::min(hw, std::max(within->pos, within->neg) + 1.0 + kBoundSlack);
     std::size_t tile = 0;
     for_each_tile(bead, a2, b2, hw, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
-      if (keep) tile_masks_.resize((tile + 1) * nk), tile_known_.resize(tile + 1, 0);
+      const std::size_t t = tile++;
+      if (keep)
+        tile_masks_.resize((t + 1) * nk), tile_known_.resize(t + 1, 0), tile_full_.resize(t + 1, 0);
       if (keep || reuse)
-        ring.cache = tile_masks_.data() + tile * nk, ring.known = &tile_known_[tile];
-      ++tile;
+        ring.cache = tile_masks_.data() + t * nk, ring.known = &tile_known_[t],
+        ring.full = &tile_full_[t];
+      // Nothing goes into a tile where the first pass found no free voxel (nothing was placed
+      // in it since), nor into one wholly beyond the sides' limits.
+      if ((reuse && tile_full_[t] != 0) ||
+          (within != nullptr && !within->open() && within->tile_outside(8 * bx, 8 * by)))
+        return true;
       placed += squeeze_tile(ring, bx, by, t_lo, t_hi, lanes, lost - placed, grid, tag, map);
       return placed < lost;
     });
@@ -506,6 +513,7 @@ std::size_t BeadSweep::squeeze(const SweptBead& bead, const BeadFrame& f, const 
   const bool second = !bead.keeps_sides || sides.open();
   tile_masks_.clear();
   tile_known_.clear();
+  tile_full_.clear();
   if (!sides.open()) pass(reach, delta, &sides, second && same_tiles, false);
   // A bead that keeps its sides goes no further: past an open side lie the grooves between
   // layers.
@@ -565,7 +573,10 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
       zone = dilate_xy(zone, (step & 1) != 0);
     any_free &= zone;
   }
-  if (any_free == 0) return 0;  // no room: the limits and the section test are not needed
+  if (any_free == 0) {  // no room: the limits and the section test are not needed
+    if (ring.full != nullptr) *ring.full = 1;
+    return 0;
+  }
   // The local ring stays between the bead's own end cuts (the next bead's stretch is its own).
   const std::uint64_t cut = ring.grown == nullptr && ring.sides != nullptr
                                 ? ring.sides->cut_mask(8 * bx, 8 * by)
@@ -697,6 +708,18 @@ std::uint64_t band_mask(const Vec2& n, const Vec2& o, double lo, double hi, int 
 
 std::uint64_t BeadSweep::Sides::tile_mask(int i0, int j0) const {
   return band_mask(n, a2, -neg, pos, i0, j0);
+}
+
+bool BeadSweep::Sides::tile_outside(int i0, int j0) const {
+  // The offsets are linear: their extremes over the tile lie at its corner voxel centres.
+  constexpr double kMargin = 1e-6;  // voxels; band_mask's rounding is far below
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (const double x : {i0 + 0.5, i0 + 7.5})
+    for (const double y : {j0 + 0.5, j0 + 7.5}) {
+      const double l = n.dot(Vec2(x, y) - a2);
+      lo = std::min(lo, l), hi = std::max(hi, l);
+    }
+  return lo > pos + kMargin || hi < -neg - kMargin;
 }
 
 std::uint64_t BeadSweep::Sides::cut_mask(int i0, int j0) const {
