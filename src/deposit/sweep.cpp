@@ -678,9 +678,27 @@ void BeadSweep::grown_masks(const Ring& ring, int bx, int by, int row_lo, int ro
 
 namespace {
 
+/// Voxels this far (voxel units) inside or beyond a band's limit are inside or beyond it for
+/// band_mask too: its rounding errors are many orders of magnitude smaller.
+constexpr double kBandMargin = 1e-6;
+
+/// The least and greatest offset n . (q - o) over the voxel centres q of the tile with corner
+/// (i0, j0): the offsets are linear, so they lie at its corner centres.
+void band_range(const Vec2& n, const Vec2& o, int i0, int j0, double& lo, double& hi) {
+  const double l = n.x() * (i0 + 0.5 - o.x()) + n.y() * (j0 + 0.5 - o.y());
+  const double dx = 7.0 * n.x(), dy = 7.0 * n.y();
+  lo = l + std::min(0.0, dx) + std::min(0.0, dy);
+  hi = l + std::max(0.0, dx) + std::max(0.0, dy);
+}
+
 /// The tile's voxels (bit y * 8 + x, tile corner (i0, j0)) whose centre q has lo <= n . (q - o)
 /// <= hi (either limit may be infinite).
 std::uint64_t band_mask(const Vec2& n, const Vec2& o, double lo, double hi, int i0, int j0) {
+  // A tile wholly inside or beyond the limits (by the margin) needs no row walk.
+  double l_min, l_max;
+  band_range(n, o, i0, j0, l_min, l_max);
+  if (l_min > hi + kBandMargin || l_max < lo - kBandMargin) return 0;
+  if (l_min >= lo + kBandMargin && l_max <= hi - kBandMargin) return ~std::uint64_t{0};
   // Offsets l(x, y) = n . (centre - o) are linear: per row, the x between the limits.
   std::uint64_t m = 0;
   const bool flat_x = std::abs(n.x()) < 1e-12;
@@ -711,15 +729,9 @@ std::uint64_t BeadSweep::Sides::tile_mask(int i0, int j0) const {
 }
 
 bool BeadSweep::Sides::tile_outside(int i0, int j0) const {
-  // The offsets are linear: their extremes over the tile lie at its corner voxel centres.
-  constexpr double kMargin = 1e-6;  // voxels; band_mask's rounding is far below
-  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  for (const double x : {i0 + 0.5, i0 + 7.5})
-    for (const double y : {j0 + 0.5, j0 + 7.5}) {
-      const double l = n.dot(Vec2(x, y) - a2);
-      lo = std::min(lo, l), hi = std::max(hi, l);
-    }
-  return lo > pos + kMargin || hi < -neg - kMargin;
+  double lo, hi;
+  band_range(n, a2, i0, j0, lo, hi);
+  return lo > pos + kBandMargin || hi < -neg - kBandMargin;
 }
 
 std::uint64_t BeadSweep::Sides::cut_mask(int i0, int j0) const {
