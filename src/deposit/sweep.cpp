@@ -488,17 +488,10 @@ std::size_t BeadSweep::squeeze(const SweptBead& bead, const BeadFrame& f, const 
       hw = std::min(hw, std::max(within->pos, within->neg) + 1.0 + kBoundSlack);
     std::size_t tile = 0;
     for_each_tile(bead, a2, b2, hw, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
-      const std::size_t t = tile++;
-      if (keep)
-        tile_masks_.resize((t + 1) * nk), tile_known_.resize(t + 1, 0), tile_full_.resize(t + 1, 0);
+      if (keep) tile_masks_.resize((tile + 1) * nk), tile_known_.resize(tile + 1, 0);
       if (keep || reuse)
-        ring.cache = tile_masks_.data() + t * nk, ring.known = &tile_known_[t],
-        ring.full = &tile_full_[t];
-      // Nothing goes into a tile where the first pass found no free voxel (nothing was placed
-      // in it since), nor into one wholly beyond the sides' limits.
-      if ((reuse && tile_full_[t] != 0) ||
-          (within != nullptr && !within->open() && within->tile_outside(8 * bx, 8 * by)))
-        return true;
+        ring.cache = tile_masks_.data() + tile * nk, ring.known = &tile_known_[tile];
+      ++tile;
       placed += squeeze_tile(ring, bx, by, t_lo, t_hi, lanes, lost - placed, grid, tag, map);
       return placed < lost;
     });
@@ -513,7 +506,6 @@ std::size_t BeadSweep::squeeze(const SweptBead& bead, const BeadFrame& f, const 
   const bool second = !bead.keeps_sides || sides.open();
   tile_masks_.clear();
   tile_known_.clear();
-  tile_full_.clear();
   if (!sides.open()) pass(reach, delta, &sides, second && same_tiles, false);
   // A bead that keeps its sides goes no further: past an open side lie the grooves between
   // layers.
@@ -573,10 +565,7 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
       zone = dilate_xy(zone, (step & 1) != 0);
     any_free &= zone;
   }
-  if (any_free == 0) {  // no room: the limits and the section test are not needed
-    if (ring.full != nullptr) *ring.full = 1;
-    return 0;
-  }
+  if (any_free == 0) return 0;  // no room: the limits and the section test are not needed
   // The local ring stays between the bead's own end cuts (the next bead's stretch is its own).
   const std::uint64_t cut = ring.grown == nullptr && ring.sides != nullptr
                                 ? ring.sides->cut_mask(8 * bx, 8 * by)
@@ -678,27 +667,9 @@ void BeadSweep::grown_masks(const Ring& ring, int bx, int by, int row_lo, int ro
 
 namespace {
 
-/// Voxels this far (voxel units) inside or beyond a band's limit are inside or beyond it for
-/// band_mask too: its rounding errors are many orders of magnitude smaller.
-constexpr double kBandMargin = 1e-6;
-
-/// The least and greatest offset n . (q - o) over the voxel centres q of the tile with corner
-/// (i0, j0): the offsets are linear, so they lie at its corner centres.
-void band_range(const Vec2& n, const Vec2& o, int i0, int j0, double& lo, double& hi) {
-  const double l = n.x() * (i0 + 0.5 - o.x()) + n.y() * (j0 + 0.5 - o.y());
-  const double dx = 7.0 * n.x(), dy = 7.0 * n.y();
-  lo = l + std::min(0.0, dx) + std::min(0.0, dy);
-  hi = l + std::max(0.0, dx) + std::max(0.0, dy);
-}
-
 /// The tile's voxels (bit y * 8 + x, tile corner (i0, j0)) whose centre q has lo <= n . (q - o)
 /// <= hi (either limit may be infinite).
 std::uint64_t band_mask(const Vec2& n, const Vec2& o, double lo, double hi, int i0, int j0) {
-  // A tile wholly inside or beyond the limits (by the margin) needs no row walk.
-  double l_min, l_max;
-  band_range(n, o, i0, j0, l_min, l_max);
-  if (l_min > hi + kBandMargin || l_max < lo - kBandMargin) return 0;
-  if (l_min >= lo + kBandMargin && l_max <= hi - kBandMargin) return ~std::uint64_t{0};
   // Offsets l(x, y) = n . (centre - o) are linear: per row, the x between the limits.
   std::uint64_t m = 0;
   const bool flat_x = std::abs(n.x()) < 1e-12;
@@ -726,12 +697,6 @@ std::uint64_t band_mask(const Vec2& n, const Vec2& o, double lo, double hi, int 
 
 std::uint64_t BeadSweep::Sides::tile_mask(int i0, int j0) const {
   return band_mask(n, a2, -neg, pos, i0, j0);
-}
-
-bool BeadSweep::Sides::tile_outside(int i0, int j0) const {
-  double lo, hi;
-  band_range(n, a2, i0, j0, lo, hi);
-  return lo > pos + kBandMargin || hi < -neg - kBandMargin;
 }
 
 std::uint64_t BeadSweep::Sides::cut_mask(int i0, int j0) const {

@@ -183,9 +183,6 @@ class BeadSweep {
     [[nodiscard]] bool open() const { return std::isinf(pos) && std::isinf(neg); }
     /// The tile's voxels (bit y * 8 + x) that lie between the limits.
     [[nodiscard]] std::uint64_t tile_mask(int i0, int j0) const;
-    /// Whether every voxel centre of the tile lies beyond a limit (tile_mask is 0), by
-    /// a margin far beyond rounding: the tile need not be looked at.
-    [[nodiscard]] bool tile_outside(int i0, int j0) const;
     /// The tile's voxels between the bead's start cut (m0 . (q - a2) >= 0) and end cut
     /// (m1 . (q - b2) <= 0): the local ring stays on the bead's own stretch of the path.
     [[nodiscard]] std::uint64_t cut_mask(int i0, int j0) const;
@@ -216,10 +213,6 @@ class BeadSweep {
     /// same tiles and layers (nullptr: none); *known: bit n set when cache[n] is filled in.
     std::uint64_t* cache = nullptr;
     std::uint64_t* known = nullptr;
-    /// Across the same two passes: *full set when the first found no free voxel in the
-    /// tile's rows and lanes on any layer (nothing is placed there, so the second skips it;
-    /// nullptr: not kept).
-    std::uint8_t* full = nullptr;
     /// The bead's lowest voxel layer: below it, only voxels on earlier plastic (or the bed)
     /// take material.
     std::int32_t bottom = 0;
@@ -259,7 +252,6 @@ class BeadSweep {
   std::vector<std::uint64_t> free_;        // scratch: a tile's free voxels per ring layer
   std::vector<std::uint64_t> tile_masks_;  // scratch: grown masks per tile of a first pass
   std::vector<std::uint64_t> tile_known_;  // scratch: which of them are filled in, per tile
-  std::vector<std::uint8_t> tile_full_;    // scratch: per tile of a first pass, no free voxel
   std::vector<std::int32_t> test_layers_;  // scratch: the ring layers a tile test covers
   std::vector<std::int32_t> test_ks_;      // scratch: their voxel layers
   std::vector<std::uint64_t> test_out_;    // scratch: their masks
