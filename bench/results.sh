@@ -34,7 +34,6 @@ raw="${RAW:-${out%.md}.raw}"
 # verdict basis (cpu: user + system of all threads, robust under load; wall: for a path
 # that trades CPU for elapsed time) | what it is. Edit this list only.
 PATHS='
-face_avx2         | bench:deviation_bench:BM_DeviationStage/ | cpu  | AVX2 4-wide face-square distance test (deviation/kernels.cpp)
 bead_avx512       | bench:deposit_bench:BM_DepositOnly/0     | cpu  | AVX-512 bead tile kernel (deposit/kernels.cpp)
 sha_ni            | cli:verify:load                          | wall | SHA extensions for the input hashes (core/kernels.cpp); stage: verify "load"
 check_fans        | bench:check_bench:BM_SelfIntersectionsWithHealth | cpu | face pairs around certified vertex fans not tested (check/self_intersections_cgal.cpp)
@@ -47,7 +46,6 @@ bgcode_libdeflate | bench:bgcode_bench:BM_OpenBinary/0        | cpu  | libdeflat
 bgcode_meatpack   | bench:bgcode_bench:BM_DecodeBinary/0      | cpu  | table-driven MeatPack loop, not the byte-at-a-time state machine (gcode/meatpack.cpp); stage: decoding a .bgcode to text
 closest_hints     | cli:verify:registration                  | wall | ICP closest-point queries bounded from the triangles of the previous step (mesh/mesh_query_embree.cpp, deviation/registration_search.cpp)
 hull_filter       | cli:verify:registration                  | wall | footprint hull drops the points inside the extreme octagon before its sort (deviation/registration.cpp)
-deposit_huge_pages | bench:deposit_bench:BM_DepositOnly/1   | cpu  | sweep block words in 2 MiB arenas and grid block chunks (6 MiB) marked MADV_HUGEPAGE (deposit/sweep.hpp, deposit/voxel_grid.cpp)
 octomap_threads   | bench:octomap_bench:BM_OctomapExport/1   | wall | .ot subtrees encoded on all cores, written in order (deposit/octomap_io.cpp); stage: the .ot export
 huge_pages        | cli:verify                               | wall | blocks of 4 MiB and more from operator new marked MADV_HUGEPAGE (cli/huge_pages.cpp); stage: the whole verify
 '

@@ -131,10 +131,10 @@ constexpr double kFarMm = kDepositFarMm;
 /// points far from the deposit, say a missing wall, skip empty space quickly).
 class FaceSearch {
  public:
-  FaceSearch(const DepositSurface& s, bool portable)
+  explicit FaceSearch(const DepositSurface& s)
       : buckets_(s),
         half_(0.5 * s.voxel_mm),
-        scan_faces_(face_scan_kernel(portable)),
+        scan_faces_(face_scan_kernel()),
         faces_{buckets_.center, buckets_.axis.data(), buckets_.n} {
     groups_ = (buckets_.cells.array() + kGroup - 1) / kGroup;
     group_has_.assign(static_cast<std::size_t>(groups_.x()) * groups_.y() * groups_.z(), 0);
@@ -292,7 +292,7 @@ class FaceSearch {
 
 void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> points,
                                std::vector<double>& signed_mm,
-                               std::vector<std::uint32_t>* nearest_face, bool portable,
+                               std::vector<std::uint32_t>* nearest_face,
                                const DepositQueryGroups* pregrouped) {
   signed_mm.assign(points.size(), 0.0);
   if (nearest_face != nullptr) nearest_face->assign(points.size(), 0);
@@ -302,7 +302,7 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
     std::fill(signed_mm.begin(), signed_mm.end(), -far);
     return;
   }
-  const FaceSearch search(s, portable);
+  const FaceSearch search(s);
   // Queries in cells of the buckets' size, column by column: neighbouring queries read the
   // same cells and filled bits (the input, say mesh samples in triangle order, may jump).
   DepositQueryGroups own;
@@ -336,7 +336,7 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
 void distances_to_deposit(const DepositSurface& surface, std::span<const Vec3> points,
                           std::vector<double>& signed_mm,
                           std::vector<std::uint32_t>* nearest_face) {
-  detail::distances_to_deposit_with(surface, points, signed_mm, nearest_face, false);
+  detail::distances_to_deposit_with(surface, points, signed_mm, nearest_face);
 }
 
 }  // namespace printtwin

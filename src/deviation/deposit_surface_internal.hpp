@@ -15,11 +15,11 @@ struct DepositQueryGroups {
 };
 DepositQueryGroups group_deposit_queries(std::span<const Vec3> points, double voxel_mm);
 
-/// distances_to_deposit with the face tests of the plain kernel (`portable`) or of the one
-/// deviation/kernels.hpp dispatches to (AVX2 when present). Both give the same bits.
+/// distances_to_deposit with the nearest face of each point, from the query groups made
+/// beforehand when given.
 void distances_to_deposit_with(const DepositSurface& surface, std::span<const Vec3> points,
                                std::vector<double>& signed_mm,
-                               std::vector<std::uint32_t>* nearest_face, bool portable,
+                               std::vector<std::uint32_t>* nearest_face,
                                const DepositQueryGroups* pregrouped = nullptr);
 
 /// The surface's faces in groups of neighbours for DeviationTarget::signed_distances: its

@@ -402,8 +402,7 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
         if (bead_index) detail::place_on_beads(surface, beads, *bead_index, v);
       },
       [&] {
-        detail::distances_to_deposit_with(surface, query_points, d_query, &nearest, false,
-                                          &query_groups);
+        detail::distances_to_deposit_with(surface, query_points, d_query, &nearest, &query_groups);
       });
   out.deposit_volume_mm3 = static_cast<double>(surface.occupied_voxels) * v * v * v;
   out.surface_faces = surface.faces.size();

@@ -36,8 +36,7 @@ struct FaceArrays {
 using FaceScan = void (*)(const FaceArrays& faces, std::uint32_t lo, std::uint32_t hi,
                           const Vec3& p, double half, NearestFace& best);
 
-/// The face scan to use: AVX2 (4 faces at a time) when the CPU has it, unless `portable` or
-/// PRINTTWIN_PLAIN names face_avx2; else the plain loop. Both give the same bits.
-FaceScan face_scan_kernel(bool portable);
+/// The face scan to use.
+FaceScan face_scan_kernel();
 
 }  // namespace printtwin::detail

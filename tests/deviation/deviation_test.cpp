@@ -462,7 +462,7 @@ TEST(DeviationSurface, SealingClosesPinholesButNotOpenings) {
 
 TEST(DeviationSurface, DistancesToTheDepositAreTheNearestFaceByBruteForce) {
   // A lumpy deposit (a block with a bump, a notch and a through hole) and points around,
-  // inside and far from it: the bucket search (dispatched and portable face tests) must give
+  // inside and far from it: the bucket search must give
   // the minimum over every face, to the bit, with ties on the lowest face index.
   const Box3 block{Vec3(0, 0, 0), Vec3(1.6, 1.2, 0.8)};
   const Box3 bump{Vec3(0.3, 0.3, 0.8), Vec3(0.7, 0.6, 1.1)};
@@ -482,36 +482,33 @@ TEST(DeviationSurface, DistancesToTheDepositAreTheNearestFaceByBruteForce) {
   points.push_back(s.face_centers_mm[17]);  // on a face (distance 0)
   points.emplace_back(0.4, 0.2, 0.4);       // deep inside
   const double half = 0.025;
-  for (const bool portable : {false, true}) {
-    std::vector<double> d;
-    std::vector<std::uint32_t> nearest;
-    detail::distances_to_deposit_with(s, points, d, &nearest, portable);
-    ASSERT_EQ(d.size(), points.size());
-    for (std::size_t i = 0; i < points.size(); ++i) {
-      const Vec3& p = points[i];
-      double best = std::numeric_limits<double>::infinity();
-      std::uint32_t best_face = 0;
-      for (std::size_t f = 0; f < s.faces.size(); ++f) {
-        const Vec3& c = s.face_centers_mm[f];
-        double d2 = 0;
-        for (int a = 0; a < 3; ++a) {
-          const double e =
-              std::max(0.0, std::abs(p[a] - c[a]) - (a == s.faces[f].axis ? 0.0 : half));
-          d2 += e * e;
-        }
-        if (d2 < best) {
-          best = d2;
-          best_face = static_cast<std::uint32_t>(f);
-        }
+  std::vector<double> d;
+  std::vector<std::uint32_t> nearest;
+  detail::distances_to_deposit_with(s, points, d, &nearest);
+  ASSERT_EQ(d.size(), points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Vec3& p = points[i];
+    double best = std::numeric_limits<double>::infinity();
+    std::uint32_t best_face = 0;
+    for (std::size_t f = 0; f < s.faces.size(); ++f) {
+      const Vec3& c = s.face_centers_mm[f];
+      double d2 = 0;
+      for (int a = 0; a < 3; ++a) {
+        const double e = std::max(0.0, std::abs(p[a] - c[a]) - (a == s.faces[f].axis ? 0.0 : half));
+        d2 += e * e;
       }
-      const double expected = s.filled(p) ? std::sqrt(best) : -std::sqrt(best);
-      EXPECT_EQ(d[i], expected) << "point " << i << " portable " << portable;
-      EXPECT_EQ(nearest[i], best_face) << "point " << i << " portable " << portable;
+      if (d2 < best) {
+        best = d2;
+        best_face = static_cast<std::uint32_t>(f);
+      }
     }
-    EXPECT_GT(d[points.size() - 1], 0.1);  // inside: positive, about 0.2 from the nearest side
-    EXPECT_LT(d[points.size() - 3], -5.0);
-    EXPECT_EQ(d[points.size() - 2], 0.0);
+    const double expected = s.filled(p) ? std::sqrt(best) : -std::sqrt(best);
+    EXPECT_EQ(d[i], expected) << "point " << i;
+    EXPECT_EQ(nearest[i], best_face) << "point " << i;
   }
+  EXPECT_GT(d[points.size() - 1], 0.1);  // inside: positive, about 0.2 from the nearest side
+  EXPECT_LT(d[points.size() - 3], -5.0);
+  EXPECT_EQ(d[points.size() - 2], 0.0);
 }
 
 class DeviationKnownOffset : public ::testing::Test {
