@@ -281,7 +281,7 @@ void BM_DepositOnly(benchmark::State& state) {
   state.counters["voxels"] = static_cast<double>(voxels);
   state.counters["overlap_mm3"] = overlap;
   state.counters["checksum"] = checksum;
-  // Every thread's CPU time (cpu_time is the benchmark thread's alone).
+  // Every thread's CPU time (cpu_time is the benchmark thread's alone, without the writer's).
   state.counters["process_cpu_ms"] = cpu_ms / static_cast<double>(state.iterations());
 }
 BENCHMARK(BM_DepositOnly)

@@ -35,6 +35,7 @@ raw="${RAW:-${out%.md}.raw}"
 # that trades CPU for elapsed time) | what it is. Edit this list only.
 PATHS='
 bead_avx512       | bench:deposit_bench:BM_DepositOnly/0     | cpu  | AVX-512 bead tile kernel (deposit/kernels.cpp)
+deposit_writer    | cli:simulate                             | wall | grid writes on a writer thread behind the sweep, squeeze on (the sweep reads its own copy of the occupancy; deposit/grid_writer.cpp, deposit/sweep.cpp); stage: simulate with --deposit-summary
 sha_ni            | cli:verify:load                          | wall | SHA extensions for the input hashes (core/kernels.cpp); stage: verify "load"
 check_fans        | bench:check_bench:BM_SelfIntersectionsWithHealth | cpu | face pairs around certified vertex fans not tested (check/self_intersections_cgal.cpp)
 check_star        | bench:check_bench:BM_SelfIntersectionsStar | cpu | no pair tested on a surface certified star-shaped about its vertex mean (check/self_intersections_cgal.cpp)

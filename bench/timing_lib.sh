@@ -4,8 +4,10 @@
 # A stage is "bench:<program>:<filter>" (a Google Benchmark of bench/: the median over the
 # repetitions it runs of its real time and of its CPU time, process-wide for the stages
 # that declare MeasureProcessCPUTime), "cli:verify" (the whole `printtwin verify` of the
-# benchmark part from PrusaSlicer's G-code: the process's wall and user + system time) or
-# "cli:verify:<stage>" (that stage's wall time in the report's timings_s, both columns).
+# benchmark part from PrusaSlicer's G-code: the process's wall and user + system time),
+# "cli:verify:<stage>" (that stage's wall time in the report's timings_s, both columns) or
+# "cli:simulate" (`printtwin simulate` of that G-code with --deposit-summary: simulate and
+# deposit alone, the process's wall and user + system time).
 # Timings are in ms, printed as "wall cpu".
 
 # The environment a bench program reads its inputs from (bench part for the stages that
@@ -43,6 +45,13 @@ print("%.3f %.3f" % (med("real_time"), med("cpu_time")) if ok else "nan nan")'
     cli)
       local data="$data_build/benchdata" key="${rest#verify}" tmp
       tmp="$(mktemp -d)"
+      if [ "$rest" = simulate ]; then
+        env -u PRINTTWIN_PLAIN "${envs[@]}" /usr/bin/time -f "%e %U %S" -o "$tmp/t" "$build/src/printtwin" \
+          simulate "$data/bench_model.gcode" --deposit-summary -q > /dev/null 2>&1 || true
+        awk '{printf "%.1f %.1f\n", 1e3 * $1, 1e3 * ($2 + $3)}' "$tmp/t"
+        rm -rf "$tmp"
+        return
+      fi
       env -u PRINTTWIN_PLAIN "${envs[@]}" /usr/bin/time -f "%e %U %S" -o "$tmp/t" "$build/src/printtwin" verify \
         "$data/bench_model.stl" --gcode "$data/bench_model.gcode" --out "$tmp/report" --quiet > /dev/null 2>&1 || true
       if [ -n "$key" ]; then

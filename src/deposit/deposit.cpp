@@ -51,6 +51,8 @@ struct DepositBuilder::State {
   detail::SupportTracker support;
   detail::BeadSweep sweeper;
   detail::DroopProbe droop;  // sag, droop, elephant's foot
+  // The grid's writes: on a writer thread when there is a second core (grid_writer.hpp).
+  std::unique_ptr<detail::GridWriter> writer;
 
   double extruded_mm3 = 0;
   std::size_t beads = 0;
@@ -71,7 +73,21 @@ struct DepositBuilder::State {
             static_cast<std::size_t>(detail::VoxelBlocks::block_dims(grid).y())),
         support(s.support_fraction, s.min_unsupported_mm, s.voxel_mm),
         sweeper(grid, s.exhaustive_tiles),
-        droop(detail::DroopModel::from(p), s.voxel_mm) {}
+        droop(detail::DroopModel::from(p), s.voxel_mm) {
+    // Without a writer thread (one core, PRINTTWIN_PLAIN=deposit_writer) the sweep writes the
+    // grid itself; `at_once` (the tests) sends the writes through the writer on this thread.
+    using Writes = detail::DepositRunSettings::Writes;
+    const bool threaded = s.writes == Writes::thread ||
+                          (s.writes == Writes::automatic && detail::GridWriter::wanted(grid));
+    if (threaded || s.writes == Writes::at_once) {
+      writer = std::make_unique<detail::GridWriter>(grid, threaded);
+      // The squeeze reads the grid: the sweep keeps its own copy of the occupancy.
+      if (s.conserve_volume)
+        sweeper.mirror_writes(writer.get());
+      else
+        sweeper.defer_writes(writer.get());
+    }
+  }
 
   // -- moves -----------------------------------------------------------------------------
   void add(const Move& m) {
@@ -189,6 +205,11 @@ struct DepositBuilder::State {
   DepositResult finish() {
     flush(std::nullopt, true);
     support.close_stretch(false);
+    if (writer) {
+      const detail::GridWriter::Totals t = writer->finish();
+      overlap_voxels += t.overlap;
+      squeezed_voxels += t.squeezed;
+    }
     DepositResult r;
     r.voxel_mm = voxel;
     r.voxels = grid.count();

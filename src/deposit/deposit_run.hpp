@@ -14,6 +14,12 @@ struct DepositRunSettings : DepositSettings {
   /// Test every voxel of each bead's bounding box instead of the footprint's tiles (slow;
   /// the tests use it to check that the footprint bounds never miss a voxel).
   bool exhaustive_tiles = false;
+  /// How the grid's writes are made: `automatic` (a writer thread when GridWriter::wanted(),
+  /// else direct), `direct` (by the sweep into the grid), `at_once` (through the GridWriter on
+  /// the sweep's thread) or `thread` (on a writer thread). All give the same grid; the tests
+  /// compare them.
+  enum class Writes { automatic, direct, at_once, thread };
+  Writes writes = Writes::automatic;
 };
 
 /// deposit_moves with the run switches.

@@ -54,6 +54,24 @@ int HeightMap::rows_reaching(double z_mm) const {
   return std::max(r, 0);
 }
 
+std::uint64_t HeightMap::tops_equal(std::size_t at, std::uint16_t rows) const {
+  const std::uint16_t* tile = top_.data() + at;
+  std::uint64_t m = 0;
+#if defined(__SSE2__)
+  const __m128i value = _mm_set1_epi16(static_cast<short>(rows));
+  for (int y = 0; y < 8; ++y) {
+    const __m128i eq =
+        _mm_cmpeq_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(tile + 8 * y)), value);
+    const auto bits = static_cast<unsigned>(_mm_movemask_epi8(_mm_packs_epi16(eq, eq))) & 0xFFu;
+    m |= static_cast<std::uint64_t>(bits) << (8 * y);
+  }
+#else
+  for (int s = 0; s < 64; ++s)
+    if (tile[s] == rows) m |= std::uint64_t{1} << s;
+#endif
+  return m;
+}
+
 void HeightMap::set_columns(std::uint16_t* rows, std::uint64_t mask, std::uint16_t value) {
 #if defined(__SSE2__)
   const __m128i bit = _mm_setr_epi16(1, 2, 4, 8, 16, 32, 64, 128);

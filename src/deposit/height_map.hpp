@@ -4,7 +4,8 @@
 // column held before that layer first reached its top (what the earlier layers left, which
 // the droop model reads under this layer's beads), and whether that top voxel is support
 // (the droop model rests beads on support tops across the support's Z gap). The bead model
-// reads it for each bead's height and support; the sweep raises it as it lays the bead.
+// reads it for each bead's height and support; the sweep raises it as it lays the bead. It
+// never reads the grid, whose writes may still be under way on the writer thread.
 //
 // Stored in 8 x 8 tiles in the blocks' order (HeightMapView::index), so a tile of the sweep
 // and the samples across a bead touch a cache line or two instead of one page per row.
@@ -82,6 +83,12 @@ class HeightMap {
   }
   /// Sets rows[s] = value for the bits s of `mask` (the per-column rows of raise_tile_columns).
   static void set_columns(std::uint16_t* rows, std::uint64_t mask, std::uint16_t value);
+
+  /// The columns (bit y * 8 + x) of the tile whose first column has index `at` that hold
+  /// exactly `rows` rows. The top voxel of a column is always occupied (every write raises
+  /// the map), so these are the columns whose voxel in row rows - 1 is occupied and is their
+  /// top.
+  [[nodiscard]] std::uint64_t tops_equal(std::size_t at, std::uint16_t rows) const;
 
   /// Bytes per column of the map (for the memory estimate).
   static constexpr std::size_t kColumnBytes = 2 * sizeof(std::uint16_t) + sizeof(std::int32_t);

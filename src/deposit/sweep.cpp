@@ -135,12 +135,19 @@ BeadSweep::BeadSweep(const VoxelGrid& grid, bool exhaustive)
       words_(block_dims_) {}
 
 const std::uint64_t* BeadSweep::occupancy(const VoxelGrid& grid, int bx, int by, int bz) const {
+  if (mirror_to_ != nullptr) return words_.find(bx, by, bz);
   return detail::VoxelBlocks::block_occupancy(grid, bx, by, bz);
 }
 
 std::uint64_t BeadSweep::write_slice(VoxelGrid& grid, int bx, int by, int k, std::uint64_t mask,
                                      std::uint32_t tag) {
-  return detail::VoxelBlocks::write_tile_before(grid, bx, by, k, mask, tag);
+  if (mirror_to_ == nullptr)
+    return detail::VoxelBlocks::write_tile_before(grid, bx, by, k, mask, tag);
+  std::uint64_t& word = words_.make(bx, by, k >> 3)[k & 7];
+  const std::uint64_t before = word;
+  word |= mask;
+  mirror_to_->put(bx, by, k, mask, tag);
+  return before;
 }
 
 bool BeadSweep::set_up(const SweptBead& bead, BeadFrame& f, Vec2& a2, Vec2& b2, double& hw) {
@@ -319,6 +326,7 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
   // plastic (the corner's inner overlap), which the squeeze then no longer places. (A join
   // larger than the bead's overlap, after a very short bead, adds the difference.)
   std::size_t credit = 0;
+  joined_ = false;
   if (bead.join_w_mm > 0)
     credit =
         lay_disc(Disc{bead.a_mm, bead.join_h_mm, bead.join_w_mm, bead.join_d, bead.d, bead.layer},
@@ -352,15 +360,19 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
       if (squeezing) hits[layer_at] = 0;
       if (mask == 0) continue;
       const int k = reached_[layer_at];
-      const std::uint64_t hit = mask & write_slice(grid, bx, by, k, mask, tag);
-      tile_overlap += static_cast<std::size_t>(popcount64(hit));
-      if (squeezing) hits[layer_at] = hit;
-      if (squeezing && hit != 0) {
-        if (std::uint64_t* w = words_.find(bx, by, k >> 3); w != nullptr) {
-          std::uint64_t& sq = w[k & 7];
-          const std::uint64_t again = hit & sq;
-          tile_rehit += static_cast<std::size_t>(popcount64(again));
-          sq &= ~again;  // now the bead's own material
+      if (writer_ != nullptr) {
+        writer_->bead(bx, by, k, mask, tag);  // without the squeeze: the writer counts
+      } else {
+        const std::uint64_t hit = mask & write_slice(grid, bx, by, k, mask, tag);
+        tile_overlap += static_cast<std::size_t>(popcount64(hit));
+        if (squeezing) hits[layer_at] = hit;
+        if (squeezing && hit != 0) {
+          if (std::uint64_t* w = words_.find(bx, by, k >> 3); w != nullptr) {
+            std::uint64_t& sq = w[BlockWords::kSqueezed + (k & 7)];
+            const std::uint64_t again = hit & sq;
+            tile_rehit += static_cast<std::size_t>(popcount64(again));
+            sq &= ~again;  // now the bead's own material
+          }
         }
       }
       if ((mask & ~raised) != 0)
@@ -368,6 +380,7 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
       raised |= mask;
     }
     if (raised != 0) map.raise_tile_columns(at, raised, rows.data(), bead.layer);
+    if (joined_) writer_->end_tile();  // the writer counts the overlap and the join's credit
     laid.overlap += tile_overlap;
     rehit += tile_rehit;
     const std::size_t used = std::min(credit, tile_overlap);
@@ -382,6 +395,7 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
     laid.squeezed += placed;
     carry = carry + tile_overlap - placed;
   });
+  if (joined_) writer_->end_piece();
   if (carry > 0) laid.squeezed += squeeze(bead, f, a2, b2, sides, carry, grid, tag, map);
   // Squeezed material the bead fell on was counted as overlap by the bead that squeezed it;
   // placed again, it is neither overlap nor squeezed a second time (what finds no room stays
@@ -444,15 +458,28 @@ std::size_t BeadSweep::lay_disc(const Disc& disc, VoxelGrid& grid, std::uint32_t
       for (int k = k_hi; k >= k_lo; --k) {
         std::uint64_t mask = test_tile_disc(g, 8 * bx, 8 * by, k, row_lo, row_hi, lanes);
         if (mask == 0) continue;
-        if (overlap == nullptr) {  // a join: only the free voxels
-          const std::uint64_t* occ = occupancy(grid, bx, by, k >> 3);
-          mask &= ~(occ != nullptr ? occ[k & 7] : 0);
-          if (mask == 0) continue;
+        if (writer_ != nullptr) {
+          // The writer writes and counts. A join fills only the free voxels: of the occupied
+          // ones, those that are their column's top would hand the top to this layer; the
+          // others lie below a higher top and raise nothing.
+          if (overlap != nullptr) {
+            writer_->cap(bx, by, k, mask, tag);
+          } else {
+            writer_->join(bx, by, k, mask, tag);
+            joined_ = true;
+            mask &= ~map.tops_equal(at, static_cast<std::uint16_t>(k + 1));
+          }
+        } else {
+          if (overlap == nullptr) {  // a join: only the free voxels
+            const std::uint64_t* occ = occupancy(grid, bx, by, k >> 3);
+            mask &= ~(occ != nullptr ? occ[k & 7] : 0);
+            if (mask == 0) continue;
+          }
+          const auto fresh =
+              static_cast<std::size_t>(popcount64(mask & ~write_slice(grid, bx, by, k, mask, tag)));
+          filled += fresh;
+          if (overlap != nullptr) *overlap += static_cast<std::size_t>(popcount64(mask)) - fresh;
         }
-        const auto fresh =
-            static_cast<std::size_t>(popcount64(mask & ~write_slice(grid, bx, by, k, mask, tag)));
-        filled += fresh;
-        if (overlap != nullptr) *overlap += static_cast<std::size_t>(popcount64(mask)) - fresh;
         if ((mask & ~raised) != 0)
           map.raise_tile(at, mask & ~raised, static_cast<std::uint16_t>(k + 1), disc.layer);
         raised |= mask;
@@ -606,7 +633,7 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
       if ((put_[n] & ~raised) != 0)
         map.raise_tile(at, put_[n] & ~raised, static_cast<std::uint16_t>(k + 1), ring.bead_layer);
       raised |= put_[n];
-      words_.make(bx, by, k >> 3)[k & 7] |= put_[n];
+      words_.make(bx, by, k >> 3)[BlockWords::kSqueezed + (k & 7)] |= put_[n];
     }
     return placed;
   };

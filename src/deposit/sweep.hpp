@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/zeroed_array.hpp"
+#include "deposit/grid_writer.hpp"
 #include "deposit/height_map.hpp"
 #include "deposit/kernels.hpp"
 #include "deposit/voxel_blocks.hpp"
@@ -22,9 +23,10 @@
 
 namespace printtwin::detail {
 
-/// Eight 64-bit words per 8 x 8 x 8 block of a grid: the voxels holding squeezed material
-/// (one word per z-slice, bit y * 8 + x, as the grid's occupancy). A block's words are
-/// allocated (zero) on their first write and never move.
+/// Sixteen 64-bit words per 8 x 8 x 8 block of a grid: the occupancy as the sweep wrote it
+/// (words 0-7, one per z-slice, bit y * 8 + x, as the grid's), then the voxels holding
+/// squeezed material (words 8-15). A block's words are allocated (zero) on their first write
+/// and never move.
 ///
 /// The directory has two levels, so that its memory grows with the blocks written, not with
 /// the extent: a coarse directory (4 bytes per 8 x 8 blocks of a z-slab of blocks) points to
@@ -34,7 +36,8 @@ namespace printtwin::detail {
 /// page touched.
 class BlockWords {
  public:
-  static constexpr int kWords = 8;  ///< words per block
+  static constexpr int kWords = 16;    ///< words per block
+  static constexpr int kSqueezed = 8;  ///< the first word of the squeezed voxels
   explicit BlockWords(const Eigen::Vector3i& block_dims);
   /// The words of block (bx, by, bz); nullptr when it has none or lies outside the grid.
   [[nodiscard]] const std::uint64_t* find(int bx, int by, int bz) const {
@@ -145,6 +148,13 @@ class BeadSweep {
   };
   /// Lays `bead` into `grid` with tag `tag` and raises the height map under it.
   Laid lay(const SweptBead& bead, VoxelGrid& grid, std::uint32_t tag, HeightMap& map);
+  /// Sends the grid's writes to `writer` (nullptr: writes them at once), which then counts
+  /// the overlap (lay returns zeros). Only for beads without a squeeze, which reads the grid.
+  void defer_writes(GridWriter* writer) { writer_ = writer; }
+  /// With the squeeze: sends the grid's writes to `writer`, which only writes them, and keeps
+  /// a copy of the grid's occupancy that the sweep reads instead of the grid's, so that the
+  /// writes may run on a writer thread behind the sweep (the counts stay the sweep's).
+  void mirror_writes(GridWriter* writer) { mirror_to_ = writer; }
 
  private:
   /// The frame of the sample-point tests, and the layers the section reaches (reached_) with
@@ -227,13 +237,17 @@ class BeadSweep {
   std::size_t squeeze_tile(const Ring& ring, int bx, int by, int row_lo, int row_hi, unsigned lanes,
                            std::size_t need, VoxelGrid& grid, std::uint32_t tag, HeightMap& map);
 
-  /// The grid's occupancy words of block (bx, by, bz); nullptr when the block holds nothing.
+  /// The occupancy words of block (bx, by, bz) as the sweep has written them (the grid's, or
+  /// its copy with mirror_writes); nullptr when the block holds nothing.
   [[nodiscard]] const std::uint64_t* occupancy(const VoxelGrid& grid, int bx, int by, int bz) const;
-  /// Writes `mask` into z-slice k of block (bx, by) of the grid with tag `tag`; returns the
-  /// slice's occupancy before.
+  /// Writes `mask` into z-slice k of block (bx, by) with tag `tag` (into the grid, or into the
+  /// copy and to the writer with mirror_writes); returns the slice's occupancy before.
   std::uint64_t write_slice(VoxelGrid& grid, int bx, int by, int k, std::uint64_t mask,
                             std::uint32_t tag);
 
+  GridWriter* writer_ = nullptr;     // where the writes go (nullptr: into the grid at once)
+  GridWriter* mirror_to_ = nullptr;  // with the squeeze: where the writes go (nullptr: the grid)
+  bool joined_ = false;              // the bead laid last had a round join with writes
   Vec3 origin_;
   double inv_voxel_;
   int nx_, ny_, nz_;
@@ -254,9 +268,9 @@ class BeadSweep {
   std::vector<std::int32_t> test_layers_;  // scratch: the ring layers a tile test covers
   std::vector<std::int32_t> test_ks_;      // scratch: their voxel layers
   std::vector<std::uint64_t> test_out_;    // scratch: their masks
-  // Per block, the voxels that hold squeezed material: a later bead that falls on them
-  // displaces that material again as its own overflow, but it is not counted as overlap a
-  // second time.
+  // Per written block: with mirror_writes, the grid's occupancy as the sweep wrote it; and
+  // the voxels that hold squeezed material: a later bead that falls on them displaces that
+  // material again as its own overflow, but it is not counted as overlap a second time.
   BlockWords words_;
 };
 

@@ -199,7 +199,7 @@ TEST(HeightMap, KeepsTheRowsBeforeTheTopLayer) {
 
 // One call with rows per column (the sweep's, per tile) leaves the map as the calls per voxel
 // layer did (top layer first, each column raised by its highest voxel), on random layers of
-// random columns over a map that already holds other layers.
+// random columns over a map that already holds other layers; tops_equal finds the tops.
 TEST(HeightMap, ColumnsOfATileInOneCallAsLayerByLayer) {
   std::mt19937_64 rng(5);
   HeightMap by_layer(0.05, Vec3::Zero(), 8, 8, 1, 1), at_once(0.05, Vec3::Zero(), 8, 8, 1, 1);
@@ -225,6 +225,12 @@ TEST(HeightMap, ColumnsOfATileInOneCallAsLayerByLayer) {
       ASSERT_EQ(by_layer.top_is_support(x, y), at_once.top_is_support(x, y));
       ASSERT_EQ(by_layer.rows_before_top_layer(x, y), at_once.rows_before_top_layer(x, y));
     }
+    const auto r = static_cast<std::uint16_t>(top);
+    std::uint64_t eq = 0;
+    for (int s = 0; s < 64; ++s)
+      if (by_layer.rows(0.05 * (s % 8) + 0.01, 0.05 * (s / 8) + 0.01) == r)
+        eq |= std::uint64_t{1} << s;
+    ASSERT_EQ(at_once.tops_equal(tile, r), eq);
   }
 }
 

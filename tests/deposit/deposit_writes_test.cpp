@@ -1,10 +1,11 @@
-// The same moves give the same deposit run after run: every voxel and its tag, the counts and
-// the findings, on a part built in code (squeeze on and off, and through the streamed
-// builder) and on the real slicers' files (when ../shared/realworld is there).
+// The grid's writes on a writer thread (deposit/grid_writer.hpp) give the same deposit as the
+// sweep writing them itself: every voxel and its tag, the counts and the findings, on parts
+// built in code and on the real slicers' files (when ../shared/realworld is there).
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <numbers>
 #include <string>
@@ -22,6 +23,7 @@ namespace printtwin {
 namespace {
 
 using test::BeadWriter;
+using Writes = detail::DepositRunSettings::Writes;
 
 using Voxel =
     std::tuple<std::int32_t, std::int32_t, std::int32_t, std::uint32_t, std::int32_t, Feature>;
@@ -35,10 +37,11 @@ std::vector<Voxel> voxels_of(const VoxelGrid& g) {
   return out;
 }
 
-DepositResult deposit_with(std::span<const Move> moves, const PrinterProfile& profile, bool squeeze,
-                           double voxel_mm = 0.05) {
+DepositResult deposit_with(std::span<const Move> moves, const PrinterProfile& profile,
+                           Writes writes, bool squeeze, double voxel_mm = 0.05) {
   detail::DepositRunSettings s;
   s.voxel_mm = voxel_mm;
+  s.writes = writes;
   s.conserve_volume = squeeze;
   auto r = detail::DepositRun::moves(moves, profile, s);
   EXPECT_TRUE(r.ok()) << r.error().describe();
@@ -119,40 +122,44 @@ std::vector<Move> benchmark_like_part(const PrinterProfile& profile) {
   return std::move(w.moves);
 }
 
-TEST(DepositRepeat, SameMovesLayTheSameVoxelsAndTags) {
+// Without the squeeze the writer counts the overlap; with it the sweep reads its own copy of
+// the occupancy (BeadSweep::mirror_writes).
+TEST(DepositWrites, WriterThreadLaysTheSameVoxelsAndTags) {
   const auto profile = ender3_marlin2();
   const auto moves = benchmark_like_part(profile);
   for (const bool squeeze : {false, true}) {
     SCOPED_TRACE(squeeze ? "squeeze" : "no squeeze");
-    const DepositResult first = deposit_with(moves, profile, squeeze);
-    EXPECT_GT(first.voxels, 100000u);
-    EXPECT_GT(first.overlap_mm3, 0.0);
-    EXPECT_GT(first.squeezed_mm3, 0.0);  // round joins (and the squeeze) took the overlap
-    EXPECT_FALSE(first.unsupported.empty());
-    expect_same(first, deposit_with(moves, profile, squeeze), "again");
+    const DepositResult direct = deposit_with(moves, profile, Writes::direct, squeeze);
+    EXPECT_GT(direct.voxels, 100000u);
+    EXPECT_GT(direct.overlap_mm3, 0.0);
+    EXPECT_GT(direct.squeezed_mm3, 0.0);  // round joins (and the squeeze) took the overlap
+    EXPECT_FALSE(direct.unsupported.empty());
+    expect_same(direct, deposit_with(moves, profile, Writes::at_once, squeeze), "at once");
+    expect_same(direct, deposit_with(moves, profile, Writes::thread, squeeze), "thread");
+    expect_same(direct, deposit_with(moves, profile, Writes::automatic, squeeze), "automatic");
   }
 }
 
-/// The streamed builder's deposit.
-DepositResult streamed(std::span<const Move> moves, const PrinterProfile& profile) {
+/// The streamed builder's deposit, with the writes on a writer thread or not.
+DepositResult streamed(std::span<const Move> moves, const PrinterProfile& profile, bool thread) {
   Box3 extent;
   for (const auto& m : moves) extent.extend(m.start_mm), extent.extend(m.end_mm);
+  if (!thread) setenv("PRINTTWIN_PLAIN", "deposit_writer", 1);
   auto builder = DepositBuilder::create(extent, profile, DepositSettings{}, 100.0);
+  if (!thread) unsetenv("PRINTTWIN_PLAIN");
   EXPECT_TRUE(builder.ok());
   if (!builder.ok()) return {};
   for (const auto& m : moves) builder->add(m);
   return builder->finish();
 }
 
-TEST(DepositRepeat, StreamedBuilderLaysTheSameVoxelsAndTags) {
+TEST(DepositWrites, StreamedBuilderWithWriterThreadMatches) {
   const auto profile = ender3_marlin2();
   const auto moves = benchmark_like_part(profile);
-  const DepositResult first = streamed(moves, profile);
-  EXPECT_GT(first.voxels, 100000u);
-  expect_same(first, streamed(moves, profile), "streamed");
+  expect_same(streamed(moves, profile, false), streamed(moves, profile, true), "streamed");
 }
 
-TEST(DepositRepeat, RealSlicerFilesGiveTheSameDeposit) {
+TEST(DepositWrites, RealSlicerFilesGiveTheSameDeposit) {
   const auto dir = test::realworld_dir();
   if (!dir) GTEST_SKIP() << "no realworld folder";
   const auto profile = ender3_marlin2();
@@ -161,10 +168,10 @@ TEST(DepositRepeat, RealSlicerFilesGiveTheSameDeposit) {
     if (entry.path().extension() != ".gcode") continue;
     auto moves = interpret_gcode_file(entry.path(), profile, SimulateOptions{});
     if (!moves.ok() || moves->empty()) continue;  // the interpreter's tests cover its errors
-    // A coarser voxel keeps the test short.
+    // A coarser voxel keeps the test short; the writes follow the same paths.
     for (const bool squeeze : {false, true}) {
-      const DepositResult first = deposit_with(*moves, profile, squeeze, 0.2);
-      expect_same(first, deposit_with(*moves, profile, squeeze, 0.2),
+      const DepositResult direct = deposit_with(*moves, profile, Writes::direct, squeeze, 0.2);
+      expect_same(direct, deposit_with(*moves, profile, Writes::thread, squeeze, 0.2),
                   entry.path().filename().string() + (squeeze ? " squeeze" : ""));
     }
     ++tested;
