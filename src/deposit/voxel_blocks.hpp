@@ -74,6 +74,11 @@ struct VoxelBlocks {
   /// write_tile returning the z-slice's occupancy word before the write.
   static std::uint64_t write_tile_before(VoxelGrid& grid, int bx, int by, std::int32_t z,
                                          std::uint64_t mask, std::uint32_t tag_index);
+  /// Asks the kernel to back the whole 2 MiB pages of [p, p + bytes), memory that is filled
+  /// densely from its start, with transparent huge pages (one page fault instead of 512);
+  /// a special path (core/plain_path.hpp): PRINTTWIN_PLAIN=deposit_huge_pages leaves 4 KiB
+  /// pages. Nothing changes where the kernel has no transparent huge pages.
+  static void advise_huge_pages(void* p, std::size_t bytes);
   /// Pre-allocates room for `blocks` blocks (no effect on count()).
   static void reserve_blocks(VoxelGrid& grid, std::size_t blocks);
 

@@ -8,7 +8,8 @@
 // needs more becomes wide: a 32-bit tag index per voxel, kept beside the chunks. Blocks live in
 // fixed-size chunks, so growing never moves or copies them. A chunk is one anonymous mapping:
 // the kernel hands its pages out zeroed, so reserving chunks costs no time and no resident
-// memory; pages fault in as blocks are written.
+// memory; pages fault in as blocks are written (from the second chunk on as transparent huge
+// pages where the kernel has them: VoxelBlocks::advise_huge_pages).
 #include "printtwin/voxel_grid.hpp"
 
 #include <algorithm>
@@ -19,7 +20,12 @@
 #include <cstring>
 #include <new>
 
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
+
 #include "core/bits.hpp"
+#include "core/plain_path.hpp"
 #include "core/zeroed_array.hpp"
 #include "deposit/nibbles.hpp"
 #include "deposit/voxel_blocks.hpp"
@@ -70,7 +76,10 @@ constexpr std::uint8_t kWide = 0xFF;  // palette length of a wide block
 /// Zero-filled memory for one chunk (ZeroedArray: an anonymous mapping on Linux).
 class ChunkMemory {
  public:
-  ChunkMemory() : memory_(kChunkBytes) {}
+  /// `huge`: backed by transparent huge pages (VoxelBlocks::advise_huge_pages).
+  explicit ChunkMemory(bool huge) : memory_(kChunkBytes) {
+    if (huge) VoxelBlocks::advise_huge_pages(memory_.data(), kChunkBytes);
+  }
   [[nodiscard]] std::uint64_t* occupancy() {
     return reinterpret_cast<std::uint64_t*>(memory_.data());
   }
@@ -119,7 +128,7 @@ struct VoxelGrid::Impl {
     return palette_size[b] == kWide ? wide[palette(b)[0]].get() : nullptr;
   }
   // The first chunk keeps 4 KiB pages: a small grid stays small.
-  void add_chunk() { chunks.push_back(std::make_unique<ChunkMemory>()); }
+  void add_chunk() { chunks.push_back(std::make_unique<ChunkMemory>(!chunks.empty())); }
   std::size_t allocate_block(std::size_t di, int bx, int by, int bz) {
     if (blocks == chunks.size() * kChunkBlocks) add_chunk();
     const std::size_t b = blocks++;
@@ -391,6 +400,19 @@ void VoxelGrid::clear(const VoxelKey& k) {
 }
 
 std::size_t VoxelGrid::count() const { return impl_->occupied; }
+
+void VoxelBlocks::advise_huge_pages([[maybe_unused]] void* p, [[maybe_unused]] std::size_t bytes) {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  static const bool plain = plain_path("deposit_huge_pages");
+  if (plain) return;
+  constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
+  const auto begin = reinterpret_cast<std::uintptr_t>(p);
+  const std::uintptr_t lo = (begin + kHuge - 1) & ~(kHuge - 1);
+  const std::uintptr_t hi = (begin + bytes) & ~(kHuge - 1);
+  // NOLINTNEXTLINE(performance-no-int-to-ptr): the page range of a mapping we own
+  if (hi > lo) madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_HUGEPAGE);
+#endif
+}
 
 void VoxelBlocks::reserve_blocks(VoxelGrid& grid, std::size_t blocks) {
   while (grid.impl_->chunks.size() * kChunkBlocks < blocks) grid.impl_->add_chunk();
