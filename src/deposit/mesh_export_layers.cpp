@@ -1277,14 +1277,25 @@ LayerSurface build_layer_surface(const LayerSlabs& in, const LayerSurfaceOptions
                        s > 0 ? slabs[s - 1].outlines.size() : 0};
     side(si, steps, mesh.vertices_mm, sides[s], side_seeds[s]);
   });
-  for (std::size_t b = 0; b <= ns; ++b) {
-    for (const auto& t : caps[b].tris)
-      mesh.triangles.push_back({cap_base[b] + t[0], cap_base[b] + t[1], cap_base[b] + t[2]});
-    out.cap_triangles += caps[b].tris.size();
-  }
+  // Triangles: each boundary's cap, then each slab's side, copied in parallel to their
+  // places in one array of the final size.
+  std::vector<std::size_t> tri_base(2 * ns + 2, 0);
+  for (std::size_t b = 0; b <= ns; ++b) tri_base[b + 1] = tri_base[b] + caps[b].tris.size();
+  for (std::size_t s = 0; s < ns; ++s)
+    tri_base[ns + 2 + s] = tri_base[ns + 1 + s] + sides[s].size();
+  out.cap_triangles = tri_base[ns + 1];
+  mesh.triangles.resize(tri_base[2 * ns + 1]);
+  tbb::parallel_for(std::size_t{0}, 2 * ns + 1, [&](std::size_t i) {
+    auto* at = mesh.triangles.data() + tri_base[i];
+    if (i <= ns) {
+      for (const auto& t : caps[i].tris)
+        *at++ = {cap_base[i] + t[0], cap_base[i] + t[1], cap_base[i] + t[2]};
+    } else {
+      std::copy(sides[i - ns - 1].begin(), sides[i - ns - 1].end(), at);
+    }
+  });
   for (std::size_t s = 0; s < ns; ++s) {
-    const auto first = static_cast<std::uint32_t>(mesh.triangles.size());
-    mesh.triangles.insert(mesh.triangles.end(), sides[s].begin(), sides[s].end());
+    const auto first = static_cast<std::uint32_t>(tri_base[ns + 1 + s]);
     for (std::size_t l = 0; l < slabs[s].outlines.size(); ++l)
       out.seeds.push_back({slabs[s].outlines[l].seed_x, slabs[s].outlines[l].seed_y,
                            static_cast<int>(s), first + side_seeds[s][l]});
