@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <string>
@@ -136,6 +137,41 @@ void BM_Load(benchmark::State& state) {
   std::filesystem::remove(path);
 }
 BENCHMARK(BM_Load)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
+
+/// Loading an ASCII STL: $PRINTTWIN_BENCH_MESH (bench/make_bench_data.sh's bench_model.stl,
+/// as OpenSCAD writes it), else the benchmark mesh written as ASCII here (%.9g coordinates).
+void BM_LoadAscii(benchmark::State& state) {
+  const char* given = std::getenv("PRINTTWIN_BENCH_MESH");
+  auto path = std::filesystem::temp_directory_path() / "printtwin_check_bench_ascii.stl";
+  const bool own = given == nullptr || *given == '\0';
+  if (own) {
+    std::FILE* f = std::fopen(path.c_str(), "w");
+    if (f == nullptr) {
+      state.SkipWithError("cannot write the STL");
+      return;
+    }
+    const Mesh& m = bench_mesh();
+    std::fprintf(f, "solid bench\n");
+    for (const auto& t : m.triangles) {
+      std::fprintf(f, "facet normal 0 0 0\nouter loop\n");
+      for (auto v : t)
+        std::fprintf(f, "vertex %.9g %.9g %.9g\n", m.vertices_mm[v].x(), m.vertices_mm[v].y(),
+                     m.vertices_mm[v].z());
+      std::fprintf(f, "endloop\nendfacet\n");
+    }
+    std::fprintf(f, "endsolid bench\n");
+    std::fclose(f);
+  } else {
+    path = given;
+  }
+  for (auto _ : state) {
+    auto m = load_mesh(path);
+    if (!m.ok()) state.SkipWithError("load failed");
+    benchmark::DoNotOptimize(m);
+  }
+  if (own) std::filesystem::remove(path);
+}
+BENCHMARK(BM_LoadAscii)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
 
 }  // namespace
 

@@ -6,14 +6,16 @@
 // assimp is forgiving to a fault: it reads an ASCII STL full of garbage as "some triangles",
 // and a binary STL whose header promises more triangles than the file holds as a shorter
 // mesh. STL input is therefore validated here first (size against the header count, ASCII
-// grammar with line numbers, finite coordinates) and only then handed to assimp.
+// grammar with line numbers, finite coordinates) and then read here, straight from the bytes
+// (binary) or the tokens the grammar check parsed (ASCII); PRINTTWIN_PLAIN=stl_direct hands
+// the validated file to assimp instead.
 //
 // Speed (a 37 MB ASCII STL of 200k triangles is the benchmark): the bytes are read once
 // (load_mesh_from_memory takes them from the caller, who also hashes them), the ASCII
 // grammar check scans tokens with a table instead of the C locale, decimal numbers are
-// checked by their grammar (from_chars only for the unusual ones), assimp reads STL without
-// post-processing (STL holds only triangles under one identity node), and the weld is one
-// pass with an open-addressing table straight from assimp's vertices.
+// checked by their grammar (from_chars only for the unusual ones) and read as floats in the
+// same pass, and the weld is one pass with an open-addressing table. Other formats' welds
+// take assimp's vertices the same way.
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <assimp/Importer.hpp>
@@ -155,6 +157,20 @@ bool is_plain_finite_decimal(std::string_view tok) {
          (negative_exp || int_digits + exp_value <= 30);
 }
 
+/// A vertex coordinate token already checked as a number: the float STL stores, correctly
+/// rounded (from_chars; a leading '+' skipped).
+float stl_float(std::string_view tok) {
+  const char* first = tok.data();
+  if (!tok.empty() && *first == '+') ++first;
+  float out = 0;
+  if (std::from_chars(first, tok.data() + tok.size(), out).ec == std::errc()) return out;
+  // Beyond float's range at the edges (under its smallest normal, or rounding up to its
+  // largest): through double, as the grammar check read it.
+  double wide = 0;
+  std::from_chars(first, tok.data() + tok.size(), wide);
+  return static_cast<float>(wide);
+}
+
 /// A token as it may be shown in a message: at most 40 bytes, control bytes (a NUL in a
 /// damaged file) as '?'.
 std::string shown(std::string_view tok) {
@@ -165,9 +181,12 @@ std::string shown(std::string_view tok) {
   return out;
 }
 
-/// Checks the ASCII STL grammar: solid, { facet normal n n n, outer loop, 3 x vertex x y z,
-/// endloop, endfacet }, endsolid. Reports the first deviation with its line.
-Status validate_ascii_stl(std::string_view text, const std::string& name) {
+/// Checks the ASCII STL grammar: one or more of solid, { facet normal n n n, outer loop,
+/// 3 x vertex x y z, endloop, endfacet }, endsolid. Reports the first deviation with its line.
+/// With `coords`, also reads the vertex coordinates (9 per facet, as the single-precision
+/// floats STL stores, correctly rounded) into it.
+Status validate_ascii_stl(std::string_view text, const std::string& name,
+                          std::vector<float>* coords) {
   long line = 1;
   const char* pos = text.data();
   const char* const end = text.data() + text.size();
@@ -217,11 +236,12 @@ Status validate_ascii_stl(std::string_view text, const std::string& name) {
     const std::string_view got_ = next();                 \
     if (got_ != (word)) return fail_expect((word), got_); \
   } while (false)
-#define PRINTTWIN_EXPECT_NUMBER(finite)                             \
-  do {                                                              \
-    const std::string_view tok_ = next();                           \
-    if (!is_plain_finite_decimal(tok_))                             \
-      if (auto st_ = slow_number(tok_, (finite)); !st_) return st_; \
+#define PRINTTWIN_EXPECT_NUMBER(finite)                                    \
+  do {                                                                     \
+    const std::string_view tok_ = next();                                  \
+    if (!is_plain_finite_decimal(tok_))                                    \
+      if (auto st_ = slow_number(tok_, (finite)); !st_) return st_;        \
+    if ((finite) && coords != nullptr) coords->push_back(stl_float(tok_)); \
   } while (false)
 
   PRINTTWIN_EXPECT_WORD("solid");
@@ -229,7 +249,15 @@ Status validate_ascii_stl(std::string_view text, const std::string& name) {
   long facets = 0;
   for (;;) {
     const std::string_view tok = next();
-    if (tok == "endsolid") break;
+    if (tok == "endsolid") {
+      rest_of_line();  // the solid's name again
+      const std::string_view after = next();
+      // Some exporters write one solid per body: another solid may follow. Anything else
+      // after the last endsolid (padding some writers leave) is not part of the mesh.
+      if (after != "solid") break;
+      rest_of_line();
+      continue;
+    }
     if (tok.empty()) return bad_input("ASCII STL: missing 'endsolid' at the end", name, token_line);
     if (tok != "facet") return fail_expect("facet", tok);
     PRINTTWIN_EXPECT_WORD("normal");
@@ -368,25 +396,42 @@ Result<Mesh> welded_mesh(const aiScene& scene, double s, const std::string& name
   return mesh;
 }
 
-/// A binary STL whose size matches its header count, read straight from the bytes (already
-/// validated: size and finite coordinates): the same mesh as assimp's import followed by
-/// welded_mesh (vertices in order of first use, the same weld), without assimp's copies.
-/// PRINTTWIN_PLAIN=stl_direct reads it through assimp instead.
-Mesh binary_stl_mesh(std::string_view bytes, double s) {
-  const std::size_t count = stl_header_count(bytes);
+/// STL triangles given as 9 floats each (corner by corner), welded as assimp's import followed
+/// by welded_mesh would: vertices in order of first use, the same weld, without assimp's copies.
+/// `corners(t, v)` writes triangle t's 9 coordinates into v.
+template <class Corners>
+Mesh stl_triangles_mesh(std::size_t count, double s, const Corners& corners) {
   Mesh mesh;
   mesh.triangles.resize(count);
   mesh.vertices_mm.reserve(count / 2 + 16);
   PointIndex index(count / 2 + 16);
-  const char* record = bytes.data() + kStlHeaderBytes;
-  for (std::size_t t = 0; t < count; ++t, record += kStlTriangleBytes) {
+  for (std::size_t t = 0; t < count; ++t) {
     std::array<float, 9> v{};
-    std::memcpy(v.data(), record + 12, sizeof(v));  // after the stored normal
+    corners(t, v);
     for (int k = 0; k < 3; ++k)
       mesh.triangles[t][k] = index.find_or_add(
           Vec3(s * v[3 * k], s * v[3 * k + 1], s * v[3 * k + 2]), mesh.vertices_mm);
   }
   return mesh;
+}
+
+/// A binary STL whose size matches its header count, read straight from the bytes (already
+/// validated: size and finite coordinates). PRINTTWIN_PLAIN=stl_direct reads it through
+/// assimp instead.
+Mesh binary_stl_mesh(std::string_view bytes, double s) {
+  const char* records = bytes.data() + kStlHeaderBytes;
+  return stl_triangles_mesh(stl_header_count(bytes), s, [&](std::size_t t, auto& v) {
+    // after the stored normal
+    std::memcpy(v.data(), records + t * kStlTriangleBytes + 12, sizeof(v));
+  });
+}
+
+/// An ASCII STL's vertex coordinates as the grammar check read them (9 per facet).
+/// PRINTTWIN_PLAIN=stl_direct reads the file through assimp instead.
+Mesh ascii_stl_mesh(const std::vector<float>& coords, double s) {
+  return stl_triangles_mesh(coords.size() / 9, s, [&](std::size_t t, auto& v) {
+    std::copy_n(coords.begin() + static_cast<std::ptrdiff_t>(9 * t), 9, v.begin());
+  });
 }
 
 /// The checks every format's mesh ends with.
@@ -921,14 +966,15 @@ Result<Mesh> load_mesh_from_memory(std::string_view bytes, const fs::path& path,
         bytes.size() >= kStlHeaderBytes &&
         kStlHeaderBytes + kStlTriangleBytes * std::uint64_t{stl_header_count(bytes)} ==
             bytes.size();
-    Status valid = (size_matches_binary || !starts_with_solid(bytes))
-                       ? validate_binary_stl(bytes, name)
-                       : validate_ascii_stl(bytes, name);
+    const bool binary = size_matches_binary || !starts_with_solid(bytes);
+    const bool direct = !detail::plain_path("stl_direct");
+    std::vector<float> coords;
+    Status valid = binary ? validate_binary_stl(bytes, name)
+                          : validate_ascii_stl(bytes, name, direct ? &coords : nullptr);
     if (!valid) return valid.error();
-    if (size_matches_binary && !detail::plain_path("stl_direct")) {
-      const double s = unit_factor(options.units) * options.scale;
-      return finish_mesh(binary_stl_mesh(bytes, s), s, name);
-    }
+    const double s = unit_factor(options.units) * options.scale;
+    if (direct && size_matches_binary) return finish_mesh(binary_stl_mesh(bytes, s), s, name);
+    if (direct && !binary) return finish_mesh(ascii_stl_mesh(coords, s), s, name);
   }
 
   const double s = unit_factor(options.units) * options.scale;

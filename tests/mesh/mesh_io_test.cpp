@@ -304,6 +304,38 @@ TEST_F(MeshIoTest, DirectBinaryStlMatchesAssimp) {
   }
 }
 
+/// ASCII STL is read from the tokens the grammar check parsed; assimp's import
+/// (PRINTTWIN_PLAIN=stl_direct) gives the same mesh up to its approximate decimal reading
+/// (within a float's rounding), in the same vertex order. Several solids in one file are one
+/// mesh; padding after the last endsolid is ignored.
+TEST_F(MeshIoTest, DirectAsciiStlMatchesAssimp) {
+  Mesh m = test::make_cube_mm(10, Vec3(-5.1, -0.0, 3.25));
+  m.vertices_mm[1].x() = -0.0;
+  m.vertices_mm[2].y() = 0.3;  // not a float: rounded
+  m.triangles.push_back(m.triangles[3]);
+  const std::string one = ascii_stl(m);
+  const std::string two = one + one + "\n \n";  // a second solid, then padding
+  for (const std::string& text : {one, two})
+    for (const MeshLoadOptions& o : {MeshLoadOptions{}, MeshLoadOptions{0.3, LengthUnit::inch}}) {
+      auto direct = load_mesh_from_memory(text, "p.stl", o);
+      ASSERT_EQ(::setenv("PRINTTWIN_PLAIN", "stl_direct", 1), 0);
+      auto assimp = load_mesh_from_memory(text, "p.stl", o);
+      ::unsetenv("PRINTTWIN_PLAIN");
+      ASSERT_TRUE(direct.ok() && assimp.ok()) << direct.error().describe();
+      EXPECT_EQ(direct->triangles, assimp->triangles);
+      ASSERT_EQ(direct->vertices_mm.size(), assimp->vertices_mm.size());
+      for (std::size_t i = 0; i < direct->vertices_mm.size(); ++i)
+        EXPECT_LT((direct->vertices_mm[i] - assimp->vertices_mm[i]).norm(), 1e-5);
+      EXPECT_EQ(direct->triangles.size(), (text == one ? 1U : 2U) * 13U);
+      EXPECT_EQ(direct->vertices_mm.size(), 8U);
+      // The float STL stores, correctly rounded, then scaled.
+      const double want =
+          (o.units == LengthUnit::inch ? 25.4 : 1.0) * o.scale * static_cast<double>(0.3F);
+      EXPECT_TRUE(std::any_of(direct->vertices_mm.begin(), direct->vertices_mm.end(),
+                              [&](const Vec3& p) { return p.y() == want; }));
+    }
+}
+
 /// Vertices are numbered in order of first use; -0 and +0 are one coordinate; sub-meshes
 /// (OBJ objects) share the vertices they have in common.
 TEST_F(MeshIoTest, WeldKeepsFirstUseOrderAndJoinsAcrossSubMeshes) {
