@@ -593,13 +593,16 @@ struct BtFormat {
   }
 };
 
-/// The text header OctoMap writes before the nodes (`binary`: .bt, else .ot).
-std::string octomap_header(bool binary, const char* tree_type, std::size_t nodes,
-                           double resolution) {
+/// The text header OctoMap writes before the nodes (`binary`: .bt, else .ot). `pad` spaces
+/// end its empty comment line (OctoMap's reader skips a comment to its line's end): a
+/// header written after its records fills the room left for it exactly.
+std::string octomap_header(bool binary, const char* tree_type, std::size_t nodes, double resolution,
+                           std::size_t pad = 0) {
   std::ostringstream head;
   head << (binary ? "# Octomap OcTree binary file\n" : "# Octomap OcTree file\n")
-       << "# (feel free to add / change comments, but leave the first line as it is!)\n#\n"
-       << "id " << tree_type << "\nsize " << nodes << "\nres " << resolution << "\ndata\n";
+       << "# (feel free to add / change comments, but leave the first line as it is!)\n#"
+       << std::string(pad, ' ') << "\nid " << tree_type << "\nsize " << nodes << "\nres "
+       << resolution << "\ndata\n";
   return head.str();
 }
 
@@ -1005,8 +1008,8 @@ struct OtFormat {
 };
 
 /// Writes the .ot file into `fd`: the node records first, streamed from where the longest
-/// header their count could need ends, then the header; when the header is shorter, the
-/// records are moved up to it. False when a write fails.
+/// header their count could need ends, then the header, padded to that length. False when a
+/// write fails.
 bool write_ot(int fd, const VoxelGrid& grid, VoxelColoring coloring) {
   const octomap::ColorOcTree reference(grid.voxel_mm());  // empty: for its occupancy constants
   const OtTables tables(grid, coloring, reference.getClampingThresMaxLog());
@@ -1027,20 +1030,12 @@ bool write_ot(int fd, const VoxelGrid& grid, VoxelColoring coloring) {
     ok = sink.ok();
     size = sink.size();
   });
-  const std::string header = octomap_header(false, "ColorOcTree", nodes, grid.voxel_mm());
+  std::string header = octomap_header(false, "ColorOcTree", nodes, grid.voxel_mm());
   if (!ok || header.size() > start) return false;
-  if (header.size() < start) {  // move the records up, front to back
-    std::vector<char> chunk(std::size_t{1} << 20);
-    for (std::uint64_t done = 0; done < size;) {
-      const auto n = static_cast<std::size_t>(std::min<std::uint64_t>(chunk.size(), size - done));
-      const ssize_t got = ::pread(fd, chunk.data(), n, static_cast<off_t>(start + done));
-      if (got < 0 && errno == EINTR) continue;
-      if (got <= 0 ||
-          !write_at(fd, chunk.data(), static_cast<std::size_t>(got), header.size() + done))
-        return false;
-      done += static_cast<std::uint64_t>(got);
-    }
-  }
+  // The count has fewer digits than the room left for it: the comment line takes the rest
+  // (moving the records up instead would copy the whole file once more).
+  if (header.size() < start)
+    header = octomap_header(false, "ColorOcTree", nodes, grid.voxel_mm(), start - header.size());
   return write_at(fd, header.data(), header.size(), 0) &&
          ::ftruncate(fd, static_cast<off_t>(header.size() + size)) == 0;
 }

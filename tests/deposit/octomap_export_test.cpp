@@ -195,6 +195,19 @@ TEST(OctomapOt, UniformCubesArePrunedWithoutLosingColour) {
   EXPECT_EQ(by_feature->getNumLeafNodes(), 1u);  // the 64^3 block, one colour
   EXPECT_EQ(by_layer->getNumLeafNodes(), 8u);    // its two halves, 4 nodes of 32^3 each
   expect_same_as_insertion(g, VoxelColoring::layer, "two halves");
+  // Far fewer nodes than the room the header kept for their count: the comment line takes
+  // the difference (the records stay where they were written), and OctoMap reads the count.
+  const auto bytes = read_file(dir / "feature.ot");
+  ASSERT_TRUE(bytes.ok());
+  std::istringstream lines(*bytes);
+  std::string line;
+  for (int i = 0; i < 3; ++i) std::getline(lines, line);
+  EXPECT_EQ(line.substr(0, 2), "# ");
+  EXPECT_EQ(line.find_first_not_of(' ', 1), std::string::npos);
+  std::getline(lines, line);
+  EXPECT_EQ(line, "id ColorOcTree");
+  std::getline(lines, line);
+  EXPECT_EQ(line, "size " + std::to_string(by_feature->size()));
 }
 
 // More records than the encoder buffers (1 MiB): the colours of nodes whose records were
