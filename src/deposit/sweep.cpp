@@ -740,16 +740,25 @@ void BeadSweep::grown_masks(const Ring& ring, int bx, int by, int row_lo, int ro
   const bool cached = ring.cache != nullptr && nk <= 64;
   const std::uint64_t known = cached ? *ring.known : 0;
   test_layers_.clear();
+  std::uint64_t rooms = 0;  // the free voxels within the limits of the layers tested
   for (std::size_t n = 0; n < nk; ++n) {
     ring_[n] = 0;
     const std::uint64_t room = free_[n] & within;
     if (room == 0) continue;
-    if (((known >> n) & 1u) != 0)
+    if (((known >> n) & 1u) != 0) {
       ring_[n] = ring.cache[n];
-    else if (!section_misses(*ring.grown, 8 * bx, 8 * by, room, ring.layers[n]))
+    } else if (!section_misses(*ring.grown, 8 * bx, 8 * by, room, ring.layers[n])) {
       test_layers_.push_back(static_cast<std::int32_t>(n));
+      rooms |= room;
+    }
   }
   if (test_layers_.empty()) return;
+  // Only their rows are tested, unless the masks are kept for a second pass (whose limits are
+  // wider).
+  if (ring.cache == nullptr) {
+    row_lo = std::max(row_lo, __builtin_ctzll(rooms) >> 3);
+    row_hi = std::min(row_hi, ((63 - __builtin_clzll(rooms)) >> 3) + 1);
+  }
   test_ks_.resize(test_layers_.size());
   test_out_.resize(test_layers_.size());
   for (std::size_t t = 0; t < test_layers_.size(); ++t) test_ks_[t] = ring.layers[test_layers_[t]];
