@@ -48,8 +48,9 @@ struct Linear {
   }
 };
 
-/// The bead's footprint at one half-width, in the (major, minor) plane of the sweep: the
-/// strip |n.(q-a)| <= hw between the start cut (m0.(q-a) >= 0) and the end cut (m1.(q-b) < 0).
+/// The bead's footprint between two lateral offsets, in the (major, minor) plane of the sweep:
+/// the strip lo <= n.(q-a) <= hi between the start cut (m0.(q-a) >= 0) and the end cut
+/// (m1.(q-b) < 0).
 struct Footprint {
   Linear side, start, end;
   // Every corner of the footprint is among these: the side lines' crossings with the cuts,
@@ -58,21 +59,22 @@ struct Footprint {
   std::array<Vec2, 5> vertices;
 
   void init(const Vec2& a, const Vec2& b, const Vec2& d, const Vec2& n, const Vec2& m0,
-            const Vec2& m1, double hw) {
+            const Vec2& m1, double lo, double hi) {
     constexpr double kInf = std::numeric_limits<double>::infinity();
-    side.init(n.x(), n.y(), -n.dot(a), -hw, hw);
+    side.init(n.x(), n.y(), -n.dot(a), lo, hi);
     start.init(m0.x(), m0.y(), -m0.dot(a), 0.0, kInf);
     end.init(m1.x(), m1.y(), -m1.dot(b), -kInf, 0.0);
-    // Intersections of the side lines s = +-hw with the two cut lines.
+    // Intersections of the side lines s = lo, hi with the two cut lines.
     const double k0 = m0.dot(n) / m0.dot(d);
     const double k1 = m1.dot(n) / m1.dot(d);
-    vertices = {a + (-hw * k0) * d + hw * n, a + (hw * k0) * d - hw * n,
-                b + (-hw * k1) * d + hw * n, b + (hw * k1) * d - hw * n, a};
+    vertices = {a + (-hi * k0) * d + hi * n, a + (-lo * k0) * d + lo * n,
+                b + (-hi * k1) * d + hi * n, b + (-lo * k1) * d + lo * n, a};
     const double det = m0.x() * m1.y() - m0.y() * m1.x();
     if (std::abs(det) > 1e-12) {
       const double c0 = m0.dot(a), c1 = m1.dot(b);
       const Vec2 cross((c0 * m1.y() - m0.y() * c1) / det, (m0.x() * c1 - c0 * m1.x()) / det);
-      if (std::abs(n.dot(cross - a)) <= hw) vertices[4] = cross;
+      const double s = n.dot(cross - a);
+      if (s >= lo && s <= hi) vertices[4] = cross;
     }
   }
   /// Interval of the major coordinate on the line minor = y.
@@ -210,10 +212,11 @@ bool BeadSweep::set_up(const SweptBead& bead, BeadFrame& f, Vec2& a2, Vec2& b2, 
 // the few extra tile tests they save.) The tiles of one bead are disjoint and carry one tag,
 // so the order they are written in changes nothing.
 template <class Fn>
-void BeadSweep::for_each_tile(const SweptBead& bead, const Vec2& a2, const Vec2& b2, double hw,
-                              Fn&& fn) const {
+void BeadSweep::for_each_tile(const SweptBead& bead, const Vec2& a2, const Vec2& b2, double lo,
+                              double hi, Fn&& fn) const {
   Footprint outer;
-  outer.init(a2, b2, bead.d, bead.n, bead.m0, bead.m1, hw);
+  outer.init(a2, b2, bead.d, bead.n, bead.m0, bead.m1, lo, hi);
+  const double hw = std::max(-lo, hi);
   double ylo, yhi;
   outer.minor_range(ylo, yhi);
   const double box_lo_x = std::min(a2.x(), b2.x()) - 2 * hw - 2,
@@ -283,6 +286,49 @@ BeadFrame grown(const BeadFrame& f, double by) {
   return g;
 }
 
+/// Whether the sample-point test of `g` (kernels.cpp) fails for every voxel of layer k in the
+/// box of the set bits of `room` (a tile's voxels, bit y * 8 + x, corner (i0, j0)): a bound
+/// over the box's corners on the cut offsets, the lateral offset and the height above the
+/// section's centre. The kernel's single-precision rounding is far inside its margin.
+bool section_misses(const BeadFrame& g, int i0, int j0, std::uint64_t room, int k) {
+  constexpr double kMargin = 0.05;  // voxels
+  std::uint64_t cols = room | (room >> 32);
+  cols |= cols >> 16;
+  cols |= cols >> 8;
+  cols &= 0xFFu;
+  // The box of the sample points (voxel units, in the frame of g): [x0, x1] x [y0, y1].
+  const double fx = static_cast<double>(i0 - g.ia) - static_cast<double>(g.fa_x);
+  const double fy = static_cast<double>(j0 - g.ja) - static_cast<double>(g.fa_y);
+  const double x0 = fx + __builtin_ctzll(cols), x1 = fx + (64 - __builtin_clzll(cols));
+  const double y0 = fy + (__builtin_ctzll(room) >> 3),
+               y1 = fy + ((63 - __builtin_clzll(room)) >> 3) + 1;
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  double l_lo = kInf, l_hi = -kInf, u_lo = kInf, u_hi = -kInf, s0_hi = -kInf, s1_lo = kInf;
+  for (const double x : {x0, x1})
+    for (const double y : {y0, y1}) {
+      const double l = static_cast<double>(g.n_x) * x + static_cast<double>(g.n_y) * y;
+      const double u = static_cast<double>(g.d_x) * x + static_cast<double>(g.d_y) * y;
+      l_lo = std::min(l_lo, l), l_hi = std::max(l_hi, l);
+      u_lo = std::min(u_lo, u), u_hi = std::max(u_hi, u);
+      s0_hi = std::max(s0_hi, static_cast<double>(g.m0_x) * x + static_cast<double>(g.m0_y) * y);
+      s1_lo = std::min(s1_lo, static_cast<double>(g.m1_x) * x + static_cast<double>(g.m1_y) * y -
+                                  static_cast<double>(g.e1));
+    }
+  if (s0_hi < -kMargin || s1_lo > kMargin) return true;  // wholly before the start or past the end
+  // Height above the centre line (c0 + slope u) over the layer and the box.
+  const double z = static_cast<double>(k - g.ka), slope = static_cast<double>(g.slope);
+  const double c_lo = static_cast<double>(g.c0) + std::min(slope * u_lo, slope * u_hi);
+  const double c_hi = static_cast<double>(g.c0) + std::max(slope * u_lo, slope * u_hi);
+  const double dz_lo = z - c_hi, dz_hi = z + 1.0 - c_lo;
+  const double r = static_cast<double>(g.r);
+  if (dz_lo > r + kMargin || dz_hi < -r - kMargin) return true;
+  const double dz0 = std::clamp(0.0, dz_lo, dz_hi);
+  const double reach =
+      static_cast<double>(g.flat) + std::sqrt(std::max(0.0, r * r - dz0 * dz0)) + kMargin;
+  const double near = l_lo <= 0.0 && l_hi >= 0.0 ? 0.0 : std::min(std::abs(l_lo), std::abs(l_hi));
+  return near > reach;
+}
+
 }  // namespace
 
 BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint32_t tag,
@@ -345,7 +391,7 @@ BeadSweep::Laid BeadSweep::lay(const SweptBead& bead, VoxelGrid& grid, std::uint
   const std::size_t overflow = squeezing ? overflow_voxels(bead) : 0;
   laid.overlap += cap_overlap + overflow;
   if (squeezing) carry = cap_overlap + overflow;
-  for_each_tile(bead, a2, b2, hw, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
+  for_each_tile(bead, a2, b2, -hw, hw, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
     const std::size_t at = map.index(8 * bx, 8 * by);
     test_tile_layers(f, 8 * bx, 8 * by, reached_.data(), static_cast<int>(nk), t_lo, t_hi, lanes,
                      masks);
@@ -500,25 +546,38 @@ std::size_t BeadSweep::squeeze(const SweptBead& bead, const BeadFrame& f, const 
   const int steps = std::max(1, static_cast<int>(std::ceil(delta - 1e-9)));
   const int k_lo = reached_.front(), k_hi = reached_.back();
   std::size_t placed = 0;
-  // `keep`: remember each tile's grown masks (tile_masks_) for a second pass over the same
-  // tiles and layers; `reuse`: take them from there.
+  // `keep`: remember each tile's grown masks (tile_masks_, the tile and its rows in
+  // tile_keys_) for a second pass over the same layers; `reuse`: take them from there for
+  // the tiles both passes visit with the same rows.
   auto pass = [&](const BeadFrame& g, double reach, const Sides* within, bool keep, bool reuse) {
     Ring ring{&g,      nullptr,    layers_.data(), static_cast<int>(layers_.size()),
               nullptr, bead.layer, within,         0,
               false};
     ring.bottom = k_lo;
     const auto nk = layers_.size();
-    double hw = static_cast<double>(f.flat) + static_cast<double>(f.r) + reach + kBoundSlack;
-    // Both sides end at the flat part: no voxel centre beyond it is within them, so the tiles
+    const double hw = static_cast<double>(f.flat) + static_cast<double>(f.r) + reach + kBoundSlack;
+    // A side that ends at the flat part: no voxel centre beyond it is within it, so the tiles
     // whose cells lie wholly past it (by more than a cell's half-diagonal) need not be visited.
-    if (within != nullptr && !std::isinf(within->pos) && !std::isinf(within->neg))
-      hw = std::min(hw, std::max(within->pos, within->neg) + 1.0 + kBoundSlack);
+    double lo = -hw, hi = hw;
+    if (within != nullptr && !std::isinf(within->pos))
+      hi = std::min(hi, within->pos + 1.0 + kBoundSlack);
+    if (within != nullptr && !std::isinf(within->neg))
+      lo = std::max(lo, -(within->neg + 1.0 + kBoundSlack));
     std::size_t tile = 0;
-    for_each_tile(bead, a2, b2, hw, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
-      if (keep) tile_masks_.resize((tile + 1) * nk), tile_known_.resize(tile + 1, 0);
-      if (keep || reuse)
+    for_each_tile(bead, a2, b2, lo, hi, [&](int bx, int by, int t_lo, int t_hi, unsigned lanes) {
+      const TileKey key{by, bx, t_lo, t_hi};
+      ring.cache = nullptr, ring.known = nullptr;
+      if (keep) {
+        tile_masks_.resize((tile + 1) * nk), tile_known_.resize(tile + 1, 0);
+        tile_keys_.push_back(key);
         ring.cache = tile_masks_.data() + tile * nk, ring.known = &tile_known_[tile];
-      ++tile;
+        ++tile;
+      } else if (reuse) {
+        // Both walks go row of tiles by row, each row in x order.
+        while (tile < tile_keys_.size() && tile_keys_[tile] < key) ++tile;
+        if (tile < tile_keys_.size() && tile_keys_[tile] == key)
+          ring.cache = tile_masks_.data() + tile * nk, ring.known = &tile_known_[tile];
+      }
       placed += squeeze_tile(ring, bx, by, t_lo, t_hi, lanes, lost - placed, grid, tag, map);
       return placed < lost;
     });
@@ -527,17 +586,17 @@ std::size_t BeadSweep::squeeze(const SweptBead& bead, const BeadFrame& f, const 
   layers_.clear();
   for (int k = std::max(0, k_lo - steps); k <= k_hi; ++k) layers_.push_back(k);
   const BeadFrame reach = grown(f, delta);
-  // The second pass visits the same tiles as the first (and may reuse its masks) unless the
-  // first was narrowed to the flat part on both sides.
-  const bool same_tiles = std::isinf(sides.pos) || std::isinf(sides.neg);
+  // The second pass visits the first's tiles and more (the first stops at an open side's
+  // flat part); it reuses the first's masks where a tile's rows are the same.
   const bool second = !bead.keeps_sides || sides.open();
   tile_masks_.clear();
   tile_known_.clear();
-  if (!sides.open()) pass(reach, delta, &sides, second && same_tiles, false);
+  tile_keys_.clear();
+  if (!sides.open()) pass(reach, delta, &sides, second, false);
   // A bead that keeps its sides goes no further: past an open side lie the grooves between
   // layers.
   if (!second) return placed;
-  if (placed < lost) pass(reach, delta, nullptr, false, !sides.open() && same_tiles);
+  if (placed < lost) pass(reach, delta, nullptr, false, !sides.open());
   const int rise = bead.rise_voxels < 0 ? steps : std::min(steps, bead.rise_voxels);
   for (int k = k_hi + 1; k <= std::min(nz_ - 1, k_hi + rise) && placed < lost; ++k) {
     layers_.assign(1, k);
@@ -564,26 +623,7 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
                            : ((std::uint64_t{1} << (8 * (row_hi - row_lo))) - 1) << (8 * row_lo);
   const std::uint64_t inside = rows & (static_cast<std::uint64_t>(lanes) * 0x0101010101010101ull);
   const bool sided = ring.sides != nullptr && !ring.sides->open();
-  std::uint64_t any_free = 0;
-  const std::uint64_t* occ = nullptr;
-  int occ_bz = -1;          // the block of `occ` (the layers are in order: one or two blocks)
-  std::uint64_t under = 0;  // the occupancy of the layer below (the bed: all)
-  for (std::size_t n = 0; n < nk; ++n) {
-    const int k = ring.layers[n];
-    if (n == 0 || ring.layers[n - 1] != k - 1) {
-      const std::uint64_t* b = k > 0 ? occupancy(grid, bx, by, (k - 1) >> 3) : nullptr;
-      under = k == 0 ? ~std::uint64_t{0} : (b != nullptr ? b[(k - 1) & 7] : 0);
-    }
-    if ((k >> 3) != occ_bz) occ_bz = k >> 3, occ = occupancy(grid, bx, by, occ_bz);
-    const std::uint64_t held = occ != nullptr ? occ[k & 7] : 0;
-    free_[n] = ~held;
-    // Below the bead's layers material goes only where plastic (or the bed) holds it from
-    // beneath: into the cusps and gaps of the layer below, not into the air under a bridge.
-    if (k < ring.bottom) free_[n] &= under;
-    any_free |= free_[n];
-    under = held;
-  }
-  any_free &= inside;
+  std::uint64_t any_free = free_voxels(ring, grid, bx, by) & inside;
   if (ring.grown == nullptr) {
     // The local ring reaches no further (in x and y) than its steps from the bead's voxels.
     std::uint64_t zone = 0;
@@ -644,16 +684,22 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
     return write();
   }
   // The local ring: a voxel further from the bead's voxels each step, through anything; first
-  // within the sides, then (what is left) on both sides.
+  // within the sides, then (what is left) on both sides. The reach of each step is the same
+  // for both: worked out once, when first needed (reach_: steps x nk words).
+  reach_.resize(static_cast<std::size_t>(ring.steps) * nk);
+  int reached = 0;  // steps of reach_ worked out
   for (const std::uint64_t room : {within, inside & cut}) {
-    reach_.assign(ring.masks, ring.masks + nk);
-    for (int step = 0; step < ring.steps && placed < need; ++step) {
-      // Steps alternately square and diagonal: an octagon, about a disc of the reach.
-      for (std::size_t n = 0; n < nk; ++n) ring_[n] = next_to(reach_.data(), n, (step & 1) != 0);
-      for (std::size_t n = 0; n < nk; ++n) {
-        reach_[n] = ring_[n] & inside;
-        ring_[n] &= free_[n] & room;
+    std::uint64_t left = 0;  // free voxels in the room, on any layer
+    for (std::size_t n = 0; n < nk; ++n) left |= free_[n] & room;
+    for (int step = 0; step < ring.steps && placed < need && left != 0; ++step) {
+      std::uint64_t* const zone = reach_.data() + static_cast<std::size_t>(step) * nk;
+      if (step == reached) {
+        // Steps alternately square and diagonal: an octagon, about a disc of the reach.
+        const std::uint64_t* const from = step == 0 ? ring.masks : zone - nk;
+        for (std::size_t n = 0; n < nk; ++n) zone[n] = next_to(from, n, (step & 1) != 0) & inside;
+        ++reached;
       }
+      for (std::size_t n = 0; n < nk; ++n) ring_[n] = zone[n] & free_[n] & room;
       place_ring();
     }
     if (!sided || placed == need || !ring.past_sides) break;
@@ -661,23 +707,58 @@ std::size_t BeadSweep::squeeze_tile(const Ring& ring, int bx, int by, int row_lo
   return write();
 }
 
+std::uint64_t BeadSweep::free_voxels(const Ring& ring, const VoxelGrid& grid, int bx, int by) {
+  const auto nk = static_cast<std::size_t>(ring.count);
+  std::uint64_t any_free = 0;
+  const std::uint64_t* occ = nullptr;
+  int occ_bz = -1;          // the block of `occ` (the layers are in order: one or two blocks)
+  std::uint64_t under = 0;  // the occupancy of the layer below (the bed: all)
+  for (std::size_t n = 0; n < nk; ++n) {
+    const int k = ring.layers[n];
+    if (n == 0 || ring.layers[n - 1] != k - 1) {
+      const std::uint64_t* b = k > 0 ? occupancy(grid, bx, by, (k - 1) >> 3) : nullptr;
+      under = k == 0 ? ~std::uint64_t{0} : (b != nullptr ? b[(k - 1) & 7] : 0);
+    }
+    if ((k >> 3) != occ_bz) occ_bz = k >> 3, occ = occupancy(grid, bx, by, occ_bz);
+    const std::uint64_t held = occ != nullptr ? occ[k & 7] : 0;
+    free_[n] = ~held;
+    // Below the bead's layers material goes only where plastic (or the bed) holds it from
+    // beneath: into the cusps and gaps of the layer below, not into the air under a bridge.
+    if (k < ring.bottom) free_[n] &= under;
+    any_free |= free_[n];
+    under = held;
+  }
+  return any_free;
+}
+
 void BeadSweep::grown_masks(const Ring& ring, int bx, int by, int row_lo, int row_hi,
                             unsigned lanes, std::uint64_t within) {
-  // Only the layers with free voxels within the limits are tested (the others take nothing);
-  // masks a first pass over the tile computed are taken from ring.cache.
+  // Only the layers with free voxels within the limits that the grown section may reach are
+  // tested (the others take nothing); masks a first pass over the tile computed are taken
+  // from ring.cache.
   const auto nk = static_cast<std::size_t>(ring.count);
   const bool cached = ring.cache != nullptr && nk <= 64;
   const std::uint64_t known = cached ? *ring.known : 0;
   test_layers_.clear();
+  std::uint64_t rooms = 0;  // the free voxels within the limits of the layers tested
   for (std::size_t n = 0; n < nk; ++n) {
     ring_[n] = 0;
-    if ((free_[n] & within) == 0) continue;
-    if (((known >> n) & 1u) != 0)
+    const std::uint64_t room = free_[n] & within;
+    if (room == 0) continue;
+    if (((known >> n) & 1u) != 0) {
       ring_[n] = ring.cache[n];
-    else
+    } else if (!section_misses(*ring.grown, 8 * bx, 8 * by, room, ring.layers[n])) {
       test_layers_.push_back(static_cast<std::int32_t>(n));
+      rooms |= room;
+    }
   }
   if (test_layers_.empty()) return;
+  // Only their rows are tested, unless the masks are kept for a second pass (whose limits are
+  // wider).
+  if (ring.cache == nullptr) {
+    row_lo = std::max(row_lo, __builtin_ctzll(rooms) >> 3);
+    row_hi = std::min(row_hi, ((63 - __builtin_clzll(rooms)) >> 3) + 1);
+  }
   test_ks_.resize(test_layers_.size());
   test_out_.resize(test_layers_.size());
   for (std::size_t t = 0; t < test_layers_.size(); ++t) test_ks_[t] = ring.layers[test_layers_[t]];

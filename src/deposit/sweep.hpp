@@ -161,10 +161,12 @@ class BeadSweep {
   /// The frame of the sample-point tests, and the layers the section reaches (reached_) with
   /// its widest half-width over them (voxel units); false when it reaches none.
   bool set_up(const SweptBead& bead, BeadFrame& f, Vec2& a2, Vec2& b2, double& hw);
-  /// Calls fn(bx, by, row_lo, row_hi, lanes) for each tile the footprint of half-width hw
-  /// (voxel units) reaches; an fn that returns bool stops the walk by returning false.
+  /// Calls fn(bx, by, row_lo, row_hi, lanes) for each tile the footprint reaches whose
+  /// lateral offsets (voxel units, along +n from the centre line) lie in [lo, hi], row of
+  /// tiles by row (by ascending), each row in x order; an fn that returns bool stops the walk
+  /// by returning false.
   template <class Fn>
-  void for_each_tile(const SweptBead& bead, const Vec2& a2, const Vec2& b2, double hw,
+  void for_each_tile(const SweptBead& bead, const Vec2& a2, const Vec2& b2, double lo, double hi,
                      Fn&& fn) const;
   /// A section (height h_mm, width w_mm) revolved about the vertical through centre_mm, in
   /// the wedge where m0 . q >= 0 and m1 . q < 0 (q from the centre, xy): a round join or an
@@ -227,6 +229,9 @@ class BeadSweep {
     /// take material.
     std::int32_t bottom = 0;
   };
+  /// Into free_: per layer of `ring`, the free voxels of tile (bx, by) that may take material
+  /// (below ring.bottom, only those resting on plastic or the bed). Returns their union.
+  std::uint64_t free_voxels(const Ring& ring, const VoxelGrid& grid, int bx, int by);
   /// Into ring_: the grown section's voxels of tile (bx, by) on each layer of `ring` that has
   /// free voxels in `within` (free_), 0 on the others.
   void grown_masks(const Ring& ring, int bx, int by, int row_lo, int row_hi, unsigned lanes,
@@ -260,15 +265,17 @@ class BeadSweep {
   std::vector<std::int32_t> local_layers_;  // scratch: the layers of the local ring
   std::vector<std::uint64_t> hits_;         // scratch: the bead's voxels that were occupied already
   std::vector<std::uint64_t> ring_;         // scratch: a tile's free voxels in a squeeze ring
-  std::vector<std::uint64_t> reach_;       // scratch: a tile's voxels within the local ring's reach
-  std::vector<std::uint64_t> put_;         // scratch: a tile's voxels a squeeze fills, per layer
-  std::vector<std::uint64_t> hit_near_;    // scratch: a tile's voxels next to the hits, per layer
-  std::vector<std::uint64_t> free_;        // scratch: a tile's free voxels per ring layer
-  std::vector<std::uint64_t> tile_masks_;  // scratch: grown masks per tile of a first pass
-  std::vector<std::uint64_t> tile_known_;  // scratch: which of them are filled in, per tile
-  std::vector<std::int32_t> test_layers_;  // scratch: the ring layers a tile test covers
-  std::vector<std::int32_t> test_ks_;      // scratch: their voxel layers
-  std::vector<std::uint64_t> test_out_;    // scratch: their masks
+  std::vector<std::uint64_t> reach_;        // scratch: the local ring's reach per step and layer
+  std::vector<std::uint64_t> put_;          // scratch: a tile's voxels a squeeze fills, per layer
+  std::vector<std::uint64_t> hit_near_;     // scratch: a tile's voxels next to the hits, per layer
+  std::vector<std::uint64_t> free_;         // scratch: a tile's free voxels per ring layer
+  std::vector<std::uint64_t> tile_masks_;   // scratch: grown masks per tile of a first pass
+  std::vector<std::uint64_t> tile_known_;   // scratch: which of them are filled in, per tile
+  using TileKey = std::array<int, 4>;       // a tile of a walk: by, bx, its rows lo and hi
+  std::vector<TileKey> tile_keys_;          // scratch: the tiles of a first pass, in order
+  std::vector<std::int32_t> test_layers_;   // scratch: the ring layers a tile test covers
+  std::vector<std::int32_t> test_ks_;       // scratch: their voxel layers
+  std::vector<std::uint64_t> test_out_;     // scratch: their masks
   // Per written block: with mirror_writes, the grid's occupancy as the sweep wrote it; and
   // the voxels that hold squeezed material: a later bead that falls on them displaces that
   // material again as its own overflow, but it is not counted as overlap a second time.
