@@ -16,7 +16,10 @@
 //                                          above): a hash of every sample, vertex deviation,
 //                                          region and statistic (bit patterns), so a change
 //                                          that must not change the results can be checked
-//                                          bit for bit, plus the CPU time of each phase
+//                                          bit for bit, plus the CPU time of that call, of
+//                                          the call repeated (least of 3: its memory reused,
+//                                          no first touch of fresh pages) and of each phase;
+//                                          $PRINTTWIN_PERF_CTL_FD: see perf_control
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -27,6 +30,8 @@
 #include <fstream>
 #include <sstream>
 #include <tuple>
+
+#include <unistd.h>
 
 #include "deviation/deposit_surface_internal.hpp"
 #include "deviation/outer_surface.hpp"
@@ -182,6 +187,15 @@ struct Hash {
   }
 };
 
+/// With $PRINTTWIN_PERF_CTL_FD (perf record --control fd:N -D -1), profiles only the
+/// compute_deviation call.
+void perf_control(const char* cmd) {
+  const char* fd = std::getenv("PRINTTWIN_PERF_CTL_FD");
+  if (fd == nullptr || *fd == '\0') return;
+  const int n = std::atoi(fd);
+  if (::write(n, cmd, std::strlen(cmd)) < 0) std::perror("perf control");
+}
+
 int checksum() {
   const Prepared& p = prepared();
   DeviationSettings settings;
@@ -189,8 +203,10 @@ int checksum() {
   auto target = DeviationTarget::build(p.placed, settings, p.deposit.grid.voxel_mm());
   if (!target) return 3;
   const double t1 = cpu_s();
+  perf_control("enable\n");
   auto r = compute_deviation(*target, Vec3::Zero(), p.deposit.grid, settings, p.part, p.beads);
   if (!r) return 3;
+  perf_control("disable\n");
   const double t2 = cpu_s();
   Hash h;
   h.add(r->deposit_to_mesh);
@@ -233,6 +249,13 @@ int checksum() {
     return best;
   };
   DepositSurface surface;
+  // The whole stage again: its memory comes from the allocator's free lists now, so the
+  // difference to the first call is mostly the first touch of fresh pages.
+  const double t_again = least_of_3([&] {
+    auto again =
+        compute_deviation(*target, Vec3::Zero(), p.deposit.grid, settings, p.part, p.beads);
+    benchmark::DoNotOptimize(again->surface_faces);
+  });
   const double t_surface = least_of_3([&] {
     surface = extract_outer_surface(p.deposit.grid, region, settings.seal_gap_mm,
                                     settings.groove_depth_mm);
@@ -291,9 +314,9 @@ int checksum() {
         static_cast<unsigned long long>(c.h));
   }
   std::printf(
-      "cpu s: target %.3f deviation %.3f | least of 3: surface %.3f beads %.3f "
+      "cpu s: target %.3f deviation %.3f | least of 3: deviation %.3f surface %.3f beads %.3f "
       "deposit->mesh %.3f mesh->deposit %.3f\n",
-      t1 - t0, t2 - t1, t_surface, t_beads, t_dep, t_mesh);
+      t1 - t0, t2 - t1, t_again, t_surface, t_beads, t_dep, t_mesh);
   return 0;
 }
 
