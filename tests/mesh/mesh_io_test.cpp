@@ -334,6 +334,15 @@ TEST_F(MeshIoTest, DirectAsciiStlMatchesAssimp) {
       EXPECT_TRUE(std::any_of(direct->vertices_mm.begin(), direct->vertices_mm.end(),
                               [&](const Vec3& p) { return p.y() == want; }));
     }
+  // A second solid is checked as the first: a bad token in it names its line.
+  std::string broken = one + one;
+  const std::size_t second = broken.find("vertex", one.size());
+  broken.replace(second, 6, "vortex");
+  const long line = 1 + std::count(broken.begin(), broken.begin() + second, '\n');
+  auto bad = load_mesh_from_memory(broken, "p.stl");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.error().line, std::optional<long>(line));
+  EXPECT_NE(bad.error().message.find("expected 'vertex', found 'vortex'"), std::string::npos);
 }
 
 /// Vertices are numbered in order of first use; -0 and +0 are one coordinate; sub-meshes
