@@ -42,7 +42,7 @@ check_star        | bench:check_bench:BM_SelfIntersectionsStar | cpu | no pair t
 check_ray_bound   | bench:check_bench:BM_Thickness/           | cpu  | inward rays end past the thinnest sampled wall (check/thickness.cpp)
 check_bvh_rays    | bench:check_bench:BM_Thickness/           | cpu  | BVH for rays only, built by Embree at low quality (mesh/mesh_query_embree.cpp, check/thickness.cpp)
 check_ray_stream  | bench:check_bench:BM_Thickness/           | cpu  | the rays of 16 faces traced as one Embree stream of coherent rays (mesh/mesh_query_embree.cpp, check/thickness.cpp)
-stl_direct        | bench:check_bench:BM_Load/                | cpu  | binary STL welded straight from its bytes, not through assimp (mesh/mesh_io_assimp.cpp)
+stl_direct        | bench:check_bench:BM_Load/                | cpu  | STL welded straight from its bytes (binary) or the numbers its grammar check read (ASCII, BM_LoadAscii), not through assimp (mesh/mesh_io_assimp.cpp)
 bgcode_libdeflate | bench:bgcode_bench:BM_OpenBinary/0        | cpu  | libdeflate, not zlib, inflates and checksums binary G-code blocks (gcode/bgcode.cpp); stage: opening a .bgcode
 bgcode_meatpack   | bench:bgcode_bench:BM_DecodeBinary/0      | cpu  | table-driven MeatPack loop, not the byte-at-a-time state machine (gcode/meatpack.cpp); stage: decoding a .bgcode to text
 closest_hints     | cli:verify:registration                  | wall | ICP closest-point queries bounded from the triangles of the previous step (mesh/mesh_query_embree.cpp, deviation/registration_search.cpp)
