@@ -1220,14 +1220,16 @@ MovedCells split_pieces(const detail::LayerSurface& surf, const MeshPieces& piec
   if (pieces.count < 2) return moved;
   const int ns = static_cast<int>(in.bounds.size()) - 1;
   const PieceSeeds by = seeds_by_piece(surf, pieces);
-  std::vector<std::size_t> outlines(static_cast<std::size_t>(ns), 0), moving = outlines;
+  std::vector<std::size_t> outlines(static_cast<std::size_t>(ns), 0), moving = outlines,
+                                                                      incoming = outlines;
   for (const auto& seed : surf.seeds) ++outlines[static_cast<std::size_t>(seed.slab)];
   std::vector<int> target(static_cast<std::size_t>(ns), -1);  // where an emptied slab goes
   std::vector<std::uint64_t> rows;
   for (const auto& [root, slabs] : by) {
     const int slab = slabs.begin()->first;
+    // One direction per slab and round: a slab cells move into keeps its own.
     if (slabs.size() != 1 || pieces.volume[root] <= 0 ||
-        target[static_cast<std::size_t>(slab)] >= 0)
+        target[static_cast<std::size_t>(slab)] >= 0 || incoming[static_cast<std::size_t>(slab)] > 0)
       continue;
     const int z0 = in.bounds[static_cast<std::size_t>(slab)],
               z1 = in.bounds[static_cast<std::size_t>(slab) + 1];
@@ -1260,32 +1262,36 @@ MovedCells split_pieces(const detail::LayerSurface& surf, const MeshPieces& piec
     auto& rm = moved.remove[from_range];
     rm.insert(rm.end(), cells.begin(), cells.end());
     ++moved.pieces;
+    ++incoming[static_cast<std::size_t>(to)];
     moving[static_cast<std::size_t>(slab)] += slabs.begin()->second.size();
     if (moving[static_cast<std::size_t>(slab)] == outlines[static_cast<std::size_t>(slab)])
       target[static_cast<std::size_t>(slab)] = to;
   }
   // Emptied slabs: the first and the last are dropped; one between joins its target (its
-  // voxels are then in that slab's own cells, nothing to move).
-  moved.bounds = in.bounds;
+  // voxels are then in that slab's own cells). The moves follow the slabs they fall in.
   std::vector<char> keep_bound(in.bounds.size(), 1);
   for (int k = 0; k < ns; ++k) {
     const int to = target[static_cast<std::size_t>(k)];
-    if (to < 0) continue;
-    const std::pair<int, int> range{in.bounds[static_cast<std::size_t>(k)],
-                                    in.bounds[static_cast<std::size_t>(k) + 1]};
-    if (k == 0 || k == ns - 1) {
-      keep_bound[static_cast<std::size_t>(k == 0 ? 0 : ns)] = 0;
-    } else {
-      keep_bound[static_cast<std::size_t>(to > k ? k + 1 : k)] = 0;
-      moved.remove.erase(range);
-      const std::pair<int, int> to_range{in.bounds[static_cast<std::size_t>(to)],
-                                         in.bounds[static_cast<std::size_t>(to) + 1]};
-      moved.add.erase(to_range);
-    }
+    if (to >= 0)
+      keep_bound[static_cast<std::size_t>(k == 0 ? 0 : k == ns - 1 ? ns : to > k ? k + 1 : k)] = 0;
   }
-  moved.bounds.clear();
   for (std::size_t i = 0; i < in.bounds.size(); ++i)
     if (keep_bound[i] != 0) moved.bounds.push_back(in.bounds[i]);
+  decltype(moved.add) add, remove;
+  for (auto& [range, cells] : moved.add) {
+    const auto hi = std::lower_bound(moved.bounds.begin(), moved.bounds.end(), range.second);
+    if (hi == moved.bounds.begin() || hi == moved.bounds.end() || *(hi - 1) > range.first) continue;
+    auto& to = add[{*(hi - 1), *hi}];
+    to.insert(to.end(), cells.begin(), cells.end());
+  }
+  for (auto& [range, cells] : moved.remove) {
+    const auto lo = std::lower_bound(moved.bounds.begin(), moved.bounds.end(), range.first);
+    if (lo != moved.bounds.end() && *lo == range.first && lo + 1 != moved.bounds.end() &&
+        *(lo + 1) == range.second)
+      remove[range] = std::move(cells);
+  }
+  moved.add = std::move(add);
+  moved.remove = std::move(remove);
   return moved;
 }
 
