@@ -24,6 +24,11 @@
 #    is), against verify's; then where they differ: per band of layers and per kind of mesh
 #    surface (side, caps up, caps down), the surface points' C2M against verify's per-layer
 #    figures (mesh_c2m_stats.py regions).
+# 6. CloudCompare's C2M of verify's own deposit samples (points.ply) against the surface
+#    points' per kind of surface (mesh_c2m_stats.py kinds: the bed, the first layer's sides,
+#    the other sides, the top two layers' caps, the other caps; VERIFY_STRIDE=N takes every
+#    N-th sample): where the per-layer figures mix the bed into the first layer and the sides
+#    into the top, this compares like with like.
 # KEEP_DIR=DIR keeps every file (as-printed mesh, points, CloudCompare's distances, report).
 # Needs CloudCompare and openscad (../shared/peers); run from the repository root after building. Re-run it
 # after a change to verify's sampling: it reads verify's figures, it does not keep them.
@@ -62,3 +67,8 @@ python3 "$root/bench/mesh_c2m_stats.py" compare "$work/asprinted.ply" "$work/cc.
   "$work/report/report.json" "$work/cc_surface.asc"
 python3 "$root/bench/mesh_c2m_stats.py" regions "$work/asprinted.ply" "$work/cc_surface.asc" \
   "$work/report/report.json" "${SURFACE_SPACING_MM:-0.05}" "${BANDS:-8}"
+QT_QPA_PLATFORM=offscreen CloudCompare -SILENT -AUTO_SAVE OFF -O "$work/points.ply" \
+  -O "$work/mesh.stl" -C2M_DIST -C_EXPORT_FMT ASC -SAVE_CLOUDS FILE "$work/cc_verify.asc" \
+  > "$work/cc_verify.log" 2>&1
+python3 "$root/bench/mesh_c2m_stats.py" kinds "$work/asprinted.ply" "$work/cc_surface.asc" \
+  "$work/cc_verify.asc" "${SURFACE_SPACING_MM:-0.05}" "${VERIFY_STRIDE:-1}"

@@ -16,6 +16,13 @@
       kind of mesh surface (side, caps facing up, caps facing down), the C2M of the surface
       points (the same points as `surface` with the same spacing) against verify's
       per-layer figures
+  mesh_c2m_stats.py kinds ASPRINTED.ply CC_SURFACE.asc CC_VERIFY.asc [SPACING_MM [STRIDE]]
+      the same per kind of surface, on both sides: CloudCompare's C2M of verify's own deposit
+      samples (CC_VERIFY.asc: `deviation_bench --export`'s points.ply, every STRIDE-th
+      sample, unweighted) against that of the mesh's surface points, each verify sample
+      given the kind of the nearest mesh surface point; the first layer (bottom to one layer
+      up, without the bed plane) and the caps of the top two layers apart (a layer:
+      PRINTTWIN_FIRST_LAYER_MM, default 0.2)
 """
 import json
 import math
@@ -104,16 +111,23 @@ def read_distances(path):
     return d
 
 
-def regions(mesh_path, cc_surface, report_path, spacing, bands):
-    """Per layer band and per kind of surface (side: |nz| < 0.99; up / down caps: flat): the C2M of
-    the points spread over the mesh against verify's per-layer deposit -> mesh figures (its
-    layers combined by sample count, all kinds of surface together)."""
+def surface_with_distances(mesh_path, cc_surface, spacing):
+    """The mesh's surface points (as `surface` spreads them), their normals' z and
+    CloudCompare's C2M distance of each."""
     xyz, faces = read_mesh(mesh_path)
     nz = []
     pts = surface_points(xyz, faces, spacing, normals=nz)
     d = read_distances(cc_surface)
     if len(d) != len(nz):
         sys.exit("CloudCompare gave %d distances for %d surface points" % (len(d), len(nz)))
+    return pts, nz, d
+
+
+def regions(mesh_path, cc_surface, report_path, spacing, bands):
+    """Per layer band and per kind of surface (side: |nz| < 0.99; up / down caps: flat): the C2M of
+    the points spread over the mesh against verify's per-layer deposit -> mesh figures (its
+    layers combined by sample count, all kinds of surface together)."""
+    pts, nz, d = surface_with_distances(mesh_path, cc_surface, spacing)
     layers = json.load(open(report_path)).get("per_layer", [])
     tops = [l["z_mm"] for l in layers]
     if not tops:
@@ -159,7 +173,81 @@ def regions(mesh_path, cc_surface, report_path, spacing, bands):
               (lo, hi - 1, vm, vr, cnt, fig(tot), fig(acc[b][0]), caps))
 
 
+def kinds(mesh_path, cc_surface, cc_verify, spacing, stride):
+    """Verify's samples and the mesh's surface points per kind of surface (see the usage)."""
+    pts, nz, d = surface_with_distances(mesh_path, cc_surface, spacing)
+    zmin = min(pts[2::3])
+    zmax = max(pts[2::3])
+    cell = 4 * spacing
+    grid = {}
+    for i in range(len(nz)):
+        key = (int(pts[3 * i] // cell), int(pts[3 * i + 1] // cell), int(pts[3 * i + 2] // cell))
+        grid.setdefault(key, []).append(i)
+    names = ["bed (z = bottom)", "first layer sides", "sides", "caps up, top 2 layers",
+             "caps up, below", "caps down"]
+
+    def kind(z, normal_z):
+        if z < zmin + 0.01:
+            return 0
+        if abs(normal_z) < 0.99:
+            return 1 if z < zmin + LAYER_MM else 2
+        if normal_z < 0:
+            return 5
+        return 3 if z > zmax - 2 * LAYER_MM - 0.01 else 4
+    mesh_acc = [[0, 0.0, 0.0] for _ in names]
+    for i in range(len(nz)):
+        a = mesh_acc[kind(pts[3 * i + 2], nz[i])]
+        a[0] += 1
+        a[1] += d[i]
+        a[2] += d[i] * d[i]
+    ver_acc = [[0, 0.0, 0.0] for _ in names]
+    with open(cc_verify) as f:
+        for n, line in enumerate(f):
+            if n % stride:
+                continue
+            p = line.replace(",", " ").split()
+            if len(p) < 4:
+                continue
+            x, y, z, dist = (float(v) for v in p[:4])
+            cx, cy, cz = int(x // cell), int(y // cell), int(z // cell)
+            best, bi = 1e18, -1
+            for dx in (-1, 0, 1):
+                for dy in (-1, 0, 1):
+                    for dz in (-1, 0, 1):
+                        for i in grid.get((cx + dx, cy + dy, cz + dz), ()):
+                            e = ((pts[3 * i] - x) ** 2 + (pts[3 * i + 1] - y) ** 2 +
+                                 (pts[3 * i + 2] - z) ** 2)
+                            if e < best:
+                                best, bi = e, i
+            if bi < 0:
+                continue
+            a = ver_acc[kind(z, nz[bi])]
+            a[0] += 1
+            a[1] += dist
+            a[2] += dist * dist
+
+    def fig(a):
+        if a[0] == 0:
+            return "%-24s" % "-"
+        return "%+.4f %.4f (%7d)" % (a[1] / a[0], math.sqrt(a[2] / a[0]), a[0])
+    print("%-19s | %-24s | %-24s" % ("kind (z %.3f-%.3f)" % (zmin, zmax),
+                                     "verify samples mean/RMS", "mesh surface mean/RMS"))
+    for k, name in enumerate(names):
+        print("%-19s | %s | %s" % (name, fig(ver_acc[k]), fig(mesh_acc[k])))
+
+
+LAYER_MM = 0.2  # the first layer's band above the bed (PRINTTWIN_FIRST_LAYER_MM)
+
+
 def main():
+    global LAYER_MM
+    import os
+    LAYER_MM = float(os.environ.get("PRINTTWIN_FIRST_LAYER_MM", LAYER_MM))
+    if sys.argv[1] == "kinds":
+        kinds(sys.argv[2], sys.argv[3], sys.argv[4],
+              float(sys.argv[5]) if len(sys.argv) > 5 else 0.05,
+              int(sys.argv[6]) if len(sys.argv) > 6 else 1)
+        return
     if sys.argv[1] == "regions":
         regions(sys.argv[2], sys.argv[3], sys.argv[4],
                 float(sys.argv[5]) if len(sys.argv) > 5 else 0.05,

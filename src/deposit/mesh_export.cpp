@@ -19,6 +19,7 @@
 #include <cstring>
 #include <functional>
 #include <limits>
+#include <map>
 #include <numeric>
 #include <optional>
 #include <unordered_map>
@@ -1122,12 +1123,18 @@ detail::LayerSlabs slabs_of(const Solid& s, const VoxelGrid& grid,
   return in;
 }
 
-/// Connected pieces of the layered mesh and which are part (as classify does for the voxel
-/// surface); drops the others from the mesh and the solid. Returns the kept count.
-std::size_t keep_part_pieces(detail::LayerSurface& surf, const detail::LayerSlabs& in, Solid& s,
-                             const VoxelGrid& grid, const DepositMeshOptions& o, DepositMesh& out) {
-  Mesh& m = surf.mesh;
-  std::vector<std::uint32_t> parent(m.vertices_mm.size());
+/// The connected pieces of a mesh (over shared vertices) and the signed volume each encloses
+/// (negative: an inner shell; a lone piece is taken as an outer one without summing it).
+struct MeshPieces {
+  std::vector<std::uint32_t> root;  ///< per vertex: the smallest vertex of its piece
+  std::vector<double> volume;       ///< per root vertex
+  std::size_t count = 0;
+};
+
+MeshPieces mesh_pieces(const Mesh& m) {
+  MeshPieces p;
+  std::vector<std::uint32_t>& parent = p.root;
+  parent.resize(m.vertices_mm.size());
   std::iota(parent.begin(), parent.end(), 0U);
   for (const auto& t : m.triangles)
     for (int k = 1; k < 3; ++k) {
@@ -1135,12 +1142,200 @@ std::size_t keep_part_pieces(detail::LayerSurface& surf, const detail::LayerSlab
                           b = find_root(parent, t[static_cast<std::size_t>(k)]);
       if (a != b) parent[std::max(a, b)] = std::min(a, b);
     }
+  for (std::uint32_t v = 0; v < parent.size(); ++v) {  // roots are smaller: one pass
+    parent[v] = parent[parent[v]];
+    p.count += parent[v] == v ? 1 : 0;
+  }
+  p.volume.assign(parent.size(), 0.0);
+  if (p.count == 1) {  // one piece of a closed surface oriented outward: an outer shell
+    if (!parent.empty()) p.volume[0] = 1.0;
+    return p;
+  }
+  for (const auto& t : m.triangles) {
+    const Vec3 &a = m.vertices_mm[t[0]], &b = m.vertices_mm[t[1]], &c = m.vertices_mm[t[2]];
+    p.volume[parent[t[0]]] += a.dot(b.cross(c)) / 6.0;
+  }
+  return p;
+}
+
+/// The cells of slab `slab`'s cross-section 4-connected to the seeds' cells (`rows`: the
+/// projection, as LayerSlabs::project fills it; corner contacts are joined there).
+std::vector<std::array<int, 2>> cross_section_cells(const detail::LayerSlabs& in,
+                                                    const std::vector<std::uint64_t>& rows,
+                                                    const std::vector<std::array<int, 2>>& seeds) {
+  const auto words = static_cast<std::size_t>((in.width + 63) / 64);
+  const auto filled = [&](int x, int y) {
+    return x >= 0 && y >= 0 && x < in.width && y < in.height &&
+           ((rows[static_cast<std::size_t>(y) * words + static_cast<std::size_t>(x >> 6)] >>
+             (x & 63)) &
+            1U) != 0;
+  };
+  std::vector<char> seen(static_cast<std::size_t>(in.width) * static_cast<std::size_t>(in.height));
+  std::vector<std::array<int, 2>> cells, stack;
+  for (const auto& seed : seeds) stack.push_back(seed);
+  while (!stack.empty()) {
+    const auto [x, y] = stack.back();
+    stack.pop_back();
+    if (!filled(x, y)) continue;
+    char& done = seen[static_cast<std::size_t>(y) * static_cast<std::size_t>(in.width) +
+                      static_cast<std::size_t>(x)];
+    if (done != 0) continue;
+    done = 1;
+    cells.push_back({x, y});
+    stack.push_back({x + 1, y});
+    stack.push_back({x - 1, y});
+    stack.push_back({x, y + 1});
+    stack.push_back({x, y - 1});
+  }
+  return cells;
+}
+
+/// The seeds' cells of each slab, per piece of the layered mesh (by root).
+using PieceSeeds =
+    std::unordered_map<std::uint32_t, std::map<int, std::vector<std::array<int, 2>>>>;
+PieceSeeds seeds_by_piece(const detail::LayerSurface& surf, const MeshPieces& pieces) {
+  PieceSeeds by;
+  for (const auto& seed : surf.seeds)
+    by[pieces.root[surf.mesh.triangles[seed.triangle][0]]][seed.slab].push_back({seed.x, seed.y});
+  return by;
+}
+
+/// Cells moved from a slab's cross-section to a neighbour's, by slab (its cell range in z),
+/// and the slab boundaries once the slabs left empty are gone.
+struct MovedCells {
+  std::map<std::pair<int, int>, std::vector<std::array<int, 2>>> add, remove;
+  std::vector<int> bounds;
+  std::size_t pieces = 0;
+};
+
+/// Pieces of the layered mesh that lie in one slab while their voxels touch a voxel of the
+/// next slab up or down (face to face, along an edge or at a corner): the bead's round side
+/// and the neighbour's take the contact away (a cell lifted onto a top layer, the sagging
+/// underside of the next layer's bead). Their cells move to the cross-section of the slab
+/// they touch (the one with more touching cells; down on a tie), so the mesh stays one piece
+/// where the deposit is one. A slab left without cells joins the slab its cells moved to.
+MovedCells split_pieces(const detail::LayerSurface& surf, const MeshPieces& pieces,
+                        const detail::LayerSlabs& in, const Solid& s) {
+  MovedCells moved;
+  if (pieces.count < 2) return moved;
+  const int ns = static_cast<int>(in.bounds.size()) - 1;
+  const PieceSeeds by = seeds_by_piece(surf, pieces);
+  std::vector<std::size_t> outlines(static_cast<std::size_t>(ns), 0), moving = outlines,
+                                                                      incoming = outlines;
+  for (const auto& seed : surf.seeds) ++outlines[static_cast<std::size_t>(seed.slab)];
+  std::vector<int> target(static_cast<std::size_t>(ns), -1);  // where an emptied slab goes
+  std::vector<std::uint64_t> rows;
+  for (const auto& [root, slabs] : by) {
+    const int slab = slabs.begin()->first;
+    // One direction per slab and round: a slab cells move into keeps its own.
+    if (slabs.size() != 1 || pieces.volume[root] <= 0 ||
+        target[static_cast<std::size_t>(slab)] >= 0 || incoming[static_cast<std::size_t>(slab)] > 0)
+      continue;
+    const int z0 = in.bounds[static_cast<std::size_t>(slab)],
+              z1 = in.bounds[static_cast<std::size_t>(slab) + 1];
+    rows.assign(
+        static_cast<std::size_t>(in.height) * static_cast<std::size_t>((in.width + 63) / 64), 0);
+    in.project(z0, z1, rows);
+    const auto cells = cross_section_cells(in, rows, slabs.begin()->second);
+    // A voxel of the piece at the slab's top (bottom) and one of the next slab's above
+    // (below) it, face to face, along an edge or at a corner.
+    const auto touches = [&s](int x, int y, int z, int next) {
+      if (!s.get(x, y, z)) return false;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx)
+          if (s.get(x + dx, y + dy, next)) return true;
+      return false;
+    };
+    std::size_t up = 0, down = 0;
+    for (const auto& c : cells) {
+      up += slab + 1 < ns && touches(c[0], c[1], z1 - 1, z1) ? 1 : 0;
+      down += slab > 0 && touches(c[0], c[1], z0, z0 - 1) ? 1 : 0;
+    }
+    if (up == 0 && down == 0) continue;  // separate plastic: keep_part_pieces judges it
+    const int to = up > down ? slab + 1 : slab - 1;
+    if (moving[static_cast<std::size_t>(to)] > 0) continue;  // that slab may empty: next round
+    const std::pair<int, int> from_range{z0, z1},
+        to_range{in.bounds[static_cast<std::size_t>(to)],
+                 in.bounds[static_cast<std::size_t>(to) + 1]};
+    auto& add = moved.add[to_range];
+    add.insert(add.end(), cells.begin(), cells.end());
+    auto& rm = moved.remove[from_range];
+    rm.insert(rm.end(), cells.begin(), cells.end());
+    ++moved.pieces;
+    ++incoming[static_cast<std::size_t>(to)];
+    moving[static_cast<std::size_t>(slab)] += slabs.begin()->second.size();
+    if (moving[static_cast<std::size_t>(slab)] == outlines[static_cast<std::size_t>(slab)])
+      target[static_cast<std::size_t>(slab)] = to;
+  }
+  // Emptied slabs: the first and the last are dropped; one between joins its target (its
+  // voxels are then in that slab's own cells). The moves follow the slabs they fall in.
+  std::vector<char> keep_bound(in.bounds.size(), 1);
+  for (int k = 0; k < ns; ++k) {
+    const int to = target[static_cast<std::size_t>(k)];
+    if (to >= 0)
+      keep_bound[static_cast<std::size_t>(k == 0 ? 0 : k == ns - 1 ? ns : to > k ? k + 1 : k)] = 0;
+  }
+  for (std::size_t i = 0; i < in.bounds.size(); ++i)
+    if (keep_bound[i] != 0) moved.bounds.push_back(in.bounds[i]);
+  decltype(moved.add) add, remove;
+  for (auto& [range, cells] : moved.add) {
+    const auto hi = std::lower_bound(moved.bounds.begin(), moved.bounds.end(), range.second);
+    if (hi == moved.bounds.begin() || hi == moved.bounds.end() || *(hi - 1) > range.first) continue;
+    auto& to = add[{*(hi - 1), *hi}];
+    to.insert(to.end(), cells.begin(), cells.end());
+  }
+  for (auto& [range, cells] : moved.remove) {
+    const auto lo = std::lower_bound(moved.bounds.begin(), moved.bounds.end(), range.first);
+    if (lo != moved.bounds.end() && *lo == range.first && lo + 1 != moved.bounds.end() &&
+        *(lo + 1) == range.second)
+      remove[range] = std::move(cells);
+  }
+  moved.add = std::move(add);
+  moved.remove = std::move(remove);
+  return moved;
+}
+
+/// `in` with `moved` applied to its slabs and cross-sections.
+detail::LayerSlabs with_moved_cells(const detail::LayerSlabs& in, MovedCells moved) {
+  detail::LayerSlabs out = in;
+  out.bounds = moved.bounds;
+  const int words = (in.width + 63) / 64;
+  out.project = [base = in.project, moved = std::move(moved), words](
+                    int z0, int z1, std::vector<std::uint64_t>& rows) {
+    base(z0, z1, rows);
+    const auto bit = [&rows, words](const std::array<int, 2>& c) -> std::uint64_t& {
+      return rows[static_cast<std::size_t>(c[1]) * static_cast<std::size_t>(words) +
+                  static_cast<std::size_t>(c[0] >> 6)];
+    };
+    if (const auto it = moved.remove.find({z0, z1}); it != moved.remove.end())
+      for (const auto& c : it->second) bit(c) &= ~(1ULL << (c[0] & 63));
+    if (const auto it = moved.add.find({z0, z1}); it != moved.add.end()) {
+      for (const auto& c : it->second) bit(c) |= 1ULL << (c[0] & 63);
+      join_diagonal_cells(rows, words);
+    }
+  };
+  return out;
+}
+
+/// Connected pieces of the layered mesh and which are part (as classify does for the voxel
+/// surface); drops the others from the mesh and their cells from the solid, and the inner
+/// shells (cavities the slabs close: a hole of one slab's cross-section covered by the slabs
+/// above and below, which the voxels reach from outside through cells the cross-sections
+/// fill), as the filled volume fills every cavity the outside cannot reach. Returns the
+/// kept count.
+std::size_t keep_part_pieces(detail::LayerSurface& surf, const MeshPieces& pieces,
+                             const detail::LayerSlabs& in, Solid& s, const VoxelGrid& grid,
+                             const DepositMeshOptions& o, DepositMesh& out) {
+  Mesh& m = surf.mesh;
+  const auto& volume = pieces.volume;
+  const auto& parent = pieces.root;
   bool tagged = false;
   for (const auto& tag : detail::VoxelBlocks::tag_table(grid))
     tagged |= kept_feature(tag.feature, o);
   std::unordered_map<std::uint32_t, std::array<int, 3>> piece;  // root: has part, layer range
   for (const auto& seed : surf.seeds) {
-    const std::uint32_t root = find_root(parent, m.triangles[seed.triangle][0]);
+    const std::uint32_t root = parent[m.triangles[seed.triangle][0]];
+    if (volume[root] < 0) continue;
     auto [it, fresh] = piece.try_emplace(root, std::array<int, 3>{0, 1 << 30, -1});
     if (tagged && it->second[0] != 0) continue;
     for (int z = in.bounds[static_cast<std::size_t>(seed.slab)];
@@ -1152,23 +1347,38 @@ std::size_t keep_part_pieces(detail::LayerSurface& surf, const detail::LayerSlab
       it->second[2] = std::max(it->second[2], tag->layer);
     }
   }
-  const auto kept = [&](const std::array<int, 3>& p) { return tagged ? p[0] != 0 : p[2] > p[1]; };
+  const auto kept_root = [&](std::uint32_t root) {
+    if (volume[root] < 0) return false;
+    const auto& p = piece.at(root);
+    return tagged ? p[0] != 0 : p[2] > p[1];
+  };
   std::size_t n_kept = 0;
-  for (const auto& [root, p] : piece) n_kept += kept(p) ? 1 : 0;
-  if (!tagged && n_kept == 0) return piece.size();  // every piece one layer tall: keep all
+  for (const auto& [root, p] : piece) n_kept += kept_root(root) ? 1 : 0;
+  if (!tagged && n_kept == 0) {  // every piece one layer tall: keep all
+    n_kept = piece.size();
+    for (auto& [root, p] : piece) p = {1, 0, 1};
+  }
   out.dropped_components = piece.size() - n_kept;
-  if (out.dropped_components == 0) return n_kept;
-  for (const auto& seed : surf.seeds) {  // clear the dropped pieces from the solid
-    const auto& p = piece.at(find_root(parent, m.triangles[seed.triangle][0]));
-    if (kept(p)) continue;
-    for (int z = in.bounds[static_cast<std::size_t>(seed.slab)];
-         z < in.bounds[static_cast<std::size_t>(seed.slab) + 1]; ++z)
-      if (s.get(seed.x, seed.y, z)) clear_piece(s, {seed.x, seed.y, z});
+  out.filled_cavities = pieces.count - piece.size();
+  if (out.dropped_components == 0 && out.filled_cavities == 0) return n_kept;
+  // The dropped pieces' cells, slab by slab, leave the solid.
+  std::vector<std::uint64_t> rows;
+  for (const auto& [root, slabs] : seeds_by_piece(surf, pieces)) {
+    if (volume[root] < 0 || kept_root(root)) continue;
+    for (const auto& [slab, seeds] : slabs) {
+      const int z0 = in.bounds[static_cast<std::size_t>(slab)],
+                z1 = in.bounds[static_cast<std::size_t>(slab) + 1];
+      rows.assign(
+          static_cast<std::size_t>(in.height) * static_cast<std::size_t>((in.width + 63) / 64), 0);
+      in.project(z0, z1, rows);
+      for (const auto& c : cross_section_cells(in, rows, seeds))
+        for (int z = z0; z < z1; ++z) s.set(c[0], c[1], z, false);
+    }
   }
   std::vector<std::uint32_t> remap(m.vertices_mm.size(), ~0U);
   Mesh k;
   for (const auto& t : m.triangles) {
-    if (kept(piece.at(find_root(parent, t[0])))) {
+    if (kept_root(parent[t[0]])) {
       std::array<std::uint32_t, 3> tri{};
       for (std::size_t c = 0; c < 3; ++c) {
         std::uint32_t& r = remap[t[c]];
@@ -1188,11 +1398,13 @@ std::size_t keep_part_pieces(detail::LayerSurface& surf, const detail::LayerSlab
 /// The layered surface into `out` (true), or false with out.layers_fallback saying why.
 bool layered_surface(Solid& fine, const VoxelGrid& grid, std::span<const SurfaceBead> beads,
                      const DepositMeshOptions& options, DepositMesh& out) {
-  const detail::LayerSlabs in = slabs_of(fine, grid, beads);
+  detail::LayerSlabs in = slabs_of(fine, grid, beads);
   detail::LayerSurfaceOptions lo;
   lo.tolerance_mm = options.outline_tolerance_mm;
   lo.profile_steps = options.profile_steps;
   detail::LayerSurface surf;
+  MeshPieces pieces;
+  int merge_rounds = 0;
   for (;;) {
     surf = detail::build_layer_surface(in, lo);
     const bool closed = !surf.mesh.triangles.empty() && detail::is_closed_oriented(surf.mesh);
@@ -1203,6 +1415,16 @@ bool layered_surface(Solid& fine, const VoxelGrid& grid, std::span<const Surface
     if (!closed) {
       out.layers_fallback = "the layered surface did not close (outlines that cross)";
       return false;
+    }
+    // One-slab pieces cut from the deposit they touch: into the next slab, and again (a
+    // moved piece can leave another alone), a few rounds at most.
+    pieces = mesh_pieces(surf.mesh);
+    if (MovedCells moved = split_pieces(surf, pieces, in, fine);
+        moved.pieces > 0 && merge_rounds < 3) {
+      ++merge_rounds;
+      out.merged_pieces += moved.pieces;
+      in = with_moved_cells(in, std::move(moved));
+      continue;
     }
     if (options.max_triangles == 0 || surf.mesh.triangles.size() <= options.max_triangles) break;
     lo.tolerance_mm *= 2;
@@ -1216,7 +1438,7 @@ bool layered_surface(Solid& fine, const VoxelGrid& grid, std::span<const Surface
   out.outlines = surf.outlines;
   out.straight_outlines = surf.straight_outlines;
   out.outline_tolerance_mm = lo.tolerance_mm;
-  out.components = keep_part_pieces(surf, in, fine, grid, options, out);
+  out.components = keep_part_pieces(surf, pieces, in, fine, grid, options, out);
   out.filled_volume_mm3 = static_cast<double>(fine.count()) * std::pow(grid.voxel_mm(), 3);
   out.full_res_triangles = surf.mesh.triangles.size();
   // Outlines within the tolerance of the marching-squares outline, itself within half a

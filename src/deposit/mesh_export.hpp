@@ -93,7 +93,12 @@ struct DepositMesh {
   std::size_t full_res_triangles = 0;  ///< triangles of the full-resolution mesh
   std::size_t components = 0;          ///< kept connected pieces
   std::size_t dropped_components = 0;  ///< pieces without part voxels (skirt, purge line)
-  double seconds = 0;                  ///< time to build
+  /// Layers: inner shells the slabs close (small cavities the voxels reach from outside),
+  /// filled.
+  std::size_t filled_cavities = 0;
+  /// Layers: one-slab pieces whose voxels touch the next slab's, merged into its cross-section.
+  std::size_t merged_pieces = 0;
+  double seconds = 0;  ///< time to build
 };
 
 struct DepositSurface;

@@ -394,6 +394,10 @@ std::string deposit_mesh_summary(const DepositMesh& dm, const std::filesystem::p
     s += "  not smoothed onto the beads: " + std::to_string(dm.mesh.triangles.size()) +
          " triangles, more than --deposit-mesh-smooth-max-triangles (2000000 by default; "
          "smoothing costs about 3.5 s of CPU per million triangles; 0 smooths any size)\n";
+  if (dm.merged_pieces > 0 || dm.filled_cavities > 0)
+    s += "  " + std::to_string(dm.merged_pieces) +
+         " one-slab piece(s) touching the next slab joined to it, " +
+         std::to_string(dm.filled_cavities) + " cavity(ies) closed by the slabs filled\n";
   if (dm.dropped_components > 0)
     s += "  left out " + std::to_string(dm.dropped_components) +
          " piece(s) without part voxels (skirt, purge line); --deposit-mesh-include adds auxiliary "
@@ -419,6 +423,8 @@ std::string deposit_mesh_json(const DepositMesh& dm, const std::filesystem::path
   j["smoothed_vertices"] = dm.smoothed_vertices;
   j["components"] = dm.components;
   j["dropped_components"] = dm.dropped_components;
+  j["merged_pieces"] = dm.merged_pieces;
+  j["filled_cavities"] = dm.filled_cavities;
   return j.dump();
 }
 

@@ -6,6 +6,8 @@
 
 #include <array>
 #include <cmath>
+#include <filesystem>
+#include <map>
 #include <numbers>
 
 #include "deposit/mesh_export.hpp"
@@ -91,6 +93,41 @@ TEST(LayeredMesh, ACellTouchingThePartAtACornerStaysPartOfIt) {
     expect_layered_and_closed(dm);
     EXPECT_EQ(dm.components, 1u) << (rising ? "rising" : "falling");
     EXPECT_NEAR(dm.volume_mm3, dm.filled_volume_mm3, 0.01 * dm.filled_volume_mm3);
+  }
+}
+
+TEST(LayeredMesh, CellsTouchingTheNextLayerOnlyAcrossSlabsJoinIt) {
+  // Voxels that lie in one slab alone but touch the next slab's: the round sides of both
+  // slabs would take the contact away and leave them a separate piece of the mesh.
+  const auto square = [](int x, int y, int) { return x >= 40 && x < 120 && y >= 40 && y < 120; };
+  // A few cells lifted one cell above the last layer, on the rim of a hole in it (face to
+  // face with the layer below).
+  Part lifted = make_part(4, [&](int x, int y, int l) {
+    return square(x, y, l) && !(l == 3 && x >= 74 && x < 82 && y >= 74 && y < 82);
+  });
+  for (int y = 77; y < 80; ++y)
+    for (int x = 81; x < 84; ++x)
+      lifted.grid.set({x, y, 4 * kLayer}, {1, 3, Feature::top_solid_infill});
+  // The sagging underside of an overhanging layer's bead: a cell in the slab below, away
+  // from that slab's cells, touching the overhang's bottom row along an edge only.
+  Part sagging = make_part(4, [](int x, int y, int l) {
+    return x >= 40 && x < 120 && y >= 40 && y < (l == 0 ? 100 : 120);
+  });
+  for (int x = 60; x < 64; ++x) sagging.grid.set({x, 118, kLayer - 1}, {1, 1, Feature::perimeter});
+  // A layer that is only a patch on the part's side, touching the layers below and above
+  // it face to face within their round sides: its cells join the slab below (a tie).
+  Part patch = make_part(
+      4, [](int x, int y, int l) { return l != 2 && x >= 40 && x < 120 && y >= 40 && y < 120; });
+  for (int z = 2 * kLayer; z < 3 * kLayer; ++z)
+    for (int y = 78; y < 82; ++y)
+      for (int x = 118; x < 122; ++x) patch.grid.set({x, y, z}, {1, 2, Feature::perimeter});
+  for (const Part* p : {&lifted, &sagging, &patch}) {
+    const DepositMesh dm = build(*p);
+    expect_layered_and_closed(dm);
+    EXPECT_EQ(dm.components, 1u);
+    EXPECT_EQ(dm.merged_pieces, 1u);
+    EXPECT_EQ(analyze_mesh_health(dm.mesh).shells, 1u);
+    EXPECT_NEAR(dm.volume_mm3, dm.filled_volume_mm3, 0.02 * dm.filled_volume_mm3);
   }
 }
 
@@ -379,6 +416,65 @@ TEST(LayeredMeshCli, SimulateCubeIsLayeredClosedWithItsVolume) {
   const auto bad = test::run_cli("simulate '" + gcode.string() + "' --deposit-mesh '" +
                                  (dir / "c.stl").string() + "' --deposit-mesh-surface mesh");
   EXPECT_EQ(bad.exit_code, 2);
+}
+
+}  // namespace
+}  // namespace printtwin
+
+namespace printtwin {
+namespace {
+
+/// The signed volume of each connected piece of `m` (over shared vertices).
+std::vector<double> piece_volumes(const Mesh& m) {
+  std::vector<std::uint32_t> parent(m.vertices_mm.size());
+  for (std::uint32_t i = 0; i < parent.size(); ++i) parent[i] = i;
+  const auto root = [&parent](std::uint32_t a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  };
+  for (const auto& t : m.triangles) {
+    const std::uint32_t a = root(t[0]);
+    parent[root(t[1])] = a;
+    parent[root(t[2])] = a;
+  }
+  std::map<std::uint32_t, double> vol;
+  for (const auto& t : m.triangles)
+    vol[root(t[0])] +=
+        m.vertices_mm[t[0]].dot(m.vertices_mm[t[1]].cross(m.vertices_mm[t[2]])) / 6.0;
+  std::vector<double> out;
+  for (const auto& [r, v] : vol) out.push_back(v);
+  return out;
+}
+
+TEST(LayeredMeshCli, RealSlicerFilesGiveOuterShellsWithTheFilledVolume) {
+  // The layered mesh of real slicers' prints: closed, every piece an outer shell (the small
+  // cavities the slabs close are filled), its volume the filled volume's. Files up to 1 MB
+  // keep the test short.
+  const auto dir = test::realworld_dir();
+  if (!dir) GTEST_SKIP() << "no realworld folder";
+  const auto out = test::temp_dir("deposit_mesh_layers_real");
+  int tested = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(*dir / "gcode")) {
+    if (entry.path().extension() != ".gcode" || entry.file_size() > 1000000) continue;
+    const std::string name = entry.path().stem().string();
+    const auto run = test::run_cli("simulate '" + entry.path().string() + "' --deposit-mesh '" +
+                                   (out / (name + ".stl")).string() + "' --json '" +
+                                   (out / (name + ".json")).string() + "'");
+    if (run.exit_code != 0) continue;  // the interpreter's tests cover its errors
+    const auto j = test::read_json(out / (name + ".json"));
+    if (!j["deposit"].contains("mesh")) continue;
+    const auto& m = j["deposit"]["mesh"];
+    auto mesh = load_mesh(out / (name + ".stl"));
+    ASSERT_TRUE(mesh.ok()) << mesh.error().describe();
+    EXPECT_TRUE(detail::is_closed_oriented(*mesh)) << name;
+    const auto pieces = piece_volumes(*mesh);
+    EXPECT_EQ(pieces.size(), m["components"].get<std::size_t>()) << name;
+    for (const double v : pieces) EXPECT_GT(v, 0.0) << name;
+    const double filled = m["filled_volume_mm3"].get<double>();
+    EXPECT_NEAR(m["volume_mm3"].get<double>(), filled, 0.01 * filled) << name;
+    ++tested;
+  }
+  if (tested == 0) GTEST_SKIP() << "no G-code with a deposit mesh";
 }
 
 }  // namespace
