@@ -643,33 +643,20 @@ OtNode pack(const deposit_detail::Rgb& c) {
   return kLeaf | (std::uint32_t{c.r} << 16) | (std::uint32_t{c.g} << 8) | c.b;
 }
 
-/// The parent of eight nodes (at least one present) that are not eight leaves of one
-/// colour: an inner node with OctoMap's average child colour.
-__attribute__((noinline)) OtNode mixed_parent_of(const OtNode* c) {
-  std::uint32_t r = 0, g = 0, b = 0, n = 0;
-  for (int i = 0; i < 8; ++i) {  // the children that count, selected without a branch
-    const std::uint32_t counts = c[i] != 0 && (c[i] & kWhite) != kWhite ? ~0u : 0u;
-    const OtNode v = c[i] & counts;
-    r += (v >> 16) & 0xFFu, g += (v >> 8) & 0xFFu, b += v & 0xFFu, n += counts & 1u;
-  }
-  if (n == 0) return kInner | kWhite;
-  // x / n for x <= 8 * 255 as x * ceil(2^16 / n) >> 16 (exact: the error stays below 1 / 32,
-  // and x / n's fraction is at most 7 / 8).
-  static constexpr std::array<std::uint32_t, 9> kInverse = {0,     65536, 32768, 21846, 16384,
-                                                            13108, 10923, 9363,  8192};
-  const std::uint32_t inverse = kInverse[n];
-  return kInner | (((r * inverse) >> 16) << 16) | (((g * inverse) >> 16) << 8) |
-         ((b * inverse) >> 16);
-}
-
 /// The parent of eight nodes (at least one present): a leaf when the eight are leaves of
 /// one colour, else an inner node with OctoMap's average child colour.
-inline OtNode parent_of(const OtNode* c) {
+OtNode parent_of(const OtNode* c) {
   const OtNode first = c[0];
-  OtNode differ = 0;  // word operations over the eight: no branch per child
-  for (int i = 1; i < 8; ++i) differ |= c[i] ^ first;
-  if (differ == 0 && (first & ~kWhite) == kLeaf) return first;
-  return mixed_parent_of(c);
+  if ((first & ~kWhite) == kLeaf && c[1] == first && c[2] == first && c[3] == first &&
+      c[4] == first && c[5] == first && c[6] == first && c[7] == first)
+    return first;
+  std::uint32_t r = 0, g = 0, b = 0, n = 0;
+  for (int i = 0; i < 8; ++i) {
+    if (c[i] == 0 || (c[i] & kWhite) == kWhite) continue;
+    r += (c[i] >> 16) & 0xFFu, g += (c[i] >> 8) & 0xFFu, b += c[i] & 0xFFu, ++n;
+  }
+  if (n == 0) return kInner | kWhite;
+  return kInner | ((r / n) << 16) | ((g / n) << 8) | (b / n);
 }
 
 /// Writes `n` bytes at file offset `at` (pwrite, retried until done); false on an error.
