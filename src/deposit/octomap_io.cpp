@@ -734,7 +734,9 @@ struct OtTables {
                                  : deposit_detail::feature_color(tag.feature)));
     for (int a = 0; a < 3; ++a)
       offset[a] = static_cast<int>(std::llround(grid.origin_mm()[a] / grid.voxel_mm())) + 32768;
-    std::memcpy(value, &occupied_log_odds, 4);
+    std::uint32_t value = 0;
+    std::memcpy(&value, &occupied_log_odds, 4);
+    value_word = value;
     // Every cube starts at the same place inside its grid block (offsets below 8): where
     // each of its voxels lies among the up to 2 x 2 x 2 blocks it overlaps.
     int shift[3];
@@ -751,22 +753,38 @@ struct OtTables {
       z_block[static_cast<std::size_t>(z)] = static_cast<std::uint8_t>((lz >> 3) << 2);
       z_slot[static_cast<std::size_t>(z)] = static_cast<std::uint16_t>((lz & 7) * 64);
     }
+    std::array<std::uint16_t, 8> spread{};  // bits 0, 1, 2 of i at bits 0, 3, 6
+    for (unsigned i = 0; i < 8; ++i)
+      for (unsigned level = 0; level < 3; ++level)
+        spread[i] = static_cast<std::uint16_t>(spread[i] | ((i >> level) & 1u) << (3 * level));
+    for (unsigned i = 0; i < 8; ++i) z_morton[i] = static_cast<std::uint16_t>(spread[i] << 2);
+    for (unsigned bit = 0; bit < 64; ++bit)
+      xy_morton[bit] = static_cast<std::uint16_t>(spread[bit & 7u] | (spread[bit >> 3] << 1));
   }
   /// The record of `node` with these child bits.
   void record(OtNode node, std::uint8_t children, char* out) const {
-    std::memcpy(out, value, 4);
-    out[4] = static_cast<char>(node >> 16), out[5] = static_cast<char>(node >> 8);
-    out[6] = static_cast<char>(node), out[7] = static_cast<char>(children);
+    const std::uint64_t word = record_word(node, children);
+    std::memcpy(out, &word, kRecord);
+  }
+  /// The record of `node` as it lies in memory: the value, r, g, b, the child bits.
+  [[nodiscard]] std::uint64_t record_word(OtNode node, std::uint8_t children) const {
+    static_assert(std::endian::native == std::endian::little);
+    return value_word | (std::uint64_t{__builtin_bswap32(node << 8)} << 32) |
+           (std::uint64_t{children} << 56);
   }
 
   std::vector<OtNode> colours;  // per tag index, packed as a leaf
   int offset[3] = {0, 0, 0};
-  char value[4] = {};                       // the occupied log-odds, as written
+  std::uint64_t value_word = 0;             // the occupied log-odds, as written
   std::array<std::uint8_t, 64> xy_block{};  // per bit y * 8 + x of a cube slice: its block
   std::array<std::uint8_t, 64> xy_slot{};   // ... and its slot's y * 8 + x there
   std::array<std::uint64_t, 4> xy_mask{};   // per block (x bit, y bit): the bits in it
   std::array<std::uint8_t, 8> z_block{};    // per cube slice z: its block (z bit)
   std::array<std::uint16_t, 8> z_slot{};    // ... and its slot's z * 64 there
+  // A voxel's place in the cube's depth-first (Morton) order: x bits at 0, 3, 6; y at 1, 4,
+  // 7; z at 2, 5, 8.
+  std::array<std::uint16_t, 64> xy_morton{};  // per bit y * 8 + x of a cube slice
+  std::array<std::uint16_t, 8> z_morton{};    // per slice z
 };
 
 /// Nodes of the encoded .ot at most: per cube its voxels and at most min(voxels, 64) +
@@ -790,7 +808,7 @@ class OtEncoder {
     Piece piece;
     // Records: at most 1 + 8 + 64 above the cubes, and per cube its voxels plus
     // min(voxels, 64) + min(voxels, 8) + 1 nodes above them.
-    std::size_t records = 73;
+    std::size_t records = 73 + 1;  // + 1: a voxel record is written before it is known to stay
     for (const Cube* c = s.begin; c != s.end; ++c) {
       const std::size_t n = voxels_of(*c);
       records += n + std::min<std::size_t>(n, 64) + std::min<std::size_t>(n, 8) + 1;
@@ -799,18 +817,17 @@ class OtEncoder {
     cubes_ = s.begin;
     out_ = piece.bytes.get();
     size_ = 0;
-    nodes_ = 0;
     piece.root = encode_range(0, static_cast<std::size_t>(s.end - s.begin), kSubtreeDepth);
     piece.size = size_;
-    piece.nodes = nodes_;
+    piece.nodes = size_ / kRecord;  // a record per node
     return piece;
   }
 
  private:
   /// Appends a node record (value, colour, child bits); returns its offset.
   std::size_t put_node(OtNode node, std::uint8_t children) {
-    t_.record(node, children, out_ + size_);
-    ++nodes_;
+    const std::uint64_t word = t_.record_word(node, children);
+    std::memcpy(out_ + size_, &word, kRecord);
     size_ += kRecord;
     return size_ - kRecord;
   }
@@ -821,14 +838,12 @@ class OtEncoder {
     for (unsigned c = 0; c < 8; ++c)
       if (split[c] != split[c + 1]) mask = static_cast<std::uint8_t>(mask | (1u << c));
     const std::size_t at = put_node(kInner | kWhite, mask);
-    const std::size_t nodes_before = nodes_;
     std::array<OtNode, 8> children{};
     for (unsigned c = 0; c < 8; ++c)
       if (split[c] != split[c + 1]) children[c] = encode_range(split[c], split[c + 1], depth + 1);
     const OtNode node = parent_of(children.data());
     if (node & kLeaf) {  // eight leaves of one colour: one leaf instead
       size_ = at;
-      nodes_ = nodes_before - 1;
       put_node(node, 0);
     } else {
       out_[at + 4] = static_cast<char>(node >> 16);
@@ -845,7 +860,9 @@ class OtEncoder {
     OtNode uniform = 0;  // the colour of all its tags, 0 when they differ
     std::array<OtNode, VoxelBlocks::kPaletteSize> palette{};
   };
-  /// The packed leaf of every voxel of the cube (slot z * 64 + y * 8 + x; 0 where empty).
+  /// The packed leaf of every voxel of the cube, in the cube's depth-first order (slot
+  /// xy_morton[y * 8 + x] | z_morton[z]); the slots of the other voxels of its 2^3 groups
+  /// that hold a voxel are 0 (the rest are 0 from the cube before).
   /// Returns the colour all of them share when every grid block they come from has one
   /// colour for all its tags (then the voxels are filled without a per-voxel look-up),
   /// else 0.
@@ -879,12 +896,12 @@ class OtEncoder {
           shared = shared == ~OtNode{0} ? c : (shared == c ? c : 0);
         }
     if (shared != 0 && cube.full()) return shared;  // the caller writes one leaf
-    voxel_.fill(0);
     for (std::size_t z = 0; z < 8; ++z) {
       std::uint64_t w = cube.bits[z];
-      OtNode* slice = voxel_.data() + z * 64;
+      OtNode* slice = voxel_.data() + t_.z_morton[z];
+      const auto& place = t_.xy_morton;
       if (shared != 0) {
-        for (; w != 0; w &= w - 1) slice[std::countr_zero(w)] = shared;
+        for (; w != 0; w &= w - 1) slice[place[std::countr_zero(w)]] = shared;
         continue;
       }
       // The slice's voxels block by block (up to 2 x 2 blocks): one colour, a palette
@@ -895,17 +912,17 @@ class OtEncoder {
         if (m == 0) continue;
         const BlockColours& b = blocks_[t_.z_block[z] | q];
         if (b.uniform != 0) {
-          for (; m != 0; m &= m - 1) slice[std::countr_zero(m)] = b.uniform;
+          for (; m != 0; m &= m - 1) slice[place[std::countr_zero(m)]] = b.uniform;
         } else if (b.wide != nullptr) {
           for (; m != 0; m &= m - 1) {
             const auto bit = static_cast<std::size_t>(std::countr_zero(m));
-            slice[bit] = t_.colours[b.wide[z_slot + t_.xy_slot[bit]]];
+            slice[place[bit]] = t_.colours[b.wide[z_slot + t_.xy_slot[bit]]];
           }
         } else {
           for (; m != 0; m &= m - 1) {
             const auto bit = static_cast<std::size_t>(std::countr_zero(m));
             const unsigned slot = z_slot + t_.xy_slot[bit];
-            slice[bit] = b.palette[(b.nibbles[slot >> 1] >> ((slot & 1u) * 4)) & 15u];
+            slice[place[bit]] = b.palette[(b.nibbles[slot >> 1] >> ((slot & 1u) * 4)) & 15u];
           }
         }
       }
@@ -918,54 +935,54 @@ class OtEncoder {
       put_node(shared, 0);
       return shared;
     }
-    // Levels inside the cube, bottom-up: 8^3 voxels -> 4^3 -> 2^3 -> the cube's node.
-    reduce(voxel_.data(), 8, l1_.data());
-    reduce(l1_.data(), 4, l2_.data());
-    OtNode root = 0;
-    reduce(l2_.data(), 2, &root);
-    write_cube_node(root, 3, 0, 0, 0);
+    // Levels inside the cube, bottom-up: 8^3 voxels -> 4^3 -> 2^3 -> the cube's node; in
+    // depth-first order a node's eight children lie side by side.
+    std::uint64_t groups = 0;  // the 2^3 groups of voxels that hold one
+    for (unsigned g = 0; g < 64; ++g) {
+      const OtNode* v = voxel_.data() + 8 * g;
+      const bool any = (v[0] | v[1] | v[2] | v[3] | v[4] | v[5] | v[6] | v[7]) != 0;
+      l1_[g] = any ? parent_of(v) : 0;
+      groups |= std::uint64_t{any} << g;
+    }
+    for (unsigned g = 0; g < 8; ++g) {
+      const OtNode* v = l1_.data() + 8 * g;
+      const bool any = (v[0] | v[1] | v[2] | v[3] | v[4] | v[5] | v[6] | v[7]) != 0;
+      l2_[g] = any ? parent_of(v) : 0;
+    }
+    const OtNode root = parent_of(l2_.data());
+    write_cube_node(root, l2_.data(), 3);
+    for (; groups != 0; groups &= groups - 1)  // the next cube starts from empty slots
+      std::fill_n(voxel_.data() + 8 * std::countr_zero(groups), 8, OtNode{0});
     return root;
   }
-  /// Parents (edge n / 2) of the nodes of one level (edge n, index z * n * n + y * n + x).
-  static void reduce(const OtNode* level, int n, OtNode* parents) {
-    const int h = n / 2;
-    for (int z = 0; z < h; ++z)
-      for (int y = 0; y < h; ++y)
-        for (int x = 0; x < h; ++x) {
-          const OtNode* c = level + (2 * z * n + 2 * y) * n + 2 * x;
-          const OtNode children[8] = {c[0],     c[1],         c[n],         c[n + 1],
-                                      c[n * n], c[n * n + 1], c[n * n + n], c[n * n + n + 1]};
-          const bool any = (children[0] | children[1] | children[2] | children[3] | children[4] |
-                            children[5] | children[6] | children[7]) != 0;
-          parents[(z * h + y) * h + x] = any ? parent_of(children) : 0;
-        }
+  /// The child bits of eight nodes.
+  static std::uint8_t child_mask(const OtNode* children) {
+    unsigned mask = 0;
+    for (unsigned c = 0; c < 8; ++c) mask |= unsigned{children[c] != 0} << c;
+    return static_cast<std::uint8_t>(mask);
   }
-  /// Writes node (x, y, z) of cube level `level` (0: voxels, 3: the cube) and its subtree.
-  void write_cube_node(OtNode node, int level, int x, int y, int z) {
+  /// Writes a node of cube level `level` (1: above voxels, 3: the cube) and its subtree;
+  /// `children` are its eight children.
+  void write_cube_node(OtNode node, const OtNode* children, int level) {
     if (node & kLeaf) {
       put_node(node, 0);
       return;
     }
-    const int n = 8 >> (level - 1);  // edge of the child level
-    const OtNode* below = level == 1 ? voxel_.data() : level == 2 ? l1_.data() : l2_.data();
-    OtNode children[8];
-    std::uint8_t mask = 0;
-    for (unsigned c = 0; c < 8; ++c) {
-      const int cx = 2 * x + static_cast<int>(c & 1u), cy = 2 * y + static_cast<int>((c >> 1) & 1u),
-                cz = 2 * z + static_cast<int>(c >> 2);
-      children[c] = below[(cz * n + cy) * n + cx];
-      if (children[c] != 0) mask = static_cast<std::uint8_t>(mask | (1u << c));
-    }
-    put_node(node, mask);
-    if (level == 1) {  // the children are voxels: leaves
-      for (const OtNode c : children)
-        if (c != 0) put_node(c, 0);
+    put_node(node, child_mask(children));
+    if (level == 1) {  // the children are voxels: leaves, written without a branch each
+      char* out = out_ + size_;
+      for (unsigned c = 0; c < 8; ++c) {
+        const std::uint64_t word = t_.record_word(children[c], 0);
+        std::memcpy(out, &word, kRecord);
+        out += children[c] != 0 ? kRecord : 0;
+      }
+      size_ = static_cast<std::size_t>(out - out_);
       return;
     }
+    const OtNode* below = level == 3 ? l1_.data() : voxel_.data();
+    const auto first = static_cast<std::size_t>(children - (level == 3 ? l2_.data() : l1_.data()));
     for (unsigned c = 0; c < 8; ++c)
-      if (children[c] != 0)
-        write_cube_node(children[c], level - 1, 2 * x + static_cast<int>(c & 1u),
-                        2 * y + static_cast<int>((c >> 1) & 1u), 2 * z + static_cast<int>(c >> 2));
+      if (children[c] != 0) write_cube_node(children[c], below + 8 * (first + c), level - 1);
   }
 
   const VoxelGrid& grid_;
@@ -977,7 +994,6 @@ class OtEncoder {
   std::array<OtNode, 8> l2_{};
   char* out_ = nullptr;
   std::size_t size_ = 0;
-  std::size_t nodes_ = 0;
 };
 
 /// The levels above the .ot's subtrees, streamed to the file with the pieces.
