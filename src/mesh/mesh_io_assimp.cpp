@@ -76,6 +76,18 @@ bool starts_with_solid(std::string_view bytes) {
   return bytes.substr(i, 5) == "solid";
 }
 
+/// True when bytes past the 80-byte header of an STL starting with "solid" cannot be ASCII
+/// STL text: a NUL or a control byte other than white space among the first records (the
+/// triangle count and the floats of a binary STL whose header begins with "solid", as some
+/// exporters write it).
+bool binary_after_header(std::string_view bytes) {
+  const std::string_view body = bytes.substr(std::min<std::size_t>(80, bytes.size()), 1024);
+  return std::any_of(body.begin(), body.end(), [](char c) {
+    const auto u = static_cast<unsigned char>(c);
+    return u < 0x20 && std::isspace(u) == 0;
+  });
+}
+
 std::uint32_t stl_header_count(std::string_view bytes) {
   std::uint32_t n = 0;
   std::memcpy(&n, bytes.data() + 80, 4);  // little endian on every supported host
@@ -961,12 +973,15 @@ Result<Mesh> load_mesh_from_memory(std::string_view bytes, const fs::path& path,
   const bool is_stl = ext == ".stl";
   if (is_stl) {
     // Binary when the size matches the header count (even if it starts with "solid", as
-    // some exporters write); ASCII when it starts with "solid"; binary otherwise.
+    // some exporters write) or when binary bytes follow a "solid" header (such a file cut
+    // short: its size error, not an ASCII grammar error); ASCII when it starts with "solid";
+    // binary otherwise.
     const bool size_matches_binary =
         bytes.size() >= kStlHeaderBytes &&
         kStlHeaderBytes + kStlTriangleBytes * std::uint64_t{stl_header_count(bytes)} ==
             bytes.size();
-    const bool binary = size_matches_binary || !starts_with_solid(bytes);
+    const bool binary =
+        size_matches_binary || !starts_with_solid(bytes) || binary_after_header(bytes);
     const bool direct = !detail::plain_path("stl_direct");
     std::vector<float> coords;
     Status valid = binary ? validate_binary_stl(bytes, name)

@@ -133,6 +133,15 @@ std::vector<Case> corpus() {
                },
                3,
                {"trunc.stl", "announces 10 triangles", "2 whole triangles"}});
+  c.push_back({"truncated binary STL whose header starts with solid",
+               [](const fs::path& d) {
+                 std::string bytes = binary_stl(10, 2);
+                 bytes.replace(0, 12, "solid part  ");  // as some exporters name the header
+                 put(d / "solidtrunc.stl", bytes);
+                 return "check " + q(d / "solidtrunc.stl");
+               },
+               3,
+               {"solidtrunc.stl", "announces 10 triangles", "2 whole triangles"}});
   c.push_back({"count 4e9",
                [](const fs::path& d) {
                  put(d / "count.stl", binary_stl(4000000000u, 1));
