@@ -93,7 +93,7 @@ struct CheckSummary {
   std::size_t vertices = 0;
   double volume_mm3 = 0;
   double area_mm2 = 0;
-  Box3 bbox_mm;  ///< in the mesh's own frame
+  Box3 bbox_mm;  ///< in the mesh's own frame (scaled and turned as printed: measure_with)
   bool watertight = false;
   int errors = 0, warnings = 0, infos = 0;  ///< findings of the check stage by severity
 };

@@ -10,6 +10,7 @@
 
 namespace printtwin {
 
+using verify_detail::check_part;
 using verify_detail::describe_input;
 using verify_detail::deviation_settings_of;
 using verify_detail::measure_with;
@@ -104,6 +105,27 @@ Result<VerifyReport> measure_with(const PreparedPart& part, const VerifySettings
     f.extent_mm = part_box;
     f.value = reg.residual_rms_mm;
     report.findings.push_back(std::move(f));
+  }
+  // The G-code prints the mesh scaled (other units) or turned: the check's sizes, thickness
+  // and overhangs are of the part as printed, so the mesh is checked again scaled and turned
+  // as the registration found it (its own origin kept: positions stay in the mesh's frame).
+  // A pose that does not match keeps the check of the mesh as given.
+  if (reg.matches && !reg.transform.translation_only()) {
+    const auto start = std::chrono::steady_clock::now();
+    RigidTransform as_printed = reg.transform;
+    as_printed.translation_mm = Vec3::Zero();
+    std::vector<Finding> check_findings;
+    if (auto st = check_part(transformed(part.mesh, as_printed), report.printer, nullptr,
+                             report.check, check_findings);
+        !st)
+      return st.error();
+    const auto first = report.findings.begin();
+    report.findings.erase(first, first + static_cast<std::ptrdiff_t>(part.check_findings.size()));
+    report.findings.insert(report.findings.begin(), check_findings.begin(), check_findings.end());
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    for (auto& t : report.timings)  // (the registration's lap is its own time, below)
+      if (t.stage == "check") t.seconds += seconds;
   }
   clock.lap("registration");
   report.timings.back().seconds = reg.seconds;  // found beside the deposit when known

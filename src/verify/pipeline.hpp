@@ -42,6 +42,12 @@ void count_severities(const std::vector<Finding>& findings, int& errors, int& wa
 /// The deviation stage's settings of a verification.
 [[nodiscard]] DeviationSettings deviation_settings_of(const VerifySettings& settings);
 
+/// The printability check of `mesh` (verify's settings: the thin-wall finding, not the
+/// thinnest wall) into its summary and findings; `query`: the mesh's BVH when built already.
+[[nodiscard]] Status check_part(const Mesh& mesh, const PrinterProfile& printer,
+                                const MeshQuery* query, CheckSummary& summary,
+                                std::vector<Finding>& findings);
+
 /// Where the mesh sits in the G-code frame: --place (with its figures), else the search.
 [[nodiscard]] Result<Registration> place_part(const PreparedPart& part, const PartExtent& extent,
                                               const VerifySettings& settings);

@@ -35,6 +35,28 @@ Status check_fits_printer(const Mesh& mesh, const PrinterProfile& printer,
 
 }  // namespace
 
+Status verify_detail::check_part(const Mesh& mesh, const PrinterProfile& printer,
+                                 const MeshQuery* query, CheckSummary& summary,
+                                 std::vector<Finding>& findings) {
+  CheckSettings check_settings;
+  check_settings.mesh_query = query;
+  check_settings.thickness_beyond_limit =
+      false;  // verify reports the thin-wall finding, not the thinnest wall
+  auto check = check_printability(mesh, printer, check_settings);
+  if (!check) return check.error();
+  CheckSummary& c = summary;
+  c = CheckSummary{};
+  c.triangles = check->health.triangles;
+  c.vertices = check->health.vertices;
+  c.volume_mm3 = check->health.volume_mm3;
+  c.area_mm2 = check->health.area_mm2;
+  c.bbox_mm = check->health.bbox_mm;
+  c.watertight = check->health.closed;
+  count_severities(check->findings, c.errors, c.warnings, c.infos);
+  findings = std::move(check->findings);
+  return Ok{};
+}
+
 Result<PreparedPart> prepare_part(Mesh mesh, std::string name, VerifyInput mesh_input,
                                   const PrinterProfile& printer, const VerifySettings& settings) {
   if (mesh.triangles.empty()) return bad_input("the mesh has no triangles", mesh_input.path);
@@ -51,21 +73,10 @@ Result<PreparedPart> prepare_part(Mesh mesh, std::string name, VerifyInput mesh_
   if (!target) return target.error();
   part.target = std::make_shared<const DeviationTarget>(std::move(*target));
   clock.lap("index");
-  CheckSettings check_settings;
-  check_settings.mesh_query = &part.target->query();
-  check_settings.thickness_beyond_limit =
-      false;  // verify reports the thin-wall finding, not the thinnest wall
-  auto check = check_printability(mesh, printer, check_settings);
-  if (!check) return check.error();
-  CheckSummary& c = part.check;
-  c.triangles = check->health.triangles;
-  c.vertices = check->health.vertices;
-  c.volume_mm3 = check->health.volume_mm3;
-  c.area_mm2 = check->health.area_mm2;
-  c.bbox_mm = check->health.bbox_mm;
-  c.watertight = check->health.closed;
-  count_severities(check->findings, c.errors, c.warnings, c.infos);
-  part.check_findings = std::move(check->findings);
+  if (auto st = verify_detail::check_part(mesh, printer, &part.target->query(), part.check,
+                                          part.check_findings);
+      !st)
+    return st.error();
   clock.lap("check");
   part.mesh = std::move(mesh);
   return part;

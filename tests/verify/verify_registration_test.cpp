@@ -96,6 +96,25 @@ TEST(VerifyRegistrationCli, PlaceWithRotationAndUnknownObject) {
   EXPECT_NE(run.err.find("no such object"), std::string::npos) << run.err;
 }
 
+TEST(VerifyRegistrationCli, PartInMetresIsCheckedAsPrinted) {
+  // The 10 mm cube written in metres (0.01 units across) against its G-code: the
+  // registration finds the scale, and the check judges the part at that scale (10 mm, 1000
+  // mm3), not the 0.01 mm speck the file's numbers would be ("nothing will print").
+  const auto dir = test::temp_dir("verify_metres_check");
+  const auto stl = dir / "cube_m.stl";
+  ASSERT_TRUE(save_stl(test::make_cube_mm(0.01, Vec3(-0.005, -0.005, 0)), stl).ok());
+  const auto run = test::run_cli("verify " + stl.string() + " --gcode " +
+                                 test::source_path("samples/gcode/prusa_cube10.gcode").string() +
+                                 " --voxel 0.1 --tolerance 0.3 --out " + (dir / "r").string());
+  EXPECT_EQ(run.exit_code, 0) << run.out << run.err;
+  const auto j = read_json(dir / "r" / "report.json");
+  EXPECT_DOUBLE_EQ(j["deviation"]["registration"]["scale"].get<double>(), 1000);
+  EXPECT_NEAR(j["check"]["volume_mm3"].get<double>(), 1000, 1e-3);  // float STL
+  EXPECT_NEAR(j["check"]["bbox_mm"]["max"][2].get<double>(), 10, 1e-4);
+  EXPECT_EQ(j["check"]["errors"], 0);
+  for (const auto& f : j["findings"]) EXPECT_NE(f["severity"], "error") << f.dump();
+}
+
 /// Klipper-style G-code of two labelled boxes (EXCLUDE_OBJECT): walls (outer perimeter and
 /// one inner loop) and a sparse zig-zag per 0.2 mm layer. `boxes`: name, min corner, size.
 std::string two_box_gcode(const std::vector<std::pair<std::string, Box3>>& boxes) {
