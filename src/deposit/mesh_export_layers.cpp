@@ -1356,37 +1356,37 @@ LayerSurface build_layer_surface(const LayerSlabs& in, const LayerSurfaceOptions
 }
 
 bool is_closed_oriented(const Mesh& mesh) {
-  // Each vertex's outgoing edges (a -> b along a triangle), sorted: closed and oriented when
-  // no edge appears twice and every edge a -> b has its reverse b -> a.
+  // Each edge a -> b of a triangle is listed at its lower end min(a, b), as the other end
+  // and the direction ((other << 1) | (a > b)); sorted, a vertex's list must hold every
+  // other end exactly twice, once each way: each edge once in each direction.
   const std::size_t nv = mesh.vertices_mm.size();
+  if (nv >= (std::size_t{1} << 31)) return false;
   std::vector<std::uint32_t> begin(nv + 2, 0);
   for (const auto& t : mesh.triangles)
     for (std::size_t k = 0; k < 3; ++k) {
-      if (t[k] >= nv || t[k] == t[(k + 1) % 3]) return false;
-      ++begin[t[k] + 2];
+      const std::uint32_t a = t[k], b = t[(k + 1) % 3];
+      if (a >= nv || b >= nv || a == b) return false;
+      ++begin[std::min(a, b) + 2];
     }
   for (std::size_t v = 2; v < begin.size(); ++v) begin[v] += begin[v - 1];
   std::vector<std::uint32_t> to(3 * mesh.triangles.size());
   for (const auto& t : mesh.triangles)
-    for (std::size_t k = 0; k < 3; ++k) to[begin[t[k] + 1]++] = t[(k + 1) % 3];
-  // begin[v] .. begin[v + 1]: the edges out of v.
+    for (std::size_t k = 0; k < 3; ++k) {
+      const std::uint32_t a = t[k], b = t[(k + 1) % 3];
+      to[begin[std::min(a, b) + 1]++] = (std::max(a, b) << 1) | (a > b ? 1U : 0U);
+    }
+  // begin[v] .. begin[v + 1]: the edges listed at v.
   std::atomic<bool> ok{true};
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096),
                     [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t v = r.begin(); v != r.end(); ++v)
-                        std::sort(to.begin() + begin[v], to.begin() + begin[v + 1]);
+                      for (std::size_t v = r.begin(); v != r.end() && ok.load(); ++v) {
+                        const auto first = to.begin() + begin[v], last = to.begin() + begin[v + 1];
+                        std::sort(first, last);
+                        if ((last - first) % 2 != 0) ok = false;
+                        for (auto e = first; e != last && e + 1 != last; e += 2)
+                          if ((*e & 1U) != 0 || e[1] != *e + 1) ok = false;
+                      }
                     });
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t v = r.begin(); v != r.end() && ok.load(); ++v)
-          for (std::uint32_t e = begin[v]; e < begin[v + 1]; ++e) {
-            const std::uint32_t b = to[e];
-            const auto first = to.begin() + begin[b], last = to.begin() + begin[b + 1];
-            if ((e + 1 < begin[v + 1] && to[e + 1] == b) ||
-                !std::binary_search(first, last, static_cast<std::uint32_t>(v)))
-              ok = false;
-          }
-      });
   return ok.load();
 }
 
