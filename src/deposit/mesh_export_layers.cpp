@@ -468,9 +468,8 @@ constexpr double kReach = 0.45;
 /// moves it at most kReach of its distance to the nearest edge of the slab's outlines that
 /// lies on its fill side and is not its own neighbourhood (another outline, or a stretch of
 /// its own outline more than twice that distance away along it: a neck, a thin wall).
-void limit_vertices_by_feature_size(std::vector<Outline>& outlines, double r, double e,
-                                    double cell) {
-  const EdgeGrid grid(outlines, cell);
+void limit_vertices_by_feature_size(std::vector<Outline>& outlines, const EdgeGrid& grid, double r,
+                                    double e) {
   for (std::size_t i = 0; i < outlines.size(); ++i) {
     Outline& o = outlines[i];
     const std::vector<double> arc = arc_lengths(o);
@@ -491,10 +490,9 @@ void limit_vertices_by_feature_size(std::vector<Outline>& outlines, double r, do
 /// Splits the edges whose inset would come nearer than kReach of the distance to a vertex
 /// facing them (a long straight edge beside a pinhole or a neck: its ends are far from the
 /// feature, its middle is not), at the point nearest that vertex, so the ring can be
-/// limited there alone. True when some edge was split.
-bool split_edges_near_features(std::vector<Outline>& outlines, double r, double e, double cell,
-                               double min_gap) {
-  const EdgeGrid grid(outlines, cell);
+/// limited there alone. `grid`: the outlines' edges. True when some edge was split.
+bool split_edges_near_features(std::vector<Outline>& outlines, const EdgeGrid& grid, double r,
+                               double e, double min_gap) {
   std::vector<std::tuple<std::size_t, std::size_t, double>> splits;  // outline, edge, t
   for (std::size_t i = 0; i < outlines.size(); ++i) {
     const Outline& o = outlines[i];
@@ -630,10 +628,15 @@ void limit_insets(std::vector<Outline>& outlines, double r, double e, double cel
   // few cells).
   const double reach = (r + e) / kReach;
   if (outlines.empty() || reach <= 0) return;
-  limit_vertices_by_feature_size(outlines, r, e, reach);
-  if (split_edges_near_features(outlines, r, e, reach, 0.5 * cell_mm)) {
+  bool split = false;
+  {
+    const EdgeGrid grid(outlines, reach);  // the split reads the outlines as the limit does
+    limit_vertices_by_feature_size(outlines, grid, r, e);
+    split = split_edges_near_features(outlines, grid, r, e, 0.5 * cell_mm);
+  }
+  if (split) {
     for (Outline& o : outlines) o.share.assign(o.pts.size(), 1.0);
-    limit_vertices_by_feature_size(outlines, r, e, reach);
+    limit_vertices_by_feature_size(outlines, EdgeGrid(outlines, reach), r, e);
   }
   std::vector<std::array<double, 2>> levels{{1.0, e}};  // the widest rings, then inner ones
   for (int j = 1; j < steps; ++j)
@@ -879,6 +882,54 @@ Boundary cap_on(const std::vector<CapRing>& in, std::size_t n_below, const CapEx
   return b;
 }
 
+/// Ring vertices or edges (ring, index) by grid cell key, filled once and then read: a hash
+/// table in flat arrays (buckets of entries in place, no allocation per entry). The order of
+/// a cell's entries is free: every reader keeps the nearest, ties to the smallest item.
+class CellIndex {
+ public:
+  using Item = std::array<std::uint32_t, 2>;
+  void add(std::uint64_t key, std::uint32_t ring, std::uint32_t k) {
+    entries_.push_back({key, {ring, k}});
+  }
+  /// Sorts the entries into their buckets; no add after it.
+  void seal() {
+    bits_ = std::max(1, static_cast<int>(std::bit_width(entries_.size())));
+    start_.assign((std::size_t{1} << bits_) + 1, 0);
+    for (const Entry& e : entries_) ++start_[bucket(e.key) + 1];
+    for (std::size_t b = 1; b < start_.size(); ++b) start_[b] += start_[b - 1];
+    std::vector<std::uint32_t> next(start_.begin(), start_.end() - 1);
+    sorted_.resize(entries_.size());
+    for (const Entry& e : entries_) sorted_[next[bucket(e.key)]++] = e;
+    entries_ = {};
+  }
+  /// Calls f(item) for each entry of the cell `key`.
+  template <class F>
+  void each(std::uint64_t key, F&& f) const {
+    const std::size_t b = bucket(key);
+    for (std::uint32_t i = start_[b]; i < start_[b + 1]; ++i)
+      if (sorted_[i].key == key) f(sorted_[i].item);
+  }
+
+ private:
+  struct Entry {
+    std::uint64_t key;
+    Item item;
+  };
+  std::size_t bucket(std::uint64_t key) const {
+    return static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ULL) >> (64 - bits_));
+  }
+  std::vector<Entry> entries_, sorted_;
+  std::vector<std::uint32_t> start_;
+  int bits_ = 1;
+};
+
+/// Per vertex of a set of rings: its index in one flat array (ring's first + k).
+std::vector<std::size_t> ring_offsets(const std::vector<CapRing>& rings) {
+  std::vector<std::size_t> first(rings.size() + 1, 0);
+  for (std::size_t ri = 0; ri < rings.size(); ++ri) first[ri + 1] = first[ri] + rings[ri].size();
+  return first;
+}
+
 /// The tangent of a closed ring at vertex k (previous to next vertex).
 P2 ring_tangent(const CapRing& r, std::size_t k) {
   const std::size_t n = r.size();
@@ -897,40 +948,41 @@ void snap_upper_to_lower(std::vector<CapRing>& rings, std::size_t n_below, doubl
   const auto key = [](std::int64_t x, std::int64_t y) {
     return (static_cast<std::uint64_t>(x) << 32) ^ static_cast<std::uint64_t>(y & 0xffffffff);
   };
-  std::unordered_multimap<std::uint64_t, std::array<std::uint32_t, 2>> grid;
+  CellIndex grid;
   for (std::size_t ri = 0; ri < n_below; ++ri)
     for (std::size_t k = 0; k < rings[ri].size(); ++k)
-      grid.emplace(key(cell_of(rings[ri][k].x()), cell_of(rings[ri][k].y())),
-                   std::array{static_cast<std::uint32_t>(ri), static_cast<std::uint32_t>(k)});
-  // Lower vertex -> the upper ring and vertex that took it.
-  std::unordered_map<std::uint64_t, std::array<std::size_t, 2>> taken;
+      grid.add(key(cell_of(rings[ri][k].x()), cell_of(rings[ri][k].y())),
+               static_cast<std::uint32_t>(ri), static_cast<std::uint32_t>(k));
+  grid.seal();
+  // Per lower vertex: the upper ring and vertex that took it.
+  constexpr std::array<std::size_t, 2> kFree{~std::size_t{0}, ~std::size_t{0}};
+  const std::vector<std::size_t> first = ring_offsets(rings);
+  std::vector<std::array<std::size_t, 2>> taken(first[n_below], kFree);
   for (std::size_t ri = n_below; ri < rings.size(); ++ri) {
     CapRing moved = rings[ri];
-    std::vector<std::uint64_t> took;
+    std::vector<std::size_t> took;
     for (std::size_t k = 0; k < moved.size(); ++k) {
       const P2 p = rings[ri][k];
       const P2 tangent = ring_tangent(rings[ri], k);
       double best = eps * eps;
-      const std::array<std::uint32_t, 2>* hit = nullptr;
+      const CellIndex::Item* hit = nullptr;
       const std::int64_t cx = cell_of(p.x()), cy = cell_of(p.y());
       for (std::int64_t dx = -1; dx <= 1; ++dx)
-        for (std::int64_t dy = -1; dy <= 1; ++dy) {
-          const auto [lo, hi] = grid.equal_range(key(cx + dx, cy + dy));
-          for (auto it = lo; it != hi; ++it) {
-            const CapRing& lower = rings[it->second[0]];
-            const double d2 = (lower[it->second[1]] - p).squaredNorm();
-            const bool closer = d2 < best || (d2 == best && hit != nullptr && it->second < *hit);
-            if (closer && ring_tangent(lower, it->second[1]).dot(tangent) > 0) {
+        for (std::int64_t dy = -1; dy <= 1; ++dy)
+          grid.each(key(cx + dx, cy + dy), [&](const CellIndex::Item& item) {
+            const CapRing& lower = rings[item[0]];
+            const double d2 = (lower[item[1]] - p).squaredNorm();
+            const bool closer = d2 < best || (d2 == best && hit != nullptr && item < *hit);
+            if (closer && ring_tangent(lower, item[1]).dot(tangent) > 0) {
               best = d2;
-              hit = &it->second;
+              hit = &item;
             }
-          }
-        }
+          });
       if (hit == nullptr) continue;
-      const std::uint64_t id = (static_cast<std::uint64_t>((*hit)[0]) << 32) | (*hit)[1];
-      const auto [at, fresh] = taken.try_emplace(id, std::array{ri, k});
-      if (!fresh && !(at->second[0] == ri && at->second[1] + 1 == k)) continue;
-      at->second = {ri, k};
+      const std::size_t id = first[(*hit)[0]] + (*hit)[1];
+      std::array<std::size_t, 2>& at = taken[id];
+      if (at != kFree && !(at[0] == ri && at[1] + 1 == k)) continue;
+      at = {ri, k};
       moved[k] = rings[(*hit)[0]][(*hit)[1]];
       took.push_back(id);
     }
@@ -940,7 +992,7 @@ void snap_upper_to_lower(std::vector<CapRing>& rings, std::size_t n_below, doubl
     if (distinct >= 3)
       rings[ri] = std::move(moved);
     else
-      for (const std::uint64_t id : took) taken.erase(id);
+      for (const std::size_t id : took) taken[id] = kFree;
   }
 }
 
@@ -964,12 +1016,14 @@ CapExtras snap_to_edges(const std::vector<CapRing>& rings, std::size_t n_below, 
   const auto id = [](std::size_t ring, std::size_t k) {
     return (static_cast<std::uint64_t>(ring) << 32) | static_cast<std::uint64_t>(k);
   };
-  // Vertex (ring, k) -> the edge (ring, first vertex) it was put on.
-  std::unordered_map<std::uint64_t, std::uint64_t> put_on;
+  // Per vertex (ring, k): the edge (ring, first vertex) it was put on (kNone: none).
+  constexpr std::uint64_t kNone = ~std::uint64_t{0};
+  const std::vector<std::size_t> first = ring_offsets(rings);
+  std::vector<std::uint64_t> put_on(first.back(), kNone);
   for (int pass = 0; pass < 2; ++pass) {  // upper vertices onto lower edges, then the reverse
     const std::size_t t0 = pass == 0 ? 0 : n_below, t1 = pass == 0 ? n_below : rings.size();
     const std::size_t s0 = pass == 0 ? n_below : 0, s1 = pass == 0 ? rings.size() : n_below;
-    std::unordered_multimap<std::uint64_t, std::array<std::uint32_t, 2>> grid;
+    CellIndex grid;
     for (std::size_t ri = t0; ri < t1; ++ri)
       for (std::size_t k = 0; k < rings[ri].size(); ++k) {
         const P2 a = rings[ri][k], b = rings[ri][(k + 1) % rings[ri].size()];
@@ -977,9 +1031,9 @@ CapExtras snap_to_edges(const std::vector<CapRing>& rings, std::size_t n_below, 
              x <= cell_of(std::max(a.x(), b.x()) + eps); ++x)
           for (std::int64_t y = cell_of(std::min(a.y(), b.y()) - eps);
                y <= cell_of(std::max(a.y(), b.y()) + eps); ++y)
-            grid.emplace(key(x, y),
-                         std::array{static_cast<std::uint32_t>(ri), static_cast<std::uint32_t>(k)});
+            grid.add(key(x, y), static_cast<std::uint32_t>(ri), static_cast<std::uint32_t>(k));
       }
+    grid.seal();
     for (std::size_t si = s0; si < s1; ++si) {
       const std::size_t n = rings[si].size();
       for (std::size_t k = 0; k < n; ++k) {
@@ -988,36 +1042,32 @@ CapExtras snap_to_edges(const std::vector<CapRing>& rings, std::size_t n_below, 
         double best = eps;
         std::array<std::uint32_t, 2> hit{~0U, ~0U};
         double hit_t = 0;
-        const auto [lo, hi] = grid.equal_range(key(cell_of(p.x()), cell_of(p.y())));
-        for (auto it = lo; it != hi; ++it) {
-          const CapRing& r = rings[it->second[0]];
-          const std::size_t m = it->second[1], m1 = (m + 1) % r.size();
+        grid.each(key(cell_of(p.x()), cell_of(p.y())), [&](const CellIndex::Item& item) {
+          const CapRing& r = rings[item[0]];
+          const std::size_t m = item[1], m1 = (m + 1) % r.size();
           const P2& a = r[m];
           const P2& b = r[m1];
           const P2 d = b - a;
           const double len = d.norm();
-          if (len <= 2 * eps || d.dot(tangent) <= 0) continue;
+          if (len <= 2 * eps || d.dot(tangent) <= 0) return;
           const double t = (p - a).dot(d) / (len * len);
-          if (t * len <= eps || (1 - t) * len <= eps) continue;  // near an end: not an edge
+          if (t * len <= eps || (1 - t) * len <= eps) return;  // near an end: not an edge
           // The edge's start already on this ring's edge from p, or its end on the edge
           // into p: the two would share u-l head-on.
-          if (const auto f = put_on.find(id(it->second[0], m));
-              f != put_on.end() && f->second == id(si, k))
-            continue;
-          if (const auto f = put_on.find(id(it->second[0], m1));
-              f != put_on.end() && f->second == id(si, (k + n - 1) % n))
-            continue;
+          if (put_on[first[item[0]] + m] == id(si, k) ||
+              put_on[first[item[0]] + m1] == id(si, (k + n - 1) % n))
+            return;
           const double dist = std::abs(d.x() * (p.y() - a.y()) - d.y() * (p.x() - a.x())) / len;
-          if (dist < best || (dist == best && it->second < hit)) {
+          if (dist < best || (dist == best && item < hit)) {
             best = dist;
-            hit = it->second;
+            hit = item;
             hit_t = t;
           }
-        }
+        });
         if (hit[0] == ~0U) continue;
         extras[hit[0]].push_back(
             {hit[1], hit_t, p, static_cast<std::uint32_t>(si), static_cast<std::uint32_t>(k)});
-        put_on.emplace(id(si, k), id(hit[0], hit[1]));
+        put_on[first[si] + k] = id(hit[0], hit[1]);
       }
     }
   }
@@ -1306,37 +1356,37 @@ LayerSurface build_layer_surface(const LayerSlabs& in, const LayerSurfaceOptions
 }
 
 bool is_closed_oriented(const Mesh& mesh) {
-  // Each vertex's outgoing edges (a -> b along a triangle), sorted: closed and oriented when
-  // no edge appears twice and every edge a -> b has its reverse b -> a.
+  // Each edge a -> b of a triangle is listed at its lower end min(a, b), as the other end
+  // and the direction ((other << 1) | (a > b)); sorted, a vertex's list must hold every
+  // other end exactly twice, once each way: each edge once in each direction.
   const std::size_t nv = mesh.vertices_mm.size();
+  if (nv >= (std::size_t{1} << 31)) return false;
   std::vector<std::uint32_t> begin(nv + 2, 0);
   for (const auto& t : mesh.triangles)
     for (std::size_t k = 0; k < 3; ++k) {
-      if (t[k] >= nv || t[k] == t[(k + 1) % 3]) return false;
-      ++begin[t[k] + 2];
+      const std::uint32_t a = t[k], b = t[(k + 1) % 3];
+      if (a >= nv || b >= nv || a == b) return false;
+      ++begin[std::min(a, b) + 2];
     }
   for (std::size_t v = 2; v < begin.size(); ++v) begin[v] += begin[v - 1];
   std::vector<std::uint32_t> to(3 * mesh.triangles.size());
   for (const auto& t : mesh.triangles)
-    for (std::size_t k = 0; k < 3; ++k) to[begin[t[k] + 1]++] = t[(k + 1) % 3];
-  // begin[v] .. begin[v + 1]: the edges out of v.
+    for (std::size_t k = 0; k < 3; ++k) {
+      const std::uint32_t a = t[k], b = t[(k + 1) % 3];
+      to[begin[std::min(a, b) + 1]++] = (std::max(a, b) << 1) | (a > b ? 1U : 0U);
+    }
+  // begin[v] .. begin[v + 1]: the edges listed at v.
   std::atomic<bool> ok{true};
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096),
                     [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t v = r.begin(); v != r.end(); ++v)
-                        std::sort(to.begin() + begin[v], to.begin() + begin[v + 1]);
+                      for (std::size_t v = r.begin(); v != r.end() && ok.load(); ++v) {
+                        const auto first = to.begin() + begin[v], last = to.begin() + begin[v + 1];
+                        std::sort(first, last);
+                        if ((last - first) % 2 != 0) ok = false;
+                        for (auto e = first; e != last && e + 1 != last; e += 2)
+                          if ((*e & 1U) != 0 || e[1] != *e + 1) ok = false;
+                      }
                     });
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t v = r.begin(); v != r.end() && ok.load(); ++v)
-          for (std::uint32_t e = begin[v]; e < begin[v + 1]; ++e) {
-            const std::uint32_t b = to[e];
-            const auto first = to.begin() + begin[b], last = to.begin() + begin[b + 1];
-            if ((e + 1 < begin[v + 1] && to[e + 1] == b) ||
-                !std::binary_search(first, last, static_cast<std::uint32_t>(v)))
-              ok = false;
-          }
-      });
   return ok.load();
 }
 

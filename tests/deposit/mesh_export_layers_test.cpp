@@ -79,6 +79,29 @@ void expect_layered_and_closed(const DepositMesh& dm, bool vertex_manifold = tru
   EXPECT_GT(dm.volume_mm3, 0.0);
 }
 
+TEST(LayerSurfaceClosure, EachEdgeOnceInEachDirection) {
+  // A tetrahedron oriented outward: every edge once each way.
+  Mesh tet;
+  tet.vertices_mm = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)};
+  tet.triangles = {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 3, 2}};
+  EXPECT_TRUE(detail::is_closed_oriented(tet));
+  Mesh flipped = tet;  // one face inward: its edges run the same way as the neighbours'
+  flipped.triangles[2] = {1, 3, 2};
+  EXPECT_FALSE(detail::is_closed_oriented(flipped));
+  Mesh open = tet;  // a face missing: three edges once
+  open.triangles.pop_back();
+  EXPECT_FALSE(detail::is_closed_oriented(open));
+  Mesh doubled = tet;  // a face twice, both ways: its edges twice in each direction
+  doubled.triangles.push_back({0, 2, 1});
+  doubled.triangles.push_back({0, 1, 2});
+  EXPECT_FALSE(detail::is_closed_oriented(doubled));
+  Mesh degenerate = tet;
+  degenerate.triangles.push_back({1, 1, 2});
+  EXPECT_FALSE(detail::is_closed_oriented(degenerate));
+  Mesh outside = tet;  // a corner past the vertices
+  outside.triangles[0] = {0, 2, 4};
+  EXPECT_FALSE(detail::is_closed_oriented(outside));
+}
 TEST(LayeredMesh, ACellTouchingThePartAtACornerStaysPartOfIt) {
   // A bead's end can leave a cell that touches the rest of its layer only diagonally. The
   // deposit is one piece there, so the mesh is one piece too, not a one-cell speck beside it.
