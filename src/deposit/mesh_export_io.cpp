@@ -122,6 +122,15 @@ class StreamedFile {
   bool failed_ = false;
 };
 
+/// `p` stored as the three floats a file holds (at `out`), and those floats as a point.
+/// Out of line on purpose: inlined, GCC 12 (-O3 -frounding-math) was seen to vectorize the
+/// narrowing and hand some coordinates on to the normal unrounded, so a triangle's normal
+/// depended on the code path (the thread count) and disagreed with its written corners.
+[[gnu::noinline]] Vec3 written_as_float(const Vec3& p, float* out) {
+  for (Eigen::Index k = 0; k < 3; ++k) out[k] = static_cast<float>(p[k]);
+  return {static_cast<double>(out[0]), static_cast<double>(out[1]), static_cast<double>(out[2])};
+}
+
 /// Binary STL: 80-byte header, count, then per triangle its unit normal and corners (float).
 Status write_stl(const Mesh& m, const std::filesystem::path& path) {
   StreamedFile f(path);
@@ -135,20 +144,14 @@ Status write_stl(const Mesh& m, const std::filesystem::path& path) {
   f.records(m.triangles.size(), 50, [&](std::size_t i, char* dest) {
     const auto& t = m.triangles[i];
     // The normal of the corners as written (float), so readers that check it agree on slivers.
-    const auto as_written = [](const Vec3& p) { return p.cast<float>().cast<double>().eval(); };
-    const Vec3 a = as_written(m.vertices_mm[t[0]]), b = as_written(m.vertices_mm[t[1]]),
-               c = as_written(m.vertices_mm[t[2]]);
+    std::array<float, 12> fl{};
+    const Vec3 a = written_as_float(m.vertices_mm[t[0]], &fl[3]),
+               b = written_as_float(m.vertices_mm[t[1]], &fl[6]),
+               c = written_as_float(m.vertices_mm[t[2]], &fl[9]);
     Vec3 n = (b - a).cross(c - a);
     const double len = n.norm();
     if (len > 0) n /= len;
-    std::array<float, 12> fl{};
-    for (std::size_t k = 0; k < 3; ++k) {
-      const auto e = static_cast<Eigen::Index>(k);
-      fl[k] = static_cast<float>(n[e]);
-      fl[3 + k] = static_cast<float>(a[e]);
-      fl[6 + k] = static_cast<float>(b[e]);
-      fl[9 + k] = static_cast<float>(c[e]);
-    }
+    for (std::size_t k = 0; k < 3; ++k) fl[k] = static_cast<float>(n[static_cast<Eigen::Index>(k)]);
     std::memcpy(dest, fl.data(), sizeof(fl));
     dest[48] = dest[49] = 0;
   });

@@ -2,10 +2,13 @@
 // skirt and purge pieces left out, decimation within its stated bound, every format loads.
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <random>
 #include <set>
+
+#include <tbb/global_control.h>
 
 #include "deposit/mesh_export.hpp"
 #include "deviation/outer_surface.hpp"
@@ -337,6 +340,39 @@ TEST(DepositMesh, EveryFormatLoadsBackWithTheSameSolid) {
   auto plain = read_file(dir / "part.ply");
   EXPECT_EQ(plain->find("quality"), std::string::npos);
   EXPECT_NE(deposit_mesh_summary(dm, dir / "part.stl").find("closed"), std::string::npos);
+}
+
+TEST(DepositMesh, StlNormalsAreOfTheWrittenCornersOnAnyThreadCount) {
+  // Corners that float cannot hold exactly (an origin of 1/3 mm and 0.07 mm cells), a part of
+  // many records: each normal is the unit normal of the float corners as written, bit for
+  // bit, and the file is the same bytes on one thread as on all.
+  VoxelGrid g(0.07, Vec3(1.0 / 3, 2.0 / 3, 0), Eigen::Vector3i(48, 48, 48));
+  fill_box(g, {3, 4, 0}, {40, 30, 12});
+  fill_box(g, {5, 5, 12}, {19, 28, 30});
+  const DepositMesh dm = build(g);
+  const auto dir = test::temp_dir("deposit_mesh_normals");
+  ASSERT_TRUE(write_deposit_mesh(dm, dir / "all.stl", {}).ok());
+  {
+    const tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    ASSERT_TRUE(write_deposit_mesh(dm, dir / "one.stl", {}).ok());
+  }
+  const auto all = read_file(dir / "all.stl"), one = read_file(dir / "one.stl");
+  ASSERT_TRUE(all.ok() && one.ok());
+  EXPECT_TRUE(*all == *one) << "the STL bytes depend on the thread count";
+  const std::size_t n = dm.mesh.triangles.size();
+  ASSERT_EQ(all->size(), 84 + 50 * n);
+  std::size_t wrong = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    std::array<float, 12> f{};
+    std::memcpy(f.data(), all->data() + 84 + 50 * i, sizeof f);
+    const Vec3 a(f[3], f[4], f[5]), b(f[6], f[7], f[8]), c(f[9], f[10], f[11]);
+    const Vec3 nn = (b - a).cross(c - a).normalized();
+    for (int k = 0; k < 3; ++k) {
+      const float want = static_cast<float>(nn[k]);
+      if (std::memcmp(&f[static_cast<std::size_t>(k)], &want, sizeof want) != 0) ++wrong;
+    }
+  }
+  EXPECT_EQ(wrong, 0u);
 }
 
 TEST(DepositMesh, EmptyDepositWritesValidEmptyFiles) {
