@@ -169,15 +169,15 @@ void detail::place_on_beads(DepositSurface& s, std::span<const SurfaceBead> bead
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, n, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          const Vec3 p = s.face_centers_mm[i];
+          const SurfaceFace& face = s.faces[i];
+          const Vec3 p = s.face_center(face);
           points[i] = p;
           area[i] = v * v;
           s.face_bead[i] = kNoBead;
           const detail::BeadDistance near = index.nearest(s.face_tags[i].line, p);
           if (near.bead == kNoBead) continue;
           if (!(std::abs(near.signed_mm) <= max_shift_mm)) {
-            if (in_voxel_pit(index.cores()[near.bead], s.faces[i], p, v))
-              s.face_bead[i] = near.bead;
+            if (in_voxel_pit(index.cores()[near.bead], face, p, v)) s.face_bead[i] = near.bead;
             continue;
           }
           const SurfaceBead& b = beads[near.bead];
@@ -187,13 +187,12 @@ void detail::place_on_beads(DepositSurface& s, std::span<const SurfaceBead> bead
             nrm /= len;
           } else {  // on the core: the face's own normal
             nrm = Vec3::Zero();
-            nrm[s.faces[i].axis] = s.faces[i].side;
+            nrm[face.axis] = face.side;
           }
           // The face must face the way the bead's surface does: a face on the far side of a
           // bead's core (a thin wall's back) belongs to another surface.
-          if (nrm[s.faces[i].axis] * s.faces[i].side <= 0) {
-            if (in_voxel_pit(index.cores()[near.bead], s.faces[i], p, v))
-              s.face_bead[i] = near.bead;
+          if (nrm[face.axis] * face.side <= 0) {
+            if (in_voxel_pit(index.cores()[near.bead], face, p, v)) s.face_bead[i] = near.bead;
             continue;
           }
           points[i] = near.core_point + (0.5 * b.height_mm) * nrm;
