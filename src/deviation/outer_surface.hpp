@@ -120,8 +120,9 @@ void place_on_beads(DepositSurface& surface, std::span<const SurfaceBead> beads,
 /// a quarter circle plus a voxel) to where another bead covers it: the cusp between two
 /// stacked beads, narrower than a voxel, is reached. Other faces keep their point. Fills
 /// points_mm, point_area_mm2, point_tags, point_groups and the bead_touch lists.
+/// `placed`: per face, whether place_on_beads moved its point onto its bead (face_bead).
 void sample_bead_outlines(DepositSurface& surface, std::span<const SurfaceBead> beads,
-                          std::span<const Vec3> face_points, std::span<const double> face_area_mm2);
+                          std::span<const std::uint8_t> placed);
 
 /// Where the deposit -> mesh search stops (mm): a point farther than this from every face
 /// reads this distance (at least), so a mesh placed far from its print is measured quickly.
