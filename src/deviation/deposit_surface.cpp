@@ -42,10 +42,11 @@ struct FaceBuckets {
   ZeroedArray<std::uint32_t> slot;
   const std::uint32_t* ranges = nullptr;  ///< the surface's face_cell_begin
   std::vector<Eigen::Vector3i> held;      ///< the pair blocks holding faces, in slot order
-  const Vec3* center = nullptr;           ///< the surface's face centres
   std::size_t n = 0;                      ///< faces
-  std::vector<std::uint8_t>
-      axis;  ///< normal axis per face, packed for 4-wide loads (+ 4 past the end)
+  /// Per face, its centre as indices into its cell's coordinates and its axis (FaceCell).
+  std::unique_ptr<std::uint16_t[]> code;
+  /// Per axis, three coordinates (centre, min side, max side) per voxel row of the cells.
+  std::array<std::vector<double>, 3> coord;
   double cell_mm = 0;
   Vec3 origin_mm = Vec3::Zero();  ///< corner of cell (0, 0, 0): the surface's first block
 
@@ -68,14 +69,47 @@ struct FaceBuckets {
                                 static_cast<int>(i % nz));
     }
     ranges = s.face_cell_begin.data();
-    center = s.face_centers_mm.data();
     n = s.faces.size();
-    axis.resize(n + 4, 0);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1 << 16),
-                      [&](const tbb::blocked_range<std::size_t>& r) {
-                        for (std::size_t k = r.begin(); k != r.end(); ++k)
-                          axis[k] = s.faces[k].axis;
-                      });
+    // A voxel row's coordinates as DepositSurface::face_center computes them (the same bits).
+    const std::array<int, 3> origin_key{s.origin_key.x, s.origin_key.y, s.origin_key.z};
+    for (int a = 0; a < 3; ++a) {
+      auto& c = coord[static_cast<std::size_t>(a)];
+      c.resize(3 * static_cast<std::size_t>(kCell) * static_cast<std::size_t>(cells[a]));
+      for (std::size_t j = 0; j < c.size() / 3; ++j) {
+        const int l = first_key[a] - origin_key[static_cast<std::size_t>(a)] + static_cast<int>(j);
+        const double centre = s.origin_mm[a] + s.voxel_mm * (l + 0.5);
+        c[3 * j] = centre;
+        for (const int side : {-1, 1})
+          c[3 * j + (side > 0 ? 2 : 1)] = centre + 0.5 * s.voxel_mm * side;
+      }
+    }
+    // Written once each, in parallel: no initial values.
+    code = std::make_unique_for_overwrite<std::uint16_t[]>(n);
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, n, 1 << 16),
+        [&](const tbb::blocked_range<std::size_t>& r) {
+          for (std::size_t k = r.begin(); k != r.end(); ++k) {
+            const SurfaceFace& f = s.faces[k];
+            const std::array<int, 3> key{f.voxel.x, f.voxel.y, f.voxel.z};
+            unsigned x = static_cast<unsigned>(f.axis) << 12;
+            for (int a = 0; a < 3; ++a) {
+              // The voxel's row in its cell (cells start at multiples of kCell).
+              const auto l = static_cast<unsigned>(key[static_cast<std::size_t>(a)] & (kCell - 1));
+              const unsigned kind = a != f.axis ? 0U : f.side > 0 ? 2U : 1U;
+              x |= (3 * l + kind) << (4 * a);
+            }
+            code[k] = static_cast<std::uint16_t>(x);
+          }
+        });
+  }
+  /// Cell c's faces as the kernels read them.
+  [[nodiscard]] detail::FaceCell face_cell(const Eigen::Vector3i& c) const {
+    detail::FaceCell f;
+    f.code = code.get();
+    for (int a = 0; a < 3; ++a)
+      f.coord[static_cast<std::size_t>(a)] =
+          coord[static_cast<std::size_t>(a)].data() + 3 * static_cast<std::size_t>(kCell) * c[a];
+    return f;
   }
   [[nodiscard]] std::size_t pair_index(int x, int y, int z) const {
     return (static_cast<std::size_t>(y) * pairs.x() + static_cast<std::size_t>(x)) * pairs.z() +
@@ -132,10 +166,7 @@ constexpr double kFarMm = kDepositFarMm;
 class FaceSearch {
  public:
   explicit FaceSearch(const DepositSurface& s)
-      : buckets_(s),
-        half_(0.5 * s.voxel_mm),
-        scan_faces_(face_scan_kernel()),
-        faces_{buckets_.center, buckets_.axis.data(), buckets_.n} {
+      : buckets_(s), half_(0.5 * s.voxel_mm), scan_faces_(face_scan_kernel()) {
     groups_ = (buckets_.cells.array() + kGroup - 1) / kGroup;
     group_has_.assign(static_cast<std::size_t>(groups_.x()) * groups_.y() * groups_.z(), 0);
     static_assert(kGroup % 2 == 0);
@@ -144,15 +175,16 @@ class FaceSearch {
     group_mm_ = buckets_.cell_mm * kGroup;
     // Far points: the search goes no further than kFarMm past the faces' box (in parallel:
     // a minimum and a maximum do not depend on the order).
-    if (!s.face_centers_mm.empty()) {
-      const std::span<const Vec3> c = s.face_centers_mm;
+    if (!s.faces.empty()) {
       using Bounds = std::pair<Vec3, Vec3>;
+      const Vec3 c0 = s.face_center(0);
       const Bounds b = tbb::parallel_reduce(
-          tbb::blocked_range<std::size_t>(0, c.size(), 1 << 16), Bounds(c[0], c[0]),
+          tbb::blocked_range<std::size_t>(0, s.faces.size(), 1 << 16), Bounds(c0, c0),
           [&](const tbb::blocked_range<std::size_t>& r, Bounds x) {
             for (std::size_t i = r.begin(); i != r.end(); ++i) {
-              x.first = x.first.cwiseMin(c[i]);
-              x.second = x.second.cwiseMax(c[i]);
+              const Vec3 c = s.face_center(i);
+              x.first = x.first.cwiseMin(c);
+              x.second = x.second.cwiseMax(c);
             }
             return x;
           },
@@ -222,7 +254,7 @@ class FaceSearch {
     if (box_dist2(p, buckets_.origin_mm + buckets_.cell_mm * c.cast<double>(), buckets_.cell_mm) >
         best.d2)
       return;
-    scan_faces_(faces_, lo, hi, p, half_, best);
+    scan_faces_(buckets_.face_cell(c), lo, hi, p, half_, best);
   }
   /// The cells the ball of radius `bound` about p touches; true when the best is within it.
   bool scan_within(const Vec3& p, const Eigen::Vector3i& c0, double bound,
@@ -280,7 +312,6 @@ class FaceSearch {
   FaceBuckets buckets_;
   double half_;
   FaceScan scan_faces_;
-  FaceArrays faces_;
   Eigen::Vector3i groups_ = Eigen::Vector3i::Zero();
   std::vector<std::uint8_t> group_has_;
   Vec3 lo_ = Vec3::Zero(), hi_ = Vec3::Zero();  ///< the face centres' box

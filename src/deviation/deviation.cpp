@@ -408,9 +408,11 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   out.surface_faces = surface.faces.size();
   out.surface_voxels = count_surface_voxels(surface.faces);
 
-  // Deposit -> mesh, from every exposed face centre.
-  const std::vector<Vec3>& face_points =
-      surface.points_mm.empty() ? surface.face_centers_mm : surface.points_mm;
+  // Deposit -> mesh, from every exposed face centre (made here only without beads, which
+  // fill points_mm).
+  std::vector<Vec3> centres;
+  if (surface.points_mm.empty()) centres = surface.face_centers_mm();
+  const std::vector<Vec3>& face_points = surface.points_mm.empty() ? centres : surface.points_mm;
   const std::span<const double> face_area = surface.point_area_mm2;
   const std::vector<VoxelTag>& dep_tags =
       surface.point_tags.empty() ? surface.face_tags : surface.point_tags;
@@ -508,8 +510,7 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
     d_query.resize(ns);
     ms.distances_mm = std::move(d_query);
     DeviationSamples& ds = out.deposit_samples;
-    ds.positions_mm = surface.points_mm.empty() ? std::move(surface.face_centers_mm)
-                                                : std::move(surface.points_mm);
+    ds.positions_mm = surface.points_mm.empty() ? std::move(centres) : std::move(surface.points_mm);
     ds.distances_mm = std::move(d_dep);
     ds.tags =
         surface.point_tags.empty() ? std::move(surface.face_tags) : std::move(surface.point_tags);

@@ -3,6 +3,9 @@
 // voxel. The inside of a part (sparse infill, enclosed by its walls and solid layers) is
 // never visited: it stays "filled" by default. The steps, one file each, are listed in
 // surface_steps.hpp; this file holds the region and the routine that runs them.
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <cmath>
 
 #include "deviation/outer_surface.hpp"
@@ -51,6 +54,15 @@ const std::uint32_t* DepositSurface::filled_code_of(const Vec3& p_mm, int& slot)
           filled_blocks_dims.z() +
       static_cast<std::size_t>(bz - filled_blocks_lo.z());
   return filled_block_code.data() + i;
+}
+
+std::vector<Vec3> DepositSurface::face_centers_mm() const {
+  std::vector<Vec3> c(faces.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, faces.size(), 1 << 14),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) c[i] = face_center(i);
+                    });
+  return c;
 }
 
 bool DepositSurface::filled(const Vec3& p_mm) const {

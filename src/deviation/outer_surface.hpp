@@ -30,8 +30,7 @@ struct DepositSurface {
   /// in a cell its voxel rows by y then x, voxels by z, a voxel's faces consecutive (-x +x -y
   /// +y -z +z). Both distance searches visit the faces cell by cell in this order.
   std::vector<SurfaceFace> faces;
-  std::vector<Vec3> face_centers_mm;  ///< centre of each face (the deposit->mesh points)
-  std::vector<VoxelTag> face_tags;    ///< tag of each face's voxel
+  std::vector<VoxelTag> face_tags;  ///< tag of each face's voxel
   /// After place_on_beads, the deposit -> mesh points: where a bead owns the surface, points
   /// laid on its exposed outline (sample_bead_outlines); elsewhere each face's point (its
   /// centre, or moved onto a bead). Empty: the face centres stand for themselves.
@@ -66,6 +65,18 @@ struct DepositSurface {
   std::size_t occupied_voxels = 0;  ///< occupied part voxels in the region
   std::size_t filled_voxels = 0;    ///< occupied + enclosed voids
 
+  /// The centre of face f (a deposit->mesh point before the placement on the beads): a
+  /// function of the face, computed where it is read rather than stored (24 bytes a face).
+  [[nodiscard]] Vec3 face_center(const SurfaceFace& f) const {
+    Vec3 c =
+        origin_mm + voxel_mm * Vec3(f.voxel.x - origin_key.x + 0.5, f.voxel.y - origin_key.y + 0.5,
+                                    f.voxel.z - origin_key.z + 0.5);
+    c[f.axis] += 0.5 * voxel_mm * f.side;
+    return c;
+  }
+  [[nodiscard]] Vec3 face_center(std::size_t i) const { return face_center(faces[i]); }
+  /// Every face's centre, in face order (in parallel).
+  [[nodiscard]] std::vector<Vec3> face_centers_mm() const;
   /// True when p lies in a filled voxel of the region (false outside the region).
   [[nodiscard]] bool filled(const Vec3& p_mm) const;
   /// The code of p's block and p's bit in it (slot z * 64 + y * 8 + x); nullptr when p is
@@ -109,8 +120,9 @@ void place_on_beads(DepositSurface& surface, std::span<const SurfaceBead> beads,
 /// a quarter circle plus a voxel) to where another bead covers it: the cusp between two
 /// stacked beads, narrower than a voxel, is reached. Other faces keep their point. Fills
 /// points_mm, point_area_mm2, point_tags, point_groups and the bead_touch lists.
+/// `placed`: per face, whether place_on_beads moved its point onto its bead (face_bead).
 void sample_bead_outlines(DepositSurface& surface, std::span<const SurfaceBead> beads,
-                          std::span<const Vec3> face_points, std::span<const double> face_area_mm2);
+                          std::span<const std::uint8_t> placed);
 
 /// Where the deposit -> mesh search stops (mm): a point farther than this from every face
 /// reads this distance (at least), so a mesh placed far from its print is measured quickly.

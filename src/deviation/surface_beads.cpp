@@ -161,50 +161,33 @@ void detail::place_on_beads(DepositSurface& s, std::span<const SurfaceBead> bead
                             const BeadIndex& index, double max_shift_mm) {
   const double v = s.voxel_mm;
   const std::size_t n = s.faces.size();
-  // Without initial values: each element is written once, below, in parallel (the first
-  // touch of their pages is spread over the threads too).
-  const auto points = std::make_unique_for_overwrite<Vec3[]>(n);
-  const auto area = std::make_unique_for_overwrite<double[]>(n);
+  // Per face its bead and whether its point moved onto it; the points themselves are not
+  // stored (PlacedFaces computes them from these). Without initial values: each element is
+  // written once, below, in parallel.
+  const auto placed = std::make_unique_for_overwrite<std::uint8_t[]>(n);
   s.face_bead.resize(n);
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, n, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          const Vec3 p = s.face_centers_mm[i];
-          points[i] = p;
-          area[i] = v * v;
-          s.face_bead[i] = kNoBead;
-          const detail::BeadDistance near = index.nearest(s.face_tags[i].line, p);
-          if (near.bead == kNoBead) continue;
-          if (!(std::abs(near.signed_mm) <= max_shift_mm)) {
-            if (in_voxel_pit(index.cores()[near.bead], s.faces[i], p, v))
-              s.face_bead[i] = near.bead;
-            continue;
-          }
-          const SurfaceBead& b = beads[near.bead];
-          Vec3 nrm = p - near.core_point;
-          const double len = nrm.norm();
-          if (len > 1e-12) {
-            nrm /= len;
-          } else {  // on the core: the face's own normal
-            nrm = Vec3::Zero();
-            nrm[s.faces[i].axis] = s.faces[i].side;
-          }
-          // The face must face the way the bead's surface does: a face on the far side of a
-          // bead's core (a thin wall's back) belongs to another surface.
-          if (nrm[s.faces[i].axis] * s.faces[i].side <= 0) {
-            if (in_voxel_pit(index.cores()[near.bead], s.faces[i], p, v))
-              s.face_bead[i] = near.bead;
-            continue;
-          }
-          points[i] = near.core_point + (0.5 * b.height_mm) * nrm;
-          // A surface of normal n is voxelised into faces of total area |n_x| + |n_y| + |n_z|
-          // times its own: each face stands for its area over that sum.
-          area[i] = v * v / (std::abs(nrm.x()) + std::abs(nrm.y()) + std::abs(nrm.z()));
-          s.face_bead[i] = near.bead;
-        }
-      });
-  sample_bead_outlines(s, beads, index, std::span<const Vec3>(points.get(), n),
-                       std::span<const double>(area.get(), n));
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        const SurfaceFace& face = s.faces[i];
+                        const Vec3 p = s.face_center(face);
+                        s.face_bead[i] = kNoBead;
+                        placed[i] = 0;
+                        const detail::BeadDistance near = index.nearest(s.face_tags[i].line, p);
+                        if (near.bead == kNoBead) continue;
+                        // The face must face the way the bead's surface does: a face on the far
+                        // side of a bead's core (a thin wall's back) belongs to another surface.
+                        if (!(std::abs(near.signed_mm) <= max_shift_mm) ||
+                            bead_normal(p, near.core_point, face)[face.axis] * face.side <= 0) {
+                          if (in_voxel_pit(index.cores()[near.bead], face, p, v))
+                            s.face_bead[i] = near.bead;
+                          continue;
+                        }
+                        s.face_bead[i] = near.bead;
+                        placed[i] = 1;
+                      }
+                    });
+  sample_bead_outlines(s, beads, index, std::span<const std::uint8_t>(placed.get(), n));
 }
 
 }  // namespace printtwin

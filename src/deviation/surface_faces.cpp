@@ -168,7 +168,6 @@ std::size_t lay_out(DepositSurface& s, const BlockBox& box,
 void write_block(DepositSurface& s, const Exposed& e, int by, const VoxelBlocks::BlockView& view,
                  const std::vector<VoxelTag>& table, std::size_t next) {
   const VoxelKey kmin = s.origin_key;
-  const double v = s.voxel_mm;
   for (int cell = 0; cell < 8; ++cell) {
     const int y0 = 4 * (cell >> 2), x0 = 4 * ((cell >> 1) & 1), z0 = 4 * (cell & 1);
     for (int y = y0; y < y0 + 4; ++y) {
@@ -195,9 +194,6 @@ void write_block(DepositSurface& s, const Exposed& e, int by, const VoxelBlocks:
             f.voxel = VoxelKey{kmin.x + lx, kmin.y + ly, kmin.z + lz};
             f.axis = static_cast<std::uint8_t>(axis);
             f.side = static_cast<std::int8_t>(side);
-            Vec3 ctr = s.origin_mm + v * Vec3(lx + 0.5, ly + 0.5, lz + 0.5);
-            ctr[axis] += 0.5 * v * side;
-            s.face_centers_mm[next] = ctr;
             s.face_tags[next++] = tag;
           }
         }
@@ -214,9 +210,9 @@ void extract_faces(DepositSurface& s, const VoxelGrid& grid, const SurfaceRegion
   const std::vector<std::vector<Exposed>> exposed = exposed_rows(s, box, part);
   std::vector<std::size_t> row_blocks;
   const std::size_t n_faces = lay_out(s, box, exposed, row_blocks);
-  // The face arrays sized side by side (resize writes each element's initial value).
-  tbb::parallel_invoke([&] { s.faces.resize(n_faces); }, [&] { s.face_tags.resize(n_faces); },
-                       [&] { s.face_centers_mm.resize(n_faces); });
+  // The face arrays sized side by side (resize writes each element's initial value). A
+  // face's centre is not stored: DepositSurface::face_center computes it.
+  tbb::parallel_invoke([&] { s.faces.resize(n_faces); }, [&] { s.face_tags.resize(n_faces); });
   const auto& table = VoxelBlocks::tag_table(grid);
   tbb::parallel_for(0, box.n.y(), [&](int r) {
     const int by = box.lo.y() + r;

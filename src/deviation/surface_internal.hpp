@@ -1,6 +1,7 @@
 #pragma once
 // Internals of the outer surface's sub-voxel step (surface_beads.cpp), for the tests.
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -8,11 +9,8 @@
 #include <utility>
 #include <vector>
 
+#include "deviation/outer_surface.hpp"
 #include "printtwin/deviation.hpp"
-
-namespace printtwin {
-struct DepositSurface;
-}
 
 namespace printtwin::detail {
 
@@ -85,13 +83,57 @@ class BeadIndex {
   std::vector<std::uint32_t> first_;  ///< first bead of line l (beads_.size() when none after)
 };
 
+/// The unit normal of a bead's surface at p (a face's centre) for p's closest point on the
+/// bead's core; the face's own normal where p lies on the core.
+inline Vec3 bead_normal(const Vec3& p, const Vec3& core_point, const SurfaceFace& face) {
+  Vec3 nrm = p - core_point;
+  const double len = nrm.norm();
+  if (len > 1e-12) {
+    nrm /= len;
+  } else {
+    nrm = Vec3::Zero();
+    nrm[face.axis] = face.side;
+  }
+  return nrm;
+}
+
+/// The faces' points as place_on_beads leaves them, computed where they are read rather than
+/// stored (32 bytes a face): a face placed on its bead (placed[i] != 0, the bead face_bead[i])
+/// has its centre moved onto the bead's surface, any other keeps its centre.
+struct PlacedFaces {
+  const DepositSurface& surface;
+  std::span<const SurfaceBead> beads;
+  const std::vector<BeadCore>& cores;
+  std::span<const std::uint8_t> placed;
+
+  /// Face i's point and the true surface it stands for: voxel^2 / (|n_x| + |n_y| + |n_z|)
+  /// for the bead surface's normal n where placed, else voxel^2.
+  [[nodiscard]] Vec3 point(std::size_t i, double* area_mm2 = nullptr) const {
+    const SurfaceFace& face = surface.faces[i];
+    Vec3 p = surface.face_center(face);
+    const double v = surface.voxel_mm;
+    if (placed[i] == 0) {
+      if (area_mm2 != nullptr) *area_mm2 = v * v;
+      return p;
+    }
+    const std::uint32_t k = surface.face_bead[i];
+    Vec3 core;
+    cores[k].closest(p, core);
+    const Vec3 nrm = bead_normal(p, core, face);
+    // A surface of normal n is voxelised into faces of total area |n_x| + |n_y| + |n_z|
+    // times its own: each face stands for its area over that sum.
+    if (area_mm2 != nullptr)
+      *area_mm2 = v * v / (std::abs(nrm.x()) + std::abs(nrm.y()) + std::abs(nrm.z()));
+    return core + (0.5 * beads[k].height_mm) * nrm;
+  }
+};
+
 /// place_on_beads with the beads' index made by the caller (compute_deviation builds it once
 /// for the placement, the outline sampling and the mesh -> deposit distances to the beads).
 void place_on_beads(DepositSurface& surface, std::span<const SurfaceBead> beads,
                     const BeadIndex& index, double max_shift_mm);
 /// sample_bead_outlines with the beads' index made by the caller (its cores).
 void sample_bead_outlines(DepositSurface& surface, std::span<const SurfaceBead> beads,
-                          const BeadIndex& index, std::span<const Vec3> face_points,
-                          std::span<const double> face_area_mm2);
+                          const BeadIndex& index, std::span<const std::uint8_t> placed);
 
 }  // namespace printtwin::detail

@@ -343,6 +343,7 @@ struct Scratch {
   std::vector<std::int8_t> covered;
   std::vector<NearBead> near;
   std::vector<const NearBead*> active;
+  std::vector<Vec3> points;  ///< the points of the bead's faces (PlacedFaces), in their order
   /// The cells of a section (Section or CapSection), as `cell`.
   template <class S>
   const std::vector<OutlineCell>& cells_of(const S& sec) {
@@ -378,7 +379,7 @@ struct Sampler {
   std::span<const BeadFrame> frames;
   const std::vector<detail::BeadCore>& cores;
   const BeadGrid& grid;
-  std::span<const Vec3> face_points;
+  const detail::PlacedFaces& placed;
   double arc_step, along_step;
 
   /// Whether the outlines of bead k's centre line from `from` along `along` and of bead c
@@ -406,9 +407,10 @@ struct Sampler {
                              std::span<const NearBead* const> active) const;
   void lay(std::uint32_t k, std::span<const std::uint32_t> faces, double ext_extra, Scratch& w,
            ChunkPoints& out) const;
-  /// The points on bead k's round caps, where faces lie past its ends.
-  void lay_caps(std::uint32_t k, std::span<const std::uint32_t> faces, const Section& sec,
-                double ext, Scratch& w, ChunkPoints& out) const;
+  /// The points on bead k's round caps, where its faces' points (w.points, as lay found
+  /// them) lie past its ends.
+  void lay_caps(std::uint32_t k, const Section& sec, double ext, Scratch& w,
+                ChunkPoints& out) const;
 };
 
 /// Marks exposed[c] for the cells of one row of an outline: each marked cell that is not
@@ -473,8 +475,11 @@ void Sampler::lay(std::uint32_t k, std::span<const std::uint32_t> faces, double 
   std::vector<std::uint8_t>& marked = w.marked;
   marked.assign(static_cast<std::size_t>(rows) * mm, 0);
   bool capped = false;  // a face lies past an end, on a round cap
-  for (const std::uint32_t i : faces) {
-    const Vec3 rel = face_points[i] - f.a;
+  std::vector<Vec3>& points = w.points;
+  points.resize(faces.size());
+  for (std::size_t j = 0; j < faces.size(); ++j) points[j] = placed.point(faces[j]);
+  for (const Vec3& q : points) {
+    const Vec3 rel = q - f.a;
     const double u = rel.dot(f.dir);
     if (!(u > 0 && u < f.len)) {
       capped = true;
@@ -552,14 +557,14 @@ void Sampler::lay(std::uint32_t k, std::span<const std::uint32_t> faces, double 
         }
     }
   }
-  if (capped) lay_caps(k, faces, sec, ext, w, out);
+  if (capped) lay_caps(k, sec, ext, w, out);
   if (out.group.size() > group_from && out.group.back() == out.p.size()) out.group.pop_back();
   out.point_end.push_back(static_cast<std::uint32_t>(out.p.size()));
   out.touch_end.push_back(static_cast<std::uint32_t>(out.touch.size()));
 }
 
-void Sampler::lay_caps(std::uint32_t k, std::span<const std::uint32_t> faces, const Section& sec,
-                       double ext, Scratch& w, ChunkPoints& out) const {
+void Sampler::lay_caps(std::uint32_t k, const Section& sec, double ext, Scratch& w,
+                       ChunkPoints& out) const {
   const BeadFrame& f = frames[k];
   if (f.across.x() == 0 && f.across.y() == 0) return;  // a vertical move: no level cap
   const CapSection cap(sec, along_step);
@@ -578,13 +583,13 @@ void Sampler::lay_caps(std::uint32_t k, std::span<const std::uint32_t> faces, co
     out_dir = e == 0 ? Vec3(-dir_h) : dir_h;
     left = e == 0 ? Vec3(-f.across) : f.across;
   };
-  for (const std::uint32_t i : faces) {
-    const double u = (face_points[i] - f.a).dot(f.dir);
+  for (const Vec3& q : w.points) {
+    const double u = (q - f.a).dot(f.dir);
     if (u > 0 && u < f.len) continue;
     const int e = u <= 0 ? 0 : 1;
     Vec3 centre, out_dir, left;
     frame(e, centre, out_dir, left);
-    const Vec3 rel = face_points[i] - centre;
+    const Vec3 rel = q - centre;
     const Vec3 g(rel.x(), rel.y(), 0.0);
     const double phi = std::clamp(std::atan2(g.dot(left), g.dot(out_dir)), -0.5 * kPi, 0.5 * kPi);
     const int az = std::clamp(static_cast<int>((phi + 0.5 * kPi) / dphi), 0, n_az - 1);
@@ -638,7 +643,7 @@ struct ReplacedFaces {
   std::vector<std::uint32_t> begin, by_bead;
 };
 ReplacedFaces replaced_faces(const DepositSurface& s, std::span<const BeadFrame> frames,
-                             std::span<const Vec3> face_points) {
+                             const detail::PlacedFaces& placed) {
   const std::size_t n = s.faces.size();
   ReplacedFaces r;
   r.replaced.resize(n);
@@ -649,9 +654,13 @@ ReplacedFaces replaced_faces(const DepositSurface& s, std::span<const BeadFrame>
                         bool on_bead = false;
                         if (k != kNoBead && frames[k].len > 0) {
                           const BeadFrame& f = frames[k];
-                          const double u = (face_points[i] - f.a).dot(f.dir);
-                          const bool level_cap = f.across.x() != 0 || f.across.y() != 0;
-                          on_bead = (u > 0 && u < f.len) || level_cap;
+                          // Past an end of a level bead: on its round cap. The point is
+                          // needed only for a vertical move's.
+                          on_bead = f.across.x() != 0 || f.across.y() != 0;
+                          if (!on_bead) {
+                            const double u = (placed.point(i) - f.a).dot(f.dir);
+                            on_bead = u > 0 && u < f.len;
+                          }
                         }
                         r.replaced[i] = on_bead ? 1 : 0;
                       }
@@ -670,9 +679,9 @@ ReplacedFaces replaced_faces(const DepositSurface& s, std::span<const BeadFrame>
 /// The output lists sized for `kept` faces' points and the chunks' points, written in
 /// parallel: the faces kept, in their cell order (a cell's kept faces one group), then the
 /// beads' points in bead order.
-void assemble(DepositSurface& s, const ReplacedFaces& faces, std::span<const Vec3> face_points,
-              std::span<const double> face_area_mm2, std::span<const std::uint32_t> sampled,
-              const std::vector<ChunkPoints>& chunks, std::size_t n_beads) {
+void assemble(DepositSurface& s, const ReplacedFaces& faces, const detail::PlacedFaces& placed,
+              std::span<const std::uint32_t> sampled, const std::vector<ChunkPoints>& chunks,
+              std::size_t n_beads) {
   const std::size_t n_cells = s.face_cell_begin.empty() ? 0 : s.face_cell_begin.size() - 1;
   // Per cell: its kept faces; then where its points and group start.
   std::vector<std::uint32_t> kept(n_cells + 1, 0);
@@ -717,8 +726,7 @@ void assemble(DepositSurface& s, const ReplacedFaces& faces, std::span<const Vec
                         for (std::uint32_t i = s.face_cell_begin[c]; i < s.face_cell_begin[c + 1];
                              ++i) {
                           if (faces.replaced[i] != 0) continue;
-                          s.points_mm[o] = face_points[i];
-                          s.point_area_mm2[o] = face_area_mm2[i];
+                          s.points_mm[o] = placed.point(i, &s.point_area_mm2[o]);
                           s.point_tags[o] = s.face_tags[i];
                           ++o;
                         }
@@ -750,15 +758,13 @@ void assemble(DepositSurface& s, const ReplacedFaces& faces, std::span<const Vec
 }  // namespace
 
 void sample_bead_outlines(DepositSurface& s, std::span<const SurfaceBead> beads,
-                          std::span<const Vec3> face_points,
-                          std::span<const double> face_area_mm2) {
+                          std::span<const std::uint8_t> placed) {
   const detail::BeadIndex index(beads);
-  detail::sample_bead_outlines(s, beads, index, face_points, face_area_mm2);
+  detail::sample_bead_outlines(s, beads, index, placed);
 }
 
 void detail::sample_bead_outlines(DepositSurface& s, std::span<const SurfaceBead> beads,
-                                  const BeadIndex& index, std::span<const Vec3> face_points,
-                                  std::span<const double> face_area_mm2) {
+                                  const BeadIndex& index, std::span<const std::uint8_t> placed) {
   const std::vector<detail::BeadCore>& cores = index.cores();
   // Without initial values: each frame is written once, in parallel.
   const auto frame_store = std::make_unique_for_overwrite<BeadFrame[]>(beads.size());
@@ -768,7 +774,8 @@ void detail::sample_bead_outlines(DepositSurface& s, std::span<const SurfaceBead
                       for (std::size_t k = r.begin(); k != r.end(); ++k)
                         frames[k] = BeadFrame::of(beads[k]);
                     });
-  const ReplacedFaces faces = replaced_faces(s, frames, face_points);
+  const detail::PlacedFaces points{s, beads, cores, placed};
+  const ReplacedFaces faces = replaced_faces(s, frames, points);
   std::vector<std::uint32_t> sampled;
   for (std::size_t k = 0; k < beads.size(); ++k)
     if (faces.begin[k + 1] > faces.begin[k]) sampled.push_back(static_cast<std::uint32_t>(k));
@@ -784,7 +791,7 @@ void detail::sample_bead_outlines(DepositSurface& s, std::span<const SurfaceBead
       for (std::uint32_t c = k > 0 ? k - 1 : k; c <= k + 1 && c < beads.size(); ++c)
         if (listed.empty() || listed.back() < c) listed.push_back(c);
     const BeadGrid grid(frames, listed, kGridCellMm);
-    const Sampler sampler{beads, frames, cores, grid, face_points, v, 2 * v};
+    const Sampler sampler{beads, frames, cores, grid, points, v, 2 * v};
     tbb::enumerable_thread_specific<Scratch> scratch_of([&] {
       Scratch w;
       w.seen.stamp.assign(beads.size(), 0);
@@ -811,7 +818,7 @@ void detail::sample_bead_outlines(DepositSurface& s, std::span<const SurfaceBead
       }
     });
   }
-  assemble(s, faces, face_points, face_area_mm2, sampled, chunks, beads.size());
+  assemble(s, faces, points, sampled, chunks, beads.size());
 }
 
 }  // namespace printtwin

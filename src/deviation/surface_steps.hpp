@@ -83,8 +83,7 @@ void reopen_grooves(DepositSurface& s, const SurfaceRegion& region, const PartBl
                     const std::vector<std::uint32_t>& mixed, int steps);
 
 /// Step 4: the faces between a filled part voxel and a voxel that is not filled, with their
-/// centres and tags, in the fixed cell order (faces, face_centers_mm, face_tags, face_blocks,
-/// face_cell_begin).
+/// tags, in the fixed cell order (faces, face_tags, face_blocks, face_cell_begin).
 void extract_faces(DepositSurface& s, const VoxelGrid& grid, const SurfaceRegion& region,
                    const PartBlocks& part);
 

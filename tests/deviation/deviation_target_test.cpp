@@ -272,9 +272,10 @@ TEST_F(DeviationTargetReuse, SurfaceCellGroupsGiveTheSameDistancesAsAnyGrouping)
   }
   std::vector<double> by_cells, self_grouped, in_order;
   std::vector<std::uint32_t> t_cells, t_self, t_order;
-  target->signed_distances(at, surface.face_centers_mm, 4 * kVoxel, by_cells, &t_cells, cells);
-  target->signed_distances(at, surface.face_centers_mm, 4 * kVoxel, self_grouped, &t_self);
-  target->signed_distances(at, surface.face_centers_mm, 0.0, in_order, &t_order);
+  const std::vector<Vec3> centres = surface.face_centers_mm();
+  target->signed_distances(at, centres, 4 * kVoxel, by_cells, &t_cells, cells);
+  target->signed_distances(at, centres, 4 * kVoxel, self_grouped, &t_self);
+  target->signed_distances(at, centres, 0.0, in_order, &t_order);
   ASSERT_EQ(by_cells.size(), surface.faces.size());
   for (std::size_t i = 0; i < by_cells.size(); ++i) {
     ASSERT_EQ(by_cells[i], self_grouped[i]) << i;

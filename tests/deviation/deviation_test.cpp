@@ -157,9 +157,9 @@ TEST(DeviationSurface, EnclosedVoidsAreNotSurfaceOpenHolesAre) {
   EXPECT_TRUE(s.filled(Vec3(0.7, 0.7, 0.5)));
   EXPECT_FALSE(s.filled(Vec3(1.4, 1.4, 0.8)));
   EXPECT_FALSE(s.filled(Vec3(3, 3, 0.5)));
-  ASSERT_EQ(s.face_centers_mm.size(), s.faces.size());
+  ASSERT_EQ(s.face_centers_mm().size(), s.faces.size());
   for (std::size_t i = 0; i < s.faces.size(); ++i) {
-    EXPECT_FALSE(cavity.contains(s.face_centers_mm[i], 1e-9)) << s.face_centers_mm[i].transpose();
+    EXPECT_FALSE(cavity.contains(s.face_center(i), 1e-9)) << s.face_center(i).transpose();
     EXPECT_EQ(grid.tag(s.faces[i].voxel).has_value(), true);
   }
 }
@@ -450,7 +450,7 @@ TEST(DeviationSurface, SealingClosesPinholesButNotOpenings) {
       EXPECT_GT(open.faces.size(), sealed.faces.size());
       EXPECT_TRUE(sealed.filled(Vec3(1, 1, 0.5))) << slit_mm;
       // Only the outer box and the slit's mouth: no face inside the cavity's box.
-      for (const Vec3& c : sealed.face_centers_mm)
+      for (const Vec3& c : sealed.face_centers_mm())
         EXPECT_FALSE(cavity.contains(c, 1e-6)) << c.transpose();
     } else {
       // An opening wider than the seal: the same surface as without sealing.
@@ -478,9 +478,9 @@ TEST(DeviationSurface, DistancesToTheDepositAreTheNearestFaceByBruteForce) {
   std::uniform_real_distribution<double> ux(-0.6, 2.2), uy(-0.6, 1.8), uz(-0.6, 1.7);
   std::vector<Vec3> points;
   for (int i = 0; i < 600; ++i) points.emplace_back(ux(rng), uy(rng), uz(rng));
-  points.emplace_back(4, 5, 6);             // far outside the region
-  points.push_back(s.face_centers_mm[17]);  // on a face (distance 0)
-  points.emplace_back(0.4, 0.2, 0.4);       // deep inside
+  points.emplace_back(4, 5, 6);         // far outside the region
+  points.push_back(s.face_center(17));  // on a face (distance 0)
+  points.emplace_back(0.4, 0.2, 0.4);   // deep inside
   const double half = 0.025;
   std::vector<double> d;
   std::vector<std::uint32_t> nearest;
@@ -491,7 +491,7 @@ TEST(DeviationSurface, DistancesToTheDepositAreTheNearestFaceByBruteForce) {
     double best = std::numeric_limits<double>::infinity();
     std::uint32_t best_face = 0;
     for (std::size_t f = 0; f < s.faces.size(); ++f) {
-      const Vec3& c = s.face_centers_mm[f];
+      const Vec3 c = s.face_center(f);
       double d2 = 0;
       for (int a = 0; a < 3; ++a) {
         const double e = std::max(0.0, std::abs(p[a] - c[a]) - (a == s.faces[f].axis ? 0.0 : half));

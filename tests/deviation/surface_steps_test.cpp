@@ -126,14 +126,14 @@ TEST(SurfaceSteps, FacesOfABoxAreItsSixSides) {
   ASSERT_EQ(s.face_cell_begin.back(), 94U);
   for (std::size_t i = 0; i < s.faces.size(); ++i) {
     const SurfaceFace& f = s.faces[i];
-    const Vec3 c = s.face_centers_mm[i];
+    const Vec3 c = s.face_center(i);
     const double lo = 0.5, hi = f.axis == 0 ? 0.75 : f.axis == 1 ? 0.7 : 0.65;
     EXPECT_NEAR(c[f.axis], f.side > 0 ? hi : lo, 1e-12);
     EXPECT_EQ(s.face_tags[i].line, 5U);
   }
   // The same faces as the whole routine gives.
   const DepositSurface whole = extract_outer_surface(grid, region, 0, 0);
-  EXPECT_EQ(whole.face_centers_mm, s.face_centers_mm);
+  EXPECT_EQ(whole.face_centers_mm(), s.face_centers_mm());
 }
 
 }  // namespace
