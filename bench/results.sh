@@ -48,7 +48,7 @@ bgcode_meatpack   | bench:bgcode_bench:BM_DecodeBinary/0      | cpu  | table-dri
 closest_hints     | cli:verify:registration                  | wall | ICP closest-point queries bounded from the triangles of the previous step (mesh/mesh_query_embree.cpp, deviation/registration_search.cpp)
 hull_filter       | cli:verify:registration                  | wall | footprint hull drops the points inside the extreme octagon before its sort (deviation/registration.cpp)
 octomap_threads   | bench:octomap_bench:BM_OctomapExport/1   | wall | .ot subtrees encoded on all cores, written in order (deposit/octomap_io.cpp); stage: the .ot export
-deposit_huge_pages | cli:simulate                            | cpu  | sweep block words in 2 MiB arenas, grid block chunks (6 MiB), the block directory and the height map marked MADV_HUGEPAGE (deposit/sweep.hpp, deposit/voxel_grid.cpp, deposit/height_map.cpp); stage: simulate with --deposit-summary
+deposit_huge_pages | cli:simulate                            | cpu  | sweep block words in 2 MiB arenas and grid block chunks (6 MiB) marked MADV_HUGEPAGE (deposit/sweep.hpp, deposit/voxel_grid.cpp); stage: simulate with --deposit-summary
 huge_pages        | cli:verify                               | wall | blocks of 4 MiB and more from operator new marked MADV_HUGEPAGE (cli/huge_pages.cpp); stage: the whole verify
 '
 

@@ -1,6 +1,5 @@
 // The deposit's height map (see height_map.hpp).
 #include "deposit/height_map.hpp"
-#include "deposit/voxel_blocks.hpp"
 
 #include <algorithm>
 #include <bit>
@@ -24,14 +23,7 @@ HeightMap::HeightMap(double voxel_mm, const Vec3& origin_mm, int nx, int ny, std
       tiles_x_(tiles_x),
       top_(tiles_x * tiles_y * 64),
       top_layer_(top_.size()),
-      before_(top_.size()) {
-  // Every bead reads and raises the columns under it: in 2 MiB pages the part's footprint
-  // takes a few page faults and TLB entries instead of one per 4 KiB (the map's whole size is
-  // in the deposit's memory estimate).
-  VoxelBlocks::advise_huge_pages(top_.data(), top_.size() * sizeof(std::uint16_t));
-  VoxelBlocks::advise_huge_pages(top_layer_.data(), top_layer_.size() * sizeof(std::int32_t));
-  VoxelBlocks::advise_huge_pages(before_.data(), before_.size() * sizeof(std::uint16_t));
-}
+      before_(top_.size()) {}
 
 std::optional<std::int32_t> HeightMap::top_layer_at(double x_mm, double y_mm) const {
   const double u = (x_mm - ox_) * inv_voxel_, v = (y_mm - oy_) * inv_voxel_;

@@ -79,9 +79,7 @@ struct VoxelBlocks {
   /// a special path (core/plain_path.hpp): PRINTTWIN_PLAIN=deposit_huge_pages leaves 4 KiB
   /// pages. Nothing changes where the kernel has no transparent huge pages.
   static void advise_huge_pages(void* p, std::size_t bytes);
-  /// Pre-allocates room for `blocks` blocks (no effect on count()) and, for the deposit's
-  /// writes, advises huge pages for the block directory (and the first chunk when `blocks`
-  /// needs more than one).
+  /// Pre-allocates room for `blocks` blocks (no effect on count()).
   static void reserve_blocks(VoxelGrid& grid, std::size_t blocks);
 
   // --- Reads block by block --------------------------------------------------------------

@@ -8,9 +8,8 @@
 // needs more becomes wide: a 32-bit tag index per voxel, kept beside the chunks. Blocks live in
 // fixed-size chunks, so growing never moves or copies them. A chunk is one anonymous mapping:
 // the kernel hands its pages out zeroed, so reserving chunks costs no time and no resident
-// memory; pages fault in as blocks are written (from the second chunk on, and for a grid the
-// deposit reserves, the first chunk and the directory too, as transparent huge pages where the
-// kernel has them: VoxelBlocks::advise_huge_pages).
+// memory; pages fault in as blocks are written (from the second chunk on as transparent huge
+// pages where the kernel has them: VoxelBlocks::advise_huge_pages).
 #include "printtwin/voxel_grid.hpp"
 
 #include <algorithm>
@@ -79,9 +78,8 @@ class ChunkMemory {
  public:
   /// `huge`: backed by transparent huge pages (VoxelBlocks::advise_huge_pages).
   explicit ChunkMemory(bool huge) : memory_(kChunkBytes) {
-    if (huge) advise_huge_pages();
+    if (huge) VoxelBlocks::advise_huge_pages(memory_.data(), kChunkBytes);
   }
-  void advise_huge_pages() { VoxelBlocks::advise_huge_pages(memory_.data(), kChunkBytes); }
   [[nodiscard]] std::uint64_t* occupancy() {
     return reinterpret_cast<std::uint64_t*>(memory_.data());
   }
@@ -418,14 +416,6 @@ void VoxelBlocks::advise_huge_pages([[maybe_unused]] void* p, [[maybe_unused]] s
 
 void VoxelBlocks::reserve_blocks(VoxelGrid& grid, std::size_t blocks) {
   while (grid.impl_->chunks.size() * kChunkBlocks < blocks) grid.impl_->add_chunk();
-  VoxelGrid::Impl& g = *grid.impl_;
-  // A grid of more than a chunk is not small: its first chunk gets huge pages too.
-  if (blocks > kChunkBlocks) g.chunks.front()->advise_huge_pages();
-  g.palette_size.reserve(blocks);
-  g.block_coord.reserve(blocks);
-  // Every written block reads and sets its directory entry, over the part's whole footprint
-  // on every slab of blocks (the directory's size is in the deposit's memory estimate).
-  advise_huge_pages(g.directory.data(), g.directory.size() * sizeof(std::uint32_t));
 }
 
 std::size_t VoxelBlocks::block_count(const VoxelGrid& grid) { return grid.impl_->blocks; }
