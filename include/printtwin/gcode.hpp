@@ -33,7 +33,8 @@ namespace printtwin {
 /// skipped whole and reported as `line_too_long`, never buffered.
 inline constexpr std::size_t kMaxGcodeLineLength = 64 * 1024;
 
-/// Cuts a byte stream into lines. Accepts "\n", "\r\n" and a last line without a newline.
+/// Cuts a byte stream into lines. Accepts "\n", "\r\n", a last line without a newline and a
+/// UTF-8 byte order mark before the first line (dropped).
 /// Memory: one buffer of a few hundred KB, whatever the file size.
 class GcodeLineReader {
  public:
@@ -50,6 +51,7 @@ class GcodeLineReader {
   [[nodiscard]] bool ended_mid_line() const { return ended_mid_line_; }
 
  private:
+  bool next_line(std::string_view& line);
   bool fill();
   std::istream& in_;
   std::vector<char> buf_;

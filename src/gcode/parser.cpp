@@ -117,6 +117,14 @@ bool GcodeLineReader::fill() {
 }
 
 bool GcodeLineReader::next(std::string_view& line) {
+  if (!next_line(line)) return false;
+  // A UTF-8 byte order mark (editors on Windows write one) is not part of the first line.
+  constexpr std::string_view kBom = "\xEF\xBB\xBF";
+  if (line_ == 1 && line.substr(0, kBom.size()) == kBom) line.remove_prefix(kBom.size());
+  return true;
+}
+
+bool GcodeLineReader::next_line(std::string_view& line) {
   truncated_ = false;
   for (;;) {
     const char* base = buf_.data();
