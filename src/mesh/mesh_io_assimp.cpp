@@ -70,8 +70,11 @@ std::string lower(std::string s) {
   return s;
 }
 
+/// A UTF-8 byte order mark, which a text editor may put before an ASCII STL's "solid".
+constexpr std::string_view kUtf8Bom = "\xEF\xBB\xBF";
+
 bool starts_with_solid(std::string_view bytes) {
-  std::size_t i = 0;
+  std::size_t i = bytes.substr(0, kUtf8Bom.size()) == kUtf8Bom ? kUtf8Bom.size() : 0;
   while (i < bytes.size() && std::isspace(static_cast<unsigned char>(bytes[i])) != 0) ++i;
   return bytes.substr(i, 5) == "solid";
 }
@@ -982,6 +985,8 @@ Result<Mesh> load_mesh_from_memory(std::string_view bytes, const fs::path& path,
             bytes.size();
     const bool binary =
         size_matches_binary || !starts_with_solid(bytes) || binary_after_header(bytes);
+    if (!binary && bytes.substr(0, kUtf8Bom.size()) == kUtf8Bom)
+      bytes.remove_prefix(kUtf8Bom.size());  // ASCII text after a byte order mark
     const bool direct = !detail::plain_path("stl_direct");
     std::vector<float> coords;
     Status valid = binary ? validate_binary_stl(bytes, name)

@@ -345,6 +345,27 @@ TEST_F(MeshIoTest, DirectAsciiStlMatchesAssimp) {
   EXPECT_NE(bad.error().message.find("expected 'vertex', found 'vortex'"), std::string::npos);
 }
 
+TEST_F(MeshIoTest, AsciiStlAfterAByteOrderMark) {
+  // A text editor's UTF-8 byte order mark before "solid": the same mesh, read directly, through
+  // assimp and from a file (whose header check comes first).
+  const std::string text = ascii_stl(test::make_cube_mm(10, Vec3(0, 0, 0)));
+  const std::string marked = "\xEF\xBB\xBF" + text;
+  auto plain = load_mesh_from_memory(text, "p.stl");
+  auto direct = load_mesh_from_memory(marked, "p.stl");
+  ASSERT_EQ(::setenv("PRINTTWIN_PLAIN", "stl_direct", 1), 0);
+  auto assimp = load_mesh_from_memory(marked, "p.stl");
+  ::unsetenv("PRINTTWIN_PLAIN");
+  const auto path = test::temp_dir("stl_bom") / "bom.stl";
+  ASSERT_TRUE(write_file_atomic(path, marked).ok());
+  auto file = load_mesh(path);
+  ASSERT_TRUE(plain.ok());
+  for (const auto* m : {&direct, &assimp, &file}) {
+    ASSERT_TRUE(m->ok()) << m->error().describe();
+    EXPECT_EQ((*m)->triangles, plain->triangles);
+    EXPECT_EQ((*m)->vertices_mm, plain->vertices_mm);
+  }
+}
+
 /// Vertices are numbered in order of first use; -0 and +0 are one coordinate; sub-meshes
 /// (OBJ objects) share the vertices they have in common.
 TEST_F(MeshIoTest, WeldKeepsFirstUseOrderAndJoinsAcrossSubMeshes) {
