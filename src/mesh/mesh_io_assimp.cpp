@@ -996,6 +996,10 @@ Result<Mesh> load_mesh_from_memory(std::string_view bytes, const fs::path& path,
     if (direct && size_matches_binary) return finish_mesh(binary_stl_mesh(bytes, s), s, name);
     if (direct && !binary) return finish_mesh(ascii_stl_mesh(coords, s), s, name);
   }
+  // The text formats' first line after a byte order mark (assimp's OBJ reader would drop it).
+  if ((ext == ".obj" || ext == ".off" || ext == ".ply") &&
+      bytes.substr(0, kUtf8Bom.size()) == kUtf8Bom)
+    bytes.remove_prefix(kUtf8Bom.size());
 
   const double s = unit_factor(options.units) * options.scale;
   if (ext == ".off" || ext == ".ply") {

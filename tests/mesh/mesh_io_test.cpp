@@ -366,6 +366,28 @@ TEST_F(MeshIoTest, AsciiStlAfterAByteOrderMark) {
   }
 }
 
+TEST_F(MeshIoTest, TextFormatsAfterAByteOrderMark) {
+  // OBJ (its first line a vertex), OFF and ASCII PLY with a UTF-8 byte order mark read as
+  // without it.
+  const std::vector<std::pair<std::string, std::string>> files = {
+      {"t.obj", "v 0 0 0\nv 10 0 0\nv 0 10 0\nv 0 0 10\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"},
+      {"t.off", "OFF\n4 4 0\n0 0 0\n10 0 0\n0 10 0\n0 0 10\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"},
+      {"t.ply",
+       "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+       "property float z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n"
+       "0 0 0\n10 0 0\n0 10 0\n0 0 10\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"}};
+  for (const auto& [name, text] : files) {
+    SCOPED_TRACE(name);
+    auto plain = load_mesh_from_memory(text, name);
+    auto marked = load_mesh_from_memory("\xEF\xBB\xBF" + text, name);
+    ASSERT_TRUE(plain.ok()) << plain.error().describe();
+    ASSERT_TRUE(marked.ok()) << marked.error().describe();
+    EXPECT_EQ(marked->triangles, plain->triangles);
+    EXPECT_EQ(marked->vertices_mm, plain->vertices_mm);
+    EXPECT_EQ(marked->triangles.size(), 4U);
+  }
+}
+
 /// Vertices are numbered in order of first use; -0 and +0 are one coordinate; sub-meshes
 /// (OBJ objects) share the vertices they have in common.
 TEST_F(MeshIoTest, WeldKeepsFirstUseOrderAndJoinsAcrossSubMeshes) {
