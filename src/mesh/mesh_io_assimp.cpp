@@ -72,9 +72,12 @@ std::string lower(std::string s) {
 
 /// A UTF-8 byte order mark, which a text editor may put before an ASCII STL's "solid".
 constexpr std::string_view kUtf8Bom = "\xEF\xBB\xBF";
+bool starts_with_bom(std::string_view bytes) {
+  return bytes.substr(0, kUtf8Bom.size()) == kUtf8Bom;
+}
 
 bool starts_with_solid(std::string_view bytes) {
-  std::size_t i = bytes.substr(0, kUtf8Bom.size()) == kUtf8Bom ? kUtf8Bom.size() : 0;
+  std::size_t i = starts_with_bom(bytes) ? kUtf8Bom.size() : 0;
   while (i < bytes.size() && std::isspace(static_cast<unsigned char>(bytes[i])) != 0) ++i;
   return bytes.substr(i, 5) == "solid";
 }
@@ -985,7 +988,7 @@ Result<Mesh> load_mesh_from_memory(std::string_view bytes, const fs::path& path,
             bytes.size();
     const bool binary =
         size_matches_binary || !starts_with_solid(bytes) || binary_after_header(bytes);
-    if (!binary && bytes.substr(0, kUtf8Bom.size()) == kUtf8Bom)
+    if (!binary && starts_with_bom(bytes))
       bytes.remove_prefix(kUtf8Bom.size());  // ASCII text after a byte order mark
     const bool direct = !detail::plain_path("stl_direct");
     std::vector<float> coords;
@@ -997,8 +1000,7 @@ Result<Mesh> load_mesh_from_memory(std::string_view bytes, const fs::path& path,
     if (direct && !binary) return finish_mesh(ascii_stl_mesh(coords, s), s, name);
   }
   // The text formats' first line after a byte order mark (assimp's OBJ reader would drop it).
-  if ((ext == ".obj" || ext == ".off" || ext == ".ply") &&
-      bytes.substr(0, kUtf8Bom.size()) == kUtf8Bom)
+  if ((ext == ".obj" || ext == ".off" || ext == ".ply") && starts_with_bom(bytes))
     bytes.remove_prefix(kUtf8Bom.size());
 
   const double s = unit_factor(options.units) * options.scale;
