@@ -64,6 +64,13 @@ struct CheckSettings {
   /// finding is the same but ThicknessResult::min_thickness_mm is +inf when no wall is thin
   /// (what `verify` needs: it reports findings only).
   bool thickness_beyond_limit = true;
+  /// The sag model of bridges (the printer profile's, which check_printability uses): a
+  /// bridge of bridge_sag_span_mm sags bridge_sag_mm at mid-span, sag ~ span^2; spans over
+  /// twice bridge_sag_span_mm are not bridged.
+  double bridge_sag_mm = 0.8;
+  double bridge_sag_span_mm = 50;
+  /// A bridge predicted to sag more than this is a warning (bridge_sag), else info (bridge).
+  double bridge_sag_warn_mm = 0.1;
 };
 
 /// Topological and geometric health of a mesh (frame of the input, before placement).
@@ -147,6 +154,18 @@ struct Placement {
   Box3 footprint_mm;              ///< their bounding box (empty when none)
 };
 
+/// An overhang region that prints as a bridge: flat, and held at both ends along one
+/// direction (docs/check.md, "Bridges").
+struct BridgeSpan {
+  double span_mm = 0;        ///< the longest unsupported line across it, along direction_deg
+  double direction_deg = 0;  ///< of the bridge's lines, from +x, in [0, 180)
+  double sag_mm = 0;         ///< predicted mid-span sag of the longest line
+  bool flat = true;          ///< a flat ceiling (else an arch: a hole's or vault's top)
+  /// Every point lies within half a line width of what holds it: a ledge that narrow prints
+  /// as it is (span_mm is then how far it reaches beyond that; direction_deg means nothing).
+  bool ledge = false;
+};
+
 /// An area of downward-facing faces steeper than the limit, connected over shared edges.
 struct OverhangRegion {
   double area_mm2 = 0;
@@ -155,6 +174,7 @@ struct OverhangRegion {
   Box3 bbox_mm;
   std::size_t faces = 0;
   std::uint32_t first_face = 0;
+  std::optional<BridgeSpan> bridge;  ///< set when the region prints as a bridge
 };
 
 /// Overhang regions of a placed mesh (z = 0 is the bed), largest first.

@@ -254,9 +254,17 @@ std::vector<OverhangRegion> find_overhangs(const Mesh& placed, const CheckSettin
     weighted[r] += area * detail::face_centroid(placed, f);
     for (auto v : placed.triangles[f]) reg.bbox_mm.extend(placed.vertices_mm[v]);
   }
+  // Each face's region (for the bridges' borders; until now only the roots held theirs).
+  for (std::size_t f = 0; f < nf; ++f)
+    if (over[f] != 0) region_of[f] = region_of[uf.find(static_cast<std::uint32_t>(f))];
+  const auto bridges =
+      detail::find_bridges(placed, region_of, regions, settings.min_overhang_area_mm2,
+                           0.5 * (settings.line_width_mm > 0 ? settings.line_width_mm : 0.45),
+                           settings.bridge_sag_mm, settings.bridge_sag_span_mm);
   std::vector<OverhangRegion> out;
   for (std::size_t r = 0; r < regions.size(); ++r) {
     if (regions[r].area_mm2 < settings.min_overhang_area_mm2) continue;
+    regions[r].bridge = bridges[r];
     regions[r].centroid_mm = weighted[r] / regions[r].area_mm2;
     out.push_back(regions[r]);
   }
@@ -370,13 +378,45 @@ void placement_findings(const CheckReport& rep, const PrinterProfile& printer,
   }
 }
 
-/// One finding per overhang region (the largest `max_locations`), then a count of the rest.
+/// A bridge region's finding: info while its predicted sag is small, else a warning.
+Finding bridge_finding(const OverhangRegion& r, const CheckSettings& settings) {
+  const BridgeSpan& b = *r.bridge;
+  const bool sags = b.sag_mm > settings.bridge_sag_warn_mm;
+  const std::string where = format_fixed(r.area_mm2, 1) + " mm2 of " +
+                            (b.flat ? "flat" : "arched") + " ceiling at " + xyz(r.centroid_mm) +
+                            ", z " + format_fixed(r.bbox_mm.min.z(), 2) + ".." +
+                            format_fixed(r.bbox_mm.max.z(), 2) + " mm,";
+  const std::string what =
+      b.ledge ? " reaches at most " + mm(b.span_mm) +
+                    " beyond what holds it: a ledge that narrow prints without support"
+              : " is held at both ends: it prints without support as a bridge of up to " +
+                    mm(b.span_mm) + " (lines at " + format_fixed(b.direction_deg, 0) +
+                    " deg), predicted to sag " + mm(b.sag_mm) + " at mid-span" +
+                    (sags ? " (that much lower and rougher underside; support or a shorter "
+                            "span keeps it flat)"
+                          : "");
+  Finding f =
+      make_finding(sags ? Severity::warning : Severity::info, sags ? "bridge_sag" : "bridge",
+                   where + what, r.centroid_mm, static_cast<long>(r.faces));
+  f.extent_mm = r.bbox_mm;
+  f.face = r.first_face;
+  f.value = b.sag_mm;
+  return f;
+}
+
+/// One finding per overhang region and per bridge (the largest `max_locations` of each), then
+/// a count of the rest.
 void overhang_findings(const CheckReport& rep, const CheckSettings& settings,
                        std::vector<Finding>& out) {
   double overhang_total = 0;
-  for (const auto& r : rep.overhangs) overhang_total += r.area_mm2;
-  for (std::size_t i = 0; i < rep.overhangs.size() && i < settings.max_locations; ++i) {
-    const OverhangRegion& r = rep.overhangs[i];
+  std::size_t overhangs = 0, bridges = 0;
+  for (const auto& r : rep.overhangs) {
+    if (r.bridge) {
+      if (bridges++ < settings.max_locations) out.push_back(bridge_finding(r, settings));
+      continue;
+    }
+    overhang_total += r.area_mm2;
+    if (overhangs++ >= settings.max_locations) continue;
     Finding f = make_finding(Severity::warning, "overhang",
                              format_fixed(r.area_mm2, 1) + " mm2 of surface leans up to " +
                                  format_fixed(r.max_angle_deg, 1) + " deg from vertical (limit " +
@@ -389,13 +429,17 @@ void overhang_findings(const CheckReport& rep, const CheckSettings& settings,
     f.value = r.max_angle_deg;
     out.push_back(f);
   }
-  if (rep.overhangs.size() > settings.max_locations)
-    out.push_back(make_finding(Severity::info, "overhang_more",
-                               std::to_string(rep.overhangs.size() - settings.max_locations) +
-                                   " more overhang regions not listed; " +
-                                   format_fixed(overhang_total, 1) + " mm2 of overhang in all",
-                               std::nullopt,
-                               static_cast<long>(rep.overhangs.size() - settings.max_locations)));
+  if (overhangs > settings.max_locations)
+    out.push_back(make_finding(
+        Severity::info, "overhang_more",
+        std::to_string(overhangs - settings.max_locations) + " more overhang regions not listed; " +
+            format_fixed(overhang_total, 1) + " mm2 of overhang in all",
+        std::nullopt, static_cast<long>(overhangs - settings.max_locations)));
+  if (bridges > settings.max_locations)
+    out.push_back(
+        make_finding(Severity::info, "bridge_more",
+                     std::to_string(bridges - settings.max_locations) + " more bridges not listed",
+                     std::nullopt, static_cast<long>(bridges - settings.max_locations)));
 }
 
 /// Thin walls and narrow gaps from the thickness rays.
@@ -524,7 +568,11 @@ Result<CheckReport> check_printability(const Mesh& mesh, const PrinterProfile& p
 
   placement_findings(rep, printer, settings, main_body, out);
 
-  rep.overhangs = find_overhangs(placed, settings);
+  CheckSettings overhang_settings = settings;  // bridges sag as the printer's profile says
+  overhang_settings.bridge_sag_mm = printer.bridge_sag_mm;
+  overhang_settings.bridge_sag_span_mm = printer.bridge_sag_span_mm;
+  overhang_settings.line_width_mm = rep.line_width_mm;
+  rep.overhangs = find_overhangs(placed, overhang_settings);
   overhang_findings(rep, settings, out);
 
   // Thin walls and narrow gaps.

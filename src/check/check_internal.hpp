@@ -4,9 +4,12 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
+#include <span>
 #include <utility>
 #include <vector>
 
+#include "printtwin/check.hpp"
 #include "printtwin/mesh.hpp"
 
 namespace printtwin::detail {
@@ -80,6 +83,16 @@ struct EdgeTable {
 
 /// `skip_face[f] != 0` leaves face f out (empty = keep all).
 EdgeTable build_edge_table(const Mesh& mesh, const std::vector<char>& skip_face);
+
+/// Which overhang regions print as bridges (src/check/bridges.cpp). region_of: each face's
+/// index in `regions` (UINT32_MAX: none); regions under min_area_mm2 are not classified.
+/// Points within cantilever_mm of an anchored edge are held by it; sag_mm at sag_span_mm is
+/// the printer's sag model.
+std::vector<std::optional<BridgeSpan>> find_bridges(const Mesh& placed,
+                                                    std::span<const std::uint32_t> region_of,
+                                                    std::span<const OverhangRegion> regions,
+                                                    double min_area_mm2, double cantilever_mm,
+                                                    double sag_mm, double sag_span_mm);
 
 /// Marks faces with a repeated vertex index and every repeat of an earlier face (same vertex
 /// set, either orientation). `duplicates` receives the number of repeats.

@@ -87,12 +87,21 @@ std::string check_report_to_json(const CheckReport& r, const CheckSource& source
     doc["thickness"] = nullptr;
   }
   json overhangs = json::array();
-  for (const auto& o : r.overhangs)
+  for (const auto& o : r.overhangs) {
+    json bridge = nullptr;
+    if (o.bridge)
+      bridge = {{"span_mm", num(o.bridge->span_mm)},
+                {"direction_deg", num(o.bridge->direction_deg)},
+                {"sag_mm", num(o.bridge->sag_mm)},
+                {"flat", o.bridge->flat},
+                {"ledge", o.bridge->ledge}};
     overhangs.push_back({{"area_mm2", num(o.area_mm2)},
                          {"max_angle_deg", num(o.max_angle_deg)},
                          {"centroid_mm", vec(o.centroid_mm)},
                          {"bbox_mm", box(o.bbox_mm)},
-                         {"faces", o.faces}});
+                         {"faces", o.faces},
+                         {"bridge", bridge}});
+  }
   doc["overhangs"] = overhangs;
   if (r.intersection_effect) {
     const IntersectionEffect& e = *r.intersection_effect;

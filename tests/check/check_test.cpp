@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <map>
@@ -33,15 +34,21 @@ Mesh flipped(Mesh m) {
 }
 
 /// Prism over the XZ polygon `profile` (CCW seen from -Y... any order: oriented by volume),
-/// extruded from y = 0 to y = depth.
-Mesh prism(const std::vector<Vec2>& profile, double depth) {
+/// extruded from y = 0 to y = depth, then turned by `turn_deg` about z. The front and back are
+/// `caps` (indices into the profile), a fan from its first corner when empty.
+Mesh prism(const std::vector<Vec2>& profile, double depth,
+           std::vector<std::array<std::uint32_t, 3>> caps = {}, double turn_deg = 0) {
   Mesh m;
   const auto n = static_cast<std::uint32_t>(profile.size());
-  for (const auto& p : profile) m.vertices_mm.emplace_back(p.x(), 0.0, p.y());
-  for (const auto& p : profile) m.vertices_mm.emplace_back(p.x(), depth, p.y());
-  for (std::uint32_t i = 1; i + 1 < n; ++i) {
-    m.triangles.push_back({0, i, i + 1});
-    m.triangles.push_back({n, n + i + 1, n + i});
+  const double c = std::cos(turn_deg * kPi / 180), s = std::sin(turn_deg * kPi / 180);
+  for (const double y : {0.0, depth})
+    for (const auto& p : profile)
+      m.vertices_mm.emplace_back(c * p.x() - s * y, s * p.x() + c * y, p.y());
+  if (caps.empty())
+    for (std::uint32_t i = 1; i + 1 < n; ++i) caps.push_back({0, i, i + 1});
+  for (const auto& t : caps) {
+    m.triangles.push_back({t[0], t[1], t[2]});
+    m.triangles.push_back({n + t[0], n + t[2], n + t[1]});
   }
   for (std::uint32_t i = 0; i < n; ++i) {
     const std::uint32_t j = (i + 1) % n;
@@ -391,6 +398,102 @@ TEST(CheckRisks, FloatingCeilingIsAnOverhang) {
   EXPECT_NEAR(r.overhangs[0].max_angle_deg, 90.0, 1e-9);
   EXPECT_NEAR(r.overhangs[0].area_mm2, 400.0, 1e-9);
   EXPECT_NEAR(r.overhangs[0].bbox_mm.min.z(), 10.0, 1e-9);
+}
+
+/// A table of two legs `leg` mm wide joined by a deck from z = 6 to 10 over a gap of `gap`
+/// mm (an arch seen from the front), `depth` deep along y; turned by `turn_deg` about z.
+Mesh two_legged_table(double gap, double leg, double depth, double turn_deg = 0) {
+  const double w = 2 * leg + gap;
+  // The front and back as six triangles inside the outline (it is not convex).
+  return prism({Vec2(0, 0), Vec2(leg, 0), Vec2(leg, 6), Vec2(leg + gap, 6), Vec2(leg + gap, 0),
+                Vec2(w, 0), Vec2(w, 10), Vec2(0, 10)},
+               depth, {{0, 1, 2}, {0, 2, 7}, {2, 3, 7}, {3, 6, 7}, {3, 4, 5}, {3, 5, 6}}, turn_deg);
+}
+
+TEST(CheckBridges, DeckBetweenTwoLegsBridgesItsGap) {
+  const Mesh table = two_legged_table(10, 5, 10);
+  ASSERT_TRUE(analyze_mesh_health(table).closed);
+  const CheckReport r = run(table);
+  ASSERT_EQ(r.overhangs.size(), 1U);
+  ASSERT_TRUE(r.overhangs[0].bridge.has_value());
+  const BridgeSpan& b = *r.overhangs[0].bridge;
+  EXPECT_NEAR(b.span_mm, 10.0, 1e-6);  // wall to wall, across the gap
+  EXPECT_EQ(b.direction_deg, 0.0);
+  EXPECT_TRUE(b.flat);
+  EXPECT_FALSE(b.ledge);
+  // The Ender-3's sag model: 0.8 mm at 50 mm, sag ~ span^2.
+  EXPECT_NEAR(b.sag_mm, 0.8 * 0.04, 1e-9);
+  EXPECT_EQ(find(r, "overhang"), nullptr);
+  const Finding* f = find(r, "bridge");
+  ASSERT_NE(f, nullptr);
+  EXPECT_EQ(f->severity, Severity::info);
+  EXPECT_NEAR(*f->value, 0.032, 1e-9);
+  EXPECT_NE(f->message.find("bridge of up to 10.00 mm"), std::string::npos) << f->message;
+  // The direction follows the part: turned 30 deg, the lines turn with it.
+  const CheckReport turned = run(two_legged_table(10, 5, 10, 30));
+  ASSERT_EQ(turned.overhangs.size(), 1U);
+  ASSERT_TRUE(turned.overhangs[0].bridge.has_value());
+  EXPECT_EQ(turned.overhangs[0].bridge->direction_deg, 30.0);
+  EXPECT_NEAR(turned.overhangs[0].bridge->span_mm, 10.0, 1e-6);
+}
+
+TEST(CheckBridges, LongSpansSagAndTooLongSpansNeedSupport) {
+  const CheckReport r40 = run(two_legged_table(40, 5, 10));
+  ASSERT_EQ(r40.overhangs.size(), 1U);
+  ASSERT_TRUE(r40.overhangs[0].bridge.has_value());
+  EXPECT_NEAR(r40.overhangs[0].bridge->sag_mm, 0.8 * 0.64, 1e-9);
+  const Finding* f = find(r40, "bridge_sag");
+  ASSERT_NE(f, nullptr);
+  EXPECT_EQ(f->severity, Severity::warning);
+  EXPECT_NE(f->message.find("sag 0.51 mm"), std::string::npos) << f->message;
+  // Beyond twice the reference span (100 mm) the model bridges nothing.
+  const CheckReport r120 = run(two_legged_table(120, 5, 10));
+  ASSERT_EQ(r120.overhangs.size(), 1U);
+  EXPECT_FALSE(r120.overhangs[0].bridge.has_value());
+  EXPECT_NE(find(r120, "overhang"), nullptr);
+  EXPECT_EQ(find(r120, "bridge"), nullptr);
+}
+
+TEST(CheckBridges, ShelfHeldOnOneSideIsAnOverhangUnlessNarrow) {
+  // One leg 5 mm wide under a deck reaching `reach` mm beyond it (a shelf). The outline
+  // starts at the inner corner, so that prism's fan of triangles stays inside it.
+  const auto shelf = [](double reach) {
+    return prism(
+        {Vec2(5, 6), Vec2(5 + reach, 6), Vec2(5 + reach, 10), Vec2(0, 10), Vec2(0, 0), Vec2(5, 0)},
+        10);
+  };
+  const CheckReport wide = run(shelf(10));
+  ASSERT_EQ(wide.overhangs.size(), 1U);
+  EXPECT_FALSE(wide.overhangs[0].bridge.has_value());
+  EXPECT_NE(find(wide, "overhang"), nullptr);
+  // 0.2 mm beyond the leg: within half the 0.45 mm line width, a ledge that prints.
+  const CheckReport narrow = run(shelf(0.2));
+  ASSERT_EQ(narrow.overhangs.size(), 1U);
+  ASSERT_TRUE(narrow.overhangs[0].bridge.has_value());
+  EXPECT_TRUE(narrow.overhangs[0].bridge->ledge);
+  EXPECT_NEAR(narrow.overhangs[0].bridge->span_mm, 0.2, 1e-9);  // reach beyond the leg
+  EXPECT_EQ(find(narrow, "overhang"), nullptr);
+  const Finding* f = find(narrow, "bridge");
+  ASSERT_NE(f, nullptr);
+  EXPECT_NE(f->message.find("ledge"), std::string::npos) << f->message;
+}
+
+TEST(CheckBridges, RealPartsCeilingsAreBridges) {
+  // The Prusa MK3S X-end idler prints without support: its flat ceilings are bridges.
+  const auto dir = test::realworld_dir();
+  if (!dir) GTEST_SKIP() << "../shared/realworld is not there (a user's clone has none)";
+  auto mesh = load_mesh((*dir / "models" / "prusa_mk3s_x-end-idler.stl").string());
+  ASSERT_TRUE(mesh.ok()) << mesh.error().describe();
+  const CheckReport r = run(*mesh);
+  std::size_t bridges = 0;
+  for (const auto& o : r.overhangs) {
+    if (!o.bridge) continue;
+    ++bridges;
+    EXPECT_LT(o.bridge->span_mm, 10.0);  // the part's widest ceiling spans 5.9 mm
+    EXPECT_LT(o.bridge->sag_mm, 0.1);
+  }
+  EXPECT_GE(bridges, 10U);
+  EXPECT_TRUE(r.printable);
 }
 
 TEST(CheckRisks, ThinWall) {
