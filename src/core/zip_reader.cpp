@@ -20,7 +20,8 @@ constexpr std::uint32_t kZip64EndOfCentral = 0x06064b50;
 constexpr std::uint32_t kZip64Locator = 0x07064b50;
 constexpr std::size_t kEndOfCentralSize = 22;
 constexpr std::size_t kMaxComment = 0xffff;
-// An entry larger than this is not a settings file: refuse it rather than allocate it.
+// An entry larger than this is neither a settings file nor a plate's G-code: refuse it
+// rather than allocate it.
 constexpr std::uint64_t kMaxEntryBytes = std::uint64_t{1} << 30;
 
 std::uint64_t le(std::string_view b, std::size_t at, int bytes) {
@@ -120,8 +121,12 @@ bool looks_like_zip(std::string_view bytes) {
   return bytes.size() >= 4 && (le(bytes, 0, 4) == kLocalHeader || le(bytes, 0, 4) == kEndOfCentral);
 }
 
-Result<std::optional<std::string>> zip_entry(std::string_view a, std::string_view name,
-                                             const std::string& source) {
+namespace {
+
+/// Walks the central directory: visit(name, at) for each entry (at = its record's offset)
+/// until visit returns true. Returns whether it did.
+template <class Visit>
+Result<bool> walk_directory(std::string_view a, const std::string& source, Visit visit) {
   auto cd = find_central_directory(a, source);
   if (!cd) return cd.error();
   std::size_t at = static_cast<std::size_t>(cd->offset);
@@ -134,50 +139,72 @@ Result<std::optional<std::string>> zip_entry(std::string_view a, std::string_vie
     const std::size_t comment_len = le(a, at + 32, 2);
     if (end - at - 46 < name_len + extra_len + comment_len)
       return damaged(source, "central directory entry " + std::to_string(i + 1) + " is cut short");
-    const std::string_view entry_name = a.substr(at + 46, name_len);
-    if (entry_name != name) {
-      at += 46 + name_len + extra_len + comment_len;
-      continue;
-    }
-    Entry e;
-    e.flags = static_cast<std::uint16_t>(le(a, at + 8, 2));
-    e.method = static_cast<std::uint16_t>(le(a, at + 10, 2));
-    e.crc = static_cast<std::uint32_t>(le(a, at + 16, 4));
-    e.compressed = le(a, at + 20, 4);
-    e.uncompressed = le(a, at + 24, 4);
-    e.local_offset = le(a, at + 42, 4);
-    apply_zip64_extra(a.substr(at + 46 + name_len, extra_len), e);
-    const std::string what = "entry " + std::string(name);
-    if ((e.flags & 1U) != 0) return damaged(source, what + " is encrypted");
-    if (e.uncompressed > kMaxEntryBytes)
-      return damaged(source, what + " states " + std::to_string(e.uncompressed) + " bytes");
-    const std::uint64_t lh = e.local_offset;
-    if (lh > a.size() || a.size() - lh < 30 || le(a, lh, 4) != kLocalHeader)
-      return damaged(source, what + ": its local header is missing");
-    const std::uint64_t data_at = lh + 30 + le(a, lh + 26, 2) + le(a, lh + 28, 2);
-    if (data_at > a.size() || e.compressed > a.size() - data_at)
-      return damaged(source, what + ": its data runs past the end of the file");
-    const std::string_view data =
-        a.substr(static_cast<std::size_t>(data_at), static_cast<std::size_t>(e.compressed));
-    std::string out;
-    if (e.method == 0) {
-      if (e.compressed != e.uncompressed)
-        return damaged(source, what + " is stored with two different sizes");
-      out.assign(data);
-    } else if (e.method == 8) {
-      auto inflated = inflate_raw(data, e.uncompressed, source, name);
-      if (!inflated) return inflated.error();
-      out = std::move(*inflated);
-    } else {
-      return damaged(source, what + " uses compression method " + std::to_string(e.method) +
-                                 " (only stored and deflate are read)");
-    }
-    const auto crc = static_cast<std::uint32_t>(
-        crc32(0L, reinterpret_cast<const Bytef*>(out.data()), static_cast<uInt>(out.size())));
-    if (crc != e.crc) return damaged(source, what + " fails its CRC-32 check");
-    return std::optional<std::string>(std::move(out));
+    if (visit(a.substr(at + 46, name_len), at)) return true;
+    at += 46 + name_len + extra_len + comment_len;
   }
-  return std::optional<std::string>{};
+  return false;
+}
+
+}  // namespace
+
+Result<std::vector<std::string>> zip_entry_names(std::string_view a, const std::string& source) {
+  std::vector<std::string> names;
+  auto walked = walk_directory(a, source, [&](std::string_view name, std::size_t /*at*/) {
+    names.emplace_back(name);
+    return false;
+  });
+  if (!walked) return walked.error();
+  return names;
+}
+
+Result<std::optional<std::string>> zip_entry(std::string_view a, std::string_view name,
+                                             const std::string& source) {
+  std::size_t at = 0;
+  auto found = walk_directory(a, source, [&](std::string_view entry_name, std::size_t record) {
+    at = record;
+    return entry_name == name;
+  });
+  if (!found) return found.error();
+  if (!*found) return std::optional<std::string>{};
+  const std::size_t name_len = le(a, at + 28, 2);
+  const std::size_t extra_len = le(a, at + 30, 2);
+  Entry e;
+  e.flags = static_cast<std::uint16_t>(le(a, at + 8, 2));
+  e.method = static_cast<std::uint16_t>(le(a, at + 10, 2));
+  e.crc = static_cast<std::uint32_t>(le(a, at + 16, 4));
+  e.compressed = le(a, at + 20, 4);
+  e.uncompressed = le(a, at + 24, 4);
+  e.local_offset = le(a, at + 42, 4);
+  apply_zip64_extra(a.substr(at + 46 + name_len, extra_len), e);
+  const std::string what = "entry " + std::string(name);
+  if ((e.flags & 1U) != 0) return damaged(source, what + " is encrypted");
+  if (e.uncompressed > kMaxEntryBytes)
+    return damaged(source, what + " states " + std::to_string(e.uncompressed) + " bytes");
+  const std::uint64_t lh = e.local_offset;
+  if (lh > a.size() || a.size() - lh < 30 || le(a, lh, 4) != kLocalHeader)
+    return damaged(source, what + ": its local header is missing");
+  const std::uint64_t data_at = lh + 30 + le(a, lh + 26, 2) + le(a, lh + 28, 2);
+  if (data_at > a.size() || e.compressed > a.size() - data_at)
+    return damaged(source, what + ": its data runs past the end of the file");
+  const std::string_view data =
+      a.substr(static_cast<std::size_t>(data_at), static_cast<std::size_t>(e.compressed));
+  std::string out;
+  if (e.method == 0) {
+    if (e.compressed != e.uncompressed)
+      return damaged(source, what + " is stored with two different sizes");
+    out.assign(data);
+  } else if (e.method == 8) {
+    auto inflated = inflate_raw(data, e.uncompressed, source, name);
+    if (!inflated) return inflated.error();
+    out = std::move(*inflated);
+  } else {
+    return damaged(source, what + " uses compression method " + std::to_string(e.method) +
+                               " (only stored and deflate are read)");
+  }
+  const auto crc = static_cast<std::uint32_t>(
+      crc32(0L, reinterpret_cast<const Bytef*>(out.data()), static_cast<uInt>(out.size())));
+  if (crc != e.crc) return damaged(source, what + " fails its CRC-32 check");
+  return std::optional<std::string>(std::move(out));
 }
 
 }  // namespace printtwin::detail

@@ -6,6 +6,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "printtwin/result.hpp"
 
@@ -20,5 +21,9 @@ namespace printtwin::detail {
 [[nodiscard]] Result<std::optional<std::string>> zip_entry(std::string_view archive,
                                                            std::string_view name,
                                                            const std::string& source);
+
+/// The names of the archive's entries, in the order of its central directory.
+[[nodiscard]] Result<std::vector<std::string>> zip_entry_names(std::string_view archive,
+                                                               const std::string& source);
 
 }  // namespace printtwin::detail

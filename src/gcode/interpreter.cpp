@@ -524,9 +524,15 @@ void GcodeInterpreter::emit(const Vec3& target_logical_in, double e_delta_mm, do
 
   if (!is_forced) {
     // Moves of axes that were never homed: Marlin executes them from where it believes it is.
+    // A relative move (G91) needs no position, only a distance: start codes lift the nozzle
+    // that way before homing (Bambu's "G91 / G1 Z5"), and Marlin, Prusa's firmware and
+    // Bambu's run it. Klipper and RepRapFirmware refuse any move of an unhomed axis.
+    const bool relative_ok =
+        relative_xyz_ && flavour_ != Flavour::klipper && flavour_ != Flavour::rrf;
     bool unhomed_motion = false;
     for (int i = 0; i < 3; ++i)
-      if (!homed_[static_cast<std::size_t>(i)] && std::fabs(target[i] - start[i]) > 1e-9)
+      if (!homed_[static_cast<std::size_t>(i)] && std::fabs(target[i] - start[i]) > 1e-9 &&
+          !relative_ok)
         unhomed_motion = true;
     if (unhomed_motion && !reported_before_homing_) {
       reported_before_homing_ = true;
@@ -802,6 +808,9 @@ Status GcodeInterpreter::home(const GcodeCommand& c, InterpreterOutput& out) {
   // slow re-approach at homing_feedrate / bump_divisor. Z last.
   bool axis[3] = {c.has('X'), c.has('Y'), c.has('Z')};
   if (!axis[0] && !axis[1] && !axis[2]) axis[0] = axis[1] = axis[2] = true;
+  // Bambu's firmware homes X and Y together on "G28 X" (its start code: "G28 X ; re-home
+  // XY"); "G28 Z P0 T300" homes Z alone.
+  if (flavour_ == Flavour::bambu && axis[0]) axis[1] = true;
   out.synchronize();
   const Vec3 lo(profile_.travel_min_x_mm, profile_.travel_min_y_mm, profile_.travel_min_z_mm);
   auto go = [&](const Vec3& machine_target, double feedrate) {
@@ -1185,6 +1194,10 @@ Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text,
   if (c.letter == 'M') return execute_m(c, text, out);
   if (c.letter == 'T') {
     if (c.code == 0) return Ok{};
+    // Bambu: T<n> loads filament n (an AMS slot) into the one nozzle, the flush written out
+    // in the G-code around it; T255 unloads, T1000 and T1100 select the nozzle or the lidar
+    // for the moves that follow. None is a second extruder.
+    if (flavour_ == Flavour::bambu) return Ok{};
     return warn(c.line, text,
                 "tool T" + std::to_string(c.code) + " selected on a single-extruder printer",
                 "bad_tool");
@@ -1489,6 +1502,15 @@ Status GcodeInterpreter::execute_m(const GcodeCommand& c, std::string_view text,
     }
     case 400:
       out.synchronize();
+      // Bambu: M400 S<s> / P<ms> waits that long after the moves end (its start code
+      // settles the nozzle with "M400 S7").
+      if (flavour_ == Flavour::bambu && (c.has('S') || c.has('P'))) {
+        const double s = c.has('S') ? c.get('S') : c.get('P') / 1000.0;
+        if (s > 0 && s < 3600) {
+          out.wait(s, false, c.line);
+          nominal_clock_s_ += s;
+        }
+      }
       return Ok{};
     case 486: {
       if (c.has('S')) {

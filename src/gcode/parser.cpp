@@ -387,10 +387,11 @@ Status parse_gcode_line(std::string_view text, long line, GcodeCommand& out) {
 
   // Commands whose argument is free text: messages and file names; M115 U<version>
   // (Prusa's firmware-version check, "U6.1.3+7898"); Bambu's M1002 (status actions such
-  // as "gcode_claim_action : 2").
-  if (out.letter == 'M' &&
-      (out.code == 117 || out.code == 118 || out.code == 23 || out.code == 28 || out.code == 30 ||
-       out.code == 32 || out.code == 928 || out.code == 115 || out.code == 1002)) {
+  // as "gcode_claim_action : 2") and M624 (the objects a block belongs to, in base64:
+  // "M624 AQAAAAAAAAA=").
+  if (out.letter == 'M' && (out.code == 117 || out.code == 118 || out.code == 23 ||
+                            out.code == 28 || out.code == 30 || out.code == 32 || out.code == 928 ||
+                            out.code == 115 || out.code == 1002 || out.code == 624)) {
     while (p < end && is_space(*p)) ++p;
     out.args = std::string_view(p, static_cast<std::size_t>(end - p));
     return check_free_text(text, line, p, end);

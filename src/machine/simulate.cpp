@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "printtwin/bgcode.hpp"
+#include "printtwin/gcode_3mf.hpp"
 #include "printtwin/io.hpp"
 #include "printtwin/simulate.hpp"
 
@@ -269,6 +270,16 @@ auto run_on_bgcode(const std::filesystem::path& path, Run run)
   return r;
 }
 
+/// Runs `run` on the G-code of a sliced 3MF (gcode_3mf.hpp).
+template <class Run>
+auto run_on_3mf(const std::filesystem::path& path, Run run)
+    -> decltype(run(std::declval<std::istream&>())) {
+  auto text = read_gcode_3mf(path);
+  if (!text) return text.error();
+  std::istringstream in(std::move(*text));
+  return run(in);
+}
+
 }  // namespace
 
 Result<SimulationResult> simulate_gcode(std::istream& in, const PrinterProfile& profile,
@@ -287,6 +298,8 @@ Result<SimulationResult> simulate_gcode_file(const std::filesystem::path& path,
   if (is_bgcode_file(path))
     return run_on_bgcode(path,
                          [&](std::istream& in) { return simulate_gcode(in, profile, o, sink); });
+  if (is_gcode_3mf_file(path))
+    return run_on_3mf(path, [&](std::istream& in) { return simulate_gcode(in, profile, o, sink); });
   std::ifstream in(path, std::ios::binary);
   if (!in) return bad_input("cannot open G-code file", path.string());
   return simulate_gcode(in, profile, o, sink);
@@ -310,6 +323,8 @@ Result<std::vector<Move>> interpret_gcode_file(const std::filesystem::path& path
   if (o.source_name.empty()) o.source_name = path.string();
   if (is_bgcode_file(path))
     return run_on_bgcode(path, [&](std::istream& in) { return interpret_gcode(in, profile, o); });
+  if (is_gcode_3mf_file(path))
+    return run_on_3mf(path, [&](std::istream& in) { return interpret_gcode(in, profile, o); });
   std::ifstream in(path, std::ios::binary);
   if (!in) return bad_input("cannot open G-code file", path.string());
   return interpret_gcode(in, profile, o);

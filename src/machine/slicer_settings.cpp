@@ -9,6 +9,7 @@
 #include <fstream>
 
 #include "printtwin/bgcode.hpp"
+#include "printtwin/gcode_3mf.hpp"
 #include "printtwin/printer.hpp"
 
 namespace printtwin {
@@ -316,6 +317,19 @@ SlicerSettings parse_slicer_settings(std::string_view head, std::string_view tai
   return s;
 }
 
+namespace {
+/// The settings of G-code text in memory, read from its first and last `window` bytes as
+/// from a file.
+SlicerSettings settings_of_text(std::string_view text, std::size_t window) {
+  if (text.size() <= 2 * window) return parse_slicer_settings(text, text, 1);
+  std::string_view head = text.substr(0, window);
+  if (const auto nl = head.rfind('\n'); nl != std::string_view::npos) head = head.substr(0, nl);
+  std::string_view tail = text.substr(text.size() - window);
+  if (const auto nl = tail.find('\n'); nl != std::string_view::npos) tail.remove_prefix(nl + 1);
+  return parse_slicer_settings(head, tail, 0);
+}
+}  // namespace
+
 Result<SlicerSettings> read_slicer_settings(const std::filesystem::path& path, std::size_t window) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
@@ -328,6 +342,11 @@ Result<SlicerSettings> read_slicer_settings(const std::filesystem::path& path, s
   in.seekg(0);
   const auto usize = static_cast<std::size_t>(size);
   if (is_bgcode_file(path)) return bgcode_settings(path);
+  if (is_gcode_3mf_file(path)) {
+    auto text = read_gcode_3mf(path);
+    if (!text) return text.error();
+    return settings_of_text(*text, window);
+  }
   if (usize <= 2 * window) {
     std::string text(usize, '\0');
     in.read(text.data(), size);

@@ -3,6 +3,7 @@
 #include <sstream>
 
 #include "printtwin/bgcode.hpp"
+#include "printtwin/gcode_3mf.hpp"
 #include "printtwin/planner.hpp"
 #include "printtwin/simulate.hpp"
 #include "verify/pipeline.hpp"
@@ -52,6 +53,11 @@ Result<PrintedGcode> print_gcode_with(const PrinterProfile& printer, const Verif
       static_cast<std::size_t>(std::count(gcode.text.begin(), gcode.text.end(), '\n')) + 1);
   SimulateOptions sim_options;
   sim_options.source_name = gcode.name;
+  if (looks_like_gcode_3mf(gcode.text)) {  // a sliced 3MF: its plate's G-code
+    auto text = gcode_of_3mf(gcode.text, gcode.name);
+    if (!text) return text.error();
+    gcode.text = std::move(*text);
+  }
   auto sim = [&]() -> Result<SimulationResult> {
     if (is_bgcode_input(gcode.text,
                         gcode.name)) {  // binary G-code (bgcode.hpp): decoded block by block

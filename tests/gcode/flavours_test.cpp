@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "printtwin/io.hpp"
+#include "printtwin/machine.hpp"
 #include "printtwin/simulate.hpp"
 #include "support/test_support.hpp"
 
@@ -374,6 +375,41 @@ TEST(FlavourBambu, VendorCommandsAreAcceptedQuietly) {
       square(0.2);
   const auto r = sim(text, with_firmware("bambu"));
   expect_clean(r);
+}
+
+TEST(FlavourBambu, G28XHomesXyAndALiftBeforeHomingIsQuiet) {
+  // The A1 mini's start code: the bed lowered by a relative Z move before any homing, "G28 X"
+  // (X and Y on Bambu's firmware), a move to Y 175, then Z homed alone.
+  auto a1m = load_printer_profile("bambu-a1-mini");
+  ASSERT_TRUE(a1m.ok()) << a1m.error().describe();
+  const std::string start =
+      "G91\nG1 Z5 F1200\nG90\nG28 X\nG0 X25 Y175 F20000\nG28 Z P0 T300\nM109 S220\nM83\n";
+  const auto r = sim(start + square(0.2, 50, 50), *a1m);
+  EXPECT_EQ(find(r, "move_before_homing"), nullptr);
+  EXPECT_EQ(find(r, "hits_frame"), nullptr);
+  expect_clean(r);
+  // On Marlin "G28 X" homes X alone: the move to Y 175 drives an unhomed Y.
+  const auto marlin = sim("G28 X\nG0 X25 Y175 F6000\nG28\nM109 S210\nM83\n" + square(0.2));
+  ASSERT_NE(find(marlin, "move_before_homing"), nullptr);
+  EXPECT_NE(find(marlin, "move_before_homing")->message.find("G0 X25 Y175"), std::string::npos);
+  // A relative lift before homing needs no position: quiet on Marlin, refused by Klipper.
+  EXPECT_EQ(find(sim("G91\nG1 Z5\nG90\nG28\n"), "move_before_homing"), nullptr);
+  EXPECT_NE(find(sim("G91\nG1 Z5\nG90\nG28\n", with_firmware("klipper")), "move_before_homing"),
+            nullptr);
+}
+
+TEST(FlavourBambu, FilamentSlotsAndSpecialToolsAreNotSecondExtruders) {
+  // T<n> loads AMS slot n into the one nozzle; T255 unloads; T1000 / T1100 pick the nozzle or
+  // the lidar. "M624 <base64>" opens an object's block, "M400 S7" waits 7 s.
+  const std::string text = "G28\nM109 S220\nM83\nT1\nT255\nT1000\nT1100\nM624 AQAAAAAAAAA=\n" +
+                           square(0.2) + "M625\nM400 S7\nM400 P500\n";
+  const auto r = sim(text, with_firmware("bambu"));
+  EXPECT_EQ(find(r, "bad_tool"), nullptr);
+  expect_clean(r);
+  const auto base = sim("G28\nM109 S220\nM83\n" + square(0.2) + "M400\n", with_firmware("bambu"));
+  EXPECT_NEAR(r.dwell_time_s - base.dwell_time_s, 7.5, 1e-9);
+  // On a Marlin printer T1 is a second extruder it does not have.
+  EXPECT_NE(find(sim("G28\nT1\n"), "bad_tool"), nullptr);
 }
 
 // --- Arcs -------------------------------------------------------------------------------

@@ -1,5 +1,7 @@
 #include "support/test_support.hpp"
 
+#include "printtwin/verify.hpp"
+
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
@@ -106,6 +108,26 @@ CliRun run_cli(const std::string& args) {
   run.err = ss.str();
   std::filesystem::remove(err_path);
   return run;
+}
+
+void expect_same_cube10_verify(const std::filesystem::path& a, const std::filesystem::path& b,
+                               const std::filesystem::path& dir) {
+  ASSERT_TRUE(save_stl(make_cube_mm(10.0, Vec3(-5, -5, 0)), dir / "cube10.stl").ok());
+  VerifyOptions options;
+  options.mesh_path = dir / "cube10.stl";
+  options.settings.voxel_mm = 0.2;
+  options.gcode_path = a;
+  auto ra = verify(options);
+  options.gcode_path = b;
+  auto rb = verify(options);
+  ASSERT_TRUE(ra.ok()) << ra.error().describe();
+  ASSERT_TRUE(rb.ok()) << rb.error().describe();
+  EXPECT_EQ(ra->pass, rb->pass);
+  EXPECT_EQ(ra->simulation.moves, rb->simulation.moves);
+  EXPECT_EQ(ra->simulation.layers, rb->simulation.layers);
+  EXPECT_DOUBLE_EQ(ra->simulation.print_time_s, rb->simulation.print_time_s);
+  EXPECT_DOUBLE_EQ(ra->simulation.filament_mm, rb->simulation.filament_mm);
+  EXPECT_DOUBLE_EQ(ra->deviation.deposit_to_mesh.rms_mm, rb->deviation.deposit_to_mesh.rms_mm);
 }
 
 Mesh make_cube_mm(double size_mm, const Vec3& min_mm) {

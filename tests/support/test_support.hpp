@@ -34,6 +34,12 @@ CliRun run_cli(const std::string& args);
 /// 3MF writers make them: local headers, central directory, end record.
 std::string make_zip(const std::vector<std::pair<std::string, std::string>>& entries, bool deflate);
 
+/// verify() of the 10 mm cube that samples/gcode/prusa_cube10.gcode prints (0.2 mm voxels,
+/// the mesh written into `dir`) against two G-code files holding that print in two forms:
+/// expects the same report (pass, moves, layers, time, filament, deposit -> mesh RMS).
+void expect_same_cube10_verify(const std::filesystem::path& a, const std::filesystem::path& b,
+                               const std::filesystem::path& dir);
+
 /// Closed outward-oriented cube of edge `size_mm` with its min corner at `min_mm`.
 Mesh make_cube_mm(double size_mm, const Vec3& min_mm = Vec3::Zero());
 
