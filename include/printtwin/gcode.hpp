@@ -66,6 +66,7 @@ struct GcodeCommand {
   int code = -1;     ///< G1 -> 1
   int subcode = -1;  ///< G29.1 -> 1; -1 when none
   std::uint32_t present = 0;  ///< bit (c - 'A') set when parameter c is present
+  std::uint32_t valued = 0;   ///< bit (c - 'A') set when parameter c came with a number
   std::array<double, 26>
       value{};               ///< value of parameter c at [c - 'A'] (0 when given without a number)
   std::string_view word;     ///< extended command (Klipper style), e.g. "EXCLUDE_OBJECT_START"
@@ -74,6 +75,8 @@ struct GcodeCommand {
   long line = 0;             ///< 1-based line number
 
   [[nodiscard]] bool has(char c) const { return (present >> (c - 'A')) & 1U; }
+  /// Present with a number (Marlin's seenval): "M221 S" alone is not a flow of 0.
+  [[nodiscard]] bool has_value(char c) const { return (valued >> (c - 'A')) & 1U; }
   [[nodiscard]] double get(char c, double fallback = 0) const {
     return has(c) ? value[static_cast<std::size_t>(c - 'A')] : fallback;
   }

@@ -20,13 +20,19 @@ double LayerTracker::nominal_mm(const Move& m, double nozzle_mm, double voxel_mm
   const double z = m.end_mm.z();
   const bool sloped = std::abs(m.end_mm.z() - m.start_mm.z()) > 1e-6;
   if (sloped && have_nominal_) return nominal_;
+  // The start code's purge and calibration lines (before the first layer) lie on the bed,
+  // whatever height an earlier line was drawn at (Bambu's X1 draws its purge at Z 0.2, then
+  // its flow calibration line at Z 0.3): the gap to the bed is their height. The first layer
+  // then steps from the bed too.
+  const bool start_code = m.layer < 0 && m.feature == Feature::custom;
   if (!have_layer_ || m.layer != layer_ || z > layer_z_ + 1e-6) {
     if (have_layer_ && z > layer_z_ + 1e-6) prev_z_ = layer_z_;
+    if (have_layer_ && layer_ < 0 && m.layer >= 0) prev_z_ = 0;
     have_layer_ = true;
     layer_ = m.layer;
     layer_z_ = z;
   }
-  double h = z - prev_z_;
+  double h = start_code ? z : z - prev_z_;
   if (!(h > 0.25 * voxel_mm)) h = 0.5 * nozzle_mm;
   nominal_ = clamp(h, nozzle_mm, voxel_mm);
   have_nominal_ = true;

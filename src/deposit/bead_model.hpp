@@ -25,8 +25,9 @@ constexpr double kJoinTolMm = 1e-3;  // path continuity: end of one move = start
 constexpr double kMitreMinCos = 0.5;
 
 /// Nominal layer height: the slicer's `;HEIGHT:` when given, else the Z step from the
-/// previous layer's extrusions to this move. Sloped extrusions (vase-mode spirals, where
-/// every move has its own Z) keep the nominal height of the last flat layer.
+/// previous layer's extrusions to this move (from the bed for the first layer, and for the
+/// start code's lines before it). Sloped extrusions (vase-mode spirals, where every move has
+/// its own Z) keep the nominal height of the last flat layer.
 class LayerTracker {
  public:
   double nominal_mm(const Move& m, double nozzle_mm, double voxel_mm);

@@ -1481,7 +1481,7 @@ Status GcodeInterpreter::execute_m(const GcodeCommand& c, std::string_view text,
     case 204:
       return set_acceleration(c, text, out);
     case 220: {
-      if (c.has('S')) {
+      if (c.has_value('S')) {
         const double s = c.get('S');
         if (s <= 0 || s > 1000)
           return warn(c.line, text, "feedrate percentage outside 1..1000; ignored",
@@ -1492,7 +1492,10 @@ Status GcodeInterpreter::execute_m(const GcodeCommand& c, std::string_view text,
       return Ok{};
     }
     case 221: {
-      if (c.has('S')) {
+      // Flow only with a number, as Marlin reads it. Bambu's firmware also takes "M221 S"
+      // (push the soft endstops' state), "M221 R" (pop it) and "M221 X0 Y0 Z0" (soft
+      // endstops off): no flow change.
+      if (c.has_value('S')) {
         const double s = c.get('S');
         if (s < 0 || s > 1000)
           return warn(c.line, text, "flow percentage outside 0..1000; ignored", "bad_parameter");

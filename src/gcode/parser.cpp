@@ -338,6 +338,7 @@ Status read_parameters(std::string_view text, long line, GcodeCommand& out, cons
         return parse_error(text, line,
                            std::string("value of ") + letter + " out of range (|v| <= 1e9)");
       p = q;
+      out.valued |= 1U << static_cast<unsigned>(letter - 'A');
     } else if (p < end && (*p == '[' || *p == '{')) {
       return parse_error(text, line, "unexpanded slicer placeholder");
     } else if (p < end && !is_space(*p) && is_upper(upper(*p)) && letter != 'N') {
@@ -363,6 +364,7 @@ Status parse_gcode_line(std::string_view text, long line, GcodeCommand& out) {
   out.code = -1;
   out.subcode = -1;
   out.present = 0;
+  out.valued = 0;
   out.word = {};
   out.args = {};
   out.comment = {};

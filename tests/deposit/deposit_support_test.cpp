@@ -42,6 +42,32 @@ int findings_on_wall(const DepositResult& r, int wall, const std::string& code) 
   return n;
 }
 
+TEST(DepositSupport, StartCodeLinesAtTwoHeightsLieOnTheBed) {
+  // Bambu's X1 start code: a purge line at Z 0.2, then a flow calibration line at Z 0.3 over
+  // bare bed (0.3 mm tall), both before the first layer. Neither hangs in the air.
+  const auto profile = ender3_marlin2();
+  BeadWriter w(profile);
+  w.layer = -1;
+  w.feature = Feature::custom;
+  w.travel({30, 20, 0.2});
+  w.extrude({130, 20, 0.2}, 0.5, 0.2);
+  w.travel({30, 30, 0.3});
+  w.extrude({130, 30, 0.3}, 0.5, 0.3);
+  w.layer = 0;
+  w.feature = Feature::perimeter;
+  w.travel({50, 50, 0.2});
+  w.extrude({70, 50, 0.2}, 0.45, 0.2);
+  auto r = deposit_moves(w.moves, profile, DepositSettings{});
+  ASSERT_TRUE(r.ok()) << r.error().describe();
+  for (const auto& f : r->findings)
+    EXPECT_EQ(f.code.rfind("extrusion_into_air", 0), std::string::npos) << f.message;
+  // The calibration line's voxels reach the bed: its column at x = 80 starts at z = 0.
+  const VoxelGrid& g = r->grid;
+  const double v = g.voxel_mm();
+  const auto key = g.key_of(Vec3(80, 30, 0.5 * v));
+  EXPECT_TRUE(g.occupied(key));
+}
+
 TEST(DepositSupport, OverhangFacesAt60And75DegreesAreFlagged) {
   const auto profile = ender3_marlin2();
   const std::vector<double> angles{30, 45, 60, 75};
