@@ -160,7 +160,8 @@ constexpr double kFarMm = kDepositFarMm;
 /// along each axis (2 per axis cover the cells within a bound), so each axis keeps a few.
 class PointTerms {
  public:
-  PointTerms(const FaceBuckets& b, const Vec3& p, double half) : b_(b), p_(p), half_(half) {}
+  PointTerms(const FaceBuckets& b, const Vec3& p, const std::array<double, 12>& reach)
+      : b_(b), p_(p), reach_(reach) {}
   /// The terms along axis a for the cells at coordinate c along it.
   const double* axis(int a, int c) {
     Slots& s = slots_[static_cast<std::size_t>(a)];
@@ -169,7 +170,7 @@ class PointTerms {
     const std::size_t i = s.next;
     s.next = (i + 1) % kSlots;
     s.key[i] = c;
-    s.terms[i].fill(b_.coords(a, c), p_[a], half_);
+    s.terms[i].fill(b_.coords(a, c), reach_, p_[a]);
     return s.terms[i].t.data();
   }
 
@@ -182,7 +183,7 @@ class PointTerms {
   };
   const FaceBuckets& b_;
   const Vec3& p_;
-  double half_;
+  const std::array<double, 12>& reach_;
   std::array<Slots, 3> slots_;
 };
 
@@ -192,7 +193,10 @@ class PointTerms {
 class FaceSearch {
  public:
   explicit FaceSearch(const DepositSurface& s)
-      : buckets_(s), half_(0.5 * s.voxel_mm), scan_faces_(face_scan_kernel()) {
+      : buckets_(s),
+        half_(0.5 * s.voxel_mm),
+        reach_(detail::AxisTerms::reaches(half_)),
+        scan_faces_(face_scan_kernel()) {
     groups_ = (buckets_.cells.array() + kGroup - 1) / kGroup;
     group_has_.assign(static_cast<std::size_t>(groups_.x()) * groups_.y() * groups_.z(), 0);
     static_assert(kGroup % 2 == 0);
@@ -235,7 +239,7 @@ class FaceSearch {
     // the search to the cells its ball touches (at most 2 per axis): all faces within the
     // bound are in them, so the minimum over them is the global one.
     const Eigen::Vector3i c0 = buckets_.cell_coord(p);
-    PointTerms terms(buckets_, p, half_);
+    PointTerms terms(buckets_, p, reach_);
     scan_cell(p, c0, best, terms);
     bound = std::min(bound, std::sqrt(best.d2) * (1 + 1e-9) + 1e-9);
     bool done = bound < buckets_.cell_mm && scan_within(p, c0, bound, best, terms);
@@ -341,6 +345,7 @@ class FaceSearch {
 
   FaceBuckets buckets_;
   double half_;
+  std::array<double, 12> reach_;  ///< per coordinate index (AxisTerms::reaches)
   FaceScan scan_faces_;
   Eigen::Vector3i groups_ = Eigen::Vector3i::Zero();
   std::vector<std::uint8_t> group_has_;

@@ -40,6 +40,7 @@ void to_bead_surface(const DepositSurface& s, std::span<const SurfaceBead> beads
                      const std::vector<std::uint32_t>& nearest, std::vector<double>& signed_mm) {
   if (s.face_bead.empty()) return;
   const double v = s.voxel_mm;
+  const std::vector<detail::BeadBox>& boxes = index.boxes();
   // In `order` (the points cell by cell): neighbouring points read the same faces and beads.
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, points.size(), 4096),
@@ -53,23 +54,16 @@ void to_bead_surface(const DepositSurface& s, std::span<const SurfaceBead> beads
           if (k + std::size_t{1} < s.bead_touch_begin.size())
             for (std::uint32_t j = s.bead_touch_begin[k]; j < s.bead_touch_begin[k + 1]; ++j) {
               // A bead is no nearer than the height from its core less its radius.
-              const SurfaceBead& t = beads[s.bead_touch[j]];
-              const double rt = 0.5 * t.height_mm, pz = points[i].z();
-              const double gap = std::max({pz - (std::max(t.start_mm.z(), t.end_mm.z()) - rt),
-                                           std::min(t.start_mm.z(), t.end_mm.z()) - rt - pz, 0.0}) -
-                                 rt;
+              const detail::BeadBox& t = boxes[s.bead_touch[j]];
+              const double rt = t.rt, pz = points[i].z();
+              const double gap = std::max({pz - t.z_top, t.z_bot - pz, 0.0}) - rt;
               if (gap >= b.signed_mm) continue;
               // Nor nearer than the box of its core (its centre line's box grown by the
               // core's half width across, level) less its radius: tested squared, with a
               // margin for rounding, so a bead that could be the nearest is never skipped.
-              const double half =
-                  0.5 * std::max(0.0, static_cast<double>(t.width_mm) - t.height_mm);
-              const auto out_of = [&](int a) {
-                const double lo = std::min(t.start_mm[a], t.end_mm[a]) - half,
-                             hi = std::max(t.start_mm[a], t.end_mm[a]) + half;
-                return std::max({lo - points[i][a], points[i][a] - hi, 0.0});
-              };
-              const double dx = out_of(0), dy = out_of(1), dz = gap + rt;
+              const double px = points[i].x(), py = points[i].y();
+              const double dx = std::max({t.x_lo - px, px - t.x_hi, 0.0}),
+                           dy = std::max({t.y_lo - py, py - t.y_hi, 0.0}), dz = gap + rt;
               const double lim = b.signed_mm + rt + 1e-9;
               if (lim <= 0 || dx * dx + dy * dy + dz * dz >= lim * lim) continue;
               Vec3 core;

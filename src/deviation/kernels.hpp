@@ -37,11 +37,17 @@ struct NearestFace {
 /// infinite). Written only by fill (no initial values: a search makes several a point).
 struct AxisTerms {
   std::array<double, 16> t;
-  /// The terms of p_a against a cell's coordinates along axis a (`coord`, 12 of them).
-  void fill(const double* coord, double p_a, double half) {
+  /// The reach h of each coordinate index: half for a centre, 0 for a side.
+  static std::array<double, 12> reaches(double half) {
+    std::array<double, 12> h{};
+    for (std::size_t j = 0; j < 12; j += 3) h[j] = half;
+    return h;
+  }
+  /// The terms of p_a against a cell's coordinates along axis a (`coord`, 12 of them), with
+  /// the reaches `h` (reaches(half)): a loop without branches, which the compiler vectorises.
+  void fill(const double* coord, const std::array<double, 12>& h, double p_a) {
     for (std::size_t j = 0; j < 12; ++j) {
-      const double h = j % 3 == 0 ? half : 0.0;
-      const double e = std::max(0.0, std::abs(p_a - coord[j]) - h);
+      const double e = std::max(0.0, std::abs(p_a - coord[j]) - h[j]);
       t[j] = e * e;
     }
     for (std::size_t j = 12; j < 16; ++j) t[j] = std::numeric_limits<double>::infinity();
