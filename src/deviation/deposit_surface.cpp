@@ -377,6 +377,7 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
     pregrouped = &own;
   }
   const std::vector<std::uint32_t>& order = pregrouped->order;
+  const bool in_order = order.empty();  // the points come in visiting order
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 2048),
                     [&](const tbb::blocked_range<std::size_t>& range) {
                       // The previous point of this chunk and its distance: by the triangle
@@ -384,7 +385,7 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
                       Vec3 prev_p = Vec3::Zero();
                       double prev_d = std::numeric_limits<double>::infinity();
                       for (std::size_t j = range.begin(); j != range.end(); ++j) {
-                        const std::size_t i = order[j];
+                        const std::size_t i = in_order ? j : order[j];
                         const Vec3& p = points[i];
                         const NearestFace best =
                             search.nearest(p, (prev_d + (p - prev_p).norm()) * (1 + 1e-9) + 1e-9);
