@@ -102,14 +102,9 @@ struct FaceBuckets {
           }
         });
   }
-  /// Cell c's faces as the kernels read them.
-  [[nodiscard]] detail::FaceCell face_cell(const Eigen::Vector3i& c) const {
-    detail::FaceCell f;
-    f.code = code.get();
-    for (int a = 0; a < 3; ++a)
-      f.coord[static_cast<std::size_t>(a)] =
-          coord[static_cast<std::size_t>(a)].data() + 3 * static_cast<std::size_t>(kCell) * c[a];
-    return f;
+  /// The coordinates of the cells at cell coordinate `c` along axis a (3 per voxel row).
+  [[nodiscard]] const double* coords(int a, int c) const {
+    return coord[static_cast<std::size_t>(a)].data() + 3 * static_cast<std::size_t>(kCell) * c;
   }
   [[nodiscard]] std::size_t pair_index(int x, int y, int z) const {
     return (static_cast<std::size_t>(y) * pairs.x() + static_cast<std::size_t>(x)) * pairs.z() +
@@ -160,13 +155,48 @@ namespace {
 
 constexpr double kFarMm = kDepositFarMm;
 
+/// A point's terms against the cells a search reads (detail::AxisTerms), by axis and cell
+/// coordinate, each made when first needed: the cells round a point share their coordinates
+/// along each axis (2 per axis cover the cells within a bound), so each axis keeps a few.
+class PointTerms {
+ public:
+  PointTerms(const FaceBuckets& b, const Vec3& p, const std::array<double, 12>& reach)
+      : b_(b), p_(p), reach_(reach) {}
+  /// The terms along axis a for the cells at coordinate c along it.
+  const double* axis(int a, int c) {
+    Slots& s = slots_[static_cast<std::size_t>(a)];
+    for (std::size_t i = 0; i < kSlots; ++i)
+      if (s.key[i] == c) return s.terms[i].t.data();
+    const std::size_t i = s.next;
+    s.next = (i + 1) % kSlots;
+    s.key[i] = c;
+    s.terms[i].fill(b_.coords(a, c), reach_, p_[a]);
+    return s.terms[i].t.data();
+  }
+
+ private:
+  static constexpr std::size_t kSlots = 3;
+  struct Slots {
+    std::array<int, kSlots> key{-1, -1, -1};  ///< no cell has a negative coordinate
+    std::array<detail::AxisTerms, kSlots> terms;
+    std::size_t next = 0;
+  };
+  const FaceBuckets& b_;
+  const Vec3& p_;
+  const std::array<double, 12>& reach_;
+  std::array<Slots, 3> slots_;
+};
+
 /// The exact nearest face of a point: p's own cell, then the cells a bound reaches, then
 /// rings of cells and rings of groups of cells (a coarse level flags where faces are, so
 /// points far from the deposit, say a missing wall, skip empty space quickly).
 class FaceSearch {
  public:
   explicit FaceSearch(const DepositSurface& s)
-      : buckets_(s), half_(0.5 * s.voxel_mm), scan_faces_(face_scan_kernel()) {
+      : buckets_(s),
+        half_(0.5 * s.voxel_mm),
+        reach_(detail::AxisTerms::reaches(half_)),
+        scan_faces_(face_scan_kernel()) {
     groups_ = (buckets_.cells.array() + kGroup - 1) / kGroup;
     group_has_.assign(static_cast<std::size_t>(groups_.x()) * groups_.y() * groups_.z(), 0);
     static_assert(kGroup % 2 == 0);
@@ -209,14 +239,15 @@ class FaceSearch {
     // the search to the cells its ball touches (at most 2 per axis): all faces within the
     // bound are in them, so the minimum over them is the global one.
     const Eigen::Vector3i c0 = buckets_.cell_coord(p);
-    scan_cell(p, c0, best);
+    PointTerms terms(buckets_, p, reach_);
+    scan_cell(p, c0, best, terms);
     bound = std::min(bound, std::sqrt(best.d2) * (1 + 1e-9) + 1e-9);
-    bool done = bound < buckets_.cell_mm && scan_within(p, c0, bound, best);
+    bool done = bound < buckets_.cell_mm && scan_within(p, c0, bound, best, terms);
     for (int ring = 0; ring <= kFineRings && !done; ++ring)
-      done = scan_fine_ring(p, c0, ring, best);
+      done = scan_fine_ring(p, c0, ring, best, terms);
     const Eigen::Vector3i g0 = c0 / kGroup;
     for (int ring = 0; ring <= max_group_ring_ && !done; ++ring)
-      done = scan_group_ring(p, g0, ring, best);
+      done = scan_group_ring(p, g0, ring, best, terms);
     return done || best.d2 <= kFarMm * kFarMm ? best : far();
   }
 
@@ -246,7 +277,8 @@ class FaceSearch {
   }
   /// Every face as close as the best so far is visited (strict pruning), and ties go to the
   /// lowest face index: the result does not depend on the order cells are scanned.
-  void scan_cell(const Vec3& p, const Eigen::Vector3i& c, NearestFace& best) const {
+  void scan_cell(const Vec3& p, const Eigen::Vector3i& c, NearestFace& best,
+                 PointTerms& terms) const {
     if ((c.array() < 0).any() || (c.array() >= buckets_.cells.array()).any()) return;
     std::uint32_t lo = 0, hi = 0;
     buckets_.cell_range(c, lo, hi);
@@ -254,11 +286,12 @@ class FaceSearch {
     if (box_dist2(p, buckets_.origin_mm + buckets_.cell_mm * c.cast<double>(), buckets_.cell_mm) >
         best.d2)
       return;
-    scan_faces_(buckets_.face_cell(c), lo, hi, p, half_, best);
+    scan_faces_(buckets_.code.get(), lo, hi, terms.axis(0, c.x()), terms.axis(1, c.y()),
+                terms.axis(2, c.z()), best);
   }
   /// The cells the ball of radius `bound` about p touches; true when the best is within it.
-  bool scan_within(const Vec3& p, const Eigen::Vector3i& c0, double bound,
-                   NearestFace& best) const {
+  bool scan_within(const Vec3& p, const Eigen::Vector3i& c0, double bound, NearestFace& best,
+                   PointTerms& terms) const {
     const double reach_mm = bound + half_;
     Eigen::Vector3i lo, hi;
     for (int a = 0; a < 3; ++a) {
@@ -272,25 +305,26 @@ class FaceSearch {
       for (int y = lo.y(); y <= hi.y(); ++y)
         for (int x = lo.x(); x <= hi.x(); ++x) {
           const Eigen::Vector3i c(x, y, z);
-          if (c != c0) scan_cell(p, c, best);
+          if (c != c0) scan_cell(p, c, best, terms);
         }
     return best.d2 <= bound * bound;
   }
   /// Ring `ring` of cells around p's cell; every cell of ring + 1 is at least
   /// ring * cell - half away: true when the best is closer.
-  bool scan_fine_ring(const Vec3& p, const Eigen::Vector3i& c0, int ring, NearestFace& best) const {
+  bool scan_fine_ring(const Vec3& p, const Eigen::Vector3i& c0, int ring, NearestFace& best,
+                      PointTerms& terms) const {
     for (int dz = -ring; dz <= ring; ++dz)
       for (int dy = -ring; dy <= ring; ++dy)
         for (int dx = -ring; dx <= ring; ++dx)
           if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) == ring)
-            scan_cell(p, c0 + Eigen::Vector3i(dx, dy, dz), best);
+            scan_cell(p, c0 + Eigen::Vector3i(dx, dy, dz), best, terms);
     const double reach = ring * buckets_.cell_mm - half_;
     return reach > 0 && best.d2 < reach * reach;
   }
   /// Far points: a ring of groups, descending only into groups that hold faces and may beat
   /// the best so far (cells already scanned are simply scanned again).
-  bool scan_group_ring(const Vec3& p, const Eigen::Vector3i& g0, int ring,
-                       NearestFace& best) const {
+  bool scan_group_ring(const Vec3& p, const Eigen::Vector3i& g0, int ring, NearestFace& best,
+                       PointTerms& terms) const {
     for (int dz = -ring; dz <= ring; ++dz)
       for (int dy = -ring; dy <= ring; ++dy)
         for (int dx = -ring; dx <= ring; ++dx) {
@@ -303,7 +337,7 @@ class FaceSearch {
           for (int z = 0; z < kGroup; ++z)
             for (int y = 0; y < kGroup; ++y)
               for (int x = 0; x < kGroup; ++x)
-                scan_cell(p, g * kGroup + Eigen::Vector3i(x, y, z), best);
+                scan_cell(p, g * kGroup + Eigen::Vector3i(x, y, z), best, terms);
         }
     const double reach = ring * group_mm_ - half_;
     return reach > 0 && best.d2 < reach * reach;
@@ -311,6 +345,7 @@ class FaceSearch {
 
   FaceBuckets buckets_;
   double half_;
+  std::array<double, 12> reach_;  ///< per coordinate index (AxisTerms::reaches)
   FaceScan scan_faces_;
   Eigen::Vector3i groups_ = Eigen::Vector3i::Zero();
   std::vector<std::uint8_t> group_has_;
@@ -342,6 +377,7 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
     pregrouped = &own;
   }
   const std::vector<std::uint32_t>& order = pregrouped->order;
+  const bool in_order = order.empty();  // the points come in visiting order
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 2048),
                     [&](const tbb::blocked_range<std::size_t>& range) {
                       // The previous point of this chunk and its distance: by the triangle
@@ -349,7 +385,7 @@ void distances_to_deposit_with(const DepositSurface& s, std::span<const Vec3> po
                       Vec3 prev_p = Vec3::Zero();
                       double prev_d = std::numeric_limits<double>::infinity();
                       for (std::size_t j = range.begin(); j != range.end(); ++j) {
-                        const std::size_t i = order[j];
+                        const std::size_t i = in_order ? j : order[j];
                         const Vec3& p = points[i];
                         const NearestFace best =
                             search.nearest(p, (prev_d + (p - prev_p).norm()) * (1 + 1e-9) + 1e-9);

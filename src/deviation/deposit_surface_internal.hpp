@@ -16,7 +16,8 @@ struct DepositQueryGroups {
 DepositQueryGroups group_deposit_queries(std::span<const Vec3> points, double voxel_mm);
 
 /// distances_to_deposit with the nearest face of each point, from the query groups made
-/// beforehand when given.
+/// beforehand when given; groups with an empty order say that the points are in visiting
+/// order already (the outputs are then in that order too, read and written linearly).
 void distances_to_deposit_with(const DepositSurface& surface, std::span<const Vec3> points,
                                std::vector<double>& signed_mm,
                                std::vector<std::uint32_t>* nearest_face,

@@ -34,18 +34,18 @@ bool on_side(const SurfaceBead& b, const Vec3& core) {
 /// path neighbours and the beads touching the face's bead, when that agrees with the distance
 /// to the faces within a voxel and half the bead's height (the bead model describes that part
 /// of the surface; the faces miss the cusp between two beads, up to h / 2 deep).
+/// The points come cell by cell (as the face search visits them): neighbouring points read
+/// the same faces and beads, and the arrays are read in order.
 void to_bead_surface(const DepositSurface& s, std::span<const SurfaceBead> beads,
                      const detail::BeadIndex& index, std::span<const Vec3> points,
-                     std::span<const std::uint32_t> order,
                      const std::vector<std::uint32_t>& nearest, std::vector<double>& signed_mm) {
   if (s.face_bead.empty()) return;
   const double v = s.voxel_mm;
-  // In `order` (the points cell by cell): neighbouring points read the same faces and beads.
+  const std::vector<detail::BeadBox>& boxes = index.boxes();
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, points.size(), 4096),
       [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t q = r.begin(); q != r.end(); ++q) {
-          const std::uint32_t i = order[q];
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
           const std::uint32_t f = nearest[i];
           if (f >= s.face_bead.size() || s.face_bead[f] == kNoBead) continue;
           const std::uint32_t k = s.face_bead[f];
@@ -53,23 +53,16 @@ void to_bead_surface(const DepositSurface& s, std::span<const SurfaceBead> beads
           if (k + std::size_t{1} < s.bead_touch_begin.size())
             for (std::uint32_t j = s.bead_touch_begin[k]; j < s.bead_touch_begin[k + 1]; ++j) {
               // A bead is no nearer than the height from its core less its radius.
-              const SurfaceBead& t = beads[s.bead_touch[j]];
-              const double rt = 0.5 * t.height_mm, pz = points[i].z();
-              const double gap = std::max({pz - (std::max(t.start_mm.z(), t.end_mm.z()) - rt),
-                                           std::min(t.start_mm.z(), t.end_mm.z()) - rt - pz, 0.0}) -
-                                 rt;
+              const detail::BeadBox& t = boxes[s.bead_touch[j]];
+              const double rt = t.rt, pz = points[i].z();
+              const double gap = std::max({pz - t.z_top, t.z_bot - pz, 0.0}) - rt;
               if (gap >= b.signed_mm) continue;
               // Nor nearer than the box of its core (its centre line's box grown by the
               // core's half width across, level) less its radius: tested squared, with a
               // margin for rounding, so a bead that could be the nearest is never skipped.
-              const double half =
-                  0.5 * std::max(0.0, static_cast<double>(t.width_mm) - t.height_mm);
-              const auto out_of = [&](int a) {
-                const double lo = std::min(t.start_mm[a], t.end_mm[a]) - half,
-                             hi = std::max(t.start_mm[a], t.end_mm[a]) + half;
-                return std::max({lo - points[i][a], points[i][a] - hi, 0.0});
-              };
-              const double dx = out_of(0), dy = out_of(1), dz = gap + rt;
+              const double px = points[i].x(), py = points[i].y();
+              const double dx = std::max({t.x_lo - px, px - t.x_hi, 0.0}),
+                           dy = std::max({t.y_lo - py, py - t.y_hi, 0.0}), dz = gap + rt;
               const double lim = b.signed_mm + rt + 1e-9;
               if (lim <= 0 || dx * dx + dy * dy + dz * dz >= lim * lim) continue;
               Vec3 core;
@@ -90,6 +83,41 @@ void to_bead_surface(const DepositSurface& s, std::span<const SurfaceBead> beads
         }
       });
 }
+
+/// The mesh -> deposit queries in the order the searches visit them (cell by cell): the
+/// searches read and write their arrays in that order, and the results go back to the
+/// points' own order once.
+struct SortedQueries {
+  detail::DepositQueryGroups groups;
+  std::vector<Vec3> points;            ///< in visiting order
+  std::vector<double> d;               ///< signed distances to the deposit, in visiting order
+  std::vector<std::uint32_t> nearest;  ///< nearest faces, in visiting order
+
+  /// Groups `query` (the points in their own order) and lists them in visiting order.
+  void sort(std::span<const Vec3> query, double voxel_mm) {
+    groups = detail::group_deposit_queries(query, voxel_mm);
+    points.resize(query.size());
+    for (std::size_t q = 0; q < points.size(); ++q) points[q] = query[groups.order[q]];
+  }
+  /// The distances to the faces of `s` and the nearest faces.
+  void search(const DepositSurface& s) {
+    const detail::DepositQueryGroups in_order;  // no order: the points come sorted
+    detail::distances_to_deposit_with(s, points, d, &nearest, &in_order);
+  }
+  /// The distances and nearest faces in the points' own order.
+  void unsort(std::vector<double>& d_out, std::vector<std::uint32_t>& nearest_out) const {
+    d_out.resize(d.size());
+    nearest_out.resize(nearest.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, d.size(), 1 << 14),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t q = r.begin(); q != r.end(); ++q) {
+                          const std::uint32_t i = groups.order[q];
+                          d_out[i] = d[q];
+                          nearest_out[i] = nearest[q];
+                        }
+                      });
+  }
+};
 
 /// Layer lines on walls: per layer and over the part, the area-weighted RMS distance of the
 /// deposit points whose closest design triangle is within 15 degrees of vertical and which lie
@@ -373,7 +401,7 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
   }
   const std::size_t ns = samples.size();
   std::vector<Vec3> query_points(ns + mesh.vertices_mm.size());
-  detail::DepositQueryGroups query_groups;
+  SortedQueries sorted;
   // The beads' index (their cores, by line), made once for the placement, the outline
   // sampling and the mesh -> deposit distances to the beads.
   std::optional<detail::BeadIndex> bead_index;
@@ -388,22 +416,21 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
         for (std::size_t i = 0; i < ns; ++i) query_points[i] = samples[i].position_mm + offset;
         for (std::size_t i = 0; i < mesh.vertices_mm.size(); ++i)
           query_points[ns + i] = mesh.vertices_mm[i] + offset;
-        query_groups = detail::group_deposit_queries(query_points, v);
+        sorted.sort(query_points, v);
       },
       [&] {
         if (!beads.empty()) bead_index.emplace(beads);
       });
   // Mesh -> deposit to the faces needs only the faces: side by side with their placement on
   // the beads (which fills in the deposit -> mesh points).
-  std::vector<double> d_query;
-  std::vector<std::uint32_t> nearest;
   tbb::parallel_invoke(
       [&] {
         if (bead_index) detail::place_on_beads(surface, beads, *bead_index, v);
       },
-      [&] {
-        detail::distances_to_deposit_with(surface, query_points, d_query, &nearest, &query_groups);
-      });
+      [&] { sorted.search(surface); });
+  // In the points' order (from the sorted results, below).
+  std::vector<double> d_query;
+  std::vector<std::uint32_t> nearest;
   out.deposit_volume_mm3 = static_cast<double>(surface.occupied_voxels) * v * v * v;
   out.surface_faces = surface.faces.size();
   out.surface_voxels = count_surface_voxels(surface.faces);
@@ -460,8 +487,8 @@ Result<DeviationResult> compute_deviation(const DeviationTarget& target, const V
       },
       [&] {
         if (weighted && bead_index)
-          to_bead_surface(surface, beads, *bead_index, query_points, query_groups.order, nearest,
-                          d_query);
+          to_bead_surface(surface, beads, *bead_index, sorted.points, sorted.nearest, sorted.d);
+        sorted.unsort(d_query, nearest);
         const std::span<const double> d_mesh(d_query.data(), ns);
         out.mesh_to_deposit = deviation_stats(d_mesh, settings.tolerance_mm);
         group_by_layer(

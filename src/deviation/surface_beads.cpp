@@ -62,6 +62,8 @@ BeadCore BeadCore::of(const SurfaceBead& b) {
   const double n = across.norm();
   c.half = 0.5 * std::max(0.0, static_cast<double>(b.width_mm) - b.height_mm);
   if (n > 0) c.across = across / n;
+  c.len = std::sqrt(c.len2);
+  if (c.len > 0) c.dir = c.d / c.len;
   return c;
 }
 
@@ -81,24 +83,27 @@ std::pair<std::size_t, std::size_t> beads_of_line(std::span<const SurfaceBead> b
 }
 
 namespace {
-/// The nearest of beads [lo, hi) of a line and their neighbours along the path.
-template <class Closest>
+/// The nearest of beads [lo, hi) of a line and their neighbours along the path (the moves
+/// before and after): the least signed distance, the lowest index on a tie (as a scan in
+/// index order). The line's beads go first; a neighbour that `clear(k, best)` shows to be
+/// farther than the best so far is not computed.
+template <class Closest, class Clear>
 BeadDistance nearest_in(std::size_t n_beads, std::size_t lo, std::size_t hi, const Vec3& p,
-                        const Closest& closest) {
+                        const Closest& closest, const Clear& clear) {
   BeadDistance best;
   if (lo == hi) return best;
-  // The bead of the line and its neighbours along the path (the moves before and after).
-  lo = lo > 0 ? lo - 1 : lo;
-  hi = std::min(hi + 1, n_beads);
-  for (std::size_t k = lo; k < hi; ++k) {
+  const auto offer = [&](std::size_t k) {
     Vec3 c;
     const double sd = closest(k, p, c);
-    if (sd < best.signed_mm) {
+    if (sd < best.signed_mm || (best.bead != kNoBead && sd == best.signed_mm && k < best.bead)) {
       best.signed_mm = sd;
       best.bead = static_cast<std::uint32_t>(k);
       best.core_point = c;
     }
-  }
+  };
+  for (std::size_t k = lo; k < hi; ++k) offer(k);
+  if (lo > 0 && !clear(lo - 1, best.signed_mm)) offer(lo - 1);
+  if (hi < n_beads && !clear(hi, best.signed_mm)) offer(hi);
   return best;
 }
 }  // namespace
@@ -106,18 +111,22 @@ BeadDistance nearest_in(std::size_t n_beads, std::size_t lo, std::size_t hi, con
 BeadDistance nearest_bead(std::span<const SurfaceBead> beads, std::uint32_t line, const Vec3& p) {
   if (beads.empty()) return {};
   const auto [lo, hi] = beads_of_line(beads, line);
-  return nearest_in(beads.size(), lo, hi, p, [&](std::size_t k, const Vec3& q, Vec3& c) {
-    return bead_closest(beads[k], q, c);
-  });
+  return nearest_in(
+      beads.size(), lo, hi, p,
+      [&](std::size_t k, const Vec3& q, Vec3& c) { return bead_closest(beads[k], q, c); },
+      [](std::size_t, double) { return false; });
 }
 
 BeadIndex::BeadIndex(std::span<const SurfaceBead> beads) : beads_(beads) {
   if (beads.empty()) return;
   cores_.resize(beads.size());
+  boxes_.resize(beads.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, beads.size(), 4096),
                     [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t k = r.begin(); k != r.end(); ++k)
+                      for (std::size_t k = r.begin(); k != r.end(); ++k) {
                         cores_[k] = BeadCore::of(beads[k]);
+                        boxes_[k] = BeadBox::of(beads[k]);
+                      }
                     });
   first_.assign(static_cast<std::size_t>(beads.back().line) + 2,
                 static_cast<std::uint32_t>(beads.size()));
@@ -129,8 +138,18 @@ BeadIndex::BeadIndex(std::span<const SurfaceBead> beads) : beads_(beads) {
 
 BeadDistance BeadIndex::nearest(std::uint32_t line, const Vec3& p) const {
   const auto [lo, hi] = of_line(line);
-  return nearest_in(beads_.size(), lo, hi, p,
-                    [&](std::size_t k, const Vec3& q, Vec3& c) { return cores_[k].closest(q, c); });
+  // A neighbour is no nearer than its core's gap (BeadCore::gap2) less its radius: it is
+  // skipped when that exceeds the best by far more than the rounding of either (1e-9 of
+  // the coordinates' size), so the result is the one of computing every bead.
+  const double margin = 1e-9 * (1 + p.cwiseAbs().sum());
+  return nearest_in(
+      beads_.size(), lo, hi, p,
+      [&](std::size_t k, const Vec3& q, Vec3& c) { return cores_[k].closest(q, c); },
+      [&](std::size_t k, double best) {
+        const BeadCore& c = cores_[k];
+        const double lim = best + c.r + margin + 1e-9 * c.a.cwiseAbs().sum();
+        return !(lim > 0) || c.gap2(p) > lim * lim;
+      });
 }
 
 }  // namespace detail

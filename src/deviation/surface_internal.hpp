@@ -29,7 +29,8 @@ struct BeadCore {
   Vec3 a = Vec3::Zero();       ///< the core's centre line starts here (h / 2 below the tip)
   Vec3 d = Vec3::Zero();       ///< and runs along d
   Vec3 across = Vec3::Zero();  ///< level unit vector across the move (zero for a vertical move)
-  double len2 = 0, half = 0, r = 0;
+  Vec3 dir = Vec3::Zero();     ///< unit vector along the move (zero for no move)
+  double len2 = 0, half = 0, r = 0, len = 0;
 
   static BeadCore of(const SurfaceBead& b);
   /// As bead_closest.
@@ -46,6 +47,17 @@ struct BeadCore {
     }
     return (p - core_point).norm() - r;
   }
+  /// A lower bound of the squared distance from p to the core: the core lies within `half`
+  /// of the centre line across the move (across and dir are orthogonal unit vectors, or
+  /// zero) and within `half` past its ends along it (the level end discs), so p is at least
+  /// its excess across and its excess along away. Rounding aside: the caller adds a margin.
+  [[nodiscard]] double gap2(const Vec3& p) const {
+    const Vec3 q = p - a;
+    const double ga = std::max(0.0, std::abs(q.dot(across)) - half);
+    const double u = q.dot(dir);
+    const double gd = std::max({0.0, u - len - half, -u - half});
+    return ga * ga + gd * gd;
+  }
 };
 
 /// The beads of G-code line `line` (beads sorted by line): [first, last).
@@ -61,14 +73,35 @@ struct BeadDistance {
 /// path (the bead before and after); bead = kNoBead when the line laid no bead.
 BeadDistance nearest_bead(std::span<const SurfaceBead> beads, std::uint32_t line, const Vec3& p);
 
+/// A bead's core as boxes that bound its distance from below (to_bead_surface's pruning):
+/// its heights [z_bot, z_top] (the centre line's, h / 2 below the nozzle tip), its radius
+/// rt = h / 2 and its level box [x_lo, x_hi] x [y_lo, y_hi] (the centre line's grown by the
+/// core's half width).
+struct BeadBox {
+  double z_top, z_bot, rt, x_lo, x_hi, y_lo, y_hi;
+  static BeadBox of(const SurfaceBead& b) {
+    const double rt = 0.5 * b.height_mm;
+    const double half = 0.5 * std::max(0.0, static_cast<double>(b.width_mm) - b.height_mm);
+    return {std::max(b.start_mm.z(), b.end_mm.z()) - rt,
+            std::min(b.start_mm.z(), b.end_mm.z()) - rt,
+            rt,
+            std::min(b.start_mm.x(), b.end_mm.x()) - half,
+            std::max(b.start_mm.x(), b.end_mm.x()) + half,
+            std::min(b.start_mm.y(), b.end_mm.y()) - half,
+            std::max(b.start_mm.y(), b.end_mm.y()) + half};
+  }
+};
+
 /// The beads by G-code line, for many look-ups: a table of each line's first bead (one entry
 /// per line up to the last bead's), so a look-up reads two entries instead of searching, and
-/// each bead's core (BeadCore).
+/// each bead's core (BeadCore) and boxes (BeadBox).
 class BeadIndex {
  public:
   explicit BeadIndex(std::span<const SurfaceBead> beads);
   /// The cores, by bead.
   [[nodiscard]] const std::vector<BeadCore>& cores() const { return cores_; }
+  /// The boxes, by bead.
+  [[nodiscard]] const std::vector<BeadBox>& boxes() const { return boxes_; }
   /// As beads_of_line.
   [[nodiscard]] std::pair<std::size_t, std::size_t> of_line(std::uint32_t line) const {
     if (line + std::size_t{1} >= first_.size()) return {beads_.size(), beads_.size()};
@@ -80,6 +113,7 @@ class BeadIndex {
  private:
   std::span<const SurfaceBead> beads_;
   std::vector<BeadCore> cores_;
+  std::vector<BeadBox> boxes_;
   std::vector<std::uint32_t> first_;  ///< first bead of line l (beads_.size() when none after)
 };
 
