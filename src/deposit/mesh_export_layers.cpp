@@ -388,6 +388,7 @@ class EdgeGrid {
         }
       }
       if (fill == 0) {
+        seen_.assign(edge_at_.size(), 0);
         for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
         ids_.resize(start_.back());
         next_.assign(start_.begin(), start_.end() - 1);
@@ -395,17 +396,21 @@ class EdgeGrid {
     }
   }
 
-  /// Calls f(outline, edge, t, closest point) for every edge that may pass within `radius`
-  /// of p (some twice).
+  /// Calls f(outline, edge, t, closest point) once for every edge that may pass within
+  /// `radius` of p (an edge is listed in every cell it passes).
   template <class F>
   void near(const P2& p, double radius, F&& f) const {
     const auto c = cell_of(p);
     const auto reach = static_cast<std::int64_t>(std::ceil(radius / cell_));
+    ++query_;
     for (std::int64_t cy = c[1] - reach; cy <= c[1] + reach; ++cy)
       for (std::int64_t cx = c[0] - reach; cx <= c[0] + reach; ++cx) {
         if (cx < 0 || cy < 0 || cx >= cols_ || cy >= rows_) continue;
         const auto cell = static_cast<std::size_t>(cy * cols_ + cx);
         for (std::uint32_t at = start_[cell]; at < start_[cell + 1]; ++at) {
+          std::uint32_t& seen = seen_[ids_[at]];
+          if (seen == query_) continue;
+          seen = query_;
           const auto [oi, ek] = edge_at_[ids_[at]];
           const auto& q = outlines_[oi].pts;
           const P2 a = q[ek], d = q[(ek + 1) % q.size()] - a;
@@ -427,6 +432,9 @@ class EdgeGrid {
   std::int64_t cols_ = 1, rows_ = 1;
   std::vector<std::uint32_t> start_, next_, ids_;      // per cell c: its edges, ids_[start_[c] ..]
   std::vector<std::array<std::uint32_t, 2>> edge_at_;  // per edge id: outline, first vertex
+  // Per edge id: the last query that met it (near() calls f once per edge).
+  mutable std::vector<std::uint32_t> seen_;
+  mutable std::uint32_t query_ = 0;
 };
 
 /// The distance along a closed outline (cumulative edge lengths, n + 1 entries) between
