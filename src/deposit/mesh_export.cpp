@@ -25,6 +25,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "core/plain_path.hpp"
 #include "deposit/mesh_export_internal.hpp"
 #include "deposit/voxel_blocks.hpp"
 #include "deviation/outer_surface.hpp"
@@ -1405,8 +1406,12 @@ bool layered_surface(Solid& fine, const VoxelGrid& grid, std::span<const Surface
   detail::LayerSurface surf;
   MeshPieces pieces;
   int merge_rounds = 0;
+  // After a join only the slabs whose cross-section changed are traced again, only the caps
+  // beside them built again (PRINTTWIN_PLAIN=mesh_rebuild: the whole surface each time).
+  std::optional<detail::LayerSurfaceMemo> memo;
+  if (!detail::plain_path("mesh_rebuild")) memo.emplace();
   for (;;) {
-    surf = detail::build_layer_surface(in, lo);
+    surf = detail::build_layer_surface(in, lo, memo ? &*memo : nullptr);
     const bool closed = !surf.mesh.triangles.empty() && detail::is_closed_oriented(surf.mesh);
     if (!closed && !lo.exact) {
       lo.exact = true;  // an intersection the inexact constructions snapped aside
@@ -1423,6 +1428,9 @@ bool layered_surface(Solid& fine, const VoxelGrid& grid, std::span<const Surface
         moved.pieces > 0 && merge_rounds < 3) {
       ++merge_rounds;
       out.merged_pieces += moved.pieces;
+      if (memo)
+        for (const auto* changed : {&moved.add, &moved.remove})
+          for (const auto& [range, cells] : *changed) memo->forget(range.first, range.second);
       in = with_moved_cells(in, std::move(moved));
       continue;
     }

@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -91,7 +92,40 @@ struct LayerSurface {
 /// rounded profile, caps over the exclusive-or of consecutive slabs (crossings split on both
 /// rings; mesh_export_caps.hpp). Closed and oriented outward when every
 /// outline is simple and the outlines of one slab do not cross (is_closed_oriented checks).
-LayerSurface build_layer_surface(const LayerSlabs& slabs, const LayerSurfaceOptions& options);
+///
+/// `memo` (optional): the slabs and caps of the previous build on the same lattice with the
+/// same options; the build takes from it every slab whose cell range is unchanged and not
+/// forgotten, and every cap whose two slabs reach the state they had there, and leaves its
+/// own slabs and caps in it. The surface is the same as without it.
+class LayerSurfaceMemo;
+LayerSurface build_layer_surface(const LayerSlabs& slabs, const LayerSurfaceOptions& options,
+                                 LayerSurfaceMemo* memo = nullptr);
+
+/// What build_layer_surface keeps of a build for the next one, where cells moved between
+/// slabs (one-slab pieces joined to the slab they touch): only the slabs whose cross-section
+/// changed are traced again, only the caps beside them built again.
+class LayerSurfaceMemo {
+ public:
+  LayerSurfaceMemo();
+  ~LayerSurfaceMemo();
+  LayerSurfaceMemo(const LayerSurfaceMemo&) = delete;
+  LayerSurfaceMemo& operator=(const LayerSurfaceMemo&) = delete;
+  LayerSurfaceMemo(LayerSurfaceMemo&&) noexcept;
+  LayerSurfaceMemo& operator=(LayerSurfaceMemo&&) noexcept;
+  /// The cross-section of the slab of cells [z0, z1) changed: the next build traces it.
+  void forget(int z0, int z1);
+  /// Slabs and caps the last build took from the memo.
+  [[nodiscard]] std::size_t reused_slabs() const { return reused_slabs_; }
+  [[nodiscard]] std::size_t reused_caps() const { return reused_caps_; }
+
+  struct State;  ///< mesh_export_layers.cpp
+
+ private:
+  friend LayerSurface build_layer_surface(const LayerSlabs&, const LayerSurfaceOptions&,
+                                          LayerSurfaceMemo*);
+  std::unique_ptr<State> state_;
+  std::size_t reused_slabs_ = 0, reused_caps_ = 0;
+};
 
 /// The cap between a slab's top rings (`lower`) and the next slab's bottom rings (`upper`):
 /// each ring closed (first point not repeated), its region on its left, the rings of one

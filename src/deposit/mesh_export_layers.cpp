@@ -24,7 +24,10 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <functional>
+#include <memory>
 #include <numbers>
+#include <optional>
 #include <tuple>
 #include <unordered_map>
 #include <vector>
@@ -385,6 +388,7 @@ class EdgeGrid {
         }
       }
       if (fill == 0) {
+        seen_.assign(edge_at_.size(), 0);
         for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
         ids_.resize(start_.back());
         next_.assign(start_.begin(), start_.end() - 1);
@@ -392,17 +396,21 @@ class EdgeGrid {
     }
   }
 
-  /// Calls f(outline, edge, t, closest point) for every edge that may pass within `radius`
-  /// of p (some twice).
+  /// Calls f(outline, edge, t, closest point) once for every edge that may pass within
+  /// `radius` of p (an edge is listed in every cell it passes).
   template <class F>
   void near(const P2& p, double radius, F&& f) const {
     const auto c = cell_of(p);
     const auto reach = static_cast<std::int64_t>(std::ceil(radius / cell_));
+    ++query_;
     for (std::int64_t cy = c[1] - reach; cy <= c[1] + reach; ++cy)
       for (std::int64_t cx = c[0] - reach; cx <= c[0] + reach; ++cx) {
         if (cx < 0 || cy < 0 || cx >= cols_ || cy >= rows_) continue;
         const auto cell = static_cast<std::size_t>(cy * cols_ + cx);
         for (std::uint32_t at = start_[cell]; at < start_[cell + 1]; ++at) {
+          std::uint32_t& seen = seen_[ids_[at]];
+          if (seen == query_) continue;
+          seen = query_;
           const auto [oi, ek] = edge_at_[ids_[at]];
           const auto& q = outlines_[oi].pts;
           const P2 a = q[ek], d = q[(ek + 1) % q.size()] - a;
@@ -424,6 +432,9 @@ class EdgeGrid {
   std::int64_t cols_ = 1, rows_ = 1;
   std::vector<std::uint32_t> start_, next_, ids_;      // per cell c: its edges, ids_[start_[c] ..]
   std::vector<std::array<std::uint32_t, 2>> edge_at_;  // per edge id: outline, first vertex
+  // Per edge id: the last query that met it (near() calls f once per edge).
+  mutable std::vector<std::uint32_t> seen_;
+  mutable std::uint32_t query_ = 0;
 };
 
 /// The distance along a closed outline (cumulative edge lengths, n + 1 entries) between
@@ -1206,17 +1217,42 @@ void side(const SideInput& in, int steps, const std::vector<Vec3>& v,
   }
 }
 
+/// True when cap() gives the same boundary for `a` as for `b` (their rings are the same).
+bool same_rings(const Slab& a, const Slab& b) {
+  if (a.z_lo != b.z_lo || a.z_hi != b.z_hi || a.end_inset != b.end_inset ||
+      a.cell_mm != b.cell_mm || a.outlines.size() != b.outlines.size())
+    return false;
+  for (std::size_t l = 0; l < a.outlines.size(); ++l) {
+    const Outline &p = a.outlines[l], &q = b.outlines[l];
+    if (p.scale != q.scale || p.pts != q.pts || p.miter != q.miter || p.share != q.share)
+      return false;
+  }
+  return true;
+}
+
+/// The boundaries of a build that a later one may take (build_layer_surface's memo).
+/// `reuse(b)`: boundary b as it was (null: build it); `traced[s]`: slab s as traced, kept
+/// when the caps change it.
+struct CapReuse {
+  std::function<const Boundary*(std::size_t)> reuse;
+  std::vector<std::optional<Slab>>* traced = nullptr;
+};
+
 /// Caps of every boundary; rings that cross (themselves, or another ring of their side)
 /// get capped miters, then straight sides, then their unsimplified outline (simple, and
 /// apart from the others).
 /// False when some still cross.
-bool make_caps(std::vector<Slab>& slabs, int steps, bool exact, std::vector<Boundary>& caps) {
+bool make_caps(std::vector<Slab>& slabs, int steps, bool exact, std::vector<Boundary>& caps,
+               const CapReuse& memo) {
   const std::size_t ns = slabs.size();
   caps.assign(ns + 1, Boundary{});
   std::vector<char> redo(ns + 1, 1);
   for (int round = 0; round < 4; ++round) {
     tbb::parallel_for(std::size_t{0}, ns + 1, [&](std::size_t b) {
-      if (redo[b] != 0)
+      if (redo[b] == 0) return;
+      if (const Boundary* kept = memo.reuse ? memo.reuse(b) : nullptr; kept != nullptr)
+        caps[b] = *kept;
+      else
         caps[b] = cap(b > 0 ? &slabs[b - 1] : nullptr, b < ns ? &slabs[b] : nullptr, steps, exact);
     });
     std::fill(redo.begin(), redo.end(), 0);
@@ -1224,6 +1260,7 @@ bool make_caps(std::vector<Slab>& slabs, int steps, bool exact, std::vector<Boun
     for (std::size_t b = 0; b <= ns; ++b)
       for (const auto& [below_or_above, l] : caps[b].crossed) {
         const std::size_t s = below_or_above == 0 ? b - 1 : b;
+        if (memo.traced != nullptr && !(*memo.traced)[s]) (*memo.traced)[s] = slabs[s];
         Outline& o = slabs[s].outlines[l];
         const double r = 0.5 * (slabs[s].z_hi - slabs[s].z_lo);
         if (o.scale > 0 && !o.capped) {
@@ -1275,19 +1312,130 @@ LayerCap layer_cap(const std::vector<std::vector<Eigen::Vector2d>>& lower,
   return out;
 }
 
-LayerSurface build_layer_surface(const LayerSlabs& in, const LayerSurfaceOptions& options) {
+struct LayerSurfaceMemo::State {
+  LayerSurfaceOptions options;
+  int width = 0, height = 0;
+  double cell_mm = 0;
+  Vec3 base_mm = Vec3::Zero();
+  /// One per slab of the build, in order: its cell range, its state after the caps, and
+  /// its traced state when the caps changed it.
+  struct Kept {
+    int z0 = 0, z1 = 0;
+    bool forgotten = false;
+    Slab last;
+    std::optional<Slab> traced;
+  };
+  std::vector<Kept> slabs;
+  std::vector<Boundary> caps;  ///< boundary b: below slab b - 1, above slab b
+
+  [[nodiscard]] bool fits(const LayerSlabs& in, const LayerSurfaceOptions& o) const {
+    return o.tolerance_mm == options.tolerance_mm && o.profile_steps == options.profile_steps &&
+           o.exact == options.exact && in.width == width && in.height == height &&
+           in.cell_mm == cell_mm && in.base_mm == base_mm;
+  }
+  /// The kept slab of cells [z0, z1) (not forgotten), or -1.
+  [[nodiscard]] std::ptrdiff_t find(int z0, int z1) const {
+    const auto it = std::lower_bound(slabs.begin(), slabs.end(), z0,
+                                     [](const Kept& k, int z) { return k.z0 < z; });
+    return it != slabs.end() && it->z0 == z0 && it->z1 == z1 && !it->forgotten ? it - slabs.begin()
+                                                                               : -1;
+  }
+  /// Boundary b of a build whose slab s is the kept slab from[s] (-1: none), now in the
+  /// state `slabs`: the kept boundary when its slabs were its slabs here, next to each other
+  /// (or both ends), and are in the state they had (null otherwise).
+  [[nodiscard]] const Boundary* cap(std::size_t b, const std::vector<std::ptrdiff_t>& from,
+                                    const std::vector<Slab>& now) const {
+    const std::size_t ns = now.size();
+    const std::ptrdiff_t lo = b > 0 ? from[b - 1] : -1, hi = b < ns ? from[b] : -1;
+    const auto kept_ns = static_cast<std::ptrdiff_t>(slabs.size());
+    const bool pair = b == 0 ? hi == 0 : b == ns ? lo == kept_ns - 1 : lo >= 0 && hi == lo + 1;
+    if (!pair) return nullptr;
+    const std::size_t kb = b == 0 ? 0 : static_cast<std::size_t>(lo) + 1;
+    if (b > 0 && !same_rings(now[b - 1], slabs[kb - 1].last)) return nullptr;
+    if (b < ns && !same_rings(now[b], slabs[kb].last)) return nullptr;
+    return &caps[kb];
+  }
+  /// The state of a build of `in` (its slabs and caps moved in).
+  static std::unique_ptr<State> of(const LayerSlabs& in, const LayerSurfaceOptions& options,
+                                   std::vector<Slab>& slabs,
+                                   std::vector<std::optional<Slab>>& traced,
+                                   std::vector<Boundary>& caps) {
+    auto st = std::make_unique<State>();
+    st->options = options;
+    st->width = in.width;
+    st->height = in.height;
+    st->cell_mm = in.cell_mm;
+    st->base_mm = in.base_mm;
+    st->slabs.resize(slabs.size());
+    for (std::size_t s = 0; s < slabs.size(); ++s) {
+      Kept& k = st->slabs[s];
+      k.z0 = in.bounds[s];
+      k.z1 = in.bounds[s + 1];
+      k.last = std::move(slabs[s]);
+      k.traced = std::move(traced[s]);
+    }
+    st->caps = std::move(caps);
+    return st;
+  }
+};
+
+LayerSurfaceMemo::LayerSurfaceMemo() = default;
+LayerSurfaceMemo::~LayerSurfaceMemo() = default;
+LayerSurfaceMemo::LayerSurfaceMemo(LayerSurfaceMemo&&) noexcept = default;
+LayerSurfaceMemo& LayerSurfaceMemo::operator=(LayerSurfaceMemo&&) noexcept = default;
+
+void LayerSurfaceMemo::forget(int z0, int z1) {
+  if (!state_) return;
+  for (auto& k : state_->slabs)
+    if (k.z0 == z0 && k.z1 == z1) k.forgotten = true;
+}
+
+LayerSurface build_layer_surface(const LayerSlabs& in, const LayerSurfaceOptions& options,
+                                 LayerSurfaceMemo* memo) {
   LayerSurface out;
   const int n_slabs = static_cast<int>(in.bounds.size()) - 1;
   if (n_slabs <= 0) return out;
   const int steps = std::max(1, options.profile_steps);
   const auto ns = static_cast<std::size_t>(n_slabs);
+  // The memo's slab of each slab (-1: traced here).
+  const LayerSurfaceMemo::State* old =
+      memo != nullptr && memo->state_ && memo->state_->fits(in, options) ? memo->state_.get()
+                                                                         : nullptr;
+  std::vector<std::ptrdiff_t> from(ns, -1);
+  if (old != nullptr)
+    for (std::size_t s = 0; s < ns; ++s) from[s] = old->find(in.bounds[s], in.bounds[s + 1]);
   std::vector<Slab> slabs(ns);
   tbb::parallel_for(0, n_slabs, [&](int s) {
+    const auto su = static_cast<std::size_t>(s);
+    if (from[su] >= 0) {
+      const auto& kept = old->slabs[static_cast<std::size_t>(from[su])];
+      slabs[su] = kept.traced ? *kept.traced : kept.last;
+      return;
+    }
     thread_local std::vector<std::uint64_t> rows;
-    slabs[static_cast<std::size_t>(s)] = trace_slab(in, s, options.tolerance_mm, steps, rows);
+    slabs[su] = trace_slab(in, s, options.tolerance_mm, steps, rows);
   });
+  std::vector<std::optional<Slab>> traced(memo != nullptr ? ns : 0);
+  std::atomic<std::size_t> reused_caps{0};
+  CapReuse reuse;
+  if (memo != nullptr) reuse.traced = &traced;
+  if (old != nullptr)
+    reuse.reuse = [&](std::size_t b) {
+      const Boundary* kept = old->cap(b, from, slabs);
+      if (kept != nullptr) reused_caps.fetch_add(1, std::memory_order_relaxed);
+      return kept;
+    };
   std::vector<Boundary> caps;
-  if (!make_caps(slabs, steps, options.exact, caps)) return out;  // rings kept crossing: no mesh
+  const bool closed = make_caps(slabs, steps, options.exact, caps, reuse);
+  if (memo != nullptr) {
+    memo->reused_slabs_ = static_cast<std::size_t>(
+        std::count_if(from.begin(), from.end(), [](std::ptrdiff_t f) { return f >= 0; }));
+    memo->reused_caps_ = reused_caps.load();
+  }
+  if (!closed) {  // rings kept crossing: no mesh
+    if (memo != nullptr) memo->state_.reset();
+    return out;
+  }
   // Vertices: each boundary's, then each slab's inner rings.
   std::vector<std::uint32_t> cap_base(ns + 1), inner_base(ns);
   std::size_t nv = 0;
@@ -1352,6 +1500,7 @@ LayerSurface build_layer_surface(const LayerSlabs& in, const LayerSurfaceOptions
     out.outlines += slabs[s].outlines.size();
     for (const Outline& o : slabs[s].outlines) out.straight_outlines += kept_depth(o) < 0.5 ? 1 : 0;
   }
+  if (memo != nullptr) memo->state_ = LayerSurfaceMemo::State::of(in, options, slabs, traced, caps);
   return out;
 }
 

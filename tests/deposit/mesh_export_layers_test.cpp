@@ -6,9 +6,11 @@
 
 #include <array>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <numbers>
+#include <vector>
 
 #include "deposit/mesh_export.hpp"
 #include "deposit/mesh_export_internal.hpp"
@@ -119,9 +121,9 @@ TEST(LayeredMesh, ACellTouchingThePartAtACornerStaysPartOfIt) {
   }
 }
 
-TEST(LayeredMesh, CellsTouchingTheNextLayerOnlyAcrossSlabsJoinIt) {
-  // Voxels that lie in one slab alone but touch the next slab's: the round sides of both
-  // slabs would take the contact away and leave them a separate piece of the mesh.
+/// Parts with voxels that lie in one slab alone but touch the next slab's: the round sides of
+/// both slabs would take the contact away and leave them a separate piece of the mesh.
+std::vector<Part> parts_needing_a_join() {
   const auto square = [](int x, int y, int) { return x >= 40 && x < 120 && y >= 40 && y < 120; };
   // A few cells lifted one cell above the last layer, on the rim of a hole in it (face to
   // face with the layer below).
@@ -144,14 +146,94 @@ TEST(LayeredMesh, CellsTouchingTheNextLayerOnlyAcrossSlabsJoinIt) {
   for (int z = 2 * kLayer; z < 3 * kLayer; ++z)
     for (int y = 78; y < 82; ++y)
       for (int x = 118; x < 122; ++x) patch.grid.set({x, y, z}, {1, 2, Feature::perimeter});
-  for (const Part* p : {&lifted, &sagging, &patch}) {
-    const DepositMesh dm = build(*p);
+  std::vector<Part> parts;
+  parts.push_back(std::move(lifted));
+  parts.push_back(std::move(sagging));
+  parts.push_back(std::move(patch));
+  return parts;
+}
+
+TEST(LayeredMesh, CellsTouchingTheNextLayerOnlyAcrossSlabsJoinIt) {
+  for (const Part& p : parts_needing_a_join()) {
+    const DepositMesh dm = build(p);
     expect_layered_and_closed(dm);
     EXPECT_EQ(dm.components, 1u);
     EXPECT_EQ(dm.merged_pieces, 1u);
     EXPECT_EQ(analyze_mesh_health(dm.mesh).shells, 1u);
     EXPECT_NEAR(dm.volume_mm3, dm.filled_volume_mm3, 0.02 * dm.filled_volume_mm3);
   }
+}
+
+TEST(LayeredMesh, AJoinRebuildsOnlyTheSlabsItChangesWithTheSameMesh) {
+  // After a join the surface is built again from the slabs and caps the moved cells leave
+  // as they were; PRINTTWIN_PLAIN=mesh_rebuild builds all of it: the same mesh, bit for bit.
+  for (const Part& p : parts_needing_a_join()) {
+    const DepositMesh part = build(p);
+    ASSERT_EQ(::setenv("PRINTTWIN_PLAIN", "mesh_rebuild", 1), 0);
+    const DepositMesh whole = build(p);
+    ::unsetenv("PRINTTWIN_PLAIN");
+    EXPECT_EQ(part.merged_pieces, 1u);
+    EXPECT_EQ(whole.merged_pieces, 1u);
+    EXPECT_EQ(part.layers, whole.layers);
+    EXPECT_EQ(part.outlines, whole.outlines);
+    ASSERT_EQ(part.mesh.triangles, whole.mesh.triangles);
+    ASSERT_EQ(part.mesh.vertices_mm.size(), whole.mesh.vertices_mm.size());
+    for (std::size_t i = 0; i < part.mesh.vertices_mm.size(); ++i)
+      ASSERT_EQ(part.mesh.vertices_mm[i], whole.mesh.vertices_mm[i]) << i;
+  }
+}
+
+TEST(LayerSurfaceMemo, OnlyTheChangedSlabAndItsCapsAreBuiltAgain) {
+  // Six slabs of a square with a hole; then one slab's cross-section changes (cells added
+  // beside the square, a new outline). Built again with the memo of the first build, only
+  // that slab is traced and only its two caps are made: the same surface as a fresh build.
+  int extra_slab = -1;  // the slab with the added cells (-1: none)
+  detail::LayerSlabs in;
+  in.width = 128;
+  in.height = 64;
+  in.cell_mm = 0.05;
+  for (int b = 0; b <= 6; ++b) in.bounds.push_back(2 + 4 * b);
+  in.project = [&extra_slab](int z0, int, std::vector<std::uint64_t>& rows) {
+    const int slab = (z0 - 2) / 4;
+    for (int y = 8; y < 56; ++y)
+      for (int x = 8 + slab; x < 100; ++x)
+        if (!(x >= 30 && x < 40 && y >= 20 && y < 30))
+          rows[static_cast<std::size_t>(y) * 2 + static_cast<std::size_t>(x >> 6)] |= 1ULL
+                                                                                      << (x & 63);
+    if (slab == extra_slab)
+      for (int y = 20; y < 26; ++y)
+        for (int x = 104; x < 110; ++x)
+          rows[static_cast<std::size_t>(y) * 2 + static_cast<std::size_t>(x >> 6)] |= 1ULL
+                                                                                      << (x & 63);
+  };
+  const detail::LayerSurfaceOptions o;
+  detail::LayerSurfaceMemo memo;
+  const detail::LayerSurface first = detail::build_layer_surface(in, o, &memo);
+  EXPECT_EQ(memo.reused_slabs(), 0u);
+  EXPECT_EQ(memo.reused_caps(), 0u);
+  ASSERT_TRUE(detail::is_closed_oriented(first.mesh));
+  extra_slab = 3;
+  memo.forget(in.bounds[3], in.bounds[4]);
+  const detail::LayerSurface again = detail::build_layer_surface(in, o, &memo);
+  EXPECT_EQ(memo.reused_slabs(), 5u);
+  EXPECT_EQ(memo.reused_caps(), 5u);  // of seven: those below and above slab 3 are made
+  const detail::LayerSurface fresh = detail::build_layer_surface(in, o);
+  EXPECT_EQ(again.outlines, first.outlines + 1);
+  EXPECT_TRUE(detail::is_closed_oriented(again.mesh));
+  EXPECT_EQ(again.mesh.vertices_mm, fresh.mesh.vertices_mm);
+  EXPECT_EQ(again.mesh.triangles, fresh.mesh.triangles);
+  ASSERT_EQ(again.seeds.size(), fresh.seeds.size());
+  for (std::size_t i = 0; i < again.seeds.size(); ++i) {
+    EXPECT_EQ(again.seeds[i].slab, fresh.seeds[i].slab);
+    EXPECT_EQ(again.seeds[i].triangle, fresh.seeds[i].triangle);
+  }
+  // Other options: nothing is taken from the memo.
+  detail::LayerSurfaceOptions coarser;
+  coarser.tolerance_mm = 0.05;
+  const detail::LayerSurface coarse = detail::build_layer_surface(in, coarser, &memo);
+  EXPECT_EQ(memo.reused_slabs(), 0u);
+  EXPECT_EQ(memo.reused_caps(), 0u);
+  EXPECT_TRUE(detail::is_closed_oriented(coarse.mesh));
 }
 
 TEST(LayeredMesh, MaterialRaisedAboveTheLastLayerIsItsOwnSlab) {
