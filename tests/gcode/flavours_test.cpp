@@ -401,13 +401,18 @@ TEST(FlavourBambu, G28XHomesXyAndALiftBeforeHomingIsQuiet) {
 TEST(FlavourBambu, FilamentSlotsAndSpecialToolsAreNotSecondExtruders) {
   // T<n> loads AMS slot n into the one nozzle; T255 unloads; T1000 / T1100 pick the nozzle or
   // the lidar. "M624 <base64>" opens an object's block, "M400 S7" waits 7 s.
-  const std::string text = "G28\nM109 S220\nM83\nT1\nT255\nT1000\nT1100\nM624 AQAAAAAAAAA=\n" +
-                           square(0.2) + "M625\nM400 S7\nM400 P500\n";
+  // "M221 S" alone pushes the soft endstops' state (Bambu), no flow of 0 %.
+  const std::string text =
+      "G28\nM109 S220\nM83\nT1\nT255\nT1000\nT1100\nM221 S\nM221 X0 Y0 Z0\nM221 R\n"
+      "M624 AQAAAAAAAAA=\n" +
+      square(0.2) + "M625\nM400 S7\nM400 P500\n";
   const auto r = sim(text, with_firmware("bambu"));
   EXPECT_EQ(find(r, "bad_tool"), nullptr);
   expect_clean(r);
   const auto base = sim("G28\nM109 S220\nM83\n" + square(0.2) + "M400\n", with_firmware("bambu"));
   EXPECT_NEAR(r.dwell_time_s - base.dwell_time_s, 7.5, 1e-9);
+  EXPECT_DOUBLE_EQ(r.filament_mm, base.filament_mm);
+  EXPECT_GT(r.filament_mm, 1.9);
   // On a Marlin printer T1 is a second extruder it does not have.
   EXPECT_NE(find(sim("G28\nT1\n"), "bad_tool"), nullptr);
 }
