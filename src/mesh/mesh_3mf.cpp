@@ -18,9 +18,12 @@ namespace {
 using Affine = Eigen::Affine3d;
 using Triangle = std::array<std::uint32_t, 3>;
 
-/// More triangles than this after following every component is refused (components that
-/// reference the same object many times over, level after level, multiply quickly).
+/// More triangles or placed objects than this after following every component is refused
+/// (components that reference the same object many times over, level after level, multiply
+/// quickly), and so are components nested deeper than kMaxDepth (the stack).
 constexpr std::size_t kMaxTriangles = std::size_t{1} << 25;
+constexpr std::size_t kMaxPlacements = std::size_t{1} << 20;
+constexpr std::size_t kMaxDepth = 1000;
 
 constexpr std::string_view kRootModelDefault = "3D/3dmodel.model";
 
@@ -441,14 +444,18 @@ class Package {
                            " object " + std::to_string(ref.id),
                        name_);
     }
+    if (path_.size() > kMaxDepth)
+      return bad_input(referrer + ", line " + std::to_string(ref.line) +
+                           ": components nest deeper than " + std::to_string(kMaxDepth) + " levels",
+                       name_);
     const Object& object = it->second;
     if (!object.part) return Ok{};
     const Affine world = placement * ref.transform;
     append(object, world, out);
-    if (out.triangles.size() > kMaxTriangles)
-      return bad_input(
-          "the components expand to more than " + std::to_string(kMaxTriangles) + " triangles",
-          name_);
+    if (out.triangles.size() > kMaxTriangles || ++placements_ > kMaxPlacements)
+      return bad_input("the components expand to more than " + std::to_string(kMaxTriangles) +
+                           " triangles or " + std::to_string(kMaxPlacements) + " placed objects",
+                       name_);
     path_.push_back(key);
     for (const auto& c : object.components)
       if (auto st = place(c, ref.entry, world, out); !st) return st.error();
@@ -475,6 +482,7 @@ class Package {
   const std::string& name_;
   std::map<std::string, ModelFile> files_;
   std::vector<std::pair<std::string, std::uint32_t>> path_;
+  std::size_t placements_ = 0;
 };
 
 /// True when the archive holds more than one model file (only then can one reference another).

@@ -37,8 +37,12 @@ std::string cube_object(int id, double edge, const std::string& type = "model") 
     const std::string x = (k & 1) != 0 ? e : "0";
     const std::string y = (k & 2) != 0 ? e : "0";
     const std::string z = (k & 4) != 0 ? e : "0";
-    s += k % 2 == 0 ? "     <vertex x=\"" + x + "\" y=\"" + y + "\" z=\"" + z + "\"/>\n"
-                    : "     <vertex z='" + z + "' x = '" + x + "' y='" + y + "' />\n";
+    std::string v = k % 2 == 0 ? "     <vertex x=\"X\" y=\"Y\" z=\"Z\"/>\n"
+                               : "     <vertex z='Z' x = 'X' y='Y' />\n";
+    v.replace(v.find('X'), 1, x);
+    v.replace(v.find('Y'), 1, y);
+    v.replace(v.find('Z'), 1, z);
+    s += v;
   }
   s += "    </vertices>\n    <triangles>\n";
   // Outward faces of the cube whose vertex k has x = bit 0, y = bit 1, z = bit 2.
@@ -216,6 +220,30 @@ TEST(Mesh3mf, CycleOfComponentsIsAnError) {
                {"3D/Objects/b.model, line", "the components form a cycle",
                 "/3D/Objects/a.model object 1 -> /3D/Objects/b.model object 2 -> "
                 "/3D/Objects/a.model object 1"});
+}
+
+TEST(Mesh3mf, ComponentsTooDeepOrTooManyAreErrors) {
+  // A chain of 1001 objects, each the component of the one before: deeper than 1000 levels.
+  std::string chain;
+  for (int id = 1; id <= 1001; ++id)
+    chain += assembly(id, component(id + 1, "", translate(0, 0, 0)));
+  const std::string deep = model(chain + cube_object(1002, 1));
+  const std::string root_deep =
+      model(assembly(9000, component(1, "/3D/Objects/deep.model", translate(0, 0, 0))),
+            item(9000, translate(0, 0, 0)));
+  expect_error(package(root_deep, {{"3D/Objects/deep.model", deep}}),
+               {"3D/Objects/deep.model, line", "components nest deeper than 1000 levels"});
+  // 21 levels that each place the next level twice: 2^21 placed objects.
+  std::string doubling;
+  for (int id = 1; id <= 21; ++id)
+    doubling += assembly(
+        id, component(id + 1, "", translate(0, 0, 0)) + component(id + 1, "", translate(1, 0, 0)));
+  doubling += "  <object id=\"22\" type=\"model\"/>\n";
+  const std::string root_many =
+      model(assembly(9000, component(1, "/3D/Objects/many.model", translate(0, 0, 0))),
+            item(9000, translate(0, 0, 0)));
+  expect_error(package(root_many, {{"3D/Objects/many.model", model(doubling)}}),
+               {"the components expand to more than", "placed objects"});
 }
 
 TEST(Mesh3mf, EveryItemDisabledIsAnError) {
