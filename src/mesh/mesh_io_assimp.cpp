@@ -34,6 +34,7 @@
 #include <vector>
 
 #include "core/plain_path.hpp"
+#include "mesh/mesh_3mf.hpp"
 #include "printtwin/io.hpp"
 #include "printtwin/mesh.hpp"
 
@@ -411,6 +412,20 @@ Result<Mesh> welded_mesh(const aiScene& scene, double s, const std::string& name
       mesh.triangles.push_back(tri);
     }
   }
+  return mesh;
+}
+
+/// `raw`'s triangles with vertices joined as welded_mesh joins assimp's (exact positions,
+/// numbered in order of first use, unreferenced ones dropped).
+Mesh welded_copy(const Mesh& raw) {
+  Mesh mesh;
+  mesh.triangles.reserve(raw.triangles.size());
+  mesh.vertices_mm.reserve(raw.triangles.size() / 2 + 16);
+  PointIndex index(raw.triangles.size() / 2 + 16);
+  for (const auto& t : raw.triangles)
+    mesh.triangles.push_back({index.find_or_add(raw.vertices_mm[t[0]], mesh.vertices_mm),
+                              index.find_or_add(raw.vertices_mm[t[1]], mesh.vertices_mm),
+                              index.find_or_add(raw.vertices_mm[t[2]], mesh.vertices_mm)});
   return mesh;
 }
 
@@ -1010,6 +1025,11 @@ Result<Mesh> load_mesh_from_memory(std::string_view bytes, const fs::path& path,
     return finish_mesh(std::move(*mesh), s, name);
   }
   if (auto st = check_container(bytes, ext, name); !st) return st.error();
+  if (ext == ".3mf") {  // projects whose objects live in other model files (p:path)
+    auto components = detail::read_3mf_with_components(bytes, s, name);
+    if (!components) return components.error();
+    if (*components) return finish_mesh(welded_copy(**components), s, name);
+  }
 
   Assimp::last_assertion.clear();
   Assimp::Importer importer;

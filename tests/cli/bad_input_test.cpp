@@ -326,6 +326,22 @@ std::vector<Case> corpus() {
                },
                3,
                {"no_root_model.3mf", "cannot read mesh", "mRootStream"}});
+  // A Bambu Studio / OrcaSlicer project whose component names a model file it lacks.
+  c.push_back(
+      {"3MF component naming a model file the archive lacks",
+       [](const fs::path& d) {
+         put(d / "bambu.3mf",
+             test::make_zip({{"3D/Objects/object_1.model", "<model/>"},
+                             {"3D/3dmodel.model",
+                              "<model xmlns:p=\"p\"><resources><object id=\"2\"><components>"
+                              "<component p:path=\"/3D/Objects/object_9.model\" objectid=\"1\"/>"
+                              "</components></object></resources>"
+                              "<build><item objectid=\"2\"/></build></model>"}},
+                            true));
+         return "check " + q(d / "bambu.3mf");
+       },
+       3,
+       {"bambu.3mf", "3D/3dmodel.model", "'/3D/Objects/object_9.model' is not in the archive"}});
   c.push_back({"AMF that is neither XML nor zip",
                [](const fs::path& d) {
                  put(d / "part.amf", "solid a\n");
