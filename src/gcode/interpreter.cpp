@@ -1389,23 +1389,10 @@ bool ignored_m_code(int code) {
     case 623:
     case 624:
     case 625:
-    case 960:
-    case 970:
-    case 971:
-    case 972:
-    case 973:
-    case 974:
-    case 975:
-    case 976:
-    case 980:
-    case 981:
-    case 982:
-    case 983:
-    case 991:
     case 412:
       return true;
     default:
-      return false;
+      return code >= 960 && code <= 991;  // Bambu: lidar, vibration and flow calibrations
   }
 }
 }  // namespace

@@ -371,6 +371,7 @@ TEST(FlavourBambu, VendorCommandsAreAcceptedQuietly) {
       "M1002 gcode_claim_action : 2\nM1002 set_filament_type:PLA\nM620 M\nM620 S0A\nM621 S0A\n"
       "M1002 judge_flag g29_before_print_flag\nM622 J1\nG29.1 Z0\nG29.2 S0\nM623\nM960 S5 P1\n"
       "M971 S11 C10 O0\nM975 S1\nM981 S1 P20000\nM991 S0 P0\nG380 S2 Z-0.1 F300\nM412 S1\n"
+      "M963 S1\nM964\nM969 S1 N3 A2000\nM977 S1 P60\nM984 A0.1 E1 S1 F2 H0.4\n"
       "M1006 A0 B10 L100 C37 D10 M60 E37 F10 N60\nM1007 S1\nG28\nM109 S220\nM83\n" +
       square(0.2);
   const auto r = sim(text, with_firmware("bambu"));
