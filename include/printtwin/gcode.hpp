@@ -169,6 +169,12 @@ class GcodeInterpreter {
   [[nodiscard]] double slicer_estimate_s() const { return slicer_estimate_s_; }
   /// Filament the slicer says the file uses (mm of filament), NaN when it states none.
   [[nodiscard]] double slicer_filament_mm() const { return slicer_filament_mm_; }
+  /// The slicer's estimate for the model alone (Orca family's "model printing time", without
+  /// its start sequence), NaN when absent.
+  [[nodiscard]] double slicer_part_estimate_s() const { return slicer_part_estimate_s_; }
+  /// Layers the slicer's header announces (Orca family's "total layer number", Cura's
+  /// ";LAYER_COUNT:"), 0 when it states none.
+  [[nodiscard]] long slicer_layer_count() const { return slicer_layer_count_; }
   /// True once a slicer layer marker (`;LAYER_CHANGE`, `; CHANGE_LAYER`, `;LAYER:n`,
   /// `; BEGIN_LAYER_OBJECT z=`, `; layer N, Z = `) was seen: layers then follow the markers.
   [[nodiscard]] bool layers_from_markers() const { return marker_seen_; }
@@ -227,6 +233,8 @@ class GcodeInterpreter {
   std::string slicer_;
   double slicer_estimate_s_;
   double slicer_filament_mm_;
+  double slicer_part_estimate_s_;
+  long slicer_layer_count_ = 0;
   int slicer_estimate_rank_ = 0;         ///< which stated time won (normal mode beats totals)
   bool estimate_from_time_tag_ = false;  ///< Cura's ";TIME:" (a placeholder when unfilled)
 

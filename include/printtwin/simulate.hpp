@@ -62,6 +62,10 @@ struct SimulationResult {
   /// not start/end code (purge lines, priming, anything before the first layer marker),
   /// up to the last extrusion of the last layer (the end code's retraction is not counted).
   double filament_part_mm = 0;
+  /// Filament pushed by the moves that extrude while the nozzle moves (sum of Move::e_mm
+  /// of extrusion moves): what PrusaSlicer, the Orca family and KISSlicer state, start-code
+  /// purge lines included, E-only priming and unretractions left out.
+  double filament_extruding_mm = 0;
   double filament_mm3 = 0;         ///< filament_mm times the filament cross-section
   double retracted_mm = 0;         ///< sum of retractions (positive)
   double extrude_distance_mm = 0;  ///< nozzle path length of extrusion moves
@@ -86,6 +90,9 @@ struct SimulationResult {
   /// The slicer's own time estimate found in the file (PrusaSlicer normal mode, Orca's total
   /// estimated time, Cura ;TIME:, ...; docs/gcode-coverage.md), if any.
   std::optional<double> slicer_estimate_s;
+  /// The slicer's estimate for the model alone, without its start sequence (the Orca
+  /// family's "model printing time"), if it states one; compared with the layers' time.
+  std::optional<double> slicer_part_estimate_s;
   /// The filament the slicer says the file uses (mm), if it states it.
   std::optional<double> slicer_filament_mm;
   /// "markers" when layers follow the slicer's layer markers, "z" when made by Z.

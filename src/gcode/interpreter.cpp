@@ -82,7 +82,8 @@ GcodeInterpreter::GcodeInterpreter(const PrinterProfile& profile, const Interpre
       options_(options),
       limits_(motion_limits_from_profile(profile)),
       slicer_estimate_s_(std::numeric_limits<double>::quiet_NaN()),
-      slicer_filament_mm_(std::numeric_limits<double>::quiet_NaN()) {
+      slicer_filament_mm_(std::numeric_limits<double>::quiet_NaN()),
+      slicer_part_estimate_s_(std::numeric_limits<double>::quiet_NaN()) {
   min_extrude_temp_c_ = profile.min_extrude_temp_c;
   const std::string& fw = profile.firmware;
   flavour_ = fw == "klipper"   ? Flavour::klipper
@@ -178,6 +179,21 @@ Status GcodeInterpreter::finish(bool ended_mid_line, long last_line) {
     f.line = last_line;
     add_finding(std::move(f));
   }
+  if (const auto layers = static_cast<long>(layer_z_.size());
+      slicer_layer_count_ > 0 && layers < slicer_layer_count_ - 1) {
+    // The header states the layer count (Orca family, Cura) and the file stops short of it
+    // (one layer of slack: Cura counts one more than it marks). A cut download or upload:
+    // the printer would print only the layers that are there.
+    Finding f;
+    f.severity = Severity::error;
+    f.code = "truncated_file";
+    f.message = "the slicer's header announces " + std::to_string(slicer_layer_count_) +
+                " layers but the file ends after " + std::to_string(layers) + " (line " +
+                std::to_string(last_line) + (ended_mid_line ? ", without a newline" : "") +
+                "): it was cut short, and the rest of the print is missing";
+    f.line = last_line;
+    add_finding(std::move(f));
+  }
   if (ended_mid_line) {
     // The last line had no newline: a streamed file may have been cut. Marlin would
     // wait for the rest of the line; we execute it but say so.
@@ -270,7 +286,18 @@ void GcodeInterpreter::stated_figures(std::string_view c) {
     return any ? total : std::numeric_limits<double>::quiet_NaN();
   };
   double v = 0;
-  if (starts_with(c, "estimated printing time (normal mode) = ")) {
+  if (starts_with(c, "model printing time:")) {
+    // Orca family: "model printing time: 4m 48s; total estimated time: 11m 36s". The model's
+    // time leaves out the start sequence (and the fixed time the slicer adds for its bed
+    // levelling); the total follows below.
+    std::string_view model = c.substr(20);
+    model = model.substr(0, model.find(';'));
+    if (const double s = parse_duration(model); s > 0) slicer_part_estimate_s_ = s;
+  }
+  if (starts_with(c, "total layer number:")) {  // Orca family's header
+    if (parse_double(c.substr(19), v) && v >= 1 && v < 1e7)
+      slicer_layer_count_ = static_cast<long>(v);
+  } else if (starts_with(c, "estimated printing time (normal mode) = ")) {
     set_time(parse_duration(c.substr(40)), 3);  // PrusaSlicer, Orca family
   } else if (c.find("total estimated time:") != std::string_view::npos) {
     set_time(parse_duration(after("total estimated time:")), 2);  // Orca, Creality Print
@@ -344,6 +371,9 @@ void GcodeInterpreter::layer_tag(std::string_view c) {
       layer_marker(std::numeric_limits<double>::quiet_NaN());
   } else if (starts_with(c, "LAYER_HEIGHT:")) {
     if (parse_double(c.substr(13), v) && v > 0 && v < 100) height_hint_mm_ = static_cast<float>(v);
+  } else if (starts_with(c, "LAYER_COUNT:")) {  // Cura's header
+    if (parse_double(c.substr(12), v) && v >= 1 && v < 1e7)
+      slicer_layer_count_ = static_cast<long>(v);
   }
 }
 

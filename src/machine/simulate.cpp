@@ -35,6 +35,7 @@ class Pipeline final : public InterpreterOutput, public MoveSink {
     }
     r.motion_bounds_mm.extend(m.end_mm);
     r.filament_mm += m.e_mm;
+    if (m.kind == MoveKind::extrude) r.filament_extruding_mm += m.e_mm;
     if (m.layer >= 0 && m.feature != Feature::custom) {
       part_net_mm_ += m.e_mm;
       if (m.kind == MoveKind::extrude) r.filament_part_mm = part_net_mm_;
@@ -249,6 +250,8 @@ Result<SimulationResult> run(std::istream& in, const PrinterProfile& profile,
   for (const auto& [name, id] : interp.object_names()) r.object_names[id] = name;
   if (!std::isnan(interp.slicer_estimate_s())) r.slicer_estimate_s = interp.slicer_estimate_s();
   if (!std::isnan(interp.slicer_filament_mm())) r.slicer_filament_mm = interp.slicer_filament_mm();
+  if (!std::isnan(interp.slicer_part_estimate_s()))
+    r.slicer_part_estimate_s = interp.slicer_part_estimate_s();
   r.layers_from = interp.layers_from_markers() ? "markers" : "z";
   r.limits_used = limits;
   r.limits_from_gcode = options.limits_from_gcode;
@@ -338,6 +341,8 @@ std::string simulation_to_json(const SimulationResult& r, const std::string& inp
   doc["input"] = input_name;
   doc["slicer"] = r.slicer;
   doc["slicer_estimate_s"] = r.slicer_estimate_s ? json(*r.slicer_estimate_s) : json(nullptr);
+  doc["slicer_part_estimate_s"] =
+      r.slicer_part_estimate_s ? json(*r.slicer_part_estimate_s) : json(nullptr);
   doc["print_time_s"] = q(r.print_time_s);
   doc["motion_time_s"] = q(r.motion_time_s);
   doc["homing_time_s"] = q(r.homing_time_s);
@@ -346,6 +351,7 @@ std::string simulation_to_json(const SimulationResult& r, const std::string& inp
   doc["slicer_filament_mm"] = r.slicer_filament_mm ? json(q(*r.slicer_filament_mm)) : json(nullptr);
   doc["filament_mm"] = q(r.filament_mm);
   doc["filament_part_mm"] = q(r.filament_part_mm);
+  doc["filament_extruding_mm"] = q(r.filament_extruding_mm);
   doc["filament_mm3"] = q(r.filament_mm3);
   doc["retracted_mm"] = q(r.retracted_mm);
   doc["extrude_distance_mm"] = q(r.extrude_distance_mm);
@@ -427,25 +433,37 @@ std::string simulation_summary(const SimulationResult& r) {
   s += "  homing      " + format_fixed(r.homing_time_s, 1) + " s\n";
   s += "  dwell       " + format_fixed(r.dwell_time_s, 1) + " s\n";
   s += "  heating     " + format_fixed(r.heating_time_s, 1) + " s\n";
-  if (r.slicer_estimate_s) {
+  const auto percent = [](double ours, double ref) {
+    return format_fixed(100.0 * (ours - ref) / std::max(1e-9, ref), 2) + " %";
+  };
+  const std::string hint = r.limits_from_gcode ? "" : " (try --limits-from-gcode)";
+  if (r.slicer_part_estimate_s) {
+    // The Orca family states the model's time apart from its start sequence (whose bed
+    // levelling it counts at a fixed time): compare the time of the layers.
+    double layers_s = 0;
+    for (const auto& l : r.layers) layers_s += l.time_s;
+    s += "slicer says   " + format_duration_compact(*r.slicer_part_estimate_s) + " for the model";
+    if (r.slicer_estimate_s)
+      s += " (" + format_duration_compact(*r.slicer_estimate_s) + " with its start sequence)";
+    s += "; the layers' time (" + format_duration_compact(layers_s) + ") differs by " +
+         percent(layers_s, *r.slicer_part_estimate_s) + hint + "\n";
+  } else if (r.slicer_estimate_s) {
     // PrusaSlicer 2.5's estimate counts planned motion (its G28 is instantaneous and the
     // start G-code's G4 S is not added): compare motion time.
-    const double ours = r.motion_time_s;
     s += "slicer says   " + format_duration_compact(*r.slicer_estimate_s) +
-         "; motion time differs by " +
-         format_fixed(100.0 * (ours - *r.slicer_estimate_s) / std::max(1.0, *r.slicer_estimate_s),
-                      2) +
-         " %" + (r.limits_from_gcode ? "" : " (try --limits-from-gcode)") + "\n";
+         "; motion time differs by " + percent(r.motion_time_s, *r.slicer_estimate_s) + hint + "\n";
   }
   s += "filament      " + format_fixed(r.filament_mm, 2) + " mm (" +
        format_fixed(r.filament_mm3, 1) + " mm3); part " + format_fixed(r.filament_part_mm, 2) +
-       " mm without start/end code\n";
+       " mm without start/end code; " + format_fixed(r.filament_extruding_mm, 2) +
+       " mm on extruding moves\n";
   if (r.slicer_filament_mm) {
-    const double ref = std::max(1e-9, *r.slicer_filament_mm);
-    s += "slicer says   " + format_fixed(*r.slicer_filament_mm, 2) +
-         " mm of filament; part differs by " +
-         format_fixed(100.0 * (r.filament_part_mm - ref) / ref, 2) + " %, total by " +
-         format_fixed(100.0 * (r.filament_mm - ref) / ref, 2) + " %\n";
+    // Slicers count differently: Cura the part, the Slic3r and Orca families and KISSlicer
+    // every extruding move (start-code purge lines in, E-only priming out).
+    const double ref = *r.slicer_filament_mm;
+    s += "slicer says   " + format_fixed(ref, 2) + " mm of filament; part differs by " +
+         percent(r.filament_part_mm, ref) + ", extruding moves by " +
+         percent(r.filament_extruding_mm, ref) + ", total by " + percent(r.filament_mm, ref) + "\n";
   }
   if (!r.layers.empty()) {
     double zmin = r.layers.front().z_mm, zmax = zmin;
