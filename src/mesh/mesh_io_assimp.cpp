@@ -1,7 +1,9 @@
 // The only file that includes assimp: loads any supported mesh format into a Mesh. OFF and
 // PLY are read here (assimp's readers trust their headers' counts and abort or leak on
-// malformed files); STL is validated here and then read by assimp, OBJ, 3MF and AMF by
-// assimp behind a container check and its structure validation.
+// malformed files); STL is validated here and then read by assimp, OBJ and AMF by
+// assimp behind a container check and its structure validation. 3MF is read by printtwin
+// (mesh_3mf.cpp): assimp's 3MF reader frees memory twice or crashes on real packages
+// (slices, production and PrusaSlicer/3MF Consortium files) and reads unreferenced objects.
 //
 // assimp is forgiving to a fault: it reads an ASCII STL full of garbage as "some triangles",
 // and a binary STL whose header promises more triangles than the file holds as a shorter
@@ -39,7 +41,7 @@
 #include "printtwin/mesh.hpp"
 
 // assimp checks its own invariants with ai_assert, whose failure calls this function and
-// then abort(): a malformed 3MF (a package whose root model cannot be opened) reaches one.
+// then abort(): a malformed file (a 3MF whose root model could not be opened did) reaches one.
 // printtwin defines the function itself, so that the dynamic linker binds assimp's calls to
 // this definition: the failure becomes an exception, which assimp's importer catches and
 // turns into an error (the import returns no scene), and load_mesh reports it as bad input
@@ -1025,10 +1027,10 @@ Result<Mesh> load_mesh_from_memory(std::string_view bytes, const fs::path& path,
     return finish_mesh(std::move(*mesh), s, name);
   }
   if (auto st = check_container(bytes, ext, name); !st) return st.error();
-  if (ext == ".3mf") {  // projects whose objects live in other model files (p:path)
-    auto components = detail::read_3mf_with_components(bytes, s, name);
-    if (!components) return components.error();
-    if (*components) return finish_mesh(welded_copy(**components), s, name);
+  if (ext == ".3mf") {
+    auto mesh = detail::read_3mf(bytes, s, name);
+    if (!mesh) return mesh.error();
+    return finish_mesh(welded_copy(*mesh), s, name);
   }
 
   Assimp::last_assertion.clear();
