@@ -642,7 +642,9 @@ Result<Mesh> read_off(std::string_view text, double s, const std::string& name) 
 // here instead, every count, length and index checked against the file:
 //   ply / format ascii|binary_little_endian|binary_big_endian 1.0 / comment, obj_info
 //   element <name> <count> / property <type> <name> / property list <type> <type> <name>
-//   end_header, then the elements in header order.
+//   end_header, then the elements in header order; other header lines are free text.
+// ASCII PLY holds one element per line: values a line holds past its element's properties
+// (VCG/MeshLab files whose face lines carry more than their header declares) are skipped.
 // Vertices are the `vertex` element's x, y, z; faces the `face` element's `vertex_indices`
 // (or `vertex_index`) lists, split into fans; other elements and properties are skipped.
 
@@ -793,9 +795,9 @@ Result<PlyHeader> read_ply_header(std::string_view bytes, const std::string& nam
             name, at);
       p.name = std::string(tok.back().substr(0, 40));
       elements.back().properties.push_back(std::move(p));
-    } else {
-      return bad_input("PLY: unknown header line '" + shown(line) + "'", name, at);
     }
+    // Any other line is free text: Blender 2.4x's exporter wrote its credit line ("Created by
+    // Blender3D 247 - www.blender.org, source file: ...") without 'comment'.
   }
   if (body == std::string_view::npos)
     return bad_input("PLY: the header has no 'end_header'", name, lines.line());
@@ -837,6 +839,11 @@ struct PlyValues {
       return bad_input("PLY: " + where() + " has a NaN or infinite value", name,
                        format == 0 ? std::optional<long>(ascii_line) : std::nullopt);
     return Ok{};
+  }
+  /// ASCII: skips what the current line holds past the element just read.
+  void end_line() {
+    if (format != 0) return;
+    while (pos < end && *pos != '\n') ++pos;
   }
 };
 
@@ -913,6 +920,7 @@ Status read_ply_element(const PlyElement& e, double s, PlyValues& in, std::vecto
           mesh.triangles.push_back({corners[0], corners[j], corners[j + 1]});
     }
     if (is_vertex) points.emplace_back(s * c[0], s * c[1], s * c[2]);
+    in.end_line();
   }
   return Ok{};
 }
