@@ -76,10 +76,11 @@ struct CheckSettings {
 /// Topological and geometric health of a mesh (frame of the input, before placement).
 struct MeshHealth {
   std::size_t triangles = 0;
-  std::size_t vertices = 0;               ///< vertices referenced by at least one triangle
-  std::size_t shells = 0;                 ///< connected components over shared edges
-  std::size_t boundary_edges = 0;         ///< edges with one face (holes)
-  std::size_t non_manifold_edges = 0;     ///< edges with more than two faces
+  std::size_t vertices = 0;            ///< vertices referenced by at least one triangle
+  std::size_t shells = 0;              ///< connected components over shared edges
+  std::size_t boundary_edges = 0;      ///< edges with one face (holes)
+  std::size_t non_manifold_edges = 0;  ///< edges with more than two faces, not touching
+  std::size_t touching_edges = 0;      ///< edges where closed bodies touch (faces pair around them)
   std::size_t non_manifold_vertices = 0;  ///< vertices whose faces form several fans
   std::size_t degenerate_faces = 0;       ///< zero area (repeated index or collinear)
   std::size_t duplicate_faces = 0;        ///< same three vertices as an earlier face
@@ -88,7 +89,7 @@ struct MeshHealth {
   std::size_t self_intersections = 0;     ///< intersecting face pairs (not sharing an edge)
   std::vector<Vec3> self_intersection_locations_mm;  ///< first few, a point of each pair
   bool self_intersections_checked = false;
-  bool closed = false;    ///< no boundary and no non-manifold edge
+  bool closed = false;    ///< no boundary and no non-manifold edge (touching edges allowed)
   double volume_mm3 = 0;  ///< signed (divergence theorem)
   double area_mm2 = 0;
   Box3 bbox_mm;

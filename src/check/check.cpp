@@ -123,7 +123,10 @@ void health_findings(const MeshHealth& h, const Vec3& offset, std::vector<Findin
   if (h.shells > 1)
     out.push_back(make_finding(
         Severity::info, "multiple_shells",
-        "the mesh has " + std::to_string(h.shells) + " separate shells (parts or cavities)",
+        "the mesh has " + std::to_string(h.shells) + " separate shells (parts or cavities)" +
+            (h.touching_edges > 0 ? "; they touch along " + plural(h.touching_edges, "edge") +
+                                        " (bodies exported together: the slicer merges them)"
+                                  : ""),
         std::nullopt, static_cast<long>(h.shells)));
 }
 

@@ -84,6 +84,15 @@ struct EdgeTable {
 /// `skip_face[f] != 0` leaves face f out (empty = keep all).
 EdgeTable build_edge_table(const Mesh& mesh, const std::vector<char>& skip_face);
 
+/// Faces of one edge that continue one surface, as pairs. Where closed bodies touch along
+/// an edge (a multi-body STL: Voron's multibody parts, CAD bodies exported together), more
+/// than two faces share it: sorted by angle around the edge, each face where a body's wedge
+/// opens is paired with the next, where it closes, so each body keeps its own surface.
+/// Returns false (no pairs) when they do not alternate: a true non-manifold edge.
+bool pair_faces_around_edge(const Mesh& mesh, const EdgeTable& edges, std::size_t begin,
+                            std::size_t end,
+                            std::vector<std::pair<std::uint32_t, std::uint32_t>>& pairs);
+
 /// Which overhang regions print as bridges (src/check/bridges.cpp). region_of: each face's
 /// index in `regions` (UINT32_MAX: none); regions under min_area_mm2 are not classified.
 /// Points within cantilever_mm of an anchored edge are held by it; sag_mm at sag_span_mm is
@@ -95,8 +104,17 @@ std::vector<std::optional<BridgeSpan>> find_bridges(const Mesh& placed,
                                                     double sag_mm, double sag_span_mm);
 
 /// Marks faces with a repeated vertex index and every repeat of an earlier face (same vertex
-/// set, either orientation). `duplicates` receives the number of repeats.
-std::vector<char> duplicate_or_index_degenerate_faces(const Mesh& mesh, std::size_t* duplicates);
+/// set, either orientation). `duplicates` receives the number of repeats; `reverse_twins`
+/// (when given) the (face, repeat) pairs where the repeat runs the other way.
+std::vector<char> duplicate_or_index_degenerate_faces(
+    const Mesh& mesh, std::size_t* duplicates,
+    std::vector<std::pair<std::uint32_t, std::uint32_t>>* reverse_twins = nullptr);
+
+/// The faces the edge analysis leaves out: those of duplicate_or_index_degenerate_faces, but
+/// reverse twins stay in where a patch of them (faces joined across shared edges) has an
+/// edge shared by more than two faces: two bodies touching face to face, each keeping its
+/// own faces there.
+std::vector<char> faces_left_out(const Mesh& mesh, std::size_t* duplicates);
 
 struct Shell {
   double six_volume = 0;  ///< 6 x signed volume

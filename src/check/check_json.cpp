@@ -38,6 +38,7 @@ json health_json(const MeshHealth& h, const Vec3& offset) {
               {"bbox_mm", box(h.bbox_mm)},
               {"boundary_edges", h.boundary_edges},
               {"non_manifold_edges", h.non_manifold_edges},
+              {"touching_edges", h.touching_edges},
               {"non_manifold_vertices", h.non_manifold_vertices},
               {"degenerate_faces", h.degenerate_faces},
               {"duplicate_faces", h.duplicate_faces},

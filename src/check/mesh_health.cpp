@@ -1,5 +1,6 @@
 // Mesh health: topology counts from sorted edge lists and union-find (no third-party code).
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 
 #include "check/check_internal.hpp"
@@ -72,7 +73,87 @@ EdgeTable build_edge_table(const Mesh& mesh, const std::vector<char>& skip_face)
   return table;
 }
 
-std::vector<char> duplicate_or_index_degenerate_faces(const Mesh& mesh, std::size_t* duplicates) {
+bool pair_faces_around_edge(const Mesh& mesh, const EdgeTable& edges, std::size_t begin,
+                            std::size_t end,
+                            std::vector<std::pair<std::uint32_t, std::uint32_t>>& pairs) {
+  pairs.clear();
+  const std::size_t n = end - begin;
+  if (n < 4 || n % 2 != 0) return false;
+  const HalfEdge& e0 = edges.half_edges[begin];
+  const Vec3 p = mesh.vertices_mm[e0.lo];
+  const Vec3 d = (mesh.vertices_mm[e0.hi] - p).normalized();
+  if (!d.allFinite()) return false;
+  // Each face's angle about the edge (its third corner's direction across it). A face that
+  // runs lo -> hi has its outward normal along d x r, towards growing angles: the body lies
+  // at smaller angles and the face closes its wedge; one running hi -> lo opens a wedge.
+  struct Around {
+    double angle;
+    bool closes;
+    std::uint32_t face;
+  };
+  std::vector<Around> around;
+  around.reserve(n);
+  Vec3 u = Vec3::Zero();
+  Vec3 w = Vec3::Zero();
+  std::size_t closing = 0;
+  for (std::size_t i = begin; i < end; ++i) {
+    const HalfEdge& e = edges.half_edges[i];
+    const auto& t = mesh.triangles[e.face];
+    const std::uint32_t c =
+        t[0] != e.lo && t[0] != e.hi ? t[0] : (t[1] != e.lo && t[1] != e.hi ? t[1] : t[2]);
+    Vec3 r = mesh.vertices_mm[c] - p;
+    r -= r.dot(d) * d;
+    if (!(r.norm() > 0)) return false;  // a face without width about the edge
+    if (i == begin) {
+      u = r.normalized();
+      w = d.cross(u);
+    }
+    around.push_back({std::atan2(r.dot(w), r.dot(u)), e.forward != 0, e.face});
+    closing += e.forward != 0 ? 1 : 0;
+  }
+  if (2 * closing != n) return false;
+  // At equal angles a wedge closes before the next one opens (bodies touching face to face).
+  // Faces of two bodies lying in one plane have angles equal up to the rounding of their
+  // corners: angles closer than kCoplanarRad count as equal. The sequence starts after the
+  // widest gap, so that no such group straddles its start.
+  constexpr double kCoplanarRad = 1e-3;
+  constexpr double kTwoPi = 6.283185307179586;
+  std::sort(around.begin(), around.end(),
+            [](const Around& a, const Around& b) { return a.angle < b.angle; });
+  std::size_t widest = 0;
+  double widest_gap = around.front().angle + kTwoPi - around.back().angle;
+  for (std::size_t i = 1; i < n; ++i)
+    if (around[i].angle - around[i - 1].angle > widest_gap) {
+      widest_gap = around[i].angle - around[i - 1].angle;
+      widest = i;
+    }
+  std::rotate(around.begin(), around.begin() + static_cast<std::ptrdiff_t>(widest), around.end());
+  for (std::size_t i = 0; i < n;) {
+    std::size_t j = i + 1;
+    while (j < n && std::remainder(around[j].angle - around[j - 1].angle, kTwoPi) < kCoplanarRad)
+      ++j;
+    std::stable_partition(around.begin() + static_cast<std::ptrdiff_t>(i),
+                          around.begin() + static_cast<std::ptrdiff_t>(j),
+                          [](const Around& a) { return a.closes; });
+    i = j;
+  }
+  std::size_t s = 0;
+  while (around[s].closes) ++s;
+  for (std::size_t k = 0; k < n; k += 2) {
+    const Around& open = around[(s + k) % n];
+    const Around& close = around[(s + k + 1) % n];
+    if (open.closes || !close.closes) {
+      pairs.clear();
+      return false;
+    }
+    pairs.emplace_back(open.face, close.face);
+  }
+  return true;
+}
+
+std::vector<char> duplicate_or_index_degenerate_faces(
+    const Mesh& mesh, std::size_t* duplicates,
+    std::vector<std::pair<std::uint32_t, std::uint32_t>>* reverse_twins) {
   const std::size_t n = mesh.triangles.size();
   const std::size_t nv = mesh.vertices_mm.size();
   std::vector<char> skip(n, 0);
@@ -101,25 +182,39 @@ std::vector<char> duplicate_or_index_degenerate_faces(const Mesh& mesh, std::siz
     const auto t = sorted(f);
     keys[next[t[0]]++] = {t, static_cast<std::uint32_t>(f)};
   }
+  // Within one vertex set, in face order: the first face stays, every repeat is marked; a
+  // repeat running the other way is a reverse twin of the face that stays.
+  const auto same_way = [&](std::uint32_t f, std::uint32_t g) {
+    const auto& a = mesh.triangles[f];
+    const auto& b = mesh.triangles[g];
+    const std::size_t k = b[0] == a[0] ? 0 : (b[1] == a[0] ? 1 : 2);
+    return b[(k + 1) % 3] == a[1];
+  };
   std::size_t dup = 0;
+  const auto repeat = [&](std::uint32_t staying, std::uint32_t f) {
+    ++dup;
+    skip[f] = 1;
+    if (reverse_twins != nullptr && !same_way(staying, f)) reverse_twins->emplace_back(staying, f);
+  };
   for (std::size_t v = 0; v < nv; ++v) {
     const auto first = keys.begin() + start[v];
     const auto last = keys.begin() + start[v + 1];
     if (last - first < 2) continue;  // no repeat possible (and no first + 1 past an empty run)
     if (last - first > 32) {         // a large fan: sorted by vertex set, faces ascending in a set
       std::sort(first, last);
-      for (auto i = first + 1; i < last; ++i)
-        if (i->first == (i - 1)->first) {
-          skip[i->second] = 1;
-          ++dup;
-        }
+      auto staying = first;
+      for (auto i = first + 1; i < last; ++i) {
+        if (i->first != staying->first)
+          staying = i;
+        else
+          repeat(staying->second, i->second);
+      }
       continue;
     }
     for (auto i = first + 1; i < last; ++i)
       for (auto j = first; j < i; ++j)
         if (j->first == i->first) {
-          skip[i->second] = 1;
-          ++dup;
+          repeat(j->second, i->second);
           break;
         }
   }
@@ -127,11 +222,52 @@ std::vector<char> duplicate_or_index_degenerate_faces(const Mesh& mesh, std::siz
   return skip;
 }
 
+std::vector<char> faces_left_out(const Mesh& mesh, std::size_t* duplicates) {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> twins;
+  std::vector<char> skip = duplicate_or_index_degenerate_faces(mesh, duplicates, &twins);
+  if (twins.empty()) return skip;
+  // Faces with a reverse twin, joined across the edges they share: one contact patch where
+  // two bodies touch face to face. A patch with an edge shared by more than two faces (its
+  // border, where each body's own faces go on) takes its twins in, so that the faces pair
+  // up around those edges, each body with its own.
+  const EdgeTable edges = build_edge_table(mesh, skip);
+  const std::size_t nf = mesh.triangles.size();
+  std::vector<char> twinned(nf, 0);
+  for (const auto& [f, g] : twins) twinned[f] = 1;
+  UnionFind patch(nf);
+  for (const auto& [begin, end] : edges.groups) {
+    std::uint32_t first = UINT32_MAX;
+    for (std::size_t i = begin; i < end; ++i) {
+      const std::uint32_t f = edges.half_edges[i].face;
+      if (twinned[f] == 0) continue;
+      if (first == UINT32_MAX)
+        first = f;
+      else
+        patch.unite(first, f);
+    }
+  }
+  std::vector<char> crowded(nf, 0);
+  for (const auto& [begin, end] : edges.groups)
+    if (end - begin > 2)
+      for (std::size_t i = begin; i < end; ++i) {
+        const std::uint32_t f = edges.half_edges[i].face;
+        if (twinned[f] != 0) crowded[patch.find(f)] = 1;
+      }
+  for (const auto& [f, g] : twins)
+    if (crowded[patch.find(f)] != 0) skip[g] = 0;
+  return skip;
+}
+
 ShellTable compute_shells(const Mesh& mesh, const std::vector<char>& skip, const EdgeTable& edges) {
   const std::size_t nf = mesh.triangles.size();
   UnionFind uf(nf);
   std::vector<char> open_face(nf, 0);
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
   for (const auto& [begin, end] : edges.groups) {
+    if (end - begin > 2 && pair_faces_around_edge(mesh, edges, begin, end, pairs)) {
+      for (const auto& [f, g] : pairs) uf.unite(f, g);  // touching bodies stay apart
+      continue;
+    }
     for (std::size_t i = begin + 1; i < end; ++i)
       uf.unite(edges.half_edges[begin].face, edges.half_edges[i].face);
     if (end - begin != 2)
@@ -176,7 +312,7 @@ ShellTable compute_shells(const Mesh& mesh, const std::vector<char>& skip, const
 }
 
 std::size_t flip_inverted_shells(Mesh& mesh) {
-  const std::vector<char> skip = duplicate_or_index_degenerate_faces(mesh, nullptr);
+  const std::vector<char> skip = faces_left_out(mesh, nullptr);
   const ShellTable table = compute_shells(mesh, skip, build_edge_table(mesh, skip));
   std::size_t flipped = 0;
   for (const auto& s : table.shells) flipped += s.inverted ? 1 : 0;
@@ -216,7 +352,7 @@ MeshHealth analyze_mesh_health(const Mesh& mesh) {
 
   // Duplicates and faces with a repeated index stay out of the edge analysis: each is
   // reported once as such, not again as the non-manifold or open edges it would cause.
-  const std::vector<char> skip = duplicate_or_index_degenerate_faces(mesh, &h.duplicate_faces);
+  const std::vector<char> skip = faces_left_out(mesh, &h.duplicate_faces);
   const EdgeTable edges = build_edge_table(mesh, skip);
 
   UnionFind corners(3 * nf);  // fans around each vertex, joined across manifold edges
@@ -228,6 +364,7 @@ MeshHealth analyze_mesh_health(const Mesh& mesh) {
   auto midpoint = [&](const HalfEdge& e) {
     return Vec3(0.5 * (mesh.vertices_mm[e.lo] + mesh.vertices_mm[e.hi]));
   };
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
   for (const auto& [begin, end] : edges.groups) {
     const HalfEdge& e0 = edges.half_edges[begin];
     const std::size_t count = end - begin;
@@ -241,6 +378,12 @@ MeshHealth analyze_mesh_health(const Mesh& mesh) {
       if (e0.forward == e1.forward) {
         if (h.inconsistent_edges == 0) h.first_inconsistent_edge_mm = midpoint(e0);
         ++h.inconsistent_edges;
+      }
+    } else if (pair_faces_around_edge(mesh, edges, begin, end, pairs)) {
+      ++h.touching_edges;
+      for (const auto& [f, g] : pairs) {
+        corners.unite(corner_of(f, e0.lo), corner_of(g, e0.lo));
+        corners.unite(corner_of(f, e0.hi), corner_of(g, e0.hi));
       }
     } else {
       if (h.non_manifold_edges == 0) h.first_non_manifold_edge_mm = midpoint(e0);

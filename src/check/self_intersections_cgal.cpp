@@ -544,7 +544,8 @@ SelfIntersections find_self_intersections(const Mesh& mesh, std::size_t max_loca
   // Fans are one closed cycle each only on a closed, consistently oriented, manifold mesh.
   // PRINTTWIN_PLAIN=check_fans tests every pair instead (bench/RESULTS.md).
   const bool manifold = health != nullptr && health->closed && health->inconsistent_edges == 0 &&
-                        health->non_manifold_vertices == 0 && health->duplicate_faces == 0;
+                        health->non_manifold_vertices == 0 && health->duplicate_faces == 0 &&
+                        health->touching_edges == 0;
   // A surface star-shaped about a point meets itself nowhere: no pair to test
   // (PRINTTWIN_PLAIN=check_star tests them).
   if (manifold && !detail::plain_path("check_star") && detail::star_shaped_surface(mesh))

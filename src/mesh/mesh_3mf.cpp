@@ -249,6 +249,7 @@ struct Object {
   std::vector<Vec3> vertices;
   std::vector<Triangle> triangles;
   std::vector<Reference> components;
+  std::size_t beams = 0;  ///< <beam> elements (beam lattice extension: not triangles)
 };
 
 struct ModelFile {
@@ -289,6 +290,7 @@ class ModelParser {
     if (tag.name == "mesh") in_mesh_ = object_ != nullptr && !tag.self_closing;
     if (object_ != nullptr && in_mesh_ && tag.name == "vertex") return read_vertex(tag);
     if (object_ != nullptr && in_mesh_ && tag.name == "triangle") return read_triangle(tag);
+    if (object_ != nullptr && in_mesh_ && tag.name == "beam") ++object_->beams;
     if (object_ != nullptr && tag.name == "component") {
       auto ref = read_reference(tag, "component");
       if (!ref) return ref.error();
@@ -384,6 +386,82 @@ class ModelParser {
   bool in_mesh_ = false;
 };
 
+// --- the slicers' parts ------------------------------------------------------------------
+// PrusaSlicer keeps an object's volumes (its parts, modifiers, negative volumes, support
+// blockers and enforcers) as ranges of the object's triangles, typed in
+// Metadata/Slic3r_PE_model.config: <object id="1"><volume firstid="0" lastid="11">
+// <metadata type="volume" key="volume_type" value="ParameterModifier"/> (before 2.4:
+// key="modifier" value="1"). Bambu Studio and OrcaSlicer make each part a component of the
+// object and type it in Metadata/model_settings.config: <object id="2"><part id="1"
+// subtype="modifier_part"> (id: the component's objectid). Only the printed parts are solid.
+
+constexpr std::string_view kPrusaVolumesEntry = "Metadata/Slic3r_PE_model.config";
+constexpr std::string_view kBambuPartsEntry = "Metadata/model_settings.config";
+
+struct SlicerParts {
+  /// Triangle ranges [first, last] of a root model object that are not printed parts.
+  std::map<std::uint32_t, std::vector<std::pair<std::size_t, std::size_t>>> dropped_ranges;
+  /// (object, component objectid) pairs that are not printed parts.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> dropped_components;
+
+  [[nodiscard]] bool drops_component(std::uint32_t object, std::uint32_t component) const {
+    return std::find(dropped_components.begin(), dropped_components.end(),
+                     std::make_pair(object, component)) != dropped_components.end();
+  }
+};
+
+/// Reads the volume and part types of both slicers' configs (the entries that are present).
+Result<SlicerParts> read_slicer_parts(std::string_view archive, const std::string& name) {
+  SlicerParts parts;
+  for (const std::string_view entry : {kPrusaVolumesEntry, kBambuPartsEntry}) {
+    auto bytes = zip_entry(archive, std::string(entry), name);
+    if (!bytes) return bytes.error();
+    if (!*bytes) continue;
+    TagScanner scan(**bytes);
+    Tag tag;
+    std::uint32_t object = 0;
+    std::optional<std::pair<std::size_t, std::size_t>> volume;
+    std::string volume_type;
+    const auto end_volume = [&] {
+      if (volume && volume_type != "ModelPart") parts.dropped_ranges[object].push_back(*volume);
+      volume.reset();
+    };
+    while (scan.next(tag)) {
+      if (tag.closing) {
+        if (tag.name == "volume") end_volume();
+        continue;
+      }
+      if (tag.name == "object") {
+        if (!parse_index(tag.get("id").value_or(""), object)) object = 0;
+      } else if (tag.name == "volume") {
+        std::uint32_t first = 0;
+        std::uint32_t last = 0;
+        if (parse_index(tag.get("firstid").value_or(""), first) &&
+            parse_index(tag.get("lastid").value_or(""), last))
+          volume = std::make_pair(std::size_t{first}, std::size_t{last});
+        volume_type = "ModelPart";
+        if (tag.self_closing) end_volume();
+      } else if (tag.name == "metadata" && volume) {
+        const std::string_view key = trimmed(tag.get("key").value_or(""));
+        const std::string_view value = trimmed(tag.get("value").value_or(""));
+        if (key == "volume_type") volume_type = std::string(value);
+        if (key == "modifier" && value == "1" && volume_type == "ModelPart")
+          volume_type = "ParameterModifier";
+      } else if (tag.name == "part") {
+        std::uint32_t id = 0;
+        const auto subtype = tag.get("subtype");
+        if (subtype && trimmed(*subtype) != "normal_part" &&
+            parse_index(tag.get("id").value_or(""), id))
+          parts.dropped_components.emplace_back(object, id);
+      }
+    }
+    if (!scan.error().empty())
+      return bad_input(
+          std::string(entry) + ", line " + std::to_string(scan.line()) + ": " + scan.error(), name);
+  }
+  return parts;
+}
+
 /// The root model's entry, from the package relationships (the default path without them).
 Result<std::string> root_model_entry(std::string_view archive, const std::string& name) {
   auto rels = zip_entry(archive, "_rels/.rels", name);
@@ -404,7 +482,8 @@ Result<std::string> root_model_entry(std::string_view archive, const std::string
 /// The package's model files, read when first referenced, and the placed triangles.
 class Package {
  public:
-  Package(std::string_view archive, const std::string& name) : archive_(archive), name_(name) {}
+  Package(std::string_view archive, const std::string& name, SlicerParts parts)
+      : archive_(archive), name_(name), parts_(std::move(parts)) {}
 
   /// Reads model file `entry` from `bytes` (once).
   Result<const ModelFile*> add(const std::string& entry, std::string_view bytes) {
@@ -451,26 +530,38 @@ class Package {
     const Object& object = it->second;
     if (!object.part) return Ok{};
     const Affine world = placement * ref.transform;
-    append(object, world, out);
+    // The slicers type the parts of the objects that build items place.
+    const bool item = path_.empty();
+    static const std::vector<std::pair<std::size_t, std::size_t>> kNone;
+    const auto dropped = item ? parts_.dropped_ranges.find(ref.id) : parts_.dropped_ranges.end();
+    append(object, world, dropped == parts_.dropped_ranges.end() ? kNone : dropped->second, out);
     if (out.triangles.size() > kMaxTriangles || ++placements_ > kMaxPlacements)
       return bad_input("the components expand to more than " + std::to_string(kMaxTriangles) +
                            " triangles or " + std::to_string(kMaxPlacements) + " placed objects",
                        name_);
     path_.push_back(key);
-    for (const auto& c : object.components)
+    for (const auto& c : object.components) {
+      if (item && parts_.drops_component(ref.id, c.id)) continue;
       if (auto st = place(c, ref.entry, world, out); !st) return st.error();
+    }
     path_.pop_back();
     return Ok{};
   }
 
  private:
-  /// The object's own triangles, mapped by `world`; a mirroring transform reverses their
-  /// corner order so that the faces still point out of the solid.
-  static void append(const Object& object, const Affine& world, Mesh& out) {
+  /// The object's own triangles but those in `dropped` ranges, mapped by `world`; a
+  /// mirroring transform reverses their corner order so that the faces still point out of
+  /// the solid.
+  static void append(const Object& object, const Affine& world,
+                     const std::vector<std::pair<std::size_t, std::size_t>>& dropped, Mesh& out) {
     const auto base = static_cast<std::uint32_t>(out.vertices_mm.size());
     for (const auto& p : object.vertices) out.vertices_mm.push_back(world * p);
     const bool mirrored = world.linear().determinant() < 0;
-    for (const auto& t : object.triangles) {
+    for (std::size_t i = 0; i < object.triangles.size(); ++i) {
+      if (std::any_of(dropped.begin(), dropped.end(),
+                      [i](const auto& r) { return i >= r.first && i <= r.second; }))
+        continue;
+      const Triangle& t = object.triangles[i];
       if (mirrored)
         out.triangles.push_back({base + t[0], base + t[2], base + t[1]});
       else
@@ -481,42 +572,34 @@ class Package {
   std::string_view archive_;
   const std::string& name_;
   std::map<std::string, ModelFile> files_;
+  SlicerParts parts_;
   std::vector<std::pair<std::string, std::uint32_t>> path_;
   std::size_t placements_ = 0;
 };
 
-/// True when the archive holds more than one model file (only then can one reference another).
-Result<bool> several_model_files(std::string_view archive, const std::string& name) {
-  auto names = zip_entry_names(archive, name);
-  if (!names) return names.error();
-  std::size_t models = 0;
-  for (const auto& n : *names) {
-    std::string tail = n.size() >= 6 ? n.substr(n.size() - 6) : n;
-    std::transform(tail.begin(), tail.end(), tail.begin(),
-                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    if (tail == ".model") ++models;
-  }
-  return models > 1;
-}
 }  // namespace
 
-Result<std::optional<Mesh>> read_3mf_with_components(std::string_view archive, double scale,
-                                                     const std::string& name) {
-  auto several = several_model_files(archive, name);
-  if (!several) return several.error();
-  if (!*several) return std::optional<Mesh>();
+/// Beams of the objects in `model`, for the message of a package without triangles.
+std::size_t beam_count(const ModelFile& model) {
+  std::size_t n = 0;
+  for (const auto& [id, object] : model.objects) n += object.beams;
+  return n;
+}
+
+Result<Mesh> read_3mf(std::string_view archive, double scale, const std::string& name) {
   auto root_entry = root_model_entry(archive, name);
   if (!root_entry) return root_entry.error();
-  // A root model that names no other model file (no p:path) is left to assimp; so is one
-  // that is missing (assimp's error says so).
   auto root_bytes = zip_entry(archive, *root_entry, name);
   if (!root_bytes) return root_bytes.error();
-  if (!*root_bytes || (*root_bytes)->find("path") == std::string::npos)
-    return std::optional<Mesh>();
-  Package package(archive, name);
+  if (!*root_bytes)
+    return bad_input("the root model '/" + *root_entry +
+                         "' (named by _rels/.rels, or 3MF's default) is not in the archive",
+                     name);
+  auto parts = read_slicer_parts(archive, name);
+  if (!parts) return parts.error();
+  Package package(archive, name, std::move(*parts));
   auto root = package.add(*root_entry, **root_bytes);
   if (!root) return root.error();
-  if (!(*root)->references_other_files) return std::optional<Mesh>();
 
   Mesh mesh;
   std::size_t left_out = 0;
@@ -532,9 +615,21 @@ Result<std::optional<Mesh>> read_3mf_with_components(std::string_view archive, d
     return bad_input(*root_entry + ": every build item is marked printable=\"0\" (" +
                          std::to_string(left_out) + " left out), nothing to print",
                      name);
+  if (mesh.triangles.empty()) {
+    const std::size_t beams = beam_count(**root);
+    return bad_input(
+        "the file holds no triangles, expected a mesh (" + *root_entry + ": " +
+            std::to_string((*root)->items.size()) + " build items" +
+            (beams > 0 ? "; " + std::to_string(beams) +
+                             " beams of the beam lattice extension, which printtwin does not "
+                             "read"
+                       : "") +
+            ")",
+        name);
+  }
   const double mm = (*root)->mm_per_unit * scale;
   for (auto& p : mesh.vertices_mm) p *= mm;
-  return std::optional<Mesh>(std::move(mesh));
+  return mesh;
 }
 
 }  // namespace printtwin::detail

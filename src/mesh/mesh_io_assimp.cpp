@@ -1,7 +1,9 @@
 // The only file that includes assimp: loads any supported mesh format into a Mesh. OFF and
 // PLY are read here (assimp's readers trust their headers' counts and abort or leak on
-// malformed files); STL is validated here and then read by assimp, OBJ, 3MF and AMF by
-// assimp behind a container check and its structure validation.
+// malformed files); STL is validated here and then read by assimp, OBJ and AMF by
+// assimp behind a container check and its structure validation. 3MF is read by printtwin
+// (mesh_3mf.cpp): assimp's 3MF reader frees memory twice or crashes on real packages
+// (slices, production and PrusaSlicer/3MF Consortium files) and reads unreferenced objects.
 //
 // assimp is forgiving to a fault: it reads an ASCII STL full of garbage as "some triangles",
 // and a binary STL whose header promises more triangles than the file holds as a shorter
@@ -39,7 +41,7 @@
 #include "printtwin/mesh.hpp"
 
 // assimp checks its own invariants with ai_assert, whose failure calls this function and
-// then abort(): a malformed 3MF (a package whose root model cannot be opened) reaches one.
+// then abort(): a malformed file (a 3MF whose root model could not be opened did) reaches one.
 // printtwin defines the function itself, so that the dynamic linker binds assimp's calls to
 // this definition: the failure becomes an exception, which assimp's importer catches and
 // turns into an error (the import returns no scene), and load_mesh reports it as bad input
@@ -640,7 +642,9 @@ Result<Mesh> read_off(std::string_view text, double s, const std::string& name) 
 // here instead, every count, length and index checked against the file:
 //   ply / format ascii|binary_little_endian|binary_big_endian 1.0 / comment, obj_info
 //   element <name> <count> / property <type> <name> / property list <type> <type> <name>
-//   end_header, then the elements in header order.
+//   end_header, then the elements in header order; other header lines are free text.
+// ASCII PLY holds one element per line: values a line holds past its element's properties
+// (VCG/MeshLab files whose face lines carry more than their header declares) are skipped.
 // Vertices are the `vertex` element's x, y, z; faces the `face` element's `vertex_indices`
 // (or `vertex_index`) lists, split into fans; other elements and properties are skipped.
 
@@ -791,9 +795,9 @@ Result<PlyHeader> read_ply_header(std::string_view bytes, const std::string& nam
             name, at);
       p.name = std::string(tok.back().substr(0, 40));
       elements.back().properties.push_back(std::move(p));
-    } else {
-      return bad_input("PLY: unknown header line '" + shown(line) + "'", name, at);
     }
+    // Any other line is free text: Blender 2.4x's exporter wrote its credit line ("Created by
+    // Blender3D 247 - www.blender.org, source file: ...") without 'comment'.
   }
   if (body == std::string_view::npos)
     return bad_input("PLY: the header has no 'end_header'", name, lines.line());
@@ -835,6 +839,11 @@ struct PlyValues {
       return bad_input("PLY: " + where() + " has a NaN or infinite value", name,
                        format == 0 ? std::optional<long>(ascii_line) : std::nullopt);
     return Ok{};
+  }
+  /// ASCII: skips what the current line holds past the element just read.
+  void end_line() {
+    if (format != 0) return;
+    while (pos < end && *pos != '\n') ++pos;
   }
 };
 
@@ -911,6 +920,7 @@ Status read_ply_element(const PlyElement& e, double s, PlyValues& in, std::vecto
           mesh.triangles.push_back({corners[0], corners[j], corners[j + 1]});
     }
     if (is_vertex) points.emplace_back(s * c[0], s * c[1], s * c[2]);
+    in.end_line();
   }
   return Ok{};
 }
@@ -1025,10 +1035,10 @@ Result<Mesh> load_mesh_from_memory(std::string_view bytes, const fs::path& path,
     return finish_mesh(std::move(*mesh), s, name);
   }
   if (auto st = check_container(bytes, ext, name); !st) return st.error();
-  if (ext == ".3mf") {  // projects whose objects live in other model files (p:path)
-    auto components = detail::read_3mf_with_components(bytes, s, name);
-    if (!components) return components.error();
-    if (*components) return finish_mesh(welded_copy(**components), s, name);
+  if (ext == ".3mf") {
+    auto mesh = detail::read_3mf(bytes, s, name);
+    if (!mesh) return mesh.error();
+    return finish_mesh(welded_copy(*mesh), s, name);
   }
 
   Assimp::last_assertion.clear();

@@ -147,6 +147,92 @@ TEST(CheckHealth, NonManifoldVertexWhereTwoCubesTouch) {
   EXPECT_EQ(r.health.self_intersections, 0U);
 }
 
+/// `m` with vertices at the same position joined (first use keeps its index order).
+Mesh welded_by_position(const Mesh& m) {
+  std::map<std::array<double, 3>, std::uint32_t> index;
+  Mesh out;
+  std::vector<std::uint32_t> to(m.vertices_mm.size());
+  for (std::size_t v = 0; v < m.vertices_mm.size(); ++v) {
+    const Vec3& p = m.vertices_mm[v];
+    const auto [it, added] = index.try_emplace({p.x(), p.y(), p.z()},
+                                               static_cast<std::uint32_t>(out.vertices_mm.size()));
+    if (added) out.vertices_mm.push_back(p);
+    to[v] = it->second;
+  }
+  for (const auto& t : m.triangles) out.triangles.push_back({to[t[0]], to[t[1]], to[t[2]]});
+  return out;
+}
+
+TEST(CheckHealth, BodiesTouchingFaceToFaceAreClosedShells) {
+  // Two 10 mm cubes side by side in one file, welded where they touch at x = 10, as
+  // multi-body STLs are (Voron's multibody parts): four faces meet at each edge of the
+  // shared square. Once with B's contact face the exact reverse of A's (duplicate faces),
+  // once triangulated across the other diagonal.
+  const Mesh a = test::make_cube_mm(10);
+  const Mesh b = test::make_cube_mm(10, Vec3(10, 0, 0));
+  const auto on_contact = [](const Mesh& m, const std::array<std::uint32_t, 3>& t) {
+    return std::all_of(t.begin(), t.end(),
+                       [&](std::uint32_t v) { return m.vertices_mm[v].x() == 10.0; });
+  };
+  for (const bool twins : {true, false}) {
+    SCOPED_TRACE(twins ? "reverse twins" : "other diagonal");
+    Mesh m = welded_by_position(merged(a, b));
+    std::vector<std::array<std::uint32_t, 3>> a_contact;
+    std::vector<std::array<std::uint32_t, 3>> kept;
+    for (std::size_t f = 0; f < m.triangles.size(); ++f) {
+      const auto& t = m.triangles[f];
+      if (!on_contact(m, t)) {
+        kept.push_back(t);
+      } else if (f < a.triangles.size()) {
+        a_contact.push_back(t);
+        kept.push_back(t);
+      }
+    }
+    ASSERT_EQ(a_contact.size(), 2U);
+    if (twins) {
+      for (const auto& t : a_contact) kept.push_back({t[0], t[2], t[1]});
+    } else {
+      // The corner both of A's contact faces leave out of their shared diagonal.
+      std::map<std::uint32_t, int> uses;
+      for (const auto& t : a_contact)
+        for (auto v : t) ++uses[v];
+      std::vector<std::uint32_t> diagonal;
+      std::vector<std::uint32_t> other;
+      for (const auto& [v, n] : uses) (n == 2 ? diagonal : other).push_back(v);
+      ASSERT_EQ(diagonal.size(), 2U);
+      ASSERT_EQ(other.size(), 2U);
+      for (const std::uint32_t d : diagonal) {
+        std::array<std::uint32_t, 3> t = {other[0], other[1], d};
+        const Vec3 n = (m.vertices_mm[t[1]] - m.vertices_mm[t[0]])
+                           .cross(m.vertices_mm[t[2]] - m.vertices_mm[t[0]]);
+        if (n.x() > 0) std::swap(t[1], t[2]);  // B's face points to -x
+        kept.push_back(t);
+      }
+    }
+    m.triangles = kept;
+    ASSERT_EQ(m.triangles.size(), 24U);
+    const MeshHealth h = analyze_mesh_health(m);
+    EXPECT_TRUE(h.closed);
+    EXPECT_EQ(h.shells, 2U);
+    EXPECT_EQ(h.non_manifold_edges, 0U);
+    // The square's four sides; with reverse twins also its diagonal (four faces there too).
+    EXPECT_EQ(h.touching_edges, twins ? 5U : 4U);
+    EXPECT_EQ(h.boundary_edges + h.inconsistent_edges + h.inverted_shells, 0U);
+    EXPECT_EQ(h.duplicate_faces, twins ? 2U : 0U);
+    EXPECT_NEAR(h.volume_mm3, 2000.0, 1e-9);
+    const CheckReport r = run(m);
+    EXPECT_TRUE(r.printable);
+    for (const auto& f : r.findings) EXPECT_NE(f.severity, Severity::error) << f.code << f.message;
+    const Finding* shells = find(r, "multiple_shells");
+    ASSERT_NE(shells, nullptr);
+    EXPECT_NE(shells->message.find("touch along " + std::to_string(h.touching_edges) + " edges"),
+              std::string::npos)
+        << shells->message;
+  }
+  // A third face on an edge (a fin) stays a non-manifold edge, and one reversed repeat of a
+  // face of a single body stays a duplicate (CheckHealth.NonManifoldEdge, .DuplicateFace).
+}
+
 TEST(CheckHealth, DegenerateFace) {
   Mesh m = test::make_cube_mm(10);
   m.vertices_mm.emplace_back(5, 0, 0);  // on the edge 0-1

@@ -318,14 +318,20 @@ std::vector<Case> corpus() {
                },
                3,
                {"cut.3mf", "not a complete zip archive"}});
-  // Found by fuzzing: a zip whose package relations name no readable model reached an
-  // assertion inside assimp (an abort); assimp's assertions are errors now.
+  // The package relationships name a root model the archive lacks.
   c.push_back({"3MF package without its root model",
-               [](const fs::path&) {
-                 return "check " + q(test::source_path("tests/data/mesh/no_root_model.3mf"));
+               [](const fs::path& d) {
+                 put(d / "noroot.3mf",
+                     test::make_zip({{"_rels/.rels",
+                                      "<Relationships><Relationship Target=\"/3D/part.model\" "
+                                      "Type=\"http://schemas.microsoft.com/3dmanufacturing/2013/01/"
+                                      "3dmodel\"/></Relationships>"},
+                                     {"3D/3dmodel.model", "<model/>"}},
+                                    true));
+                 return "check " + q(d / "noroot.3mf");
                },
                3,
-               {"no_root_model.3mf", "cannot read mesh", "mRootStream"}});
+               {"noroot.3mf", "root model '/3D/part.model'", "is not in the archive"}});
   // A Bambu Studio / OrcaSlicer project whose component names a model file it lacks.
   c.push_back(
       {"3MF component naming a model file the archive lacks",

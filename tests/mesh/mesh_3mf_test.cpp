@@ -1,6 +1,7 @@
-// 3MF projects whose objects live in other model files of the archive (the production
-// extension's p:path, as Bambu Studio and OrcaSlicer save them): components followed and
-// their transforms composed, build items placed, units converted, one error per bad input.
+// 3MF packages, read by printtwin: objects in the root model or in other model files of the
+// archive (the production extension's p:path, as Bambu Studio and OrcaSlicer save them),
+// components followed and their transforms composed, build items placed, units converted,
+// the slicers' modifier parts left out, one error per bad input.
 #include <gtest/gtest.h>
 
 #include <string>
@@ -26,17 +27,15 @@ constexpr const char* kModelOpen =
  <resources>
 )";
 
-/// The unit cube scaled by `edge` as <object id=..>, written as a Bambu object file does,
-/// with the XML variations a scanner must take: ' quotes, attributes in another order, a
-/// comment holding a tag, white space around '='.
-std::string cube_object(int id, double edge, const std::string& type = "model") {
-  const std::string e = format_number(edge);
-  std::string s = "  <object id=\"" + std::to_string(id) + "\" type='" + type + "'>\n   <mesh>\n" +
-                  "    <vertices>\n     <!-- <vertex x=\"99\" y=\"99\" z=\"99\"/> -->\n";
+/// The vertices of the unit cube scaled by `edge` and moved `dx` along x, written with the
+/// XML variations a scanner must take: ' quotes, attributes in another order, white space
+/// around '='.
+std::string cube_vertices(double edge, double dx = 0) {
+  std::string s;
   for (int k = 0; k < 8; ++k) {
-    const std::string x = (k & 1) != 0 ? e : "0";
-    const std::string y = (k & 2) != 0 ? e : "0";
-    const std::string z = (k & 4) != 0 ? e : "0";
+    const std::string x = format_number((k & 1) != 0 ? edge + dx : dx);
+    const std::string y = (k & 2) != 0 ? format_number(edge) : "0";
+    const std::string z = (k & 4) != 0 ? format_number(edge) : "0";
     std::string v = k % 2 == 0 ? "     <vertex x=\"X\" y=\"Y\" z=\"Z\"/>\n"
                                : "     <vertex z='Z' x = 'X' y='Y' />\n";
     v.replace(v.find('X'), 1, x);
@@ -44,15 +43,35 @@ std::string cube_object(int id, double edge, const std::string& type = "model") 
     v.replace(v.find('Z'), 1, z);
     s += v;
   }
-  s += "    </vertices>\n    <triangles>\n";
-  // Outward faces of the cube whose vertex k has x = bit 0, y = bit 1, z = bit 2.
+  return s;
+}
+
+/// The cube's 12 outward triangles, its vertex k (x = bit 0, y = bit 1, z = bit 2) being
+/// vertex `base` + k of the object.
+std::string cube_triangles(int base = 0) {
   static constexpr int kFaces[12][3] = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6},
                                         {0, 1, 4}, {1, 5, 4}, {2, 6, 3}, {3, 6, 7},
                                         {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+  std::string s;
   for (const auto& f : kFaces)
-    s += "     <triangle v1=\"" + std::to_string(f[0]) + "\" v2=\"" + std::to_string(f[1]) +
-         "\" v3=\"" + std::to_string(f[2]) + "\"/>\n";
-  return s + "    </triangles>\n   </mesh>\n  </object>\n";
+    s += "     <triangle v1=\"" + std::to_string(base + f[0]) + "\" v2=\"" +
+         std::to_string(base + f[1]) + "\" v3=\"" + std::to_string(base + f[2]) + "\"/>\n";
+  return s;
+}
+
+/// An object of `vertices` and `triangles`, written as a Bambu object file does (with a
+/// comment holding a tag).
+std::string mesh_object(int id, const std::string& vertices, const std::string& triangles,
+                        const std::string& type = "model") {
+  return "  <object id=\"" + std::to_string(id) + "\" type='" + type + "'>\n   <mesh>\n" +
+         "    <vertices>\n     <!-- <vertex x=\"99\" y=\"99\" z=\"99\"/> -->\n" + vertices +
+         "    </vertices>\n    <triangles>\n" + triangles + "    </triangles>\n   </mesh>\n" +
+         "  </object>\n";
+}
+
+/// The unit cube scaled by `edge` as <object id=..>.
+std::string cube_object(int id, double edge, const std::string& type = "model") {
+  return mesh_object(id, cube_vertices(edge), cube_triangles(), type);
 }
 
 /// A model file: `resources` (objects) and `build` (items) inside the usual frame.
@@ -263,13 +282,99 @@ TEST(Mesh3mf, BrokenXmlIsAnError) {
       {"3D/Objects/o.model", "is not closed"});
 }
 
-TEST(Mesh3mf, PackageWithoutOtherModelFilesStaysWithAssimp) {
-  // The same cube in the root model itself (PrusaSlicer's and Cura's layout).
-  const std::string root = model(cube_object(1, 10), item(1, translate(5, 0, 0)));
+TEST(Mesh3mf, OnlyBuildItemsOfTheRootModelArePrinted) {
+  // PrusaSlicer's and Cura's layout: the objects in the root model itself. Object 3 is
+  // defined but no item places it (3MF core: not printed); object 4 is an assembly of
+  // object 1 twice within the same file, as the 3MF Consortium's samples are.
+  const std::string root = model(
+      cube_object(1, 10) + cube_object(3, 50) +
+          assembly(4, component(1, "", translate(0, 0, 0)) + component(1, "", translate(20, 0, 0))),
+      item(1, translate(5, 0, 0)) + item(4, translate(0, 30, 0)));
   const Mesh m = load(package(root, {}));
-  EXPECT_NEAR(signed_volume_mm3(m), 1000.0, 1e-9);
-  expect_box(m, Vec3(5, 0, 0), Vec3(15, 10, 10));
+  EXPECT_NEAR(signed_volume_mm3(m), 3000.0, 1e-9);
+  expect_box(m, Vec3(0, 0, 0), Vec3(30, 40, 10));
 }
 
+TEST(Mesh3mf, FuzzedPackageReadsThroughItsCentralDirectory) {
+  // A package of the fuzz corpus (a local header damaged, the central directory sound) that
+  // assimp's reader took for one without a root model.
+  auto fuzzed = load_mesh(test::source_path("tests/data/mesh/no_root_model.3mf"));
+  ASSERT_TRUE(fuzzed.ok()) << fuzzed.error().describe();
+  EXPECT_EQ(fuzzed->triangles.size(), 4U);
+}
+
+/// One object of two cubes (a 10 mm part at the origin, a 4 mm cube at x = 20 mm) and its
+/// Metadata/Slic3r_PE_model.config typing the second `volume` as PrusaSlicer does.
+std::string prusa_project(const std::string& volume_metadata) {
+  const std::string two = mesh_object(1, cube_vertices(10) + cube_vertices(4, 20),
+                                      cube_triangles(0) + cube_triangles(8));
+  const std::string config =
+      "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<config>\n <object id=\"1\" "
+      "instances_count=\"1\">\n  <metadata type=\"object\" key=\"name\" value=\"part\"/>\n"
+      "  <volume firstid=\"0\" lastid=\"11\">\n   <metadata type=\"volume\" "
+      "key=\"volume_type\" value=\"ModelPart\"/>\n  </volume>\n  <volume firstid=\"12\" "
+      "lastid=\"23\">\n" +
+      volume_metadata + "  </volume>\n </object>\n</config>\n";
+  return package(model(two, item(1, translate(0, 0, 0))),
+                 {{"Metadata/Slic3r_PE_model.config", config}});
+}
+
+TEST(Mesh3mf, PrusaSlicerModifierVolumesAreLeftOut) {
+  for (const char* type :
+       {"ParameterModifier", "NegativeVolume", "SupportBlocker", "SupportEnforcer"}) {
+    const Mesh m = load(
+        prusa_project(std::string("   <metadata type=\"volume\" key=\"volume_type\" value=\"") +
+                      type + "\"/>\n"));
+    EXPECT_EQ(m.triangles.size(), 12U) << type;
+    expect_box(m, Vec3(0, 0, 0), Vec3(10, 10, 10));
+  }
+  // Before PrusaSlicer 2.4 a modifier was key="modifier" value="1".
+  EXPECT_EQ(load(prusa_project("   <metadata type=\"volume\" key=\"modifier\" value=\"1\"/>\n"))
+                .triangles.size(),
+            12U);
+  // A second printed part stays.
+  const Mesh both = load(
+      prusa_project("   <metadata type=\"volume\" key=\"volume_type\" value=\"ModelPart\"/>\n"));
+  EXPECT_EQ(both.triangles.size(), 24U);
+  EXPECT_NEAR(signed_volume_mm3(both), 1064.0, 1e-9);
+}
+
+TEST(Mesh3mf, BambuModifierPartsAreLeftOut) {
+  // Object 2 of the root: part 1 (the 10 mm cube) and part 3 (a 4 mm cube), both in
+  // 3D/Objects/object_1.model; Metadata/model_settings.config types part 3.
+  const std::string root =
+      model(assembly(2, component(1, "/3D/Objects/object_1.model", translate(0, 0, 0)) +
+                            component(3, "/3D/Objects/object_1.model", translate(20, 0, 0))),
+            item(2, translate(0, 0, 0)));
+  const std::string parts = model(cube_object(1, 10) + cube_object(3, 4));
+  for (const char* subtype :
+       {"modifier_part", "negative_part", "support_blocker", "support_enforcer"}) {
+    const std::string config =
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<config>\n  <object id=\"2\">\n"
+        "    <part id=\"1\" subtype=\"normal_part\"/>\n    <part id=\"3\" subtype=\"" +
+        std::string(subtype) + "\">\n      <metadata key=\"name\" value=\"m\"/>\n    </part>\n" +
+        "  </object>\n</config>\n";
+    const Mesh m = load(package(
+        root, {{"3D/Objects/object_1.model", parts}, {"Metadata/model_settings.config", config}}));
+    EXPECT_EQ(m.triangles.size(), 12U) << subtype;
+    expect_box(m, Vec3(0, 0, 0), Vec3(10, 10, 10));
+  }
+  EXPECT_EQ(load(package(root, {{"3D/Objects/object_1.model", parts}})).triangles.size(), 24U);
+}
+
+TEST(Mesh3mf, PackageWithoutTrianglesOrRootModelIsAnError) {
+  // A beam lattice (3MF's beam extension): beams, no triangles.
+  const std::string lattice =
+      "  <object id=\"1\" type=\"model\">\n   <mesh>\n    <vertices>\n"
+      "     <vertex x=\"0\" y=\"0\" z=\"0\"/>\n     <vertex x=\"0\" y=\"0\" z=\"9\"/>\n"
+      "    </vertices>\n    <triangles/>\n    <b:beamlattice radius=\"1\" minlength=\"0.1\">\n"
+      "     <b:beams>\n      <b:beam v1=\"0\" v2=\"1\"/>\n     </b:beams>\n"
+      "    </b:beamlattice>\n   </mesh>\n  </object>\n";
+  expect_error(package(model(lattice, item(1, translate(0, 0, 0))), {}),
+               {"holds no triangles", "1 beams of the beam lattice"});
+  expect_error(package(model(cube_object(1, 10)), {}), {"holds no triangles", "0 build items"});
+  expect_error(test::make_zip({{"_rels/.rels", kRels}, {"3D/other.model", "<model/>"}}, true),
+               {"root model '/3D/3dmodel.model'", "is not in the archive"});
+}
 }  // namespace
 }  // namespace printtwin

@@ -388,6 +388,36 @@ TEST_F(MeshIoTest, TextFormatsAfterAByteOrderMark) {
   }
 }
 
+TEST_F(MeshIoTest, PlyHeaderFreeTextAndLongAsciiLinesAreTolerated) {
+  // Blender 2.4x wrote its credit line into the header without 'comment'; VCG/MeshLab files
+  // carry values past their header's properties at the end of a face line. Both read as the
+  // same tetrahedron as the plain file.
+  const std::string head = "ply\nformat ascii 1.0\n";
+  const std::string elements =
+      "element vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 4\nproperty list uchar int vertex_indices\nproperty uchar red\nend_header\n"
+      "0 0 0\n10 0 0\n0 10 0\n0 0 10\n";
+  const std::string faces = "3 0 2 1 7\n3 0 1 3 7\n3 0 3 2 7\n3 1 2 3 7\n";
+  auto plain = load_mesh_from_memory(head + elements + faces, "t.ply");
+  ASSERT_TRUE(plain.ok()) << plain.error().describe();
+  EXPECT_EQ(plain->triangles.size(), 4U);
+  auto blender = load_mesh_from_memory(
+      head + "Created by Blender3D 247 - www.blender.org, source file: 't.blend'\n" + elements +
+          faces,
+      "t.ply");
+  ASSERT_TRUE(blender.ok()) << blender.error().describe();
+  EXPECT_EQ(blender->triangles, plain->triangles);
+  EXPECT_EQ(blender->vertices_mm, plain->vertices_mm);
+  auto longer = load_mesh_from_memory(
+      head + elements + "3 0 2 1 7 9 1 1 1\n3 0 1 3 7 9 1\n3 0 3 2 7\n3 1 2 3 7 0.5 0.25\n",
+      "t.ply");
+  ASSERT_TRUE(longer.ok()) << longer.error().describe();
+  EXPECT_EQ(longer->triangles, plain->triangles);
+  // A line short of its element's values is still an error.
+  auto shorter = load_mesh_from_memory(head + elements + "3 0 2 1 7\n3 0 1\n", "t.ply");
+  ASSERT_FALSE(shorter.ok());
+}
+
 /// Vertices are numbered in order of first use; -0 and +0 are one coordinate; sub-meshes
 /// (OBJ objects) share the vertices they have in common.
 TEST_F(MeshIoTest, WeldKeepsFirstUseOrderAndJoinsAcrossSubMeshes) {
