@@ -232,9 +232,11 @@ Result<std::vector<LayerOutline>> slice_layers(const Mesh& mesh, const SliceSett
     const Vec3& p2 = V[t[2]];
     const double zmin = std::min({p0.z(), p1.z(), p2.z()});
     const double zmax = std::max({p0.z(), p1.z(), p2.z()});
-    // Layers with zmin <= z < zmax (a vertex on the plane counts as above it).
+    // Layers with zmin <= z <= zmax. A vertex on the plane counts as above it, so a
+    // triangle whose top corner lies on the plane is cut there too (a segment of zero
+    // length): its neighbours' segments end on its edges, and the loop must run through it.
     auto lo = std::lower_bound(slice_z.begin(), slice_z.end(), zmin);
-    auto hi = std::lower_bound(slice_z.begin(), slice_z.end(), zmax);
+    auto hi = std::upper_bound(slice_z.begin(), slice_z.end(), zmax);
     for (auto it = lo; it != hi; ++it) {
       const double z = *it;
       const bool above[3] = {p0.z() >= z, p1.z() >= z, p2.z() >= z};

@@ -136,6 +136,47 @@ TEST(SliceLayers, HoleIsClockwiseAndAreaMatches) {
   EXPECT_NEAR(total, 400.0 - 100.0, 0.01);
 }
 
+TEST(SliceLayers, VerticesOnASlicingPlaneGiveTheWholeOutline) {
+  // A 10 mm box whose sides have a ring of vertices exactly at a slicing plane (z = 2.625:
+  // 0.25 mm layers cut at 0.125 + 0.25 k, all exact in binary). The triangles below the ring
+  // have their top corners on the plane: they must be cut there too, or the layer loses its
+  // outline (CAD and scanned meshes put vertices on round heights all the time).
+  Mesh m;
+  const double zs[3] = {0.0, 2.625, 5.0};
+  const double xy[4][2] = {{0, 0}, {10, 0}, {10, 10}, {0, 10}};
+  for (double z : zs)
+    for (const auto& c : xy) m.vertices_mm.emplace_back(c[0], c[1], z);
+  auto at = [](int ring, int corner) { return static_cast<std::uint32_t>(ring * 4 + corner % 4); };
+  for (int ring = 0; ring < 2; ++ring)
+    for (int c = 0; c < 4; ++c) {  // outward: counter-clockwise seen from outside
+      m.triangles.push_back({at(ring, c), at(ring, c + 1), at(ring + 1, c + 1)});
+      m.triangles.push_back({at(ring, c), at(ring + 1, c + 1), at(ring + 1, c)});
+    }
+  m.triangles.push_back({at(0, 0), at(0, 2), at(0, 1)});  // bottom, facing down
+  m.triangles.push_back({at(0, 0), at(0, 3), at(0, 2)});
+  m.triangles.push_back({at(2, 0), at(2, 1), at(2, 2)});  // top, facing up
+  m.triangles.push_back({at(2, 0), at(2, 2), at(2, 3)});
+  ASSERT_NEAR(signed_volume_mm3(m), 500.0, 1e-9);
+  SliceSettings s = no_time();
+  s.first_layer_height_mm = 0.25;
+  s.layer_height_mm = 0.25;
+  auto layers = slice_layers(place_on_bed(m, 110, 110), s);
+  ASSERT_TRUE(layers.ok()) << layers.error().describe();
+  ASSERT_EQ(layers->size(), 20u);
+  const LayerOutline& ring = (*layers)[10];
+  ASSERT_EQ(ring.slice_z_mm, 2.625);
+  ASSERT_EQ(ring.polygons.size(), 1u);
+  EXPECT_EQ(ring.closed_gaps, 0);
+  double a = 0;
+  const auto& p = ring.polygons[0];
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const auto& u = p[i];
+    const auto& v = p[(i + 1) % p.size()];
+    a += double(u.x_um) * double(v.y_um) - double(v.x_um) * double(u.y_um);
+  }
+  EXPECT_NEAR(a * 0.5e-6, 100.0, 1e-6);
+}
+
 TEST(SliceLayers, OpenMeshIsAnError) {
   Mesh cube = test::make_cube_mm(10.0);
   cube.triangles.pop_back();
