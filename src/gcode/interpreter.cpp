@@ -554,6 +554,9 @@ void GcodeInterpreter::emit(const Vec3& target_logical_in, double e_delta_mm, do
     for (int i = 0; i < 3; ++i) {
       const auto ui = static_cast<std::size_t>(i);
       if (target[i] < lo[i] - 1e-9 || target[i] > hi[i] + 1e-9) {
+        // M211 switched the software endstops of a homed axis off: the move runs as written
+        // (Bambu's start and end codes park beyond the printable travel that way).
+        if (homed_[ui] && !soft_endstops_[ui]) continue;
         const double c = std::clamp(target[i], lo[i], hi[i]);
         if (homed_[ui] && profile_.software_endstops)
           clamped = true;
@@ -1243,6 +1246,7 @@ Status GcodeInterpreter::execute_g(const GcodeCommand& c, std::string_view text,
     case 380:  // Bambu: probing move towards the bed
     case 150:  // Bambu: nozzle wipe / load
     case 39:   // Bambu: nozzle-to-bed calibration
+    case 392:  // Bambu: nozzle clog detection on/off (G392 S0/S1, each layer on the A1)
       return Ok{};
     case 17:
       return Ok{};
@@ -1362,6 +1366,20 @@ bool ignored_m_code(int code) {
     case 32:
     case 81:
     case 928:
+    // Marlin settings that start codes send: hotend and bed PID (M301, M304), power-loss
+    // recovery (M413), probe servo and deploy/stow (M280, M401, M402), power on (M80),
+    // pins (M42), endstops on/off (M120, M121), controller fan (M710).
+    case 301:
+    case 304:
+    case 413:
+    case 280:
+    case 401:
+    case 402:
+    case 80:
+    case 42:
+    case 120:
+    case 121:
+    case 710:
     // Prusa firmware: printer/nozzle checks (M862.x), print area (M555), stepper mode
     // (M569), input shaper (M593), pressure advance (M572, also RRF), heatbreak fan (M142),
     // mass estimate (M74), fan and LED settings.
@@ -1390,6 +1408,8 @@ bool ignored_m_code(int code) {
     case 624:
     case 625:
     case 412:
+    case 630:   // Bambu A1: motor state reset (M630 S0 P0)
+    case 9833:  // Bambu A1: M9833.2 at the top of its start code
       return true;
     default:
       return code >= 960 && code <= 991;  // Bambu: lidar, vibration and flow calibrations
@@ -1478,15 +1498,26 @@ Status GcodeInterpreter::execute_m(const GcodeCommand& c, std::string_view text,
       }
       return Ok{};
     }
+    case 211:
+      soft_endstops(c, true);
+      return Ok{};
     case 221: {
       // Flow only with a number, as Marlin reads it. Bambu's firmware also takes "M221 S"
       // (push the soft endstops' state), "M221 R" (pop it) and "M221 X0 Y0 Z0" (soft
-      // endstops off): no flow change.
+      // endstops off), as its M211: no flow change.
+      soft_endstops(c, false);
       if (c.has_value('S')) {
         const double s = c.get('S');
         if (s < 0 || s > 1000)
           return warn(c.line, text, "flow percentage outside 0..1000; ignored", "bad_parameter");
         flow_ = s / 100.0;
+        if (s != 100)
+          note("flow_override",
+               "M221 S" + format_fixed(s, s == std::floor(s) ? 0 : 2) +
+                   " scales every extrusion after it (the firmware's flow factor): the twin "
+                   "lays that share of the E the file commands, while the slicer's filament "
+                   "figure counts the E as written",
+               c.line);
       }
       return Ok{};
     }
@@ -1512,6 +1543,23 @@ Status GcodeInterpreter::execute_m(const GcodeCommand& c, std::string_view text,
     default:
       return ignored_m_code(c.code) ? Status(Ok{}) : unknown_command(c);
   }
+}
+
+/// M211 (and Bambu's M221 forms without a flow): software endstops. S0/S1 switch every axis
+/// (Marlin's M211; `s_switches_all`), X0/Y0/Z0 switch axes, a bare S pushes the state and R
+/// pops it (Bambu's firmware).
+void GcodeInterpreter::soft_endstops(const GcodeCommand& c, bool s_switches_all) {
+  if (c.has('S') && !c.has_value('S'))
+    soft_endstop_stack_.push_back(soft_endstops_);
+  else if (s_switches_all && c.has_value('S'))
+    soft_endstops_.fill(c.get('S') != 0);
+  if (c.has('R') && !soft_endstop_stack_.empty()) {
+    soft_endstops_ = soft_endstop_stack_.back();
+    soft_endstop_stack_.pop_back();
+  }
+  static constexpr char kAxes[3] = {'X', 'Y', 'Z'};
+  for (std::size_t i = 0; i < 3; ++i)
+    if (c.has_value(kAxes[i])) soft_endstops_[i] = c.get(kAxes[i]) != 0;
 }
 
 /// M104/M109 (hotend) and M140/M190 (bed): set the target, and for M109/M190 wait for it.

@@ -135,6 +135,30 @@ TEST(FlavourPrusa, StartCodeOfAnMk4sRunsWithoutErrorsOrUnknownCommands) {
   EXPECT_NEAR(r.filament_mm, 2.0, 1e-9);
 }
 
+TEST(FlavourMarlin, StartCodeSettingsAreAcceptedQuietly) {
+  // Start codes that set PID values, power-loss recovery and the probe before printing.
+  const auto r =
+      sim(std::string("M301 P24.63 I2.05 D74.05\nM304 P134.53 I26.22 D460.11\n") +
+          "M413 S0\nM80\nM140 S60\nM104 S200\nM190 S60\nM109 S200\nG28\n" +
+          "M280 P0 S160\nM401\nM402\nM42 P4 S255\nM120\nM121\nM710 S255\nM83\n" + square(0.2));
+  expect_clean(r);
+  EXPECT_NEAR(r.filament_mm, 2.0, 1e-9);
+}
+
+TEST(FlavourMarlin, M221FlowScalesTheExtrusionAndSaysSo) {
+  // Prusa MINI start codes set "M221 S95": the printer lays 95 % of the commanded E, which
+  // the slicer's filament figure does not include.
+  const auto r = sim("G28\nM104 S200\nM109 S200\nM83\nM221 S95\n" + square(0.2));
+  EXPECT_NEAR(r.filament_mm, 0.95 * 2.0, 1e-9);
+  const Finding* flow = find(r, "flow_override");
+  ASSERT_NE(flow, nullptr);
+  EXPECT_EQ(flow->severity, Severity::info);
+  EXPECT_NE(flow->message.find("M221 S95 "), std::string::npos) << flow->message;
+  // Back to 100 % says nothing.
+  EXPECT_EQ(find(sim("G28\nM104 S200\nM109 S200\nM83\nM221 S100\n" + square(0.2)), "flow_override"),
+            nullptr);
+}
+
 TEST(FlavourPrusa, M862ChecksTheNozzleAndTheModelLikeTheFirmware) {
   PrinterProfile mk4s = with_firmware("prusa");
   mk4s.model = "Original Prusa MK4S";
@@ -372,10 +396,37 @@ TEST(FlavourBambu, VendorCommandsAreAcceptedQuietly) {
       "M1002 judge_flag g29_before_print_flag\nM622 J1\nG29.1 Z0\nG29.2 S0\nM623\nM960 S5 P1\n"
       "M971 S11 C10 O0\nM975 S1\nM981 S1 P20000\nM991 S0 P0\nG380 S2 Z-0.1 F300\nM412 S1\n"
       "M963 S1\nM964\nM969 S1 N3 A2000\nM977 S1 P60\nM984 A0.1 E1 S1 F2 H0.4\n"
-      "M1006 A0 B10 L100 C37 D10 M60 E37 F10 N60\nM1007 S1\nG28\nM109 S220\nM83\n" +
+      "M1006 A0 B10 L100 C37 D10 M60 E37 F10 N60\nM1007 S1\nG392 S0\nM630 S0 P0\n"
+      "M9833.2\nG28\nM109 S220\nM83\n" +
       square(0.2);
   const auto r = sim(text, with_firmware("bambu"));
   expect_clean(r);
+}
+
+TEST(FlavourBambu, M211SwitchesTheSoftEndstopsPerAxisWithAStack) {
+  // Bambu's start and end codes switch the soft endstops off (per axis, the state pushed
+  // with a bare S and popped with R) to park beyond the printable travel.
+  const PrinterProfile p = with_firmware("bambu");
+  const std::string beyond = "G0 X" + std::to_string(p.travel_max_x_mm + 5) + " F6000\n";
+  const std::string start = "G28\nM109 S220\nM83\n";
+  const auto off = sim(start + "M211 S\nM211 X0 Y0 Z0\n" + beyond + square(0.2), p);
+  EXPECT_EQ(find(off, "out_of_bounds"), nullptr);
+  expect_clean(off);
+  // The X1's start code says the same with M221 (its flow stays 100 %).
+  const auto x1 = sim(start + "M221 S\nM221 X0 Y0 Z0\n" + beyond + square(0.2), p);
+  EXPECT_EQ(find(x1, "out_of_bounds"), nullptr);
+  EXPECT_NEAR(x1.filament_mm, 2.0, 1e-9);
+  // Popped back on: the same move is clamped at the travel's end.
+  const auto popped = sim(start + "M211 S\nM211 X0 Y0 Z0\nM211 R\n" + beyond + square(0.2), p);
+  EXPECT_NE(find(popped, "out_of_bounds"), nullptr);
+  // Marlin's M211 S0 / S1 switch every axis; Y left on stays clamped.
+  EXPECT_EQ(find(sim(start + "M211 S0\n" + beyond + square(0.2)), "out_of_bounds"), nullptr);
+  EXPECT_NE(find(sim(start + "M211 S0\nM211 S1\n" + beyond + square(0.2)), "out_of_bounds"),
+            nullptr);
+  EXPECT_NE(find(sim(start + "M211 X0\nG0 Y" + std::to_string(p.travel_max_y_mm + 5) + " F6000\n" +
+                     square(0.2)),
+                 "out_of_bounds"),
+            nullptr);
 }
 
 TEST(FlavourBambu, G28XHomesXyAndALiftBeforeHomingIsQuiet) {
