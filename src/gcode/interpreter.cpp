@@ -165,6 +165,19 @@ Status GcodeInterpreter::warn_input(const Error& problem) {
   return Ok{};
 }
 
+namespace {
+/// The major version of a Cura slicer tag ("Cura_SteamEngine 5.9.0" -> 5), 0 otherwise.
+int cura_major_version(std::string_view slicer) {
+  if (!starts_with(slicer, "Cura")) return 0;
+  const auto sp = slicer.find(' ');
+  if (sp == std::string_view::npos) return 0;
+  int v = 0;
+  const char* first = slicer.data() + sp + 1;
+  std::from_chars(first, slicer.data() + slicer.size(), v);
+  return v;
+}
+}  // namespace
+
 Status GcodeInterpreter::finish(bool ended_mid_line, long last_line) {
   if (markers_expected_ && !marker_seen_ && filament_mm_ > 0) {
     // A marking slicer's file without a single layer marker (stripped or post-processed):
@@ -175,6 +188,28 @@ Status GcodeInterpreter::finish(bool ended_mid_line, long last_line) {
     f.message = slicer_ +
                 " marks its layers but the file has no layer marker: the twin counts no "
                 "layers (per-layer figures are empty; time and filament are complete)";
+    f.line = last_line;
+    add_finding(std::move(f));
+  }
+  // The closing lines a slicer writes after the end code are missing: the file was cut
+  // (an upload or a copy that stopped). The printer would stop there, mid-part.
+  const bool slic3r_family = starts_with(slicer_, "PrusaSlicer") ||
+                             starts_with(slicer_, "SuperSlicer") || starts_with(slicer_, "Slic3r");
+  const char* missing = nullptr;
+  if (executable_block_open_ && !executable_block_closed_)
+    missing = "\"; EXECUTABLE_BLOCK_END\"";
+  else if (!executable_block_open_ && cura_major_version(slicer_) >= 2 &&
+           cura_major_version(slicer_) < 15 && !cura_end_seen_)  // Cura 2 to 5, not 15.04
+    missing = "\";End of Gcode\"";
+  else if (!executable_block_open_ && slic3r_family && !filament_used_seen_)
+    missing = "\"; filament used\"";
+  if (missing != nullptr) {
+    Finding f;
+    f.severity = Severity::warning;
+    f.code = "truncated_file";
+    f.message = "the file ends at line " + std::to_string(last_line) + " without the " + missing +
+                " line that " + slicer_ +
+                " writes after the end code: it was cut, and a printer would stop there";
     f.line = last_line;
     add_finding(std::move(f));
   }
@@ -391,6 +426,10 @@ void GcodeInterpreter::slicer_tag(std::string_view c) {
 void GcodeInterpreter::comment(std::string_view c) {
   // Slicer tags: features, widths, objects, layer markers (docs/gcode-coverage.md).
   if (c.empty()) return;
+  if (c == "EXECUTABLE_BLOCK_START") executable_block_open_ = true;
+  if (c == "EXECUTABLE_BLOCK_END") executable_block_closed_ = true;
+  if (c == "End of Gcode") cura_end_seen_ = true;
+  if (starts_with(c, "filament used")) filament_used_seen_ = true;
   double v = 0;
   switch (c.front()) {
     case 'T':
@@ -962,8 +1001,9 @@ Status GcodeInterpreter::start_macro(const GcodeCommand& c, std::string_view tex
   // slicer's settings, else to an assumed printing temperature. What else the macro does
   // (bed mesh, purge line) is not known to the twin.
   double hotend = std::numeric_limits<double>::quiet_NaN(), bed = hotend;
-  for (std::string_view key : {"EXTRUDER_TEMP", "EXTRUDER", "HOTEND_TEMP", "HOTEND", "NOZZLE_TEMP",
-                               "NOZZLE", "TOOL_TEMP", "EXTRUDER_TEMPERATURE", "TEMP"}) {
+  for (std::string_view key :
+       {"EXTRUDER_TEMP", "EXTRUDER", "HOTEND_TEMP", "HOTEND", "NOZZLE_TEMP", "NOZZLE", "TOOL_TEMP",
+        "EXTRUDER_TEMPERATURE", "EXT_TEMP", "HOTEND_TEMPERATURE", "NOZZLE_TEMPERATURE", "TEMP"}) {
     double v = 0;
     if (std::isnan(hotend) && macro_arg(c.args, key, v)) hotend = v;
   }

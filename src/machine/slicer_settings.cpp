@@ -143,27 +143,30 @@ bool is_motion(std::string_view command) {
   return num.empty() || num == "1" || num == "2" || num == "3" || num == "28";
 }
 
-/// The name of a Klipper extended command ("PRINT_START", "BED_MESH_CALIBRATE",
+/// The name of a Klipper extended command ("PRINT_START", "bed_mesh_calibrate",
 /// "SET_PRESSURE_ADVANCE ADVANCE=0.04"), or "" for any other line. Klipper runs such
-/// words (its macros and commands); Marlin and RepRapFirmware reject them, and RRF's own
-/// words (echo, var, if, ...) are lower case. An upper-case word with an underscore, or of
-/// five letters or more, is taken for one.
+/// words (its macros and commands, in any case); Marlin and RepRapFirmware reject them.
+/// A word with an underscore, or an upper-case word of five letters or more, is taken for
+/// one: RRF's own words (echo, var, set, if) are short, lower case and have none.
 std::string_view klipper_extended_command(std::string_view command) {
   const std::size_t end = std::min(command.find_first_of(" \t;"), command.size());
   const std::string_view word = command.substr(0, end);
-  if (word.size() < 3 || std::isupper(static_cast<unsigned char>(word.front())) == 0) return {};
-  bool underscore = false, digit = false;
+  if (word.size() < 3 || std::isalpha(static_cast<unsigned char>(word.front())) == 0) return {};
+  bool underscore = false, digit = false, lower = false;
   for (const char c : word) {
+    const auto u = static_cast<unsigned char>(c);
     if (c == '_')
       underscore = true;
-    else if (std::isdigit(static_cast<unsigned char>(c)) != 0)
+    else if (std::isdigit(u) != 0)
       digit = true;
-    else if (std::isupper(static_cast<unsigned char>(c)) == 0)
+    else if (std::islower(u) != 0)
+      lower = true;
+    else if (std::isupper(u) == 0)
       return {};
   }
-  // G1, M104, T0 and the like are letters then digits: never a word of this kind.
-  if (!underscore && (digit || word.size() < 5)) return {};
+  // G1, M104, T0 and the like are a letter then digits: never a word of this kind.
   if (std::isdigit(static_cast<unsigned char>(word[1])) != 0) return {};
+  if (!underscore && (digit || lower || word.size() < 5)) return {};
   return word;
 }
 
