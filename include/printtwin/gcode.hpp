@@ -207,6 +207,7 @@ class GcodeInterpreter {
   Status unknown_command(const GcodeCommand& c);
   Status g10_g11(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
   void set_position(const GcodeCommand& c);
+  void soft_endstops(const GcodeCommand& c, bool s_switches_all);
   Status set_temperature(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
   Status set_axis_limits(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
   Status set_rrf_jerk(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
@@ -247,6 +248,11 @@ class GcodeInterpreter {
   double fw_recover_extra_mm_ = 0, fw_zraise_mm_ = 0;
   // Layer markers.
   bool markers_expected_ = false;  ///< the header names a slicer that writes layer markers
+  /// What the slicer writes after the end code, to tell a file that was cut: Bambu, Orca and
+  /// Creality Print close "; EXECUTABLE_BLOCK_START" with "_END", Cura writes ";End of
+  /// Gcode", PrusaSlicer and its family "; filament used".
+  bool executable_block_open_ = false, executable_block_closed_ = false;
+  bool cura_end_seen_ = false, filament_used_seen_ = false;
   bool marker_seen_ = false;
   bool layer_pending_ = false;  ///< a marker was seen; its layer starts at the next extrusion
   double pending_layer_z_ = 0;  ///< NaN: Z of the first extrusion
@@ -258,6 +264,10 @@ class GcodeInterpreter {
   bool relative_xyz_ = false, relative_e_ = false;
   bool inches_ = false;
   std::array<bool, 3> homed_{false, false, false};
+  /// M211: software endstops per axis (Marlin switches all; Bambu's firmware switches them
+  /// per axis and keeps a stack: "M211 S" pushes the state, "M211 R" pops it).
+  std::array<bool, 3> soft_endstops_{true, true, true};
+  std::vector<std::array<bool, 3>> soft_endstop_stack_;
   double feedrate_mm_s_ = 0;        ///< modal F (mm/s)
   double flow_ = 1.0;               ///< M221
   double volumetric_area_mm2_ = 0;  ///< M200: 0 = off

@@ -43,6 +43,10 @@ struct SlicerSettings {
     long line = 0;  ///< 1-based line in the file (0 when not from a text file)
   };
   std::vector<Entry> entries;
+  /// The first Klipper extended command in the head or tail ("PRINT_START"), "" if none:
+  /// the file runs on Klipper whatever flavour it states (Cura has no Klipper flavour).
+  std::string klipper_command;
+  long klipper_command_line = 0;
 
   void add(std::string key, std::string value, long line = 0);
   /// The last value of `key` (config blocks may repeat a header key; the block wins).

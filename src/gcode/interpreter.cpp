@@ -166,6 +166,19 @@ Status GcodeInterpreter::warn_input(const Error& problem) {
   return Ok{};
 }
 
+namespace {
+/// The major version of a Cura slicer tag ("Cura_SteamEngine 5.9.0" -> 5), 0 otherwise.
+int cura_major_version(std::string_view slicer) {
+  if (!starts_with(slicer, "Cura")) return 0;
+  const auto sp = slicer.find(' ');
+  if (sp == std::string_view::npos) return 0;
+  int v = 0;
+  const char* first = slicer.data() + sp + 1;
+  std::from_chars(first, slicer.data() + slicer.size(), v);
+  return v;
+}
+}  // namespace
+
 Status GcodeInterpreter::finish(bool ended_mid_line, long last_line) {
   if (markers_expected_ && !marker_seen_ && filament_mm_ > 0) {
     // A marking slicer's file without a single layer marker (stripped or post-processed):
@@ -179,18 +192,36 @@ Status GcodeInterpreter::finish(bool ended_mid_line, long last_line) {
     f.line = last_line;
     add_finding(std::move(f));
   }
-  if (const auto layers = static_cast<long>(layer_z_.size());
-      slicer_layer_count_ > 0 && layers < slicer_layer_count_ - 1) {
-    // The header states the layer count (Orca family, Cura) and the file stops short of it
-    // (one layer of slack: Cura counts one more than it marks). A cut download or upload:
-    // the printer would print only the layers that are there.
+  // A cut file (an upload or a copy that stopped): the printer would stop there, mid-part.
+  // Two signs: fewer layers than the slicer's header announces (Orca family, Cura; one layer
+  // of slack, as Cura counts one more than it marks on some files), an error; or the closing
+  // lines a slicer writes after the end code are missing, a warning.
+  const bool slic3r_family = starts_with(slicer_, "PrusaSlicer") ||
+                             starts_with(slicer_, "SuperSlicer") || starts_with(slicer_, "Slic3r");
+  const char* missing = nullptr;
+  if (executable_block_open_ && !executable_block_closed_)
+    missing = "\"; EXECUTABLE_BLOCK_END\"";
+  else if (!executable_block_open_ && cura_major_version(slicer_) >= 2 &&
+           cura_major_version(slicer_) < 15 && !cura_end_seen_)  // Cura 2 to 5, not 15.04
+    missing = "\";End of Gcode\"";
+  else if (!executable_block_open_ && slic3r_family && !filament_used_seen_)
+    missing = "\"; filament used\"";
+  const auto layers = static_cast<long>(layer_z_.size());
+  const bool short_of_layers = slicer_layer_count_ > 0 && layers < slicer_layer_count_ - 1;
+  if (short_of_layers || missing != nullptr) {
     Finding f;
-    f.severity = Severity::error;
+    f.severity = short_of_layers ? Severity::error : Severity::warning;
     f.code = "truncated_file";
-    f.message = "the slicer's header announces " + std::to_string(slicer_layer_count_) +
-                " layers but the file ends after " + std::to_string(layers) + " (line " +
-                std::to_string(last_line) + (ended_mid_line ? ", without a newline" : "") +
-                "): it was cut short, and the rest of the print is missing";
+    f.message = short_of_layers
+                    ? "the slicer's header announces " + std::to_string(slicer_layer_count_) +
+                          " layers but the file ends after " + std::to_string(layers) + " (line " +
+                          std::to_string(last_line) +
+                          (ended_mid_line ? ", without a newline" : "") + ")"
+                    : "the file ends at line " + std::to_string(last_line);
+    if (missing != nullptr)
+      f.message += std::string(short_of_layers ? " and" : "") + " without the " + missing +
+                   " line that " + slicer_ + " writes after the end code";
+    f.message += ": it was cut, and a printer would stop there";
     f.line = last_line;
     add_finding(std::move(f));
   }
@@ -421,6 +452,10 @@ void GcodeInterpreter::slicer_tag(std::string_view c) {
 void GcodeInterpreter::comment(std::string_view c) {
   // Slicer tags: features, widths, objects, layer markers (docs/gcode-coverage.md).
   if (c.empty()) return;
+  if (c == "EXECUTABLE_BLOCK_START") executable_block_open_ = true;
+  if (c == "EXECUTABLE_BLOCK_END") executable_block_closed_ = true;
+  if (c == "End of Gcode") cura_end_seen_ = true;
+  if (starts_with(c, "filament used")) filament_used_seen_ = true;
   double v = 0;
   switch (c.front()) {
     case 'T':
@@ -584,6 +619,9 @@ void GcodeInterpreter::emit(const Vec3& target_logical_in, double e_delta_mm, do
     for (int i = 0; i < 3; ++i) {
       const auto ui = static_cast<std::size_t>(i);
       if (target[i] < lo[i] - 1e-9 || target[i] > hi[i] + 1e-9) {
+        // M211 switched the software endstops of a homed axis off: the move runs as written
+        // (Bambu's start and end codes park beyond the printable travel that way).
+        if (homed_[ui] && !soft_endstops_[ui]) continue;
         const double c = std::clamp(target[i], lo[i], hi[i]);
         if (homed_[ui] && profile_.software_endstops)
           clamped = true;
@@ -989,8 +1027,9 @@ Status GcodeInterpreter::start_macro(const GcodeCommand& c, std::string_view tex
   // slicer's settings, else to an assumed printing temperature. What else the macro does
   // (bed mesh, purge line) is not known to the twin.
   double hotend = std::numeric_limits<double>::quiet_NaN(), bed = hotend;
-  for (std::string_view key : {"EXTRUDER_TEMP", "EXTRUDER", "HOTEND_TEMP", "HOTEND", "NOZZLE_TEMP",
-                               "NOZZLE", "TOOL_TEMP", "EXTRUDER_TEMPERATURE", "TEMP"}) {
+  for (std::string_view key :
+       {"EXTRUDER_TEMP", "EXTRUDER", "HOTEND_TEMP", "HOTEND", "NOZZLE_TEMP", "NOZZLE", "TOOL_TEMP",
+        "EXTRUDER_TEMPERATURE", "EXT_TEMP", "HOTEND_TEMPERATURE", "NOZZLE_TEMPERATURE", "TEMP"}) {
     double v = 0;
     if (std::isnan(hotend) && macro_arg(c.args, key, v)) hotend = v;
   }
@@ -1273,6 +1312,7 @@ Status GcodeInterpreter::execute_g(const GcodeCommand& c, std::string_view text,
     case 380:  // Bambu: probing move towards the bed
     case 150:  // Bambu: nozzle wipe / load
     case 39:   // Bambu: nozzle-to-bed calibration
+    case 392:  // Bambu: nozzle clog detection on/off (G392 S0/S1, each layer on the A1)
       return Ok{};
     case 17:
       return Ok{};
@@ -1392,6 +1432,20 @@ bool ignored_m_code(int code) {
     case 32:
     case 81:
     case 928:
+    // Marlin settings that start codes send: hotend and bed PID (M301, M304), power-loss
+    // recovery (M413), probe servo and deploy/stow (M280, M401, M402), power on (M80),
+    // pins (M42), endstops on/off (M120, M121), controller fan (M710).
+    case 301:
+    case 304:
+    case 413:
+    case 280:
+    case 401:
+    case 402:
+    case 80:
+    case 42:
+    case 120:
+    case 121:
+    case 710:
     // Prusa firmware: printer/nozzle checks (M862.x), print area (M555), stepper mode
     // (M569), input shaper (M593), pressure advance (M572, also RRF), heatbreak fan (M142),
     // mass estimate (M74), fan and LED settings.
@@ -1420,6 +1474,8 @@ bool ignored_m_code(int code) {
     case 624:
     case 625:
     case 412:
+    case 630:   // Bambu A1: motor state reset (M630 S0 P0)
+    case 9833:  // Bambu A1: M9833.2 at the top of its start code
       return true;
     default:
       return code >= 960 && code <= 991;  // Bambu: lidar, vibration and flow calibrations
@@ -1508,15 +1564,26 @@ Status GcodeInterpreter::execute_m(const GcodeCommand& c, std::string_view text,
       }
       return Ok{};
     }
+    case 211:
+      soft_endstops(c, true);
+      return Ok{};
     case 221: {
       // Flow only with a number, as Marlin reads it. Bambu's firmware also takes "M221 S"
       // (push the soft endstops' state), "M221 R" (pop it) and "M221 X0 Y0 Z0" (soft
-      // endstops off): no flow change.
+      // endstops off), as its M211: no flow change.
+      soft_endstops(c, false);
       if (c.has_value('S')) {
         const double s = c.get('S');
         if (s < 0 || s > 1000)
           return warn(c.line, text, "flow percentage outside 0..1000; ignored", "bad_parameter");
         flow_ = s / 100.0;
+        if (s != 100)
+          note("flow_override",
+               "M221 S" + format_fixed(s, s == std::floor(s) ? 0 : 2) +
+                   " scales every extrusion after it (the firmware's flow factor): the twin "
+                   "lays that share of the E the file commands, while the slicer's filament "
+                   "figure counts the E as written",
+               c.line);
       }
       return Ok{};
     }
@@ -1542,6 +1609,23 @@ Status GcodeInterpreter::execute_m(const GcodeCommand& c, std::string_view text,
     default:
       return ignored_m_code(c.code) ? Status(Ok{}) : unknown_command(c);
   }
+}
+
+/// M211 (and Bambu's M221 forms without a flow): software endstops. S0/S1 switch every axis
+/// (Marlin's M211; `s_switches_all`), X0/Y0/Z0 switch axes, a bare S pushes the state and R
+/// pops it (Bambu's firmware).
+void GcodeInterpreter::soft_endstops(const GcodeCommand& c, bool s_switches_all) {
+  if (c.has('S') && !c.has_value('S'))
+    soft_endstop_stack_.push_back(soft_endstops_);
+  else if (s_switches_all && c.has_value('S'))
+    soft_endstops_.fill(c.get('S') != 0);
+  if (c.has('R') && !soft_endstop_stack_.empty()) {
+    soft_endstops_ = soft_endstop_stack_.back();
+    soft_endstop_stack_.pop_back();
+  }
+  static constexpr char kAxes[3] = {'X', 'Y', 'Z'};
+  for (std::size_t i = 0; i < 3; ++i)
+    if (c.has_value(kAxes[i])) soft_endstops_[i] = c.get(kAxes[i]) != 0;
 }
 
 /// M104/M109 (hotend) and M140/M190 (bed): set the target, and for M109/M190 wait for it.

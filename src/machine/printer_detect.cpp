@@ -158,6 +158,17 @@ void stated_names(const StatedReader& r, StatedPrinter& p) {
       break;
     }
   }
+  // A Klipper extended command (a start macro, SET_PRESSURE_ADVANCE, ...) runs on Klipper
+  // only: Marlin and RepRapFirmware reject it. Cura has no Klipper flavour, and older
+  // PrusaSlicer profiles for Klipper machines say marlin2 or reprap.
+  if (!r.s.klipper_command.empty() && (!p.firmware || p.firmware->value != "klipper")) {
+    if (p.flavour_text.empty()) p.flavour_text = "Klipper";
+    p.firmware = StatedPrinter::Value<std::string>{
+        "klipper", r.s.klipper_command + " command" +
+                       (r.s.klipper_command_line > 0
+                            ? " (line " + std::to_string(r.s.klipper_command_line) + ")"
+                            : std::string())};
+  }
 }
 
 /// The bed's box in G-code coordinates, from the bed shape or each slicer's size and origin.

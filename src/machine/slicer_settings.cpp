@@ -134,6 +134,42 @@ void detect_slicer(std::string_view comment, SlicerSettings& s) {
   }
 }
 
+/// A G0-G3 move or homing (G28): the print has begun, so no header can follow.
+bool is_motion(std::string_view command) {
+  if (command.size() < 2 || (command[0] != 'G' && command[0] != 'g')) return false;
+  std::size_t n = 1;
+  while (n < command.size() && command[n] == '0') ++n;
+  const std::string_view num = command.substr(n, command.find_first_not_of("0123456789", n) - n);
+  return num.empty() || num == "1" || num == "2" || num == "3" || num == "28";
+}
+
+/// The name of a Klipper extended command ("PRINT_START", "bed_mesh_calibrate",
+/// "SET_PRESSURE_ADVANCE ADVANCE=0.04"), or "" for any other line. Klipper runs such
+/// words (its macros and commands, in any case); Marlin and RepRapFirmware reject them.
+/// A word with an underscore, or an upper-case word of five letters or more, is taken for
+/// one: RRF's own words (echo, var, set, if) are short, lower case and have none.
+std::string_view klipper_extended_command(std::string_view command) {
+  const std::size_t end = std::min(command.find_first_of(" \t;"), command.size());
+  const std::string_view word = command.substr(0, end);
+  if (word.size() < 3 || std::isalpha(static_cast<unsigned char>(word.front())) == 0) return {};
+  bool underscore = false, digit = false, lower = false;
+  for (const char c : word) {
+    const auto u = static_cast<unsigned char>(c);
+    if (c == '_')
+      underscore = true;
+    else if (std::isdigit(u) != 0)
+      digit = true;
+    else if (std::islower(u) != 0)
+      lower = true;
+    else if (std::isupper(u) == 0)
+      return {};
+  }
+  // G1, M104, T0 and the like are a letter then digits: never a word of this kind.
+  if (std::isdigit(static_cast<unsigned char>(word[1])) != 0) return {};
+  if (!underscore && (digit || lower || word.size() < 5)) return {};
+  return word;
+}
+
 class Scanner {
  public:
   Scanner(SlicerSettings& s, bool leading, bool trailing)
@@ -143,7 +179,17 @@ class Scanner {
     std::string_view t = trim(text);
     if (t.empty()) return;
     if (t.front() != ';') {
-      command_seen_ = true;
+      if (s_.klipper_command.empty()) {
+        const std::string_view word = klipper_extended_command(t);
+        if (!word.empty()) {
+          s_.klipper_command = std::string(word);
+          s_.klipper_command_line = number;
+        }
+      }
+      // The header ends at the first command, except that commands put above the slicer's
+      // own header (M73/M117 of post-processing scripts, a user's M204) do not end it
+      // before the slicer is known or the first move.
+      if (!leading_ || !s_.slicer.empty() || is_motion(t)) command_seen_ = true;
       pending_.clear();  // the trailing block starts after the last command
       return;
     }

@@ -135,6 +135,30 @@ TEST(FlavourPrusa, StartCodeOfAnMk4sRunsWithoutErrorsOrUnknownCommands) {
   EXPECT_NEAR(r.filament_mm, 2.0, 1e-9);
 }
 
+TEST(FlavourMarlin, StartCodeSettingsAreAcceptedQuietly) {
+  // Start codes that set PID values, power-loss recovery and the probe before printing.
+  const auto r =
+      sim(std::string("M301 P24.63 I2.05 D74.05\nM304 P134.53 I26.22 D460.11\n") +
+          "M413 S0\nM80\nM140 S60\nM104 S200\nM190 S60\nM109 S200\nG28\n" +
+          "M280 P0 S160\nM401\nM402\nM42 P4 S255\nM120\nM121\nM710 S255\nM83\n" + square(0.2));
+  expect_clean(r);
+  EXPECT_NEAR(r.filament_mm, 2.0, 1e-9);
+}
+
+TEST(FlavourMarlin, M221FlowScalesTheExtrusionAndSaysSo) {
+  // Prusa MINI start codes set "M221 S95": the printer lays 95 % of the commanded E, which
+  // the slicer's filament figure does not include.
+  const auto r = sim("G28\nM104 S200\nM109 S200\nM83\nM221 S95\n" + square(0.2));
+  EXPECT_NEAR(r.filament_mm, 0.95 * 2.0, 1e-9);
+  const Finding* flow = find(r, "flow_override");
+  ASSERT_NE(flow, nullptr);
+  EXPECT_EQ(flow->severity, Severity::info);
+  EXPECT_NE(flow->message.find("M221 S95 "), std::string::npos) << flow->message;
+  // Back to 100 % says nothing.
+  EXPECT_EQ(find(sim("G28\nM104 S200\nM109 S200\nM83\nM221 S100\n" + square(0.2)), "flow_override"),
+            nullptr);
+}
+
 TEST(FlavourPrusa, M862ChecksTheNozzleAndTheModelLikeTheFirmware) {
   PrinterProfile mk4s = with_firmware("prusa");
   mk4s.model = "Original Prusa MK4S";
@@ -187,6 +211,11 @@ TEST(FlavourKlipper, StartMacroWithParametersHomesAndHeats) {
   // Bed 25 -> 60 C at 0.5 C/s and hotend 25 -> 220 C at 2 C/s, one after the other.
   EXPECT_NEAR(r.heating_time_s, 35.0 / 0.5 + 195.0 / 2.0, 1e-6);
   EXPECT_TRUE(r.unknown_commands.empty());
+  // Voron profiles call it in lower case with EXT_TEMP (Klipper upper-cases commands).
+  const auto voron = sim("print_start EXT_TEMP=220 BED_TEMP=60\nG90\nM83\n" + square(0.2),
+                         with_firmware("klipper"));
+  EXPECT_EQ(find(voron, "macro_temperature_assumed"), nullptr);
+  EXPECT_NEAR(voron.heating_time_s, r.heating_time_s, 1e-6);
 }
 
 TEST(FlavourKlipper, StartMacroWithoutParametersUsesTheSlicersTemperaturesOrSaysItAssumes) {
@@ -372,10 +401,37 @@ TEST(FlavourBambu, VendorCommandsAreAcceptedQuietly) {
       "M1002 judge_flag g29_before_print_flag\nM622 J1\nG29.1 Z0\nG29.2 S0\nM623\nM960 S5 P1\n"
       "M971 S11 C10 O0\nM975 S1\nM981 S1 P20000\nM991 S0 P0\nG380 S2 Z-0.1 F300\nM412 S1\n"
       "M963 S1\nM964\nM969 S1 N3 A2000\nM977 S1 P60\nM984 A0.1 E1 S1 F2 H0.4\n"
-      "M1006 A0 B10 L100 C37 D10 M60 E37 F10 N60\nM1007 S1\nG28\nM109 S220\nM83\n" +
+      "M1006 A0 B10 L100 C37 D10 M60 E37 F10 N60\nM1007 S1\nG392 S0\nM630 S0 P0\n"
+      "M9833.2\nG28\nM109 S220\nM83\n" +
       square(0.2);
   const auto r = sim(text, with_firmware("bambu"));
   expect_clean(r);
+}
+
+TEST(FlavourBambu, M211SwitchesTheSoftEndstopsPerAxisWithAStack) {
+  // Bambu's start and end codes switch the soft endstops off (per axis, the state pushed
+  // with a bare S and popped with R) to park beyond the printable travel.
+  const PrinterProfile p = with_firmware("bambu");
+  const std::string beyond = "G0 X" + std::to_string(p.travel_max_x_mm + 5) + " F6000\n";
+  const std::string start = "G28\nM109 S220\nM83\n";
+  const auto off = sim(start + "M211 S\nM211 X0 Y0 Z0\n" + beyond + square(0.2), p);
+  EXPECT_EQ(find(off, "out_of_bounds"), nullptr);
+  expect_clean(off);
+  // The X1's start code says the same with M221 (its flow stays 100 %).
+  const auto x1 = sim(start + "M221 S\nM221 X0 Y0 Z0\n" + beyond + square(0.2), p);
+  EXPECT_EQ(find(x1, "out_of_bounds"), nullptr);
+  EXPECT_NEAR(x1.filament_mm, 2.0, 1e-9);
+  // Popped back on: the same move is clamped at the travel's end.
+  const auto popped = sim(start + "M211 S\nM211 X0 Y0 Z0\nM211 R\n" + beyond + square(0.2), p);
+  EXPECT_NE(find(popped, "out_of_bounds"), nullptr);
+  // Marlin's M211 S0 / S1 switch every axis; Y left on stays clamped.
+  EXPECT_EQ(find(sim(start + "M211 S0\n" + beyond + square(0.2)), "out_of_bounds"), nullptr);
+  EXPECT_NE(find(sim(start + "M211 S0\nM211 S1\n" + beyond + square(0.2)), "out_of_bounds"),
+            nullptr);
+  EXPECT_NE(find(sim(start + "M211 X0\nG0 Y" + std::to_string(p.travel_max_y_mm + 5) + " F6000\n" +
+                     square(0.2)),
+                 "out_of_bounds"),
+            nullptr);
 }
 
 TEST(FlavourBambu, G28XHomesXyAndALiftBeforeHomingIsQuiet) {
@@ -579,6 +635,31 @@ INSTANTIATE_TEST_SUITE_P(
                 4980, 4217.9}),
     [](const ::testing::TestParamInfo<Dialect>& i) { return std::string(i.param.name); });
 
+TEST(SlicerMarkers, AFileCutBeforeTheSlicersClosingLinesIsTruncated) {
+  // Each slicer writes lines after its end code; a file without them was cut.
+  const std::string body = "G28\nM109 S210\nM83\n" + square(0.2);
+  const std::string cura = ";FLAVOR:Marlin\n;Generated with Cura_SteamEngine 5.9.0\n" + body;
+  const auto cut = sim(cura);
+  const Finding* t = find(cut, "truncated_file");
+  ASSERT_NE(t, nullptr);
+  EXPECT_EQ(t->severity, Severity::warning);
+  EXPECT_NE(t->message.find(";End of Gcode"), std::string::npos) << t->message;
+  EXPECT_EQ(find(sim(cura + ";End of Gcode\n"), "truncated_file"), nullptr);
+
+  const std::string bambu =
+      "; HEADER_BLOCK_START\n; BambuStudio 02.01.01.52\n"
+      "; HEADER_BLOCK_END\n; EXECUTABLE_BLOCK_START\n" +
+      body;
+  EXPECT_NE(find(sim(bambu), "truncated_file"), nullptr);
+  EXPECT_EQ(find(sim(bambu + "; EXECUTABLE_BLOCK_END\n"), "truncated_file"), nullptr);
+
+  const std::string prusa = "; generated by PrusaSlicer 2.7.4 on 2024-05-26\n" + body;
+  EXPECT_NE(find(sim(prusa), "truncated_file"), nullptr);
+  EXPECT_EQ(find(sim(prusa + "; filament used [mm] = 2.00\n"), "truncated_file"), nullptr);
+  // A file from no known slicer says nothing of the kind.
+  EXPECT_EQ(find(sim(body), "truncated_file"), nullptr);
+}
+
 TEST(SlicerMarkers, JsonAndSummaryCarryThePartFilamentAndTheSlicersFigures) {
   const std::string text =
       "; generated by PrusaSlicer 2.8.1 on 2024-10-21\n; filament used [mm] = 2.5\n"
@@ -645,9 +726,12 @@ TEST(SlicerMarkers, AFileCutShortOfTheLayersItsHeaderAnnouncesIsAnError) {
   };
   const std::string cura = ";FLAVOR:Marlin\n;Generated with Cura_SteamEngine 4.13.0\n";
   // Cura's header counts one layer more than it marks on some files: one layer of slack.
-  EXPECT_EQ(find(sim(cura + ";LAYER_COUNT:4\nG28\nM109 S200\nM83\n" + layers(3)), "truncated_file"),
-            nullptr);
-  const auto cut = sim(cura + ";LAYER_COUNT:40\nG28\nM109 S200\nM83\n" + layers(3));
+  EXPECT_EQ(
+      find(sim(cura + ";LAYER_COUNT:4\nG28\nM109 S200\nM83\n" + layers(3) + ";End of Gcode\n"),
+           "truncated_file"),
+      nullptr);
+  const auto cut =
+      sim(cura + ";LAYER_COUNT:40\nG28\nM109 S200\nM83\n" + layers(3) + ";End of Gcode\n");
   const Finding* f = find(cut, "truncated_file");
   ASSERT_NE(f, nullptr);
   EXPECT_EQ(f->severity, Severity::error);
