@@ -221,6 +221,8 @@ class GcodeInterpreter {
   void layer_marker(double z_mm);
   void stated_figures(std::string_view comment);
   double hotend_temp_now() const;
+  /// Whether E words are relative now, as the firmware flavour reads G90/G91 and M82/M83.
+  [[nodiscard]] bool e_relative() const;
 
   PrinterProfile profile_;
   InterpreterOptions options_;
@@ -262,6 +264,7 @@ class GcodeInterpreter {
   Vec3 offset_mm_ = Vec3::Zero();   ///< machine = logical + offset (G92 shift, not homed)
   double e_logical_mm_ = 0;         ///< current_position.e
   bool relative_xyz_ = false, relative_e_ = false;
+  bool e_mode_relative_ = false;  ///< M83 (M82 clears it); G90/G91 leave it (e_relative())
   bool inches_ = false;
   std::array<bool, 3> homed_{false, false, false};
   /// M211: software endstops per axis (Marlin switches all; Bambu's firmware switches them

@@ -244,6 +244,18 @@ void GcodeInterpreter::set_limits(const MotionLimits& limits, InterpreterOutput&
   out.limits(limits_);
 }
 
+bool GcodeInterpreter::e_relative() const {
+  // Marlin 2 and the firmware built on it (Prusa's Buddy, Bambu's): G90/G91 set E with the
+  // axes, M82/M83 after them. Marlin 1 and Klipper: E is relative under G91 or after M83, and
+  // G90 leaves M83 alone (Klipper's gcode_move: absolute_coord and absolute_extrude apart).
+  // RepRapFirmware's G90/G91 move only the axes, but the files that name its flavour include
+  // Slic3r's and Cura's "RepRap" ones, written for Marlin machines whose end code retracts
+  // under G91: they are read as Marlin 2 reads them.
+  if (flavour_ == Flavour::marlin1 || flavour_ == Flavour::klipper)
+    return relative_xyz_ || e_mode_relative_;
+  return relative_e_;
+}
+
 double GcodeInterpreter::hotend_temp_now() const {
   const double dt = nominal_clock_s_ - hotend_set_clock_s_;
   const double rate = profile_.hotend_heat_rate_c_s;
@@ -771,7 +783,7 @@ Status GcodeInterpreter::motion_words(const GcodeCommand& c, std::string_view te
   de = 0;
   if (c.has('E')) {
     const double v = c.get('E') * unit;
-    de = relative_e_ ? v : v - e_logical_mm_;
+    de = e_relative() ? v : v - e_logical_mm_;
     e_logical_mm_ += de;
   }
   return Ok{};
@@ -1488,10 +1500,10 @@ Status GcodeInterpreter::execute_m(const GcodeCommand& c, std::string_view text,
   const double unit = inches_ ? kInch_mm : 1.0;
   switch (c.code) {
     case 82:
-      relative_e_ = false;
+      relative_e_ = e_mode_relative_ = false;
       return Ok{};
     case 83:
-      relative_e_ = true;
+      relative_e_ = e_mode_relative_ = true;
       return Ok{};
     case 104:
     case 109:

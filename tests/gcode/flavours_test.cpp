@@ -177,6 +177,22 @@ TEST(FlavourPrusa, M862ChecksTheNozzleAndTheModelLikeTheFirmware) {
   EXPECT_EQ(find(marlin, "printer_model_mismatch"), nullptr);
 }
 
+TEST(GcodeFlavours, G90AndG91MoveEAsEachFirmwareDoes) {
+  // M83 then G90: Marlin 2 (and Prusa's, Bambu's firmware) makes E absolute again; Marlin 1
+  // and Klipper keep M83.
+  const std::string m83_g90 = "G28\nM109 S210\nM83\nG90\nG1 X10 Y10 Z0.2 E1 F1200\nG1 X20 E1\n";
+  EXPECT_NEAR(sim(m83_g90, ender3_marlin2()).filament_mm, 1.0, 1e-9);
+  EXPECT_NEAR(sim(m83_g90, with_firmware("prusa")).filament_mm, 1.0, 1e-9);
+  EXPECT_NEAR(sim(m83_g90, with_firmware("marlin1")).filament_mm, 2.0, 1e-9);
+  EXPECT_NEAR(sim(m83_g90, with_firmware("klipper")).filament_mm, 2.0, 1e-9);
+  // M82 then G91: E follows G91 on Marlin and Klipper.
+  const std::string m82_g91 =
+      "G28\nM109 S210\nM82\nG90\nG1 X10 Y10 Z0.2 E5 F1200\nG91\nG1 X1 E1\nG90\n";
+  EXPECT_NEAR(sim(m82_g91, ender3_marlin2()).filament_mm, 6.0, 1e-9);
+  EXPECT_NEAR(sim(m82_g91, with_firmware("klipper")).filament_mm, 6.0, 1e-9);
+  EXPECT_NEAR(sim(m82_g91, with_firmware("marlin1")).filament_mm, 6.0, 1e-9);
+}
+
 TEST(GcodeStatedFigures, CuraEnginesUnfilledHeaderIsNotTheSlicersFigure) {
   const auto r =
       sim(";FLAVOR:Marlin\n;TIME:6666\n;Filament used: 0m\n;Layer height: 0.2\n"
