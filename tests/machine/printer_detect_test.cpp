@@ -416,6 +416,25 @@ TEST(PrinterLibrary, NamesMatchTheLongestAliasAndNotAnotherModel) {
   EXPECT_EQ(id("Original Prusa i3 MK3S & MK3S+"), "prusa-mk3s");
   EXPECT_EQ(id("Creality Ender-3 S1"), "-");  // not the Ender-3
   EXPECT_EQ(id("Anycubic Kobra"), "-");
+  // Neighbouring models of the popular printers (tests/machine/printer_library_test.cpp).
+  EXPECT_EQ(id("Creality K1C 0.4 nozzle"), "creality-k1c");
+  EXPECT_EQ(id("Creality K1 SE 0.4 nozzle"), "-");
+  EXPECT_EQ(id("Creality K2 Plus 0.4 nozzle"), "creality-k2-plus");
+  EXPECT_EQ(id("Creality K2 Pro 0.4 nozzle"), "-");
+  EXPECT_EQ(id("Creality Ender-3 V3 0.4 nozzle"), "creality-ender3-v3");
+  EXPECT_EQ(id("Creality Ender-3 V3 SE 0.4 nozzle"), "creality-ender3-v3-se");
+  EXPECT_EQ(id("Creality Ender-3 V3 KE 0.4 nozzle"), "creality-ender3-v3-ke");
+  EXPECT_EQ(id("Creality Ender-3 V3 Plus 0.4 nozzle"), "-");
+  EXPECT_EQ(id("Creality Ender-3 0.4 nozzle"), "creality-ender3");
+  EXPECT_EQ(id("Creality Ender-5 S1 0.4 nozzle"), "creality-ender5-s1");
+  EXPECT_EQ(id("Creality Ender-5 Pro"), "-");
+  EXPECT_EQ(id("Elegoo Neptune 4 (0.4 nozzle)"), "elegoo-neptune-4");
+  EXPECT_EQ(id("Elegoo Neptune 4 Pro 0.4 nozzle"), "elegoo-neptune-4-pro");
+  EXPECT_EQ(id("Elegoo Neptune 4 Max 0.4 nozzle"), "elegoo-neptune-4-max");
+  EXPECT_EQ(id("Elegoo Neptune 4 Plus 0.4 nozzle"), "-");
+  EXPECT_EQ(id("Elegoo Neptune 3 Pro 0.4 nozzle"), "-");
+  EXPECT_EQ(id("Bambu Lab X1E 0.4 nozzle"), "bambu-x1c");  // the X1 family's profile
+  EXPECT_EQ(id("Bambu Lab P1P 0.4 nozzle"), "bambu-p1s");
   EXPECT_EQ(id(""), "-");
 }
 
