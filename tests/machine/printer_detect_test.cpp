@@ -433,6 +433,21 @@ TEST(PrinterLibrary, NamesMatchTheLongestAliasAndNotAnotherModel) {
   EXPECT_EQ(id("Elegoo Neptune 4 Max 0.4 nozzle"), "elegoo-neptune-4-max");
   EXPECT_EQ(id("Elegoo Neptune 4 Plus 0.4 nozzle"), "-");
   EXPECT_EQ(id("Elegoo Neptune 3 Pro 0.4 nozzle"), "-");
+  EXPECT_EQ(id("Sovol SV06 0.4 nozzle"), "sovol-sv06");
+  EXPECT_EQ(id("Sovol SV06 0.4 High-Speed nozzle"), "sovol-sv06");
+  EXPECT_EQ(id("Sovol SV06 Plus 0.4 nozzle"), "sovol-sv06-plus");
+  EXPECT_EQ(id("Sovol SV06 ACE 0.4 nozzle"), "-");
+  EXPECT_EQ(id("Sovol SV08 0.4 nozzle"), "sovol-sv08");
+  EXPECT_EQ(id("Sovol SV08 MAX 0.4 nozzle"), "-");
+  EXPECT_EQ(id("Anycubic Kobra 2 Neo 0.4 nozzle"), "anycubic-kobra-2-neo");
+  EXPECT_EQ(id("Anycubic Kobra 2 0.4 nozzle"), "-");
+  EXPECT_EQ(id("Anycubic Kobra 3 0.4 nozzle"), "-");
+  EXPECT_EQ(id("Qidi Q1 Pro 0.4 nozzle"), "qidi-q1-pro");
+  EXPECT_EQ(id("Original Prusa XL 0.4 nozzle"), "prusa-xl");
+  EXPECT_EQ(id("Original Prusa XL Input Shaper 0.4 nozzle"), "prusa-xl");
+  EXPECT_EQ(id("XLIS"), "prusa-xl");
+  EXPECT_EQ(id("Original Prusa XL - 2T 0.4 nozzle"), "-");  // the tool changer: not modelled
+  EXPECT_EQ(id("XL5IS"), "-");
   EXPECT_EQ(id("Bambu Lab X1E 0.4 nozzle"), "bambu-x1c");  // the X1 family's profile
   EXPECT_EQ(id("Bambu Lab P1P 0.4 nozzle"), "bambu-p1s");
   EXPECT_EQ(id(""), "-");
