@@ -424,14 +424,16 @@ TEST(PrinterLibrary, NamesMatchTheLongestAliasAndNotAnotherModel) {
   EXPECT_EQ(id("Creality Ender-3 V3 0.4 nozzle"), "creality-ender3-v3");
   EXPECT_EQ(id("Creality Ender-3 V3 SE 0.4 nozzle"), "creality-ender3-v3-se");
   EXPECT_EQ(id("Creality Ender-3 V3 KE 0.4 nozzle"), "creality-ender3-v3-ke");
-  EXPECT_EQ(id("Creality Ender-3 V3 Plus 0.4 nozzle"), "-");
+  EXPECT_EQ(id("Creality Ender-3 V3 Plus 0.4 nozzle"), "creality-ender3-v3-plus");
+  EXPECT_EQ(id("Creality Ender-3 V3 SE Plus"), "-");
   EXPECT_EQ(id("Creality Ender-3 0.4 nozzle"), "creality-ender3");
   EXPECT_EQ(id("Creality Ender-5 S1 0.4 nozzle"), "creality-ender5-s1");
   EXPECT_EQ(id("Creality Ender-5 Pro"), "-");
   EXPECT_EQ(id("Elegoo Neptune 4 (0.4 nozzle)"), "elegoo-neptune-4");
   EXPECT_EQ(id("Elegoo Neptune 4 Pro 0.4 nozzle"), "elegoo-neptune-4-pro");
   EXPECT_EQ(id("Elegoo Neptune 4 Max 0.4 nozzle"), "elegoo-neptune-4-max");
-  EXPECT_EQ(id("Elegoo Neptune 4 Plus 0.4 nozzle"), "-");
+  EXPECT_EQ(id("Elegoo Neptune 4 Plus 0.4 nozzle"), "elegoo-neptune-4-plus");
+  EXPECT_EQ(id("Elegoo Neptune 4X"), "-");
   EXPECT_EQ(id("Elegoo Neptune 3 Pro 0.4 nozzle"), "-");
   EXPECT_EQ(id("Sovol SV06 0.4 nozzle"), "sovol-sv06");
   EXPECT_EQ(id("Sovol SV06 0.4 High-Speed nozzle"), "sovol-sv06");
