@@ -484,6 +484,42 @@ TEST(PrinterLibrary, NamesMatchTheLongestAliasAndNotAnotherModel) {
   EXPECT_EQ(id("Original Prusa i3 MK3S & MK3S+"), "prusa-mk3s");
   EXPECT_EQ(id("Creality Ender-3 S1"), "-");  // not the Ender-3
   EXPECT_EQ(id("Anycubic Kobra"), "-");
+  // Neighbouring models of the popular printers (tests/machine/printer_library_test.cpp).
+  EXPECT_EQ(id("Creality K1C 0.4 nozzle"), "creality-k1c");
+  EXPECT_EQ(id("Creality K1 SE 0.4 nozzle"), "-");
+  EXPECT_EQ(id("Creality K2 Plus 0.4 nozzle"), "creality-k2-plus");
+  EXPECT_EQ(id("Creality K2 Pro 0.4 nozzle"), "-");
+  EXPECT_EQ(id("Creality Ender-3 V3 0.4 nozzle"), "creality-ender3-v3");
+  EXPECT_EQ(id("Creality Ender-3 V3 SE 0.4 nozzle"), "creality-ender3-v3-se");
+  EXPECT_EQ(id("Creality Ender-3 V3 KE 0.4 nozzle"), "creality-ender3-v3-ke");
+  EXPECT_EQ(id("Creality Ender-3 V3 Plus 0.4 nozzle"), "creality-ender3-v3-plus");
+  EXPECT_EQ(id("Creality Ender-3 V3 SE Plus"), "-");
+  EXPECT_EQ(id("Creality Ender-3 0.4 nozzle"), "creality-ender3");
+  EXPECT_EQ(id("Creality Ender-5 S1 0.4 nozzle"), "creality-ender5-s1");
+  EXPECT_EQ(id("Creality Ender-5 Pro"), "-");
+  EXPECT_EQ(id("Elegoo Neptune 4 (0.4 nozzle)"), "elegoo-neptune-4");
+  EXPECT_EQ(id("Elegoo Neptune 4 Pro 0.4 nozzle"), "elegoo-neptune-4-pro");
+  EXPECT_EQ(id("Elegoo Neptune 4 Max 0.4 nozzle"), "elegoo-neptune-4-max");
+  EXPECT_EQ(id("Elegoo Neptune 4 Plus 0.4 nozzle"), "elegoo-neptune-4-plus");
+  EXPECT_EQ(id("Elegoo Neptune 4X"), "-");
+  EXPECT_EQ(id("Elegoo Neptune 3 Pro 0.4 nozzle"), "-");
+  EXPECT_EQ(id("Sovol SV06 0.4 nozzle"), "sovol-sv06");
+  EXPECT_EQ(id("Sovol SV06 0.4 High-Speed nozzle"), "sovol-sv06");
+  EXPECT_EQ(id("Sovol SV06 Plus 0.4 nozzle"), "sovol-sv06-plus");
+  EXPECT_EQ(id("Sovol SV06 ACE 0.4 nozzle"), "-");
+  EXPECT_EQ(id("Sovol SV08 0.4 nozzle"), "sovol-sv08");
+  EXPECT_EQ(id("Sovol SV08 MAX 0.4 nozzle"), "-");
+  EXPECT_EQ(id("Anycubic Kobra 2 Neo 0.4 nozzle"), "anycubic-kobra-2-neo");
+  EXPECT_EQ(id("Anycubic Kobra 2 0.4 nozzle"), "-");
+  EXPECT_EQ(id("Anycubic Kobra 3 0.4 nozzle"), "-");
+  EXPECT_EQ(id("Qidi Q1 Pro 0.4 nozzle"), "qidi-q1-pro");
+  EXPECT_EQ(id("Original Prusa XL 0.4 nozzle"), "prusa-xl");
+  EXPECT_EQ(id("Original Prusa XL Input Shaper 0.4 nozzle"), "prusa-xl");
+  EXPECT_EQ(id("XLIS"), "prusa-xl");
+  EXPECT_EQ(id("Original Prusa XL - 2T 0.4 nozzle"), "-");  // the tool changer: not modelled
+  EXPECT_EQ(id("XL5IS"), "-");
+  EXPECT_EQ(id("Bambu Lab X1E 0.4 nozzle"), "bambu-x1c");  // the X1 family's profile
+  EXPECT_EQ(id("Bambu Lab P1P 0.4 nozzle"), "bambu-p1s");
   EXPECT_EQ(id(""), "-");
 }
 
