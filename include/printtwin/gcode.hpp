@@ -12,6 +12,7 @@
 // interpret_gcode_file() from there.
 //
 // Supported commands and slicer markers: docs/gcode-coverage.md.
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <istream>
@@ -112,6 +113,21 @@ struct InterpreterOptions {
   /// the profile's min_extrude_temp_c, reported as an info finding).
   double macro_hotend_c = std::numeric_limits<double>::quiet_NaN();
   double macro_bed_c = std::numeric_limits<double>::quiet_NaN();
+  /// Tools (extruders or filaments) the file's settings declare; 0 = not stated. T<n> with
+  /// n below it is a tool change; above it (or on a file that declares none, on a
+  /// single-extruder printer) it is reported as `bad_tool`.
+  int tool_count = 0;
+  /// The tools share one nozzle and heater (Bambu AMS, Prusa MMU, single_extruder_multi_
+  /// material): T<n> swaps the filament in that nozzle. Otherwise each tool has its own
+  /// nozzle and heater (tool changers, IDEX, dual extruders).
+  bool shared_nozzle = false;
+  /// Time the printer takes to unload the old filament and load the new one at a
+  /// filament change on a shared nozzle (s), per tool, as the slicer's settings state it
+  /// (Bambu/Orca machine_(un)load_filament_time, PrusaSlicer filament_(un)load_time).
+  /// Empty: not stated (the change then takes only its G-code's moves).
+  std::vector<double> filament_load_s, filament_unload_s;
+  /// Time a multi-nozzle printer takes to switch tools (s; Orca machine_tool_change_time).
+  double tool_change_s = 0;
 };
 
 /// Where the interpreter's output goes, in order. Implemented by the simulation pipeline.
@@ -175,6 +191,15 @@ class GcodeInterpreter {
   /// Layers the slicer's header announces (Orca family's "total layer number", Cura's
   /// ";LAYER_COUNT:"), 0 when it states none.
   [[nodiscard]] long slicer_layer_count() const { return slicer_layer_count_; }
+  /// Filament per tool the slicer states (mm), when it lists more than one; else empty.
+  [[nodiscard]] const std::vector<double>& slicer_tool_filament_mm() const {
+    return slicer_tool_filament_mm_;
+  }
+  /// Tool changes executed (T<n> to a tool other than the active one).
+  [[nodiscard]] long tool_changes() const { return tool_changes_; }
+  /// Time spent unloading and loading filament at those changes (s), as stated by the
+  /// file's settings (InterpreterOptions::filament_load_s); part of the dwell time.
+  [[nodiscard]] double tool_change_time_s() const { return tool_change_time_s_; }
   /// True once a slicer layer marker (`;LAYER_CHANGE`, `; CHANGE_LAYER`, `;LAYER:n`,
   /// `; BEGIN_LAYER_OBJECT z=`, `; layer N, Z = `) was seen: layers then follow the markers.
   [[nodiscard]] bool layers_from_markers() const { return marker_seen_; }
@@ -195,9 +220,17 @@ class GcodeInterpreter {
   void slicer_tag(std::string_view c);
   void emit(const Vec3& target_logical, double e_delta_mm, double feedrate_mm_s, MoveKind forced,
             bool is_forced, long line, std::string_view text, InterpreterOutput& out);
-  void heat_wait(bool hotend, double target_c, bool wait_cooling, long line,
-                 InterpreterOutput& out);
-  void set_hotend_target(double target_c);
+  void heat_wait(bool hotend, double target_c, bool wait_cooling, long line, InterpreterOutput& out,
+                 int heater = -1);
+  void set_hotend_target(double target_c, int heater = -1);
+  /// T<n> (and Klipper's ACTIVATE_EXTRUDER): selects tool n (tool_change.cpp).
+  /// `named`: the firmware command names the extruder (ACTIVATE_EXTRUDER), so it exists.
+  Status select_tool(long tool, long line, std::string_view text, InterpreterOutput& out,
+                     bool named = false);
+  /// The hotend heater a T parameter (or Klipper heater name) addresses; -1 = none valid.
+  [[nodiscard]] int heater_of_tool(long tool) const;
+  /// The heater of the active tool (0 when none is selected).
+  [[nodiscard]] int active_heater() const { return std::max(0, heater_of_tool(tool_)); }
   void set_bed_target(double target_c);
   /// An info finding listed once per code; later occurrences are counted in it.
   void note(std::string code, std::string message, long line);
@@ -220,7 +253,7 @@ class GcodeInterpreter {
   Status klipper_m204(const GcodeCommand& c, std::string_view text, InterpreterOutput& out);
   void layer_marker(double z_mm);
   void stated_figures(std::string_view comment);
-  double hotend_temp_now() const;
+  double hotend_temp_now(int heater = -1) const;
   /// Whether E words are relative now, as the firmware flavour reads G90/G91 and M82/M83.
   [[nodiscard]] bool e_relative() const;
 
@@ -238,6 +271,7 @@ class GcodeInterpreter {
   double slicer_filament_mm_;
   double slicer_part_estimate_s_;
   long slicer_layer_count_ = 0;
+  std::vector<double> slicer_tool_filament_mm_;
   int slicer_estimate_rank_ = 0;         ///< which stated time won (normal mode beats totals)
   bool estimate_from_time_tag_ = false;  ///< Cura's ";TIME:" (a placeholder when unfilled)
 
@@ -275,9 +309,20 @@ class GcodeInterpreter {
   double flow_ = 1.0;               ///< M221
   double volumetric_area_mm2_ = 0;  ///< M200: 0 = off
   double filament_mm_ = 0;
-  double hotend_target_c_, bed_target_c_;
-  double hotend_c_at_set_, bed_c_at_set_;  ///< temperature when the target was set
-  double hotend_set_clock_s_ = 0, bed_set_clock_s_ = 0;
+  /// A heater's linear thermal ramp: target, temperature when it was set, and when.
+  struct Heater {
+    double target_c = 0, at_set_c = 0, set_clock_s = 0;
+  };
+  static constexpr int kMaxTools = 16;
+  std::array<Heater, kMaxTools> hotends_{};  ///< one per nozzle (only [0] on a shared nozzle)
+  int tool_ = 0;                             ///< active_extruder (-1: none, Bambu T255)
+  /// RepRapFirmware G10 P<tool> S<C>: each tool's active temperature (NaN: not set).
+  std::array<double, kMaxTools> rrf_active_c_;
+  long tool_changes_ = 0;
+  double tool_change_time_s_ = 0;  ///< filament unload + load waits (shared nozzle)
+  double bed_target_c_;
+  double bed_c_at_set_;  ///< temperature when the target was set
+  double bed_set_clock_s_ = 0;
   double nominal_clock_s_ = 0;  ///< time estimate of the interpreter (for the thermal model)
   bool fw_retracted_ = false;
   bool reported_before_homing_ = false;

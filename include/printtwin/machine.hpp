@@ -37,6 +37,12 @@ struct PrinterOrigin {
   /// start macro called without parameters heats to.
   double macro_hotend_c = std::numeric_limits<double>::quiet_NaN();
   double macro_bed_c = std::numeric_limits<double>::quiet_NaN();
+  /// Tools the file's settings declare (StatedPrinter; 0 = not stated), whether they share
+  /// one nozzle, and the stated filament unload / load and tool change times (s).
+  int tool_count = 0;
+  bool shared_nozzle = false;
+  std::vector<double> filament_load_s, filament_unload_s;
+  double tool_change_s = 0;
 
   /// Records (or replaces) the origin of `key`.
   void set(const std::string& key, const std::string& source, const std::string& detail);

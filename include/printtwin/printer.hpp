@@ -91,6 +91,13 @@ struct StatedPrinter {
   std::optional<Value<double>> print_accel_mm_s2, retract_accel_mm_s2, travel_accel_mm_s2;
   std::optional<Value<double>> min_feedrate_mm_s, min_travel_feedrate_mm_s;
   std::optional<Value<double>> first_layer_hotend_c, first_layer_bed_c;
+  /// Tools: extruders (multi-nozzle) or filaments (one nozzle, AMS / MMU) the file uses.
+  std::optional<Value<int>> tool_count;
+  std::optional<Value<bool>> shared_nozzle;  ///< the tools share one nozzle (AMS, MMU)
+  /// Filament unload / load time at a change on a shared nozzle (s, one per tool or one for
+  /// all) and the tool change time of a multi-nozzle machine (s), as the slicer states them.
+  std::vector<double> filament_load_s, filament_unload_s;
+  std::optional<Value<double>> tool_change_s;
 };
 
 /// Maps a slicer's settings to printer facts (bed shape and origin, height, nozzle,
@@ -173,5 +180,8 @@ struct ResolvedPrinter {
 /// Copies what the interpreter needs from a resolved printer: the temperatures a start
 /// macro without parameters heats to (the file's first-layer temperatures).
 void apply_printer_to_options(const ResolvedPrinter& printer, InterpreterOptions& options);
+/// The tools the file's settings declare (PrinterOrigin::tool_count, shared nozzle, change
+/// times) into `options`, unless the caller set tool_count already.
+void apply_tools_to_options(const PrinterOrigin& origin, InterpreterOptions& options);
 
 }  // namespace printtwin

@@ -95,6 +95,14 @@ struct SimulationResult {
   std::optional<double> slicer_part_estimate_s;
   /// The filament the slicer says the file uses (mm), if it states it.
   std::optional<double> slicer_filament_mm;
+  /// Multi-tool files: net filament per tool (index = T<n>; for a shared nozzle, per
+  /// filament), the tool changes, the time spent unloading and loading filament (or
+  /// switching tools) at them (part of dwell_time_s), and the filament per tool the slicer
+  /// states. Empty / 0 for single-tool files.
+  std::vector<double> tool_filament_mm;
+  long tool_changes = 0;
+  double tool_change_time_s = 0;
+  std::vector<double> slicer_tool_filament_mm;
   /// "markers" when layers follow the slicer's layer markers, "z" when made by Z.
   std::string layers_from = "z";
   MotionLimits limits_used;  ///< limits in force at the start (after --limits-from-gcode)

@@ -51,6 +51,9 @@ struct Move {
   int layer = -1;            ///< layer index (by Z of extrusions), -1 before the first
   Feature feature = Feature::unknown;
   MoveKind kind = MoveKind::travel;
+  /// Active tool (T<n>): the extruder, or on a single-nozzle multi-material printer (AMS,
+  /// MMU) the loaded filament. 0 on single-extruder files.
+  std::uint8_t tool = 0;
   int object_id = -1;        ///< M486 / EXCLUDE_OBJECT label index, -1 when none
   float width_hint_mm = 0;   ///< `;WIDTH:` of the slicer, 0 when absent
   float height_hint_mm = 0;  ///< `;HEIGHT:` of the slicer, 0 when absent

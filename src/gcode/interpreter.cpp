@@ -29,6 +29,19 @@ constexpr double kMarkerZTolerance_mm = 1.0;
 
 bool starts_with(std::string_view s, std::string_view p) { return s.substr(0, p.size()) == p; }
 
+/// Klipper heater or sensor name -> extruder index: "extruder" 0, "extruder1" 1, ...;
+/// -1 for any other name (heater_bed, a fan).
+long klipper_extruder_index(std::string_view name) {
+  if (!starts_with(name, "extruder")) return -1;
+  name.remove_prefix(8);
+  long n = 0;
+  std::size_t digits = 0;
+  while (digits < name.size() && name[digits] >= '0' && name[digits] <= '9' && digits < 3)
+    n = n * 10 + (name[digits++] - '0');
+  const bool ends = digits == name.size() || name[digits] == ' ' || name[digits] == '\t';
+  return ends ? n : -1;
+}
+
 std::string_view trim(std::string_view s) {
   while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
   while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r'))
@@ -41,6 +54,52 @@ bool parse_double(std::string_view s, double& v) {
   if (!s.empty() && s.front() == '+') s.remove_prefix(1);
   const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
   return r.ec == std::errc() && std::isfinite(v);
+}
+
+/// The slicer's filament per tool that needs more than a list: Bambu's "filament: 1,3" (which
+/// filaments the lengths belong to) and Cura's per-train volumes. True when `c` was one.
+bool stated_tool_figures(std::string_view c, std::vector<double>& per_tool, double& total_mm,
+                         double filament_area_mm2) {
+  constexpr int kMaxTools = 16;  // GcodeInterpreter::kMaxTools
+  if (starts_with(c, "filament: ")) {
+    if (per_tool.empty()) return true;
+    // Bambu Studio: the (1-based) filaments the lengths above belong to, "1,2,3,10".
+    std::vector<double> ids;
+    for (std::string_view list = c.substr(10); !list.empty();) {
+      const auto comma = list.find(',');
+      double id = 0;
+      if (!parse_double(list.substr(0, comma), id) || id < 1 || id > kMaxTools) return true;
+      ids.push_back(id);
+      if (comma == std::string_view::npos) break;
+      list.remove_prefix(comma + 1);
+    }
+    if (ids.size() != per_tool.size()) return true;
+    std::vector<double> by_tool(
+        static_cast<std::size_t>(*std::max_element(ids.begin(), ids.end())));
+    for (std::size_t i = 0; i < ids.size(); ++i)
+      by_tool[static_cast<std::size_t>(ids[i]) - 1] = per_tool[i];
+    per_tool = std::move(by_tool);
+    return true;
+  }
+  if (starts_with(c, "EXTRUDER_TRAIN.") &&
+      c.find(".MATERIAL.VOLUME_USED:") != std::string_view::npos) {
+    // Cura (Griffin header): mm3 of material per extruder train.
+    double tool = 0, mm3 = 0;
+    const std::string_view rest = c.substr(15);
+    if (parse_double(rest.substr(0, rest.find('.')), tool) && tool >= 0 && tool < kMaxTools &&
+        parse_double(c.substr(c.find("VOLUME_USED:") + 12), mm3) && mm3 >= 0 &&
+        filament_area_mm2 > 0) {
+      auto& list = per_tool;
+      if (list.size() <= static_cast<std::size_t>(tool))
+        list.resize(static_cast<std::size_t>(tool) + 1, 0.0);
+      list[static_cast<std::size_t>(tool)] = mm3 / filament_area_mm2;
+      double total = 0;
+      for (double x : list) total += x;
+      if (total > 0) total_mm = total;
+    }
+    return true;
+  }
+  return false;
 }
 
 /// "25m 53s", "1h 2m 3s", "1d 2h 3m 4s" -> seconds.
@@ -113,7 +172,8 @@ GcodeInterpreter::GcodeInterpreter(const PrinterProfile& profile, const Interpre
       std::isnan(options.power_on_hotend_c) ? profile.ambient_temp_c : options.power_on_hotend_c;
   const double bed =
       std::isnan(options.power_on_bed_c) ? profile.ambient_temp_c : options.power_on_bed_c;
-  hotend_target_c_ = hotend_c_at_set_ = hot;
+  for (auto& h : hotends_) h.target_c = h.at_set_c = hot;
+  rrf_active_c_.fill(std::numeric_limits<double>::quiet_NaN());
   bed_target_c_ = bed_c_at_set_ = bed;
 }
 
@@ -256,21 +316,22 @@ bool GcodeInterpreter::e_relative() const {
   return relative_e_;
 }
 
-double GcodeInterpreter::hotend_temp_now() const {
-  const double dt = nominal_clock_s_ - hotend_set_clock_s_;
+double GcodeInterpreter::hotend_temp_now(int heater) const {
+  const Heater& h = hotends_[static_cast<std::size_t>(heater < 0 ? active_heater() : heater)];
+  const double dt = nominal_clock_s_ - h.set_clock_s;
   const double rate = profile_.hotend_heat_rate_c_s;
-  if (hotend_target_c_ >= hotend_c_at_set_)
-    return std::min(hotend_target_c_, hotend_c_at_set_ + rate * dt);
-  return std::max(hotend_target_c_, hotend_c_at_set_ - rate * dt);
+  if (h.target_c >= h.at_set_c) return std::min(h.target_c, h.at_set_c + rate * dt);
+  return std::max(h.target_c, h.at_set_c - rate * dt);
 }
 
 void GcodeInterpreter::heat_wait(bool hotend, double target_c, bool wait_cooling, long line,
-                                 InterpreterOutput& out) {
+                                 InterpreterOutput& out, int heater) {
   const double rate = hotend ? profile_.hotend_heat_rate_c_s : profile_.bed_heat_rate_c_s;
   target_c = std::max(target_c, profile_.ambient_temp_c);
-  double& target = hotend ? hotend_target_c_ : bed_target_c_;
-  double& at_set = hotend ? hotend_c_at_set_ : bed_c_at_set_;
-  double& set_clock = hotend ? hotend_set_clock_s_ : bed_set_clock_s_;
+  Heater& h = hotends_[static_cast<std::size_t>(heater < 0 ? active_heater() : heater)];
+  double& target = hotend ? h.target_c : bed_target_c_;
+  double& at_set = hotend ? h.at_set_c : bed_c_at_set_;
+  double& set_clock = hotend ? h.set_clock_s : bed_set_clock_s_;
   // Temperature now (linear ramp since the last set).
   const double dt = nominal_clock_s_ - set_clock;
   double now = target >= at_set ? std::min(target, at_set + rate * dt)
@@ -302,6 +363,9 @@ void GcodeInterpreter::layer_marker(double z_mm) {
 }
 
 void GcodeInterpreter::stated_figures(std::string_view c) {
+  if (stated_tool_figures(c, slicer_tool_filament_mm_, slicer_filament_mm_,
+                          profile_.filament_area_mm2()))
+    return;
   // The slicer's own time and filament, in each slicer's words (docs/gcode-coverage.md).
   auto set_time = [&](double s, int rank) {
     if (s > 0 && rank >= slicer_estimate_rank_) {
@@ -313,19 +377,23 @@ void GcodeInterpreter::stated_figures(std::string_view c) {
     const auto pos = c.find(key);
     return pos == std::string_view::npos ? std::string_view{} : trim(c.substr(pos + key.size()));
   };
-  auto sum_list = [](std::string_view v) {  // "252.22, 0.00" (one value per extruder)
+  // "252.22, 0.00" (one value per extruder): the sum; a list of several values is kept as
+  // the slicer's filament per tool.
+  auto sum_list = [this](std::string_view v, double scale = 1.0) {
     double total = 0;
     bool any = false;
+    std::vector<double> items;
     while (!v.empty()) {
       const auto comma = v.find(',');
       double x = 0;
       std::string_view item = trim(v.substr(0, comma));
       std::size_t n = 0;
       while (n < item.size() && ((item[n] >= '0' && item[n] <= '9') || item[n] == '.')) ++n;
-      if (parse_double(item.substr(0, n), x)) total += x, any = true;
+      if (parse_double(item.substr(0, n), x)) total += x, any = true, items.push_back(x * scale);
       if (comma == std::string_view::npos) break;
       v.remove_prefix(comma + 1);
     }
+    if (items.size() > 1 && total > 0) slicer_tool_filament_mm_ = std::move(items);
     return any ? total : std::numeric_limits<double>::quiet_NaN();
   };
   double v = 0;
@@ -374,7 +442,7 @@ void GcodeInterpreter::stated_figures(std::string_view c) {
     if (!rest.empty() && (rest.front() == '=' || rest.front() == ':'))
       if (const double f = sum_list(rest.substr(1)); f > 0) slicer_filament_mm_ = f;
   } else if (starts_with(c, "Filament used:")) {  // Cura (metres)
-    const double f = sum_list(c.substr(14));
+    const double f = sum_list(c.substr(14), 1000.0);
     if (f > 0) {
       slicer_filament_mm_ = f * 1000.0;
     } else if (f == 0) {
@@ -485,8 +553,8 @@ void GcodeInterpreter::comment(std::string_view c) {
     case 'f':
       if (starts_with(c, "feature "))
         feature_ = feature_from_label(trim(c.substr(8)));  // Simplify3D
-      else if (starts_with(c, "filament used"))
-        stated_figures(c);
+      else if (starts_with(c, "filament used") || starts_with(c, "filament: "))
+        stated_figures(c);  // "filament: 1,3": Bambu's used filaments
       return;
     case '\'': {
       // KISSlicer: "'Perimeter Path', 0.3 [feed mm/s], 9.5 [head mm/s]"
@@ -749,6 +817,7 @@ void GcodeInterpreter::emit(const Vec3& target_logical_in, double e_delta_mm, do
   m.layer = layer_;
   m.feature = feature_;
   m.object_id = object_id_;
+  m.tool = static_cast<std::uint8_t>(std::max(tool_, 0));
   m.width_hint_mm = width_hint_mm_;
   m.height_hint_mm = height_hint_mm_;
   out.move(m);
@@ -1014,11 +1083,13 @@ void GcodeInterpreter::note(std::string code, std::string message, long line) {
   findings_.push_back(std::move(f));
 }
 
-void GcodeInterpreter::set_hotend_target(double t) {
+void GcodeInterpreter::set_hotend_target(double t, int heater) {
+  if (heater < 0) heater = active_heater();
   t = std::max(t, profile_.ambient_temp_c);  // a heater off cools to the room, not below
-  hotend_c_at_set_ = hotend_temp_now();
-  hotend_target_c_ = t;
-  hotend_set_clock_s_ = nominal_clock_s_;
+  Heater& h = hotends_[static_cast<std::size_t>(heater)];
+  h.at_set_c = hotend_temp_now(heater);
+  h.target_c = t;
+  h.set_clock_s = nominal_clock_s_;
 }
 
 void GcodeInterpreter::set_bed_target(double t) {
@@ -1198,17 +1269,28 @@ Status GcodeInterpreter::extended(const GcodeCommand& c, std::string_view text,
     if (v < 0 || v > 500)
       return warn(c.line, text, "temperature outside 0..500 C; ignored", "bad_temperature");
     // Wait until MINIMUM is reached; the heater keeps heating to its own target.
-    const bool hotend = starts_with(sensor, "extruder");
+    const int heater = heater_of_tool(klipper_extruder_index(sensor));
+    const bool hotend = heater >= 0;
     if (!hotend && !starts_with(sensor, "heater_bed")) return Ok{};
-    const double target = hotend ? hotend_target_c_ : bed_target_c_;
-    if (v <= (hotend ? hotend_temp_now() : bed_c_at_set_)) return Ok{};
-    heat_wait(hotend, v, false, c.line, out);
-    if (target > v) hotend ? set_hotend_target(target) : set_bed_target(target);
+    const double target =
+        hotend ? hotends_[static_cast<std::size_t>(heater)].target_c : bed_target_c_;
+    if (v <= (hotend ? hotend_temp_now(heater) : bed_c_at_set_)) return Ok{};
+    heat_wait(hotend, v, false, c.line, out, heater);
+    if (target > v) hotend ? set_hotend_target(target, heater) : set_bed_target(target);
     return Ok{};
   }
   if (w == "BED_MESH_CALIBRATE" || w == "QUAD_GANTRY_LEVEL" || w == "Z_TILT_ADJUST") {
     note("bed_levelling_not_timed", levelling_message(w), c.line);
     return Ok{};
+  }
+  if (w == "ACTIVATE_EXTRUDER") {
+    // Klipper: EXTRUDER=extruder|extruder1|...: later E moves drive that extruder (the
+    // usual body of a multi-extruder printer's T0/T1 macros).
+    const auto e = c.args.find("EXTRUDER=");
+    const long n = e == std::string_view::npos ? -1 : klipper_extruder_index(c.args.substr(e + 9));
+    if (n < 0)
+      return warn(c.line, text, "ACTIVATE_EXTRUDER names no extruder; ignored", "bad_tool");
+    return select_tool(n, c.line, text, out, true);
   }
   if (w == "SET_HEATER_TEMPERATURE") {
     // Klipper: HEATER=extruder|heater_bed TARGET=<C> (no wait, like M104/M140).
@@ -1218,8 +1300,8 @@ Status GcodeInterpreter::extended(const GcodeCommand& c, std::string_view text,
     const double target = macro_arg(c.args, "TARGET", v) ? v : 0.0;
     if (target < 0 || target > 500)
       return warn(c.line, text, "heater target outside 0..500 C; ignored", "bad_temperature");
-    if (starts_with(heater, "extruder"))
-      set_hotend_target(target);
+    if (const int n = heater_of_tool(klipper_extruder_index(heater)); n >= 0)
+      set_hotend_target(target, n);
     else if (starts_with(heater, "heater_bed"))
       set_bed_target(target);
     return Ok{};
@@ -1273,16 +1355,7 @@ Status GcodeInterpreter::execute(const GcodeCommand& c, std::string_view text,
   }
   if (c.letter == 'G') return execute_g(c, text, out);
   if (c.letter == 'M') return execute_m(c, text, out);
-  if (c.letter == 'T') {
-    if (c.code == 0) return Ok{};
-    // Bambu: T<n> loads filament n (an AMS slot) into the one nozzle, the flush written out
-    // in the G-code around it; T255 unloads, T1000 and T1100 select the nozzle or the lidar
-    // for the moves that follow. None is a second extruder.
-    if (flavour_ == Flavour::bambu) return Ok{};
-    return warn(c.line, text,
-                "tool T" + std::to_string(c.code) + " selected on a single-extruder printer",
-                "bad_tool");
-  }
+  if (c.letter == 'T') return select_tool(c.code, c.line, text, out);
   return unknown_command(c);
 }
 
@@ -1365,7 +1438,12 @@ Status GcodeInterpreter::g10_g11(const GcodeCommand& c, std::string_view text,
       const double t = c.get('S');
       if (t < 0 || t > 500)
         return warn(c.line, text, "tool temperature outside 0..500 C; ignored", "bad_temperature");
-      if (c.get('P', 0) == 0) set_hotend_target(t);
+      // The tool's active temperature: its heater follows it while the tool is selected.
+      const long tool = std::lround(c.get('P', 0));
+      if (tool >= 0 && tool < kMaxTools) {
+        rrf_active_c_[static_cast<std::size_t>(tool)] = t;
+        if (tool == tool_) set_hotend_target(t);
+      }
     }
     return Ok{};
   }
@@ -1528,7 +1606,9 @@ Status GcodeInterpreter::execute_m(const GcodeCommand& c, std::string_view text,
     case 116:
       // RepRapFirmware M116: wait for every heater to reach its target.
       heat_wait(false, bed_target_c_, false, c.line, out);
-      heat_wait(true, hotend_target_c_, false, c.line, out);
+      for (int i = 0; i < kMaxTools; ++i)
+        if (i == heater_of_tool(i))
+          heat_wait(true, hotends_[static_cast<std::size_t>(i)].target_c, false, c.line, out, i);
       return Ok{};
     case 566:
       return set_rrf_jerk(c, text, out);
@@ -1650,15 +1730,24 @@ Status GcodeInterpreter::set_temperature(const GcodeCommand& c, std::string_view
     return warn(c.line, text, "hotend temperature outside 0..500 C; ignored", "bad_temperature");
   if (!hotend && (t < 0 || t > 200))
     return warn(c.line, text, "bed temperature outside 0..200 C; ignored", "bad_temperature");
+  // M104/M109 T<n>: the heater of tool n (Marlin's get_target_extruder_from_command), not
+  // necessarily the active one (Prusa XL, Cura's dual-extrusion standby temperatures).
+  int heater = active_heater();
+  if (hotend && c.has_value('T')) {
+    heater = heater_of_tool(std::lround(c.get('T')));
+    if (heater < 0)
+      return warn(c.line, text, "no hotend T" + format_fixed(c.get('T'), 0) + "; ignored",
+                  "bad_tool");
+  }
   if (c.code == 104) {
-    set_hotend_target(t);
+    set_hotend_target(t, heater);
     return Ok{};
   }
   if (c.code == 140) {
     set_bed_target(t);
     return Ok{};
   }
-  heat_wait(hotend, t, c.has('R'), c.line, out);
+  heat_wait(hotend, t, c.has('R'), c.line, out, hotend ? heater : -1);
   return Ok{};
 }
 

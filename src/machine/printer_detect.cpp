@@ -308,6 +308,60 @@ void stated_first_layer_temperatures(const StatedReader& r, StatedPrinter& p) {
 }
 }  // namespace
 
+namespace {
+/// Items of a list value ("0.4,0.4", "PLA;PETG", "\"a\";\"b\"") split at `sep`.
+std::size_t list_items(std::string_view v, char sep) {
+  if (v.empty()) return 0;
+  return static_cast<std::size_t>(std::count(v.begin(), v.end(), sep)) + 1;
+}
+
+/// Tools and the times of a tool change (docs/gcode-coverage.md, "Multi-tool").
+void stated_tools(const StatedReader& r, StatedPrinter& p) {
+  // PrusaSlicer and the Orca family list one value per extruder (nozzle_diameter) or per
+  // filament (filament_type, filament_colour; Bambu's AMS slots); Cura writes a header
+  // block per extruder train and one "Filament used" value per extruder.
+  std::size_t count = 0;
+  std::string key;
+  auto consider = [&](std::size_t n, const std::string& k) {
+    if (n > count) count = n, key = k;
+  };
+  for (const char* k : {"nozzle_diameter", "extruder_colour"})
+    if (const auto* e = r.get(k)) consider(list_items(e->value, k[0] == 'n' ? ',' : ';'), k);
+  for (const char* k : {"filament_type", "filament_colour"})
+    if (const auto* e = r.get(k)) consider(list_items(e->value, ';'), k);
+  if (const auto* e = r.get("Filament used")) consider(list_items(e->value, ','), "Filament used");
+  for (const auto& e : r.s.entries) {
+    if (e.key.rfind("EXTRUDER_TRAIN.", 0) != 0) continue;
+    const auto n = first_number(std::string_view(e.key).substr(15));
+    if (n && *n >= 0 && *n < 64) consider(static_cast<std::size_t>(*n) + 1, "EXTRUDER_TRAIN");
+  }
+  if (const auto* e = r.get("cura.machine_extruder_count"))
+    if (const auto n = first_number(e->value); n && *n >= 1 && *n < 64)
+      consider(static_cast<std::size_t>(*n), e->key);
+  if (count > 0) p.tool_count = StatedPrinter::Value<int>{static_cast<int>(count), key};
+
+  for (const char* k : {"single_extruder_multi_material", "cura.machine_extruders_share_nozzle"})
+    if (const auto* e = r.get(k)) {
+      const std::string v = lower(e->value);
+      p.shared_nozzle = StatedPrinter::Value<bool>{v == "1" || v == "true", k};
+      break;
+    }
+  // Bambu / Orca: one value for the machine; PrusaSlicer: one per filament.
+  static constexpr std::pair<const char*, const char*> kTimes[] = {
+      {"machine_load_filament_time", "machine_unload_filament_time"},
+      {"filament_load_time", "filament_unload_time"}};
+  for (const auto& [load, unload] : kTimes) {
+    const auto* l = r.get(load);
+    const auto* u = r.get(unload);
+    if (l == nullptr && u == nullptr) continue;
+    if (l != nullptr) p.filament_load_s = numbers(l->value);
+    if (u != nullptr) p.filament_unload_s = numbers(u->value);
+    break;
+  }
+  r.number({"machine_tool_change_time"}, true, p.tool_change_s);
+}
+}  // namespace
+
 StatedPrinter stated_printer(const SlicerSettings& s) {
   StatedPrinter p;
   const StatedReader r{s};
@@ -315,6 +369,7 @@ StatedPrinter stated_printer(const SlicerSettings& s) {
   stated_bed(r, p);
   stated_limits(r, p);
   stated_first_layer_temperatures(r, p);
+  stated_tools(r, p);
   return p;
 }
 
@@ -546,6 +601,11 @@ Result<ResolvedPrinter> resolve_printer(std::string_view spec, SlicerSettings se
   if (r.settings.slicer.empty() && r.settings.empty()) o.slicer.clear();
   if (st.first_layer_hotend_c) o.macro_hotend_c = st.first_layer_hotend_c->value;
   if (st.first_layer_bed_c) o.macro_bed_c = st.first_layer_bed_c->value;
+  if (st.tool_count) o.tool_count = st.tool_count->value;
+  if (st.shared_nozzle) o.shared_nozzle = st.shared_nozzle->value;
+  o.filament_load_s = st.filament_load_s;
+  o.filament_unload_s = st.filament_unload_s;
+  if (st.tool_change_s) o.tool_change_s = st.tool_change_s->value;
   return r;
 }
 
@@ -571,6 +631,16 @@ void apply_printer_to_options(const ResolvedPrinter& printer, InterpreterOptions
   if (std::isnan(options.macro_hotend_c))
     options.macro_hotend_c = printer.profile.origin.macro_hotend_c;
   if (std::isnan(options.macro_bed_c)) options.macro_bed_c = printer.profile.origin.macro_bed_c;
+  apply_tools_to_options(printer.profile.origin, options);
+}
+
+void apply_tools_to_options(const PrinterOrigin& origin, InterpreterOptions& options) {
+  if (options.tool_count > 0) return;  // set by the caller
+  options.tool_count = origin.tool_count;
+  options.shared_nozzle = origin.shared_nozzle;
+  options.filament_load_s = origin.filament_load_s;
+  options.filament_unload_s = origin.filament_unload_s;
+  options.tool_change_s = origin.tool_change_s;
 }
 
 }  // namespace printtwin

@@ -9,6 +9,7 @@
 #include "printtwin/bgcode.hpp"
 #include "printtwin/gcode_3mf.hpp"
 #include "printtwin/io.hpp"
+#include "printtwin/printer.hpp"
 #include "printtwin/simulate.hpp"
 
 namespace printtwin {
@@ -36,6 +37,9 @@ class Pipeline final : public InterpreterOutput, public MoveSink {
     r.motion_bounds_mm.extend(m.end_mm);
     r.filament_mm += m.e_mm;
     if (m.kind == MoveKind::extrude) r.filament_extruding_mm += m.e_mm;
+    const auto tool = static_cast<std::size_t>(m.tool);
+    if (tool >= r.tool_filament_mm.size()) r.tool_filament_mm.resize(tool + 1, 0.0);
+    r.tool_filament_mm[tool] += m.e_mm;
     if (m.layer >= 0 && m.feature != Feature::custom) {
       part_net_mm_ += m.e_mm;
       if (m.kind == MoveKind::extrude) r.filament_part_mm = part_net_mm_;
@@ -200,6 +204,7 @@ Result<SimulationResult> run(std::istream& in, const PrinterProfile& profile,
     interp_options.macro_hotend_c = profile.origin.macro_hotend_c;
   if (std::isnan(interp_options.macro_bed_c))
     interp_options.macro_bed_c = profile.origin.macro_bed_c;
+  apply_tools_to_options(profile.origin, interp_options);
   GcodeInterpreter interp(profile, interp_options);
   Pipeline pipe(limits, window, sink, plan);
   if (options.limits_from_gcode) interp.set_limits(limits, pipe);
@@ -252,6 +257,10 @@ Result<SimulationResult> run(std::istream& in, const PrinterProfile& profile,
   if (!std::isnan(interp.slicer_filament_mm())) r.slicer_filament_mm = interp.slicer_filament_mm();
   if (!std::isnan(interp.slicer_part_estimate_s()))
     r.slicer_part_estimate_s = interp.slicer_part_estimate_s();
+  r.tool_changes = interp.tool_changes();
+  r.tool_change_time_s = interp.tool_change_time_s();
+  r.slicer_tool_filament_mm = interp.slicer_tool_filament_mm();
+  if (r.tool_changes == 0 && r.tool_filament_mm.size() <= 1) r.tool_filament_mm.clear();
   r.layers_from = interp.layers_from_markers() ? "markers" : "z";
   r.limits_used = limits;
   r.limits_from_gcode = options.limits_from_gcode;
@@ -353,6 +362,15 @@ std::string simulation_to_json(const SimulationResult& r, const std::string& inp
   doc["filament_part_mm"] = q(r.filament_part_mm);
   doc["filament_extruding_mm"] = q(r.filament_extruding_mm);
   doc["filament_mm3"] = q(r.filament_mm3);
+  if (!r.tool_filament_mm.empty()) {
+    json per_tool = json::array(), stated = json::array();
+    for (double v : r.tool_filament_mm) per_tool.push_back(q(v));
+    for (double v : r.slicer_tool_filament_mm) stated.push_back(q(v));
+    doc["tools"] = {{"changes", r.tool_changes},
+                    {"change_time_s", q(r.tool_change_time_s)},
+                    {"filament_mm", per_tool},
+                    {"slicer_filament_mm", stated}};
+  }
   doc["retracted_mm"] = q(r.retracted_mm);
   doc["extrude_distance_mm"] = q(r.extrude_distance_mm);
   doc["travel_distance_mm"] = q(r.travel_distance_mm);
@@ -421,6 +439,29 @@ std::string simulation_to_json(const SimulationResult& r, const std::string& inp
   return doc.dump(2) + "\n";
 }
 
+namespace {
+/// "tools ..." lines of a multi-tool file: filament per tool, beside the slicer's.
+std::string tools_summary(const SimulationResult& r) {
+  if (r.tool_filament_mm.empty()) return {};
+  const auto used = std::count_if(r.tool_filament_mm.begin(), r.tool_filament_mm.end(),
+                                  [](double mm) { return mm > 1e-6; });
+  std::string s = "tools         " + std::to_string(used) + " used (" +
+                  std::to_string(r.tool_changes) + " changes";
+  if (r.tool_change_time_s > 0)
+    s += ", " + format_fixed(r.tool_change_time_s, 1) + " s of them changing filament or tools";
+  s += ")\n";
+  for (std::size_t i = 0; i < r.tool_filament_mm.size(); ++i) {
+    const bool stated = i < r.slicer_tool_filament_mm.size();
+    if (std::fabs(r.tool_filament_mm[i]) < 1e-6 && (!stated || r.slicer_tool_filament_mm[i] == 0))
+      continue;
+    s += "  T" + std::to_string(i) + "          " + format_fixed(r.tool_filament_mm[i], 2) + " mm";
+    if (stated) s += " (slicer says " + format_fixed(r.slicer_tool_filament_mm[i], 2) + " mm)";
+    s += "\n";
+  }
+  return s;
+}
+}  // namespace
+
 std::string simulation_summary(const SimulationResult& r) {
   std::string s;
   if (!r.slicer.empty()) s += "slicer        " + r.slicer + "\n";
@@ -449,9 +490,12 @@ std::string simulation_summary(const SimulationResult& r) {
          percent(layers_s, *r.slicer_part_estimate_s) + hint + "\n";
   } else if (r.slicer_estimate_s) {
     // PrusaSlicer 2.5's estimate counts planned motion (its G28 is instantaneous and the
-    // start G-code's G4 S is not added): compare motion time.
+    // start G-code's G4 S is not added): compare motion time, plus the filament load and
+    // unload times of tool changes that the slicers' estimators add.
     s += "slicer says   " + format_duration_compact(*r.slicer_estimate_s) +
-         "; motion time differs by " + percent(r.motion_time_s, *r.slicer_estimate_s) + hint + "\n";
+         (r.tool_change_time_s > 0 ? "; motion and tool change time differs by "
+                                   : "; motion time differs by ") +
+         percent(r.motion_time_s + r.tool_change_time_s, *r.slicer_estimate_s) + hint + "\n";
   }
   s += "filament      " + format_fixed(r.filament_mm, 2) + " mm (" +
        format_fixed(r.filament_mm3, 1) + " mm3); part " + format_fixed(r.filament_part_mm, 2) +
@@ -465,6 +509,7 @@ std::string simulation_summary(const SimulationResult& r) {
          percent(r.filament_part_mm, ref) + ", extruding moves by " +
          percent(r.filament_extruding_mm, ref) + ", total by " + percent(r.filament_mm, ref) + "\n";
   }
+  s += tools_summary(r);
   if (!r.layers.empty()) {
     double zmin = r.layers.front().z_mm, zmax = zmin;
     for (const auto& l : r.layers) zmin = std::min(zmin, l.z_mm), zmax = std::max(zmax, l.z_mm);
