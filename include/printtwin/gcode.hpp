@@ -271,6 +271,7 @@ class GcodeInterpreter {
   double slicer_filament_mm_;
   double slicer_part_estimate_s_;
   long slicer_layer_count_ = 0;
+  long markers_ = 0;  ///< layer markers read (a repeated height counts again)
   std::vector<double> slicer_tool_filament_mm_;
   int slicer_estimate_rank_ = 0;         ///< which stated time won (normal mode beats totals)
   bool estimate_from_time_tag_ = false;  ///< Cura's ";TIME:" (a placeholder when unfilled)

@@ -266,7 +266,9 @@ Status GcodeInterpreter::finish(bool ended_mid_line, long last_line) {
     missing = "\";End of Gcode\"";
   else if (!executable_block_open_ && slic3r_family && !filament_used_seen_)
     missing = "\"; filament used\"";
-  const auto layers = static_cast<long>(layer_z_.size());
+  // Markers, not layers, are counted: a post-processed file may repeat a height (several
+  // colour passes at one Z), and sequential printing runs the heights once per object.
+  const long layers = markers_;
   const bool short_of_layers = slicer_layer_count_ > 0 && layers < slicer_layer_count_ - 1;
   if (short_of_layers || missing != nullptr) {
     Finding f;
@@ -274,8 +276,8 @@ Status GcodeInterpreter::finish(bool ended_mid_line, long last_line) {
     f.code = "truncated_file";
     f.message = short_of_layers
                     ? "the slicer's header announces " + std::to_string(slicer_layer_count_) +
-                          " layers but the file ends after " + std::to_string(layers) + " (line " +
-                          std::to_string(last_line) +
+                          " layers but the file ends after " + std::to_string(layers) +
+                          " layer markers" + " (line " + std::to_string(last_line) +
                           (ended_mid_line ? ", without a newline" : "") + ")"
                     : "the file ends at line " + std::to_string(last_line);
     if (missing != nullptr)
@@ -355,6 +357,7 @@ void GcodeInterpreter::layer_marker(double z_mm) {
   // From the first marker on, only markers start layers (layers made by Z before it, in a
   // file whose header named no marking slicer, stay).
   marker_seen_ = true;
+  ++markers_;
   if (!std::isnan(z_mm) && layer_ >= 0 && !layer_pending_ &&
       std::fabs(layer_z_[static_cast<std::size_t>(layer_)] - z_mm) <= kLayerZTolerance_mm)
     return;

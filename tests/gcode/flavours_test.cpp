@@ -759,8 +759,18 @@ TEST(SlicerMarkers, AFileCutShortOfTheLayersItsHeaderAnnouncesIsAnError) {
           "; total layer number: 143\n; HEADER_BLOCK_END\nG28\nG1 Y-4 F6000\nG1 Y18");
   f = find(orca, "truncated_file");
   ASSERT_NE(f, nullptr);
-  EXPECT_NE(f->message.find("ends after 0 (line 7, without a newline)"), std::string::npos)
+  EXPECT_NE(f->message.find("ends after 0 layer markers (line 7, without a newline)"),
+            std::string::npos)
       << f->message;
+  // A whole file whose layers repeat one height (colour passes of a post-processed file):
+  // the markers are counted, not the heights.
+  std::string passes =
+      "; HEADER_BLOCK_START\n; BambuStudio 02.00.03.54\n; total layer number: 3\n"
+      "; HEADER_BLOCK_END\nG28\nM109 S210\nM83\n";
+  for (int i = 0; i < 3; ++i) passes += "; CHANGE_LAYER\n; Z_HEIGHT: 0.2\n" + square(0.2);
+  const auto flat = sim(passes);
+  EXPECT_EQ(flat.layers.size(), 1u);
+  EXPECT_EQ(find(flat, "truncated_file"), nullptr);
 }
 
 TEST(SlicerMarkers, SpiralVaseCountsTheSlicersLayersNotEveryZStep) {
