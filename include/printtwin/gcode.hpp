@@ -220,6 +220,8 @@ class GcodeInterpreter {
   void slicer_tag(std::string_view c);
   void emit(const Vec3& target_logical, double e_delta_mm, double feedrate_mm_s, MoveKind forced,
             bool is_forced, long line, std::string_view text, InterpreterOutput& out);
+  /// The cold_extrusion finding of an E move at `at` (an error in the part's layers).
+  void report_cold_extrusion(long line, const Vec3& at);
   void heat_wait(bool hotend, double target_c, bool wait_cooling, long line, InterpreterOutput& out,
                  int heater = -1);
   void set_hotend_target(double target_c, int heater = -1);

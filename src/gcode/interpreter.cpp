@@ -661,6 +661,28 @@ void GcodeInterpreter::comment(std::string_view c) {
   }
 }
 
+void GcodeInterpreter::report_cold_extrusion(long line, const Vec3& at) {
+  // In the part's layers the plastic is missing: an error. In start or end code (before
+  // the first layer, or tagged custom) only a prime or a push of the vendor's sequence is
+  // lost, and the part prints (Bambu's A1 start code pushes filament at 140 C or less).
+  // (Before the first layer only where the slicer marks its layers: in a file without
+  // markers the part itself may come before any layer is known.)
+  const bool outside_part =
+      (markers_expected_ && layer_ < 0 && !layer_pending_) || feature_ == Feature::custom;
+  Finding f;
+  f.severity = outside_part ? Severity::warning : Severity::error;
+  f.code = "cold_extrusion";
+  f.message = "extrusion with the hotend at " + format_fixed(hotend_temp_now(), 0) +
+              " C, below the minimum " + format_fixed(min_extrude_temp_c_, 0) + " C" +
+              (options_.prevent_cold_extrusion ? "; the firmware drops the E part" : "") +
+              (outside_part ? " (start or end code: a prime or purge is lost, not the part)" : "");
+  f.line = line;
+  f.position_mm = at;
+  f.value = hotend_temp_now();
+  if (layer_ >= 0) f.layer = layer_;
+  add_finding(std::move(f));
+}
+
 void GcodeInterpreter::emit(const Vec3& target_logical_in, double e_delta_mm, double feedrate_mm_s,
                             MoveKind forced, bool is_forced, long line, std::string_view text,
                             InterpreterOutput& out) {
@@ -751,26 +773,7 @@ void GcodeInterpreter::emit(const Vec3& target_logical_in, double e_delta_mm, do
       add_finding(std::move(f));
       e_mm = 0;
     } else if (hotend_temp_now() < min_extrude_temp_c_) {
-      // In the part's layers the plastic is missing: an error. In start or end code (before
-      // the first layer, or tagged custom) only a prime or a push of the vendor's sequence is
-      // lost, and the part prints (Bambu's A1 start code pushes filament at 140 C or less).
-      // (Before the first layer only where the slicer marks its layers: in a file without
-      // markers the part itself may come before any layer is known.)
-      const bool outside_part =
-          (markers_expected_ && layer_ < 0 && !layer_pending_) || feature_ == Feature::custom;
-      Finding f;
-      f.severity = outside_part ? Severity::warning : Severity::error;
-      f.code = "cold_extrusion";
-      f.message =
-          "extrusion with the hotend at " + format_fixed(hotend_temp_now(), 0) +
-          " C, below the minimum " + format_fixed(min_extrude_temp_c_, 0) + " C" +
-          (options_.prevent_cold_extrusion ? "; the firmware drops the E part" : "") +
-          (outside_part ? " (start or end code: a prime or purge is lost, not the part)" : "");
-      f.line = line;
-      f.position_mm = start;
-      f.value = hotend_temp_now();
-      if (layer_ >= 0) f.layer = layer_;
-      add_finding(std::move(f));
+      report_cold_extrusion(line, start);
       if (options_.prevent_cold_extrusion) e_mm = 0;
     }
   }
