@@ -291,7 +291,7 @@ class GcodeInterpreter {
   /// Creality Print close "; EXECUTABLE_BLOCK_START" with "_END", Cura writes ";End of
   /// Gcode", PrusaSlicer and its family "; filament used".
   bool executable_block_open_ = false, executable_block_closed_ = false;
-  bool cura_end_seen_ = false, filament_used_seen_ = false;
+  bool cura_end_seen_ = false, filament_used_seen_ = false, config_end_seen_ = false;
   bool marker_seen_ = false;
   bool layer_pending_ = false;  ///< a marker was seen; its layer starts at the next extrusion
   double pending_layer_z_ = 0;  ///< NaN: Z of the first extrusion

@@ -227,15 +227,17 @@ Status GcodeInterpreter::warn_input(const Error& problem) {
 }
 
 namespace {
-/// The major version of a Cura slicer tag ("Cura_SteamEngine 5.9.0" -> 5), 0 otherwise.
-int cura_major_version(std::string_view slicer) {
-  if (!starts_with(slicer, "Cura")) return 0;
+/// The version of a slicer tag that starts with `name` ("Cura_SteamEngine 5.9.0" -> 509,
+/// "PrusaSlicer 2.8.1" -> 208), 0 for another slicer.
+int slicer_version(std::string_view slicer, std::string_view name) {
+  if (!starts_with(slicer, name)) return 0;
   const auto sp = slicer.find(' ');
   if (sp == std::string_view::npos) return 0;
-  int v = 0;
-  const char* first = slicer.data() + sp + 1;
-  std::from_chars(first, slicer.data() + slicer.size(), v);
-  return v;
+  int major = 0, minor = 0;
+  const char* end = slicer.data() + slicer.size();
+  const auto r = std::from_chars(slicer.data() + sp + 1, end, major);
+  if (r.ptr != end && *r.ptr == '.') std::from_chars(r.ptr + 1, end, minor);
+  return major * 100 + std::min(minor, 99);
 }
 }  // namespace
 
@@ -261,11 +263,14 @@ Status GcodeInterpreter::finish(bool ended_mid_line, long last_line) {
   const char* missing = nullptr;
   if (executable_block_open_ && !executable_block_closed_)
     missing = "\"; EXECUTABLE_BLOCK_END\"";
-  else if (!executable_block_open_ && cura_major_version(slicer_) >= 2 &&
-           cura_major_version(slicer_) < 15 && !cura_end_seen_)  // Cura 2 to 5, not 15.04
+  else if (!executable_block_open_ && slicer_version(slicer_, "Cura") >= 200 &&
+           slicer_version(slicer_, "Cura") < 1500 && !cura_end_seen_)  // Cura 2 to 5, not 15.04
     missing = "\";End of Gcode\"";
   else if (!executable_block_open_ && slic3r_family && !filament_used_seen_)
     missing = "\"; filament used\"";
+  else if (!executable_block_open_ && slicer_version(slicer_, "PrusaSlicer") >= 204 &&
+           !config_end_seen_)  // its last line since 2.4 (2.8 states its figures at the top)
+    missing = "\"; prusaslicer_config = end\"";
   // Markers, not layers, are counted: a post-processed file may repeat a height (several
   // colour passes at one Z), and sequential printing runs the heights once per object.
   const long layers = markers_;
@@ -539,6 +544,7 @@ void GcodeInterpreter::comment(std::string_view c) {
   if (c == "EXECUTABLE_BLOCK_END") executable_block_closed_ = true;
   if (c == "End of Gcode") cura_end_seen_ = true;
   if (starts_with(c, "filament used")) filament_used_seen_ = true;
+  if (c == "prusaslicer_config = end") config_end_seen_ = true;
   double v = 0;
   switch (c.front()) {
     case 'T':
